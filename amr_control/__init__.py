@@ -1,0 +1,1 @@
+"""The wall follower, the approximate-time synchronizer and the lifecycle manager."""

@@ -1,0 +1,1 @@
+"""Serial-arm and differential-drive kinematics: plain Python + numpy, no ROS."""

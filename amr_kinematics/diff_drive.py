@@ -1,0 +1,73 @@
+"""Differential-drive kinematics (seed 002, sections 1-2).
+
+Forward:  v = r (w_r + w_l) / 2,   w = r (w_r - w_l) / b
+Inverse:  w_r = (v + w b / 2) / r,  w_l = (v - w b / 2) / r
+with r the wheel radius and b the track (distance between the wheels).
+
+Saturation scales the whole command by one factor, so the commanded
+curvature w / v survives it: the robot drives the same arc, only slower.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class DiffDrive:
+    """A differential-drive base; limits of math.inf mean unlimited."""
+
+    wheel_radius: float = 0.033
+    track: float = 0.160
+    max_wheel_speed: float = math.inf
+    max_linear: float = math.inf
+    max_angular: float = math.inf
+
+    def __post_init__(self) -> None:
+        for name in ("wheel_radius", "track", "max_wheel_speed", "max_linear", "max_angular"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or math.isnan(value) or value <= 0.0:
+                raise ValueError(f"DiffDrive.{name} must be a positive number, got {value!r}")
+        if math.isinf(self.wheel_radius) or math.isinf(self.track):
+            raise ValueError("DiffDrive wheel_radius and track must be finite")
+
+    def wheel_speeds(self, linear: float, angular: float) -> tuple[float, float]:
+        """(left, right) wheel angular speeds in rad/s for a body twist, unsaturated."""
+        half = angular * self.track / 2.0
+        return (linear - half) / self.wheel_radius, (linear + half) / self.wheel_radius
+
+    def body_twist(self, left: float, right: float) -> tuple[float, float]:
+        """(linear m/s, angular rad/s) of the body for wheel angular speeds."""
+        r = self.wheel_radius
+        return r * (right + left) / 2.0, r * (right - left) / self.track
+
+    def saturation_scale(self, linear: float, angular: float) -> float:
+        """The factor in (0, 1] that brings a twist within every limit."""
+        left, right = self.wheel_speeds(linear, angular)
+        ratios = (
+            abs(linear) / self.max_linear,
+            abs(angular) / self.max_angular,
+            max(abs(left), abs(right)) / self.max_wheel_speed,
+        )
+        worst = max(ratios)
+        return 1.0 / worst if worst > 1.0 else 1.0
+
+    def saturate(self, linear: float, angular: float) -> tuple[float, float]:
+        """The twist scaled to the limits, keeping its curvature."""
+        scale = self.saturation_scale(linear, angular)
+        return linear * scale, angular * scale
+
+    def command(self, linear: float, angular: float) -> tuple[float, float]:
+        """(left, right) wheel speeds for a twist after curvature-preserving saturation."""
+        return self.wheel_speeds(*self.saturate(linear, angular))
+
+
+TURTLEBOT3_BURGER = DiffDrive(
+    wheel_radius=0.033,
+    track=0.160,
+    max_wheel_speed=0.22 / 0.033,
+    max_linear=0.22,
+    max_angular=2.84,
+)
+"""TurtleBot3 Burger figures (ROBOTIS e-Manual): used as defaults, overridable from config."""

@@ -1,0 +1,1 @@
+"""A pymunk-backed differential-drive simulator and its ROS 2 node."""
