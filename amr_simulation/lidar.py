@@ -1,0 +1,48 @@
+"""A 2D LiDAR: ray casting plus range limits, Gaussian noise and REP 117 special values."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from amr_simulation.config import LidarConfig
+from amr_simulation.pose import Pose2D
+from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster
+
+
+class Lidar:
+    """Scans from a robot pose; ranges follow sensor_msgs/LaserScan and REP 117.
+
+    A return closer than range_min reads -inf, no return within range_max reads
+    +inf; the others get N(0, noise_std) noise, kept within [range_min, range_max].
+    """
+
+    def __init__(self, config: LidarConfig, caster: NumpyRayCaster | PymunkRayCaster, rng: np.random.Generator) -> None:
+        self.config = config
+        self._caster = caster
+        self._rng = rng
+
+    def sensor_pose(self, robot: Pose2D) -> Pose2D:
+        """Where the sensor is, in the world frame."""
+        c, s = math.cos(robot.theta), math.sin(robot.theta)
+        x, y = self.config.x, self.config.y
+        return Pose2D(robot.x + c * x - s * y, robot.y + s * x + c * y, robot.theta)
+
+    def true_ranges(self, robot: Pose2D) -> np.ndarray:
+        """Noise-free distances to the first wall per beam (+inf for none; beyond range_max, maybe a distance)."""
+        sensor = self.sensor_pose(robot)
+        c = self.config
+        return self._caster.cast(
+            sensor.x, sensor.y, sensor.theta + c.angle_min, c.angle_increment, c.beams, c.range_max
+        )
+
+    def scan(self, robot: Pose2D) -> np.ndarray:
+        """One noisy scan; always draws one normal sample per beam, so streams stay aligned."""
+        c = self.config
+        ranges = self.true_ranges(robot)
+        readings = ranges + self._rng.normal(0.0, c.noise_std, c.beams) if c.noise_std > 0.0 else ranges.copy()
+        np.minimum(np.maximum(readings, c.range_min, out=readings), c.range_max, out=readings)
+        readings[ranges > c.range_max] = np.inf
+        readings[ranges < c.range_min] = -np.inf
+        return readings

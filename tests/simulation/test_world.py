@@ -1,0 +1,123 @@
+"""Worlds: the shipped files load into sound geometry, malformed ones name the faulty key."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from amr_simulation.errors import WorldError
+from amr_simulation.world import load_world, resolve_world_path, world_from_dict
+
+WORLDS = Path(__file__).resolve().parents[2] / "config" / "worlds"
+SHIPPED = sorted(p.name for p in WORLDS.glob("*.yaml"))
+
+
+def polygon_area(polygon: np.ndarray) -> float:
+    """Shoelace formula: positive for counter-clockwise vertices."""
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def test_the_four_required_worlds_ship() -> None:
+    assert set(SHIPPED) >= {"outer_corridor.yaml", "inner_maze.yaml", "open_room.yaml", "hard_maze.yaml"}
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_world_loads_with_counter_clockwise_solids(name: str) -> None:
+    world = load_world(WORLDS / name)
+    assert world.name == Path(name).stem
+    assert all(polygon_area(p) > 0.0 for p in world.polygons)
+    assert world.faces.shape[1] == 4 and np.all(np.isfinite(world.faces))
+
+
+def test_seed_start_poses_match_the_launch_file() -> None:
+    outer = load_world(WORLDS / "outer_corridor.yaml").start
+    inner = load_world(WORLDS / "inner_maze.yaml").start
+    assert (outer.x, outer.y) == (1.0, -1.0) and math.isclose(outer.theta, 0.5 * math.pi)
+    assert (inner.x, inner.y) == (0.6, -0.6) and math.isclose(inner.theta, -0.5 * math.pi)  # 3 pi / 2 wrapped
+
+
+def test_wall_is_a_rectangle_extended_by_half_the_thickness() -> None:
+    world = world_from_dict({"wall_thickness": 0.1, "walls": [[0.0, 0.0, 2.0, 0.0]], "start": [0, 1, 0]})
+    (polygon,) = world.polygons
+    np.testing.assert_allclose(polygon, [[-0.05, -0.05], [2.05, -0.05], [2.05, 0.05], [-0.05, 0.05]])
+
+
+def test_grid_merges_cells_into_boxes_and_outline() -> None:
+    world = world_from_dict(
+        {
+            "grid": {"cell_size": 0.5, "origin": [0.0, 0.0], "rows": ["##.", "##.", "..#"]},
+            "start": [0.25, 0.25, 0.0],
+        }
+    )
+    # the 2 x 2 block (top left) is one box, the lone cell (bottom right) another
+    boxes = sorted(tuple(np.round(p.min(axis=0), 6)) + tuple(np.round(p.max(axis=0), 6)) for p in world.polygons)
+    assert boxes == [(0.0, 0.5, 1.0, 1.5), (1.0, 0.0, 1.5, 0.5)]
+    # outline: 4 merged edges per block, each with the solid just on its left
+    assert len(world.faces) == 8
+    for x1, y1, x2, y2 in world.faces:
+        left = np.array([y1 - y2, x2 - x1]) / math.hypot(x2 - x1, y2 - y1)
+        probe = np.array([(x1 + x2) / 2, (y1 + y2) / 2]) + 0.01 * left
+        assert any(np.all(p.min(axis=0) < probe) and np.all(probe < p.max(axis=0)) for p in world.polygons)
+
+
+def test_resolve_world_path_finds_shipped_names_and_reports_missing() -> None:
+    assert resolve_world_path("open_room.yaml", [WORLDS]) == WORLDS / "open_room.yaml"
+    with pytest.raises(WorldError, match="nowhere.yaml"):
+        resolve_world_path("nowhere.yaml", [WORLDS])
+
+
+BASE = {"wall_thickness": 0.02, "walls": [[0.0, 0.0, 1.0, 0.0]], "start": [0.5, 0.5, 0.0]}
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        ({"wall_thickness": 0.0}, "wall_thickness"),
+        ({"wall_thickness": None}, "wall_thickness"),
+        ({"walls": [[0.0, 0.0, 1.0]]}, "walls[0]"),
+        ({"walls": [[0.0, 0.0, 1.0, 0.0], [1, 1, 1, 1]]}, "walls[1]"),
+        ({"walls": [[0.0, "a", 1.0, 0.0]]}, "walls[0]"),
+        ({"walls": "x"}, "walls"),
+        ({"boxes": [[1.0, 0.0, 0.0, 1.0]]}, "boxes[0]"),
+        ({"start": [0.0, 0.0]}, "start"),
+        ({"start": None}, "start"),
+        ({"goal": [1.0, 1.0, -0.1]}, "goal"),
+        ({"goal": [1.0, float("nan"), 0.1]}, "goal"),
+        ({"grid": {"cell_size": 0.1, "origin": [0, 0], "rows": ["#.", "#"]}}, "grid.rows[1]"),
+        ({"grid": {"cell_size": 0.1, "origin": [0, 0], "rows": ["#x"]}}, "grid.rows[0]"),
+        ({"grid": {"cell_size": -1.0, "origin": [0, 0], "rows": ["#"]}}, "grid.cell_size"),
+        ({"grid": {"cell_size": 0.1, "origin": [0], "rows": ["#"]}}, "grid.origin"),
+        ({"grid": {"cell_size": 0.1, "origin": [0, 0], "rows": ["#"], "size": 3}}, "grid.size"),
+        ({"wal_thickness": 0.1}, "wal_thickness"),
+        ({"name": ""}, "name"),
+    ],
+)
+def test_malformed_world_names_the_key(change: dict, key: str) -> None:
+    data = {**BASE, **change}
+    if change.get("start", 0) is None:
+        del data["start"]
+    with pytest.raises(WorldError) as info:
+        world_from_dict(data, source="bad.yaml")
+    assert str(info.value).startswith(f"bad.yaml: {key}: ")
+
+
+def test_world_without_solids_is_refused() -> None:
+    with pytest.raises(WorldError, match="no solids"):
+        world_from_dict({"start": [0, 0, 0]})
+
+
+def test_file_errors_name_the_file(tmp_path: Path) -> None:
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("walls: [[0, 0, 1\n")
+    with pytest.raises(WorldError, match="broken.yaml: not valid YAML"):
+        load_world(broken)
+    with pytest.raises(WorldError, match="missing.yaml: cannot read"):
+        load_world(tmp_path / "missing.yaml")
+    listed = tmp_path / "list.yaml"
+    listed.write_text("- 1\n- 2\n")
+    with pytest.raises(WorldError, match="list.yaml: a world must be a mapping"):
+        load_world(listed)
