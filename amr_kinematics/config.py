@@ -1,0 +1,280 @@
+"""Chains and their solve defaults from ROS 2 parameters (all-or-nothing).
+
+ROS parameters have no list of maps, so a chain is parallel arrays under its
+name.  ``load_chain_set`` takes the YAML as loaded (``{ik_service: {ros__parameters:
+{...}}}``, or the inner dict, nested or with dotted keys) or the flat dict rclpy
+gives (``{"chains": [...], "arm5.types": [...]}``), checks every chain and
+returns them all, or raises one ``ChainConfigError`` naming chain and key.
+
+Keys per chain (SI units, angles in radians; lists of floats written as floats,
+``1.0`` not ``1``: rclpy reads ``[1, 2]`` as integers and refuses ``[1, 2.5]``):
+
+required   convention ("standard_dh" | "modified_dh" | "planar"), joint_names,
+           types ("revolute" | "prismatic" each), theta, a, lower, upper,
+           and for DH chains d, alpha
+optional   base_xyz_rpy, tool_xyz_rpy ([x, y, z, roll, pitch, yaw]),
+           coupled_joint (names), coupling_offset (one per coupled joint),
+           coupling_coefficients (n per coupled joint, concatenated):
+               q[coupled_joint[k]] = coupling_offset[k] + sum_i c[k*n + i] q[i]
+           home (default: zeros clamped into the limits)
+defaults   solver, tolerance, orientation_tolerance, max_iterations, timeout,
+           and solver options damping, adaptive_damping, angular_weight,
+           coupling_update, axis_tolerance, restarts, samples, gain
+Keys of chains not listed in ``chains`` are ignored; unknown keys of listed
+chains are errors (a typo must not fall back to a default silently).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from .chain import CONVENTIONS, JOINT_TYPES, PLANAR, Chain, Coupling
+from .errors import ChainConfigError, KinematicsError
+from .solvers import SOLVERS, IKResult, get_solver
+from .solvers.base import DEFAULT_MAX_ITERATIONS, DEFAULT_TIMEOUT, DEFAULT_TOLERANCE
+from .transforms import xyz_rpy_matrix
+
+NODE_NAME = "ik_service"
+
+_STRING = {"convention", "solver", "coupling_update"}
+_STRING_LIST = {"joint_names", "types", "coupled_joint"}
+_FLOAT = {"tolerance", "orientation_tolerance", "timeout", "damping", "adaptive_damping", "angular_weight", "gain"}
+_FLOAT_LIST = {"theta", "a", "d", "alpha", "lower", "upper", "base_xyz_rpy", "tool_xyz_rpy", "coupling_offset",
+               "coupling_coefficients", "home", "axis_tolerance"}
+_INT = {"max_iterations", "samples"}
+_BOOL = {"restarts"}
+_KNOWN = _STRING | _STRING_LIST | _FLOAT | _FLOAT_LIST | _INT | _BOOL
+_REQUIRED = ("convention", "joint_names", "types", "theta", "a", "lower", "upper")
+_SOLVER_OPTIONS = ("damping", "adaptive_damping", "angular_weight", "coupling_update", "axis_tolerance", "restarts",
+                   "samples", "gain")
+
+
+@dataclass(frozen=True)
+class ChainConfig:
+    """A chain with its home configuration and solve defaults.
+
+    ``solve`` is what a service calls: empty/zero arguments take the defaults,
+    a missing seed takes ``home``; solver options apply to the solvers that
+    have them.
+    """
+
+    chain: Chain
+    home: np.ndarray
+    solver: str = "dls"
+    tolerance: float = DEFAULT_TOLERANCE
+    orientation_tolerance: float | None = None
+    max_iterations: int = DEFAULT_MAX_ITERATIONS
+    timeout: float = DEFAULT_TIMEOUT
+    solver_options: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.chain.name
+
+    def options_for(self, solver: str) -> dict:
+        """The configured options the named solver accepts."""
+        accepted = get_solver(solver).options
+        return {k: v for k, v in self.solver_options.items() if k in accepted}
+
+    def solve(self, target, *, solver: str = "", seed=None, with_orientation: bool = False, tolerance: float = 0.0,
+              max_iterations: int = 0, timeout: float = 0.0, record_history: bool = False) -> IKResult:
+        """IK with this chain's defaults for every empty/zero argument.
+
+        An explicit ``tolerance`` replaces both the default tolerance and any
+        per-axis ``axis_tolerance`` of the config.
+        """
+        name = solver or self.solver
+        options = self.options_for(name)
+        if tolerance:
+            options.pop("axis_tolerance", None)
+        return get_solver(name).solve(
+            self.chain, target,
+            seed=self.home if seed is None or len(seed) == 0 else seed,
+            with_orientation=with_orientation,
+            tolerance=tolerance or self.tolerance,
+            orientation_tolerance=None if tolerance else self.orientation_tolerance,
+            max_iterations=max_iterations or self.max_iterations,
+            timeout=timeout or self.timeout,
+            record_history=record_history,
+            **options,
+        )
+
+
+def flatten_parameters(params: Mapping) -> dict:
+    """Dotted-key dict from any of the accepted shapes (see module docstring)."""
+    if not isinstance(params, Mapping):
+        raise ChainConfigError(None, None, f"parameters must be a mapping, got {type(params).__name__}")
+    if "ros__parameters" in params:
+        params = params["ros__parameters"]
+    elif len(params) == 1:
+        (only,) = params.values()
+        if isinstance(only, Mapping) and "ros__parameters" in only:
+            params = only["ros__parameters"]
+    flat: dict = {}
+
+    def walk(prefix: str, value) -> None:
+        if isinstance(value, Mapping):
+            for key, inner in value.items():
+                walk(f"{prefix}.{key}" if prefix else str(key), inner)
+        else:
+            flat[prefix] = value
+
+    walk("", params)
+    return flat
+
+
+def load_chain_set(params: Mapping) -> dict[str, ChainConfig]:
+    """Every chain listed in ``chains``, validated; ChainConfigError otherwise."""
+    flat = flatten_parameters(params)
+    names = flat.get("chains")
+    if not isinstance(names, (list, tuple)) or not names:
+        raise ChainConfigError(None, "chains", "must be a non-empty list of chain names")
+    for name in names:
+        if not isinstance(name, str) or not name or "." in name or name != name.strip():
+            raise ChainConfigError(None, "chains", f"chain names must be non-empty strings without dots, got {name!r}")
+    if len(set(names)) != len(names):
+        raise ChainConfigError(None, "chains", "chain names must be unique")
+    configs = {}
+    for name in names:
+        prefix = name + "."
+        keys = {k[len(prefix):]: v for k, v in flat.items() if k.startswith(prefix)}
+        configs[name] = _chain_config(name, keys)
+    return configs
+
+
+def _typed(name: str, key: str, value):
+    """The value checked against the type its key requires."""
+    full = f"{name}.{key}"
+    if key in _STRING:
+        if not isinstance(value, str) or not value:
+            raise ChainConfigError(name, full, f"must be a non-empty string, got {value!r}")
+        return value
+    if key in _STRING_LIST:
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) and v for v in value):
+            raise ChainConfigError(name, full, f"must be a list of non-empty strings, got {value!r}")
+        return list(value)
+    if key in _BOOL:
+        if not isinstance(value, bool):
+            raise ChainConfigError(name, full, f"must be true or false, got {value!r}")
+        return value
+    if key in _INT:
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ChainConfigError(name, full, f"must be a positive integer, got {value!r}")
+        return value
+    if key in _FLOAT:
+        return _float(name, full, value)
+    if not isinstance(value, (list, tuple)) or not value:
+        raise ChainConfigError(name, full, f"must be a non-empty list of floats, got {value!r}")
+    return [_float(name, f"{full}[{i}]", v) for i, v in enumerate(value)]
+
+
+def _float(name: str, full: str, value) -> float:
+    if isinstance(value, bool) or isinstance(value, int):
+        raise ChainConfigError(name, full.split("[")[0], (
+            f"{value!r} is an integer where a float is required: write {value}.0 (rclpy reads [1, 2] "
+            f"as an integer array and refuses a list mixing 1 and 2.5)"))
+    if not isinstance(value, float):
+        raise ChainConfigError(name, full.split("[")[0], f"must be a float, got {value!r}")
+    if not math.isfinite(value):
+        raise ChainConfigError(name, full.split("[")[0], f"must be finite, got {value!r}")
+    return value
+
+
+def _chain_config(name: str, raw: dict) -> ChainConfig:
+    unknown = sorted(set(raw) - _KNOWN)
+    if unknown:
+        raise ChainConfigError(name, f"{name}.{unknown[0]}", f"unknown key; known keys: {sorted(_KNOWN)}")
+    values = {key: _typed(name, key, value) for key, value in raw.items()}
+    convention = values.get("convention")
+    required = _REQUIRED + (() if convention == PLANAR else ("d", "alpha"))
+    for key in required:
+        if key not in values:
+            raise ChainConfigError(name, f"{name}.{key}", "is required")
+    if convention not in CONVENTIONS:
+        raise ChainConfigError(name, f"{name}.convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}")
+    for joint_type in values["types"]:
+        if joint_type not in JOINT_TYPES:
+            raise ChainConfigError(name, f"{name}.types", f"unknown joint type {joint_type!r}, expected 'revolute' or 'prismatic'")
+    n = len(values["types"])
+    for key in ("base_xyz_rpy", "tool_xyz_rpy"):
+        if key in values and len(values[key]) != 6:
+            raise ChainConfigError(name, f"{name}.{key}", f"needs 6 values [x, y, z, roll, pitch, yaw], got {len(values[key])}")
+    try:
+        chain = Chain(
+            name, convention, values["joint_names"], values["types"],
+            theta=values["theta"], a=values["a"], d=values.get("d"), alpha=values.get("alpha"),
+            lower=values["lower"], upper=values["upper"],
+            base=xyz_rpy_matrix(values["base_xyz_rpy"]) if "base_xyz_rpy" in values else None,
+            tool=xyz_rpy_matrix(values["tool_xyz_rpy"]) if "tool_xyz_rpy" in values else None,
+            couplings=_couplings(name, values, n),
+        )
+    except ChainConfigError as exc:
+        key = {"base": "base_xyz_rpy", "tool": "tool_xyz_rpy"}.get(exc.key, exc.key)
+        raise ChainConfigError(name, f"{name}.{key}", exc.problem) from None
+    home = chain.apply_coupling(chain.clamp(np.zeros(n)))
+    if "home" in values:
+        home = np.array(values["home"])
+        if home.size != n:
+            raise ChainConfigError(name, f"{name}.home", f"has {home.size} values, the chain has {n} joints")
+        if not chain.within_limits(home):
+            raise ChainConfigError(name, f"{name}.home", f"{home.tolist()} is outside the joint limits")
+    home.setflags(write=False)
+    config = ChainConfig(
+        chain=chain, home=home,
+        solver=values.get("solver", "dls"),
+        tolerance=values.get("tolerance", DEFAULT_TOLERANCE),
+        orientation_tolerance=values.get("orientation_tolerance"),
+        max_iterations=values.get("max_iterations", DEFAULT_MAX_ITERATIONS),
+        timeout=values.get("timeout", DEFAULT_TIMEOUT),
+        solver_options={k: values[k] for k in _SOLVER_OPTIONS if k in values},
+    )
+    _check_defaults(name, config)
+    return config
+
+
+def _couplings(name: str, values: dict, n: int) -> list[Coupling]:
+    keys = ("coupled_joint", "coupling_offset", "coupling_coefficients")
+    present = [k for k in keys if k in values]
+    if not present:
+        return []
+    if len(present) != 3:
+        missing = next(k for k in keys if k not in values)
+        raise ChainConfigError(name, f"{name}.{missing}", "coupling needs coupled_joint, coupling_offset and coupling_coefficients")
+    joints, offsets, coefficients = (values[k] for k in keys)
+    if len(offsets) != len(joints):
+        raise ChainConfigError(name, f"{name}.coupling_offset", f"needs one offset per coupled joint ({len(joints)}), got {len(offsets)}")
+    if len(coefficients) != n * len(joints):
+        raise ChainConfigError(name, f"{name}.coupling_coefficients",
+                               f"needs {n} coefficients per coupled joint ({n * len(joints)} in all), got {len(coefficients)}")
+    names = values["joint_names"]
+    out = []
+    for k, joint in enumerate(joints):
+        if joint not in names:
+            raise ChainConfigError(name, f"{name}.coupled_joint", f"{joint!r} is not one of the joint names {names}")
+        out.append(Coupling(names.index(joint), offsets[k], np.array(coefficients[k * n:(k + 1) * n])))
+    return out
+
+
+def _check_defaults(name: str, config: ChainConfig) -> None:
+    """The defaults must give a working solve: known, applicable solver, sane options."""
+    if config.solver not in SOLVERS:
+        raise ChainConfigError(name, f"{name}.solver", f"unknown solver {config.solver!r}; known: {sorted(SOLVERS)}")
+    for key, value in (("tolerance", config.tolerance), ("timeout", config.timeout),
+                       ("orientation_tolerance", config.orientation_tolerance)):
+        if value is not None and not value > 0.0:
+            raise ChainConfigError(name, f"{name}.{key}", f"must be > 0, got {value}")
+    try:
+        get_solver(config.solver).check(config.chain)
+    except KinematicsError as exc:
+        raise ChainConfigError(name, f"{name}.solver", str(exc)) from None
+    for key, value in config.solver_options.items():
+        for solver in SOLVERS.values():
+            if key in solver.options:
+                try:
+                    solver._configured({key: value}, config.chain.planar)
+                except KinematicsError as exc:
+                    raise ChainConfigError(name, f"{name}.{key}", str(exc)) from None

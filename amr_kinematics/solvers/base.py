@@ -1,0 +1,238 @@
+"""The one interface every IK solver implements, its result and request checks.
+
+``Solver.solve(chain, target, *, seed, with_orientation, tolerance, ...)``
+validates everything first (``InvalidRequestError`` / ``SolverNotApplicableError``),
+then runs the solver's algorithm under a wall-clock deadline.
+
+Targets: a position (x, y, z), or (x, y) for planar chains, or a 4x4 pose.
+For planar chains only x, y count (and yaw when orientation is asked for).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..chain import Chain, all_finite
+from ..errors import InvalidRequestError, SolverNotApplicableError
+from ..transforms import rot_z, rotation_error
+
+DEFAULT_TOLERANCE = 1e-5  # m for position, rad for orientation
+DEFAULT_MAX_ITERATIONS = 1000
+DEFAULT_TIMEOUT = 0.005  # s; TRAC-IK's customary budget
+MAX_ITERATIONS_LIMIT = 1_000_000  # requests beyond these are refused as absurd
+MAX_TIMEOUT = 60.0
+
+
+@dataclass
+class IterationRecord:
+    """One iteration of a solve, for plots: joint vector and errors *before* the step."""
+
+    iteration: int
+    q: np.ndarray
+    position_error: float
+    orientation_error: float
+    attempt: int = 0
+
+
+@dataclass
+class IKResult:
+    """What a solve found; ``q`` is always within limits, even on failure.
+
+    ``position_error`` is |target - reached| in metres (x, y only for planar
+    chains); ``orientation_error`` the rotation angle left in radians, 0.0 when
+    orientation was not requested.  ``error`` is the task-space error vector
+    (position rows then rotation-vector rows).  ``iterations`` counts steps
+    taken over all attempts (restarts / candidates).
+    """
+
+    q: np.ndarray
+    success: bool
+    position_error: float
+    orientation_error: float
+    iterations: int
+    message: str
+    reached: np.ndarray
+    error: np.ndarray
+    solver: str
+    attempts: int = 1
+    elapsed: float = 0.0
+    history: list[IterationRecord] | None = None
+
+
+@dataclass(frozen=True)
+class Goal:
+    """A checked target: position (3,) and rotation (3, 3) or None."""
+
+    position: np.ndarray
+    rotation: np.ndarray | None
+
+
+@dataclass
+class Request:
+    """Checked common settings of one solve."""
+
+    with_orientation: bool
+    tolerance: float
+    orientation_tolerance: float
+    max_iterations: int
+    deadline: float
+    record_history: bool
+    started: float = field(default_factory=time.perf_counter)
+
+
+def parse_goal(chain: Chain, target, with_orientation: bool) -> Goal:
+    """Goal from a 2/3-vector or a 4x4 pose; InvalidRequestError if malformed."""
+    try:
+        array = np.array(target, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidRequestError(f"target must be numbers, got {target!r}") from exc
+    if not all_finite(array):
+        raise InvalidRequestError("target must be finite (no NaN or inf)")
+    if array.shape == (4, 4):
+        rotation = array[:3, :3]
+        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or not np.allclose(array[3], (0, 0, 0, 1)):
+            raise InvalidRequestError("target pose is not a rigid transform (rotation not orthonormal)")
+        if not with_orientation:
+            return Goal(array[:3, 3].copy(), None)
+        if chain.planar:  # only the yaw of the target counts in the plane
+            rotation = rot_z(math.atan2(rotation[1, 0], rotation[0, 0]))[:3, :3]
+        return Goal(array[:3, 3].copy(), rotation.copy())
+    if with_orientation:
+        raise InvalidRequestError("orientation requested but the target is a position: pass a 4x4 pose")
+    if array.shape == (3,):
+        return Goal(array, None)
+    if array.shape == (2,) and chain.planar:
+        return Goal(np.array([array[0], array[1], 0.0]), None)
+    raise InvalidRequestError(f"target must be a position (x, y, z), a planar (x, y) or a 4x4 pose, got shape {array.shape}")
+
+
+def _positive(name: str, value, limit: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise InvalidRequestError(f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not (math.isfinite(value) and 0.0 < value <= limit):
+        raise InvalidRequestError(f"{name} must be in (0, {limit}], got {value}")
+    return value
+
+
+class Solver:
+    """Base class: checks and common plumbing; subclasses implement ``_solve``.
+
+    ``options`` maps each solver-specific option to its default; unknown options
+    are refused, so a typo cannot silently fall back to a default.
+    """
+
+    name = ""
+    options: dict = {}
+
+    def check(self, chain: Chain, with_orientation: bool = False) -> None:
+        """Raise SolverNotApplicableError if this solver cannot serve the request."""
+        if with_orientation and not chain.can_orient:
+            need = "3 independent joints (x, y, yaw)" if chain.planar else "6 independent joints"
+            raise SolverNotApplicableError(
+                f"chain '{chain.name}' cannot reach a full orientation: it has {chain.free.size} "
+                f"independent joints and a {'planar' if chain.planar else 'spatial'} pose needs {need}"
+            )
+
+    def solve(
+        self,
+        chain: Chain,
+        target,
+        *,
+        seed=None,
+        with_orientation: bool = False,
+        tolerance: float = DEFAULT_TOLERANCE,
+        orientation_tolerance: float | None = None,
+        max_iterations: int = DEFAULT_MAX_ITERATIONS,
+        timeout: float = DEFAULT_TIMEOUT,
+        record_history: bool = False,
+        **options,
+    ) -> IKResult:
+        """Solve IK for ``target``; see the module docstring for the forms of target.
+
+        ``seed`` (default: zeros clamped into the limits) is clamped into the limits
+        and its coupled joints derived.  ``tolerance`` is metres for position and,
+        unless ``orientation_tolerance`` is given, radians for orientation.
+        """
+        started = time.perf_counter()
+        self.check(chain, bool(with_orientation))
+        settings = self._configured(options, chain.planar)
+        goal = parse_goal(chain, target, bool(with_orientation))
+        tolerance = _positive("tolerance", tolerance, math.inf)
+        orientation_tolerance = tolerance if orientation_tolerance is None else _positive(
+            "orientation_tolerance", orientation_tolerance, math.pi)
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or not (
+                1 <= max_iterations <= MAX_ITERATIONS_LIMIT):
+            raise InvalidRequestError(f"max_iterations must be an integer in [1, {MAX_ITERATIONS_LIMIT}], got {max_iterations!r}")
+        timeout = _positive("timeout", timeout, MAX_TIMEOUT)
+        q0 = np.zeros(chain.n) if seed is None else chain.check_q(seed, "seed")
+        q0 = chain.apply_coupling(chain.clamp(q0))
+        request = Request(bool(with_orientation), tolerance, orientation_tolerance, int(max_iterations),
+                          started + timeout, bool(record_history), started)
+        result = self._solve(chain, goal, q0, request, settings)
+        result.elapsed = time.perf_counter() - started
+        return result
+
+    def _configured(self, options: dict, planar: bool):
+        """``configure`` of the defaults updated with ``options``, memoised: the same
+        options are checked once, not at every solve."""
+        try:
+            key = (planar, tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in options.items())))
+            hash(key)
+        except TypeError:
+            key = None
+        cache = self.__dict__.setdefault("_configurations", {})
+        if key is not None and key in cache:
+            return cache[key]
+        unknown = set(options) - set(self.options)
+        if unknown:
+            raise InvalidRequestError(f"solver '{self.name}' has no option(s) {sorted(unknown)}; it takes {sorted(self.options)}")
+        configuration = self.configure({**self.options, **options}, planar)
+        if key is not None and len(cache) < 256:
+            cache[key] = configuration
+        return configuration
+
+    def configure(self, settings: dict, planar: bool):
+        """Checked form of the solver options (InvalidRequestError if bad)."""
+        return settings
+
+    def _solve(self, chain: Chain, goal: Goal, q0: np.ndarray, request: Request, configuration) -> IKResult:
+        raise NotImplementedError
+
+
+def finish(chain: Chain, goal: Goal, q: np.ndarray, request: Request, *, solver: str, iterations: int,
+           message: str, attempts: int = 1, history=None, converged: bool | None = None) -> IKResult:
+    """Build the result at q: reached pose, errors, and success against the tolerances."""
+    q = np.asarray(q, dtype=float)
+    reached = chain_pose(chain, q)
+    position_error, orientation_error, error = measure(chain, goal, reached)
+    if converged is None:
+        converged = position_error <= request.tolerance and orientation_error <= request.orientation_tolerance
+    return IKResult(q=q, success=bool(converged), position_error=position_error, orientation_error=orientation_error,
+                    iterations=iterations, message=message, reached=reached, error=error, solver=solver,
+                    attempts=attempts, history=history)
+
+
+def chain_pose(chain: Chain, q) -> np.ndarray:
+    """4x4 tool pose from the fast kernel."""
+    x, y, z, r00, r01, r02, r10, r11, r12, r20, r21, r22 = chain.kernel.pose(np.asarray(q, dtype=float).tolist())
+    return np.array([[r00, r01, r02, x], [r10, r11, r12, y], [r20, r21, r22, z], [0.0, 0.0, 0.0, 1.0]])
+
+
+def measure(chain: Chain, goal: Goal, reached: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """(position error, orientation error, error vector) of a reached pose."""
+    (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
+    tx, ty, tz = goal.position.tolist()
+    error = [tx - x, ty - y] if chain.planar else [tx - x, ty - y, tz - z]
+    position_error = math.sqrt(sum(v * v for v in error))
+    orientation_error = 0.0
+    if goal.rotation is not None:
+        w = rotation_error(r00, r01, r02, r10, r11, r12, r20, r21, r22, *goal.rotation.ravel().tolist())
+        w = w[2:] if chain.planar else w
+        orientation_error = math.sqrt(sum(v * v for v in w))
+        error += w
+    return position_error, orientation_error, np.array(error)

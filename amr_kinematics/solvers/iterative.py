@@ -1,0 +1,361 @@
+"""Damped least-squares refinement from one start: the engine of 'dls' and 'pinv'.
+
+One step (seed 004, Buss & Kim; Sugihara's error-dependent damping as option):
+
+    e   = task error (position rows, then angular_weight * rotation vector rows)
+    l^2 = damping^2 + adaptive_damping * |e|^2
+    dq  = gain * J^T (J J^T + l^2 I)^-1 e
+
+then joints are kept in their limits: a revolute joint that leaves its range is
+first moved by 2 pi if that brings it back (same pose), and joints that still
+leave it are dropped from J and the step is recomputed once (clamping loop,
+Baerlocher & Boulic), then clamped.  Prismatic values are never wrapped.
+
+Coupled joints (q_k = offset + c . q) follow one of two updates:
+``reduced`` steps the independent joints with the chain-rule Jacobian
+J_r = J_free + J_k c_free; ``project`` (seed 004) steps all joints as if free and
+then overwrites the coupled ones.
+
+The common case (spatial chain, position only, no coupling, no per-axis
+tolerance) runs on scalar floats with a closed-form 3x3 solve; everything else on
+numpy.  Both follow the same equations (checked against each other in tests).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import weakref
+from dataclasses import dataclass
+from operator import le, mul
+
+import numpy as np
+
+from ..chain import Chain
+from ..transforms import rotation_error
+from .base import Goal, IterationRecord, Request
+
+try:  # the gufunc behind np.linalg.solve, without its ~3 us of Python-level checks
+    from numpy.linalg._umath_linalg import solve1 as _solve
+except ImportError:  # pragma: no cover - other numpy layouts
+    _solve = np.linalg.solve
+
+TWO_PI = 2.0 * math.pi
+COUPLING_UPDATES = ("reduced", "project")
+
+
+@dataclass(frozen=True)
+class StepSettings:
+    """Parameters of the DLS step (see the module docstring)."""
+
+    damping: float
+    adaptive_damping: float = 0.0
+    gain: float = 1.0
+    angular_weight: float | None = None  # m/rad; None: 1.0 with orientation, no rotation rows without
+    coupling_update: str = "reduced"
+    axis_tolerance: tuple[float, ...] | None = None  # per-axis position bounds instead of the norm
+    patience: int = 0  # stop an attempt after this many steps without a 0.1 % gain; 0 = never
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """What a chain's joints look like to the solver: computed once per chain."""
+
+    var: np.ndarray                  # indices of the solver's variables
+    coupling_matrix: np.ndarray | None  # dq_full = C dx for the reduced coupling update
+    lower: np.ndarray
+    upper: np.ndarray
+    revolute: np.ndarray
+    bounds: tuple[list, list, list]  # lower, upper, revolute as lists for the scalar loop
+
+
+_LAYOUTS: "weakref.WeakKeyDictionary[Chain, dict]" = weakref.WeakKeyDictionary()
+
+
+def _layout(chain: Chain, project: bool) -> _Layout:
+    cached = _LAYOUTS.setdefault(chain, {})
+    if project not in cached:
+        var = np.arange(chain.n) if (project or not chain.couplings) else chain.free.copy()
+        matrix = None
+        if chain.couplings and not project:
+            matrix = np.zeros((chain.n, var.size))
+            matrix[var, np.arange(var.size)] = 1.0
+            for coupling in chain.couplings:
+                matrix[coupling.joint] = coupling.coefficients[var]
+        lower, upper, revolute = chain.lower[var], chain.upper[var], ~chain.prismatic[var]
+        cached[project] = _Layout(var, matrix, lower, upper, revolute,
+                                  (lower.tolist(), upper.tolist(), revolute.tolist()))
+    return cached[project]
+
+
+@dataclass
+class Attempt:
+    q: np.ndarray          # best joint vector of the attempt (full, within limits)
+    converged: bool
+    iterations: int
+    score: float           # weighted squared task error at q
+    timed_out: bool = False
+
+
+class Refiner:
+    """Iterates the DLS step for one goal; construct once per solve, ``run`` per start."""
+
+    def __init__(self, chain: Chain, goal: Goal, request: Request, step: StepSettings) -> None:
+        self.chain = chain
+        self.request = request
+        self.step = step
+        self.history: list[IterationRecord] | None = [] if request.record_history else None
+        self.target = goal.position.tolist()
+        self.rotation = None if goal.rotation is None else goal.rotation.ravel().tolist()
+        weight = step.angular_weight
+        if weight is None:
+            weight = 1.0 if self.rotation is not None else 0.0
+        self.angular_weight = weight
+        self.use_rotation_rows = self.rotation is not None or weight > 0.0
+        self.position_rows = [0, 1] if chain.planar else [0, 1, 2]
+        self.rotation_rows = ([5] if chain.planar else [3, 4, 5]) if self.use_rotation_rows else []
+        self.m = len(self.position_rows) + len(self.rotation_rows)
+        self.tolerance2 = request.tolerance ** 2
+        self.orientation_tolerance = request.orientation_tolerance
+        self.axis_tolerance = step.axis_tolerance
+        layout = _layout(chain, step.coupling_update == "project")
+        self.var, self.coupling_matrix = layout.var, layout.coupling_matrix
+        self.lower, self.upper, self.revolute = layout.lower, layout.upper, layout.revolute
+        self.bounds = layout.bounds
+        self.lam2 = step.damping ** 2
+        simple = not chain.planar and not chain.couplings and self.axis_tolerance is None
+        self.fast = None
+        if simple and not self.use_rotation_rows:
+            self.fast = self._run_scalar
+        elif simple and self.rotation is not None:
+            self.fast = self._run_pose
+
+    # --- helpers -----------------------------------------------------------------------
+    def expand(self, x: np.ndarray) -> np.ndarray:
+        """Full joint vector from the variables (coupled joints derived, clamped)."""
+        if self.var.size == self.chain.n and not self.chain.couplings:
+            return x
+        q = np.zeros(self.chain.n)
+        q[self.var] = x
+        return self.chain.apply_coupling(q)
+
+    def limit(self, x_new: np.ndarray) -> np.ndarray:
+        """Wrap revolute variables by 2 pi back into range when that works."""
+        over = self.revolute & (x_new > self.upper) & (x_new - TWO_PI >= self.lower)
+        under = self.revolute & (x_new < self.lower) & (x_new + TWO_PI <= self.upper)
+        if over.any() or under.any():
+            x_new = x_new - TWO_PI * over + TWO_PI * under
+        return x_new
+
+    def _record(self, iteration: int, q, position_error2: float, orientation_error: float, attempt: int) -> None:
+        self.history.append(IterationRecord(iteration, np.array(q, dtype=float), math.sqrt(position_error2),
+                                            orientation_error, attempt))
+
+    # --- the loop ------------------------------------------------------------------------
+    def run(self, q0: np.ndarray, max_steps: int, attempt: int = 0) -> Attempt:
+        """Refine from q0 (full vector, within limits) for at most ``max_steps`` steps."""
+        return (self.fast or self._run_numpy)(q0, max_steps, attempt)
+
+    def _run_numpy(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
+        chain, step = self.chain, self.step
+        kernel = chain.kernel.pose_jacobian if self.use_rotation_rows else chain.kernel.position_jacobian
+        n, m = chain.n, self.m
+        rows = self.position_rows + self.rotation_rows
+        weights = np.array([1.0] * len(self.position_rows) + [self.angular_weight] * len(self.rotation_rows))
+        tx, ty, tz = self.target
+        d = self.rotation
+        rotation_target = d is not None
+        axis = self.axis_tolerance
+        planar = chain.planar
+        lam2, adaptive, gain = self.lam2, step.adaptive_damping, step.gain
+        lower, upper = self.lower, self.upper
+        coupling = self.coupling_matrix
+        project = step.coupling_update == "project" and chain.couplings
+        deadline = self.request.deadline
+        history = self.history
+        x = q0[self.var].astype(float)
+        q = q0.astype(float)
+        best_q, best_score = q, math.inf
+        patience, stale = step.patience, 0
+        for iteration in range(max_steps + 1):
+            out = kernel(q.tolist())
+            ex, ey, ez = tx - out[0], ty - out[1], tz - out[2]
+            pos2 = ex * ex + ey * ey + (0.0 if planar else ez * ez)
+            if self.use_rotation_rows:
+                wx, wy, wz = rotation_error(*out[3:12], *d) if rotation_target else (0.0, 0.0, 0.0)
+                jacobian = np.array(out[12])
+            else:
+                wx = wy = wz = 0.0
+                jacobian = np.array(out[3:])
+            ori = (abs(wz) if planar else math.sqrt(wx * wx + wy * wy + wz * wz)) if rotation_target else 0.0
+            if axis is None:
+                position_ok = pos2 <= self.tolerance2
+            else:
+                position_ok = abs(ex) <= axis[0] and abs(ey) <= axis[1] and (planar or abs(ez) <= axis[2])
+            if history is not None:
+                self._record(iteration, q, pos2, ori, attempt)
+            error = np.array((ex, ey, ez, wx, wy, wz))[rows] * weights
+            score = float(error @ error)
+            if position_ok and ori <= self.orientation_tolerance:
+                return Attempt(q, True, iteration, score)
+            if score < best_score:
+                stale = stale + 1 if score > 0.999 * best_score else 0
+                best_q, best_score = q, score
+            else:
+                stale += 1
+            if iteration == max_steps or (patience and stale >= patience):
+                break
+            if time.perf_counter() > deadline:
+                return Attempt(best_q, False, iteration, best_score, timed_out=True)
+            jac = jacobian.reshape(-1, n)[rows] * weights[:, None]
+            if coupling is not None:
+                jac = jac @ coupling
+            damping = lam2 + adaptive * score
+            a = jac @ jac.T
+            a.flat[:: m + 1] += damping
+            x_new = self.limit(x + gain * (_solve(a, error) @ jac))
+            outside = (x_new < lower) | (x_new > upper)
+            if outside.any():  # drop the saturated joints and step again without them
+                jac[:, outside] = 0.0
+                a = jac @ jac.T
+                a.flat[:: m + 1] += damping
+                x_new = self.limit(x + gain * (_solve(a, error) @ jac))
+            x = np.minimum(np.maximum(x_new, lower), upper)
+            if project:
+                q = chain.apply_coupling(x)
+                x = q.copy()
+            else:
+                q = self.expand(x)
+        return Attempt(best_q, False, iteration, best_score)
+
+    def _run_pose(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
+        """Same step as ``_run_numpy`` for a spatial full-pose goal without coupling:
+        errors on floats, numpy only for the 6 x 6 solve."""
+        n = self.chain.n
+        kernel = self.chain.kernel.pose_jacobian
+        tx, ty, tz = self.target
+        d00, d01, d02, d10, d11, d12, d20, d21, d22 = self.rotation
+        weight = self.angular_weight
+        lam2, adaptive, gain = self.lam2, self.step.adaptive_damping, self.step.gain
+        tolerance2 = self.tolerance2
+        orientation_tolerance2 = self.orientation_tolerance ** 2
+        lower, upper = self.lower, self.upper
+        lower_list, upper_list, _ = self.bounds
+        eye = np.eye(6)
+        deadline = self.request.deadline
+        history = self.history
+        q = q0.astype(float)
+        best_q, best_score = q, math.inf
+        patience, stale = self.step.patience, 0
+        for iteration in range(max_steps + 1):
+            x, y, z, r00, r01, r02, r10, r11, r12, r20, r21, r22, flat = kernel(q.tolist())
+            ex, ey, ez = tx - x, ty - y, tz - z
+            wx, wy, wz = rotation_error(r00, r01, r02, r10, r11, r12, r20, r21, r22,
+                                        d00, d01, d02, d10, d11, d12, d20, d21, d22)
+            pos2 = ex * ex + ey * ey + ez * ez
+            ori2 = wx * wx + wy * wy + wz * wz
+            if history is not None:
+                self._record(iteration, q, pos2, math.sqrt(ori2), attempt)
+            if pos2 <= tolerance2 and ori2 <= orientation_tolerance2:
+                return Attempt(q, True, iteration, pos2 + weight * weight * ori2)
+            score = pos2 + weight * weight * ori2
+            if score < best_score:
+                stale = stale + 1 if score > 0.999 * best_score else 0
+                best_q, best_score = q, score
+            else:
+                stale += 1
+            if iteration == max_steps or (patience and stale >= patience):
+                break
+            if time.perf_counter() > deadline:
+                return Attempt(best_q, False, iteration, best_score, timed_out=True)
+            jac = np.array(flat).reshape(6, n)
+            if weight != 1.0:
+                jac[3:] *= weight
+            error = np.array((ex, ey, ez, wx * weight, wy * weight, wz * weight))
+            damping = lam2 + adaptive * score
+            step = _solve(jac @ jac.T + damping * eye, error) @ jac
+            x_new = q + step if gain == 1.0 else q + gain * step
+            values = x_new.tolist()
+            if not (all(map(le, lower_list, values)) and all(map(le, values, upper_list))):
+                x_new = self.limit(x_new)
+                outside = (x_new < lower) | (x_new > upper)
+                if outside.any():  # drop the saturated joints and step again without them
+                    jac[:, outside] = 0.0
+                    x_new = self.limit(q + gain * (_solve(jac @ jac.T + damping * eye, error) @ jac))
+                x_new = np.minimum(np.maximum(x_new, lower), upper)
+            q = x_new
+        return Attempt(best_q, False, iteration, best_score)
+
+    def _run_scalar(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
+        """Same step as ``_run_numpy`` for a spatial position-only goal, on floats."""
+        kernel = self.chain.kernel.position_jacobian
+        tx, ty, tz = self.target
+        lam2, adaptive, gain = self.lam2, self.step.adaptive_damping, self.step.gain
+        tolerance2 = self.tolerance2
+        lower, upper, revolute = self.bounds
+        deadline = self.request.deadline
+        history = self.history
+        q = q0.tolist()
+        best_q, best_score = q, math.inf
+        patience, stale = self.step.patience, 0
+        for iteration in range(max_steps + 1):
+            x, y, z, jx, jy, jz = kernel(q)
+            ex, ey, ez = tx - x, ty - y, tz - z
+            score = ex * ex + ey * ey + ez * ez
+            if history is not None:
+                self._record(iteration, q, score, 0.0, attempt)
+            if score <= tolerance2:
+                return Attempt(np.array(q), True, iteration, score)
+            if score < best_score:
+                stale = stale + 1 if score > 0.999 * best_score else 0
+                best_q, best_score = q, score
+            else:
+                stale += 1
+            if iteration == max_steps or (patience and stale >= patience):
+                break
+            if time.perf_counter() > deadline:
+                return Attempt(np.array(best_q), False, iteration, best_score, timed_out=True)
+            damping = lam2 + adaptive * score
+            new = _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain)
+            saturated = False
+            for i, value in enumerate(new):
+                if value > upper[i]:
+                    if revolute[i] and value - TWO_PI >= lower[i]:
+                        new[i] = value - TWO_PI
+                    else:
+                        saturated = True
+                elif value < lower[i]:
+                    if revolute[i] and value + TWO_PI <= upper[i]:
+                        new[i] = value + TWO_PI
+                    else:
+                        saturated = True
+            if saturated:  # drop the saturated joints and step again without them
+                jx, jy, jz = list(jx), list(jy), list(jz)
+                for i, value in enumerate(new):
+                    if value > upper[i] or value < lower[i]:
+                        jx[i] = jy[i] = jz[i] = 0.0
+                new = _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain)
+                for i, value in enumerate(new):
+                    if value > upper[i]:
+                        new[i] = value - TWO_PI if revolute[i] and value - TWO_PI >= lower[i] else upper[i]
+                    elif value < lower[i]:
+                        new[i] = value + TWO_PI if revolute[i] and value + TWO_PI <= upper[i] else lower[i]
+            q = new
+        return Attempt(np.array(best_q), False, iteration, best_score)
+
+
+def _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain):
+    """q + gain J^T (J J^T + damping I)^-1 e for a 3 x n J, by cofactors."""
+    a00 = sum(map(mul, jx, jx)) + damping
+    a01 = sum(map(mul, jx, jy))
+    a02 = sum(map(mul, jx, jz))
+    a11 = sum(map(mul, jy, jy)) + damping
+    a12 = sum(map(mul, jy, jz))
+    a22 = sum(map(mul, jz, jz)) + damping
+    c00, c01, c02 = a11 * a22 - a12 * a12, a02 * a12 - a01 * a22, a01 * a12 - a02 * a11
+    c11, c12, c22 = a00 * a22 - a02 * a02, a01 * a02 - a00 * a12, a00 * a11 - a01 * a01
+    k = gain / (a00 * c00 + a01 * c01 + a02 * c02)
+    y0 = (c00 * ex + c01 * ey + c02 * ez) * k
+    y1 = (c01 * ex + c11 * ey + c12 * ez) * k
+    y2 = (c02 * ex + c12 * ey + c22 * ez) * k
+    return [qi + y0 * gx + y1 * gy + y2 * gz for qi, gx, gy, gz in zip(q, jx, jy, jz)]
