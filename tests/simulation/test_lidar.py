@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from amr_simulation.lidar import Lidar
 from amr_simulation.physics import WALLS_ONLY, Physics
@@ -108,3 +110,33 @@ def test_beam_through_a_corner_hits_it() -> None:
     ranges = NumpyRayCaster(world.faces).cast(0.0, 0.0, 0.0, 2.0 * math.pi / 240, 240, 3.5)
     assert ranges[30] == pytest.approx(math.sqrt(2.0))
     assert np.isinf(ranges[90:]).all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    walls=st.lists(
+        st.tuples(*[st.floats(-2.0, 2.0)] * 4, st.floats(0.005, 0.2)).filter(
+            lambda w: math.hypot(w[2] - w[0], w[3] - w[1]) > 0.01
+        ),
+        min_size=1,
+        max_size=12,
+    ),
+    origin=st.tuples(st.floats(-2.5, 2.5), st.floats(-2.5, 2.5)),
+    phi0=st.floats(-math.pi, math.pi),
+    beams=st.integers(1, 400),
+)
+def test_casters_agree_on_random_walls(walls, origin, phi0, beams) -> None:
+    polygons, faces = [], []
+    for x1, y1, x2, y2, thickness in walls:  # each its own thickness
+        world = world_from_dict({"wall_thickness": thickness, "walls": [[x1, y1, x2, y2]], "start": [0.0, 0.0, 0.0]})
+        polygons.extend(world.polygons)
+        faces.append(world.faces)
+    physics = Physics(polygons, 0.105)
+    assume(physics.clearance(*origin) > 1e-3)  # outside every wall
+    increment = 2.0 * math.pi / beams
+    fast = NumpyRayCaster(np.concatenate(faces)).cast(*origin, phi0, increment, beams, 3.0)
+    reference = PymunkRayCaster(physics.space, WALLS_ONLY).cast(*origin, phi0, increment, beams, 3.0)
+    fast[fast > 3.0] = np.inf
+    assert np.array_equal(np.isinf(fast), np.isinf(reference))
+    finite = np.isfinite(reference)
+    np.testing.assert_allclose(fast[finite], reference[finite], atol=1e-7)

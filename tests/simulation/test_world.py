@@ -9,10 +9,12 @@ import numpy as np
 import pytest
 
 from amr_simulation.errors import WorldError
+from amr_simulation.physics import Physics
 from amr_simulation.world import load_world, resolve_world_path, world_from_dict
 
 WORLDS = Path(__file__).resolve().parents[2] / "config" / "worlds"
 SHIPPED = sorted(p.name for p in WORLDS.glob("*.yaml"))
+RADIUS = 0.105  # TurtleBot3 Burger footprint
 
 
 def polygon_area(polygon: np.ndarray) -> float:
@@ -121,3 +123,34 @@ def test_file_errors_name_the_file(tmp_path: Path) -> None:
     listed.write_text("- 1\n- 2\n")
     with pytest.raises(WorldError, match="list.yaml: a world must be a mapping"):
         load_world(listed)
+
+
+def reachable_share(world, resolution: float = 0.05) -> float:
+    """Share of the footprint-free grid points the robot can reach from its start."""
+    physics = Physics(world.polygons, RADIUS)
+    xmin, ymin, xmax, ymax = world.bounds
+    xs, ys = np.arange(xmin, xmax, resolution), np.arange(ymin, ymax, resolution)
+    free = np.array([[physics.clearance(x, y) >= RADIUS for y in ys] for x in xs])
+    start = (int(round((world.start.x - xmin) / resolution)), int(round((world.start.y - ymin) / resolution)))
+    seen, frontier = {start}, [start]
+    while frontier:
+        i, j = frontier.pop()
+        for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+            if 0 <= a < len(xs) and 0 <= b < len(ys) and free[a, b] and (a, b) not in seen:
+                seen.add((a, b))
+                frontier.append((a, b))
+    return len(seen) / free.sum()
+
+
+@pytest.mark.parametrize("name", ["inner_maze.yaml", "hard_maze.yaml", "open_room.yaml"])
+def test_a_turtlebot_can_reach_all_free_space(name: str) -> None:
+    assert reachable_share(load_world(WORLDS / name)) == 1.0
+
+
+def test_outer_corridor_is_a_ring_closed_by_a_dead_end() -> None:
+    world = load_world(WORLDS / "outer_corridor.yaml")
+    physics = Physics(world.polygons, RADIUS)
+    assert 0.3 < reachable_share(world) < 0.5  # the walled-in centre block is not reachable
+    # the dead-end wall separates the start cell from its western neighbour
+    assert physics.clearance(0.8, -1.0) < RADIUS
+    assert all(physics.clearance(x, y) >= RADIUS for x, y in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (0.6, -1.0)])
