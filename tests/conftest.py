@@ -1,0 +1,100 @@
+"""Test harness: DDS kept on loopback in a domain of this run's own, rclpy contexts, node processes."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+# Before rclpy is imported anywhere: no DDS traffic leaves loopback, and parallel runs do not meet.
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(10, 100)))
+
+import pytest  # noqa: E402
+import rclpy  # noqa: E402
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+PREFIX = Path(sys.prefix)
+BOOTSTRAP_VARIABLES = ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")
+
+
+def child_environment(**extra: str) -> dict[str, str]:
+    """Our environment without the wheels' bootstrap markers, so the child sets up its own library path."""
+    env = {k: v for k, v in os.environ.items() if k not in BOOTSTRAP_VARIABLES}
+    env.update(extra)
+    return env
+
+
+@pytest.fixture
+def ros_context():
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    yield context
+    context.try_shutdown()
+
+
+@pytest.fixture
+def executor(ros_context):
+    executor = SingleThreadedExecutor(context=ros_context)
+    yield executor
+    executor.shutdown()
+
+
+@pytest.fixture
+def multi_executor(ros_context):
+    executor = MultiThreadedExecutor(num_threads=4, context=ros_context)
+    yield executor
+    executor.shutdown()
+
+
+def spin_until(executor, condition, timeout: float) -> bool:
+    """Spin until condition() holds or the timeout passes; returns whether it held."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        executor.spin_once(timeout_sec=0.02)
+    return condition()
+
+
+class NodeProcess:
+    """A node executable run as `ros2 run` would: lib/<package>/<executable> under the venv prefix."""
+
+    def __init__(self, package: str, executable: str, *ros_args: str, prefix: Path = PREFIX) -> None:
+        path = prefix / "lib" / package / executable
+        if not os.access(path, os.X_OK):
+            raise FileNotFoundError(f"{path} is missing or not executable: run `make setup`")
+        command = [str(path)] + (["--ros-args", *ros_args] if ros_args else [])
+        self.process = subprocess.Popen(
+            command, env=child_environment(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            start_new_session=True)
+
+    def stop(self, timeout: float = 10.0) -> tuple[int, str]:
+        """SIGINT, then SIGKILL if it lingers; returns (exit code, output)."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+        try:
+            output, _ = self.process.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            output, _ = self.process.communicate()
+        return self.process.returncode, output
+
+
+@pytest.fixture
+def node_process():
+    started: list[NodeProcess] = []
+
+    def start(package: str, executable: str, *ros_args: str) -> NodeProcess:
+        process = NodeProcess(package, executable, *ros_args)
+        started.append(process)
+        return process
+
+    yield start
+    for process in started:
+        process.stop()
