@@ -203,6 +203,7 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
     for key in ("base_xyz_rpy", "tool_xyz_rpy"):
         if key in values and len(values[key]) != 6:
             raise ChainConfigError(name, f"{name}.{key}", f"needs 6 values [x, y, z, roll, pitch, yaw], got {len(values[key])}")
+    couplings = _couplings(name, values, n)
     try:
         chain = Chain(
             name, convention, values["joint_names"], values["types"],
@@ -210,7 +211,7 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
             lower=values["lower"], upper=values["upper"],
             base=xyz_rpy_matrix(values["base_xyz_rpy"]) if "base_xyz_rpy" in values else None,
             tool=xyz_rpy_matrix(values["tool_xyz_rpy"]) if "tool_xyz_rpy" in values else None,
-            couplings=_couplings(name, values, n),
+            couplings=couplings,
         )
     except ChainConfigError as exc:
         key = {"base": "base_xyz_rpy", "tool": "tool_xyz_rpy"}.get(exc.key, exc.key)

@@ -11,7 +11,17 @@ curvature w / v survives it: the robot drives the same arc, only slower.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
+
+from .errors import KinematicsError
+
+
+def _finite(name: str, *values: float) -> None:
+    """Non-finite speeds would turn into NaN wheel commands: refuse them."""
+    for value in values:
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+            raise KinematicsError(f"DiffDrive.{name}: speeds must be finite numbers, got {values!r}")
 
 
 @dataclass(frozen=True)
@@ -27,18 +37,20 @@ class DiffDrive:
     def __post_init__(self) -> None:
         for name in ("wheel_radius", "track", "max_wheel_speed", "max_linear", "max_angular"):
             value = getattr(self, name)
-            if not isinstance(value, (int, float)) or math.isnan(value) or value <= 0.0:
-                raise ValueError(f"DiffDrive.{name} must be a positive number, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or math.isnan(value) or value <= 0.0:
+                raise KinematicsError(f"DiffDrive.{name} must be a positive number, got {value!r}")
         if math.isinf(self.wheel_radius) or math.isinf(self.track):
-            raise ValueError("DiffDrive wheel_radius and track must be finite")
+            raise KinematicsError("DiffDrive wheel_radius and track must be finite")
 
     def wheel_speeds(self, linear: float, angular: float) -> tuple[float, float]:
         """(left, right) wheel angular speeds in rad/s for a body twist, unsaturated."""
+        _finite("wheel_speeds", linear, angular)
         half = angular * self.track / 2.0
         return (linear - half) / self.wheel_radius, (linear + half) / self.wheel_radius
 
     def body_twist(self, left: float, right: float) -> tuple[float, float]:
         """(linear m/s, angular rad/s) of the body for wheel angular speeds."""
+        _finite("body_twist", left, right)
         r = self.wheel_radius
         return r * (right + left) / 2.0, r * (right - left) / self.track
 
@@ -55,6 +67,7 @@ class DiffDrive:
 
     def saturate(self, linear: float, angular: float) -> tuple[float, float]:
         """The twist scaled to the limits, keeping its curvature."""
+        _finite("saturate", linear, angular)
         scale = self.saturation_scale(linear, angular)
         return linear * scale, angular * scale
 
