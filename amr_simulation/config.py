@@ -11,7 +11,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Mapping, Sequence
 
 import yaml
 
@@ -224,8 +224,8 @@ def _typed(value: Any, spec: dataclasses.Field, key: str) -> Any:
     if kind == "str":
         _require(isinstance(value, str), key, "must be a string", value)
         return value
-    # start: a list of three numbers, or empty for the world's own start
-    ok = isinstance(value, (list, tuple)) and all(
+    # start: three numbers (a list, or the array.array rclpy hands out), or empty for the world's own
+    ok = isinstance(value, Sequence) and not isinstance(value, str) and all(
         isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
     )
     _require(ok and len(value) in (0, 3), key, "must be [x, y, theta] or []", value)

@@ -241,7 +241,8 @@ def _grid(grid: Any, where: _Where) -> tuple[list[np.ndarray], np.ndarray]:
             raise where.error(f"grid.rows[{index}]", f"has {len(row)} cells, row 0 has {width}")
         bad = set(row) - {SOLID_CELL, FREE_CELL}
         if bad:
-            raise where.error(f"grid.rows[{index}]", f"only '{SOLID_CELL}' and '{FREE_CELL}' allowed, got {sorted(bad)}")
+            allowed = f"only '{SOLID_CELL}' and '{FREE_CELL}' allowed"
+            raise where.error(f"grid.rows[{index}]", f"{allowed}, got {sorted(bad)}")
     solid = np.array([[c == SOLID_CELL for c in row] for row in reversed(rows)])  # solid[j, i], j up
     if not solid.any():
         raise where.error("grid.rows", f"has no solid '{SOLID_CELL}' cell")

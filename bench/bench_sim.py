@@ -120,7 +120,8 @@ def main() -> None:
     worlds = {path.stem: load_world(path) for path in sorted(WORLDS.glob("*.yaml"))}
 
     print(f"1. Real-time factor, dt = {DT} s, 240-beam scan every step, {args.steps} steps")
-    print(f"{'world':16} {'faces':>5} | {'numpy RTF':>9} {'us/step':>8} | {'pymunk RTF':>10} {'us/step':>8} | collisions")
+    print(f"{'world':16} {'faces':>5} | {'numpy RTF':>9} {'us/step':>8} | {'pymunk RTF':>10} {'us/step':>8} "
+          "| collisions")
     for name, world in worlds.items():
         fast, fast_us, hits = real_time_factor(world, "numpy", args.steps)
         slow, slow_us, _ = real_time_factor(world, "pymunk", max(args.steps // 10, 50))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import array
 import math
 from pathlib import Path
 
@@ -40,6 +41,8 @@ def test_nested_dicts_start_override_and_ignored_names() -> None:
         {"lidar": {"beams": 60}, "start": [0.6, -0.6, 4.0], "node_only": 1}, ignore=["node_only"]
     )
     assert config.lidar.beams == 60 and config.start == (0.6, -0.6, 4.0)
+    from_rclpy = SimulationConfig.from_params({"start": array.array("d", [0.6, -0.6, 4.0])})
+    assert from_rclpy.start == (0.6, -0.6, 4.0)
     assert SimulationConfig.from_params({"start": []}).start is None
 
 
