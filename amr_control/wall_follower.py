@@ -1,0 +1,417 @@
+"""The wall-following controller of seed 002, as a plain class (no ROS).
+
+Each call to :meth:`WallFollower.compute` takes one synchronized LiDAR scan,
+the odometry twist and the stamp, and returns the velocity command. The
+state machine (``WallFollower.state``):
+
+* ``SEARCH``: no wall yet; drive straight until the followed wall shows up.
+* ``FOLLOW``: keep the followed wall at ``target_wall_distance`` with PD
+  control on the distance error e = d - target,
+  ``w = s (kp e + kd de/dt)`` with s = +1 for the left wall, -1 for the right,
+  de/dt over the real time between stamps (optionally low-passed), saturated
+  at ``angular_limit``.
+* ``CORNER``: the followed wall ended (an opening on that side): drive
+  ``corner_advance`` further, then turn towards the opening.
+* ``APPROACH``: a front return closer than ``front_threshold`` at a corner:
+  creep on at ``stabilize_speed`` until the rotation centre is
+  ``target_wall_distance`` from the wall ahead (a threshold above that, as on
+  the real robot, would otherwise leave it off-centre after the turn).
+* ``TURN_LEFT`` / ``TURN_RIGHT``: turn in place 90 deg; ``TURN_AROUND``: 180
+  deg at a dead end. The turn is chosen by comparing the side distances:
+  towards the followed side if open, else the other side if open, else around. A turn ends when odometry
+  says the angle is done (nominal plus the skew against the last fitted
+  wall, so it ends square) and the narrow window ahead reads ``turn_exit_distance``
+  (or after ``turn_timeout_factor`` times its nominal duration).
+* ``STABILIZE``: the seed's Fixed_Front: straight ahead at
+  ``stabilize_speed`` for ``stabilize_time``, then on until the followed wall
+  is found (``FOLLOW``) or ``corner_exit_distance`` is driven (``SEARCH``).
+* ``AVOID``: safety net in every moving state: if driving straight on would
+  bring the disc footprint within ``safety_margin`` of a return, turn in
+  place away from it (a disc turning in place touches nothing new).
+
+Symmetric junctions (both sides open and within ``symmetric_tolerance``) and
+the direction of a dead-end turn between equal sides are drawn from a
+``random.Random(random_seed)``, so runs are reproducible.
+
+Bad data never raises and never yields a NaN command: see :class:`Issue`.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, Mapping
+
+from amr_control.scan_sectors import Footprint, LineFit, Readings, ScanData, SectorReader, Sectors
+from amr_control.wall_follower_config import WallFollowerConfig
+
+PLAUSIBLE_FACTOR = 2.0
+"""Odometry beyond this many times the fastest commanded speed is treated as corrupt."""
+
+
+class State(str, Enum):
+    SEARCH = "SEARCH"
+    FOLLOW = "FOLLOW"
+    CORNER = "CORNER"
+    APPROACH = "APPROACH"
+    TURN_LEFT = "TURN_LEFT"
+    TURN_RIGHT = "TURN_RIGHT"
+    TURN_AROUND = "TURN_AROUND"
+    STABILIZE = "STABILIZE"
+    AVOID = "AVOID"
+
+
+MOVING = (State.SEARCH, State.FOLLOW, State.CORNER, State.APPROACH, State.STABILIZE)
+TURNING = (State.TURN_LEFT, State.TURN_RIGHT, State.TURN_AROUND)
+
+
+class Issue(str, Enum):
+    """Why a command is not a plain one; the value is the log message."""
+
+    BAD_SCAN = "unusable scan (empty, bad angles or a window without beams): stopping"
+    NO_VALID_BEAMS = "no valid beam in the scan (all NaN or out of range): stopping"
+    BAD_STAMP = "non-finite stamp: time-based terms frozen"
+    REPEATED_STAMP = "repeated stamp: time-based terms frozen"
+    TIME_WENT_BACKWARDS = "stamp went backwards: derivative reset"
+    TIME_GAP = "long gap between stamps: derivative reset"
+    BAD_ODOMETRY = "odometry non-finite or implausible: using the last command instead"
+
+
+@dataclass(frozen=True)
+class Command:
+    """A velocity command (m/s, rad/s, counter-clockwise positive) and what went wrong, if anything."""
+
+    v: float
+    w: float
+    issues: tuple[Issue, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return not self.issues
+
+    def describe(self) -> str:
+        return "; ".join(issue.value for issue in self.issues)
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """The last scan's distances (m from the LiDAR; inf = nothing seen), for logs and plots."""
+
+    front: float = math.inf
+    left: float = math.inf
+    right: float = math.inf
+    wall_distance: float = math.inf
+    """to the followed wall"""
+    followed_wall: str = "right"
+    clearance: float = math.inf
+    """straight-ahead travel left before the footprint touches something"""
+
+
+class WallFollower:
+    """Seed 002's wall follower: construct from a parameter dict or a WallFollowerConfig."""
+
+    def __init__(self, params: Mapping[str, Any] | WallFollowerConfig | None = None) -> None:
+        if params is None:
+            config = WallFollowerConfig()
+        elif isinstance(params, WallFollowerConfig):
+            config = params
+        else:
+            config = WallFollowerConfig.from_params(params)
+        self.config = config
+        self._reader = SectorReader(
+            Sectors(
+                math.radians(config.front_window_deg),
+                math.radians(config.side_window_deg),
+                math.radians(config.abeam_window_deg),
+            ),
+            Footprint(config.robot_radius, config.lidar_x),
+        )
+        self._max_v = max(config.linear_speed, config.stabilize_speed)
+        # Front distance (from the LiDAR) at which the rotation centre is target_wall_distance from
+        # the wall ahead: turning there leaves the robot on its line in the new corridor.
+        self._pivot_distance = config.target_wall_distance - config.lidar_x
+        self._max_w = max(config.turn_speed, config.angular_limit)
+        self.reset()
+
+    # -- public ----------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Back to the initial state (lifecycle activate, simulator reset); the RNG is reseeded."""
+        self._rng = random.Random(self.config.random_seed)
+        self._followed = self._draw_side() if self.config.preferred_wall == "random" else self.config.preferred_wall
+        self._state = State.SEARCH
+        self._resume = (State.SEARCH, 0.0, 0.0)  # (state, state_time, traveled) AVOID returns to
+        self._turn_sign = 0.0
+        self._turn_angle = 0.0
+        self._skew = 0.0  # angle of the last fitted side wall: the heading error against the walls
+        self._skew_seen = False  # whether the current scan has such a wall
+        self._state_time = 0.0
+        self._traveled = 0.0
+        self._turned = 0.0
+        self._last_stamp: float | None = None
+        self._last_error: float | None = None
+        self._error_rate = 0.0
+        self._command = (0.0, 0.0)
+        self._measurements = Measurements(followed_wall=self._followed)
+
+    @property
+    def state(self) -> str:
+        """The state machine's state name."""
+        return self._state.value
+
+    @property
+    def followed_wall(self) -> str:
+        """'right' or 'left'."""
+        return self._followed
+
+    @property
+    def measurements(self) -> Measurements:
+        return self._measurements
+
+    def compute(self, scan: ScanData, odometry_v: float, odometry_w: float, stamp: float) -> Command:
+        """The command for one synchronized (scan, odometry) pair stamped ``stamp`` seconds."""
+        issues: list[Issue] = []
+        elapsed, rate_valid = self._advance_clock(stamp, issues)
+        moved, turned = self._motion(odometry_v, odometry_w, elapsed, issues)
+
+        readings = None if self._reader.geometry_ok(scan) else self._reader.read(scan)
+        if readings is None or not self._windows_covered(readings):
+            return self._stop(issues + [Issue.BAD_SCAN])
+        if readings.usable_beams == 0:
+            return self._stop(issues + [Issue.NO_VALID_BEAMS])
+
+        self._state_time += elapsed
+        self._traveled += moved
+        self._turned += turned
+        self._transition(readings)
+        v, w = self._command_for(readings, elapsed, rate_valid)
+        self._record(readings)
+        return self._emit(v, w, issues)
+
+    # -- time and motion -------------------------------------------------------------------
+
+    def _advance_clock(self, stamp: float, issues: list[Issue]) -> tuple[float, bool]:
+        """Seconds since the previous pair (0 if unknown) and whether the error rate may be updated."""
+        stamp = _as_float(stamp)
+        if not math.isfinite(stamp):
+            issues.append(Issue.BAD_STAMP)
+            return 0.0, False
+        last, self._last_stamp = self._last_stamp, stamp
+        if last is None:
+            return 0.0, False
+        dt = stamp - last
+        if dt == 0.0:
+            issues.append(Issue.REPEATED_STAMP)
+            return 0.0, False
+        if dt < 0.0:
+            issues.append(Issue.TIME_WENT_BACKWARDS)
+            self._last_error = None
+            return 0.0, False
+        if dt > self.config.max_stamp_gap:
+            issues.append(Issue.TIME_GAP)
+            self._last_error = None
+            return self.config.max_stamp_gap, False
+        return dt, True
+
+    def _motion(self, v: float, w: float, elapsed: float, issues: list[Issue]) -> tuple[float, float]:
+        """Distance driven and angle turned since the previous pair, from odometry when it is sane."""
+        v, w = _as_float(v), _as_float(w)
+        sane = (
+            math.isfinite(v) and math.isfinite(w)
+            and abs(v) <= PLAUSIBLE_FACTOR * self._max_v and abs(w) <= PLAUSIBLE_FACTOR * self._max_w
+        )
+        if not sane:
+            issues.append(Issue.BAD_ODOMETRY)
+            v, w = self._command
+        return abs(v) * elapsed, abs(w) * elapsed
+
+    # -- the state machine -----------------------------------------------------------------
+
+    def _transition(self, r: Readings) -> None:
+        """Move the state machine on for this scan; the safety checks come last so they always win."""
+        c = self.config
+        self._update_skew(r)
+        present = self._abeam(r, self._followed) <= c.wall_lost_distance
+        state = self._state
+        if state == State.AVOID:
+            if r.clearance >= 2.0 * c.safety_margin:
+                self._state, self._state_time, self._traveled = self._resume
+                self._last_error = None
+        elif state in TURNING:
+            done = self._turned >= self._turn_angle and r.ahead >= c.turn_exit_distance
+            if done or self._state_time >= c.turn_timeout_factor * self._turn_angle / c.turn_speed:
+                self._enter(State.STABILIZE)
+        elif state == State.STABILIZE:
+            if self._state_time >= c.stabilize_time:
+                if present:
+                    self._enter(State.FOLLOW)
+                elif self._traveled >= c.corner_exit_distance:
+                    self._enter(State.SEARCH)
+        elif state == State.SEARCH:
+            if present:
+                self._enter(State.FOLLOW)
+        elif state == State.CORNER:
+            if present:  # the opening was only a short gap
+                self._enter(State.FOLLOW)
+            elif self._traveled >= c.corner_advance:
+                self._start_turn(State.TURN_LEFT if self._followed == "left" else State.TURN_RIGHT)
+        elif state == State.APPROACH:
+            if r.front <= self._pivot_distance or self._traveled >= c.front_threshold - self._pivot_distance:
+                self._decide_turn(r)
+        elif not present:  # FOLLOW: the followed wall ended
+            self._enter(State.CORNER)
+
+        if self._state in MOVING:
+            if r.front < c.front_threshold and self._state != State.APPROACH:
+                dead_end = max(r.left_abeam, r.right_abeam) <= c.wall_lost_distance
+                if dead_end or r.front <= self._pivot_distance:
+                    self._decide_turn(r)
+                else:  # a corner: turn where the robot will be centred in the new corridor
+                    self._enter(State.APPROACH)
+            elif r.clearance < c.safety_margin:
+                self._resume = (self._state, self._state_time, self._traveled)
+                self._enter(State.AVOID)
+                self._turn_sign = -1.0 if r.clearance_side > 0 else 1.0
+
+    def _command_for(self, r: Readings, elapsed: float, rate_valid: bool) -> tuple[float, float]:
+        c = self.config
+        state = self._state
+        if state == State.AVOID or state in TURNING:
+            return 0.0, self._turn_sign * c.turn_speed
+        if state == State.FOLLOW:
+            return self._follow(self._wall_distance(r), elapsed, rate_valid)
+        # Straight runs (STABILIZE, APPROACH, SEARCH, CORNER) keep parallel to a fitted wall if any.
+        align = c.align_gain * self._skew if self._skew_seen else 0.0
+        align = min(max(align, -c.angular_limit), c.angular_limit)
+        slow = state in (State.STABILIZE, State.APPROACH)
+        return (c.stabilize_speed if slow else c.linear_speed), align
+
+    def _follow(self, wall: float, elapsed: float, rate_valid: bool) -> tuple[float, float]:
+        """PD on e = d - target: w = s (kp e + kd de/dt), saturated."""
+        c = self.config
+        error = wall - c.target_wall_distance
+        if self._last_error is None:
+            self._error_rate = 0.0
+        elif rate_valid and elapsed > 0.0:
+            raw = (error - self._last_error) / elapsed
+            alpha = elapsed / (c.derivative_filter_time + elapsed)
+            self._error_rate += alpha * (raw - self._error_rate)
+        self._last_error = error
+        side = 1.0 if self._followed == "left" else -1.0
+        w = side * (c.kp * error + c.kd * self._error_rate)
+        return c.linear_speed, min(max(w, -c.angular_limit), c.angular_limit)
+
+    def _decide_turn(self, r: Readings) -> None:
+        """Front blocked: turn by comparing the sides (seed 002 section 4.4)."""
+        c = self.config
+        left, right = r.left_abeam, r.right_abeam
+        left_open = left > c.wall_lost_distance
+        right_open = right > c.wall_lost_distance
+        symmetric = (left == right) or abs(left - right) <= c.symmetric_tolerance
+        if c.preferred_wall == "random" and left_open and right_open and symmetric:
+            self._followed = self._draw_side()
+        followed_open = left_open if self._followed == "left" else right_open
+        other_open = right_open if self._followed == "left" else left_open
+        toward_followed = State.TURN_LEFT if self._followed == "left" else State.TURN_RIGHT
+        away = State.TURN_RIGHT if self._followed == "left" else State.TURN_LEFT
+        if followed_open:
+            self._start_turn(toward_followed)
+        elif other_open:
+            self._start_turn(away)
+        else:
+            if symmetric:
+                left = self._rng.random() < 0.5
+            else:
+                left = r.left > r.right  # the wide windows: where the walls are nearest
+            self._start_turn(State.TURN_AROUND, 1.0 if left else -1.0)
+
+    def _start_turn(self, state: State, sign: float = 0.0) -> None:
+        """Turn in place by the nominal angle, corrected so that it ends square to the walls."""
+        self._enter(state)
+        if state != State.TURN_AROUND:
+            sign = 1.0 if state == State.TURN_LEFT else -1.0
+        nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
+        self._turn_sign = sign
+        self._turn_angle = nominal + sign * self._skew
+
+    def _enter(self, state: State) -> None:
+        self._state = state
+        self._state_time = 0.0
+        self._traveled = 0.0
+        self._turned = 0.0
+        if state == State.FOLLOW:
+            self._last_error = None
+
+    def _draw_side(self) -> str:
+        return "left" if self._rng.random() < 0.5 else "right"
+
+    # -- helpers ---------------------------------------------------------------------------
+
+    def _wall_distance(self, r: Readings) -> float:
+        """The fitted line's distance when the followed wall is straight, else the window minimum."""
+        fit = self._fit(r, self._followed)
+        if fit is not None:
+            return fit.distance
+        return r.left if self._followed == "left" else r.right
+
+    def _fit(self, r: Readings, side: str) -> LineFit | None:
+        """The side's fitted line if it is a straight wall within reach and near parallel."""
+        c = self.config
+        fit = r.left_fit if side == "left" else r.right_fit
+        if (
+            fit is None
+            or fit.rms > c.line_fit_tolerance
+            or fit.distance > c.wall_lost_distance
+            or abs(fit.angle) > math.radians(c.max_skew_deg)
+        ):
+            return None
+        return fit
+
+    def _update_skew(self, r: Readings) -> None:
+        """The heading error against the walls, from the followed side's fit, else the other side's."""
+        other = "right" if self._followed == "left" else "left"
+        fit = self._fit(r, self._followed) or self._fit(r, other)
+        self._skew_seen = fit is not None
+        if fit is not None:
+            self._skew = fit.angle
+
+    @staticmethod
+    def _abeam(r: Readings, side: str) -> float:
+        return r.left_abeam if side == "left" else r.right_abeam
+
+    def _windows_covered(self, r: Readings) -> bool:
+        """False for a scan too coarse to put a beam in the front or the followed side's window."""
+        front, left, right = r.window_beams
+        return front > 0 and (left if self._followed == "left" else right) > 0
+
+    def _record(self, r: Readings) -> None:
+        self._measurements = Measurements(
+            front=r.front, left=r.left, right=r.right, wall_distance=self._wall_distance(r),
+            followed_wall=self._followed, clearance=r.clearance,
+        )
+
+    def _stop(self, issues: list[Issue]) -> Command:
+        self._last_error = None
+        self._command = (0.0, 0.0)
+        return Command(0.0, 0.0, tuple(issues))
+
+    def _emit(self, v: float, w: float, issues: list[Issue]) -> Command:
+        """The command within the configured speeds; a NaN can never leave this class."""
+        if not (math.isfinite(v) and math.isfinite(w)):
+            return self._stop(issues)
+        v = min(max(v, 0.0), self._max_v)
+        w = min(max(w, -self._max_w), self._max_w)
+        self._command = (v, w)
+        return Command(v, w, tuple(issues))
+
+
+def _as_float(value: Any) -> float:
+    """A float, or NaN for anything that is not a real number."""
+    if isinstance(value, bool):
+        return math.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
