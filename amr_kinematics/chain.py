@@ -162,7 +162,9 @@ class Chain:
         for array in (self.theta, self.a, self.d, self.alpha, self.lower, self.upper, self.base, self.tool,
                       self.prismatic, self.free):
             array.setflags(write=False)
-        self._kernel = None
+        from .kernel import build_kernel  # here, not at a first solve's expense
+
+        self.kernel = build_kernel(self)
 
     def _checked_couplings(self, couplings: Sequence[Coupling]):
         n = self.n
@@ -298,12 +300,3 @@ class Chain:
         fixed += [post[i] @ pre[i + 1] for i in range(self.n - 1)]
         fixed.append(post[-1] @ self.tool)
         return fixed, motions
-
-    @property
-    def kernel(self):
-        """The compiled scalar FK/Jacobian functions (built on first use)."""
-        if self._kernel is None:
-            from .kernel import build_kernel
-
-            self._kernel = build_kernel(self)
-        return self._kernel

@@ -7,9 +7,10 @@ One step (seed 004, Buss & Kim; Sugihara's error-dependent damping as option):
     dq  = gain * J^T (J J^T + l^2 I)^-1 e
 
 then joints are kept in their limits: a revolute joint that leaves its range is
-first moved by 2 pi if that brings it back (same pose), and joints that still
-leave it are dropped from J and the step is recomputed once (clamping loop,
-Baerlocher & Boulic), then clamped.  Prismatic values are never wrapped.
+first moved by 2 pi if that brings it back (same pose); joints that still leave
+it are set on their limit and the others solve again for the error left,
+e' = e - J_s (q_limit - q)_s with the saturated columns removed (one pass of
+Baerlocher & Boulic's clamping loop).  Prismatic values are never wrapped.
 
 Coupled joints (q_k = offset + c . q) follow one of two updates:
 ``reduced`` steps the independent joints with the chain-rule Jacobian
@@ -31,7 +32,7 @@ from operator import le, mul
 
 import numpy as np
 
-from ..chain import Chain
+from ..chain import Chain, all_finite
 from ..transforms import rotation_error
 from .base import Goal, IterationRecord, Request
 
@@ -140,9 +141,10 @@ class Refiner:
         return self.chain.apply_coupling(q)
 
     def limit(self, x_new: np.ndarray) -> np.ndarray:
-        """Wrap revolute variables by 2 pi back into range when that works."""
-        over = self.revolute & (x_new > self.upper) & (x_new - TWO_PI >= self.lower)
-        under = self.revolute & (x_new < self.lower) & (x_new + TWO_PI <= self.upper)
+        """Wrap revolute variables by 2 pi back into range when that lands inside it."""
+        lower, upper = self.lower, self.upper
+        over = self.revolute & (x_new > upper) & (x_new - TWO_PI >= lower) & (x_new - TWO_PI <= upper)
+        under = self.revolute & (x_new < lower) & (x_new + TWO_PI <= upper) & (x_new + TWO_PI >= lower)
         if over.any() or under.any():
             x_new = x_new - TWO_PI * over + TWO_PI * under
         return x_new
@@ -150,6 +152,19 @@ class Refiner:
     def _record(self, iteration: int, q, position_error2: float, orientation_error: float, attempt: int) -> None:
         self.history.append(IterationRecord(iteration, np.array(q, dtype=float), math.sqrt(position_error2),
                                             orientation_error, attempt))
+
+    def _resolve_saturated(self, x, x_new, outside, jac, error, damping) -> np.ndarray:
+        """Saturated variables on their limit; the others solve for the error left."""
+        on_limit = np.minimum(np.maximum(x_new, self.lower), self.upper)
+        move = np.where(outside, on_limit - x, 0.0)
+        rest = error - jac @ move
+        jac = jac.copy()
+        jac[:, outside] = 0.0
+        a = jac @ jac.T
+        a.flat[:: a.shape[0] + 1] += damping
+        x_new = self.limit(x + self.step.gain * (_solve(a, rest) @ jac))
+        x_new[outside] = on_limit[outside]
+        return x_new
 
     # --- the loop ------------------------------------------------------------------------
     def run(self, q0: np.ndarray, max_steps: int, attempt: int = 0) -> Attempt:
@@ -214,12 +229,11 @@ class Refiner:
             a = jac @ jac.T
             a.flat[:: m + 1] += damping
             x_new = self.limit(x + gain * (_solve(a, error) @ jac))
+            if not all_finite(x_new):  # a singular system: give up this attempt
+                break
             outside = (x_new < lower) | (x_new > upper)
-            if outside.any():  # drop the saturated joints and step again without them
-                jac[:, outside] = 0.0
-                a = jac @ jac.T
-                a.flat[:: m + 1] += damping
-                x_new = self.limit(x + gain * (_solve(a, error) @ jac))
+            if outside.any():
+                x_new = self._resolve_saturated(x, x_new, outside, jac, error, damping)
             x = np.minimum(np.maximum(x_new, lower), upper)
             if project:
                 q = chain.apply_coupling(x)
@@ -277,11 +291,12 @@ class Refiner:
             x_new = q + step if gain == 1.0 else q + gain * step
             values = x_new.tolist()
             if not (all(map(le, lower_list, values)) and all(map(le, values, upper_list))):
+                if not all_finite(x_new):  # a singular system: give up this attempt
+                    break
                 x_new = self.limit(x_new)
                 outside = (x_new < lower) | (x_new > upper)
-                if outside.any():  # drop the saturated joints and step again without them
-                    jac[:, outside] = 0.0
-                    x_new = self.limit(q + gain * (_solve(jac @ jac.T + damping * eye, error) @ jac))
+                if outside.any():
+                    x_new = self._resolve_saturated(q, x_new, outside, jac, error, damping)
                 x_new = np.minimum(np.maximum(x_new, lower), upper)
             q = x_new
         return Attempt(best_q, False, iteration, best_score)
@@ -317,29 +332,35 @@ class Refiner:
                 return Attempt(np.array(best_q), False, iteration, best_score, timed_out=True)
             damping = lam2 + adaptive * score
             new = _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain)
+            if not math.isfinite(sum(new)):  # a singular system: give up this attempt
+                break
             saturated = False
             for i, value in enumerate(new):
-                if value > upper[i]:
-                    if revolute[i] and value - TWO_PI >= lower[i]:
-                        new[i] = value - TWO_PI
+                if value > upper[i] or value < lower[i]:
+                    turn = -TWO_PI if value > upper[i] else TWO_PI
+                    if revolute[i] and lower[i] <= value + turn <= upper[i]:
+                        new[i] = value + turn
                     else:
                         saturated = True
-                elif value < lower[i]:
-                    if revolute[i] and value + TWO_PI <= upper[i]:
-                        new[i] = value + TWO_PI
-                    else:
-                        saturated = True
-            if saturated:  # drop the saturated joints and step again without them
+            if saturated:  # saturated joints on their limit, the others solve for the rest
                 jx, jy, jz = list(jx), list(jy), list(jz)
+                fixed = {}
                 for i, value in enumerate(new):
                     if value > upper[i] or value < lower[i]:
+                        fixed[i] = upper[i] if value > upper[i] else lower[i]
+                        move = fixed[i] - q[i]
+                        ex, ey, ez = ex - jx[i] * move, ey - jy[i] * move, ez - jz[i] * move
                         jx[i] = jy[i] = jz[i] = 0.0
                 new = _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain)
                 for i, value in enumerate(new):
-                    if value > upper[i]:
-                        new[i] = value - TWO_PI if revolute[i] and value - TWO_PI >= lower[i] else upper[i]
-                    elif value < lower[i]:
-                        new[i] = value + TWO_PI if revolute[i] and value + TWO_PI <= upper[i] else lower[i]
+                    if i in fixed:
+                        new[i] = fixed[i]
+                    elif value > upper[i] or value < lower[i]:
+                        turn = -TWO_PI if value > upper[i] else TWO_PI
+                        if revolute[i] and lower[i] <= value + turn <= upper[i]:
+                            new[i] = value + turn
+                        else:
+                            new[i] = min(max(value, lower[i]), upper[i])
             q = new
         return Attempt(np.array(best_q), False, iteration, best_score)
 
