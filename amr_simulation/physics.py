@@ -6,8 +6,8 @@ out of the walls. pymunk integrates positions before it detects and resolves
 contacts, so a freshly set velocity would push into a wall it already touches;
 the command is therefore first stripped of its component into every contact
 normal the last substep reported (pre_solve callback): what the contact solver
-would do, friction-free, so the robot slides along walls. Penetration is then bounded by one substep of travel,
-and `max_substep_distance` bounds that.
+would do, friction-free, so the robot slides along walls. Penetration is then
+bounded by one substep of travel, which `max_substep_distance` bounds.
 
 A collision is counted when the robot goes from touching nothing to touching
 something (pymunk begin/separate callbacks): sliding along a wall, or into a
