@@ -1,0 +1,186 @@
+"""wall_follower: synchronized /odometry + /scan in, /cmd_vel out (seed 002).
+
+Simulation (`simulation: true`, lockstep): a command is computed in the synchronized
+callback, one per observation, published as TwistStamped. Real robot (`simulation:
+false`, seed 5.2.2): the callback only stores the latest pair; a timer computes every
+dt and publishes Twist, and publishes zero velocity when no new pair came for
+`stale_timeout`. The lockstep simulator holds the robot when no command comes, so the
+stale watchdog runs in the timer architecture only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from geometry_msgs.msg import Twist, TwistStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.lifecycle import State, TransitionCallbackReturn
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.time import Time
+from sensor_msgs.msg import LaserScan
+
+from amr_control.managed_node import ManagedNode, run
+from amr_control.scan_sectors import ScanData
+from amr_control.sync import ApproximateTimeSynchronizer
+from amr_control.wall_follower import Command, WallFollower
+from amr_control.wall_follower_config import ConfigError, WallFollowerConfig, parameter_defaults
+
+WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
+ODOMETRY, SCAN = 0, 1
+
+
+def scan_data(message: LaserScan) -> ScanData:
+    return ScanData(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
+                    message.range_min, message.range_max)
+
+
+class WallFollowerNode(ManagedNode):
+    """Wires WallFollower and ApproximateTimeSynchronizer to topics; holds no control logic."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__("wall_follower", **kwargs)
+        # Dynamic typing: a YAML `1` for a float reaches WallFollowerConfig, which names the key,
+        # instead of killing the process in declare_parameter.
+        any_type = ParameterDescriptor(dynamic_typing=True)
+        for name, default in parameter_defaults().items():
+            self.declare_parameter(name, default, any_type)
+        self.config: WallFollowerConfig | None = None
+        self.controller: WallFollower | None = None
+        self._sync: ApproximateTimeSynchronizer | None = None
+        self._publisher = None
+        self._subscriptions = []
+        self._timer = None
+        self._latest_pair: tuple[Odometry, LaserScan] | None = None
+        self._latest_pair_time: Time | None = None
+        self._last_command: Command | None = None
+        self._warned_at: dict[str, float] = {}
+        self.configure_error = ""
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        values = {name: self.get_parameter(name).value for name in parameter_defaults()}
+        try:
+            config = WallFollowerConfig.from_params(values)
+            controller = WallFollower(config)
+        except ConfigError as error:
+            self.configure_error = str(error)
+            self.get_logger().error(f"configure failed: {error}")
+            return TransitionCallbackReturn.FAILURE
+        self.config, self.controller = config, controller
+        self._sync = ApproximateTimeSynchronizer(2, config.sync_slop, config.sync_queue_size, self._on_pair)
+        message_type = TwistStamped if config.simulation else Twist
+        self._publisher = self.create_lifecycle_publisher(message_type, "cmd_vel", 10)
+        reliable = QoSProfile(depth=config.sync_queue_size, reliability=ReliabilityPolicy.RELIABLE)
+        self._subscriptions = [
+            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), reliable),
+            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), qos_profile_sensor_data),
+        ]
+        self.get_logger().info(
+            f"configured: {'simulation (lockstep, TwistStamped)' if config.simulation else 'real robot (timer, Twist)'}"
+            f", following the {config.preferred_wall} wall at {config.target_wall_distance} m")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        self.controller.reset()
+        self._sync.reset()
+        self._latest_pair = self._latest_pair_time = None
+        if not self.config.simulation:
+            self._timer = self.create_timer(self.config.dt, self._on_timer)
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        self._publish(0.0, 0.0)
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        for subscription in self._subscriptions:
+            self.destroy_subscription(subscription)
+        self.destroy_lifecycle_publisher(self._publisher)
+        self._subscriptions, self._publisher = [], None
+        self.config = self.controller = self._sync = None
+        return TransitionCallbackReturn.SUCCESS
+
+    # -- data flow ------------------------------------------------------------------------------
+
+    def _on_message(self, index: int, message) -> None:
+        if self.state_label != "active":
+            return
+        stamp = Time.from_msg(message.header.stamp).nanoseconds
+        if stamp < 0:
+            self._warn("a message with a negative stamp was dropped")
+            return
+        self._sync.add(index, stamp, message)
+
+    def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
+        if self.config.simulation:
+            self._compute(odometry, scan)
+        else:
+            self._latest_pair = (odometry, scan)
+            self._latest_pair_time = self.get_clock().now()
+
+    def _on_timer(self) -> None:
+        if self._latest_pair is None or self._is_stale():
+            self._warn(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")
+            self._publish(0.0, 0.0)
+            return
+        pair, self._latest_pair = self._latest_pair, None
+        self._compute(*pair)
+
+    def _is_stale(self) -> bool:
+        age = (self.get_clock().now() - self._latest_pair_time).nanoseconds * 1e-9
+        return age > self.config.stale_timeout
+
+    def _compute(self, odometry: Odometry, scan: LaserScan) -> None:
+        try:
+            twist = odometry.twist.twist
+            stamp = Time.from_msg(scan.header.stamp).nanoseconds * 1e-9
+            command = self.controller.compute(scan_data(scan), twist.linear.x, twist.angular.z, stamp)
+        except Exception as error:  # a controller bug must not take the robot's node down
+            self.get_logger().error(f"controller failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
+            command = Command(0.0, 0.0)
+        if not command.ok:
+            self._warn(command.describe())
+        self._last_command = command
+        self._publish(command.v, command.w)
+
+    def _publish(self, v: float, w: float) -> None:
+        if self._publisher is None:
+            return
+        if not (math.isfinite(v) and math.isfinite(w)):
+            v = w = 0.0
+        if self.config.flip_angular_sign:
+            w = -w
+        if self.config.simulation:
+            message = TwistStamped()
+            message.header.stamp = self.get_clock().now().to_msg()
+            message.header.frame_id = "base_footprint"
+            twist = message.twist
+        else:
+            message = twist = Twist()
+        twist.linear.x, twist.angular.z = float(v), float(w)
+        self._publisher.publish(message)
+
+    def _warn(self, text: str) -> None:
+        """Each distinct warning at most once per WARNING_PERIOD (rclpy throttles per call site)."""
+        now = self.get_clock().now().nanoseconds * 1e-9
+        if now - self._warned_at.get(text, -math.inf) >= WARNING_PERIOD:
+            self._warned_at[text] = now
+            self.get_logger().warning(text)
+
+    @property
+    def last_command(self) -> Command | None:
+        return self._last_command
+
+
+def main(args=None) -> None:
+    run(WallFollowerNode, args=args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,183 @@
+"""The wall follower node: synchronized inputs, both output types, stale data, bad config, deactivation."""
+
+import math
+import threading
+
+import pytest
+from conftest import spin_until
+from geometry_msgs.msg import Twist, TwistStamped
+from lifecycle_msgs.msg import Transition
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+
+from amr_control.lifecycle_manager import LifecycleManager
+from amr_control.wall_follower_node import WallFollowerNode
+from amr_turtlebot3.odometry_node import OdometryNode
+
+BEAMS = 240
+
+
+def corridor_scan(stamp_ns: int, right: float = 0.2, left: float = 0.2, front: float = 3.0) -> LaserScan:
+    """A scan inside a straight corridor: walls at `right`/`left` metres, something `front` ahead."""
+    scan = LaserScan()
+    scan.header.stamp.sec, scan.header.stamp.nanosec = divmod(stamp_ns, 10**9)
+    scan.header.frame_id = "base_scan"
+    scan.angle_min, scan.angle_increment = 0.0, 2 * math.pi / BEAMS
+    scan.angle_max = scan.angle_min + scan.angle_increment * (BEAMS - 1)
+    scan.range_min, scan.range_max = 0.12, 3.5
+    ranges = []
+    for k in range(BEAMS):
+        angle = k * scan.angle_increment
+        s, c = math.sin(angle), math.cos(angle)
+        candidates = [front / c if c > 1e-6 else math.inf,
+                      left / s if s > 1e-6 else math.inf,
+                      right / -s if s < -1e-6 else math.inf]
+        distance = min(candidates)
+        ranges.append(distance if distance <= scan.range_max else math.inf)
+    scan.ranges = ranges
+    return scan
+
+
+def odometry(stamp_ns: int, v: float = 0.15) -> Odometry:
+    message = Odometry()
+    message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp_ns, 10**9)
+    message.twist.twist.linear.x = v
+    return message
+
+
+class Rig(Node):
+    def __init__(self, context, twist_type=TwistStamped):
+        super().__init__("rig", context=context)
+        self.odometry = self.create_publisher(Odometry, "odometry", 10)
+        self.scan = self.create_publisher(LaserScan, "scan", qos_profile_sensor_data)
+        self.commands = []
+        self.create_subscription(twist_type, "cmd_vel", self.commands.append, 10)
+
+    def send(self, stamp_ns, **scan_kwargs):
+        self.odometry.publish(odometry(stamp_ns))
+        self.scan.publish(corridor_scan(stamp_ns, **scan_kwargs))
+
+
+def follower(context, **overrides):
+    params = [Parameter(k, value=v) for k, v in overrides.items()]
+    return WallFollowerNode(context=context, parameter_overrides=params)
+
+
+def activate(node):
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+
+
+def test_simulation_mode_answers_every_pair_with_a_twist_stamped(ros_context, executor):
+    node, rig = follower(ros_context), Rig(ros_context)
+    executor.add_node(node)
+    executor.add_node(rig)
+    activate(node)
+    assert spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    for k in range(10):
+        rig.send(10**9 + k * 50_000_000, right=0.25)  # 5 cm too far from the right wall
+        assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5), f"no command for pair {k}"
+    last = rig.commands[-1].twist
+    assert last.linear.x > 0.0 and last.angular.z < 0.0, "too far from the right wall: turn right (clockwise)"
+    assert all(math.isfinite(c.twist.angular.z) for c in rig.commands)
+
+
+def test_bad_scans_never_make_nan_commands(ros_context, executor):
+    node, rig = follower(ros_context), Rig(ros_context)
+    executor.add_node(node)
+    executor.add_node(rig)
+    activate(node)
+    spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    bad = [[], [math.nan] * BEAMS, [math.inf] * BEAMS, [1e30] * BEAMS, [0.3] * 3]
+    for k, ranges in enumerate(bad):
+        stamp = 10**9 + k * 50_000_000
+        scan = corridor_scan(stamp)
+        scan.ranges = ranges
+        rig.odometry.publish(odometry(stamp, v=math.nan))
+        rig.scan.publish(scan)
+        assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5)
+    for command in rig.commands:
+        assert math.isfinite(command.twist.linear.x) and math.isfinite(command.twist.angular.z)
+    assert node.state_label == "active"
+
+
+def test_real_robot_mode_uses_twist_a_timer_and_stops_on_stale_data(ros_context, executor):
+    node = follower(ros_context, simulation=False, sync_slop=0.15, flip_angular_sign=True, stale_timeout=0.1)
+    rig = Rig(ros_context, twist_type=Twist)
+    executor.add_node(node)
+    executor.add_node(rig)
+    activate(node)
+    spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    now = node.get_clock().now().nanoseconds
+    for k in range(6):  # the real robot: odometry and scan stamps differ a little
+        rig.odometry.publish(odometry(now + k * 50_000_000 + 7_000_000))
+        rig.scan.publish(corridor_scan(now + k * 50_000_000, right=0.25))
+        spin_until(executor, lambda: False, 0.05)
+    moving = [c for c in rig.commands if c.linear.x > 0.0]
+    assert moving, "the timer never published a command from the stored pair"
+    assert moving[-1].angular.z > 0.0, "flip_angular_sign must invert the clockwise turn"
+    rig.commands.clear()
+    spin_until(executor, lambda: False, 0.5)  # no more data: stale
+    assert rig.commands and rig.commands[-1].linear.x == 0.0 and rig.commands[-1].angular.z == 0.0
+
+
+def test_deactivation_publishes_a_zero_command(ros_context, executor):
+    node, rig = follower(ros_context), Rig(ros_context)
+    executor.add_node(node)
+    executor.add_node(rig)
+    activate(node)
+    spin_until(executor, lambda: rig.scan.get_subscription_count() > 0, 5)
+    rig.send(10**9)
+    assert spin_until(executor, lambda: len(rig.commands) == 1, 5)
+    assert node.try_transition(Transition.TRANSITION_DEACTIVATE)
+    assert spin_until(executor, lambda: len(rig.commands) == 2, 5)
+    assert rig.commands[-1].twist.linear.x == 0.0 and rig.commands[-1].twist.angular.z == 0.0
+    rig.send(2 * 10**9)
+    spin_until(executor, lambda: False, 0.3)
+    assert len(rig.commands) == 2, "an inactive follower must stay quiet"
+
+
+@pytest.mark.parametrize(("override", "key"), [({"kp": "fast"}, "kp"), ({"preferred_wall": "up"}, "preferred_wall"),
+                                               ({"dt": -0.05}, "dt")])
+def test_bad_parameters_fail_configure_naming_the_key(ros_context, executor, override, key):
+    node = follower(ros_context, **override)
+    executor.add_node(node)
+    assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert node.state_label == "unconfigured"
+    assert node.configure_error.startswith(key)
+
+
+def test_manager_brings_the_stack_up_in_order_and_down_in_reverse(ros_context, multi_executor):
+    odometry_node, follower_node = OdometryNode(context=ros_context), follower(ros_context)
+    manager = LifecycleManager(context=ros_context, parameter_overrides=[
+        Parameter("node_startup_order", value=["odometry_node", "wall_follower"]),
+        Parameter("wait_timeout", value=5.0)])
+    for node in (odometry_node, follower_node, manager):
+        multi_executor.add_node(node)
+    spinner = threading.Thread(target=multi_executor.spin, daemon=True)
+    spinner.start()
+    steps = manager.startup()
+    assert manager.started, steps
+    assert [(s.node, s.transition) for s in steps] == [("odometry_node", "configure"), ("odometry_node", "activate"),
+                                                       ("wall_follower", "configure"), ("wall_follower", "activate")]
+    assert odometry_node.state_label == follower_node.state_label == "active"
+    steps = manager.shutdown()
+    assert [s.node for s in steps] == ["wall_follower", "wall_follower", "odometry_node", "odometry_node"]
+    assert odometry_node.state_label == follower_node.state_label == "unconfigured"
+
+
+def test_manager_stops_at_a_node_that_fails_configure(ros_context, multi_executor):
+    bad = follower(ros_context, kp="fast")
+    odometry_node = OdometryNode(context=ros_context)
+    manager = LifecycleManager(context=ros_context, parameter_overrides=[
+        Parameter("node_startup_order", value=["wall_follower", "odometry_node"]),
+        Parameter("wait_timeout", value=5.0)])
+    for node in (bad, odometry_node, manager):
+        multi_executor.add_node(node)
+    threading.Thread(target=multi_executor.spin, daemon=True).start()
+    steps = manager.startup()
+    assert not manager.started and steps[-1].node == "wall_follower" and steps[-1].transition == "configure"
+    assert odometry_node.state_label == "unconfigured", "the sequence must stop at the failure"
