@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from amr_interfaces.msg import WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
@@ -73,6 +74,7 @@ class WallFollowerNode(ManagedNode):
         self._sync = ApproximateTimeSynchronizer(2, config.sync_slop, config.sync_queue_size, self._on_pair)
         message_type = TwistStamped if config.simulation else Twist
         self._publisher = self.create_lifecycle_publisher(message_type, "cmd_vel", 10)
+        self._status_publisher = self.create_lifecycle_publisher(WallFollowerStatus, "~/status", 10)
         reliable = QoSProfile(depth=config.sync_queue_size, reliability=ReliabilityPolicy.RELIABLE)
         self._subscriptions = [
             self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), reliable),
@@ -102,7 +104,8 @@ class WallFollowerNode(ManagedNode):
         for subscription in self._subscriptions:
             self.destroy_subscription(subscription)
         self.destroy_lifecycle_publisher(self._publisher)
-        self._subscriptions, self._publisher = [], None
+        self.destroy_lifecycle_publisher(self._status_publisher)
+        self._subscriptions, self._publisher, self._status_publisher = [], None, None
         self.config = self.controller = self._sync = None
         return TransitionCallbackReturn.SUCCESS
 
@@ -148,6 +151,17 @@ class WallFollowerNode(ManagedNode):
             self._warn(command.describe())
         self._last_command = command
         self._publish(command.v, command.w)
+        self._publish_status(scan, command)
+
+    def _publish_status(self, scan: LaserScan, command: Command) -> None:
+        seen = self.controller.measurements
+        status = WallFollowerStatus(
+            state=self.controller.state, followed_wall=seen.followed_wall, front=seen.front, left=seen.left,
+            right=seen.right, wall_distance=seen.wall_distance,
+            target_wall_distance=self.config.target_wall_distance, linear=command.v, angular=command.w,
+            issues=[issue.value for issue in command.issues])
+        status.header = scan.header
+        self._status_publisher.publish(status)
 
     def _publish(self, v: float, w: float) -> None:
         if self._publisher is None:

@@ -5,6 +5,7 @@ import threading
 
 import pytest
 from conftest import spin_until
+from amr_interfaces.msg import WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
@@ -55,6 +56,8 @@ class Rig(Node):
         self.scan = self.create_publisher(LaserScan, "scan", qos_profile_sensor_data)
         self.commands = []
         self.create_subscription(twist_type, "cmd_vel", self.commands.append, 10)
+        self.status = []
+        self.create_subscription(WallFollowerStatus, "wall_follower/status", self.status.append, 10)
 
     def send(self, stamp_ns, **scan_kwargs):
         self.odometry.publish(odometry(stamp_ns))
@@ -82,6 +85,9 @@ def test_simulation_mode_answers_every_pair_with_a_twist_stamped(ros_context, ex
         assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5), f"no command for pair {k}"
     last = rig.commands[-1].twist
     assert last.linear.x > 0.0 and last.angular.z < 0.0, "too far from the right wall: turn right (clockwise)"
+    assert spin_until(executor, lambda: len(rig.status) == 10, 5)
+    assert rig.status[-1].followed_wall == "right" and abs(rig.status[-1].right - 0.25) < 0.02
+    assert rig.status[-1].angular == last.angular.z and rig.status[-1].state
     assert all(math.isfinite(c.twist.angular.z) for c in rig.commands)
 
 
