@@ -54,7 +54,7 @@ class Footprint:
 
     radius: float
     lidar_x: float = 0.0
-    lidar_y: float = 0.0
+    """on the robot's centre line, lidar_x ahead of the rotation centre (negative: behind)"""
 
 
 @dataclass(frozen=True)
@@ -95,24 +95,44 @@ class Readings:
 
 
 class _Geometry:
-    """Per-beam index sets and unit vectors for one (count, angle_min, increment) layout."""
+    """Everything about one beam layout (count, angle_min, increment) that does not change per scan.
 
-    def __init__(self, count: int, angle_min: float, increment: float, sectors: Sectors) -> None:
+    The six windows are stored back to back in one index array, so one gather and one
+    ``np.minimum.reduceat`` give all their minima.
+    """
+
+    def __init__(self, count: int, angle_min: float, increment: float, sectors: Sectors, footprint: Footprint) -> None:
         angles = angle_min + increment * np.arange(count)
         wrapped = np.arctan2(np.sin(angles), np.cos(angles))
-        self.cos = np.cos(wrapped)
-        self.sin = np.sin(wrapped)
+        cos, sin = np.cos(wrapped), np.sin(wrapped)
 
         def window(center: float, half: float) -> np.ndarray:
             offset = np.arctan2(np.sin(wrapped - center), np.cos(wrapped - center))
             return np.flatnonzero(np.abs(offset) <= half + 1e-9)
 
-        self.front = window(0.0, sectors.front_half_width)
-        self.ahead = window(0.0, sectors.abeam_half_width)
-        self.left = window(sectors.left_center, sectors.side_half_width)
-        self.right = window(sectors.right_center, sectors.side_half_width)
-        self.left_abeam = window(sectors.left_center, sectors.abeam_half_width)
-        self.right_abeam = window(sectors.right_center, sectors.abeam_half_width)
+        windows = [
+            window(0.0, sectors.front_half_width),  # front
+            window(0.0, sectors.abeam_half_width),  # ahead
+            window(sectors.left_center, sectors.side_half_width),  # left
+            window(sectors.right_center, sectors.side_half_width),  # right
+            window(sectors.left_center, sectors.abeam_half_width),  # left abeam
+            window(sectors.right_center, sectors.abeam_half_width),  # right abeam
+        ]
+        self.sizes = [w.size for w in windows]
+        self.gather = np.concatenate(windows)
+        bounds = np.cumsum([0] + self.sizes)
+        self.slices = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        self.nonempty = [i for i, size in enumerate(self.sizes) if size]
+        self.starts = bounds[:-1][self.nonempty]
+        # Unit vectors of the side windows, for the line fits.
+        self.left_cs = (cos[windows[2]], sin[windows[2]])
+        self.right_cs = (cos[windows[3]], sin[windows[3]])
+        # Forward beams, and the range below which each one's return lies in the swept band |y| < R.
+        forward = np.flatnonzero(cos > 0.0)
+        self.forward = forward
+        self.forward_cos, self.forward_sin = cos[forward], sin[forward]
+        with np.errstate(divide="ignore", over="ignore"):  # sin = 0 straight ahead: no limit
+            self.band_limit = footprint.radius / np.abs(sin[forward])
 
 
 class SectorReader:
@@ -124,41 +144,43 @@ class SectorReader:
         self._key: tuple[Any, ...] | None = None
         self._geometry: _Geometry | None = None
 
-    def geometry_ok(self, scan: ScanData) -> str | None:
-        """None if the scan's layout is usable, else what is wrong with it."""
-        count = len(scan.ranges)
-        if count == 0:
-            return "empty scan"
-        if not (math.isfinite(scan.angle_min) and math.isfinite(scan.angle_increment)):
-            return f"non-finite angle_min {scan.angle_min} or angle_increment {scan.angle_increment}"
-        if scan.angle_increment == 0.0 and count > 1:
+    def read(self, scan: ScanData) -> Readings | str:
+        """Window minima, side line fits and straight-ahead clearance, or what makes the scan unusable."""
+        try:
+            raw = np.asarray(scan.ranges, dtype=float)
+            angle_min, increment = float(scan.angle_min), float(scan.angle_increment)
+            range_min, range_max = float(scan.range_min), float(scan.range_max)
+        except (TypeError, ValueError) as error:
+            return f"unreadable scan ({error})"
+        if raw.ndim != 1 or raw.size == 0:
+            return f"ranges must be a non-empty list, got shape {raw.shape}"
+        if not (math.isfinite(angle_min) and math.isfinite(increment)):
+            return f"non-finite angle_min {angle_min} or angle_increment {increment}"
+        if increment == 0.0 and raw.size > 1:
             return "angle_increment is 0"
-        return None
-
-    def read(self, scan: ScanData) -> Readings:
-        """Sector minima and straight-ahead clearance; assumes geometry_ok(scan) is None."""
-        raw = np.asarray(scan.ranges, dtype=float)
-        geometry = self._layout(len(raw), scan.angle_min, scan.angle_increment)
-        range_min = scan.range_min if math.isfinite(scan.range_min) and scan.range_min > 0.0 else 0.0
-        range_max = scan.range_max if scan.range_max > range_min else math.inf  # NaN compares False
-        with np.errstate(invalid="ignore"):
-            measured = (raw >= range_min) & (raw <= range_max)
-        too_close = raw == -np.inf
+        if not math.isfinite(angle_min + increment * (raw.size - 1)):
+            return f"beam angles overflow (angle_min {angle_min}, angle_increment {increment})"
+        geometry = self._layout(raw.size, angle_min, increment)
+        range_min = range_min if math.isfinite(range_min) and range_min > 0.0 else 0.0
+        range_max = range_max if range_max > range_min else math.inf  # NaN compares False
+        measured = (raw >= range_min) & (raw <= range_max)  # False for NaN
         # Ignored readings become +inf: they never lower a minimum.
         ranges = np.where(measured, raw, np.inf)
-        ranges[too_close] = range_min
-        usable = int(np.count_nonzero(measured | too_close | (raw == np.inf)))
+        too_close = raw == -np.inf
+        if too_close.any():
+            ranges[too_close] = range_min
+        usable = int(np.count_nonzero(measured)) + int(np.count_nonzero(np.isinf(raw)))
 
-        front = _window_min(ranges, geometry.front)
-        ahead = _window_min(ranges, geometry.ahead)
-        left = _window_min(ranges, geometry.left)
-        right = _window_min(ranges, geometry.right)
-        left_abeam = _window_min(ranges, geometry.left_abeam)
-        right_abeam = _window_min(ranges, geometry.right_abeam)
-        left_fit = _fit_line(ranges, geometry, geometry.left)
-        right_fit = _fit_line(ranges, geometry, geometry.right)
+        gathered = ranges[geometry.gather]
+        minima = [math.inf] * 6
+        if geometry.nonempty:
+            for index, value in zip(geometry.nonempty, np.minimum.reduceat(gathered, geometry.starts)):
+                minima[index] = float(value)
+        front, ahead, left, right, left_abeam, right_abeam = minima
+        left_fit = _fit_line(gathered[geometry.slices[2]], *geometry.left_cs)
+        right_fit = _fit_line(gathered[geometry.slices[3]], *geometry.right_cs)
         clearance, side = self._clearance(ranges, geometry)
-        sizes = (geometry.front.size, geometry.left_abeam.size, geometry.right_abeam.size)
+        sizes = (geometry.sizes[0], geometry.sizes[4], geometry.sizes[5])
         return Readings(
             front, ahead, left, right, left_abeam, right_abeam, left_fit, right_fit, clearance, side, usable, sizes
         )
@@ -166,7 +188,7 @@ class SectorReader:
     def _layout(self, count: int, angle_min: float, increment: float) -> _Geometry:
         key = (count, angle_min, increment)
         if key != self._key:
-            self._geometry = _Geometry(count, angle_min, increment, self.sectors)
+            self._geometry = _Geometry(count, angle_min, increment, self.sectors, self.footprint)
             self._key = key
         return self._geometry  # type: ignore[return-value]
 
@@ -177,43 +199,45 @@ class SectorReader:
         and ahead when x > 0; the disc's front reaches it after x - sqrt(R^2 - y^2).
         A wall alongside, however close, does not limit straight travel.
         """
-        finite = np.isfinite(ranges)
-        if not finite.any():
+        r = ranges[geometry.forward]
+        in_band = np.flatnonzero(r < geometry.band_limit)  # +inf never is
+        if in_band.size == 0:
             return math.inf, 0
-        r = ranges[finite]
-        x = self.footprint.lidar_x + r * geometry.cos[finite]
-        y = self.footprint.lidar_y + r * geometry.sin[finite]
+        r = r[in_band]
+        x = self.footprint.lidar_x + r * geometry.forward_cos[in_band]
+        y = r * geometry.forward_sin[in_band]
+        ahead = x > 0.0
+        if not ahead.any():
+            return math.inf, 0
+        x, y = x[ahead], y[ahead]
         radius = self.footprint.radius
-        in_band = (np.abs(y) < radius) & (x > 0.0)
-        if not in_band.any():
-            return math.inf, 0
-        travel = x[in_band] - np.sqrt(radius * radius - y[in_band] ** 2)
+        travel = x - np.sqrt(np.maximum(radius * radius - y * y, 0.0))
         nearest = int(np.argmin(travel))
-        return float(max(travel[nearest], 0.0)), (1 if y[in_band][nearest] > 0.0 else -1)
-
-
-def _window_min(ranges: np.ndarray, indices: np.ndarray) -> float:
-    return float(ranges[indices].min()) if indices.size else math.inf
+        return float(max(travel[nearest], 0.0)), (1 if y[nearest] > 0.0 else -1)
 
 
 MIN_FIT_POINTS = 5
 """Fewer returns than this in a side window give no line."""
 
 
-def _fit_line(ranges: np.ndarray, geometry: _Geometry, indices: np.ndarray) -> LineFit | None:
-    """Principal axis of the window's returns (LiDAR frame): direction, distance and spread."""
-    r = ranges[indices]
-    finite = np.isfinite(r)
-    if np.count_nonzero(finite) < MIN_FIT_POINTS:
+def _fit_line(r: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> LineFit | None:
+    """Principal axis of a window's returns (LiDAR frame): direction, distance and spread.
+
+    Beams without a return are zeroed, so they add nothing to the sums.
+    """
+    finite = r < np.inf
+    n = int(np.count_nonzero(finite))
+    if n < MIN_FIT_POINTS:
         return None
-    r = r[finite]
-    x = r * geometry.cos[indices][finite]
-    y = r * geometry.sin[indices][finite]
-    mx, my = x.mean(), y.mean()
-    dx, dy = x - mx, y - my
-    sxx, syy, sxy = float(dx @ dx), float(dy @ dy), float(dx @ dy)
+    rz = np.where(finite, r, 0.0)
+    x, y = rz * cos, rz * sin
+    sx, sy = float(x.sum()), float(y.sum())
+    mx, my = sx / n, sy / n
+    sxx = float(x @ x) - sx * mx
+    syy = float(y @ y) - sy * my
+    sxy = float(x @ y) - sx * my
     angle = 0.5 * math.atan2(2.0 * sxy, sxx - syy)  # direction of largest spread
     # Smallest eigenvalue of the scatter matrix: the squared residuals across the line.
     across = 0.5 * (sxx + syy) - math.hypot(0.5 * (sxx - syy), sxy)
     distance = abs(-math.sin(angle) * mx + math.cos(angle) * my)
-    return LineFit(distance, angle, math.sqrt(max(across, 0.0) / r.size))
+    return LineFit(distance, angle, math.sqrt(max(across, 0.0) / n))

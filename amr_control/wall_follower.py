@@ -176,8 +176,8 @@ class WallFollower:
         elapsed, rate_valid = self._advance_clock(stamp, issues)
         moved, turned = self._motion(odometry_v, odometry_w, elapsed, issues)
 
-        readings = None if self._reader.geometry_ok(scan) else self._reader.read(scan)
-        if readings is None or not self._windows_covered(readings):
+        readings = self._reader.read(scan)
+        if isinstance(readings, str) or not self._windows_covered(readings):
             return self._stop(issues + [Issue.BAD_SCAN])
         if readings.usable_beams == 0:
             return self._stop(issues + [Issue.NO_VALID_BEAMS])
