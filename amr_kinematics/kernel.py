@@ -22,7 +22,7 @@ import re
 from dataclasses import dataclass
 from typing import Callable
 
-from .chain import MOTION_ROT_Z, MOTION_TRANS_X, MOTION_TRANS_Z
+from .chain import MOTION_ROT_Z, MOTION_TRANS_X
 
 _SNAP = 1e-12  # constants this close to 0 or +-1 are taken as exact (cos(pi/2) = 6e-17)
 

@@ -28,6 +28,7 @@ class DLSSolver(Solver):
         "restarts": True,
         "attempt_iterations": 30,    # steps per attempt before a restart
         "patience": 5,               # steps without 0.1 % progress before a restart
+        "restart_candidates": 1,     # random configurations drawn per restart; the closest to the goal is used
         "random_seed": 0,            # restarts are reproducible
     }
 
@@ -44,10 +45,11 @@ class DLSSolver(Solver):
         if step.damping == 0.0 and step.adaptive_damping == 0.0:
             raise opt.InvalidRequestError("dls needs damping > 0 or adaptive_damping > 0 (else it is 'pinv')")
         return (step, restarts, opt.integer("attempt_iterations", settings["attempt_iterations"]),
-                opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1))
+                opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1),
+                opt.integer("restart_candidates", settings["restart_candidates"], high=1000))
 
     def _solve(self, chain, goal, q0, request, configuration) -> IKResult:
-        step, restarts, attempt_iterations, random_seed = configuration
+        step, restarts, attempt_iterations, random_seed, restart_candidates = configuration
         rng = None  # made on the first restart: creating a generator costs ~10 us
         refiner = Refiner(chain, goal, request, step)
         q, used, attempts, best = q0, 0, 0, None
@@ -61,7 +63,7 @@ class DLSSolver(Solver):
             if attempt.converged or attempt.timed_out or not restarts or used >= request.max_iterations:
                 break
             rng = rng or np.random.default_rng(random_seed)
-            q = chain.apply_coupling(rng.uniform(chain.lower, chain.upper))
+            q = self._restart(chain, refiner, rng, restart_candidates)
         if best.converged:
             message = "converged" + (f" after {attempts - 1} restart(s)" if attempts > 1 else "")
         elif best.timed_out or attempt.timed_out:
@@ -72,3 +74,11 @@ class DLSSolver(Solver):
             message = "stalled (no progress): best configuration found returned; target may be out of reach"
         return finish(chain, goal, best.q, request, solver=self.name, iterations=used, message=message,
                       attempts=attempts, history=refiner.history, converged=best.converged)
+
+    @staticmethod
+    def _restart(chain, refiner, rng, candidates: int) -> np.ndarray:
+        """A uniformly random configuration; with several candidates, the closest one."""
+        if candidates == 1:
+            return chain.apply_coupling(rng.uniform(chain.lower, chain.upper))
+        draws = [chain.apply_coupling(q) for q in rng.uniform(chain.lower, chain.upper, size=(candidates, chain.n))]
+        return min(draws, key=refiner.score)

@@ -32,7 +32,7 @@ from operator import le, mul
 
 import numpy as np
 
-from ..chain import Chain, all_finite
+from ..chain import Chain
 from ..transforms import rotation_error
 from .base import Goal, IterationRecord, Request
 
@@ -68,6 +68,7 @@ class _Layout:
     upper: np.ndarray
     revolute: np.ndarray
     bounds: tuple[list, list, list]  # lower, upper, revolute as lists for the scalar loop
+    terms: tuple  # reduced update, per coupling: (joint, offset, lower, upper, ((variable, c), ...))
 
 
 _LAYOUTS: "weakref.WeakKeyDictionary[Chain, dict]" = weakref.WeakKeyDictionary()
@@ -84,8 +85,12 @@ def _layout(chain: Chain, project: bool) -> _Layout:
             for coupling in chain.couplings:
                 matrix[coupling.joint] = coupling.coefficients[var]
         lower, upper, revolute = chain.lower[var], chain.upper[var], ~chain.prismatic[var]
+        terms = () if matrix is None else tuple(
+            (c.joint, c.offset, float(chain.lower[c.joint]), float(chain.upper[c.joint]),
+             tuple((j, float(c.coefficients[v])) for j, v in enumerate(var) if c.coefficients[v] != 0.0))
+            for c in chain.couplings)
         cached[project] = _Layout(var, matrix, lower, upper, revolute,
-                                  (lower.tolist(), upper.tolist(), revolute.tolist()))
+                                  (lower.tolist(), upper.tolist(), revolute.tolist()), terms)
     return cached[project]
 
 
@@ -123,12 +128,13 @@ class Refiner:
         self.var, self.coupling_matrix = layout.var, layout.coupling_matrix
         self.lower, self.upper, self.revolute = layout.lower, layout.upper, layout.revolute
         self.bounds = layout.bounds
+        self.terms = layout.terms
         self.lam2 = step.damping ** 2
-        simple = not chain.planar and not chain.couplings and self.axis_tolerance is None
+        reduced = not chain.couplings or step.coupling_update == "reduced"
         self.fast = None
-        if simple and not self.use_rotation_rows:
+        if self.axis_tolerance is None and reduced and not self.use_rotation_rows:
             self.fast = self._run_scalar
-        elif simple and self.rotation is not None:
+        elif self.axis_tolerance is None and not chain.couplings and not chain.planar and self.rotation is not None:
             self.fast = self._run_pose
 
     # --- helpers -----------------------------------------------------------------------
@@ -140,31 +146,46 @@ class Refiner:
         q[self.var] = x
         return self.chain.apply_coupling(q)
 
-    def limit(self, x_new: np.ndarray) -> np.ndarray:
-        """Wrap revolute variables by 2 pi back into range when that lands inside it."""
-        lower, upper = self.lower, self.upper
-        over = self.revolute & (x_new > upper) & (x_new - TWO_PI >= lower) & (x_new - TWO_PI <= upper)
-        under = self.revolute & (x_new < lower) & (x_new + TWO_PI <= upper) & (x_new + TWO_PI >= lower)
-        if over.any() or under.any():
-            x_new = x_new - TWO_PI * over + TWO_PI * under
-        return x_new
+    def keep_in_limits(self, x: np.ndarray, values: list, jac: np.ndarray, error: np.ndarray,
+                       damping: float) -> np.ndarray | None:
+        """The stepped variables ``values`` (a list, modified) brought into the limits:
+        2 pi wraps first, then saturated variables on their limit and the others
+        solved again for the error left.  None if the step is not finite."""
+        if not math.isfinite(sum(values)):
+            return None
+        lower, upper, revolute = self.bounds
+        fixed = _wrap_or_saturate(values, lower, upper, revolute)
+        if fixed:
+            index = list(fixed)
+            rest = error - jac[:, index] @ (np.array(list(fixed.values())) - x[index])
+            jac = jac.copy()
+            jac[:, index] = 0.0
+            a = jac @ jac.T
+            a.flat[:: a.shape[0] + 1] += damping
+            values = (x + self.step.gain * (_solve(a, rest) @ jac)).tolist()
+            if not math.isfinite(sum(values)):
+                return None
+            for i, limit in fixed.items():
+                values[i] = limit
+            for i, limit in _wrap_or_saturate(values, lower, upper, revolute).items():
+                values[i] = limit
+        return np.array(values)
+
+    def score(self, q: np.ndarray) -> float:
+        """Weighted squared task error at q (what the steps reduce)."""
+        out = self.chain.kernel.pose(q.tolist())
+        tx, ty, tz = self.target
+        ex, ey, ez = tx - out[0], ty - out[1], tz - out[2]
+        score = ex * ex + ey * ey + (0.0 if self.chain.planar else ez * ez)
+        if self.rotation is not None:
+            wx, wy, wz = rotation_error(*out[3:12], *self.rotation)
+            w2 = wz * wz if self.chain.planar else wx * wx + wy * wy + wz * wz
+            score += self.angular_weight ** 2 * w2
+        return score
 
     def _record(self, iteration: int, q, position_error2: float, orientation_error: float, attempt: int) -> None:
         self.history.append(IterationRecord(iteration, np.array(q, dtype=float), math.sqrt(position_error2),
                                             orientation_error, attempt))
-
-    def _resolve_saturated(self, x, x_new, outside, jac, error, damping) -> np.ndarray:
-        """Saturated variables on their limit; the others solve for the error left."""
-        on_limit = np.minimum(np.maximum(x_new, self.lower), self.upper)
-        move = np.where(outside, on_limit - x, 0.0)
-        rest = error - jac @ move
-        jac = jac.copy()
-        jac[:, outside] = 0.0
-        a = jac @ jac.T
-        a.flat[:: a.shape[0] + 1] += damping
-        x_new = self.limit(x + self.step.gain * (_solve(a, rest) @ jac))
-        x_new[outside] = on_limit[outside]
-        return x_new
 
     # --- the loop ------------------------------------------------------------------------
     def run(self, q0: np.ndarray, max_steps: int, attempt: int = 0) -> Attempt:
@@ -183,7 +204,6 @@ class Refiner:
         axis = self.axis_tolerance
         planar = chain.planar
         lam2, adaptive, gain = self.lam2, step.adaptive_damping, step.gain
-        lower, upper = self.lower, self.upper
         coupling = self.coupling_matrix
         project = step.coupling_update == "project" and chain.couplings
         deadline = self.request.deadline
@@ -228,13 +248,9 @@ class Refiner:
             damping = lam2 + adaptive * score
             a = jac @ jac.T
             a.flat[:: m + 1] += damping
-            x_new = self.limit(x + gain * (_solve(a, error) @ jac))
-            if not all_finite(x_new):  # a singular system: give up this attempt
+            x = self.keep_in_limits(x, (x + gain * (_solve(a, error) @ jac)).tolist(), jac, error, damping)
+            if x is None:  # a singular system: give up this attempt
                 break
-            outside = (x_new < lower) | (x_new > upper)
-            if outside.any():
-                x_new = self._resolve_saturated(x, x_new, outside, jac, error, damping)
-            x = np.minimum(np.maximum(x_new, lower), upper)
             if project:
                 q = chain.apply_coupling(x)
                 x = q.copy()
@@ -253,7 +269,6 @@ class Refiner:
         lam2, adaptive, gain = self.lam2, self.step.adaptive_damping, self.step.gain
         tolerance2 = self.tolerance2
         orientation_tolerance2 = self.orientation_tolerance ** 2
-        lower, upper = self.lower, self.upper
         lower_list, upper_list, _ = self.bounds
         eye = np.eye(6)
         deadline = self.request.deadline
@@ -291,31 +306,32 @@ class Refiner:
             x_new = q + step if gain == 1.0 else q + gain * step
             values = x_new.tolist()
             if not (all(map(le, lower_list, values)) and all(map(le, values, upper_list))):
-                if not all_finite(x_new):  # a singular system: give up this attempt
+                x_new = self.keep_in_limits(q, values, jac, error, damping)
+                if x_new is None:  # a singular system: give up this attempt
                     break
-                x_new = self.limit(x_new)
-                outside = (x_new < lower) | (x_new > upper)
-                if outside.any():
-                    x_new = self._resolve_saturated(q, x_new, outside, jac, error, damping)
-                x_new = np.minimum(np.maximum(x_new, lower), upper)
             q = x_new
         return Attempt(best_q, False, iteration, best_score)
 
     def _run_scalar(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
-        """Same step as ``_run_numpy`` for a spatial position-only goal, on floats."""
+        """Same step as ``_run_numpy`` for a position-only goal, on floats: 3 rows
+        (planar chains have a zero z row and ez = 0, which leaves the x, y solve
+        unchanged), reduced couplings as the chain-rule columns."""
         kernel = self.chain.kernel.position_jacobian
+        planar = self.chain.planar
         tx, ty, tz = self.target
         lam2, adaptive, gain = self.lam2, self.step.adaptive_damping, self.step.gain
         tolerance2 = self.tolerance2
         lower, upper, revolute = self.bounds
+        var, terms = self.var.tolist(), self.terms
         deadline = self.request.deadline
         history = self.history
         q = q0.tolist()
+        x_list = [q[v] for v in var] if terms else q
         best_q, best_score = q, math.inf
         patience, stale = self.step.patience, 0
         for iteration in range(max_steps + 1):
             x, y, z, jx, jy, jz = kernel(q)
-            ex, ey, ez = tx - x, ty - y, tz - z
+            ex, ey, ez = tx - x, ty - y, (0.0 if planar else tz - z)
             score = ex * ex + ey * ey + ez * ez
             if history is not None:
                 self._record(iteration, q, score, 0.0, attempt)
@@ -330,39 +346,57 @@ class Refiner:
                 break
             if time.perf_counter() > deadline:
                 return Attempt(np.array(best_q), False, iteration, best_score, timed_out=True)
+            if terms:  # J_r = J_free + J_k c: the coupled joints follow the free ones
+                fx, fy, fz = jx, jy, jz
+                jx, jy, jz = [fx[v] for v in var], [fy[v] for v in var], [fz[v] for v in var]
+                for joint, _, _, _, pairs in terms:
+                    gx, gy, gz = fx[joint], fy[joint], fz[joint]
+                    for j, c in pairs:
+                        jx[j] += c * gx
+                        jy[j] += c * gy
+                        jz[j] += c * gz
             damping = lam2 + adaptive * score
-            new = _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain)
+            new = _scalar_step(x_list, jx, jy, jz, ex, ey, ez, damping, gain)
             if not math.isfinite(sum(new)):  # a singular system: give up this attempt
                 break
-            saturated = False
-            for i, value in enumerate(new):
-                if value > upper[i] or value < lower[i]:
-                    turn = -TWO_PI if value > upper[i] else TWO_PI
-                    if revolute[i] and lower[i] <= value + turn <= upper[i]:
-                        new[i] = value + turn
-                    else:
-                        saturated = True
-            if saturated:  # saturated joints on their limit, the others solve for the rest
+            fixed = _wrap_or_saturate(new, lower, upper, revolute)
+            if fixed:  # saturated joints on their limit, the others solve for the rest
                 jx, jy, jz = list(jx), list(jy), list(jz)
-                fixed = {}
-                for i, value in enumerate(new):
-                    if value > upper[i] or value < lower[i]:
-                        fixed[i] = upper[i] if value > upper[i] else lower[i]
-                        move = fixed[i] - q[i]
-                        ex, ey, ez = ex - jx[i] * move, ey - jy[i] * move, ez - jz[i] * move
-                        jx[i] = jy[i] = jz[i] = 0.0
-                new = _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain)
-                for i, value in enumerate(new):
-                    if i in fixed:
-                        new[i] = fixed[i]
-                    elif value > upper[i] or value < lower[i]:
-                        turn = -TWO_PI if value > upper[i] else TWO_PI
-                        if revolute[i] and lower[i] <= value + turn <= upper[i]:
-                            new[i] = value + turn
-                        else:
-                            new[i] = min(max(value, lower[i]), upper[i])
-            q = new
+                for i, limit in fixed.items():
+                    move = limit - x_list[i]
+                    ex, ey, ez = ex - jx[i] * move, ey - jy[i] * move, ez - jz[i] * move
+                    jx[i] = jy[i] = jz[i] = 0.0
+                new = _scalar_step(x_list, jx, jy, jz, ex, ey, ez, damping, gain)
+                if not math.isfinite(sum(new)):
+                    break
+                for i, limit in fixed.items():
+                    new[i] = limit
+                for i, limit in _wrap_or_saturate(new, lower, upper, revolute).items():
+                    new[i] = limit
+            x_list = new
+            if terms:
+                q = list(q)
+                for j, v in enumerate(var):
+                    q[v] = new[j]
+                for joint, offset, low, high, pairs in terms:
+                    q[joint] = min(max(offset + sum(c * new[j] for j, c in pairs), low), high)
+            else:
+                q = new
         return Attempt(np.array(best_q), False, iteration, best_score)
+
+
+def _wrap_or_saturate(values: list, lower: list, upper: list, revolute: list) -> dict:
+    """Wrap out-of-range revolute values by 2 pi when that lands in range (in place);
+    return {index: limit} for the values that stay outside."""
+    fixed = {}
+    for i, value in enumerate(values):
+        if value > upper[i] or value < lower[i]:
+            turn = -TWO_PI if value > upper[i] else TWO_PI
+            if revolute[i] and lower[i] <= value + turn <= upper[i]:
+                values[i] = value + turn
+            else:
+                fixed[i] = upper[i] if value > upper[i] else lower[i]
+    return fixed
 
 
 def _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain):

@@ -158,10 +158,16 @@ def _histories(chain, target, seed, with_orientation):
     return out
 
 
-@pytest.mark.parametrize("with_orientation", [False, True])
-def test_fast_paths_take_the_same_steps_as_the_numpy_path(chain_set, with_orientation):
-    config = chain_set["panda"]
-    goal = config.chain.fk(np.array([1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0])).tool
+@pytest.mark.parametrize("name, joints, with_orientation", [
+    ("panda", [1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0], False),
+    ("panda", [1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0], True),
+    ("arm5", [0.5, 0.3, -0.4, 0.9, 0.0], False),       # reduced coupling columns
+    ("ull5", [1.0, 0.1, -2.0, 0.5, 0.3], False),        # planar: zero z row
+    ("manipulator3", [0.02, 1.0, 0.08, -0.5], False),   # prismatic joints
+])
+def test_fast_paths_take_the_same_steps_as_the_numpy_path(chain_set, name, joints, with_orientation):
+    config = chain_set[name]
+    goal = config.chain.fk(config.chain.apply_coupling(joints)).tool
     fast, generic = _histories(config.chain, goal if with_orientation else goal[:3, 3], config.home, with_orientation)
     assert len(fast) == len(generic) > 3
     np.testing.assert_allclose(fast, generic, atol=1e-9)
