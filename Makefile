@@ -19,7 +19,7 @@ $(VENV)/.deps-installed: pyproject.toml
 	@touch $@
 
 demo: setup
-	$(PY) scripts/odometry_demo.py
+	$(PY) -m amr_control.demo
 
 test: setup
 	$(PY) -m pytest -q

@@ -12,7 +12,10 @@ import signal
 import sys
 from collections.abc import Callable, Sequence
 
+from pathlib import Path
+
 import rclpy
+from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from rclpy.executors import ExternalShutdownException, Executor, MultiThreadedExecutor, SingleThreadedExecutor
@@ -119,3 +122,11 @@ def run(node_factory: Callable[[], LifecycleNode], *, multithreaded: bool = Fals
     rclpy.init(args=list(sys.argv if args is None else args), signal_handler_options=SignalHandlerOptions.NO)
     executor = MultiThreadedExecutor() if multithreaded else SingleThreadedExecutor()
     spin_nodes([node_factory()], executor)
+
+
+def share_directory(package: str) -> Path:
+    """share/<package> from the ament index, or under this Python's prefix in a venv with no ROS sourced."""
+    try:
+        return Path(get_package_share_directory(package))
+    except (PackageNotFoundError, OSError):
+        return Path(sys.prefix) / "share" / package

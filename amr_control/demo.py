@@ -1,0 +1,273 @@
+"""The main job: the maze stack in lockstep, then IK through the service; pictures and figures in out/.
+
+Everything runs as real ROS 2 nodes in one process (a composed bringup): the simulator,
+the wall follower and the lifecycle manager, then the IK service. The demo itself only
+observes topics and calls services, as any other ROS client would.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import threading
+import time
+from pathlib import Path
+
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+import numpy as np  # noqa: E402
+import rclpy  # noqa: E402
+from amr_interfaces.msg import SimulatorStatus, WallFollowerStatus  # noqa: E402
+from amr_interfaces.srv import ComputeFK, SolveIK  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+
+from amr_control import demo_figures  # noqa: E402
+from amr_control.lifecycle_manager import LifecycleManager  # noqa: E402
+from amr_control.managed_node import share_directory  # noqa: E402
+from amr_control.wall_follower_node import WallFollowerNode  # noqa: E402
+from amr_kinematics.ik_service_node import IKServiceNode  # noqa: E402
+from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
+
+TURNING_STATES = {"TURN_LEFT", "TURN_RIGHT", "TURN_AROUND"}
+PROGRESS_PERIOD = 3.0  # wall-clock seconds between progress lines
+CALL_TIMEOUT = 10.0
+
+
+def config_file(package: str, name: str) -> str:
+    return str(share_directory(package) / "config" / name)
+
+
+def params_file_args(path: str, *overrides: str, name: str | None = None) -> list[str]:
+    args = ["--ros-args", "--params-file", path]
+    for override in overrides:
+        args += ["-p", override]
+    if name:
+        args += ["-r", f"__node:={name}"]
+    return args
+
+
+class Observer(Node):
+    """Records what the stack publishes: simulator status and the follower's status."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__("demo_observer", **kwargs)
+        self.lock = threading.Lock()
+        self.sim: SimulatorStatus | None = None
+        self.follower: list[tuple[float, float, float, bool]] = []  # t, wall distance, target, turning
+        self.create_subscription(SimulatorStatus, "simulator/status", self._on_sim, 10)
+        self.create_subscription(WallFollowerStatus, "wall_follower/status", self._on_follower, 100)
+
+    def _on_sim(self, message: SimulatorStatus) -> None:
+        with self.lock:
+            self.sim = message
+
+    def _on_follower(self, message: WallFollowerStatus) -> None:
+        t = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+        with self.lock:
+            self.follower.append((t, message.wall_distance, message.target_wall_distance,
+                                  message.state in TURNING_STATES))
+
+
+def call(node: Node, service_type, name: str, request):
+    """A blocking service call (the executor spins on another thread)."""
+    client = node.create_client(service_type, name)
+    try:
+        if not client.wait_for_service(timeout_sec=CALL_TIMEOUT):
+            raise RuntimeError(f"service {name} is not available")
+        response = client.call(request, CALL_TIMEOUT)
+        if response is None:
+            raise RuntimeError(f"service {name} did not answer within {CALL_TIMEOUT} s")
+        return response
+    finally:
+        node.destroy_client(client)
+
+
+def run_maze(context, executor, out: Path, world: str, duration: float) -> dict:
+    simulator = SimulatorNode(context=context, cli_args=params_file_args(
+        config_file("amr_simulation", "simulator.yaml"), f"world:={world}", f"render_path:={out / 'maze.png'}"))
+    follower = WallFollowerNode(context=context, cli_args=params_file_args(
+        config_file("amr_control", "wall_follower_sim.yaml")))
+    # the follower listens before the simulator publishes its first observation
+    manager = LifecycleManager(context=context, parameter_overrides=[
+        Parameter("node_startup_order", value=["wall_follower", "simulator"])])
+    observer = Observer(context=context)
+    for node in (simulator, follower, manager, observer):
+        executor.add_node(node)
+    started = time.monotonic()
+    if not all(step.ok for step in manager.startup()):
+        raise RuntimeError("the maze stack did not come up (see the log above)")
+    print(f"maze: {world}, lockstep, running {duration:.0f} s of simulated time or until the goal")
+    status = wait_for_run(observer, duration, started)
+    elapsed = time.monotonic() - started
+    rendered = call(observer, Trigger, "simulator/render", Trigger.Request())
+    manager.shutdown()
+    with observer.lock:
+        samples = np.array(observer.follower) if observer.follower else np.zeros((0, 4))
+    following = samples[(samples[:, 3] == 0) & np.isfinite(samples[:, 1])] if samples.size else samples
+    target = float(samples[0, 2]) if samples.size else math.nan
+    demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1], target,
+                                      samples[:, 3].astype(bool))
+    for node in (observer, manager, follower, simulator):
+        executor.remove_node(node)
+        node.destroy_node()
+    return {
+        "world": world,
+        "simulated_time_s": round(status.sim_time, 3),
+        "wall_time_s": round(elapsed, 3),
+        "speed_up": round(status.sim_time / elapsed, 2),
+        "distance_m": round(status.distance_travelled, 3),
+        "mean_speed_m_s": round(status.distance_travelled / max(status.sim_time, 1e-9), 4),
+        "collisions": int(status.collisions),
+        "goal_reached": bool(status.goal_reached),
+        "target_wall_distance_m": target,
+        "mean_abs_wall_error_m": round(float(np.mean(np.abs(following[:, 1] - target))), 4) if len(following) else None,
+        "render": rendered.message if rendered.success else f"failed: {rendered.message}",
+    }
+
+
+def wait_for_run(observer: Observer, duration: float, started: float) -> SimulatorStatus:
+    last_print = 0.0
+    deadline_without_progress = time.monotonic() + 15.0
+    last_time = -1.0
+    while True:
+        time.sleep(0.05)
+        with observer.lock:
+            status = observer.sim
+            state = len(observer.follower)
+        if status is None or status.sim_time <= last_time:
+            if time.monotonic() > deadline_without_progress:
+                raise RuntimeError("the simulation stopped advancing (no /simulator/status for 15 s)")
+            continue
+        last_time, deadline_without_progress = status.sim_time, time.monotonic() + 15.0
+        now = time.monotonic()
+        done = status.sim_time >= duration or status.goal_reached
+        if now - last_print >= PROGRESS_PERIOD or done:
+            last_print = now
+            print(f"  t = {status.sim_time:6.1f} s sim | {status.distance_travelled:6.2f} m | "
+                  f"collisions {status.collisions} | {status.sim_time / (now - started):5.1f}x real time | "
+                  f"{state} commands" + (" | goal reached" if status.goal_reached else ""), flush=True)
+        if done:
+            return status
+
+
+def joint_origins(node: Node, chain: str, positions) -> np.ndarray:
+    response = call(node, ComputeFK, "compute_fk", ComputeFK.Request(chain=chain, positions=list(positions)))
+    if not response.success:
+        raise RuntimeError(f"compute_fk {chain}: {response.message}")
+    return np.array([[p.x, p.y, p.z] for p in response.joint_origins])
+
+
+def solve(node: Node, chain: str, x: float, y: float, z: float = 0.0, **fields) -> SolveIK.Response:
+    request = SolveIK.Request(chain=chain, **fields)
+    request.target.position.x, request.target.position.y, request.target.position.z = x, y, z
+    return call(node, SolveIK, "solve_ik", request)
+
+
+def iteration_history(node: Node, chain: str, target, seed, iterations: int, solver: str) -> list[np.ndarray]:
+    """The arm after 0, 1, ... iterations: the same deterministic solve cut short by max_iterations."""
+    history = [joint_origins(node, chain, seed)]
+    for k in range(1, iterations + 1):
+        response = solve(node, chain, *target, seed=list(seed), solver=solver, max_iterations=k)
+        history.append(joint_origins(node, chain, response.positions))
+    return history
+
+
+def run_ik(context, executor, out: Path) -> dict:
+    ik = IKServiceNode(context=context, cli_args=params_file_args(config_file("amr_kinematics", "ik_chains.yaml")))
+    manager = LifecycleManager(context=context, cli_args=["--ros-args", "-r", "__node:=ik_manager"],
+                               parameter_overrides=[Parameter("node_startup_order", value=["ik_service"])])
+    client = Node("demo_ik_client", context=context)
+    for node in (ik, manager, client):
+        executor.add_node(node)
+    if not all(step.ok for step in manager.startup()):
+        raise RuntimeError("the IK service did not come up (see the log above)")
+    results = {}
+
+    # seed 004: the 5-DOF arm, DLS with lambda^2 = 50 (cm^2), tool pointing down
+    start = [math.radians(a) for a in (0.0, 60.0, -40.0, -50.0, -60.0)]
+    target = (0.053, 0.0478, 0.0)
+    arm5 = solve(client, "arm5", *target, seed=start, solver="dls")
+    history = iteration_history(client, "arm5", target, start, arm5.iterations, "dls")
+    demo_figures.arm_iterations_figure(out / "ik_dls.png", history, target,
+                                       f"DLS, 5-DOF arm: {arm5.iterations} iterations, error {arm5.position_error * 100:.4f} cm")
+    results["arm5_dls"] = summary_of(arm5, scale=100.0, unit="cm")
+
+    # ULL report: the 5-joint planar robot (rotation, prismatic, rotation, rotation, prismatic) by CCD
+    home = [0.0, 0.05, 0.0, 0.0, 0.05]
+    ccd_target = (0.10, 0.10, 0.0)
+    ull5 = solve(client, "ull5", *ccd_target, seed=home, solver="ccd")
+    history = iteration_history(client, "ull5", ccd_target, home, ull5.iterations, "ccd")
+    demo_figures.planar_iterations_figure(out / "ik_ccd.png", history, ccd_target,
+                                          f"CCD, ULL 5-joint planar robot: {ull5.iterations} iterations")
+    results["ull5_ccd"] = summary_of(ull5, scale=100.0, unit="cm")
+
+    # seed 001: the 2R arm (l1 = l2 = 2) along a straight line, each solve seeded with the last
+    waypoints = np.linspace((3.0, -1.0), (-1.0, 3.0), 41)
+    seed, joints, origins, successes = [0.0, 0.5], [], [], 0
+    for x, y in waypoints:
+        response = solve(client, "rr2", x, y, seed=seed, solver="analytic")
+        successes += response.success
+        seed = list(response.positions)
+        joints.append(seed)
+        origins.append(joint_origins(client, "rr2", seed))
+    joints = np.array(joints)
+    largest_step = float(np.max(np.abs(np.diff(joints, axis=0)))) if len(joints) > 1 else 0.0
+    demo_figures.path_tracking_figure(out / "ik_2r_path.png", waypoints, origins, joints,
+                                      f"2R closed form along a line: largest joint step {math.degrees(largest_step):.1f} deg")
+    results["rr2_path"] = {"waypoints": len(waypoints), "successes": successes,
+                           "largest_joint_step_deg": round(math.degrees(largest_step), 3)}
+
+    # the industrial arms: position-only and full pose to a reachable target
+    for chain in ("ur5", "panda"):
+        response = solve(client, chain, 0.3, 0.2, 0.4)
+        results[f"{chain}_position"] = summary_of(response)
+    manager.shutdown()
+    for node in (client, manager, ik):
+        executor.remove_node(node)
+        node.destroy_node()
+    return results
+
+
+def summary_of(response: SolveIK.Response, scale: float = 1.0, unit: str = "m") -> dict:
+    return {"success": bool(response.success), "iterations": int(response.iterations),
+            f"position_error_{unit}": round(response.position_error * scale, 6),
+            "positions": [round(q, 6) for q in response.positions], "message": response.message}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=180.0, help="simulated seconds (default 180)")
+    parser.add_argument("--world", default="inner_maze.yaml", help="a world in share/amr_simulation/config/worlds")
+    parser.add_argument("--out", type=Path, default=Path("out"))
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    out = args.out.resolve()
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    started = time.monotonic()
+    try:
+        summary = {"maze": run_maze(context, executor, out, args.world, args.duration)}
+        print(f"maze done: {json.dumps(summary['maze'])}")
+        summary["ik"] = run_ik(context, executor, out)
+    finally:
+        executor.shutdown()
+        spinner.join(timeout=5.0)
+        context.try_shutdown()
+    summary["total_wall_time_s"] = round(time.monotonic() - started, 2)
+    summary["figures"] = sorted(p.name for p in out.glob("*.png"))
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    print(json.dumps(summary, indent=2))
+    print(f"wrote {out / 'summary.json'} and {len(summary['figures'])} figures")
+
+
+if __name__ == "__main__":
+    main()
