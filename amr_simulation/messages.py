@@ -1,0 +1,76 @@
+"""Simulator state -> ROS messages: plain functions, so the node stays a thin shell.
+
+Poses are planar; a yaw theta is the quaternion (w, x, y, z) = (cos(theta/2), 0, 0, sin(theta/2)).
+"""
+
+from __future__ import annotations
+
+import array
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+from amr_interfaces.msg import SimulatorStatus
+from builtin_interfaces.msg import Time
+from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+
+from amr_simulation.config import LidarConfig
+from amr_simulation.pose import Pose2D
+
+if TYPE_CHECKING:
+    from amr_simulation.simulator import Simulator
+
+NANOSECONDS = 1_000_000_000
+
+
+def stamp(seconds: float) -> Time:
+    """A builtin_interfaces/Time from simulated seconds (>= 0)."""
+    total = round(seconds * NANOSECONDS)
+    return Time(sec=total // NANOSECONDS, nanosec=total % NANOSECONDS)
+
+
+def clock(time: Time) -> Clock:
+    return Clock(clock=time)
+
+
+def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequence[float]) -> Odometry:
+    """nav_msgs/Odometry: pose in `frame`, twist (vx, vy, w) in `child_frame` (the body)."""
+    message = Odometry()
+    message.header.stamp = time
+    message.header.frame_id = frame
+    message.child_frame_id = child_frame
+    position, orientation = message.pose.pose.position, message.pose.pose.orientation
+    position.x, position.y = pose.x, pose.y
+    orientation.w, orientation.z = math.cos(0.5 * pose.theta), math.sin(0.5 * pose.theta)
+    vx, vy, w = twist
+    message.twist.twist.linear.x, message.twist.twist.linear.y = vx, vy
+    message.twist.twist.angular.z = w
+    return message
+
+
+def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, scan_time: float) -> LaserScan:
+    """sensor_msgs/LaserScan of one scan taken at once (time_increment 0); +-inf kept (REP 117)."""
+    message = LaserScan()
+    message.header.stamp = time
+    message.header.frame_id = frame
+    message.angle_min = lidar.angle_min
+    message.angle_max = lidar.angle_max
+    message.angle_increment = lidar.angle_increment
+    message.scan_time = scan_time
+    message.range_min = lidar.range_min
+    message.range_max = lidar.range_max
+    message.ranges = array.array("f", np.asarray(ranges, dtype=np.float32).tobytes())
+    return message
+
+
+def status(time: Time, sim: "Simulator", distance: float, real_time_factor: float) -> SimulatorStatus:
+    """amr_interfaces/SimulatorStatus of a simulator; distance and real-time factor are the node's."""
+    message = SimulatorStatus(
+        sim_time=sim.time, steps=sim.steps, collisions=sim.collisions, in_contact=sim.in_contact,
+        goal_reached=sim.goal_reached, distance_travelled=distance, real_time_factor=real_time_factor,
+    )
+    message.header.stamp = time
+    return message
