@@ -6,7 +6,7 @@ slides by the projection of (target - tip) on its direction.  Angles are wrapped
 to [-pi, pi], then every value is clamped to its limits; prismatic values are
 never wrapped.  The loop stops on the tolerance, on the iteration limit, on the
 timeout, or when an iteration improves the distance by less than tolerance/100
-(the report's non-convergence rule): the closest configuration is reported.
+(the report's non-convergence rule): the closest configuration met is reported.
 """
 
 from __future__ import annotations
@@ -60,6 +60,7 @@ class CCDSolver(Solver):
         history = [] if request.record_history else None
         tip = frames(q)[2]
         distance = math.hypot(tx - tip[0], ty - tip[1])
+        best_q, best_distance = list(q), distance
         message, iteration = "iteration limit reached: closest configuration returned", 0
         for iteration in range(request.max_iterations + 1):
             if history is not None:
@@ -85,11 +86,13 @@ class CCDSolver(Solver):
                 q[j] = min(max(value, lower[j]), upper[j])
             previous, tip = distance, frames(q)[2]
             distance = math.hypot(tx - tip[0], ty - tip[1])
+            if distance < best_distance:
+                best_q, best_distance = list(q), distance
             if distance > request.tolerance and abs(previous - distance) <= request.tolerance / 100.0:
                 iteration += 1
                 if history is not None:
                     history.append(IterationRecord(iteration, np.array(q), distance, 0.0))
                 message = "no convergence: distance improves less than tolerance/100; closest configuration returned"
                 break
-        return finish(chain, goal, np.array(q), request, solver=self.name, iterations=iteration, message=message,
-                      history=history)
+        return finish(chain, goal, np.array(best_q), request, solver=self.name, iterations=iteration,
+                      message=message, history=history)

@@ -28,7 +28,7 @@ class DLSSolver(Solver):
         "restarts": True,
         "attempt_iterations": 30,    # steps per attempt before a restart
         "patience": 5,               # steps without 0.1 % progress before a restart
-        "restart_candidates": 1,     # random configurations drawn per restart; the closest to the goal is used
+        "restart_candidates": 8,     # random configurations drawn per restart; the closest to the goal is used
         "random_seed": 0,            # restarts are reproducible
     }
 

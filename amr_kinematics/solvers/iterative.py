@@ -156,10 +156,11 @@ class Refiner:
         lower, upper, revolute = self.bounds
         fixed = _wrap_or_saturate(values, lower, upper, revolute)
         if fixed:
-            index = list(fixed)
-            rest = error - jac[:, index] @ (np.array(list(fixed.values())) - x[index])
-            jac = jac.copy()
-            jac[:, index] = 0.0
+            start = x.tolist()
+            keep = np.array([0.0 if i in fixed else 1.0 for i in range(len(start))])
+            move = np.array([fixed[i] - start[i] if i in fixed else 0.0 for i in range(len(start))])
+            rest = error - jac @ move
+            jac = jac * keep  # saturated columns removed
             a = jac @ jac.T
             a.flat[:: a.shape[0] + 1] += damping
             values = (x + self.step.gain * (_solve(a, rest) @ jac)).tolist()

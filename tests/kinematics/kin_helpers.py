@@ -1,4 +1,9 @@
-"""Helpers shared by the kinematics tests (a unique name: test dirs have no __init__)."""
+"""Helpers and fixtures shared by the kinematics tests.
+
+A unique module name, imported explicitly: test directories have no __init__
+and tests/conftest.py is imported by name elsewhere, so this directory keeps
+no conftest.py of its own.
+"""
 
 from __future__ import annotations
 
@@ -6,10 +11,23 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
+import yaml
 
 from amr_kinematics.chain import Chain, Coupling
+from amr_kinematics.config import load_chain_set
 
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "ik_chains.yaml"
+
+
+@pytest.fixture(scope="session")
+def raw_params() -> dict:
+    return yaml.safe_load(CONFIG.read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="session")
+def chain_set(raw_params):
+    return load_chain_set(raw_params)
 
 
 def seed004_arm(scale: float = 0.01) -> Chain:

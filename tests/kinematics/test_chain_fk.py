@@ -13,7 +13,7 @@ from amr_kinematics.chain import Chain
 from amr_kinematics.errors import InvalidRequestError
 from amr_kinematics.transforms import rot_x, rot_z, trans
 
-from kin_helpers import prismatic_modified_chain, seed004_arm
+from kin_helpers import chain_set, prismatic_modified_chain, raw_params, seed004_arm  # noqa: F401 (fixtures)
 
 SEED004_START = np.radians([0.0, 60.0, -40.0, -50.0, -60.0])
 

@@ -20,7 +20,7 @@ import pytest
 
 from amr_kinematics.solvers import get_solver
 
-from kin_helpers import seed004_arm
+from kin_helpers import chain_set, raw_params, seed004_arm  # noqa: F401 (fixtures)
 
 START = np.radians([0.0, 60.0, -40.0, -50.0, -60.0])
 TARGET_CM = np.array([5.3, 4.78, 0.0])

@@ -15,6 +15,8 @@ from hypothesis import strategies as st
 
 from amr_kinematics.solvers import get_solver
 
+from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
+
 SOLVE = settings(max_examples=25, deadline=None, derandomize=True,
                  suppress_health_check=[HealthCheck.function_scoped_fixture])
 

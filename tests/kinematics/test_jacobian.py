@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from amr_kinematics.chain import Chain
 from amr_kinematics.transforms import rotation_error, xyz_rpy_matrix
 
-from kin_helpers import prismatic_modified_chain
+from kin_helpers import chain_set, prismatic_modified_chain, raw_params  # noqa: F401 (fixtures)
 
 
 def finite_difference_jacobian(chain, q, h=1e-6):

@@ -14,6 +14,8 @@ from amr_kinematics.solvers import SOLVERS, applicable_solvers, get_solver, solv
 from amr_kinematics.solvers.iterative import Refiner, StepSettings
 from amr_kinematics.solvers.base import Request, parse_goal
 
+from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
+
 
 def test_registry_names():
     assert set(SOLVERS) == {"ccd", "dls", "pinv", "analytic"}

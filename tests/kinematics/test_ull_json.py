@@ -10,6 +10,8 @@ import pytest
 from amr_kinematics.errors import ChainConfigError
 from amr_kinematics.ull_json import load_ull_json
 
+from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
+
 FIGURE_3_4 = [
     {"type": "rotacion", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 0.4},
     {"type": "prismatica", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 2},
