@@ -1,0 +1,345 @@
+"""ik_service: /solve_ik and /compute_fk for the arm chains declared in its parameters.
+
+A thin lifecycle shell over ``amr_kinematics.config`` (chains, defaults, solvers):
+
+- construction declares every parameter given to the node (``chains`` first, then
+  each ``<chain>.<key>``; keys in ``amr_kinematics/config.py``).  Without a
+  ``chains`` parameter it declares the packaged ``config/ik_chains.yaml`` instead,
+  so ``ros2 run amr_kinematics ik_service`` serves the shipped arms.
+- configure loads and validates every chain, all or nothing (a bad chain fails the
+  transition with a log naming chain and key; the node stays unconfigured), then
+  creates ``/solve_ik``, ``/compute_fk`` and ``~/joint_states``.
+- the services exist from configure on and refuse requests (success=false, message
+  "inactive") until activation, so a client sees why nothing is solved.
+- cleanup (and shutdown) destroys them and forgets the chains and last solutions.
+
+Every reply carries a message; no exception leaves a callback.  Services are in a
+reentrant callback group (run with a MultiThreadedExecutor): requests on different
+chains run side by side; requests on one chain take turns (a per-chain lock),
+waiting at most their own timeout.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from array import array
+from pathlib import Path
+
+import numpy as np
+import yaml
+from amr_interfaces.srv import ComputeFK, SolveIK
+from geometry_msgs.msg import Point, Pose
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.lifecycle import State, TransitionCallbackReturn
+from rcl_interfaces.msg import ParameterDescriptor
+from sensor_msgs.msg import JointState
+from transforms3d.quaternions import mat2quat, quat2mat
+
+from amr_control.managed_node import ManagedNode, run
+from amr_kinematics.config import ChainConfig, flatten_parameters, load_chain_set
+from amr_kinematics.errors import KinematicsError
+
+NODE_NAME = "ik_service"
+PACKAGE = "amr_kinematics"
+DEFAULT_CONFIG = "config/ik_chains.yaml"  # in the package's share directory
+QUATERNION_TOLERANCE = 1e-3  # |q| may differ from 1 by this much (then it is normalised)
+MAX_MESSAGE = 400  # characters of a reply message: a request's megabyte name is not echoed back
+LOG_THROTTLE = 5.0  # s between repeated error logs of a callback
+
+
+def _bounded(text: str, limit: int = MAX_MESSAGE) -> str:
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def pose_from_matrix(matrix: np.ndarray) -> Pose:
+    """geometry_msgs/Pose of a 4x4 transform (quaternion with w >= 0)."""
+    w, x, y, z = mat2quat(matrix[:3, :3])
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    pose = Pose()
+    pose.position.x, pose.position.y, pose.position.z = (float(v) for v in matrix[:3, 3])
+    pose.orientation.w, pose.orientation.x = float(w), float(x)
+    pose.orientation.y, pose.orientation.z = float(y), float(z)
+    return pose
+
+
+def target_from_pose(pose: Pose, planar: bool, with_orientation: bool):
+    """The library's target for a request pose, or a refusal message (str).
+
+    Position only: (x, y) for planar chains, (x, y, z) otherwise; with orientation a
+    4x4 pose (the library keeps only the yaw of a planar chain's target).
+    """
+    p, o = pose.position, pose.orientation
+    values = (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+    if not all(map(math.isfinite, values)):
+        return "target must be finite: NaN or inf in target.position or target.orientation"
+    if not with_orientation:
+        return (p.x, p.y) if planar else (p.x, p.y, p.z)
+    norm = math.sqrt(o.w * o.w + o.x * o.x + o.y * o.y + o.z * o.z)
+    if abs(norm - 1.0) > QUATERNION_TOLERANCE:
+        return f"target.orientation must be a unit quaternion (|q| = {norm:.6g})"
+    matrix = np.eye(4)
+    matrix[:3, :3] = quat2mat((o.w / norm, o.x / norm, o.y / norm, o.z / norm))
+    matrix[:3, 3] = (p.x, p.y, p.z)
+    return matrix
+
+
+def _plain(value):
+    """A parameter value as the library takes it: arrays as lists."""
+    return value.tolist() if isinstance(value, array) else value
+
+
+def packaged_chain_parameters() -> dict:
+    """{name: value} of the packaged config/ik_chains.yaml, {} if it is not installed."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
+    try:
+        path = Path(get_package_share_directory(PACKAGE)) / DEFAULT_CONFIG
+    except PackageNotFoundError:
+        return {}
+    if not path.is_file():
+        return {}
+    return flatten_parameters(yaml.safe_load(path.read_text(encoding="utf-8")))
+
+
+class IKServiceNode(ManagedNode):
+    """Serves IK and FK for the chains of its parameters (see the module docstring)."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(NODE_NAME, **kwargs)
+        self.declare_parameter("max_timeout", 1.0, ParameterDescriptor(
+            description="s; a request's (or a chain's default) timeout above this is capped to it"))
+        self.declare_parameter("max_iterations_limit", 100_000, ParameterDescriptor(
+            description="a request's (or a chain's default) max_iterations above this is capped to it"))
+        self._declare_chain_parameters()
+        self._group = ReentrantCallbackGroup()
+        self._chains: dict[str, ChainConfig] = {}
+        self._chain_locks: dict[str, threading.Lock] = {}
+        self._last: dict[str, np.ndarray] = {}  # last successful solution per chain
+        self._last_lock = threading.Lock()
+        self._active = False
+        self._max_timeout = self._max_iterations = None  # from the parameters at configure
+        self._node_services = []
+        self._joint_states = None
+
+    def _declare_chain_parameters(self) -> None:
+        """Declare ``chains`` and then every other parameter given (or the packaged set).
+
+        rclpy has no public accessor for the overrides of a node; ``_parameter_overrides``
+        is what ``automatically_declare_parameters_from_overrides`` itself reads (used
+        here instead because that option would also declare ``autostart`` before
+        ManagedNode does, which then fails).
+        """
+        given = {name: parameter.value for name, parameter in self._parameter_overrides.items()}
+        if "chains" not in given:
+            packaged = packaged_chain_parameters()
+            if packaged:
+                self.get_logger().info(f"no 'chains' parameter: serving the packaged {DEFAULT_CONFIG}")
+            given = {**packaged, **given}
+        names = (["chains"] if "chains" in given else []) + sorted(set(given) - {"chains"})
+        for name in names:
+            if self.has_parameter(name):
+                continue
+            try:
+                self.declare_parameter(name, given[name])
+            except (TypeError, ValueError) as exc:  # e.g. a list mixing ints and floats
+                self.get_logger().error(f"parameter {name!r} not declared: {exc}")
+
+    # --- lifecycle ------------------------------------------------------------------------
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        flat = {name: _plain(parameter.value) for name, parameter in self.get_parameters_by_prefix("").items()}
+        try:
+            chains = load_chain_set(flat)
+            self._max_timeout = self._positive_parameter("max_timeout", float)
+            self._max_iterations = self._positive_parameter("max_iterations_limit", int)
+        except ValueError as exc:  # ChainConfigError names chain and key
+            self.get_logger().error(f"configure failed, nothing loaded: {exc}")
+            return TransitionCallbackReturn.FAILURE
+        self._chains = chains
+        self._chain_locks = {name: threading.Lock() for name in chains}
+        with self._last_lock:
+            self._last = {}
+        self._joint_states = self.create_lifecycle_publisher(JointState, "~/joint_states", 10)
+        self._node_services = [
+            self.create_service(SolveIK, "/solve_ik", self._on_solve_ik, callback_group=self._group),
+            self.create_service(ComputeFK, "/compute_fk", self._on_compute_fk, callback_group=self._group),
+        ]
+        summary = ", ".join(f"{name} ({c.chain.n} joints, {c.solver})" for name, c in chains.items())
+        self.get_logger().info(f"chains: {summary}")
+        return TransitionCallbackReturn.SUCCESS
+
+    def _positive_parameter(self, name: str, kind: type):
+        value = self.get_parameter(name).value
+        if isinstance(value, bool) or not isinstance(value, kind) or not value > 0:
+            raise ValueError(f"parameter {name!r} must be a positive {kind.__name__}, got {value!r}")
+        return value
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        self._active = True
+        self.get_logger().info("serving /solve_ik and /compute_fk")
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        self._active = False
+        self.get_logger().info("inactive: requests are refused")
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        self._active = False
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _release(self) -> None:
+        """Services and publisher destroyed, chains and last solutions forgotten."""
+        for service in self._node_services:
+            self.destroy_service(service)
+        if self._joint_states is not None:
+            self.destroy_lifecycle_publisher(self._joint_states)
+        self._node_services, self._joint_states = [], None
+        self._chains, self._chain_locks = {}, {}
+        with self._last_lock:
+            self._last = {}
+
+    # --- services -------------------------------------------------------------------------
+    def _on_solve_ik(self, request: SolveIK.Request, response: SolveIK.Response) -> SolveIK.Response:
+        try:
+            self._solve(request, response)
+        except Exception as exc:  # a bug must cost one request, not the node
+            self.get_logger().error(f"/solve_ik failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE)
+            response = SolveIK.Response(success=False, message=f"internal error: {type(exc).__name__}: {exc}")
+        response.message = _bounded(response.message)
+        return response
+
+    def _solve(self, request: SolveIK.Request, response: SolveIK.Response) -> None:
+        response.success = False
+        config = self._serving_chain(request.chain, response)
+        if config is None:
+            return
+        chain = config.chain
+        response.joint_names = list(chain.joint_names)
+        response.solver = _bounded(request.solver, 40) or config.solver
+        if request.seed and len(request.seed) != chain.n:
+            response.message = f"seed has {len(request.seed)} values; chain '{chain.name}' has {chain.n} joints"
+            return
+        limits = self._limits(request, config, response)
+        if limits is None:
+            return
+        timeout, max_iterations, note = limits
+        target = target_from_pose(request.target, chain.planar, request.with_orientation)
+        if isinstance(target, str):
+            response.message = target
+            return
+        lock = self._chain_locks[chain.name]
+        if not lock.acquire(timeout=timeout):
+            response.message = f"chain '{chain.name}' stayed busy with other solves for the whole timeout ({timeout} s)"
+            return
+        try:
+            seed = list(request.seed) if request.seed else self._last_solution(chain.name)
+            result = config.solve(target, solver=request.solver, seed=seed, with_orientation=request.with_orientation,
+                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=timeout)
+            if result.success:
+                with self._last_lock:
+                    self._last[chain.name] = result.q
+        except KinematicsError as exc:
+            response.message = str(exc)
+            return
+        finally:
+            lock.release()
+        response.success = result.success
+        response.positions = result.q.tolist()
+        response.reached = pose_from_matrix(result.reached)
+        response.position_error = result.position_error
+        response.orientation_error = result.orientation_error
+        response.iterations = result.iterations
+        response.solver = result.solver
+        response.message = result.message + note
+        if result.success:
+            self._publish(chain.name, response.joint_names, response.positions)
+
+    def _limits(self, request: SolveIK.Request, config: ChainConfig, response) -> tuple[float, int, str] | None:
+        """(timeout, max_iterations, note) after defaults and caps; None (message set) if refused."""
+        for name in ("tolerance", "timeout"):
+            value = getattr(request, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                response.message = f"{name} must be a finite number >= 0 (0 = the chain's default), got {value}"
+                return None
+        timeout = request.timeout or config.timeout
+        max_iterations = request.max_iterations or config.max_iterations
+        notes = []
+        if timeout > self._max_timeout:
+            timeout = self._max_timeout
+            notes.append(f"timeout capped at {timeout} s")
+        if max_iterations > self._max_iterations:
+            max_iterations = self._max_iterations
+            notes.append(f"max_iterations capped at {max_iterations}")
+        return timeout, max_iterations, f" ({'; '.join(notes)})" if notes else ""
+
+    def _last_solution(self, chain: str) -> np.ndarray | None:
+        with self._last_lock:
+            return self._last.get(chain)
+
+    def _publish(self, chain: str, joint_names: list[str], positions: list[float]) -> None:
+        publisher = self._joint_states
+        if publisher is None:
+            return
+        message = JointState()
+        message.header.stamp = self.get_clock().now().to_msg()
+        message.name = [f"{chain}/{joint}" for joint in joint_names]
+        message.position = positions
+        publisher.publish(message)
+
+    def _on_compute_fk(self, request: ComputeFK.Request, response: ComputeFK.Response) -> ComputeFK.Response:
+        try:
+            self._forward(request, response)
+        except Exception as exc:  # a bug must cost one request, not the node
+            self.get_logger().error(f"/compute_fk failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE)
+            response = ComputeFK.Response(success=False, message=f"internal error: {type(exc).__name__}: {exc}")
+        response.message = _bounded(response.message)
+        return response
+
+    def _forward(self, request: ComputeFK.Request, response: ComputeFK.Response) -> None:
+        response.success = False
+        config = self._serving_chain(request.chain, response)
+        if config is None:
+            return
+        chain = config.chain
+        response.joint_names = list(chain.joint_names)
+        if len(request.positions) != chain.n:
+            response.message = f"positions has {len(request.positions)} values; chain '{chain.name}' has {chain.n} joints"
+            return
+        try:
+            fk = chain.fk(list(request.positions))
+        except KinematicsError as exc:
+            response.message = str(exc)
+            return
+        response.tool_pose = pose_from_matrix(fk.tool)
+        response.joint_origins = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in fk.frames[:, :3, 3]]
+        response.success = True
+        q = np.asarray(request.positions)
+        outside = [name for name, value, low, high in zip(chain.joint_names, q, chain.lower, chain.upper)
+                   if not low <= value <= high]
+        response.message = "ok" + (f" (outside the joint limits: {', '.join(outside)})" if outside else "")
+
+    def _serving_chain(self, name: str, response) -> ChainConfig | None:
+        """The chain a request names, or None with the refusal in response.message."""
+        if not self._active:
+            response.message = f"{NODE_NAME} is {self.state_label}: activate it to serve requests"
+            return None
+        chains = self._chains
+        config = chains.get(name)
+        if config is None:
+            response.message = f"unknown chain {_bounded(name, 40)!r}; known: {', '.join(chains)}"
+        return config
+
+
+def main(args=None) -> None:
+    run(IKServiceNode, multithreaded=True, args=args)
+
+
+if __name__ == "__main__":
+    main()
