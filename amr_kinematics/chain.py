@@ -153,6 +153,7 @@ class Chain:
             raise ChainConfigError(name, "lower", f"joint '{joint_names[i]}' has lower {self.lower[i]} > upper {self.upper[i]}")
         self.base = _check_transform(name, "base", np.eye(4) if base is None else base, planar)
         self.tool = _check_transform(name, "tool", np.eye(4) if tool is None else tool, planar)
+        self._lower, self._upper = self.lower.tolist(), self.upper.tolist()
         self.prismatic = np.array([t == PRISMATIC for t in types])
         self.couplings = tuple(self._checked_couplings(couplings))
         coupled = {c.joint for c in self.couplings}
@@ -217,8 +218,9 @@ class Chain:
         return np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)
 
     def within_limits(self, q, tolerance: float = 0.0) -> bool:
-        q = np.asarray(q, dtype=float)
-        return bool(np.all(q >= self.lower - tolerance) and np.all(q <= self.upper + tolerance))
+        values = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
+        return len(values) == self.n and all(
+            low - tolerance <= v <= high + tolerance for v, low, high in zip(values, self._lower, self._upper))
 
     def apply_coupling(self, q) -> np.ndarray:
         """q with every coupled joint set from the independent ones (then clamped)."""

@@ -10,14 +10,16 @@ error <= 1e-5 m (x, y for planar chains), orientation error <= 1e-5 rad in pose
 mode, joints within limits.  Our solvers run with the library defaults and a 5 ms
 timeout (``--timeout``); ikpy (scipy optimiser) and roboticstoolbox-python
 (C++ ``ik_LM``) run with their defaults on the first ``--peer-targets`` targets.
-Times are wall-clock per solve call (perf_counter), request checks included.
+Times are wall-clock per solve call (perf_counter), request checks included;
+``cpu_mean_us`` is the thread's CPU time per call, which other processes on a
+busy machine do not inflate as much (the load average is printed before and after).
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
-import math
+import os
 import platform
 import pstats
 import sys
@@ -56,39 +58,46 @@ def succeeded(chain, q, target: np.ndarray, with_orientation: bool) -> bool:
 
 def run_ours(config, solver: str, targets, with_orientation: bool, timeout: float):
     chain, solve = config.chain, get_solver(solver).solve
-    times, ok = [], 0
+    times, cpu, ok = [], [], 0
     for target in targets:
         goal = target if with_orientation else target[:3, 3].copy()
-        started = time.perf_counter()
+        started, started_cpu = time.perf_counter(), time.thread_time()
         result = solve(chain, goal, seed=config.home, with_orientation=with_orientation, tolerance=TOLERANCE,
                        timeout=timeout)
         times.append(time.perf_counter() - started)
+        cpu.append(time.thread_time() - started_cpu)
         ok += succeeded(chain, result.q, target, with_orientation)
-    return ok, np.array(times)
+    return ok, np.array(times), np.array(cpu)
 
 
 def run_peer(peer, config, targets, with_orientation: bool):
-    times, ok = [], 0
+    times, cpu, ok = [], [], 0
     for target in targets:
-        started = time.perf_counter()
+        started, started_cpu = time.perf_counter(), time.thread_time()
         try:
             q = peer.solve(target, config.home, with_orientation)
         except Exception:  # noqa: BLE001 - a peer's failure is a failed solve
             q = None
         times.append(time.perf_counter() - started)
+        cpu.append(time.thread_time() - started_cpu)
         ok += q is not None and succeeded(config.chain, q, target, with_orientation)
-    return ok, np.array(times)
+    return ok, np.array(times), np.array(cpu)
 
 
-def row(chain: str, solver: str, mode: str, ok: int, times: np.ndarray) -> dict:
+def row(chain: str, solver: str, mode: str, ok: int, times: np.ndarray, cpu: np.ndarray) -> dict:
     us = times * 1e6
     return {"chain": chain, "solver": solver, "mode": mode, "n": len(times), "success": 100.0 * ok / len(times),
-            "median": float(np.median(us)), "p99": float(np.percentile(us, 99)), "mean": float(us.mean())}
+            "median": float(np.median(us)), "p99": float(np.percentile(us, 99)), "mean": float(us.mean()),
+            "cpu": float(cpu.mean() * 1e6)}
 
 
 def print_row(r: dict) -> None:
     print(f"{r['chain']:<13} {r['solver']:<9} {r['mode']:<9} {r['n']:>6} {r['success']:>8.2f} "
-          f"{r['median']:>10.1f} {r['p99']:>10.1f} {r['mean']:>10.1f}", flush=True)
+          f"{r['median']:>10.1f} {r['p99']:>10.1f} {r['mean']:>10.1f} {r['cpu']:>11.1f}", flush=True)
+
+
+def load() -> str:
+    return "load average " + ", ".join(f"{x:.2f}" for x in os.getloadavg()) + f" on {os.cpu_count()} CPUs"
 
 
 def main() -> None:
@@ -117,10 +126,11 @@ def main() -> None:
     available, missing = ({}, {}) if args.no_peers else peers()
     print(f"# Python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}, "
           f"tolerance {TOLERANCE:g} m / rad, our timeout {args.timeout * 1e3:g} ms, seed = chain home")
+    print(f"# {load()} (start)")
     for name, reason in missing.items():
         print(f"# {name} not available: {reason}")
     print(f"{'chain':<13} {'solver':<9} {'mode':<9} {'n':>6} {'success%':>8} {'median_us':>10} {'p99_us':>10} "
-          f"{'mean_us':>10}")
+          f"{'mean_us':>10} {'cpu_mean_us':>11}")
     rows = []
     for name in names:
         config = configs[name]
@@ -128,17 +138,18 @@ def main() -> None:
         for with_orientation in modes:
             mode = "pose" if with_orientation else "position"
             for solver in applicable_solvers(config.chain, with_orientation):
-                ok, times = run_ours(config, solver, targets[name], with_orientation, args.timeout)
-                rows.append(row(name, solver, mode, ok, times))
+                rows.append(row(name, solver, mode, *run_ours(config, solver, targets[name], with_orientation,
+                                                              args.timeout)))
                 print_row(rows[-1])
             if name not in PEER_CHAINS:
                 continue
             subset = targets[name][: args.peer_targets]
             for peer_name, factory in available.items():
-                ok, times = run_peer(factory(config.chain), config, subset, with_orientation)
-                rows.append(row(name, peer_name, mode, ok, times))
+                rows.append(row(name, peer_name, mode, *run_peer(factory(config.chain), config, subset,
+                                                                 with_orientation)))
                 print_row(rows[-1])
     print_speedups(rows)
+    print(f"# {load()} (end)")
 
 
 def print_speedups(rows: list[dict]) -> None:

@@ -21,38 +21,41 @@ from ..transforms import wrap_angle
 from .base import IKResult, Solver, finish
 
 
-def _geometry(chain: Chain):
+def _geometry(chain: Chain) -> tuple[float, float, float, float]:
     """(l1, l2, offset1, offset2) with q1 = A - offset1, q2 = B - offset2 for the 2R angles A, B."""
-    tool_x, tool_y = chain.tool[0, 3], chain.tool[1, 3]
-    l1 = float(chain.a[0])
-    far_x, far_y = chain.a[1] + tool_x, tool_y  # tip in the frame before link 2's length
-    l2 = math.hypot(far_x, far_y)
-    phi = math.atan2(far_y, far_x)
-    return l1, l2, float(chain.theta[0]), float(chain.theta[1]) + phi
+    tool_x, tool_y = float(chain.tool[0, 3]), float(chain.tool[1, 3])
+    far_x, far_y = float(chain.a[1]) + tool_x, tool_y  # tip in the frame before link 2's length
+    return float(chain.a[0]), math.hypot(far_x, far_y), float(chain.theta[0]), float(chain.theta[1]) + math.atan2(far_y, far_x)
 
 
 def _local(chain: Chain, point) -> tuple[float, float]:
     """Target in the base frame of the chain (x, y)."""
-    base = chain.base
-    dx, dy = point[0] - base[0, 3], point[1] - base[1, 3]
-    c, s = base[0, 0], base[1, 0]
+    (c, _, _, bx), (s, _, _, by) = chain.base[:2].tolist()
+    dx, dy = float(point[0]) - bx, float(point[1]) - by
     return c * dx + s * dy, -s * dx + c * dy
 
 
-def _fit(chain: Chain, q: np.ndarray) -> np.ndarray | None:
+def _fit(chain: Chain, q: list[float]) -> list[float] | None:
     """q moved by multiples of 2 pi into the limits, or None if impossible."""
     out = []
-    for value, low, high in zip(q, chain.lower, chain.upper):
-        shifted = low + (value - low) % (2.0 * math.pi)
-        if shifted > high:
-            return None
-        out.append(value if low <= value <= high else shifted)
-    return np.array(out)
+    for value, low, high in zip(q, chain.lower.tolist(), chain.upper.tolist()):
+        if not low <= value <= high:
+            value = low + (value - low) % (2.0 * math.pi)
+            if value > high:
+                return None
+        out.append(value)
+    return out
 
 
 def two_link_branches(chain: Chain, target) -> tuple[list[np.ndarray], bool]:
     """([elbow +, elbow -] solutions within limits, reachable), angles in [-pi, pi]
     where the limits allow.  Unreachable: ([closest configuration], False)."""
+    solutions, reachable = _branches(chain, target)
+    return [np.array(q) for q in solutions], reachable
+
+
+def _branches(chain: Chain, target) -> tuple[list[list[float]], bool]:
+    """``two_link_branches`` on plain floats."""
     l1, l2, offset1, offset2 = _geometry(chain)
     x, y = _local(chain, target)
     r2 = x * x + y * y
@@ -66,16 +69,16 @@ def two_link_branches(chain: Chain, target) -> tuple[list[np.ndarray], bool]:
             angles = (heading, math.pi)
         else:  # folded with the longer second link: link 1 points away
             angles = (heading + math.pi, math.pi)
-        q = np.array([wrap_angle(angles[0] - offset1), wrap_angle(angles[1] - offset2)])
+        q = [wrap_angle(angles[0] - offset1), wrap_angle(angles[1] - offset2)]
         fitted = _fit(chain, q)
-        return [chain.clamp(q) if fitted is None else fitted], False
+        return [chain.clamp(q).tolist() if fitted is None else fitted], False
     cos_q2 = min(1.0, max(-1.0, cos_q2))
     solutions = []
     for sign in (1.0, -1.0):
         sin_q2 = sign * math.sqrt(1.0 - cos_q2 * cos_q2)
         b = math.atan2(sin_q2, cos_q2)
         a = math.atan2(y, x) - math.atan2(l2 * sin_q2, l1 + l2 * cos_q2)
-        fitted = _fit(chain, np.array([wrap_angle(a - offset1), wrap_angle(b - offset2)]))
+        fitted = _fit(chain, [wrap_angle(a - offset1), wrap_angle(b - offset2)])
         if fitted is not None:
             solutions.append(fitted)
     return solutions, True
@@ -83,16 +86,20 @@ def two_link_branches(chain: Chain, target) -> tuple[list[np.ndarray], bool]:
 
 def joint_distance(chain: Chain, q, reference) -> float:
     """Distance in joint space, revolute differences wrapped to [-pi, pi]."""
-    diff = np.asarray(q, dtype=float) - np.asarray(reference, dtype=float)
-    diff = np.where(chain.prismatic, diff, (diff + math.pi) % (2.0 * math.pi) - math.pi)
-    return float(np.linalg.norm(diff))
+    total = 0.0
+    for value, ref, prismatic in zip(q, reference, chain.prismatic.tolist()):
+        diff = float(value) - float(ref)
+        if not prismatic:
+            diff = wrap_angle(diff)
+        total += diff * diff
+    return math.sqrt(total)
 
 
-def _nearest(chain: Chain, candidates: list[np.ndarray], reference) -> np.ndarray:
+def _nearest(chain: Chain, candidates: list[list[float]], reference: list[float]) -> list[float]:
     """The candidate nearest the reference, shifted by 2 pi to continue it when the
     limits allow (so a path never jumps by a full turn)."""
     best = min(candidates, key=lambda q: joint_distance(chain, q, reference))
-    continued = reference + (best - reference + math.pi) % (2.0 * math.pi) - math.pi
+    continued = [r + wrap_angle(b - r) for b, r in zip(best, reference)]
     return continued if chain.within_limits(continued) else best
 
 
@@ -109,11 +116,11 @@ class AnalyticSolver(Solver):
             raise SolverNotApplicableError("a 2R arm cannot choose its orientation: analytic takes a position only")
 
     def _solve(self, chain, goal, q0, request, configuration) -> IKResult:
-        candidates, reachable = two_link_branches(chain, goal.position)
+        candidates, reachable = _branches(chain, goal.position)
         if not candidates:
             return finish(chain, goal, q0, request, solver=self.name, iterations=1, converged=False,
                           message="reachable, but neither elbow branch fits the joint limits: seed returned")
-        q = _nearest(chain, candidates, q0)
+        q = np.array(_nearest(chain, candidates, q0.tolist()))
         message = "solved: branch nearest the seed" if reachable else "unreachable: closest configuration returned"
         return finish(chain, goal, q, request, solver=self.name, iterations=1, message=message,
                       converged=None if reachable else False)
@@ -126,11 +133,11 @@ def follow_path(chain: Chain, points, q_start=None) -> tuple[np.ndarray, np.ndar
     AnalyticSolver().check(chain)
     points = np.asarray(points, dtype=float)
     path, mask = [], []
-    previous = None if q_start is None else chain.check_q(q_start, "q_start")
+    previous = None if q_start is None else chain.check_q(q_start, "q_start").tolist()
     for point in points:
-        candidates, reachable = two_link_branches(chain, point)
+        candidates, reachable = _branches(chain, point)
         if not candidates:
-            candidates, reachable = [previous if previous is not None else chain.clamp(np.zeros(2))], False
+            candidates, reachable = [previous if previous is not None else chain.clamp(np.zeros(2)).tolist()], False
         q = candidates[0] if previous is None else _nearest(chain, candidates, previous)
         path.append(q)
         mask.append(reachable)
