@@ -3,7 +3,9 @@
 A thin lifecycle shell over ``amr_kinematics.config`` (chains, defaults, solvers):
 
 - construction declares every parameter given to the node (``chains`` first, then
-  each ``<chain>.<key>``; keys in ``amr_kinematics/config.py``).  Without a
+  each ``<chain>.<key>``; keys in ``amr_kinematics/config.py``), dynamically typed:
+  the library checks them at configure, so changed parameters take effect at the
+  next configure (after a cleanup, or a failed configure).  Without a
   ``chains`` parameter it declares the packaged ``config/ik_chains.yaml`` instead,
   so ``ros2 run amr_kinematics ik_service`` serves the shipped arms.
 - configure loads and validates every chain, all or nothing (a bad chain fails the
@@ -138,11 +140,14 @@ class IKServiceNode(ManagedNode):
                 self.get_logger().info(f"no 'chains' parameter: serving the packaged {DEFAULT_CONFIG}")
             given = {**packaged, **given}
         names = (["chains"] if "chains" in given else []) + sorted(set(given) - {"chains"})
+        # dynamic typing: the library checks types at configure, and an integer list
+        # written by mistake can then be corrected at run time with a float list
+        descriptor = ParameterDescriptor(dynamic_typing=True)
         for name in names:
             if self.has_parameter(name):
                 continue
             try:
-                self.declare_parameter(name, given[name])
+                self.declare_parameter(name, given[name], descriptor)
             except (TypeError, ValueError) as exc:  # e.g. a list mixing ints and floats
                 self.get_logger().error(f"parameter {name!r} not declared: {exc}")
 

@@ -1,0 +1,140 @@
+"""The node's lifecycle: invalid transitions, inactive refusal, all-or-nothing configure, concurrency."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from amr_interfaces.srv import ComputeFK
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState, GetState
+from rclpy.parameter import Parameter
+
+from ik_node_helpers import call, config_overrides, pose, solve_request, spin_until, start
+
+GOOD = solve_request("rr2", pose(1.0, 1.0))
+
+
+def lifecycle_clients(probe):
+    change = probe.create_client(ChangeState, "/ik_service/change_state")
+    state = probe.create_client(GetState, "/ik_service/get_state")
+    assert change.wait_for_service(timeout_sec=5.0) and state.wait_for_service(timeout_sec=5.0)
+    return change, state
+
+
+def served_names(node) -> set[str]:
+    """The node's own services (the graph would also list those of earlier tests' nodes for a while)."""
+    return {service.srv_name for service in node.services}
+
+
+def test_invalid_transitions_are_refused_and_the_node_lives_on(ros_context, multi_executor):
+    node, probe = start(ros_context, multi_executor, activate=False)
+    change, state = lifecycle_clients(probe)
+
+    def transition(transition_id: int = 0, label: str = "") -> bool:
+        request = ChangeState.Request(transition=Transition(id=transition_id, label=label))
+        return call(multi_executor, change, request).success
+
+    def label() -> str:
+        return call(multi_executor, state, GetState.Request()).current_state.label
+
+    assert not transition(Transition.TRANSITION_ACTIVATE), "activate from unconfigured"
+    assert not transition(Transition.TRANSITION_CLEANUP), "cleanup from unconfigured"
+    assert not transition(label="no_such_transition")
+    assert not transition(250)
+    assert label() == "unconfigured"
+    assert transition(Transition.TRANSITION_CONFIGURE)
+    assert not transition(Transition.TRANSITION_CONFIGURE), "configure twice"
+    assert not transition(Transition.TRANSITION_DEACTIVATE), "deactivate from inactive"
+    assert transition(label="activate")
+    assert not transition(Transition.TRANSITION_CLEANUP), "cleanup from active"
+    assert label() == "active"
+    assert call(multi_executor, probe.solve, GOOD).success
+
+
+def test_inactive_node_refuses_requests_with_a_message(ros_context, multi_executor):
+    node, probe = start(ros_context, multi_executor, activate=False)
+    assert "/solve_ik" not in served_names(node), "no services before configure"
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert {"/solve_ik", "/compute_fk"} <= served_names(node)
+    assert probe.solve.wait_for_service(timeout_sec=5.0) and probe.fk.wait_for_service(timeout_sec=5.0)
+
+    def refused() -> None:
+        reply = call(multi_executor, probe.solve, GOOD)
+        assert not reply.success and "ik_service is inactive: activate it" in reply.message
+        fk = call(multi_executor, probe.fk, ComputeFK.Request(chain="rr2", positions=[0.0, 0.0]))
+        assert not fk.success and "inactive" in fk.message
+
+    refused()
+    assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert call(multi_executor, probe.solve, GOOD).success
+    assert node.try_transition(Transition.TRANSITION_DEACTIVATE)
+    refused()
+    assert node.try_transition(Transition.TRANSITION_CLEANUP)
+    assert not {"/solve_ik", "/compute_fk"} & served_names(node)
+
+
+BAD_CHAINS = {
+    "length mismatch": ({"ur5.lower": [-1.0] * 5}, "chain 'ur5', key 'ur5.lower'"),
+    "lower above upper": ({"panda.lower": [3.0] * 7}, "chain 'panda', key 'panda.lower'"),
+    "unknown joint type": ({"arm5.types": ["revolute"] * 4 + ["helical"]}, "chain 'arm5', key 'arm5.types'"),
+    "integers where floats": ({"ur5.d": [0, 0, 0, 0, 0, 0]}, "chain 'ur5', key 'ur5.d'"),
+    "integer tolerance": ({"rr2.tolerance": 1}, "chain 'rr2', key 'rr2.tolerance'"),
+    "typo in a key": ({"ull3.tolerence": 0.1}, "chain 'ull3', key 'ull3.tolerence'"),
+    "listed, never described": ({"chains": ["arm5", "ghost"]}, "chain 'ghost', key 'ghost.convention'"),
+    "inapplicable default solver": ({"ur5.solver": "analytic"}, "chain 'ur5', key 'ur5.solver'"),
+}
+
+
+@pytest.mark.parametrize("changes, named", BAD_CHAINS.values(), ids=BAD_CHAINS.keys())
+def test_a_bad_chain_fails_configure_and_loads_nothing(ros_context, multi_executor, changes, named):
+    from amr_kinematics.config import load_chain_set
+
+    with pytest.raises(ValueError, match=named):  # the message the node logs names chain and key
+        load_chain_set({p.name: p.value for p in config_overrides(**changes)})
+    node, probe = start(ros_context, multi_executor, config_overrides(**changes), activate=False)
+    assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert node.state_label == "unconfigured"
+    assert not {"/solve_ik", "/compute_fk"} & served_names(node), "nothing half-loaded"
+    # fixed at run time (types too: the chain parameters are dynamically typed), the node configures
+    good = {p.name: p for p in config_overrides()}
+    assert all(r.successful for r in node.set_parameters([good[name] for name in changes if name in good]))
+    for name in set(changes) - set(good):
+        node.undeclare_parameter(name)
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert probe.solve.wait_for_service(timeout_sec=5.0)
+    assert call(multi_executor, probe.solve, GOOD).success
+
+
+def test_bad_node_limits_fail_configure(ros_context, multi_executor):
+    node, _ = start(ros_context, multi_executor, config_overrides() + [Parameter("max_timeout", value=-1.0)],
+                    activate=False)
+    assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert node.state_label == "unconfigured"
+
+
+def test_a_long_solve_does_not_block_another_chain(ros_context, multi_executor):
+    node, probe = start(ros_context, multi_executor, config_overrides() + [Parameter("max_timeout", value=0.5)])
+    started = time.monotonic()
+    slow = probe.solve.call_async(solve_request("panda", pose(2.0, 2.0, 2.0), timeout=0.5, max_iterations=100_000))
+    assert spin_until(multi_executor, node._chain_locks["panda"].locked, timeout=5.0)
+    quick = probe.solve.call_async(GOOD)
+    assert spin_until(multi_executor, quick.done, timeout=5.0)
+    assert quick.result().success
+    assert not slow.done(), "the slow solve ended before the quick one"
+    assert time.monotonic() - started < 0.3, "the quick request waited for the slow one"
+    assert spin_until(multi_executor, slow.done, timeout=5.0)
+    assert not slow.result().success
+
+
+def test_requests_on_one_chain_take_turns_within_their_timeout(ros_context, multi_executor):
+    node, probe = start(ros_context, multi_executor, config_overrides() + [Parameter("max_timeout", value=0.5)])
+    slow = probe.solve.call_async(solve_request("panda", pose(2.0, 2.0, 2.0), timeout=0.5, max_iterations=100_000))
+    assert spin_until(multi_executor, node._chain_locks["panda"].locked, timeout=5.0)
+    started = time.monotonic()
+    waiting = call(multi_executor, probe.solve, solve_request("panda", pose(0.3, 0.0, 0.5), timeout=0.05))
+    assert not waiting.success and "chain 'panda' stayed busy" in waiting.message
+    assert time.monotonic() - started < 0.3
+    assert spin_until(multi_executor, slow.done, timeout=5.0)
+    assert call(multi_executor, probe.solve, solve_request("panda", pose(0.3, 0.0, 0.5), timeout=0.05)).success
