@@ -32,6 +32,7 @@ from amr_control.managed_node import share_directory  # noqa: E402
 from amr_control.wall_follower_node import WallFollowerNode  # noqa: E402
 from amr_kinematics.ik_service_node import IKServiceNode  # noqa: E402
 from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
+from amr_turtlebot3.odometry_node import OdometryNode  # noqa: E402
 
 TURNING_STATES = {"TURN_LEFT", "TURN_RIGHT", "TURN_AROUND"}
 PROGRESS_PERIOD = 3.0  # wall-clock seconds between progress lines
@@ -87,36 +88,50 @@ def call(node: Node, service_type, name: str, request):
         node.destroy_client(client)
 
 
-def run_maze(context, executor, out: Path, world: str, duration: float) -> dict:
+def run_maze(context, executor, world: str, duration: float, *, odometry_node: bool = False,
+             follower_config: str = "wall_follower_sim.yaml", render_path: Path | None = None,
+             progress: bool = True) -> tuple[dict, np.ndarray]:
+    """The maze stack in lockstep for `duration` simulated seconds (or to the goal).
+
+    With odometry_node, the simulator publishes only /odom, as a real TurtleBot3 does, and
+    amr_turtlebot3's odometry_node derives the /odometry the follower reads. Returns the run's
+    figures and the follower's samples (t, wall distance, target, turning).
+    """
     simulator = SimulatorNode(context=context, cli_args=params_file_args(
-        config_file("amr_simulation", "simulator.yaml"), f"world:={world}", f"render_path:={out / 'maze.png'}"))
-    follower = WallFollowerNode(context=context, cli_args=params_file_args(
-        config_file("amr_control", "wall_follower_sim.yaml")))
-    # the follower listens before the simulator publishes its first observation
+        config_file("amr_simulation", "simulator.yaml"), f"world:={world}",
+        f"publish_odometry:={'false' if odometry_node else 'true'}",
+        *([f"render_path:={render_path}"] if render_path else [])))
+    follower = WallFollowerNode(context=context, cli_args=params_file_args(config_file("amr_control", follower_config)))
+    stack = [follower] + ([OdometryNode(context=context)] if odometry_node else []) + [simulator]
+    # listeners first: the simulator publishes its first observation when it activates
     manager = LifecycleManager(context=context, parameter_overrides=[
-        Parameter("node_startup_order", value=["wall_follower", "simulator"])])
+        Parameter("node_startup_order", value=[node.get_name() for node in stack])])
     observer = Observer(context=context)
-    for node in (simulator, follower, manager, observer):
+    nodes = stack + [manager, observer]
+    for node in nodes:
         executor.add_node(node)
-    started = time.monotonic()
-    if not all(step.ok for step in manager.startup()):
-        raise RuntimeError("the maze stack did not come up (see the log above)")
-    print(f"maze: {world}, lockstep, running {duration:.0f} s of simulated time or until the goal")
-    status = wait_for_run(observer, duration, started)
-    elapsed = time.monotonic() - started
-    rendered = call(observer, Trigger, "simulator/render", Trigger.Request())
-    manager.shutdown()
+    try:
+        started = time.monotonic()
+        if not all(step.ok for step in manager.startup()):
+            raise RuntimeError("the maze stack did not come up (see the log above)")
+        if progress:
+            print(f"maze: {world}, lockstep, {' -> '.join(n.get_name() for n in stack)}, "
+                  f"{duration:.0f} s of simulated time or until the goal")
+        status = wait_for_run(observer, duration, started, progress)
+        elapsed = time.monotonic() - started
+        rendered = call(observer, Trigger, "simulator/render", Trigger.Request()) if render_path else None
+        manager.shutdown()
+    finally:
+        for node in nodes:
+            executor.remove_node(node)
+            node.destroy_node()
     with observer.lock:
         samples = np.array(observer.follower) if observer.follower else np.zeros((0, 4))
-    following = samples[(samples[:, 3] == 0) & np.isfinite(samples[:, 1])] if samples.size else samples
-    target = float(samples[0, 2]) if samples.size else math.nan
-    demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1], target,
-                                      samples[:, 3].astype(bool))
-    for node in (observer, manager, follower, simulator):
-        executor.remove_node(node)
-        node.destroy_node()
-    return {
+    following = samples[(samples[:, 3] == 0) & np.isfinite(samples[:, 1])]
+    target = float(samples[0, 2]) if len(samples) else math.nan
+    summary = {
         "world": world,
+        "odometry_node": odometry_node,
         "simulated_time_s": round(status.sim_time, 3),
         "wall_time_s": round(elapsed, 3),
         "speed_up": round(status.sim_time / elapsed, 2),
@@ -126,11 +141,13 @@ def run_maze(context, executor, out: Path, world: str, duration: float) -> dict:
         "goal_reached": bool(status.goal_reached),
         "target_wall_distance_m": target,
         "mean_abs_wall_error_m": round(float(np.mean(np.abs(following[:, 1] - target))), 4) if len(following) else None,
-        "render": rendered.message if rendered.success else f"failed: {rendered.message}",
     }
+    if rendered is not None:
+        summary["render"] = rendered.message if rendered.success else f"failed: {rendered.message}"
+    return summary, samples
 
 
-def wait_for_run(observer: Observer, duration: float, started: float) -> SimulatorStatus:
+def wait_for_run(observer: Observer, duration: float, started: float, progress: bool) -> SimulatorStatus:
     last_print = 0.0
     deadline_without_progress = time.monotonic() + 15.0
     last_time = -1.0
@@ -146,7 +163,7 @@ def wait_for_run(observer: Observer, duration: float, started: float) -> Simulat
         last_time, deadline_without_progress = status.sim_time, time.monotonic() + 15.0
         now = time.monotonic()
         done = status.sim_time >= duration or status.goal_reached
-        if now - last_print >= PROGRESS_PERIOD or done:
+        if progress and (now - last_print >= PROGRESS_PERIOD or done):
             last_print = now
             print(f"  t = {status.sim_time:6.1f} s sim | {status.distance_travelled:6.2f} m | "
                   f"collisions {status.collisions} | {status.sim_time / (now - started):5.1f}x real time | "
@@ -255,7 +272,10 @@ def main(argv: list[str] | None = None) -> None:
     spinner.start()
     started = time.monotonic()
     try:
-        summary = {"maze": run_maze(context, executor, out, args.world, args.duration)}
+        maze, samples = run_maze(context, executor, args.world, args.duration, render_path=out / "maze.png")
+        demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1],
+                                          maze["target_wall_distance_m"], samples[:, 3].astype(bool))
+        summary = {"maze": maze}
         print(f"maze done: {json.dumps(summary['maze'])}")
         summary["ik"] = run_ik(context, executor, out)
     finally:
