@@ -222,6 +222,11 @@ class Chain:
         return len(values) == self.n and all(
             low - tolerance <= v <= high + tolerance for v, low, high in zip(values, self._lower, self._upper))
 
+    def couplings_hold(self, q, tolerance: float = 1e-9) -> bool:
+        """Whether every coupled joint equals its formula (not clipped by its limits)."""
+        q = np.asarray(q, dtype=float)
+        return all(abs(q[c.joint] - c.value(q)) <= tolerance for c in self.couplings)
+
     def apply_coupling(self, q) -> np.ndarray:
         """q with every coupled joint set from the independent ones (then clamped)."""
         q = np.array(q, dtype=float)

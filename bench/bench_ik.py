@@ -4,7 +4,7 @@
                              [--no-peers] [--profile ur5:dls:pose]
 
 Targets are FK of uniformly random in-limit configurations (coupled joints
-derived), the same for every solver of a chain; every solve starts from the
+derived, and within their limits), the same for every solver of a chain; every solve starts from the
 chain's ``home``.  Success is checked here, the same way for everyone: position
 error <= 1e-5 m (x, y for planar chains), orientation error <= 1e-5 rad in pose
 mode, joints within limits.  Our solvers run with the library defaults and a 5 ms
@@ -42,7 +42,14 @@ PEER_CHAINS = ("ur5", "panda")
 
 
 def make_targets(chain, count: int, rng: np.random.Generator) -> list[np.ndarray]:
-    return [chain.fk(chain.apply_coupling(rng.uniform(chain.lower, chain.upper))).tool for _ in range(count)]
+    """Tool poses of random in-limit configurations; with couplings, only those whose
+    coupled joints need no clipping (others are not configurations of the coupled arm)."""
+    targets = []
+    while len(targets) < count:
+        q = chain.apply_coupling(rng.uniform(chain.lower, chain.upper))
+        if chain.couplings_hold(q):
+            targets.append(chain.fk(q).tool)
+    return targets
 
 
 def succeeded(chain, q, target: np.ndarray, with_orientation: bool) -> bool:

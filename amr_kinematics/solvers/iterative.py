@@ -17,9 +17,12 @@ Coupled joints (q_k = offset + c . q) follow one of two updates:
 J_r = J_free + J_k c_free; ``project`` (seed 004) steps all joints as if free and
 then overwrites the coupled ones.
 
-The common case (spatial chain, position only, no coupling, no per-axis
-tolerance) runs on scalar floats with a closed-form 3x3 solve; everything else on
-numpy.  Both follow the same equations (checked against each other in tests).
+Speed: position-only goals (any chain, reduced couplings) run on scalar floats
+with a closed-form 3x3 solve, spatial full-pose goals without couplings on floats
+with numpy only for the 6x6 solve; per-axis tolerances, projected couplings and
+weighted rotation rows take the generic numpy loop.  All three follow the same
+equations (checked against each other in tests).  Solvers keep no state between
+solves, so threads may share them (they interleave under the GIL).
 """
 
 from __future__ import annotations
@@ -96,6 +99,8 @@ def _layout(chain: Chain, project: bool) -> _Layout:
 
 @dataclass
 class Attempt:
+    """Outcome of refining from one start."""
+
     q: np.ndarray          # best joint vector of the attempt (full, within limits)
     converged: bool
     iterations: int

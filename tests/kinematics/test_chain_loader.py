@@ -92,7 +92,9 @@ def test_coupling_parallel_arrays(chain_set):
     assert coupling.joint == 4 and coupling.offset == pytest.approx(-math.pi / 2)
     np.testing.assert_array_equal(chain.free, [0, 1, 2, 3])
     q = chain.apply_coupling([0.0, 0.1, 0.2, 0.3, 0.0])
-    assert q[4] == pytest.approx(-math.pi / 2 - 0.6)
+    assert q[4] == pytest.approx(-math.pi / 2 - 0.6) and chain.couplings_hold(q)
+    clipped = chain.apply_coupling([0.0, 1.0, 1.0, 1.0, 0.0])  # -pi/2 - 3 is below -pi
+    assert clipped[4] == -math.pi and not chain.couplings_hold(clipped)
 
 
 def test_defaults_and_options(chain_set):
