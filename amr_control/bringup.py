@@ -1,0 +1,298 @@
+"""amr-bringup: start a stack from its bringup file, bring it to active, keep it up, take it down.
+
+    amr-bringup maze_sim                        # a shipped bringup (config/bringup/maze_sim.yaml)
+    amr-bringup my_stack.yaml --composed        # every node in this one process
+    amr-bringup real_robot --status --duration 30
+
+By default each node is its own process, started as `ros2 run` would
+(lib/<package>/<executable> --ros-args ...), its output prefixed with its name. With
+--composed the node classes (NODE_CLASSES) are instantiated here on one
+MultiThreadedExecutor. Either way the lifecycle manager (amr_control.lifecycle_manager)
+runs inside this process: its startup result tells at once which node failed which
+transition, and it takes the nodes down in reverse order before they are stopped.
+
+Ctrl-C or SIGTERM: the manager deactivates and cleans up the nodes (the wall follower
+publishes a zero velocity), then every node process gets SIGINT and, after GRACE_PERIOD,
+SIGKILL; a second Ctrl-C skips the waiting. Exit status: 0 after a requested stop, 1 when
+a node died or the startup failed (the message names the node), 2 for a bad bringup file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import signal
+import sys
+import threading
+import time
+import traceback
+from collections import deque
+from collections.abc import Callable, Sequence
+
+from amr_control.bringup_config import Bringup, BringupError, NodeSpec, check_installed, load_bringup
+from amr_control.bringup_process import NodeProcess, executable_path, stop_processes
+
+GRACE_PERIOD = 5.0
+"""s a node gets to exit after SIGINT (or a clean shutdown takes) before SIGKILL."""
+STATUS_PERIOD = 1.0
+"""s between two status tables."""
+RECENT_LINES = 12
+"""Log lines kept under the live status table on a terminal."""
+NODE_CLASSES: dict[tuple[str, str], tuple[str, str]] = {
+    ("amr_simulation", "simulator"): ("amr_simulation.simulator_node", "SimulatorNode"),
+    ("amr_control", "wall_follower"): ("amr_control.wall_follower_node", "WallFollowerNode"),
+    ("amr_turtlebot3", "odometry_node"): ("amr_turtlebot3.odometry_node", "OdometryNode"),
+    ("amr_kinematics", "ik_service"): ("amr_kinematics.ik_service_node", "IKServiceNode"),
+}
+"""(package, executable) -> (module, class) of the nodes --composed can host."""
+
+
+class Console:
+    """All output, one line at a time from any thread; with --status on a terminal, a redrawn screen."""
+
+    def __init__(self, live: bool) -> None:
+        self.live = live
+        self._lock = threading.Lock()
+        self._recent: deque[str] = deque(maxlen=RECENT_LINES)
+
+    def line(self, text: str) -> None:
+        with self._lock:
+            if self.live:
+                self._recent.append(text)
+            else:
+                print(text, flush=True)
+
+    def note(self, text: str) -> None:
+        self.line(f"[amr-bringup] {text}")
+
+    def table(self, text: str) -> None:
+        with self._lock:
+            if self.live:
+                recent = "\n".join(self._recent)
+                sys.stdout.write(f"\033[H\033[J{text}\n\n{recent}\n")
+                sys.stdout.flush()
+            else:
+                print(text + "\n", flush=True)
+
+    def end_live(self) -> None:
+        with self._lock:
+            self.live = False
+
+
+class StopSignals:
+    """SIGINT/SIGTERM: the first asks for a clean stop, the next one for a hurried one."""
+
+    def __init__(self) -> None:
+        self.stop, self.hurry = threading.Event(), threading.Event()
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, self._on_signal)
+
+    def _on_signal(self, signum, frame) -> None:
+        (self.hurry if self.stop.is_set() else self.stop).set()
+
+
+class ProcessStack:
+    """One process per node."""
+
+    def __init__(self, bringup: Bringup, console: Console) -> None:
+        self.processes: list[NodeProcess] = []
+        for node in bringup.nodes:
+            command = [str(executable_path(node.package, node.executable)), *node.ros_arguments()]
+            self.processes.append(NodeProcess(node.name, command, console.line))
+            console.note(f"started {node.name} (pid {self.processes[-1].pid}): {' '.join(command)}")
+        self.console = console
+
+    def failure(self) -> str | None:
+        for process in self.processes:
+            code = process.exit_code()
+            if code is not None:
+                return f"node {process.label} (pid {process.pid}) exited with code {code}"
+        return None
+
+    def stop(self, hurry: threading.Event) -> list[str]:
+        return stop_processes(list(reversed(self.processes)), GRACE_PERIOD, hurry)
+
+
+class ComposedStack:
+    """Every node in this process, spun by the supervisor's executor."""
+
+    def __init__(self, bringup: Bringup, console: Console) -> None:
+        self.nodes = []
+        for node in bringup.nodes:
+            try:
+                self.nodes.append(node_class(node)(cli_args=node.ros_arguments()))
+            except Exception as error:
+                self.stop(threading.Event())
+                raise StackError(f"node {node.name} failed to start: {type(error).__name__}: {error}") from error
+            console.note(f"created {node.name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
+        self.crash: str | None = None
+
+    def failure(self) -> str | None:
+        return self.crash
+
+    def record_crash(self, error: BaseException) -> None:
+        """An exception out of the executor: name the innermost node of ours its traceback went through."""
+        owners = [frame.f_locals.get("self") for frame, _ in traceback.walk_tb(error.__traceback__)]
+        names = [owner.get_name() for owner in owners if any(owner is node for node in self.nodes)]
+        where = f"node {names[-1]}" if names else "a callback"
+        self.crash = f"{where} raised {type(error).__name__}: {error}"
+
+    def stop(self, hurry: threading.Event) -> list[str]:
+        for node in reversed(self.nodes):
+            shut_down = getattr(node, "shut_down_cleanly", None)
+            if shut_down is not None:
+                shut_down()
+            node.destroy_node()
+        self.nodes = []
+        return []
+
+
+class StackError(RuntimeError):
+    """The stack could not be started; the message names the node."""
+
+
+def node_class(node: NodeSpec) -> type:
+    module, name = NODE_CLASSES[(node.package, node.executable)]
+    return getattr(importlib.import_module(module), name)
+
+
+def check_composable(bringup: Bringup) -> None:
+    for i, node in enumerate(bringup.nodes):
+        if (node.package, node.executable) not in NODE_CLASSES:
+            known = ", ".join(f"{p}/{e}" for p, e in NODE_CLASSES)
+            raise BringupError(f"{bringup.source}: nodes[{i}].executable: {node.package}/{node.executable} "
+                               f"has no node class for --composed (known: {known})")
+
+
+def supervise(bringup: Bringup, options: argparse.Namespace, console: Console, signals: StopSignals,
+              make_stack: Callable[[Bringup, Console], ProcessStack | ComposedStack]) -> int:
+    """Start the stack, run the manager over it until a stop or a failure, take everything down."""
+    import rclpy
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.logging import LoggingSeverity
+    from rclpy.parameter import Parameter
+    from rclpy.signals import SignalHandlerOptions
+
+    from amr_control.bringup_status import StatusMonitor, format_table
+    from amr_control.lifecycle_manager import LifecycleManager
+
+    started_at = time.monotonic()
+    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+    executor = MultiThreadedExecutor(num_threads=len(bringup.nodes) + 3)
+    stack = None
+    try:
+        stack = make_stack(bringup, console)
+        for node in getattr(stack, "nodes", []):
+            executor.add_node(node)
+        manager = LifecycleManager(parameter_overrides=[
+            Parameter(name, value=value) for name, value in bringup.manager_parameters().items()])
+        if console.live:
+            manager.get_logger().set_level(LoggingSeverity.WARN)
+        executor.add_node(manager)
+        monitor = None
+        if options.status:
+            monitor = StatusMonitor(bringup.node_startup_order, [(n.name, n.namespace) for n in bringup.nodes])
+            executor.add_node(monitor)
+    except StackError as error:
+        console.note(str(error))
+        print(f"amr-bringup: {error}", file=sys.stderr)
+        executor.shutdown()
+        rclpy.try_shutdown()
+        return 1
+
+    def spin() -> None:
+        try:
+            executor.spin()
+        except Exception as error:  # a callback raised: the composed stack is broken
+            if isinstance(stack, ComposedStack):
+                stack.record_crash(error)
+
+    spinner = threading.Thread(target=spin, daemon=True)
+    spinner.start()
+    startup_steps: list = []
+    startup = threading.Thread(target=lambda: startup_steps.extend(manager.startup()), daemon=True)
+    startup.start()
+
+    failure, reported_active, next_table = None, False, time.monotonic()
+    while not signals.stop.wait(0.1):
+        failure = stack.failure()
+        if failure:
+            break
+        if not startup.is_alive() and not reported_active:
+            if not manager.started:
+                last = startup_steps[-1] if startup_steps else None
+                failure = (f"startup failed at {last.transition} of {last.node}: {last.detail}" if last
+                           else "startup failed")
+                break
+            reported_active = True
+            console.note(f"all nodes active: {', '.join(bringup.node_startup_order)}")
+        if monitor is not None and time.monotonic() >= next_table:
+            next_table += STATUS_PERIOD
+            monitor.refresh()
+            states, rows = monitor.snapshot()
+            console.table(format_table(f"amr-bringup {bringup.name}  {time.monotonic() - started_at:.0f} s",
+                                       states, rows))
+        if options.duration is not None and time.monotonic() - started_at >= options.duration:
+            if not reported_active:
+                failure = f"the stack was not active after --duration {options.duration} s"
+            break
+    console.end_live()
+
+    console.note(f"stopping: {failure}" if failure else "stopping")
+    if reported_active and not failure and not signals.hurry.is_set():
+        shutdown = threading.Thread(target=manager.shutdown, daemon=True)
+        shutdown.start()
+        deadline = time.monotonic() + GRACE_PERIOD
+        while shutdown.is_alive() and time.monotonic() < deadline and not signals.hurry.is_set():
+            shutdown.join(0.05)
+    executor.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
+    spinner.join(GRACE_PERIOD)
+    killed = stack.stop(signals.hurry)
+    manager.destroy_node()
+    if monitor is not None:
+        monitor.destroy_node()
+    rclpy.try_shutdown()
+    if killed and not signals.hurry.is_set():
+        failure = failure or f"node(s) {', '.join(killed)} did not exit within {GRACE_PERIOD} s of SIGINT (killed)"
+    if failure:
+        print(f"amr-bringup: {failure}", file=sys.stderr, flush=True)
+        return 1
+    console.note("stopped")
+    return 0
+
+
+def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.")
+    parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped one (maze_sim, "
+                                        "maze_sim_odometry, real_robot, ik_service)")
+    parser.add_argument("--composed", action="store_true",
+                        help="all nodes in this process on one MultiThreadedExecutor instead of one process each")
+    parser.add_argument("--status", action="store_true",
+                        help="print a table of the nodes' lifecycle states and the topic rates every second")
+    parser.add_argument("--duration", type=float, metavar="S",
+                        help="stop cleanly after S seconds (counted from the start)")
+    options = parser.parse_args(argv)
+    if options.duration is not None and not options.duration > 0:
+        parser.error("--duration must be positive")
+    return options
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    options = parse_arguments(argv)
+    try:
+        bringup = load_bringup(options.bringup)
+        check_installed(bringup, executables=not options.composed)
+        if options.composed:
+            check_composable(bringup)
+    except BringupError as error:
+        print(f"amr-bringup: {error}", file=sys.stderr)
+        return 2
+    signals = StopSignals()
+    console = Console(live=options.status and sys.stdout.isatty())
+    make_stack = ComposedStack if options.composed else ProcessStack
+    return supervise(bringup, options, console, signals, make_stack)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
