@@ -55,6 +55,8 @@ class Footprint:
     radius: float
     lidar_x: float = 0.0
     """on the robot's centre line, lidar_x ahead of the rotation centre (negative: behind)"""
+    side_margin: float = 0.0
+    """widens the swept band on each side: a real path curves a little (slip, noise)"""
 
 
 @dataclass(frozen=True)
@@ -132,7 +134,7 @@ class _Geometry:
         self.forward = forward
         self.forward_cos, self.forward_sin = cos[forward], sin[forward]
         with np.errstate(divide="ignore", over="ignore"):  # sin = 0 straight ahead: no limit
-            self.band_limit = footprint.radius / np.abs(sin[forward])
+            self.band_limit = (footprint.radius + footprint.side_margin) / np.abs(sin[forward])
 
 
 class SectorReader:
@@ -195,9 +197,10 @@ class SectorReader:
     def _clearance(self, ranges: np.ndarray, geometry: _Geometry) -> tuple[float, int]:
         """How far the disc can drive straight on before it touches a return.
 
-        A return at (x, y) in the robot frame lies in the swept band when |y| < R
-        and ahead when x > 0; the disc's front reaches it after x - sqrt(R^2 - y^2).
-        A wall alongside, however close, does not limit straight travel.
+        A return at (x, y) in the robot frame lies in the swept band when |y| < R + m
+        (m: the side margin) and ahead when x > 0; the widened disc's front reaches it
+        after x - sqrt((R + m)^2 - y^2). A wall alongside, further than R + m, does not
+        limit straight travel.
         """
         r = ranges[geometry.forward]
         in_band = np.flatnonzero(r < geometry.band_limit)  # +inf never is
@@ -210,8 +213,8 @@ class SectorReader:
         if not ahead.any():
             return math.inf, 0
         x, y = x[ahead], y[ahead]
-        radius = self.footprint.radius
-        travel = x - np.sqrt(np.maximum(radius * radius - y * y, 0.0))
+        reach = self.footprint.radius + self.footprint.side_margin
+        travel = x - np.sqrt(np.maximum(reach * reach - y * y, 0.0))
         nearest = int(np.argmin(travel))
         return float(max(travel[nearest], 0.0)), (1 if y[nearest] > 0.0 else -1)
 

@@ -26,8 +26,9 @@ state machine (``WallFollower.state``):
   ``stabilize_speed`` for ``stabilize_time``, then on until the followed wall
   is found (``FOLLOW``) or ``corner_exit_distance`` is driven (``SEARCH``).
 * ``AVOID``: safety net in every moving state: if driving straight on would
-  bring the disc footprint within ``safety_margin`` of a return, turn in
-  place away from it (a disc turning in place touches nothing new).
+  bring the disc footprint (widened by half the ``safety_margin`` on each
+  side) within ``safety_margin`` of a return, turn in place away from it (a
+  disc turning in place touches nothing new).
 
 Symmetric junctions (both sides open and within ``symmetric_tolerance``) and
 the direction of a dead-end turn between equal sides are drawn from a
@@ -126,7 +127,7 @@ class WallFollower:
                 math.radians(config.side_window_deg),
                 math.radians(config.abeam_window_deg),
             ),
-            Footprint(config.robot_radius, config.lidar_x),
+            Footprint(config.robot_radius, config.lidar_x, 0.5 * config.safety_margin),
         )
         self._max_v = max(config.linear_speed, config.stabilize_speed)
         # Front distance (from the LiDAR) at which the rotation centre is target_wall_distance from
@@ -350,11 +351,16 @@ class WallFollower:
     # -- helpers ---------------------------------------------------------------------------
 
     def _wall_distance(self, r: Readings) -> float:
-        """The fitted line's distance when the followed wall is straight, else the window minimum."""
+        """The fitted line's distance when the followed wall is straight, else the reading abeam.
+
+        Not the wide window's minimum: past the end of a wall that minimum is the corner,
+        and steering to keep it at the target would swing the robot round the corner before
+        the opening is even seen.
+        """
         fit = self._fit(r, self._followed)
         if fit is not None:
             return fit.distance
-        return r.left if self._followed == "left" else r.right
+        return self._abeam(r, self._followed)
 
     def _fit(self, r: Readings, side: str) -> LineFit | None:
         """The side's fitted line if it is a straight wall within reach and near parallel."""
