@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from .errors import InvalidRequestError
+
 
 def rot_x(angle: float) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
@@ -64,7 +66,7 @@ def quaternion_matrix(quaternion) -> np.ndarray:
     x, y, z, w = (float(v) for v in quaternion)
     norm = math.sqrt(x * x + y * y + z * z + w * w)
     if not norm > 1e-12 or not math.isfinite(norm):
-        raise ValueError(f"quaternion {tuple(quaternion)!r} has no direction")
+        raise InvalidRequestError(f"quaternion {tuple(quaternion)!r} is zero or not finite")
     x, y, z, w = x / norm, y / norm, z / norm, w / norm
     return np.array(
         [

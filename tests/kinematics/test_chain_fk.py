@@ -120,3 +120,23 @@ def test_kernel_matches_reference_on_every_chain(chain_set):
             position = chain.kernel.position_jacobian(q.tolist())
             np.testing.assert_allclose(np.array(position[3:]), jacobian[:3], atol=1e-12)
             np.testing.assert_allclose(chain.kernel.position(q.tolist()), reference[:3, 3], atol=1e-12)
+
+
+@given(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(lambda v: np.linalg.norm(v) > 0.1))
+@settings(max_examples=30)
+def test_quaternion_round_trip(values):
+    from amr_kinematics.transforms import matrix_quaternion, quaternion_matrix
+
+    q = np.array(values) / np.linalg.norm(values)
+    rotation = quaternion_matrix(q)
+    np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)
+    back = matrix_quaternion(rotation)
+    assert np.allclose(back, q, atol=1e-9) or np.allclose(back, -q, atol=1e-9)  # q and -q: one rotation
+
+
+@pytest.mark.parametrize("quaternion", [(0.0, 0.0, 0.0, 0.0), (math.nan, 0.0, 0.0, 1.0)])
+def test_degenerate_quaternion_is_a_request_error(quaternion):
+    from amr_kinematics.transforms import pose_matrix
+
+    with pytest.raises(InvalidRequestError):
+        pose_matrix([0.0, 0.0, 0.0], quaternion)
