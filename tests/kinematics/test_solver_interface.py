@@ -173,3 +173,22 @@ def test_fast_paths_take_the_same_steps_as_the_numpy_path(chain_set, name, joint
     fast, generic = _histories(config.chain, goal if with_orientation else goal[:3, 3], config.home, with_orientation)
     assert len(fast) == len(generic) > 3
     np.testing.assert_allclose(fast, generic, atol=1e-9)
+
+
+def test_solvers_can_be_shared_between_threads(chain_set):
+    """The node answers requests from several threads with the same solver objects."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def work(name: str) -> list[bool]:
+        config = chain_set[name]
+        rng = np.random.default_rng(len(name))
+        outcomes = []
+        for _ in range(30):
+            goal = config.chain.fk(rng.uniform(config.chain.lower, config.chain.upper)).tool
+            result = config.solve(goal, with_orientation=True, timeout=1.0)
+            outcomes.append(result.success and np.allclose(config.chain.fk(result.q).tool, goal, atol=1e-4))
+        return outcomes
+
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        results = list(pool.map(work, ["ur5", "panda", "ur5", "panda"]))
+    assert all(all(outcomes) for outcomes in results)
