@@ -111,9 +111,9 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
     for node in nodes:
         executor.add_node(node)
     try:
-        started = time.monotonic()
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the maze stack did not come up (see the log above)")
+        started = time.monotonic()
         if progress:
             print(f"maze: {world}, lockstep, {' -> '.join(n.get_name() for n in stack)}, "
                   f"{duration:.0f} s of simulated time or until the goal")
