@@ -26,7 +26,6 @@ from __future__ import annotations
 import math
 import threading
 from array import array
-from pathlib import Path
 
 import numpy as np
 import yaml
@@ -38,7 +37,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 from transforms3d.quaternions import mat2quat, quat2mat
 
-from amr_control.managed_node import ManagedNode, run
+from amr_control.managed_node import ManagedNode, run, share_directory
 from amr_kinematics.config import ChainConfig, flatten_parameters, load_chain_set
 from amr_kinematics.errors import KinematicsError
 
@@ -94,12 +93,7 @@ def _plain(value):
 
 def packaged_chain_parameters() -> dict:
     """{name: value} of the packaged config/ik_chains.yaml, {} if it is not installed."""
-    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-
-    try:
-        path = Path(get_package_share_directory(PACKAGE)) / DEFAULT_CONFIG
-    except PackageNotFoundError:
-        return {}
+    path = share_directory(PACKAGE) / DEFAULT_CONFIG
     if not path.is_file():
         return {}
     return flatten_parameters(yaml.safe_load(path.read_text(encoding="utf-8")))
