@@ -1,0 +1,167 @@
+"""amr-bringup end to end: the stack reaches active, Ctrl-C/SIGTERM leave no process behind, failures name the node."""
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+from conftest import spin_until
+from lifecycle_msgs.srv import GetState
+from rclpy.node import Node
+
+from amr_control.bringup_process import child_environment
+
+STARTUP_TIMEOUT = 30.0
+
+
+class Bringup:
+    """`python -m amr_control.bringup ...` with its output collected line by line."""
+
+    def __init__(self, *arguments: str) -> None:
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "amr_control.bringup", *arguments], env=child_environment(),
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=lambda: self.lines.extend(self.process.stdout), daemon=True)
+        self._reader.start()
+
+    @property
+    def output(self) -> str:
+        return "".join(self.lines)
+
+    def finish(self, timeout: float = 20.0) -> int:
+        try:
+            code = self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            pytest.fail(f"amr-bringup did not exit within {timeout} s:\n{self.output}")
+        self._reader.join(5.0)
+        return code
+
+    def child_pids(self) -> dict[str, int]:
+        return {m[1]: int(m[2]) for m in re.finditer(r"started (\w+) \(pid (\d+)\)", self.output)}
+
+
+@pytest.fixture
+def bringups():
+    started: list[Bringup] = []
+
+    def start(*arguments: str) -> Bringup:
+        started.append(Bringup(*arguments))
+        return started[-1]
+
+    yield start
+    for run in started:
+        if run.process.poll() is None:
+            os.killpg(run.process.pid, signal.SIGKILL)
+        for pid in run.child_pids().values():
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+class StateProbe(Node):
+    def __init__(self, context, names):
+        super().__init__("bringup_probe", context=context)
+        self.clients_ = {name: self.create_client(GetState, f"/{name}/get_state") for name in names}
+        self.states = {name: None for name in names}
+
+    def ask(self):
+        for name, client in self.clients_.items():
+            if client.service_is_ready():
+                future = client.call_async(GetState.Request())
+                future.add_done_callback(lambda f, name=name: self.states.update({name: f.result().current_state.label}))
+
+
+def wait_until_active(executor, probe: StateProbe, run: Bringup) -> None:
+    deadline = time.monotonic() + STARTUP_TIMEOUT
+    while time.monotonic() < deadline and run.process.poll() is None:
+        probe.ask()
+        if spin_until(executor, lambda: all(s == "active" for s in probe.states.values()), 0.5):
+            return
+    pytest.fail(f"states {probe.states} after {STARTUP_TIMEOUT} s:\n{run.output}")
+
+
+def assert_gone(pids: dict[str, int]) -> None:
+    for name, pid in pids.items():
+        for probe in (os.kill, os.killpg):  # the process, and its session's process group
+            with pytest.raises(ProcessLookupError):
+                probe(pid, 0)
+
+
+def test_processes_reach_active_show_status_and_leave_nothing_behind_on_ctrl_c(ros_context, executor, bringups):
+    run = bringups("real_robot", "--status")
+    probe = StateProbe(ros_context, ["odometry_node", "wall_follower"])
+    executor.add_node(probe)
+    wait_until_active(executor, probe, run)
+    pids = run.child_pids()
+    assert set(pids) == {"odometry_node", "wall_follower"} and os.getpid() not in pids.values()
+    time.sleep(2.5)  # a status table or two with both nodes active
+    run.process.send_signal(signal.SIGINT)
+    assert run.finish() == 0, run.output
+    assert_gone(pids)
+    output = run.output
+    assert re.search(r"^odometry_node\s+active$", output, re.MULTILINE), output
+    assert re.search(r"^/cmd_vel\s+geometry_msgs/msg/Twist\s+\d+\.\d\s+wall_follower$", output, re.MULTILINE), output
+    assert "deactivate wall_follower: wall_follower is inactive" in output  # the manager took it down first
+    assert "[wall_follower] " in output  # child lines carry their node's name
+
+
+def test_composed_stack_reaches_active_in_one_process_and_stops_on_sigterm(ros_context, executor, bringups):
+    run = bringups("real_robot", "--composed")
+    probe = StateProbe(ros_context, ["odometry_node", "wall_follower"])
+    executor.add_node(probe)
+    wait_until_active(executor, probe, run)
+    assert run.child_pids() == {}
+    run.process.send_signal(signal.SIGTERM)
+    assert run.finish() == 0, run.output
+    assert "cleanup odometry_node: odometry_node is unconfigured" in run.output
+
+
+def test_duration_stops_the_stack_by_itself(bringups):
+    run = bringups("ik_service", "--duration", "6")
+    assert run.finish(timeout=30.0) == 0, run.output
+    assert "all nodes active: ik_service" in run.output
+    assert_gone(run.child_pids())
+
+
+def write(tmp_path, text):
+    path = tmp_path / "stack.yaml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_node_that_dies_stops_everything_and_is_named(tmp_path, bringups):
+    stack = write(tmp_path, """
+nodes:
+  - {name: wall_follower, package: amr_control, executable: wall_follower, parameter_files: [wall_follower_real.yaml]}
+  - {name: odometry_node, package: amr_turtlebot3, executable: odometry_node, parameters: {qos_depth: ten}}
+""")
+    run = bringups(stack)
+    assert run.finish(timeout=30.0) == 1
+    assert re.search(r"amr-bringup: node odometry_node \(pid \d+\) exited with code 1", run.output), run.output
+    assert_gone(run.child_pids())
+
+
+def test_a_failed_configure_stops_the_startup_and_names_the_node(tmp_path, bringups):
+    stack = write(tmp_path, """
+nodes:
+  - {name: wall_follower, package: amr_control, executable: wall_follower, parameter_files: [wall_follower_real.yaml],
+     parameters: {preferred_wall: middle}}
+""")
+    run = bringups(stack, "--composed")
+    assert run.finish(timeout=30.0) == 1
+    assert "amr-bringup: startup failed at configure of wall_follower" in run.output, run.output
+
+
+def test_a_missing_executable_is_refused_before_anything_starts(tmp_path, bringups):
+    stack = write(tmp_path, "nodes: [{name: ghost, package: amr_control, executable: no_such_node}]\n")
+    run = bringups(stack)
+    assert run.finish() == 2
+    assert "nodes[0].executable: ghost: " in run.output and "is missing or not executable" in run.output
+    assert run.child_pids() == {}
