@@ -6,6 +6,7 @@ import math
 import time
 from pathlib import Path
 
+import pytest
 import yaml
 from amr_interfaces.srv import ComputeFK, SolveIK
 from geometry_msgs.msg import Pose
@@ -87,6 +88,28 @@ def start(context, executor, overrides=None, activate: bool = True) -> tuple[IKS
         assert node.try_transition(Transition.TRANSITION_ACTIVATE)
         assert probe.solve.wait_for_service(timeout_sec=5.0) and probe.fk.wait_for_service(timeout_sec=5.0)
     return node, probe
+
+
+def stop(executor, nodes) -> None:
+    """Remove and destroy the nodes: a node left alive keeps its services visible in the
+    DDS graph (nobody answering), and a later client would take it for the real server."""
+    for node in nodes:
+        executor.remove_node(node)
+        node.destroy_node()
+
+
+@pytest.fixture
+def launch(ros_context, multi_executor):
+    """start(...) on this test's context and 4-thread executor; the nodes destroyed after the test."""
+    created = []
+
+    def launch_node(overrides=None, activate: bool = True) -> tuple[IKServiceNode, Probe]:
+        node, probe = start(ros_context, multi_executor, overrides, activate)
+        created.extend((node, probe))
+        return node, probe
+
+    yield launch_node
+    stop(multi_executor, created)
 
 
 def quaternion_angle(a, b) -> float:

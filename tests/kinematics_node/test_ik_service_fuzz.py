@@ -13,7 +13,7 @@ from rclpy.parameter import Parameter
 
 from amr_kinematics.config import flatten_parameters
 
-from ik_node_helpers import CONFIG, call, config_overrides, pose, solve_request, start
+from ik_node_helpers import CONFIG, call, config_overrides, launch, pose, solve_request  # noqa: F401 (fixture)
 
 SOLVE_REQUESTS = 2000
 FK_REQUESTS = 400
@@ -68,10 +68,10 @@ def check_fk_reply(request: ComputeFK.Request, reply: ComputeFK.Response) -> Non
         assert all(map(math.isfinite, (position.x, position.y, position.z)))
 
 
-def test_random_and_malformed_requests_never_break_the_node(ros_context, multi_executor):
+def test_random_and_malformed_requests_never_break_the_node(launch, multi_executor):
     # short caps keep each request to a few milliseconds
     overrides = config_overrides() + [Parameter("max_timeout", value=0.002), Parameter("max_iterations_limit", value=500)]
-    _, probe = start(ros_context, multi_executor, overrides)
+    _, probe = launch(overrides)
     answered = {"solve": 0, "fk": 0}
     quick = settings(deadline=None, database=None, suppress_health_check=list(HealthCheck))
 

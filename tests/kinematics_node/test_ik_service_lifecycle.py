@@ -10,7 +10,7 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.parameter import Parameter
 
-from ik_node_helpers import call, config_overrides, pose, solve_request, spin_until, start
+from ik_node_helpers import call, config_overrides, launch, pose, solve_request, spin_until  # noqa: F401 (fixture)
 
 GOOD = solve_request("rr2", pose(1.0, 1.0))
 
@@ -27,8 +27,8 @@ def served_names(node) -> set[str]:
     return {service.srv_name for service in node.services}
 
 
-def test_invalid_transitions_are_refused_and_the_node_lives_on(ros_context, multi_executor):
-    node, probe = start(ros_context, multi_executor, activate=False)
+def test_invalid_transitions_are_refused_and_the_node_lives_on(launch, multi_executor):
+    node, probe = launch(activate=False)
     change, state = lifecycle_clients(probe)
 
     def transition(transition_id: int = 0, label: str = "") -> bool:
@@ -52,8 +52,8 @@ def test_invalid_transitions_are_refused_and_the_node_lives_on(ros_context, mult
     assert call(multi_executor, probe.solve, GOOD).success
 
 
-def test_inactive_node_refuses_requests_with_a_message(ros_context, multi_executor):
-    node, probe = start(ros_context, multi_executor, activate=False)
+def test_inactive_node_refuses_requests_with_a_message(launch, multi_executor):
+    node, probe = launch(activate=False)
     assert "/solve_ik" not in served_names(node), "no services before configure"
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert {"/solve_ik", "/compute_fk"} <= served_names(node)
@@ -87,12 +87,12 @@ BAD_CHAINS = {
 
 
 @pytest.mark.parametrize("changes, named", BAD_CHAINS.values(), ids=BAD_CHAINS.keys())
-def test_a_bad_chain_fails_configure_and_loads_nothing(ros_context, multi_executor, changes, named):
+def test_a_bad_chain_fails_configure_and_loads_nothing(launch, multi_executor, changes, named):
     from amr_kinematics.config import load_chain_set
 
     with pytest.raises(ValueError, match=named):  # the message the node logs names chain and key
         load_chain_set({p.name: p.value for p in config_overrides(**changes)})
-    node, probe = start(ros_context, multi_executor, config_overrides(**changes), activate=False)
+    node, probe = launch(config_overrides(**changes), activate=False)
     assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.state_label == "unconfigured"
     assert not {"/solve_ik", "/compute_fk"} & served_names(node), "nothing half-loaded"
@@ -107,15 +107,15 @@ def test_a_bad_chain_fails_configure_and_loads_nothing(ros_context, multi_execut
     assert call(multi_executor, probe.solve, GOOD).success
 
 
-def test_bad_node_limits_fail_configure(ros_context, multi_executor):
-    node, _ = start(ros_context, multi_executor, config_overrides() + [Parameter("max_timeout", value=-1.0)],
+def test_bad_node_limits_fail_configure(launch, multi_executor):
+    node, _ = launch(config_overrides() + [Parameter("max_timeout", value=-1.0)],
                     activate=False)
     assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.state_label == "unconfigured"
 
 
-def test_a_long_solve_does_not_block_another_chain(ros_context, multi_executor):
-    node, probe = start(ros_context, multi_executor, config_overrides() + [Parameter("max_timeout", value=0.5)])
+def test_a_long_solve_does_not_block_another_chain(launch, multi_executor):
+    node, probe = launch(config_overrides() + [Parameter("max_timeout", value=0.5)])
     started = time.monotonic()
     slow = probe.solve.call_async(solve_request("panda", pose(2.0, 2.0, 2.0), timeout=0.5, max_iterations=100_000))
     assert spin_until(multi_executor, node._chain_locks["panda"].locked, timeout=5.0)
@@ -128,8 +128,8 @@ def test_a_long_solve_does_not_block_another_chain(ros_context, multi_executor):
     assert not slow.result().success
 
 
-def test_requests_on_one_chain_take_turns_within_their_timeout(ros_context, multi_executor):
-    node, probe = start(ros_context, multi_executor, config_overrides() + [Parameter("max_timeout", value=0.5)])
+def test_requests_on_one_chain_take_turns_within_their_timeout(launch, multi_executor):
+    node, probe = launch(config_overrides() + [Parameter("max_timeout", value=0.5)])
     slow = probe.solve.call_async(solve_request("panda", pose(2.0, 2.0, 2.0), timeout=0.5, max_iterations=100_000))
     assert spin_until(multi_executor, node._chain_locks["panda"].locked, timeout=5.0)
     started = time.monotonic()

@@ -15,7 +15,7 @@ from rclpy.parameter import Parameter
 
 from amr_kinematics.config import flatten_parameters
 
-from ik_node_helpers import CONFIG, call, config_overrides, pose, quaternion_angle, solve_request, spin_until, start
+from ik_node_helpers import CONFIG, call, config_overrides, pose, quaternion_angle, solve_request, spin_until, start, stop
 
 MAX_TIMEOUT = 0.25  # s, the node's cap in this module: an unbounded solve costs at most this
 PARAMS = flatten_parameters(yaml.safe_load(CONFIG.read_text(encoding="utf-8")))
@@ -32,6 +32,7 @@ def served():
     executor = MultiThreadedExecutor(num_threads=4, context=context)
     node, probe = start(context, executor, config_overrides() + [Parameter("max_timeout", value=MAX_TIMEOUT)])
     yield executor, node, probe
+    stop(executor, (node, probe))
     executor.shutdown()
     context.try_shutdown()
 
