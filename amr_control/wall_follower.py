@@ -9,7 +9,8 @@ state machine (``WallFollower.state``):
   control on the distance error e = d - target,
   ``w = s (kp e + kd de/dt)`` with s = +1 for the left wall, -1 for the right,
   de/dt over the real time between stamps (optionally low-passed), saturated
-  at ``angular_limit``.
+  at ``angular_limit``. d is the distance to the line fitted to the side
+  window; where the wall is not straight only e < 0 is corrected.
 * ``CORNER``: the followed wall ended (an opening on that side): drive
   ``corner_advance`` further, then turn towards the opening.
 * ``APPROACH``: a front return closer than ``front_threshold`` at a corner:
@@ -154,6 +155,7 @@ class WallFollower:
         self._last_stamp: float | None = None
         self._last_error: float | None = None
         self._error_rate = 0.0
+        self._straight = False  # whether the last PD error came from a fitted line
         self._command = (0.0, 0.0)
         self._measurements = Measurements(followed_wall=self._followed)
 
@@ -282,17 +284,28 @@ class WallFollower:
         if state == State.AVOID or state in TURNING:
             return 0.0, self._turn_sign * c.turn_speed
         if state == State.FOLLOW:
-            return self._follow(self._wall_distance(r), elapsed, rate_valid)
+            return self._follow(r, elapsed, rate_valid)
         # Straight runs (STABILIZE, APPROACH, SEARCH, CORNER) keep parallel to a fitted wall if any.
         align = c.align_gain * self._skew if self._skew_seen else 0.0
         align = min(max(align, -c.angular_limit), c.angular_limit)
         slow = state in (State.STABILIZE, State.APPROACH)
         return (c.stabilize_speed if slow else c.linear_speed), align
 
-    def _follow(self, wall: float, elapsed: float, rate_valid: bool) -> tuple[float, float]:
-        """PD on e = d - target: w = s (kp e + kd de/dt), saturated."""
+    def _follow(self, r: Readings, elapsed: float, rate_valid: bool) -> tuple[float, float]:
+        """PD on e = d - target: w = s (kp e + kd de/dt), saturated.
+
+        d is the distance to the fitted line when the followed wall is straight. When it
+        is not (its end, a corner, clutter in the window), the robot only steers away from
+        returns nearer than the target: e = min(d_min - target, 0). Steering towards a
+        corner would swing the robot round it, skewed, before the opening is even seen.
+        """
         c = self.config
-        error = wall - c.target_wall_distance
+        straight = self._fit(r, self._followed) is not None
+        error = self._wall_distance(r) - c.target_wall_distance
+        if not straight:
+            error = min(error, 0.0)
+        if straight != self._straight:  # a different measurement: no rate across the switch
+            self._straight, self._last_error = straight, None
         if self._last_error is None:
             self._error_rate = 0.0
         elif rate_valid and elapsed > 0.0:
@@ -351,16 +364,11 @@ class WallFollower:
     # -- helpers ---------------------------------------------------------------------------
 
     def _wall_distance(self, r: Readings) -> float:
-        """The fitted line's distance when the followed wall is straight, else the reading abeam.
-
-        Not the wide window's minimum: past the end of a wall that minimum is the corner,
-        and steering to keep it at the target would swing the robot round the corner before
-        the opening is even seen.
-        """
+        """The fitted line's distance when the followed wall is straight, else the side window's minimum."""
         fit = self._fit(r, self._followed)
         if fit is not None:
             return fit.distance
-        return self._abeam(r, self._followed)
+        return r.left if self._followed == "left" else r.right
 
     def _fit(self, r: Readings, side: str) -> LineFit | None:
         """The side's fitted line if it is a straight wall within reach and near parallel."""

@@ -57,6 +57,21 @@ def test_pd_turns_towards_a_far_wall_and_away_from_a_near_one(wall, left, right,
     assert command.v == 0.15 and command.ok
 
 
+def test_pd_does_not_steer_towards_the_end_of_a_wall():
+    # Just past the end of a thick wall on the right: the side window sees its top and its end
+    # face (no straight line), and the nearest return is the corner, 5 cm beyond the target.
+    def wall_end(depth):
+        return [(-BIG, 1.0, BIG, 1.0), (-BIG, -depth, -0.015, -depth), (-0.015, -depth, -0.015, -1.0)]
+
+    drive = Drive()
+    drive.step(cast(corridor(left=1.0, right=0.25)))
+    assert drive.step(cast(corridor(left=1.0, right=0.25))).w == pytest.approx(-0.2)  # a straight wall: kp e
+    command = drive.step(cast(wall_end(0.25)))
+    assert drive.state == "FOLLOW" and command.w == 0.0  # not swinging round the corner
+    command = drive.step(cast(wall_end(0.15)))
+    assert command.w > 0.0  # but away from a corner nearer than the target
+
+
 def test_pd_output_saturates():
     drive = Drive({"kp": 10.0, "angular_limit": 0.34})
     assert drive.step(cast(corridor(left=1.0, right=0.35))).w == pytest.approx(-0.34)
