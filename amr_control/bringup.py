@@ -29,8 +29,16 @@ import traceback
 from collections import deque
 from collections.abc import Callable, Sequence
 
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.logging import LoggingSeverity
+from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
+
 from amr_control.bringup_config import Bringup, BringupError, NodeSpec, check_installed, load_bringup
 from amr_control.bringup_process import NodeProcess, executable_path, stop_processes
+from amr_control.bringup_status import StatusMonitor, format_table
+from amr_control.lifecycle_manager import LifecycleManager
 
 GRACE_PERIOD = 5.0
 """s a node gets to exit after SIGINT (or a clean shutdown takes) before SIGKILL."""
@@ -91,6 +99,10 @@ class StopSignals:
         (self.hurry if self.stop.is_set() else self.stop).set()
 
 
+class StackError(RuntimeError):
+    """The stack could not be started; the message names the node."""
+
+
 class ProcessStack:
     """One process per node."""
 
@@ -98,9 +110,12 @@ class ProcessStack:
         self.processes: list[NodeProcess] = []
         for node in bringup.nodes:
             command = [str(executable_path(node.package, node.executable)), *node.ros_arguments()]
-            self.processes.append(NodeProcess(node.name, command, console.line))
+            try:
+                self.processes.append(NodeProcess(node.name, command, console.line))
+            except OSError as error:
+                self.stop(threading.Event())
+                raise StackError(f"node {node.name} failed to start: {error}") from error
             console.note(f"started {node.name} (pid {self.processes[-1].pid}): {' '.join(command)}")
-        self.console = console
 
     def failure(self) -> str | None:
         for process in self.processes:
@@ -118,6 +133,7 @@ class ComposedStack:
 
     def __init__(self, bringup: Bringup, console: Console) -> None:
         self.nodes = []
+        self.crash: str | None = None
         for node in bringup.nodes:
             try:
                 self.nodes.append(node_class(node)(cli_args=node.ros_arguments()))
@@ -125,7 +141,6 @@ class ComposedStack:
                 self.stop(threading.Event())
                 raise StackError(f"node {node.name} failed to start: {type(error).__name__}: {error}") from error
             console.note(f"created {node.name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
-        self.crash: str | None = None
 
     def failure(self) -> str | None:
         return self.crash
@@ -147,10 +162,6 @@ class ComposedStack:
         return []
 
 
-class StackError(RuntimeError):
-    """The stack could not be started; the message names the node."""
-
-
 def node_class(node: NodeSpec) -> type:
     module, name = NODE_CLASSES[(node.package, node.executable)]
     return getattr(importlib.import_module(module), name)
@@ -164,101 +175,115 @@ def check_composable(bringup: Bringup) -> None:
                                f"has no node class for --composed (known: {known})")
 
 
-def supervise(bringup: Bringup, options: argparse.Namespace, console: Console, signals: StopSignals,
-              make_stack: Callable[[Bringup, Console], ProcessStack | ComposedStack]) -> int:
-    """Start the stack, run the manager over it until a stop or a failure, take everything down."""
-    import rclpy
-    from rclpy.executors import MultiThreadedExecutor
-    from rclpy.logging import LoggingSeverity
-    from rclpy.parameter import Parameter
-    from rclpy.signals import SignalHandlerOptions
+class Supervisor:
+    """Runs the lifecycle manager (and the status monitor) over a started stack until a stop or a failure."""
 
-    from amr_control.bringup_status import StatusMonitor, format_table
-    from amr_control.lifecycle_manager import LifecycleManager
+    def __init__(self, bringup: Bringup, options: argparse.Namespace, console: Console, signals: StopSignals) -> None:
+        self.bringup, self.options, self.console, self.signals = bringup, options, console, signals
+        self.started_at = time.monotonic()
+        self.executor = MultiThreadedExecutor(num_threads=len(bringup.nodes) + 3)
+        self.stack: ProcessStack | ComposedStack | None = None
+        self.manager: LifecycleManager | None = None
+        self.monitor: StatusMonitor | None = None
+        self.active = False
+        self._spinner = threading.Thread(target=self._spin, daemon=True)
+        self._startup_steps: list = []
+        self._startup = threading.Thread(target=lambda: self._startup_steps.extend(self.manager.startup()),
+                                         daemon=True)
 
-    started_at = time.monotonic()
-    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
-    executor = MultiThreadedExecutor(num_threads=len(bringup.nodes) + 3)
-    stack = None
-    try:
-        stack = make_stack(bringup, console)
-        for node in getattr(stack, "nodes", []):
-            executor.add_node(node)
-        manager = LifecycleManager(parameter_overrides=[
-            Parameter(name, value=value) for name, value in bringup.manager_parameters().items()])
-        if console.live:
-            manager.get_logger().set_level(LoggingSeverity.WARN)
-        executor.add_node(manager)
-        monitor = None
-        if options.status:
-            monitor = StatusMonitor(bringup.node_startup_order, [(n.name, n.namespace) for n in bringup.nodes])
-            executor.add_node(monitor)
-    except StackError as error:
-        console.note(str(error))
-        print(f"amr-bringup: {error}", file=sys.stderr)
-        executor.shutdown()
-        rclpy.try_shutdown()
-        return 1
-
-    def spin() -> None:
+    def run(self, make_stack: Callable[[Bringup, Console], ProcessStack | ComposedStack]) -> int:
+        """Start, watch, take down; whatever happens, nothing this started is left running."""
+        failure = None
         try:
-            executor.spin()
-        except Exception as error:  # a callback raised: the composed stack is broken
-            if isinstance(stack, ComposedStack):
-                stack.record_crash(error)
-
-    spinner = threading.Thread(target=spin, daemon=True)
-    spinner.start()
-    startup_steps: list = []
-    startup = threading.Thread(target=lambda: startup_steps.extend(manager.startup()), daemon=True)
-    startup.start()
-
-    failure, reported_active, next_table = None, False, time.monotonic()
-    while not signals.stop.wait(0.1):
-        failure = stack.failure()
+            self.stack = make_stack(self.bringup, self.console)
+            self._add_nodes()
+            self._spinner.start()
+            self._startup.start()
+            failure = self._watch()
+            self.console.end_live()
+            self.console.note(f"stopping: {failure}" if failure else "stopping")
+            if self.active and not failure:
+                self._shut_down_managed_nodes()
+        except StackError as error:
+            failure = str(error)
+        finally:
+            self.console.end_live()
+            killed = self._take_down()
+        if killed and not self.signals.hurry.is_set():
+            failure = failure or f"node(s) {', '.join(killed)} did not exit within {GRACE_PERIOD} s of SIGINT (killed)"
         if failure:
-            break
-        if not startup.is_alive() and not reported_active:
-            if not manager.started:
-                last = startup_steps[-1] if startup_steps else None
-                failure = (f"startup failed at {last.transition} of {last.node}: {last.detail}" if last
-                           else "startup failed")
-                break
-            reported_active = True
-            console.note(f"all nodes active: {', '.join(bringup.node_startup_order)}")
-        if monitor is not None and time.monotonic() >= next_table:
-            next_table += STATUS_PERIOD
-            monitor.refresh()
-            states, rows = monitor.snapshot()
-            console.table(format_table(f"amr-bringup {bringup.name}  {time.monotonic() - started_at:.0f} s",
-                                       states, rows))
-        if options.duration is not None and time.monotonic() - started_at >= options.duration:
-            if not reported_active:
-                failure = f"the stack was not active after --duration {options.duration} s"
-            break
-    console.end_live()
+            print(f"amr-bringup: {failure}", file=sys.stderr, flush=True)
+            return 1
+        self.console.note("stopped")
+        return 0
 
-    console.note(f"stopping: {failure}" if failure else "stopping")
-    if reported_active and not failure and not signals.hurry.is_set():
-        shutdown = threading.Thread(target=manager.shutdown, daemon=True)
+    def _add_nodes(self) -> None:
+        for node in getattr(self.stack, "nodes", []):
+            self.executor.add_node(node)
+        self.manager = LifecycleManager(parameter_overrides=[
+            Parameter(name, value=value) for name, value in self.bringup.manager_parameters().items()])
+        if self.console.live:
+            self.manager.get_logger().set_level(LoggingSeverity.WARN)
+        self.executor.add_node(self.manager)
+        if self.options.status:
+            self.monitor = StatusMonitor(self.bringup.node_startup_order,
+                                         [(node.name, node.namespace) for node in self.bringup.nodes])
+            self.executor.add_node(self.monitor)
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception as error:  # a callback raised: the composed stack is broken
+            if isinstance(self.stack, ComposedStack):
+                self.stack.record_crash(error)
+
+    def _watch(self) -> str | None:
+        """Wait for a stop request, the end of --duration or a failure (returned, naming the node)."""
+        next_table = time.monotonic()
+        while not self.signals.stop.wait(0.1):
+            failure = self.stack.failure()
+            if failure:
+                return failure
+            if not self._startup.is_alive() and not self.active:
+                if not self.manager.started:
+                    last = self._startup_steps[-1] if self._startup_steps else None
+                    return f"startup failed at {last.transition} of {last.node}: {last.detail}" if last else \
+                        "startup failed"
+                self.active = True
+                self.console.note(f"all nodes active: {', '.join(self.bringup.node_startup_order)}")
+            if self.monitor is not None and time.monotonic() >= next_table:
+                next_table += STATUS_PERIOD
+                self._print_status()
+            elapsed = time.monotonic() - self.started_at
+            if self.options.duration is not None and elapsed >= self.options.duration:
+                return None if self.active else f"the stack was not active after --duration {self.options.duration} s"
+        return None
+
+    def _print_status(self) -> None:
+        self.monitor.refresh()
+        states, rows = self.monitor.snapshot()
+        title = f"amr-bringup {self.bringup.name}  {time.monotonic() - self.started_at:.0f} s"
+        self.console.table(format_table(title, states, rows))
+
+    def _shut_down_managed_nodes(self) -> None:
+        """The manager deactivates and cleans up in reverse order, for GRACE_PERIOD at most."""
+        shutdown = threading.Thread(target=self.manager.shutdown, daemon=True)
         shutdown.start()
         deadline = time.monotonic() + GRACE_PERIOD
-        while shutdown.is_alive() and time.monotonic() < deadline and not signals.hurry.is_set():
+        while shutdown.is_alive() and time.monotonic() < deadline and not self.signals.hurry.is_set():
             shutdown.join(0.05)
-    executor.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
-    spinner.join(GRACE_PERIOD)
-    killed = stack.stop(signals.hurry)
-    manager.destroy_node()
-    if monitor is not None:
-        monitor.destroy_node()
-    rclpy.try_shutdown()
-    if killed and not signals.hurry.is_set():
-        failure = failure or f"node(s) {', '.join(killed)} did not exit within {GRACE_PERIOD} s of SIGINT (killed)"
-    if failure:
-        print(f"amr-bringup: {failure}", file=sys.stderr, flush=True)
-        return 1
-    console.note("stopped")
-    return 0
+
+    def _take_down(self) -> list[str]:
+        """Stop spinning, stop the stack (the labels of killed processes are returned), free ROS."""
+        self.executor.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
+        if self._spinner.is_alive():
+            self._spinner.join(GRACE_PERIOD)
+        killed = self.stack.stop(self.signals.hurry) if self.stack is not None else []
+        for node in (self.manager, self.monitor):
+            if node is not None:
+                node.destroy_node()
+        rclpy.try_shutdown()
+        return killed
 
 
 def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -290,8 +315,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     signals = StopSignals()
     console = Console(live=options.status and sys.stdout.isatty())
-    make_stack = ComposedStack if options.composed else ProcessStack
-    return supervise(bringup, options, console, signals, make_stack)
+    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+    return Supervisor(bringup, options, console, signals).run(ComposedStack if options.composed else ProcessStack)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from lifecycle_msgs.srv import GetState
-from rclpy.node import Node
+from rclpy.node import Node, NodeNameNonExistentError
 from rclpy.qos import qos_profile_sensor_data
 
 RATE_WINDOW = 2.0
@@ -82,7 +82,7 @@ class StatusMonitor(Node):
         for node_name, namespace in self._stack:
             try:
                 published = self.get_publisher_names_and_types_by_node(node_name, namespace or "/")
-            except Exception:  # not discovered yet (NodeNameNonExistentError) or gone
+            except NodeNameNonExistentError:  # not discovered yet, or gone
                 continue
             for topic, types in published:
                 if topic in IGNORED_TOPICS or topic.endswith(IGNORED_SUFFIXES) or not types:

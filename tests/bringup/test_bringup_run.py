@@ -165,3 +165,13 @@ def test_a_missing_executable_is_refused_before_anything_starts(tmp_path, bringu
     assert run.finish() == 2
     assert "nodes[0].executable: ghost: " in run.output and "is missing or not executable" in run.output
     assert run.child_pids() == {}
+
+
+def test_a_node_that_cannot_be_built_in_composed_mode_is_named(tmp_path, bringups):
+    stack = write(tmp_path, """
+nodes:
+  - {name: odometry_node, package: amr_turtlebot3, executable: odometry_node, parameters: {qos_depth: ten}}
+""")
+    run = bringups(stack, "--composed")
+    assert run.finish(timeout=30.0) == 1
+    assert "amr-bringup: node odometry_node failed to start: InvalidParameterTypeException" in run.output, run.output
