@@ -25,6 +25,7 @@ DEFAULT_MAX_ITERATIONS = 1000
 DEFAULT_TIMEOUT = 0.005  # s; TRAC-IK's customary budget
 MAX_ITERATIONS_LIMIT = 1_000_000  # requests beyond these are refused as absurd
 MAX_TIMEOUT = 60.0
+_EYE3 = np.eye(3)
 
 
 @dataclass
@@ -94,7 +95,7 @@ def parse_goal(chain: Chain, target, with_orientation: bool) -> Goal:
         raise InvalidRequestError("target must be finite (no NaN or inf)")
     if array.shape == (4, 4):
         rotation = array[:3, :3]
-        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or not np.allclose(array[3], (0, 0, 0, 1)):
+        if float(np.abs(rotation @ rotation.T - _EYE3).max()) > 1e-6 or array[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
             raise InvalidRequestError("target pose is not a rigid transform (rotation not orthonormal)")
         if not with_orientation:
             return Goal(array[:3, 3].copy(), None)
