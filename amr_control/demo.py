@@ -13,6 +13,7 @@ import math
 import os
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -90,8 +91,9 @@ def call(node: Node, service_type, name: str, request):
 
 def run_maze(context, executor, world: str, duration: float, *, odometry_node: bool = False,
              follower_config: str = "wall_follower_sim.yaml", render_path: Path | None = None,
+             simulator_overrides: Sequence[str] = (), follower_overrides: Sequence[str] = (),
              progress: bool = True) -> tuple[dict, np.ndarray]:
-    """The maze stack in lockstep for `duration` simulated seconds (or to the goal).
+    """The maze stack for `duration` simulated seconds (or to the goal), lockstep unless overridden.
 
     With odometry_node, the simulator publishes only /odom, as a real TurtleBot3 does, and
     amr_turtlebot3's odometry_node derives the /odometry the follower reads. Returns the run's
@@ -100,8 +102,9 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
     simulator = SimulatorNode(context=context, cli_args=params_file_args(
         config_file("amr_simulation", "simulator.yaml"), f"world:={world}",
         f"publish_odometry:={'false' if odometry_node else 'true'}",
-        *([f"render_path:={render_path}"] if render_path else [])))
-    follower = WallFollowerNode(context=context, cli_args=params_file_args(config_file("amr_control", follower_config)))
+        *([f"render_path:={render_path}"] if render_path else []), *simulator_overrides))
+    follower = WallFollowerNode(context=context, cli_args=params_file_args(
+        config_file("amr_control", follower_config), *follower_overrides))
     stack = [follower] + ([OdometryNode(context=context)] if odometry_node else []) + [simulator]
     # listeners first: the simulator publishes its first observation when it activates
     manager = LifecycleManager(context=context, parameter_overrides=[

@@ -51,7 +51,7 @@ class WallFollowerNode(ManagedNode):
         self.controller: WallFollower | None = None
         self._sync: ApproximateTimeSynchronizer | None = None
         self._publisher = None
-        self._subscriptions = []
+        self._inputs = []
         self._timer = None
         self._latest_pair: tuple[Odometry, LaserScan] | None = None
         self._latest_pair_time: Time | None = None
@@ -76,7 +76,7 @@ class WallFollowerNode(ManagedNode):
         self._publisher = self.create_lifecycle_publisher(message_type, "cmd_vel", 10)
         self._status_publisher = self.create_lifecycle_publisher(WallFollowerStatus, "~/status", 10)
         reliable = QoSProfile(depth=config.sync_queue_size, reliability=ReliabilityPolicy.RELIABLE)
-        self._subscriptions = [
+        self._inputs = [
             self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), reliable),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), qos_profile_sensor_data),
         ]
@@ -101,11 +101,11 @@ class WallFollowerNode(ManagedNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for subscription in self._subscriptions:
+        for subscription in self._inputs:
             self.destroy_subscription(subscription)
         self.destroy_lifecycle_publisher(self._publisher)
         self.destroy_lifecycle_publisher(self._status_publisher)
-        self._subscriptions, self._publisher, self._status_publisher = [], None, None
+        self._inputs, self._publisher, self._status_publisher = [], None, None
         self.config = self.controller = self._sync = None
         return TransitionCallbackReturn.SUCCESS
 

@@ -37,3 +37,18 @@ def test_explores_without_touching_a_wall(ros_context, spinning, world, odometry
     if not summary["goal_reached"]:
         assert summary["mean_speed_m_s"] > 0.05, f"stalled: {summary}"
     assert len(samples) >= summary["simulated_time_s"] / 0.05 - 2, "a command per observation (lockstep)"
+
+
+@pytest.mark.parametrize("world", ["outer_corridor.yaml", "hard_maze.yaml"])
+def test_real_robot_config_drives_the_simulator_on_sim_time(ros_context, spinning, world):
+    """Twist on /cmd_vel, a timer every dt on /clock: the seed's real-robot architecture, sped up 4x.
+
+    The simulator follows REP 103, so the real robot's sign flip (seed 5.2.1) is switched off here.
+    """
+    summary, samples = run_maze(
+        ros_context, spinning, world, 90.0, follower_config="wall_follower_real.yaml",
+        simulator_overrides=["mode:=realtime", "rate:=4.0", "cmd_vel_stamped:=false"],
+        follower_overrides=["use_sim_time:=true", "flip_angular_sign:=false"], progress=False)
+    print(summary)
+    assert summary["collisions"] == 0, summary
+    assert summary["distance_m"] > 0.05 * summary["simulated_time_s"], f"stalled: {summary}"
