@@ -256,7 +256,8 @@ def _parse_node(where: _Where, key: str, entry: object) -> NodeSpec:
     namespace = entry.get("namespace") or ""
     tokens = namespace.strip("/").split("/") if isinstance(namespace, str) and namespace.strip("/") else []
     if not isinstance(namespace, str) or not all(NAME.match(token) for token in tokens):
-        raise where.error(f"{key}.namespace", f"must be a ROS namespace such as robot1 or /fleet/robot1, got {namespace!r}")
+        raise where.error(f"{key}.namespace",
+                          f"must be a ROS namespace such as robot1 or /fleet/robot1, got {namespace!r}")
     files = entry.get("parameter_files", [])
     if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
         raise where.error(f"{key}.parameter_files", f"must be a list of file names, got {files!r}")

@@ -49,7 +49,8 @@ def format_table(title: str, states: Sequence[tuple[str, str]], topics: Sequence
     lines += ["", f"{'TOPIC':<{topic_width}}  {'TYPE':<{type_width}}  {'RATE (Hz)':>9}  PUBLISHERS"]
     for row in topics:
         rate = "?" if row.rate is None else f"{row.rate:.1f}"
-        lines.append(f"{row.topic:<{topic_width}}  {row.type_name:<{type_width}}  {rate:>9}  {', '.join(row.publishers)}")
+        publishers = ", ".join(row.publishers)
+        lines.append(f"{row.topic:<{topic_width}}  {row.type_name:<{type_width}}  {rate:>9}  {publishers}")
     if not topics:
         lines.append("(no topic published by the stack yet)")
     return "\n".join(lines)
@@ -94,7 +95,8 @@ class StatusMonitor(Node):
     def _set_state(self, name: str, future) -> None:
         label = "unknown"
         if future is not None:
-            label = "no answer" if future.exception() or future.result() is None else future.result().current_state.label
+            answer = None if future.exception() else future.result()
+            label = "no answer" if answer is None else answer.current_state.label
         elif name in self._states and self._states[name] != "unknown":
             label = "gone"
         with self._lock:

@@ -131,7 +131,8 @@ GOOD = {"name": "a", "package": "amr_control", "executable": "wall_follower"}
      "lifecycle_manager.node_startup_order: 'b' is not one of the nodes ['a']"),
     ({"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["a", "a"]}},
      "lifecycle_manager.node_startup_order: names a node twice"),
-    ({"nodes": [GOOD], "lifecycle_manager": {"wait_timeout": -1}}, "lifecycle_manager.wait_timeout: must be a positive number"),
+    ({"nodes": [GOOD], "lifecycle_manager": {"wait_timeout": -1}},
+     "lifecycle_manager.wait_timeout: must be a positive number"),
 ])
 def test_errors_name_the_file_and_the_key(document, key, tmp_path):
     source = tmp_path / "stack.yaml"

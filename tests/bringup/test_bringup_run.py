@@ -75,7 +75,8 @@ class StateProbe(Node):
         for name, client in self.clients_.items():
             if client.service_is_ready():
                 future = client.call_async(GetState.Request())
-                future.add_done_callback(lambda f, name=name: self.states.update({name: f.result().current_state.label}))
+                future.add_done_callback(
+                    lambda f, name=name: self.states.update({name: f.result().current_state.label}))
 
 
 def wait_until_active(executor, probe: StateProbe, run: Bringup) -> None:
