@@ -37,23 +37,30 @@ class ServiceLifecycleClient:
             self._clients[key] = self._node.create_client(service_type, f"{name}/{service}", callback_group=self._group)
         return self._clients[key]
 
+    def _call(self, name: str, service: str, service_type, request):
+        """The response, or None at once when the service is gone (a node that already exited)."""
+        client = self._client(name, service, service_type)
+        if not client.service_is_ready():
+            return None
+        return client.call(request, self._timeout)
+
     def wait_until_available(self, node: str, timeout: float) -> bool:
         return all(self._client(node, service, kind).wait_for_service(timeout_sec=timeout)
                    for service, kind in (("get_state", GetState), ("change_state", ChangeState),
                                          ("get_available_transitions", GetAvailableTransitions)))
 
     def state(self, node: str) -> str | None:
-        response = self._client(node, "get_state", GetState).call(GetState.Request(), self._timeout)
+        response = self._call(node, "get_state", GetState, GetState.Request())
         return None if response is None else response.current_state.label
 
     def available_transitions(self, node: str) -> list[str] | None:
-        client = self._client(node, "get_available_transitions", GetAvailableTransitions)
-        response = client.call(GetAvailableTransitions.Request(), self._timeout)
+        response = self._call(node, "get_available_transitions", GetAvailableTransitions,
+                              GetAvailableTransitions.Request())
         return None if response is None else [t.transition.label for t in response.available_transitions]
 
     def change_state(self, node: str, transition: str) -> bool | None:
         request = ChangeState.Request(transition=Transition(label=transition))
-        response = self._client(node, "change_state", ChangeState).call(request, self._timeout)
+        response = self._call(node, "change_state", ChangeState, request)
         return None if response is None else response.success
 
 

@@ -18,16 +18,10 @@ import pytest  # noqa: E402
 import rclpy  # noqa: E402
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
 
+from amr_control.bringup_process import child_environment  # noqa: E402,F401 (tests import it from here)
+
 ROOT = Path(__file__).resolve().parent.parent
 PREFIX = Path(sys.prefix)
-BOOTSTRAP_VARIABLES = ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")
-
-
-def child_environment(**extra: str) -> dict[str, str]:
-    """Our environment without the wheels' bootstrap markers, so the child sets up its own library path."""
-    env = {k: v for k, v in os.environ.items() if k not in BOOTSTRAP_VARIABLES}
-    env.update(extra)
-    return env
 
 
 @pytest.fixture
