@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
+import random
 import weakref
 
 import pytest
+import rclpy
 from conftest import spin_until
 from amr_interfaces.msg import SimulatorStatus
 from amr_interfaces.srv import SetPose
@@ -125,22 +128,54 @@ def settle(executor, duration: float = 0.2) -> None:
     spin_until(executor, lambda: False, duration)
 
 
-@pytest.fixture
-def simulator(ros_context):
-    """Makes simulator nodes in this process (dotted names through a dict: **{'lidar.beams': 60}).
+FIRST_DOMAIN, DOMAINS = 101, 132
+"""In-process tests take DDS domains 101-232, above conftest's 10-100 for processes."""
+_next_domain = itertools.count(random.SystemRandom().randrange(DOMAINS))
 
-    They are destroyed at teardown, so that no pymunk space outlives the test.
-    """
-    nodes: list[SimulatorNode] = []
+
+@pytest.fixture
+def ros_context():
+    """Overrides conftest's for in-process tests: a domain of the test's own. DDS may announce the
+    nodes of earlier tests until their lease runs out (20 s); in a shared domain their ghost
+    services named simulator/... shadow the live ones and requests go unanswered."""
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=FIRST_DOMAIN + next(_next_domain) % DOMAINS)
+    yield context
+    context.try_shutdown()
+
+
+@pytest.fixture
+def nodes():
+    """Nodes made in a test, destroyed at its end: a DDS participant lives as long as its nodes, and
+    leftover participants take the low participant ids that localhost discovery probes, so that later
+    processes are not found; nor does any pymunk space outlive the test."""
+    made: list[Node] = []
+    yield made
+    for node in made:
+        node.destroy_node()
+
+
+@pytest.fixture
+def simulator(ros_context, nodes):
+    """Makes simulator nodes in this process (dotted names through a dict: **{'lidar.beams': 60})."""
 
     def make(**params) -> SimulatorNode:
         nodes.append(SimulatorNode(context=ros_context,
                                    parameter_overrides=[Parameter(k, value=v) for k, v in params.items()]))
         return nodes[-1]
 
-    yield make
-    for node in nodes:
-        node.destroy_node()
+    return make
+
+
+@pytest.fixture
+def probe(ros_context, nodes):
+    """Makes Probe nodes: probe(stamped=True, use_sim_time=False)."""
+
+    def make(**options) -> Probe:
+        nodes.append(Probe(ros_context, **options))
+        return nodes[-1]
+
+    return make
 
 
 def start(executor, node: SimulatorNode, probe: Probe) -> None:

@@ -9,8 +9,8 @@ from amr_interfaces.srv import SetPose
 from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
-from simulator_probe import (
-    TIMEOUT, Probe, call, change_state, drive, seconds, settle, simulator, start, state_of)  # noqa: F401 (fixture)
+from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, ros_context, simulator)
+    TIMEOUT, call, change_state, drive, nodes, probe, ros_context, seconds, settle, simulator, start, state_of)
 from std_srvs.srv import Trigger
 
 from amr_simulation.config import LidarConfig
@@ -26,48 +26,48 @@ def yaw(message) -> float:
     return 2.0 * math.atan2(q.z, q.w)
 
 
-def test_straight_for_10_s_ends_1_5_m_ahead_on_ground_truth_and_odometry(simulator, ros_context, executor):
-    node, probe = simulator(**OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
-    first = probe.ground_truth[0].pose.pose.position
+def test_straight_for_10_s_ends_1_5_m_ahead_on_ground_truth_and_odometry(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
+    start(executor, node, driver)
+    first = driver.ground_truth[0].pose.pose.position
     assert (first.x, first.y) == (-1.5, -1.0)
 
-    drive(executor, probe, [(0.15, 0.0)] * 200)
+    drive(executor, driver, [(0.15, 0.0)] * 200)
 
-    for stream in (probe.ground_truth, probe.odometry, probe.odom):
+    for stream in (driver.ground_truth, driver.odometry, driver.odom):
         end = stream[-1].pose.pose.position
         assert end.x == pytest.approx(-1.5 + 1.5, abs=0.01)
         assert end.y == pytest.approx(-1.0, abs=0.01)
         assert abs(yaw(stream[-1])) < 1e-6
-    assert probe.odometry[-1].twist.twist.linear.x == pytest.approx(0.15)
-    assert probe.ground_truth[-1].twist.twist.linear.x == pytest.approx(0.15)
-    assert probe.odom[-1].twist.twist.linear.x == 0.0, "/odom carries no twist, as a real TurtleBot3's"
-    assert seconds(probe.odometry[-1].header.stamp) == pytest.approx(200 * DT)
-    assert probe.statuses[-1].distance_travelled == pytest.approx(1.5, abs=1e-6)
-    assert probe.statuses[-1].real_time_factor > 0.0
-    frames = {(m.header.frame_id, m.child_frame_id) for m in probe.odometry + probe.odom}
+    assert driver.odometry[-1].twist.twist.linear.x == pytest.approx(0.15)
+    assert driver.ground_truth[-1].twist.twist.linear.x == pytest.approx(0.15)
+    assert driver.odom[-1].twist.twist.linear.x == 0.0, "/odom carries no twist, as a real TurtleBot3's"
+    assert seconds(driver.odometry[-1].header.stamp) == pytest.approx(200 * DT)
+    assert driver.statuses[-1].distance_travelled == pytest.approx(1.5, abs=1e-6)
+    assert driver.statuses[-1].real_time_factor > 0.0
+    frames = {(m.header.frame_id, m.child_frame_id) for m in driver.odometry + driver.odom}
     assert frames == {("odom", "base_footprint")}
-    assert probe.ground_truth[-1].header.frame_id == "map"
+    assert driver.ground_truth[-1].header.frame_id == "map"
 
 
-def test_n_commands_in_n_observations_out_in_order(simulator, ros_context, executor):
-    node, probe = simulator(**OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
+def test_n_commands_in_n_observations_out_in_order(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
+    start(executor, node, driver)
     speeds = [0.005 * k for k in range(1, 31)]
-    drive(executor, probe, [(v, 0.0) for v in speeds[:20]])
+    drive(executor, driver, [(v, 0.0) for v in speeds[:20]])
     # the last 10 as a burst (the /cmd_vel queue holds 10): queued commands are stepped in order
     for v in speeds[20:]:
-        probe.send(v)
-    assert spin_until(executor, lambda: probe.observations() >= 31, TIMEOUT)
+        driver.send(v)
+    assert spin_until(executor, lambda: driver.observations() >= 31, TIMEOUT)
     settle(executor)
 
-    for stream in (probe.odometry, probe.odom, probe.ground_truth, probe.scans, probe.statuses):
+    for stream in (driver.odometry, driver.odom, driver.ground_truth, driver.scans, driver.statuses):
         assert len(stream) == 1 + len(speeds), "one first observation, then exactly one per command"
-    assert [s.steps for s in probe.statuses] == list(range(31))
-    assert [m.twist.twist.linear.x for m in probe.odometry[1:]] == pytest.approx(speeds)
-    for stream in (probe.odometry, probe.ground_truth, probe.scans):
+    assert [s.steps for s in driver.statuses] == list(range(31))
+    assert [m.twist.twist.linear.x for m in driver.odometry[1:]] == pytest.approx(speeds)
+    for stream in (driver.odometry, driver.ground_truth, driver.scans):
         assert [seconds(m.header.stamp) for m in stream] == pytest.approx([k * DT for k in range(31)])
-    scan = probe.scans[-1]
+    scan = driver.scans[-1]
     lidar = LidarConfig()
     assert scan.header.frame_id == "base_scan" and len(scan.ranges) == lidar.beams
     assert (scan.angle_min, scan.range_min, scan.range_max) == pytest.approx(
@@ -75,114 +75,114 @@ def test_n_commands_in_n_observations_out_in_order(simulator, ros_context, execu
     assert scan.angle_increment == pytest.approx(lidar.angle_increment)
 
 
-def test_plain_twist_when_cmd_vel_is_not_stamped(simulator, ros_context, executor):
-    node, probe = simulator(cmd_vel_stamped=False, **OPEN_ROOM), Probe(ros_context, stamped=False)
-    start(executor, node, probe)
-    drive(executor, probe, [(0.1, 0.5)] * 4)
-    assert [m.twist.twist.angular.z for m in probe.odometry[1:]] == pytest.approx([0.5] * 4)
-    assert yaw(probe.ground_truth[-1]) == pytest.approx(4 * DT * 0.5)
+def test_plain_twist_when_cmd_vel_is_not_stamped(simulator, probe, executor):
+    node, driver = simulator(cmd_vel_stamped=False, **OPEN_ROOM), probe(stamped=False)
+    start(executor, node, driver)
+    drive(executor, driver, [(0.1, 0.5)] * 4)
+    assert [m.twist.twist.angular.z for m in driver.odometry[1:]] == pytest.approx([0.5] * 4)
+    assert yaw(driver.ground_truth[-1]) == pytest.approx(4 * DT * 0.5)
 
 
-def test_non_finite_command_still_advances_one_step_at_rest(simulator, ros_context, executor):
-    node, probe = simulator(**OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
-    drive(executor, probe, [(math.nan, 0.0), (0.1, math.inf), (0.1, 0.0)])
+def test_non_finite_command_still_advances_one_step_at_rest(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
+    start(executor, node, driver)
+    drive(executor, driver, [(math.nan, 0.0), (0.1, math.inf), (0.1, 0.0)])
     assert node.state_label == "active"
-    assert [s.steps for s in probe.statuses] == [0, 1, 2, 3]
-    assert [m.twist.twist.linear.x for m in probe.ground_truth[1:]] == pytest.approx([0.0, 0.0, 0.1])
+    assert [s.steps for s in driver.statuses] == [0, 1, 2, 3]
+    assert [m.twist.twist.linear.x for m in driver.ground_truth[1:]] == pytest.approx([0.0, 0.0, 0.1])
 
 
-def test_observation_topics_can_be_switched_off(simulator, ros_context, executor):
+def test_observation_topics_can_be_switched_off(simulator, probe, executor):
     node = simulator(publish_odometry=False, publish_scan=False, **OPEN_ROOM)
-    probe = Probe(ros_context)
-    probe.expected = {"status", "odom", "ground_truth"}
-    start(executor, node, probe)
-    drive(executor, probe, [(0.1, 0.0)] * 3)
+    driver = probe()
+    driver.expected = {"status", "odom", "ground_truth"}
+    start(executor, node, driver)
+    drive(executor, driver, [(0.1, 0.0)] * 3)
     settle(executor)
-    assert (len(probe.odometry), len(probe.scans)) == (0, 0)
-    assert (len(probe.odom), len(probe.ground_truth)) == (4, 4)
+    assert (len(driver.odometry), len(driver.scans)) == (0, 0)
+    assert (len(driver.odom), len(driver.ground_truth)) == (4, 4)
 
 
-def test_reset_and_set_pose(simulator, ros_context, executor):
-    node, probe = simulator(**OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
-    drive(executor, probe, [(0.2, 0.0)] * 10)
+def test_reset_and_set_pose(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
+    start(executor, node, driver)
+    drive(executor, driver, [(0.2, 0.0)] * 10)
 
-    answer = call(executor, probe.set_pose, SetPose.Request(x=0.5, y=-0.5, theta=math.pi / 2))
+    answer = call(executor, driver.set_pose, SetPose.Request(x=0.5, y=-0.5, theta=math.pi / 2))
     assert answer.success, answer.message
-    assert spin_until(executor, lambda: probe.observations() == 12, TIMEOUT), "set_pose publishes the new state"
-    for stream in (probe.ground_truth, probe.odometry):
+    assert spin_until(executor, lambda: driver.observations() == 12, TIMEOUT), "set_pose publishes the new state"
+    for stream in (driver.ground_truth, driver.odometry):
         assert (stream[-1].pose.pose.position.x, stream[-1].pose.pose.position.y) == (0.5, -0.5)
         assert yaw(stream[-1]) == pytest.approx(math.pi / 2)
-    drive(executor, probe, [(0.2, 0.0)])
-    assert probe.ground_truth[-1].pose.pose.position.y == pytest.approx(-0.5 + 0.2 * DT)
+    drive(executor, driver, [(0.2, 0.0)])
+    assert driver.ground_truth[-1].pose.pose.position.y == pytest.approx(-0.5 + 0.2 * DT)
 
-    inside_pillar = call(executor, probe.set_pose, SetPose.Request(x=0.0, y=0.0, theta=0.0))
+    inside_pillar = call(executor, driver.set_pose, SetPose.Request(x=0.0, y=0.0, theta=0.0))
     assert not inside_pillar.success and "overlaps" in inside_pillar.message
-    assert not call(executor, probe.set_pose, SetPose.Request(x=math.nan, y=0.0, theta=0.0)).success
+    assert not call(executor, driver.set_pose, SetPose.Request(x=math.nan, y=0.0, theta=0.0)).success
 
-    answer = call(executor, probe.reset, Trigger.Request())
+    answer = call(executor, driver.reset, Trigger.Request())
     assert answer.success, answer.message
-    assert spin_until(executor, lambda: probe.observations() == 14, TIMEOUT), "reset publishes the start state"
-    status, truth = probe.statuses[-1], probe.ground_truth[-1]
+    assert spin_until(executor, lambda: driver.observations() == 14, TIMEOUT), "reset publishes the start state"
+    status, truth = driver.statuses[-1], driver.ground_truth[-1]
     assert (status.steps, status.sim_time, status.collisions, status.distance_travelled) == (0, 0.0, 0, 0.0)
     assert (truth.pose.pose.position.x, truth.pose.pose.position.y) == (-1.5, -1.0)
-    stamps = [seconds(m.header.stamp) for m in probe.ground_truth]
+    stamps = [seconds(m.header.stamp) for m in driver.ground_truth]
     assert all(later > earlier for earlier, later in zip(stamps, stamps[1:])), "stamps never go back"
 
 
-def test_ramming_a_wall_counts_one_collision_and_stays_out(simulator, ros_context, executor):
+def test_ramming_a_wall_counts_one_collision_and_stays_out(simulator, probe, executor):
     # facing the east wall (inner face at x = 1.975) from 0.5 m away; 80 steps would drive 1.6 m
-    node, probe = simulator(start=[1.3, 0.0, 0.0], **OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
-    drive(executor, probe, [(0.2, 0.0)] * 80)
-    status = probe.statuses[-1]
+    node, driver = simulator(start=[1.3, 0.0, 0.0], **OPEN_ROOM), probe()
+    start(executor, node, driver)
+    drive(executor, driver, [(0.2, 0.0)] * 80)
+    status = driver.statuses[-1]
     assert status.collisions == 1 and status.in_contact
-    assert probe.ground_truth[-1].pose.pose.position.x <= 1.975 - 0.105 + 0.01
-    assert probe.ground_truth[-1].twist.twist.linear.x == pytest.approx(0.0, abs=1e-6)
+    assert driver.ground_truth[-1].pose.pose.position.x <= 1.975 - 0.105 + 0.01
+    assert driver.ground_truth[-1].twist.twist.linear.x == pytest.approx(0.0, abs=1e-6)
 
 
-def test_goal_reached_stops_the_robot(simulator, ros_context, executor):
+def test_goal_reached_stops_the_robot(simulator, probe, executor):
     # open_room's goal: (1.5, -1.0) radius 0.2, entered after 0.3 m at 0.2 m/s (30 steps)
-    node, probe = simulator(start=[1.0, -1.0, 0.0], **OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
-    drive(executor, probe, [(0.2, 0.0)] * 40)
-    reached = [s.goal_reached for s in probe.statuses]
+    node, driver = simulator(start=[1.0, -1.0, 0.0], **OPEN_ROOM), probe()
+    start(executor, node, driver)
+    drive(executor, driver, [(0.2, 0.0)] * 40)
+    reached = [s.goal_reached for s in driver.statuses]
     assert reached.index(True) == 30
-    assert probe.ground_truth[-1].pose.pose.position.x == pytest.approx(probe.ground_truth[30].pose.pose.position.x)
+    assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(driver.ground_truth[30].pose.pose.position.x)
 
 
-def test_render_writes_a_png_and_answers_its_path(simulator, ros_context, executor, tmp_path):
+def test_render_writes_a_png_and_answers_its_path(simulator, probe, executor, tmp_path):
     target = tmp_path / "view.png"
-    node, probe = simulator(render_path=str(target), **OPEN_ROOM), Probe(ros_context)
-    start(executor, node, probe)
-    drive(executor, probe, [(0.2, 0.3)] * 5)
-    answer = call(executor, probe.render, Trigger.Request())
+    node, driver = simulator(render_path=str(target), **OPEN_ROOM), probe()
+    start(executor, node, driver)
+    drive(executor, driver, [(0.2, 0.3)] * 5)
+    answer = call(executor, driver.render, Trigger.Request())
     assert answer.success and answer.message == str(target)
     assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
     node.set_parameters([Parameter("render_path", value=str(tmp_path / "no" / "dir.png"))])
-    answer = call(executor, probe.render, Trigger.Request())
+    answer = call(executor, driver.render, Trigger.Request())
     assert not answer.success and "render failed" in answer.message
 
 
-def test_invalid_transition_is_refused_and_lifecycle_runs_through(simulator, ros_context, executor):
-    node, probe = simulator(**OPEN_ROOM), Probe(ros_context)
+def test_invalid_transition_is_refused_and_lifecycle_runs_through(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
     executor.add_node(node)
-    executor.add_node(probe)
-    assert not change_state(executor, probe, Transition.TRANSITION_ACTIVATE)
-    assert state_of(executor, probe) == "unconfigured"
-    assert change_state(executor, probe, Transition.TRANSITION_CONFIGURE)
-    assert not change_state(executor, probe, Transition.TRANSITION_CONFIGURE)
-    assert change_state(executor, probe, Transition.TRANSITION_ACTIVATE)
-    assert spin_until(executor, lambda: probe.observations() == 1, TIMEOUT)
-    assert change_state(executor, probe, Transition.TRANSITION_DEACTIVATE)
-    probe.send(0.1)
+    executor.add_node(driver)
+    assert not change_state(executor, driver, Transition.TRANSITION_ACTIVATE)
+    assert state_of(executor, driver) == "unconfigured"
+    assert change_state(executor, driver, Transition.TRANSITION_CONFIGURE)
+    assert not change_state(executor, driver, Transition.TRANSITION_CONFIGURE)
+    assert change_state(executor, driver, Transition.TRANSITION_ACTIVATE)
+    assert spin_until(executor, lambda: driver.observations() == 1, TIMEOUT)
+    assert change_state(executor, driver, Transition.TRANSITION_DEACTIVATE)
+    driver.send(0.1)
     settle(executor, 0.3)
-    assert len(probe.statuses) == 1, "an inactive simulator does not step"
-    assert change_state(executor, probe, Transition.TRANSITION_CLEANUP)
-    assert probe.count_publishers("/ground_truth") == 0 and not probe.set_pose.service_is_ready()
-    assert state_of(executor, probe) == "unconfigured"
+    assert len(driver.statuses) == 1, "an inactive simulator does not step"
+    assert change_state(executor, driver, Transition.TRANSITION_CLEANUP)
+    assert driver.count_publishers("/ground_truth") == 0 and not driver.set_pose.service_is_ready()
+    assert state_of(executor, driver) == "unconfigured"
 
 
 BAD_WORLD = """\
@@ -201,23 +201,23 @@ start: [0.5, 0.5, 0.0]
     ({"lidar.beam": 60}, "lidar.beam"),  # a typo, not silently ignored
     ({"start": [-1.9, -1.0, 0.0]}, "overlaps"),
 ])
-def test_bad_configuration_fails_configure_naming_the_key(simulator, ros_context, executor, tmp_path, capfd, params, named):
+def test_bad_configuration_fails_configure_naming_the_key(simulator, probe, executor, tmp_path, capfd, params, named):
     if params.get("world") == "BAD":
         params = {"world": str(tmp_path / "bad.yaml")}
         (tmp_path / "bad.yaml").write_text(BAD_WORLD)
-    node, probe = simulator(**{**OPEN_ROOM, **params}), Probe(ros_context)
+    node, driver = simulator(**{**OPEN_ROOM, **params}), probe()
     executor.add_node(node)
-    executor.add_node(probe)
-    assert not change_state(executor, probe, Transition.TRANSITION_CONFIGURE)
-    assert state_of(executor, probe) == "unconfigured"
-    assert probe.count_publishers("/ground_truth") == 0 and not probe.reset.service_is_ready(), "half-built"
+    executor.add_node(driver)
+    assert not change_state(executor, driver, Transition.TRANSITION_CONFIGURE)
+    assert state_of(executor, driver) == "unconfigured"
+    assert driver.count_publishers("/ground_truth") == 0 and not driver.reset.service_is_ready(), "half-built"
     error_lines = [line for line in capfd.readouterr().err.splitlines() if "configure failed" in line]
     assert error_lines and named in error_lines[0]
 
     if "lidar.beam" not in params:  # fixed at run time, configure then succeeds
         node.set_parameters([Parameter(name, value=LIBRARY_DEFAULTS[name]) for name in params])
-        assert change_state(executor, probe, Transition.TRANSITION_CONFIGURE)
-        assert probe.count_publishers("/ground_truth") == 1
+        assert change_state(executor, driver, Transition.TRANSITION_CONFIGURE)
+        assert driver.count_publishers("/ground_truth") == 1
 
 
 LIBRARY_DEFAULTS = {"world": "open_room.yaml", "dt": 0.05, "mode": "lockstep", "start": []}
