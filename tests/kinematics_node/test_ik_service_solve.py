@@ -179,7 +179,7 @@ def test_absurd_limits_are_capped_and_the_timeout_holds(served):
     elapsed = time.monotonic() - started
     assert not reply.success
     assert f"timeout capped at {MAX_TIMEOUT} s" in reply.message and "max_iterations capped at 100000" in reply.message
-    assert MAX_TIMEOUT * 0.9 <= elapsed <= MAX_TIMEOUT + 0.15
+    assert MAX_TIMEOUT * 0.9 <= elapsed <= MAX_TIMEOUT + 0.5  # uncapped: seconds
 
 
 @pytest.mark.parametrize("chain, solver", [("ur5", "dls"), ("panda", "pinv"), ("ull3", "ccd")])
@@ -189,7 +189,7 @@ def test_a_solve_never_runs_past_its_timeout(served, chain, solver):
     reply = solve(served, chain, pose(2.0, 2.0, 2.0), solver=solver, timeout=timeout, max_iterations=100_000,
                   tolerance=1e-12)
     assert not reply.success and reply.message
-    assert time.monotonic() - started <= timeout + 0.1  # round trip included
+    assert time.monotonic() - started <= timeout + 0.25  # round trip included; unbounded: seconds
 
 
 def test_forward_kinematics_gives_tool_pose_and_joint_origins(served):
