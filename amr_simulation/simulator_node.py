@@ -107,9 +107,9 @@ class SimulatorNode(ManagedNode):
             self.declare_parameter(name, default, ParameterDescriptor(description=description))
         self._sim: Simulator | None = None
         self._outputs: dict[str, object] = {}
-        self._subscription = None
+        self._cmd_vel_subscription = None
         self._node_services: list = []
-        self._timer = None
+        self._step_timer = None
         self._frames: dict[str, str] = {}
         self._stamped = True
         self._active = False
@@ -143,7 +143,7 @@ class SimulatorNode(ManagedNode):
         self._command, self._command_stamp = (0.0, 0.0), self._now()
         self._meter.clear()
         if config.mode == "realtime":  # steady clock: immune to use_sim_time on this very node
-            self._timer = self.create_timer(
+            self._step_timer = self.create_timer(
                 config.dt / config.rate, self._on_timer, clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
         self._active = True
         self._publish_observation()
@@ -195,7 +195,7 @@ class SimulatorNode(ManagedNode):
             self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", reliable)
         self._frames = {name: get(f"{name}_frame") for name in ("odom", "world", "base", "scan")}
         self._stamped = self._sim.config.cmd_vel_stamped
-        self._subscription = self.create_subscription(
+        self._cmd_vel_subscription = self.create_subscription(
             TwistStamped if self._stamped else Twist, "cmd_vel", self._on_cmd_vel, reliable)
         self._node_services = [
             self.create_service(Trigger, "~/reset", self._on_reset),
@@ -208,16 +208,16 @@ class SimulatorNode(ManagedNode):
         self._stop_timer()
         for service in self._node_services:
             self.destroy_service(service)
-        if self._subscription is not None:
-            self.destroy_subscription(self._subscription)
+        if self._cmd_vel_subscription is not None:
+            self.destroy_subscription(self._cmd_vel_subscription)
         for publisher in self._outputs.values():
             self.destroy_lifecycle_publisher(publisher)
-        self._node_services, self._subscription, self._outputs, self._sim = [], None, {}, None
+        self._node_services, self._cmd_vel_subscription, self._outputs, self._sim = [], None, {}, None
 
     def _stop_timer(self) -> None:
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
-            self._timer = None
+        if self._step_timer is not None:
+            self.destroy_timer(self._step_timer)
+            self._step_timer = None
 
     # -- stepping --------------------------------------------------------------------------
 

@@ -156,7 +156,8 @@ def bench_in_process(world: str, steps: int, label: str, **extra) -> None:
 
 
 def bench_processes(world: str, steps: int) -> None:
-    environment = {k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")}
+    bootstrap = ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")  # the child sets up its own library path
+    environment = {k: v for k, v in os.environ.items() if k not in bootstrap}
     command = [str(EXECUTABLE), "--ros-args", "-p", "autostart:=true", "-p", f"world:={world}",
                "-p", f"dt:={DT}", "--log-level", "warn"]
     process = subprocess.Popen(command, env=environment, start_new_session=True)
