@@ -137,6 +137,10 @@ class _Geometry:
             self.band_limit = (footprint.radius + footprint.side_margin) / np.abs(sin[forward])
 
 
+MAX_RANGE = 1000.0
+"""m: readings beyond this are never measurements, whatever range_max says."""
+
+
 class SectorReader:
     """Turns scans into :class:`Readings`; caches the beam layout between scans."""
 
@@ -164,7 +168,8 @@ class SectorReader:
             return f"beam angles overflow (angle_min {angle_min}, angle_increment {increment})"
         geometry = self._layout(raw.size, angle_min, increment)
         range_min = range_min if math.isfinite(range_min) and range_min > 0.0 else 0.0
-        range_max = range_max if range_max > range_min else math.inf  # NaN compares False
+        # NaN compares False; no planar LiDAR reads beyond MAX_RANGE, larger values are corrupt.
+        range_max = min(range_max, MAX_RANGE) if range_max > range_min else MAX_RANGE
         measured = (raw >= range_min) & (raw <= range_max)  # False for NaN
         # Ignored readings become +inf: they never lower a minimum.
         ranges = np.where(measured, raw, np.inf)

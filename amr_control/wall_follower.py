@@ -4,7 +4,8 @@ Each call to :meth:`WallFollower.compute` takes one synchronized LiDAR scan,
 the odometry twist and the stamp, and returns the velocity command. The
 state machine (``WallFollower.state``):
 
-* ``SEARCH``: no wall yet; drive straight until the followed wall shows up.
+* ``SEARCH``: no wall yet; drive straight until the followed wall shows up
+  (a wall met ahead is turned from so that it ends up on the followed side).
 * ``FOLLOW``: keep the followed wall at ``target_wall_distance`` with PD
   control on the distance error e = d - target,
   ``w = s (kp e + kd de/dt)`` with s = +1 for the left wall, -1 for the right,
@@ -156,6 +157,7 @@ class WallFollower:
         self._last_error: float | None = None
         self._error_rate = 0.0
         self._straight = False  # whether the last PD error came from a fitted line
+        self._tracking = False  # whether the last front block met the robot following a wall
         self._command = (0.0, 0.0)
         self._measurements = Measurements(followed_wall=self._followed)
 
@@ -268,6 +270,8 @@ class WallFollower:
 
         if self._state in MOVING:
             if r.front < c.front_threshold and self._state != State.APPROACH:
+                # Following a wall (or just past its end) rather than looking for one?
+                self._tracking = present or self._state == State.CORNER
                 dead_end = max(r.left_abeam, r.right_abeam) <= c.wall_lost_distance
                 if dead_end or r.front <= self._pivot_distance:
                     self._decide_turn(r)
@@ -318,7 +322,12 @@ class WallFollower:
         return c.linear_speed, min(max(w, -c.angular_limit), c.angular_limit)
 
     def _decide_turn(self, r: Readings) -> None:
-        """Front blocked: turn by comparing the sides (seed 002 section 4.4)."""
+        """Front blocked: turn by comparing the sides (seed 002 section 4.4).
+
+        Keeping a hand on the wall: while following one, turn towards the followed side if
+        it is open (the wall turns that way), else away from it; while still looking for a
+        wall, turn away from the followed side first, which puts the wall ahead on it.
+        """
         c = self.config
         left, right = r.left_abeam, r.right_abeam
         left_open = left > c.wall_lost_distance
@@ -330,7 +339,7 @@ class WallFollower:
         other_open = right_open if self._followed == "left" else left_open
         toward_followed = State.TURN_LEFT if self._followed == "left" else State.TURN_RIGHT
         away = State.TURN_RIGHT if self._followed == "left" else State.TURN_LEFT
-        if followed_open:
+        if followed_open and (self._tracking or not other_open):
             self._start_turn(toward_followed)
         elif other_open:
             self._start_turn(away)

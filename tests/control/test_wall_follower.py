@@ -128,9 +128,18 @@ def test_dead_end_turns_around():
 )
 def test_front_blocked_turn_compares_the_sides(scan, wall, expected):
     drive = Drive({"preferred_wall": wall})
+    drive.step(cast(corridor(left=0.2, right=0.2)))
+    assert drive.state == "FOLLOW"
     command = drive.step(scan)
     assert drive.state == expected
     assert command.w == pytest.approx(0.5 if expected == "TURN_LEFT" else -0.5)
+
+
+@pytest.mark.parametrize("wall, expected", [("right", "TURN_LEFT"), ("left", "TURN_RIGHT")])
+def test_a_wall_met_while_searching_is_put_on_the_followed_side(wall, expected):
+    drive = Drive({"preferred_wall": wall})
+    drive.step(T_JUNCTION)  # no wall alongside yet: searching
+    assert drive.state == expected
 
 
 def test_random_junction_choices_are_reproducible():
@@ -138,6 +147,7 @@ def test_random_junction_choices_are_reproducible():
         result = []
         for seed in range(20):
             drive = Drive({"preferred_wall": "random", "random_seed": seed})
+            drive.step(CLEAR)
             drive.step(T_JUNCTION)
             result.append(drive.state)
         return result
