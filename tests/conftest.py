@@ -32,18 +32,27 @@ def ros_context():
     context.try_shutdown()
 
 
+def close(executor) -> None:
+    """Destroy the executor's nodes: an undestroyed node outlives its test in the ROS graph, where a
+    later test (or a node process) can find a stale namesake."""
+    nodes = executor.get_nodes()
+    executor.shutdown()
+    for node in nodes:
+        node.destroy_node()
+
+
 @pytest.fixture
 def executor(ros_context):
     executor = SingleThreadedExecutor(context=ros_context)
     yield executor
-    executor.shutdown()
+    close(executor)
 
 
 @pytest.fixture
 def multi_executor(ros_context):
     executor = MultiThreadedExecutor(num_threads=4, context=ros_context)
     yield executor
-    executor.shutdown()
+    close(executor)
 
 
 def spin_until(executor, condition, timeout: float) -> bool:
