@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import random
 import signal
@@ -12,7 +13,7 @@ from pathlib import Path
 
 # Before rclpy is imported anywhere: no DDS traffic leaves loopback, and parallel runs do not meet.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(10, 100)))
+os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(10, 100)))  # tests: ros_domain
 
 import pytest  # noqa: E402
 import rclpy  # noqa: E402
@@ -24,10 +25,26 @@ ROOT = Path(__file__).resolve().parent.parent
 PREFIX = Path(sys.prefix)
 
 
+FIRST_TEST_DOMAIN, TEST_DOMAINS = 101, 132
+_next_domain = itertools.count(random.SystemRandom().randrange(TEST_DOMAINS))
+
+
 @pytest.fixture
-def ros_context():
+def ros_domain(monkeypatch) -> int:
+    """A DDS domain (101-232) of this test's own, also for the processes it starts.
+
+    DDS announces the participants of earlier tests until their lease runs out (about 20 s); in a
+    shared domain their ghost services shadow live namesakes and requests go unanswered.
+    """
+    domain = FIRST_TEST_DOMAIN + next(_next_domain) % TEST_DOMAINS
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    return domain
+
+
+@pytest.fixture
+def ros_context(ros_domain):
     context = rclpy.Context()
-    rclpy.init(context=context)
+    rclpy.init(context=context, domain_id=ros_domain)
     yield context
     context.try_shutdown()
 
@@ -90,7 +107,7 @@ class NodeProcess:
 
 
 @pytest.fixture
-def node_process():
+def node_process(ros_domain):
     started: list[NodeProcess] = []
 
     def start(package: str, executable: str, *ros_args: str) -> NodeProcess:

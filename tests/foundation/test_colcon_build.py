@@ -41,7 +41,7 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
     env["LD_LIBRARY_PATH"] = f"{install / 'amr_interfaces' / 'lib'}{os.pathsep}{PREFIX / 'lib'}"
     env["_ROS_WHEELS_BOOTSTRAP_COMPLETE"] = "1"
     probe = subprocess.run(
-        [sys.executable, "-c", "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o; "
+        [sys.executable, "-c", "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls; "
          "print(s.SolveIK.__module__, s.SolveIK.Request().__class__.__name__, o.__file__)"],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
     assert probe.returncode == 0, probe.stderr

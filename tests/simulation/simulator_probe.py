@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import itertools
-import random
 import weakref
 
 import pytest
-import rclpy
 from conftest import spin_until
 from amr_interfaces.msg import SimulatorStatus
 from amr_interfaces.srv import SetPose
@@ -126,22 +123,6 @@ def drive(executor, probe: Probe, commands) -> None:
 def settle(executor, duration: float = 0.2) -> None:
     """Spin a little longer so that anything extra (which would be a bug) has time to arrive."""
     spin_until(executor, lambda: False, duration)
-
-
-FIRST_DOMAIN, DOMAINS = 101, 132
-"""In-process tests take DDS domains 101-232, above conftest's 10-100 for processes."""
-_next_domain = itertools.count(random.SystemRandom().randrange(DOMAINS))
-
-
-@pytest.fixture
-def ros_context():
-    """Overrides conftest's for in-process tests: a domain of the test's own. DDS may announce the
-    nodes of earlier tests until their lease runs out (20 s); in a shared domain their ghost
-    services named simulator/... shadow the live ones and requests go unanswered."""
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=FIRST_DOMAIN + next(_next_domain) % DOMAINS)
-    yield context
-    context.try_shutdown()
 
 
 @pytest.fixture

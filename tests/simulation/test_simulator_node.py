@@ -9,8 +9,8 @@ from amr_interfaces.srv import SetPose
 from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
-from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, ros_context, simulator)
-    TIMEOUT, call, change_state, drive, nodes, probe, ros_context, seconds, settle, simulator, start, state_of)
+from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
+    TIMEOUT, call, change_state, drive, nodes, probe, seconds, settle, simulator, start, state_of)
 from std_srvs.srv import Trigger
 
 from amr_simulation.config import LidarConfig
