@@ -62,6 +62,8 @@ NODE_PARAMETERS = {
     "base_frame": ("base_footprint", "child frame of the odometry messages"),
     "scan_frame": ("base_scan", "frame of the LaserScan"),
     "qos_depth": (10, "queue depth of /cmd_vel and the reliable publishers"),
+    "lockstep_resend_period": (1.0, "lockstep: wall-clock s without a /cmd_vel after which the last observation "
+                                    "goes out again (one sent before the controller listened); 0 disables"),
     "render_path": (str(Path(tempfile.gettempdir()) / "amr_simulator.png"), "PNG file ~/render writes"),
 }
 WARNING_PERIOD = 5.0
@@ -110,6 +112,7 @@ class SimulatorNode(ManagedNode):
         self._cmd_vel_subscription = None
         self._node_services: list = []
         self._step_timer = None
+        self._last_output = 0.0
         self._frames: dict[str, str] = {}
         self._stamped = True
         self._active = False
@@ -142,9 +145,12 @@ class SimulatorNode(ManagedNode):
         config = self._sim.config
         self._command, self._command_stamp = (0.0, 0.0), self._now()
         self._meter.clear()
-        if config.mode == "realtime":  # steady clock: immune to use_sim_time on this very node
-            self._step_timer = self.create_timer(
-                config.dt / config.rate, self._on_timer, clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
+        steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # immune to use_sim_time on this very node
+        resend = self.get_parameter("lockstep_resend_period").value
+        if config.mode == "realtime":
+            self._step_timer = self.create_timer(config.dt / config.rate, self._on_timer, clock=steady)
+        elif resend > 0.0:
+            self._step_timer = self.create_timer(resend, self._on_resend_timer, clock=steady)
         self._active = True
         self._publish_observation()
         return result
@@ -254,6 +260,13 @@ class SimulatorNode(ManagedNode):
             self.get_logger().error(
                 f"step timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
 
+    def _on_resend_timer(self) -> None:
+        """Lockstep waits for a command; if none came, the observation may have gone unheard."""
+        if self._active and time.monotonic() - self._last_output > self.get_parameter("lockstep_resend_period").value:
+            self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
+                                   throttle_duration_sec=WARNING_PERIOD)
+            self._publish_observation()
+
     def _advance(self, v: float, w: float) -> None:
         """One step, its log lines (contacts, goal) and its observation."""
         sim = self._sim
@@ -271,6 +284,7 @@ class SimulatorNode(ManagedNode):
         self._publish_observation()
 
     def _publish_observation(self) -> None:
+        self._last_output = time.monotonic()
         sim, frames, outputs = self._sim, self._frames, self._outputs
         now = self._now()
         stamp = messages.stamp(now)
