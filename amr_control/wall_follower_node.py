@@ -128,9 +128,14 @@ class WallFollowerNode(ManagedNode):
             self._latest_pair_time = self.get_clock().now()
 
     def _on_timer(self) -> None:
-        if self._latest_pair is None or self._is_stale():
+        """Every dt: a command from a new pair, the last command again between pairs, zero when stale."""
+        if self._latest_pair_time is None or self._is_stale():
             self._warn(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")
             self._publish(0.0, 0.0)
+            return
+        if self._latest_pair is None:  # the sensors are slower than dt: hold the last command
+            last = self._last_command
+            self._publish(last.v, last.w) if last is not None else self._publish(0.0, 0.0)
             return
         pair, self._latest_pair = self._latest_pair, None
         self._compute(*pair)

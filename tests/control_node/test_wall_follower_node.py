@@ -187,3 +187,21 @@ def test_manager_stops_at_a_node_that_fails_configure(ros_context, multi_executo
     steps = manager.startup()
     assert not manager.started and steps[-1].node == "wall_follower" and steps[-1].transition == "configure"
     assert odometry_node.state_label == "unconfigured", "the sequence must stop at the failure"
+
+
+def test_real_robot_mode_holds_the_last_command_between_slow_scans(ros_context, executor):
+    """The LDS-01 scans at 5 Hz, the controller runs at 20 Hz: between pairs the command is held, not zeroed."""
+    node = follower(ros_context, simulation=False, sync_slop=0.15, stale_timeout=0.5)
+    rig = Rig(ros_context, twist_type=Twist)
+    executor.add_node(node)
+    executor.add_node(rig)
+    activate(node)
+    spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    now = node.get_clock().now().nanoseconds
+    for k in range(5):
+        rig.send(now + k * 200_000_000, right=0.25)
+        spin_until(executor, lambda: False, 0.2)
+    moving = [c for c in rig.commands if c.linear.x > 0.0]
+    assert len(moving) >= 10, "between 5 Hz scans the 20 Hz timer must repeat the last command"
+    first_moving = rig.commands.index(moving[0])
+    assert all(c.linear.x > 0.0 for c in rig.commands[first_moving:]), "no zero command while data is fresh"
