@@ -106,6 +106,7 @@ class _Geometry:
     def __init__(self, count: int, angle_min: float, increment: float, sectors: Sectors, footprint: Footprint) -> None:
         angles = angle_min + increment * np.arange(count)
         wrapped = np.arctan2(np.sin(angles), np.cos(angles))
+        self.angles = wrapped
         cos, sin = np.cos(wrapped), np.sin(wrapped)
 
         def window(center: float, half: float) -> np.ndarray:
@@ -149,6 +150,7 @@ class SectorReader:
         self.footprint = footprint
         self._key: tuple[Any, ...] | None = None
         self._geometry: _Geometry | None = None
+        self._ranges: np.ndarray | None = None  # the last scan, cleaned, for min_around
 
     def read(self, scan: ScanData) -> Readings | str:
         """Window minima, side line fits and straight-ahead clearance, or what makes the scan unusable."""
@@ -188,9 +190,18 @@ class SectorReader:
         right_fit = _fit_line(gathered[geometry.slices[3]], *geometry.right_cs)
         clearance, side = self._clearance(ranges, geometry)
         sizes = (geometry.sizes[0], geometry.sizes[4], geometry.sizes[5])
+        self._ranges = ranges
         return Readings(
             front, ahead, left, right, left_abeam, right_abeam, left_fit, right_fit, clearance, side, usable, sizes
         )
+
+    def min_around(self, center: float, half_width: float) -> float:
+        """The last read scan's minimum within half_width of the direction center (rad); inf if none."""
+        if self._ranges is None:
+            return math.inf
+        angles = self._geometry.angles  # type: ignore[union-attr]
+        inside = np.abs(np.arctan2(np.sin(angles - center), np.cos(angles - center))) <= half_width + 1e-9
+        return float(self._ranges[inside].min()) if inside.any() else math.inf
 
     def _layout(self, count: int, angle_min: float, increment: float) -> _Geometry:
         key = (count, angle_min, increment)

@@ -272,7 +272,7 @@ class WallFollower:
             if r.front < c.front_threshold and self._state != State.APPROACH:
                 # Following a wall (or just past its end) rather than looking for one?
                 self._tracking = present or self._state == State.CORNER
-                dead_end = max(r.left_abeam, r.right_abeam) <= c.wall_lost_distance
+                dead_end = max(self._sides_square(r)) <= c.wall_lost_distance
                 if dead_end or r.front <= self._pivot_distance:
                     self._decide_turn(r)
                 else:  # a corner: turn where the robot will be centred in the new corridor
@@ -329,7 +329,7 @@ class WallFollower:
         wall, turn away from the followed side first, which puts the wall ahead on it.
         """
         c = self.config
-        left, right = r.left_abeam, r.right_abeam
+        left, right = self._sides_square(r)
         left_open = left > c.wall_lost_distance
         right_open = right > c.wall_lost_distance
         symmetric = (left == right) or abs(left - right) <= c.symmetric_tolerance
@@ -399,6 +399,20 @@ class WallFollower:
         self._skew_seen = fit is not None
         if fit is not None:
             self._skew = fit.angle
+
+    def _sides_square(self, r: Readings) -> tuple[float, float]:
+        """(left, right) readings square to the walls rather than to the heading.
+
+        A robot skewed by 20 deg in a corridor sees, abeam, the corridor's walls at a slant
+        instead of a side opening; looking along the walls' normal (the fitted skew) it does not.
+        """
+        if not self._skew_seen or self._skew == 0.0:
+            return r.left_abeam, r.right_abeam
+        half = math.radians(self.config.abeam_window_deg)
+        return (
+            self._reader.min_around(0.5 * math.pi + self._skew, half),
+            self._reader.min_around(-0.5 * math.pi + self._skew, half),
+        )
 
     @staticmethod
     def _abeam(r: Readings, side: str) -> float:

@@ -245,11 +245,12 @@ def test_stabilization_lasts_its_time_then_follows():
     drive.step(LEFT_OPEN)
     while drive.state == "TURN_LEFT":
         drive.step(CLEAR, w=0.5)
-    states = []
+    states, speeds = [], []
     for _ in range(8):
-        command = drive.step(CLEAR, v=0.1)
+        speeds.append(drive.step(CLEAR, v=0.1).v)
         states.append(drive.state)
     assert states[:6] == ["STABILIZE"] * 6 and states[-1] == "FOLLOW"  # 0.35 s after the turn ended
+    assert speeds[:6] == [0.1] * 6 and speeds[-1] == 0.15
 
 
 def test_reset_restores_the_start():
