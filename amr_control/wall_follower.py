@@ -19,11 +19,13 @@ state machine (``WallFollower.state``):
   ``target_wall_distance`` from the wall ahead (a threshold above that, as on
   the real robot, would otherwise leave it off-centre after the turn).
 * ``TURN_LEFT`` / ``TURN_RIGHT``: turn in place 90 deg; ``TURN_AROUND``: 180
-  deg at a dead end. The turn is chosen by comparing the side distances:
-  towards the followed side if open, else the other side if open, else around. A turn ends when odometry
-  says the angle is done (nominal plus the skew against the last fitted
-  wall, so it ends square) and the narrow window ahead reads ``turn_exit_distance``
-  (or after ``turn_timeout_factor`` times its nominal duration).
+  deg at a dead end. The turn is chosen by comparing the side distances, read
+  square to the walls: towards the followed side if open (while following
+  a wall; while searching, away from it first), else the other side if open,
+  else around. A turn ends when odometry says the angle is done (nominal plus
+  the skew against the last fitted wall, so it ends square) and the narrow
+  window ahead reads ``turn_exit_distance`` (or after ``turn_timeout_factor``
+  times its nominal duration).
 * ``STABILIZE``: the seed's Fixed_Front: straight ahead at
   ``stabilize_speed`` for ``stabilize_time``, then on until the followed wall
   is found (``FOLLOW``) or ``corner_exit_distance`` is driven (``SEARCH``).
@@ -52,6 +54,8 @@ from amr_control.wall_follower_config import WallFollowerConfig
 
 PLAUSIBLE_FACTOR = 2.0
 """Odometry beyond this many times the fastest commanded speed is treated as corrupt."""
+SKEW_MEMORY = math.radians(5.0)
+"""A skew measured before the robot turned more than this no longer describes its heading."""
 
 
 class State(str, Enum):
@@ -150,6 +154,7 @@ class WallFollower:
         self._turn_angle = 0.0
         self._skew = 0.0  # angle of the last fitted side wall: the heading error against the walls
         self._skew_seen = False  # whether the current scan has such a wall
+        self._turned_since_skew = math.inf  # rad the robot turned since the skew was measured
         self._state_time = 0.0
         self._traveled = 0.0
         self._turned = 0.0
@@ -190,6 +195,7 @@ class WallFollower:
         self._state_time += elapsed
         self._traveled += moved
         self._turned += turned
+        self._turned_since_skew += turned
         self._transition(readings)
         v, w = self._command_for(readings, elapsed, rate_valid)
         self._record(readings)
@@ -356,8 +362,9 @@ class WallFollower:
         if state != State.TURN_AROUND:
             sign = 1.0 if state == State.TURN_LEFT else -1.0
         nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
+        skew = self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0
         self._turn_sign = sign
-        self._turn_angle = nominal + sign * self._skew
+        self._turn_angle = nominal + sign * skew
 
     def _enter(self, state: State) -> None:
         self._state = state
@@ -398,7 +405,7 @@ class WallFollower:
         fit = self._fit(r, self._followed) or self._fit(r, other)
         self._skew_seen = fit is not None
         if fit is not None:
-            self._skew = fit.angle
+            self._skew, self._turned_since_skew = fit.angle, 0.0
 
     def _sides_square(self, r: Readings) -> tuple[float, float]:
         """(left, right) readings square to the walls rather than to the heading.
