@@ -15,8 +15,8 @@ ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = sorted(path.stem for path in (ROOT / "config" / "bringup").glob("*.yaml"))
 
 
-def test_the_four_stacks_are_shipped():
-    assert SHIPPED == ["ik_service", "maze_sim", "maze_sim_odometry", "real_robot"]
+def test_the_stacks_are_shipped():
+    assert SHIPPED == ["ik_service", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_sim"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)

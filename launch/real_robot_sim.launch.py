@@ -1,0 +1,26 @@
+"""ros2 launch amr_control real_robot_sim.launch.py: the real-robot stack rehearsed on the simulator.
+
+The nodes, their parameters and the lifecycle order come from config/bringup/real_robot_sim.yaml,
+the file `amr-bringup real_robot_sim` reads: one source for both ways of starting the stack.
+"""
+
+from launch import LaunchDescription
+from launch_ros.actions import LifecycleNode, Node
+
+from amr_control.bringup_config import load_bringup
+
+BRINGUP = "real_robot_sim"
+
+
+def generate_launch_description() -> LaunchDescription:
+    bringup = load_bringup(BRINGUP)
+    nodes = [
+        LifecycleNode(
+            package=node.package, executable=node.executable, name=node.name, namespace=node.namespace,
+            parameters=node.launch_parameters(), remappings=list(node.remappings), output="screen")
+        for node in bringup.nodes
+    ]
+    manager = Node(
+        package="amr_control", executable="lifecycle_manager", name="lifecycle_manager", namespace="",
+        parameters=[bringup.manager_parameters()], output="screen")
+    return LaunchDescription([*nodes, manager])
