@@ -33,6 +33,7 @@ from amr_interfaces.srv import ComputeFK, SolveIK
 from geometry_msgs.msg import Point, Pose
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.lifecycle import State, TransitionCallbackReturn
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 from transforms3d.quaternions import mat2quat, quat2mat
@@ -47,6 +48,9 @@ DEFAULT_CONFIG = "config/ik_chains.yaml"  # in the package's share directory
 QUATERNION_TOLERANCE = 1e-3  # |q| may differ from 1 by this much (then it is normalised)
 MAX_MESSAGE = 400  # characters of a reply message: a request's megabyte name is not echoed back
 LOG_THROTTLE = 5.0  # s between repeated error logs of a callback
+# Deeper than the default services profile (10), so that a burst from many clients queues
+# instead of overflowing the request history.
+SERVICE_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
 
 def _bounded(text: str, limit: int = MAX_MESSAGE) -> str:
@@ -161,8 +165,10 @@ class IKServiceNode(ManagedNode):
             self._last = {}
         self._joint_states = self.create_lifecycle_publisher(JointState, "~/joint_states", 10)
         self._node_services = [
-            self.create_service(SolveIK, "/solve_ik", self._on_solve_ik, callback_group=self._group),
-            self.create_service(ComputeFK, "/compute_fk", self._on_compute_fk, callback_group=self._group),
+            self.create_service(SolveIK, "/solve_ik", self._on_solve_ik, qos_profile=SERVICE_QOS,
+                                callback_group=self._group),
+            self.create_service(ComputeFK, "/compute_fk", self._on_compute_fk, qos_profile=SERVICE_QOS,
+                                callback_group=self._group),
         ]
         summary = ", ".join(f"{name} ({c.chain.n} joints, {c.solver})" for name, c in chains.items())
         self.get_logger().info(f"chains: {summary}")

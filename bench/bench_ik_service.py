@@ -44,7 +44,25 @@ CHAIN = "ur5"
 TARGETS = 500  # distinct targets, cycled
 WARMUP = 200  # requests before measuring
 DISCOVERY = 30.0  # s
+REPLY_TIMEOUT = 2.0  # s; a request unanswered this long is counted as lost
 BOOTSTRAP_VARIABLES = ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")
+
+
+# The node under another executor, for comparison (the executable runs MultiThreadedExecutor).
+OTHER_EXECUTOR = """
+import sys, rclpy
+from rclpy.signals import SignalHandlerOptions
+from amr_control.managed_node import spin_nodes
+from amr_kinematics.ik_service_node import IKServiceNode
+rclpy.init(args=sys.argv, signal_handler_options=SignalHandlerOptions.NO)
+if sys.argv[1] == "single":
+    from rclpy.executors import SingleThreadedExecutor as Executor
+else:
+    from rclpy.experimental import EventsExecutor as Executor
+spin_nodes([IKServiceNode()], Executor())
+"""
+EXECUTORS = {"multi": "MultiThreadedExecutor (the ik_service executable)", "single": "SingleThreadedExecutor",
+             "events": "rclpy.experimental.EventsExecutor"}
 
 
 def child_environment() -> dict[str, str]:
@@ -72,12 +90,16 @@ def run_client(args) -> None:
     from amr_interfaces.srv import SolveIK
     from geometry_msgs.msg import Pose
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
 
+    # With the default depth of 10, a client lost about 1 reply in 1,000 under the 4-client
+    # load (the reply never arrived); with 100, none in our runs.
+    CLIENT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
     rclpy.init()
     node = rclpy.create_node(f"bench_ik_client_{os.getpid()}")
     executor = SingleThreadedExecutor()
     executor.add_node(node)
-    client = node.create_client(SolveIK, "/solve_ik")
+    client = node.create_client(SolveIK, "/solve_ik", qos_profile=CLIENT_QOS)
     if not client.wait_for_service(timeout_sec=DISCOVERY):
         raise SystemExit("client: /solve_ik never appeared")
     points, home = targets_and_home(TARGETS, args.client_id)
@@ -88,12 +110,20 @@ def run_client(args) -> None:
         chain = "no_such_chain" if args.refused else CHAIN
         requests.append(SolveIK.Request(chain=chain, target=target, seed=home))
 
+    lost = 0
+
     def call(request) -> tuple[float, bool]:
         # spin_once in a loop: spin_until_future_complete(timeout) leaks a task per call in rclpy 7.1.6
+        nonlocal lost
         started = time.perf_counter()
         future = client.call_async(request)
-        while not future.done():
-            executor.spin_once(timeout_sec=1.0)
+        deadline = started + REPLY_TIMEOUT
+        while not future.done() and time.perf_counter() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        if not future.done():
+            client.remove_pending_request(future)
+            lost += 1
+            return time.perf_counter() - started, False
         return time.perf_counter() - started, future.result().success
 
     for k in range(WARMUP):
@@ -102,12 +132,14 @@ def run_client(args) -> None:
         time.sleep(0.001)
     latencies, successes, k = [], 0, 0
     stop = time.time() + args.seconds if args.seconds else None
+    cpu = time.process_time()
     while (k < args.requests) if stop is None else (time.time() < stop):
         latency, success = call(requests[k % len(requests)])
         latencies.append(latency)
         successes += success
         k += 1
-    Path(args.out).write_text(json.dumps({"latencies": latencies, "successes": successes}))
+    cpu = time.process_time() - cpu
+    Path(args.out).write_text(json.dumps({"latencies": latencies, "successes": successes, "lost": lost, "cpu": cpu}))
     executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown()
@@ -152,6 +184,26 @@ def library_times(count: int) -> tuple[list[float], float]:
     return times, successes / count
 
 
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time a process has used so far (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def phase(node: subprocess.Popen, clients) -> tuple[list[dict], float]:
+    """The clients' results and the node's CPU seconds while they ran."""
+    before = cpu_seconds(node.pid)
+    results = collect(clients, 180)
+    return results, cpu_seconds(node.pid) - before
+
+
+def cpu_line(results: list[dict], node_cpu: float) -> str:
+    count = sum(len(r["latencies"]) for r in results)
+    client_cpu = sum(r["cpu"] for r in results)
+    return (f"  {'':<44} CPU per request: node {1e3 * node_cpu / count:.3f} ms, "
+            f"client {1e3 * client_cpu / count:.3f} ms")
+
+
 def report(label: str, latencies: list[float]) -> None:
     ms = [1e3 * v for v in latencies]
     print(f"  {label:<44} median {statistics.median(ms):6.3f} ms   p99 {percentile(ms, 99):6.3f} ms   "
@@ -163,6 +215,8 @@ def main() -> None:
     parser.add_argument("--requests", type=int, default=2000, help="sequential requests of the latency runs")
     parser.add_argument("--seconds", type=float, default=5.0, help="length of the throughput run")
     parser.add_argument("--clients", type=int, default=4, help="concurrent client processes")
+    parser.add_argument("--executor", choices=sorted(EXECUTORS), default="multi",
+                        help="the node's executor: multi is the shipped node; single and events for comparison")
     parser.add_argument("--client", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--client-id", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--start", type=float, default=0.0, help=argparse.SUPPRESS)
@@ -172,31 +226,37 @@ def main() -> None:
     if args.client:
         run_client(args)
         return
+    sys.stdout.reconfigure(line_buffering=True)
     if not os.access(EXECUTABLE, os.X_OK):
         raise SystemExit(f"{EXECUTABLE} is missing: run `make setup`")
 
     print(f"/solve_ik round trip, {CHAIN} position-only from home; ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, "
-          f"{os.cpu_count()} CPUs, node: MultiThreadedExecutor ({len(os.sched_getaffinity(0))} threads)")
+          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}; node: {EXECUTORS[args.executor]}")
     times, rate = library_times(args.requests)
     print(f"  {'library solve, same targets, no ROS':<44} median {1e3 * statistics.median(times):6.3f} ms   "
           f"p99 {1e3 * percentile(times, 99):6.3f} ms   success {100 * rate:.1f} %")
-    node = subprocess.Popen([str(EXECUTABLE), "--ros-args", "--params-file", str(CONFIG), "-p", "autostart:=true",
-                             "--log-level", "warn"], env=child_environment(), start_new_session=True)
+    ros_args = ["--ros-args", "--params-file", str(CONFIG), "-p", "autostart:=true", "--log-level", "warn"]
+    command = [str(EXECUTABLE)] if args.executor == "multi" else [sys.executable, "-c", OTHER_EXECUTOR, args.executor]
+    node = subprocess.Popen(command + ros_args, env=child_environment(), start_new_session=True, cwd=ROOT)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             workdir = Path(tmp)
-            refused = collect(start_clients(1, workdir, start_in=0.0, requests=args.requests, refused=True), 120)
+            refused, node_cpu = phase(node, start_clients(1, workdir, start_in=0.0, requests=args.requests,
+                                                          seconds=0, refused=True))
             report("refused request (transport + executors)", refused[0]["latencies"])
-            single = collect(start_clients(1, workdir, start_in=0.0, requests=args.requests), 120)
+            print(cpu_line(refused, node_cpu))
+            single, node_cpu = phase(node, start_clients(1, workdir, start_in=0.0, requests=args.requests, seconds=0))
             report("solve, 1 client", single[0]["latencies"])
+            print(cpu_line(single, node_cpu))
             print(f"  {'':<44} success {100 * single[0]['successes'] / len(single[0]['latencies']):.1f} %")
             # clients start together a few seconds from now, after their imports and discovery
-            loaded = collect(start_clients(args.clients, workdir, start_in=8.0, seconds=args.seconds),
-                             60 + args.seconds)
+            loaded, node_cpu = phase(node, start_clients(args.clients, workdir, start_in=8.0, seconds=args.seconds))
             total = sum(len(r["latencies"]) for r in loaded)
             report(f"solve, {args.clients} clients at once", [v for r in loaded for v in r["latencies"]])
+            print(cpu_line(loaded, node_cpu) + " (node CPU includes the clients' start-up wait)")
+            lost = sum(r["lost"] for r in loaded)
             print(f"  throughput with {args.clients} clients: {total / args.seconds:7.0f} requests/s "
-                  f"(success {100 * sum(r['successes'] for r in loaded) / total:.1f} %)")
+                  f"(success {100 * sum(r['successes'] for r in loaded) / total:.1f} %, {lost} lost)")
     finally:
         node.send_signal(2)  # SIGINT: the node deactivates, cleans up and exits
         try:
