@@ -17,14 +17,15 @@ A thin lifecycle shell over ``amr_kinematics.config`` (chains, defaults, solvers
 
 Every reply carries a message; no exception leaves a callback.  Services are in a
 reentrant callback group (run with a MultiThreadedExecutor): requests on different
-chains run side by side; requests on one chain take turns (a per-chain lock),
-waiting at most their own timeout.
+chains run side by side; requests on one chain take turns (a per-chain lock), and a
+request's timeout covers both its wait for the chain and its solve.
 """
 
 from __future__ import annotations
 
 import math
 import threading
+import time
 from array import array
 
 import numpy as np
@@ -239,14 +240,20 @@ class IKServiceNode(ManagedNode):
         if isinstance(target, str):
             response.message = target
             return
+        # the timeout covers the wait for the chain and the solve
+        deadline = time.monotonic() + timeout
         lock = self._chain_locks[chain.name]
         if not lock.acquire(timeout=timeout):
             response.message = f"chain '{chain.name}' stayed busy with other solves for the whole timeout ({timeout} s)"
             return
         try:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                response.message = f"chain '{chain.name}' was busy with other solves until the timeout ({timeout} s)"
+                return
             seed = list(request.seed) if request.seed else self._last_solution(chain.name)
             result = config.solve(target, solver=request.solver, seed=seed, with_orientation=request.with_orientation,
-                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=timeout)
+                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=remaining)
             if result.success:
                 with self._last_lock:
                     self._last[chain.name] = result.q
