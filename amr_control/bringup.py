@@ -220,8 +220,9 @@ class Supervisor:
     def _add_nodes(self) -> None:
         for node in getattr(self.stack, "nodes", []):
             self.executor.add_node(node)
-        self.manager = LifecycleManager(parameter_overrides=[
-            Parameter(name, value=value) for name, value in self.bringup.manager_parameters().items()])
+        self.manager = LifecycleManager(
+            cli_args=["--ros-args", "-r", f"__node:={self.bringup.manager_name}"],
+            parameter_overrides=[Parameter(k, value=v) for k, v in self.bringup.manager_parameters().items()])
         if self.console.live:
             self.manager.get_logger().set_level(LoggingSeverity.WARN)
         self.executor.add_node(self.manager)

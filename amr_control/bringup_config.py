@@ -104,6 +104,11 @@ class Bringup:
     def name(self) -> str:
         return self.source.stem
 
+    @property
+    def manager_name(self) -> str:
+        """One manager per stack: two stacks in a domain must not share a node (or service) name."""
+        return f"lifecycle_manager_{self.name}"
+
     def manager_parameters(self) -> dict[str, object]:
         """Parameters of amr_control.lifecycle_manager for this stack."""
         return {"node_startup_order": list(self.node_startup_order), **self.manager_timeouts}

@@ -21,6 +21,6 @@ def generate_launch_description() -> LaunchDescription:
         for node in bringup.nodes
     ]
     manager = Node(
-        package="amr_control", executable="lifecycle_manager", name="lifecycle_manager", namespace="",
+        package="amr_control", executable="lifecycle_manager", name=bringup.manager_name, namespace="",
         parameters=[bringup.manager_parameters()], output="screen")
     return LaunchDescription([*nodes, manager])
