@@ -84,7 +84,7 @@ def test_encoders_keep_counting_when_a_wall_holds_the_robot(room) -> None:
 
 def test_goal_stops_the_robot_until_reset(room) -> None:
     sim = Simulator(room, make_config())
-    sim.set_pose(1.0, -1.0, 0.0)  # goal: (1.5, -1.0), radius 0.2
+    sim.set_pose(1.0, -1.25, 0.0)  # goal: (1.5, -1.25), radius 0.2
     while not sim.goal_reached:
         sim.step(0.2, 0.0)
         assert sim.time < 5.0

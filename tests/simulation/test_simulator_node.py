@@ -143,8 +143,8 @@ def test_ramming_a_wall_counts_one_collision_and_stays_out(simulator, probe, exe
 
 
 def test_goal_reached_stops_the_robot(simulator, probe, executor):
-    # open_room's goal: (1.5, -1.0) radius 0.2, entered after 0.3 m at 0.2 m/s (30 steps)
-    node, driver = simulator(start=[1.0, -1.0, 0.0], **OPEN_ROOM), probe()
+    # open_room's goal: (1.5, -1.25) radius 0.2, entered after 0.3 m at 0.2 m/s (30 steps)
+    node, driver = simulator(start=[1.0, -1.25, 0.0], **OPEN_ROOM), probe()
     start(executor, node, driver)
     drive(executor, driver, [(0.2, 0.0)] * 40)
     reached = [s.goal_reached for s in driver.statuses]
