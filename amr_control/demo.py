@@ -35,7 +35,7 @@ from amr_kinematics.ik_service_node import IKServiceNode  # noqa: E402
 from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
 from amr_turtlebot3.odometry_node import OdometryNode  # noqa: E402
 
-TURNING_STATES = {"TURN_LEFT", "TURN_RIGHT", "TURN_AROUND"}
+FOLLOWING = "FOLLOW"  # the state in which the distance to the wall is being controlled
 PROGRESS_PERIOD = 3.0  # wall-clock seconds between progress lines
 CALL_TIMEOUT = 10.0
 
@@ -60,7 +60,7 @@ class Observer(Node):
         super().__init__("demo_observer", **kwargs)
         self.lock = threading.Lock()
         self.sim: SimulatorStatus | None = None
-        self.follower: list[tuple[float, float, float, bool]] = []  # t, wall distance, target, turning
+        self.follower: list[tuple[float, float, float, bool]] = []  # t, wall distance, target, following
         self.create_subscription(SimulatorStatus, "simulator/status", self._on_sim, 10)
         self.create_subscription(WallFollowerStatus, "wall_follower/status", self._on_follower, 100)
 
@@ -72,7 +72,7 @@ class Observer(Node):
         t = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
         with self.lock:
             self.follower.append((t, message.wall_distance, message.target_wall_distance,
-                                  message.state in TURNING_STATES))
+                                  message.state == FOLLOWING))
 
 
 def call(node: Node, service_type, name: str, request):
@@ -97,7 +97,7 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
 
     With odometry_node, the simulator publishes only /odom, as a real TurtleBot3 does, and
     amr_turtlebot3's odometry_node derives the /odometry the follower reads. Returns the run's
-    figures and the follower's samples (t, wall distance, target, turning).
+    figures and the follower's samples (t, wall distance, target, following).
     """
     simulator = SimulatorNode(context=context, cli_args=params_file_args(
         config_file("amr_simulation", "simulator.yaml"), f"world:={world}",
@@ -130,7 +130,7 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
             node.destroy_node()
     with observer.lock:
         samples = np.array(observer.follower) if observer.follower else np.zeros((0, 4))
-    following = samples[(samples[:, 3] == 0) & np.isfinite(samples[:, 1])]
+    following = samples[(samples[:, 3] == 1) & np.isfinite(samples[:, 1])]
     target = float(samples[0, 2]) if len(samples) else math.nan
     summary = {
         "world": world,
@@ -143,7 +143,7 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
         "collisions": int(status.collisions),
         "goal_reached": bool(status.goal_reached),
         "target_wall_distance_m": target,
-        "mean_abs_wall_error_m": round(float(np.mean(np.abs(following[:, 1] - target))), 4) if len(following) else None,
+        "mean_abs_wall_error_following_m": round(float(np.mean(np.abs(following[:, 1] - target))), 4) if len(following) else None,
     }
     if rendered is not None:
         summary["render"] = rendered.message if rendered.success else f"failed: {rendered.message}"
@@ -277,7 +277,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         maze, samples = run_maze(context, executor, args.world, args.duration, render_path=out / "maze.png")
         demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1],
-                                          maze["target_wall_distance_m"], samples[:, 3].astype(bool))
+                                          maze["target_wall_distance_m"], samples[:, 3] == 0)
         summary = {"maze": maze}
         print(f"maze done: {json.dumps(summary['maze'])}")
         summary["ik"] = run_ik(context, executor, out)

@@ -24,17 +24,18 @@ def _iteration_colours(count: int) -> np.ndarray:
 
 
 def wall_distance_figure(path: Path, times: Sequence[float], distances: Sequence[float], target: float,
-                         turning: Sequence[bool]) -> Path:
-    """Distance to the followed wall over time against its target; turns shaded (the wall is not followed then)."""
+                         not_following: Sequence[bool]) -> Path:
+    """Distance to the followed wall over time against its target; shaded where the controller is not
+    holding it (turning at a corner, searching, stabilizing)."""
     figure = _figure((9.0, 4.0))
     ax = figure.add_subplot()
     t = np.asarray(times)
     d = np.where(np.isfinite(distances), distances, np.nan)
     ax.plot(t, d, linewidth=1.0, label="distance to the followed wall")
     ax.axhline(target, color="tab:red", linestyle="--", label=f"target {target:.2f} m")
-    shade = np.asarray(turning, dtype=bool)
+    shade = np.asarray(not_following, dtype=bool)
     if shade.any():
-        ax.fill_between(t, 0, 1, where=shade, transform=ax.get_xaxis_transform(), color="0.85", label="turning",
+        ax.fill_between(t, 0, 1, where=shade, transform=ax.get_xaxis_transform(), color="0.85", label="not following",
                         step="mid")
     ax.set_ylim(0.0, max(0.6, 2.5 * target))
     ax.set_xlabel("simulated time [s]")
