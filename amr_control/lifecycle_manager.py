@@ -7,9 +7,11 @@ worker thread while a MultiThreadedExecutor serves their responses.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
+import time
 
 import rclpy
 from lifecycle_msgs.msg import Transition
@@ -21,6 +23,9 @@ from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
 from amr_control.lifecycle_sequence import LifecycleSequencer, Step
+
+
+SHUTDOWN_BUDGET = 3.0  # s to bring the managed nodes down on Ctrl-C (launch escalates to SIGTERM after 5 s)
 
 
 class ServiceLifecycleClient:
@@ -130,16 +135,26 @@ def main(args=None) -> None:
     executor.add_node(manager)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    stop, hurry = threading.Event(), threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):  # the first asks to stop, a second to stop now
+        signal.signal(signum, lambda *_: hurry.set() if stop.is_set() else stop.set())
     if manager.get_parameter("autostart").value:
         threading.Thread(target=manager.startup, daemon=True).start()
     while not stop.wait(0.1):
         pass
     manager.get_logger().info("shutting down the managed nodes in reverse order")
-    manager.shutdown()
+    worker = threading.Thread(target=manager.shutdown, daemon=True)
+    worker.start()
+    deadline = time.monotonic() + SHUTDOWN_BUDGET
+    while worker.is_alive() and not hurry.is_set() and time.monotonic() < deadline:
+        worker.join(0.1)
+    if worker.is_alive():
+        # `ros2 launch` signals every process at once: the managed nodes may be gone mid-call
+        manager.get_logger().warning("not every managed node answered: leaving the rest as they are")
+        sys.stdout.flush()
+        os._exit(0)  # a thread is blocked in a service call; tearing the interpreter down under it aborts
     executor.shutdown()
+    spinner.join(timeout=5.0)
     manager.destroy_node()
     rclpy.try_shutdown()
 

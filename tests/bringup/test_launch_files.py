@@ -1,5 +1,6 @@
-"""The ROS launch files, checked without launch installed: their structure against launch_ros's Jazzy API, and
-that everything they start (through their bringup file) exists in the install layout.
+"""The ROS launch files, checked without launch installed: the LaunchDescription builder they share
+(amr_control/bringup_launch.py) against launch_ros's Jazzy API, and that everything each file starts
+(through its bringup file) exists in the install layout.
 
 The keyword sets are those of launch_ros 0.26.6 (Jazzy) actions/node.py and lifecycle_node.py and of
 launch 3.4.3 actions/execute_process.py and execute_local.py, where Node's **kwargs end up.
@@ -17,6 +18,7 @@ from amr_control.bringup_config import check_installed, load_bringup
 ROOT = Path(__file__).resolve().parents[2]
 PREFIX = Path(sys.prefix)
 LAUNCH_FILES = sorted((ROOT / "launch").glob("*.launch.py"))
+BUILDER = ROOT / "amr_control" / "bringup_launch.py"
 
 EXECUTE_PROCESS_KEYWORDS = {"prefix", "cwd", "env", "additional_env"}  # launch 3.4.3 ExecuteProcess
 EXECUTE_LOCAL_KEYWORDS = {"shell", "sigterm_timeout", "sigkill_timeout", "emulate_tty", "output", "output_format",
@@ -25,7 +27,8 @@ NODE_KEYWORDS = {"executable", "package", "name", "namespace", "exec_name", "par
                  "ros_arguments", "arguments"} | EXECUTE_PROCESS_KEYWORDS | EXECUTE_LOCAL_KEYWORDS
 REQUIRED = {"LifecycleNode": {"name", "namespace", "executable"}, "Node": {"executable"}}
 KNOWN_IMPORTS = {"launch": {"LaunchDescription"}, "launch_ros.actions": {"LifecycleNode", "Node"},
-                 "amr_control.bringup_config": {"load_bringup"}}
+                 "amr_control.bringup_config": {"load_bringup"},
+                 "amr_control.bringup_launch": {"launch_description"}}
 
 
 def parsed(path: Path) -> ast.Module:
@@ -48,40 +51,46 @@ def test_one_launch_file_per_shipped_bringup():
     assert [path.name.removesuffix(".launch.py") for path in LAUNCH_FILES] == shipped
 
 
-@pytest.mark.parametrize("path", LAUNCH_FILES, ids=lambda p: p.name)
-def test_launch_file_imports_only_known_launch_names(path):
-    tree = parsed(path)
-    imported = {}
+def imports(tree: ast.Module, where: str) -> dict[str, set[str]]:
+    imported: dict[str, set[str]] = {}
     for node in ast.walk(tree):
-        assert not isinstance(node, ast.Import), f"{path.name}: plain import {ast.unparse(node)}"
+        assert not isinstance(node, ast.Import), f"{where}: plain import {ast.unparse(node)}"
         if isinstance(node, ast.ImportFrom):
             imported.setdefault(node.module, set()).update(alias.name for alias in node.names)
     for module, names in imported.items():
-        assert module in KNOWN_IMPORTS and names <= KNOWN_IMPORTS[module], f"{path.name}: from {module} import {names}"
-    assert imported.keys() >= {"launch", "launch_ros.actions"}
+        assert module in KNOWN_IMPORTS and names <= KNOWN_IMPORTS[module], f"{where}: from {module} import {names}"
+    return imported
 
 
 @pytest.mark.parametrize("path", LAUNCH_FILES, ids=lambda p: p.name)
-def test_launch_file_defines_generate_launch_description_returning_one(path):
+def test_launch_file_builds_its_bringup_with_the_shared_builder(path):
     tree = parsed(path)
+    assert imports(tree, path.name) == {"amr_control.bringup_launch": {"launch_description"}}
     (function,) = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "generate_launch_description"]
     assert not function.args.args
+    (returned,) = [n.value for n in ast.walk(function) if isinstance(n, ast.Return)]
+    assert ast.unparse(returned) == "launch_description(BRINGUP)"
+
+
+def test_builder_imports_only_known_launch_names_and_returns_a_launch_description():
+    tree = parsed(BUILDER)
+    assert imports(tree, BUILDER.name).keys() >= {"launch", "launch_ros.actions"}
+    (function,) = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "launch_description"]
     returned = [n.value for n in ast.walk(function) if isinstance(n, ast.Return)]
     assert len(returned) == 1 and isinstance(returned[0], ast.Call) and returned[0].func.id == "LaunchDescription"
 
 
-@pytest.mark.parametrize("path", LAUNCH_FILES, ids=lambda p: p.name)
-def test_launch_actions_use_launch_ros_keywords_only(path):
-    tree = parsed(path)
+def test_launch_actions_use_launch_ros_keywords_only():
+    tree = parsed(BUILDER)
     for action, required in REQUIRED.items():
         found = calls(tree, action)
-        assert found, f"{path.name} has no {action}"
+        assert found, f"{BUILDER.name} has no {action}"
         for call in found:
             assert not call.args, f"{action} takes keyword arguments only"
             keywords = {k.arg for k in call.keywords}
-            assert None not in keywords, f"{path.name}: **kwargs hides what {action} receives"
-            assert keywords <= NODE_KEYWORDS, f"{path.name}: {action} gets unknown {keywords - NODE_KEYWORDS}"
-            assert required <= keywords, f"{path.name}: {action} lacks {required - keywords}"
+            assert None not in keywords, f"**kwargs hides what {action} receives"
+            assert keywords <= NODE_KEYWORDS, f"{action} gets unknown {keywords - NODE_KEYWORDS}"
+            assert required <= keywords, f"{action} lacks {required - keywords}"
     (manager,) = calls(tree, "Node")
     given = {k.arg: k.value for k in manager.keywords}
     assert ast.literal_eval(given["package"]) == "amr_control"
