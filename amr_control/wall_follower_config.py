@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
+from amr_control.parameter_file import node_parameters
 
 NODE_NAME = "wall_follower"
 WALLS = ("right", "left", "random")
@@ -169,15 +169,7 @@ def parameter_defaults() -> dict[str, Any]:
 
 def read_parameter_file(path: str | Path, node_name: str = NODE_NAME) -> WallFollowerConfig:
     """The config in a ROS 2 parameter YAML file (``<node_name>: ros__parameters: ...``)."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        params = data[node_name]["ros__parameters"]
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigError(f"{path}: cannot read parameter file ({error})") from error
-    except (KeyError, TypeError) as error:
-        raise ConfigError(f"{path}: no '{node_name}: ros__parameters:' section") from error
-    return WallFollowerConfig.from_params(params)
+    return WallFollowerConfig.from_params(node_parameters(path, node_name, ConfigError))
 
 
 def _typed(key: str, kind: str, value: Any) -> Any:

@@ -13,8 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-import yaml
-
+from amr_control.parameter_file import node_parameters
 from amr_simulation.errors import ConfigError
 
 MODES = ("lockstep", "realtime")
@@ -197,15 +196,7 @@ def param_defaults() -> dict[str, Any]:
 
 def read_parameter_file(path: str | Path, node_name: str = "simulator") -> dict[str, Any]:
     """The flat parameters of one node from a ROS 2 parameter YAML file."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        params = data[node_name]["ros__parameters"]
-    except (OSError, yaml.YAMLError) as error:
-        raise ConfigError(f"{path}: cannot read parameter file ({error})") from error
-    except (KeyError, TypeError) as error:
-        raise ConfigError(f"{path}: no '{node_name}: ros__parameters:' section") from error
-    return flatten(params)
+    return flatten(node_parameters(path, node_name, ConfigError))
 
 
 def _typed(value: Any, spec: dataclasses.Field, key: str) -> Any:
