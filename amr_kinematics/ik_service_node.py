@@ -18,12 +18,14 @@ A thin lifecycle shell over ``amr_kinematics.config`` (chains, defaults, solvers
 Every reply carries a message; no exception leaves a callback.  Services are in a
 reentrant callback group (run with a MultiThreadedExecutor): requests on different
 chains run side by side; requests on one chain take turns (a per-chain lock), and a
-request's timeout covers both its wait for the chain and its solve.
+request's timeout covers both its wait for the chain and its solve.  Side by side,
+not in parallel: solves are pure Python and share the GIL (see GIL_SWITCH_INTERVAL).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import time
 from array import array
@@ -49,8 +51,13 @@ DEFAULT_CONFIG = "config/ik_chains.yaml"  # in the package's share directory
 QUATERNION_TOLERANCE = 1e-3  # |q| may differ from 1 by this much (then it is normalised)
 MAX_MESSAGE = 400  # characters of a reply message: a request's megabyte name is not echoed back
 LOG_THROTTLE = 5.0  # s between repeated error logs of a callback
-# Deeper than the default services profile (10), so that a burst from many clients queues
-# instead of overflowing the request history.
+# s; Python's default is 5 ms.  A solve is pure Python and holds the GIL; the executor and
+# the other callbacks give it up at every rclpy or numpy call and wait for it again.  With
+# 5 ms, a request on another chain took 0.3-1.8 s while a 2 s solve ran; with 0.2 ms,
+# 9 ms (median), and the bench's latency and throughput did not change.
+GIL_SWITCH_INTERVAL = 0.0002
+# Deeper than the default services profile (10): requests that arrive while every
+# executor thread is busy queue here, and the 11th onwards would be dropped unanswered.
 SERVICE_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 
 
@@ -240,20 +247,22 @@ class IKServiceNode(ManagedNode):
         if isinstance(target, str):
             response.message = target
             return
-        # the timeout covers the wait for the chain and the solve
-        deadline = time.monotonic() + timeout
         lock = self._chain_locks[chain.name]
-        if not lock.acquire(timeout=timeout):
-            response.message = f"chain '{chain.name}' stayed busy with other solves for the whole timeout ({timeout} s)"
-            return
-        try:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0.0:
-                response.message = f"chain '{chain.name}' was busy with other solves until the timeout ({timeout} s)"
+        if not lock.acquire(blocking=False):  # another solve on this chain: the wait counts against the timeout
+            waiting_since = time.monotonic()
+            busy = f"chain '{chain.name}' stayed busy with other solves for the whole timeout ({timeout} s)"
+            if not lock.acquire(timeout=timeout):
+                response.message = busy
                 return
+            timeout -= time.monotonic() - waiting_since
+            if timeout <= 0.0:
+                lock.release()
+                response.message = busy
+                return
+        try:
             seed = list(request.seed) if request.seed else self._last_solution(chain.name)
             result = config.solve(target, solver=request.solver, seed=seed, with_orientation=request.with_orientation,
-                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=remaining)
+                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=timeout)
             if result.success:
                 with self._last_lock:
                     self._last[chain.name] = result.q
@@ -322,7 +331,8 @@ class IKServiceNode(ManagedNode):
         chain = config.chain
         response.joint_names = list(chain.joint_names)
         if len(request.positions) != chain.n:
-            response.message = f"positions has {len(request.positions)} values; chain '{chain.name}' has {chain.n} joints"
+            response.message = (f"positions has {len(request.positions)} values; "
+                                f"chain '{chain.name}' has {chain.n} joints")
             return
         try:
             fk = chain.fk(list(request.positions))
@@ -350,6 +360,7 @@ class IKServiceNode(ManagedNode):
 
 
 def main(args=None) -> None:
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     run(IKServiceNode, multithreaded=True, args=args)
 
 

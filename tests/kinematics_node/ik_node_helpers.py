@@ -63,6 +63,32 @@ def call(executor, client, request):
     return future.result()
 
 
+def connect(executor, probe: Probe, timeout: float = 10.0) -> None:
+    """Return once both services have answered a harmless request (unknown chain)."""
+    reached(executor, probe.solve, SolveIK.Request(), timeout)
+    reached(executor, probe.fk, ComputeFK.Request(), timeout)
+
+
+def reached(executor, client, harmless_request, timeout: float = 10.0) -> None:
+    """Return once the server has answered ``harmless_request``, resent every 0.5 s.
+
+    wait_for_service alone is not enough: the graph may still list the services of a
+    node an earlier test destroyed, and a request sent before the new server has
+    matched the client is lost.
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        assert client.wait_for_service(timeout_sec=max(0.0, deadline - time.monotonic())), client.srv_name
+        future = client.call_async(harmless_request)
+        attempt_end = time.monotonic() + 0.5
+        while not future.done() and time.monotonic() < attempt_end:
+            executor.spin_once(timeout_sec=0.05)
+        if future.done():
+            return
+        client.remove_pending_request(future)
+        assert time.monotonic() < deadline, f"{client.srv_name} never answered"
+
+
 def pose(x: float, y: float, z: float = 0.0, quaternion=(1.0, 0.0, 0.0, 0.0)) -> Pose:
     """A Pose from a position and a (w, x, y, z) quaternion."""
     message = Pose()
@@ -86,7 +112,7 @@ def start(context, executor, overrides=None, activate: bool = True) -> tuple[IKS
     if activate:
         assert node.try_transition(Transition.TRANSITION_CONFIGURE)
         assert node.try_transition(Transition.TRANSITION_ACTIVATE)
-        assert probe.solve.wait_for_service(timeout_sec=5.0) and probe.fk.wait_for_service(timeout_sec=5.0)
+        connect(executor, probe)
     return node, probe
 
 

@@ -63,14 +63,16 @@ def check_solve_reply(request: SolveIK.Request, reply: SolveIK.Response) -> None
 def check_fk_reply(request: ComputeFK.Request, reply: ComputeFK.Response) -> None:
     assert reply.message
     if reply.success:
-        assert len(request.positions) == len(reply.joint_names) and len(reply.joint_origins) == len(reply.joint_names) + 1
+        n = len(reply.joint_names)
+        assert len(request.positions) == n and len(reply.joint_origins) == n + 1
         position = reply.tool_pose.position
         assert all(map(math.isfinite, (position.x, position.y, position.z)))
 
 
 def test_random_and_malformed_requests_never_break_the_node(launch, multi_executor):
     # short caps keep each request to a few milliseconds
-    overrides = config_overrides() + [Parameter("max_timeout", value=0.002), Parameter("max_iterations_limit", value=500)]
+    overrides = config_overrides() + [Parameter("max_timeout", value=0.002),
+                                      Parameter("max_iterations_limit", value=500)]
     _, probe = launch(overrides)
     answered = {"solve": 0, "fk": 0}
     quick = settings(deadline=None, database=None, suppress_health_check=list(HealthCheck))

@@ -15,7 +15,8 @@ from rclpy.parameter import Parameter
 
 from amr_kinematics.config import flatten_parameters
 
-from ik_node_helpers import CONFIG, call, config_overrides, pose, quaternion_angle, solve_request, spin_until, start, stop
+from ik_node_helpers import (CONFIG, call, config_overrides, pose, quaternion_angle, solve_request, spin_until, start,
+                             stop)
 
 MAX_TIMEOUT = 0.25  # s, the node's cap in this module: an unbounded solve costs at most this
 PARAMS = flatten_parameters(yaml.safe_load(CONFIG.read_text(encoding="utf-8")))
@@ -57,7 +58,8 @@ def test_seed004_reproduces_the_report(served):
     reply = solve(served, "arm5", pose(0.053, 0.0478, 0.0), seed=SEED004_START)
     assert reply.success, reply.message
     assert reply.iterations == 9 and reply.solver == "dls"
-    error = np.array([0.053, 0.0478, 0.0]) - [reply.reached.position.x, reply.reached.position.y, reply.reached.position.z]
+    reached = reply.reached.position
+    error = np.array([0.053, 0.0478, 0.0]) - [reached.x, reached.y, reached.z]
     assert math.hypot(error[0], error[1]) == pytest.approx(0.000926, abs=5e-7)  # 0.0926 cm
     assert abs(error[2]) == pytest.approx(0.000749, abs=5e-7)  # 0.0749 cm
     np.testing.assert_allclose(np.degrees(reply.positions), SEED004_LAST, atol=1e-4)
@@ -92,7 +94,8 @@ def test_two_link_arm_by_its_closed_form(served):
     reply = solve(served, "rr2", pose(1.0, 1.0))
     assert reply.success and reply.solver == "analytic" and reply.iterations == 1
     q1, q2 = reply.positions
-    assert (2 * math.cos(q1) + 2 * math.cos(q1 + q2), 2 * math.sin(q1) + 2 * math.sin(q1 + q2)) == pytest.approx((1.0, 1.0))
+    tip = (2 * math.cos(q1) + 2 * math.cos(q1 + q2), 2 * math.sin(q1) + 2 * math.sin(q1 + q2))
+    assert tip == pytest.approx((1.0, 1.0))
 
 
 def random_configurations(chain: str, count: int, seed: int) -> list[list[float]]:
