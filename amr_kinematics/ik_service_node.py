@@ -219,14 +219,18 @@ class IKServiceNode(ManagedNode):
             self._last = {}
 
     # --- services -------------------------------------------------------------------------
-    def _on_solve_ik(self, request: SolveIK.Request, response: SolveIK.Response) -> SolveIK.Response:
+    def _answer(self, service: str, work, request, response):
+        """work(request, response), with every message bounded; a bug costs one request, not the node."""
         try:
-            self._solve(request, response)
-        except Exception as exc:  # a bug must cost one request, not the node
-            self.get_logger().error(f"/solve_ik failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE)
-            response = SolveIK.Response(success=False, message=f"internal error: {type(exc).__name__}: {exc}")
+            work(request, response)
+        except Exception as exc:
+            self.get_logger().error(f"{service} failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE)
+            response = type(response)(success=False, message=f"internal error: {type(exc).__name__}: {exc}")
         response.message = _bounded(response.message)
         return response
+
+    def _on_solve_ik(self, request: SolveIK.Request, response: SolveIK.Response) -> SolveIK.Response:
+        return self._answer("/solve_ik", self._solve, request, response)
 
     def _solve(self, request: SolveIK.Request, response: SolveIK.Response) -> None:
         response.success = False
@@ -315,13 +319,7 @@ class IKServiceNode(ManagedNode):
         publisher.publish(message)
 
     def _on_compute_fk(self, request: ComputeFK.Request, response: ComputeFK.Response) -> ComputeFK.Response:
-        try:
-            self._forward(request, response)
-        except Exception as exc:  # a bug must cost one request, not the node
-            self.get_logger().error(f"/compute_fk failed: {exc!r}", throttle_duration_sec=LOG_THROTTLE)
-            response = ComputeFK.Response(success=False, message=f"internal error: {type(exc).__name__}: {exc}")
-        response.message = _bounded(response.message)
-        return response
+        return self._answer("/compute_fk", self._forward, request, response)
 
     def _forward(self, request: ComputeFK.Request, response: ComputeFK.Response) -> None:
         response.success = False

@@ -15,6 +15,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
+from conftest import spin_until  # noqa: F401 (the tests import it from here)
+
 from amr_kinematics.config import flatten_parameters
 from amr_kinematics.ik_service_node import IKServiceNode
 
@@ -29,13 +31,6 @@ def config_overrides(**changes) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in flat.items()]
 
 
-def spin_until(executor, condition, timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        executor.spin_once(timeout_sec=0.02)
-    return condition()
 
 
 class Probe(Node):
