@@ -75,12 +75,3 @@ class DiffDrive:
         """(left, right) wheel speeds for a twist after curvature-preserving saturation."""
         return self.wheel_speeds(*self.saturate(linear, angular))
 
-
-TURTLEBOT3_BURGER = DiffDrive(
-    wheel_radius=0.033,
-    track=0.160,
-    max_wheel_speed=0.22 / 0.033,
-    max_linear=0.22,
-    max_angular=2.84,
-)
-"""TurtleBot3 Burger figures (ROBOTIS e-Manual): used as defaults, overridable from config."""

@@ -8,7 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from amr_kinematics.diff_drive import TURTLEBOT3_BURGER, DiffDrive
+from amr_kinematics.diff_drive import DiffDrive
+
+# TurtleBot3 Burger figures (ROBOTIS e-Manual), as config/simulator.yaml gives them to the simulator
+TURTLEBOT3_BURGER = DiffDrive(wheel_radius=0.033, track=0.160, max_wheel_speed=0.22 / 0.033,
+                              max_linear=0.22, max_angular=2.84)
 from amr_kinematics.errors import KinematicsError
 
 speeds = st.floats(-5.0, 5.0, allow_nan=False)
