@@ -233,12 +233,10 @@ class IKServiceNode(ManagedNode):
         return self._answer("/solve_ik", self._solve, request, response)
 
     def _solve(self, request: SolveIK.Request, response: SolveIK.Response) -> None:
-        response.success = False
         config = self._serving_chain(request.chain, response)
         if config is None:
             return
         chain = config.chain
-        response.joint_names = list(chain.joint_names)
         response.solver = _bounded(request.solver, 40) or config.solver
         if request.seed and len(request.seed) != chain.n:
             response.message = f"seed has {len(request.seed)} values; chain '{chain.name}' has {chain.n} joints"
@@ -322,12 +320,10 @@ class IKServiceNode(ManagedNode):
         return self._answer("/compute_fk", self._forward, request, response)
 
     def _forward(self, request: ComputeFK.Request, response: ComputeFK.Response) -> None:
-        response.success = False
         config = self._serving_chain(request.chain, response)
         if config is None:
             return
         chain = config.chain
-        response.joint_names = list(chain.joint_names)
         if len(request.positions) != chain.n:
             response.message = (f"positions has {len(request.positions)} values; "
                                 f"chain '{chain.name}' has {chain.n} joints")
@@ -346,7 +342,9 @@ class IKServiceNode(ManagedNode):
         response.message = "ok" + (f" (outside the joint limits: {', '.join(outside)})" if outside else "")
 
     def _serving_chain(self, name: str, response) -> ChainConfig | None:
-        """The chain a request names, or None with the refusal in response.message."""
+        """The chain a request names (its joint names set in the response, success still false),
+        or None with the refusal in response.message."""
+        response.success = False
         if not self._active:
             response.message = f"{NODE_NAME} is {self.state_label}: activate it to serve requests"
             return None
@@ -354,6 +352,8 @@ class IKServiceNode(ManagedNode):
         config = chains.get(name)
         if config is None:
             response.message = f"unknown chain {_bounded(name, 40)!r}; known: {', '.join(chains)}"
+        else:
+            response.joint_names = list(config.chain.joint_names)
         return config
 
 
