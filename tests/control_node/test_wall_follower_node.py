@@ -74,12 +74,18 @@ def activate(node):
     assert node.try_transition(Transition.TRANSITION_ACTIVATE)
 
 
-def test_simulation_mode_answers_every_pair_with_a_twist_stamped(ros_context, executor):
-    node, rig = follower(ros_context), Rig(ros_context)
+def active_follower(context, executor, twist_type=TwistStamped, **overrides):
+    """An active follower and a rig wired to it, once the follower listens to both inputs."""
+    node, rig = follower(context, **overrides), Rig(context, twist_type=twist_type)
     executor.add_node(node)
     executor.add_node(rig)
     activate(node)
     assert spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    return node, rig
+
+
+def test_simulation_mode_answers_every_pair_with_a_twist_stamped(ros_context, executor):
+    node, rig = active_follower(ros_context, executor)
     for k in range(10):
         rig.send(10**9 + k * 50_000_000, right=0.25)  # 5 cm too far from the right wall
         assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5), f"no command for pair {k}"
@@ -92,11 +98,7 @@ def test_simulation_mode_answers_every_pair_with_a_twist_stamped(ros_context, ex
 
 
 def test_bad_scans_never_make_nan_commands(ros_context, executor):
-    node, rig = follower(ros_context), Rig(ros_context)
-    executor.add_node(node)
-    executor.add_node(rig)
-    activate(node)
-    spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    node, rig = active_follower(ros_context, executor)
     bad = [[], [math.nan] * BEAMS, [math.inf] * BEAMS, [1e30] * BEAMS, [0.3] * 3]
     for k, ranges in enumerate(bad):
         stamp = 10**9 + k * 50_000_000
@@ -111,12 +113,7 @@ def test_bad_scans_never_make_nan_commands(ros_context, executor):
 
 
 def test_real_robot_mode_uses_twist_a_timer_and_stops_on_stale_data(ros_context, executor):
-    node = follower(ros_context, simulation=False, sync_slop=0.15, flip_angular_sign=True, stale_timeout=0.1)
-    rig = Rig(ros_context, twist_type=Twist)
-    executor.add_node(node)
-    executor.add_node(rig)
-    activate(node)
-    spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    node, rig = active_follower(ros_context, executor, Twist, simulation=False, sync_slop=0.15, flip_angular_sign=True, stale_timeout=0.1)
     now = node.get_clock().now().nanoseconds
     for k in range(6):  # the real robot: odometry and scan stamps differ a little
         rig.odometry.publish(odometry(now + k * 50_000_000 + 7_000_000))
@@ -131,11 +128,7 @@ def test_real_robot_mode_uses_twist_a_timer_and_stops_on_stale_data(ros_context,
 
 
 def test_deactivation_publishes_a_zero_command(ros_context, executor):
-    node, rig = follower(ros_context), Rig(ros_context)
-    executor.add_node(node)
-    executor.add_node(rig)
-    activate(node)
-    spin_until(executor, lambda: rig.scan.get_subscription_count() > 0, 5)
+    node, rig = active_follower(ros_context, executor)
     rig.send(10**9)
     assert spin_until(executor, lambda: len(rig.commands) == 1, 5)
     assert node.try_transition(Transition.TRANSITION_DEACTIVATE)
@@ -191,12 +184,7 @@ def test_manager_stops_at_a_node_that_fails_configure(ros_context, multi_executo
 
 def test_real_robot_mode_holds_the_last_command_between_slow_scans(ros_context, executor):
     """The LDS-01 scans at 5 Hz, the controller runs at 20 Hz: between pairs the command is held, not zeroed."""
-    node = follower(ros_context, simulation=False, sync_slop=0.15, stale_timeout=0.5)
-    rig = Rig(ros_context, twist_type=Twist)
-    executor.add_node(node)
-    executor.add_node(rig)
-    activate(node)
-    spin_until(executor, lambda: rig.scan.get_subscription_count() and rig.odometry.get_subscription_count(), 5)
+    node, rig = active_follower(ros_context, executor, Twist, simulation=False, sync_slop=0.15, stale_timeout=0.5)
     now = node.get_clock().now().nanoseconds
     for k in range(5):
         rig.send(now + k * 200_000_000, right=0.25)
