@@ -202,7 +202,7 @@ class Supervisor:
             failure = self._watch()
             self.console.end_live()
             self.console.note(f"stopping: {failure}" if failure else "stopping")
-            if self.active and not failure:
+            if not failure:  # also mid-startup: the manager cancels it and takes down what is up
                 self._shut_down_managed_nodes()
         except StackError as error:
             failure = str(error)

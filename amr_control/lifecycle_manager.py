@@ -101,6 +101,8 @@ class LifecycleManager(Node):
             return self.startup_result
 
     def shutdown(self) -> list[Step]:
+        """Takes down what is up, including what a startup still running has brought up so far."""
+        self.sequencer.cancel_startup()
         with self._busy:
             return self.sequencer.shutdown()
 

@@ -8,12 +8,15 @@ node, which transition and why; the nodes already up stay up until shutdown.
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 UP = ("configure", "activate")
 DOWN = ("deactivate", "cleanup")
+WAIT_SLICE = 0.25  # s between looks at a cancel request while waiting for a node's services
 STATE_AFTER = {"configure": "inactive", "activate": "active", "deactivate": "inactive", "cleanup": "unconfigured"}
 
 
@@ -44,20 +47,40 @@ class LifecycleSequencer:
         if len(set(nodes)) != len(nodes):
             raise ValueError(f"node_startup_order names a node twice: {list(nodes)}")
         self.client, self.nodes, self.wait_timeout, self.report = client, list(nodes), wait_timeout, report
+        self._cancelled = threading.Event()
+
+    def cancel_startup(self) -> None:
+        """Make a running startup stop before its next wait or transition (a stop arrived mid-startup)."""
+        self._cancelled.set()
 
     def startup(self) -> list[Step]:
         """Configure and activate every node in order; stops at the first failure (last step not ok)."""
+        self._cancelled.clear()
         steps: list[Step] = []
         for node in self.nodes:
-            if not self.client.wait_until_available(node, self.wait_timeout):
-                return self._record(steps, Step(node, "wait", False,
-                                                f"lifecycle services of {node} not available after {self.wait_timeout} s"))
+            if not self._wait_until_available(node):
+                detail = ("startup cancelled" if self._cancelled.is_set()
+                          else f"lifecycle services of {node} not available after {self.wait_timeout} s")
+                return self._record(steps, Step(node, "wait", False, detail))
             remaining = {"inactive": UP[1:], "active": ()}.get(self.client.state(node), UP)
             for transition in remaining:
+                if self._cancelled.is_set():
+                    return self._record(steps, Step(node, transition, False, "startup cancelled"))
                 step = self._record(steps, self._transition(node, transition))[-1]
                 if not step.ok:
                     return steps
         return steps
+
+    def _wait_until_available(self, node: str) -> bool:
+        """In slices, so that a cancel request is seen within WAIT_SLICE."""
+        deadline = time.monotonic() + self.wait_timeout
+        while not self._cancelled.is_set():
+            slice_end = min(deadline, time.monotonic() + WAIT_SLICE)
+            if self.client.wait_until_available(node, max(0.0, slice_end - time.monotonic())):
+                return True
+            if self._cancelled.wait(max(0.0, slice_end - time.monotonic())) or time.monotonic() >= deadline:
+                return False
+        return False
 
     def shutdown(self) -> list[Step]:
         """Deactivate and clean up in reverse order, as far as each node's state allows; never stops early."""

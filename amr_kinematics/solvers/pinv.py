@@ -96,12 +96,12 @@ class PinvSolver(Solver):
 
     @staticmethod
     def _initial_error(chain, goal, refiner, q) -> float:
-        """Weighted squared task error at q, the key candidates are sorted by."""
+        """Weighted task error norm at q, the key candidates are sorted by (hypot: no overflow on far targets)."""
         pose = chain.kernel.pose(q.tolist())
         dp = goal.position - pose[:3]
-        score = float(dp[0] ** 2 + dp[1] ** 2 + (0.0 if chain.planar else dp[2] ** 2))
+        terms = [dp[0], dp[1]] if chain.planar else [dp[0], dp[1], dp[2]]
         if goal.rotation is not None:
             w = rotation_error(*pose[3:12], *goal.rotation.ravel())
-            w2 = w[2] ** 2 if chain.planar else w[0] ** 2 + w[1] ** 2 + w[2] ** 2
-            score += refiner.angular_weight ** 2 * w2
+            terms += [refiner.angular_weight * w[i] for i in ((2,) if chain.planar else (0, 1, 2))]
+        score = math.hypot(*terms)
         return score if math.isfinite(score) else math.inf

@@ -1,6 +1,9 @@
+import threading
+import time
+
 import pytest
 
-from amr_control.lifecycle_sequence import LifecycleSequencer
+from amr_control.lifecycle_sequence import WAIT_SLICE, LifecycleSequencer
 
 GRAPH = {  # state -> {transition: next state}
     "unconfigured": {"configure": "inactive", "shutdown": "finalized"},
@@ -36,8 +39,9 @@ class FakeNodes:
         return True
 
 
-def make(nodes, fake, reported=None):
-    return LifecycleSequencer(fake, nodes, wait_timeout=1.0, report=(reported.append if reported is not None else lambda s: None))
+def make(nodes, fake, reported=None, wait_timeout=0.6):
+    return LifecycleSequencer(fake, nodes, wait_timeout=wait_timeout,
+                              report=(reported.append if reported is not None else lambda s: None))
 
 
 def test_startup_in_order_and_shutdown_in_reverse():
@@ -78,6 +82,37 @@ def test_a_failing_configure_stops_the_sequence_and_names_the_node():
 def test_unreachable_or_finalized_nodes_fail_clearly(fake, words):
     steps = make(["x"], fake).startup()
     assert not steps[-1].ok and words in steps[-1].detail
+
+
+def test_a_stop_mid_startup_cancels_the_rest_and_shutdown_takes_down_what_is_up():
+    fake = FakeNodes({"sim": "unconfigured", "odom": "unconfigured", "follower": "unconfigured"})
+    sequencer = make(["sim", "odom", "follower"], fake)
+    answer = fake.change_state
+
+    def stop_arrives_during_odom_activate(node, transition):  # the signal lands while a transition is under way
+        if (node, transition) == ("odom", "activate"):
+            sequencer.cancel_startup()
+        return answer(node, transition)
+
+    fake.change_state = stop_arrives_during_odom_activate
+    steps = sequencer.startup()
+    assert not steps[-1].ok and steps[-1].node == "follower" and "cancelled" in steps[-1].detail
+    assert ("follower", "configure") not in fake.requests
+    fake.requests.clear()
+    sequencer.shutdown()
+    assert fake.requests == [("odom", "deactivate"), ("odom", "cleanup"), ("sim", "deactivate"), ("sim", "cleanup")]
+    fake.change_state = answer
+    assert all(step.ok for step in sequencer.startup())  # a new startup is not cancelled by the old request
+
+
+def test_a_cancel_ends_a_long_wait_for_a_node_within_a_slice():
+    fake = FakeNodes({"x": "unconfigured"}, absent={"x"})
+    sequencer = make(["x"], fake, wait_timeout=30.0)
+    threading.Timer(0.3, sequencer.cancel_startup).start()
+    started = time.monotonic()
+    steps = sequencer.startup()
+    assert time.monotonic() - started < 0.3 + 2 * WAIT_SLICE
+    assert steps[-1].transition == "wait" and steps[-1].detail == "startup cancelled"
 
 
 def test_shutdown_skips_what_the_state_does_not_allow():
