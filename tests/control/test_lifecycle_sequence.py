@@ -111,7 +111,7 @@ def test_a_cancel_ends_a_long_wait_for_a_node_within_a_slice():
     threading.Timer(0.3, sequencer.cancel_startup).start()
     started = time.monotonic()
     steps = sequencer.startup()
-    assert time.monotonic() - started < 0.3 + 2 * WAIT_SLICE
+    assert time.monotonic() - started < 0.3 + 4 * WAIT_SLICE  # not the 30 s wait_timeout
     assert steps[-1].transition == "wait" and steps[-1].detail == "startup cancelled"
 
 

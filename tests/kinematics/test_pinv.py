@@ -7,7 +7,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from amr_kinematics.errors import SolverNotApplicableError
 from amr_kinematics.solvers import get_solver, latin_hypercube
 
 from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
@@ -71,14 +70,10 @@ def test_smaller_gain_takes_more_steps(chain_set):
 
 
 @pytest.mark.filterwarnings("error")
-@pytest.mark.parametrize("name", ["ur5", "rr2"])
-@pytest.mark.parametrize("solver", ["pinv", "dls", "ccd", "analytic"])
+@pytest.mark.parametrize(("name", "solver"), [("ur5", "pinv"), ("ur5", "dls"), ("rr2", "pinv"), ("rr2", "dls"),
+                                              ("rr2", "ccd"), ("rr2", "analytic")])
 def test_a_target_light_years_away_is_reported_unreachable_without_overflow(chain_set, name, solver):
     config = chain_set[name]
-    try:
-        get_solver(solver).check(config.chain)
-    except SolverNotApplicableError as error:
-        pytest.skip(str(error))
     result = get_solver(solver).solve(config.chain, [1e200, -1e200, 1e200][: 2 if config.chain.planar else 3],
                                       seed=config.home, timeout=0.2)
     assert not result.success and config.chain.within_limits(result.q)
