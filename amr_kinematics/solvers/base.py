@@ -25,6 +25,7 @@ DEFAULT_MAX_ITERATIONS = 1000
 DEFAULT_TIMEOUT = 0.005  # s; TRAC-IK's customary budget
 MAX_ITERATIONS_LIMIT = 1_000_000  # requests beyond these are refused as absurd
 MAX_TIMEOUT = 60.0
+MAX_TARGET_DISTANCE = 1e6  # m from the base frame's origin; squared errors would overflow near 1e154
 _EYE3 = np.eye(3)
 
 
@@ -93,6 +94,10 @@ def parse_goal(chain: Chain, target, with_orientation: bool) -> Goal:
         raise InvalidRequestError(f"target must be numbers, got {target!r}") from exc
     if not all_finite(array):
         raise InvalidRequestError("target must be finite (no NaN or inf)")
+    position = array[:3, 3] if array.shape == (4, 4) else array
+    if position.size and float(np.abs(position).max()) > MAX_TARGET_DISTANCE:
+        raise InvalidRequestError(f"target position {position.tolist()} is absurd: "
+                                  f"coordinates beyond {MAX_TARGET_DISTANCE:g} m are refused")
     if array.shape == (4, 4):
         rotation = array[:3, :3]
         if float(np.abs(rotation @ rotation.T - _EYE3).max()) > 1e-6 or array[3].tolist() != [0.0, 0.0, 0.0, 1.0]:

@@ -7,7 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from amr_kinematics.errors import InvalidRequestError
 from amr_kinematics.solvers import get_solver, latin_hypercube
+from amr_kinematics.solvers.base import MAX_TARGET_DISTANCE
 
 from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
 
@@ -70,10 +72,20 @@ def test_smaller_gain_takes_more_steps(chain_set):
 
 
 @pytest.mark.filterwarnings("error")
-@pytest.mark.parametrize(("name", "solver"), [("ur5", "pinv"), ("ur5", "dls"), ("rr2", "pinv"), ("rr2", "dls"),
-                                              ("rr2", "ccd"), ("rr2", "analytic")])
-def test_a_target_light_years_away_is_reported_unreachable_without_overflow(chain_set, name, solver):
-    config = chain_set[name]
-    result = get_solver(solver).solve(config.chain, [1e200, -1e200, 1e200][: 2 if config.chain.planar else 3],
-                                      seed=config.home, timeout=0.2)
+@pytest.mark.parametrize(("name", "solver", "with_orientation"), [
+    ("ur5", "pinv", False), ("ur5", "dls", False), ("ur5", "pinv", True), ("ur5", "dls", True),
+    ("rr2", "pinv", False), ("rr2", "dls", False), ("rr2", "ccd", False), ("rr2", "analytic", False)])
+def test_far_targets_are_unreachable_without_overflow_and_absurd_ones_refused(chain_set, name, solver,
+                                                                              with_orientation):
+    config, solve = chain_set[name], get_solver(solver).solve
+
+    def goal(distance):
+        pose = np.eye(4)
+        pose[:3, 3] = [distance, -distance, distance]
+        return pose if with_orientation else pose[: 2 if config.chain.planar else 3, 3]
+
+    result = solve(config.chain, goal(MAX_TARGET_DISTANCE), seed=config.home, with_orientation=with_orientation,
+                   timeout=0.2)
     assert not result.success and config.chain.within_limits(result.q)
+    with pytest.raises(InvalidRequestError, match="absurd"):
+        solve(config.chain, goal(1e200), seed=config.home, with_orientation=with_orientation)
