@@ -77,25 +77,26 @@ def quaternion_matrix(quaternion) -> np.ndarray:
     )
 
 
-def matrix_quaternion(rotation: np.ndarray) -> np.ndarray:
-    """Quaternion (x, y, z, w), w >= 0, of a 3x3 rotation (Shepperd's method)."""
-    r = np.asarray(rotation, dtype=float)
-    trace = r[0, 0] + r[1, 1] + r[2, 2]
+def matrix_quaternion(rotation: np.ndarray) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w), w >= 0, of a 3x3 rotation (Shepperd's method, on floats)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(rotation, dtype=float).tolist()
+    trace = r00 + r11 + r22
     if trace > 0.0:
         s = 2.0 * math.sqrt(1.0 + trace)
-        q = ((r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s, 0.25 * s)
-    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
-        q = (0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s, (r[2, 1] - r[1, 2]) / s)
-    elif r[1, 1] > r[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
-        q = ((r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s, (r[0, 2] - r[2, 0]) / s)
+        q = ((r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s, 0.25 * s)
+    elif r00 > r11 and r00 > r22:
+        s = 2.0 * math.sqrt(1.0 + r00 - r11 - r22)
+        q = (0.25 * s, (r01 + r10) / s, (r02 + r20) / s, (r21 - r12) / s)
+    elif r11 > r22:
+        s = 2.0 * math.sqrt(1.0 + r11 - r00 - r22)
+        q = ((r01 + r10) / s, 0.25 * s, (r12 + r21) / s, (r02 - r20) / s)
     else:
-        s = 2.0 * math.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
-        q = ((r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s, (r[1, 0] - r[0, 1]) / s)
-    quat = np.array(q)
-    quat /= np.linalg.norm(quat)
-    return -quat if quat[3] < 0.0 else quat
+        s = 2.0 * math.sqrt(1.0 + r22 - r00 - r11)
+        q = ((r02 + r20) / s, (r12 + r21) / s, 0.25 * s, (r10 - r01) / s)
+    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if q[3] < 0.0:
+        norm = -norm
+    return (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)
 
 
 def pose_matrix(position, quaternion=(0.0, 0.0, 0.0, 1.0)) -> np.ndarray:

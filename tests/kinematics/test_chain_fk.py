@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from transforms3d.quaternions import mat2quat
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -130,8 +131,10 @@ def test_quaternion_round_trip(values):
     q = np.array(values) / np.linalg.norm(values)
     rotation = quaternion_matrix(q)
     np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)
-    back = matrix_quaternion(rotation)
+    back = np.array(matrix_quaternion(rotation))
     assert np.allclose(back, q, atol=1e-9) or np.allclose(back, -q, atol=1e-9)  # q and -q: one rotation
+    w, x, y, z = mat2quat(rotation)  # transforms3d's eigen-decomposition, an independent reference
+    assert back[3] >= 0.0 and np.allclose(np.abs(back), np.abs([x, y, z, w]), atol=1e-9)
 
 
 @pytest.mark.parametrize("quaternion", [(0.0, 0.0, 0.0, 0.0), (math.nan, 0.0, 0.0, 1.0)])
