@@ -13,7 +13,8 @@ import math
 import os
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -89,7 +90,25 @@ def call(node: Node, service_type, name: str, request):
         node.destroy_client(client)
 
 
-def run_maze(context, executor, world: str, duration: float, *, odometry_node: bool = False,
+@contextmanager
+def spinning(context, nodes: Sequence[Node]) -> Iterator[SingleThreadedExecutor]:
+    """The nodes spun in a background thread; on exit the executor stops first, then the nodes are
+    destroyed (a node destroyed under a spinning executor can kill its thread mid-wait)."""
+    executor = SingleThreadedExecutor(context=context)
+    for node in nodes:
+        executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        yield executor
+    finally:
+        executor.shutdown(timeout_sec=5.0)
+        spinner.join(timeout=5.0)
+        for node in nodes:
+            node.destroy_node()
+
+
+def run_maze(context, world: str, duration: float, *, odometry_node: bool = False,
              follower_config: str = "wall_follower_sim.yaml", render_path: Path | None = None,
              simulator_overrides: Sequence[str] = (), follower_overrides: Sequence[str] = (),
              progress: bool = True) -> tuple[dict, np.ndarray]:
@@ -110,10 +129,7 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
     manager = LifecycleManager(context=context, parameter_overrides=[
         Parameter("node_startup_order", value=[node.get_name() for node in stack])])
     observer = Observer(context=context)
-    nodes = stack + [manager, observer]
-    for node in nodes:
-        executor.add_node(node)
-    try:
+    with spinning(context, stack + [manager, observer]):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the maze stack did not come up (see the log above)")
         started = time.monotonic()
@@ -124,10 +140,6 @@ def run_maze(context, executor, world: str, duration: float, *, odometry_node: b
         elapsed = time.monotonic() - started
         rendered = call(observer, Trigger, "simulator/render", Trigger.Request()) if render_path else None
         manager.shutdown()
-    finally:
-        for node in nodes:
-            executor.remove_node(node)
-            node.destroy_node()
     with observer.lock:
         samples = np.array(observer.follower) if observer.follower else np.zeros((0, 4))
     following = samples[(samples[:, 3] == 1) & np.isfinite(samples[:, 1])]
@@ -197,59 +209,55 @@ def iteration_history(node: Node, chain: str, target, seed, iterations: int, sol
     return history
 
 
-def run_ik(context, executor, out: Path) -> dict:
+def run_ik(context, out: Path) -> dict:
     ik = IKServiceNode(context=context, cli_args=params_file_args(config_file("amr_kinematics", "ik_chains.yaml")))
     manager = LifecycleManager(context=context, cli_args=["--ros-args", "-r", "__node:=ik_manager"],
                                parameter_overrides=[Parameter("node_startup_order", value=["ik_service"])])
     client = Node("demo_ik_client", context=context)
-    for node in (ik, manager, client):
-        executor.add_node(node)
-    if not all(step.ok for step in manager.startup()):
-        raise RuntimeError("the IK service did not come up (see the log above)")
-    results = {}
+    with spinning(context, [ik, manager, client]):
+        if not all(step.ok for step in manager.startup()):
+            raise RuntimeError("the IK service did not come up (see the log above)")
+        results = {}
 
-    # seed 004: the 5-DOF arm, DLS with lambda^2 = 50 (cm^2), tool pointing down
-    start = [math.radians(a) for a in (0.0, 60.0, -40.0, -50.0, -60.0)]
-    target = (0.053, 0.0478, 0.0)
-    arm5 = solve(client, "arm5", *target, seed=start, solver="dls")
-    history = iteration_history(client, "arm5", target, start, arm5.iterations, "dls")
-    demo_figures.arm_iterations_figure(out / "ik_dls.png", history, target,
-                                       f"DLS, 5-DOF arm: {arm5.iterations} iterations, error {arm5.position_error * 100:.4f} cm")
-    results["arm5_dls"] = summary_of(arm5, scale=100.0, unit="cm")
+        # seed 004: the 5-DOF arm, DLS with lambda^2 = 50 (cm^2), tool pointing down
+        start = [math.radians(a) for a in (0.0, 60.0, -40.0, -50.0, -60.0)]
+        target = (0.053, 0.0478, 0.0)
+        arm5 = solve(client, "arm5", *target, seed=start, solver="dls")
+        history = iteration_history(client, "arm5", target, start, arm5.iterations, "dls")
+        demo_figures.arm_iterations_figure(out / "ik_dls.png", history, target,
+                                           f"DLS, 5-DOF arm: {arm5.iterations} iterations, error {arm5.position_error * 100:.4f} cm")
+        results["arm5_dls"] = summary_of(arm5, scale=100.0, unit="cm")
 
-    # ULL report: the 5-joint planar robot (rotation, prismatic, rotation, rotation, prismatic) by CCD
-    home = [0.0, 0.05, 0.0, 0.0, 0.05]
-    ccd_target = (0.10, 0.10, 0.0)
-    ull5 = solve(client, "ull5", *ccd_target, seed=home, solver="ccd")
-    history = iteration_history(client, "ull5", ccd_target, home, ull5.iterations, "ccd")
-    demo_figures.planar_iterations_figure(out / "ik_ccd.png", history, ccd_target,
-                                          f"CCD, ULL 5-joint planar robot: {ull5.iterations} iterations")
-    results["ull5_ccd"] = summary_of(ull5, scale=100.0, unit="cm")
+        # ULL report: the 5-joint planar robot (rotation, prismatic, rotation, rotation, prismatic) by CCD
+        home = [0.0, 0.05, 0.0, 0.0, 0.05]
+        ccd_target = (0.10, 0.10, 0.0)
+        ull5 = solve(client, "ull5", *ccd_target, seed=home, solver="ccd")
+        history = iteration_history(client, "ull5", ccd_target, home, ull5.iterations, "ccd")
+        demo_figures.planar_iterations_figure(out / "ik_ccd.png", history, ccd_target,
+                                              f"CCD, ULL 5-joint planar robot: {ull5.iterations} iterations")
+        results["ull5_ccd"] = summary_of(ull5, scale=100.0, unit="cm")
 
-    # seed 001: the 2R arm (l1 = l2 = 2) along a straight line, each solve seeded with the last
-    waypoints = np.linspace((3.0, -1.0), (-1.0, 3.0), 41)
-    seed, joints, origins, successes = [0.0, 0.5], [], [], 0
-    for x, y in waypoints:
-        response = solve(client, "rr2", x, y, seed=seed, solver="analytic")
-        successes += response.success
-        seed = list(response.positions)
-        joints.append(seed)
-        origins.append(joint_origins(client, "rr2", seed))
-    joints = np.array(joints)
-    largest_step = float(np.max(np.abs(np.diff(joints, axis=0)))) if len(joints) > 1 else 0.0
-    demo_figures.path_tracking_figure(out / "ik_2r_path.png", waypoints, origins, joints,
-                                      f"2R closed form along a line: largest joint step {math.degrees(largest_step):.1f} deg")
-    results["rr2_path"] = {"waypoints": len(waypoints), "successes": successes,
-                           "largest_joint_step_deg": round(math.degrees(largest_step), 3)}
+        # seed 001: the 2R arm (l1 = l2 = 2) along a straight line, each solve seeded with the last
+        waypoints = np.linspace((3.0, -1.0), (-1.0, 3.0), 41)
+        seed, joints, origins, successes = [0.0, 0.5], [], [], 0
+        for x, y in waypoints:
+            response = solve(client, "rr2", x, y, seed=seed, solver="analytic")
+            successes += response.success
+            seed = list(response.positions)
+            joints.append(seed)
+            origins.append(joint_origins(client, "rr2", seed))
+        joints = np.array(joints)
+        largest_step = float(np.max(np.abs(np.diff(joints, axis=0)))) if len(joints) > 1 else 0.0
+        demo_figures.path_tracking_figure(out / "ik_2r_path.png", waypoints, origins, joints,
+                                          f"2R closed form along a line: largest joint step {math.degrees(largest_step):.1f} deg")
+        results["rr2_path"] = {"waypoints": len(waypoints), "successes": successes,
+                               "largest_joint_step_deg": round(math.degrees(largest_step), 3)}
 
-    # the industrial arms: position-only and full pose to a reachable target
-    for chain in ("ur5", "panda"):
-        response = solve(client, chain, 0.3, 0.2, 0.4)
-        results[f"{chain}_position"] = summary_of(response)
-    manager.shutdown()
-    for node in (client, manager, ik):
-        executor.remove_node(node)
-        node.destroy_node()
+        # the industrial arms: position-only and full pose to a reachable target
+        for chain in ("ur5", "panda"):
+            response = solve(client, chain, 0.3, 0.2, 0.4)
+            results[f"{chain}_position"] = summary_of(response)
+        manager.shutdown()
     return results
 
 
@@ -270,20 +278,15 @@ def main(argv: list[str] | None = None) -> None:
 
     context = rclpy.Context()
     rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
     started = time.monotonic()
     try:
-        maze, samples = run_maze(context, executor, args.world, args.duration, render_path=out / "maze.png")
+        maze, samples = run_maze(context, args.world, args.duration, render_path=out / "maze.png")
         demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1],
                                           maze["target_wall_distance_m"], samples[:, 3] == 0)
         summary = {"maze": maze}
         print(f"maze done: {json.dumps(summary['maze'])}")
-        summary["ik"] = run_ik(context, executor, out)
+        summary["ik"] = run_ik(context, out)
     finally:
-        executor.shutdown()
-        spinner.join(timeout=5.0)
         context.try_shutdown()
     summary["total_wall_time_s"] = round(time.monotonic() - started, 2)
     summary["figures"] = sorted(p.name for p in out.glob("*.png"))

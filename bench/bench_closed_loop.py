@@ -12,7 +12,6 @@ import os
 import random
 import subprocess
 import sys
-import threading
 import time
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -31,14 +30,9 @@ DT = 0.05
 def in_process(world: str, span: float, odometry_node: bool) -> float:
     context = rclpy.Context()
     rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
     try:
-        summary, _ = run_maze(context, executor, world, span, odometry_node=odometry_node, progress=False)
+        summary, _ = run_maze(context, world, span, odometry_node=odometry_node, progress=False)
     finally:
-        executor.shutdown()
-        spinner.join(timeout=5.0)
         context.try_shutdown()
     return summary["speed_up"]
 

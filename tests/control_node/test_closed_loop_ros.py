@@ -1,10 +1,7 @@
 """Issue 6's closed loop through ROS: simulator + (odometry node) + wall follower + lifecycle manager,
 one process, lockstep, every shipped world, 10 simulated minutes, not one collision."""
 
-import threading
-
 import pytest
-from rclpy.executors import SingleThreadedExecutor
 
 from amr_control.demo import run_maze
 from amr_control.managed_node import share_directory
@@ -13,24 +10,14 @@ WORLDS = sorted(p.name for p in (share_directory("amr_simulation") / "config" / 
 SPAN = 600.0  # s of simulated time
 
 
-@pytest.fixture
-def spinning(ros_context):
-    executor = SingleThreadedExecutor(context=ros_context)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
-    yield executor
-    executor.shutdown()
-    spinner.join(timeout=5.0)
-
-
 def test_every_shipped_world_is_tested():
     assert len(WORLDS) >= 4
 
 
 @pytest.mark.parametrize("odometry_node", [False, True], ids=["sim_odometry", "odometry_node"])
 @pytest.mark.parametrize("world", WORLDS)
-def test_explores_without_touching_a_wall(ros_context, spinning, world, odometry_node):
-    summary, samples = run_maze(ros_context, spinning, world, SPAN, odometry_node=odometry_node, progress=False)
+def test_explores_without_touching_a_wall(ros_context, world, odometry_node):
+    summary, samples = run_maze(ros_context, world, SPAN, odometry_node=odometry_node, progress=False)
     print(summary)  # mean |wall distance - target| is reported here (pytest -s), not judged
     assert summary["collisions"] == 0, summary
     assert summary["goal_reached"] or summary["simulated_time_s"] >= SPAN, summary
@@ -40,13 +27,13 @@ def test_explores_without_touching_a_wall(ros_context, spinning, world, odometry
 
 
 @pytest.mark.parametrize("world", ["outer_corridor.yaml", "hard_maze.yaml"])
-def test_real_robot_config_drives_the_simulator_on_sim_time(ros_context, spinning, world):
+def test_real_robot_config_drives_the_simulator_on_sim_time(ros_context, world):
     """Twist on /cmd_vel, a timer every dt on /clock: the seed's real-robot architecture, sped up 4x.
 
     The simulator follows REP 103, so the real robot's sign flip (seed 5.2.1) is switched off here.
     """
     summary, samples = run_maze(
-        ros_context, spinning, world, 90.0, follower_config="wall_follower_real.yaml",
+        ros_context, world, 90.0, follower_config="wall_follower_real.yaml",
         simulator_overrides=["mode:=realtime", "rate:=4.0", "cmd_vel_stamped:=false"],
         follower_overrides=["use_sim_time:=true", "flip_angular_sign:=false"], progress=False)
     print(summary)
