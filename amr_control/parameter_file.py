@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -21,3 +22,14 @@ def node_parameters(path: str | Path, node_name: str, error: type[Exception] = V
     if not isinstance(params, dict):
         raise error(f"{path}: '{node_name}: ros__parameters:' is not a mapping")
     return params
+
+
+def dotted(params: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested mappings to ROS's dotted names: {'lidar': {'beams': 240}} -> {'lidar.beams': 240}."""
+    flat: dict[str, Any] = {}
+    for key, value in params.items():
+        if isinstance(value, Mapping):
+            flat.update(dotted(value, f"{prefix}{key}."))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat

@@ -32,6 +32,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from amr_control.parameter_file import dotted
+
 from .chain import CONVENTIONS, JOINT_TYPES, PLANAR, Chain, Coupling
 from .errors import ChainConfigError, KinematicsError
 from .solvers import SOLVERS, IKResult, get_solver
@@ -114,17 +116,7 @@ def flatten_parameters(params: Mapping) -> dict:
         (only,) = params.values()
         if isinstance(only, Mapping) and "ros__parameters" in only:
             params = only["ros__parameters"]
-    flat: dict = {}
-
-    def walk(prefix: str, value) -> None:
-        if isinstance(value, Mapping):
-            for key, inner in value.items():
-                walk(f"{prefix}.{key}" if prefix else str(key), inner)
-        else:
-            flat[prefix] = value
-
-    walk("", params)
-    return flat
+    return dotted(params)
 
 
 def load_chain_set(params: Mapping) -> dict[str, ChainConfig]:

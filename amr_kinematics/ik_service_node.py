@@ -31,7 +31,6 @@ import time
 from array import array
 
 import numpy as np
-import yaml
 from amr_interfaces.srv import ComputeFK, SolveIK
 from geometry_msgs.msg import Point, Pose
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -41,11 +40,11 @@ from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 
 from amr_control.managed_node import ManagedNode, run, share_directory
-from amr_kinematics.config import ChainConfig, flatten_parameters, load_chain_set
+from amr_control.parameter_file import node_parameters
+from amr_kinematics.config import NODE_NAME, ChainConfig, flatten_parameters, load_chain_set
 from amr_kinematics.errors import KinematicsError
 from amr_kinematics.transforms import matrix_quaternion, pose_matrix
 
-NODE_NAME = "ik_service"
 PACKAGE = "amr_kinematics"
 DEFAULT_CONFIG = "config/ik_chains.yaml"  # in the package's share directory
 QUATERNION_TOLERANCE = 1e-3  # |q| may differ from 1 by this much (then it is normalised)
@@ -103,7 +102,7 @@ def packaged_chain_parameters() -> dict:
     path = share_directory(PACKAGE) / DEFAULT_CONFIG
     if not path.is_file():
         return {}
-    return flatten_parameters(yaml.safe_load(path.read_text(encoding="utf-8")))
+    return flatten_parameters(node_parameters(path, NODE_NAME))
 
 
 class IKServiceNode(ManagedNode):

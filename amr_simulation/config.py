@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-from amr_control.parameter_file import node_parameters
+from amr_control.parameter_file import dotted, node_parameters
 from amr_simulation.errors import ConfigError
 
 MODES = ("lockstep", "realtime")
@@ -149,7 +149,7 @@ class SimulationConfig:
     @classmethod
     def from_params(cls, params: Mapping[str, Any], ignore: Iterable[str] = ()) -> "SimulationConfig":
         """Build from a flat dotted-name dict (or nested dicts); names in ignore are skipped."""
-        flat = {key: value for key, value in flatten(params).items() if key not in set(ignore)}
+        flat = {key: value for key, value in dotted(params).items() if key not in set(ignore)}
         sections = {"robot": RobotConfig, "lidar": LidarConfig, "encoders": EncoderConfig}
         top: dict[str, Any] = {}
         nested: dict[str, dict[str, Any]] = {name: {} for name in sections}
@@ -169,17 +169,6 @@ class SimulationConfig:
         return cls(**top, **{name: sections[name](**values) for name, values in nested.items()})
 
 
-def flatten(params: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """Nested dicts to dotted names: {'lidar': {'beams': 240}} -> {'lidar.beams': 240}."""
-    flat: dict[str, Any] = {}
-    for key, value in params.items():
-        if isinstance(value, Mapping):
-            flat.update(flatten(value, f"{prefix}{key}."))
-        else:
-            flat[f"{prefix}{key}"] = value
-    return flat
-
-
 def param_defaults() -> dict[str, Any]:
     """Every parameter with its default, flat and ROS-typed: what a node declares.
 
@@ -188,7 +177,7 @@ def param_defaults() -> dict[str, Any]:
     """
     config = SimulationConfig()
     params = {}
-    for key, value in flatten(dataclasses.asdict(config)).items():
+    for key, value in dotted(dataclasses.asdict(config)).items():
         if key != "start":
             params[key] = value
     return params
@@ -196,7 +185,7 @@ def param_defaults() -> dict[str, Any]:
 
 def read_parameter_file(path: str | Path, node_name: str = "simulator") -> dict[str, Any]:
     """The flat parameters of one node from a ROS 2 parameter YAML file."""
-    return flatten(node_parameters(path, node_name, ConfigError))
+    return dotted(node_parameters(path, node_name, ConfigError))
 
 
 def _typed(value: Any, spec: dataclasses.Field, key: str) -> Any:
