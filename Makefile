@@ -19,7 +19,7 @@ $(VENV)/.deps-installed: pyproject.toml
 	@touch $@
 
 demo: setup
-	$(PY) -m amr_control.demo
+	$(PY) -m amr_bringup.demo
 
 test: setup
 	$(PY) -m pytest -q

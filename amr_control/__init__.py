@@ -1,1 +1,1 @@
-"""The wall follower, the approximate-time synchronizer and the lifecycle manager."""
+"""Controllers: the synchronized wall follower, its approximate-time synchronizer and scan reading."""

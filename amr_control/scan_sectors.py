@@ -107,7 +107,9 @@ class _Geometry:
         angles = angle_min + increment * np.arange(count)
         wrapped = np.arctan2(np.sin(angles), np.cos(angles))
         self.angles = wrapped
+        self.full_circle = abs(increment) * count >= 2.0 * math.pi - 1e-6
         cos, sin = np.cos(wrapped), np.sin(wrapped)
+        self.cos, self.sin = cos, sin
 
         def window(center: float, half: float) -> np.ndarray:
             offset = np.arctan2(np.sin(wrapped - center), np.cos(wrapped - center))
@@ -145,9 +147,12 @@ MAX_RANGE = 1000.0
 class SectorReader:
     """Turns scans into :class:`Readings`; caches the beam layout between scans."""
 
-    def __init__(self, sectors: Sectors, footprint: Footprint) -> None:
+    def __init__(self, sectors: Sectors, footprint: Footprint, median_beams: int = 1) -> None:
+        if median_beams < 1 or median_beams % 2 == 0:
+            raise ValueError(f"median_beams must be a positive odd number, got {median_beams}")
         self.sectors = sectors
         self.footprint = footprint
+        self.median_beams = median_beams
         self._key: tuple[Any, ...] | None = None
         self._geometry: _Geometry | None = None
         self._ranges: np.ndarray | None = None  # the last scan, cleaned, for min_around
@@ -179,6 +184,8 @@ class SectorReader:
         if too_close.any():
             ranges[too_close] = range_min
         usable = int(np.count_nonzero(measured)) + int(np.count_nonzero(np.isinf(raw)))
+        if self.median_beams > 1:
+            ranges = _running_median(ranges, self.median_beams, geometry.full_circle)
 
         gathered = ranges[geometry.gather]
         minima = [math.inf] * 6
@@ -188,7 +195,7 @@ class SectorReader:
         front, ahead, left, right, left_abeam, right_abeam = minima
         left_fit = _fit_line(gathered[geometry.slices[2]], *geometry.left_cs)
         right_fit = _fit_line(gathered[geometry.slices[3]], *geometry.right_cs)
-        clearance, side = self._clearance(ranges, geometry)
+        clearance, side = self._clearance(_running_mean(ranges, CLEARANCE_MEAN_BEAMS, geometry.full_circle), geometry)
         sizes = (geometry.sizes[0], geometry.sizes[4], geometry.sizes[5])
         self._ranges = ranges
         return Readings(
@@ -202,6 +209,37 @@ class SectorReader:
         angles = self._geometry.angles  # type: ignore[union-attr]
         inside = np.abs(np.arctan2(np.sin(angles - center), np.cos(angles - center))) <= half_width + 1e-9
         return float(self._ranges[inside].min()) if inside.any() else math.inf
+
+    def nearest(self) -> tuple[float, float]:
+        """(bearing rad, range m) of the last read scan's nearest return; (0, inf) if none."""
+        if self._ranges is None or self._geometry is None or not np.isfinite(self._ranges).any():
+            return 0.0, math.inf
+        index = int(np.argmin(self._ranges))
+        return float(self._geometry.angles[index]), float(self._ranges[index])
+
+    def free_travel(self, directions: np.ndarray, shrink: float = 0.0) -> np.ndarray:
+        """For each direction (rad, robot frame), how far the disc can drive along it before touching a return.
+
+        The same swept-band test as the straight-ahead clearance, turned to each direction:
+        a return at p (rotation-centre frame) blocks direction u when |p x u| < R, after
+        p . u - sqrt(R^2 - (p x u)^2) of travel. Without the side margin: a turn aims
+        the robot, it does not drive blind; ``shrink`` (m) narrows the disc further, so
+        that returns pushed inwards by range noise do not close a corridor the robot fits
+        in. inf where nothing blocks; empty before any scan.
+        """
+        if self._ranges is None or self._geometry is None:
+            return np.full(len(directions), math.inf)
+        seen = self._ranges < np.inf
+        r = self._ranges[seen]
+        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
+        y = r * self._geometry.sin[seen]
+        ux, uy = np.cos(directions)[:, None], np.sin(directions)[:, None]
+        along = x[None, :] * ux + y[None, :] * uy
+        across = x[None, :] * uy - y[None, :] * ux
+        reach = self.footprint.radius - shrink
+        blocked = (np.abs(across) < reach) & (along > 0.0)
+        travel = np.where(blocked, along - np.sqrt(np.maximum(reach * reach - across * across, 0.0)), np.inf)
+        return np.maximum(travel.min(axis=1, initial=math.inf), 0.0)
 
     def _layout(self, count: int, angle_min: float, increment: float) -> _Geometry:
         key = (count, angle_min, increment)
@@ -233,6 +271,46 @@ class SectorReader:
         travel = x - np.sqrt(np.maximum(reach * reach - y * y, 0.0))
         nearest = int(np.argmin(travel))
         return float(max(travel[nearest], 0.0)), (1 if y[nearest] > 0.0 else -1)
+
+
+CLEARANCE_MEAN_BEAMS = 5
+"""The clearance reads ranges averaged over this many beams: range noise (sigma 3 cm) would
+otherwise put some return of a wall alongside inside the band on every scan."""
+SMOOTH_SPREAD = 0.12
+"""m: neighbouring ranges further apart than this are an edge, not noise on one surface."""
+
+OUTLIER_JUMP = 0.05
+"""m: a beam this far from the median of its neighbourhood is an outlier and takes that median."""
+
+
+def _running_mean(ranges: np.ndarray, beams: int, wrap: bool) -> np.ndarray:
+    """Each beam the mean of its ``beams`` neighbours (odd) where they lie on one smooth surface, else kept.
+
+    One surface: all returned and within SMOOTH_SPREAD of each other. An edge (a thin wall's
+    end against the room behind it) is never averaged away.
+    """
+    half = beams // 2
+    padded = np.pad(ranges, half, mode="wrap" if wrap else "edge")
+    windows = np.lib.stride_tricks.sliding_window_view(padded, beams)
+    with np.errstate(invalid="ignore"):  # inf - inf
+        smooth = np.all(np.isfinite(windows), axis=1) & (np.ptp(windows, axis=1) <= SMOOTH_SPREAD)
+    return np.where(smooth, np.where(smooth[:, None], windows, 0.0).mean(axis=1), ranges)
+
+
+def _running_median(ranges: np.ndarray, beams: int, wrap: bool) -> np.ndarray:
+    """Beams further than OUTLIER_JUMP from the median of their neighbourhood (beams odd) take it.
+
+    A lone spurious return, short or missing, never survives, while any object wider than
+    beams // 2 + 1 beams stays; readings that agree with their neighbours are kept exactly.
+    Wraps round a full-circle scan; a partial one repeats its end beams.
+    """
+    half = beams // 2
+    padded = np.pad(ranges, half, mode="wrap" if wrap else "edge")
+    windows = np.lib.stride_tricks.sliding_window_view(padded, beams)
+    median = np.sort(windows, axis=1)[:, half]
+    with np.errstate(invalid="ignore"):  # inf - inf: a run without returns, kept
+        jump = np.abs(ranges - median) > OUTLIER_JUMP
+    return np.where(jump, median, ranges)
 
 
 MIN_FIT_POINTS = 5

@@ -48,6 +48,14 @@ dicts keyed by stamp, so a second message with the same stamp on one input
 silently replaces the first. Its slop test is strict (``spread < slop``);
 here, as in C++, ``spread <= slop`` is accepted.
 
+Stamps that jump: a message more than ``jump_threshold`` older than the last
+published stamp of its input is not "late" but a sign that the clock jumped
+(time going backwards after a simulator reset, or normal stamps resuming after
+one bad stamp far in the future, which would otherwise make every later
+message "late" forever). The synchronizer then forgets its queues and history,
+counts a ``clock_jumps``, calls ``on_jump`` and goes on from that message, as
+rclpy's time-jump handling resets what depends on the clock.
+
 Lockstep note: a set is published when the stamps prove it optimal. If a
 simulator stamps the /odometry and /scan of one step identically, the pair
 goes out as soon as both arrive. If their stamps differ, the synchronizer
@@ -88,6 +96,7 @@ class SyncStats:
     dropped_unmatched: int = 0  # could never be in a set within slop (or its partner overflowed)
     dropped_overflow: int = 0  # oldest message pushed out of a full queue
     dropped_superseded: int = 0  # older than a published set, never used
+    clock_jumps: int = 0  # stamps went back by more than jump_threshold: history forgotten
 
 
 @dataclass(order=True)
@@ -122,6 +131,8 @@ class ApproximateTimeSynchronizer:
         *,
         age_penalty: float = 0.1,
         inter_message_lower_bounds: Sequence[float] | None = None,
+        jump_threshold: float = 1.0,
+        on_jump: Callable[[int, int], Any] | None = None,
     ) -> None:
         if isinstance(n_inputs, bool) or not isinstance(n_inputs, Integral) or n_inputs < 2:
             raise SyncError(f"n_inputs must be an integer >= 2, got {n_inputs!r}")
@@ -149,6 +160,8 @@ class ApproximateTimeSynchronizer:
         self._bounds = [
             _positive_seconds_to_ns(f"inter_message_lower_bounds[{i}]", b) for i, b in enumerate(bounds)
         ]
+        self._jump = _positive_seconds_to_ns("jump_threshold", jump_threshold)
+        self._on_jump = on_jump
         self._lock = threading.RLock()
         self._seq = itertools.count()
         self.reset()
@@ -171,10 +184,14 @@ class ApproximateTimeSynchronizer:
     def reset(self) -> None:
         """Forget every queued message and the publication history (lifecycle cleanup)."""
         with self._lock:
-            self._queues: list[list[_Entry]] = [[] for _ in range(self._n)]
-            self._last_published: list[int | None] = [None] * self._n
-            self._overflowed = [False] * self._n
             self._stats = SyncStats()
+            self._forget()
+
+    def _forget(self) -> None:
+        """Drop the queues and the publication history (not the counters)."""
+        self._queues: list[list[_Entry]] = [[] for _ in range(self._n)]
+        self._last_published: list[int | None] = [None] * self._n
+        self._overflowed = [False] * self._n
 
     def add(self, index: int, stamp_ns: int, message: Any) -> int:
         """Queue ``message`` of input ``index`` stamped ``stamp_ns``; returns the number of sets published."""
@@ -185,8 +202,13 @@ class ApproximateTimeSynchronizer:
         with self._lock:
             last = self._last_published[index]
             if last is not None and stamp_ns <= last:
-                self._stats.dropped_late += 1
-                return 0
+                if last - stamp_ns <= self._jump:
+                    self._stats.dropped_late += 1
+                    return 0
+                self._forget()
+                self._stats.clock_jumps += 1
+                if self._on_jump is not None:
+                    self._on_jump(index, stamp_ns - last)
             queue = self._queues[index]
             bisect.insort(queue, _Entry(int(stamp_ns), next(self._seq), message))
             published = self._process()

@@ -49,6 +49,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any, Mapping
 
+import numpy as np
+
 from amr_control.scan_sectors import Footprint, LineFit, Readings, ScanData, SectorReader, Sectors
 from amr_control.wall_follower_config import WallFollowerConfig
 
@@ -56,6 +58,21 @@ PLAUSIBLE_FACTOR = 2.0
 """Odometry beyond this many times the fastest commanded speed is treated as corrupt."""
 SKEW_MEMORY = math.radians(5.0)
 """A skew measured before the robot turned more than this no longer describes its heading."""
+OPEN_STEP_DEG = 5.0
+"""Spacing of the candidate directions of a turn."""
+OPEN_AIM = math.radians(30.0)
+"""A turn aims this far into an open run of directions from its edge on the followed side."""
+BEHIND_HAND = math.radians(10.0)
+"""Past the abeam on the followed side by this, with the hand on the wall, a direction leads back."""
+TURN_OVERSHOOT = math.radians(30.0)
+"""A turn waiting for room ahead ends at most this far past its angle."""
+NOISE_ALLOWANCE = 0.03
+"""m: a direction the disc clears by less than this still counts as open (LiDAR noise up to 3 cm
+makes a 0.3 m corridor look narrower than the robot); the driving itself keeps the full margins."""
+SQUARE_SNAP = math.radians(20.0)
+"""An open direction within this of +-90 deg is a square corner: turn 90 deg, corrected by the skew."""
+SEARCH_TURN = math.radians(30.0)
+"""Searching, a nearest wall further off the heading than this is faced by turning in place."""
 
 
 class State(str, Enum):
@@ -126,6 +143,11 @@ class WallFollower:
             config = params
         else:
             config = WallFollowerConfig.from_params(params)
+        self._use(config)
+        self.reset()
+
+    def _use(self, config: WallFollowerConfig) -> None:
+        """Take a configuration and what derives from it; the state machine is left as it is."""
         self.config = config
         self._reader = SectorReader(
             Sectors(
@@ -134,13 +156,16 @@ class WallFollower:
                 math.radians(config.abeam_window_deg),
             ),
             Footprint(config.robot_radius, config.lidar_x, 0.5 * config.safety_margin),
+            config.scan_median_beams,
         )
+        step = math.radians(OPEN_STEP_DEG)
+        sweep = math.radians(config.open_sweep_deg)
+        self._candidates = np.arange(-sweep, sweep + 0.5 * step, step)
         self._max_v = max(config.linear_speed, config.stabilize_speed)
         # Front distance (from the LiDAR) at which the rotation centre is target_wall_distance from
         # the wall ahead: turning there leaves the robot on its line in the new corridor.
         self._pivot_distance = config.target_wall_distance - config.lidar_x
         self._max_w = max(config.turn_speed, config.angular_limit)
-        self.reset()
 
     # -- public ----------------------------------------------------------------------------
 
@@ -149,6 +174,8 @@ class WallFollower:
         self._rng = random.Random(self.config.random_seed)
         self._followed = self._draw_side() if self.config.preferred_wall == "random" else self.config.preferred_wall
         self._state = State.SEARCH
+        self._search_aimed = False
+        self._turn_needs_room = True
         self._resume = (State.SEARCH, 0.0, 0.0)  # (state, state_time, traveled) AVOID returns to
         self._turn_sign = 0.0
         self._turn_angle = 0.0
@@ -165,6 +192,12 @@ class WallFollower:
         self._tracking = False  # whether the last front block met the robot following a wall
         self._command = (0.0, 0.0)
         self._measurements = Measurements(followed_wall=self._followed)
+
+    def reconfigure(self, config: WallFollowerConfig) -> None:
+        """New parameters (a live `ros2 param set`) for the next scan, keeping the state the robot is in."""
+        self._use(config)
+        if config.preferred_wall != "random":
+            self._followed = config.preferred_wall
 
     @property
     def state(self) -> str:
@@ -244,14 +277,18 @@ class WallFollower:
         """Move the state machine on for this scan; the safety checks come last so they always win."""
         c = self.config
         self._update_skew(r)
-        present = self._abeam(r, self._followed) <= c.wall_lost_distance
         state = self._state
+        lost = c.wall_lost_distance + (c.wall_lost_hysteresis if state == State.FOLLOW else 0.0)
+        present = self._abeam(r, self._followed) <= lost
         if state == State.AVOID:
             if r.clearance >= 2.0 * c.safety_margin:
                 self._state, self._state_time, self._traveled = self._resume
                 self._last_error = None
         elif state in TURNING:
-            done = self._turned >= self._turn_angle and r.ahead >= c.turn_exit_distance
+            room = r.ahead >= c.turn_exit_distance or not self._turn_needs_room
+            # Never more than TURN_OVERSHOOT past the angle waiting for room: in a narrow bend
+            # the way back is the first direction with that much room.
+            done = self._turned >= self._turn_angle and (room or self._turned >= self._turn_angle + TURN_OVERSHOOT)
             if done or self._state_time >= c.turn_timeout_factor * self._turn_angle / c.turn_speed:
                 self._enter(State.STABILIZE)
         elif state == State.STABILIZE:
@@ -263,11 +300,25 @@ class WallFollower:
         elif state == State.SEARCH:
             if present:
                 self._enter(State.FOLLOW)
+            elif not self._search_aimed:  # settle on the nearest wall once, then drive straight to it
+                self._search_aimed = True
+                bearing, distance = self._reader.nearest()
+                if c.wall_lost_distance < distance < math.inf:  # far: face it
+                    turn = bearing
+                elif distance < math.inf and r.front > c.wall_lost_distance:
+                    # Near, not on the followed side, nothing ahead to turn at: put it on that side.
+                    abeam = -0.5 * math.pi if self._followed == "right" else 0.5 * math.pi
+                    turn = math.remainder(bearing - abeam, 2.0 * math.pi)
+                else:  # among walls: the turns at the wall ahead handle it
+                    turn = 0.0
+                if abs(turn) > SEARCH_TURN:
+                    self._start_turn(State.TURN_LEFT if turn > 0.0 else State.TURN_RIGHT, angle=abs(turn))
+                    self._turn_needs_room = False
         elif state == State.CORNER:
             if present:  # the opening was only a short gap
                 self._enter(State.FOLLOW)
             elif self._traveled >= c.corner_advance:
-                self._start_turn(State.TURN_LEFT if self._followed == "left" else State.TURN_RIGHT)
+                self._turn_into_opening()
         elif state == State.APPROACH:
             if r.front <= self._pivot_distance or self._traveled >= c.front_threshold - self._pivot_distance:
                 self._decide_turn(r)
@@ -278,7 +329,7 @@ class WallFollower:
             if r.front < c.front_threshold and self._state != State.APPROACH:
                 # Following a wall (or just past its end) rather than looking for one?
                 self._tracking = present or self._state == State.CORNER
-                dead_end = max(self._sides_square(r)) <= c.wall_lost_distance
+                dead_end = self._open_direction(self._followed == "right", hand_on_wall=present) is None
                 if dead_end or r.front <= self._pivot_distance:
                     self._decide_turn(r)
                 else:  # a corner: turn where the robot will be centred in the new corridor
@@ -311,7 +362,11 @@ class WallFollower:
         """
         c = self.config
         straight = self._fit(r, self._followed) is not None
-        error = self._wall_distance(r) - c.target_wall_distance
+        distance = self._wall_distance(r)
+        other = r.right if self._followed == "left" else r.left
+        # In a corridor narrower than twice the target, keep to its middle instead.
+        target = min(c.target_wall_distance, 0.5 * (distance + other))
+        error = distance - target
         if not straight:
             error = min(error, 0.0)
         if straight != self._straight:  # a different measurement: no rate across the switch
@@ -345,10 +400,17 @@ class WallFollower:
         other_open = right_open if self._followed == "left" else left_open
         toward_followed = State.TURN_LEFT if self._followed == "left" else State.TURN_RIGHT
         away = State.TURN_RIGHT if self._followed == "left" else State.TURN_LEFT
-        if followed_open and (self._tracking or not other_open):
+        # Keeping a hand on the wall: the open way nearest the followed side, at any angle.
+        hand_on_wall = self._abeam(r, self._followed) <= c.wall_lost_distance
+        direction = self._open_direction(self._followed == "right", hand_on_wall)
+        if self._tracking and direction is not None:
+            self._turn_towards(direction)
+        elif followed_open and (self._tracking or not other_open):
             self._start_turn(toward_followed)
         elif other_open:
             self._start_turn(away)
+        elif direction is not None:  # searching, both sides closed yet a way out at an angle
+            self._turn_towards(direction)
         else:
             if symmetric:
                 left = self._rng.random() < 0.5
@@ -356,18 +418,86 @@ class WallFollower:
                 left = r.left > r.right  # the wide windows: where the walls are nearest
             self._start_turn(State.TURN_AROUND, 1.0 if left else -1.0)
 
-    def _start_turn(self, state: State, sign: float = 0.0) -> None:
-        """Turn in place by the nominal angle, corrected so that it ends square to the walls."""
+    def _open_direction(self, prefer_clockwise: bool, hand_on_wall: bool = False) -> float | None:
+        """Where to turn in the open run of candidate directions nearest the followed side, or None.
+
+        A direction is open when the footprint, turned to it in place, could drive
+        open_travel_distance along it (SectorReader.free_travel): bends of any angle show
+        up as an open run at their angle, and only a dead end has none. With the hand on
+        the wall (the followed wall abeam), directions behind the abeam on that side lead
+        round the hand, back where the robot came from (just past a corner it turned round),
+        and do not count.
+        """
+        # Swept about the walls' direction, not the heading: a robot skewed towards the followed
+        # wall would otherwise count the way it came as an opening on that side.
+        candidates = self._candidates + (self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0)
+        is_open = self._reader.free_travel(candidates, NOISE_ALLOWANCE) >= self.config.open_travel_distance
+        if hand_on_wall:
+            behind = -0.5 * math.pi - BEHIND_HAND if prefer_clockwise else 0.5 * math.pi + BEHIND_HAND
+            is_open &= candidates >= behind if prefer_clockwise else candidates <= behind
+        if not is_open.any():
+            return None
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], is_open.astype(int), [0]])))
+        runs = list(zip(edges[0::2], edges[1::2] - 1))  # first and last index of each open run
+        if not prefer_clockwise:
+            runs = runs[::-1]
+        # A run reaching the end of the sweep on the followed side is not bounded by the followed
+        # wall there: it is the way back round it (the robot came from there). Any run the wall
+        # bounds comes first.
+        limit = 0 if prefer_clockwise else len(candidates) - 1
+        if len(runs) > 1 and limit in runs[0]:
+            runs = runs[1:]
+        first, last = sorted(runs[0])
+        # Aim OPEN_AIM past the run's edge on the followed side (or at its middle if narrower):
+        # a side corridor that merges with the way ahead still gets a square turn into it.
+        aim = min(OPEN_AIM, 0.5 * (candidates[last] - candidates[first]))
+        return float(candidates[first] + aim if prefer_clockwise else candidates[last] - aim)
+
+    def _turn_into_opening(self) -> None:
+        """The followed wall ended: turn towards its side, by the angle of the opening there."""
+        right = self._followed == "right"
+        direction = self._open_direction(prefer_clockwise=right)
+        if direction is None or (direction > 0.0 if right else direction < 0.0):
+            self._start_turn(State.TURN_RIGHT if right else State.TURN_LEFT)
+        else:
+            self._turn_towards(direction)
+
+    def _turn_towards(self, direction: float) -> None:
+        """Turn in place to face ``direction`` (rad); near +-90 deg square to the walls instead.
+
+        Square means 90 deg corrected by the skew; when that correction takes the turn more
+        than SQUARE_SNAP away from the measured direction (a bend that is not square, a skew
+        fitted across the bend), the measured direction wins.
+        """
+        state = State.TURN_LEFT if direction > 0.0 else State.TURN_RIGHT
+        sign = 1.0 if direction > 0.0 else -1.0
+        skew = self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0
+        square = 0.5 * math.pi + sign * skew
+        if abs(abs(direction) - 0.5 * math.pi) <= SQUARE_SNAP and abs(square - abs(direction)) <= SQUARE_SNAP:
+            self._start_turn(state)
+        else:
+            self._start_turn(state, angle=abs(direction))
+
+    def _start_turn(self, state: State, sign: float = 0.0, angle: float | None = None) -> None:
+        """Turn in place by the nominal angle, corrected so that it ends square to the walls.
+
+        With an explicit ``angle`` (a bend's open direction, measured on this scan) no correction.
+        """
         self._enter(state)
         if state != State.TURN_AROUND:
             sign = 1.0 if state == State.TURN_LEFT else -1.0
+        self._turn_sign = sign
+        if angle is not None:
+            self._turn_angle = angle
+            return
         nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
         skew = self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0
-        self._turn_sign = sign
         self._turn_angle = nominal + sign * skew
 
     def _enter(self, state: State) -> None:
         self._state = state
+        self._search_aimed = False
+        self._turn_needs_room = True
         self._state_time = 0.0
         self._traveled = 0.0
         self._turned = 0.0

@@ -15,20 +15,16 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
-from amr_control.parameter_file import node_parameters
+from amr_control.flat_config import ConfigError, FlatConfig
 
 NODE_NAME = "wall_follower"
 WALLS = ("right", "left", "random")
 
 
-class ConfigError(ValueError):
-    """A wall follower parameter is missing its type, range or name."""
-
-
 @dataclass(frozen=True)
-class WallFollowerConfig:
+class WallFollowerConfig(FlatConfig):
     # -- node shell --------------------------------------------------------------------
     simulation: bool = True
     """True: /cmd_vel is TwistStamped and commands are computed in the synchronized callback
@@ -39,10 +35,17 @@ class WallFollowerConfig:
     """s, the most the /odometry and /scan stamps of one pair may differ (seed: 10 sim, 0.15 real)."""
     sync_queue_size: int = 10
     """messages kept per topic while waiting for a partner."""
+    stamp_jump_threshold: float = 0.5
+    """s; a stamp this much older than the last synchronized one means the clock jumped (a simulator
+    reset, or normal stamps after one far in the future): synchronizer and controller start afresh."""
     stale_timeout: float = 0.1
     """s without a new synchronized pair before the node publishes zero velocity (2 dt)."""
     flip_angular_sign: bool = False
     """Publish -w: seed 002 section 5.2.1 found the real robot's angular sign clockwise-positive."""
+    enable_localization: bool = False
+    """Pair /pose (amr_interfaces/LocalizedPose, one per observation) with /odometry and /scan, explore
+    while it says not localized and publish nothing once it says localized: the path follower answers
+    those observations (issue 12; in lockstep exactly one of the two commands each step)."""
     # -- behaviour -------------------------------------------------------------------
     preferred_wall: str = "right"
     """'right' or 'left': keep that hand on the wall (takes every opening on that side).
@@ -103,6 +106,18 @@ class WallFollowerConfig:
     """s, a longer gap between stamps resets the derivative and caps the progress integration."""
     turn_timeout_factor: float = 2.0
     """a turn also ends after this many times its nominal duration (angle / turn_speed)."""
+    scan_median_beams: int = 3
+    """odd, >= 1: each scan first goes through a running median over this many beams, which
+    removes single-beam outliers (a spurious short return or a dropped one); 1 = off."""
+    wall_lost_hysteresis: float = 0.03
+    """m, >= 0: while following, the wall counts as lost only beyond wall_lost_distance plus this,
+    so LiDAR noise about that distance does not toggle FOLLOW and CORNER."""
+    open_travel_distance: float = 0.35
+    """m, > 0: with the front blocked, a direction is open when the footprint could drive this far
+    along it after turning in place; the turn aims at the middle of an open run of directions."""
+    open_sweep_deg: float = 150.0
+    """deg, in (90, 180): directions within this of ahead are candidates for a turn; with none open
+    (front, left and right closed within the turning room) the robot is in a dead end."""
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -110,11 +125,11 @@ class WallFollowerConfig:
             if f.type == "float" and not math.isfinite(value):
                 raise ConfigError(f"{f.name}: must be finite, got {value!r}")
         positive = (
-            "dt", "sync_queue_size", "stale_timeout", "target_wall_distance", "front_threshold",
+            "dt", "sync_queue_size", "stamp_jump_threshold", "stale_timeout", "target_wall_distance", "front_threshold",
             "linear_speed", "turn_speed", "angular_limit", "turn_exit_distance", "wall_lost_distance",
             "corner_exit_distance", "front_window_deg", "side_window_deg", "abeam_window_deg", "line_fit_tolerance",
             "max_skew_deg", "robot_radius",
-            "max_stamp_gap", "turn_timeout_factor",
+            "max_stamp_gap", "turn_timeout_factor", "scan_median_beams", "open_travel_distance",
         )
         for name in positive:
             if getattr(self, name) <= 0:
@@ -122,10 +137,15 @@ class WallFollowerConfig:
         non_negative = (
             "sync_slop", "kp", "kd", "derivative_filter_time", "stabilize_speed", "stabilize_time",
             "corner_advance", "symmetric_tolerance", "safety_margin", "random_seed", "align_gain",
+            "wall_lost_hysteresis",
         )
         for name in non_negative:
             if getattr(self, name) < 0:
                 raise ConfigError(f"{name}: must be >= 0, got {getattr(self, name)!r}")
+        if self.scan_median_beams % 2 == 0:
+            raise ConfigError(f"scan_median_beams: must be odd (a median centred on the beam), got {self.scan_median_beams}")
+        if not 90.0 < self.open_sweep_deg < 180.0:
+            raise ConfigError(f"open_sweep_deg: must be in (90, 180) deg, got {self.open_sweep_deg!r}")
         if self.preferred_wall not in WALLS:
             raise ConfigError(f"preferred_wall: must be one of {WALLS}, got {self.preferred_wall!r}")
         for name in ("front_window_deg", "side_window_deg", "abeam_window_deg"):
@@ -146,21 +166,6 @@ class WallFollowerConfig:
                 f"({self.target_wall_distance})"
             )
 
-    @classmethod
-    def from_params(cls, params: Mapping[str, Any]) -> "WallFollowerConfig":
-        """Build from a flat parameter dict; every key must be known and typed right."""
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        values: dict[str, Any] = {}
-        for key, value in params.items():
-            if key not in fields:
-                raise ConfigError(f"{key}: unknown parameter (known: {', '.join(sorted(fields))})")
-            values[key] = _typed(key, fields[key].type, value)
-        return cls(**values)
-
-    def as_params(self) -> dict[str, Any]:
-        """The flat parameter dict (what a node declares)."""
-        return dataclasses.asdict(self)
-
 
 def parameter_defaults() -> dict[str, Any]:
     """Every parameter with its default value and ROS type (float, int, bool or str)."""
@@ -169,22 +174,4 @@ def parameter_defaults() -> dict[str, Any]:
 
 def read_parameter_file(path: str | Path, node_name: str = NODE_NAME) -> WallFollowerConfig:
     """The config in a ROS 2 parameter YAML file (``<node_name>: ros__parameters: ...``)."""
-    return WallFollowerConfig.from_params(node_parameters(path, node_name, ConfigError))
-
-
-def _typed(key: str, kind: str, value: Any) -> Any:
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise ConfigError(f"{key}: must be true or false, got {value!r}")
-        return value
-    if kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key}: must be an integer, got {value!r}")
-        return value
-    if kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{key}: must be a number, got {value!r}")
-        return float(value)
-    if not isinstance(value, str):
-        raise ConfigError(f"{key}: must be a string, got {value!r}")
-    return value
+    return WallFollowerConfig.read(path, node_name)

@@ -6,35 +6,34 @@ false`, seed 5.2.2): the callback only stores the latest pair; a timer computes 
 dt and publishes Twist, and publishes zero velocity when no new pair came for
 `stale_timeout`. The lockstep simulator holds the robot when no command comes, so the
 stale watchdog runs in the timer architecture only.
+
+With `enable_localization`, /pose (a localizer's LocalizedPose, one per observation, stamped like
+the scan) is a third synchronized input: the follower explores while it says not localized and
+publishes nothing for an observation whose pose says localized (the path follower answers it), so
+in lockstep exactly one command answers each observation across the handover.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-from amr_interfaces.msg import WallFollowerStatus
+from amr_interfaces.msg import LocalizedPose, WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.lifecycle import State, TransitionCallbackReturn
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.managed_node import ManagedNode, run
-from amr_control.scan_sectors import ScanData
-from amr_control.sync import ApproximateTimeSynchronizer
+from amr_control.messages import scan_data, velocity_command
+from amr_control.sync import NANOSECONDS_PER_SECOND, ApproximateTimeSynchronizer
 from amr_control.wall_follower import Command, WallFollower
-from amr_control.wall_follower_config import ConfigError, WallFollowerConfig, parameter_defaults
+from amr_control.wall_follower_config import ConfigError, WallFollowerConfig
+from amr_control.wall_follower_parameters import parameter_specs
+from amr_util.managed_node import ManagedNode, run
+from amr_util.qos import SENSOR_DATA, reliable
 
 WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
-ODOMETRY, SCAN = 0, 1
-
-
-def scan_data(message: LaserScan) -> ScanData:
-    return ScanData(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
-                    message.range_min, message.range_max)
+ODOMETRY, SCAN, POSE = 0, 1, 2
 
 
 class WallFollowerNode(ManagedNode):
@@ -42,11 +41,7 @@ class WallFollowerNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__("wall_follower", **kwargs)
-        # Dynamic typing: a YAML `1` for a float reaches WallFollowerConfig, which names the key,
-        # instead of killing the process in declare_parameter.
-        any_type = ParameterDescriptor(dynamic_typing=True)
-        for name, default in parameter_defaults().items():
-            self.declare_parameter(name, default, any_type)
+        self.declare_specs(parameter_specs())
         self.config: WallFollowerConfig | None = None
         self.controller: WallFollower | None = None
         self._sync: ApproximateTimeSynchronizer | None = None
@@ -57,38 +52,55 @@ class WallFollowerNode(ManagedNode):
         self._latest_pair_time: Time | None = None
         self._last_command: Command | None = None
         self._warned_at: dict[str, float] = {}
+        self._localized = False
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
-        values = {name: self.get_parameter(name).value for name in parameter_defaults()}
-        try:
-            config = WallFollowerConfig.from_params(values)
-            controller = WallFollower(config)
-        except ConfigError as error:
-            self.configure_error = str(error)
-            self.get_logger().error(f"configure failed: {error}")
-            return TransitionCallbackReturn.FAILURE
+        problems = self.parameter_problems()
+        if not problems:
+            try:
+                config = WallFollowerConfig.from_params(self.parameter_values())
+                controller = WallFollower(config)
+            except ConfigError as error:
+                problems = [str(error)]
+        if problems:
+            self.configure_error = "; ".join(problems)
+            return self.fail_configure(problems)
         self.config, self.controller = config, controller
-        self._sync = ApproximateTimeSynchronizer(2, config.sync_slop, config.sync_queue_size, self._on_pair)
+        inputs, callback = (3, self._on_localized_triple) if config.enable_localization else (2, self._on_pair)
+        self._sync = ApproximateTimeSynchronizer(inputs, config.sync_slop, config.sync_queue_size, callback,
+                                                 jump_threshold=config.stamp_jump_threshold,
+                                                 on_jump=self._on_clock_jump)
         message_type = TwistStamped if config.simulation else Twist
         self._publisher = self.create_lifecycle_publisher(message_type, "cmd_vel", 10)
         self._status_publisher = self.create_lifecycle_publisher(WallFollowerStatus, "~/status", 10)
-        reliable = QoSProfile(depth=config.sync_queue_size, reliability=ReliabilityPolicy.RELIABLE)
         self._inputs = [
-            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), reliable),
-            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), qos_profile_sensor_data),
+            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m),
+                                     reliable(config.sync_queue_size)),
+            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
         ]
+        if config.enable_localization:
+            self._inputs.append(self.create_subscription(
+                LocalizedPose, "pose", lambda m: self._on_message(POSE, m), reliable(config.sync_queue_size)))
         self.get_logger().info(
             f"configured: {'simulation (lockstep, TwistStamped)' if config.simulation else 'real robot (timer, Twist)'}"
-            f", following the {config.preferred_wall} wall at {config.target_wall_distance} m")
+            f", following the {config.preferred_wall} wall at {config.target_wall_distance} m"
+            + (", exploring until /pose says localized" if config.enable_localization else ""))
         return TransitionCallbackReturn.SUCCESS
+
+    def apply_live(self, changes: dict) -> None:
+        """A tunable set while configured: the whole new configuration is checked, then used from the next scan."""
+        config = WallFollowerConfig.from_params({**self.config.as_params(), **changes})
+        self.config = config
+        self.controller.reconfigure(config)
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self.controller.reset()
         self._sync.reset()
         self._latest_pair = self._latest_pair_time = None
+        self._localized = False
         if not self.config.simulation:
             self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
@@ -114,11 +126,22 @@ class WallFollowerNode(ManagedNode):
     def _on_message(self, index: int, message) -> None:
         if self.state_label != "active":
             return
+        if not 0 <= message.header.stamp.nanosec < NANOSECONDS_PER_SECOND:
+            self._warn(f"a message with a malformed stamp (nanosec {message.header.stamp.nanosec}) was dropped")
+            return
         stamp = Time.from_msg(message.header.stamp).nanoseconds
         if stamp < 0:
             self._warn("a message with a negative stamp was dropped")
             return
         self._sync.add(index, stamp, message)
+
+    def _on_clock_jump(self, index: int, jump_ns: int) -> None:
+        """Stamps went back (a simulator reset, or normal stamps after a bad one): start afresh from here."""
+        self.get_logger().warning(
+            f"{('/odometry', '/scan', '/pose')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
+            "synchronizer and controller restarted")
+        self.controller.reset()
+        self._latest_pair = None
 
     def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
         if self.config.simulation:
@@ -127,8 +150,23 @@ class WallFollowerNode(ManagedNode):
             self._latest_pair = (odometry, scan)
             self._latest_pair_time = self.get_clock().now()
 
+    def _on_localized_triple(self, odometry: Odometry, scan: LaserScan, pose: LocalizedPose) -> None:
+        """Explore while not localized; once localized, this observation is the path follower's to answer."""
+        if pose.localized != self._localized:
+            self._localized = pose.localized
+            self.get_logger().info(
+                "/pose says localized: handing over (no /cmd_vel from here while it stays localized)" if pose.localized
+                else "/pose says not localized: exploring again")
+            if pose.localized:
+                self._latest_pair = None
+        if not pose.localized:
+            self._on_pair(odometry, scan)
+
     def _on_timer(self) -> None:
-        """Every dt: a command from a new pair, the last command again between pairs, zero when stale."""
+        """Every dt: a command from a new pair, the last command again between pairs, zero when stale;
+        nothing while localized (the path follower drives)."""
+        if self._localized:
+            return
         if self._latest_pair_time is None or self._is_stale():
             self._warn(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")
             self._publish(0.0, 0.0)
@@ -165,25 +203,16 @@ class WallFollowerNode(ManagedNode):
             right=seen.right, wall_distance=seen.wall_distance,
             target_wall_distance=self.config.target_wall_distance, linear=command.v, angular=command.w,
             issues=[issue.value for issue in command.issues])
-        status.header = scan.header
+        status.header.stamp = self.get_clock().now().to_msg()
+        status.header.frame_id = "base_footprint"
         self._status_publisher.publish(status)
 
     def _publish(self, v: float, w: float) -> None:
         if self._publisher is None:
             return
-        if not (math.isfinite(v) and math.isfinite(w)):
-            v = w = 0.0
-        if self.config.flip_angular_sign:
-            w = -w
-        if self.config.simulation:
-            message = TwistStamped()
-            message.header.stamp = self.get_clock().now().to_msg()
-            message.header.frame_id = "base_footprint"
-            twist = message.twist
-        else:
-            message = twist = Twist()
-        twist.linear.x, twist.angular.z = float(v), float(w)
-        self._publisher.publish(message)
+        self._publisher.publish(velocity_command(
+            v, w, stamped=self.config.simulation, flip_angular_sign=self.config.flip_angular_sign,
+            stamp=self.get_clock().now().to_msg()))
 
     def _warn(self, text: str) -> None:
         """Each distinct warning at most once per WARNING_PERIOD (rclpy throttles per call site)."""

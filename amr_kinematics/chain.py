@@ -7,6 +7,9 @@ Three conventions, joint value q added to theta (revolute) or to the length
 - ``modified_dh`` (Craig): A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i),
   i.e. the row of joint i holds alpha_{i-1} and a_{i-1}
 - ``planar`` (the ULL report's CCD robots): A_i = Rz(theta_i) Tx(a_i) in the XY plane
+- ``urdf`` (``amr_kinematics.urdf``): A_i = F_i M_i(q_i) with a constant F_i (the
+  joint's origin and fixed joints before it, turned so the joint axis is z) and
+  M_i = Rz (revolute) or Tz (prismatic); the tool transform holds F_n
 
 Pose of the tool: T = base * A_1 * ... * A_n * tool.  Units are SI (REP 103).
 
@@ -32,7 +35,8 @@ JOINT_TYPES = (REVOLUTE, PRISMATIC)
 STANDARD_DH = "standard_dh"
 MODIFIED_DH = "modified_dh"
 PLANAR = "planar"
-CONVENTIONS = (STANDARD_DH, MODIFIED_DH, PLANAR)
+URDF = "urdf"
+CONVENTIONS = (STANDARD_DH, MODIFIED_DH, PLANAR)  # of DH tables; URDF chains come from amr_kinematics.urdf
 
 # Axes along/about which a joint moves in its own frame, for the fast kernel.
 MOTION_ROT_Z, MOTION_TRANS_Z, MOTION_TRANS_X = "rz", "tz", "tx"
@@ -69,11 +73,6 @@ class FKResult:
     def origins(self) -> np.ndarray:
         """(n + 2, 3): base origin, each joint frame origin, tool point."""
         return np.vstack([self.frames[:, :3, 3], self.tool[:3, 3]])
-
-
-def all_finite(array: np.ndarray) -> bool:
-    """np.isfinite(array).all(), ten times faster on the few values of a request."""
-    return all(map(math.isfinite, array.ravel().tolist()))
 
 
 def _as_float_array(name: str, key: str, values, length: int | None = None) -> np.ndarray:
@@ -119,8 +118,19 @@ class Chain:
         base=None,
         tool=None,
         couplings: Sequence[Coupling] = (),
+        joint_origins: Sequence[np.ndarray] | None = None,
     ) -> None:
-        if convention not in CONVENTIONS:
+        """``joint_origins`` (F_i, one 4x4 per joint) only with convention ``urdf``, whose
+        DH parameters must then be zeros."""
+        if convention == URDF:
+            if joint_origins is None or len(joint_origins) != len(types):
+                raise ChainConfigError(name, "joint_origins", "a urdf chain needs one origin transform per joint")
+            self.joint_origins = tuple(_check_transform(name, "joint_origins", f, False) for f in joint_origins)
+            for f in self.joint_origins:
+                f.setflags(write=False)
+        elif joint_origins is not None:
+            raise ChainConfigError(name, "joint_origins", "joint origins belong to urdf chains only")
+        elif convention not in CONVENTIONS:
             raise ChainConfigError(name, "convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}")
         n = len(types)
         if n == 0:
@@ -133,6 +143,8 @@ class Chain:
         if len(set(joint_names)) != n:
             raise ChainConfigError(name, "joint_names", "joint names must be unique")
         planar = convention == PLANAR
+        if convention == URDF:
+            d, alpha = np.zeros(n), np.zeros(n)
         if planar and (d is not None or alpha is not None):
             raise ChainConfigError(name, "d" if d is not None else "alpha", "planar chains take theta and a only")
         if not planar and (d is None or alpha is None):
@@ -204,18 +216,30 @@ class Chain:
 
     def check_q(self, q, what: str = "joint vector") -> np.ndarray:
         """q as a float array of length n, or InvalidRequestError."""
+        return np.array(self._checked_values(q, what))
+
+    def checked_clamp(self, q, what: str = "joint vector") -> np.ndarray:
+        """``clamp(check_q(q))`` with one conversion of the values (a solve's seed)."""
+        return self._clamped(self._checked_values(q, what))
+
+    def _checked_values(self, q, what: str) -> list:
         try:
             array = np.array(q, dtype=float).reshape(-1)
         except (TypeError, ValueError) as exc:
             raise InvalidRequestError(f"{what} must be numbers, got {q!r}") from exc
         if array.size != self.n:
             raise InvalidRequestError(f"{what} has {array.size} values, chain '{self.name}' has {self.n} joints")
-        if not all_finite(array):
-            raise InvalidRequestError(f"{what} must be finite, got {array.tolist()}")
-        return array
+        values = array.tolist()
+        if not all(map(math.isfinite, values)):
+            raise InvalidRequestError(f"{what} must be finite, got {values}")
+        return values
 
     def clamp(self, q) -> np.ndarray:
-        return np.minimum(np.maximum(np.asarray(q, dtype=float), self.lower), self.upper)
+        """q within the limits (on floats: numpy's per-call overhead dominates at n <= 10)."""
+        return self._clamped(q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q])
+
+    def _clamped(self, values: list) -> np.ndarray:
+        return np.array([min(max(v, low), high) for v, low, high in zip(values, self._lower, self._upper)])
 
     def within_limits(self, q, tolerance: float = 0.0) -> bool:
         values = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
@@ -246,6 +270,8 @@ class Chain:
             return rot_z(theta) @ trans(z=d) @ trans(x=a) @ rot_x(alpha)
         if self.convention == MODIFIED_DH:
             return rot_x(alpha) @ trans(x=a) @ rot_z(theta) @ trans(z=d)
+        if self.convention == URDF:
+            return self.joint_origins[i] @ (trans(z=q_i) if self.prismatic[i] else rot_z(q_i))
         return rot_z(theta) @ trans(x=a)
 
     def fk(self, q) -> FKResult:
@@ -268,8 +294,8 @@ class Chain:
         jac = np.zeros((6, self.n))
         for i in range(self.n):
             # The frame in which joint i moves: before A_i for standard DH / planar,
-            # after it for modified DH (the joint acts on the frame's own z).
-            frame = result.frames[i + 1] if self.convention == MODIFIED_DH else result.frames[i]
+            # after it for modified DH and URDF (the joint acts on the frame's own z).
+            frame = result.frames[i + 1] if self.convention in (MODIFIED_DH, URDF) else result.frames[i]
             if self.prismatic[i]:
                 # planar prismatic slides along x_i (after rotation theta_i)
                 jac[:3, i] = result.frames[i + 1][:3, 0] if self.planar else frame[:3, 2]
@@ -290,6 +316,10 @@ class Chain:
                 fixed = trans(z=d) @ trans(x=a) @ rot_x(alpha)
                 pre.append(np.eye(4) if not self.prismatic[i] else rot_z(theta))
                 post.append(rot_z(theta) @ fixed if not self.prismatic[i] else fixed)
+                motions.append(MOTION_TRANS_Z if self.prismatic[i] else MOTION_ROT_Z)
+            elif self.convention == URDF:
+                pre.append(self.joint_origins[i])
+                post.append(np.eye(4))
                 motions.append(MOTION_TRANS_Z if self.prismatic[i] else MOTION_ROT_Z)
             elif self.convention == MODIFIED_DH:
                 pre.append(rot_x(alpha) @ trans(x=a) @ rot_z(theta) @ trans(z=d))

@@ -12,6 +12,9 @@ Keys per chain (SI units, angles in radians; lists of floats written as floats,
 required   convention ("standard_dh" | "modified_dh" | "planar"), joint_names,
            types ("revolute" | "prismatic" each), theta, a, lower, upper,
            and for DH chains d, alpha
+or, instead of the DH keys and couplings, a URDF (``amr_kinematics.urdf``):
+           urdf (a file path, package://<pkg>/<path> through the ament index, or the
+           XML itself), base_link, tip_link; joints, limits and mimics come from it
 optional   base_xyz_rpy, tool_xyz_rpy ([x, y, z, roll, pitch, yaw]),
            coupled_joint (names), coupling_offset (one per coupled joint),
            coupling_coefficients (n per coupled joint, concatenated):
@@ -32,17 +35,18 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from amr_control.parameter_file import dotted
+from amr_util.parameter_file import dotted
 
 from .chain import CONVENTIONS, JOINT_TYPES, PLANAR, Chain, Coupling
 from .errors import ChainConfigError, KinematicsError
+from .urdf import urdf_chain
 from .solvers import SOLVERS, IKResult, get_solver
-from .solvers.base import DEFAULT_MAX_ITERATIONS, DEFAULT_TIMEOUT, DEFAULT_TOLERANCE
+from .solvers.base import DEFAULT_MAX_ITERATIONS, DEFAULT_TIMEOUT, DEFAULT_TOLERANCE, MAX_TIMEOUT, MAX_TOLERANCE
 from .transforms import xyz_rpy_matrix
 
 NODE_NAME = "ik_service"
 
-_STRING = {"convention", "solver", "coupling_update"}
+_STRING = {"convention", "solver", "coupling_update", "urdf", "base_link", "tip_link"}
 _STRING_LIST = {"joint_names", "types", "coupled_joint"}
 _FLOAT = {"tolerance", "orientation_tolerance", "timeout", "damping", "adaptive_damping", "angular_weight", "gain"}
 _FLOAT_LIST = {"theta", "a", "d", "alpha", "lower", "upper", "base_xyz_rpy", "tool_xyz_rpy", "coupling_offset",
@@ -51,6 +55,9 @@ _INT = {"max_iterations", "samples"}
 _BOOL = {"restarts"}
 _KNOWN = _STRING | _STRING_LIST | _FLOAT | _FLOAT_LIST | _INT | _BOOL
 _REQUIRED = ("convention", "joint_names", "types", "theta", "a", "lower", "upper")
+_URDF_KEYS = ("urdf", "base_link", "tip_link")
+_FROM_URDF = ("convention", "joint_names", "types", "theta", "a", "d", "alpha", "lower", "upper", "coupled_joint",
+              "coupling_offset", "coupling_coefficients")
 _SOLVER_OPTIONS = ("damping", "adaptive_damping", "angular_weight", "coupling_update", "axis_tolerance", "restarts",
                    "samples", "gain")
 
@@ -83,7 +90,7 @@ class ChainConfig:
         return {k: v for k, v in self.solver_options.items() if k in accepted}
 
     def solve(self, target, *, solver: str = "", seed=None, with_orientation: bool = False, tolerance: float = 0.0,
-              max_iterations: int = 0, timeout: float = 0.0, record_history: bool = False) -> IKResult:
+              max_iterations: int = 0, timeout: float = 0.0, record_history: bool = False, task=None) -> IKResult:
         """IK with this chain's defaults for every empty/zero argument.
 
         An explicit ``tolerance`` replaces both the default tolerance and any
@@ -102,8 +109,29 @@ class ChainConfig:
             max_iterations=max_iterations or self.max_iterations,
             timeout=timeout or self.timeout,
             record_history=record_history,
+            task=task,
             **options,
         )
+
+
+    def warm_up(self) -> None:
+        """Run every code path a request may take once (each applicable solver, position and,
+        when the chain can orient, full pose): the first request on a fresh process paid
+        ~35 ms of first-call costs (lazy imports, caches) and overran its 5 ms budget.  An
+        unreachable target then runs the restart paths (numba loads each compiled function from
+        its cache at its first call: ~0.3 s)."""
+        from .solvers import applicable_solvers
+
+        chain = self.chain
+        goal = chain.fk(self.home).tool
+        start = chain.apply_coupling(chain.clamp(self.home + 0.1))
+        for with_orientation in (False, True) if chain.can_orient else (False,):
+            target = goal if with_orientation else goal[:2 if chain.planar else 3, 3]
+            for name in applicable_solvers(chain, with_orientation):
+                self.solve(target, solver=name, seed=start, with_orientation=with_orientation, timeout=0.05)
+        far = goal[:2 if chain.planar else 3, 3] + 1e3
+        for name in applicable_solvers(chain, False):
+            self.solve(far, solver=name, seed=start, timeout=0.002)
 
 
 def flatten_parameters(params: Mapping) -> dict:
@@ -145,6 +173,8 @@ def _typed(name: str, key: str, value):
         if not isinstance(value, str) or not value:
             raise ChainConfigError(name, full, f"must be a non-empty string, got {value!r}")
         return value
+    if key in ("types", "joint_names") and (value is None or value == []):  # rclpy reads `[]` as unset (None)
+        raise ChainConfigError(name, full, "is empty: a chain needs at least one joint")
     if key in _STRING_LIST:
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) and v for v in value):
             raise ChainConfigError(name, full, f"must be a list of non-empty strings, got {value!r}")
@@ -180,34 +210,14 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
     unknown = sorted(set(raw) - _KNOWN)
     if unknown:
         raise ChainConfigError(name, f"{name}.{unknown[0]}", f"unknown key; known keys: {sorted(_KNOWN)}")
-    values = {key: _typed(name, key, value) for key, value in raw.items()}
-    convention = values.get("convention")
-    required = _REQUIRED + (() if convention == PLANAR else ("d", "alpha"))
-    for key in required:
-        if key not in values:
-            raise ChainConfigError(name, f"{name}.{key}", "is required")
-    if convention not in CONVENTIONS:
-        raise ChainConfigError(name, f"{name}.convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}")
-    for joint_type in values["types"]:
-        if joint_type not in JOINT_TYPES:
-            raise ChainConfigError(name, f"{name}.types", f"unknown joint type {joint_type!r}, expected 'revolute' or 'prismatic'")
-    n = len(values["types"])
-    for key in ("base_xyz_rpy", "tool_xyz_rpy"):
-        if key in values and len(values[key]) != 6:
-            raise ChainConfigError(name, f"{name}.{key}", f"needs 6 values [x, y, z, roll, pitch, yaw], got {len(values[key])}")
-    couplings = _couplings(name, values, n)
-    try:
-        chain = Chain(
-            name, convention, values["joint_names"], values["types"],
-            theta=values["theta"], a=values["a"], d=values.get("d"), alpha=values.get("alpha"),
-            lower=values["lower"], upper=values["upper"],
-            base=xyz_rpy_matrix(values["base_xyz_rpy"]) if "base_xyz_rpy" in values else None,
-            tool=xyz_rpy_matrix(values["tool_xyz_rpy"]) if "tool_xyz_rpy" in values else None,
-            couplings=couplings,
-        )
-    except ChainConfigError as exc:
-        key = {"base": "base_xyz_rpy", "tool": "tool_xyz_rpy"}.get(exc.key, exc.key)
-        raise ChainConfigError(name, f"{name}.{key}", exc.problem) from None
+    first = ("types", "joint_names")  # an empty chain is named as such, not by its first empty list
+    ordered = [key for key in first if key in raw] + [key for key in raw if key not in first]
+    values = {key: _typed(name, key, raw[key]) for key in ordered}
+    if any(key in values for key in _URDF_KEYS):
+        chain = _urdf_chain(name, values)
+    else:
+        chain = _dh_chain(name, values)
+    n = chain.n
     home = chain.apply_coupling(chain.clamp(np.zeros(n)))
     if "home" in values:
         home = np.array(values["home"])
@@ -227,6 +237,55 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
     )
     _check_defaults(name, config)
     return config
+
+
+def _dh_chain(name: str, values: dict) -> Chain:
+    """A chain from a DH (or planar) table."""
+    convention = values.get("convention")
+    required = _REQUIRED + (() if convention == PLANAR else ("d", "alpha"))
+    for key in required:
+        if key not in values:
+            raise ChainConfigError(name, f"{name}.{key}", "is required")
+    if convention not in CONVENTIONS:
+        raise ChainConfigError(name, f"{name}.convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}")
+    for joint_type in values["types"]:
+        if joint_type not in JOINT_TYPES:
+            raise ChainConfigError(name, f"{name}.types", f"unknown joint type {joint_type!r}, expected 'revolute' or 'prismatic'")
+    n = len(values["types"])
+    base, tool = _base_and_tool(name, values)
+    couplings = _couplings(name, values, n)
+    try:
+        return Chain(
+            name, convention, values["joint_names"], values["types"],
+            theta=values["theta"], a=values["a"], d=values.get("d"), alpha=values.get("alpha"),
+            lower=values["lower"], upper=values["upper"], base=base, tool=tool, couplings=couplings,
+        )
+    except ChainConfigError as exc:
+        key = {"base": "base_xyz_rpy", "tool": "tool_xyz_rpy"}.get(exc.key, exc.key)
+        raise ChainConfigError(name, f"{name}.{key}", exc.problem) from None
+
+
+def _base_and_tool(name: str, values: dict):
+    """The optional base and tool transforms (4x4 or None)."""
+    for key in ("base_xyz_rpy", "tool_xyz_rpy"):
+        if key in values and len(values[key]) != 6:
+            raise ChainConfigError(name, f"{name}.{key}", f"needs 6 values [x, y, z, roll, pitch, yaw], got {len(values[key])}")
+    return tuple(xyz_rpy_matrix(values[key]) if key in values else None for key in ("base_xyz_rpy", "tool_xyz_rpy"))
+
+
+def _urdf_chain(name: str, values: dict) -> Chain:
+    """A chain named by urdf, base_link and tip_link (joints, limits, mimics from the URDF)."""
+    for key in _URDF_KEYS:
+        if key not in values:
+            raise ChainConfigError(name, f"{name}.{key}", "is required with a urdf chain (urdf, base_link, tip_link)")
+    for key in _FROM_URDF:
+        if key in values:
+            raise ChainConfigError(name, f"{name}.{key}", "comes from the URDF: remove it (or remove urdf)")
+    base, tool = _base_and_tool(name, values)
+    try:
+        return urdf_chain(name, values["urdf"], values["base_link"], values["tip_link"], base=base, tool=tool)
+    except ChainConfigError as exc:
+        raise ChainConfigError(name, f"{name}.{exc.key}", exc.problem) from None
 
 
 def _couplings(name: str, values: dict, n: int) -> list[Coupling]:
@@ -256,10 +315,10 @@ def _check_defaults(name: str, config: ChainConfig) -> None:
     """The defaults must give a working solve: known, applicable solver, sane options."""
     if config.solver not in SOLVERS:
         raise ChainConfigError(name, f"{name}.solver", f"unknown solver {config.solver!r}; known: {sorted(SOLVERS)}")
-    for key, value in (("tolerance", config.tolerance), ("timeout", config.timeout),
-                       ("orientation_tolerance", config.orientation_tolerance)):
-        if value is not None and not value > 0.0:
-            raise ChainConfigError(name, f"{name}.{key}", f"must be > 0, got {value}")
+    for key, value, limit in (("tolerance", config.tolerance, MAX_TOLERANCE), ("timeout", config.timeout, MAX_TIMEOUT),
+                              ("orientation_tolerance", config.orientation_tolerance, math.pi)):
+        if value is not None and not 0.0 < value <= limit:
+            raise ChainConfigError(name, f"{name}.{key}", f"must be in (0, {limit:g}], got {value}")
     try:
         get_solver(config.solver).check(config.chain)
     except KinematicsError as exc:

@@ -55,15 +55,18 @@ class DiffDrive:
         return r * (right + left) / 2.0, r * (right - left) / self.track
 
     def saturation_scale(self, linear: float, angular: float) -> float:
-        """The factor in (0, 1] that brings a twist within every limit."""
-        left, right = self.wheel_speeds(linear, angular)
-        ratios = (
-            abs(linear) / self.max_linear,
-            abs(angular) / self.max_angular,
-            max(abs(left), abs(right)) / self.max_wheel_speed,
-        )
-        worst = max(ratios)
-        return 1.0 / worst if worst > 1.0 else 1.0
+        """The factor in (0, 1] that brings a twist within every limit.
+
+        The body limits are applied first, so that an absurd but finite twist (1e308 m/s) is
+        scaled like any other instead of overflowing in the wheel speeds.
+        """
+        scale = 1.0  # limit / value, never value / limit: 1e308 / 0.22 would overflow
+        for value, limit in ((linear, self.max_linear), (angular, self.max_angular)):
+            if abs(value) > limit:
+                scale = min(scale, limit / abs(value))
+        left, right = self.wheel_speeds(linear * scale, angular * scale)
+        wheels = max(abs(left), abs(right))
+        return scale * (self.max_wheel_speed / wheels) if wheels > self.max_wheel_speed else scale
 
     def saturate(self, linear: float, angular: float) -> tuple[float, float]:
         """The twist scaled to the limits, keeping its curvature."""

@@ -2,10 +2,11 @@
 
 A thin lifecycle shell over ``amr_kinematics.config`` (chains, defaults, solvers):
 
-- construction declares every parameter given to the node (``chains`` first, then
-  each ``<chain>.<key>``; keys in ``amr_kinematics/config.py``), dynamically typed:
-  the library checks them at configure, so changed parameters take effect at the
-  next configure (after a cleanup, or a failed configure).  Without a
+- construction declares ``chains`` and each ``<chain>.<key>`` given to the node (keys in
+  ``amr_kinematics/config.py``), each typed and described (``amr_kinematics.parameters``);
+  an unknown key or a bad value fails configure, naming every one.  Geometry is
+  structural (refused while configured); solve defaults and the service caps are live
+  (the chain set is validated again and used from the next request).  Without a
   ``chains`` parameter it declares the packaged ``config/ik_chains.yaml`` instead,
   so ``ros2 run amr_kinematics ik_service`` serves the shipped arms.
 - configure loads and validates every chain, all or nothing (a bad chain fails the
@@ -36,14 +37,16 @@ from geometry_msgs.msg import Point, Pose
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rcl_interfaces.msg import ParameterDescriptor
 from sensor_msgs.msg import JointState
 
-from amr_control.managed_node import ManagedNode, run, share_directory
-from amr_control.parameter_file import node_parameters
 from amr_kinematics.config import NODE_NAME, ChainConfig, flatten_parameters, load_chain_set
+from amr_kinematics.parameters import CHAIN_KEYS, chain_specs
 from amr_kinematics.errors import KinematicsError
+from amr_kinematics.solvers.task import parse_task
 from amr_kinematics.transforms import matrix_quaternion, pose_matrix
+from amr_util.managed_node import ManagedNode, run
+from amr_util.parameter_file import node_parameters
+from amr_util.share import share_directory
 
 PACKAGE = "amr_kinematics"
 DEFAULT_CONFIG = "config/ik_chains.yaml"  # in the package's share directory
@@ -110,10 +113,6 @@ class IKServiceNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        self.declare_parameter("max_timeout", 1.0, ParameterDescriptor(
-            description="s; a request's (or a chain's default) timeout above this is capped to it"))
-        self.declare_parameter("max_iterations_limit", 100_000, ParameterDescriptor(
-            description="a request's (or a chain's default) max_iterations above this is capped to it"))
         self._declare_chain_parameters()
         self._group = ReentrantCallbackGroup()
         self._chains: dict[str, ChainConfig] = {}
@@ -126,41 +125,33 @@ class IKServiceNode(ManagedNode):
         self._joint_states = None
 
     def _declare_chain_parameters(self) -> None:
-        """Declare ``chains`` and then every other parameter given (or the packaged set).
+        """Declare ``chains`` and every ``<chain>.<key>`` given (or the packaged set), each typed.
 
         rclpy has no public accessor for the overrides of a node; ``_parameter_overrides``
-        is what ``automatically_declare_parameters_from_overrides`` itself reads (used
-        here instead because that option would also declare ``autostart`` before
-        ManagedNode does, which then fails).
+        is what ``automatically_declare_parameters_from_overrides`` itself reads.
         """
-        given = {name: parameter.value for name, parameter in self._parameter_overrides.items()}
+        given = {name: _plain(parameter.value) for name, parameter in self._parameter_overrides.items()}
         if "chains" not in given:
             packaged = packaged_chain_parameters()
             if packaged:
                 self.get_logger().info(f"no 'chains' parameter: serving the packaged {DEFAULT_CONFIG}")
             given = {**packaged, **given}
-        names = (["chains"] if "chains" in given else []) + sorted(set(given) - {"chains"})
-        # dynamic typing: the library checks types at configure, and an integer list
-        # written by mistake can then be corrected at run time with a float list
-        descriptor = ParameterDescriptor(dynamic_typing=True)
-        for name in names:
-            if self.has_parameter(name):
-                continue
-            try:
-                self.declare_parameter(name, given[name], descriptor)
-            except (TypeError, ValueError) as exc:  # e.g. a list mixing ints and floats
-                self.get_logger().error(f"parameter {name!r} not declared: {exc}")
+        self.declare_specs(chain_specs(given))
 
     # --- lifecycle ------------------------------------------------------------------------
     def on_configure(self, state: State) -> TransitionCallbackReturn:
-        flat = {name: _plain(parameter.value) for name, parameter in self.get_parameters_by_prefix("").items()}
+        problems = self.parameter_problems()
+        if problems:
+            return self.fail_configure(problems)
+        values = self.parameter_values()
         try:
-            chains = load_chain_set(flat)
-            self._max_timeout = self._positive_parameter("max_timeout", float)
-            self._max_iterations = self._positive_parameter("max_iterations_limit", int)
+            chains = load_chain_set(values)
         except ValueError as exc:  # ChainConfigError names chain and key
             self.get_logger().error(f"configure failed, nothing loaded: {exc}")
             return TransitionCallbackReturn.FAILURE
+        self._max_timeout, self._max_iterations = values["max_timeout"], values["max_iterations_limit"]
+        for config in chains.values():  # the first request must not pay first-call costs
+            config.warm_up()
         self._chains = chains
         self._chain_locks = {name: threading.Lock() for name in chains}
         with self._last_lock:
@@ -176,11 +167,17 @@ class IKServiceNode(ManagedNode):
         self.get_logger().info(f"chains: {summary}")
         return TransitionCallbackReturn.SUCCESS
 
-    def _positive_parameter(self, name: str, kind: type):
-        value = self.get_parameter(name).value
-        if isinstance(value, bool) or not isinstance(value, kind) or not value > 0:
-            raise ValueError(f"parameter {name!r} must be a positive {kind.__name__}, got {value!r}")
-        return value
+    def known_parameters(self, unknown: str) -> list[str]:
+        """Every key a chain may have, for a typo in one of its keys."""
+        chain, dot, _ = unknown.partition(".")
+        return [f"{chain}.{key}" for key in sorted(CHAIN_KEYS)] if dot else super().known_parameters(unknown)
+
+    def apply_live(self, changes: dict) -> None:
+        """New solve defaults or caps: the whole chain set is validated, then used from the next request."""
+        values = {**self.parameter_values(), **changes}
+        chains = load_chain_set(values)
+        self._chains = chains
+        self._max_timeout, self._max_iterations = values["max_timeout"], values["max_iterations_limit"]
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._active = True
@@ -239,7 +236,14 @@ class IKServiceNode(ManagedNode):
         if limits is None:
             return
         timeout, max_iterations, note = limits
-        target = target_from_pose(request.target, chain.planar, request.with_orientation)
+        try:
+            task = parse_task(list(request.task_weights), list(request.pointing))
+        except KinematicsError as exc:
+            response.message = str(exc)
+            return
+        # a task takes the orientation only when its rotation weights ask for it
+        with_orientation = task.uses_rotation_target if task is not None else request.with_orientation
+        target = target_from_pose(request.target, chain.planar, with_orientation)
         if isinstance(target, str):
             response.message = target
             return
@@ -258,7 +262,8 @@ class IKServiceNode(ManagedNode):
         try:
             seed = list(request.seed) if request.seed else self._last_solution(chain.name)
             result = config.solve(target, solver=request.solver, seed=seed, with_orientation=request.with_orientation,
-                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=timeout)
+                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=timeout,
+                                  task=task)
             if result.success:
                 with self._last_lock:
                     self._last[chain.name] = result.q
@@ -306,6 +311,7 @@ class IKServiceNode(ManagedNode):
             return
         message = JointState()
         message.header.stamp = self.get_clock().now().to_msg()
+        message.header.frame_id = f"{chain}/base"
         message.name = [f"{chain}/{joint}" for joint in joint_names]
         message.position = positions
         publisher.publish(message)

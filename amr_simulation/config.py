@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-from amr_control.parameter_file import dotted, node_parameters
+from amr_util.parameter_file import dotted, node_parameters
 from amr_simulation.errors import ConfigError
 
 MODES = ("lockstep", "realtime")
@@ -32,11 +32,15 @@ class RobotConfig:
     radius: float = 0.105
     """m, the circular collision footprint."""
     wheel_radius: float = 0.033
+    """m."""
     track: float = 0.160
+    """m between the wheels."""
     max_wheel_speed: float = 0.22 / 0.033
     """rad/s, so that both wheels at the limit drive 0.22 m/s."""
     max_linear: float = 0.22
+    """m/s, the body speed limit (curvature-preserving saturation)."""
     max_angular: float = 2.84
+    """rad/s, the body turn-rate limit."""
 
     def validate(self, prefix: str = "robot.") -> None:
         for name in ("radius", "wheel_radius", "track", "max_wheel_speed", "max_linear", "max_angular"):
@@ -54,14 +58,23 @@ class LidarConfig:
     """
 
     beams: int = 240
+    """beams per scan; beam i at angle_min + i * fov / beams, counter-clockwise, beam 0 ahead."""
     angle_min: float = 0.0
+    """rad, the first beam's angle in the sensor frame."""
     fov: float = 2.0 * math.pi
+    """rad, the field of view the beams span."""
     range_min: float = 0.12
+    """m; closer returns read -inf (REP 117)."""
     range_max: float = 3.5
+    """m; no return within it reads +inf (REP 117)."""
     noise_std: float = 0.01
+    """m, standard deviation of the Gaussian range noise."""
     x: float = -0.032
+    """m, sensor position ahead of the robot centre (base_scan in base_footprint)."""
     y: float = 0.0
+    """m, sensor position to the left of the robot centre."""
     method: str = "numpy"
+    """ray casting: numpy (vectorised faces) or pymunk (one query per beam)."""
 
     @property
     def angle_increment(self) -> float:
@@ -97,11 +110,28 @@ class EncoderConfig:
     """
 
     noise: float = 0.0
+    """standard deviation of each wheel increment relative to its size (0.01 = 1 %)."""
     slip: float = 0.0
+    """standard deviation of the fraction of wheel travel lost to the floor each step."""
 
     def validate(self, prefix: str = "encoders.") -> None:
         _require(self.noise >= 0.0, prefix + "noise", "must be >= 0", self.noise)
         _require(self.slip >= 0.0, prefix + "slip", "must be >= 0", self.slip)
+
+
+@dataclass(frozen=True)
+class BeaconConfig:
+    """The range beacons and compass of a world that declares `beacons` (seed 000)."""
+
+    range_noise_std: float = 0.01
+    """m, standard deviation of the Gaussian noise on each beacon range."""
+    compass_noise_std: float = 0.01
+    """rad, standard deviation of the Gaussian noise on the compass heading."""
+
+    def validate(self, prefix: str = "beacons.") -> None:
+        for name in ("range_noise_std", "compass_noise_std"):
+            value = getattr(self, name)
+            _require(math.isfinite(value) and value >= 0.0, prefix + name, "must be a finite number >= 0", value)
 
 
 @dataclass(frozen=True)
@@ -129,6 +159,7 @@ class SimulationConfig:
     robot: RobotConfig = field(default_factory=RobotConfig)
     lidar: LidarConfig = field(default_factory=LidarConfig)
     encoders: EncoderConfig = field(default_factory=EncoderConfig)
+    beacons: BeaconConfig = field(default_factory=BeaconConfig)
 
     def __post_init__(self) -> None:
         _require(isinstance(self.world, str) and bool(self.world), "world", "must be a file name", self.world)
@@ -145,12 +176,13 @@ class SimulationConfig:
         self.robot.validate()
         self.lidar.validate()
         self.encoders.validate()
+        self.beacons.validate()
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any], ignore: Iterable[str] = ()) -> "SimulationConfig":
         """Build from a flat dotted-name dict (or nested dicts); names in ignore are skipped."""
         flat = {key: value for key, value in dotted(params).items() if key not in set(ignore)}
-        sections = {"robot": RobotConfig, "lidar": LidarConfig, "encoders": EncoderConfig}
+        sections = {"robot": RobotConfig, "lidar": LidarConfig, "encoders": EncoderConfig, "beacons": BeaconConfig}
         top: dict[str, Any] = {}
         nested: dict[str, dict[str, Any]] = {name: {} for name in sections}
         top_fields = {f.name: f for f in dataclasses.fields(cls) if f.name not in sections}

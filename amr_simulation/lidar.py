@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from amr_simulation.config import LidarConfig
-from amr_simulation.pose import Pose2D
+from amr_simulation.pose import Pose2D, compose
 from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster
 
 
@@ -25,9 +23,7 @@ class Lidar:
 
     def sensor_pose(self, robot: Pose2D) -> Pose2D:
         """Where the sensor is, in the world frame."""
-        c, s = math.cos(robot.theta), math.sin(robot.theta)
-        x, y = self.config.x, self.config.y
-        return Pose2D(robot.x + c * x - s * y, robot.y + s * x + c * y, robot.theta)
+        return compose(robot, Pose2D(self.config.x, self.config.y, 0.0))
 
     def true_ranges(self, robot: Pose2D) -> np.ndarray:
         """Noise-free distances to the first wall per beam (+inf for none; beyond range_max, maybe a distance)."""

@@ -11,13 +11,16 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from amr_interfaces.msg import SimulatorStatus
+from amr_interfaces.msg import BeaconRanges, SimulatorStatus
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point
+from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
 
-from amr_simulation.config import LidarConfig
+from amr_simulation.config import BeaconConfig, LidarConfig
 from amr_simulation.pose import Pose2D
 
 if TYPE_CHECKING:
@@ -34,6 +37,23 @@ def stamp(seconds: float) -> Time:
 
 def clock(time: Time) -> Clock:
     return Clock(clock=time)
+
+
+def transform(time: Time, parent: str, child: str, pose: Pose2D) -> TransformStamped:
+    """geometry_msgs/TransformStamped placing frame `child` at `pose` in frame `parent` (tf2's convention)."""
+    message = TransformStamped()
+    message.header.stamp = time
+    message.header.frame_id = parent
+    message.child_frame_id = child
+    translation, rotation = message.transform.translation, message.transform.rotation
+    translation.x, translation.y = pose.x, pose.y
+    rotation.w, rotation.z = math.cos(0.5 * pose.theta), math.sin(0.5 * pose.theta)
+    return message
+
+
+def tf_message(transforms: Sequence[TransformStamped]) -> TFMessage:
+    """tf2_msgs/TFMessage, what /tf and /tf_static carry."""
+    return TFMessage(transforms=list(transforms))
 
 
 def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequence[float]) -> Odometry:
@@ -66,11 +86,23 @@ def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, s
     return message
 
 
-def status(time: Time, sim: "Simulator", distance: float, real_time_factor: float) -> SimulatorStatus:
+def status(time: Time, frame: str, sim: "Simulator", distance: float, real_time_factor: float) -> SimulatorStatus:
     """amr_interfaces/SimulatorStatus of a simulator; distance and real-time factor are the node's."""
     message = SimulatorStatus(
         sim_time=sim.time, steps=sim.steps, collisions=sim.collisions, in_contact=sim.in_contact,
         goal_reached=sim.goal_reached, distance_travelled=distance, real_time_factor=real_time_factor,
     )
     message.header.stamp = time
+    message.header.frame_id = frame
+    return message
+
+
+def beacon_ranges(time: Time, frame: str, positions: np.ndarray, ranges: np.ndarray, compass: float,
+                  noise: BeaconConfig) -> BeaconRanges:
+    """amr_interfaces/BeaconRanges: beacon i at positions[i] measured at ranges[i] (the world's order)."""
+    message = BeaconRanges(
+        beacons=[Point(x=float(x), y=float(y)) for x, y in positions], ranges=[float(r) for r in ranges],
+        compass=float(compass), range_noise_std=noise.range_noise_std, compass_noise_std=noise.compass_noise_std)
+    message.header.stamp = time
+    message.header.frame_id = frame
     return message

@@ -60,3 +60,27 @@ def arc_twist(start: Pose2D, end: Pose2D, dt: float) -> tuple[float, float, floa
     across = -dx * math.sin(mid) + dy * math.cos(mid)
     stretch = 1.0 / chord_factor(dtheta)
     return along * stretch / dt, across * stretch / dt, dtheta / dt
+
+
+def compose(a: Pose2D, b: Pose2D) -> Pose2D:
+    """a (+) b: pose b, given in the frame of pose a, expressed in a's parent frame.
+
+        x = a.x + cos(a.theta) b.x - sin(a.theta) b.y,   y = a.y + sin(a.theta) b.x + cos(a.theta) b.y
+        theta = a.theta + b.theta
+    """
+    c, s = math.cos(a.theta), math.sin(a.theta)
+    return Pose2D(a.x + c * b.x - s * b.y, a.y + s * b.x + c * b.y, wrap_angle(a.theta + b.theta))
+
+
+def inverse(a: Pose2D) -> Pose2D:
+    """The pose whose composition with `a` is the identity: the parent frame seen from a."""
+    c, s = math.cos(a.theta), math.sin(a.theta)
+    return Pose2D(-c * a.x - s * a.y, s * a.x - c * a.y, wrap_angle(-a.theta))
+
+
+def map_to_odom(true_pose: Pose2D, odom_pose: Pose2D) -> Pose2D:
+    """The odom frame in the map frame, from where the robot is (map) and where odometry puts it (odom).
+
+    map->base = map->odom (+) odom->base, so map->odom = map->base (+) inverse(odom->base).
+    """
+    return compose(true_pose, inverse(odom_pose))

@@ -13,6 +13,7 @@ After the goal is reached the robot ignores commands and stays put until reset.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -20,6 +21,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from amr_kinematics.diff_drive import DiffDrive
+from amr_simulation.beacon_sensor import BeaconSensor
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.encoders import Encoders
 from amr_simulation.errors import SimulationError
@@ -60,7 +62,7 @@ class Simulator:
     def reset(self) -> None:
         """Back to the start pose at time 0, counters cleared, random streams reseeded."""
         self._physics = Physics(self.world.polygons, self.config.robot.radius)
-        lidar_seed, encoder_seed = np.random.SeedSequence(self.config.seed).spawn(2)
+        lidar_seed, encoder_seed, beacon_seed = np.random.SeedSequence(self.config.seed).spawn(3)
         caster = (
             self._numpy_caster
             if self.config.lidar.method == "numpy"
@@ -68,17 +70,59 @@ class Simulator:
         )
         self._lidar = Lidar(self.config.lidar, caster, np.random.default_rng(lidar_seed))
         self._encoders = Encoders(self.config.encoders, np.random.default_rng(encoder_seed))
+        self._beacons = (BeaconSensor(self.world.beacons, self.config.beacons, np.random.default_rng(beacon_seed))
+                         if self.world.beacons else None)
         self._steps = 0
         self._trajectory: list[tuple[float, float, float]] = []
         self.set_pose(*(self.config.start or self.world.start))
 
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) where the robot may be: the walls' extent plus the LiDAR range."""
+        margin = self.config.lidar.range_max
+        xmin, ymin, xmax, ymax = self.world.bounds
+        return xmin - margin, ymin - margin, xmax + margin, ymax + margin
+
+    def retune(self, config: SimulationConfig) -> None:
+        """Take new sensor noise and slip (a live parameter change); the random streams go on.
+
+        Raises SimulationError if anything else differs: that needs a new simulator.
+        """
+        tunable = dataclasses.replace(
+            self.config, command_timeout=config.command_timeout,
+            lidar=dataclasses.replace(self.config.lidar, noise_std=config.lidar.noise_std),
+            encoders=config.encoders, beacons=config.beacons)
+        if tunable != config:
+            raise SimulationError("retune: only lidar.noise_std, encoders.noise, encoders.slip, beacon noise and "
+                                  "command_timeout change on a running simulator")
+        self.config = config
+        self._lidar.config = config.lidar
+        self._encoders.config = config.encoders
+        if self._beacons is not None:
+            self._beacons.config = config.beacons
+
+    def beacon_reading(self) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """(beacon positions (B, 2), noisy ranges (B,), noisy compass heading) at the true pose, each call
+        a new draw; None when the world declares no beacons."""
+        if self._beacons is None:
+            return None
+        ranges, compass = self._beacons.measure(self.pose)
+        return self._beacons.positions, ranges, compass
+
     def set_pose(self, x: float, y: float, theta: float) -> None:
         """Teleport the robot (at rest); the encoder odometry restarts from the new pose.
 
-        Raises SimulationError if the robot's footprint would overlap a wall.
+        Raises SimulationError if the pose is not finite, lies outside the world's bounds (where
+        no wall could ever come within LiDAR range), or the robot's footprint would overlap a wall.
         """
         if not all(map(math.isfinite, (x, y, theta))):
             raise SimulationError(f"set_pose: pose must be finite, got ({x}, {y}, {theta})")
+        xmin, ymin, xmax, ymax = self.bounds
+        if not (xmin <= x <= xmax and ymin <= y <= ymax):
+            raise SimulationError(
+                f"set_pose: ({x:.3f}, {y:.3f}) lies outside the bounds of {self.world.source}: "
+                f"x in [{xmin:.3f}, {xmax:.3f}], y in [{ymin:.3f}, {ymax:.3f}] (its walls plus the "
+                f"LiDAR range, {self.config.lidar.range_max} m)")
         clearance = self._physics.clearance(x, y)
         if clearance < self.config.robot.radius:
             raise SimulationError(

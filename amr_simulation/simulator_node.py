@@ -14,58 +14,55 @@ mode realtime: a wall-clock timer every dt / rate seconds steps with the latest 
 publishes /clock first; a command older than command_timeout simulated seconds stops the
 robot (0 disables); a non-finite command is ignored (the previous one keeps running).
 
-An observation is, in this order, all stamped with the simulated time: /clock (realtime),
-odometry, odom, ground_truth, scan, ~/status (each unless its publish_* parameter is false).
+An observation is, in this order, all stamped with the simulated time: /clock, /tf (odom ->
+base_footprint, and map -> odom with publish_map_to_odom), odometry, odom, ground_truth, scan,
+~/status (each unless its publish_* parameter is false). /clock goes out in both modes, so every
+node of a simulated stack can run on use_sim_time; /tf_static (base_footprint -> base_scan, the
+LiDAR mounting) is published once, latched, at activation.
 Activation, ~/reset and ~/set_pose each publish one observation too (a new starting point).
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
+
+Localization (issue 12): a world that declares `beacons` adds /beacons (amr_interfaces/BeaconRanges:
+noisy range to each beacon in the world's order, and a noisy compass) to every observation. With
+`enable_localization` the node listens to /pose (a localizer's LocalizedPose), compares each estimate
+with the true pose at its stamp, logs once when the robot is first localized ("localized at t = ...,
+error x m, y deg") and reports the latest error in ~/status.
 """
 
 from __future__ import annotations
 
 import math
-import tempfile
 import time
 from collections import deque
 from pathlib import Path
 
 from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-from amr_interfaces.msg import SimulatorStatus
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
 from amr_interfaces.srv import SetPose
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
 from rclpy.lifecycle import State, TransitionCallbackReturn
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
 
-from amr_control.managed_node import ManagedNode, run
 from amr_simulation import messages
-from amr_simulation.config import param_defaults
+from amr_simulation.config import SimulationConfig
+from amr_simulation.errors import WorldError
+from amr_simulation.localization_check import LocalizationCheck
+from amr_simulation.parameters import NODE_PARAMETERS, parameter_specs
+from amr_simulation.pose import Pose2D, map_to_odom
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import world_search_dirs
+from amr_simulation.world import resolve_world_path, world_search_dirs
+from amr_util.managed_node import ManagedNode, run
+from amr_util.qos import MAP, SENSOR_DATA, reliable
 
-LIBRARY_PARAMETERS = {**param_defaults(), "start": []}
-"""The library's parameters (config/simulator.yaml) with their defaults; start [] = the world's."""
-NODE_PARAMETERS = {
-    "publish_odometry": (True, "odometry: nav_msgs/Odometry, encoder pose and encoder twist"),
-    "publish_odom": (True, "odom: nav_msgs/Odometry, encoder pose, zero twist (a real TurtleBot3)"),
-    "publish_ground_truth": (True, "ground_truth: nav_msgs/Odometry, true pose and body twist"),
-    "publish_scan": (True, "scan: sensor_msgs/LaserScan, sensor-data QoS"),
-    "publish_status": (True, "~/status: amr_interfaces/SimulatorStatus, after every observation"),
-    "odom_frame": ("odom", "frame of odometry and odom poses (REP 105)"),
-    "world_frame": ("map", "frame of ground_truth poses: the world, where odom starts"),
-    "base_frame": ("base_footprint", "child frame of the odometry messages"),
-    "scan_frame": ("base_scan", "frame of the LaserScan"),
-    "qos_depth": (10, "queue depth of /cmd_vel and the reliable publishers"),
-    "lockstep_resend_period": (1.0, "lockstep: wall-clock s without a /cmd_vel after which the last observation "
-                                    "goes out again (one sent before the controller listened); 0 disables"),
-    "render_path": (str(Path(tempfile.gettempdir()) / "amr_simulator.png"), "PNG file ~/render writes"),
-}
+TF_DEPTH = 100
+"""Queue depth of /tf (tf2's dynamic broadcaster uses 100)."""
 WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
 RATE_WINDOW = 20
@@ -79,6 +76,15 @@ def world_dirs() -> list[Path]:
     except (PackageNotFoundError, EnvironmentError):
         share = []
     return share + list(world_search_dirs())
+
+
+def world_problem(name: str) -> str | None:
+    """Why the world parameter names no world file, or None."""
+    try:
+        resolve_world_path(name, world_dirs())
+    except (WorldError, ValueError, OSError) as problem:
+        return str(problem)
+    return None
 
 
 class RateMeter:
@@ -101,12 +107,7 @@ class SimulatorNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__("simulator", **kwargs)
-        library = ParameterDescriptor(
-            dynamic_typing=True, description="amr_simulation.config; validated at configure")
-        for name, default in LIBRARY_PARAMETERS.items():
-            self.declare_parameter(name, default, library)
-        for name, (default, description) in NODE_PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=description))
+        self.declare_specs(parameter_specs(world_problem))
         self._sim: Simulator | None = None
         self._outputs: dict[str, object] = {}
         self._cmd_vel_subscription = None
@@ -114,6 +115,7 @@ class SimulatorNode(ManagedNode):
         self._step_timer = None
         self._last_output = 0.0
         self._frames: dict[str, str] = {}
+        self._tf_parts = (False, False)
         self._stamped = True
         self._active = False
         self._command = (0.0, 0.0)
@@ -121,10 +123,15 @@ class SimulatorNode(ManagedNode):
         self._stamp_offset = 0.0
         self._distance = 0.0
         self._meter = RateMeter()
+        self._localization_check: LocalizationCheck | None = None
+        self._localization_inputs: list = []
 
     # -- lifecycle -------------------------------------------------------------------------
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
+        problems = self.parameter_problems()
+        if problems:
+            return self.fail_configure(problems)
         try:
             self._sim = Simulator.from_params(self._library_parameters(), world_dirs())
             self._create_interfaces()
@@ -152,6 +159,7 @@ class SimulatorNode(ManagedNode):
         elif resend > 0.0:
             self._step_timer = self.create_timer(resend, self._on_resend_timer, clock=steady)
         self._active = True
+        self._publish_static_tf()
         self._publish_observation()
         return result
 
@@ -179,35 +187,50 @@ class SimulatorNode(ManagedNode):
     # -- building --------------------------------------------------------------------------
 
     def _library_parameters(self) -> dict:
-        """The declared library parameters plus any undeclared override: the library names typos."""
-        params = {name: self.get_parameter(name).value for name in LIBRARY_PARAMETERS}
-        overrides = self._parameter_overrides  # rclpy keeps -p / --params-file values here
-        params.update({name: p.value for name, p in overrides.items() if not self.has_parameter(name)})
-        return params
+        """The parameters the amr_simulation library takes (all but the node's own)."""
+        return {name: value for name, value in self.parameter_values().items() if name not in NODE_PARAMETERS}
+
+    def apply_live(self, changes: dict) -> None:
+        """Noise, slip or the command timeout while configured: checked as a whole, used from the next step."""
+        if self._sim is None:
+            return
+        library = {name: value for name, value in changes.items() if name not in NODE_PARAMETERS}
+        if library:
+            self._sim.retune(SimulationConfig.from_params({**self._library_parameters(), **library}))
 
     def _create_interfaces(self) -> None:
         get = lambda name: self.get_parameter(name).value  # noqa: E731
-        reliable = QoSProfile(depth=get("qos_depth"), reliability=ReliabilityPolicy.RELIABLE)
+        qos = reliable(get("qos_depth"))
         topics = {
-            "odometry": (Odometry, reliable), "odom": (Odometry, reliable),
-            "ground_truth": (Odometry, reliable), "scan": (LaserScan, qos_profile_sensor_data),
-            "status": (SimulatorStatus, reliable),
+            "odometry": (Odometry, qos), "odom": (Odometry, qos),
+            "ground_truth": (Odometry, qos), "scan": (LaserScan, SENSOR_DATA),
+            "status": (SimulatorStatus, qos),
         }
         for name, (kind, qos) in topics.items():
             if get(f"publish_{name}"):
                 topic = "~/status" if name == "status" else name
                 self._outputs[name] = self.create_lifecycle_publisher(kind, topic, qos)
-        if self._sim.config.mode == "realtime":
-            self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", reliable)
+        if get("publish_clock"):
+            self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", qos)
+        self._create_tf_publishers()
         self._frames = {name: get(f"{name}_frame") for name in ("odom", "world", "base", "scan")}
         self._stamped = self._sim.config.cmd_vel_stamped
         self._cmd_vel_subscription = self.create_subscription(
-            TwistStamped if self._stamped else Twist, "cmd_vel", self._on_cmd_vel, reliable)
+            TwistStamped if self._stamped else Twist, "cmd_vel", self._on_cmd_vel, qos)
         self._node_services = [
             self.create_service(Trigger, "~/reset", self._on_reset),
             self.create_service(SetPose, "~/set_pose", self._on_set_pose),
             self.create_service(Trigger, "~/render", self._on_render),
         ]
+        self._create_localization_interfaces(qos)
+
+    def _create_tf_publishers(self) -> None:
+        """/tf (reliable, volatile) and /tf_static (transient local: late joiners get the mounting)."""
+        self._tf_parts = (self.get_parameter("publish_tf").value, self.get_parameter("publish_map_to_odom").value)
+        if self._tf_parts[0]:
+            self._outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, "/tf_static", MAP)
+        if any(self._tf_parts):
+            self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "/tf", reliable(TF_DEPTH))
 
     def _teardown(self) -> None:
         """Destroy whatever exists; safe on a half-built node."""
@@ -219,6 +242,9 @@ class SimulatorNode(ManagedNode):
         for publisher in self._outputs.values():
             self.destroy_lifecycle_publisher(publisher)
         self._node_services, self._cmd_vel_subscription, self._outputs, self._sim = [], None, {}, None
+        for subscription in self._localization_inputs:
+            self.destroy_subscription(subscription)
+        self._localization_inputs, self._localization_check = [], None
 
     def _stop_timer(self) -> None:
         if self._step_timer is not None:
@@ -241,6 +267,11 @@ class SimulatorNode(ManagedNode):
             if not finite:
                 self.get_logger().warning(
                     f"refused a non-finite /cmd_vel (v={v}, w={w})", throttle_duration_sec=WARNING_PERIOD)
+            elif self._sim.drive.saturation_scale(v, w) < 1.0:
+                sv, sw = self._sim.drive.saturate(v, w)
+                self.get_logger().warning(
+                    f"/cmd_vel (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, "
+                    f"w={sw:.4g})", throttle_duration_sec=WARNING_PERIOD)
             if self._sim.config.mode == "lockstep":
                 self._advance(v, w) if finite else self._advance(0.0, 0.0)
             elif finite:
@@ -280,7 +311,8 @@ class SimulatorNode(ManagedNode):
         if sim.goal_reached and not reached:
             self._command = (0.0, 0.0)
             self.get_logger().info(
-                f"goal reached at ({x:.3f}, {y:.3f}), t = {sim.time:.2f} s, {self._distance:.2f} m: stopping")
+                f"goal reached at ({x:.3f}, {y:.3f}), t = {sim.time:.2f} s, {self._distance:.2f} m, "
+                f"{sim.collisions} collisions: stopping")
         self._publish_observation()
 
     def _publish_observation(self) -> None:
@@ -290,6 +322,8 @@ class SimulatorNode(ManagedNode):
         stamp = messages.stamp(now)
         if "clock" in outputs:
             outputs["clock"].publish(messages.clock(stamp))
+        if "tf" in outputs:
+            self._publish_tf(stamp)
         if "odometry" in outputs:
             v, w = sim.odom_twist
             outputs["odometry"].publish(
@@ -302,9 +336,71 @@ class SimulatorNode(ManagedNode):
                 messages.odometry(stamp, frames["world"], frames["base"], sim.pose, sim.twist))
         if "scan" in outputs:
             outputs["scan"].publish(messages.laser_scan(stamp, frames["scan"], sim.ranges, sim.lidar, sim.config.dt))
+        self._publish_localization_inputs(stamp)
         rate = self._meter.update(now)
         if "status" in outputs:
-            outputs["status"].publish(messages.status(stamp, sim, self._distance, rate))
+            status = messages.status(stamp, frames["world"], sim, self._distance, rate)
+            self._report_localization(status)
+            outputs["status"].publish(status)
+
+    # -- localization (issue 12): beacons out, /pose checked against the ground truth -------------
+
+    def _create_localization_interfaces(self, qos) -> None:
+        if self._sim.world.beacons:
+            self._outputs["beacons"] = self.create_lifecycle_publisher(BeaconRanges, "beacons", qos)
+        if self.get_parameter("enable_localization").value:
+            self._localization_check = LocalizationCheck()
+            self._localization_inputs = [self.create_subscription(LocalizedPose, "pose", self._on_pose, qos)]
+
+    def _publish_localization_inputs(self, stamp) -> None:
+        """Per observation: the beacon reading, and the true pose the next /pose will be judged against."""
+        if self._localization_check is not None:
+            self._localization_check.observed(stamp.sec * 1_000_000_000 + stamp.nanosec, self._sim.pose, self._sim.time)
+        reading = self._sim.beacon_reading() if "beacons" in self._outputs else None
+        if reading is not None:
+            self._outputs["beacons"].publish(messages.beacon_ranges(stamp, self._frames["world"], *reading,
+                                                                    self._sim.config.beacons))
+
+    def _on_pose(self, message: LocalizedPose) -> None:
+        try:
+            pose = message.pose.pose
+            q = pose.orientation
+            theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+            stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+            line = self._localization_check.estimate(stamp, pose.position.x, pose.position.y, theta, message.localized)
+            if line:
+                self.get_logger().info(line)
+        except Exception as error:  # a NaN or stale estimate: say so, keep simulating
+            self.get_logger().warning(f"/pose not judged: {error}", throttle_duration_sec=WARNING_PERIOD)
+
+    def _report_localization(self, status: SimulatorStatus) -> None:
+        check = self._localization_check
+        status.localization_enabled = check is not None
+        state = check.state if check is not None else None
+        status.localized = bool(state and state.localized)
+        status.first_localized_time = state.first_localized_time if state else -1.0
+        status.position_error = state.position_error if state else math.nan
+        status.heading_error = state.heading_error if state else math.nan
+
+    def _publish_tf(self, stamp) -> None:
+        """odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom; one TFMessage."""
+        sim, frames = self._sim, self._frames
+        odom_to_base, map_to_odom_wanted = self._tf_parts
+        transforms = []
+        if odom_to_base:
+            transforms.append(messages.transform(stamp, frames["odom"], frames["base"], sim.odom_pose))
+        if map_to_odom_wanted:
+            transforms.append(messages.transform(
+                stamp, frames["world"], frames["odom"], map_to_odom(sim.pose, sim.odom_pose)))
+        self._outputs["tf"].publish(messages.tf_message(transforms))
+
+    def _publish_static_tf(self) -> None:
+        """base -> scan: where the LiDAR sits on the robot (lidar.x, lidar.y), latched for late joiners."""
+        if "tf_static" in self._outputs:
+            lidar = self._sim.lidar
+            mounting = messages.transform(messages.stamp(self._now()), self._frames["base"], self._frames["scan"],
+                                          Pose2D(lidar.x, lidar.y, 0.0))
+            self._outputs["tf_static"].publish(messages.tf_message([mounting]))
 
     # -- services --------------------------------------------------------------------------
 

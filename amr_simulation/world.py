@@ -12,8 +12,12 @@ A world YAML file (config/worlds/*.yaml) holds any mix of:
       cell_size: 0.1                # m
       origin: [-1.8, -1.8]          # world position of the grid's lower-left corner
       rows: ["#####", "#...#", "#####"]   # first string is the top row
+    map: lab.yaml                   # a ROS map_server map (path relative to this file):
+                                    # its occupied cells become solids
     start: [1.0, -1.0, 1.5707963267948966]   # x, y, theta (rad)
     goal: [0.6, -1.0, 0.15]         # optional: x, y, radius (m)
+    beacons: [[0.0, 0.0], [2.0, 0.5]]  # optional: [x, y] of range beacons (m); the simulator then
+                                    # publishes the noisy range to each, in this order, and a compass
 
 Every solid becomes a convex polygon (a wall is the rectangle around its centre
 line, extended by half the thickness past both ends so that walls meeting at a
@@ -33,10 +37,12 @@ from typing import Any, Sequence
 import numpy as np
 import yaml
 
+from amr_maps.map_io import load_map
+from amr_maps.occupancy_grid import MapError
 from amr_simulation.errors import WorldError
 from amr_simulation.pose import Pose2D, wrap_angle
 
-WORLD_KEYS = ("name", "wall_thickness", "walls", "boxes", "grid", "start", "goal")
+WORLD_KEYS = ("name", "wall_thickness", "walls", "boxes", "grid", "map", "start", "goal", "beacons")
 GRID_KEYS = ("cell_size", "origin", "rows")
 SOLID_CELL = "#"
 FREE_CELL = "."
@@ -66,6 +72,15 @@ class World:
     start: Pose2D
     goal: Goal | None = None
     source: str = "<dict>"
+    beacons: tuple[tuple[float, float], ...] = ()
+    """Range beacons (x, y), in the world file's order (BeaconRanges keeps it); () = none."""
+
+    def __post_init__(self) -> None:
+        # Physics resolves a corner (two solids touched at once) in the order the solids were added,
+        # so they are kept sorted by their lower-left then upper-right corner: the same solids give
+        # the same run whichever order a file or a map listed them in.
+        order = sorted(self.polygons, key=lambda p: (*np.round(p.min(axis=0), 9), *np.round(p.max(axis=0), 9)))
+        object.__setattr__(self, "polygons", tuple(order))
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -109,11 +124,18 @@ def load_world(path: str | Path) -> World:
         data = yaml.safe_load(text)
     except yaml.YAMLError as error:
         raise WorldError(f"{path}: not valid YAML ({error})") from error
-    return world_from_dict(data, source=str(path), default_name=path.stem)
+    if isinstance(data, dict) and "image" in data and "start" not in data:
+        raise WorldError(f"{path}: looks like a map_server map, not a world: name it in a world file "
+                         "(map: <this file>, start: [x, y, theta])")
+    return world_from_dict(data, source=str(path), default_name=path.stem, base_dir=path.parent)
 
 
-def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "world") -> World:
-    """Validate a world description (the parsed YAML) and build its geometry."""
+def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "world",
+                    base_dir: str | Path = ".") -> World:
+    """Validate a world description (the parsed YAML) and build its geometry.
+
+    A `map` path is taken relative to base_dir (the world file's directory).
+    """
     where = _Where(source)
     if not isinstance(data, dict):
         raise WorldError(f"{source}: a world must be a mapping of keys, got {type(data).__name__}")
@@ -147,6 +169,10 @@ def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "worl
         grid_boxes, grid_faces = _grid(data["grid"], where)
         polygons.extend(grid_boxes)
         faces.append(grid_faces)
+    if data.get("map") is not None:
+        map_boxes, map_faces = _map(data["map"], Path(base_dir), where)
+        polygons.extend(map_boxes)
+        faces.append(map_faces)
     if not polygons:
         raise where.error("walls", "the world has no solids: give walls, boxes or a grid")
 
@@ -159,6 +185,7 @@ def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "worl
         if radius <= 0.0:
             raise where.error("goal", f"radius must be positive, got {radius}")
         goal = Goal(gx, gy, radius)
+    beacons = _beacons(data["beacons"], where) if "beacons" in data else ()
 
     return World(
         name=name,
@@ -167,7 +194,15 @@ def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "worl
         start=Pose2D(x, y, wrap_angle(theta)),
         goal=goal,
         source=source,
+        beacons=beacons,
     )
+
+
+def _beacons(value: Any, where: "_Where") -> tuple[tuple[float, float], ...]:
+    """[[x, y], ...]: at least one; an empty list is refused (nothing to measure a range to)."""
+    if not isinstance(value, list) or not value:
+        raise where.error("beacons", f"must be a non-empty list of [x, y] (omit the key for no beacons), got {value!r}")
+    return tuple(tuple(_numbers(item, 2, f"beacons[{index}]", where, "[x, y]")) for index, item in enumerate(value))
 
 
 class _Where:
@@ -246,32 +281,66 @@ def _grid(grid: Any, where: _Where) -> tuple[list[np.ndarray], np.ndarray]:
     solid = np.array([[c == SOLID_CELL for c in row] for row in reversed(rows)])  # solid[j, i], j up
     if not solid.any():
         raise where.error("grid.rows", f"has no solid '{SOLID_CELL}' cell")
+    return solid_cells(solid, size, ox, oy)
+
+
+def _map(name: Any, base_dir: Path, where: _Where) -> tuple[list[np.ndarray], np.ndarray]:
+    """The occupied cells of a map_server map as solids."""
+    if not isinstance(name, str) or not name:
+        raise where.error("map", f"must be the path of a map_server YAML file, got {name!r}")
+    path = Path(name).expanduser()
+    try:
+        grid = load_map(path if path.is_absolute() else base_dir / path)
+    except MapError as error:
+        raise where.error("map", str(error)) from error
+    solid = grid.occupied()
+    if not solid.any():
+        raise where.error("map", f"{name} has no occupied cell")
+    return solid_cells(solid, grid.resolution, grid.origin[0], grid.origin[1])
+
+
+def solid_cells(solid: np.ndarray, size: float, ox: float, oy: float) -> tuple[list[np.ndarray], np.ndarray]:
+    """Solids for a boolean cell grid (solid[j, i], row j up, cells of `size` m from corner (ox, oy)):
+    boxes for physics (runs of cells merged, so a map stays cheap to collide with) and the outline
+    faces for the ray casters."""
     return _grid_boxes(solid, size, ox, oy), _grid_outline(solid, size, ox, oy)
 
 
 def _runs(flags: Sequence[bool]) -> list[tuple[int, int]]:
     """Half-open index ranges [start, stop) of consecutive True values."""
-    runs, start = [], None
-    for index, flag in enumerate(list(flags) + [False]):
-        if flag and start is None:
-            start = index
-        elif not flag and start is not None:
-            runs.append((start, index))
-            start = None
-    return runs
+    padded = np.concatenate(([False], np.asarray(flags, dtype=bool), [False]))
+    edges = np.flatnonzero(padded[1:] != padded[:-1])
+    return list(zip(edges[0::2].tolist(), edges[1::2].tolist()))
 
 
 def _grid_boxes(solid: np.ndarray, size: float, ox: float, oy: float) -> list[np.ndarray]:
-    """Row runs of solid cells, stacked upwards while the same run repeats."""
-    boxes, open_runs = [], {}  # run -> first row j
+    """Boxes covering the solid cells: every straight stretch of wall is one box, so a robot sliding
+    along it meets no seam (pymunk can catch a disc on the corner where two boxes meet).
+
+    The row strips (row runs stacked upwards while the same run repeats) and the column strips
+    (the same on the transposed grid) together cover every horizontal and vertical stretch whole;
+    they overlap, which static solids may, and a box lying inside another is dropped.
+    """
+    rows = _strips(solid)
+    columns = [(j0, i0, j1, i1) for i0, j0, i1, j1 in _strips(solid.T)]
+    boxes = sorted(set(rows) | set(columns), key=lambda b: (b[2] - b[0]) * (b[3] - b[1]), reverse=True)
+    kept: list[tuple[int, int, int, int]] = []
+    for box in boxes:
+        if not any(k[0] <= box[0] and k[1] <= box[1] and box[2] <= k[2] and box[3] <= k[3] for k in kept):
+            kept.append(box)
+    return [_box(ox + i0 * size, oy + j0 * size, ox + i1 * size, oy + j1 * size) for i0, j0, i1, j1 in kept]
+
+
+def _strips(solid: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """(i0, j0, i1, j1) cell boxes: row runs [i0, i1) stacked over rows [j0, j1) while the run repeats."""
+    strips, open_runs = [], {}  # run -> first row j
     for j in range(solid.shape[0] + 1):
         runs = set(_runs(solid[j])) if j < solid.shape[0] else set()
         for run in sorted(set(open_runs) - runs):
-            j0 = open_runs.pop(run)
-            boxes.append(_box(ox + run[0] * size, oy + j0 * size, ox + run[1] * size, oy + j * size))
+            strips.append((run[0], open_runs.pop(run), run[1], j))
         for run in runs - set(open_runs):
             open_runs[run] = j
-    return boxes
+    return strips
 
 
 def _grid_outline(solid: np.ndarray, size: float, ox: float, oy: float) -> np.ndarray:

@@ -4,12 +4,21 @@ from __future__ import annotations
 
 from nav_msgs.msg import Odometry
 from rclpy.lifecycle import State, TransitionCallbackReturn
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from transforms3d.euler import quat2euler
 
-from amr_control.managed_node import ManagedNode, run
 from amr_turtlebot3.odometry import PoseDifferentiator, PoseSample, Verdict
+from amr_util.managed_node import ManagedNode, run, topic_name_problem
+from amr_util.parameter_spec import ParameterSpec
+from amr_util.qos import reliable
+
+PARAMETERS = (
+    ParameterSpec("input_topic", "odom", "nav_msgs/Odometry with pose only (a real TurtleBot3's /odom)",
+                  check=topic_name_problem),
+    ParameterSpec("output_topic", "odometry", "the same messages with the twist derived from consecutive poses",
+                  check=topic_name_problem),
+    ParameterSpec("qos_depth", 10, "queue depth of both topics (reliable)", minimum=1, maximum=1000),
+)
 
 
 def pose_sample(message: Odometry) -> PoseSample:
@@ -26,20 +35,20 @@ class OdometryNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__("odometry_node", **kwargs)
-        self.declare_parameter("input_topic", "odom")
-        self.declare_parameter("output_topic", "odometry")
-        self.declare_parameter("qos_depth", 10)
+        self.declare_specs(PARAMETERS)
         self._differentiator = PoseDifferentiator()
         self._warned: set[Verdict] = set()
         self._publisher = None
         self._subscription = None
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
-        depth = self.get_parameter("qos_depth").value
-        qos = QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE)
-        self._publisher = self.create_lifecycle_publisher(Odometry, self.get_parameter("output_topic").value, qos)
-        self._subscription = self.create_subscription(
-            Odometry, self.get_parameter("input_topic").value, self._on_odom, qos)
+        problems = self.parameter_problems()
+        if problems:
+            return self.fail_configure(problems)
+        values = self.parameter_values()
+        qos = reliable(values["qos_depth"])
+        self._publisher = self.create_lifecycle_publisher(Odometry, values["output_topic"], qos)
+        self._subscription = self.create_subscription(Odometry, values["input_topic"], self._on_odom, qos)
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:

@@ -21,8 +21,8 @@ import rclpy  # noqa: E402
 from amr_interfaces.msg import SimulatorStatus  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 
-from amr_control.bringup_process import child_environment  # noqa: E402
-from amr_control.demo import run_maze  # noqa: E402
+from amr_util.environment import child_environment  # noqa: E402
+from amr_bringup.demo import run_maze  # noqa: E402
 
 DT = 0.05
 
@@ -48,7 +48,7 @@ def across_processes(bringup: str, world: str, span: float) -> float:
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     bringup_process = subprocess.Popen(
-        [sys.executable, "-m", "amr_control.bringup", bringup, "--duration", str(span / 5 + 30)],
+        [sys.executable, "-m", "amr_bringup.bringup", bringup, "--duration", str(span / 5 + 30)],
         env=child_environment(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + span / 5 + 30

@@ -52,7 +52,7 @@ BOOTSTRAP_VARIABLES = ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")
 OTHER_EXECUTOR = """
 import sys, rclpy
 from rclpy.signals import SignalHandlerOptions
-from amr_control.managed_node import spin_nodes
+from amr_util.managed_node import spin_nodes
 from amr_kinematics.ik_service_node import IKServiceNode
 rclpy.init(args=sys.argv, signal_handler_options=SignalHandlerOptions.NO)
 if sys.argv[1] == "single":

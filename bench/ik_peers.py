@@ -28,9 +28,15 @@ def peers() -> tuple[dict, dict]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             import roboticstoolbox  # noqa: F401
-        available["rtb"] = RtbPeer
+        available["rtb_LM"] = RtbPeer
+        available["rtb_NR"] = RtbNRPeer
     except Exception as exc:  # noqa: BLE001
         missing["rtb"] = f"{type(exc).__name__}: {exc}"
+    try:
+        import pytracik  # noqa: F401
+        available["tracik"] = TracIkPeer
+    except Exception as exc:  # noqa: BLE001
+        missing["tracik"] = f"{type(exc).__name__}: {exc}"
     return available, missing
 
 
@@ -70,7 +76,7 @@ class IkpyPeer:
                                                   initial_position=self._full(seed))
             else:
                 q = self.model.inverse_kinematics(target[:3, 3], initial_position=self._full(seed))
-        return np.asarray(q)[1:-1]
+        return np.asarray(q)[1:-1], math.nan  # ikpy (scipy) does not report its iterations
 
 
 class RtbPeer:
@@ -80,7 +86,7 @@ class RtbPeer:
     rtb 1.5.0 ik_LM diverges on a DHRobot whose tool is not identity, although its
     fkine is right; the ETS form avoids the trailing SE3.)"""
 
-    def __init__(self, chain: Chain) -> None:
+    def _build(self, chain: Chain) -> None:
         from roboticstoolbox import ET, ETS
 
         fixed, motions = chain.segments()
@@ -94,12 +100,75 @@ class RtbPeer:
         self.model = ETS(elements)
         _check_model(chain, lambda q: self.model.fkine(q).A)
 
-    def solve(self, target: np.ndarray, seed: np.ndarray, with_orientation: bool) -> np.ndarray:
-        mask = None if with_orientation else np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+    method = "ik_LM"
+
+    def __init__(self, chain: Chain) -> None:
+        self.planar = chain.planar
+        self._build(chain)
+
+    def solve(self, target: np.ndarray, seed: np.ndarray, with_orientation: bool) -> tuple[np.ndarray, float]:
+        """(q, iterations over all its searches)."""
+        if self.planar:
+            mask = np.array([1.0, 1.0, 0.0, 0.0, 0.0, 1.0 if with_orientation else 0.0])
+        else:
+            mask = None if with_orientation else np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
         # tol bounds E = 0.5 e^T W e: 1e-12 keeps |e| below 1.5e-6, inside our 1e-5 check;
         # rtb 1.5.0 binding: joint_limits must be an int and q0 a writable array
-        solution = self.model.ik_LM(target, q0=np.array(seed, dtype=float), tol=1e-12, mask=mask, joint_limits=1)
-        return np.asarray(solution[0])
+        solution = getattr(self.model, self.method)(target, q0=np.array(seed, dtype=float), tol=1e-12, mask=mask,
+                                                    joint_limits=1)
+        return np.asarray(solution.q), float(solution.iterations)
+
+
+class RtbNRPeer(RtbPeer):
+    """The same model solved by rtb's C++ Newton-Raphson ``ik_NR``."""
+
+    method = "ik_NR"
+
+
+class TracIkPeer:
+    """TRAC-IK (C++, KDL + SQP) through pytracik 0.0.3, on a URDF written from our chain's
+    segments; full pose only (the binding takes no per-axis bounds), the same 5 ms budget
+    and 1e-5 epsilon as ours, SolveType Speed."""
+
+    modes = ("pose",)
+
+    def __init__(self, chain: Chain) -> None:
+        import pytracik
+
+        self.pytracik = pytracik
+        self.solver = pytracik.TRAC_IK("base", "tip", chain_urdf(chain), 0.005, 1e-5, pytracik.SolveType.Speed)
+        _check_model(chain, lambda q: pytracik.fk(self.solver, np.asarray(q, dtype=float)))
+
+    def solve(self, target: np.ndarray, seed: np.ndarray, with_orientation: bool) -> tuple[np.ndarray, float]:
+        from transforms3d.quaternions import mat2quat
+
+        w, x, y, z = mat2quat(target[:3, :3])
+        result = self.pytracik.ik(self.solver, np.array(seed, dtype=float), *target[:3, 3], x, y, z, w)
+        return np.asarray(result[1:]), math.nan  # result[0] is TRAC-IK's status; no iteration count
+
+
+def chain_urdf(chain: Chain) -> str:
+    """A URDF of the chain's segments F_0 M_1 F_1 ... M_n F_n: one joint about (or along) z per
+    motion, its origin F_{i-1}; the last F_n a fixed joint to the link "tip"."""
+    fixed, motions = chain.segments()
+
+    def origin(frame: np.ndarray) -> str:
+        values = [*frame[:3, 3].tolist(), *matrix_rpy(frame[:3, :3])]
+        return '<origin xyz="{!r} {!r} {!r}" rpy="{!r} {!r} {!r}"/>'.format(*map(float, values))
+
+    parts, parent = ['<robot name="chain"><link name="base"/>'], "base"
+    for i, motion in enumerate(motions):
+        if motion == MOTION_TRANS_X:
+            raise NotImplementedError("planar prismatic joints are not modelled for TRAC-IK")
+        kind = "revolute" if motion == MOTION_ROT_Z else "prismatic"
+        parts.append(f'<link name="l{i}"/><joint name="{chain.joint_names[i]}" type="{kind}">'
+                     f'<parent link="{parent}"/><child link="l{i}"/>{origin(fixed[i])}<axis xyz="0 0 1"/>'
+                     f'<limit lower="{float(chain.lower[i])!r}" upper="{float(chain.upper[i])!r}" effort="1" '
+                     f'velocity="1"/></joint>')
+        parent = f"l{i}"
+    parts.append(f'<link name="tip"/><joint name="tool" type="fixed"><parent link="{parent}"/>'
+                 f'<child link="tip"/>{origin(fixed[-1])}</joint></robot>')
+    return "".join(parts)
 
 
 def _fixed_elements(ET, frame: np.ndarray) -> list:

@@ -1,4 +1,4 @@
-"""ros2 launch amr_control maze_sim_odometry.launch.py: the maze in simulation through the odometry node.
+"""ros2 launch amr_bringup maze_sim_odometry.launch.py: the maze in simulation through the odometry node.
 
 Simulator (publishing /odom only), odometry node (/odom -> /odometry), wall follower.
 
@@ -6,7 +6,7 @@ The nodes, their parameters and the lifecycle order come from config/bringup/maz
 the file `amr-bringup maze_sim_odometry` reads: one source for both ways of starting the stack.
 """
 
-from amr_control.bringup_launch import launch_description
+from amr_bringup.launch_builder import launch_description
 
 BRINGUP = "maze_sim_odometry"
 

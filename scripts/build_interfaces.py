@@ -1,6 +1,8 @@
-"""Build the amr_interfaces rosidl package with CMake and install it into this Python's prefix.
+"""Build the suite's rosidl packages with CMake and install them into this Python's prefix.
 
-Run with the venv's Python. It is incremental: the build is skipped when the
+amr_interfaces always; interfaces/tf2_msgs (tf2_msgs/msg/TFMessage as Jazzy defines it, for /tf)
+only where no other tf2_msgs is installed: a ROS 2 Jazzy install on AMENT_PREFIX_PATH keeps its own.
+Run with the venv's Python. It is incremental: a package's build is skipped when its
 interface files, CMakeLists.txt and package.xml hash to what was last installed.
 Two fixes make the ros-jazzy-* wheels build here: the wheels' exported CMake
 files name the wheel builder's include directories (/opt/python/cp311-cp311/...),
@@ -20,21 +22,37 @@ from pathlib import Path
 
 import numpy
 
-SOURCE = Path(__file__).resolve().parent.parent / "amr_interfaces"
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = {"amr_interfaces": ROOT / "amr_interfaces", "tf2_msgs": ROOT / "interfaces" / "tf2_msgs"}
+BUILT_ONLY_WHERE_MISSING = ("tf2_msgs",)
 PREFIX = Path(sys.prefix)
-STAMP = PREFIX / "share" / "amr_interfaces" / ".source_hash"
 WHEEL_BUILDER_PYTHON = "/opt/python/cp311-cp311/include/python3.11"
 WHEEL_BUILDER_NUMPY = "/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include"
 
 
-def source_hash() -> str:
+def stamp(package: str) -> Path:
+    return PREFIX / "share" / package / ".source_hash"
+
+
+def source_hash(source: Path) -> str:
     digest = hashlib.sha256()
-    files = [SOURCE / "CMakeLists.txt", SOURCE / "package.xml"]
-    files += sorted(SOURCE.glob("msg/*.msg")) + sorted(SOURCE.glob("srv/*.srv"))
+    files = [source / "CMakeLists.txt", source / "package.xml"]
+    files += sorted(source.glob("msg/*.msg")) + sorted(source.glob("srv/*.srv"))
     for path in files:
-        digest.update(path.relative_to(SOURCE).as_posix().encode())
+        digest.update(path.relative_to(source).as_posix().encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()
+
+
+def installed_elsewhere(package: str) -> Path | None:
+    """A prefix holding `package` that this script did not build (a ROS 2 install), or None."""
+    prefixes = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p] + [PREFIX]
+    for prefix in prefixes:
+        marker = prefix / "share" / "ament_index" / "resource_index" / "packages" / package
+        ours = prefix.resolve() == PREFIX.resolve() and stamp(package).is_file()
+        if marker.is_file() and not ours:
+            return prefix
+    return None
 
 
 def rewrite_exported_include_paths() -> int:
@@ -73,12 +91,12 @@ def run(command: list[str], env: dict[str, str]) -> None:
         raise SystemExit(f"build_interfaces: `{' '.join(command[:3])} ...` failed ({result.returncode})")
 
 
-def build(build_dir: Path) -> None:
+def build(source: Path, build_dir: Path) -> None:
     env = child_environment()
     build_dir.mkdir(parents=True, exist_ok=True)
     run(
         [
-            "cmake", "-S", str(SOURCE), "-B", str(build_dir),
+            "cmake", "-S", str(source), "-B", str(build_dir),
             f"-DCMAKE_INSTALL_PREFIX={PREFIX}",
             f"-DCMAKE_PREFIX_PATH={PREFIX}",
             f"-DPython3_EXECUTABLE={sys.executable}",
@@ -94,19 +112,25 @@ def build(build_dir: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--force", action="store_true", help="rebuild even if nothing changed")
-    parser.add_argument("--build-dir", type=Path, default=Path("build") / "amr_interfaces")
+    parser.add_argument("--build-dir", type=Path, default=Path("build"), help="one subdirectory per package")
     args = parser.parse_args()
 
-    wanted = source_hash()
-    if not args.force and STAMP.is_file() and STAMP.read_text().strip() == wanted:
-        print("amr_interfaces: up to date")
-        return
-    started = time.monotonic()
-    changed = rewrite_exported_include_paths()
-    build(args.build_dir.resolve())
-    STAMP.write_text(wanted + "\n")
-    print(f"amr_interfaces: built and installed into {PREFIX} in {time.monotonic() - started:.1f} s"
-          f" ({changed} exported CMake files fixed)")
+    fixed = False
+    for package, source in PACKAGES.items():
+        if package in BUILT_ONLY_WHERE_MISSING and (elsewhere := installed_elsewhere(package)):
+            print(f"{package}: provided by {elsewhere}, not built")
+            continue
+        wanted = source_hash(source)
+        if not args.force and stamp(package).is_file() and stamp(package).read_text().strip() == wanted:
+            print(f"{package}: up to date")
+            continue
+        started = time.monotonic()
+        changed = 0 if fixed else rewrite_exported_include_paths()
+        fixed = True
+        build(source, (args.build_dir / package).resolve())
+        stamp(package).write_text(wanted + "\n")
+        print(f"{package}: built and installed into {PREFIX} in {time.monotonic() - started:.1f} s"
+              f" ({changed} exported CMake files fixed)")
 
 
 if __name__ == "__main__":

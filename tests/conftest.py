@@ -19,7 +19,7 @@ import pytest  # noqa: E402
 import rclpy  # noqa: E402
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
 
-from amr_control.bringup_process import child_environment  # noqa: E402,F401 (tests import it from here)
+from amr_util.environment import child_environment  # noqa: E402,F401 (tests import it from here)
 
 ROOT = Path(__file__).resolve().parent.parent
 PREFIX = Path(sys.prefix)

@@ -11,7 +11,8 @@ from .analytic import AnalyticSolver, follow_path, two_link_branches
 from .base import IKResult, IterationRecord, Solver
 from .ccd import CCDSolver
 from .dls import DLSSolver
-from .pinv import PinvSolver, latin_hypercube
+from .pinv import PinvSolver
+from .starts import SpreadStarts, latin_hypercube
 
 SOLVERS: dict[str, Solver] = {s.name: s for s in (CCDSolver(), DLSSolver(), PinvSolver(), AnalyticSolver())}
 
@@ -43,5 +44,5 @@ def solve(chain, target, solver: str = "dls", **kwargs) -> IKResult:
 
 __all__ = [
     "SOLVERS", "AnalyticSolver", "CCDSolver", "DLSSolver", "IKResult", "IterationRecord", "PinvSolver", "Solver",
-    "applicable_solvers", "follow_path", "get_solver", "latin_hypercube", "solve", "two_link_branches",
+    "SpreadStarts", "applicable_solvers", "follow_path", "get_solver", "latin_hypercube", "solve", "two_link_branches",
 ]

@@ -16,9 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..chain import Chain, all_finite
+from ..chain import Chain
 from ..errors import InvalidRequestError, SolverNotApplicableError
-from ..transforms import rot_z, rotation_error
+from ..transforms import rotation_error
+from . import compiled
+from .task import Task, task_rows
 
 DEFAULT_TOLERANCE = 1e-5  # m for position, rad for orientation
 DEFAULT_MAX_ITERATIONS = 1000
@@ -26,7 +28,9 @@ DEFAULT_TIMEOUT = 0.005  # s; TRAC-IK's customary budget
 MAX_ITERATIONS_LIMIT = 1_000_000  # requests beyond these are refused as absurd
 MAX_TIMEOUT = 60.0
 MAX_TARGET_DISTANCE = 1e6  # m from the base frame's origin; squared errors would overflow near 1e154
-_EYE3 = np.eye(3)
+# m; solvers compare squared errors with tolerance ** 2, which overflows above ~1.3e154.  Targets lie
+# within MAX_TARGET_DISTANCE, so a larger tolerance could only mean "anything goes".
+MAX_TOLERANCE = MAX_TARGET_DISTANCE
 
 
 @dataclass
@@ -67,10 +71,12 @@ class IKResult:
 
 @dataclass(frozen=True)
 class Goal:
-    """A checked target: position (3,) and rotation (3, 3) or None."""
+    """A checked target: position (3,), rotation (3, 3) or None, and the partial-pose
+    task (``task.Task``) or None for position only / full pose."""
 
     position: np.ndarray
     rotation: np.ndarray | None
+    task: Task | None = None
 
 
 @dataclass
@@ -86,27 +92,31 @@ class Request:
     started: float = field(default_factory=time.perf_counter)
 
 
-def parse_goal(chain: Chain, target, with_orientation: bool) -> Goal:
+def parse_goal(chain: Chain, target, with_orientation: bool, task: Task | None = None) -> Goal:
     """Goal from a 2/3-vector or a 4x4 pose; InvalidRequestError if malformed."""
+    if task is not None:
+        return _task_goal(chain, target, task)
     try:
         array = np.array(target, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InvalidRequestError(f"target must be numbers, got {target!r}") from exc
-    if not all_finite(array):
-        raise InvalidRequestError("target must be finite (no NaN or inf)")
-    position = array[:3, 3] if array.shape == (4, 4) else array
-    if position.size and float(np.abs(position).max()) > MAX_TARGET_DISTANCE:
-        raise InvalidRequestError(f"target position {position.tolist()} is absurd: "
-                                  f"coordinates beyond {MAX_TARGET_DISTANCE:g} m are refused")
     if array.shape == (4, 4):
-        rotation = array[:3, :3]
-        if float(np.abs(rotation @ rotation.T - _EYE3).max()) > 1e-6 or array[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
-            raise InvalidRequestError("target pose is not a rigid transform (rotation not orthonormal)")
+        problem = compiled.check_pose(array, MAX_TARGET_DISTANCE)
+        if problem != compiled.POSE_OK:
+            _refuse(array[:3, 3].tolist() if problem == compiled.POSE_ABSURD else [], problem)
         if not with_orientation:
             return Goal(array[:3, 3].copy(), None)
+        rotation = array[:3, :3]
         if chain.planar:  # only the yaw of the target counts in the plane
-            rotation = rot_z(math.atan2(rotation[1, 0], rotation[0, 0]))[:3, :3]
+            yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+            c, s = math.cos(yaw), math.sin(yaw)
+            return Goal(array[:3, 3].copy(), np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
         return Goal(array[:3, 3].copy(), rotation.copy())
+    values = array.ravel().tolist()  # checks on floats: numpy's per-call overhead dominates on 3 values
+    if not all(map(math.isfinite, values)):
+        _refuse(values, compiled.POSE_NOT_FINITE)
+    if values and max(map(abs, values)) > MAX_TARGET_DISTANCE:
+        _refuse(values, compiled.POSE_ABSURD)
     if with_orientation:
         raise InvalidRequestError("orientation requested but the target is a position: pass a 4x4 pose")
     if array.shape == (3,):
@@ -116,12 +126,37 @@ def parse_goal(chain: Chain, target, with_orientation: bool) -> Goal:
     raise InvalidRequestError(f"target must be a position (x, y, z), a planar (x, y) or a 4x4 pose, got shape {array.shape}")
 
 
+def _refuse(position: list, problem: int) -> None:
+    """InvalidRequestError for a target that ``compiled.check_pose`` (or the same checks on a
+    position) found wrong."""
+    if problem == compiled.POSE_NOT_FINITE:
+        raise InvalidRequestError("target must be finite (no NaN or inf)")
+    if problem == compiled.POSE_ABSURD:
+        raise InvalidRequestError(f"target position {position} is absurd: "
+                                  f"coordinates beyond {MAX_TARGET_DISTANCE:g} m are refused")
+    raise InvalidRequestError("target pose is not a rigid transform (rotation not orthonormal)")
+
+
+def _task_goal(chain: Chain, target, task: Task) -> Goal:
+    """Goal of a partial-pose task: a position, or a 4x4 pose when rotation rows need one."""
+    if chain.planar:
+        raise InvalidRequestError("partial-pose tasks are for spatial chains (a planar chain takes x, y and yaw "
+                                  "with with_orientation)")
+    pose = np.asarray(target, dtype=float) if np.shape(target) == (4, 4) else None
+    goal = parse_goal(chain, target, pose is not None)
+    if task.uses_rotation_target and goal.rotation is None:
+        raise InvalidRequestError("task weights on rotation need a target orientation: pass a 4x4 pose")
+    return Goal(goal.position, goal.rotation, task)
+
+
 def _positive(name: str, value, limit: float) -> float:
+    if type(value) is float and 0.0 < value <= limit:  # the common case, in one test (NaN fails it)
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise InvalidRequestError(f"{name} must be a number, got {value!r}")
     value = float(value)
     if not (math.isfinite(value) and 0.0 < value <= limit):
-        raise InvalidRequestError(f"{name} must be in (0, {limit}], got {value}")
+        raise InvalidRequestError(f"{name} must be a finite number in (0, {limit:g}], got {value}")
     return value
 
 
@@ -144,6 +179,10 @@ class Solver:
                 f"independent joints and a {'planar' if chain.planar else 'spatial'} pose needs {need}"
             )
 
+    def check_task(self, chain: Chain) -> None:
+        """Raise SolverNotApplicableError if this solver cannot drive a partial-pose task."""
+        raise SolverNotApplicableError(f"solver '{self.name}' takes no partial-pose task (dls and pinv do)")
+
     def solve(
         self,
         chain: Chain,
@@ -156,27 +195,35 @@ class Solver:
         max_iterations: int = DEFAULT_MAX_ITERATIONS,
         timeout: float = DEFAULT_TIMEOUT,
         record_history: bool = False,
+        task: Task | None = None,
         **options,
     ) -> IKResult:
         """Solve IK for ``target``; see the module docstring for the forms of target.
+
+        ``task`` (``task.parse_task``) asks for a partial pose instead: weighted axes
+        and/or a tool axis pointing along a direction; ``with_orientation`` is then unused.
 
         ``seed`` (default: zeros clamped into the limits) is clamped into the limits
         and its coupled joints derived.  ``tolerance`` is metres for position and,
         unless ``orientation_tolerance`` is given, radians for orientation.
         """
         started = time.perf_counter()
+        if task is not None:
+            with_orientation = False
+            self.check_task(chain)
         self.check(chain, bool(with_orientation))
         settings = self._configured(options, chain.planar)
-        goal = parse_goal(chain, target, bool(with_orientation))
-        tolerance = _positive("tolerance", tolerance, math.inf)
+        goal = parse_goal(chain, target, bool(with_orientation), task)
+        tolerance = _positive("tolerance", tolerance, MAX_TOLERANCE)
         orientation_tolerance = tolerance if orientation_tolerance is None else _positive(
             "orientation_tolerance", orientation_tolerance, math.pi)
         if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or not (
                 1 <= max_iterations <= MAX_ITERATIONS_LIMIT):
             raise InvalidRequestError(f"max_iterations must be an integer in [1, {MAX_ITERATIONS_LIMIT}], got {max_iterations!r}")
         timeout = _positive("timeout", timeout, MAX_TIMEOUT)
-        q0 = np.zeros(chain.n) if seed is None else chain.check_q(seed, "seed")
-        q0 = chain.apply_coupling(chain.clamp(q0))
+        q0 = chain.clamp(np.zeros(chain.n)) if seed is None else chain.checked_clamp(seed, "seed")
+        if chain.couplings:
+            q0 = chain.apply_coupling(q0)
         request = Request(bool(with_orientation), tolerance, orientation_tolerance, int(max_iterations),
                           started + timeout, bool(record_history), started)
         result = self._solve(chain, goal, q0, request, settings)
@@ -186,12 +233,14 @@ class Solver:
     def _configured(self, options: dict, planar: bool):
         """``configure`` of the defaults updated with ``options``, memoised: the same
         options are checked once, not at every solve."""
+        cache = self.__dict__.setdefault("_configurations", {})
+        if not options and planar in cache:  # the common case, without building a key
+            return cache[planar]
         try:
             key = (planar, tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in options.items())))
             hash(key)
         except TypeError:
             key = None
-        cache = self.__dict__.setdefault("_configurations", {})
         if key is not None and key in cache:
             return cache[key]
         unknown = set(options) - set(self.options)
@@ -200,6 +249,8 @@ class Solver:
         configuration = self.configure({**self.options, **options}, planar)
         if key is not None and len(cache) < 256:
             cache[key] = configuration
+            if not options:
+                cache[planar] = configuration
         return configuration
 
     def configure(self, settings: dict, planar: bool):
@@ -231,6 +282,10 @@ def chain_pose(chain: Chain, q) -> np.ndarray:
 
 def measure(chain: Chain, goal: Goal, reached: np.ndarray) -> tuple[float, float, np.ndarray]:
     """(position error, orientation error, error vector) of a reached pose."""
+    if goal.task is not None:
+        error, _, position_error, orientation_error = task_rows(goal.task, goal.position, goal.rotation,
+                                                                reached[:3, 3], reached[:3, :3], None)
+        return position_error, orientation_error, error
     (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
     tx, ty, tz = goal.position.tolist()
     error = [tx - x, ty - y] if chain.planar else [tx - x, ty - y, tz - z]

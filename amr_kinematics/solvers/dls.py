@@ -1,20 +1,25 @@
-"""Damped least squares (seed 004) with random restarts inside the time budget.
+"""Damped least squares (seed 004) with restarts until the time budget is spent.
 
 The first attempt starts from the seed, so a solve near the previous solution
 stays near it.  When an attempt stalls (``patience`` steps without progress) or
-uses up ``attempt_iterations``, a new one starts from a uniformly random
-configuration, until success, ``max_iterations`` in total or the timeout (the
-best configuration found is returned).  ``restarts=False`` gives the plain
-method of the seed: one attempt, run until it converges or the limits hit.
+uses up its steps (``attempt_iterations``, at most ``max_iterations``), a new one
+starts from the closest of ``restart_candidates`` spread configurations
+(``starts.SpreadStarts``: Latin-hypercube batches), until success or the
+timeout: a step count never ends a solve that still has time.  The best
+configuration found is returned.  ``restarts=False`` gives the plain method of
+the seed: one attempt of at most ``max_iterations`` steps.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import time
 
 from . import options as opt
 from .base import IKResult, Solver, finish
-from .iterative import COUPLING_UPDATES, Refiner, StepSettings
+from .iterative import COUPLING_UPDATES, Refiner, StepSettings, measured_attempt, measured_result
+from .starts import SpreadStarts
+
+BATCHES_PER_HYPERCUBE = 8  # restarts that share one Latin hypercube of starts
 
 
 class DLSSolver(Solver):
@@ -28,9 +33,12 @@ class DLSSolver(Solver):
         "restarts": True,
         "attempt_iterations": 30,    # steps per attempt before a restart
         "patience": 5,               # steps without 0.1 % progress before a restart
-        "restart_candidates": 8,     # random configurations drawn per restart; the closest to the goal is used
+        "restart_candidates": 8,     # spread configurations per restart; the closest to the goal is used
         "random_seed": 0,            # restarts are reproducible
     }
+
+    def check_task(self, chain) -> None:
+        """Partial poses are rows of the same step: every chain can take them."""
 
     def configure(self, settings: dict, planar: bool):
         restarts = bool(settings["restarts"])
@@ -50,35 +58,41 @@ class DLSSolver(Solver):
 
     def _solve(self, chain, goal, q0, request, configuration) -> IKResult:
         step, restarts, attempt_iterations, random_seed, restart_candidates = configuration
-        rng = None  # made on the first restart: creating a generator costs ~10 us
-        refiner = Refiner(chain, goal, request, step)
+        steps = min(attempt_iterations, request.max_iterations) if restarts else request.max_iterations
         q, used, attempts, best = q0, 0, 0, None
+        first = measured_attempt(chain, goal, request, step, q0, steps)
+        if first is not None:  # the first attempt and its measures in one compiled call
+            best, out = first
+            used, attempts = best.iterations, 1
+            if best.converged or not restarts or time.perf_counter() > request.deadline:
+                return measured_result(chain, out, best, solver=self.name,
+                                       message=_message(best, best, 1, used, restarts, request))
+        refiner = Refiner(chain, goal, request, step)
+        starts = SpreadStarts(chain, q0, restart_candidates * BATCHES_PER_HYPERCUBE, random_seed)
+        if first is not None:
+            q = refiner.closest(starts.take(restart_candidates))
         while True:
-            budget = request.max_iterations - used
-            attempt = refiner.run(q, min(budget, attempt_iterations) if restarts else budget, attempts)
+            attempt = refiner.run(q, steps, attempts)
             attempts += 1
             used += attempt.iterations
             if best is None or attempt.converged or attempt.score < best.score:
                 best = attempt
-            if attempt.converged or attempt.timed_out or not restarts or used >= request.max_iterations:
+            if attempt.converged or attempt.timed_out or not restarts or time.perf_counter() > request.deadline:
                 break
-            rng = rng or np.random.default_rng(random_seed)
-            q = self._restart(chain, refiner, rng, restart_candidates)
-        if best.converged:
-            message = "converged" + (f" after {attempts - 1} restart(s)" if attempts > 1 else "")
-        elif best.timed_out or attempt.timed_out:
-            message = "timeout: best configuration found returned"
-        elif used >= request.max_iterations:
-            message = "iteration limit reached: best configuration found returned"
-        else:
-            message = "stalled (no progress): best configuration found returned; target may be out of reach"
-        return finish(chain, goal, best.q, request, solver=self.name, iterations=used, message=message,
+            q = refiner.closest(starts.take(restart_candidates))
+        return finish(chain, goal, best.q, request, solver=self.name, iterations=used,
+                      message=_message(best, attempt, attempts, used, restarts, request),
                       attempts=attempts, history=refiner.history, converged=best.converged)
 
-    @staticmethod
-    def _restart(chain, refiner, rng, candidates: int) -> np.ndarray:
-        """A uniformly random configuration; with several candidates, the closest one."""
-        if candidates == 1:
-            return chain.apply_coupling(rng.uniform(chain.lower, chain.upper))
-        draws = [chain.apply_coupling(q) for q in rng.uniform(chain.lower, chain.upper, size=(candidates, chain.n))]
-        return min(draws, key=refiner.score)
+
+def _message(best, last, attempts: int, used: int, restarts: bool, request) -> str:
+    """How a solve ended, from its best and its last attempt."""
+    if best.converged:
+        return "converged" + (f" after {attempts - 1} restart(s)" if attempts > 1 else "")
+    if restarts:
+        return f"timeout: best configuration of {attempts} attempt(s) returned"
+    if used >= request.max_iterations:
+        return "iteration limit reached: best configuration found returned"
+    if last.timed_out:
+        return "timeout: best configuration found returned"
+    return "stalled (no progress): best configuration found returned; target may be out of reach"

@@ -17,11 +17,13 @@ Coupled joints (q_k = offset + c . q) follow one of two updates:
 J_r = J_free + J_k c_free; ``project`` (seed 004) steps all joints as if free and
 then overwrites the coupled ones.
 
-Speed: position-only goals (any chain, reduced couplings) run on scalar floats
-with a closed-form 3x3 solve, spatial full-pose goals without couplings on floats
-with numpy only for the 6x6 solve; per-axis tolerances, projected couplings and
-weighted rotation rows take the generic numpy loop.  All three follow the same
-equations (checked against each other in tests).  Solvers keep no state between
+Speed: short attempts (position, full pose, weighted rotation rows, both coupling
+updates) run compiled (compiled.py; ``measured_attempt`` also measures the result
+in the same call).  Without numba, position-only goals (reduced couplings) run on
+scalar floats with a closed-form 3x3 solve, spatial full-pose goals without
+couplings on floats with numpy only for the 6x6 solve; per-axis tolerances,
+partial poses, recorded histories and the rest take the generic numpy loop.  All
+follow the same equations (checked against each other in tests).  Solvers keep no state between
 solves, so threads may share them (they interleave under the GIL).
 """
 
@@ -37,7 +39,9 @@ import numpy as np
 
 from ..chain import Chain
 from ..transforms import rotation_error
-from .base import Goal, IterationRecord, Request
+from . import compiled
+from .base import Goal, IKResult, IterationRecord, Request
+from .task import task_rows
 
 try:  # the gufunc behind np.linalg.solve, without its ~3 us of Python-level checks
     from numpy.linalg._umath_linalg import solve1 as _solve
@@ -45,6 +49,7 @@ except ImportError:  # pragma: no cover - other numpy layouts
     _solve = np.linalg.solve
 
 TWO_PI = 2.0 * math.pi
+_EYE3 = np.eye(3)
 COUPLING_UPDATES = ("reduced", "project")
 
 
@@ -72,6 +77,8 @@ class _Layout:
     revolute: np.ndarray
     bounds: tuple[list, list, list]  # lower, upper, revolute as lists for the scalar loop
     terms: tuple  # reduced update, per coupling: (joint, offset, lower, upper, ((variable, c), ...))
+    arrays: tuple  # the chain for compiled.attempt_packed (compiled.pack_chain)
+    packed_goals: dict  # goal templates of compiled.pack_goal by rows (Refiner._packed_goal)
 
 
 _LAYOUTS: "weakref.WeakKeyDictionary[Chain, dict]" = weakref.WeakKeyDictionary()
@@ -92,10 +99,69 @@ def _layout(chain: Chain, project: bool) -> _Layout:
             (c.joint, c.offset, float(chain.lower[c.joint]), float(chain.upper[c.joint]),
              tuple((j, float(c.coefficients[v])) for j, v in enumerate(var) if c.coefficients[v] != 0.0))
             for c in chain.couplings)
+        fixed, motion = compiled.chain_arrays(chain)
+        joints = [c.joint for c in chain.couplings]  # project: var is every joint (compiled.attempt tells so)
+        arrays = compiled.pack_chain(
+            fixed, motion, var.astype(np.int64), np.eye(chain.n) if matrix is None else matrix,
+            np.array(joints, dtype=np.int64), np.array([c.offset for c in chain.couplings], dtype=float),
+            np.array([c.coefficients for c in chain.couplings], dtype=float).reshape(len(joints), chain.n),
+            chain.lower[joints].astype(float), chain.upper[joints].astype(float),
+            lower.astype(float), upper.astype(float), revolute.astype(np.bool_))
         cached[project] = _Layout(var, matrix, lower, upper, revolute,
-                                  (lower.tolist(), upper.tolist(), revolute.tolist()), terms)
+                                  (lower.tolist(), upper.tolist(), revolute.tolist()), terms, arrays, {})
     return cached[project]
 
+
+
+def measured_attempt(chain: Chain, goal: Goal, request: Request, step: StepSettings, q0: np.ndarray,
+                     max_steps: int) -> "tuple[Attempt, np.ndarray] | None":
+    """The first attempt of a solve and the measures of its end in one compiled call
+    (``compiled.attempt_measured``: same steps as ``Refiner.run``), or None where the compiled
+    attempt does not apply.  Why: at 2-4 joints the Python around one compiled attempt (building
+    a Refiner, then FK and errors again for the result) cost more than the attempt itself."""
+    if not (compiled.AVAILABLE and goal.task is None and step.axis_tolerance is None and not request.record_history
+            and max_steps <= compiled.MAX_COMPILED_STEPS):
+        return None
+    layout = _layout(chain, step.coupling_update == "project")
+    has_rotation = goal.rotation is not None
+    weight = step.angular_weight
+    if weight is None:
+        weight = 1.0 if has_rotation else 0.0
+    key = (has_rotation, weight, step.damping, step.adaptive_damping, step.gain)
+    plan = layout.packed_goals.get(key)
+    if plan is None:
+        position_rows = [0, 1] if chain.planar else [0, 1, 2]
+        rotation_rows = ([5] if chain.planar else [3, 4, 5]) if has_rotation or weight > 0.0 else []
+        floats, ints = compiled.pack_goal(
+            np.array(position_rows + rotation_rows, dtype=np.int64),
+            np.array([1.0] * len(position_rows) + [weight] * len(rotation_rows)), np.zeros(3), _EYE3,
+            has_rotation, chain.planar)
+        # the step settings follow the goal (compiled.attempt_measured): one array less to pass
+        plan = (np.concatenate([floats, [step.damping ** 2, step.adaptive_damping, step.gain, 0.0, 0.0]]), ints,
+                chain.n + 18 + (2 if chain.planar else 3) + ((1 if chain.planar else 3) if has_rotation else 0))
+        if len(layout.packed_goals) < 64:
+            layout.packed_goals[key] = plan
+    template, ints, size = plan
+    floats = template.copy()
+    floats[:3] = goal.position
+    if has_rotation:
+        floats[3:12] = goal.rotation.ravel()
+    floats[-2] = request.tolerance ** 2
+    floats[-1] = request.orientation_tolerance
+    out = np.empty(size)
+    converged, iterations, score = compiled.attempt_measured(*layout.arrays, floats, ints, q0, max_steps,
+                                                             step.patience, out)
+    n = chain.n
+    return Attempt(out[:n], converged, iterations, score), out
+
+
+def measured_result(chain: Chain, out: np.ndarray, attempt: "Attempt", *, solver: str, message: str,
+                    attempts: int = 1) -> IKResult:
+    """The IKResult of ``measured_attempt``'s output (what ``base.finish`` computes, already done)."""
+    n = chain.n
+    return IKResult(q=out[:n], success=attempt.converged, position_error=float(out[n + 16]),
+                    orientation_error=float(out[n + 17]), iterations=attempt.iterations, message=message,
+                    reached=out[n:n + 16].reshape(4, 4), error=out[n + 18:], solver=solver, attempts=attempts)
 
 @dataclass
 class Attempt:
@@ -117,12 +183,14 @@ class Refiner:
         self.step = step
         self.history: list[IterationRecord] | None = [] if request.record_history else None
         self.target = goal.position.tolist()
+        self.task = goal.task
+        self.goal = goal
         self.rotation = None if goal.rotation is None else goal.rotation.ravel().tolist()
         weight = step.angular_weight
         if weight is None:
             weight = 1.0 if self.rotation is not None else 0.0
         self.angular_weight = weight
-        self.use_rotation_rows = self.rotation is not None or weight > 0.0
+        self.use_rotation_rows = self.rotation is not None or weight > 0.0 or self.task is not None
         self.position_rows = [0, 1] if chain.planar else [0, 1, 2]
         self.rotation_rows = ([5] if chain.planar else [3, 4, 5]) if self.use_rotation_rows else []
         self.m = len(self.position_rows) + len(self.rotation_rows)
@@ -136,13 +204,43 @@ class Refiner:
         self.terms = layout.terms
         self.lam2 = step.damping ** 2
         reduced = not chain.couplings or step.coupling_update == "reduced"
+        self.arrays = layout.arrays
+        # the compiled attempt (compiled.py) covers what the scalar and pose loops do, weighted rows and both
+        # coupling updates
+        self.compiled = compiled.AVAILABLE and self.task is None and self.axis_tolerance is None \
+            and self.history is None
+        if self.compiled:
+            self.compiled_goal = self._packed_goal(layout, goal)
+            self.compiled_settings = np.array((self.lam2, step.adaptive_damping, step.gain, self.tolerance2,
+                                               self.orientation_tolerance))
         self.fast = None
-        if self.axis_tolerance is None and reduced and not self.use_rotation_rows:
+        if self.task is not None:
+            pass  # partial poses take the generic loop
+        elif self.axis_tolerance is None and reduced and not self.use_rotation_rows:
             self.fast = self._run_scalar
         elif self.axis_tolerance is None and not chain.couplings and not chain.planar and self.rotation is not None:
             self.fast = self._run_pose
 
     # --- helpers -----------------------------------------------------------------------
+    def _packed_goal(self, layout: _Layout, goal: Goal) -> tuple[np.ndarray, np.ndarray]:
+        """``compiled.pack_goal`` of this goal; the part that depends on the rows only is made
+        once per chain and row set (this runs at every solve)."""
+        key = (goal.rotation is not None, self.use_rotation_rows, self.angular_weight)
+        template = layout.packed_goals.get(key)
+        if template is None:
+            rows = self.position_rows + self.rotation_rows
+            template = compiled.pack_goal(
+                np.array(rows, dtype=np.int64),
+                np.array([1.0] * len(self.position_rows) + [self.angular_weight] * len(self.rotation_rows)),
+                np.zeros(3), _EYE3, goal.rotation is not None, self.chain.planar)
+            if len(layout.packed_goals) < 64:
+                layout.packed_goals[key] = template
+        floats = template[0].copy()
+        floats[:3] = goal.position
+        if goal.rotation is not None:
+            floats[3:12] = goal.rotation.ravel()
+        return floats, template[1]
+
     def expand(self, x: np.ndarray) -> np.ndarray:
         """Full joint vector from the variables (coupled joints derived, clamped)."""
         if self.var.size == self.chain.n and not self.chain.couplings:
@@ -177,9 +275,21 @@ class Refiner:
                 values[i] = limit
         return np.array(values)
 
+    def closest(self, candidates: np.ndarray) -> np.ndarray:
+        """The candidate (a row) with the least weighted task error."""
+        if len(candidates) == 1:
+            return candidates[0]
+        if self.compiled:
+            return candidates[compiled.best_start(*self.arrays, *self.compiled_goal, candidates)]
+        return min(candidates, key=self.score)
+
     def score(self, q: np.ndarray) -> float:
         """Weighted squared task error at q (what the steps reduce)."""
         out = self.chain.kernel.pose(q.tolist())
+        if self.task is not None:
+            error = task_rows(self.task, self.goal.position, self.goal.rotation, np.array(out[:3]),
+                              np.array(out[3:12]).reshape(3, 3), None)[0]
+            return float(error @ error)
         tx, ty, tz = self.target
         ex, ey, ez = tx - out[0], ty - out[1], tz - out[2]
         score = ex * ex + ey * ey + (0.0 if self.chain.planar else ez * ez)
@@ -196,7 +306,16 @@ class Refiner:
     # --- the loop ------------------------------------------------------------------------
     def run(self, q0: np.ndarray, max_steps: int, attempt: int = 0) -> Attempt:
         """Refine from q0 (full vector, within limits) for at most ``max_steps`` steps."""
+        if self.compiled and max_steps <= compiled.MAX_COMPILED_STEPS:
+            return self._run_compiled(q0, max_steps)
         return (self.fast or self._run_numpy)(q0, max_steps, attempt)
+
+    def _run_compiled(self, q0: np.ndarray, max_steps: int) -> Attempt:
+        """``compiled.attempt``: the steps of ``_run_numpy``, compiled (no deadline inside: short runs only)."""
+        q, converged, iterations, score = compiled.attempt_packed(
+            *self.arrays, *self.compiled_goal, self.compiled_settings, np.asarray(q0, dtype=float), max_steps,
+            self.step.patience)
+        return Attempt(q, converged, iterations, score)
 
     def _run_numpy(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
         chain, step = self.chain, self.step
@@ -233,9 +352,16 @@ class Refiner:
                 position_ok = pos2 <= self.tolerance2
             else:
                 position_ok = abs(ex) <= axis[0] and abs(ey) <= axis[1] and (planar or abs(ez) <= axis[2])
+            if self.task is not None:  # partial pose: the task's rows (solvers/task.py)
+                error, task_jacobian, position_error, ori = task_rows(
+                    self.task, self.goal.position, self.goal.rotation, np.array(out[:3]),
+                    np.array(out[3:12]).reshape(3, 3), jacobian.reshape(6, n))
+                pos2 = position_error * position_error
+                position_ok = pos2 <= self.tolerance2
+            else:
+                error = np.array((ex, ey, ez, wx, wy, wz))[rows] * weights
             if history is not None:
                 self._record(iteration, q, pos2, ori, attempt)
-            error = np.array((ex, ey, ez, wx, wy, wz))[rows] * weights
             score = float(error @ error)
             if position_ok and ori <= self.orientation_tolerance:
                 return Attempt(q, True, iteration, score)
@@ -248,12 +374,12 @@ class Refiner:
                 break
             if time.perf_counter() > deadline:
                 return Attempt(best_q, False, iteration, best_score, timed_out=True)
-            jac = jacobian.reshape(-1, n)[rows] * weights[:, None]
+            jac = task_jacobian if self.task is not None else jacobian.reshape(-1, n)[rows] * weights[:, None]
             if coupling is not None:
                 jac = jac @ coupling
             damping = lam2 + adaptive * score
             a = jac @ jac.T
-            a.flat[:: m + 1] += damping
+            a.flat[:: a.shape[0] + 1] += damping
             x = self.keep_in_limits(x, (x + gain * (_solve(a, error) @ jac)).tolist(), jac, error, damping)
             if x is None:  # a singular system: give up this attempt
                 break

@@ -6,23 +6,23 @@ from pathlib import Path
 import pytest
 import yaml
 
-from amr_control.bringup import NODE_CLASSES, check_composable
-from amr_control.bringup_config import (BringupError, NodeSpec, check_installed, find_bringup, load_bringup,
+from amr_bringup.bringup import NODE_CLASSES, check_composable
+from amr_bringup.stack_config import (BringupError, NodeSpec, check_installed, find_bringup, load_bringup,
                                         parse_bringup, yaml_scalar)
-from amr_control.managed_node import ManagedNode
+from amr_util.managed_node import ManagedNode
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = sorted(path.stem for path in (ROOT / "config" / "bringup").glob("*.yaml"))
 
 
 def test_the_stacks_are_shipped():
-    assert SHIPPED == ["ik_service", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_sim"]
+    assert SHIPPED == ["ik_service", "maze_localization", "maze_navigation", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_sim"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_bringups_resolve_against_the_install_layout_and_can_be_composed(name):
     bringup = load_bringup(name)
-    assert bringup.source.parent.parts[-3:] == ("amr_control", "config", "bringup")
+    assert bringup.source.parent.parts[-3:] == ("amr_bringup", "config", "bringup")
     assert bringup.source.read_text() == (ROOT / "config" / "bringup" / f"{name}.yaml").read_text()
     check_installed(bringup)
     check_composable(bringup)
@@ -34,8 +34,8 @@ def node(bringup, name):
 
 def test_maze_sim_starts_the_wall_follower_before_the_simulator():
     bringup = load_bringup("maze_sim")
-    assert [n.name for n in bringup.nodes] == ["simulator", "wall_follower"]
-    assert bringup.node_startup_order == ("wall_follower", "simulator")
+    assert [n.name for n in bringup.nodes] == ["map_server", "simulator", "wall_follower"]
+    assert bringup.node_startup_order == ("map_server", "wall_follower", "simulator")
     assert node(bringup, "wall_follower").parameter_files == ("wall_follower_sim.yaml",)
 
 
@@ -44,8 +44,21 @@ def test_maze_sim_odometry_routes_odom_through_the_odometry_node():
 
     bringup = load_bringup("maze_sim_odometry")
     assert "publish_odometry" in NODE_PARAMETERS  # the simulator's real switch for /odometry
-    assert node(bringup, "simulator").parameters == {"publish_odometry": False}
-    assert bringup.node_startup_order == ("odometry_node", "wall_follower", "simulator")
+    assert node(bringup, "simulator").parameters["publish_odometry"] is False
+    assert bringup.node_startup_order == ("map_server", "odometry_node", "wall_follower", "simulator")
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_simulated_stacks_run_on_sim_time_with_the_map_of_their_world_real_ones_on_the_wall_clock(name):
+    """One time base: where a simulator publishes /clock every node follows it; a robot's stack keeps its clock."""
+    bringup = load_bringup(name)
+    simulated = any(n.executable == "simulator" for n in bringup.nodes)
+    assert all(n.parameters.get("use_sim_time", False) is simulated for n in bringup.nodes), name
+    if simulated:
+        assert node(bringup, "map_server").parameters["world"] == node(bringup, "simulator").parameters["world"]
+        assert {("simulator", "world"), ("map_server", "world")} <= set(bringup.arguments["world"].sets)
+        moved = bringup.with_overrides({"world": "hard_maze.yaml"})
+        assert {n.parameters.get("world") for n in moved.nodes} - {None} == {"hard_maze.yaml"}
 
 
 def test_real_robot_has_no_simulator_and_the_real_robot_config():
@@ -158,7 +171,7 @@ def test_invalid_yaml_names_the_file(tmp_path):
 
 def test_a_bare_name_finds_the_shipped_file_and_an_unknown_one_lists_them(tmp_path):
     assert find_bringup("real_robot") == find_bringup("real_robot.yaml")
-    with pytest.raises(BringupError, match="shipped: ik_service, maze_sim, maze_sim_odometry, real_robot"):
+    with pytest.raises(BringupError, match="shipped: ik_service, maze_localization, maze_navigation, maze_sim, maze_sim_odometry, real_robot"):
         find_bringup("maze")
     own = tmp_path / "mine.yaml"
     own.write_text(yaml.safe_dump({"nodes": [GOOD]}))
@@ -189,7 +202,35 @@ def test_absolute_parameter_files_are_taken_as_they_are(tmp_path):
 
 
 def test_composed_mode_refuses_a_node_it_has_no_class_for(tmp_path):
-    bringup = parse_bringup({"nodes": [{"name": "a", "package": "amr_control", "executable": "lifecycle_manager"}]},
+    bringup = parse_bringup({"nodes": [{"name": "a", "package": "amr_bringup", "executable": "lifecycle_manager"}]},
                             tmp_path / "b.yaml")
-    with pytest.raises(BringupError, match=r"nodes\[0\].executable: amr_control/lifecycle_manager has no node class"):
+    with pytest.raises(BringupError, match=r"nodes\[0\].executable: amr_bringup/lifecycle_manager has no node class"):
         check_composable(bringup)
+
+
+def test_arguments_and_parameters_override_the_stack_and_unknown_names_are_refused():
+    bringup = load_bringup("maze_sim")
+    assert {"world", "start", "preferred_wall", "mode", "use_sim_time", "simulator_params_file",
+            "wall_follower_params_file"} <= set(bringup.arguments)
+    assert bringup.current_value("world") == "outer_corridor.yaml"
+    changed = bringup.with_overrides({"world": "hard_maze.yaml", "start": "[0.5, -1.0, 1.57]", "use_sim_time": "true"},
+                                     {"wall_follower.kp": "3.0"})
+    _, simulator, follower = changed.nodes
+    assert simulator.parameters == {"world": "hard_maze.yaml", "start": [0.5, -1.0, 1.57], "use_sim_time": True}
+    assert follower.parameters == {"use_sim_time": True, "kp": 3.0}
+    assert "-p" in simulator.ros_arguments() and 'world:="hard_maze.yaml"' in simulator.ros_arguments()
+    replaced = bringup.with_overrides({"wall_follower_params_file": "/tmp/mine.yaml"})
+    assert replaced.nodes[2].parameter_files == ("/tmp/mine.yaml",)
+    assert "start" not in bringup.with_overrides({"start": "[]"}).nodes[1].parameters, "[] keeps the world's start"
+    with pytest.raises(BringupError, match=r"unknown argument 'wrld' \(known: map_server_params_file, mode, preferred_wall"):
+        bringup.with_overrides({"wrld": "x"})
+    with pytest.raises(BringupError, match=r"-p simulatr.world: expected <node>.<parameter>:=<value> with a node"):
+        bringup.with_overrides({}, {"simulatr.world": "x"})
+
+
+def test_bad_argument_sections_are_refused_naming_the_key(tmp_path):
+    document = {"nodes": [GOOD], "arguments": {"gain": {"sets": ["b.kp"]}}}
+    with pytest.raises(BringupError, match=r"arguments.gain.sets: 'b.kp' is not <node>.<parameter>"):
+        parse_bringup(document, tmp_path / "s.yaml")
+    with pytest.raises(BringupError, match=r"arguments.gain: unknown key"):
+        parse_bringup({"nodes": [GOOD], "arguments": {"gain": {"sets": ["a.kp"], "default": 1}}}, tmp_path / "s.yaml")

@@ -13,17 +13,17 @@ from conftest import spin_until
 from lifecycle_msgs.srv import GetState
 from rclpy.node import Node
 
-from amr_control.bringup_process import child_environment
+from amr_util.environment import child_environment
 
 STARTUP_TIMEOUT = 30.0
 
 
 class Bringup:
-    """`python -m amr_control.bringup ...` with its output collected line by line."""
+    """`python -m amr_bringup.bringup ...` with its output collected line by line."""
 
     def __init__(self, *arguments: str) -> None:
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "amr_control.bringup", *arguments], env=child_environment(),
+            [sys.executable, "-m", "amr_bringup.bringup", *arguments], env=child_environment(),
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
         self.lines: list[str] = []
         self._reader = threading.Thread(target=lambda: self.lines.extend(self.process.stdout), daemon=True)
@@ -150,11 +150,19 @@ def write(tmp_path, text):
     return str(path)
 
 
+def unparsable_parameter_file(tmp_path) -> str:
+    """A parameter file rcl cannot parse (a list mixing ints and floats): the node process cannot start."""
+    path = tmp_path / "broken.yaml"
+    path.write_text("odometry_node:\n  ros__parameters:\n    qos_depth: [1, 2.5]\n")
+    return str(path)
+
+
 def test_a_node_that_dies_stops_everything_and_is_named(tmp_path, bringups):
-    stack = write(tmp_path, """
+    stack = write(tmp_path, f"""
 nodes:
-  - {name: wall_follower, package: amr_control, executable: wall_follower, parameter_files: [wall_follower_real.yaml]}
-  - {name: odometry_node, package: amr_turtlebot3, executable: odometry_node, parameters: {qos_depth: ten}}
+  - {{name: wall_follower, package: amr_control, executable: wall_follower, parameter_files: [wall_follower_real.yaml]}}
+  - {{name: odometry_node, package: amr_turtlebot3, executable: odometry_node,
+     parameter_files: [{unparsable_parameter_file(tmp_path)}]}}
 """)
     run = bringups(stack)
     assert run.finish(timeout=30.0) == 1
@@ -182,10 +190,35 @@ def test_a_missing_executable_is_refused_before_anything_starts(tmp_path, bringu
 
 
 def test_a_node_that_cannot_be_built_in_composed_mode_is_named(tmp_path, bringups):
-    stack = write(tmp_path, """
+    stack = write(tmp_path, f"""
 nodes:
-  - {name: odometry_node, package: amr_turtlebot3, executable: odometry_node, parameters: {qos_depth: ten}}
+  - {{name: odometry_node, package: amr_turtlebot3, executable: odometry_node,
+     parameter_files: [{unparsable_parameter_file(tmp_path)}]}}
 """)
     run = bringups(stack, "--composed")
     assert run.finish(timeout=30.0) == 1
-    assert "amr-bringup: node odometry_node failed to start: InvalidParameterTypeException" in run.output, run.output
+    assert "amr-bringup: node odometry_node failed to start: RCLInvalidROSArgsError" in run.output, run.output
+
+
+def test_a_bad_parameter_fails_configure_naming_node_and_key(tmp_path, bringups):
+    stack = write(tmp_path, """
+nodes:
+  - {name: odometry_node, package: amr_turtlebot3, executable: odometry_node,
+     parameters: {qos_depth: -4, input_topik: odom}}
+""")
+    run = bringups(stack)
+    assert run.finish(timeout=30.0) == 1
+    assert "[odometry_node]: configure failed: qos_depth: must be in [1, 1000], got -4" in run.output, run.output
+    assert "configure failed: input_topik: unknown parameter (known: input_topic, output_topic, qos_depth)" \
+        in run.output, run.output
+    assert "startup failed at configure of odometry_node" in run.output, run.output
+
+
+def test_arguments_and_parameters_on_the_command_line_reach_the_nodes(bringups):
+    run = bringups("maze_sim", "world:=hard_maze.yaml", "-p", "wall_follower.kp:=3.0", "--composed",
+                   "--duration", "4")
+    assert run.finish(timeout=30.0) == 0, run.output
+    assert "world hard_maze (" in run.output, run.output
+    typo = bringups("maze_sim", "-p", "wall_follower.kpp:=10.0", "--composed")
+    assert typo.finish(timeout=30.0) == 1
+    assert "configure failed: kpp: unknown parameter (known: " in typo.output, typo.output

@@ -3,8 +3,8 @@
 import pytest
 from geometry_msgs.msg import Twist
 
-from amr_control.bringup import ComposedStack
-from amr_control.bringup_status import TopicRow, format_table, message_class
+from amr_bringup.bringup import ComposedStack
+from amr_bringup.status import TopicRow, format_table, message_class
 
 
 def test_message_classes_come_from_the_graph_type_names():

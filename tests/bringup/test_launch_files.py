@@ -1,5 +1,5 @@
 """The ROS launch files, checked without launch installed: the LaunchDescription builder they share
-(amr_control/bringup_launch.py) against launch_ros's Jazzy API, and that everything each file starts
+(amr_bringup/launch_builder.py) against launch_ros's Jazzy API, and that everything each file starts
 (through its bringup file) exists in the install layout.
 
 The keyword sets are those of launch_ros 0.26.6 (Jazzy) actions/node.py and lifecycle_node.py and of
@@ -13,12 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from amr_control.bringup_config import check_installed, load_bringup
+from amr_bringup.stack_config import check_installed, load_bringup
 
 ROOT = Path(__file__).resolve().parents[2]
 PREFIX = Path(sys.prefix)
 LAUNCH_FILES = sorted((ROOT / "launch").glob("*.launch.py"))
-BUILDER = ROOT / "amr_control" / "bringup_launch.py"
+BUILDER = ROOT / "amr_bringup" / "launch_builder.py"
 
 EXECUTE_PROCESS_KEYWORDS = {"prefix", "cwd", "env", "additional_env"}  # launch 3.4.3 ExecuteProcess
 EXECUTE_LOCAL_KEYWORDS = {"shell", "sigterm_timeout", "sigkill_timeout", "emulate_tty", "output", "output_format",
@@ -26,9 +26,12 @@ EXECUTE_LOCAL_KEYWORDS = {"shell", "sigterm_timeout", "sigkill_timeout", "emulat
 NODE_KEYWORDS = {"executable", "package", "name", "namespace", "exec_name", "parameters", "remappings",
                  "ros_arguments", "arguments"} | EXECUTE_PROCESS_KEYWORDS | EXECUTE_LOCAL_KEYWORDS
 REQUIRED = {"LifecycleNode": {"name", "namespace", "executable"}, "Node": {"executable"}}
-KNOWN_IMPORTS = {"launch": {"LaunchDescription"}, "launch_ros.actions": {"LifecycleNode", "Node"},
-                 "amr_control.bringup_config": {"load_bringup"},
-                 "amr_control.bringup_launch": {"launch_description"}}
+ARGUMENT_KEYWORDS = {"default_value", "description", "choices"}  # launch 3.4.3 DeclareLaunchArgument
+OPAQUE_KEYWORDS = {"function", "args", "kwargs"}  # launch 3.4.3 OpaqueFunction
+KNOWN_IMPORTS = {"launch": {"LaunchDescription"}, "launch.actions": {"DeclareLaunchArgument", "OpaqueFunction"},
+                 "launch_ros.actions": {"LifecycleNode", "Node"},
+                 "amr_bringup.stack_config": {"load_bringup"},
+                 "amr_bringup.launch_builder": {"launch_description"}}
 
 
 def parsed(path: Path) -> ast.Module:
@@ -65,7 +68,7 @@ def imports(tree: ast.Module, where: str) -> dict[str, set[str]]:
 @pytest.mark.parametrize("path", LAUNCH_FILES, ids=lambda p: p.name)
 def test_launch_file_builds_its_bringup_with_the_shared_builder(path):
     tree = parsed(path)
-    assert imports(tree, path.name) == {"amr_control.bringup_launch": {"launch_description"}}
+    assert imports(tree, path.name) == {"amr_bringup.launch_builder": {"launch_description"}}
     (function,) = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "generate_launch_description"]
     assert not function.args.args
     (returned,) = [n.value for n in ast.walk(function) if isinstance(n, ast.Return)]
@@ -78,6 +81,18 @@ def test_builder_imports_only_known_launch_names_and_returns_a_launch_descriptio
     (function,) = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "launch_description"]
     returned = [n.value for n in ast.walk(function) if isinstance(n, ast.Return)]
     assert len(returned) == 1 and isinstance(returned[0], ast.Call) and returned[0].func.id == "LaunchDescription"
+
+
+def test_arguments_are_declared_and_the_nodes_made_when_the_launch_runs():
+    tree = parsed(BUILDER)
+    (declare,) = calls(tree, "DeclareLaunchArgument")
+    assert len(declare.args) == 1 and {k.arg for k in declare.keywords} <= ARGUMENT_KEYWORDS
+    (opaque,) = calls(tree, "OpaqueFunction")
+    assert not opaque.args and {k.arg for k in opaque.keywords} <= OPAQUE_KEYWORDS
+    function = {k.arg: k.value for k in opaque.keywords}["function"].id
+    (actions,) = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == function]
+    assert [a.arg for a in actions.args.args][0] == "context", "OpaqueFunction calls function(context, *args)"
+    assert "with_overrides" in ast.unparse(actions), "the same overrides as amr-bringup"
 
 
 def test_launch_actions_use_launch_ros_keywords_only():
@@ -93,16 +108,16 @@ def test_launch_actions_use_launch_ros_keywords_only():
             assert required <= keywords, f"{action} lacks {required - keywords}"
     (manager,) = calls(tree, "Node")
     given = {k.arg: k.value for k in manager.keywords}
-    assert ast.literal_eval(given["package"]) == "amr_control"
+    assert ast.literal_eval(given["package"]) == "amr_bringup"
     assert ast.literal_eval(given["executable"]) == "lifecycle_manager"
-    assert (PREFIX / "lib" / "amr_control" / "lifecycle_manager").is_file()
+    assert (PREFIX / "lib" / "amr_bringup" / "lifecycle_manager").is_file()
 
 
 @pytest.mark.parametrize("path", LAUNCH_FILES, ids=lambda p: p.name)
 def test_what_the_launch_file_starts_exists_in_the_install_layout(path):
     name = bringup_name(parsed(path))
     assert path.name == f"{name}.launch.py"
-    assert (PREFIX / "share" / "amr_control" / "launch" / path.name).read_text() == path.read_text()
+    assert (PREFIX / "share" / "amr_bringup" / "launch" / path.name).read_text() == path.read_text()
     check_installed(load_bringup(name))  # packages, lib/<package>/<executable>, parameter files
 
 

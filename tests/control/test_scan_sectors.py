@@ -85,7 +85,8 @@ def test_line_fit_of_a_corner_scatters():
 
 def test_clearance_is_free_travel_of_the_disc():
     r = READER.read(cast(corridor(front=0.5)))
-    assert r.clearance == pytest.approx(0.5 - 0.032 - 0.105)  # wall 0.5 from the LiDAR, which is 3.2 cm behind the axle
+    # wall 0.5 from the LiDAR, which is 3.2 cm behind the axle (the 5-beam mean reads a flat wall < 1 mm further)
+    assert r.clearance == pytest.approx(0.5 - 0.032 - 0.105, abs=1e-3)
     alongside = READER.read(cast(corridor(left=0.11, right=0.3)))
     assert alongside.clearance == math.inf  # a wall alongside does not limit straight travel
 

@@ -273,3 +273,16 @@ def test_small_queues_keep_the_guarantees_and_bound_memory(case, queue_size):
     stats = sync.stats
     dropped = stats.dropped_late + stats.dropped_unmatched + stats.dropped_overflow + stats.dropped_superseded
     assert n * stats.published + dropped + sum(sync.queue_lengths()) == total  # every message accounted for
+
+
+def test_a_clock_jump_back_is_recovered_from_not_taken_for_late_messages():
+    got, jumps = [], []
+    sync = ApproximateTimeSynchronizer(2, 0.01, 10, lambda *m: got.append(m), jump_threshold=0.5,
+                                       on_jump=lambda index, jump: jumps.append((index, jump)))
+    for stamp in (1.0, 1.05, 1e6, 1.10, 1.15):  # 1e6: one bad stamp far ahead, then normal ones
+        sync.add(0, int(stamp * 1e9), f"a{stamp}")
+        sync.add(1, int(stamp * 1e9), f"b{stamp}")
+    assert [a for a, _ in got] == ["a1.0", "a1.05", "a1000000.0", "a1.1", "a1.15"]
+    assert sync.stats.clock_jumps == 1 and jumps[0][0] == 0 and jumps[0][1] < -999_000 * 10**9
+    sync.add(0, int(1.12 * 1e9), "late")  # a little older than the last set: late, not a jump
+    assert sync.stats.dropped_late == 1 and sync.stats.clock_jumps == 1

@@ -52,6 +52,11 @@ def test_ints_pass_for_floats_but_not_the_reverse():
     "params, match",
     [
         ({"kpp": 1.0}, "kpp: unknown parameter"),
+        ({"scan_median_beams": 4}, "scan_median_beams: must be odd"),
+        ({"scan_median_beams": 0}, "scan_median_beams: must be positive"),
+        ({"open_sweep_deg": 80.0}, "open_sweep_deg: must be in"),
+        ({"wall_lost_hysteresis": -0.01}, "wall_lost_hysteresis: must be >= 0"),
+        ({"open_travel_distance": 0.0}, "open_travel_distance: must be positive"),
         ({"kp": "4"}, "kp: must be a number"),
         ({"kp": True}, "kp: must be a number"),
         ({"simulation": 1}, "simulation: must be true or false"),

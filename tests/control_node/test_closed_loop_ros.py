@@ -1,21 +1,29 @@
 """Issue 6's closed loop through ROS: simulator + (odometry node) + wall follower + lifecycle manager,
-one process, lockstep, every shipped world, 10 simulated minutes, not one collision."""
+one process, lockstep, every shipped world, 5 simulated minutes, not one collision.
+
+The 10-minute runs on every world and noise level are the library closed loop's
+(tests/control/test_closed_loop.py) and the benches'; through ROS, each step costs the messages of
+the whole graph (/clock, /tf, status), so the ROS runs are kept to what only they can show: the same
+behaviour through topics, one command per observation, the odometry node in the loop."""
 
 import pytest
 
-from amr_control.demo import run_maze
-from amr_control.managed_node import share_directory
+from amr_bringup.demo import run_maze
+from amr_util.share import share_directory
 
-WORLDS = sorted(p.name for p in (share_directory("amr_simulation") / "config" / "worlds").glob("*.yaml"))
-SPAN = 600.0  # s of simulated time
+SHIPPED = share_directory("amr_simulation") / "config" / "worlds"
+# twin_rooms (two plain rooms, for localization) adds nothing to wall following but 90 s of test time:
+# the library closed loop (tests/control/test_closed_loop.py) still drives it
+WORLDS = sorted(p.name for p in SHIPPED.glob("*.yaml") if p.stem != "twin_rooms")
+SPAN = 300.0  # s of simulated time
 
 
 def test_every_shipped_world_is_tested():
     assert len(WORLDS) >= 4
 
 
-@pytest.mark.parametrize("odometry_node", [False, True], ids=["sim_odometry", "odometry_node"])
-@pytest.mark.parametrize("world", WORLDS)
+@pytest.mark.parametrize(("world", "odometry_node"), [(world, False) for world in WORLDS] + [("hard_maze.yaml", True)],
+                         ids=[f"{world}-sim_odometry" for world in WORLDS] + ["hard_maze.yaml-odometry_node"])
 def test_explores_without_touching_a_wall(ros_context, world, odometry_node):
     summary, samples = run_maze(ros_context, world, SPAN, odometry_node=odometry_node, progress=False)
     print(summary)  # mean |wall distance - target| is reported here (pytest -s), not judged

@@ -14,7 +14,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
-from amr_control.lifecycle_manager import LifecycleManager
+from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_control.wall_follower_node import WallFollowerNode
 from amr_turtlebot3.odometry_node import OdometryNode
 
@@ -193,3 +193,47 @@ def test_real_robot_mode_holds_the_last_command_between_slow_scans(ros_context, 
     assert len(moving) >= 10, "between 5 Hz scans the 20 Hz timer must repeat the last command"
     first_moving = rig.commands.index(moving[0])
     assert all(c.linear.x > 0.0 for c in rig.commands[first_moving:]), "no zero command while data is fresh"
+
+
+def test_a_live_gain_set_changes_the_next_command_and_structure_stays(ros_context, executor):
+    node, rig = active_follower(ros_context, executor)
+    for k in range(1, 30):  # settle into following the right wall of a straight corridor
+        rig.send(k * 50_000_000)
+        assert spin_until(executor, lambda: len(rig.commands) == k, 5)
+    assert rig.commands[-1].twist.linear.x == pytest.approx(0.15)
+    results = node.set_parameters([Parameter("linear_speed", value=0.08)])
+    assert results[0].successful, results[0].reason
+    rig.send(30 * 50_000_000)
+    assert spin_until(executor, lambda: len(rig.commands) == 30, 5)
+    assert rig.commands[-1].twist.linear.x == pytest.approx(0.08), "the next step uses the new speed"
+    refused = {
+        "dt": (0.1, "dt is read-only while configured; cleanup, set, configure"),
+        "kp": ("abc", "Wrong parameter type"),
+        "preferred_wall": ("up", "preferred_wall: must be one of right, left, random"),
+        "target_wall_distance": (0.5, "wall_lost_distance (0.4) must exceed target_wall_distance (0.5)"),
+    }
+    for name, (value, reason) in refused.items():
+        result = node.set_parameters([Parameter(name, value=value)])[0]
+        assert not result.successful and reason in result.reason, (name, result.reason)
+    assert node.config.target_wall_distance == 0.2 and node.get_parameter("target_wall_distance").value == 0.2
+
+
+def test_a_stamp_far_in_the_future_does_not_stop_the_robot_forever(ros_context, executor):
+    node, rig = active_follower(ros_context, executor)
+    for k in range(1, 4):
+        rig.send(k * 50_000_000)
+        assert spin_until(executor, lambda: len(rig.commands) == k, 5)
+    rig.send(10**15)  # one pair stamped 1e6 s ahead: answered, it is a pair like any other
+    assert spin_until(executor, lambda: len(rig.commands) == 4, 5)
+    for k in range(4, 10):  # normal stamps again: a clock jump back, recovered from with a warning
+        rig.send(k * 50_000_000)
+        assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5), "commands must resume"
+    assert node._sync.stats.clock_jumps == 1
+    bad = odometry(10 * 50_000_000)
+    bad.header.stamp.nanosec = 2_000_000_000  # out of [0, 1e9): malformed, dropped with a warning
+    rig.odometry.publish(bad)
+    rig.scan.publish(corridor_scan(10 * 50_000_000))
+    spin_until(executor, lambda: False, 0.3)
+    assert len(rig.commands) == 10
+    rig.send(11 * 50_000_000)
+    assert spin_until(executor, lambda: len(rig.commands) == 11, 5)

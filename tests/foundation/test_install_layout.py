@@ -1,6 +1,7 @@
 """The install is a ROS 2 prefix: `ros2 run` finds every node, ament finds every package."""
 
 import os
+import subprocess
 import sys
 import tomllib
 import xml.etree.ElementTree as ET
@@ -11,8 +12,8 @@ from ament_index_python.packages import get_package_prefix, get_package_share_di
 
 ROOT = Path(__file__).resolve().parents[2]
 PREFIX = Path(sys.prefix)
-PACKAGES = ["amr_control", "amr_simulation", "amr_turtlebot3", "amr_kinematics"]
-NODES = [(pkg, exe.name) for pkg in PACKAGES for exe in sorted((ROOT / "resource" / "lib" / pkg).iterdir())]
+PACKAGES = ["amr_util", "amr_bringup", "amr_control", "amr_simulation", "amr_turtlebot3", "amr_kinematics", "amr_maps", "amr_localization", "amr_planning"]
+NODES = [(pkg, exe.name) for pkg in PACKAGES for exe in sorted((ROOT / "resource" / "lib" / pkg).glob("*"))]
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -34,7 +35,9 @@ def test_every_node_executable_is_installed_and_names_a_real_module(package, exe
 
 def test_expected_nodes_are_all_there():
     assert {("amr_turtlebot3", "odometry_node"), ("amr_simulation", "simulator"), ("amr_control", "wall_follower"),
-            ("amr_control", "lifecycle_manager"), ("amr_kinematics", "ik_service")} <= set(NODES)
+            ("amr_bringup", "lifecycle_manager"), ("amr_kinematics", "ik_service"), ("amr_maps", "map_server"),
+            ("amr_bringup", "recorder"), ("amr_planning", "planner"), ("amr_control", "path_follower"),
+            ("amr_localization", "particle_filter"), ("amr_localization", "beacon_localizer")} <= set(NODES)
 
 
 def test_ros_wheels_are_pinned_to_jazzy():
@@ -49,3 +52,21 @@ def test_config_files_are_installed_next_to_their_package():
         for pattern in patterns:
             for source in ROOT.glob(pattern):
                 assert (PREFIX / destination / source.name).read_bytes() == source.read_bytes(), source
+
+
+def activated_environment(**given: str) -> dict[str, str]:
+    """The environment a bash that sources the venv's activate script ends up with."""
+    script = f'. "{PREFIX}/bin/activate" && . "{PREFIX}/bin/activate" && env'  # twice: idempotent
+    output = subprocess.run(["bash", "-c", script], env={"HOME": os.environ.get("HOME", "/"), **given},
+                            capture_output=True, text=True, check=True).stdout
+    return dict(line.split("=", 1) for line in output.splitlines() if "=" in line)
+
+
+def test_activating_the_venv_sets_the_ros_environment():
+    if sys.prefix == sys.base_prefix:
+        pytest.skip("not in a venv")
+    env = activated_environment()
+    assert env["AMENT_PREFIX_PATH"] == str(PREFIX)
+    assert (env["ROS_DISTRO"], env["ROS_VERSION"], env["ROS_PYTHON_VERSION"]) == ("jazzy", "2", "3")
+    sourced = activated_environment(AMENT_PREFIX_PATH="/opt/ros/jazzy", ROS_DISTRO="jazzy", ROS_VERSION="2")
+    assert sourced["AMENT_PREFIX_PATH"] == f"{PREFIX}:/opt/ros/jazzy", "a sourced Jazzy install is kept"

@@ -6,6 +6,7 @@ from lifecycle_msgs.msg import Transition
 
 from amr_control.wall_follower_node import WallFollowerNode
 from amr_kinematics.ik_service_node import IKServiceNode
+from amr_maps.map_server_node import MapServerNode
 from amr_simulation.simulator_node import SimulatorNode
 from amr_turtlebot3.odometry_node import OdometryNode
 
@@ -13,10 +14,15 @@ LIFECYCLE_SERVICES = {"change_state", "get_state", "get_available_states", "get_
                       "get_transition_graph"}
 
 
-@pytest.mark.parametrize("node_class", [OdometryNode, SimulatorNode, WallFollowerNode, IKServiceNode])
+REQUIRED = {MapServerNode: {"world": "open_room.yaml"}}
+"""Parameters a node cannot configure without."""
+
+
+@pytest.mark.parametrize("node_class", [OdometryNode, SimulatorNode, WallFollowerNode, IKServiceNode, MapServerNode])
 def test_lifecycle_services_and_clock_survive_configure_and_activate(ros_context, node_class):
     from rclpy.parameter import Parameter
-    node = node_class(context=ros_context, parameter_overrides=[Parameter("use_sim_time", value=True)])
+    given = {"use_sim_time": True, **REQUIRED.get(node_class, {})}
+    node = node_class(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in given.items()])
     try:
         for transition in (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE):
             assert node.try_transition(transition), node.get_name()

@@ -18,6 +18,7 @@ from amr_kinematics.chain import Chain, Coupling
 from amr_kinematics.config import load_chain_set
 
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "ik_chains.yaml"
+UNSEEN = Path(__file__).resolve().parents[2] / "bench" / "ik_unseen_chains.yaml"  # arms nothing was tuned on
 
 
 @pytest.fixture(scope="session")
@@ -28,6 +29,17 @@ def raw_params() -> dict:
 @pytest.fixture(scope="session")
 def chain_set(raw_params):
     return load_chain_set(raw_params)
+
+
+@pytest.fixture(scope="session")
+def unseen_set():
+    return load_chain_set(yaml.safe_load(UNSEEN.read_text(encoding="utf-8")))
+
+
+def random_targets(chain: Chain, count: int, seed: int) -> list[np.ndarray]:
+    """Tool poses of uniformly random in-limit configurations (reachable by construction)."""
+    rng = np.random.default_rng(seed)
+    return [chain.fk(rng.uniform(chain.lower, chain.upper)).tool for _ in range(count)]
 
 
 def seed004_arm(scale: float = 0.01) -> Chain:

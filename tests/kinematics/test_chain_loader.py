@@ -156,6 +156,23 @@ def test_non_finite_number(bad):
     refused(params, "arm", "arm.d", "finite")
 
 
+@pytest.mark.parametrize("empty", [[], None])  # rclpy reads `types: []` as an unset parameter (None)
+def test_chain_without_joints(empty):
+    params = good()
+    params["arm"].update(types=empty, joint_names=[], d=[], theta=[], a=[], alpha=[], lower=[], upper=[])
+    refused(params, "arm", "arm.types", "a chain needs at least one joint")
+
+
+@pytest.mark.parametrize("key, value, match", [
+    ("tolerance", 1e155, "(0, 1e+06]"), ("tolerance", math.inf, "finite"),
+    ("orientation_tolerance", 4.0, "(0, 3.14159]"), ("timeout", 61.0, "(0, 60]"),
+])
+def test_default_outside_its_range(key, value, match):
+    params = good()
+    params["arm"][key] = value
+    refused(params, "arm", f"arm.{key}", match)
+
+
 def test_integer_where_float_required_says_how_to_fix():
     params = good()
     params["arm"]["a"] = [0.0, 1, 0.1]  # rclpy would refuse this mixed list outright

@@ -86,3 +86,12 @@ def test_non_finite_speeds_are_refused(bad):
         TURTLEBOT3_BURGER.command(bad, 0.0)
     with pytest.raises(KinematicsError):
         TURTLEBOT3_BURGER.body_twist(0.0, bad)
+
+
+@pytest.mark.parametrize("linear, angular, expected", [
+    (1e308, 0.0, (0.22, 0.0)), (-1e308, 0.0, (-0.22, 0.0)), (0.0, 1e308, (0.0, 0.22 / 0.08)), (-5.0, 0.0, (-0.22, 0.0)),  # spinning: the wheels limit it
+])
+def test_absurd_but_finite_twists_saturate_like_any_other(linear, angular, expected):
+    drive = DiffDrive(wheel_radius=0.033, track=0.16, max_wheel_speed=0.22 / 0.033, max_linear=0.22, max_angular=2.84)
+    v, w = drive.saturate(linear, angular)
+    assert (v, w) == pytest.approx(expected)

@@ -59,6 +59,9 @@ def test_solver_not_valid_for_the_chain(chain_set, name, solver, with_orientatio
     ({"target": [0.1, 0.2, 0.3], "with_orientation": True}, "4x4 pose"),
     ({"tolerance": 0.0}, "tolerance"),
     ({"tolerance": math.nan}, "tolerance"),
+    ({"tolerance": 1.4e154}, r"tolerance must be a finite number in \(0, 1e\+06\]"),  # tolerance ** 2 overflows
+    ({"tolerance": math.inf}, "finite"),
+    ({"tolerance": 1e6, "orientation_tolerance": 3.5}, r"orientation_tolerance .* \(0, 3.14159\]"),
     ({"timeout": -1.0}, "timeout"),
     ({"timeout": 3600.0}, "timeout"),
     ({"max_iterations": 0}, "max_iterations"),

@@ -80,12 +80,20 @@ BAD_CHAINS = {
     "length mismatch": ({"ur5.lower": [-1.0] * 5}, "chain 'ur5', key 'ur5.lower'"),
     "lower above upper": ({"panda.lower": [3.0] * 7}, "chain 'panda', key 'panda.lower'"),
     "unknown joint type": ({"arm5.types": ["revolute"] * 4 + ["helical"]}, "chain 'arm5', key 'arm5.types'"),
-    "integers where floats": ({"ur5.d": [0, 0, 0, 0, 0, 0]}, "chain 'ur5', key 'ur5.d'"),
-    "integer tolerance": ({"rr2.tolerance": 1}, "chain 'rr2', key 'rr2.tolerance'"),
+    "strings where floats": ({"ur5.d": ["0"] * 6}, "chain 'ur5', key 'ur5.d'"),
+    "negative tolerance": ({"rr2.tolerance": -1.0}, "chain 'rr2', key 'rr2.tolerance'"),
     "typo in a key": ({"ull3.tolerence": 0.1}, "chain 'ull3', key 'ull3.tolerence'"),
     "listed, never described": ({"chains": ["arm5", "ghost"]}, "chain 'ghost', key 'ghost.convention'"),
     "inapplicable default solver": ({"ur5.solver": "analytic"}, "chain 'ur5', key 'ur5.solver'"),
 }
+
+
+def test_integers_given_for_floats_are_taken_as_floats(launch):
+    """YAML `[0, 0]` or `1` where floats are meant: rclpy reads integers; the node widens them."""
+    node, _ = launch(config_overrides(**{"ur5.d": [0, 0, 0, 0, 0, 0], "rr2.tolerance": 1}), activate=False)
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert node.get_parameter("ur5.d").value == [0.0] * 6
+    assert node.get_parameter("rr2.tolerance").value == 1.0
 
 
 @pytest.mark.parametrize("changes, named", BAD_CHAINS.values(), ids=BAD_CHAINS.keys())
@@ -98,11 +106,12 @@ def test_a_bad_chain_fails_configure_and_loads_nothing(launch, multi_executor, c
     assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.state_label == "unconfigured"
     assert not {"/solve_ik", "/compute_fk"} & served_names(node), "nothing half-loaded"
-    # fixed at run time (types too: the chain parameters are dynamically typed), the node configures
     good = {p.name: p for p in config_overrides()}
-    assert all(r.successful for r in node.set_parameters([good[name] for name in changes if name in good]))
-    for name in set(changes) - set(good):
-        node.undeclare_parameter(name)
+    if set(changes) - set(good):  # a key no chain has: the file must be fixed, a set cannot declare it
+        assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
+        return
+    # a bad value fixed at run time: the node configures
+    assert all(r.successful for r in node.set_parameters([good[name] for name in changes]))
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.try_transition(Transition.TRANSITION_ACTIVATE)
     connect(multi_executor, probe)

@@ -221,3 +221,30 @@ def test_forward_kinematics_refuses_bad_positions(served, chain, positions, expe
 def test_forward_kinematics_notes_positions_outside_the_limits(served):
     reply = forward(served, "panda", [0.0] * 7)  # panda_joint4 must be <= -0.0698
     assert reply.success and "outside the joint limits: panda_joint4" in reply.message
+
+
+def test_partial_pose_through_the_service(served):
+    # UR5: position with the tool's z axis pointing straight down, roll free (5 of 6 constraints)
+    fk = forward(served, "ur5", [0.4, -1.2, 1.0, -1.4, -1.57, 0.3])
+    target = fk.tool_pose.position
+    reply = solve(served, "ur5", pose(target.x, target.y, target.z), pointing=[0.0, 0.0, 1.0, 0.0, 0.0, -1.0])
+    assert reply.success, reply.message
+    assert reply.position_error <= 1e-5 and reply.orientation_error <= 1e-5
+    w, x, y, z = quaternion(reply.reached)
+    tool_z = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))  # R[:, 2]
+    assert tool_z[2] == pytest.approx(-1.0, abs=1e-5)
+    # x, y only: a z out of reach does not matter
+    reply = solve(served, "ur5", pose(target.x, target.y, 5.0), task_weights=[1.0, 1.0, 0.0, 0.0, 0.0, 0.0])
+    assert reply.success and abs(reply.reached.position.z - 5.0) > 1.0
+
+
+@pytest.mark.parametrize("fields, match", [
+    ({"task_weights": [1.0, 1.0]}, "6 finite values"),
+    ({"task_weights": [1.0, 1.0, 1.0, 0.0, 0.0, math.inf]}, "6 finite values"),
+    ({"pointing": [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]}, "zero vector"),
+    ({"task_weights": [1.0] * 6, "target": pose(0.3, 0.2, 0.4, (2.0, 0.0, 0.0, 0.0))}, "unit quaternion"),
+])
+def test_malformed_tasks_are_refused_by_name(served, fields, match):
+    fields = dict(fields)
+    reply = solve(served, "ur5", fields.pop("target", pose(0.3, 0.2, 0.4)), **fields)
+    assert not reply.success and match in reply.message

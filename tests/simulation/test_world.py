@@ -154,3 +154,15 @@ def test_outer_corridor_is_a_ring_closed_by_a_dead_end() -> None:
     # the dead-end wall separates the start cell from its western neighbour
     assert physics.clearance(0.8, -1.0) < RADIUS
     assert all(physics.clearance(x, y) >= RADIUS for x, y in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (0.6, -1.0)])
+
+
+def test_set_pose_outside_the_world_bounds_is_refused_naming_them():
+    from amr_simulation.errors import SimulationError
+    from amr_simulation.simulator import Simulator
+    from amr_simulation.world import load_world, resolve_world_path
+
+    sim = Simulator(load_world(resolve_world_path("outer_corridor.yaml")))
+    with pytest.raises(SimulationError, match=r"\(100.000, 0.000\) lies outside the bounds of .*x in \[-4\.\d+, 4\.\d+\]"):
+        sim.set_pose(100.0, 0.0, 0.0)
+    xmin, ymin, xmax, ymax = sim.bounds
+    assert xmin < -1.2 - 3.4 and xmax > 1.2 + 3.4, "the walls' extent plus the LiDAR range"

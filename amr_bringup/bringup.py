@@ -1,0 +1,385 @@
+"""amr-bringup: start a stack from its bringup file, bring it to active, keep it up, take it down.
+
+    amr-bringup maze_sim                        # a shipped bringup (config/bringup/maze_sim.yaml)
+    amr-bringup my_stack.yaml --composed        # every node in this one process
+    amr-bringup real_robot --status --duration 30
+    amr-bringup maze_sim --record out/run.mcap [--topics /scan /tf ...]   # a rosbag2 MCAP bag of the run
+
+By default each node is its own process, started as `ros2 run` would
+(lib/<package>/<executable> --ros-args ...), its output prefixed with its name. With
+--composed the node classes (NODE_CLASSES) are instantiated here on one
+MultiThreadedExecutor. Either way the lifecycle manager (amr_bringup.lifecycle_manager)
+runs inside this process: its startup result tells at once which node failed which
+transition, and it takes the nodes down in reverse order before they are stopped.
+
+Ctrl-C or SIGTERM: the manager deactivates and cleans up the nodes (the wall follower
+publishes a zero velocity), then every node process gets SIGINT and, after GRACE_PERIOD,
+SIGKILL; a second Ctrl-C skips the waiting. Exit status: 0 after a requested stop, 1 when
+a node died or the startup failed (the message names the node), 2 for a bad bringup file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import signal
+import sys
+import threading
+import time
+import traceback
+from collections import deque
+from collections.abc import Callable, Sequence
+
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.logging import LoggingSeverity
+from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
+
+from amr_bringup.recorder import BackgroundSpin, Recorder
+from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
+                                      parse_assignments)
+from amr_bringup.processes import NodeProcess, executable_path, stop_processes
+from amr_bringup.status import StatusMonitor, format_table
+from amr_bringup.lifecycle_manager import LifecycleManager
+from amr_maps.bag_writer import bag_directory
+
+GRACE_PERIOD = 5.0
+"""s a node gets to exit after SIGINT (or a clean shutdown takes) before SIGKILL."""
+STATUS_PERIOD = 1.0
+"""s between two status tables."""
+RECENT_LINES = 12
+"""Log lines kept under the live status table on a terminal."""
+NODE_CLASSES: dict[tuple[str, str], tuple[str, str]] = {
+    ("amr_simulation", "simulator"): ("amr_simulation.simulator_node", "SimulatorNode"),
+    ("amr_control", "wall_follower"): ("amr_control.wall_follower_node", "WallFollowerNode"),
+    ("amr_turtlebot3", "odometry_node"): ("amr_turtlebot3.odometry_node", "OdometryNode"),
+    ("amr_kinematics", "ik_service"): ("amr_kinematics.ik_service_node", "IKServiceNode"),
+    ("amr_localization", "particle_filter"): ("amr_localization.particle_filter_node", "ParticleFilterNode"),
+    ("amr_localization", "beacon_localizer"): ("amr_localization.beacon_localizer_node", "BeaconLocalizerNode"),
+    ("amr_maps", "map_server"): ("amr_maps.map_server_node", "MapServerNode"),
+    ("amr_planning", "planner"): ("amr_planning.planner_node", "PlannerNode"),
+    ("amr_control", "path_follower"): ("amr_control.path_follower_node", "PathFollowerNode"),
+}
+"""(package, executable) -> (module, class) of the nodes --composed can host."""
+
+
+class Console:
+    """All output, one line at a time from any thread; with --status on a terminal, a redrawn screen."""
+
+    def __init__(self, live: bool) -> None:
+        self.live = live
+        self._lock = threading.Lock()
+        self._recent: deque[str] = deque(maxlen=RECENT_LINES)
+
+    def line(self, text: str) -> None:
+        with self._lock:
+            if self.live:
+                self._recent.append(text)
+            else:
+                print(text, flush=True)
+
+    def note(self, text: str) -> None:
+        self.line(f"[amr-bringup] {text}")
+
+    def table(self, text: str) -> None:
+        with self._lock:
+            if self.live:
+                recent = "\n".join(self._recent)
+                sys.stdout.write(f"\033[H\033[J{text}\n\n{recent}\n")
+                sys.stdout.flush()
+            else:
+                print(text + "\n", flush=True)
+
+    def end_live(self) -> None:
+        with self._lock:
+            self.live = False
+
+
+class StopSignals:
+    """SIGINT/SIGTERM: the first asks for a clean stop, the next one for a hurried one."""
+
+    def __init__(self) -> None:
+        self.stop, self.hurry = threading.Event(), threading.Event()
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, self._on_signal)
+
+    def _on_signal(self, signum, frame) -> None:
+        (self.hurry if self.stop.is_set() else self.stop).set()
+
+
+class StackError(RuntimeError):
+    """The stack could not be started; the message names the node."""
+
+
+class ProcessStack:
+    """One process per node."""
+
+    def __init__(self, bringup: Bringup, console: Console) -> None:
+        self.processes: list[NodeProcess] = []
+        for node in bringup.nodes:
+            command = [str(executable_path(node.package, node.executable)), *node.ros_arguments()]
+            try:
+                self.processes.append(NodeProcess(node.name, command, console.line))
+            except OSError as error:
+                self.stop(threading.Event())
+                raise StackError(f"node {node.name} failed to start: {error}") from error
+            console.note(f"started {node.name} (pid {self.processes[-1].pid}): {' '.join(command)}")
+
+    def failure(self) -> str | None:
+        for process in self.processes:
+            code = process.exit_code()
+            if code is not None:
+                return f"node {process.label} (pid {process.pid}) exited with code {code}"
+        return None
+
+    def stop(self, hurry: threading.Event) -> list[str]:
+        return stop_processes(list(reversed(self.processes)), GRACE_PERIOD, hurry)
+
+
+class ComposedStack:
+    """Every node in this process, spun by the supervisor's executor."""
+
+    def __init__(self, bringup: Bringup, console: Console) -> None:
+        self.nodes = []
+        self.crash: str | None = None
+        for node in bringup.nodes:
+            try:
+                self.nodes.append(node_class(node)(cli_args=node.ros_arguments()))
+            except Exception as error:
+                self.stop(threading.Event())
+                raise StackError(f"node {node.name} failed to start: {type(error).__name__}: {error}") from error
+            console.note(f"created {node.name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
+
+    def failure(self) -> str | None:
+        return self.crash
+
+    def record_crash(self, error: BaseException) -> None:
+        """An exception out of the executor: name the innermost node of ours its traceback went through."""
+        owners = [frame.f_locals.get("self") for frame, _ in traceback.walk_tb(error.__traceback__)]
+        names = [owner.get_name() for owner in owners if any(owner is node for node in self.nodes)]
+        where = f"node {names[-1]}" if names else "a callback"
+        self.crash = f"{where} raised {type(error).__name__}: {error}"
+
+    def stop(self, hurry: threading.Event) -> list[str]:
+        for node in reversed(self.nodes):
+            shut_down = getattr(node, "shut_down_cleanly", None)
+            if shut_down is not None:
+                shut_down()
+            node.destroy_node()
+        self.nodes = []
+        return []
+
+
+def node_class(node: NodeSpec) -> type:
+    module, name = NODE_CLASSES[(node.package, node.executable)]
+    return getattr(importlib.import_module(module), name)
+
+
+def check_composable(bringup: Bringup) -> None:
+    for i, node in enumerate(bringup.nodes):
+        if (node.package, node.executable) not in NODE_CLASSES:
+            known = ", ".join(f"{p}/{e}" for p, e in NODE_CLASSES)
+            raise BringupError(f"{bringup.source}: nodes[{i}].executable: {node.package}/{node.executable} "
+                               f"has no node class for --composed (known: {known})")
+
+
+class Supervisor:
+    """Runs the lifecycle manager (and the status monitor) over a started stack until a stop or a failure."""
+
+    def __init__(self, bringup: Bringup, options: argparse.Namespace, console: Console, signals: StopSignals) -> None:
+        self.bringup, self.options, self.console, self.signals = bringup, options, console, signals
+        self.started_at = time.monotonic()
+        self.executor = MultiThreadedExecutor(num_threads=len(bringup.nodes) + 3)
+        self.stack: ProcessStack | ComposedStack | None = None
+        self.manager: LifecycleManager | None = None
+        self.monitor: StatusMonitor | None = None
+        self.recorder: Recorder | None = None
+        self.recording: BackgroundSpin | None = None
+        self.active = False
+        self._spinner = threading.Thread(target=self._spin, daemon=True)
+        self._startup_steps: list = []
+        self._startup = threading.Thread(target=lambda: self._startup_steps.extend(self.manager.startup()),
+                                         daemon=True)
+
+    def run(self, make_stack: Callable[[Bringup, Console], ProcessStack | ComposedStack]) -> int:
+        """Start, watch, take down; whatever happens, nothing this started is left running."""
+        failure = None
+        try:
+            self.stack = make_stack(self.bringup, self.console)
+            self._add_nodes()
+            self._spinner.start()
+            self._startup.start()
+            failure = self._watch()
+            self.console.end_live()
+            self.console.note(f"stopping: {failure}" if failure else "stopping")
+            if not failure:  # also mid-startup: the manager cancels it and takes down what is up
+                self._shut_down_managed_nodes()
+        except StackError as error:
+            failure = str(error)
+        finally:
+            self.console.end_live()
+            killed = self._take_down()
+        if killed and not self.signals.hurry.is_set():
+            failure = failure or f"node(s) {', '.join(killed)} did not exit within {GRACE_PERIOD} s of SIGINT (killed)"
+        if failure:
+            print(f"amr-bringup: {failure}", file=sys.stderr, flush=True)
+            return 1
+        self.console.note("stopped")
+        return 0
+
+    def _add_nodes(self) -> None:
+        for node in getattr(self.stack, "nodes", []):
+            self.executor.add_node(node)
+        if self.options.record:
+            self._add_recorder()
+        self.manager = LifecycleManager(
+            before_activate=(lambda node: self.recorder.wait_until_caught_up()) if self.recorder else (lambda node: None),
+            cli_args=["--ros-args", "-r", f"__node:={self.bringup.manager_name}"],
+            parameter_overrides=[Parameter(k, value=v) for k, v in self.bringup.manager_parameters().items()])
+        if self.console.live:
+            self.manager.get_logger().set_level(LoggingSeverity.WARN)
+        self.executor.add_node(self.manager)
+        if self.options.status:
+            self.monitor = StatusMonitor(self.bringup.node_startup_order,
+                                         [(node.name, node.namespace) for node in self.bringup.nodes])
+            self.executor.add_node(self.monitor)
+
+    def _add_recorder(self) -> None:
+        """The recorder spins on its own executor; each node is activated once the recorder listens to its topics,
+        so a lockstep run's first observation is in the bag too."""
+        simulated = any(node.parameters.get("use_sim_time") is True for node in self.bringup.nodes)
+        try:
+            self.recorder = Recorder(parameter_overrides=[
+                Parameter("path", value=str(self.options.record)),
+                Parameter("topics", value=list(self.options.topics or [""])),
+                Parameter("use_sim_time", value=simulated)])
+        except ValueError as error:
+            raise StackError(f"--record: {error}") from error
+        self.recording = BackgroundSpin(self.recorder)
+        self.console.note(f"recording {' '.join(self.options.topics) if self.options.topics else 'every topic'} "
+                          f"to {self.recorder.path}" + (" (stamps on /clock)" if simulated else ""))
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception as error:  # a callback raised: the composed stack is broken
+            if isinstance(self.stack, ComposedStack):
+                self.stack.record_crash(error)
+
+    def _watch(self) -> str | None:
+        """Wait for a stop request, the end of --duration or a failure (returned, naming the node)."""
+        next_table = time.monotonic()
+        while not self.signals.stop.wait(0.1):
+            failure = self.stack.failure()
+            if failure:
+                return failure
+            if not self._startup.is_alive() and not self.active:
+                if not self.manager.started:
+                    last = self._startup_steps[-1] if self._startup_steps else None
+                    return f"startup failed at {last.transition} of {last.node}: {last.detail}" if last else \
+                        "startup failed"
+                self.active = True
+                self.console.note(f"all nodes active: {', '.join(self.bringup.node_startup_order)}")
+            if self.monitor is not None and time.monotonic() >= next_table:
+                next_table += STATUS_PERIOD
+                self._print_status()
+            elapsed = time.monotonic() - self.started_at
+            if self.options.duration is not None and elapsed >= self.options.duration:
+                return None if self.active else f"the stack was not active after --duration {self.options.duration} s"
+        return None
+
+    def _print_status(self) -> None:
+        self.monitor.refresh()
+        states, rows = self.monitor.snapshot()
+        title = f"amr-bringup {self.bringup.name}  {time.monotonic() - self.started_at:.0f} s"
+        self.console.table(format_table(title, states, rows))
+
+    def _shut_down_managed_nodes(self) -> None:
+        """The manager deactivates and cleans up in reverse order, for GRACE_PERIOD at most."""
+        shutdown = threading.Thread(target=self.manager.shutdown, daemon=True)
+        shutdown.start()
+        deadline = time.monotonic() + GRACE_PERIOD
+        while shutdown.is_alive() and time.monotonic() < deadline and not self.signals.hurry.is_set():
+            shutdown.join(0.05)
+
+    def _take_down(self) -> list[str]:
+        """Stop spinning, stop the stack (the labels of killed processes are returned), free ROS."""
+        self.executor.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
+        if self._spinner.is_alive():
+            self._spinner.join(GRACE_PERIOD)
+        killed = self.stack.stop(self.signals.hurry) if self.stack is not None else []
+        if self.recording is not None:  # last: the bag holds everything the nodes said on their way down
+            self.recording.stop()
+            self.console.note(f"recorded {sum(self.recorder.counts.values())} messages of "
+                              f"{len(self.recorder.counts)} topics to {self.recorder.path}")
+        for node in (self.manager, self.monitor):
+            if node is not None:
+                node.destroy_node()
+        rclpy.try_shutdown()
+        return killed
+
+
+def format_arguments(bringup: Bringup) -> str:
+    """The stack's arguments as `ros2 launch --show-args` lists them, with what they are now."""
+    lines = ["Arguments (pass arguments as '<name>:=<value>'):"]
+    for name, argument in bringup.arguments.items():
+        targets = ", ".join(f"{node}.{parameter}" for node, parameter in argument.sets) or \
+            f"the parameter files of {argument.params_file_of}"
+        lines += [f"    '{name}':", f"        {argument.description} (sets {targets})",
+                  f"        (now: {bringup.current_value(name)!r})"]
+    return "\n".join(lines)
+
+
+def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.")
+    parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped one (maze_sim, "
+                                        "maze_sim_odometry, maze_localization, real_robot, real_robot_sim, ik_service)")
+    parser.add_argument("arguments", nargs="*", metavar="name:=value",
+                        help="the stack's arguments (see --show-args), e.g. world:=hard_maze.yaml")
+    parser.add_argument("-p", dest="parameters", action="append", default=[], metavar="NODE.PARAMETER:=VALUE",
+                        help="a parameter of one node, after its files, e.g. -p wall_follower.kp:=3.0")
+    parser.add_argument("--show-args", action="store_true", help="list the stack's arguments and exit")
+    parser.add_argument("--composed", action="store_true",
+                        help="all nodes in this process on one MultiThreadedExecutor instead of one process each")
+    parser.add_argument("--status", action="store_true",
+                        help="print a table of the nodes' lifecycle states and the topic rates every second")
+    parser.add_argument("--duration", type=float, metavar="S",
+                        help="stop cleanly after S seconds (counted from the start)")
+    parser.add_argument("--record", metavar="BAG", help="record a rosbag2 MCAP bag: out/run.mcap writes the "
+                                                          "directory out/run (every topic, or --topics)")
+    parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="with --record: only these topics")
+    options = parser.parse_args(argv)
+    if options.duration is not None and not options.duration > 0:
+        parser.error("--duration must be positive")
+    if options.topics and not options.record:
+        parser.error("--topics needs --record")
+    if options.record and bag_directory(options.record).exists():
+        parser.error(f"--record: {bag_directory(options.record)} exists already; a recording never overwrites a bag")
+    return options
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    options = parse_arguments(argv)
+    try:
+        bringup = load_bringup(options.bringup)
+        if options.show_args:
+            print(format_arguments(bringup))
+            return 0
+        bringup = bringup.with_overrides(parse_assignments(options.arguments, "argument"),
+                                         parse_assignments(options.parameters, "-p"))
+        check_installed(bringup, executables=not options.composed)
+        if options.composed:
+            check_composable(bringup)
+    except BringupError as error:
+        print(f"amr-bringup: {error}", file=sys.stderr)
+        return 2
+    signals = StopSignals()
+    console = Console(live=options.status and sys.stdout.isatty())
+    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+    return Supervisor(bringup, options, console, signals).run(ComposedStack if options.composed else ProcessStack)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,68 @@
+"""Range-to-beacon measurements with a compass (the ULL robot's sense(): d_1..d_n plus a heading).
+
+    expected d_i(x, y) = || (x, y) - b_i ||
+    mismatch(pose)     = sum_i | d_i(pose) - z_i | + | wrap(theta - z_theta) |          (seed 000, chapter 4)
+    log p(z | pose)    = sum_i log N(z_i; d_i, sigma_range) + log N(wrap(theta - z_theta); 0, sigma_compass)
+
+Beacon i is the i-th row of `positions`; BeaconRanges messages keep that order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from amr_localization.errors import LocalizationError
+from amr_localization.poses import wrap
+
+
+def checked_beacons(positions) -> np.ndarray:
+    """(B, 2) finite beacon positions; raises on an empty or malformed list."""
+    array = np.asarray(positions, dtype=float) if len(positions) else np.zeros((0, 2))
+    if array.ndim != 2 or array.shape[1] != 2:
+        raise LocalizationError(f"beacons: expected a list of [x, y], got shape {array.shape}")
+    if array.shape[0] == 0:
+        raise LocalizationError("beacons: the list is empty: nothing to measure ranges to")
+    if not np.isfinite(array).all():
+        raise LocalizationError("beacons: positions must be finite")
+    return array
+
+
+@dataclass(frozen=True)
+class BeaconReading:
+    """Measured ranges (one per beacon, in the beacons' order) and compass heading (rad)."""
+
+    ranges: np.ndarray
+    compass: float
+
+    @classmethod
+    def checked(cls, ranges, compass: float, beacon_count: int) -> "BeaconReading":
+        values = np.asarray(ranges, dtype=float)
+        if values.shape != (beacon_count,):
+            raise LocalizationError(f"beacon ranges: expected {beacon_count} values (one per beacon), got {values.size}")
+        if not np.isfinite(values).all() or (values < 0.0).any():
+            raise LocalizationError("beacon ranges: every range must be a finite number >= 0")
+        if not math.isfinite(compass):
+            raise LocalizationError(f"beacon ranges: compass heading must be finite, got {compass}")
+        return cls(values, float(compass))
+
+
+def expected_ranges(xy: np.ndarray, beacons: np.ndarray) -> np.ndarray:
+    """(N, B) distances from (N, 2) positions to the beacons."""
+    return np.hypot(xy[:, None, 0] - beacons[None, :, 0], xy[:, None, 1] - beacons[None, :, 1])
+
+
+def range_mismatch(xy: np.ndarray, beacons: np.ndarray, reading: BeaconReading) -> np.ndarray:
+    """(N,) sum_i |d_i - z_i| (m) for candidate positions."""
+    return np.abs(expected_ranges(xy, beacons) - reading.ranges[None, :]).sum(axis=1)
+
+
+def beacon_log_likelihood(
+    particles: np.ndarray, beacons: np.ndarray, reading: BeaconReading, sigma_range: float, sigma_compass: float
+) -> np.ndarray:
+    """(N,) log p(ranges, compass | pose), Gaussian in each range and in the heading error."""
+    range_error = expected_ranges(particles[:, :2], beacons) - reading.ranges[None, :]
+    heading_error = wrap(particles[:, 2] - reading.compass)
+    return -0.5 * ((range_error / sigma_range) ** 2).sum(axis=1) - 0.5 * (heading_error / sigma_compass) ** 2

@@ -1,0 +1,118 @@
+"""Localizer state <-> ROS messages: plain functions, so the nodes stay thin shells (no rclpy here).
+
+Planar poses: yaw theta is the quaternion (w, x, y, z) = (cos(theta/2), 0, 0, sin(theta/2)); a 3x3
+covariance over (x, y, theta) fills the 6x6 one of geometry_msgs/PoseWithCovariance at rows and
+columns (0, 1, 5) (x, y, yaw), the others left 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from amr_interfaces.msg import LocalizedPose, LocalizerStatus
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance, Quaternion, TransformStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+from transforms3d.euler import quat2euler
+
+from amr_control.scan_sectors import ScanData
+from amr_localization.errors import LocalizationError
+from amr_localization.particle_filter import FilterStatus
+from amr_localization.pose_estimate import PoseEstimate
+
+PLANAR_AXES = (0, 1, 5)
+"""x, y, yaw in the row-major 6x6 covariance of PoseWithCovariance."""
+
+
+def quaternion(theta: float) -> Quaternion:
+    return Quaternion(w=math.cos(0.5 * theta), z=math.sin(0.5 * theta))
+
+
+def yaw_of(q: Quaternion) -> float:
+    """Yaw of a quaternion (transforms3d's quat2euler, static z-y-x)."""
+    return float(quat2euler((q.w, q.x, q.y, q.z))[2])
+
+
+def odometry_pose(message: Odometry) -> tuple[float, float, float]:
+    """(x, y, theta) of the robot in the odometry frame."""
+    pose = message.pose.pose
+    return float(pose.position.x), float(pose.position.y), yaw_of(pose.orientation)
+
+
+def scan_data(message: LaserScan) -> ScanData:
+    return ScanData(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
+                    message.range_min, message.range_max)
+
+
+def pose_with_covariance(x: float, y: float, theta: float, covariance: np.ndarray) -> PoseWithCovariance:
+    message = PoseWithCovariance()
+    message.pose.position.x, message.pose.position.y = float(x), float(y)
+    message.pose.orientation = quaternion(theta)
+    full = np.zeros((6, 6))
+    full[np.ix_(PLANAR_AXES, PLANAR_AXES)] = covariance
+    message.covariance = [float(v) for v in full.ravel()]
+    return message
+
+
+def planar_covariance(message: PoseWithCovariance) -> np.ndarray:
+    """The 3x3 (x, y, yaw) block of a PoseWithCovariance's covariance."""
+    full = np.asarray(message.covariance, dtype=float).reshape(6, 6)
+    return full[np.ix_(PLANAR_AXES, PLANAR_AXES)]
+
+
+def initial_pose(message: PoseWithCovariance) -> tuple[float, float, float, np.ndarray | None]:
+    """(x, y, theta, 3x3 covariance or None when all zero) of an /initialpose; raises on NaN or a bad quaternion."""
+    q = message.pose.orientation
+    values = (message.pose.position.x, message.pose.position.y, q.w, q.x, q.y, q.z)
+    if not all(map(math.isfinite, values)):
+        raise LocalizationError(f"initial pose: position and orientation must be finite, got {values}")
+    if abs(math.sqrt(q.w**2 + q.x**2 + q.y**2 + q.z**2) - 1.0) > 1e-3:
+        raise LocalizationError("initial pose: the orientation is not a unit quaternion")
+    covariance = planar_covariance(message)
+    return (float(message.pose.position.x), float(message.pose.position.y), yaw_of(q),
+            None if not covariance.any() else covariance)
+
+
+def is_finite(estimate: PoseEstimate) -> bool:
+    return all(map(math.isfinite, (estimate.x, estimate.y, estimate.theta))) and bool(
+        np.isfinite(estimate.covariance).all())
+
+
+def localized_pose(stamp: Time, frame: str, estimate: PoseEstimate, localized: bool) -> LocalizedPose:
+    message = LocalizedPose(localized=bool(localized))
+    message.header.stamp, message.header.frame_id = stamp, frame
+    message.pose = pose_with_covariance(estimate.x, estimate.y, estimate.theta, estimate.covariance)
+    return message
+
+
+def particle_cloud(stamp: Time, frame: str, particles: np.ndarray) -> PoseArray:
+    message = PoseArray()
+    message.header.stamp, message.header.frame_id = stamp, frame
+    half = 0.5 * particles[:, 2]
+    cos, sin = np.cos(half), np.sin(half)
+    message.poses = [Pose() for _ in range(len(particles))]
+    for pose, (x, y, _), w, z in zip(message.poses, particles, cos, sin):
+        pose.position.x, pose.position.y = float(x), float(y)
+        pose.orientation.w, pose.orientation.z = float(w), float(z)
+    return message
+
+
+def transform(stamp: Time, parent: str, child: str, pose) -> TFMessage:
+    """One planar transform parent -> child (child's pose in parent) on /tf."""
+    message = TransformStamped()
+    message.header.stamp, message.header.frame_id = stamp, parent
+    message.child_frame_id = child
+    message.transform.translation.x, message.transform.translation.y = float(pose[0]), float(pose[1])
+    message.transform.rotation = quaternion(float(pose[2]))
+    return TFMessage(transforms=[message])
+
+
+def localizer_status(status: FilterStatus, localized: bool) -> LocalizerStatus:
+    """The filter's status (header left for the publisher to stamp)."""
+    return LocalizerStatus(
+        particles=status.particles, clusters=status.clusters, effective_sample_size=float(status.effective_sample_size),
+        cluster_share=float(status.cluster_share), scan_fit=float(status.fit), injected=status.injected,
+        updated=status.updated, update_time=float(status.update_time), localized=bool(localized), event=status.event)

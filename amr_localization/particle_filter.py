@@ -1,0 +1,381 @@
+"""Monte Carlo localization on an occupancy grid: global localization, tracking and recovery.
+
+Each call to update(odometry, scan=..., beacons=...) does, in this order:
+
+1. motion: once odometry has moved update_min_d / update_min_a since the last
+   filter update, every particle samples the accumulated increment
+   (motion_model.py); particles whose move leaves free space are killed;
+2. measurement: weights *= p(z | x)^beta, by the likelihood field
+   (default) or the beam model for a scan (its log-likelihood scaled by
+   likelihood_exponent: 60 beams on one map are far from independent), by the
+   beacon model for ranges, with beta <= 1 tempered so that one update cannot
+   wipe out most hypotheses (tempering.py);
+3. resampling, when N_eff < resample_threshold N: systematic, to
+   max_particles while the particles form several clusters (the course's
+   rule: every candidate place keeps thousands of particles, so that chance
+   alone does not erase one of two places that look the same) and, once a
+   single cluster holds the weight, to as many as KLD-sampling asks for; a
+   share of them drawn at random over free space when the likelihood collapsed
+   (augmented MCL);
+4. clusters and estimate: the heaviest cluster's weighted mean pose and
+   covariance; `localized` is declared after localized_confirmations updates
+   in a row with one cluster holding localized_min_cluster_share of the weight,
+   its spread under the position and heading limits and the scan fitting its
+   pose (scan_fit.py), and withdrawn as soon as the cluster's share, spread or
+   fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*).
+
+Between filter updates the estimate follows odometry, so every call returns a
+pose. A particle filter in a world with symmetric places keeps one cluster per
+place, so it does not declare itself localized until the symmetry is broken.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from amr_control.scan_sectors import ScanData
+from amr_localization.augmented_mcl import RecoveryRate
+from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons
+from amr_localization.beam_model import BeamModel, BeamModelParams
+from amr_localization.clustering import cluster_particles
+from amr_localization.distance_field import DistanceField
+from amr_localization.errors import LocalizationError
+from amr_localization.free_space import FreeSpace
+from amr_localization.kld_sampling import kld_sample_count, occupied_bins
+from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
+from amr_localization.motion_model import OdometryNoise, odometry_increment, sample_motion_model_odometry
+from amr_localization.poses import compose, relative_pose, wrap
+from amr_localization.particle_filter_config import BUILT_FIELDS, ParticleFilterConfig
+from amr_localization.pose_estimate import PoseEstimate, weighted_pose
+from amr_localization.resampling import effective_sample_size, systematic_resample
+from amr_localization.rival_check import RivalCheckParams, Snapshot, find_rivals
+from amr_localization.scan_beams import Beams, select_beams
+from amr_localization.scan_fit import scan_fit
+from amr_localization.sensor_mount import SensorMount
+from amr_localization.tempering import tempered_exponent
+from amr_maps.occupancy_grid import OccupancyGrid
+
+WITHDRAW_SPREAD_FACTOR = 2.0
+"""localized is withdrawn when the spread exceeds this many times the declaration limit ..."""
+WITHDRAW_MARGIN = 0.15
+"""... or the cluster's share or the fit falls this far below their declaration limits."""
+
+
+@dataclass
+class FilterStatus:
+    """What ~/status reports after each update."""
+
+    particles: int = 0
+    clusters: int = 0
+    effective_sample_size: float = 0.0
+    cluster_share: float = 0.0
+    fit: float = 0.0
+    injected: int = 0
+    killed: int = 0
+    beta: float = 0.0
+    """the tempering exponent of the last measurement update."""
+    updated: bool = False
+    """whether this call ran a filter update (False: odometry had not moved enough, or no data)."""
+    update_time: float = 0.0
+    """s of CPU for this call."""
+    event: str = ""
+    """the last notable event (global re-initialization, skipped scan and why)."""
+
+
+@dataclass(frozen=True)
+class Estimate:
+    pose: PoseEstimate
+    localized: bool
+    status: FilterStatus = field(default_factory=FilterStatus)
+
+
+class ParticleFilter:
+    """MCL over one map. Not thread-safe: one caller at a time."""
+
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        config: ParticleFilterConfig | None = None,
+        range_max: float = 3.5,
+        beacons: Sequence[Sequence[float]] | None = None,
+    ) -> None:
+        self.config = config = config or ParticleFilterConfig()
+        self.field = DistanceField(grid)
+        self.free_space = FreeSpace(self.field, config.free_space_clearance)
+        self.mount = SensorMount(config.lidar_x, config.lidar_y, config.lidar_yaw)
+        self.noise = OdometryNoise(config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+        if config.laser_model == "beam":
+            self._laser = BeamModel(self.field, BeamModelParams(sigma_hit=config.sigma_hit), self.mount)
+        else:
+            params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
+            self._laser = LikelihoodField(self.field, params, self.mount, range_max)
+        self._scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.sigma_hit), self.mount, range_max)
+        self._coarse_scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.rival_coarse_sigma), self.mount,
+                                              range_max)
+        self._rival_params = RivalCheckParams(margin=config.rival_margin)
+        self._history: deque[Snapshot] = deque(maxlen=config.history_length)
+        self.beacons = checked_beacons(beacons) if beacons is not None else None
+        self._recovery = RecoveryRate(config.recovery_alpha_slow, config.recovery_alpha_fast)
+        self._rng = np.random.default_rng(config.seed)
+        self._odometry: tuple[float, float, float] | None = None  # odometry at the last filter update
+        self.reinitialize_global()
+
+    def retune(self, config: ParticleFilterConfig) -> None:
+        """Use `config` from the next update. Only what the filter reads at each update may differ
+        (counts, thresholds, motion noise, ...); the fields it built models from may not."""
+        changed = [name for name in sorted(BUILT_FIELDS) if getattr(config, name) != getattr(self.config, name)]
+        if changed:
+            raise LocalizationError(f"{', '.join(changed)}: cannot change in a built filter (build a new one)")
+        self.config = config
+        self.noise = OdometryNoise(config.alpha1, config.alpha2, config.alpha3, config.alpha4)
+
+    # -- initialization ------------------------------------------------------------------
+
+    def reinitialize_global(self) -> None:
+        """Forget the pose: max_particles uniform over free space (AMCL's global localization)."""
+        self.particles = self.free_space.sample(self.config.max_particles, self._rng)
+        self._reset_belief()
+
+    def initialize_pose(self, x: float, y: float, theta: float, covariance: np.ndarray | None = None) -> None:
+        """Particles around a given pose (RViz's 2D Pose Estimate); covariance 3x3 over x, y, theta."""
+        if not all(map(math.isfinite, (x, y, theta))):
+            raise LocalizationError(f"initial pose: must be finite, got ({x}, {y}, {theta})")
+        covariance = np.diag([0.25**2, 0.25**2, (math.pi / 12) ** 2]) if covariance is None else np.asarray(covariance, float)
+        if covariance.shape != (3, 3) or not np.isfinite(covariance).all():
+            raise LocalizationError("initial pose: covariance must be a finite 3x3 matrix over x, y, theta")
+        covariance = 0.5 * (covariance + covariance.T) + 1e-12 * np.eye(3)
+        if np.linalg.eigvalsh(covariance)[0] < 0.0:
+            raise LocalizationError("initial pose: covariance is not positive semi-definite")
+        count = self.config.max_particles
+        draws = self._rng.multivariate_normal((x, y, theta), covariance, size=4 * count, method="cholesky")
+        inside = draws[self.free_space.contains(draws[:, 0], draws[:, 1])]
+        if len(inside) == 0:
+            raise LocalizationError(f"initial pose: ({x:.3f}, {y:.3f}) and its spread lie outside the map's free space")
+        self.particles = inside[:count] if len(inside) >= count else inside[self._rng.integers(0, len(inside), count)]
+        self.particles[:, 2] = wrap(self.particles[:, 2])
+        self._reset_belief()
+
+    def _reset_belief(self) -> None:
+        self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
+        self._recovery.reset()
+        self._localized = False
+        self._confirmations = 0
+        self._moved_since_resample = False
+        self._pending_measurement = True
+        self._estimate_odometry = self._odometry
+        self._history.clear()
+        self.rivals = np.zeros((0, 3))
+        self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
+                                           self.config.cluster_min_size)
+        self._estimate = self._cluster_estimate()
+        self.status = FilterStatus(particles=len(self.particles), clusters=self._clusters.count,
+                                   effective_sample_size=float(len(self.particles)))
+
+    # -- the update ----------------------------------------------------------------------
+
+    @property
+    def localized(self) -> bool:
+        return self._localized
+
+    def update(
+        self,
+        odometry: tuple[float, float, float],
+        scan: ScanData | None = None,
+        beacons: BeaconReading | None = None,
+    ) -> Estimate:
+        """One observation: odometry pose (x, y, theta in the odom frame) and optionally a scan and/or beacon
+        ranges. Returns the estimate (map frame). Raises LocalizationError on malformed input; the filter's
+        state is unchanged then."""
+        started = time.process_time()
+        odometry = tuple(float(v) for v in odometry)
+        if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
+            raise LocalizationError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
+        selected = select_beams(scan, self.config.max_beams, self.config.laser_model == "beam") if scan is not None else None
+        if beacons is not None and self.beacons is None:
+            raise LocalizationError("beacon ranges: this filter was built without beacon positions")
+        self.status = FilterStatus(particles=len(self.particles), clusters=self._clusters.count,
+                                   effective_sample_size=self.status.effective_sample_size,
+                                   cluster_share=self.status.cluster_share, fit=self.status.fit)
+        if self._odometry is None:
+            self._odometry = self._estimate_odometry = odometry
+        else:
+            self._predict(odometry)
+        if selected is not None and not selected.returned.any():
+            self.status.event = "scan skipped: no valid return (NaN, inf or out of range everywhere)"
+        if self._pending_measurement and (selected is not None or beacons is not None):
+            self._measure(selected, beacons)
+        self.status.update_time = time.process_time() - started
+        return Estimate(self._current_pose(odometry), self._localized, self.status)
+
+    def _predict(self, odometry: tuple[float, float, float]) -> None:
+        _, d_trans, _ = odometry_increment(self._odometry, odometry)
+        d_theta = abs(float(wrap(odometry[2] - self._odometry[2])))
+        if d_trans > self.config.max_odometry_jump:
+            # a robot does not move this far between two observations: odometry was reset or is corrupt
+            # re-anchor so that the pose reported stays where it was: est_odom' = new (+) old^-1 (+) est_odom
+            if self._estimate_odometry is not None:
+                since_estimate = relative_pose(self._odometry, self._estimate_odometry)
+                self._estimate_odometry = tuple(compose(np.array([odometry]), since_estimate)[0])
+            self._odometry = odometry
+            self.status.event = f"odometry jumped {d_trans:.2f} m: ignored as motion, the filter carries on from here"
+            return
+        if d_trans < self.config.update_min_d and d_theta < self.config.update_min_a:
+            return
+        moved = sample_motion_model_odometry(self.particles, self._odometry, odometry, self.noise, self._rng)
+        alive = self.free_space.segments_free(self.particles[:, :2], moved[:, :2])
+        self.particles = moved
+        self.status.killed = int(np.count_nonzero(~alive))
+        self.weights = np.where(alive, self.weights, 0.0)
+        self._odometry = odometry
+        self._pending_measurement = True
+        if not self.weights.any():
+            self.reinitialize_global()
+            self.status.event = "every particle moved into a wall: global localization restarted"
+
+    def _measure(self, beams: Beams | None, beacons: BeaconReading | None) -> None:
+        log_likelihood = np.zeros(len(self.particles))
+        used = 0
+        if beams is not None and beams.returned.any():
+            # scan beams are not independent: their log-likelihood counts likelihood_exponent times
+            log_likelihood += self.config.likelihood_exponent * self._laser.log_likelihood(self.particles, beams)
+            used += int(np.count_nonzero(beams.returned))
+        if beacons is not None:
+            if len(beacons.ranges) != len(self.beacons):
+                raise LocalizationError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
+            log_likelihood += beacon_log_likelihood(self.particles, self.beacons, beacons,
+                                                    self.config.beacon_sigma_range, self.config.beacon_sigma_compass)
+            used += len(self.beacons) + 1
+        if used == 0:
+            return
+        if beams is not None and beams.returned.any():
+            self._remember(beams)
+        alive = self.weights > 0.0
+        log_prior = np.full(len(self.particles), -np.inf)
+        log_prior[alive] = np.log(self.weights[alive])
+        beta = tempered_exponent(log_prior, log_likelihood, 1.0, self.config.tempering_min_ess_ratio)
+        self.status.beta = beta
+        log_weight = log_prior + beta * log_likelihood
+        peak = log_weight.max()
+        weights = np.exp(log_weight - peak)
+        total = weights.sum()
+        if not (math.isfinite(peak) and total > 0.0):
+            self.reinitialize_global()
+            self.status.event = "no particle could explain the data: global localization restarted"
+            return
+        # augmented MCL: the average per-measurement likelihood (a geometric mean over the beams, so that
+        # it neither underflows nor depends on the beam count), prior-weighted over the particles
+        per_beam = np.exp(np.clip(log_likelihood / used, -700.0, 700.0))
+        self._recovery.update(float(self.weights[alive] @ per_beam[alive] / self.weights[alive].sum()))
+        self.weights = weights / total
+        self._pending_measurement = False
+        neff = effective_sample_size(self.weights)
+        self.status.effective_sample_size = neff
+        if neff < self.config.resample_threshold * len(self.particles):
+            self._resample()
+        self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
+                                           self.config.cluster_min_size)
+        self._estimate = self._cluster_estimate()
+        self._estimate_odometry = self._odometry
+        self._decide_localized(beams)
+        self.status.updated = True
+        self.status.particles = len(self.particles)
+        self.status.clusters = self._clusters.count
+
+    def _remember(self, beams: Beams) -> None:
+        """Keep the scan for the rival check if odometry moved history_spacing since the last one kept."""
+        if self._history:
+            last = self._history[-1].odometry
+            moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
+            turned = abs(float(wrap(self._odometry[2] - last[2])))
+            if moved < self.config.history_spacing and turned < 2.0 * self.config.history_spacing:
+                self._history[-1] = Snapshot(self._odometry, beams)  # the newest scan stands for this stretch
+                return
+        self._history.append(Snapshot(self._odometry, beams))
+
+    def _resample(self) -> None:
+        config = self.config
+        count = config.max_particles
+        if self._clusters.count == 1 and self._clusters.weights[0] >= config.localized_min_cluster_share:
+            bins = occupied_bins(self.particles[self.weights * config.max_particles >= 1.0], config.kld_bin_size,
+                                 config.kld_bin_angle)
+            count = min(max(kld_sample_count(bins, config.kld_epsilon, config.kld_delta), config.min_particles),
+                        config.max_particles)
+        injected = int(round(self._recovery.injection_share() * count))
+        keep = systematic_resample(self.weights, count - injected, self._rng)
+        self.particles = np.concatenate([self.particles[keep], self.free_space.sample(injected, self._rng)])
+        self.weights = np.full(count, 1.0 / count)
+        self.status.injected = injected
+        if injected:  # the injected guesses must be judged by the next measurement, not averaged away
+            self._recovery.reset()
+
+    def _cluster_estimate(self) -> PoseEstimate:
+        clusters = self._clusters
+        if clusters.count == 0:
+            return weighted_pose(self.particles, self.weights)
+        member = clusters.labels == 0
+        return weighted_pose(self.particles[member], self.weights[member])
+
+    def _decide_localized(self, beams: Beams | None) -> None:
+        config = self.config
+        share = float(self._clusters.weights[0]) if self._clusters.count else 0.0
+        pose = np.array([self._estimate.x, self._estimate.y, self._estimate.theta])
+        fit = scan_fit(self.field, self.mount, pose, beams, config.fit_distance) if beams is not None else 1.0
+        self.status.cluster_share, self.status.fit = share, fit
+        position_std, heading_std = self._estimate.position_std, self._estimate.heading_std
+        if self._localized:
+            self._localized = (
+                share >= config.localized_min_cluster_share - WITHDRAW_MARGIN
+                and fit >= config.localized_min_fit - WITHDRAW_MARGIN
+                and position_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_position_std
+                and heading_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_heading_std
+            )
+            self._confirmations = 0
+            return
+        confident = (
+            share >= config.localized_min_cluster_share
+            and fit >= config.localized_min_fit
+            and position_std <= config.localized_max_position_std
+            and heading_std <= config.localized_max_heading_std
+        )
+        self._confirmations = self._confirmations + 1 if confident else 0
+        if self._confirmations >= config.localized_confirmations and config.rival_check and self._history:
+            self.rivals = find_rivals(self.free_space, self._scorer, self._coarse_scorer, list(self._history), pose,
+                                      self._rival_params)
+            if len(self.rivals):
+                self._adopt_rivals(self.rivals)
+                self._confirmations = 0
+                self.status.event = f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well"
+        self._localized = self._confirmations >= config.localized_confirmations
+
+    def _adopt_rivals(self, rivals: np.ndarray) -> None:
+        """Give every rival a cloud of particles as heavy as the current cluster: as likely, as far as we know."""
+        count = len(self.particles)
+        spread = np.array([self.config.cluster_radius / 2.0, self.config.cluster_radius / 2.0, math.radians(3.0)])
+        clouds = [self.particles]
+        mass = float(self._clusters.weights[0]) if self._clusters.count else 1.0
+        weights = [self.weights]
+        for rival in rivals:
+            cloud = rival + self._rng.standard_normal((count, 3)) * spread
+            cloud[:, 2] = wrap(cloud[:, 2])
+            clouds.append(cloud)
+            weights.append(np.where(self.free_space.contains(cloud[:, 0], cloud[:, 1]), mass / count, 0.0))
+        self.particles = np.concatenate(clouds)
+        weights = np.concatenate(weights)
+        self.weights = weights / weights.sum()
+        self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
+                                           self.config.cluster_min_size)
+
+    def _current_pose(self, odometry: tuple[float, float, float]) -> PoseEstimate:
+        """The last filter estimate moved by the odometry since that update."""
+        estimate = self._estimate
+        if self._estimate_odometry is None:
+            return estimate
+        moved = relative_pose(self._estimate_odometry, odometry)
+        x, y, theta = compose(np.array([[estimate.x, estimate.y, estimate.theta]]), moved)[0]
+        return PoseEstimate(float(x), float(y), float(theta), estimate.covariance)

@@ -1,0 +1,257 @@
+"""particle_filter: Monte Carlo localization as a lifecycle node (`ros2 run amr_localization particle_filter`).
+
+A thin shell over amr_localization.particle_filter.ParticleFilter:
+
+configure  reads the parameters and the map (`world`, rasterized; or `map_yaml`, a map_server file;
+           else the `map` topic, transient local: the filter is built when the first map arrives),
+           builds the filter (particles uniform over free space: global localization) and its topics.
+active     /odometry + /scan are paired by stamp (amr_control.sync, the approximate-time policy); each
+           pair is one filter update and gets, all stamped with the scan's stamp:
+           /pose (amr_interfaces/LocalizedPose, frame map), map -> odom on /tf, ~/status, and
+           /particle_cloud (geometry_msgs/PoseArray) at most every particle_cloud_period seconds.
+           /initialpose (RViz's 2D Pose Estimate) re-seeds around a pose;
+           ~/reinitialize_global_localization (std_srvs/Empty) spreads the particles again.
+
+One /pose answers every pair, so a lockstep loop that waits for it never stalls: a scan the filter
+refuses (too short, malformed) is logged and the pose moves by odometry alone; odometry it refuses
+(NaN) is logged and the last pose is repeated. Nothing non-finite is published; no exception leaves
+a callback. Stamps going back (a simulator reset) restart the pairing with a log line; an odometry
+jump is taken as a reset of odometry, not as motion (the library's event, logged).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from builtin_interfaces.msg import Time as TimeMessage
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from nav_msgs.msg import Odometry
+from rclpy.lifecycle import State, TransitionCallbackReturn
+from rclpy.time import Time
+from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Empty
+
+from amr_control.sync import NANOSECONDS_PER_SECOND
+from amr_localization import messages
+from amr_localization.errors import LocalizationError
+from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
+from amr_localization.particle_filter import Estimate, ParticleFilter
+from amr_localization.particle_filter_parameters import NODE_SPECS, config_of, parameter_specs
+from amr_maps.map_io import load_map
+from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.rasterize import rasterize_world
+from amr_simulation.world import load_world, resolve_world_path, world_search_dirs
+from amr_util.managed_node import run
+from amr_util.qos import MAP, SENSOR_DATA, reliable
+from amr_util.share import share_directory
+
+ODOMETRY, SCAN = 0, 1
+NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS + SHELL_SPECS)
+
+
+def world_dirs() -> list[Path]:
+    """Where a relative world name is looked up (as the simulator does): share/amr_simulation, then the library's."""
+    return [share_directory("amr_simulation") / "config" / "worlds", *world_search_dirs()]
+
+
+def grid_from_message(message: OccupancyGridMessage) -> OccupancyGrid:
+    """nav_msgs/OccupancyGrid -> OccupancyGrid (row-major from cell (0, 0)); raises naming what is wrong."""
+    info = message.info
+    width, height = int(info.width), int(info.height)
+    if width * height != len(message.data) or width * height == 0:
+        raise LocalizationError(f"map: {width} x {height} cells but {len(message.data)} values")
+    origin = info.origin
+    yaw = messages.yaw_of(origin.orientation)
+    data = np.asarray(message.data, dtype=np.int8).reshape(height, width)
+    return OccupancyGrid(data, info.resolution, (origin.position.x, origin.position.y, yaw), message.header.frame_id or "map")
+
+
+class ParticleFilterNode(LocalizerNode):
+    """Wires ParticleFilter to topics, services and the lifecycle; holds no estimation logic."""
+
+    INPUTS = ("odometry", "scan")
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__("particle_filter", **kwargs)
+        self.declare_specs(parameter_specs() + SHELL_SPECS)
+        self.filter: ParticleFilter | None = None
+        self._inputs: list = []
+        self._node_services: list = []
+        self._last_estimate: Estimate | None = None
+        self._last_cloud_ns: int | None = None
+        self.configure_error = ""
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        problems = self.parameter_problems()
+        values = self.parameter_values()
+        if not problems:
+            try:
+                self._config = config_of(values)
+                grid = self._static_map(values)
+                self.filter = self._build_filter(grid) if grid is not None else None
+            except (ValueError, OSError) as error:  # LocalizationError, MapError, WorldError name the problem
+                problems = [str(error)]
+        if problems:
+            self.configure_error = "; ".join(problems)
+            self.filter = None
+            return self.fail_configure(problems)
+        self._settings = {name: values[name] for name in NODE_NAMES}
+        self._start_pairing(values, self._on_pair)
+        self._create_interfaces(values)
+        source = values["world"] or values["map_yaml"] or f"topic {values['map_topic']} (waiting)"
+        self.get_logger().info(f"configured: map from {source}, "
+                               f"{self.filter.config.max_particles if self.filter else 0} particles spread over free space")
+        return TransitionCallbackReturn.SUCCESS
+
+    def _static_map(self, values: dict) -> OccupancyGrid | None:
+        if values["world"] and values["map_yaml"]:
+            raise LocalizationError("world and map_yaml: give one map source, not both")
+        if values["world"]:
+            world = load_world(resolve_world_path(values["world"], world_dirs()))
+            return rasterize_world(world, values["map_resolution"], frame_id=values["global_frame"])
+        if values["map_yaml"]:
+            return load_map(Path(values["map_yaml"]).expanduser(), frame_id=values["global_frame"])
+        return None
+
+    def _build_filter(self, grid: OccupancyGrid) -> ParticleFilter:
+        return ParticleFilter(grid, self._config, range_max=self.get_parameter("laser_max_range").value)
+
+    def _create_interfaces(self, values: dict) -> None:
+        qos = reliable(values["sync_queue_size"])
+        self._create_estimate_outputs(values)
+        self._outputs["cloud"] = self.create_lifecycle_publisher(PoseArray, "particle_cloud", reliable(2))
+        self._inputs = [
+            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), qos),
+            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
+            self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, reliable()),
+        ]
+        if self.filter is None:
+            self._inputs.append(
+                self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, MAP))
+        self._node_services = [self.create_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
+
+    def apply_live(self, changes: dict) -> None:
+        """Tunables while configured: the whole new configuration is checked, then used from the next update."""
+        config = config_of({**self.parameter_values(), **changes})
+        if self.filter is not None:
+            self.filter.retune(config)
+        self._config = config
+        self._settings.update({name: value for name, value in changes.items() if name in NODE_NAMES})
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        self._sync.reset()
+        self._last_cloud_ns = None
+        return super().on_activate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        self._teardown()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        self._teardown()
+        return TransitionCallbackReturn.SUCCESS
+
+    def _teardown(self) -> None:
+        for subscription in self._inputs:
+            self.destroy_subscription(subscription)
+        for service in self._node_services:
+            self.destroy_service(service)
+        self._destroy_outputs()
+        self._inputs, self._node_services = [], []
+        self.filter = self._sync = self._last_estimate = None
+
+    # -- inputs ---------------------------------------------------------------------------------
+
+    def _on_map(self, message: OccupancyGridMessage) -> None:
+        try:
+            self.filter = self._build_filter(grid_from_message(message))
+            self._last_estimate = None
+            self.get_logger().info(f"map received ({message.info.width} x {message.info.height} cells at "
+                                   f"{message.info.resolution} m): global localization starts")
+        except Exception as error:  # a malformed map or one without free space: keep the previous filter
+            self.get_logger().error(f"map refused: {error}")
+
+    def _on_clock_jump(self, index: int, jump_ns: int) -> None:
+        super()._on_clock_jump(index, jump_ns)
+        self._last_cloud_ns = None
+
+    def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
+        """One filter update per pair, then one /pose (+ tf, status, maybe cloud) with the scan's stamp."""
+        if self.filter is None:
+            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): scan ignored")
+            return
+        try:
+            estimate = self._update(odometry, scan)
+        except Exception as error:  # a filter bug must not take the node down: repeat the last pose
+            self.get_logger().error(f"filter update failed: {type(error).__name__}: {error}",
+                                    throttle_duration_sec=WARNING_PERIOD)
+            estimate = self._last_estimate
+        if estimate is None:
+            return
+        if estimate.status.event:
+            self._warn(estimate.status.event)
+        self._publish(scan.header.stamp, odometry, estimate)
+
+    def _update(self, odometry: Odometry, scan: LaserScan) -> Estimate | None:
+        pose = messages.odometry_pose(odometry)
+        try:
+            return self.filter.update(pose, messages.scan_data(scan))
+        except LocalizationError as error:
+            if "odometry" in str(error):
+                self._warn(f"{error}: the last pose is repeated")
+                return self._last_estimate
+            self._warn(f"scan refused ({error}): the pose follows odometry alone")
+            return self.filter.update(pose)
+
+    def _on_initial_pose(self, message: PoseWithCovarianceStamped) -> None:
+        try:
+            frame = self._settings["global_frame"]
+            if message.header.frame_id not in ("", frame):
+                raise LocalizationError(f"initial pose: frame {message.header.frame_id!r}, expected {frame!r}")
+            if self.filter is None:
+                raise LocalizationError("initial pose: no map yet")
+            x, y, theta, covariance = messages.initial_pose(message.pose)
+            self.filter.initialize_pose(x, y, theta, covariance)
+            self._last_cloud_ns = None
+            self.get_logger().info(f"initial pose ({x:.3f}, {y:.3f}, {math.degrees(theta):.1f} deg): "
+                                   f"{len(self.filter.particles)} particles around it")
+        except Exception as error:
+            self.get_logger().warning(f"/initialpose refused: {error}")
+
+    def _on_reinitialize(self, request: Empty.Request, response: Empty.Response) -> Empty.Response:
+        try:
+            if self.filter is None:
+                raise LocalizationError("no map yet")
+            self.filter.reinitialize_global()
+            self._last_cloud_ns = None
+            self.get_logger().info(f"global localization: {len(self.filter.particles)} particles over free space")
+        except Exception as error:
+            self.get_logger().warning(f"reinitialize_global_localization refused: {error}")
+        return response
+
+    # -- outputs --------------------------------------------------------------------------------
+
+    def _publish(self, stamp: TimeMessage, odometry: Odometry, estimate: Estimate) -> None:
+        status = messages.localizer_status(estimate.status, estimate.localized)
+        if not self._publish_estimate(stamp, odometry, estimate.pose, estimate.localized, status):
+            return
+        self._last_estimate = estimate
+        now = Time.from_msg(stamp).nanoseconds
+        period = round(self._settings["particle_cloud_period"] * NANOSECONDS_PER_SECOND)
+        if self._last_cloud_ns is None or now - self._last_cloud_ns >= period or now < self._last_cloud_ns:
+            self._last_cloud_ns = now
+            self._outputs["cloud"].publish(
+                messages.particle_cloud(stamp, self._settings["global_frame"], self.filter.particles))
+
+
+def main(args=None) -> None:
+    run(ParticleFilterNode, args=args)
+
+
+if __name__ == "__main__":
+    main()

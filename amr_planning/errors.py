@@ -1,0 +1,23 @@
+"""The one error a planner raises: a request it cannot serve, with the reason named."""
+
+from __future__ import annotations
+
+from enum import Enum
+
+
+class Reason(str, Enum):
+    """Why no path was returned; the value is a short tag for status messages."""
+
+    INVALID = "invalid request"
+    OUTSIDE_MAP = "outside the map"
+    START_BLOCKED = "start inside an obstacle"
+    GOAL_BLOCKED = "goal inside an obstacle"
+    UNREACHABLE = "goal unreachable"
+
+
+class PlanningError(ValueError):
+    """No path: the message says what is wrong; `reason` classifies it. A planner never returns half a path."""
+
+    def __init__(self, reason: Reason, message: str) -> None:
+        super().__init__(f"{reason.value}: {message}")
+        self.reason = reason

@@ -1,0 +1,6 @@
+"""amr_util: the node plumbing every package of the suite shares (compare nav2_util).
+
+The lifecycle base that survives invalid transitions, declared-and-validated parameters,
+parameter-file reading, share-directory lookup, the suite's QoS profiles and the
+environment of child processes. It imports nothing else of ours but amr_interfaces.
+"""

@@ -1,0 +1,308 @@
+"""The base of every node in the suite: a lifecycle node that survives bad transition requests
+and whose parameters behave as ROS users expect.
+
+rclpy 7.1.6 raises `RCLError: Transition is not registered` inside the executor when
+/<node>/change_state asks for a transition the current state does not have (rclpy
+issue 1209), which takes the whole process down. Here the request is checked against
+the available transitions first and refused with success=false.
+
+Parameters are declared from `ParameterSpec`s (amr_util.parameter_spec), each with a descriptor
+of its own (type, description, range, read-only), so `ros2 param describe` tells the truth. A
+bad value or an unknown key in a parameter file never kills the process in declare_parameter:
+it is remembered, and configure fails listing every problem at once. While the node is
+configured, a set of a live parameter is validated and applied at once (the node's
+`apply_live` hook), and a set of a structural one is refused with the reason; nothing is
+accepted and then ignored.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+from collections.abc import Callable, Sequence
+
+import rclpy
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidTopicNameException
+from rclpy.executors import ExternalShutdownException, Executor, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
+from rclpy.parameter import Parameter
+from rclpy.expand_topic_name import expand_topic_name
+from rclpy.signals import SignalHandlerOptions
+from rclpy.validate_full_topic_name import validate_full_topic_name
+
+from amr_util.parameter_spec import ParameterSpec
+
+PARAMETER_TYPES = {
+    "bool": Parameter.Type.BOOL, "int": Parameter.Type.INTEGER, "float": Parameter.Type.DOUBLE,
+    "str": Parameter.Type.STRING, "bool_array": Parameter.Type.BOOL_ARRAY,
+    "int_array": Parameter.Type.INTEGER_ARRAY, "float_array": Parameter.Type.DOUBLE_ARRAY,
+    "str_array": Parameter.Type.STRING_ARRAY,
+}
+CONFIGURED_STATES = ("inactive", "active")
+ALWAYS_KNOWN = ("use_sim_time", "autostart", "start_type_description_service")
+"""Parameters every rclpy node declares itself (plus ours), never reported as unknown."""
+
+
+def topic_name_problem(name: str) -> str | None:
+    """Why `name` is not a valid ROS topic name (relative, absolute or private), or None."""
+    try:
+        validate_full_topic_name(expand_topic_name(name, "node", "/"))
+    except (InvalidTopicNameException, ValueError, RuntimeError) as problem:
+        return f"not a valid topic name ({problem})".replace("\n", " ")
+    return None
+
+
+def descriptor_of(spec: ParameterSpec) -> ParameterDescriptor:
+    """A new descriptor for one parameter (rclpy writes the name into it: never share one)."""
+    descriptor = ParameterDescriptor(
+        name=spec.name, type=PARAMETER_TYPES[spec.kind].value, read_only=spec.read_only,
+        description=spec.description + ("" if spec.live or spec.read_only
+                                          else " (structural: set it while unconfigured)"),
+        additional_constraints=spec.constraint)
+    numeric = spec.kind.removesuffix("_array")
+    if numeric == "float" and (spec.minimum is not None or spec.maximum is not None):
+        descriptor.floating_point_range = [FloatingPointRange(
+            from_value=float(-1e308 if spec.minimum is None else spec.minimum),
+            to_value=float(1e308 if spec.maximum is None else spec.maximum), step=0.0)]
+    elif numeric == "int" and (spec.minimum is not None or spec.maximum is not None):
+        descriptor.integer_range = [IntegerRange(
+            from_value=int(-(2**63) if spec.minimum is None else spec.minimum),
+            to_value=int(2**63 - 1 if spec.maximum is None else spec.maximum), step=0)]
+    return descriptor
+
+
+class SpecifiedParameters:
+    """Parameters declared from ParameterSpecs, for any rclpy Node (mixed in before the Node class).
+
+    `parameters_in_force` says when structural parameters are refused and live ones applied
+    (a lifecycle node: once configured; a plain node: always).
+    """
+
+    parameters_in_force = True
+
+    def use_parameter_specs(self) -> None:
+        """Start checking sets against specs (call once, from the node's __init__)."""
+        self._specs: dict[str, ParameterSpec] = {}
+        self._parameter_problems: dict[str, str] = {}
+        self._declaring = False
+        self.add_pre_set_parameters_callback(self._widen_parameters)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+    def declare_specs(self, specs: Sequence[ParameterSpec]) -> None:
+        """Declare each parameter with its own descriptor, taking its value from the overrides.
+
+        A given value of the wrong type or out of range is not fatal here: the default is
+        declared, and the problem is kept for configure to report with all the others.
+        """
+        overrides = self._parameter_overrides  # -p / --params-file values (rclpy has no public accessor)
+        self._declaring = True
+        try:
+            self._declare_each(specs, overrides)
+        finally:
+            self._declaring = False
+
+    def _declare_each(self, specs: Sequence[ParameterSpec], overrides: dict) -> None:
+        for spec in specs:
+            value, problem = spec.default, None
+            if spec.name in overrides:
+                given = overrides[spec.name].value
+                if given is None and spec.kind.endswith("_array"):  # rcl reads `[]` in a YAML file as not set
+                    given = []
+                try:
+                    value = spec.coerce(given)
+                except ValueError as error:
+                    problem = str(error)
+            self._specs[spec.name] = spec
+            if value == []:  # rclpy infers a byte array from an empty list: declare the type, then set
+                self.declare_parameter(spec.name, PARAMETER_TYPES[spec.kind], descriptor_of(spec), ignore_override=True)
+                self.set_parameters([Parameter(spec.name, PARAMETER_TYPES[spec.kind], value)])
+            else:
+                self.declare_parameter(spec.name, value, descriptor_of(spec), ignore_override=True)
+            if problem:  # after declaring: a successful set clears a key's problem
+                self._parameter_problems[spec.name] = problem
+
+    def parameter_values(self) -> dict:
+        """{name: value} of every declared spec."""
+        return {name: self.get_parameter(name).value for name in self._specs}
+
+    def parameter_problems(self) -> list[str]:
+        """Every bad value and unknown key given to this node, one line each (empty when all is well)."""
+        problems = list(self._parameter_problems.values())
+        known = set(self._specs) | set(ALWAYS_KNOWN) | set(self._parameters)
+        unknown = sorted(name for name in self._parameter_overrides if name not in known
+                         and not name.startswith("qos_overrides."))
+        for name in unknown:
+            problems.append(f"{name}: unknown parameter (known: {', '.join(self.known_parameters(name))})")
+        return problems
+
+    def known_parameters(self, unknown: str) -> list[str]:
+        """The names to suggest for an unknown one: those sharing its dotted prefix, else all."""
+        prefix = unknown.rpartition(".")[0]
+        near = sorted(name for name in self._specs if prefix and name.startswith(prefix + "."))
+        return near or sorted(self._specs)
+
+    def fail_configure(self, problems: Sequence[str]) -> TransitionCallbackReturn:
+        """Log every problem of a failed configure in one line each, and fail the transition."""
+        for problem in problems:
+            self.get_logger().error(f"configure failed: {problem}")
+        return TransitionCallbackReturn.FAILURE
+
+    def apply_live(self, changes: dict) -> None:
+        """Apply live parameter changes while configured; raise ValueError to refuse them.
+
+        Nodes with live parameters override this (validate the whole new configuration, then swap
+        it in); the default refuses, so a node cannot accept what it would not use.
+        """
+        raise ValueError(f"{', '.join(changes)}: this node applies no parameter while configured")
+
+    def _widen_parameters(self, parameters: list[Parameter]) -> list[Parameter]:
+        """An integer for a float parameter (YAML `1`, `ros2 param set ... 1`) is that float; [] takes the spec's type."""
+        widened = []
+        for parameter in parameters:
+            spec = self._specs.get(parameter.name)
+            kind = PARAMETER_TYPES.get(spec.kind) if spec else None
+            value = parameter.value
+            if kind == Parameter.Type.DOUBLE and parameter.type_ == Parameter.Type.INTEGER:
+                parameter = Parameter(parameter.name, kind, float(value))
+            elif kind is not None and kind.name.endswith("ARRAY") and isinstance(value, (list, tuple)) and (
+                    not value or (kind == Parameter.Type.DOUBLE_ARRAY and parameter.type_ == Parameter.Type.INTEGER_ARRAY)):
+                parameter = Parameter(parameter.name, kind, [float(v) for v in value] if value else [])
+            widened.append(parameter)
+        return widened
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        """Validate every set; while configured, apply live ones and refuse structural ones with the reason."""
+        configured = self.parameters_in_force and not self._declaring
+        changes = {}
+        for parameter in parameters:
+            spec = self._specs.get(parameter.name)
+            if spec is None or parameter.type_ == Parameter.Type.NOT_SET:  # not ours, or being declared by type
+                continue
+            try:
+                value = spec.coerce(parameter.value)
+            except ValueError as problem:
+                return SetParametersResult(successful=False, reason=str(problem))
+            if configured and not spec.live:
+                return SetParametersResult(successful=False, reason=(
+                    f"{spec.name} is read-only while configured; cleanup, set, configure"))
+            changes[spec.name] = value
+            self._parameter_problems.pop(spec.name, None)
+        if configured and changes:
+            try:
+                self.apply_live(changes)
+            except ValueError as problem:
+                return SetParametersResult(successful=False, reason=str(problem))
+            self.get_logger().info("applied " + ", ".join(f"{k} = {v!r}" for k, v in changes.items()))
+        return SetParametersResult(successful=True)
+
+
+class ManagedNode(SpecifiedParameters, LifecycleNode):
+    """A LifecycleNode whose change_state service refuses invalid transitions instead of crashing."""
+
+    def __init__(self, node_name: str, **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self.declare_parameter("autostart", False, ParameterDescriptor(
+            description="configure and activate at start, without a lifecycle manager"))
+        self._forward_change_state = self._service_change_state.callback
+        self._service_change_state.callback = self._on_change_state_request
+        self.use_parameter_specs()
+
+    @property
+    def parameters_in_force(self) -> bool:
+        """Configured: what the parameters shaped is built, so structural ones may not change."""
+        return self.state_label in CONFIGURED_STATES
+
+    def available_transition_ids(self) -> dict[int, str]:
+        """{transition id: label} of the transitions the current state allows."""
+        return {entry[0]: entry[1] for entry in self._state_machine.available_transitions}
+
+    @property
+    def state_label(self) -> str:
+        return self._state_machine.current_state[1]
+
+    def _on_change_state_request(self, request: ChangeState.Request, response: ChangeState.Response):
+        available = self.available_transition_ids()
+        label = request.transition.label
+        allowed = label in available.values() if label else request.transition.id in available
+        if not allowed:
+            asked = label or f"id {request.transition.id}"
+            self.get_logger().warning(
+                f"refused transition {asked!r} from state {self.state_label!r}; "
+                f"available: {sorted(available.values())}")
+            response.success = False
+            return response
+        return self._forward_change_state(request, response)
+
+    def try_transition(self, transition_id: int) -> bool:
+        """Trigger a transition from inside the process; False if the state does not allow it."""
+        if transition_id not in self.available_transition_ids():
+            return False
+        triggers: dict[int, Callable] = {
+            Transition.TRANSITION_CONFIGURE: self.trigger_configure,
+            Transition.TRANSITION_ACTIVATE: self.trigger_activate,
+            Transition.TRANSITION_DEACTIVATE: self.trigger_deactivate,
+            Transition.TRANSITION_CLEANUP: self.trigger_cleanup,
+        }
+        trigger = triggers.get(transition_id)
+        if trigger is None:
+            return False
+        return trigger() == TransitionCallbackReturn.SUCCESS
+
+    def autostart(self) -> None:
+        """Configure and activate now when the `autostart` parameter asks for it."""
+        if self.get_parameter("autostart").value:
+            if self.try_transition(Transition.TRANSITION_CONFIGURE):
+                self.try_transition(Transition.TRANSITION_ACTIVATE)
+
+    def shut_down_cleanly(self) -> None:
+        """Deactivate and clean up as far as the current state allows (zero commands go out first)."""
+        self.try_transition(Transition.TRANSITION_DEACTIVATE)
+        self.try_transition(Transition.TRANSITION_CLEANUP)
+
+
+SIGNAL_CHECK_PERIOD = 0.1  # seconds between chances for Ctrl-C / SIGTERM to be seen
+
+
+def spin_nodes(nodes: Sequence[LifecycleNode], executor: Executor) -> None:
+    """Spin until Ctrl-C or SIGTERM, then bring the nodes down in reverse order.
+
+    The context must still be valid during the shutdown, so that deactivation can
+    publish its last messages (a zero velocity): init with SignalHandlerOptions.NO, and
+    spin in slices so that Python's own signal handlers get to run. The handlers only
+    set a flag: a KeyboardInterrupt raised from a handler is swallowed when the signal
+    lands while a __del__ runs (seen under load: the node then spun on until killed).
+    """
+    for node in nodes:
+        executor.add_node(node)
+    for node in nodes:
+        if isinstance(node, ManagedNode):
+            node.autostart()
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+    try:
+        while rclpy.ok(context=executor.context) and not stop.is_set():
+            executor.spin_once(timeout_sec=SIGNAL_CHECK_PERIOD)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for node in reversed(nodes):
+            if isinstance(node, ManagedNode) and rclpy.ok():
+                node.shut_down_cleanly()
+            node.destroy_node()
+        executor.shutdown()
+        if rclpy.ok():
+            rclpy.try_shutdown()
+
+
+def run(node_factory: Callable[[], LifecycleNode], *, multithreaded: bool = False,
+        args: Sequence[str] | None = None) -> None:
+    """The body of every node's main(): init, build, spin, shut down."""
+    rclpy.init(args=list(sys.argv if args is None else args), signal_handler_options=SignalHandlerOptions.NO)
+    executor = MultiThreadedExecutor() if multithreaded else SingleThreadedExecutor()
+    spin_nodes([node_factory()], executor)
+

@@ -1,0 +1,241 @@
+"""Localization figures (issue 12): update cost, global localization while wall following, kidnapping,
+symmetric worlds, and the beacon localizer's pyramidal search against the exhaustive grid.
+
+Prints; asserts nothing. Usage: .venv/bin/python bench/bench_localization.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
+from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig  # noqa: E402
+from amr_localization.beacons import BeaconReading, expected_ranges  # noqa: E402
+from amr_localization.closed_loop import run, scan_of  # noqa: E402
+from amr_localization.distance_field import DistanceField  # noqa: E402
+from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams  # noqa: E402
+from amr_localization.particle_filter import ParticleFilter  # noqa: E402
+from amr_localization.particle_filter_config import ParticleFilterConfig  # noqa: E402
+from amr_localization.scan_beams import select_beams  # noqa: E402
+from amr_localization.sensor_mount import SensorMount  # noqa: E402
+from amr_maps.rasterize import rasterize_world  # noqa: E402
+from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
+from amr_simulation.simulator import Simulator  # noqa: E402
+from amr_simulation.world import World, load_world, world_from_dict  # noqa: E402
+
+WORLDS = ROOT / "config" / "worlds"
+FOLLOWER = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
+RESOLUTION = 0.02
+
+
+def random_maze(seed: int) -> World:
+    """A perfect maze (depth-first carving) of random size 3-8 m and corridor 0.35-0.6 m, plus a few loops."""
+    rng = np.random.default_rng(seed)
+    corridor = float(rng.uniform(0.35, 0.6))
+    side = float(rng.uniform(3.0, 8.0))
+    cols = max(3, int(side / corridor))
+    rows = max(3, int(float(rng.uniform(3.0, 8.0)) / corridor))
+    open_walls = set()
+    visited = {(0, 0)}
+    stack = [(0, 0)]
+    while stack:
+        r, c = stack[-1]
+        options = [(r + dr, c + dc) for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1))
+                   if 0 <= r + dr < rows and 0 <= c + dc < cols and (r + dr, c + dc) not in visited]
+        if not options:
+            stack.pop()
+            continue
+        nxt = options[rng.integers(len(options))]
+        open_walls.add(frozenset([(r, c), nxt]))
+        visited.add(nxt)
+        stack.append(nxt)
+    for _ in range(rows * cols // 10):  # loops, so a wall follower sees more than one wall
+        r, c = int(rng.integers(rows - 1)), int(rng.integers(cols - 1))
+        open_walls.add(frozenset([(r, c), (r + 1, c) if rng.random() < 0.5 else (r, c + 1)]))
+    walls = [[0, 0, cols * corridor, 0], [0, rows * corridor, cols * corridor, rows * corridor],
+             [0, 0, 0, rows * corridor], [cols * corridor, 0, cols * corridor, rows * corridor]]
+    for r in range(rows):
+        for c in range(cols):
+            if c + 1 < cols and frozenset([(r, c), (r, c + 1)]) not in open_walls:
+                walls.append([(c + 1) * corridor, r * corridor, (c + 1) * corridor, (r + 1) * corridor])
+            if r + 1 < rows and frozenset([(r, c), (r + 1, c)]) not in open_walls:
+                walls.append([c * corridor, (r + 1) * corridor, (c + 1) * corridor, (r + 1) * corridor])
+    start_r, start_c = int(rng.integers(rows)), int(rng.integers(cols))
+    start = [(start_c + 0.5) * corridor, (start_r + 0.5) * corridor, float(rng.uniform(-math.pi, math.pi))]
+    data = {"name": f"maze{seed}_{cols}x{rows}_{corridor:.2f}", "wall_thickness": 0.02,
+            "walls": [[float(v) for v in w] for w in walls], "start": start}
+    return world_from_dict(data)
+
+
+def bench_update_cost(repeats: int) -> None:
+    print("== likelihood-field measurement update (ms, median), inner_maze at 2 cm, one core")
+    world = load_world(WORLDS / "inner_maze.yaml")
+    sim = Simulator(world, SimulationConfig())
+    field = DistanceField(rasterize_world(world, RESOLUTION))
+    model = LikelihoodField(field, LikelihoodFieldParams(), SensorMount(x=-0.032), 3.5)
+    scan = scan_of(sim)
+    beam_counts = (30, 60, 120)
+    print(f"{'particles':>10}" + "".join(f"{b:>10} beams" for b in beam_counts))
+    rng = np.random.default_rng(0)
+    for count in (500, 1000, 2000, 5000):
+        particles = np.column_stack([rng.uniform(-1.1, 1.1, count), rng.uniform(-1.1, 1.1, count),
+                                     rng.uniform(-math.pi, math.pi, count)])
+        cells = []
+        for beams in beam_counts:
+            selected = select_beams(scan, beams)
+            times = []
+            for _ in range(repeats):
+                started = time.perf_counter()
+                model.log_likelihood(particles, selected)
+                times.append(time.perf_counter() - started)
+            cells.append(f"{1e3 * np.median(times):16.2f}")
+        print(f"{count:>10}" + "".join(cells))
+    print("== whole filter update (motion + likelihood field + tempering + resampling + clusters), 5000 particles, 60 beams")
+    pf = ParticleFilter(rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, min_particles=5000, max_particles=5000,
+                                                             rival_check=False))
+    times = []
+    for step in range(repeats):
+        started = time.perf_counter()
+        pf.update((0.03 * step, 0.0, 0.0), scan)  # moves update_min_d every call: every call is a full update
+        times.append(time.perf_counter() - started)
+    print(f"median {1e3 * np.median(times):.2f} ms, p90 {1e3 * np.percentile(times, 90):.2f} ms")
+
+
+def localization_run(world: World, seed: int, lidar_noise: float, encoder_noise: float, slip: float, seconds: float,
+                     kidnap=None):
+    sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=seed, lidar=LidarConfig(noise_std=lidar_noise),
+                                            encoders=EncoderConfig(noise=encoder_noise, slip=slip)))
+    pf = ParticleFilter(rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, seed=seed), range_max=3.5)
+    started = time.perf_counter()
+    trace = run(sim, pf, FOLLOWER, seconds, kidnap=kidnap)
+    return trace, time.perf_counter() - started
+
+
+def summarize(name: str, trace, wall: float) -> dict:
+    t, localized, position, heading = trace.arrays()
+    first = trace.first_localized()
+    result = {"name": name, "localized": first is not None and t[first] <= 60.0, "wall": wall}
+    if first is None:
+        print(f"{name:28s} never localized ({t[-1]:.0f} s)  wall {wall:5.1f} s")
+        return result
+    after = localized & (t >= t[first])
+    rms_position = float(np.sqrt(np.mean(position[after] ** 2)))
+    rms_heading = math.degrees(float(np.sqrt(np.mean(heading[after] ** 2))))
+    withdrawn = int(np.count_nonzero(np.diff(localized[first:].astype(int)) < 0))
+    result.update(time=t[first], error=position[first], heading=math.degrees(heading[first]), rms=rms_position,
+                  rms_heading=rms_heading, withdrawn=withdrawn)
+    print(f"{name:28s} localized at {t[first]:5.1f} s  error {100 * position[first]:5.1f} cm {math.degrees(heading[first]):4.1f} deg"
+          f"  RMS after {100 * rms_position:4.1f} cm {rms_heading:4.2f} deg  withdrawals {withdrawn}  wall {wall:5.1f} s")
+    return result
+
+
+def bench_global(seeds: int, mazes: int, seconds: float) -> None:
+    print(f"== global localization while wall following ({seconds:.0f} s simulated; lidar noise 0.01-0.03 m, "
+          "encoder noise 0-0.03, slip 0-0.05)")
+    results = []
+    rng = np.random.default_rng(12)
+    cases = [(load_world(path), path.stem) for path in sorted(WORLDS.glob("*.yaml")) if path.stem != "twin_rooms"]
+    runs = [(world, name, seed) for world, name in cases for seed in range(seeds)]
+    runs += [(random_maze(seed), "", seed) for seed in range(100, 100 + mazes)]
+    for world, name, seed in runs:
+        noise = (float(rng.uniform(0.01, 0.03)), float(rng.uniform(0.0, 0.03)), float(rng.uniform(0.0, 0.05)))
+        try:
+            trace, wall = localization_run(world, seed, *noise, seconds)
+        except Exception as error:  # a generated maze the follower cannot start in, say: report, go on
+            print(f"{world.name}: run failed: {error}")
+            continue
+        results.append(summarize(f"{name or world.name} s{seed}", trace, wall))
+    ok = [r for r in results if r["localized"]]
+    print(f"localized within 60 s: {len(ok)}/{len(results)} ({100 * len(ok) / max(len(results), 1):.0f} %)")
+    if ok:
+        print(f"error at first declaration: max {100 * max(r['error'] for r in ok):.1f} cm, "
+              f"max {max(r['heading'] for r in ok):.1f} deg; within 10 cm and 10 deg: "
+              f"{sum(r['error'] <= 0.1 and r['heading'] <= 10 for r in ok)}/{len(ok)}")
+        print(f"RMS while localized: worst {100 * max(r['rms'] for r in ok):.1f} cm, {max(r['rms_heading'] for r in ok):.2f} deg; "
+              f"median {100 * np.median([r['rms'] for r in ok]):.1f} cm, {np.median([r['rms_heading'] for r in ok]):.2f} deg")
+
+
+def bench_symmetric(seeds: int, seconds: float) -> None:
+    print(f"== twin_rooms (two identical rooms, symmetric under a half turn): {seconds:.0f} s each")
+    world = load_world(WORLDS / "twin_rooms.yaml")
+    false = 0
+    for seed in range(seeds):
+        trace, wall = localization_run(world, seed, 0.02, 0.02, 0.03, seconds)
+        first = trace.first_localized()
+        false += first is not None
+        print(f"seed {seed}: {'LOCALIZED at %.1f s' % trace.time[first] if first is not None else 'never localized'}  wall {wall:.1f} s")
+    print(f"false declarations: {false}/{seeds}")
+
+
+def bench_kidnap(seeds: int) -> None:
+    print("== kidnapping (teleport at 30 s, the filter not told)")
+    targets = {"inner_maze": [(-1.0, 1.0, 0.0), (1.0, 0.2, 3.0), (-0.2, -1.0, 1.5)],
+               "hard_maze": [(-1.3, 1.25, 0.0), (1.3, -1.2, 1.6), (0.25, 0.35, -1.6)]}
+    for name, poses in targets.items():
+        world = load_world(WORLDS / f"{name}.yaml")
+        for seed, pose in enumerate(poses[:seeds]):
+            try:
+                trace, wall = localization_run(world, seed, 0.02, 0.02, 0.03, 100.0, kidnap=(30.0, pose))
+            except Exception as error:
+                print(f"{name} -> {pose}: {error}")
+                continue
+            t, localized, position, heading = trace.arrays()
+            before = bool(localized[np.flatnonzero(t < trace.kidnapped_at)[-1]])
+            lost = np.flatnonzero((t >= trace.kidnapped_at) & ~localized)
+            withdrawn = t[lost[0]] - trace.kidnapped_at if lost.size else math.inf
+            again = trace.first_localized(after=t[lost[0]]) if lost.size else None
+            regained = t[again] - trace.kidnapped_at if again is not None else math.inf
+            error = f"{100 * position[again]:.1f} cm {math.degrees(heading[again]):.1f} deg" if again is not None else "-"
+            print(f"{name} seed {seed}: localized before {before}, withdrawn after {withdrawn:.2f} s, "
+                  f"regained after {regained:.1f} s (error {error})")
+
+
+def bench_beacons(cases: int) -> None:
+    print("== beacon localizer: pyramidal vs exhaustive grid at the same final resolution (5 mm), range noise 5 mm")
+    beacons = np.array([[0.0, 0.0], [4.0, 0.5], [3.5, 4.0], [0.5, 3.5]])
+    rng = np.random.default_rng(0)
+    rows = []
+    for _ in range(cases):
+        truth = (rng.uniform(0.5, 3.5), rng.uniform(0.5, 3.5), rng.uniform(-math.pi, math.pi))
+        guess = (truth[0] + rng.uniform(-1, 1), truth[1] + rng.uniform(-1, 1), 0.0)
+        ranges = expected_ranges(np.array([truth[:2]]), beacons)[0] + rng.normal(0, 0.005, 4)
+        reading = BeaconReading.checked(ranges, truth[2], 4)
+        result = []
+        for pyramidal in (True, False):
+            localizer = BeaconLocalizer(beacons, BeaconLocalizerConfig(resolution=0.005), initial_pose=guess)
+            started = time.perf_counter()
+            found = localizer.relocalize(reading, pyramidal=pyramidal)
+            result.append((math.hypot(found.position[0] - truth[0], found.position[1] - truth[1]), found.evaluations,
+                           time.perf_counter() - started))
+        rows.append(result)
+    rows = np.array(rows)
+    for index, label in enumerate(("pyramidal", "exhaustive")):
+        print(f"{label:10s}: error max {100 * rows[:, index, 0].max():.2f} cm, mean {100 * rows[:, index, 0].mean():.2f} cm; "
+              f"evaluations {rows[:, index, 1].mean():,.0f}; time {1e3 * rows[:, index, 2].mean():.2f} ms")
+    print(f"ratio exhaustive / pyramidal: {rows[:, 1, 1].mean() / rows[:, 0, 1].mean():,.0f}x evaluations, "
+          f"{rows[:, 1, 2].mean() / rows[:, 0, 2].mean():,.0f}x time")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="fewer runs")
+    args = parser.parse_args()
+    quick = args.quick
+    bench_update_cost(repeats=20 if quick else 50)
+    bench_beacons(cases=5 if quick else 20)
+    bench_symmetric(seeds=2 if quick else 5, seconds=60.0 if quick else 120.0)
+    bench_kidnap(seeds=1 if quick else 3)
+    bench_global(seeds=1 if quick else 3, mazes=4 if quick else 16, seconds=90.0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,89 @@
+"""Recording a running stack: the recorder node in a composed maze_sim (60 simulated seconds, lockstep), amr-bringup
+--record, and the standalone `ros2 run amr_bringup recorder`; the bags read back complete and render."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+from rclpy.parameter import Parameter
+
+from amr_bringup.composed import composed_stack
+from amr_bringup.recorder import BackgroundSpin, Recorder
+from amr_maps import render_bag
+from amr_maps.bag_reader import read_bag
+from test_bringup_run import Bringup
+
+SPAN = 60.0
+DT = 0.05
+OBSERVATION = ("/clock", "/tf", "/odometry", "/odom", "/ground_truth", "/scan", "/simulator/status")
+"""What the simulator publishes once per observation (activation, then every step)."""
+
+
+def assert_complete(recording, observation_topics=OBSERVATION) -> int:
+    """Every observation of the run is in the bag: steps + 1 of each (the status says how many steps)."""
+    steps = recording.topics["/simulator/status"][-1][1].steps
+    counts = {topic: recording.count(topic) for topic in observation_topics}
+    assert set(counts.values()) == {steps + 1}, f"{steps} steps, counts {counts}"
+    return steps
+
+
+def test_a_60_s_maze_run_is_recorded_complete_with_rosbag2_metadata_and_renders(ros_context, tmp_path):
+    recorder = Recorder(context=ros_context, parameter_overrides=[
+        Parameter("path", value=str(tmp_path / "run.mcap")), Parameter("use_sim_time", value=True)])
+    wanted = round(SPAN / DT) + 1
+    recording = BackgroundSpin(recorder)  # as amr-bringup --record runs it
+    with composed_stack(ros_context, "maze_sim", parameters={"simulator.lockstep_resend_period": "0.0"},
+                        before_activate=lambda node: recorder.wait_until_caught_up()) as (_, manager, _):
+        assert all(step.ok for step in manager.startup())
+        started = time.monotonic()
+        while recorder.counts.get("/clock", 0) < wanted and time.monotonic() - started < 120.0:
+            time.sleep(0.05)
+        manager.shutdown()
+    recording.stop()  # the bag is finished
+    counted = dict(recorder.counts)  # what the recorder's subscriptions received
+
+    recording = read_bag(tmp_path / "run")
+    steps = assert_complete(recording)
+    assert steps * DT >= SPAN
+    assert {topic: recording.count(topic) for topic in recording.topics} == counted
+    assert recording.count("/map") == recording.count("/tf_static") == 1
+    assert steps <= recording.count("/cmd_vel") <= steps + 2  # + the answer to the last one, + the zero at deactivate
+    assert recording.count("/wall_follower/status") >= steps
+
+    info = yaml.safe_load((tmp_path / "run" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["version"] == 9 and info["storage_identifier"] == "mcap" and info["relative_file_paths"] == ["run.mcap"]
+    assert info["message_count"] == sum(counted.values())
+    topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
+    assert {name: t["message_count"] for name, t in topics.items()} == counted
+    qos = {name: t["topic_metadata"]["offered_qos_profiles"][0] for name, t in topics.items()}
+    assert qos["/scan"]["reliability"] == "best_effort" and qos["/odometry"]["reliability"] == "reliable"
+    assert qos["/map"]["durability"] == qos["/tf_static"]["durability"] == "transient_local"
+    assert topics["/tf"]["topic_metadata"]["type"] == "tf2_msgs/msg/TFMessage"
+    # stamped on /clock: the bag spans the simulated run, not the wall-clock seconds it took
+    assert info["duration"]["nanoseconds"] == pytest.approx(steps * DT * 1e9, abs=2 * DT * 1e9)
+
+    png = tmp_path / "run.png"
+    assert render_bag.main([str(tmp_path / "run"), str(png)]) == 0  # walls from the bag's own /map
+    with Image.open(png) as image:
+        assert image.size[0] > 400 and len(np.unique(np.asarray(image.convert("L")))) > 10
+
+
+def test_amr_bringup_records_the_named_topics_and_a_standalone_recorder_records_alongside(tmp_path, node_process):
+    standalone = node_process("amr_bringup", "recorder", "-p", f"path:={tmp_path / 'map.mcap'}", "-p",
+                              "topics:=[/map, /tf_static]")
+    topics = ["/clock", "/scan", "/tf", "/simulator/status"]
+    run = Bringup("maze_sim", "--composed", "--duration", "5", "--record", str(tmp_path / "run.mcap"), "--topics", *topics)
+    assert run.finish(timeout=60.0) == 0, run.output
+    code, output = standalone.stop()
+    assert code == 0, output
+
+    recording = read_bag(tmp_path / "run")
+    assert sorted(recording.topics) == sorted(topics)
+    assert assert_complete(recording, topics) > 10, "the stack ran"
+    latched = read_bag(tmp_path / "map")  # joined whenever it did: /map and /tf_static are latched
+    assert latched.count("/map") == latched.count("/tf_static") == 1
+    assert Bringup("maze_sim", "--record", str(tmp_path / "run.mcap")).finish() == 2, "never overwrites a bag"

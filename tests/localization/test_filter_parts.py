@@ -1,0 +1,175 @@
+"""The particle filter's parts, each against its equation or a case solved by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_control.scan_sectors import ScanData
+from amr_localization.clustering import cluster_particles
+from amr_localization.distance_field import DistanceField
+from amr_localization.errors import LocalizationError
+from amr_localization.kld_sampling import kld_sample_count
+from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
+from amr_localization.beam_model import BeamModel, BeamModelParams
+from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
+from amr_localization.pose_estimate import weighted_pose
+from amr_localization.poses import compose, relative_pose
+from amr_localization.resampling import effective_sample_size, systematic_resample
+from amr_localization.scan_beams import select_beams
+from amr_localization.sensor_mount import SensorMount
+from amr_localization.tempering import tempered_exponent
+from amr_maps.occupancy_grid import OCCUPIED, OccupancyGrid
+from amr_simulation.config import LidarConfig, SimulationConfig
+from amr_simulation.simulator import Simulator
+from amr_simulation.world import world_from_dict
+
+from loc_helpers import grid_of, scan_of
+
+ROOM = {  # 2 x 1.6 m room with a box off-centre: no symmetry
+    "wall_thickness": 0.04,
+    "walls": [[-1.0, -0.8, 1.0, -0.8], [1.0, -0.8, 1.0, 0.8], [1.0, 0.8, -1.0, 0.8], [-1.0, 0.8, -1.0, -0.8]],
+    "boxes": [[0.3, 0.2, 0.6, 0.5]],
+    "start": [-0.4, -0.3, 0.7],
+}
+
+
+def test_motion_without_noise_is_the_odometry_increment_applied_to_each_particle():
+    rng = np.random.default_rng(0)
+    particles = np.column_stack([rng.uniform(-1, 1, 50), rng.uniform(-1, 1, 50), rng.uniform(-math.pi, math.pi, 50)])
+    before, after = (0.3, -0.2, 0.4), (0.42, -0.11, 0.9)
+    moved = sample_motion_model_odometry(particles, before, after, OdometryNoise(0, 0, 0, 0), rng)
+    expected = compose(particles, relative_pose(before, after))
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+
+
+def test_motion_noise_grows_with_alpha_and_is_reproducible():
+    particles = np.zeros((4000, 3))
+    spreads = []
+    for alpha in (0.01, 0.1):
+        noise = OdometryNoise(alpha, alpha, alpha, alpha)
+        first = sample_motion_model_odometry(particles, (0, 0, 0), (0.1, 0.0, 0.1), noise, np.random.default_rng(3))
+        again = sample_motion_model_odometry(particles, (0, 0, 0), (0.1, 0.0, 0.1), noise, np.random.default_rng(3))
+        np.testing.assert_array_equal(first, again)
+        spreads.append(first[:, 0].std())
+    assert spreads[1] > 2.5 * spreads[0]
+    with pytest.raises(LocalizationError, match="alpha3"):
+        OdometryNoise(0.1, 0.1, -1.0, 0.1)
+
+
+def test_likelihood_field_scores_the_true_pose_above_poses_a_few_cm_or_degrees_off():
+    world = world_from_dict(ROOM)
+    sim = Simulator(world, SimulationConfig(lidar=LidarConfig(noise_std=0.01)))
+    field = DistanceField(grid_of(world, 0.02))
+    model = LikelihoodField(field, LikelihoodFieldParams(), SensorMount(x=-0.032), 3.5)
+    beams = select_beams(scan_of(sim), 60)
+    truth = np.array(sim.pose)
+    offsets = np.array([[0, 0, 0], [0.05, 0, 0], [0, -0.05, 0], [0, 0, math.radians(5)], [0.1, 0.1, 0.2]])
+    scores = model.log_likelihood(truth + offsets, beams)
+    assert scores.argmax() == 0
+    # the beam model (ray casting) ranks them the same way
+    beam_scores = BeamModel(field, BeamModelParams(), SensorMount(x=-0.032)).log_likelihood(truth + offsets, beams)
+    assert beam_scores.argmax() == 0
+
+
+def test_missing_returns_and_invalid_readings_are_skipped_not_read_as_zero():
+    ranges = np.array([1.0, np.nan, np.inf, -np.inf, 0.0, 5.0, 2.0])
+    scan = ScanData(ranges, 0.0, 0.1, 0.12, 3.5)
+    beams = select_beams(scan, 60)
+    np.testing.assert_array_equal(beams.ranges, [1.0, 2.0])
+    np.testing.assert_allclose(beams.angles, [0.0, 0.6])
+    with_no_return = select_beams(scan, 60, keep_no_return=True)
+    np.testing.assert_array_equal(with_no_return.returned, [True, False, True])
+    assert select_beams(ScanData(np.arange(1.0, 241.0) / 100, 0.0, 0.026, 0.0, 3.5), 30).ranges.size == 30
+    for bad, message in [(ScanData([], 0.0, 0.1, 0.1, 3.5), "non-empty"), (ScanData([1.0, 1.0], math.nan, 0.1, 0.1, 3.5), "angle_min"),
+                         (ScanData([1.0], 0.0, 0.1, 2.0, 1.0), "range_min"), (ScanData(["a"], 0.0, 0.1, 0.1, 3.5), "not numbers")]:
+        with pytest.raises(LocalizationError, match=message):
+            select_beams(bad, 60)
+
+
+def test_systematic_resampling_gives_each_particle_floor_or_ceil_of_its_share():
+    weights = np.array([0.5, 0.25, 0.125, 0.125])
+    counts = np.bincount(systematic_resample(weights, 1000, np.random.default_rng(1)), minlength=4)
+    assert np.all(np.abs(counts - 1000 * weights) <= 1)
+    assert effective_sample_size(np.full(10, 0.1)) == pytest.approx(10)
+    assert effective_sample_size(np.array([1.0, 0.0])) == pytest.approx(1)
+
+
+def test_kld_count_grows_with_occupied_bins():
+    counts = [kld_sample_count(k, 0.05, 0.01) for k in (1, 2, 10, 100, 1000)]
+    assert counts == sorted(counts) and counts[0] == 1 and counts[-1] > 10000 > counts[2]
+
+
+def test_clusters_separate_distant_groups_rank_them_by_weight_and_ignore_sparse_noise():
+    rng = np.random.default_rng(2)
+    a = rng.normal([0, 0], 0.03, (300, 2))
+    b = rng.normal([2, 1], 0.03, (300, 2))
+    noise = rng.uniform(-3, 3, (20, 2))
+    xy = np.vstack([a, b, noise])
+    weights = np.concatenate([np.full(300, 1.0), np.full(300, 2.0), np.full(20, 1.0)])
+    clusters = cluster_particles(xy, weights / weights.sum(), 0.1, 10)
+    assert clusters.count == 2
+    assert np.all(clusters.labels[300:600] == 0) and np.all(clusters.labels[:300] == 1)
+    assert clusters.weights[0] == pytest.approx(600 / 920, rel=0.05)
+
+
+def test_estimate_heading_is_the_circular_mean_across_pi():
+    particles = np.array([[0.0, 0.0, math.pi - 0.1], [1.0, 2.0, -math.pi + 0.1]])
+    estimate = weighted_pose(particles, np.array([1.0, 1.0]))
+    assert abs(abs(estimate.theta) - math.pi) < 1e-9
+    assert (estimate.x, estimate.y) == pytest.approx((0.5, 1.0))
+    assert estimate.heading_std == pytest.approx(0.1)
+
+
+def test_tempering_keeps_the_effective_sample_size_from_collapsing():
+    log_prior = np.zeros(1000)
+    log_likelihood = np.random.default_rng(0).normal(0, 50, 1000)  # one scan that would pick a single winner
+    beta = tempered_exponent(log_prior, log_likelihood, 1.0, 0.5)
+    weights = np.exp(beta * (log_likelihood - log_likelihood.max()))
+    weights /= weights.sum()
+    assert 0 < beta < 0.1
+    assert effective_sample_size(weights) >= 0.5 * 1000 * 0.99
+    assert tempered_exponent(log_prior, np.zeros(1000), 1.0, 0.5) == 1.0
+
+
+def test_a_map_without_free_space_or_occupied_cells_is_refused_by_name():
+    from amr_localization.free_space import FreeSpace
+
+    solid = OccupancyGrid(np.full((20, 20), OCCUPIED, dtype=np.int8), 0.05)
+    with pytest.raises(LocalizationError, match="no free cell"):
+        FreeSpace(DistanceField(solid), 0.08)
+    empty = OccupancyGrid(np.zeros((20, 20), dtype=np.int8), 0.05)
+    with pytest.raises(LocalizationError, match="at least one occupied cell"):
+        BeamModel(DistanceField(empty), BeamModelParams(), SensorMount())
+    with pytest.raises(LocalizationError, match="OccupancyGrid"):
+        DistanceField(np.zeros((3, 3)))
+
+
+def test_the_compiled_likelihood_sum_equals_the_formula_beam_by_beam():
+    """The kernel against the module docstring's formula in plain numpy: end point, nearest wall, log p."""
+    from scipy.ndimage import distance_transform_edt
+
+    data = np.zeros((40, 50), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = OCCUPIED
+    data[10:30, 20] = OCCUPIED
+    grid = OccupancyGrid(data, 0.05, (-1.0, -0.5, 0.0))
+    params = LikelihoodFieldParams(sigma_hit=0.05, z_hit=0.9, z_rand=0.1, max_dist=0.5)
+    mount = SensorMount(x=-0.032)
+    model = LikelihoodField(DistanceField(grid), params, mount, 3.5)
+    rng = np.random.default_rng(3)
+    particles = np.column_stack([rng.uniform(-0.9, 1.4, 200), rng.uniform(-0.4, 1.4, 200), rng.uniform(-4, 4, 200)])
+    ranges = np.append(rng.uniform(0.1, 3.0, 23), np.inf)  # the last beam has no return: skipped
+    angles = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
+    from amr_localization.scan_beams import Beams
+    beams = Beams(ranges, angles, np.isfinite(ranges), 3.5, np.arange(24), angles[1])
+    sensor = mount.sensor_poses(particles)
+    ends_x = sensor[:, :1] + ranges[None, :23] * np.cos(sensor[:, 2:] + angles[None, :23])
+    ends_y = sensor[:, 1:2] + ranges[None, :23] * np.sin(sensor[:, 2:] + angles[None, :23])
+    distance = np.minimum(np.pad(distance_transform_edt(data < 65) * 0.05, 1, constant_values=np.inf), 0.5)
+    col = np.clip(np.floor((ends_x + 1.0) / 0.05) + 1, 0, distance.shape[1] - 1).astype(int)
+    row = np.clip(np.floor((ends_y + 0.5) / 0.05) + 1, 0, distance.shape[0] - 1).astype(int)
+    d = distance[row, col]
+    expected = np.log(0.9 * np.exp(-0.5 * (d / 0.05) ** 2) / (0.05 * math.sqrt(2 * math.pi)) + 0.1 / 3.5).sum(axis=1)
+    assert model.log_likelihood(particles, beams) == pytest.approx(expected, rel=1e-5, abs=1e-3)

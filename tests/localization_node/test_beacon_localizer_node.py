@@ -1,0 +1,88 @@
+"""The beacon_localizer node with the simulator publishing /beacons: relocalizes from a wrong initial
+pose to within 2 cm, one /pose per reading; an empty beacon list is refused by the world loader."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import yaml
+from conftest import spin_until
+from amr_interfaces.msg import BeaconRanges, LocalizedPose
+from geometry_msgs.msg import TwistStamped
+from lifecycle_msgs.msg import Transition
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from amr_localization.beacon_localizer_node import BeaconLocalizerNode
+from amr_simulation.errors import WorldError
+from amr_simulation.simulator_node import SimulatorNode
+from amr_simulation.world import load_world
+
+BEACONS = [[-1.9, -1.4], [1.9, -1.4], [1.9, 1.4], [-1.9, 1.4]]
+ROOM = {"name": "beacon_room", "wall_thickness": 0.05,
+        "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
+        "start": [0.7, -0.4, 0.5], "beacons": BEACONS}
+STEPS = 40
+
+
+class Driver(Node):
+    """Answers every /pose with a slow arc (a stand-in controller), records poses and the truth."""
+
+    def __init__(self, context) -> None:
+        super().__init__("driver", context=context)
+        self.poses: list[LocalizedPose] = []
+        self.readings: list[BeaconRanges] = []
+        self.truth: dict[int, Odometry] = {}
+        self.cmd_vel = self.create_publisher(TwistStamped, "cmd_vel", 10)
+        self.create_subscription(LocalizedPose, "pose", self._on_pose, 100)
+        self.create_subscription(BeaconRanges, "beacons", self.readings.append, 100)
+        self.create_subscription(Odometry, "ground_truth", lambda m: self.truth.__setitem__(stamp_ns(m), m), 100)
+
+    def _on_pose(self, message: LocalizedPose) -> None:
+        self.poses.append(message)
+        if len(self.poses) < STEPS:
+            command = TwistStamped()
+            command.twist.linear.x, command.twist.angular.z = 0.1, 0.3
+            self.cmd_vel.publish(command)
+
+
+def stamp_ns(message) -> int:
+    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
+
+
+def test_relocalizes_from_beacons_and_tracks_with_one_pose_per_reading(executor, tmp_path):
+    world = tmp_path / "beacon_room.yaml"
+    world.write_text(yaml.safe_dump(ROOM))
+    context = executor.context
+    simulator = SimulatorNode(context=context, parameter_overrides=[
+        Parameter("world", value=str(world)), Parameter("lockstep_resend_period", value=0.0),
+        Parameter("beacons.range_noise_std", value=0.003), Parameter("beacons.compass_noise_std", value=0.005)])
+    localizer = BeaconLocalizerNode(context=context)
+    driver = Driver(context)
+    for node in (simulator, localizer, driver):
+        executor.add_node(node)
+    for node in (localizer, simulator):
+        assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.get_name()
+    assert localizer.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert spin_until(executor, lambda: simulator.count_subscribers("beacons") >= 2, 5.0)
+    assert simulator.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert spin_until(executor, lambda: len(driver.poses) >= STEPS, 30.0), f"{len(driver.poses)} poses"
+    spin_until(executor, lambda: False, 0.2)
+
+    assert [stamp_ns(p) for p in driver.poses] == [stamp_ns(r) for r in driver.readings]
+    reading = driver.readings[0]
+    assert [[b.x, b.y] for b in reading.beacons] == BEACONS and len(reading.ranges) == len(BEACONS)
+    for pose in driver.poses:
+        truth = driver.truth[stamp_ns(pose)].pose.pose.position
+        estimate = pose.pose.pose.position
+        assert math.hypot(estimate.x - truth.x, estimate.y - truth.y) <= 0.02
+        assert pose.localized and pose.header.frame_id == "map"
+
+
+def test_an_empty_beacon_list_is_refused_by_name(tmp_path):
+    world = tmp_path / "no_beacons.yaml"
+    world.write_text(yaml.safe_dump({**ROOM, "beacons": []}))
+    with pytest.raises(WorldError, match="beacons: must be a non-empty list"):
+        load_world(world)
