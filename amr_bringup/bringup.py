@@ -7,8 +7,8 @@
 
 By default each node is its own process, started as `ros2 run` would
 (lib/<package>/<executable> --ros-args ...), its output prefixed with its name. With
---composed the node classes (NODE_CLASSES) are instantiated here on one
-MultiThreadedExecutor. Either way the lifecycle manager (amr_bringup.lifecycle_manager)
+--composed the node classes (NODE_CLASSES) are instantiated here, each spun on a thread of its
+own (amr_util.executors). Either way the lifecycle manager (amr_bringup.lifecycle_manager)
 runs inside this process: its startup result tells at once which node failed which
 transition, and it takes the nodes down in reverse order before they are stopped.
 
@@ -31,7 +31,6 @@ from collections import deque
 from collections.abc import Callable, Sequence
 
 import rclpy
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
@@ -42,6 +41,7 @@ from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_ins
 from amr_bringup.processes import NodeProcess, executable_path, stop_processes
 from amr_bringup.status import StatusMonitor, format_table
 from amr_bringup.lifecycle_manager import LifecycleManager
+from amr_util.executors import NodeSpinners
 from amr_maps.bag_writer import bag_directory
 
 GRACE_PERIOD = 5.0
@@ -137,7 +137,7 @@ class ProcessStack:
         return stop_processes(list(reversed(self.processes)), GRACE_PERIOD, hurry)
 
 
-class ComposedStack:
+    """Every node in this process, each spun on a thread of its own by the supervisor."""
     """Every node in this process, spun by the supervisor's executor."""
 
     def __init__(self, bringup: Bringup, console: Console) -> None:
@@ -190,14 +190,14 @@ class Supervisor:
     def __init__(self, bringup: Bringup, options: argparse.Namespace, console: Console, signals: StopSignals) -> None:
         self.bringup, self.options, self.console, self.signals = bringup, options, console, signals
         self.started_at = time.monotonic()
-        self.executor = MultiThreadedExecutor(num_threads=len(bringup.nodes) + 3)
+        self.spinners = NodeSpinners(on_error=self._on_callback_error)
         self.stack: ProcessStack | ComposedStack | None = None
         self.manager: LifecycleManager | None = None
         self.monitor: StatusMonitor | None = None
         self.recorder: Recorder | None = None
         self.recording: BackgroundSpin | None = None
         self.active = False
-        self._spinner = threading.Thread(target=self._spin, daemon=True)
+        self.active_since = self.started_at
         self._startup_steps: list = []
         self._startup = threading.Thread(target=lambda: self._startup_steps.extend(self.manager.startup()),
                                          daemon=True)
@@ -208,7 +208,6 @@ class Supervisor:
         try:
             self.stack = make_stack(self.bringup, self.console)
             self._add_nodes()
-            self._spinner.start()
             self._startup.start()
             failure = self._watch()
             self.console.end_live()
@@ -230,7 +229,7 @@ class Supervisor:
 
     def _add_nodes(self) -> None:
         for node in getattr(self.stack, "nodes", []):
-            self.executor.add_node(node)
+            self.spinners.add_node(node)
         if self.options.record:
             self._add_recorder()
         self.manager = LifecycleManager(
@@ -239,11 +238,11 @@ class Supervisor:
             parameter_overrides=[Parameter(k, value=v) for k, v in self.bringup.manager_parameters().items()])
         if self.console.live:
             self.manager.get_logger().set_level(LoggingSeverity.WARN)
-        self.executor.add_node(self.manager)
+        self.spinners.add_node(self.manager)
         if self.options.status:
             self.monitor = StatusMonitor(self.bringup.node_startup_order,
                                          [(node.name, node.namespace) for node in self.bringup.nodes])
-            self.executor.add_node(self.monitor)
+            self.spinners.add_node(self.monitor)
 
     def _add_recorder(self) -> None:
         """The recorder spins on its own executor; each node is activated once the recorder listens to its topics,
@@ -260,12 +259,9 @@ class Supervisor:
         self.console.note(f"recording {' '.join(self.options.topics) if self.options.topics else 'every topic'} "
                           f"to {self.recorder.path}" + (" (stamps on /clock)" if simulated else ""))
 
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception as error:  # a callback raised: the composed stack is broken
-            if isinstance(self.stack, ComposedStack):
-                self.stack.record_crash(error)
+    def _on_callback_error(self, error: BaseException) -> None:
+        if isinstance(self.stack, ComposedStack):  # a callback raised: the composed stack is broken
+            self.stack.record_crash(error)
 
     def _watch(self) -> str | None:
         """Wait for a stop request, the end of --duration or a failure (returned, naming the node)."""
@@ -280,13 +276,14 @@ class Supervisor:
                     return f"startup failed at {last.transition} of {last.node}: {last.detail}" if last else \
                         "startup failed"
                 self.active = True
+                self.active_since = time.monotonic()
                 self.console.note(f"all nodes active: {', '.join(self.bringup.node_startup_order)}")
             if self.monitor is not None and time.monotonic() >= next_table:
                 next_table += STATUS_PERIOD
                 self._print_status()
-            elapsed = time.monotonic() - self.started_at
-            if self.options.duration is not None and elapsed >= self.options.duration:
-                return None if self.active else f"the stack was not active after --duration {self.options.duration} s"
+            if self.active and self.options.duration is not None and \
+                    time.monotonic() - self.active_since >= self.options.duration:
+                return None
         return None
 
     def _print_status(self) -> None:
@@ -305,9 +302,7 @@ class Supervisor:
 
     def _take_down(self) -> list[str]:
         """Stop spinning, stop the stack (the labels of killed processes are returned), free ROS."""
-        self.executor.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
-        if self._spinner.is_alive():
-            self._spinner.join(GRACE_PERIOD)
+        self.spinners.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
         killed = self.stack.stop(self.signals.hurry) if self.stack is not None else []
         if self.recording is not None:  # last: the bag holds everything the nodes said on their way down
             self.recording.stop()
@@ -342,11 +337,12 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
                         help="a parameter of one node, after its files, e.g. -p wall_follower.kp:=3.0")
     parser.add_argument("--show-args", action="store_true", help="list the stack's arguments and exit")
     parser.add_argument("--composed", action="store_true",
-                        help="all nodes in this process on one MultiThreadedExecutor instead of one process each")
+                        help="all nodes in this process (a thread each) instead of one process each")
     parser.add_argument("--status", action="store_true",
                         help="print a table of the nodes' lifecycle states and the topic rates every second")
     parser.add_argument("--duration", type=float, metavar="S",
-                        help="stop cleanly after S seconds (counted from the start)")
+                        help="stop cleanly after S seconds with every node active (a startup is bounded by the "
+                             "manager's wait_timeout and transition_timeout, not by S)")
     parser.add_argument("--record", metavar="BAG", help="record a rosbag2 MCAP bag: out/run.mcap writes the "
                                                           "directory out/run (every topic, or --topics)")
     parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="with --record: only these topics")

@@ -1,24 +1,23 @@
 """A stack composed in a caller's own rclpy context (tests, benchmarks): the node classes amr-bringup --composed
-makes, the stack's lifecycle manager, all spun by one MultiThreadedExecutor on a background thread."""
+makes and the stack's lifecycle manager, each spun on a background thread of its own (amr_util.executors)."""
 
 from __future__ import annotations
 
-import threading
 from contextlib import contextmanager
 from dataclasses import replace
 
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
 
 from amr_bringup.bringup import node_class
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_bringup.stack_config import load_bringup
+from amr_util.executors import NodeSpinners
 
 
 @contextmanager
 def composed_stack(context, stack: str, arguments=None, parameters=None, remappings=None, extra_nodes=(),
                    before_activate=lambda node: None):
-    """Yields (nodes by name, manager, executor); the stack is built but not started (call manager.startup())."""
+    """Yields (nodes by name, manager, spinners); the stack is built but not started (call manager.startup())."""
     bringup = load_bringup(stack).with_overrides(arguments or {}, parameters or {})
     specs = [replace(spec, remappings=spec.remappings + tuple((remappings or {}).get(spec.name, ())))
              for spec in bringup.nodes]
@@ -26,17 +25,14 @@ def composed_stack(context, stack: str, arguments=None, parameters=None, remappi
     manager = LifecycleManager(before_activate=before_activate, context=context, cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
                                parameter_overrides=[Parameter(k, value=v)
                                                     for k, v in bringup.manager_parameters().items()])
-    executor = MultiThreadedExecutor(num_threads=4, context=context)
+    spinners = NodeSpinners(context)
     everything = [*nodes.values(), manager, *extra_nodes]
     for node in everything:
-        executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
+        spinners.add_node(node)
     try:
-        yield nodes, manager, executor
+        yield nodes, manager, spinners
     finally:
         manager.shutdown()
-        executor.shutdown(timeout_sec=5.0)
-        spinner.join(timeout=5.0)
+        spinners.shutdown(timeout_sec=5.0)
         for node in everything:
             node.destroy_node()

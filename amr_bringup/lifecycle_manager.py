@@ -88,6 +88,8 @@ class LifecycleManager(SpecifiedParameters, Node):
     Raises ValueError naming every bad or unknown parameter.
     """
 
+    multithreaded_executor = True  # ~/startup and ~/shutdown block on lifecycle calls whose answers it must spin
+
     def __init__(self, before_activate: Callable[[str], None] = lambda node: None, **kwargs) -> None:
         super().__init__("lifecycle_manager", **kwargs)
         self.use_parameter_specs()

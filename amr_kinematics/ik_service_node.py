@@ -111,6 +111,8 @@ def packaged_chain_parameters() -> dict:
 class IKServiceNode(ManagedNode):
     """Serves IK and FK for the chains of its parameters (see the module docstring)."""
 
+    multithreaded_executor = True  # requests for different chains are served at once
+
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self._declare_chain_parameters()
@@ -359,7 +361,7 @@ class IKServiceNode(ManagedNode):
 
 def main(args=None) -> None:
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
-    run(IKServiceNode, multithreaded=True, args=args)
+    run(IKServiceNode, args=args)
 
 
 if __name__ == "__main__":

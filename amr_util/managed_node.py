@@ -299,10 +299,11 @@ def spin_nodes(nodes: Sequence[LifecycleNode], executor: Executor) -> None:
             rclpy.try_shutdown()
 
 
-def run(node_factory: Callable[[], LifecycleNode], *, multithreaded: bool = False,
-        args: Sequence[str] | None = None) -> None:
-    """The body of every node's main(): init, build, spin, shut down."""
+def run(node_factory: Callable[[], LifecycleNode], *, args: Sequence[str] | None = None) -> None:
+    """The body of every node's main(): init, build, spin, shut down. A node whose callbacks must overlap says so
+    with the class attribute `multithreaded_executor = True` (as amr_util.executors reads it)."""
     rclpy.init(args=list(sys.argv if args is None else args), signal_handler_options=SignalHandlerOptions.NO)
-    executor = MultiThreadedExecutor() if multithreaded else SingleThreadedExecutor()
-    spin_nodes([node_factory()], executor)
+    node = node_factory()
+    executor = MultiThreadedExecutor() if getattr(node, "multithreaded_executor", False) else SingleThreadedExecutor()
+    spin_nodes([node], executor)
 
