@@ -137,8 +137,8 @@ class ProcessStack:
         return stop_processes(list(reversed(self.processes)), GRACE_PERIOD, hurry)
 
 
+class ComposedStack:
     """Every node in this process, each spun on a thread of its own by the supervisor."""
-    """Every node in this process, spun by the supervisor's executor."""
 
     def __init__(self, bringup: Bringup, console: Console) -> None:
         self.nodes = []
