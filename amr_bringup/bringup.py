@@ -33,9 +33,10 @@ from collections.abc import Callable, Sequence
 import rclpy
 from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
+from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from amr_bringup.recorder import BackgroundSpin, Recorder
+from amr_bringup.recording import RecorderProcess
 from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
                                       parse_assignments)
 from amr_bringup.processes import NodeProcess, executable_path, stop_processes
@@ -194,8 +195,8 @@ class Supervisor:
         self.stack: ProcessStack | ComposedStack | None = None
         self.manager: LifecycleManager | None = None
         self.monitor: StatusMonitor | None = None
-        self.recorder: Recorder | None = None
-        self.recording: BackgroundSpin | None = None
+        self.recorder: RecorderProcess | None = None
+        self.recorder_client: Node | None = None
         self.active = False
         self.active_since = self.started_at
         self._startup_steps: list = []
@@ -245,19 +246,20 @@ class Supervisor:
             self.spinners.add_node(self.monitor)
 
     def _add_recorder(self) -> None:
-        """The recorder spins on its own executor; each node is activated once the recorder listens to its topics,
-        so a lockstep run's first observation is in the bag too."""
+        """The recorder runs as a process of its own (amr_bringup.recording); each node is activated once it
+        listens to that node's topics, so a lockstep run's first observation is in the bag too."""
         simulated = any(node.parameters.get("use_sim_time") is True for node in self.bringup.nodes)
+        self.recorder_client = Node(f"{self.bringup.manager_name}_recorder_client")
+        self.spinners.add_node(self.recorder_client)
         try:
-            self.recorder = Recorder(parameter_overrides=[
-                Parameter("path", value=str(self.options.record)),
-                Parameter("topics", value=list(self.options.topics or [""])),
-                Parameter("use_sim_time", value=simulated)])
-        except ValueError as error:
-            raise StackError(f"--record: {error}") from error
-        self.recording = BackgroundSpin(self.recorder)
+            self.recorder = RecorderProcess(f"recorder_{self.bringup.name}",
+                                            str(self.options.record), self.options.topics or [], simulated,
+                                            self.recorder_client, self.console.line)
+        except OSError as error:
+            raise StackError(f"--record: the recorder failed to start: {error}") from error
         self.console.note(f"recording {' '.join(self.options.topics) if self.options.topics else 'every topic'} "
-                          f"to {self.recorder.path}" + (" (stamps on /clock)" if simulated else ""))
+                          f"to {bag_directory(self.options.record)}" + (" (stamps on /clock)" if simulated else "") +
+                          f": {' '.join(self.recorder.command)}")
 
     def _on_callback_error(self, error: BaseException) -> None:
         if isinstance(self.stack, ComposedStack):  # a callback raised: the composed stack is broken
@@ -270,6 +272,9 @@ class Supervisor:
             failure = self.stack.failure()
             if failure:
                 return failure
+            if self.recorder is not None and self.recorder.process.exit_code() is not None:
+                return f"the recorder (pid {self.recorder.process.pid}) exited with code " \
+                       f"{self.recorder.process.exit_code()}"
             if not self._startup.is_alive() and not self.active:
                 if not self.manager.started:
                     last = self._startup_steps[-1] if self._startup_steps else None
@@ -304,11 +309,11 @@ class Supervisor:
         """Stop spinning, stop the stack (the labels of killed processes are returned), free ROS."""
         self.spinners.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
         killed = self.stack.stop(self.signals.hurry) if self.stack is not None else []
-        if self.recording is not None:  # last: the bag holds everything the nodes said on their way down
-            self.recording.stop()
-            self.console.note(f"recorded {sum(self.recorder.counts.values())} messages of "
-                              f"{len(self.recorder.counts)} topics to {self.recorder.path}")
-        for node in (self.manager, self.monitor):
+        if self.recorder is not None:  # last: the bag holds everything the nodes said on their way down
+            killed += stop_processes([self.recorder.process], GRACE_PERIOD, self.signals.hurry)
+            self.recorder.process.close()
+            self.console.note(f"recorded to {bag_directory(self.options.record)}")
+        for node in (self.manager, self.monitor, self.recorder_client):
             if node is not None:
                 node.destroy_node()
         rclpy.try_shutdown()

@@ -7,7 +7,9 @@ publisher is, as rosbag2 adapts it), and written with amr_maps.bag_writer togeth
 definition and the offered QoS. Each message is stamped with this node's clock when it arrives
 (simulated time under use_sim_time, as `ros2 bag record --use-sim-time`). Topics that appear later
 are picked up every `discovery_period`. The bag is finished (metadata.yaml written) when the node is
-destroyed: Ctrl-C, SIGTERM, or the end of amr-bringup.
+destroyed: Ctrl-C, SIGTERM, or the end of amr-bringup. `~/caught_up` (std_srvs/Trigger) answers
+success once every eligible topic with publishers is recorded and matched with all of them: amr-bringup
+--record activates each node only then, so a lockstep run is recorded from its first step.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from std_srvs.srv import Trigger
 
 from amr_bringup.status import IGNORED_SUFFIXES, IGNORED_TOPICS, message_class
 from amr_maps.bag_writer import BagError, BagWriter, TopicQos
@@ -75,6 +78,7 @@ class Recorder(SpecifiedParameters, Node):
             raise ValueError(f"path: {error}") from error
         self.path = self._writer.path
         self.discover()
+        self.create_service(Trigger, "~/caught_up", self._on_caught_up, callback_group=self._group)
         self._timer = self.create_timer(self.get_parameter("discovery_period").value, self.discover,
                                         callback_group=self._group, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"recording {'every topic' if not self.wanted else sorted(self.wanted)} to {self.path}")
@@ -107,6 +111,11 @@ class Recorder(SpecifiedParameters, Node):
             if publishers and (subscription is None or subscription.get_publisher_count() < publishers):
                 return False
         return True
+
+    def _on_caught_up(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success = self.caught_up()
+        response.message = f"recording {len(self._subscriptions_by_topic)} topics"
+        return response
 
     def wait_until_caught_up(self, timeout: float = CATCH_UP_TIMEOUT) -> bool:
         """Block (another thread spins this node) until caught_up(), at most `timeout` s, then let matching settle."""
