@@ -22,7 +22,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    in a row with one cluster holding localized_min_cluster_share of the weight,
    its spread under the position and heading limits and the scan fitting its
    pose (scan_fit.py), and withdrawn as soon as the cluster's share, spread or
-   fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*).
+   fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*); when one
+   cluster holds the weight but the scan keeps not fitting it for lost_updates
+   updates, the robot is lost (kidnapped): global localization restarts.
 
 Between filter updates the estimate follows odometry, so every call returns a
 pose. A particle filter in a world with symmetric places keeps one cluster per
@@ -166,6 +168,7 @@ class ParticleFilter:
         self._recovery.reset()
         self._localized = False
         self._confirmations = 0
+        self._misfits = 0
         self._moved_since_resample = False
         self._pending_measurement = True
         self._estimate_odometry = self._odometry
@@ -336,6 +339,13 @@ class ParticleFilter:
                 and heading_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_heading_std
             )
             self._confirmations = 0
+            return
+        dominant = share >= config.localized_min_cluster_share - WITHDRAW_MARGIN
+        self._misfits = self._misfits + 1 if dominant and fit < config.localized_min_fit else 0
+        if config.lost_updates and self._misfits >= config.lost_updates:
+            self.reinitialize_global()
+            self.status.event = (f"lost: the scan has not fitted the only cluster for {config.lost_updates} updates "
+                                 f"(fit {fit:.2f}): global localization restarted")
             return
         confident = (
             share >= config.localized_min_cluster_share

@@ -76,6 +76,10 @@ class ParticleFilterConfig:
     fit_distance: float = 0.06
     localized_confirmations: int = 10
     """consecutive measurement updates meeting every condition before localized is declared."""
+    lost_updates: int = 25
+    """consecutive measurement updates with one cluster holding the weight while the scan does not fit it
+    (fit < localized_min_fit) before the filter gives that cluster up and restarts global localization
+    (a kidnapped robot; augmented MCL's few random particles rarely land near the truth); 0 = never."""
     # rival check before declaring (rival_check.py)
     rival_check: bool = True
     rival_margin: float = 0.05
@@ -124,6 +128,7 @@ class ParticleFilterConfig:
         need(self.history_spacing >= 0.0, "history_spacing", "must be >= 0")
         need(isinstance(self.rival_check, bool), "rival_check", "must be true or false")
         need(self.localized_confirmations >= 1, "localized_confirmations", "must be at least 1")
+        need(self.lost_updates >= 0, "lost_updates", "must be >= 0 (0 = never restart)")
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> "ParticleFilterConfig":

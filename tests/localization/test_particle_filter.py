@@ -83,6 +83,30 @@ def test_a_kidnapped_robot_is_withdrawn_at_once_and_found_again():
     assert position[regained] <= 0.10 and heading[regained] <= math.radians(10)
 
 
+@pytest.mark.parametrize("lost_updates", [0, 15])
+def test_a_confident_cluster_the_scan_does_not_fit_is_given_up_after_lost_updates(lost_updates):
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    sim = Simulator(world, SimulationConfig(**NOISY))
+    config = ParticleFilterConfig(lidar_x=-0.032, max_particles=2000, lost_updates=lost_updates)
+    pf = ParticleFilter(grid_of(world, 0.02), config)
+    pf.initialize_pose(sim.pose.x + 0.8, sim.pose.y + 0.5, sim.pose.theta + 1.5, np.diag([0.02**2, 0.02**2, 0.02**2]))
+    events, updates = [], 0
+    for _ in range(300):
+        estimate = pf.update(odometry_of(sim), scan_of(sim))
+        updates += estimate.status.updated
+        events.append(estimate.status.event)
+        if any(event.startswith("lost") for event in events):
+            break
+        sim.step(0.12, 0.25)
+    lost = [event for event in events if event.startswith("lost")]
+    if lost_updates:
+        assert lost, f"still tracking the wrong place after {updates} updates"
+        assert updates >= lost_updates
+        assert len(pf.particles) == config.max_particles and not estimate.localized
+    else:
+        assert not lost
+
+
 def _first_steps(seed: int, steps: int = 60):
     world = load_world(WORLDS_DIR / "open_room.yaml")
     sim = Simulator(world, SimulationConfig(**NOISY))
