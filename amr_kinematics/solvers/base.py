@@ -93,10 +93,23 @@ class Request:
     started: float = field(default_factory=time.perf_counter)
 
 
+_FLOAT = np.dtype(float)
+_NO_ROTATION = np.empty((3, 3))  # compiled.pose_goal's output when it writes none (position-only goals)
+
+
 def parse_goal(chain: Chain, target, with_orientation: bool, task: Task | None = None) -> Goal:
     """Goal from a 2/3-vector or a 4x4 pose; InvalidRequestError if malformed."""
     if task is not None:
         return _task_goal(chain, target, task)
+    if compiled.AVAILABLE and type(target) is np.ndarray and target.dtype is _FLOAT and target.shape == (4, 4):
+        # the common case in one compiled call: the same checks and the same goal as below
+        position = np.empty(3)
+        rotation = np.empty((3, 3)) if with_orientation else None
+        problem = compiled.pose_goal(target, MAX_TARGET_DISTANCE, (2 if chain.planar else 1) if with_orientation else 0,
+                                     position, _NO_ROTATION if rotation is None else rotation)
+        if problem != compiled.POSE_OK:
+            _refuse(target[:3, 3].tolist() if problem == compiled.POSE_ABSURD else [], problem)
+        return Goal(position, rotation)
     try:
         array = np.array(target, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -153,7 +166,7 @@ def _seed(chain: Chain, seed) -> np.ndarray:
     """``chain.checked_clamp(seed, "seed")``: a float vector of the chain's length, as one compiled
     call (``compiled.clamp_finite``; the Python checks and clamp cost ~1.5 us at 3 joints); other
     seeds, and non-finite ones for the message, go through the chain's checks."""
-    if compiled.AVAILABLE and type(seed) is np.ndarray and seed.dtype == np.float64 and seed.shape == chain.lower.shape:
+    if compiled.AVAILABLE and type(seed) is np.ndarray and seed.dtype is _FLOAT and seed.shape == chain.lower.shape:
         q0 = np.empty(seed.shape)
         if compiled.clamp_finite(seed, chain.lower, chain.upper, q0):
             return q0
