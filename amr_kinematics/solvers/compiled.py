@@ -107,29 +107,35 @@ def _pose_jacobian(fixed, motion, q, R, p, axes, points, jac):
 
 @_jit
 def _rotation_error(R, D):
-    """World-frame rotation vector taking R to D (transforms.rotation_error)."""
-    E = np.empty((3, 3))  # D R^T
-    for i in range(3):
-        for j in range(3):
-            E[i, j] = D[i, 0] * R[j, 0] + D[i, 1] * R[j, 1] + D[i, 2] * R[j, 2]
-    vx, vy, vz = 0.5 * (E[2, 1] - E[1, 2]), 0.5 * (E[0, 2] - E[2, 0]), 0.5 * (E[1, 0] - E[0, 1])
+    """World-frame rotation vector taking R to D (transforms.rotation_error).  E = D R^T in
+    scalars, not an array: no allocation at every call."""
+    e00 = D[0, 0] * R[0, 0] + D[0, 1] * R[0, 1] + D[0, 2] * R[0, 2]
+    e01 = D[0, 0] * R[1, 0] + D[0, 1] * R[1, 1] + D[0, 2] * R[1, 2]
+    e02 = D[0, 0] * R[2, 0] + D[0, 1] * R[2, 1] + D[0, 2] * R[2, 2]
+    e10 = D[1, 0] * R[0, 0] + D[1, 1] * R[0, 1] + D[1, 2] * R[0, 2]
+    e11 = D[1, 0] * R[1, 0] + D[1, 1] * R[1, 1] + D[1, 2] * R[1, 2]
+    e12 = D[1, 0] * R[2, 0] + D[1, 1] * R[2, 1] + D[1, 2] * R[2, 2]
+    e20 = D[2, 0] * R[0, 0] + D[2, 1] * R[0, 1] + D[2, 2] * R[0, 2]
+    e21 = D[2, 0] * R[1, 0] + D[2, 1] * R[1, 1] + D[2, 2] * R[1, 2]
+    e22 = D[2, 0] * R[2, 0] + D[2, 1] * R[2, 1] + D[2, 2] * R[2, 2]
+    vx, vy, vz = 0.5 * (e21 - e12), 0.5 * (e02 - e20), 0.5 * (e10 - e01)
     sin_angle = math.sqrt(vx * vx + vy * vy + vz * vz)
-    cos_angle = 0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0)
+    cos_angle = 0.5 * (e00 + e11 + e22 - 1.0)
     if sin_angle > 1e-7:
         k = math.atan2(sin_angle, cos_angle) / sin_angle
         return vx * k, vy * k, vz * k
     if cos_angle > 0.0:
         return vx, vy, vz
     # angle ~ pi: axis from the symmetric part, E ~ 2 a a^T - I
-    ax = math.sqrt(max(0.0, (E[0, 0] + 1.0) / 2.0))
-    ay = math.sqrt(max(0.0, (E[1, 1] + 1.0) / 2.0))
-    az = math.sqrt(max(0.0, (E[2, 2] + 1.0) / 2.0))
+    ax = math.sqrt(max(0.0, (e00 + 1.0) / 2.0))
+    ay = math.sqrt(max(0.0, (e11 + 1.0) / 2.0))
+    az = math.sqrt(max(0.0, (e22 + 1.0) / 2.0))
     if ax >= ay and ax >= az:
-        ay, az = math.copysign(ay, E[0, 1] + E[1, 0]), math.copysign(az, E[0, 2] + E[2, 0])
+        ay, az = math.copysign(ay, e01 + e10), math.copysign(az, e02 + e20)
     elif ay >= az:
-        ax, az = math.copysign(ax, E[0, 1] + E[1, 0]), math.copysign(az, E[1, 2] + E[2, 1])
+        ax, az = math.copysign(ax, e01 + e10), math.copysign(az, e12 + e21)
     else:
-        ax, ay = math.copysign(ax, E[0, 2] + E[2, 0]), math.copysign(ay, E[1, 2] + E[2, 1])
+        ax, ay = math.copysign(ax, e02 + e20), math.copysign(ay, e12 + e21)
     return ax * math.pi, ay * math.pi, az * math.pi
 
 
