@@ -193,6 +193,10 @@ class Solver:
 
     name = ""
     options: dict = {}
+    # whether this solver's solves (most of them) run compiled code anyway: only then is the seed checked compiled
+    # (``_seed``), so that solvers without compiled code (ccd, analytic) do not pay numba's first
+    # call in a process (loading each function from its cache, ms) inside their deadline
+    runs_compiled = False
 
     def check(self, chain: Chain, with_orientation: bool = False) -> None:
         """Raise SolverNotApplicableError if this solver cannot serve the request."""
@@ -246,7 +250,8 @@ class Solver:
                 1 <= max_iterations <= MAX_ITERATIONS_LIMIT)):
             raise InvalidRequestError(f"max_iterations must be an integer in [1, {MAX_ITERATIONS_LIMIT}], got {max_iterations!r}")
         timeout = _positive("timeout", timeout, MAX_TIMEOUT)
-        q0 = chain.clamp(np.zeros(chain.n)) if seed is None else _seed(chain, seed)
+        q0 = chain.clamp(np.zeros(chain.n)) if seed is None else (
+            _seed(chain, seed) if self.runs_compiled else chain.checked_clamp(seed, "seed"))
         if chain.couplings:
             q0 = chain.apply_coupling(q0)
         request = Request(bool(with_orientation), tolerance, orientation_tolerance, int(max_iterations),

@@ -18,7 +18,8 @@ compiled only when it is short (``MAX_COMPILED_STEPS``: its worst case stays far
 below a millisecond) and the restart loop, which watches the deadline, stays in
 Python.  At 2-4 joints the Python around a compiled attempt cost more than the
 attempt, so a solve's first attempt also measures its result in the same call
-(``attempt_measured``) and pose targets are checked compiled (``check_pose``).  Compiling takes seconds once per machine: ``cache=True`` keeps the machine
+(``attempt_measured``), a float64 4x4 target is checked and made into the goal compiled
+(``pose_goal``) and a float64 seed checked and clamped compiled (``clamp_finite``).  Compiling takes seconds once per machine: ``cache=True`` keeps the machine
 code in __pycache__, and ``warm_up`` at a node's configure loads it.  Without numba
 (or with AMR_IK_NO_NUMBA=1) everything runs in the Python loops.
 """
