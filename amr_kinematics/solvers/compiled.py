@@ -19,9 +19,10 @@ below a millisecond) and the restart loop, which watches the deadline, stays in
 Python.  At 2-4 joints the Python around a compiled attempt cost more than the
 attempt, so a solve's first attempt also measures its result in the same call
 (``attempt_measured``), a float64 4x4 target is checked and made into the goal compiled
-(``pose_goal``) and a float64 seed checked and clamped compiled (``clamp_finite``).  Compiling takes seconds once per machine: ``cache=True`` keeps the machine
-code in __pycache__, and ``warm_up`` at a node's configure loads it.  Without numba
-(or with AMR_IK_NO_NUMBA=1) everything runs in the Python loops.
+(``pose_goal``) and a float64 seed checked and clamped compiled (``clamp_finite``).
+Compiling takes seconds once per machine: ``cache=True`` keeps the machine code in
+__pycache__, and ``warm_up`` at a node's configure loads it.  Without numba (or with
+AMR_IK_NO_NUMBA=1) everything runs in the Python loops.
 """
 
 from __future__ import annotations
