@@ -18,9 +18,11 @@ compiled only when it is short (``MAX_COMPILED_STEPS``: its worst case stays far
 below a millisecond) and the restart loop, which watches the deadline, stays in
 Python.  At 2-4 joints the Python around a compiled attempt cost more than the
 attempt, so a solve's first attempt also measures its result in the same call
-(``attempt_measured``) and pose targets are checked compiled (``check_pose``).  Compiling takes seconds once per machine: ``cache=True`` keeps the machine
-code in __pycache__, and ``warm_up`` at a node's configure loads it.  Without numba
-(or with AMR_IK_NO_NUMBA=1) everything runs in the Python loops.
+(``attempt_measured``), a float64 4x4 target is checked and made into the goal compiled
+(``pose_goal``) and a float64 seed checked and clamped compiled (``clamp_finite``).
+Compiling takes seconds once per machine: ``cache=True`` keeps the machine code in
+__pycache__, and ``warm_up`` at a node's configure loads it.  Without numba (or with
+AMR_IK_NO_NUMBA=1) everything runs in the Python loops.
 """
 
 from __future__ import annotations
@@ -107,29 +109,35 @@ def _pose_jacobian(fixed, motion, q, R, p, axes, points, jac):
 
 @_jit
 def _rotation_error(R, D):
-    """World-frame rotation vector taking R to D (transforms.rotation_error)."""
-    E = np.empty((3, 3))  # D R^T
-    for i in range(3):
-        for j in range(3):
-            E[i, j] = D[i, 0] * R[j, 0] + D[i, 1] * R[j, 1] + D[i, 2] * R[j, 2]
-    vx, vy, vz = 0.5 * (E[2, 1] - E[1, 2]), 0.5 * (E[0, 2] - E[2, 0]), 0.5 * (E[1, 0] - E[0, 1])
+    """World-frame rotation vector taking R to D (transforms.rotation_error).  E = D R^T in
+    scalars, not an array: no allocation at every call."""
+    e00 = D[0, 0] * R[0, 0] + D[0, 1] * R[0, 1] + D[0, 2] * R[0, 2]
+    e01 = D[0, 0] * R[1, 0] + D[0, 1] * R[1, 1] + D[0, 2] * R[1, 2]
+    e02 = D[0, 0] * R[2, 0] + D[0, 1] * R[2, 1] + D[0, 2] * R[2, 2]
+    e10 = D[1, 0] * R[0, 0] + D[1, 1] * R[0, 1] + D[1, 2] * R[0, 2]
+    e11 = D[1, 0] * R[1, 0] + D[1, 1] * R[1, 1] + D[1, 2] * R[1, 2]
+    e12 = D[1, 0] * R[2, 0] + D[1, 1] * R[2, 1] + D[1, 2] * R[2, 2]
+    e20 = D[2, 0] * R[0, 0] + D[2, 1] * R[0, 1] + D[2, 2] * R[0, 2]
+    e21 = D[2, 0] * R[1, 0] + D[2, 1] * R[1, 1] + D[2, 2] * R[1, 2]
+    e22 = D[2, 0] * R[2, 0] + D[2, 1] * R[2, 1] + D[2, 2] * R[2, 2]
+    vx, vy, vz = 0.5 * (e21 - e12), 0.5 * (e02 - e20), 0.5 * (e10 - e01)
     sin_angle = math.sqrt(vx * vx + vy * vy + vz * vz)
-    cos_angle = 0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0)
+    cos_angle = 0.5 * (e00 + e11 + e22 - 1.0)
     if sin_angle > 1e-7:
         k = math.atan2(sin_angle, cos_angle) / sin_angle
         return vx * k, vy * k, vz * k
     if cos_angle > 0.0:
         return vx, vy, vz
     # angle ~ pi: axis from the symmetric part, E ~ 2 a a^T - I
-    ax = math.sqrt(max(0.0, (E[0, 0] + 1.0) / 2.0))
-    ay = math.sqrt(max(0.0, (E[1, 1] + 1.0) / 2.0))
-    az = math.sqrt(max(0.0, (E[2, 2] + 1.0) / 2.0))
+    ax = math.sqrt(max(0.0, (e00 + 1.0) / 2.0))
+    ay = math.sqrt(max(0.0, (e11 + 1.0) / 2.0))
+    az = math.sqrt(max(0.0, (e22 + 1.0) / 2.0))
     if ax >= ay and ax >= az:
-        ay, az = math.copysign(ay, E[0, 1] + E[1, 0]), math.copysign(az, E[0, 2] + E[2, 0])
+        ay, az = math.copysign(ay, e01 + e10), math.copysign(az, e02 + e20)
     elif ay >= az:
-        ax, az = math.copysign(ax, E[0, 1] + E[1, 0]), math.copysign(az, E[1, 2] + E[2, 1])
+        ax, az = math.copysign(ax, e01 + e10), math.copysign(az, e12 + e21)
     else:
-        ax, ay = math.copysign(ax, E[0, 2] + E[2, 0]), math.copysign(ay, E[1, 2] + E[2, 1])
+        ax, ay = math.copysign(ax, e02 + e20), math.copysign(ay, e12 + e21)
     return ax * math.pi, ay * math.pi, az * math.pi
 
 
@@ -230,6 +238,46 @@ def check_pose(pose, max_distance):
         return POSE_NOT_RIGID
     return POSE_OK
 
+@_jit
+def pose_goal(pose, max_distance, rotation_mode, position, rotation):
+    """``check_pose``, then, if the pose is fine, position = its translation and, by rotation_mode,
+    rotation = its rotation (1), the rotation about z by its yaw, atan2(r10, r00) (2: a planar
+    chain's target), or rotation untouched (0: position only).  Returns check_pose's code.  What
+    ``base.parse_goal`` does to a 4x4 pose, in one call instead of ~2 us of Python."""
+    problem = check_pose(pose, max_distance)
+    if problem != POSE_OK:
+        return problem
+    for i in range(3):
+        position[i] = pose[i, 3]
+    if rotation_mode == 1:
+        for i in range(3):
+            for j in range(3):
+                rotation[i, j] = pose[i, j]
+    elif rotation_mode == 2:
+        yaw = math.atan2(pose[1, 0], pose[0, 0])
+        c, s = math.cos(yaw), math.sin(yaw)
+        rotation[0, 0], rotation[0, 1], rotation[0, 2] = c, -s, 0.0
+        rotation[1, 0], rotation[1, 1], rotation[1, 2] = s, c, 0.0
+        rotation[2, 0], rotation[2, 1], rotation[2, 2] = 0.0, 0.0, 1.0
+    return POSE_OK
+
+
+@_jit
+def clamp_finite(values, lower, upper, out):
+    """out = values within [lower, upper] (as ``min(max(v, low), high)``), or False if a value is
+    not finite (out is then unspecified).  A solve's seed in one call: ~1.5 us of Python at 3 joints."""
+    for i in range(values.shape[0]):
+        v = values[i]
+        if not math.isfinite(v):
+            return False
+        if lower[i] > v:
+            v = lower[i]
+        if upper[i] < v:
+            v = upper[i]
+        out[i] = v
+    return True
+
+
 def pack_chain(fixed, motion, var, reduction, couplings, offsets, coefficients, coupled_lower, coupled_upper,
                lower, upper, revolute) -> tuple[np.ndarray, np.ndarray]:
     """A chain's arrays as one float and one int array: numba checks the type of every
@@ -282,12 +330,22 @@ def attempt_packed(chain_floats, chain_ints, goal_floats, goal_ints, settings, q
 
 
 @_jit
-def attempt_measured(chain_floats, chain_ints, goal_floats, goal_ints, q0, max_steps, patience, out):
+def attempt_measured(chain_floats, chain_ints, template, goal_ints, position, rotation, tolerance2,
+                     orientation_tolerance, q0, max_steps, patience, out):
     """``attempt_packed``, then what a result reports of its best q, in the same call (a solve that
-    needs no restart makes one compiled call).  goal_floats: ``pack_goal``'s, then the settings of
-    ``attempt_packed``.  out = (q (n), tool pose (4, 4) row by row, position error, orientation
-    error, error vector: position rows (x, y for planar chains), then the rotation vector (its z
-    for planar chains) when the goal has a rotation).  Returns (converged, iterations, score)."""
+    needs no restart makes one compiled call).  template: ``pack_goal``'s floats, then the settings
+    of ``attempt_packed``, of which the goal's position (3,), rotation (3, 3) and the two tolerances
+    are set here (in Python, a copy and four writes cost ~0.8 us).  out = (q (n), tool pose (4, 4)
+    row by row, position error, orientation error, error vector: position rows (x, y for planar
+    chains), then the rotation vector (its z for planar chains) when the goal has a rotation).
+    Returns (converged, iterations, score)."""
+    goal_floats = template.copy()
+    for i in range(3):
+        goal_floats[i] = position[i]
+        for j in range(3):
+            goal_floats[3 + 3 * i + j] = rotation[i, j]
+    goal_floats[-2] = tolerance2
+    goal_floats[-1] = orientation_tolerance
     q, converged, iterations, score = attempt_packed(chain_floats, chain_ints, goal_floats[:-5], goal_ints,
                                                      goal_floats[-5:], q0, max_steps, patience)
     n = chain_ints[0]

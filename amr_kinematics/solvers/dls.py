@@ -24,6 +24,7 @@ BATCHES_PER_HYPERCUBE = 8  # restarts that share one Latin hypercube of starts
 
 class DLSSolver(Solver):
     name = "dls"
+    runs_compiled = True  # the compiled attempts (compiled.py), when numba is there
     options = {
         "damping": 1e-3,             # lambda-bar, m
         "adaptive_damping": 0.1,     # lambda^2 = damping^2 + adaptive_damping |e|^2 (0: constant)

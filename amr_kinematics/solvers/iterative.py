@@ -142,15 +142,11 @@ def measured_attempt(chain: Chain, goal: Goal, request: Request, step: StepSetti
         if len(layout.packed_goals) < 64:
             layout.packed_goals[key] = plan
     template, ints, size = plan
-    floats = template.copy()
-    floats[:3] = goal.position
-    if has_rotation:
-        floats[3:12] = goal.rotation.ravel()
-    floats[-2] = request.tolerance ** 2
-    floats[-1] = request.orientation_tolerance
     out = np.empty(size)
-    converged, iterations, score = compiled.attempt_measured(*layout.arrays, floats, ints, q0, max_steps,
-                                                             step.patience, out)
+    chain_floats, chain_ints = layout.arrays
+    converged, iterations, score = compiled.attempt_measured(
+        chain_floats, chain_ints, template, ints, goal.position, goal.rotation if has_rotation else _EYE3,
+        request.tolerance ** 2, request.orientation_tolerance, q0, max_steps, step.patience, out)
     n = chain.n
     return Attempt(out[:n], converged, iterations, score), out
 

@@ -30,6 +30,7 @@ MAX_SAMPLES = 10_000  # sampling and scoring 10k candidates takes ~20 ms
 
 class PinvSolver(Solver):
     name = "pinv"
+    runs_compiled = True  # the compiled attempts (compiled.py), when numba is there
     options = {
         "samples": 8,                  # Latin-hypercube candidates (besides the seed)
         "gain": 0.7,                   # alpha of dq = alpha J^+ e; 1.0 (the seed's) overshoots: 92-95 % full pose on unseen arms

@@ -7,8 +7,9 @@ import time
 import numpy as np
 import pytest
 
-from amr_kinematics.solvers import compiled
-from amr_kinematics.solvers.base import Request, parse_goal
+from amr_kinematics.errors import InvalidRequestError
+from amr_kinematics.solvers import compiled, get_solver
+from amr_kinematics.solvers.base import Request, _seed, parse_goal
 from amr_kinematics.solvers.iterative import Refiner, StepSettings
 
 from kin_helpers import chain_set, random_targets, raw_params, unseen_set  # noqa: F401 (fixtures)
@@ -76,3 +77,47 @@ def test_one_call_result_matches_the_measures_of_finish(chain_set, name, with_or
             np.testing.assert_allclose(result.error, expected.error, atol=1e-12)
             assert result.position_error == pytest.approx(expected.position_error, abs=1e-12)
             assert result.orientation_error == pytest.approx(expected.orientation_error, abs=1e-12)
+
+
+@pytest.mark.parametrize("name, with_orientation", [("ull3", True), ("ull3", False), ("ur5", True), ("ur5", False)])
+def test_compiled_goal_and_seed_equal_the_python_checks(chain_set, name, with_orientation):
+    """A float64 4x4 target and a float64 seed vector take one compiled call each (pose_goal,
+    clamp_finite); a nested list takes the Python checks: the same goal and seed, to the bit."""
+    chain = chain_set[name].chain
+    rng = np.random.default_rng(7)
+    for target in random_targets(chain, 20, seed=3):
+        fast, generic = parse_goal(chain, target, with_orientation), parse_goal(chain, target.tolist(), with_orientation)
+        assert np.array_equal(fast.position, generic.position)
+        assert (fast.rotation is None) == (generic.rotation is None) == (not with_orientation)
+        if with_orientation:
+            assert np.array_equal(fast.rotation, generic.rotation)
+        seed = rng.uniform(chain.lower - 1.0, chain.upper + 1.0)  # some values outside the limits
+        assert np.array_equal(_seed(chain, seed), chain.checked_clamp(seed.tolist(), "seed"))
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda pose: pose.__setitem__((0, 1), np.nan), "finite"),
+    (lambda pose: pose.__setitem__((3, 3), np.inf), "finite"),
+    (lambda pose: pose.__setitem__((1, 3), 2e6), r"absurd: coordinates beyond 1e\+06 m"),
+    (lambda pose: pose.__setitem__((0, 0), 2.0), "rigid"),
+    (lambda pose: pose.__setitem__((3, 0), 0.5), "rigid"),
+])
+def test_compiled_goal_refuses_what_the_python_checks_refuse(chain_set, change, match):
+    chain = chain_set["ull3"].chain
+    pose = np.eye(4)
+    change(pose)
+    for target in (pose, pose.tolist()):
+        for with_orientation in (True, False):
+            with pytest.raises(InvalidRequestError, match=match):
+                parse_goal(chain, target, with_orientation)
+
+
+@pytest.mark.parametrize("seed, match", [
+    (np.array([0.0, np.nan, 0.0]), r"seed must be finite, got \[0.0, nan, 0.0\]"),
+    (np.array([0.0, 0.0, -np.inf]), "seed must be finite"),
+    (np.zeros(4), "seed has 4 values, chain 'ull3' has 3 joints"),
+    (np.zeros(3, dtype=np.float32) + np.float32(np.nan), "seed must be finite"),
+])
+def test_bad_seed_arrays_are_refused(chain_set, seed, match):
+    with pytest.raises(InvalidRequestError, match=match):
+        get_solver("dls").solve(chain_set["ull3"].chain, np.eye(4), seed=seed, with_orientation=True)
