@@ -30,6 +30,21 @@ def checked_beacons(positions) -> np.ndarray:
     return array
 
 
+def same_beacons(expected: np.ndarray, positions, tolerance: float = 1e-6) -> None:
+    """Raises, naming the difference, unless `positions` are the `expected` beacons in the same order (each
+    within `tolerance` m): a reading measured to other beacons cannot be scored against these."""
+    array = np.asarray(positions, dtype=float).reshape(-1, 2) if len(positions) else np.zeros((0, 2))
+    if array.shape != expected.shape:
+        raise LocalizationError(f"beacons: {array.shape[0]} beacon positions, expected {expected.shape[0]}")
+    if not np.isfinite(array).all():
+        raise LocalizationError("beacons: positions must be finite")
+    moved = np.flatnonzero(np.hypot(*(array - expected).T) > tolerance)
+    if moved.size:
+        i = int(moved[0])
+        raise LocalizationError(f"beacons: beacon {i} at ({array[i, 0]:.3f}, {array[i, 1]:.3f}), expected "
+                                f"({expected[i, 0]:.3f}, {expected[i, 1]:.3f}) (positions changed)")
+
+
 @dataclass(frozen=True)
 class BeaconReading:
     """Measured ranges (one per beacon, in the beacons' order) and compass heading (rad)."""
@@ -42,8 +57,10 @@ class BeaconReading:
         values = np.asarray(ranges, dtype=float)
         if values.shape != (beacon_count,):
             raise LocalizationError(f"beacon ranges: expected {beacon_count} values (one per beacon), got {values.size}")
-        if not np.isfinite(values).all() or (values < 0.0).any():
-            raise LocalizationError("beacon ranges: every range must be a finite number >= 0")
+        bad = np.flatnonzero(~np.isfinite(values) | (values < 0.0))
+        if bad.size:
+            raise LocalizationError(f"beacon ranges: range {bad[0]} is {values[bad[0]]}: every range must be a "
+                                    "finite number >= 0")
         if not math.isfinite(compass):
             raise LocalizationError(f"beacon ranges: compass heading must be finite, got {compass}")
         return cls(values, float(compass))

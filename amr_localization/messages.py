@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from amr_interfaces.msg import LocalizedPose, LocalizerStatus
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance, Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
@@ -19,6 +19,7 @@ from tf2_msgs.msg import TFMessage
 from transforms3d.euler import quat2euler
 
 from amr_control.scan_sectors import ScanData
+from amr_localization.beacons import BeaconReading, same_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import FilterStatus
 from amr_localization.pose_estimate import PoseEstimate
@@ -40,6 +41,18 @@ def odometry_pose(message: Odometry) -> tuple[float, float, float]:
     """(x, y, theta) of the robot in the odometry frame."""
     pose = message.pose.pose
     return float(pose.position.x), float(pose.position.y), yaw_of(pose.orientation)
+
+
+def beacon_positions(message: BeaconRanges) -> np.ndarray:
+    """(B, 2) beacon positions of an amr_interfaces/BeaconRanges, unchecked (beacons.checked_beacons checks)."""
+    return np.array([[b.x, b.y] for b in message.beacons], dtype=float).reshape(-1, 2)
+
+
+def beacon_reading(message: BeaconRanges, positions: np.ndarray) -> BeaconReading:
+    """The ranges and compass of a BeaconRanges measured to `positions` (the filter's beacons, in their order);
+    raises LocalizationError naming the problem: other positions, a wrong count, a NaN or negative range."""
+    same_beacons(positions, beacon_positions(message))
+    return BeaconReading.checked(list(message.ranges), message.compass, len(positions))
 
 
 def scan_data(message: LaserScan) -> ScanData:

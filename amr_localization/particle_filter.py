@@ -43,7 +43,7 @@ import numpy as np
 
 from amr_control.scan_sectors import ScanData
 from amr_localization.augmented_mcl import RecoveryRate
-from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons
+from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons, same_beacons
 from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
@@ -137,6 +137,14 @@ class ParticleFilter:
         self.config = config
         self.noise = OdometryNoise(config.alpha1, config.alpha2, config.alpha3, config.alpha4)
 
+    def set_beacons(self, positions: Sequence[Sequence[float]]) -> None:
+        """Give a filter built without beacons their positions (a node learns them from the first reading).
+        Once set they are fixed: other positions raise (build a new filter for other beacons)."""
+        checked = checked_beacons(positions)
+        if self.beacons is not None:
+            same_beacons(self.beacons, checked)
+        self.beacons = checked
+
     # -- initialization ------------------------------------------------------------------
 
     def reinitialize_global(self) -> None:
@@ -202,6 +210,8 @@ class ParticleFilter:
         selected = select_beams(scan, self.config.max_beams, self.config.laser_model == "beam") if scan is not None else None
         if beacons is not None and self.beacons is None:
             raise LocalizationError("beacon ranges: this filter was built without beacon positions")
+        if beacons is not None and len(beacons.ranges) != len(self.beacons):
+            raise LocalizationError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
         self.status = FilterStatus(particles=len(self.particles), clusters=self._clusters.count,
                                    effective_sample_size=self.status.effective_sample_size,
                                    cluster_share=self.status.cluster_share, fit=self.status.fit)
@@ -249,8 +259,6 @@ class ParticleFilter:
             log_likelihood += self.config.likelihood_exponent * self._laser.log_likelihood(self.particles, beams)
             used += int(np.count_nonzero(beams.returned))
         if beacons is not None:
-            if len(beacons.ranges) != len(self.beacons):
-                raise LocalizationError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
             log_likelihood += beacon_log_likelihood(self.particles, self.beacons, beacons,
                                                     self.config.beacon_sigma_range, self.config.beacon_sigma_compass)
             used += len(self.beacons) + 1

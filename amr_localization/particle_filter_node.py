@@ -5,15 +5,18 @@ A thin shell over amr_localization.particle_filter.ParticleFilter:
 configure  reads the parameters and the map (`world`, rasterized; or `map_yaml`, a map_server file;
            else the `map` topic, transient local: the filter is built when the first map arrives),
            builds the filter (particles uniform over free space: global localization) and its topics.
-active     /odometry + /scan are paired by stamp (amr_control.sync, the approximate-time policy); each
-           pair is one filter update and gets, all stamped with the scan's stamp:
+active     /odometry + /scan (use_scan) + /beacons (use_beacons: amr_interfaces/BeaconRanges) are paired by
+           stamp (amr_control.sync, the approximate-time policy); each set is one filter update and gets, all
+           stamped with the scan's stamp (the beacons' without a scan):
            /pose (amr_interfaces/LocalizedPose, frame map), map -> odom on /tf, ~/status, and
            /particle_cloud (geometry_msgs/PoseArray) at most every particle_cloud_period seconds.
            /initialpose (RViz's 2D Pose Estimate) re-seeds around a pose;
            ~/reinitialize_global_localization (std_srvs/Empty) spreads the particles again.
 
-One /pose answers every pair, so a lockstep loop that waits for it never stalls: a scan the filter
-refuses (too short, malformed) is logged and the pose moves by odometry alone; odometry it refuses
+One /pose answers every set, so a lockstep loop that waits for it never stalls: a scan the filter
+refuses (too short, malformed) is logged and the update goes on without it (by the beacons if used, else
+the pose moves by odometry alone); so does a beacon reading it refuses (NaN or negative ranges, other
+beacon positions or another count than the world's or the first reading's); odometry it refuses
 (NaN) is logged and the last pose is repeated. Nothing non-finite is published; no exception leaves
 a callback. Stamps going back (a simulator reset) restart the pairing with a log line; an odometry
 jump is taken as a reset of odometry, not as motion (the library's event, logged).
@@ -25,6 +28,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from amr_interfaces.msg import BeaconRanges
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
@@ -36,6 +40,7 @@ from std_srvs.srv import Empty
 
 from amr_control.sync import NANOSECONDS_PER_SECOND
 from amr_localization import messages
+from amr_localization.beacons import BeaconReading, checked_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
 from amr_localization.particle_filter import Estimate, ParticleFilter
@@ -48,7 +53,6 @@ from amr_util.managed_node import run
 from amr_util.qos import MAP, SENSOR_DATA, reliable
 from amr_util.share import share_directory
 
-ODOMETRY, SCAN = 0, 1
 NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS + SHELL_SPECS)
 
 
@@ -73,6 +77,7 @@ class ParticleFilterNode(LocalizerNode):
     """Wires ParticleFilter to topics, services and the lifecycle; holds no estimation logic."""
 
     INPUTS = ("odometry", "scan")
+    """The default; configure sets this node's own from use_scan and use_beacons (odometry first)."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__("particle_filter", **kwargs)
@@ -82,6 +87,7 @@ class ParticleFilterNode(LocalizerNode):
         self._node_services: list = []
         self._last_estimate: Estimate | None = None
         self._last_cloud_ns: int | None = None
+        self._beacon_positions: np.ndarray | None = None
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -89,8 +95,12 @@ class ParticleFilterNode(LocalizerNode):
     def on_configure(self, state: State) -> TransitionCallbackReturn:
         problems = self.parameter_problems()
         values = self.parameter_values()
+        self._beacon_positions = None
         if not problems:
             try:
+                if not (values["use_scan"] or values["use_beacons"]):
+                    raise LocalizationError("use_scan and use_beacons are both false: the filter has nothing to "
+                                            "measure (set at least one)")
                 self._config = config_of(values)
                 grid = self._static_map(values)
                 self.filter = self._build_filter(grid) if grid is not None else None
@@ -101,11 +111,17 @@ class ParticleFilterNode(LocalizerNode):
             self.filter = None
             return self.fail_configure(problems)
         self._settings = {name: values[name] for name in NODE_NAMES}
+        self.INPUTS = ("odometry",) + ("scan",) * values["use_scan"] + ("beacons",) * values["use_beacons"]
         self._start_pairing(values, self._on_pair)
         self._create_interfaces(values)
         source = values["world"] or values["map_yaml"] or f"topic {values['map_topic']} (waiting)"
+        beacons = ""
+        if values["use_beacons"]:
+            beacons = (f"; {len(self._beacon_positions)} beacons from the world" if self._beacon_positions is not None
+                       else "; beacon positions from the first /beacons reading")
         self.get_logger().info(f"configured: map from {source}, "
-                               f"{self.filter.config.max_particles if self.filter else 0} particles spread over free space")
+                               f"{self.filter.config.max_particles if self.filter else 0} particles spread over free space; "
+                               f"paired: {' + '.join('/' + name for name in self.INPUTS)}{beacons}")
         return TransitionCallbackReturn.SUCCESS
 
     def _static_map(self, values: dict) -> OccupancyGrid | None:
@@ -113,27 +129,33 @@ class ParticleFilterNode(LocalizerNode):
             raise LocalizationError("world and map_yaml: give one map source, not both")
         if values["world"]:
             world = load_world(resolve_world_path(values["world"], world_dirs()))
+            if values["use_beacons"] and world.beacons:
+                self._beacon_positions = checked_beacons(world.beacons)
             return rasterize_world(world, values["map_resolution"], frame_id=values["global_frame"])
         if values["map_yaml"]:
             return load_map(Path(values["map_yaml"]).expanduser(), frame_id=values["global_frame"])
         return None
 
     def _build_filter(self, grid: OccupancyGrid) -> ParticleFilter:
-        return ParticleFilter(grid, self._config, range_max=self.get_parameter("laser_max_range").value)
+        return ParticleFilter(grid, self._config, range_max=self.get_parameter("laser_max_range").value,
+                              beacons=self._beacon_positions)
 
     def _create_interfaces(self, values: dict) -> None:
         qos = reliable(values["sync_queue_size"])
         self._create_estimate_outputs(values)
         self._outputs["cloud"] = self.create_lifecycle_publisher(PoseArray, "particle_cloud", reliable(2))
-        self._inputs = [
-            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), qos),
-            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
-            self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, reliable()),
-        ]
+        kinds = {"odometry": (Odometry, qos), "scan": (LaserScan, SENSOR_DATA), "beacons": (BeaconRanges, qos)}
+        self._inputs = [self.create_subscription(kinds[name][0], name, self._input_callback(index), kinds[name][1])
+                        for index, name in enumerate(self.INPUTS)]
+        self._inputs.append(
+            self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, reliable()))
         if self.filter is None:
             self._inputs.append(
                 self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, MAP))
         self._node_services = [self.create_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
+
+    def _input_callback(self, index: int):
+        return lambda message: self._on_message(index, message)
 
     def apply_live(self, changes: dict) -> None:
         """Tunables while configured: the whole new configuration is checked, then used from the next update."""
@@ -163,7 +185,7 @@ class ParticleFilterNode(LocalizerNode):
             self.destroy_service(service)
         self._destroy_outputs()
         self._inputs, self._node_services = [], []
-        self.filter = self._sync = self._last_estimate = None
+        self.filter = self._sync = self._last_estimate = self._beacon_positions = None
 
     # -- inputs ---------------------------------------------------------------------------------
 
@@ -180,13 +202,16 @@ class ParticleFilterNode(LocalizerNode):
         super()._on_clock_jump(index, jump_ns)
         self._last_cloud_ns = None
 
-    def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
-        """One filter update per pair, then one /pose (+ tf, status, maybe cloud) with the scan's stamp."""
+    def _on_pair(self, *inputs) -> None:
+        """One filter update per set of inputs, then one /pose (+ tf, status, maybe cloud) with the scan's stamp
+        (the beacon reading's without a scan)."""
+        named = dict(zip(self.INPUTS, inputs))
+        odometry, scan, beacons = named["odometry"], named.get("scan"), named.get("beacons")
         if self.filter is None:
-            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): scan ignored")
+            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): observation ignored")
             return
         try:
-            estimate = self._update(odometry, scan)
+            estimate = self._update(odometry, scan, beacons)
         except Exception as error:  # a filter bug must not take the node down: repeat the last pose
             self.get_logger().error(f"filter update failed: {type(error).__name__}: {error}",
                                     throttle_duration_sec=WARNING_PERIOD)
@@ -195,18 +220,36 @@ class ParticleFilterNode(LocalizerNode):
             return
         if estimate.status.event:
             self._warn(estimate.status.event)
-        self._publish(scan.header.stamp, odometry, estimate)
+        self._publish((scan if scan is not None else beacons).header.stamp, odometry, estimate)
 
-    def _update(self, odometry: Odometry, scan: LaserScan) -> Estimate | None:
+    def _update(self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None) -> Estimate | None:
         pose = messages.odometry_pose(odometry)
+        reading = self._beacon_reading(beacons) if beacons is not None else None
         try:
-            return self.filter.update(pose, messages.scan_data(scan))
+            return self.filter.update(pose, messages.scan_data(scan) if scan is not None else None, beacons=reading)
         except LocalizationError as error:
             if "odometry" in str(error):
                 self._warn(f"{error}: the last pose is repeated")
                 return self._last_estimate
-            self._warn(f"scan refused ({error}): the pose follows odometry alone")
-            return self.filter.update(pose)
+            alone = "the beacons and odometry" if reading is not None else "odometry alone"
+            self._warn(f"scan refused ({error}): the pose follows {alone}")
+            return self.filter.update(pose, beacons=reading)
+
+    def _beacon_reading(self, message: BeaconRanges) -> BeaconReading | None:
+        """The reading, checked against the filter's beacons (the first good reading's positions when the
+        world declared none); None, logged, when it is refused: the update goes on without it."""
+        try:
+            if self._beacon_positions is None:
+                positions = checked_beacons(messages.beacon_positions(message))
+                self.filter.set_beacons(positions)
+                self._beacon_positions = positions
+                self.get_logger().info(f"beacon positions from the first /beacons reading: "
+                                       f"{np.round(positions, 3).tolist()}")
+            return messages.beacon_reading(message, self._beacon_positions)
+        except LocalizationError as error:
+            without = "the scan and odometry" if self._settings["use_scan"] else "odometry alone"
+            self._warn(f"/beacons reading refused ({error}): the pose follows {without}")
+            return None
 
     def _on_initial_pose(self, message: PoseWithCovarianceStamped) -> None:
         try:

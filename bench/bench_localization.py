@@ -1,7 +1,9 @@
 """Localization figures (issue 12): update cost, global localization while wall following, kidnapping,
-symmetric worlds, and the beacon localizer's pyramidal search against the exhaustive grid.
+symmetric worlds, the beacon localizer's pyramidal search against the exhaustive grid, and, on the beacon
+world (open_room), the beacon localizer against the particle filter with beacons, scan + beacons and scan.
 
-Prints; asserts nothing. Usage: .venv/bin/python bench/bench_localization.py [--quick]
+Prints; asserts nothing.
+Usage: .venv/bin/python bench/bench_localization.py [--quick] [--beacon-comparison (that alone)]
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig  # noqa: E402
 from amr_localization.beacons import BeaconReading, expected_ranges  # noqa: E402
@@ -25,6 +28,7 @@ from amr_localization.distance_field import DistanceField  # noqa: E402
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams  # noqa: E402
 from amr_localization.particle_filter import ParticleFilter  # noqa: E402
 from amr_localization.particle_filter_config import ParticleFilterConfig  # noqa: E402
+from amr_localization.poses import wrap  # noqa: E402
 from amr_localization.scan_beams import select_beams  # noqa: E402
 from amr_localization.sensor_mount import SensorMount  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
@@ -225,16 +229,119 @@ def bench_beacons(cases: int) -> None:
           f"{rows[:, 1, 2].mean() / rows[:, 0, 2].mean():,.0f}x time")
 
 
+COMPARISON_STARTS = ((-1.5, -1.0, 0.0), (1.0, -0.5, 2.0), (-1.0, 0.8, -1.0), (1.5, 0.0, 3.0), (0.5, -1.1, 1.0))
+"""open_room poses clear of the walls, the pillar and the table; the first is the world's start."""
+
+
+class _BeaconLocalizerRun:
+    """The beacon_localizer node's logic without ROS: localized while the ranges fit the pose within threshold."""
+
+    def __init__(self, beacons) -> None:
+        self.localizer = BeaconLocalizer(beacons, BeaconLocalizerConfig())  # initial pose (0, 0, 0): unknown
+
+    def update(self, odometry, scan, reading: BeaconReading):
+        self.localizer.update(odometry, reading.ranges, reading.compass)
+        pose = self.localizer.pose
+        return pose, self.localizer.mismatch(pose, reading) <= self.localizer.config.threshold
+
+
+class _FilterRun:
+    def __init__(self, grid, beacons, seed: int, use_scan: bool, use_beacons: bool) -> None:
+        self.pf = ParticleFilter(grid, ParticleFilterConfig(lidar_x=-0.032, seed=seed), range_max=3.5,
+                                 beacons=beacons if use_beacons else None)
+        self.use_scan, self.use_beacons = use_scan, use_beacons
+
+    def update(self, odometry, scan, reading: BeaconReading):
+        estimate = self.pf.update(odometry, scan if self.use_scan else None, beacons=reading if self.use_beacons else None)
+        return (estimate.pose.x, estimate.pose.y, estimate.pose.theta), estimate.localized
+
+
+def beacon_comparison_run(world: World, start, seed: int, seconds: float) -> dict:
+    """One wall-following drive from `start`; every localizer gets the same observation each step
+    (odometry, scan, one beacon reading). Returns name -> (t, localized, position error, heading error, cpu s)."""
+    sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=seed, start=tuple(start),
+                                            lidar=LidarConfig(noise_std=0.02),
+                                            encoders=EncoderConfig(noise=0.02, slip=0.03)))
+    grid = rasterize_world(world, RESOLUTION)
+    runs = {"beacon localizer": _BeaconLocalizerRun(world.beacons),
+            "PF beacons": _FilterRun(grid, world.beacons, seed, use_scan=False, use_beacons=True),
+            "PF scan + beacons": _FilterRun(grid, world.beacons, seed, use_scan=True, use_beacons=True),
+            "PF scan": _FilterRun(grid, world.beacons, seed, use_scan=True, use_beacons=False)}
+    traces = {name: ([], [], [], [], []) for name in runs}
+    follower = WallFollower(FOLLOWER)
+    while sim.time < seconds:
+        odometry, scan = tuple(sim.odom_pose), scan_of(sim)
+        positions, ranges, compass = sim.beacon_reading()
+        reading = BeaconReading.checked(ranges, compass, len(positions))
+        truth = sim.pose
+        for name, localizer in runs.items():
+            started = time.process_time()
+            pose, localized = localizer.update(odometry, scan, reading)
+            cpu = time.process_time() - started
+            for values, value in zip(traces[name], (sim.time, localized, math.hypot(pose[0] - truth.x, pose[1] - truth.y),
+                                                     abs(float(wrap(pose[2] - truth.theta))), cpu)):
+                values.append(value)
+        command = follower.compute(scan, *sim.odom_twist, sim.time)
+        sim.step(command.v, command.w)
+    return {name: tuple(np.array(v) for v in values) for name, values in traces.items()}
+
+
+def bench_beacon_comparison(starts: int, seconds: float) -> None:
+    world = load_world(WORLDS / "open_room.yaml")
+    print(f"== beacon world ({world.name}, {len(world.beacons)} beacons near the corners): one wall-following drive "
+          f"of {seconds:.0f} s per start, the same observations to each localizer; LiDAR noise 0.02 m, encoder "
+          "noise 0.02, slip 0.03, beacon range noise 0.01 m, compass 0.01 rad; none knows the start")
+    warm = Simulator(world, SimulationConfig())  # compile the likelihood kernel outside the timed steps
+    _FilterRun(rasterize_world(world, RESOLUTION), world.beacons, 0, True, True).update(
+        tuple(warm.odom_pose), scan_of(warm), BeaconReading.checked(warm.beacon_reading()[1], 0.0, len(world.beacons)))
+    results: dict[str, list] = {}
+    for seed, start in enumerate(COMPARISON_STARTS[:starts]):
+        for name, (t, localized, position, heading, cpu) in beacon_comparison_run(world, start, seed, seconds).items():
+            index = np.flatnonzero(localized)
+            row = {"cpu": float(np.mean(cpu)), "cpu_max": float(cpu.max())}
+            if index.size:
+                first = int(index[0])
+                row.update(time=t[first], error=position[first], heading=math.degrees(heading[first]),
+                           rms=float(np.sqrt(np.mean(position[first:] ** 2))),
+                           rms_heading=math.degrees(float(np.sqrt(np.mean(heading[first:] ** 2)))),
+                           kept=float(np.mean(localized[first:])))
+                print(f"start {start}  {name:18s} localized at {row['time']:5.2f} s  error {100 * row['error']:5.2f} cm "
+                      f"{row['heading']:4.2f} deg  RMS after {100 * row['rms']:5.2f} cm {row['rms_heading']:4.2f} deg  "
+                      f"localized {100 * row['kept']:5.1f} % after  CPU {1e3 * row['cpu']:.2f} ms (max {1e3 * row['cpu_max']:.1f})")
+            else:
+                print(f"start {start}  {name:18s} never localized  CPU {1e3 * row['cpu']:.2f} ms (max {1e3 * row['cpu_max']:.1f})")
+            results.setdefault(name, []).append(row)
+    print(f"summary over {starts} starts (first declaration: median, max; error at it: max; RMS from it on: worst; "
+          "CPU per observation: mean, worst single one)")
+    for name, rows in results.items():
+        done = [r for r in rows if "time" in r]
+        if not done:
+            print(f"{name:18s} never localized")
+            continue
+        times = [r["time"] for r in done]
+        print(f"{name:18s} localized {len(done)}/{len(rows)}  at {np.median(times):5.2f} s (max {max(times):5.2f})  "
+              f"error max {100 * max(r['error'] for r in done):5.2f} cm {max(r['heading'] for r in done):4.2f} deg  "
+              f"RMS worst {100 * max(r['rms'] for r in done):5.2f} cm {max(r['rms_heading'] for r in done):4.2f} deg  "
+              f"localized after >= {100 * min(r['kept'] for r in done):5.1f} %  "
+              f"CPU {1e3 * np.mean([r['cpu'] for r in rows]):.2f} ms (max {1e3 * max(r['cpu_max'] for r in rows):.1f})")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="fewer runs")
+    parser.add_argument("--beacon-comparison", action="store_true",
+                        help="only the beacon world comparison (beacon localizer vs particle filter)")
     args = parser.parse_args()
     quick = args.quick
+    if args.beacon_comparison:
+        bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
+        return
     bench_update_cost(repeats=20 if quick else 50)
     bench_beacons(cases=5 if quick else 20)
     bench_symmetric(seeds=2 if quick else 5, seconds=60.0 if quick else 120.0)
     bench_kidnap(seeds=1 if quick else 3)
     bench_global(seeds=1 if quick else 3, mazes=4 if quick else 16, seconds=90.0)
+    bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig
-from amr_localization.beacons import BeaconReading, expected_ranges
+from amr_localization.beacons import BeaconReading, expected_ranges, same_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
@@ -92,3 +92,29 @@ def test_the_particle_filter_localizes_from_beacon_ranges_alone():
     # keeps the filter cautious (the beacon localizer's grid search is the precise tool here)
     assert errors[0] > 0.5 and errors[-1] < 0.15
     assert abs(estimate.pose.theta - theta) < 0.05
+
+
+def test_the_filter_takes_beacon_positions_once_and_refuses_other_ones():
+    """A node learns the positions from the first reading (set_beacons); other positions or another count
+    are refused by name, and a refused reading leaves the filter as it was."""
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    assert world.beacons == ((-1.9, -1.4), (1.9, -1.4), (1.9, 1.4), (-1.9, 1.4)), "the shipped beacon world"
+    pf = ParticleFilter(grid_of(world, 0.05), ParticleFilterConfig(max_particles=300))
+    pf.set_beacons(world.beacons)
+    pf.set_beacons(np.array(world.beacons) + 1e-9)  # the same beacons: accepted
+    moved = np.array(world.beacons)
+    moved[1, 1] += 0.2
+    with pytest.raises(LocalizationError, match=r"beacon 1 at \(1.900, -1.200\), expected \(1.900, -1.400\)"):
+        pf.set_beacons(moved)
+    with pytest.raises(LocalizationError, match="3 beacon positions, expected 4"):
+        same_beacons(pf.beacons, world.beacons[:3])
+    with pytest.raises(LocalizationError, match="finite"):
+        same_beacons(pf.beacons, [[math.nan, 0.0]] * 4)
+    with pytest.raises(LocalizationError, match="range 2 is nan"):
+        BeaconReading.checked([1.0, 1.0, math.nan, 1.0], 0.0, 4)
+    pf.update((0.0, 0.0, 0.0), beacons=BeaconReading.checked([1.0, 2.0, 3.0, 2.0], 0.0, 4))
+    particles, weights = pf.particles.copy(), pf.weights.copy()
+    with pytest.raises(LocalizationError, match="expected 4 values, got 3"):
+        pf.update((0.1, 0.0, 0.0), beacons=BeaconReading(np.array([1.0, 2.0, 3.0]), 0.0))
+    np.testing.assert_array_equal(pf.particles, particles)  # refused before the motion update
+    np.testing.assert_array_equal(pf.weights, weights)

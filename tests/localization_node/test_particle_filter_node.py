@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 from conftest import spin_until
-from amr_interfaces.msg import LocalizedPose, LocalizerStatus, SimulatorStatus
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus, SimulatorStatus
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
@@ -301,3 +301,153 @@ def test_a_map_file_and_a_bad_map_source(executor, tmp_path):
         assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
         assert problem in node.configure_error
         node.destroy_node()
+
+
+# -- beacon ranges as a measurement (use_beacons) ---------------------------------------------------
+
+BEACON_STEPS = 160
+
+
+class BeaconDriver(Node):
+    """Answers every /pose with an arc (a stand-in controller); records poses, readings and the truth."""
+
+    def __init__(self, context) -> None:
+        super().__init__("beacon_driver", context=context)
+        self.poses: list[LocalizedPose] = []
+        self.readings: list[int] = []
+        self.truth: dict[int, Odometry] = {}
+        self.cmd_vel = self.create_publisher(TwistStamped, "cmd_vel", 10)
+        self.create_subscription(LocalizedPose, "pose", self._on_pose, 100)
+        self.create_subscription(BeaconRanges, "beacons", lambda m: self.readings.append(stamp_ns(m)), 100)
+        self.create_subscription(Odometry, "ground_truth", lambda m: self.truth.__setitem__(stamp_ns(m), m), 100)
+
+    def _on_pose(self, message: LocalizedPose) -> None:
+        self.poses.append(message)
+        if len(self.poses) < BEACON_STEPS:
+            command = TwistStamped()
+            command.twist.linear.x, command.twist.angular.z = 0.2, 0.6  # a 0.33 m circle clear of the walls
+            self.cmd_vel.publish(command)
+
+    def error(self, pose: LocalizedPose) -> tuple[float, float]:
+        truth = self.truth[stamp_ns(pose)].pose.pose
+        estimate = pose.pose.pose
+        return (math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y),
+                abs(float(wrap(yaw_of(estimate.orientation) - yaw_of(truth.orientation)))))
+
+
+def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
+    """open_room declares 4 beacons: use_scan false + use_beacons true pairs /odometry with /beacons only
+    (no /scan subscription), answers every reading with one /pose and localizes from a uniform start."""
+    context = executor.context
+    simulator = SimulatorNode(context=context, parameter_overrides=[
+        Parameter("world", value="open_room.yaml"), Parameter("lockstep_resend_period", value=0.0)])
+    localizer = ParticleFilterNode(context=context, parameter_overrides=[
+        Parameter("world", value="open_room.yaml"), Parameter("use_scan", value=False),
+        Parameter("use_beacons", value=True), Parameter("max_particles", value=PARTICLES)])
+    driver = BeaconDriver(context)
+    for node in (simulator, localizer, driver):
+        executor.add_node(node)
+    configure_and_activate(localizer)
+    assert localizer.INPUTS == ("odometry", "beacons")
+    assert len(localizer.filter.beacons) == 4, "the positions come from the world"
+    assert simulator.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert spin_until(executor, lambda: simulator.count_subscribers("beacons") >= 2, 5.0)  # driver, filter
+    assert simulator.count_subscribers("scan") == 0, "a beacons-only filter does not subscribe /scan"
+    assert simulator.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert spin_until(executor, lambda: len(driver.poses) >= BEACON_STEPS, 60.0), f"{len(driver.poses)} poses"
+    spin_until(executor, lambda: False, 0.2)
+
+    poses = driver.poses
+    assert [stamp_ns(p) for p in poses] == driver.readings, "one /pose per reading, stamped with it"
+    assert all(np.isfinite([p.pose.pose.position.x, p.pose.pose.position.y, *p.pose.covariance]).all() for p in poses)
+    assert driver.error(poses[0])[0] > 0.3, "it starts spread over the room, not at the start"
+    first = next((i for i, p in enumerate(poses) if p.localized), None)
+    assert first is not None, f"not localized after {len(poses)} readings"
+    position, heading = driver.error(poses[first])
+    print(f"beacons only: localized after {first} readings, error {100 * position:.1f} cm, {math.degrees(heading):.1f} deg")
+    assert position <= 0.05 and heading <= math.radians(5)
+    assert all(p.localized for p in poses[first:])
+    assert max(driver.error(p)[0] for p in poses[first:]) <= 0.05
+
+
+class BeaconRig(Rig):
+    """The rig, plus /beacons from the simulated reading (open_room's four beacons)."""
+
+    def __init__(self, context, world) -> None:
+        Node.__init__(self, "rig", context=context)
+        self.odometry = self.create_publisher(Odometry, "odometry", 10)
+        self.scan = self.create_publisher(LaserScan, "scan", qos_profile_sensor_data)
+        self.beacons = self.create_publisher(BeaconRanges, "beacons", 10)
+        self.poses: list[LocalizedPose] = []
+        self.create_subscription(LocalizedPose, "pose", self.poses.append, 100)
+        self.sim = Simulator(world)
+
+    def send_reading(self, stamp: float, positions=None, ranges=None) -> None:
+        real_positions, real_ranges, compass = self.sim.beacon_reading()
+        message = sim_messages.beacon_ranges(sim_messages.stamp(stamp), "map",
+                                             real_positions if positions is None else np.asarray(positions),
+                                             real_ranges if ranges is None else np.asarray(ranges), compass,
+                                             self.sim.config.beacons)
+        self.beacons.publish(message)
+        self.send(stamp)
+
+
+def test_a_bad_beacon_reading_is_refused_by_name_and_the_filter_keeps_running(executor, tmp_path):
+    """Scan + beacons on a world that declares none: the positions come from the first reading; later
+    readings with NaN or negative ranges, another count or moved beacons are refused with a log line,
+    and every set still gets one finite /pose."""
+    import yaml
+    data = yaml.safe_load((WORLDS / "open_room.yaml").read_text())
+    beacons = data.pop("beacons")
+    (tmp_path / "room.yaml").write_text(yaml.safe_dump(data))
+    context = executor.context
+    node = ParticleFilterNode(context=context, parameter_overrides=[
+        Parameter("world", value=str(tmp_path / "room.yaml")), Parameter("use_beacons", value=True),
+        Parameter("lidar_x", value=-0.032), Parameter("max_particles", value=1000)])
+    rig = BeaconRig(context, load_world(WORLDS / "open_room.yaml"))
+    executor.add_node(node)
+    executor.add_node(rig)
+    configure_and_activate(node)
+    assert node.INPUTS == ("odometry", "scan", "beacons") and node.filter.beacons is None
+    assert spin_until(executor, lambda: all(rig.count_subscribers(t) for t in ("scan", "odometry", "beacons")), 5.0)
+    warnings = LoggedWarnings(node)
+    moved = [list(b) for b in beacons]
+    moved[2][0] += 0.5
+    cases = [
+        ("fine", {}),
+        ("nan range", dict(ranges=[1.0, math.nan, 1.0, 1.0])),
+        ("negative range", dict(ranges=[1.0, -1.0, 1.0, 1.0])),
+        ("three beacons", dict(positions=beacons[:3], ranges=[1.0, 1.0, 1.0])),
+        ("moved beacon", dict(positions=moved)),
+        ("fine", {}),
+    ]
+    t = 20.0
+    for expected, (name, fault) in enumerate(cases, start=1):
+        rig.send_reading(t, **fault)
+        t += 0.05
+        assert spin_until(executor, lambda: len(rig.poses) >= expected, 3.0), f"no /pose after the {name}"
+    np.testing.assert_array_equal(node.filter.beacons, beacons)
+    log = "\n".join(warnings.lines)
+    assert "/beacons reading refused (beacon ranges: range 1 is nan: every range must be a finite number >= 0)" in log
+    assert "beacon ranges: range 1 is -1.0" in log
+    assert "beacons: 3 beacon positions, expected 4" in log
+    assert "beacon 2 at (2.400, 1.400), expected (1.900, 1.400) (positions changed)" in log
+    assert log.count("/beacons reading refused") == 4, log
+    for pose in rig.poses:
+        values = [pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.orientation.z,
+                  pose.pose.pose.orientation.w, *pose.pose.covariance]
+        assert np.isfinite(values).all()
+    assert node.state_label == "active"
+
+
+def test_use_beacons_and_use_scan_are_structural_and_one_is_needed(executor):
+    node = ParticleFilterNode(context=executor.context, parameter_overrides=[
+        Parameter("world", value="open_room.yaml"), Parameter("use_scan", value=False)])
+    assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert "use_scan and use_beacons are both false" in node.configure_error
+    assert node.set_parameters([Parameter("use_beacons", value=True)])[0].successful
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+    result = node.set_parameters([Parameter("use_scan", value=True)])[0]
+    assert not result.successful and "read-only while configured" in result.reason
+    descriptor = node.describe_parameter("use_beacons")
+    assert descriptor.name == "use_beacons" and "/beacons" in descriptor.description
