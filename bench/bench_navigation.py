@@ -223,6 +223,8 @@ def line(result: dict) -> str:
     case, run, wall = result["case"], result["run"], result["wall"]
     localized = f"{run.first_localized:6.1f}" if run.first_localized is not None else "     -"
     outcome = f"goal {run.time:6.1f}" if run.reached else f"FAIL: {run.reason} (t={run.time:.0f})"
+    if case.kind == "symmetric" and not run.reached:
+        outcome = f"no goal expected ({run.reason})"
     cross = f"{100 * run.mean_cross_track:5.2f}" if run.cross_track else "    -"
     if wall is None:
         alone = "-"
