@@ -25,6 +25,15 @@ frame) and, if there is one, the latest LiDAR scan, and returns the velocity com
    facing the point the way on is often clear). A block that lasts
    ``blocked_replan_time`` asks for a new plan. Returns are read per REP 117 (NaN and out-of-range
    ignored, -inf counted at range_min).
+7. Escape (``ESCAPE``): a block with nothing to turn towards (the lookahead point within
+   BLOCKED_TURN_DEG of the heading) by a return at least GRAZE_BEARING_DEG off the heading is a
+   graze: the robot is beside a wall or corner, closer than the margin (a pose estimate a few cm
+   off, a corner cut), and every forward arc towards the path approaches it. A new plan from the
+   same pose is the same path, so waiting would last for ever; instead the robot turns in place
+   away from that return until it lies ESCAPE_BEARING_DEG off the heading (at most
+   ESCAPE_MAX_TURN_DEG), drives straight on, away from it, for ``robot_radius / 2`` at
+   ``min_linear_speed`` (stopping early if a period's motion would enter the margin of any other
+   return), and pursues again.
 
 No input makes it raise or return a NaN command: a bad pose or scan stops the robot with the
 reason in :attr:`FollowCommand.message`; a bad path is refused by :meth:`set_path`.
@@ -48,6 +57,12 @@ BLOCKED_TURN_DEG = 3.0
 """A blocked robot turns in place towards the lookahead point while it is further off than this."""
 CONFIRMING_RETURNS = 3
 """Beams that must agree before a return stops the robot (a 2 cm post 0.3 m away spans 3 at 1.5 deg)."""
+GRAZE_BEARING_DEG = 45.0
+"""A block by a return at least this far off the heading, with the path straight ahead, is a graze (see ESCAPE)."""
+ESCAPE_BEARING_DEG = 100.0
+"""An escape turns until the grazed return lies this far off the heading: driving on then moves away from it."""
+ESCAPE_MAX_TURN_DEG = 120.0
+"""An escape turns away at most this far before giving up (the block then stands and a replan is asked)."""
 
 
 class PathError(ValueError):
@@ -62,6 +77,8 @@ class State(str, Enum):
     HEADING = "HEADING"
     REACHED = "REACHED"
     BLOCKED = "BLOCKED"
+    ESCAPE = "ESCAPE"
+    """grazing a wall with the path straight ahead: turning away from it, then straight on a little."""
     STRAYED = "STRAYED"
 
 
@@ -97,6 +114,9 @@ class PathFollower:
             config = PathFollowerConfig.from_params(params)
         self.reconfigure(config)
         self._blocked_turn = math.radians(BLOCKED_TURN_DEG)
+        self._graze_bearing = math.radians(GRAZE_BEARING_DEG)
+        self._escape_bearing = math.radians(ESCAPE_BEARING_DEG)
+        self._escape_max_turn = math.radians(ESCAPE_MAX_TURN_DEG)
         self.clear()
 
     def reconfigure(self, config: PathFollowerConfig) -> None:
@@ -113,6 +133,7 @@ class PathFollower:
         """Forget the path: IDLE, zero commands."""
         self._points: np.ndarray | None = None
         self._goal_heading: float | None = None
+        self._escape: _Escape | None = None
         self._state = State.IDLE
 
     def set_path(self, points, goal_heading: float | None = None) -> None:
@@ -142,6 +163,7 @@ class PathFollower:
         self._goal_heading = goal_heading
         self._progress: float | None = None  # arc length of the last projection; None: search it all
         self._blocked_steps = 0
+        self._escape: _Escape | None = None
         self._state = State.TRACK  # until the first compute decides
 
     @property
@@ -183,6 +205,14 @@ class PathFollower:
         if to_goal <= self.config.goal_tolerance or self._state is State.HEADING:
             return self._finish(theta, cross_track, remaining)
 
+        if self._escape is not None:
+            returns = _returns(scan, self.config.lidar_x)
+            if isinstance(returns, str):
+                return self._halt(self._state, cross_track, remaining, False, returns)
+            command = self._escaping(x, y, theta, returns, cross_track, remaining)
+            if command is not None:
+                return command
+
         target = self._lookahead_point(progress)
         dx, dy = target[0] - x, target[1] - y
         distance = math.hypot(dx, dy)
@@ -203,8 +233,16 @@ class PathFollower:
         returns = _returns(scan, self.config.lidar_x)
         if isinstance(returns, str):
             return self._halt(self._state, cross_track, remaining, False, returns)
-        closest = self._approached(returns, v, w)
+        closest, point = self._approached(returns, v, w)
         if closest < self.config.robot_radius + self.config.safety_margin:
+            bearing = math.atan2(point[1], point[0])
+            if abs(alpha) <= self._blocked_turn and abs(bearing) >= self._graze_bearing:
+                c, s = math.cos(theta), math.sin(theta)  # the grazed return in the path's frame
+                self._escape = _Escape(-math.copysign(1.0, bearing), theta, x + c * point[0] - s * point[1],
+                                       y + s * point[0] + c * point[1])
+                command = self._escaping(x, y, theta, returns, cross_track, remaining)
+                if command is not None:
+                    return command
             self._state = State.BLOCKED
             self._blocked_steps += 1
             replan = self._blocked_steps * self.config.dt >= self.config.blocked_replan_time
@@ -254,18 +292,19 @@ class PathFollower:
         t = (s - self._arc[index]) / self._segment_length[index]
         return self._points[index] + t * self._segment_vector[index]
 
-    def _approached(self, returns: np.ndarray, v: float, w: float) -> float:
-        """The distance, after one period along the arc (v, w), to the returns that the motion approaches.
+    def _approached(self, returns: np.ndarray, v: float, w: float) -> tuple[float, tuple[float, float]]:
+        """The distance, after one period along the arc (v, w), to the returns that the motion approaches,
+        and that return (x, y in the robot frame).
 
         The CONFIRMING_RETURNS-th smallest counts: one or two noisy beams do not stop the robot,
         any real obstacle in reach spans more beams than that.
 
         With curvature k = w / v and travel d = v dt the robot's centre ends at
         (sin(k d) / k, (1 - cos(k d)) / k) in its present frame; a return counts when it ends
-        closer than it started. inf when no return is approached.
+        closer than it started. (inf, (nan, nan)) when no return is approached.
         """
         if len(returns) == 0:
-            return math.inf
+            return math.inf, (math.nan, math.nan)
         travel = max(v * self.config.dt, 1e-3)
         turn = (w / v) * travel if v > 0.0 else 0.0
         if abs(turn) < 1e-9:
@@ -275,8 +314,34 @@ class PathFollower:
             end = (radius * math.sin(turn), radius * (1.0 - math.cos(turn)))
         before = np.hypot(returns[:, 0], returns[:, 1])
         after = np.hypot(returns[:, 0] - end[0], returns[:, 1] - end[1])
-        distances = np.sort(after[after < before])
-        return float(distances[CONFIRMING_RETURNS - 1]) if len(distances) >= CONFIRMING_RETURNS else math.inf
+        approached = np.flatnonzero(after < before)
+        if len(approached) < CONFIRMING_RETURNS:
+            return math.inf, (math.nan, math.nan)
+        index = approached[np.argsort(after[approached])[CONFIRMING_RETURNS - 1]]
+        return float(after[index]), (float(returns[index, 0]), float(returns[index, 1]))
+
+    def _escaping(self, x: float, y: float, theta: float, returns: np.ndarray, cross_track: float,
+                  remaining: float) -> FollowCommand | None:
+        """The escape's command (see the module's item 7), or None once it is over or has given up."""
+        escape = self._escape
+        speed = self.config.min_linear_speed
+        if escape.driving:
+            clear = self._approached(returns, speed, 0.0)[0] >= self.config.robot_radius + self.config.safety_margin
+            if clear and math.hypot(x - escape.start_x, y - escape.start_y) < 0.5 * self.config.robot_radius:
+                return self._emit(speed, 0.0, cross_track, remaining, "escaping a graze: driving away from it")
+            self._escape = None  # done (or blocked again: pursuit decides)
+            return None
+        bearing = _wrap(math.atan2(escape.y - y, escape.x - x) - theta)
+        if abs(bearing) >= self._escape_bearing:
+            escape.driving, escape.start_x, escape.start_y = True, x, y
+            self._state = State.ESCAPE
+            self._blocked_steps = 0
+            return self._emit(speed, 0.0, cross_track, remaining, "escaping a graze: driving away from it")
+        if escape.sign * _wrap(theta - escape.theta) >= self._escape_max_turn:
+            self._escape = None  # turned as far as it may: the block stands
+            return None
+        self._state = State.ESCAPE
+        return self._emit(0.0, escape.sign * self.config.turn_speed, cross_track, remaining, "grazing a return beside the path: turning away from it")
 
     # -- commands --------------------------------------------------------------------------
 
@@ -300,6 +365,21 @@ class PathFollower:
     @staticmethod
     def _halt(state: State, cross_track: float, remaining: float, replan: bool, message: str) -> FollowCommand:
         return FollowCommand(0.0, 0.0, state, cross_track, remaining, replan, message)
+
+
+@dataclass
+class _Escape:
+    sign: float
+    """+1 turns left (counter-clockwise), -1 right: away from the grazed return."""
+    theta: float
+    """heading when the escape began."""
+    x: float
+    y: float
+    """the grazed return, in the path's frame."""
+    driving: bool = False
+    start_x: float = 0.0
+    start_y: float = 0.0
+    """where the drive away began."""
 
 
 def _wrap(angle: float) -> float:

@@ -127,6 +127,35 @@ def test_a_blocked_robot_turns_in_place_towards_the_path_never_forwards():
     assert command.state is State.BLOCKED and command.v == 0.0 and command.w < 0.0
 
 
+def test_grazing_a_wall_with_the_path_straight_ahead_turns_away_and_drives_clear_never_closer():
+    """A wall along the path 7 mm from the disc on the right (the path drawn from a pose estimate 2 cm
+    off): every forward arc approaches it and a new plan from here is the same path. Before the escape
+    the follower stood still for ever (bench_navigation: a 0.35 m bend); now it turns left, away from
+    the wall, drives away from it, and hands back to pursuit."""
+    follower = PathFollower(CENTRED_LIDAR)
+    follower.set_path(straight())
+    wall = [(-0.3, -0.112, 1.0, -0.112)]
+    x, y, theta, dt = 0.0, 0.0, 0.0, 0.05
+    clearance = [0.112]
+    states = []
+    for _ in range(200):
+        moved = [(x0 - x, y0 - y, x1 - x, y1 - y) for x0, y0, x1, y1 in wall]
+        scan = cast(moved, heading=theta)  # range_min 0.05: the TurtleBot's LiDAR sits 3.2 cm behind the centre
+        command = follower.compute(x, y, theta, ScanData(scan.ranges, scan.angle_min, scan.angle_increment, 0.05,
+                                                         scan.range_max))
+        states.append((command.state, command.v, command.w))
+        if command.state is State.TRACK and any(s is State.ESCAPE and v > 0 for s, v, _ in states):
+            break
+        x += command.v * dt * math.cos(theta + 0.5 * command.w * dt)
+        y += command.v * dt * math.sin(theta + 0.5 * command.w * dt)
+        theta += command.w * dt
+        clearance.append(y + 0.112)
+    assert states[0][0] is State.ESCAPE and states[0][1] == 0.0 and states[0][2] > 0.0  # turns left, away
+    assert any(s is State.ESCAPE and v > 0.0 and w == 0.0 for s, v, w in states)  # then straight on
+    assert min(clearance) >= clearance[0] - 1e-9 and clearance[-1] > clearance[0] + 0.01
+    assert states[-1][0] is State.TRACK
+
+
 def test_one_or_two_noisy_beams_do_not_stop_it_but_side_walls_within_the_margin_do_not_either():
     follower = PathFollower(CENTRED_LIDAR)
     follower.set_path(straight())
