@@ -36,7 +36,7 @@ from rclpy.parameter import Parameter
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from amr_bringup.recording import RecorderProcess
+from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_matched
 from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
                                       parse_assignments)
 from amr_bringup.processes import NodeProcess, executable_path, stop_processes
@@ -234,7 +234,7 @@ class Supervisor:
         if self.options.record:
             self._add_recorder()
         self.manager = LifecycleManager(
-            before_activate=(lambda node: self.recorder.wait_until_caught_up()) if self.recorder else (lambda node: None),
+            before_activate=self._before_activate,
             cli_args=["--ros-args", "-r", f"__node:={self.bringup.manager_name}"],
             parameter_overrides=[Parameter(k, value=v) for k, v in self.bringup.manager_parameters().items()])
         if self.console.live:
@@ -244,6 +244,17 @@ class Supervisor:
             self.monitor = StatusMonitor(self.bringup.node_startup_order,
                                          [(node.name, node.namespace) for node in self.bringup.nodes])
             self.spinners.add_node(self.monitor)
+
+    def _before_activate(self, name: str) -> None:
+        """With --record: wait until the recorder listens to the node's topics (and, composed, they to it)."""
+        if self.recorder is None or not self.recorder.wait_until_caught_up():
+            return
+        for node in getattr(self.stack, "nodes", []):
+            if node.get_fully_qualified_name().lstrip("/") == name.lstrip("/"):
+                unmatched = wait_until_matched(node, self.options.topics or [])
+                if unmatched:
+                    self.console.note(f"{name}: {' '.join(unmatched)} not matched with every subscriber within "
+                                      f"{CATCH_UP_TIMEOUT} s; the bag may miss their first messages")
 
     def _add_recorder(self) -> None:
         """The recorder runs as a process of its own (amr_bringup.recording); each node is activated once it

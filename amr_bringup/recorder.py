@@ -27,7 +27,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
-from amr_bringup.status import IGNORED_SUFFIXES, IGNORED_TOPICS, message_class
+from amr_bringup.recording import recorded_by_default
+from amr_bringup.status import message_class
 from amr_maps.bag_writer import BagError, BagWriter, TopicQos
 from amr_util.managed_node import SpecifiedParameters, spin_nodes
 from amr_util.parameter_spec import ParameterSpec
@@ -86,7 +87,7 @@ class Recorder(SpecifiedParameters, Node):
     def eligible(self, topic: str) -> bool:
         if self.wanted:
             return topic in self.wanted
-        return topic not in IGNORED_TOPICS and not topic.endswith(IGNORED_SUFFIXES)
+        return recorded_by_default(topic)
 
     def discover(self) -> None:
         """Subscribe to every eligible topic that has publishers and is not recorded yet."""

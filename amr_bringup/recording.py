@@ -1,20 +1,22 @@
 """amr-bringup --record: the recorder executable as a process of its own, as `ros2 bag record` runs.
 
 In amr-bringup's process it shared the GIL with a composed stack: a composed lockstep maze_sim ran
-47 % slower while recording every topic (bench/bench_record.py). As a process it runs on the
-other core. The lifecycle manager activates each node only once the recorder's `~/caught_up`
-says it listens to every topic there is, so a lockstep run's first observation is in the bag.
+54 % slower while recording every topic, against 17 % as a process (bench/bench_record.py). The
+lifecycle manager activates each node only once the recorder's `~/caught_up` says it listens to
+every topic there is and, for a composed stack, once the node's own publishers have matched the
+recorder too (wait_until_matched), so a lockstep run's first observation is in the bag.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
 from amr_bringup.processes import NodeProcess, executable_path
+from amr_bringup.status import IGNORED_SUFFIXES, IGNORED_TOPICS
 
 SERVICE_TIMEOUT = 15.0
 """s for the recorder process to come up and offer ~/caught_up."""
@@ -58,3 +60,25 @@ class RecorderProcess:
             time.sleep(0.02)
         self._log.warning(f"the recorder was not caught up within {timeout} s: its bag may miss the first messages")
         return False
+
+
+def recorded_by_default(topic: str) -> bool:
+    """What the recorder records when no topics are named (its `eligible`)."""
+    return topic not in IGNORED_TOPICS and not topic.endswith(IGNORED_SUFFIXES)
+
+
+def wait_until_matched(node: Node, topics: Collection[str], timeout: float = CATCH_UP_TIMEOUT) -> list[str]:
+    """Block until each of `node`'s publishers on `topics` (if empty: every topic the recorder records) has matched
+    every subscription the graph shows on its topic, at most `timeout` s; returns the topics still unmatched.
+
+    The recorder's ~/caught_up sees only its own side of each match. A loaded machine can deliver the
+    reader's announcement to the writer's process seconds later, and a volatile writer drops what it
+    publishes before that: a lockstep run lost its first observations that way under load."""
+    deadline = time.monotonic() + timeout
+    while True:
+        pending = sorted({publisher.topic_name for publisher in node.publishers
+                          if (publisher.topic_name in topics if topics else recorded_by_default(publisher.topic_name))
+                          and publisher.get_subscription_count() < node.count_subscribers(publisher.topic_name)})
+        if not pending or time.monotonic() > deadline:
+            return pending
+        time.sleep(0.01)

@@ -96,6 +96,8 @@ class ChainConfig:
         An explicit ``tolerance`` replaces both the default tolerance and any
         per-axis ``axis_tolerance`` of the config.
         """
+        if "_warmed" not in self.__dict__:  # the first solve's budget is not spent loading compiled code
+            self.warm_up()
         name = solver or self.solver
         options = self.options_for(name)
         if tolerance:
@@ -119,8 +121,11 @@ class ChainConfig:
         when the chain can orient, full pose): the first request on a fresh process paid
         ~35 ms of first-call costs (lazy imports, caches) and overran its 5 ms budget.  An
         unreachable target then runs the restart paths (numba loads each compiled function from
-        its cache at its first call: ~0.3 s)."""
+        its cache at its first call: ~0.3 s).  The first ``solve`` of a config calls it, so
+        library users get the same; a node calls it at configure."""
         from .solvers import applicable_solvers
+
+        object.__setattr__(self, "_warmed", True)  # frozen, but this is a cache, not a field; before the solves below
 
         chain = self.chain
         goal = chain.fk(self.home).tool

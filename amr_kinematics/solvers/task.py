@@ -61,12 +61,14 @@ def parse_task(weights=None, pointing=None) -> Task | None:
         return Task(tuple(float(w) for w in weights))
     if len(pointing) != 6 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pointing):
         raise InvalidRequestError(f"pointing needs 6 finite values (tool axis x, y, z, direction x, y, z), got {pointing!r}")
-    axis, direction = np.array(pointing[:3], dtype=float), np.array(pointing[3:], dtype=float)
-    for name, vector in (("tool axis", axis), ("direction", direction)):
-        if np.linalg.norm(vector) < 1e-9:
+    units = []
+    for name, vector in (("tool axis", pointing[:3]), ("direction", pointing[3:])):
+        vector = np.array(vector, dtype=float)
+        scale = float(np.abs(vector).max())  # divided first: the norm of (1e200, 0, 0) would overflow
+        if scale == 0.0 or scale * float(np.linalg.norm(vector / scale)) < 1e-9:
             raise InvalidRequestError(f"pointing: the {name} is a zero vector")
-    axis, direction = axis / np.linalg.norm(axis), direction / np.linalg.norm(direction)
-    return Task(tuple(float(w) for w in weights), tuple(axis.tolist()), tuple(direction.tolist()))
+        units.append(vector / scale / np.linalg.norm(vector / scale))
+    return Task(tuple(float(w) for w in weights), tuple(units[0].tolist()), tuple(units[1].tolist()))
 
 
 def _normal_basis(a: np.ndarray) -> np.ndarray:

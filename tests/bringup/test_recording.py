@@ -89,3 +89,31 @@ def test_amr_bringup_records_the_named_topics_and_a_standalone_recorder_records_
     latched = read_bag(tmp_path / "map")  # joined whenever it did: /map and /tf_static are latched
     assert latched.count("/map") == latched.count("/tf_static") == 1
     assert Bringup("maze_sim", "--record", str(tmp_path / "run.mcap")).finish() == 2, "never overwrites a bag"
+
+
+def test_a_startup_waits_until_the_nodes_publishers_have_matched_the_recorders_subscriptions(ros_context):
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    from amr_bringup.recording import wait_until_matched
+
+    talker, listener = Node("talker", context=ros_context), Node("listener", context=ros_context)
+    try:
+        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        talker.create_publisher(String, "/chatter", best_effort)
+        talker.create_publisher(String, "/other", 10)
+        listener.create_subscription(String, "/chatter", lambda message: None, best_effort)
+        listener.create_subscription(String, "/other", lambda message: None, 10)
+        listener.create_subscription(String, "/other", lambda message: None, 10)
+        assert wait_until_matched(talker, ["/chatter", "/other"], timeout=5.0) == []
+        # a reliable reader a best-effort writer never matches: named after the timeout, not waited on for ever
+        reliable_only = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        listener.create_subscription(String, "/chatter", lambda message: None, reliable_only)
+        started = time.monotonic()
+        assert wait_until_matched(talker, ["/chatter"], timeout=0.5) == ["/chatter"]
+        assert 0.5 <= time.monotonic() - started < 3.0
+        assert wait_until_matched(talker, [], timeout=5.0) == ["/chatter"], "every recorded topic when none is named"
+    finally:
+        talker.destroy_node()
+        listener.destroy_node()

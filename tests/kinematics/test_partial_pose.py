@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -84,6 +85,14 @@ def test_all_weights_one_is_the_full_pose(chain_set):
 def test_malformed_tasks_are_refused(weights, pointing, match):
     with pytest.raises(InvalidRequestError, match=match):
         parse_task(weights, pointing)
+
+
+def test_huge_pointing_vectors_are_normalized_without_overflow():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflowing norm made the direction (0, 0, 0) with a RuntimeWarning
+        task = parse_task(None, [1e200, 0.0, 0.0, 0.0, 1e300, 1e300])
+    assert task.tool_axis == (1.0, 0.0, 0.0)
+    assert task.direction == pytest.approx((0.0, math.sqrt(0.5), math.sqrt(0.5)))
 
 
 def test_tasks_the_chain_or_solver_cannot_take(chain_set):
