@@ -22,7 +22,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    in a row with one cluster holding localized_min_cluster_share of the weight,
    its spread under the position and heading limits and the scan fitting its
    pose (scan_fit.py), and withdrawn as soon as the cluster's share, spread or
-   fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*); when one
+   fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*), or when,
+   searched again every recheck_updates updates, another place explains the
+   recent scans clearly better (a kidnapping into a look-alike place); when one
    cluster holds the weight but the scan keeps not fitting it for lost_updates
    updates, the robot is lost (kidnapped): global localization restarts.
 
@@ -36,7 +38,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
@@ -121,7 +123,8 @@ class ParticleFilter:
         self._coarse_scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.rival_coarse_sigma), self.mount,
                                               range_max)
         self._rival_params = RivalCheckParams(margin=config.rival_margin)
-        self._history: deque[Snapshot] = deque(maxlen=config.history_length)
+        self._history: deque[Snapshot] = deque(maxlen=config.history_length)  # scans history_spacing apart
+        self._newest: Snapshot | None = None  # ... and the newest since the last of them
         self.beacons = checked_beacons(beacons) if beacons is not None else None
         self._recovery = RecoveryRate(config.recovery_alpha_slow, config.recovery_alpha_fast)
         self._rng = np.random.default_rng(config.seed)
@@ -177,10 +180,12 @@ class ParticleFilter:
         self._localized = False
         self._confirmations = 0
         self._misfits = 0
+        self._since_recheck = 0
         self._moved_since_resample = False
         self._pending_measurement = True
         self._estimate_odometry = self._odometry
         self._history.clear()
+        self._newest = None
         self.rivals = np.zeros((0, 3))
         self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
                                            self.config.cluster_min_size)
@@ -299,15 +304,24 @@ class ParticleFilter:
         self.status.clusters = self._clusters.count
 
     def _remember(self, beams: Beams) -> None:
-        """Keep the scan for the rival check if odometry moved history_spacing since the last one kept."""
+        """Keep scans history_spacing apart for the rival check, and the newest one."""
+        snapshot = Snapshot(self._odometry, beams)
         if self._history:
             last = self._history[-1].odometry
             moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
             turned = abs(float(wrap(self._odometry[2] - last[2])))
             if moved < self.config.history_spacing and turned < 2.0 * self.config.history_spacing:
-                self._history[-1] = Snapshot(self._odometry, beams)  # the newest scan stands for this stretch
+                self._newest = snapshot
                 return
-        self._history.append(Snapshot(self._odometry, beams))
+        self._history.append(snapshot)
+        self._newest = None
+
+    def recent_scans(self) -> list[Snapshot]:
+        """At most history_length scans: history_spacing apart over the recent path, then the newest."""
+        if self._newest is None:
+            return list(self._history)
+        full = len(self._history) == self.config.history_length
+        return list(self._history)[1 if full else 0:] + [self._newest]
 
     def _resample(self) -> None:
         config = self.config
@@ -347,6 +361,10 @@ class ParticleFilter:
                 and heading_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_heading_std
             )
             self._confirmations = 0
+            self._since_recheck += 1
+            if self._localized and config.rival_check and config.recheck_updates and \
+                    self._since_recheck >= config.recheck_updates:
+                self._recheck(pose)
             return
         dominant = share >= config.localized_min_cluster_share - WITHDRAW_MARGIN
         self._misfits = self._misfits + 1 if dominant and fit < config.localized_min_fit else 0
@@ -362,14 +380,30 @@ class ParticleFilter:
             and heading_std <= config.localized_max_heading_std
         )
         self._confirmations = self._confirmations + 1 if confident else 0
-        if self._confirmations >= config.localized_confirmations and config.rival_check and self._history:
-            self.rivals = find_rivals(self.free_space, self._scorer, self._coarse_scorer, list(self._history), pose,
+        recent = self.recent_scans()
+        if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
+            self.rivals = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
                                       self._rival_params)
             if len(self.rivals):
                 self._adopt_rivals(self.rivals)
                 self._confirmations = 0
                 self.status.event = f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well"
         self._localized = self._confirmations >= config.localized_confirmations
+
+    def _recheck(self, pose: np.ndarray) -> None:
+        """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
+        self._since_recheck = 0
+        recent = self.recent_scans()
+        if not recent:  # beacons only: no scans to search with
+            return
+        better = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
+                             replace(self._rival_params, margin=-self.config.recheck_margin))
+        if len(better):
+            self._localized = False
+            self.rivals = better
+            self._adopt_rivals(better)
+            self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
+                                 "estimate: localized withdrawn")
 
     def _adopt_rivals(self, rivals: np.ndarray) -> None:
         """Give every rival a cloud of particles as heavy as the current cluster: as likely, as far as we know."""

@@ -85,6 +85,13 @@ class ParticleFilterConfig:
     rival_margin: float = 0.05
     """per-beam log-likelihood: a rival scoring within this of the estimate makes the belief ambiguous."""
     rival_coarse_sigma: float = 0.1
+    recheck_updates: int = 5
+    """while localized, the rival search runs again every this many measurement updates; 0 = never."""
+    recheck_margin: float = 0.15
+    """per-beam log-likelihood: a place elsewhere explaining the recent scans better than the estimate by this
+    much withdraws localized and gets particles (a robot kidnapped into a look-alike place; tracking the
+    right place, the best rival scored at most 0.001 above the estimate, a kidnapped robot's true place
+    0.2-0.35 above it within 5 s)."""
     history_length: int = 10
     history_spacing: float = 0.1
     """m (or 2 x this in rad) of odometry between two scans kept for the rival check."""
@@ -129,6 +136,8 @@ class ParticleFilterConfig:
         need(isinstance(self.rival_check, bool), "rival_check", "must be true or false")
         need(self.localized_confirmations >= 1, "localized_confirmations", "must be at least 1")
         need(self.lost_updates >= 0, "lost_updates", "must be >= 0 (0 = never restart)")
+        need(self.recheck_updates >= 0, "recheck_updates", "must be >= 0 (0 = never)")
+        need(self.recheck_margin >= 0.0, "recheck_margin", "must be >= 0")
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> "ParticleFilterConfig":

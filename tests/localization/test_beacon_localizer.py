@@ -94,6 +94,24 @@ def test_the_particle_filter_localizes_from_beacon_ranges_alone():
     assert abs(estimate.pose.theta - theta) < 0.05
 
 
+def test_a_beacons_only_filter_keeps_tracking_once_localized():
+    """Localized without a scan, the periodic recheck (a rival search over recent scans) has nothing to search
+    with and must leave the filter alone (it once raised IndexError on the empty scan history)."""
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    beacons = np.array(world.beacons)
+    pf = ParticleFilter(grid_of(world, 0.05), ParticleFilterConfig(max_particles=2000, recheck_updates=1), beacons=beacons)
+    rng = np.random.default_rng(5)
+    x, y, theta = -1.5, -1.0, 0.2
+    localized_updates = 0
+    for _ in range(600):
+        x, y, theta = x + 0.005 * math.cos(theta), y + 0.005 * math.sin(theta), theta + 0.004
+        z = np.hypot(beacons[:, 0] - x, beacons[:, 1] - y) + rng.normal(0, 0.01, len(beacons))
+        estimate = pf.update((x, y, theta), beacons=BeaconReading.checked(z, theta + rng.normal(0, 0.01), len(beacons)))
+        localized_updates += estimate.localized and estimate.status.updated
+    assert localized_updates >= 20
+    assert estimate.localized and math.hypot(estimate.pose.x - x, estimate.pose.y - y) < 0.05
+
+
 def test_the_filter_takes_beacon_positions_once_and_refuses_other_ones():
     """A node learns the positions from the first reading (set_beacons); other positions or another count
     are refused by name, and a refused reading leaves the filter as it was."""

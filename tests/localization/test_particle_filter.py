@@ -83,6 +83,22 @@ def test_a_kidnapped_robot_is_withdrawn_at_once_and_found_again():
     assert position[regained] <= 0.10 and heading[regained] <= math.radians(10)
 
 
+@pytest.mark.parametrize("recheck_updates", [0, 5])
+def test_a_robot_kidnapped_into_a_look_alike_place_is_withdrawn_by_the_recheck(recheck_updates):
+    """hard_maze: the place it is carried to fits the scan at the old estimate nearly as well (fit ~0.9)."""
+    world = load_world(WORLDS_DIR / "hard_maze.yaml")
+    sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=0, lidar=LidarConfig(noise_std=0.02),
+                                            encoders=EncoderConfig(noise=0.02, slip=0.03)))
+    config = ParticleFilterConfig(lidar_x=-0.032, recheck_updates=recheck_updates)
+    pf = ParticleFilter(grid_of(world, 0.02), config, range_max=sim.lidar.range_max)
+    trace = run(sim, pf, FOLLOWER, 45.0, kidnap=(30.0, (-1.3, 1.25, 0.0)))
+    t, localized, _, _ = trace.arrays()
+    assert localized[np.flatnonzero(t < trace.kidnapped_at)[-1]], "it was localized before the kidnapping"
+    withdrawn = np.flatnonzero((t >= trace.kidnapped_at) & ~localized)
+    late = not withdrawn.size or t[withdrawn[0]] - trace.kidnapped_at > 10.0
+    assert late == (recheck_updates == 0), "withdrawn within 10 s only by the recheck"
+
+
 @pytest.mark.parametrize("lost_updates", [0, 15])
 def test_a_confident_cluster_the_scan_does_not_fit_is_given_up_after_lost_updates(lost_updates):
     world = load_world(WORLDS_DIR / "open_room.yaml")
@@ -105,6 +121,21 @@ def test_a_confident_cluster_the_scan_does_not_fit_is_given_up_after_lost_update
         assert len(pf.particles) == config.max_particles and not estimate.localized
     else:
         assert not lost
+
+
+def test_the_rival_check_keeps_scans_history_spacing_apart_over_the_recent_path():
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    sim = Simulator(world, SimulationConfig(**NOISY))
+    config = ParticleFilterConfig(lidar_x=-0.032, max_particles=500, history_length=5, history_spacing=0.1)
+    pf = ParticleFilter(grid_of(world, 0.05), config)
+    for _ in range(200):  # about 1 m straight on
+        pf.update(odometry_of(sim), scan_of(sim))
+        sim.step(0.1, 0.0)
+    kept = [snapshot.odometry for snapshot in pf.recent_scans()]
+    assert len(kept) == config.history_length, "the history fills as the robot moves (it had stayed at one scan)"
+    gaps = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(kept, kept[1:])]
+    assert all(gap >= config.history_spacing - 1e-9 for gap in gaps[:-1]) and gaps[-1] > 0.0
+    assert sum(gaps) <= config.history_length * (config.history_spacing + 0.05)
 
 
 def _first_steps(seed: int, steps: int = 60):
