@@ -34,6 +34,13 @@ class ScanData:
     range_max: float = math.inf
 
 
+def scan_of(sim) -> ScanData:
+    """The current scan of a simulator (amr_simulation.simulator.Simulator: ``ranges``, ``lidar``), copied:
+    the library loops that drive one without ROS (closed loops, benchmarks) read it this way."""
+    lidar = sim.lidar
+    return ScanData(np.array(sim.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
+
+
 @dataclass(frozen=True)
 class Sectors:
     """Angular windows (rad): a centre and a half width each, counter-clockwise from ahead."""

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from amr_control.scan_sectors import ScanData
+from amr_control.scan_sectors import scan_of
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_localization.particle_filter import ParticleFilter
@@ -43,11 +43,6 @@ class Trace:
         t, localized, _, _ = self.arrays()
         index = np.flatnonzero(localized & (t > after))
         return int(index[0]) if index.size else None
-
-
-def scan_of(sim: Simulator) -> ScanData:
-    lidar = sim.lidar
-    return ScanData(np.array(sim.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
 
 
 def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig, seconds: float,

@@ -35,7 +35,7 @@ from enum import Enum
 import numpy as np
 
 from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
-from amr_control.scan_sectors import ScanData
+from amr_control.scan_sectors import ScanData, scan_of
 from amr_control.wall_follower import WallFollower
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
@@ -188,11 +188,6 @@ class NavigationRun:
     @property
     def mean_cross_track(self) -> float:
         return float(np.mean(self.cross_track)) if self.cross_track else math.nan
-
-
-def scan_of(sim) -> ScanData:
-    lidar = sim.lidar
-    return ScanData(np.asarray(sim.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
 
 
 def run_navigation(sim, particle_filter, navigator: Navigator, limit: float = 600.0,

@@ -19,11 +19,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from amr_control.scan_sectors import scan_of  # noqa: E402
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig  # noqa: E402
 from amr_localization.beacons import BeaconReading, expected_ranges  # noqa: E402
-from amr_localization.closed_loop import run, scan_of  # noqa: E402
+from amr_localization.closed_loop import run  # noqa: E402
 from amr_localization.distance_field import DistanceField  # noqa: E402
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams  # noqa: E402
 from amr_localization.particle_filter import ParticleFilter  # noqa: E402
