@@ -42,6 +42,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from amr_control.path_follower import PathFollower  # noqa: E402
+from amr_control.scan_sectors import scan_of  # noqa: E402
 from amr_control.path_follower_config import read_parameter_file as read_follower_file  # noqa: E402
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file as read_wall_file  # noqa: E402
@@ -55,6 +56,7 @@ from amr_simulation.maze_families import FAMILIES, generate  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
 from amr_simulation.world import Goal, World, load_world, world_from_dict  # noqa: E402
 from amr_util.parameter_file import node_parameters  # noqa: E402
+from generated_cases import far_free_point, maze_variant  # noqa: E402
 
 CONFIG = ROOT / "config"
 WORLDS = CONFIG / "worlds"
@@ -64,8 +66,6 @@ PLANNER_PARAMS = node_parameters(CONFIG / "planner.yaml", "planner")
 FILTER_PARAMS = node_parameters(CONFIG / "particle_filter.yaml", "particle_filter")
 LIMIT = 600.0
 MAX_COLLISIONS = 5
-WIDTHS = (0.35, 0.45, 0.6)
-NOISES = (0.0, 0.01, 0.03)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,22 +95,6 @@ def world_of(case: Case) -> World:
 def sim_config(case: Case, encoder_noise: float, slip: float) -> SimulationConfig:
     return SimulationConfig(dt=WALL_CONFIG.dt, seed=case.seed, lidar=LidarConfig(noise_std=case.noise),
                             encoders=EncoderConfig(noise=encoder_noise, slip=slip))
-
-
-def far_free_point(planner: Planner, start, rng: np.random.Generator | None = None):
-    """A free cell of the planner's costmap connected to start: the farthest, or a random one over 1 m away."""
-    from scipy.ndimage import label
-
-    costmap = planner.costmap
-    regions, _ = label(~costmap.lethal)
-    row, col = costmap.nearest_free(*costmap.cell(*start))
-    cells = np.argwhere(regions == regions[row, col])
-    points = costmap.centre(cells[:, 0], cells[:, 1])
-    distance = np.hypot(*(points - np.asarray(start)).T)
-    if rng is None:
-        return tuple(float(v) for v in points[int(np.argmax(distance))])
-    far = np.flatnonzero(distance > 1.0)
-    return tuple(float(v) for v in (points[rng.choice(far)] if far.size else points[int(np.argmax(distance))]))
 
 
 def rotationally_symmetric(world: World, resolution: float = 0.02, tolerance: float = 0.05) -> str:
@@ -144,8 +128,8 @@ def navigate(case: Case, encoder_noise: float, slip: float) -> dict:
     began = time.perf_counter()
     world = world_of(case)
     planner = planner_for(world)
-    goal = (world.goal.x, world.goal.y) if world.goal is not None else far_free_point(
-        planner, (world.start.x, world.start.y))
+    goal = (world.goal.x, world.goal.y) if world.goal is not None else tuple(
+        float(v) for v in far_free_point(planner.costmap, (world.start.x, world.start.y)))
     filter_config = config_of({**FILTER_PARAMS, "seed": case.seed})
     particle_filter = ParticleFilter(rasterize_world(world, FILTER_PARAMS["map_resolution"]), filter_config,
                                      range_max=FILTER_PARAMS["laser_max_range"])
@@ -163,8 +147,6 @@ def navigate(case: Case, encoder_noise: float, slip: float) -> dict:
 
 def wall_follow_alone(world: World, case: Case, wall_config, encoder_noise: float, slip: float):
     """(reached, time, collisions) of the wall follower alone until the simulator's goal region or the limit."""
-    from amr_planning.navigation import scan_of
-
     sim = Simulator(world, sim_config(case, encoder_noise, slip))
     follower = WallFollower(wall_config)
     while sim.time < LIMIT and not sim.goal_reached:
@@ -195,10 +177,7 @@ def maze_cases(families: list[str], seeds: int, random_goals: bool) -> list[Case
     cases = []
     for family in families:
         for seed in range(seeds):
-            width = WIDTHS[seed % len(WIDTHS)]
-            noise = NOISES[(seed // len(WIDTHS) + FAMILIES.index(family)) % len(NOISES)]
-            hand = ("right", "left")[seed % 2]
-            options = {"hand": hand} if family in ("pillars", "open_room") else {"hand": hand, "width": width}
+            options, width, noise, hand = maze_variant(family, seed)
             world_dict = generate(family, seed, **options)
             width_label = f"w{width}" if "width" in options else "w-"
             label = f"{family} s{seed} {width_label} n{noise}"
@@ -210,7 +189,8 @@ def maze_cases(families: list[str], seeds: int, random_goals: bool) -> list[Case
             cases.append(Case(label + " family", "family goal", world_dict, seed, noise, hand))
             if random_goals:
                 world = world_from_dict(world_dict)
-                goal = far_free_point(planner_for(world), (world.start.x, world.start.y), np.random.default_rng(seed))
+                goal = tuple(float(v) for v in far_free_point(planner_for(world).costmap, (world.start.x, world.start.y),
+                                                              np.random.default_rng(seed)))
                 cases.append(Case(label + " random", "random goal", world_dict, seed, noise, hand, goal=goal,
                                   goal_radius=0.1, compare=False))
     return cases

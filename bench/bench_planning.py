@@ -43,6 +43,7 @@ from amr_simulation.config import LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.maze_families import FAMILIES, generate  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
 from amr_simulation.world import Goal, World, load_world, world_from_dict  # noqa: E402
+from generated_cases import far_free_point, maze_variant  # noqa: E402
 
 RESOLUTION = 0.05
 LOOP_RESOLUTION = 0.025  # closed loops: at 0.05 m the conservative map closes many 0.35 m corridors
@@ -61,21 +62,6 @@ def median_ms(function, repeat: int) -> float:
         function()
         times.append(time.perf_counter() - began)
     return 1e3 * statistics.median(times)
-
-
-def far_free_point(costmap: Costmap, start, rng: np.random.Generator | None = None) -> np.ndarray:
-    """A free cell reachable from start: the farthest (rng None) or a random one over 1 m away."""
-    from scipy.ndimage import label
-
-    regions, _ = label(~costmap.lethal)
-    row, col = costmap.nearest_free(*costmap.cell(*start))
-    cells = np.argwhere(regions == regions[row, col])
-    points = costmap.centre(cells[:, 0], cells[:, 1])
-    distance = np.hypot(*(points - np.asarray(start)).T)
-    if rng is None:
-        return points[int(np.argmax(distance))]
-    far = np.flatnonzero(distance > 1.0)
-    return points[rng.choice(far)] if far.size else points[int(np.argmax(distance))]
 
 
 # -- 1 and 2: planning times ----------------------------------------------------------------
@@ -220,17 +206,12 @@ def shipped_worlds() -> None:
 
 def generated_mazes(seeds: int) -> None:
     print("\n== Plan + follow from the true pose on generated mazes, against the wall follower alone")
-    widths = (0.35, 0.45, 0.6)
-    noises = (0.0, 0.01, 0.03)
     runs, comparisons, failures = [], [], []
     cross_tracks = []
     began = time.perf_counter()
     for family in FAMILIES:
         for seed in range(seeds):
-            width = widths[seed % len(widths)]
-            noise = noises[(seed // len(widths) + FAMILIES.index(family)) % len(noises)]
-            hand = ("right", "left")[seed % 2]
-            options = {"hand": hand} if family in ("pillars", "open_room") else {"hand": hand, "width": width}
+            options, _, noise, hand = maze_variant(family, seed)
             world_dict = generate(family, seed, **options)
             world = world_from_dict(world_dict)
             family_goal = (world.goal.x, world.goal.y)
