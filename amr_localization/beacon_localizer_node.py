@@ -114,7 +114,7 @@ class BeaconLocalizerNode(LocalizerNode):
                                     throttle_duration_sec=WARNING_PERIOD)
 
     def _localize(self, reading: BeaconRanges, odometry: Odometry) -> None:
-        positions = np.array([[b.x, b.y] for b in reading.beacons], dtype=float).reshape(-1, 2)
+        positions = messages.beacon_positions(reading)
         if self.localizer is None or not np.array_equal(positions, self.localizer.beacons):
             if self.localizer is not None:
                 self._warn("the beacon positions changed: localizer rebuilt")

@@ -16,6 +16,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from amr_localization.beacon_localizer_node import BeaconLocalizerNode
+from amr_localization.messages import yaw_of
+from amr_localization.poses import wrap
 from amr_simulation.errors import WorldError
 from amr_simulation.simulator_node import SimulatorNode
 from amr_simulation.world import load_world
@@ -28,10 +30,12 @@ STEPS = 40
 
 
 class Driver(Node):
-    """Answers every /pose with a slow arc (a stand-in controller), records poses and the truth."""
+    """Answers each of the first `steps` /pose messages with an arc (v, w) (a stand-in controller); records the
+    poses, the /beacons readings and the ground truth by stamp."""
 
-    def __init__(self, context) -> None:
+    def __init__(self, context, steps: int = STEPS, v: float = 0.1, w: float = 0.3) -> None:
         super().__init__("driver", context=context)
+        self.steps, self.v, self.w = steps, v, w
         self.poses: list[LocalizedPose] = []
         self.readings: list[BeaconRanges] = []
         self.truth: dict[int, Odometry] = {}
@@ -42,10 +46,17 @@ class Driver(Node):
 
     def _on_pose(self, message: LocalizedPose) -> None:
         self.poses.append(message)
-        if len(self.poses) < STEPS:
+        if len(self.poses) < self.steps:
             command = TwistStamped()
-            command.twist.linear.x, command.twist.angular.z = 0.1, 0.3
+            command.twist.linear.x, command.twist.angular.z = self.v, self.w
             self.cmd_vel.publish(command)
+
+    def error(self, pose: LocalizedPose) -> tuple[float, float]:
+        """(position m, heading rad) of a /pose against the ground truth at its stamp."""
+        truth = self.truth[stamp_ns(pose)].pose.pose
+        estimate = pose.pose.pose
+        return (math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y),
+                abs(float(wrap(yaw_of(estimate.orientation) - yaw_of(truth.orientation)))))
 
 
 def stamp_ns(message) -> int:
@@ -75,9 +86,7 @@ def test_relocalizes_from_beacons_and_tracks_with_one_pose_per_reading(executor,
     reading = driver.readings[0]
     assert [[b.x, b.y] for b in reading.beacons] == BEACONS and len(reading.ranges) == len(BEACONS)
     for pose in driver.poses:
-        truth = driver.truth[stamp_ns(pose)].pose.pose.position
-        estimate = pose.pose.pose.position
-        assert math.hypot(estimate.x - truth.x, estimate.y - truth.y) <= 0.02
+        assert driver.error(pose)[0] <= 0.02
         assert pose.localized and pose.header.frame_id == "map"
 
 

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from conftest import spin_until
+from test_beacon_localizer_node import Driver
 from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus, SimulatorStatus
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TwistStamped
 from lifecycle_msgs.msg import Transition
@@ -103,6 +104,13 @@ class Recorder(Node):
 
     def _on_command(self, message: TwistStamped) -> None:
         self.commands += 1
+
+
+def assert_finite(poses) -> None:
+    for pose in poses:
+        values = [pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.orientation.z,
+                  pose.pose.pose.orientation.w, *pose.pose.covariance]
+        assert np.isfinite(values).all()
 
 
 def stamp_ns(message) -> int:
@@ -244,10 +252,7 @@ def test_bad_input_is_logged_and_survived_with_one_finite_pose_per_pair(executor
     assert "odometry: pose must be 3 finite numbers" in log
     assert "odometry jumped" in log
     assert "stamps jumped by -9.950 s" in log
-    for pose in rig.poses:
-        values = [pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.orientation.z,
-                  pose.pose.pose.orientation.w, *pose.pose.covariance]
-        assert np.isfinite(values).all()
+    assert_finite(rig.poses)
     assert node.state_label == "active"
 
 
@@ -308,33 +313,6 @@ def test_a_map_file_and_a_bad_map_source(executor, tmp_path):
 BEACON_STEPS = 160
 
 
-class BeaconDriver(Node):
-    """Answers every /pose with an arc (a stand-in controller); records poses, readings and the truth."""
-
-    def __init__(self, context) -> None:
-        super().__init__("beacon_driver", context=context)
-        self.poses: list[LocalizedPose] = []
-        self.readings: list[int] = []
-        self.truth: dict[int, Odometry] = {}
-        self.cmd_vel = self.create_publisher(TwistStamped, "cmd_vel", 10)
-        self.create_subscription(LocalizedPose, "pose", self._on_pose, 100)
-        self.create_subscription(BeaconRanges, "beacons", lambda m: self.readings.append(stamp_ns(m)), 100)
-        self.create_subscription(Odometry, "ground_truth", lambda m: self.truth.__setitem__(stamp_ns(m), m), 100)
-
-    def _on_pose(self, message: LocalizedPose) -> None:
-        self.poses.append(message)
-        if len(self.poses) < BEACON_STEPS:
-            command = TwistStamped()
-            command.twist.linear.x, command.twist.angular.z = 0.2, 0.6  # a 0.33 m circle clear of the walls
-            self.cmd_vel.publish(command)
-
-    def error(self, pose: LocalizedPose) -> tuple[float, float]:
-        truth = self.truth[stamp_ns(pose)].pose.pose
-        estimate = pose.pose.pose
-        return (math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y),
-                abs(float(wrap(yaw_of(estimate.orientation) - yaw_of(truth.orientation)))))
-
-
 def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
     """open_room declares 4 beacons: use_scan false + use_beacons true pairs /odometry with /beacons only
     (no /scan subscription), answers every reading with one /pose and localizes from a uniform start."""
@@ -344,7 +322,7 @@ def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
     localizer = ParticleFilterNode(context=context, parameter_overrides=[
         Parameter("world", value="open_room.yaml"), Parameter("use_scan", value=False),
         Parameter("use_beacons", value=True), Parameter("max_particles", value=PARTICLES)])
-    driver = BeaconDriver(context)
+    driver = Driver(context, steps=BEACON_STEPS, v=0.2, w=0.6)  # a 0.33 m circle clear of the walls
     for node in (simulator, localizer, driver):
         executor.add_node(node)
     configure_and_activate(localizer)
@@ -358,7 +336,7 @@ def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
     spin_until(executor, lambda: False, 0.2)
 
     poses = driver.poses
-    assert [stamp_ns(p) for p in poses] == driver.readings, "one /pose per reading, stamped with it"
+    assert [stamp_ns(p) for p in poses] == [stamp_ns(r) for r in driver.readings], "one /pose per reading, stamped with it"
     assert all(np.isfinite([p.pose.pose.position.x, p.pose.pose.position.y, *p.pose.covariance]).all() for p in poses)
     assert driver.error(poses[0])[0] > 0.3, "it starts spread over the room, not at the start"
     first = next((i for i, p in enumerate(poses) if p.localized), None)
@@ -433,10 +411,7 @@ def test_a_bad_beacon_reading_is_refused_by_name_and_the_filter_keeps_running(ex
     assert "beacons: 3 beacon positions, expected 4" in log
     assert "beacon 2 at (2.400, 1.400), expected (1.900, 1.400) (positions changed)" in log
     assert log.count("/beacons reading refused") == 4, log
-    for pose in rig.poses:
-        values = [pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.orientation.z,
-                  pose.pose.pose.orientation.w, *pose.pose.covariance]
-        assert np.isfinite(values).all()
+    assert_finite(rig.poses)
     assert node.state_label == "active"
 
 
