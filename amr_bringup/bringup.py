@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import signal
 import sys
 import threading
 import time
@@ -43,6 +42,7 @@ from amr_bringup.processes import NodeProcess, executable_path, stop_processes
 from amr_bringup.status import StatusMonitor, format_table
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_util.executors import NodeSpinners
+from amr_util.stop_signals import Flag, StopSignals
 from amr_maps.bag_writer import bag_directory
 
 GRACE_PERIOD = 5.0
@@ -97,18 +97,6 @@ class Console:
             self.live = False
 
 
-class StopSignals:
-    """SIGINT/SIGTERM: the first asks for a clean stop, the next one for a hurried one."""
-
-    def __init__(self) -> None:
-        self.stop, self.hurry = threading.Event(), threading.Event()
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(signum, self._on_signal)
-
-    def _on_signal(self, signum, frame) -> None:
-        (self.hurry if self.stop.is_set() else self.stop).set()
-
-
 class StackError(RuntimeError):
     """The stack could not be started; the message names the node."""
 
@@ -123,7 +111,7 @@ class ProcessStack:
             try:
                 self.processes.append(NodeProcess(node.name, command, console.line))
             except OSError as error:
-                self.stop(threading.Event())
+                self.stop(Flag())
                 raise StackError(f"node {node.name} failed to start: {error}") from error
             console.note(f"started {node.name} (pid {self.processes[-1].pid}): {' '.join(command)}")
 
@@ -134,7 +122,7 @@ class ProcessStack:
                 return f"node {process.label} (pid {process.pid}) exited with code {code}"
         return None
 
-    def stop(self, hurry: threading.Event) -> list[str]:
+    def stop(self, hurry: Flag) -> list[str]:
         return stop_processes(list(reversed(self.processes)), GRACE_PERIOD, hurry)
 
 
@@ -148,7 +136,7 @@ class ComposedStack:
             try:
                 self.nodes.append(node_class(node)(cli_args=node.ros_arguments()))
             except Exception as error:
-                self.stop(threading.Event())
+                self.stop(Flag())
                 raise StackError(f"node {node.name} failed to start: {type(error).__name__}: {error}") from error
             console.note(f"created {node.name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
 
@@ -162,7 +150,7 @@ class ComposedStack:
         where = f"node {names[-1]}" if names else "a callback"
         self.crash = f"{where} raised {type(error).__name__}: {error}"
 
-    def stop(self, hurry: threading.Event) -> list[str]:
+    def stop(self, hurry: Flag) -> list[str]:
         for node in reversed(self.nodes):
             shut_down = getattr(node, "shut_down_cleanly", None)
             if shut_down is not None:

@@ -8,7 +8,6 @@ worker thread while a MultiThreadedExecutor serves their responses.
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import threading
 import time
@@ -26,6 +25,7 @@ from std_srvs.srv import Trigger
 from amr_bringup.lifecycle_sequence import LifecycleSequencer, Step
 from amr_util.managed_node import SpecifiedParameters
 from amr_util.parameter_spec import ParameterSpec
+from amr_util.stop_signals import StopSignals
 
 
 PARAMETERS = (
@@ -157,18 +157,16 @@ def main(args=None) -> None:
     executor.add_node(manager)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    stop, hurry = threading.Event(), threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):  # the first asks to stop, a second to stop now
-        signal.signal(signum, lambda *_: hurry.set() if stop.is_set() else stop.set())
+    signals = StopSignals()  # the first Ctrl-C / SIGTERM asks to stop, a second to stop now
     if manager.get_parameter("autostart").value:
         threading.Thread(target=manager.startup, daemon=True).start()
-    while not stop.wait(0.1):
+    while not signals.stop.wait(0.1):
         pass
     manager.get_logger().info("shutting down the managed nodes in reverse order")
     worker = threading.Thread(target=manager.shutdown, daemon=True)
     worker.start()
     deadline = time.monotonic() + SHUTDOWN_BUDGET
-    while worker.is_alive() and not hurry.is_set() and time.monotonic() < deadline:
+    while worker.is_alive() and not signals.hurry.is_set() and time.monotonic() < deadline:
         worker.join(0.1)
     if worker.is_alive():
         # `ros2 launch` signals every process at once: the managed nodes may be gone mid-call

@@ -18,6 +18,8 @@ from pathlib import Path
 
 from amr_bringup.stack_config import package_prefix
 from amr_util.environment import child_environment
+from amr_util.stop_signals import Flag
+
 
 def executable_path(package: str, executable: str) -> Path:
     """lib/<package>/<executable> under the package's install prefix."""
@@ -69,7 +71,7 @@ class NodeProcess:
         self.process.stdout.close()
 
 
-def stop_processes(processes: Sequence[NodeProcess], grace: float, hurry: threading.Event) -> list[str]:
+def stop_processes(processes: Sequence[NodeProcess], grace: float, hurry: Flag) -> list[str]:
     """SIGINT every process, SIGKILL those still running after `grace` s (or when `hurry` is set).
 
     Returns the labels of the processes that had to be killed. The SIGKILL goes to each

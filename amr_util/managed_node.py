@@ -17,9 +17,7 @@ accepted and then ignored.
 
 from __future__ import annotations
 
-import signal
 import sys
-import threading
 from collections.abc import Callable, Sequence
 
 import rclpy
@@ -35,6 +33,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from amr_util.parameter_spec import ParameterSpec
+from amr_util.stop_signals import StopSignals
 
 PARAMETER_TYPES = {
     "bool": Parameter.Type.BOOL, "int": Parameter.Type.INTEGER, "float": Parameter.Type.DOUBLE,
@@ -281,9 +280,7 @@ def spin_nodes(nodes: Sequence[LifecycleNode], executor: Executor) -> None:
     for node in nodes:
         if isinstance(node, ManagedNode):
             node.autostart()
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
-    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+    stop = StopSignals().stop
     try:
         while rclpy.ok(context=executor.context) and not stop.is_set():
             executor.spin_once(timeout_sec=SIGNAL_CHECK_PERIOD)
