@@ -1,6 +1,7 @@
 """amr_util: the node plumbing every package of the suite shares (compare nav2_util).
 
 The lifecycle base that survives invalid transitions, declared-and-validated parameters,
-parameter-file reading, share-directory lookup, the suite's QoS profiles and the
-environment of child processes. It imports nothing else of ours but amr_interfaces.
+parameter-file reading, share-directory lookup, the suite's QoS profiles, the
+environment of child processes and lock-free Ctrl-C/SIGTERM flags. It imports nothing
+else of ours but amr_interfaces.
 """
