@@ -1,6 +1,6 @@
 """Recording a running stack: the recorder node in a composed maze_sim (60 simulated seconds, lockstep), amr-bringup
 --record (the recorder as a process of its own), and the standalone `ros2 run amr_bringup recorder`; the bags read
-back from the first step (complete, for the recorder in the stack's process) and render."""
+back in order (complete, for the recorder in the stack's process) and render."""
 
 from __future__ import annotations
 
@@ -32,14 +32,12 @@ def assert_complete(recording, observation_topics=OBSERVATION) -> int:
     return steps
 
 
-def assert_recorded_from_first_step(recording, observation_topics) -> int:
-    """The bag starts at the run's first observation and holds nothing twice or out of order. A recorder process
-    starved of CPU can miss a burst later on, as rosbag2's would (scans are best effort, a reliable writer keeps
-    its last 10): two test suites at once on a 2-core machine lost bursts of 30-40 steps."""
+def assert_recorded_in_order(recording, observation_topics) -> int:
+    """Each step at most once and in order, every topic recorded. Not that nothing is missing: a recorder process
+    starved of CPU can miss a burst anywhere in a lockstep run, as rosbag2's would (scans are best effort, a
+    reliable writer keeps its last 10): two test suites at once on a 2-core machine lost bursts of 10-70 steps."""
     steps = [message.steps for _, message in recording.topics["/simulator/status"]]
-    assert steps[0] == 0 and steps == sorted(set(steps)), steps[:10]
-    first_clock = recording.topics["/clock"][0][1].clock
-    assert (first_clock.sec, first_clock.nanosec) == (0, 0)
+    assert steps == sorted(set(steps)), steps[:10]
     for topic in observation_topics:
         assert 0 < recording.count(topic) <= steps[-1] + 1, (topic, recording.count(topic), steps[-1])
     return steps[-1]
@@ -98,7 +96,7 @@ def test_amr_bringup_records_the_named_topics_and_a_standalone_recorder_records_
 
     recording = read_bag(tmp_path / "run")
     assert sorted(recording.topics) == sorted(topics)
-    assert assert_recorded_from_first_step(recording, topics) > 10, "the stack ran"
+    assert assert_recorded_in_order(recording, topics) > 10, "the stack ran"
     latched = read_bag(tmp_path / "map")  # joined whenever it did: /map and /tf_static are latched
     assert latched.count("/map") == latched.count("/tf_static") == 1
     assert Bringup("maze_sim", "--record", str(tmp_path / "run.mcap")).finish() == 2, "never overwrites a bag"

@@ -64,7 +64,11 @@ class GateProbe(Node):
         for topic, types in self.get_topic_names_and_types():
             if topic in self.subscribed or topic == GATED:
                 continue
-            qos = MAP if topic in LATCHED else QoSProfile(depth=200, reliability=ReliabilityPolicy.BEST_EFFORT)
+            publishers = self.get_publishers_info_by_topic(topic)
+            reliable_only = publishers and all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+                                               for p in publishers)  # best effort would drop some under load
+            qos = MAP if topic in LATCHED else QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE
+                                                          if reliable_only else ReliabilityPolicy.BEST_EFFORT)
             self.received[topic] = []
             self.subscribed[topic] = self.create_subscription(
                 message_class(types[0]), topic, lambda message, topic=topic: self._on(topic, message), qos)
@@ -101,7 +105,9 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
                 probe.cmd_vel.publish(probe.held.pop(0) if probe.held else kick)
                 assert spin_until(executor, lambda: probe.held and all(
                     probe.count(t) > before[t] for t in periodic), TIMEOUT), f"step {step}: the loop stalled"
-                if step == 0:
+                if step == 0:  # the loop waits for the next command: what arrives now is the first step's
+                    assert spin_until(executor, lambda: probe.clock is not None, TIMEOUT), "no /clock"
+                    spin_until(executor, lambda: False, 0.3)
                     periodic = {t for t, _ in probe.batch if t not in LATCHED}
                 clock = probe.clock
                 assert clock is not None and clock == pytest.approx((step + 1) * DT, abs=1e-9)
