@@ -341,7 +341,8 @@ class PathFollower:
             self._escape = None  # turned as far as it may: the block stands
             return None
         self._state = State.ESCAPE
-        return self._emit(0.0, escape.sign * self.config.turn_speed, cross_track, remaining, "grazing a return beside the path: turning away from it")
+        return self._emit(0.0, escape.sign * self.config.turn_speed, cross_track, remaining,
+                          "grazing a return beside the path: turning away from it")
 
     # -- commands --------------------------------------------------------------------------
 

@@ -240,11 +240,10 @@ class ParticleFilterNode(LocalizerNode):
         world declared none); None, logged, when it is refused: the update goes on without it."""
         try:
             if self._beacon_positions is None:
-                positions = checked_beacons(messages.beacon_positions(message))
-                self.filter.set_beacons(positions)
-                self._beacon_positions = positions
+                self.filter.set_beacons(messages.beacon_positions(message))  # checked there
+                self._beacon_positions = self.filter.beacons
                 self.get_logger().info(f"beacon positions from the first /beacons reading: "
-                                       f"{np.round(positions, 3).tolist()}")
+                                       f"{np.round(self._beacon_positions, 3).tolist()}")
             return messages.beacon_reading(message, self._beacon_positions)
         except LocalizationError as error:
             without = "the scan and odometry" if self._settings["use_scan"] else "odometry alone"

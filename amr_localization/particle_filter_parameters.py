@@ -63,7 +63,8 @@ RANGES: dict[str, tuple[float, float]] = {
     "beacon_sigma_compass": (0.0001, math.pi), "recovery_alpha_slow": (0.0, 1.0), "recovery_alpha_fast": (0.0, 1.0),
     "cluster_radius": (0.001, 10.0), "cluster_min_size": (1, 100_000), "localized_min_cluster_share": (0.51, 1.0),
     "localized_max_position_std": (0.001, 10.0), "localized_max_heading_std": (0.001, math.pi),
-    "localized_min_fit": (0.0, 1.0), "fit_distance": (0.001, 1.0), "localized_confirmations": (1, 10_000), "lost_updates": (0, 100_000), "recheck_updates": (0, 100_000), "recheck_margin": (0.0, 10.0),
+    "localized_min_fit": (0.0, 1.0), "fit_distance": (0.001, 1.0), "localized_confirmations": (1, 10_000),
+    "lost_updates": (0, 100_000), "recheck_updates": (0, 100_000), "recheck_margin": (0.0, 10.0),
     "rival_margin": (0.0, 10.0), "rival_coarse_sigma": (0.001, 10.0), "history_length": (1, 1000),
     "history_spacing": (0.0, 10.0), "seed": (0, 2**31 - 1),
 }

@@ -173,6 +173,14 @@ def _seed(chain: Chain, seed) -> np.ndarray:
     return chain.checked_clamp(seed, "seed")
 
 
+def _iterations(value) -> int:
+    if type(value) is int and 1 <= value <= MAX_ITERATIONS_LIMIT:  # the common case, in one test
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_ITERATIONS_LIMIT:
+        raise InvalidRequestError(f"max_iterations must be an integer in [1, {MAX_ITERATIONS_LIMIT}], got {value!r}")
+    return int(value)
+
+
 def _positive(name: str, value, limit: float) -> float:
     if type(value) is float and 0.0 < value <= limit:  # the common case, in one test (NaN fails it)
         return value
@@ -245,16 +253,13 @@ class Solver:
         tolerance = _positive("tolerance", tolerance, MAX_TOLERANCE)
         orientation_tolerance = tolerance if orientation_tolerance is None else _positive(
             "orientation_tolerance", orientation_tolerance, math.pi)
-        if not (type(max_iterations) is int and 1 <= max_iterations <= MAX_ITERATIONS_LIMIT) and (
-                isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or not (
-                1 <= max_iterations <= MAX_ITERATIONS_LIMIT)):
-            raise InvalidRequestError(f"max_iterations must be an integer in [1, {MAX_ITERATIONS_LIMIT}], got {max_iterations!r}")
+        max_iterations = _iterations(max_iterations)
         timeout = _positive("timeout", timeout, MAX_TIMEOUT)
         q0 = chain.clamp(np.zeros(chain.n)) if seed is None else (
             _seed(chain, seed) if self.runs_compiled else chain.checked_clamp(seed, "seed"))
         if chain.couplings:
             q0 = chain.apply_coupling(q0)
-        request = Request(bool(with_orientation), tolerance, orientation_tolerance, int(max_iterations),
+        request = Request(bool(with_orientation), tolerance, orientation_tolerance, max_iterations,
                           started + timeout, bool(record_history), started)
         result = self._solve(chain, goal, q0, request, settings)
         result.elapsed = time.perf_counter() - started

@@ -224,6 +224,15 @@ def localizer_with_rig(executor, **overrides):
     return node, rig
 
 
+def send_one_by_one(executor, rig, send, cases, t: float = 20.0) -> float:
+    """send(t, **fault) for each (name, fault) of `cases`, 50 ms apart; each must get its /pose. Returns the next t."""
+    for expected, (name, fault) in enumerate(cases, start=1):
+        send(t, **fault)
+        t += 0.05
+        assert spin_until(executor, lambda: len(rig.poses) >= expected, 3.0), f"no /pose after the {name}"
+    return t
+
+
 def test_bad_input_is_logged_and_survived_with_one_finite_pose_per_pair(executor):
     node, rig = localizer_with_rig(executor)
     warnings = LoggedWarnings(node)
@@ -238,11 +247,7 @@ def test_bad_input_is_logged_and_survived_with_one_finite_pose_per_pair(executor
         ("odometry jump", dict(odometry_pose=(sim.odom_pose[0] + 5.0, sim.odom_pose[1], sim.odom_pose[2]))),
         ("fine", {}),
     ]
-    t = 20.0
-    for expected, (name, fault) in enumerate(cases, start=1):
-        rig.send(t, **fault)
-        t += 0.05
-        assert spin_until(executor, lambda: len(rig.poses) >= expected, 3.0), f"no /pose after the {name}"
+    t = send_one_by_one(executor, rig, rig.send, cases)
     # stamps going back 10 s (a simulator reset): the pairing restarts, poses keep coming
     rig.send(t - 10.0)
     assert spin_until(executor, lambda: len(rig.poses) >= len(cases) + 1, 3.0), "no /pose after stamps went back"
@@ -399,11 +404,7 @@ def test_a_bad_beacon_reading_is_refused_by_name_and_the_filter_keeps_running(ex
         ("moved beacon", dict(positions=moved)),
         ("fine", {}),
     ]
-    t = 20.0
-    for expected, (name, fault) in enumerate(cases, start=1):
-        rig.send_reading(t, **fault)
-        t += 0.05
-        assert spin_until(executor, lambda: len(rig.poses) >= expected, 3.0), f"no /pose after the {name}"
+    send_one_by_one(executor, rig, rig.send_reading, cases)
     np.testing.assert_array_equal(node.filter.beacons, beacons)
     log = "\n".join(warnings.lines)
     assert "/beacons reading refused (beacon ranges: range 1 is nan: every range must be a finite number >= 0)" in log
