@@ -24,6 +24,24 @@ def _period(increment: float, count: int) -> float:
     return float(count) if abs(turn - count) < 1e-9 * count else turn
 
 
+def fan_pairs(k_lo: np.ndarray, k_hi: np.ndarray, turns: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The (item, beam) pairs of items that each cover the beam positions k in [k_lo, k_hi].
+
+    k_lo lies in [0, period), k_hi in [k_lo, k_lo + period); turns is [[0], [period]] (beams per turn).
+    Beam j sits at k = j and, one turn on, at k = j + period: an item straddling k = 0 covers beams
+    ceil(k_lo) .. count - 1 and 0 .. floor(k_hi - period). Returns (counts, beam): counts (2 n,) how
+    many pairs each item has in its first and in its second turn, beam the pairs' beams, item by
+    item, first turns then second turns: a per-item value v goes with them as
+    np.concatenate([v] * 2).repeat(counts).
+    """
+    first = np.ceil(np.maximum(k_lo - turns, 0.0))
+    counts = np.maximum(np.minimum(np.floor(k_hi - turns), count - 1) - first + 1.0, 0.0).astype(np.intp).ravel()
+    total = int(counts.sum())
+    ends_at = counts.cumsum()
+    beam = np.arange(total) - (ends_at - counts - first.ravel().astype(np.intp)).repeat(counts)
+    return counts, beam
+
+
 class PymunkRayCaster:
     """One space.segment_query_first per beam: simple, about 3 us a beam."""
 
@@ -76,51 +94,55 @@ class NumpyRayCaster:
         self._lower = (float(self._box[0].min()), float(self._box[1].min()))
         self._upper = (float(self._box[2].max()), float(self._box[3].max()))
         self._turns: dict[tuple[float, int], np.ndarray] = {}
-        self._empty: dict[int, np.ndarray] = {}
+        self._empty: dict[tuple[int, int], np.ndarray] = {}
 
     def cast(self, x: float, y: float, phi0: float, increment: float, count: int, max_range: float) -> np.ndarray:
         """Distances per beam, +inf for no hit; hits beyond max_range may be returned as they are."""
-        ranges = self._no_hits(count)
-        distance = self._line @ (x, y, 1.0)
+        return self.cast_many(np.array([x]), np.array([y]), np.array([phi0]), increment, count, max_range)[0]
+
+    def cast_many(self, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, increment: float, count: int,
+                  max_range: float) -> np.ndarray:
+        """(N, count) distances for N fans from origins (x[n], y[n]) starting at angles phi0[n]: row n is
+        cast(x[n], y[n], phi0[n], ...) bit for bit, for the cost of a few more pairs rather than N casts."""
+        ranges = self._no_hits(len(x), count)
+        # one matrix-vector product per origin: a matrix-matrix product may round differently
+        distance = np.stack([self._line @ (px, py, 1.0) for px, py in zip(x.tolist(), y.tolist())])
         keep = distance > 0.0  # faces turned towards the origin ...
-        if (
-            self._lower[0] < x - max_range or self._lower[1] < y - max_range
-            or self._upper[0] > x + max_range or self._upper[1] > y + max_range
-        ):  # ... and, when the world outgrows the range, within a square of half side max_range
+        outgrown = (  # ... and, when the world outgrows the range, within a square of half side max_range
+            (self._lower[0] < x - max_range) | (self._lower[1] < y - max_range)
+            | (self._upper[0] > x + max_range) | (self._upper[1] > y + max_range)
+        )
+        if outgrown.any():
             box = self._box
-            keep &= (
-                (box[0] < x + max_range) & (box[1] < y + max_range)
-                & (box[2] > x - max_range) & (box[3] > y - max_range)
+            near = (
+                (box[0] < x[:, None] + max_range) & (box[1] < y[:, None] + max_range)
+                & (box[2] > x[:, None] - max_range) & (box[3] > y[:, None] - max_range)
             )
-        index = keep.nonzero()[0]
+            keep &= near | ~outgrown[:, None]
+        origin, index = keep.nonzero()  # the (origin, face) items, origin by origin
         if index.size == 0:
             return ranges
         # Seen from the origin, a front face runs clockwise from end a to end b: it covers
         # the beam positions k in [k_b, k_a], k = ((angle - phi0) mod 2 pi) / increment.
         ends = self._ends[:, :, index]
-        k_a, k_b = np.mod(np.arctan2(ends[1] - y, ends[0] - x) - phi0, TWO_PI) / increment
+        start = phi0[origin]
+        k_a, k_b = np.mod(np.arctan2(ends[1] - y[origin], ends[0] - x[origin]) - start, TWO_PI) / increment
         turns = self._period_offsets(increment, count)
         k_a = k_b + np.mod(k_a - k_b, turns[1, 0])
-        # Beam j sits at k = j and, one turn on, at k = j + period: a face straddling
-        # k = 0 covers beams ceil(k_b) .. count - 1 and 0 .. floor(k_a - period).
-        first = np.ceil(np.maximum(k_b - turns, 0.0))
-        counts = np.maximum(np.minimum(np.floor(k_a - turns), count - 1) - first + 1.0, 0.0).astype(np.intp).ravel()
-        total = int(counts.sum())
-        if total == 0:
+        counts, beam = fan_pairs(k_b, k_a, turns, count)
+        if beam.size == 0:
             return ranges
-        # Flatten the (face, beam) pairs, face by face: pair p is beam[p] against face f(p).
-        ends_at = counts.cumsum()
-        beam = np.arange(total) - (ends_at - counts - first.ravel().astype(np.intp)).repeat(counts)
-        heading = np.concatenate([phi0 - self._inward[index]] * 2).repeat(counts) + increment * beam
-        distance = np.concatenate([distance[index]] * 2).repeat(counts)
-        np.minimum.at(ranges, beam, distance / np.maximum(np.cos(heading), GRAZING))
+        heading = np.concatenate([start - self._inward[index]] * 2).repeat(counts) + increment * beam
+        target = np.concatenate([origin * count] * 2).repeat(counts) + beam
+        hit = np.concatenate([distance[origin, index]] * 2).repeat(counts) / np.maximum(np.cos(heading), GRAZING)
+        np.minimum.at(ranges.reshape(-1), target, hit)
         return ranges
 
-    def _no_hits(self, count: int) -> np.ndarray:
+    def _no_hits(self, origins: int, count: int) -> np.ndarray:
         """A fresh all-+inf result (copying a cached one is the cheapest way to make it)."""
-        if count not in self._empty:
-            self._empty[count] = np.full(count, np.inf)
-        return self._empty[count].copy()
+        if (origins, count) not in self._empty:
+            self._empty[origins, count] = np.full((origins, count), np.inf)
+        return self._empty[origins, count].copy()
 
     def _period_offsets(self, increment: float, count: int) -> np.ndarray:
         """[[0], [period]]: the k offsets of a beam's first and second turn (cached)."""
@@ -128,3 +150,37 @@ class NumpyRayCaster:
         if key not in self._turns:
             self._turns[key] = np.array([[0.0], [_period(increment, count)]])
         return self._turns[key]
+
+
+def cast_discs(ranges: np.ndarray, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, increment: float,
+               max_range: float, centres: np.ndarray, radius: float, skip: np.ndarray) -> None:
+    """Lower ranges (N, count) in place where the fans of NumpyRayCaster.cast_many meet discs.
+
+    Origin n sees every disc (centres (M, 2), all of `radius`) but disc skip[n] (-1: none), the way a
+    robot's LiDAR sees the other robots and not itself. A disc at distance d and bearing beta spans
+    the beams within asin(radius / d) of beta; such a beam at angle phi hits it at
+
+        t = d cos(phi - beta) - sqrt(radius^2 - d^2 sin^2(phi - beta))
+
+    (0 for an origin inside the disc). The work grows with the (beam, disc) pairs, as for faces.
+    """
+    count = ranges.shape[1]
+    dx, dy = centres[None, :, 0] - x[:, None], centres[None, :, 1] - y[:, None]
+    distance = np.hypot(dx, dy)
+    keep = (distance - radius < max_range) & (np.arange(len(centres))[None, :] != skip[:, None])
+    origin, disc = keep.nonzero()
+    if origin.size == 0:
+        return
+    distance, dx, dy = distance[origin, disc], dx[origin, disc], dy[origin, disc]
+    start = phi0[origin] - np.arctan2(dy, dx)  # the first beam's angle from the bearing
+    half = np.where(distance > radius, np.arcsin(radius / np.maximum(distance, radius)), math.pi)
+    turn = _period(increment, count)
+    k_lo = np.mod(-start - half, TWO_PI) / increment
+    counts, beam = fan_pairs(k_lo, k_lo + 2.0 * half / increment, np.array([[0.0], [turn]]), count)
+    if beam.size == 0:
+        return
+    angle = np.concatenate([start] * 2).repeat(counts) + increment * beam
+    distance = np.concatenate([distance] * 2).repeat(counts)
+    across = distance * np.sin(angle)
+    hit = np.maximum(distance * np.cos(angle) - np.sqrt(np.maximum(radius * radius - across * across, 0.0)), 0.0)
+    np.minimum.at(ranges.reshape(-1), np.concatenate([origin * count] * 2).repeat(counts) + beam, hit)
