@@ -438,7 +438,7 @@ class Fleet:
         c = self.config.lidar
         ranges = self._numpy_caster.cast_many(x, y, phi0, c.angle_increment, c.beams, c.range_max)
         if len(self.robots) > 1:
-            centres = np.array([body.position for body in self._physics.bodies])
+            centres = np.array([(robot._pose.x, robot._pose.y) for robot in self.robots])
             cast_discs(ranges, x, y, phi0, c.angle_increment, c.range_max, centres, self.config.robot.radius,
                        observers)
         return ranges

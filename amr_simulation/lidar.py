@@ -46,8 +46,8 @@ class Lidar:
 def readings(ranges: np.ndarray, noise: np.ndarray | None, config: LidarConfig) -> np.ndarray:
     """What LiDARs read from true ranges (..., beams) plus their noise (same shape, or None)."""
     c = config
-    readings = ranges + noise if noise is not None else ranges.copy()
-    np.minimum(np.maximum(readings, c.range_min, out=readings), c.range_max, out=readings)
-    readings[ranges > c.range_max] = np.inf
-    readings[ranges < c.range_min] = -np.inf
-    return readings
+    out = ranges + noise if noise is not None else ranges.copy()
+    np.minimum(np.maximum(out, c.range_min, out=out), c.range_max, out=out)
+    np.copyto(out, np.inf, where=ranges > c.range_max)
+    np.copyto(out, -np.inf, where=ranges < c.range_min)
+    return out

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 import pymunk
 
@@ -24,22 +25,29 @@ def _period(increment: float, count: int) -> float:
     return float(count) if abs(turn - count) < 1e-9 * count else turn
 
 
-def fan_pairs(k_lo: np.ndarray, k_hi: np.ndarray, turns: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """The (item, beam) pairs of items that each cover the beam positions k in [k_lo, k_hi].
+def fan_spans(k_lo: np.ndarray, k_hi: np.ndarray, turns: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The beams that items covering the beam positions k in [k_lo, k_hi] span, as (first, counts).
 
     k_lo lies in [0, period), k_hi in [k_lo, k_lo + period); turns is [[0], [period]] (beams per turn).
     Beam j sits at k = j and, one turn on, at k = j + period: an item straddling k = 0 covers beams
-    ceil(k_lo) .. count - 1 and 0 .. floor(k_hi - period). Returns (counts, beam): counts (2 n,) how
-    many pairs each item has in its first and in its second turn, beam the pairs' beams, item by
-    item, first turns then second turns: a per-item value v goes with them as
-    np.concatenate([v] * 2).repeat(counts).
+    ceil(k_lo) .. count - 1 and 0 .. floor(k_hi - period). first and counts are (2 n,): item i spans
+    beams first[i] .. first[i] + counts[i] - 1 in its first turn and first[n + i] .. in its second.
     """
     first = np.ceil(np.maximum(k_lo - turns, 0.0))
-    counts = np.maximum(np.minimum(np.floor(k_hi - turns), count - 1) - first + 1.0, 0.0).astype(np.intp).ravel()
-    total = int(counts.sum())
-    ends_at = counts.cumsum()
-    beam = np.arange(total) - (ends_at - counts - first.ravel().astype(np.intp)).repeat(counts)
-    return counts, beam
+    counts = np.maximum(np.minimum(np.floor(k_hi - turns), count - 1) - first + 1.0, 0.0)
+    return first.ravel().astype(np.intp), counts.ravel().astype(np.intp)
+
+
+@numba.njit(cache=True)
+def _sweep_faces(ranges, rows, first, counts, headings, distances, increment):  # pragma: no cover - compiled
+    """ranges[row, beam] = min(itself, d / max(cos(heading + increment * beam), GRAZING)) over each span:
+    the hits of the faces on the beams they span (the same arithmetic numpy would do, beam by beam)."""
+    for item in range(first.size):
+        row, heading, distance = rows[item], headings[item], distances[item]
+        for beam in range(first[item], first[item] + counts[item]):
+            hit = distance / max(math.cos(heading + increment * beam), GRAZING)
+            if hit < ranges[row, beam]:
+                ranges[row, beam] = hit
 
 
 class PymunkRayCaster:
@@ -129,13 +137,10 @@ class NumpyRayCaster:
         k_a, k_b = np.mod(np.arctan2(ends[1] - y[origin], ends[0] - x[origin]) - start, TWO_PI) / increment
         turns = self._period_offsets(increment, count)
         k_a = k_b + np.mod(k_a - k_b, turns[1, 0])
-        counts, beam = fan_pairs(k_b, k_a, turns, count)
-        if beam.size == 0:
-            return ranges
-        heading = np.concatenate([start - self._inward[index]] * 2).repeat(counts) + increment * beam
-        target = np.concatenate([origin * count] * 2).repeat(counts) + beam
-        hit = np.concatenate([distance[origin, index]] * 2).repeat(counts) / np.maximum(np.cos(heading), GRAZING)
-        np.minimum.at(ranges.reshape(-1), target, hit)
+        first, counts = fan_spans(k_b, k_a, turns, count)
+        _sweep_faces(ranges, np.concatenate([origin] * 2), first, counts,
+                     np.concatenate([start - self._inward[index]] * 2),
+                     np.concatenate([distance[origin, index]] * 2), increment)
         return ranges
 
     def _no_hits(self, origins: int, count: int) -> np.ndarray:
@@ -162,25 +167,36 @@ def cast_discs(ranges: np.ndarray, x: np.ndarray, y: np.ndarray, phi0: np.ndarra
 
         t = d cos(phi - beta) - sqrt(radius^2 - d^2 sin^2(phi - beta))
 
-    (0 for an origin inside the disc). The work grows with the (beam, disc) pairs, as for faces.
+    (0 for an origin inside the disc). The work grows with the (beam, disc) pairs, as for faces; it
+    is one compiled loop (numba), since N x M pairs of numpy calls would cost more than the hits.
     """
+    _sweep_discs(ranges, np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float),
+                 np.ascontiguousarray(phi0, dtype=float), float(increment), _period(increment, ranges.shape[1]),
+                 float(max_range), np.ascontiguousarray(centres, dtype=float).reshape(-1, 2), float(radius),
+                 np.ascontiguousarray(skip, dtype=np.intp))
+
+
+@numba.njit(cache=True)
+def _sweep_discs(ranges, x, y, phi0, increment, period, max_range, centres, radius, skip):  # pragma: no cover
     count = ranges.shape[1]
-    dx, dy = centres[None, :, 0] - x[:, None], centres[None, :, 1] - y[:, None]
-    distance = np.hypot(dx, dy)
-    keep = (distance - radius < max_range) & (np.arange(len(centres))[None, :] != skip[:, None])
-    origin, disc = keep.nonzero()
-    if origin.size == 0:
-        return
-    distance, dx, dy = distance[origin, disc], dx[origin, disc], dy[origin, disc]
-    start = phi0[origin] - np.arctan2(dy, dx)  # the first beam's angle from the bearing
-    half = np.where(distance > radius, np.arcsin(radius / np.maximum(distance, radius)), math.pi)
-    turn = _period(increment, count)
-    k_lo = np.mod(-start - half, TWO_PI) / increment
-    counts, beam = fan_pairs(k_lo, k_lo + 2.0 * half / increment, np.array([[0.0], [turn]]), count)
-    if beam.size == 0:
-        return
-    angle = np.concatenate([start] * 2).repeat(counts) + increment * beam
-    distance = np.concatenate([distance] * 2).repeat(counts)
-    across = distance * np.sin(angle)
-    hit = np.maximum(distance * np.cos(angle) - np.sqrt(np.maximum(radius * radius - across * across, 0.0)), 0.0)
-    np.minimum.at(ranges.reshape(-1), np.concatenate([origin * count] * 2).repeat(counts) + beam, hit)
+    for origin in range(x.size):
+        for disc in range(centres.shape[0]):
+            if disc == skip[origin]:
+                continue
+            dx, dy = centres[disc, 0] - x[origin], centres[disc, 1] - y[origin]
+            distance = math.hypot(dx, dy)
+            if distance - radius >= max_range:
+                continue
+            start = phi0[origin] - math.atan2(dy, dx)  # the first beam's angle from the bearing
+            half = math.asin(radius / distance) if distance > radius else math.pi
+            k_lo = ((-start - half) % TWO_PI) / increment
+            k_hi = k_lo + 2.0 * half / increment
+            for turn in (0.0, period):  # beam j sits at k = j and, one turn on, at k = j + period
+                first = max(math.ceil(k_lo - turn), 0)
+                last = min(math.floor(k_hi - turn), count - 1)
+                for beam in range(first, last + 1):
+                    angle = start + increment * beam
+                    across = distance * math.sin(angle)
+                    hit = max(distance * math.cos(angle) - math.sqrt(max(radius * radius - across * across, 0.0)), 0.0)
+                    if hit < ranges[origin, beam]:
+                        ranges[origin, beam] = hit
