@@ -348,9 +348,9 @@ class Fleet:
 
     def render(self, path: str | Path, dpi: int = 120) -> Path:
         """Write a PNG of the current state; returns its path."""
-        from amr_simulation.render import save_png  # matplotlib only when drawing
+        from amr_simulation.render import draw_fleet, save_png  # matplotlib only when drawing
 
-        return save_png(self, path, dpi=dpi)
+        return save_png(self, path, dpi=dpi, draw=draw_fleet)
 
     # -- internals -------------------------------------------------------------------------
 

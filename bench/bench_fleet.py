@@ -7,7 +7,9 @@ a grid of free points with seeded headings. Every robot has a 240-beam 360-degre
 and drives by a bump-and-turn rule from its own scan (ahead at 0.2 m/s; turning on the spot while
 something is within 0.3 m in the front 45 degrees), so robots meet walls and each other. The
 simulator runs with its config defaults (dt = 0.05 s, LiDAR noise 0.01 m, numpy ray casting); only
-Fleet.step() is timed (the rule runs outside the timer), the best of `repeats` identical runs.
+Fleet.step() is timed (the rule runs outside the timer), the best of `repeats` identical runs: the
+process's CPU time (time.process_time) and, apart, the wall clock (which other processes on a shared
+machine inflate; on a quiet machine the two agree).
 
 IR-SIM 2.12 runs the same scene (same boxes, robots, starts, radius, beams, range, dt, the same rule
 from its own scans, only env.step() timed, headless, its LiDAR noise off) in the same run of this
@@ -35,7 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from amr_simulation.config import SimulationConfig  # noqa: E402
 from amr_simulation.fleet import Fleet  # noqa: E402
-from amr_simulation.world import World, world_from_dict  # noqa: E402
+from amr_simulation.pose import wrap_angle  # noqa: E402
+from amr_simulation.world import World, load_world, resolve_world_path, world_from_dict  # noqa: E402
 from amr_util.environment import child_environment  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
@@ -78,19 +81,34 @@ def bump_and_turn(ranges: np.ndarray) -> tuple[float, float]:
 
 def run(description: dict, count: int) -> dict:
     """Best-of-repeats seconds spent in Fleet.step over the scene's steps."""
-    best, collisions = math.inf, (0, 0)
+    best, best_wall, collisions = math.inf, math.inf, (0, 0)
     for _ in range(description["repeats"]):
         fleet = Fleet(world(description, count))
-        elapsed = 0.0
+        cpu = wall = 0.0
         for _ in range(description["steps"]):
             commands = [bump_and_turn(np.asarray(robot.ranges)) for robot in fleet.robots]
-            start = time.perf_counter()
+            start, start_wall = time.process_time(), time.perf_counter()
             fleet.step(commands)
-            elapsed += time.perf_counter() - start
-        best = min(best, elapsed)
+            cpu += time.process_time() - start
+            wall += time.perf_counter() - start_wall
+        best, best_wall = min(best, cpu), min(best_wall, wall)
         collisions = (sum(r.wall_collisions for r in fleet.robots),
                       sum(sum(r.robot_collisions.values()) for r in fleet.robots) // 2)
-    return {"robots": count, "seconds": best, "steps": description["steps"], "collisions": collisions}
+    return {"robots": count, "seconds": best, "wall": best_wall, "steps": description["steps"],
+            "collisions": collisions}
+
+
+def crossing_figure(path: Path, steps: int = 130) -> Path:
+    """The crossing world after `steps` of each robot heading for its goal but for the bump-and-turn rule."""
+    fleet = Fleet(load_world(resolve_world_path("fleets/crossing.yaml")))
+    for _ in range(steps):
+        commands = []
+        for robot in fleet.robots:
+            error = wrap_angle(math.atan2(robot.goal.y - robot.pose.y, robot.goal.x - robot.pose.x) - robot.pose.theta)
+            v, w = bump_and_turn(np.asarray(robot.ranges))
+            commands.append((v, w) if v == 0.0 else (0.2 * max(0.0, math.cos(error)), 2.0 * error))
+        fleet.step(commands)
+    return fleet.render(path, dpi=90)
 
 
 def irsim_runs(description: dict, python: str | None) -> tuple[dict | None, str]:
@@ -103,15 +121,16 @@ def irsim_runs(description: dict, python: str | None) -> tuple[dict | None, str]
                             capture_output=True, text=True, env=child_environment())
     if result.returncode != 0:
         return None, f"IR-SIM skipped: {python} failed: {result.stderr.strip().splitlines()[-1:]}"
-    return json.loads(result.stdout), ""
+    return json.loads(result.stdout.strip().splitlines()[-1]), ""  # IR-SIM prints its own lines first
 
 
 def row(name: str, run_: dict, dt: float, first: dict | None) -> str:
     per_step = run_["seconds"] / run_["steps"]
     per_robot = per_step / run_["robots"]
     growth = "" if first is None else f"{per_robot / (first['seconds'] / first['steps']):9.2f}"
-    return (f"{name:10} {run_['robots']:6d} | {1.0 / per_step:9.0f} {dt / per_step:8.1f}x {per_step * 1e6:9.0f} "
-            f"{per_robot * 1e6:9.0f} {growth:>9} | {run_['collisions']}")
+    wall = run_["wall"] / run_["steps"]
+    return (f"{name:13} {run_['robots']:6d} | {1.0 / per_step:9.0f} {dt / per_step:8.1f}x {per_step * 1e6:9.0f} "
+            f"{per_robot * 1e6:9.0f} {growth:>9} | {dt / wall:8.1f}x | {run_['collisions']}")
 
 
 def main() -> None:
@@ -122,14 +141,19 @@ def main() -> None:
     parser.add_argument("--irsim-python", help="a Python with ir-sim 2.12 installed (if this one lacks it)")
     parser.add_argument("--no-irsim", action="store_true", help="skip IR-SIM")
     parser.add_argument("--profile", type=int, metavar="N", help="print a cProfile of our run with N robots")
+    parser.add_argument("--figure", type=Path, help="only draw docs/fleet.md's picture of fleets/crossing.yaml here")
     args = parser.parse_args()
+    if args.figure:
+        print(f"wrote {crossing_figure(args.figure)}")
+        return
     description = scene(tuple(args.counts), args.steps, args.repeats)
     dt = description["dt"]
     print(f"Fleet steps, 8 x 6 m room with 4 boxes, {description['beams']} beams per robot, dt = {dt} s, "
           f"{args.steps} steps, best of {args.repeats}; only the simulator's step is timed")
-    print(f"{'simulator':10} {'robots':>6} | {'steps/s':>9} {'realtime':>9} {'us/step':>9} {'us/robot':>9} "
-          f"{'per robot':>9} | collisions")
-    print(f"{'':10} {'':6} | {'':9} {'':9} {'':9} {'':9} {'vs 1':>9} | (ours: wall, robot pairs)")
+    print(f"{'simulator':13} {'robots':>6} | {'steps/s':>9} {'realtime':>9} {'us/step':>9} {'us/robot':>9} "
+          f"{'per robot':>9} | {'realtime':>9} | collisions")
+    print(f"{'':13} {'':6} | {'(CPU time)':>9} {'':9} {'':9} {'':9} {'vs 1':>9} | {'wall clock':>9} | "
+          "ours: wall, robot pairs; IR-SIM: robots stopped")
     ours = [run(description, count) for count in args.counts]
     for result in ours:
         print(row("amr", result, dt, ours[0]))

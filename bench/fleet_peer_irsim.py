@@ -5,8 +5,8 @@
 The scene (JSON on stdin) is what bench_fleet.scene() made: the room's solids as axis-aligned boxes,
 the robots' starts, radius, speed limits, LiDAR (beams, range), dt, steps and repeats. Each robot is
 an IR-SIM diff-drive disc with a 360-degree lidar2d of the same beams and range, driven by the same
-bump-and-turn rule from its own scan as our robots; only env.step() is timed. Prints
-{"version": ..., "runs": [{"robots": n, "seconds": best, "steps": steps, "collisions": c}, ...]}.
+bump-and-turn rule from its own scan as our robots; only env.step() is timed (CPU and wall clock, as bench_fleet.py). Prints {"version": ..., "runs":
+[{"robots": n, "seconds": best CPU s, "wall": best wall s, "steps": steps, "collisions": c}, ...]}.
 """
 
 from __future__ import annotations
@@ -54,12 +54,12 @@ def run(scene: dict, count: int, directory: Path) -> dict:
 
     path = directory / f"fleet_{count}.yaml"
     path.write_text(yaml.safe_dump(world_yaml(scene, count)))
-    best, collisions = math.inf, 0
+    best, best_wall, collisions = math.inf, math.inf, 0
     for _ in range(scene["repeats"]):
         env = irsim.make(str(path), display=False, headless=True, log_level="ERROR")
         robots = env.robot_list
         assert len(robots) == count, f"IR-SIM made {len(robots)} robots, not {count}"
-        elapsed = 0.0
+        cpu = wall = 0.0
         for _ in range(scene["steps"]):
             actions = []
             for robot in robots:
@@ -68,13 +68,14 @@ def run(scene: dict, count: int, directory: Path) -> dict:
                 angles = scan["angle_min"] + scan["angle_increment"] * np.arange(ranges.size)
                 v, w = bump_and_turn(ranges, angles)
                 actions.append(np.array([[v], [w]]))
-            start = time.perf_counter()
+            start, start_wall = time.process_time(), time.perf_counter()
             env.step(action=actions, action_id=list(range(count)))
-            elapsed += time.perf_counter() - start
-        best = min(best, elapsed)
+            cpu += time.process_time() - start
+            wall += time.perf_counter() - start_wall
+        best, best_wall = min(best, cpu), min(best_wall, wall)
         collisions = sum(bool(robot.collision) for robot in robots)
         env.end(0)
-    return {"robots": count, "seconds": best, "steps": scene["steps"], "collisions": collisions}
+    return {"robots": count, "seconds": best, "wall": best_wall, "steps": scene["steps"], "collisions": collisions}
 
 
 def main() -> None:

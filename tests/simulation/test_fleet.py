@@ -324,3 +324,23 @@ def test_starts_that_overlap_are_refused_when_the_fleet_is_built() -> None:
         Fleet(room(("r1", (1.9, 0.0, 0.0))), make_config())
     # a smaller robot fits
     Fleet(room(("r1", (0.0, 0.0, 0.0)), ("r2", (0.15, 0.0, 0.0))), make_config(robot=RobotConfig(radius=0.07)))
+
+
+def test_the_shipped_fleet_world_loads_runs_and_renders(tmp_path) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import PathCollection
+    from matplotlib.figure import Figure
+
+    from amr_simulation.render import draw_fleet
+
+    fleet = Fleet(load_world(WORLDS / "fleets" / "crossing.yaml"), make_config(lidar={"noise_std": 0.01}))
+    assert fleet.names == ("r1", "r2", "r3", "r4") and all(robot.goal is not None for robot in fleet.robots)
+    for _ in range(10):
+        fleet.step([(0.2, 0.0)] * 4)
+    assert fleet.render(tmp_path / "crossing.png", dpi=40).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    figure = Figure()
+    FigureCanvasAgg(figure)
+    ax = figure.add_subplot()
+    draw_fleet(ax, fleet)
+    scans = [c for c in ax.collections if isinstance(c, PathCollection)]  # one scatter of returns per robot
+    assert [len(c.get_offsets()) for c in scans] == [int(np.isfinite(r.ranges).sum()) for r in fleet.robots]
