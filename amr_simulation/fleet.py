@@ -424,12 +424,15 @@ class Fleet:
             for robot in robots:
                 robot._ranges = robot._lidar.scan(robot._pose)
             return
-        sensors = [robot._lidar.sensor_pose(robot._pose) for robot in robots]
-        true = self._cast(np.array([s.x for s in sensors]), np.array([s.y for s in sensors]),
-                          np.array([s.theta + c.angle_min for s in sensors]), np.array([r.index for r in robots]))
-        noise = [robot._lidar.noise() for robot in robots]
-        scans = readings(true, None if noise[0] is None else np.stack(noise), c)
-        for robot, scan in zip(robots, scans):
+        sensors = np.array([robot._lidar.sensor_pose(robot._pose) for robot in robots])
+        true = self._cast(sensors[:, 0], sensors[:, 1], sensors[:, 2] + c.angle_min,
+                          np.array([robot.index for robot in robots]))
+        noise = None
+        if c.noise_std > 0.0:
+            noise = np.empty_like(true)
+            for row, robot in enumerate(robots):
+                noise[row] = robot._lidar.noise()
+        for robot, scan in zip(robots, readings(true, noise, c)):
             robot._ranges = scan
 
     def _cast(self, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, observers: np.ndarray) -> np.ndarray:

@@ -32,7 +32,9 @@ COLLISION_SLOP = 0.001
 COLLISION_BIAS = 0.0
 """Fraction of the overlap left uncorrected after one second: 0 pushes it all out each step."""
 ROBOT_CATEGORY, WALL_CATEGORY = 0b01, 0b10
-ROBOT_TYPE, WALL_TYPE = 1, 2
+WALL_TYPE = 1
+ROBOT_TYPE = 2
+"""Robot i's collision type is ROBOT_TYPE + i: a handler per robot (and per pair) knows whose contact it is."""
 WALLS_ONLY = pymunk.ShapeFilter(mask=WALL_CATEGORY)
 
 
@@ -97,58 +99,23 @@ class Physics:
             self.space.add(shape)
         self.bodies: list[pymunk.Body] = []
         self.shapes: list[pymunk.Circle] = []
-        self._robot_of: dict[pymunk.Shape, int] = {}
         for index in range(robots):
             body = pymunk.Body(ROBOT_MASS, pymunk.moment_for_circle(ROBOT_MASS, 0.0, robot_radius))
             shape = pymunk.Circle(body, robot_radius)
             shape.filter = pymunk.ShapeFilter(group=index + 1, categories=ROBOT_CATEGORY)
-            shape.collision_type = ROBOT_TYPE
+            shape.collision_type = ROBOT_TYPE + index
             shape.friction = 0.0
             self.space.add(body, shape)
             self.bodies.append(body)
             self.shapes.append(shape)
-            self._robot_of[shape] = index
         self.body, self.shape = self.bodies[0], self.shapes[0]
         self.radius = robot_radius
         self.contacts = [Contacts() for _ in range(robots)]
-        self.space.on_collision(
-            ROBOT_TYPE, WALL_TYPE, begin=self._begin, pre_solve=self._pre_solve, separate=self._separate
-        )
-        self.space.on_collision(
-            ROBOT_TYPE, ROBOT_TYPE, begin=self._begin_robots, pre_solve=self._pre_solve_robots,
-            separate=self._separate_robots,
-        )
-
-    def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
-        self.contacts[self._robot_of[arbiter.shapes[0]]].begin(None)
-
-    def _pre_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
-        # shapes are ordered as the handler's types: the normal points from the robot into the wall
-        self.contacts[self._robot_of[arbiter.shapes[0]]].normals.append(arbiter.normal)
-
-    def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
-        self.contacts[self._robot_of[arbiter.shapes[0]]].separate(None)
-
-    def _pair(self, arbiter: pymunk.Arbiter) -> tuple[int, int]:
-        a, b = arbiter.shapes
-        return self._robot_of[a], self._robot_of[b]
-
-    def _begin_robots(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
-        a, b = self._pair(arbiter)
-        self.contacts[a].begin(b)
-        self.contacts[b].begin(a)
-
-    def _pre_solve_robots(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
-        # the normal points from the first shape into the second: each robot treats the other as a
-        # wall for the next substep (a robot cannot push another)
-        a, b = self._pair(arbiter)
-        self.contacts[a].normals.append(arbiter.normal)
-        self.contacts[b].normals.append(-arbiter.normal)
-
-    def _separate_robots(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
-        a, b = self._pair(arbiter)
-        self.contacts[a].separate(b)
-        self.contacts[b].separate(a)
+        for index, contacts in enumerate(self.contacts):
+            self.space.on_collision(ROBOT_TYPE + index, WALL_TYPE, **_wall_handlers(contacts))
+            for other in range(index + 1, robots):
+                self.space.on_collision(ROBOT_TYPE + index, ROBOT_TYPE + other,
+                                        **_robot_handlers(contacts, index, self.contacts[other], other))
 
     @property
     def collisions(self) -> int:
@@ -193,6 +160,42 @@ class Physics:
             body.velocity = (vx, vy)
             body.angular_velocity = w
         self.space.step(dt)
+
+
+def _wall_handlers(contacts: Contacts) -> dict:
+    """pymunk callbacks for one robot's contacts with the solids."""
+
+    def begin(arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
+        contacts.begin(None)
+
+    def pre_solve(arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
+        # shapes are ordered as the handler's types: the normal points from the robot into the wall
+        contacts.normals.append(arbiter.normal)
+
+    def separate(arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
+        contacts.separate(None)
+
+    return {"begin": begin, "pre_solve": pre_solve, "separate": separate}
+
+
+def _robot_handlers(first: Contacts, index: int, second: Contacts, other: int) -> dict:
+    """pymunk callbacks for the contacts between robots `index` and `other` (index < other)."""
+
+    def begin(arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
+        first.begin(other)
+        second.begin(index)
+
+    def pre_solve(arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
+        # the normal points from the first robot into the second: each treats the other as a wall for
+        # the next substep (a robot cannot push another)
+        first.normals.append(arbiter.normal)
+        second.normals.append(-arbiter.normal)
+
+    def separate(arbiter: pymunk.Arbiter, space: pymunk.Space, data: dict) -> None:
+        first.separate(other)
+        second.separate(index)
+
+    return {"begin": begin, "pre_solve": pre_solve, "separate": separate}
 
 
 def substeps(distance: float, max_substep_distance: float) -> int:

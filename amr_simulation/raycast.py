@@ -113,20 +113,21 @@ class NumpyRayCaster:
         """(N, count) distances for N fans from origins (x[n], y[n]) starting at angles phi0[n]: row n is
         cast(x[n], y[n], phi0[n], ...) bit for bit, for the cost of a few more pairs rather than N casts."""
         ranges = self._no_hits(len(x), count)
-        # one matrix-vector product per origin: a matrix-matrix product may round differently
-        distance = np.stack([self._line @ (px, py, 1.0) for px, py in zip(x.tolist(), y.tolist())])
+        origins = list(zip(x.tolist(), y.tolist()))
+        distance = np.empty((len(origins), len(self._line)))
+        for row, (px, py) in enumerate(origins):  # a matrix-matrix product might round differently
+            distance[row] = self._line @ (px, py, 1.0)
         keep = distance > 0.0  # faces turned towards the origin ...
-        outgrown = (  # ... and, when the world outgrows the range, within a square of half side max_range
-            (self._lower[0] < x - max_range) | (self._lower[1] < y - max_range)
-            | (self._upper[0] > x + max_range) | (self._upper[1] > y + max_range)
-        )
-        if outgrown.any():
+        (xmin, ymin), (xmax, ymax) = self._lower, self._upper
+        outgrown = [xmin < px - max_range or ymin < py - max_range or xmax > px + max_range or ymax > py + max_range
+                    for px, py in origins]
+        if any(outgrown):  # ... and, when the world outgrows the range, within a square of half side max_range
             box = self._box
             near = (
                 (box[0] < x[:, None] + max_range) & (box[1] < y[:, None] + max_range)
                 & (box[2] > x[:, None] - max_range) & (box[3] > y[:, None] - max_range)
             )
-            keep &= near | ~outgrown[:, None]
+            keep &= near | ~np.array(outgrown)[:, None]
         origin, index = keep.nonzero()  # the (origin, face) items, origin by origin
         if index.size == 0:
             return ranges
