@@ -20,8 +20,12 @@ from .errors import KinematicsError
 def _finite(name: str, *values: float) -> None:
     """Non-finite speeds would turn into NaN wheel commands: refuse them."""
     for value in values:
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-            raise KinematicsError(f"DiffDrive.{name}: speeds must be finite numbers, got {values!r}")
+        if type(value) is float:  # the common case first: the abstract-class checks cost microseconds
+            if math.isfinite(value):
+                continue
+        elif not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(value):
+            continue
+        raise KinematicsError(f"DiffDrive.{name}: speeds must be finite numbers, got {values!r}")
 
 
 @dataclass(frozen=True)
