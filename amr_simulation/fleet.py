@@ -219,8 +219,8 @@ class Fleet:
         world's time and the other robots go on. Raises SimulationError if another robot is in the way."""
         old = self.robot(robot)
         new = SimulatedRobot(self, old.index, RobotSpec(old.name, old.start, old.goal))
-        self._contacts_cleared(old.index)
         self._place(new, new.start, others=[r for r in self.robots if r is not old])
+        self._physics.contacts[old.index].clear_counts()
         self.robots = self.robots[:old.index] + (new,) + self.robots[old.index + 1:]
         self._scan([new])
 
@@ -413,9 +413,6 @@ class Fleet:
             robot._trajectory.append((math.nan, math.nan, math.nan))  # a break in the drawn path
         robot._trajectory.append((x, y, 0.0))
         robot._goal_reached = robot.goal is not None and robot.goal.contains(x, y)
-
-    def _contacts_cleared(self, index: int) -> None:
-        self._physics.contacts[index].clear_counts()
 
     def _scan(self, robots: Sequence[SimulatedRobot]) -> None:
         """New scans for these robots from where every robot is now; each draws its own noise."""

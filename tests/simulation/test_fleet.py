@@ -281,10 +281,12 @@ def test_reset_robot_restarts_one_robot_while_the_world_goes_on() -> None:
     r1 = fleet.robot("r1")
     assert r1.pose == (-1.0, 0.0, 0.0) and r1.collisions == 0 and len(r1.trajectory) == 1
     assert fleet.steps == 150 and fleet.robot("r2").pose == r2_pose
-    fleet.set_pose(0.0, 0.0, 0.0, robot="r1")
-    fleet.set_pose(-1.0, 0.1, 0.0, robot="r2")
+    for _ in range(100):
+        fleet.step([(-0.2, 0.0), (0.0, 0.0)])  # into the wall again
+    fleet.set_pose(-1.0, 0.1, 0.0, robot="r2")  # onto r1's start
     with pytest.raises(SimulationError, match="robot 'r1' .* overlaps robot 'r2'"):
         fleet.reset_robot("r1")
+    assert fleet.robot("r1").collisions == 1 and fleet.robot("r1").pose.x < -1.8  # untouched by the refusal
 
 
 def test_reset_puts_everyone_back_and_replays_the_same_run() -> None:
