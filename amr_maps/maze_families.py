@@ -1,4 +1,4 @@
-"""Generated worlds for tests and benchmarks: maze families with a free start and a goal, no ROS.
+"""Generated worlds: maze families with a free start and a goal, no ROS (the `amr-maze` command writes them).
 
 ``generate(family, seed, **options)`` returns a world dict that
 :func:`amr_maps.world.world_from_dict` accepts (walls with one
@@ -98,6 +98,13 @@ def generate(family: str, seed: int, **options: Any) -> dict:
     world = _BUILDERS[family](rng, opts, hand)
     world["name"] = f"{family}_{seed}"
     return _rounded(world)
+
+
+def family_options(family: str) -> tuple[str, ...]:
+    """The options ``generate`` takes for ``family``: the common ones, then the family's own."""
+    if family not in FAMILIES:
+        raise MazeError(f"unknown maze family {family!r} (known: {', '.join(FAMILIES)})")
+    return _COMMON + _FAMILY_OPTIONS[family]
 
 
 def goal_reachable(
