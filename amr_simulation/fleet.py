@@ -30,16 +30,17 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 import pymunk
 
-from amr_kinematics.diff_drive import DiffDrive
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import Goal, RobotSpec, World, load_world, resolve_world_path
 from amr_simulation.beacon_sensor import BeaconSensor
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.encoders import Encoders
 from amr_simulation.errors import ConfigError, SimulationError
 from amr_simulation.lidar import Lidar, readings
 from amr_simulation.physics import ROBOT_CATEGORY, WALL_CATEGORY, Physics, substeps
-from amr_simulation.pose import Pose2D, arc_twist, chord_factor, integrate_arc, wrap_angle
-from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster, cast_discs
-from amr_simulation.world import Goal, RobotSpec, World, load_world, resolve_world_path
+from amr_simulation.raycast import PymunkRayCaster, cast_discs
+from amr_util.diff_drive import DiffDrive
+from amr_util.geometry import Pose2D, arc_twist, chord_factor, integrate_arc, wrap_angle
 
 Command = tuple[float, float]
 """(v m/s, w rad/s) for one robot."""
@@ -198,7 +199,8 @@ class Fleet:
     def from_params(
         cls, params: Mapping[str, Any], worlds_dirs: Sequence[str | Path] = (), ignore: Iterable[str] = ()
     ) -> "Fleet":
-        """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs."""
+        """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs (default:
+        amr_maps.world.world_search_path())."""
         config = SimulationConfig.from_params(params, ignore)
         return cls(load_world(resolve_world_path(config.world, worlds_dirs)), config)
 

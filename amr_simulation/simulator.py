@@ -2,7 +2,7 @@
 
 Each step(v, w) advances exactly config.dt seconds:
   1. (v, w) -> wheel speeds by the diff-drive inverse kinematics, saturated
-     keeping the curvature (amr_kinematics.DiffDrive.command);
+     keeping the curvature (amr_util.diff_drive.DiffDrive.command);
   2. slip takes its share of each wheel's ground speed; the body follows the
      resulting twist in pymunk, in substeps, stopped and deflected by walls;
   3. the encoders report the commanded wheel rotation (plus noise) and the
@@ -22,12 +22,12 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from amr_kinematics.diff_drive import DiffDrive
+from amr_maps.world import Goal, World, load_world, resolve_world_path
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.errors import SimulationError
 from amr_simulation.fleet import Fleet, SimulatedRobot
-from amr_simulation.pose import Pose2D
-from amr_simulation.world import Goal, World, load_world, resolve_world_path
+from amr_util.diff_drive import DiffDrive
+from amr_util.geometry import Pose2D
 
 
 def _robot_property(name: str) -> property:
@@ -49,7 +49,8 @@ class Simulator:
     def from_params(
         cls, params: Mapping[str, Any], worlds_dirs: Sequence[str | Path] = (), ignore: Iterable[str] = ()
     ) -> "Simulator":
-        """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs."""
+        """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs (default:
+        amr_maps.world.world_search_path())."""
         config = SimulationConfig.from_params(params, ignore)
         return cls(load_world(resolve_world_path(config.world, worlds_dirs)), config)
 

@@ -37,9 +37,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from amr_simulation.config import SimulationConfig  # noqa: E402
 from amr_simulation.fleet import Fleet  # noqa: E402
-from amr_simulation.pose import wrap_angle  # noqa: E402
-from amr_simulation.world import World, load_world, resolve_world_path, world_from_dict  # noqa: E402
+from amr_maps.world import World, load_world, resolve_world_path, world_from_dict  # noqa: E402
 from amr_util.environment import child_environment  # noqa: E402
+from amr_util.geometry import wrap_angle  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 COUNTS = (1, 5, 10, 20)

@@ -11,9 +11,9 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from amr_simulation.maze_families import FAMILIES, generate
+from amr_maps.maze_families import FAMILIES, generate
+from amr_maps.world import ROBOT_NAME, RobotSpec, WorldError, load_world, world_from_dict
 from amr_simulation.physics import Physics
-from amr_simulation.world import ROBOT_NAME, RobotSpec, WorldError, load_world, world_from_dict
 
 WORLDS = Path(__file__).resolve().parents[2] / "config" / "worlds"
 ROOM = {"wall_thickness": 0.1,  # inner faces at x = +-1.95, y = +-1.45; a box (pillar) at the centre
