@@ -49,6 +49,6 @@ def readings(ranges: np.ndarray, noise: np.ndarray | None, config: LidarConfig) 
     c = config
     out = ranges + noise if noise is not None else ranges.copy()
     np.minimum(np.maximum(out, c.range_min, out=out), c.range_max, out=out)
-    np.copyto(out, np.inf, where=ranges > c.range_max)
-    np.copyto(out, -np.inf, where=ranges < c.range_min)
+    out[ranges > c.range_max] = np.inf
+    out[ranges < c.range_min] = -np.inf
     return out
