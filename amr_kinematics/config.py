@@ -38,11 +38,15 @@ import numpy as np
 from amr_util.parameter_file import dotted
 
 from .chain import CONVENTIONS, JOINT_TYPES, PLANAR, Chain, Coupling
-from .errors import ChainConfigError, KinematicsError
+from .errors import ChainConfigError, KinematicsError, SolverNotApplicableError
 from .urdf import urdf_chain
 from .solvers import SOLVERS, IKResult, get_solver
+from .solvers.task import parse_task
 from .solvers.base import DEFAULT_MAX_ITERATIONS, DEFAULT_TIMEOUT, DEFAULT_TOLERANCE, MAX_TIMEOUT, MAX_TOLERANCE
 from .transforms import xyz_rpy_matrix
+
+PARTIAL_POSE_WEIGHTS = (1.0, 1.0, 1.0, 0.0, 0.0, 1.0)
+"""Position and yaw: the partial pose the warm-up solves once."""
 
 NODE_NAME = "ik_service"
 
@@ -137,6 +141,14 @@ class ChainConfig:
         far = goal[:2 if chain.planar else 3, 3] + 1e3
         for name in applicable_solvers(chain, False):
             self.solve(far, solver=name, seed=start, timeout=0.002)
+        if not chain.planar:  # a weighted (partial-pose) request compiles kernels of its own on a cold cache
+            task = parse_task(PARTIAL_POSE_WEIGHTS)
+            for name in applicable_solvers(chain, False):
+                try:  # with the config's tolerances, and with an explicit one (no per-axis tolerance)
+                    self.solve(goal, solver=name, seed=start, task=task, timeout=0.05)
+                    self.solve(goal, solver=name, seed=start, task=task, timeout=0.05, tolerance=1e-6)
+                except SolverNotApplicableError:
+                    pass
 
 
 def flatten_parameters(params: Mapping) -> dict:
