@@ -1,4 +1,5 @@
-"""Exceptions of the simulator library: all ValueErrors, so callers may catch one type."""
+"""Exceptions of the simulator library: all ValueErrors, so callers may catch one type (a bad parameter
+raises amr_util.parameter_spec.ConfigError, a ValueError too)."""
 
 
 class SimulationError(ValueError):
@@ -8,6 +9,3 @@ class SimulationError(ValueError):
 class WorldError(SimulationError):
     """A world description that is malformed; the message names the file and the key."""
 
-
-class ConfigError(SimulationError):
-    """A parameter that is missing, of the wrong type or out of range; the message names it."""
