@@ -25,8 +25,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_planning.errors import PlanningError
-from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, PlannerConfigError, distance_to_path
-from amr_planning.planner_parameters import parameter_specs
+from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, distance_to_path
 from amr_util.managed_node import ManagedNode, run
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -51,7 +50,7 @@ class PlannerNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        self.declare_specs(parameter_specs())
+        self.declare_specs(PlannerConfig.parameter_specs())
         self.config: PlannerConfig | None = None
         self.planner: Planner | None = None
         self.path: np.ndarray | None = None
@@ -70,7 +69,7 @@ class PlannerNode(ManagedNode):
                 config = PlannerConfig.from_params(self.parameter_values())
                 if config.world:
                     self._load_world(config)
-            except (PlannerConfigError, MapError, PlanningError, ValueError, OSError) as error:
+            except (ValueError, OSError) as error:  # ConfigError, MapError, PlanningError name the problem
                 problems = [str(error)]
         if problems:
             self.configure_error = "; ".join(problems)
@@ -90,10 +89,7 @@ class PlannerNode(ManagedNode):
 
     def apply_live(self, changes: dict) -> None:
         """A tunable set while configured: checked as a whole, the costmap rebuilt from the current map."""
-        try:
-            config = PlannerConfig.from_params({**self.config.as_params(), **changes})
-        except PlannerConfigError as error:
-            raise ValueError(str(error)) from error
+        config = PlannerConfig.from_params({**self.config.as_params(), **changes})  # ConfigError: refused
         self.config = config
         if self.planner is not None:
             self.planner = Planner(self.planner.costmap.grid, config)
