@@ -223,6 +223,28 @@ def shipped_bringup_dir() -> Path:
     return share_directory(BRINGUP_PACKAGE) / "config" / "bringup"
 
 
+def stack_summary(path: Path) -> str:
+    """What a bringup file is, in a few words: its first comment up to the first colon or full stop."""
+    words = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#") or line.startswith("#   "):
+            break
+        words.append(line.lstrip("#").strip())
+    text = " ".join(words)
+    for end in (": ", ". "):
+        text = text.split(end)[0]
+    return text.rstrip(".")
+
+
+def shipped_stacks() -> dict[str, str]:
+    """{name: summary} of every shipped bringup (config/bringup/*.yaml installed in share/amr_bringup)."""
+    try:
+        directory = shipped_bringup_dir()
+    except PackageNotFoundError:
+        return {}
+    return {path.stem: stack_summary(path) for path in sorted(directory.glob("*.yaml"))}
+
+
 def find_bringup(name_or_path: str) -> Path:
     """A path to an existing file, or the bare name of a shipped bringup (`maze_sim`)."""
     path = Path(name_or_path)

@@ -48,43 +48,46 @@ from .transforms import xyz_rpy_matrix
 
 NODE_NAME = "ik_service"
 
-def _key(kind: str, description: str, live: bool = False, **limits) -> ParameterSpec:
-    """One chain key: its kind, meaning and limits (named `<chain>.<key>` where used)."""
+def _key(kind: str, description: str, live: bool = False, default=None, **limits) -> ParameterSpec:
+    """One chain key: its kind, meaning, default (what a chain without the key gets) and limits (named
+    `<chain>.<key>` where used)."""
     neutral = {"str": "", "bool": False, "int": 1, "float": 0.0}
-    return ParameterSpec("", [] if kind.endswith("_array") else neutral[kind], description, kind=kind, live=live,
+    if default is None:
+        default = [] if kind.endswith("_array") else neutral[kind]
+    return ParameterSpec("", default, description, kind=kind, live=live,
                          nonempty=kind.startswith("str") or kind.endswith("_array"), integers_as_floats=False,
                          **limits)
 
 
 CHAIN_KEYS: dict[str, ParameterSpec] = {
     # geometry (structural: refused while the node is configured)
-    "convention": _key("str", "standard_dh | modified_dh | planar"),
-    "joint_names": _key("str_array", "one name per joint"),
-    "types": _key("str_array", "revolute | prismatic, one per joint"),
-    "theta": _key("float_array", "rad, DH joint angle offsets"),
-    "a": _key("float_array", "m, DH link lengths"),
-    "d": _key("float_array", "m, DH link offsets"),
-    "alpha": _key("float_array", "rad, DH link twists"),
-    "lower": _key("float_array", "joint lower limits (rad or m)"),
-    "upper": _key("float_array", "joint upper limits (rad or m)"),
+    "convention": _key("str", "standard_dh | modified_dh | planar (required without urdf)"),
+    "joint_names": _key("str_array", "one name per joint (required without urdf)"),
+    "types": _key("str_array", "revolute | prismatic, one per joint (required without urdf)"),
+    "theta": _key("float_array", "rad, DH joint angle offsets (required without urdf)"),
+    "a": _key("float_array", "m, DH link lengths (required without urdf)"),
+    "d": _key("float_array", "m, DH link offsets (required for a DH chain)"),
+    "alpha": _key("float_array", "rad, DH link twists (required for a DH chain)"),
+    "lower": _key("float_array", "joint lower limits, rad or m (required without urdf)"),
+    "upper": _key("float_array", "joint upper limits, rad or m (required without urdf)"),
     "base_xyz_rpy": _key("float_array", "[x, y, z, roll, pitch, yaw] of the chain's base in the world"),
     "tool_xyz_rpy": _key("float_array", "[x, y, z, roll, pitch, yaw] of the tool in the last link"),
     "coupled_joint": _key("str_array", "joints driven by others: q = offset + sum c_i q_i"),
     "coupling_offset": _key("float_array", "one offset per coupled joint"),
     "coupling_coefficients": _key("float_array", "n coefficients per coupled joint"),
-    "home": _key("float_array", "the seed when a request gives none"),
+    "home": _key("float_array", "the seed when a request gives none ([]: zeros clamped into the limits)"),
     "urdf": _key("str", "a URDF instead of a DH table: file path, package://<pkg>/<path> or the XML itself"),
     "base_link": _key("str", "URDF link the chain starts at"),
     "tip_link": _key("str", "URDF link the chain ends at (the tool)"),
     # solve defaults (live: the chain set is validated again and used from the next request)
-    "solver": _key("str", "default solver: ccd | dls | pinv | analytic", live=True),
-    "tolerance": _key("float", "m (and rad), default position tolerance", live=True,
+    "solver": _key("str", "default solver: ccd | dls | pinv | analytic", live=True, default="dls"),
+    "tolerance": _key("float", "m (and rad), default position tolerance", live=True, default=DEFAULT_TOLERANCE,
                       minimum=0.0, exclusive_minimum=True, maximum=MAX_TOLERANCE),
-    "orientation_tolerance": _key("float", "rad, default orientation tolerance", live=True,
-                                  minimum=0.0, exclusive_minimum=True, maximum=math.pi),
-    "max_iterations": _key("int", "default iteration cap of one descent", live=True,
+    "orientation_tolerance": _key("float", "rad, default orientation tolerance (unset: the tolerance)", live=True,
+                                  default=DEFAULT_TOLERANCE, minimum=0.0, exclusive_minimum=True, maximum=math.pi),
+    "max_iterations": _key("int", "default iteration cap of one descent", live=True, default=DEFAULT_MAX_ITERATIONS,
                            minimum=0, exclusive_minimum=True, maximum=10_000_000),
-    "timeout": _key("float", "s, default solve budget", live=True,
+    "timeout": _key("float", "s, default solve budget", live=True, default=DEFAULT_TIMEOUT,
                     minimum=0.0, exclusive_minimum=True, maximum=MAX_TIMEOUT),
     "damping": _key("float", "DLS damping factor", live=True, minimum=0.0, maximum=100.0),
     "adaptive_damping": _key("float", "DLS adaptive damping", live=True),
@@ -248,11 +251,11 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
     home.setflags(write=False)
     config = ChainConfig(
         chain=chain, home=home,
-        solver=values.get("solver", "dls"),
-        tolerance=values.get("tolerance", DEFAULT_TOLERANCE),
+        solver=values.get("solver", CHAIN_KEYS["solver"].default),
+        tolerance=values.get("tolerance", CHAIN_KEYS["tolerance"].default),
         orientation_tolerance=values.get("orientation_tolerance"),
-        max_iterations=values.get("max_iterations", DEFAULT_MAX_ITERATIONS),
-        timeout=values.get("timeout", DEFAULT_TIMEOUT),
+        max_iterations=values.get("max_iterations", CHAIN_KEYS["max_iterations"].default),
+        timeout=values.get("timeout", CHAIN_KEYS["timeout"].default),
         solver_options={k: values[k] for k in _SOLVER_OPTIONS if k in values},
     )
     _check_defaults(name, config)
