@@ -135,10 +135,6 @@ class SimulationConfig(Config):
     encoders: EncoderConfig = field(default_factory=EncoderConfig)
     beacons: BeaconConfig = field(default_factory=BeaconConfig)
 
-    def validate(self) -> None:
-        if self.start is not None:  # [] (a ROS parameter cannot be None) is the world's start too
-            object.__setattr__(self, "start", tuple(self.start) or None)
-
 
 def param_defaults() -> dict[str, Any]:
     """Every parameter with its default, flat and ROS-typed ('start' left out: its default, the world's

@@ -267,15 +267,28 @@ def _sections(cls: type) -> dict[str, type]:
             if isinstance(hints.get(f.name), type) and issubclass(hints[f.name], Config)}
 
 
+_ANNOTATED_KINDS = {bool: "bool", int: "int", float: "float", str: "str"}
+
+
 @functools.cache
 def _own_specs(cls: type) -> tuple[ParameterSpec, ...]:
-    """The specs of cls's own parameter fields, named and described (nested sections not included)."""
+    """The specs of cls's own parameter fields, named and described (nested sections not included).
+
+    A scalar field's annotation must be its default's type: `kp: float = parameter(4)` is refused
+    here, at import, rather than declared to ROS as an integer parameter.
+    """
     docs = field_docs(cls)
+    hints = typing.get_type_hints(cls)
     specs = []
     for f in dataclasses.fields(cls):
         spec = f.metadata.get(SPEC)
-        if spec is not None:
-            specs.append(dataclasses.replace(spec, name=f.name, description=docs.get(f.name) or spec.description))
+        if spec is None:
+            continue
+        annotated = _ANNOTATED_KINDS.get(hints.get(f.name))
+        if annotated and annotated != spec.kind:
+            raise TypeError(f"{cls.__name__}.{f.name}: annotated {annotated}, but its default {spec.default!r} "
+                            f"is {spec.kind}")
+        specs.append(dataclasses.replace(spec, name=f.name, description=docs.get(f.name) or spec.description))
     return tuple(specs)
 
 
@@ -306,7 +319,9 @@ class Config:
             if value is None and spec.name in optional:
                 continue  # "not given" (e.g. the world's own start)
             checked = spec.coerce(value)
-            if isinstance(value, tuple):
+            if spec.name in optional:  # an array that may be "not given": a tuple, or None for []
+                checked = tuple(checked) or None
+            elif isinstance(value, tuple):
                 checked = tuple(checked)
             if type(checked) is not type(value) or checked != value:
                 object.__setattr__(self, spec.name, checked)
