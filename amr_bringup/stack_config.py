@@ -41,7 +41,9 @@ from pathlib import Path
 import yaml
 from ament_index_python.packages import PackageNotFoundError, get_package_prefix
 
+from amr_bringup.lifecycle_sequence import MANAGER_PARAMETERS
 from amr_util.parameter_file import dotted, node_parameters
+from amr_util.parameter_spec import ConfigError
 
 BRINGUP_PACKAGE = "amr_bringup"
 """The package whose share/<package>/config/bringup holds the shipped bringup files."""
@@ -295,12 +297,13 @@ def parse_bringup(document: object, source: Path) -> Bringup:
     where.no_unknown_keys("lifecycle_manager", manager, MANAGER_KEYS)
     order = _parse_startup_order(where, manager, nodes)
     timeouts = {}
+    specs = {spec.name: spec for spec in MANAGER_PARAMETERS}
     for key in ("wait_timeout", "transition_timeout"):
         if key in manager:
-            value = manager[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise where.error(f"lifecycle_manager.{key}", f"must be a positive number of seconds, got {value!r}")
-            timeouts[key] = float(value)
+            try:
+                timeouts[key] = specs[key].coerce(manager[key])
+            except ConfigError as error:
+                raise where.error(f"lifecycle_manager.{key}", str(error).removeprefix(f"{key}: ")) from None
     arguments = _parse_arguments(where, document.get("arguments") or {}, nodes)
     return Bringup(source, nodes, order, timeouts, arguments)
 

@@ -145,7 +145,7 @@ GOOD = {"name": "a", "package": "amr_control", "executable": "wall_follower"}
     ({"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["a", "a"]}},
      "lifecycle_manager.node_startup_order: names a node twice"),
     ({"nodes": [GOOD], "lifecycle_manager": {"wait_timeout": -1}},
-     "lifecycle_manager.wait_timeout: must be a positive number"),
+     "lifecycle_manager.wait_timeout: must be in [0.1, 3600], got -1.0"),
 ])
 def test_errors_name_the_file_and_the_key(document, key, tmp_path):
     source = tmp_path / "stack.yaml"
