@@ -242,10 +242,27 @@ def check_fields(message_class, values: dict, where: str) -> None:
             check_fields(nested, value, f"{where}.{key}")
 
 
-def check_node_command(package: str, executable: str, ros_args: list[str]) -> None:
-    assert (ROOT / "resource" / "lib" / package / executable).is_file(), \
-        f"{package}/{executable}: no such executable (resource/lib)"
-    check_ros_args(package, executable, ros_args)
+def launcher_module(package: str, executable: str) -> str:
+    """The module an installed launcher (resource/lib/<package>/<executable>) runs."""
+    launcher = ROOT / "resource" / "lib" / package / executable
+    assert launcher.is_file(), f"{package}/{executable}: no such executable (resource/lib)"
+    return re.search(r"-m ([\w.]+)", launcher.read_text(encoding="utf-8"))[1]
+
+
+def module_source(module: str) -> str:
+    return Path(importlib.util.find_spec(module).origin).read_text(encoding="utf-8")
+
+
+def is_node(package: str, executable: str) -> bool:
+    """A launcher of a ROS node (its module uses rclpy), not of a command-line tool such as amr-maze."""
+    return "rclpy" in module_source(launcher_module(package, executable))
+
+
+def check_node_command(package: str, executable: str, words: list[str]) -> None:
+    if is_node(package, executable):
+        check_ros_args(package, executable, words)
+    else:
+        check_flags(words, module_source(launcher_module(package, executable)), f"{package}/{executable}")
 
 
 def check(command: Command) -> None:
@@ -271,8 +288,7 @@ def check(command: Command) -> None:
             assert script.is_file(), f"{words[1]}: no such script"
             check_flags(words[2:], script.read_text(encoding="utf-8"), words[1])
     elif head in console_scripts():
-        module = console_scripts()[head].split(":")[0]
-        check_flags(words[1:], Path(importlib.util.find_spec(module).origin).read_text(encoding="utf-8"), head)
+        check_flags(words[1:], module_source(console_scripts()[head].split(":")[0]), head)
     elif head.startswith(".venv/lib/"):
         package, executable = head.removeprefix(".venv/lib/").split("/")
         check_node_command(package, executable, words[1:])
