@@ -24,13 +24,23 @@ from pathlib import Path
 
 import yaml
 
+from amr_util.parameter_file import dotted
+from amr_util.parameter_spec import ConfigError
+
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
 
-import parameter_docs  # noqa: E402  (scripts/parameter_docs.py: which specs each node has)
 
-from amr_util.parameter_file import dotted  # noqa: E402
-from amr_util.parameter_spec import ConfigError  # noqa: E402
+def _load_script(name: str):
+    """A module of scripts/ (not a package): loaded from its file."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up while the class is made
+    spec.loader.exec_module(module)
+    return module
+
+
+parameter_docs = _load_script("parameter_docs")
+"""scripts/parameter_docs.py: which specs each node has (the registry that writes the docs' tables)."""
 
 DOC_FILES = sorted([ROOT / "README.md", ROOT / "bench" / "README.md", *(ROOT / "docs").glob("*.md")])
 SHELL_BLOCKS = {"bash", "sh", "shell", "console"}
