@@ -22,7 +22,6 @@ A world without a `robots` list is one robot, exactly the one amr_simulation.sim
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -35,12 +34,13 @@ from amr_maps.world import Goal, RobotSpec, World, load_world, resolve_world_pat
 from amr_simulation.beacon_sensor import BeaconSensor
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.encoders import Encoders
-from amr_simulation.errors import ConfigError, SimulationError
+from amr_simulation.errors import SimulationError
 from amr_simulation.lidar import Lidar, readings
 from amr_simulation.physics import ROBOT_CATEGORY, WALL_CATEGORY, Physics, substeps
 from amr_simulation.raycast import PymunkRayCaster, cast_discs
 from amr_util.diff_drive import DiffDrive
 from amr_util.geometry import Pose2D, arc_twist, chord_factor, integrate_arc, wrap_angle
+from amr_util.parameter_spec import ConfigError
 
 Command = tuple[float, float]
 """(v m/s, w rad/s) for one robot."""
@@ -288,13 +288,10 @@ class Fleet:
 
         Raises SimulationError if anything else differs: that needs a new simulator.
         """
-        tunable = dataclasses.replace(
-            self.config, command_timeout=config.command_timeout,
-            lidar=dataclasses.replace(self.config.lidar, noise_std=config.lidar.noise_std),
-            encoders=config.encoders, beacons=config.beacons)
-        if tunable != config:
-            raise SimulationError("retune: only lidar.noise_std, encoders.noise, encoders.slip, beacon noise and "
-                                  "command_timeout change on a running simulator")
+        changed = self.config.structural_changes(config)
+        if changed:
+            live = ", ".join(spec.name for spec in config.parameter_specs() if spec.live)
+            raise SimulationError(f"retune: {', '.join(changed)} cannot change on a running simulator (only {live})")
         self.config = config
         for robot in self.robots:
             robot._lidar.config = config.lidar

@@ -15,11 +15,12 @@ from amr_maps.maze_families import FAMILIES, generate
 from amr_maps.raycast import NumpyRayCaster
 from amr_maps.world import World, load_world, world_from_dict
 from amr_simulation.config import RobotConfig
-from amr_simulation.errors import ConfigError, SimulationError
+from amr_simulation.errors import SimulationError
 from amr_simulation.fleet import Fleet
 from amr_simulation.physics import Physics
 from amr_simulation.raycast import PymunkRayCaster, cast_discs
 from amr_simulation.simulator import Simulator
+from amr_util.parameter_spec import ConfigError
 from sim_helpers import WORLDS, make_config
 
 RADIUS = 0.105
