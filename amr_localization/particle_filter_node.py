@@ -41,7 +41,7 @@ from std_srvs.srv import Empty
 from amr_control.sync import NANOSECONDS_PER_SECOND
 from amr_localization import messages
 from amr_localization.beacons import BeaconReading, checked_beacons
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import BeaconError, LocalizationError, OdometryError, ScanError
 from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
 from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_localization.particle_filter_parameters import NODE_SPECS, config_of, parameter_specs
@@ -152,7 +152,7 @@ class ParticleFilterNode(LocalizerNode):
         if self.filter is None:
             self._inputs.append(
                 self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, MAP))
-        self._node_services = [self.create_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
+        self._node_services = [self.create_active_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
 
     def _input_callback(self, index: int):
         return lambda message: self._on_message(index, message)
@@ -171,10 +171,6 @@ class ParticleFilterNode(LocalizerNode):
         return super().on_activate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return TransitionCallbackReturn.SUCCESS
-
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
         self._teardown()
         return TransitionCallbackReturn.SUCCESS
 
@@ -225,15 +221,20 @@ class ParticleFilterNode(LocalizerNode):
     def _update(self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None) -> Estimate | None:
         pose = messages.odometry_pose(odometry)
         reading = self._beacon_reading(beacons) if beacons is not None else None
+        scan_data = messages.scan_data(scan) if scan is not None else None
         try:
-            return self.filter.update(pose, messages.scan_data(scan) if scan is not None else None, beacons=reading)
-        except LocalizationError as error:
-            if "odometry" in str(error):
-                self._warn(f"{error}: the last pose is repeated")
-                return self._last_estimate
+            return self.filter.update(pose, scan_data, beacons=reading)
+        except OdometryError as error:
+            self._warn(f"{error}: the last pose is repeated")
+            return self._last_estimate
+        except ScanError as error:
             alone = "the beacons and odometry" if reading is not None else "odometry alone"
             self._warn(f"scan refused ({error}): the pose follows {alone}")
             return self.filter.update(pose, beacons=reading)
+        except BeaconError as error:
+            self._warn(f"/beacons reading refused ({error}): the pose follows "
+                       + ("the scan and odometry" if scan_data is not None else "odometry alone"))
+            return self.filter.update(pose, scan_data)
 
     def _beacon_reading(self, message: BeaconRanges) -> BeaconReading | None:
         """The reading, checked against the filter's beacons (the first good reading's positions when the

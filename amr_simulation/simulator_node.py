@@ -174,11 +174,6 @@ class SimulatorNode(ManagedNode):
         self._teardown()
         return TransitionCallbackReturn.SUCCESS
 
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
-        self._active = False
-        self._teardown()
-        return TransitionCallbackReturn.SUCCESS
-
     def destroy_node(self) -> None:
         self._active = False
         self._teardown()
@@ -218,9 +213,9 @@ class SimulatorNode(ManagedNode):
         self._cmd_vel_subscription = self.create_subscription(
             TwistStamped if self._stamped else Twist, "cmd_vel", self._on_cmd_vel, qos)
         self._node_services = [
-            self.create_service(Trigger, "~/reset", self._on_reset),
-            self.create_service(SetPose, "~/set_pose", self._on_set_pose),
-            self.create_service(Trigger, "~/render", self._on_render),
+            self.create_active_service(Trigger, "~/reset", self._on_reset),
+            self.create_active_service(SetPose, "~/set_pose", self._on_set_pose),
+            self.create_active_service(Trigger, "~/render", self._on_render),
         ]
         self._create_localization_interfaces(qos)
 
