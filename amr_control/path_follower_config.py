@@ -33,8 +33,10 @@ class PathFollowerConfig(FlatConfig):
     (2.5 periods of the LDS-01's 5 Hz scans)."""
     flip_angular_sign: bool = False
     """Publish -w: seed 002 section 5.2.1 found the real robot's angular sign clockwise-positive."""
-    planner_service: str = "/planner/plan"
-    """amr_interfaces/PlanPath service asked for a new path when the follower is blocked or strays."""
+    navigated: bool = False
+    """Pair the navigator's navigator/status (amr_interfaces/NavigatorStatus) with /pose and /scan and answer
+    only the observations it gives this node; the path comes from the navigator (~/follow_path), and
+    requests for a new plan go to it through ~/status. False: follow /path, answer every localized pair."""
     # -- pure pursuit ----------------------------------------------------------------
     lookahead_distance: float = 0.15
     """m along the path ahead of the closest point: the point the robot steers to (course: 0.2-0.3;
@@ -90,8 +92,6 @@ class PathFollowerConfig(FlatConfig):
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ConfigError(f"{name}: must be positive, got {getattr(self, name)!r}")
-        if not self.planner_service:
-            raise ConfigError("planner_service: must name a service")
         if self.safety_margin < 0:
             raise ConfigError(f"safety_margin: must be >= 0, got {self.safety_margin!r}")
         if self.min_linear_speed > self.linear_speed:

@@ -1,7 +1,7 @@
 """The path follower's ROS parameters: one spec per PathFollowerConfig field, no ROS.
 
 Descriptions are PathFollowerConfig's field docstrings. Structural parameters shape what configure
-builds (publisher type, timer, planner client) and are refused while configured; every other one is
+builds (publisher type, timer, inputs) and are refused while configured; every other one is
 live: validated with the whole configuration and used from the next observation.
 """
 
@@ -12,7 +12,7 @@ import dataclasses
 from amr_control.path_follower_config import PathFollowerConfig
 from amr_util.parameter_spec import ParameterSpec, field_docs
 
-STRUCTURAL = frozenset({"simulation", "dt", "planner_service"})
+STRUCTURAL = frozenset({"simulation", "dt", "navigated"})
 RANGES: dict[str, tuple[float, float]] = {
     "dt": (0.001, 1.0), "stale_timeout": (0.001, 10.0), "lookahead_distance": (0.01, 5.0),
     "linear_speed": (0.001, 5.0), "min_linear_speed": (0.0, 5.0), "curve_angular_speed": (0.01, 10.0),

@@ -14,7 +14,7 @@ import dataclasses
 from amr_control.wall_follower_config import WALLS, WallFollowerConfig
 from amr_util.parameter_spec import ParameterSpec, field_docs
 
-STRUCTURAL = frozenset({"simulation", "enable_localization", "dt", "sync_slop", "sync_queue_size", "stamp_jump_threshold", "random_seed"})
+STRUCTURAL = frozenset({"simulation", "navigated", "dt", "sync_slop", "sync_queue_size", "stamp_jump_threshold", "random_seed"})
 RANGES: dict[str, tuple[float, float]] = {
     "dt": (0.001, 1.0), "sync_slop": (0.0, 100.0), "sync_queue_size": (1, 1000), "stamp_jump_threshold": (0.01, 3600.0), "stale_timeout": (0.001, 10.0),
     "random_seed": (0, 2**31 - 1), "target_wall_distance": (0.05, 2.0), "front_threshold": (0.05, 2.0),

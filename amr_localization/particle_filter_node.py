@@ -86,6 +86,7 @@ class ParticleFilterNode(LocalizerNode):
         self._inputs: list = []
         self._node_services: list = []
         self._last_estimate: Estimate | None = None
+        self._waiting: tuple | None = None  # the inputs of an observation that came before the map
         self._last_cloud_ns: int | None = None
         self._beacon_positions: np.ndarray | None = None
         self.configure_error = ""
@@ -181,7 +182,7 @@ class ParticleFilterNode(LocalizerNode):
             self.destroy_service(service)
         self._destroy_outputs()
         self._inputs, self._node_services = [], []
-        self.filter = self._sync = self._last_estimate = self._beacon_positions = None
+        self.filter = self._sync = self._last_estimate = self._beacon_positions = self._waiting = None
 
     # -- inputs ---------------------------------------------------------------------------------
 
@@ -193,6 +194,10 @@ class ParticleFilterNode(LocalizerNode):
                                    f"{message.info.resolution} m): global localization starts")
         except Exception as error:  # a malformed map or one without free space: keep the previous filter
             self.get_logger().error(f"map refused: {error}")
+            return
+        waiting, self._waiting = self._waiting, None
+        if waiting is not None and self.state_label == "active":
+            self._on_pair(*waiting)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         super()._on_clock_jump(index, jump_ns)
@@ -204,7 +209,8 @@ class ParticleFilterNode(LocalizerNode):
         named = dict(zip(self.INPUTS, inputs))
         odometry, scan, beacons = named["odometry"], named.get("scan"), named.get("beacons")
         if self.filter is None:
-            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): observation ignored")
+            self._waiting = inputs  # answered when the map arrives: a lockstep loop would wait for it for ever
+            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): the observation waits for it")
             return
         try:
             estimate = self._update(odometry, scan, beacons)

@@ -36,10 +36,6 @@ class PlannerConfig:
     """a world file (name in the worlds directory or a path) rasterized as the map; "" = the /map topic."""
     resolution: float = 0.025
     """m/cell when rasterizing a world (0.35 m corridors need 0.025: the map's estimate is conservative)."""
-    goal: list = dataclasses.field(default_factory=list)
-    """[x, y] overriding the world's goal; [] = the world's goal, then /goal_pose."""
-    replan_distance: float = 0.25
-    """m off the path at which the robot counts as strayed and the planner plans again."""
     # -- the search --------------------------------------------------------------------------------
     planner: str = "astar"
     """'astar' (grid A*, the default) or 'prm' (the course's probabilistic roadmap)."""
@@ -71,9 +67,7 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         if self.planner not in PLANNERS:
             raise PlannerConfigError(f"planner: must be one of {PLANNERS}, got {self.planner!r}")
-        if len(self.goal) not in (0, 2) or not all(_finite_number(v) for v in self.goal):
-            raise PlannerConfigError(f"goal: must be [] or [x, y] (finite numbers), got {self.goal!r}")
-        for name in ("resolution", "replan_distance", "snap_distance"):
+        for name in ("resolution", "snap_distance"):
             value = getattr(self, name)
             if not (_finite_number(value) and value > 0.0):
                 raise PlannerConfigError(f"{name}: must be a positive number, got {value!r}")

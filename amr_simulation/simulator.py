@@ -8,7 +8,7 @@ Each step(v, w) advances exactly config.dt seconds:
   3. the encoders report the commanded wheel rotation (plus noise) and the
      encoder odometry integrates it;
   4. the LiDAR scans from the new pose; the goal region is checked.
-After the goal is reached the robot ignores commands and stays put until reset.
+After the goal is reached the robot ignores commands and stays put until reset (unless stop_at_goal is false).
 """
 
 from __future__ import annotations
@@ -145,7 +145,7 @@ class Simulator:
         """Advance one period dt with the commanded linear (m/s) and angular (rad/s) velocity."""
         if not (math.isfinite(v) and math.isfinite(w)):
             raise SimulationError(f"step: command must be finite, got v={v}, w={w}")
-        if self._goal_reached:
+        if self._goal_reached and self.config.stop_at_goal:
             v = w = 0.0
         dt = self.config.dt
         left, right = self.drive.command(v, w)
