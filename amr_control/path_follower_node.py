@@ -18,8 +18,6 @@ command. Bad messages are refused with a throttled warning; nothing raises out o
 
 from __future__ import annotations
 
-import math
-
 from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
 from amr_interfaces.srv import FollowPath
 from geometry_msgs.msg import Twist, TwistStamped
@@ -28,23 +26,19 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.messages import scan_data, velocity_command
 from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
 from amr_control.path_follower_parameters import parameter_specs
-from amr_control.sync import ApproximateTimeSynchronizer
+from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
-from amr_util.qos import MAP, SENSOR_DATA, reliable
+from amr_util.messages import scan_data, velocity_command
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
+from amr_util.sync import ApproximateTimeSynchronizer
 
 POSE, SCAN, STATUS = 0, 1, 2
 WARNING_PERIOD = 2.0
 SYNC_SLOP = 0.02  # s: /pose, /scan (and the navigator's status) of one lockstep step carry the same stamp
-
-
-def yaw_of(orientation) -> float:
-    q = orientation
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class PathFollowerNode(ManagedNode):
@@ -94,7 +88,7 @@ class PathFollowerNode(ManagedNode):
             self._entities.append(self.create_subscription(
                 NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable()))
         else:
-            self._entities.append(self.create_subscription(Path, "path", self._on_path, MAP))
+            self._entities.append(self.create_subscription(Path, "path", self._on_path, LATCHED))
         return TransitionCallbackReturn.SUCCESS
 
     def apply_live(self, changes: dict) -> None:
@@ -225,7 +219,7 @@ class PathFollowerNode(ManagedNode):
     def _compute(self, pose: LocalizedPose, scan: LaserScan) -> None:
         try:
             p = pose.pose.pose
-            command = self.follower.compute(p.position.x, p.position.y, yaw_of(p.orientation), scan_data(scan))
+            command = self.follower.compute(p.position.x, p.position.y, yaw_from_quaternion(p.orientation), scan_data(scan))
         except Exception as error:  # a controller bug must not take the robot's node down
             self.get_logger().error(f"path follower failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
             command = None

@@ -23,11 +23,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
-from amr_control.scan_sectors import ScanData, scan_of
 from amr_control.wall_follower import WallFollower
 from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE, Controller, Decision, Mode, Navigator, PlanRequest
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
+from amr_util.scan import ScanData, scan_of
 
 
 @dataclass(frozen=True)

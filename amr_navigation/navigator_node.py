@@ -27,7 +27,6 @@ goal). The latest one wins, at any time, before or after arrival. The path follo
 from __future__ import annotations
 
 import itertools
-import math
 import time
 from dataclasses import dataclass
 
@@ -42,8 +41,10 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.parameters import NODE_NAME, parameter_specs
 from amr_planning.messages import path_message, path_points
+from amr_util.geometry import all_finite, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
-from amr_util.qos import MAP, reliable
+from amr_util.messages import quaternion
+from amr_util.qos import LATCHED, reliable
 
 CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
@@ -57,11 +58,6 @@ class Observation:
     stamp: TimeMessage
     pose: tuple[float, float, float]
     localized: bool
-
-
-def yaw_of(orientation) -> float:
-    q = orientation
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class NavigatorNode(ManagedNode):
@@ -102,7 +98,7 @@ class NavigatorNode(ManagedNode):
         self.navigator, self._values = navigator, values
         self._outputs = {
             "status": self.create_lifecycle_publisher(NavigatorStatus, "~/status", reliable()),
-            "path": self.create_lifecycle_publisher(Path, "path", MAP),
+            "path": self.create_lifecycle_publisher(Path, "path", LATCHED),
         }
         self._entities = [
             self.create_subscription(LocalizedPose, "pose", self._on_pose, reliable()),
@@ -111,7 +107,7 @@ class NavigatorNode(ManagedNode):
                                      reliable()),
         ]
         if values["world_goal_topic"]:
-            self._entities.append(self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, MAP))
+            self._entities.append(self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, LATCHED))
         self._service_clients = {"plan": self.create_client(PlanPath, values["planner_service"]),
                          "follow": self.create_client(FollowPath, values["follow_path_service"])}
         self.get_logger().info(
@@ -164,8 +160,8 @@ class NavigatorNode(ManagedNode):
         if not self.active:
             return
         p = message.pose.pose
-        pose = (p.position.x, p.position.y, yaw_of(p.orientation))
-        if not all(map(math.isfinite, pose)):
+        pose = (p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
+        if not all_finite(pose):
             self.get_logger().warning("a non-finite /pose was ignored", throttle_duration_sec=2.0)
             return
         observation = Observation(message.header.stamp, pose, bool(message.localized))
@@ -342,7 +338,7 @@ class NavigatorNode(ManagedNode):
     def _pose_message(pose: tuple[float, float, float]) -> Pose:
         message = Pose()
         message.position.x, message.position.y = pose[0], pose[1]
-        message.orientation.z, message.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
+        message.orientation = quaternion(pose[2])
         return message
 
     def _log(self, events) -> None:

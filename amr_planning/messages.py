@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
+
+from amr_util.messages import quaternion
 
 
 def path_message(points: np.ndarray, frame_id: str, stamp) -> Path:
@@ -21,7 +21,7 @@ def path_message(points: np.ndarray, frame_id: str, stamp) -> Path:
         pose = PoseStamped()
         pose.header = message.header
         pose.pose.position.x, pose.pose.position.y = float(x), float(y)
-        pose.pose.orientation.z, pose.pose.orientation.w = math.sin(heading / 2), math.cos(heading / 2)
+        pose.pose.orientation = quaternion(float(heading))
         message.poses.append(pose)
     return message
 

@@ -11,33 +11,20 @@ The planner decides nothing: when to plan, and to which goal, is the navigator's
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 from amr_interfaces.srv import PlanPath
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
-from amr_maps.occupancy_grid import MapError, OccupancyGrid
+from amr_maps.messages import grid_from_message
+from amr_maps.occupancy_grid import MapError
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import load_world, resolve_world_path
 from amr_planning.errors import PlanningError
 from amr_planning.messages import path_message
 from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, PlannerConfigError
 from amr_planning.planner_parameters import parameter_specs
 from amr_util.managed_node import ManagedNode, run
-from amr_util.qos import MAP
-
-
-def grid_from_message(message: OccupancyGridMessage) -> OccupancyGrid:
-    """The suite's OccupancyGrid of a nav_msgs/OccupancyGrid; MapError naming what is wrong."""
-    info = message.info
-    width, height = int(info.width), int(info.height)
-    if width * height != len(message.data):
-        raise MapError(f"/map: {len(message.data)} cells for width {width} x height {height}")
-    q = info.origin.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-    data = np.asarray(message.data, dtype=np.int8).reshape(height, width) if width * height else np.zeros((0, 0))
-    return OccupancyGrid(data, info.resolution, (info.origin.position.x, info.origin.position.y, yaw),
-                         message.header.frame_id or "map")
+from amr_util.qos import LATCHED
 
 
 class PlannerNode(ManagedNode):
@@ -69,7 +56,7 @@ class PlannerNode(ManagedNode):
         self.config = config
         self._entities = [self.create_active_service(PlanPath, "~/plan", self._on_plan_request)]
         if not config.world:
-            self._entities.append(self.create_subscription(OccupancyGridMessage, "map", self._on_map, MAP))
+            self._entities.append(self.create_subscription(OccupancyGridMessage, "map", self._on_map, LATCHED))
         self.get_logger().info(f"configured: {config.planner}, map from {config.world or '/map'}")
         return TransitionCallbackReturn.SUCCESS
 
@@ -92,9 +79,6 @@ class PlannerNode(ManagedNode):
         return TransitionCallbackReturn.SUCCESS
 
     def _load_world(self, config: PlannerConfig) -> None:
-        from amr_maps.rasterize import rasterize_world  # the maps package's rasterizer
-        from amr_simulation.world import load_world, resolve_world_path
-
         world = load_world(resolve_world_path(config.world))
         self.planner = Planner(rasterize_world(world, config.resolution), config)
 
