@@ -378,7 +378,7 @@ class SimulatorNode(ManagedNode):
         """The world's goal on ~/goal (latched), for a navigator to take as a goal; the goal check judges it."""
         if "goal" in self._outputs:
             goal = PoseStamped()
-            goal.header.stamp, goal.header.frame_id = messages.stamp(self._now()), self._frames["world"]
+            goal.header.stamp, goal.header.frame_id = stamp_from_seconds(self._now()), self._frames["world"]
             goal.pose.position.x, goal.pose.position.y = self._sim.goal.x, self._sim.goal.y
             goal.pose.orientation.w = 1.0
             self._outputs["goal"].publish(goal)
