@@ -39,7 +39,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
-from amr_navigation.parameters import NODE_NAME, parameter_specs
+from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
 from amr_planning.messages import path_message, path_points
 from amr_util.geometry import all_finite, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
@@ -65,7 +65,7 @@ class NavigatorNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        self.declare_specs(parameter_specs())
+        self.declare_specs(NavigatorConfig.parameter_specs())
         self.navigator: Navigator | None = None
         self.statuses_sent = 0
         self._values: dict = {}
@@ -85,12 +85,12 @@ class NavigatorNode(ManagedNode):
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
         problems = self.parameter_problems()
-        values = self.parameter_values()
         if not problems:
             try:
+                values = NavigatorConfig.from_params(self.parameter_values()).as_params()
                 goal = tuple(values["goal"]) if values["goal"] else None
                 navigator = Navigator(goal, values["replan_distance"])
-            except ValueError as error:
+            except ValueError as error:  # ConfigError names the key
                 problems = [str(error)]
         if problems:
             self.configure_error = "; ".join(problems)
@@ -119,9 +119,8 @@ class NavigatorNode(ManagedNode):
 
     def apply_live(self, changes: dict) -> None:
         """goal, replan_distance and plan_timeout while configured: used from the next observation."""
-        values = {**self._values, **changes}
+        values = NavigatorConfig.from_params({**self._values, **changes}).as_params()  # ConfigError: refused
         if "replan_distance" in changes:
-            Navigator(None, values["replan_distance"])  # validates
             self.navigator.replan_distance = values["replan_distance"]
         if changes.get("goal"):
             self._set_goal(tuple(changes["goal"]), "the goal parameter")

@@ -21,8 +21,7 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world, resolve_world_path
 from amr_planning.errors import PlanningError
 from amr_planning.messages import path_message
-from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, PlannerConfigError
-from amr_planning.planner_parameters import parameter_specs
+from amr_planning.planner import NODE_NAME, Planner, PlannerConfig
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED
 
@@ -32,7 +31,7 @@ class PlannerNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        self.declare_specs(parameter_specs())
+        self.declare_specs(PlannerConfig.parameter_specs())
         self.config: PlannerConfig | None = None
         self.planner: Planner | None = None
         self._entities: list = []
@@ -48,7 +47,7 @@ class PlannerNode(ManagedNode):
                 config = PlannerConfig.from_params(self.parameter_values())
                 if config.world:
                     self._load_world(config)
-            except (PlannerConfigError, MapError, PlanningError, ValueError, OSError) as error:
+            except (ValueError, OSError) as error:  # ConfigError, MapError, PlanningError name the problem
                 problems = [str(error)]
         if problems:
             self.configure_error = "; ".join(problems)
@@ -62,10 +61,7 @@ class PlannerNode(ManagedNode):
 
     def apply_live(self, changes: dict) -> None:
         """A tunable set while configured: checked as a whole, the costmap rebuilt from the current map."""
-        try:
-            config = PlannerConfig.from_params({**self.config.as_params(), **changes})
-        except PlannerConfigError as error:
-            raise ValueError(str(error)) from error
+        config = PlannerConfig.from_params({**self.config.as_params(), **changes})  # ConfigError: refused
         self.config = config
         if self.planner is not None:
             self.planner = Planner(self.planner.costmap.grid, config)
