@@ -183,6 +183,8 @@ class Navigator:
         if path is not None:
             path = np.asarray(path, dtype=float)
         if request.purpose is Purpose.FOLLOWER:
+            if self.followed_path is None or self._followed_goal != self.goal:
+                return self._drive()  # the trip it was asked for is over (a new goal, a dropped path)
             if path is None:
                 self.counters.planning_failures.append(error)
                 self._say(f"replanning for the path follower failed: {error}")

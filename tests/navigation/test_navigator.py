@@ -96,6 +96,16 @@ def test_the_followers_request_plans_to_its_paths_end_and_keeps_the_stray_refere
     assert np.array_equal(nav.followed_path, detour)
 
 
+def test_a_late_answer_to_the_followers_request_does_not_bring_back_a_goal_that_was_left():
+    nav = Navigator((2.5, 0.5))
+    planned(nav, nav.decide((0.5, 0.5, 0.0), True))
+    request = nav.followed(reached=False, replan=True, why="blocked")
+    nav.set_goal((2.0, 2.0))
+    planned(nav, nav.decide((1.0, 0.5, 0.0), True), None, "goal inside an obstacle", goal_refused=True)
+    late = nav.planned(request, np.array([[1.0, 0.5], [2.5, 0.5]]))
+    assert late.mode is Mode.NO_PATH and late.path is None and nav.followed_path is None
+
+
 def test_withdrawn_localization_explores_again_and_keeps_the_path():
     nav = Navigator((2.5, 0.5))
     planned(nav, nav.decide((0.5, 0.5, 0.0), True))
