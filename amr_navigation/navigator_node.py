@@ -109,7 +109,7 @@ class NavigatorNode(ManagedNode):
         if values["world_goal_topic"]:
             self._entities.append(self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, LATCHED))
         self._service_clients = {"plan": self.create_client(PlanPath, values["planner_service"]),
-                         "follow": self.create_client(FollowPath, values["follow_path_service"])}
+                                 "follow": self.create_client(FollowPath, values["follow_path_service"])}
         self.get_logger().info(
             f"configured: plans with {values['planner_service']}, drives with {values['wall_follower']} (exploring) "
             f"and {values['path_follower']} (following); goal " + (f"({goal[0]:.2f}, {goal[1]:.2f})" if goal else
