@@ -61,6 +61,7 @@ NODE_CLASSES: dict[tuple[str, str], tuple[str, str]] = {
     ("amr_maps", "map_server"): ("amr_maps.map_server_node", "MapServerNode"),
     ("amr_planning", "planner"): ("amr_planning.planner_node", "PlannerNode"),
     ("amr_control", "path_follower"): ("amr_control.path_follower_node", "PathFollowerNode"),
+    ("amr_navigation", "navigator"): ("amr_navigation.navigator_node", "NavigatorNode"),
 }
 """(package, executable) -> (module, class) of the nodes --composed can host."""
 

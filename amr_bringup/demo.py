@@ -5,8 +5,9 @@ The maze run is recorded (out/maze_run, a rosbag2 MCAP bag of /ground_truth, /sc
 and drawn from that bag as an animation, out/maze.gif.
 
 Everything runs as real ROS 2 nodes in one process (a composed bringup): the simulator,
-the wall follower and the lifecycle manager, then the same with the particle filter, then the IK
-service. The demo itself only observes topics and calls services, as any other ROS client would.
+the wall follower and the lifecycle manager, then the maze_localization and maze_navigation stacks
+as their bringup files give them, then the IK service. The demo itself only observes topics and calls
+services, as any other ROS client would.
 """
 
 from __future__ import annotations
@@ -38,15 +39,13 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from amr_bringup import demo_figures  # noqa: E402
 from amr_bringup.bag_animation import animate_bag  # noqa: E402
+from amr_bringup.composed import composed_stack  # noqa: E402
 from amr_bringup.lifecycle_manager import LifecycleManager  # noqa: E402
 from amr_bringup.recorder import BackgroundSpin, Recorder  # noqa: E402
-from amr_control.path_follower_node import PathFollowerNode  # noqa: E402
 from amr_control.wall_follower_node import WallFollowerNode  # noqa: E402
 from amr_kinematics.ik_service_node import IKServiceNode  # noqa: E402
-from amr_localization.particle_filter_node import ParticleFilterNode  # noqa: E402
 from amr_maps.map_server_node import MapServerNode  # noqa: E402
 from amr_maps.world import load_world, resolve_world_path  # noqa: E402
-from amr_planning.planner_node import PlannerNode  # noqa: E402
 from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
 from amr_turtlebot3.odometry_node import OdometryNode  # noqa: E402
 from amr_util.geometry import yaw_from_quaternion  # noqa: E402
@@ -254,28 +253,19 @@ LOCALIZATION_CLOUD_PERIOD = 0.25  # s of simulated time between the particle clo
 
 
 def run_localization(context, out: Path, world: str, duration: float) -> dict:
-    """The maze_localization stack's nodes on `world`: global localization from an unknown start while the
-    wall follower explores. With no path follower yet (the planning issue), the follower keeps exploring
-    after the handover point, so that the figure shows tracking too."""
-    simulator = SimulatorNode(context=context, cli_args=params_file_args(
-        config_file("amr_simulation", "simulator.yaml"), f"world:={world}", "enable_localization:=true", SIM_TIME))
-    follower = WallFollowerNode(context=context, cli_args=params_file_args(
-        config_file("amr_control", "wall_follower_sim.yaml"), SIM_TIME))
-    localizer = ParticleFilterNode(context=context, cli_args=params_file_args(
-        config_file("amr_localization", "particle_filter.yaml"), f"world:={world}",
-        f"particle_cloud_period:={LOCALIZATION_CLOUD_PERIOD}", SIM_TIME))
-    stack = [localizer, follower, simulator]
-    manager = LifecycleManager(context=context, cli_args=["--ros-args", "-r", "__node:=localization_manager"],
-                               parameter_overrides=[Parameter("node_startup_order", value=[n.get_name() for n in stack])])
+    """The maze_localization stack on `world` (map server, simulator, wall follower, particle filter: the filter
+    takes the map server's /map): global localization from an unknown start while the wall follower explores."""
     observer = LocalizationObserver(context=context)
-    with spinning(context, stack + [manager, observer]):
+    with composed_stack(context, "maze_localization", arguments={"world": world},
+                        parameters={"particle_filter.particle_cloud_period": str(LOCALIZATION_CLOUD_PERIOD)},
+                        extra_nodes=[observer]) as (_, manager, _):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the localization stack did not come up (see the log above)")
         started = time.monotonic()
-        print(f"localization: {world}, particle filter + wall follower + simulator, {duration:.0f} s simulated")
+        print(f"localization: {world}, maze_localization (map server, particle filter, wall follower, simulator), "
+              f"{duration:.0f} s simulated")
         status = wait_for_run(observer, duration, started, progress=True)
         elapsed = time.monotonic() - started
-        manager.shutdown()
     with observer.lock:
         poses, clouds, truth = list(observer.poses), list(observer.clouds), dict(observer.truth)
     rows = [(t, pose, localized, truth[t]) for t, pose, localized in poses if t in truth]
@@ -312,7 +302,7 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
 
 
 class NavigationObserver(LocalizationObserver):
-    """Also records every /path the planner publishes, with the simulated time it arrived."""
+    """Also records every /path the navigator publishes (one per plan handed to the path follower)."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
@@ -326,29 +316,16 @@ class NavigationObserver(LocalizationObserver):
 
 
 def run_navigation(context, out: Path, world: str, duration: float) -> dict:
-    """The maze_navigation stack's nodes on `world`: explore until localized, plan, go (issue 13)."""
-    simulator = SimulatorNode(context=context, cli_args=params_file_args(
-        config_file("amr_simulation", "simulator.yaml"), f"world:={world}", "enable_localization:=true", SIM_TIME))
-    follower = WallFollowerNode(context=context, cli_args=params_file_args(
-        config_file("amr_control", "wall_follower_sim.yaml"), "enable_localization:=true", SIM_TIME))
-    localizer = ParticleFilterNode(context=context, cli_args=params_file_args(
-        config_file("amr_localization", "particle_filter.yaml"), f"world:={world}", SIM_TIME))
-    planner = PlannerNode(context=context, cli_args=params_file_args(
-        config_file("amr_planning", "planner.yaml"), f"world:={world}", SIM_TIME))
-    pursuit = PathFollowerNode(context=context, cli_args=params_file_args(
-        config_file("amr_control", "path_follower_sim.yaml"), SIM_TIME))
-    stack = [planner, pursuit, localizer, follower, simulator]
-    manager = LifecycleManager(context=context, cli_args=["--ros-args", "-r", "__node:=navigation_manager"],
-                               parameter_overrides=[Parameter("node_startup_order", value=[n.get_name() for n in stack])])
+    """The maze_navigation stack on `world`: explore until localized, plan, go (issues 13, 19); the navigator
+    decides who drives, the world's goal is its goal."""
     observer = NavigationObserver(context=context)
-    with spinning(context, stack + [manager, observer]):
+    with composed_stack(context, "maze_navigation", arguments={"world": world}, extra_nodes=[observer]) as (_, manager, _):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the navigation stack did not come up (see the log above)")
         started = time.monotonic()
-        print(f"navigation: {world}, explore, localize, plan, go; {duration:.0f} s simulated at most")
+        print(f"navigation: {world}, maze_navigation (explore, localize, plan, go); {duration:.0f} s simulated at most")
         status = wait_for_run(observer, duration, started, progress=True)
         elapsed = time.monotonic() - started
-        manager.shutdown()
     with observer.lock:
         poses, truth, paths = list(observer.poses), dict(observer.truth), list(observer.paths)
     localized = [t for t, _, flag in poses if flag]

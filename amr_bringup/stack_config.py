@@ -159,7 +159,9 @@ class Bringup:
         """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied.
 
         Values are YAML, as `ros2 run -p` reads them. An unknown argument or node is refused with
-        the known ones; an unknown parameter reaches the node, which refuses it at configure.
+        the known ones; an unknown parameter reaches the node, which refuses it at configure. A parameter
+        that a declared argument sets on several nodes at once (the world: simulator and map_server) is
+        refused as a -p, naming the argument to use instead.
         """
         nodes = {node.name: node for node in self.nodes}
         known = self.arguments
@@ -178,8 +180,25 @@ class Bringup:
             if not dot or node_name not in nodes or not parameter:
                 raise BringupError(f"{self.source}: -p {dotted_name}: expected <node>.<parameter>:=<value> with a "
                                    f"node of the stack ({', '.join(nodes)})")
+            tied = self.tying_argument(node_name, parameter)
+            if tied is not None:
+                raise BringupError(
+                    f"{self.source}: -p {dotted_name}:={text}: {dotted_name} is tied to "
+                    f"{', '.join(f'{n}.{q}' for n, q in tied.sets if (n, q) != (node_name, parameter))} by the stack "
+                    f"argument {tied.name}:= (they must agree); give {tied.name}:={text} instead")
             nodes[node_name] = _with_parameter(nodes[node_name], parameter, text)
         return replace(self, nodes=tuple(nodes[node.name] for node in self.nodes))
+
+    def tying_argument(self, node: str, parameter: str) -> StackArgument | None:
+        """The declared argument that sets `node.parameter` together with another node's parameter, if any.
+
+        Such a parameter (the world of a stack whose map follows the world) changes only through its argument:
+        a per-node -p would run the nodes on different worlds, so it is refused naming the argument.
+        """
+        for argument in self.declared_arguments:
+            if (node, parameter) in argument.sets and len(argument.sets) > 1:
+                return argument
+        return None
 
     def _node(self, name: str) -> NodeSpec:
         return next(node for node in self.nodes if node.name == name)

@@ -35,8 +35,10 @@ class PathFollowerConfig(Config):
     (2.5 periods of the LDS-01's 5 Hz scans)."""
     flip_angular_sign: bool = parameter(False, live=True)
     """Publish -w: seed 002 section 5.2.1 found the real robot's angular sign clockwise-positive."""
-    planner_service: str = parameter("/planner/plan", nonempty=True)
-    """amr_interfaces/PlanPath service asked for a new path when the follower is blocked or strays."""
+    navigated: bool = parameter(False)
+    """Pair the navigator's navigator/status (amr_interfaces/NavigatorStatus) with /pose and /scan and answer
+    only the observations it gives this node; the path comes from the navigator (~/follow_path), and
+    requests for a new plan go to it through ~/status. False: follow /path, answer every localized pair."""
     # -- pure pursuit ----------------------------------------------------------------
     lookahead_distance: float = parameter(0.15, minimum=0.01, maximum=5.0, live=True)
     """m along the path ahead of the closest point: the point the robot steers to (course: 0.2-0.3;

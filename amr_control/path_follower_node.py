@@ -1,41 +1,47 @@
-"""path_follower: pure pursuit on /path with the localized /pose and /scan, /cmd_vel out (thin shell).
+"""path_follower: pure pursuit on a path with the localized /pose and /scan, /cmd_vel out (thin shell).
 
-In charge once active, with a path, and the pose localized; before that it publishes nothing (the
-wall follower drives). Simulation (`simulation: true`, lockstep): /pose and /scan of one step are
-paired by stamp and each pair is answered with exactly one command, TwistStamped. The observation
-that came last before it took charge is answered on taking charge, unless another node's /cmd_vel
-answered it already (in lockstep nothing else would advance the simulator). Real robot
-(`simulation: false`): a timer computes every dt from the latest pair and publishes Twist (the last
-command between pairs), zero when no pair came for `stale_timeout`. When the follower asks for a new plan (blocked, strayed) the node calls the
-planner's ~/plan service from the current pose to the path's end, once at a time, and follows the
-answer. Bad messages are refused with a throttled warning; nothing raises out of a callback.
+Alone (`navigated: false`): it follows the latest /path (nav_msgs/Path, transient local) and answers
+every localized /pose + /scan pair once it has one. Under a navigator (`navigated: true`, the
+`maze_navigation` stack): the navigator's navigator/status is a third synchronized input and the node
+answers only the observations it gives this node (amr_control.navigated); the path comes from the
+navigator through ~/follow_path (amr_interfaces/FollowPath, answered only while active), so it is in
+place before the first observation that needs it.
+
+Simulation (`simulation: true`, lockstep): each answered observation gets exactly one command,
+TwistStamped. Real robot (`simulation: false`): a timer computes every dt from the latest pair and
+publishes Twist (the last command between pairs), zero when no pair came for `stale_timeout`, and one
+zero when the node stops being in charge. Every computed command is reported on ~/status
+(amr_interfaces/PathFollowerStatus: state, reached, replan); a request for a new plan (blocked,
+strayed) is only reported there, for the navigator to act on. Deactivation and shutdown send a zero
+command. Bad messages are refused with a throttled warning; nothing raises out of a callback.
 """
 
 from __future__ import annotations
 
-from amr_interfaces.msg import LocalizedPose
-from amr_interfaces.srv import PlanPath
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
+from amr_interfaces.srv import FollowPath
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Path
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
+from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
-from amr_util.qos import LATCHED, SENSOR_DATA
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer
 
-POSE, SCAN = 0, 1
+POSE, SCAN, STATUS = 0, 1, 2
 WARNING_PERIOD = 2.0
-SYNC_SLOP = 0.02  # s: /pose and /scan of one lockstep step carry the same stamp
+SYNC_SLOP = 0.02  # s: /pose, /scan (and the navigator's status) of one lockstep step carry the same stamp
 
 
 class PathFollowerNode(ManagedNode):
-    """Wires PathFollower to /path, /pose, /scan and /cmd_vel; holds no control logic."""
+    """Wires PathFollower to its path, /pose, /scan and /cmd_vel; holds no control logic."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
@@ -47,12 +53,11 @@ class PathFollowerNode(ManagedNode):
         self._sync: ApproximateTimeSynchronizer | None = None
         self._entities: list = []
         self._publisher = None
+        self._status_publisher = None
         self._timer = None
-        self._client = None
-        self._replanning = False
         self._latest_pair = None
         self._latest_pair_time: Time | None = None
-        self._unanswered = None  # the last localized pair seen before taking charge, if nobody answered it
+        self._gate = NavigatorGate(self.get_name())
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -68,16 +73,21 @@ class PathFollowerNode(ManagedNode):
             self.configure_error = "; ".join(problems)
             return self.fail_configure(problems)
         self.config, self.follower = config, PathFollower(config)
-        self._sync = ApproximateTimeSynchronizer(2, SYNC_SLOP, 10, self._on_pair)
+        inputs, callback = (3, self._on_navigated_triple) if config.navigated else (2, self._on_pair)
+        self._sync = ApproximateTimeSynchronizer(inputs, SYNC_SLOP, 10, callback)
         twist_type = TwistStamped if config.simulation else Twist
         self._publisher = self.create_lifecycle_publisher(twist_type, "cmd_vel", 10)
+        self._status_publisher = self.create_lifecycle_publisher(PathFollowerStatus, "~/status", reliable())
         self._entities = [
-            self.create_subscription(twist_type, "cmd_vel", self._on_other_command, 10),
-            self.create_subscription(Path, "path", self._on_path, LATCHED),
             self.create_subscription(LocalizedPose, "pose", lambda m: self._on_message(POSE, m), 10),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
+            self.create_active_service(FollowPath, "~/follow_path", self._on_follow_path),
         ]
-        self._client = self.create_client(PlanPath, config.planner_service)
+        if config.navigated:
+            self._entities.append(self.create_subscription(
+                NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable()))
+        else:
+            self._entities.append(self.create_subscription(Path, "path", self._on_path, LATCHED))
         return TransitionCallbackReturn.SUCCESS
 
     def apply_live(self, changes: dict) -> None:
@@ -91,52 +101,64 @@ class PathFollowerNode(ManagedNode):
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._sync.reset()
+        self._gate.reset()
+        self._latest_pair = self._latest_pair_time = None
         if not self.config.simulation:
             self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        if self.in_charge:
-            self._publish(0.0, 0.0)
+        self._publish(0.0, 0.0)
         if self._timer is not None:
             self.destroy_timer(self._timer)
             self._timer = None
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for subscription in self._entities:
-            self.destroy_subscription(subscription)
-        self.destroy_client(self._client)
+        for entity in self._entities:
+            (self.destroy_service if hasattr(entity, "srv_type") else self.destroy_subscription)(entity)
         self.destroy_lifecycle_publisher(self._publisher)
-        self._entities, self._publisher, self._client = [], None, None
+        self.destroy_lifecycle_publisher(self._status_publisher)
+        self._entities, self._publisher, self._status_publisher = [], None, None
         self.config = self.follower = self._sync = None
         return TransitionCallbackReturn.SUCCESS
 
     @property
     def in_charge(self) -> bool:
-        """Active with a path: the follower, not the wall follower, drives."""
-        return self.state_label == "active" and self.follower is not None and self.follower.has_path
+        """Active with a path and, under a navigator, named by its latest status: this node drives."""
+        if self.state_label != "active" or self.follower is None or not self.follower.has_path:
+            return False
+        return self._gate.in_charge if self.config.navigated else True
 
-    # -- inputs -----------------------------------------------------------------------------------
+    # -- the path ---------------------------------------------------------------------------------
 
-    def _on_path(self, message: Path) -> None:
-        if self.follower is None:
-            return
+    def _take_path(self, message: Path) -> str:
+        """Follow the path of `message`; '' or why it was refused (the follower then has none)."""
         points = [(p.pose.position.x, p.pose.position.y) for p in message.poses]
         try:
             self.follower.set_path(points)
         except PathError as error:
             self.follower.clear()
-            self._warn(f"/path refused, stopping: {error}")
-            return
+            return str(error)
         self.get_logger().info(f"following a path of {len(points)} points")
-        if self._unanswered is not None and self.in_charge and self.config.simulation:
-            pair, self._unanswered = self._unanswered, None
-            self._compute(*pair)
+        return ""
 
-    def _on_other_command(self, message) -> None:
-        if not self.in_charge:
-            self._unanswered = None  # another controller answered the last observation
+    def _on_path(self, message: Path) -> None:
+        if self.follower is None:
+            return
+        problem = self._take_path(message)
+        if problem:
+            self._warn(f"/path refused, stopping: {problem}")
+
+    def _on_follow_path(self, request: FollowPath.Request, response: FollowPath.Response) -> FollowPath.Response:
+        try:
+            problem = self._take_path(request.path)
+        except Exception as error:  # nothing raises out of a callback
+            problem = f"{type(error).__name__}: {error}"
+        response.success, response.message = not problem, problem or f"following {len(request.path.poses)} points"
+        return response
+
+    # -- inputs -----------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
         if self.state_label != "active":
@@ -147,13 +169,31 @@ class PathFollowerNode(ManagedNode):
             return
         self._sync.add(index, stamp, message)
 
+    def _on_navigator_status(self, message: NavigatorStatus) -> None:
+        """A new decision for an observation held here is answered at once; any other status is paired."""
+        if self.state_label != "active":
+            return
+        if self._gate.is_repeat(message):
+            held = self._gate.replay(message)
+            if held is not None:
+                self._answer(*held)
+            return
+        self._on_message(STATUS, message)
+
+    def _on_navigated_triple(self, pose: LocalizedPose, scan: LaserScan, status: NavigatorStatus) -> None:
+        mine, changed = self._gate.admit(status, (pose, scan))
+        if changed and not mine:
+            self._latest_pair = None
+            if not self.config.simulation:
+                self._publish(0.0, 0.0)  # the robot stops at the hand-over; the next controller takes it from here
+        if mine:
+            self._answer(pose, scan)
+
     def _on_pair(self, pose: LocalizedPose, scan: LaserScan) -> None:
-        if not pose.localized:
-            return
-        if not self.in_charge:  # the wall follower answers this observation, or else the first one in charge will
-            self._unanswered = (pose, scan)
-            return
-        self._unanswered = None
+        if pose.localized and self.in_charge:
+            self._answer(pose, scan)
+
+    def _answer(self, pose: LocalizedPose, scan: LaserScan) -> None:
         if self.config.simulation:
             self._compute(pose, scan)
         else:
@@ -189,35 +229,9 @@ class PathFollowerNode(ManagedNode):
             self._warn(command.message)
         if command.reached and (self.last_command is None or not self.last_command.reached):
             self.get_logger().info("goal reached")
-        if command.replan:
-            self._request_plan(pose)
         self.last_command = command
         self._publish(command.v, command.w)
-
-    def _request_plan(self, pose: LocalizedPose) -> None:
-        """Ask the planner for a path from here to the current path's end (one request at a time)."""
-        if self._replanning or not self._client.service_is_ready():
-            return
-        goal = self.follower.goal
-        request = PlanPath.Request()
-        request.start.header = pose.header
-        request.start.pose = pose.pose.pose
-        request.goal.header = pose.header
-        request.goal.pose.position.x, request.goal.pose.position.y = float(goal[0]), float(goal[1])
-        self._replanning = True
-        self._client.call_async(request).add_done_callback(self._on_plan)
-
-    def _on_plan(self, future) -> None:
-        self._replanning = False
-        try:
-            response = future.result()
-        except Exception as error:
-            self._warn(f"replanning failed: {error!r}")
-            return
-        if self.follower is None or not response.success:
-            self._warn(f"replanning failed: {getattr(response, 'message', '')}")
-            return
-        self._on_path(response.path)
+        self._publish_status(scan, command)
 
     # -- output -----------------------------------------------------------------------------------
 
@@ -228,6 +242,15 @@ class PathFollowerNode(ManagedNode):
             v, w, stamped=self.config.simulation, flip_angular_sign=self.config.flip_angular_sign,
             stamp=self.get_clock().now().to_msg()))
         self.commands_sent += 1
+
+    def _publish_status(self, scan: LaserScan, command: FollowCommand) -> None:
+        status = PathFollowerStatus(
+            state=command.state.value, reached=command.reached, replan=command.replan,
+            cross_track=float(command.cross_track), remaining=float(command.remaining),
+            linear=float(command.v), angular=float(command.w), message=command.message)
+        status.header.stamp = scan.header.stamp
+        status.header.frame_id = "map"
+        self._status_publisher.publish(status)
 
     def _warn(self, text: str) -> None:
         self.get_logger().warning(text, throttle_duration_sec=WARNING_PERIOD)

@@ -46,10 +46,10 @@ class WallFollowerConfig(Config):
     """s without a new synchronized pair before the node publishes zero velocity (2 dt)."""
     flip_angular_sign: bool = parameter(False, live=True)
     """Publish -w: seed 002 section 5.2.1 found the real robot's angular sign clockwise-positive."""
-    enable_localization: bool = parameter(False)
-    """Pair /pose (amr_interfaces/LocalizedPose, one per observation) with /odometry and /scan, explore
-    while it says not localized and publish nothing once it says localized: the path follower answers
-    those observations (issue 12; in lockstep exactly one of the two commands each step)."""
+    navigated: bool = parameter(False)
+    """Pair the navigator's navigator/status (amr_interfaces/NavigatorStatus, one per observation) with
+    /odometry and /scan and answer only the observations it gives this node (amr_navigation decides who
+    drives; in lockstep exactly one command answers each observation across every hand-over)."""
     # -- behaviour -------------------------------------------------------------------
     preferred_wall: str = parameter("right", choices=WALLS, live=True)
     """'right' or 'left': keep that hand on the wall (takes every opening on that side).

@@ -7,23 +7,25 @@ dt and publishes Twist, and publishes zero velocity when no new pair came for
 `stale_timeout`. The lockstep simulator holds the robot when no command comes, so the
 stale watchdog runs in the timer architecture only.
 
-With `enable_localization`, /pose (a localizer's LocalizedPose, one per observation, stamped like
-the scan) is a third synchronized input: the follower explores while it says not localized and
-publishes nothing for an observation whose pose says localized (the path follower answers it), so
-in lockstep exactly one command answers each observation across the handover.
+With `navigated`, the navigator's navigator/status (amr_interfaces/NavigatorStatus, one per
+observation, stamped like the scan) is a third synchronized input: the follower answers only the
+observations the navigator gives it (amr_control.navigated), so in lockstep exactly one command
+answers each observation across every hand-over. On the real robot (timer), losing the charge sends
+one zero command; the timer is silent until the navigator names this node again.
 """
 
 from __future__ import annotations
 
 import math
 
-from amr_interfaces.msg import LocalizedPose, WallFollowerStatus
+from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
+from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_util.managed_node import ManagedNode, run
@@ -34,7 +36,7 @@ from amr_util.stamps import NANOSECONDS_PER_SECOND
 from amr_util.sync import ApproximateTimeSynchronizer
 
 WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
-ODOMETRY, SCAN, POSE = 0, 1, 2
+ODOMETRY, SCAN, STATUS = 0, 1, 2
 
 
 class WallFollowerNode(ManagedNode):
@@ -53,7 +55,7 @@ class WallFollowerNode(ManagedNode):
         self._latest_pair_time: Time | None = None
         self._last_command: Command | None = None
         self._warned_at: dict[str, float] = {}
-        self._localized = False
+        self._gate = NavigatorGate(self.get_name())
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -70,7 +72,7 @@ class WallFollowerNode(ManagedNode):
             self.configure_error = "; ".join(problems)
             return self.fail_configure(problems)
         self.config, self.controller = config, controller
-        inputs, callback = (3, self._on_localized_triple) if config.enable_localization else (2, self._on_pair)
+        inputs, callback = (3, self._on_navigated_triple) if config.navigated else (2, self._on_pair)
         self._sync = ApproximateTimeSynchronizer(inputs, config.sync_slop, config.sync_queue_size, callback,
                                                  jump_threshold=config.stamp_jump_threshold,
                                                  on_jump=self._on_clock_jump)
@@ -82,13 +84,13 @@ class WallFollowerNode(ManagedNode):
                                      reliable(config.sync_queue_size)),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
         ]
-        if config.enable_localization:
+        if config.navigated:
             self._inputs.append(self.create_subscription(
-                LocalizedPose, "pose", lambda m: self._on_message(POSE, m), reliable(config.sync_queue_size)))
+                NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable(config.sync_queue_size)))
         self.get_logger().info(
             f"configured: {'simulation (lockstep, TwistStamped)' if config.simulation else 'real robot (timer, Twist)'}"
             f", following the {config.preferred_wall} wall at {config.target_wall_distance} m"
-            + (", exploring until /pose says localized" if config.enable_localization else ""))
+            + (", when the navigator says so" if config.navigated else ""))
         return TransitionCallbackReturn.SUCCESS
 
     def apply_live(self, changes: dict) -> None:
@@ -101,7 +103,7 @@ class WallFollowerNode(ManagedNode):
         self.controller.reset()
         self._sync.reset()
         self._latest_pair = self._latest_pair_time = None
-        self._localized = False
+        self._gate.reset()
         if not self.config.simulation:
             self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
@@ -139,7 +141,7 @@ class WallFollowerNode(ManagedNode):
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         """Stamps went back (a simulator reset, or normal stamps after a bad one): start afresh from here."""
         self.get_logger().warning(
-            f"{('/odometry', '/scan', '/pose')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
+            f"{('/odometry', '/scan', '/navigator/status')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
             "synchronizer and controller restarted")
         self.controller.reset()
         self._latest_pair = None
@@ -151,22 +153,35 @@ class WallFollowerNode(ManagedNode):
             self._latest_pair = (odometry, scan)
             self._latest_pair_time = self.get_clock().now()
 
-    def _on_localized_triple(self, odometry: Odometry, scan: LaserScan, pose: LocalizedPose) -> None:
-        """Explore while not localized; once localized, this observation is the path follower's to answer."""
-        if pose.localized != self._localized:
-            self._localized = pose.localized
-            self.get_logger().info(
-                "/pose says localized: handing over (no /cmd_vel from here while it stays localized)" if pose.localized
-                else "/pose says not localized: exploring again")
-            if pose.localized:
+    def _on_navigator_status(self, message: NavigatorStatus) -> None:
+        """A new decision for an observation held here is answered at once; any other status is paired."""
+        if self.state_label != "active":
+            return
+        if self._gate.is_repeat(message):
+            held = self._gate.replay(message)
+            if held is not None:
+                self.get_logger().info(f"the navigator gave this node the held observation ({message.mode})")
+                self._on_pair(*held)
+            return
+        self._on_message(STATUS, message)
+
+    def _on_navigated_triple(self, odometry: Odometry, scan: LaserScan, status: NavigatorStatus) -> None:
+        """Answer the observation if the navigator gave it to this node; on losing the charge, stop once (timer)."""
+        mine, changed = self._gate.admit(status, (odometry, scan))
+        if changed:
+            self.get_logger().info(f"navigator: {status.mode}: " + (
+                "driving" if mine else f"handing over to {status.controller or 'nobody'} ({status.reason})"))
+            if not mine:
                 self._latest_pair = None
-        if not pose.localized:
+                if not self.config.simulation:
+                    self._publish(0.0, 0.0)
+        if mine:
             self._on_pair(odometry, scan)
 
     def _on_timer(self) -> None:
         """Every dt: a command from a new pair, the last command again between pairs, zero when stale;
-        nothing while localized (the path follower drives)."""
-        if self._localized:
+        nothing while the navigator gives the observations to another controller (navigated)."""
+        if self.config.navigated and not self._gate.in_charge:
             return
         if self._latest_pair_time is None or self._is_stale():
             self._warn(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")

@@ -195,11 +195,6 @@ class IKServiceNode(ManagedNode):
         self._release()
         return TransitionCallbackReturn.SUCCESS
 
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
-        self._active = False
-        self._release()
-        return TransitionCallbackReturn.SUCCESS
-
     def _release(self) -> None:
         """Services and publisher destroyed, chains and last solutions forgotten."""
         for service in self._node_services:

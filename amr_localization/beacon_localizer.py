@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from amr_localization.beacons import BeaconReading, checked_beacons, range_mismatch
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import LocalizationError, OdometryError
 from amr_localization.grid_search import SearchResult, exhaustive_search, pyramidal_search
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.parameter_spec import Config, parameter
@@ -77,7 +77,7 @@ class BeaconLocalizer:
 
     def update(self, odometry: tuple[float, float, float], ranges, compass: float) -> BeaconUpdate:
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
-            raise LocalizationError(f"odometry: pose must be 3 finite numbers, got {odometry}")
+            raise OdometryError(f"odometry: pose must be 3 finite numbers, got {odometry}")
         reading = BeaconReading.checked(ranges, compass, len(self.beacons))
         self.track(odometry)
         mismatch = self.mismatch(self.pose, reading)
@@ -90,7 +90,7 @@ class BeaconLocalizer:
     def track(self, odometry: tuple[float, float, float]) -> tuple[float, float, float]:
         """Move the pose by the odometry increment since the last call (also when a reading is unusable)."""
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
-            raise LocalizationError(f"odometry: pose must be 3 finite numbers, got {odometry}")
+            raise OdometryError(f"odometry: pose must be 3 finite numbers, got {odometry}")
         odometry = tuple(float(v) for v in odometry)
         if self._odometry is not None:
             moved = relative_pose(self._odometry, odometry)

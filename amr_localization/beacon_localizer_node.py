@@ -21,7 +21,7 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from amr_localization import messages
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig
 from amr_localization.beacons import BeaconReading
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import BeaconError, LocalizationError, OdometryError
 from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.managed_node import run
@@ -90,10 +90,6 @@ class BeaconLocalizerNode(LocalizerNode):
         self._teardown()
         return TransitionCallbackReturn.SUCCESS
 
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return TransitionCallbackReturn.SUCCESS
-
     def _teardown(self) -> None:
         for subscription in self._inputs:
             self.destroy_subscription(subscription)
@@ -119,11 +115,12 @@ class BeaconLocalizerNode(LocalizerNode):
         status = LocalizerStatus(clusters=1)
         try:
             update = localizer.update(odom, list(reading.ranges), reading.compass)
-        except LocalizationError as error:
+        except OdometryError as error:
+            self._warn(f"beacon reading refused ({error})")
+            return
+        except BeaconError as error:
             self._warn(f"beacon reading refused ({error})")
             status.event = str(error)
-            if "odometry" in str(error):
-                return
             localizer.track(odom)
             localized = False
         else:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import BeaconError
 from amr_util.geometry import wrap_angle
 
 
@@ -22,11 +22,11 @@ def checked_beacons(positions) -> np.ndarray:
     """(B, 2) finite beacon positions; raises on an empty or malformed list."""
     array = np.asarray(positions, dtype=float) if len(positions) else np.zeros((0, 2))
     if array.ndim != 2 or array.shape[1] != 2:
-        raise LocalizationError(f"beacons: expected a list of [x, y], got shape {array.shape}")
+        raise BeaconError(f"beacons: expected a list of [x, y], got shape {array.shape}")
     if array.shape[0] == 0:
-        raise LocalizationError("beacons: the list is empty: nothing to measure ranges to")
+        raise BeaconError("beacons: the list is empty: nothing to measure ranges to")
     if not np.isfinite(array).all():
-        raise LocalizationError("beacons: positions must be finite")
+        raise BeaconError("beacons: positions must be finite")
     return array
 
 
@@ -35,13 +35,13 @@ def same_beacons(expected: np.ndarray, positions, tolerance: float = 1e-6) -> No
     within `tolerance` m): a reading measured to other beacons cannot be scored against these."""
     array = np.asarray(positions, dtype=float).reshape(-1, 2) if len(positions) else np.zeros((0, 2))
     if array.shape != expected.shape:
-        raise LocalizationError(f"beacons: {array.shape[0]} beacon positions, expected {expected.shape[0]}")
+        raise BeaconError(f"beacons: {array.shape[0]} beacon positions, expected {expected.shape[0]}")
     if not np.isfinite(array).all():
-        raise LocalizationError("beacons: positions must be finite")
+        raise BeaconError("beacons: positions must be finite")
     moved = np.flatnonzero(np.hypot(*(array - expected).T) > tolerance)
     if moved.size:
         i = int(moved[0])
-        raise LocalizationError(f"beacons: beacon {i} at ({array[i, 0]:.3f}, {array[i, 1]:.3f}), expected "
+        raise BeaconError(f"beacons: beacon {i} at ({array[i, 0]:.3f}, {array[i, 1]:.3f}), expected "
                                 f"({expected[i, 0]:.3f}, {expected[i, 1]:.3f}) (positions changed)")
 
 
@@ -56,13 +56,13 @@ class BeaconReading:
     def checked(cls, ranges, compass: float, beacon_count: int) -> "BeaconReading":
         values = np.asarray(ranges, dtype=float)
         if values.shape != (beacon_count,):
-            raise LocalizationError(f"beacon ranges: expected {beacon_count} values (one per beacon), got {values.size}")
+            raise BeaconError(f"beacon ranges: expected {beacon_count} values (one per beacon), got {values.size}")
         bad = np.flatnonzero(~np.isfinite(values) | (values < 0.0))
         if bad.size:
-            raise LocalizationError(f"beacon ranges: range {bad[0]} is {values[bad[0]]}: every range must be a "
+            raise BeaconError(f"beacon ranges: range {bad[0]} is {values[bad[0]]}: every range must be a "
                                     "finite number >= 0")
         if not math.isfinite(compass):
-            raise LocalizationError(f"beacon ranges: compass heading must be finite, got {compass}")
+            raise BeaconError(f"beacon ranges: compass heading must be finite, got {compass}")
         return cls(values, float(compass))
 
 

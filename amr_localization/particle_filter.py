@@ -48,7 +48,7 @@ from amr_localization.beacons import BeaconReading, beacon_log_likelihood, check
 from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import BeaconError, LocalizationError, OdometryError
 from amr_localization.free_space import FreeSpace
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
@@ -211,12 +211,12 @@ class ParticleFilter:
         started = time.process_time()
         odometry = tuple(float(v) for v in odometry)
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
-            raise LocalizationError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
+            raise OdometryError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
         selected = select_beams(scan, self.config.max_beams, self.config.laser_model_type == "beam") if scan is not None else None
         if beacons is not None and self.beacons is None:
-            raise LocalizationError("beacon ranges: this filter was built without beacon positions")
+            raise BeaconError("beacon ranges: this filter was built without beacon positions")
         if beacons is not None and len(beacons.ranges) != len(self.beacons):
-            raise LocalizationError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
+            raise BeaconError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
         self.status = FilterStatus(particles=len(self.particles), clusters=self._clusters.count,
                                    effective_sample_size=self.status.effective_sample_size,
                                    cluster_share=self.status.cluster_share, fit=self.status.fit)

@@ -40,7 +40,7 @@ from std_srvs.srv import Empty
 
 from amr_localization import messages
 from amr_localization.beacons import BeaconReading, checked_beacons
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import BeaconError, LocalizationError, OdometryError, ScanError
 from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
 from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_localization.particle_filter_parameters import NODE_SPECS, config_of, parameter_specs
@@ -70,6 +70,7 @@ class ParticleFilterNode(LocalizerNode):
         self._inputs: list = []
         self._node_services: list = []
         self._last_estimate: Estimate | None = None
+        self._waiting: tuple | None = None  # the inputs of an observation that came before the map
         self._last_cloud_ns: int | None = None
         self._beacon_positions: np.ndarray | None = None
         self.configure_error = ""
@@ -136,7 +137,7 @@ class ParticleFilterNode(LocalizerNode):
         if self.filter is None:
             self._inputs.append(
                 self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, LATCHED))
-        self._node_services = [self.create_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
+        self._node_services = [self.create_active_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
 
     def _input_callback(self, index: int):
         return lambda message: self._on_message(index, message)
@@ -158,10 +159,6 @@ class ParticleFilterNode(LocalizerNode):
         self._teardown()
         return TransitionCallbackReturn.SUCCESS
 
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return TransitionCallbackReturn.SUCCESS
-
     def _teardown(self) -> None:
         for subscription in self._inputs:
             self.destroy_subscription(subscription)
@@ -169,7 +166,7 @@ class ParticleFilterNode(LocalizerNode):
             self.destroy_service(service)
         self._destroy_outputs()
         self._inputs, self._node_services = [], []
-        self.filter = self._sync = self._last_estimate = self._beacon_positions = None
+        self.filter = self._sync = self._last_estimate = self._beacon_positions = self._waiting = None
 
     # -- inputs ---------------------------------------------------------------------------------
 
@@ -181,6 +178,10 @@ class ParticleFilterNode(LocalizerNode):
                                    f"{message.info.resolution} m): global localization starts")
         except Exception as error:  # a malformed map or one without free space: keep the previous filter
             self.get_logger().error(f"map refused: {error}")
+            return
+        waiting, self._waiting = self._waiting, None
+        if waiting is not None and self.state_label == "active":
+            self._on_pair(*waiting)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         super()._on_clock_jump(index, jump_ns)
@@ -192,7 +193,8 @@ class ParticleFilterNode(LocalizerNode):
         named = dict(zip(self.INPUTS, inputs))
         odometry, scan, beacons = named["odometry"], named.get("scan"), named.get("beacons")
         if self.filter is None:
-            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): observation ignored")
+            self._waiting = inputs  # answered when the map arrives: a lockstep loop would wait for it for ever
+            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): the observation waits for it")
             return
         try:
             estimate = self._update(odometry, scan, beacons)
@@ -209,15 +211,20 @@ class ParticleFilterNode(LocalizerNode):
     def _update(self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None) -> Estimate | None:
         pose = messages.odometry_pose(odometry)
         reading = self._beacon_reading(beacons) if beacons is not None else None
+        scan_reading = scan_data(scan) if scan is not None else None
         try:
-            return self.filter.update(pose, scan_data(scan) if scan is not None else None, beacons=reading)
-        except LocalizationError as error:
-            if "odometry" in str(error):
-                self._warn(f"{error}: the last pose is repeated")
-                return self._last_estimate
+            return self.filter.update(pose, scan_reading, beacons=reading)
+        except OdometryError as error:
+            self._warn(f"{error}: the last pose is repeated")
+            return self._last_estimate
+        except ScanError as error:
             alone = "the beacons and odometry" if reading is not None else "odometry alone"
             self._warn(f"scan refused ({error}): the pose follows {alone}")
             return self.filter.update(pose, beacons=reading)
+        except BeaconError as error:
+            self._warn(f"/beacons reading refused ({error}): the pose follows "
+                       + ("the scan and odometry" if scan_reading is not None else "odometry alone"))
+            return self.filter.update(pose, scan_reading)
 
     def _beacon_reading(self, message: BeaconRanges) -> BeaconReading | None:
         """The reading, checked against the filter's beacons (the first good reading's positions when the

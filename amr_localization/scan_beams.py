@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from amr_localization.errors import LocalizationError
+from amr_localization.errors import ScanError
 from amr_util.scan import ScanData
 
 
@@ -37,17 +37,17 @@ def checked_ranges(scan: ScanData) -> np.ndarray:
     try:
         ranges = np.asarray(scan.ranges, dtype=float)
     except (TypeError, ValueError) as error:
-        raise LocalizationError(f"scan: ranges are not numbers ({error})") from error
+        raise ScanError(f"scan: ranges are not numbers ({error})") from error
     if ranges.ndim != 1 or ranges.size == 0:
-        raise LocalizationError(f"scan: ranges must be a non-empty list, got shape {ranges.shape}")
+        raise ScanError(f"scan: ranges must be a non-empty list, got shape {ranges.shape}")
     for name in ("angle_min", "angle_increment", "range_min", "range_max"):
         value = getattr(scan, name)
         if not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise LocalizationError(f"scan: {name} must be a finite number, got {value!r}")
+            raise ScanError(f"scan: {name} must be a finite number, got {value!r}")
     if scan.angle_increment == 0.0 and ranges.size > 1:
-        raise LocalizationError("scan: angle_increment is 0 with more than one beam")
+        raise ScanError("scan: angle_increment is 0 with more than one beam")
     if not 0.0 <= scan.range_min < scan.range_max:
-        raise LocalizationError(f"scan: needs 0 <= range_min < range_max, got {scan.range_min}, {scan.range_max}")
+        raise ScanError(f"scan: needs 0 <= range_min < range_max, got {scan.range_min}, {scan.range_max}")
     return ranges
 
 

@@ -47,7 +47,7 @@ class MapServerNode(ManagedNode):
         self._message = grid_message(grid, now, now)
         self._publisher = self.create_lifecycle_publisher(
             OccupancyGridMessage, self.get_parameter("topic_name").value, LATCHED)
-        self._service = self.create_service(GetMap, "~/map", self._on_get_map)
+        self._service = self.create_active_service(GetMap, "~/map", self._on_get_map)
         self.get_logger().info(
             f"map {grid.width} x {grid.height} cells at {grid.resolution} m, origin {grid.origin[:2]}, "
             f"frame {grid.frame_id}, on {self._publisher.topic_name}")
@@ -60,10 +60,6 @@ class MapServerNode(ManagedNode):
         return result
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return TransitionCallbackReturn.SUCCESS
-
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
         self._teardown()
         return TransitionCallbackReturn.SUCCESS
 

@@ -97,13 +97,14 @@ class Costmap:
     def cell(self, x: float, y: float, what: str = "point") -> tuple[int, int]:
         """(row, col) of a point on the map; PlanningError naming `what` if it is not finite or off the map."""
         if not (_is_real(x) and _is_real(y)) or not (math.isfinite(x) and math.isfinite(y)):
-            raise PlanningError(Reason.INVALID, f"{what} ({x!r}, {y!r}) must be finite numbers")
+            raise PlanningError(Reason.INVALID, f"{what} ({x!r}, {y!r}) must be finite numbers", _endpoint(what))
         row, col = self.grid.world_to_cell(x, y)
         if not self.grid.inside(row, col):
             xmin, ymin, xmax, ymax = self.grid.bounds
             raise PlanningError(
                 Reason.OUTSIDE_MAP,
                 f"{what} ({x:.3f}, {y:.3f}) is off the map [{xmin:.2f}, {xmax:.2f}] x [{ymin:.2f}, {ymax:.2f}]",
+                _endpoint(what),
             )
         return int(row), int(col)
 
@@ -154,3 +155,8 @@ class Costmap:
 
 def _is_real(value) -> bool:
     return isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
+
+
+def _endpoint(what: str) -> str:
+    """The PlanningError endpoint of a checked point: "start", "goal", or "" for any other point."""
+    return what if what in ("start", "goal") else ""

@@ -35,16 +35,16 @@ def resolve(costmap: Costmap, point, what: str, snap_distance: float) -> Endpoin
     try:
         x, y = (float(v) for v in point)
     except (TypeError, ValueError) as error:
-        raise PlanningError(Reason.INVALID, f"{what} must be two numbers (x, y), got {point!r}") from error
+        raise PlanningError(Reason.INVALID, f"{what} must be two numbers (x, y), got {point!r}", what) from error
     row, col = costmap.cell(x, y, what)
     blocked = Reason.START_BLOCKED if what == "start" else Reason.GOAL_BLOCKED
     if costmap.obstacle[row, col]:
-        raise PlanningError(blocked, f"{what} ({x:.3f}, {y:.3f}) lies in an occupied cell of the map")
+        raise PlanningError(blocked, f"{what} ({x:.3f}, {y:.3f}) lies in an occupied cell of the map", what)
     if not costmap.lethal[row, col]:
         return Endpoint(np.array([x, y]), (row, col), False)
     free_row, free_col = costmap.nearest_free(row, col)
     if free_row < 0:
-        raise PlanningError(blocked, "the map has no cell where the robot fits with its safety margin")
+        raise PlanningError(blocked, "the map has no cell where the robot fits with its safety margin", what)
     distance = math.hypot(*(costmap.centre(free_row, free_col) - (x, y)))
     if distance > snap_distance:
         raise PlanningError(
@@ -52,6 +52,7 @@ def resolve(costmap: Costmap, point, what: str, snap_distance: float) -> Endpoin
             f"{what} ({x:.3f}, {y:.3f}) is {costmap.clearance[row, col]:.3f} m from an obstacle, closer than "
             f"{costmap.config.robot_radius:.3f} m (the robot's radius), and the nearest cell clear enough is {distance:.3f} m away "
             f"(more than {snap_distance:.3f} m)",
+            what,
         )
     return Endpoint(np.array([x, y]), (free_row, free_col), True)
 

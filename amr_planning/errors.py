@@ -16,8 +16,16 @@ class Reason(str, Enum):
 
 
 class PlanningError(ValueError):
-    """No path: the message says what is wrong; `reason` classifies it. A planner never returns half a path."""
+    """No path: the message says what is wrong; `reason` classifies it, `endpoint` says which end of the request
+    ("start", "goal" or "" for neither) was refused. A planner never returns half a path."""
 
-    def __init__(self, reason: Reason, message: str) -> None:
+    def __init__(self, reason: Reason, message: str, endpoint: str = "") -> None:
         super().__init__(f"{reason.value}: {message}")
         self.reason = reason
+        self.endpoint = endpoint
+
+    @property
+    def goal_refused(self) -> bool:
+        """The goal itself cannot be planned to (not finite, off the map, inside an obstacle): whatever the
+        start, no plan to it will succeed on this map."""
+        return self.endpoint == "goal"

@@ -2,8 +2,9 @@
 
 `PlannerConfig` is the flat parameter dict of the `planner` node, each parameter stated once
 (amr_util.parameter_spec; the costmap, roadmap and smoothing limits by their own configs). Structural:
-the map source, its resolution, the search and its roadmap; live: the goal, replanning, the costmap and
-smoothing weights (the node rebuilds the costmap from the current map). `Planner` builds the costmap of
+the map source, its resolution, the search and its roadmap; live: the costmap and smoothing weights and
+snapping (the node rebuilds the costmap from the current map). When to plan and to which goal is the
+navigator's decision (amr_navigation), not the planner's. `Planner` builds the costmap of
 one map once and answers plan(start, goal) with a smoothed path, or a PlanningError naming why there is
 none.
 """
@@ -26,24 +27,16 @@ NODE_NAME = "planner"
 PLANNERS = ("astar", "prm")
 
 
-def _goal_problem(goal: list) -> str | None:
-    return None if len(goal) in (0, 2) else "must be [] or [x, y] (finite numbers)"
-
-
 @dataclass(frozen=True)
 class PlannerConfig(Config):
     """The planner node's parameters; the costmap, roadmap and smoothing ones are stated by CostmapConfig,
     RoadmapConfig and SmoothingConfig (limits, defaults) under the node's flat names."""
 
-    # -- where the map and the goal come from (node shell) -----------------------------------------
+    # -- where the map comes from (node shell) ------------------------------------------------------
     world: str = parameter("")
     """a world file (name in the worlds directory or a path) rasterized as the map; "" = the /map topic."""
     resolution: float = parameter(0.025, minimum=0.005, maximum=1.0)
     """m/cell when rasterizing a world (0.35 m corridors need 0.025: the map's estimate is conservative)."""
-    goal: list = parameter([], kind="float_array", check=_goal_problem, live=True)
-    """[x, y] overriding the world's goal; [] = the world's goal, then /goal_pose."""
-    replan_distance: float = parameter(0.25, minimum=0.01, maximum=10.0, live=True)
-    """m off the path at which the robot counts as strayed and the planner plans again."""
     # -- the search --------------------------------------------------------------------------------
     planner: str = parameter("astar", choices=PLANNERS)
     """'astar' (grid A*, the default) or 'prm' (the course's probabilistic roadmap)."""

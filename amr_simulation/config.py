@@ -130,6 +130,10 @@ class SimulationConfig(Config):
     """Node, realtime mode: s without a command before the robot stops; 0 disables."""
     cmd_vel_stamped: bool = parameter(True)
     """Node: /cmd_vel is geometry_msgs/TwistStamped (else plain Twist)."""
+    stop_at_goal: bool = parameter(True)
+    """Entering the world's goal region stops the robot until reset (the wall-following task ends there). False:
+    the goal is only judged and reported (goal_reached), and commands keep moving the robot (a navigator
+    stops it at its own goals and takes new ones)."""
     robot: RobotConfig = field(default_factory=RobotConfig)
     lidar: LidarConfig = field(default_factory=LidarConfig)
     encoders: EncoderConfig = field(default_factory=EncoderConfig)

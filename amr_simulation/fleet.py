@@ -249,7 +249,7 @@ class Fleet:
         plans = []
         fastest = 0.0
         for robot, (v, w) in zip(self.robots, commands):
-            if robot._goal_reached:
+            if robot._goal_reached and self.config.stop_at_goal:
                 v = w = 0.0
             left, right = drive.command(v, w)
             ground_v, ground_w = drive.body_twist(*robot._encoders.ground_speeds(left, right))

@@ -8,7 +8,7 @@ Each step(v, w) advances exactly config.dt seconds:
   3. the encoders report the commanded wheel rotation (plus noise) and the
      encoder odometry integrates it;
   4. the LiDAR scans from the new pose; the goal region is checked.
-After the goal is reached the robot ignores commands and stays put until reset.
+After the goal is reached the robot ignores commands and stays put until reset (unless stop_at_goal is false).
 
 A Simulator is a Fleet (amr_simulation.fleet) of the world's one robot, seen as that robot: a world
 with a `robots` list of several robots is simulated by a Fleet.

@@ -39,7 +39,7 @@ from pathlib import Path
 
 from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
 from amr_interfaces.srv import SetPose
-from geometry_msgs.msg import Twist, TwistStamped
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
@@ -141,6 +141,7 @@ class SimulatorNode(ManagedNode):
             self._step_timer = self.create_timer(resend, self._on_resend_timer, clock=steady)
         self._active = True
         self._publish_static_tf()
+        self._publish_goal()
         self._publish_observation()
         return result
 
@@ -152,11 +153,6 @@ class SimulatorNode(ManagedNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return TransitionCallbackReturn.SUCCESS
-
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
-        self._active = False
         self._teardown()
         return TransitionCallbackReturn.SUCCESS
 
@@ -194,14 +190,16 @@ class SimulatorNode(ManagedNode):
         if get("publish_clock"):
             self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", qos)
         self._create_tf_publishers()
+        if self._sim.world.goal is not None:
+            self._outputs["goal"] = self.create_lifecycle_publisher(PoseStamped, "~/goal", LATCHED)
         self._frames = {name: get(f"{name}_frame") for name in ("odom", "world", "base", "scan")}
         self._stamped = self._sim.config.cmd_vel_stamped
         self._cmd_vel_subscription = self.create_subscription(
             TwistStamped if self._stamped else Twist, "cmd_vel", self._on_cmd_vel, qos)
         self._node_services = [
-            self.create_service(Trigger, "~/reset", self._on_reset),
-            self.create_service(SetPose, "~/set_pose", self._on_set_pose),
-            self.create_service(Trigger, "~/render", self._on_render),
+            self.create_active_service(Trigger, "~/reset", self._on_reset),
+            self.create_active_service(SetPose, "~/set_pose", self._on_set_pose),
+            self.create_active_service(Trigger, "~/render", self._on_render),
         ]
         self._create_localization_interfaces(qos)
 
@@ -290,10 +288,12 @@ class SimulatorNode(ManagedNode):
         if sim.collisions > collisions:
             self.get_logger().warning(f"collision {sim.collisions} at ({x:.3f}, {y:.3f}), t = {sim.time:.2f} s")
         if sim.goal_reached and not reached:
-            self._command = (0.0, 0.0)
+            stopping = sim.config.stop_at_goal
+            if stopping:
+                self._command = (0.0, 0.0)
             self.get_logger().info(
                 f"goal reached at ({x:.3f}, {y:.3f}), t = {sim.time:.2f} s, {self._distance:.2f} m, "
-                f"{sim.collisions} collisions: stopping")
+                f"{sim.collisions} collisions" + (": stopping" if stopping else ""))
         self._publish_observation()
 
     def _publish_observation(self) -> None:
@@ -373,6 +373,15 @@ class SimulatorNode(ManagedNode):
             transforms.append(messages.transform(
                 stamp, frames["world"], frames["odom"], map_to_odom(sim.pose, sim.odom_pose)))
         self._outputs["tf"].publish(messages.tf_message(transforms))
+
+    def _publish_goal(self) -> None:
+        """The world's goal on ~/goal (latched), for a navigator to take as a goal; the goal check judges it."""
+        if "goal" in self._outputs:
+            goal = PoseStamped()
+            goal.header.stamp, goal.header.frame_id = stamp_from_seconds(self._now()), self._frames["world"]
+            goal.pose.position.x, goal.pose.position.y = self._sim.goal.x, self._sim.goal.y
+            goal.pose.orientation.w = 1.0
+            self._outputs["goal"].publish(goal)
 
     def _publish_static_tf(self) -> None:
         """base -> scan: where the LiDAR sits on the robot (lidar.x, lidar.y), latched for late joiners."""

@@ -13,12 +13,19 @@ it is remembered, and configure fails listing every problem at once. While the n
 configured, a set of a live parameter is validated and applied at once (the node's
 `apply_live` hook), and a set of a structural one is refused with the reason; nothing is
 accepted and then ignored.
+
+Lifecycle edges are handled here once for every node: `shutdown` from any state runs the node's own
+`on_deactivate` (if active: a controller's zero command goes out, timers stop, publishers are disabled)
+and `on_cleanup` (if configured: subscriptions, services and publishers destroyed), so nothing is
+published afterwards; a node writes no `on_shutdown` of its own. Services made with
+`create_active_service` answer only while the node is active and refuse clearly otherwise.
 """
 
 from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import rclpy
 from lifecycle_msgs.msg import Transition
@@ -26,7 +33,7 @@ from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException, Executor, MultiThreadedExecutor, SingleThreadedExecutor
-from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.expand_topic_name import expand_topic_name
 from rclpy.signals import SignalHandlerOptions
@@ -44,6 +51,8 @@ PARAMETER_TYPES = {
 CONFIGURED_STATES = ("inactive", "active")
 ALWAYS_KNOWN = ("use_sim_time", "autostart", "start_type_description_service")
 """Parameters every rclpy node declares itself (plus ours), never reported as unknown."""
+REFUSAL_LOG_PERIOD = 2.0
+"""s between two warnings about requests refused because the node is not active."""
 
 
 def topic_name_problem(name: str) -> str | None:
@@ -245,6 +254,9 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
             Transition.TRANSITION_ACTIVATE: self.trigger_activate,
             Transition.TRANSITION_DEACTIVATE: self.trigger_deactivate,
             Transition.TRANSITION_CLEANUP: self.trigger_cleanup,
+            Transition.TRANSITION_UNCONFIGURED_SHUTDOWN: self.trigger_shutdown,
+            Transition.TRANSITION_INACTIVE_SHUTDOWN: self.trigger_shutdown,
+            Transition.TRANSITION_ACTIVE_SHUTDOWN: self.trigger_shutdown,
         }
         trigger = triggers.get(transition_id)
         if trigger is None:
@@ -261,6 +273,49 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         """Deactivate and clean up as far as the current state allows (zero commands go out first)."""
         self.try_transition(Transition.TRANSITION_DEACTIVATE)
         self.try_transition(Transition.TRANSITION_CLEANUP)
+
+    def shut_down(self) -> bool:
+        """The `shutdown` transition from whatever state the node is in (unconfigured, inactive, active)."""
+        if self.state_label not in ("unconfigured", "inactive", "active"):
+            return False
+        return self.trigger_shutdown() == TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Shutdown from any state, for every node: an active node goes through its own on_deactivate first
+        (zero command, timers stopped, publishers disabled), a configured one through its on_cleanup (its
+        entities destroyed). A step that raises is logged and the next one still runs: the node ends
+        finalized, publishing nothing."""
+        steps = []
+        if state.label == "active":
+            steps.append(("deactivate", self.on_deactivate))
+        if state.label in CONFIGURED_STATES:
+            steps.append(("cleanup", self.on_cleanup))
+        for name, step in steps:
+            try:
+                step(state)
+            except Exception as error:  # shutting down must finish: the process may be going away
+                self.get_logger().error(f"shutdown: {name} failed: {type(error).__name__}: {error}")
+        for entity in list(self._managed_entities):  # anything a cleanup left behind is silenced
+            entity.on_deactivate(state)
+        self.get_logger().info(f"shut down from {state.label}")
+        return TransitionCallbackReturn.SUCCESS
+
+    def create_active_service(self, service_type, name: str, callback: Callable[[Any, Any], Any], **kwargs):
+        """A service that answers only while the node is active (as nav2's map_server does). Otherwise the request
+        is refused: `success` false and the reason in `message` where the response has them, else the empty
+        response; either way a warning names the state."""
+        def answer_when_active(request, response):
+            if self.state_label == "active":
+                return callback(request, response)
+            reason = f"{self.get_name()} is {self.state_label}: {name} answers only while active"
+            self.get_logger().warning(f"refused a request: {reason}", throttle_duration_sec=REFUSAL_LOG_PERIOD)
+            if hasattr(response, "success"):
+                response.success = False
+            if hasattr(response, "message"):
+                response.message = reason
+            return response
+
+        return self.create_service(service_type, name, answer_when_active, **kwargs)
 
 
 SIGNAL_CHECK_PERIOD = 0.1  # seconds between chances for Ctrl-C / SIGTERM to be seen

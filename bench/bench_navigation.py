@@ -1,7 +1,8 @@
 """The whole navigation loop at library level (no ROS): explore by wall following until the particle
 filter says localized, plan from the ESTIMATED pose (A* on the costmap, smoothing), follow with pure
 pursuit on the estimated pose, replan when strayed / blocked / the goal changes, explore again if the
-filter withdraws `localized` (amr_planning.navigation, which mirrors the maze_navigation nodes).
+filter withdraws `localized` (amr_navigation.loop: the Navigator's decisions, the same ones the
+maze_navigation stack's navigator node makes, carried out in process).
 
 Prints per run: when the filter first said localized, the goal reached time or why not, collisions,
 mean cross-track error (true pose to the followed path while tracking), and the wall follower alone's
@@ -17,7 +18,7 @@ with the family's goal (reachable by the wall follower's hand) and a random free
 connected free space (often one no wall follower reaches).
 
 Configuration: config/particle_filter.yaml (map rasterized at its 0.02 m), config/planner.yaml (0.025 m),
-config/path_follower_sim.yaml, config/wall_follower_sim.yaml (preferred_wall = the family's hand);
+config/navigator.yaml (replan_distance), config/path_follower_sim.yaml, config/wall_follower_sim.yaml (preferred_wall = the family's hand);
 encoder noise 0.02 and slip 0.05 (as bench_wall_follower_families.py) unless --encoder-noise/--slip.
 
     python bench/bench_navigation.py [--quick] [--seeds 6] [--families perfect,loops] [--jobs 2]
@@ -52,7 +53,7 @@ from amr_localization.particle_filter_parameters import config_of  # noqa: E402
 from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_maps.world import Goal, World, load_world, world_from_dict  # noqa: E402
-from amr_planning.navigation import Navigator, run_navigation  # noqa: E402
+from amr_navigation.loop import NavigationLoop, run_navigation  # noqa: E402
 from amr_planning.planner import Planner, PlannerConfig  # noqa: E402
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
@@ -65,6 +66,7 @@ WALL_CONFIG = read_wall_file(CONFIG / "wall_follower_sim.yaml")
 FOLLOWER_CONFIG = read_follower_file(CONFIG / "path_follower_sim.yaml")
 PLANNER_PARAMS = node_parameters(CONFIG / "planner.yaml", "planner")
 FILTER_PARAMS = node_parameters(CONFIG / "particle_filter.yaml", "particle_filter")
+NAVIGATOR_PARAMS = node_parameters(CONFIG / "navigator.yaml", "navigator")
 LIMIT = 600.0
 MAX_COLLISIONS = 5
 
@@ -135,9 +137,10 @@ def navigate(case: Case, encoder_noise: float, slip: float) -> dict:
     particle_filter = ParticleFilter(rasterize_world(world, FILTER_PARAMS["map_resolution"]), filter_config,
                                      range_max=FILTER_PARAMS["laser_max_range"])
     wall_config = dataclasses.replace(WALL_CONFIG, preferred_wall=case.hand)
-    navigator = Navigator(planner, WallFollower(wall_config), PathFollower(FOLLOWER_CONFIG), goal)
+    loop = NavigationLoop(planner, WallFollower(wall_config), PathFollower(FOLLOWER_CONFIG), goal,
+                          replan_distance=NAVIGATOR_PARAMS["replan_distance"])
     sim = Simulator(world, sim_config(case, encoder_noise, slip))
-    run = run_navigation(sim, particle_filter, navigator, limit=case.limit, max_collisions=MAX_COLLISIONS)
+    run = run_navigation(sim, particle_filter, loop, limit=case.limit, max_collisions=MAX_COLLISIONS)
     wall = None
     if case.compare and world.goal is not None:
         wall = wall_follow_alone(world, case, wall_config, encoder_noise, slip)

@@ -77,6 +77,11 @@ def _planner():
     return PlannerConfig.parameter_specs()
 
 
+def _navigator():
+    from amr_navigation.navigator_config import NavigatorConfig
+    return NavigatorConfig.parameter_specs()
+
+
 def _map_server():
     from amr_maps.map_source import parameter_specs
     return parameter_specs()
@@ -116,6 +121,7 @@ NODES = (
     Node("amr_localization", "particle_filter", _particle_filter, ("particle_filter.yaml",)),
     Node("amr_localization", "beacon_localizer", _beacon_localizer, ("beacon_localizer.yaml",)),
     Node("amr_planning", "planner", _planner, ("planner.yaml",)),
+    Node("amr_navigation", "navigator", _navigator, ("navigator.yaml",)),
     Node("amr_maps", "map_server", _map_server),
     Node("amr_turtlebot3", "odometry_node", _odometry_node, ("odometry_node.yaml",)),
     Node("amr_bringup", "lifecycle_manager", _lifecycle_manager),

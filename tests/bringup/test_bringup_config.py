@@ -61,6 +61,57 @@ def test_simulated_stacks_run_on_sim_time_with_the_map_of_their_world_real_ones_
         assert {n.parameters.get("world") for n in moved.nodes} - {None} == {"hard_maze.yaml"}
 
 
+MAP_SOURCES = {"world", "map_yaml", "yaml_filename"}
+"""Parameters through which a node loads a world or a map file itself."""
+GEOMETRY_LOADERS = {"simulator", "map_server"}
+"""The nodes that need the world's geometry: physics, and the stack's one map."""
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_stack_loads_its_world_once_per_node_that_needs_geometry(name):
+    """The simulator (physics) and the map server (/map) load the world; the particle filter and the planner take
+    /map, whatever their parameter files say, and the world argument changes every loader at once."""
+    from amr_util.parameter_file import dotted, node_parameters
+
+    bringup = load_bringup(name)
+    for spec in bringup.nodes:
+        values = {}
+        for path in spec.parameter_file_paths():
+            values.update(dotted(node_parameters(path, spec.name)))
+        values.update(spec.parameters)
+        loaded = {key for key in MAP_SOURCES if values.get(key)}
+        if spec.executable in GEOMETRY_LOADERS:
+            assert loaded == {"world"}, (name, spec.name, loaded)
+        else:
+            assert not loaded, f"{name}: {spec.name} loads {loaded} itself instead of taking /map"
+    if "world" in bringup.arguments:
+        loaders = {n.name for n in bringup.nodes if n.executable in GEOMETRY_LOADERS}
+        assert {node for node, _ in bringup.arguments["world"].sets} == loaders
+
+
+@pytest.mark.parametrize("name", ["maze_sim", "maze_localization", "maze_navigation"])
+def test_a_per_node_world_is_refused_naming_the_world_argument(name):
+    bringup = load_bringup(name)
+    for target in ("simulator.world", "map_server.world"):
+        with pytest.raises(BringupError, match=rf"-p {target}:=hard_maze.yaml: {target} is tied to .* by the stack "
+                                               r"argument world:= \(they must agree\); give world:=hard_maze.yaml instead"):
+            bringup.with_overrides({}, {target: "hard_maze.yaml"})
+    assert bringup.with_overrides({}, {"simulator.seed": "3"}).current_value("world") == bringup.current_value("world")
+    if name != "maze_sim":  # one map for the stack: the resolution is the stack's too
+        assert bringup.with_overrides({"map_resolution": "0.025"}).nodes[0].parameters["resolution"] == 0.025
+
+
+def test_maze_navigation_has_one_driver_and_navigated_controllers():
+    bringup = load_bringup("maze_navigation")
+    assert node(bringup, "wall_follower").parameters["navigated"] is True
+    assert node(bringup, "path_follower").parameters["navigated"] is True
+    assert node(bringup, "simulator").parameters["stop_at_goal"] is False
+    assert node(bringup, "navigator").parameters["world_goal_topic"] == "/simulator/goal"
+    order = bringup.node_startup_order
+    assert order.index("navigator") < order.index("particle_filter") < order.index("simulator")
+    assert max(order.index(n) for n in ("planner", "path_follower", "wall_follower")) < order.index("navigator")
+
+
 def test_real_robot_has_no_simulator_and_the_real_robot_config():
     bringup = load_bringup("real_robot")
     assert [n.name for n in bringup.nodes] == ["odometry_node", "wall_follower"]

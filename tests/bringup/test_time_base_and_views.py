@@ -78,9 +78,8 @@ class GateProbe(Node):
 
 
 def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_context):
-    with composed_stack(ros_context, "maze_sim",
-                        parameters={"simulator.lockstep_resend_period": "0.0", "simulator.publish_map_to_odom": "true",
-                                    "map_server.world": WORLD, "simulator.world": WORLD},
+    with composed_stack(ros_context, "maze_sim", arguments={"world": WORLD},
+                        parameters={"simulator.lockstep_resend_period": "0.0", "simulator.publish_map_to_odom": "true"},
                         remappings={"wall_follower": (("cmd_vel", GATED),)}) as (_, manager, _):
         assert all(step.ok for step in manager.startup()), "maze_sim did not come up"
         probe = GateProbe(ros_context)  # a late joiner: /map and /tf_static went out at activation

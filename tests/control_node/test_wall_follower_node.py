@@ -5,7 +5,7 @@ import threading
 
 import pytest
 from conftest import spin_until
-from amr_interfaces.msg import WallFollowerStatus
+from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
@@ -125,6 +125,56 @@ def test_real_robot_mode_uses_twist_a_timer_and_stops_on_stale_data(ros_context,
     rig.commands.clear()
     spin_until(executor, lambda: False, 0.5)  # no more data: stale
     assert rig.commands and rig.commands[-1].linear.x == 0.0 and rig.commands[-1].angular.z == 0.0
+
+
+def navigator_status(stamp_ns: int, controller: str) -> NavigatorStatus:
+    status = NavigatorStatus(controller=controller, mode="EXPLORE" if controller == "wall_follower" else "FOLLOW")
+    status.header.stamp.sec, status.header.stamp.nanosec = divmod(stamp_ns, 10**9)
+    return status
+
+
+def test_navigated_answers_only_what_the_navigator_gives_it_and_a_held_observation_on_a_new_decision(
+        ros_context, executor):
+    node, rig = active_follower(ros_context, executor, navigated=True)
+    status = rig.create_publisher(NavigatorStatus, "navigator/status", 10)
+    assert spin_until(executor, lambda: status.get_subscription_count() > 0, 5)
+    assert not any(topic == "/cmd_vel" for topic, _ in node.get_subscriber_names_and_types_by_node("wall_follower", "/"))
+    for k, controller in enumerate(["wall_follower", "wall_follower", "path_follower", ""]):
+        stamp = 10**9 + k * 50_000_000
+        rig.send(stamp)
+        status.publish(navigator_status(stamp, controller))
+        spin_until(executor, lambda: False, 0.2)
+    assert len(rig.commands) == 2, "answered exactly the two observations the navigator gave it"
+    status.publish(navigator_status(10**9 + 3 * 50_000_000, "wall_follower"))  # a new decision, held observation 3
+    assert spin_until(executor, lambda: len(rig.commands) == 3, 5)
+    status.publish(navigator_status(10**9 + 2 * 50_000_000, "wall_follower"))  # observation 2 was answered already
+    spin_until(executor, lambda: False, 0.3)
+    assert len(rig.commands) == 3
+
+
+def test_navigated_real_robot_stops_once_when_the_navigator_hands_over_then_stays_silent(ros_context, executor):
+    node, rig = active_follower(ros_context, executor, Twist, simulation=False, sync_slop=0.15, navigated=True)
+    status = rig.create_publisher(NavigatorStatus, "navigator/status", 10)
+    assert spin_until(executor, lambda: status.get_subscription_count() > 0, 5)
+    spin_until(executor, lambda: False, 0.3)
+    assert rig.commands == [], "not given any observation yet: no stale-data zeros either"
+    now = node.get_clock().now().nanoseconds
+    for k in range(6):
+        stamp = now + k * 50_000_000
+        rig.send(stamp, right=0.25)
+        status.publish(navigator_status(stamp, "wall_follower"))
+        spin_until(executor, lambda: False, 0.05)
+    assert any(c.linear.x > 0.0 for c in rig.commands), "in charge: the timer drives"
+    rig.commands.clear()
+    for k in range(6, 12):
+        stamp = now + k * 50_000_000
+        rig.send(stamp, right=0.25)
+        status.publish(navigator_status(stamp, "path_follower"))
+        spin_until(executor, lambda: False, 0.05)
+    spin_until(executor, lambda: False, 0.5)
+    zeros = [k for k, c in enumerate(rig.commands) if c.linear.x == 0.0 and c.angular.z == 0.0]
+    assert zeros == [len(rig.commands) - 1], "one zero at the hand-over (a tick before it may hold the last command)"
+    assert len(rig.commands) <= 2
 
 
 def test_deactivation_publishes_a_zero_command(ros_context, executor):

@@ -43,7 +43,7 @@ def test_expected_nodes_are_all_there():
 
 def test_every_package_is_installed():
     assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_evaluation", "amr_bringup"} == set(PACKAGES)
+            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup"} == set(PACKAGES)
 
 
 def test_ros_wheels_are_pinned_to_jazzy():

@@ -29,18 +29,19 @@ ALLOWED: dict[str, set[str]] = {
     "amr_simulation": MAPS,
     "amr_control": MAPS,
     "amr_localization": MAPS,
-    "amr_planning": MAPS | {"amr_control"},  # navigation.py, the library loop, drives the two controllers
+    "amr_planning": MAPS,
+    "amr_navigation": MAPS | {"amr_control", "amr_planning"},  # the Navigator and its loop drive their libraries
     "amr_kinematics": BOTTOM,
     "amr_turtlebot3": BOTTOM,
     "amr_evaluation": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                              "amr_turtlebot3", "amr_bringup"},
+                              "amr_turtlebot3", "amr_navigation", "amr_bringup"},
     "amr_bringup": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                           "amr_turtlebot3"},
+                           "amr_turtlebot3", "amr_navigation"},
 }
 """package -> the amr_* packages its modules may import (besides itself and amr_interfaces)."""
 SIDE_BY_SIDE = {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics", "amr_turtlebot3"}
 NO_SIMULATOR = {"amr_util", "amr_maps", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                "amr_turtlebot3"}
+                "amr_turtlebot3", "amr_navigation"}
 """Packages that run on a real robot: they import neither amr_simulation nor pymunk."""
 
 
@@ -102,8 +103,10 @@ def test_imports_follow_the_layering(package):
     assert not wrong, f"{package} may import only {sorted(ALLOWED[package])}:\n" + "\n".join(wrong)
 
 
-@pytest.mark.parametrize("package", sorted(SIDE_BY_SIDE))
+@pytest.mark.parametrize("package", sorted(SIDE_BY_SIDE | {"amr_navigation"}))
 def test_side_by_side_packages_import_no_other_package_nodes(package):
+    """Nor does amr_navigation: its node talks to the controllers and the planner over ROS, its loop uses
+    their libraries."""
     wrong = sorted(f"{module} imports {name}" for module, names in GRAPH[package].items() for name in names
                    if name.split(".")[0] in SIDE_BY_SIDE - {package} and name.endswith("_node"))
     assert not wrong, "\n".join(wrong)

@@ -35,7 +35,8 @@ CHILD = textwrap.dedent("""
 
     nodes = ["amr_localization.particle_filter_node", "amr_localization.beacon_localizer_node",
              "amr_planning.planner_node", "amr_control.wall_follower_node", "amr_control.path_follower_node",
-             "amr_maps.map_server_node", "amr_turtlebot3.odometry_node"]
+             "amr_maps.map_server_node", "amr_turtlebot3.odometry_node", "amr_navigation.navigator_node",
+             "amr_navigation.loop"]
     for name in nodes:
         importlib.import_module(name)
 

@@ -26,6 +26,7 @@ from amr_localization.messages import odometry_pose
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
 from amr_localization.particle_filter_node import ParticleFilterNode
+from amr_navigation.navigator_node import NavigatorNode
 from amr_util.geometry import compose, wrap_angle
 from amr_simulation import messages as sim_messages
 from amr_util.geometry import Pose2D
@@ -70,7 +71,7 @@ class LoggedWarnings:
 
 class Recorder(Node):
     """Everything the stack publishes, and a stand-in path follower: a zero command answers every
-    observation whose /pose says localized (the wall follower's handover leaves those to it)."""
+    observation whose /pose says localized (the navigator, without a goal, gives those to nobody)."""
 
     def __init__(self, context) -> None:
         super().__init__("recorder", context=context)
@@ -121,20 +122,22 @@ def stamp_ns(message) -> int:
 
 def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(executor):
     """inner_maze (the seed maze): global localization while wall following; one /pose per scan, one
-    /cmd_vel per observation (the follower's until localized, then the stand-in path follower's)."""
+    /cmd_vel per observation (the follower's while the navigator gives it the observations, until localized;
+    then the stand-in path follower's)."""
     context = executor.context
     simulator = SimulatorNode(context=context, parameter_overrides=[
         Parameter("world", value="inner_maze.yaml"), Parameter("lidar.x", value=-0.032),
         Parameter("lockstep_resend_period", value=0.0), Parameter("enable_localization", value=True)])
     follower = WallFollowerNode(context=context, parameter_overrides=[
-        Parameter("enable_localization", value=True), Parameter("lidar_x", value=-0.032)])
+        Parameter("navigated", value=True), Parameter("lidar_x", value=-0.032)])
+    navigator = NavigatorNode(context=context)  # no goal: explore until localized, then nobody drives
     localizer = ParticleFilterNode(context=context, parameter_overrides=[
         Parameter("world", value="inner_maze.yaml"), Parameter("lidar_x", value=-0.032),
         Parameter("max_particles", value=PARTICLES), Parameter("particle_cloud_period", value=CLOUD_PERIOD)])
     recorder = Recorder(context)
-    for node in (simulator, follower, localizer, recorder):
+    for node in (simulator, follower, navigator, localizer, recorder):
         executor.add_node(node)
-    configure_and_activate(localizer, follower)
+    configure_and_activate(localizer, follower, navigator)
     spin_until(executor, lambda: simulator.count_subscribers("scan") >= 3, 5.0)  # recorder, filter, follower
     configure_and_activate(simulator)
 

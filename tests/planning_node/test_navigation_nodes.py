@@ -3,8 +3,8 @@
 import math
 
 import numpy as np
-from amr_interfaces.msg import LocalizedPose
-from amr_interfaces.srv import PlanPath
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
+from amr_interfaces.srv import FollowPath, PlanPath
 from conftest import spin_until
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from lifecycle_msgs.msg import Transition
@@ -60,11 +60,20 @@ class Rig(Node):
         self.goal = self.create_publisher(PoseStamped, "goal_pose", 10)
         self.scan = self.create_publisher(LaserScan, "scan", qos_profile_sensor_data)
         self.path_out = self.create_publisher(Path, "path", LATCHED)
-        self.cmd_vel = self.create_publisher(TwistStamped, "cmd_vel", 10)
-        self.paths, self.commands = [], []
+        self.status = self.create_publisher(NavigatorStatus, "navigator/status", 10)
+        self.paths, self.commands, self.follower_status = [], [], []
         self.create_subscription(Path, "path", self.paths.append, LATCHED)
         self.create_subscription(TwistStamped, "cmd_vel", self.commands.append, 10)
+        self.create_subscription(PathFollowerStatus, "path_follower/status", self.follower_status.append, 10)
         self.plan = self.create_client(PlanPath, "planner/plan")
+        self.follow = self.create_client(FollowPath, "path_follower/follow_path")
+
+    def decide(self, k: int, controller: str, step: int = 50_000_000) -> None:
+        """The navigator's status for observation k, naming `controller` ("" for nobody)."""
+        status = NavigatorStatus(controller=controller, mode="FOLLOW" if controller == "path_follower" else "EXPLORE")
+        status.header.stamp.sec, status.header.stamp.nanosec = divmod((k + 1) * step, 10**9)
+        status.localized = True
+        self.status.publish(status)
 
 
 def activate(node):
@@ -81,39 +90,39 @@ def call(executor, client, start, goal):
     return future.result()
 
 
-def test_the_planner_plans_once_localized_publishes_the_path_and_answers_its_service(ros_context, executor):
+def test_the_planner_answers_its_service_on_the_map_only_while_active_and_logs_a_failure_once(ros_context, executor):
     planner, rig = PlannerNode(context=ros_context), Rig(ros_context)
     executor.add_node(planner)
     executor.add_node(rig)
-    activate(planner)
+    assert planner.try_transition(Transition.TRANSITION_CONFIGURE)
     rig.map.publish(two_rooms())
     assert spin_until(executor, lambda: planner.planner is not None, 10.0)
-    goal = PoseStamped()
-    goal.pose.position.x, goal.pose.position.y = 3.5, 0.5
-    assert spin_until(executor, lambda: rig.count_subscribers("goal_pose") > 0, 5.0)
-    rig.goal.publish(goal)
-    assert spin_until(executor, lambda: planner._goal is not None, 5.0)
-    rig.pose.publish(pose(0.5, 0.5, localized=False))
-    spin_until(executor, lambda: False, 0.3)
-    assert rig.paths == []  # not localized: no plan
-    rig.pose.publish(pose(0.5, 0.5))
-    assert spin_until(executor, lambda: rig.paths, 10.0)
-    path = rig.paths[-1]
-    points = np.array([(p.pose.position.x, p.pose.position.y) for p in path.poses])
-    assert path.header.frame_id == "map"
+    assert spin_until(executor, lambda: rig.plan.service_is_ready(), 5.0)
+    inactive = call(executor, rig.plan, (0.5, 1.5), (3.0, 1.5))
+    assert not inactive.success and "inactive" in inactive.message and "only while active" in inactive.message
+    assert planner.try_transition(Transition.TRANSITION_ACTIVATE)
+    ok = call(executor, rig.plan, (0.5, 0.5), (3.5, 0.5))
+    points = np.array([(p.pose.position.x, p.pose.position.y) for p in ok.path.poses])
+    assert ok.success and ok.path.header.frame_id == "map"
     assert np.allclose(points[0], (0.5, 0.5)) and np.allclose(points[-1], (3.5, 0.5))
     assert points[np.argmin(np.abs(points[:, 0] - 2.025)), 1] > 1.35  # through the door
-    rig.pose.publish(pose(0.52, 0.5))  # on the path: no new plan
-    spin_until(executor, lambda: False, 0.3)
-    assert len(rig.paths) == 1
-
-    assert spin_until(executor, lambda: rig.plan.service_is_ready(), 5.0)
-    ok = call(executor, rig.plan, (0.5, 1.5), (3.0, 1.5))
-    assert ok.success and len(ok.path.poses) > 10
-    for goal_xy, words in (((math.nan, 1.0), "finite"), ((9.0, 1.0), "off the map"), ((2.025, 0.5), "occupied")):
+    assert rig.paths == []  # the planner answers; publishing /path is the navigator's
+    for goal_xy, words, refused_goal in (((math.nan, 1.0), "finite", True), ((9.0, 1.0), "off the map", True),
+                                         ((2.025, 0.5), "occupied", True)):
         refused = call(executor, rig.plan, (0.5, 1.5), goal_xy)
         assert not refused.success and words in refused.message and not refused.path.poses
-    planner.shut_down_cleanly()
+        assert refused.goal_refused is refused_goal
+    start_refused = call(executor, rig.plan, (2.025, 0.5), (0.5, 1.5))
+    assert not start_refused.success and not start_refused.goal_refused
+    logged = []
+    planner.get_logger().warning = lambda text, **kwargs: logged.append(text)
+    for _ in range(3):  # a navigator retrying: the same reason is logged once
+        call(executor, rig.plan, (2.025, 0.5), (0.5, 1.5))
+    assert logged == []
+    call(executor, rig.plan, (0.5, 1.5), (9.0, 1.0))
+    assert len(logged) == 1 and "off the map" in logged[0]
+    assert planner.shut_down()
+    assert spin_until(executor, lambda: not rig.plan.service_is_ready(), 5.0)  # gone after shutdown
 
 
 def test_a_bad_planner_parameter_fails_configure_naming_it(ros_context):
@@ -122,12 +131,24 @@ def test_a_bad_planner_parameter_fails_configure_naming_it(ros_context):
     assert "planner" in node.configure_error and node.state_label == "unconfigured"
 
 
-def test_the_follower_answers_each_observation_once_in_charge_and_catches_up_only_an_unanswered_one(ros_context, executor):
+def straight_path() -> Path:
+    path = Path()
+    path.header.frame_id = "map"
+    for x in np.arange(0.0, 2.0, 0.05):
+        p = PoseStamped()
+        p.pose.position.x = float(x)
+        path.poses.append(p)
+    return path
+
+
+def test_the_follower_alone_answers_each_localized_observation_once_it_has_a_path(ros_context, executor):
     follower, rig = PathFollowerNode(context=ros_context), Rig(ros_context)
     executor.add_node(follower)
     executor.add_node(rig)
     activate(follower)
     assert spin_until(executor, lambda: rig.count_subscribers("scan") > 0 and rig.count_subscribers("pose") > 0, 5.0)
+    assert not any(topic == "/cmd_vel" for topic, _ in follower.get_subscriber_names_and_types_by_node(
+        "path_follower", "/")), "no controller listens to /cmd_vel"
     step = 50_000_000
 
     def observe(k, localized=True):
@@ -138,27 +159,17 @@ def test_the_follower_answers_each_observation_once_in_charge_and_catches_up_onl
         observe(k)
     spin_until(executor, lambda: False, 0.3)
     assert rig.commands == []
-    rig.cmd_vel.publish(TwistStamped())  # another controller (the wall follower) answers observation 2
-    assert spin_until(executor, lambda: len(rig.commands) == 1 and follower._unanswered is None, 5.0)
-
-    path = Path()
-    path.header.frame_id = "map"
-    for x in np.arange(0.0, 2.0, 0.05):
-        p = PoseStamped()
-        p.pose.position.x = float(x)
-        path.poses.append(p)
-    rig.path_out.publish(path)
+    rig.path_out.publish(straight_path())
     assert spin_until(executor, lambda: follower.in_charge, 5.0)
-    spin_until(executor, lambda: False, 0.2)
-    assert len(rig.commands) == 1  # observation 2 was answered: nothing to catch up
     for k in range(3, 8):
         observe(k)
-        assert spin_until(executor, lambda: len(rig.commands) == k - 1, 5.0)
+        assert spin_until(executor, lambda: len(rig.commands) == k - 2, 5.0)
     spin_until(executor, lambda: False, 0.2)
-    assert len(rig.commands) == 6 and all(c.twist.linear.x > 0.0 for c in rig.commands[1:])
+    assert len(rig.commands) == 5 and all(c.twist.linear.x > 0.0 for c in rig.commands)
+    assert len(rig.follower_status) == 5 and rig.follower_status[-1].state == "TRACK"
     observe(8, localized=False)  # a pose the localization does not vouch for: no command
     spin_until(executor, lambda: False, 0.3)
-    assert len(rig.commands) == 6
+    assert len(rig.commands) == 5
 
     bad = Path()
     nan_pose = PoseStamped()
@@ -168,11 +179,46 @@ def test_the_follower_answers_each_observation_once_in_charge_and_catches_up_onl
     assert spin_until(executor, lambda: not follower.in_charge, 5.0)
     observe(9)
     spin_until(executor, lambda: False, 0.3)
-    assert len(rig.commands) == 6
-    rig.path_out.publish(path)  # in charge again: observation 9, unanswered, gets its one command
-    assert spin_until(executor, lambda: len(rig.commands) == 7, 5.0)
-    spin_until(executor, lambda: False, 0.2)
-    assert len(rig.commands) == 7
+    assert len(rig.commands) == 5
+    follower.shut_down_cleanly()
+
+
+def test_a_navigated_follower_answers_only_what_the_navigator_gives_it_and_a_held_observation_on_a_new_decision(
+        ros_context, executor):
+    follower = PathFollowerNode(context=ros_context, parameter_overrides=[Parameter("navigated", value=True)])
+    rig = Rig(ros_context)
+    executor.add_node(follower)
+    executor.add_node(rig)
+    activate(follower)
+    assert spin_until(executor, lambda: rig.count_subscribers("navigator/status") > 0 and rig.follow.service_is_ready(), 5.0)
+    request = FollowPath.Request(path=straight_path())
+    future = rig.follow.call_async(request)
+    assert spin_until(executor, future.done, 5.0) and future.result().success
+    refused = rig.follow.call_async(FollowPath.Request(path=Path()))
+    assert spin_until(executor, refused.done, 5.0) and not refused.result().success and refused.result().message
+    assert spin_until(executor, lambda: rig.count_subscribers("scan") > 0, 5.0)
+    step = 50_000_000
+
+    def observe(k, controller):
+        rig.pose.publish(pose(0.05 * k, 0.0, stamp_ns=(k + 1) * step))
+        rig.scan.publish(open_scan((k + 1) * step))
+        rig.decide(k, controller)
+
+    # the path above was refused (empty): give it again
+    future = rig.follow.call_async(FollowPath.Request(path=straight_path()))
+    assert spin_until(executor, future.done, 5.0) and future.result().success
+    observe(0, "wall_follower")
+    observe(1, "path_follower")
+    assert spin_until(executor, lambda: len(rig.commands) == 1, 5.0)
+    observe(2, "")  # nobody: the robot is held on observation 2
+    spin_until(executor, lambda: False, 0.3)
+    assert len(rig.commands) == 1
+    rig.decide(2, "path_follower")  # a new decision for the held observation (a goal arrived)
+    assert spin_until(executor, lambda: len(rig.commands) == 2, 5.0)
+    rig.decide(2, "path_follower")  # the same decision again: answered already, nothing more
+    observe(3, "wall_follower")
+    spin_until(executor, lambda: False, 0.3)
+    assert len(rig.commands) == 2
     follower.shut_down_cleanly()
 
 
@@ -191,20 +237,17 @@ def test_live_tunables_apply_and_structural_parameters_are_refused_while_configu
     assert not refused.successful and "read-only while configured" in refused.reason
 
 
-def test_the_planner_rasterizes_a_world_and_takes_its_goal_and_refuses_an_unreachable_one(ros_context, executor):
+def test_the_planner_rasterizes_a_world_for_standalone_use_and_refuses_a_goal_in_a_wall(ros_context, executor):
     planner = PlannerNode(context=ros_context, parameter_overrides=[Parameter("world", value="hard_maze.yaml")])
     rig = Rig(ros_context)
     executor.add_node(planner)
     executor.add_node(rig)
     activate(planner)
-    assert planner._goal == (1.75, 1.75)
-    assert spin_until(executor, lambda: rig.count_subscribers("pose") > 0, 5.0)
-    rig.pose.publish(pose(-1.75, -1.75, math.pi / 2))
-    assert spin_until(executor, lambda: rig.paths, 10.0)
-    points = np.array([(p.pose.position.x, p.pose.position.y) for p in rig.paths[-1].poses])
-    assert np.allclose(points[-1], (1.75, 1.75)) and not planner.planner.costmap.lethal_at(points).any()
-    assert planner.set_parameters([Parameter("goal", value=[2.0, 2.0])])[0].successful  # in the outer wall
-    rig.pose.publish(pose(-1.75, -1.75, math.pi / 2))
-    spin_until(executor, lambda: False, 0.5)
-    assert len(rig.paths) == 1 and planner.path is None  # refused with a log line, nothing published
+    assert spin_until(executor, lambda: rig.plan.service_is_ready(), 5.0)
+    answer = call(executor, rig.plan, (-1.75, -1.75), (1.75, 1.75))  # hard_maze's start to its goal
+    points = np.array([(p.pose.position.x, p.pose.position.y) for p in answer.path.poses])
+    assert answer.success and np.allclose(points[-1], (1.75, 1.75))
+    assert not planner.planner.costmap.lethal_at(points).any()
+    refused = call(executor, rig.plan, (-1.75, -1.75), (2.0, 2.0))  # in the outer wall
+    assert not refused.success and refused.goal_refused and not refused.path.poses
     planner.shut_down_cleanly()

@@ -96,6 +96,17 @@ def test_goal_stops_the_robot_until_reset(room) -> None:
     assert not sim.goal_reached and sim.time == 0.0 and sim.pose == room.start
 
 
+def test_without_stop_at_goal_the_goal_is_only_judged(room) -> None:
+    sim = Simulator(room, make_config(stop_at_goal=False))
+    sim.set_pose(1.0, -1.25, 0.0)
+    while not sim.goal_reached:
+        sim.step(0.2, 0.0)
+    x = sim.pose.x
+    for _ in range(10):
+        sim.step(0.2, 0.0)
+    assert sim.pose.x == pytest.approx(x + 10 * 0.2 * sim.config.dt, abs=1e-3) and sim.goal_reached
+
+
 def test_set_pose_teleports_and_restarts_odometry(room) -> None:
     sim = Simulator(room, make_config())
     sim.step(0.2, 0.3)

@@ -5,6 +5,7 @@ import math
 import pytest
 from amr_interfaces.srv import SetPose
 from conftest import spin_until
+from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
@@ -13,6 +14,7 @@ from std_srvs.srv import Trigger
 
 from amr_simulation.config import LidarConfig
 from amr_util.geometry import yaw_from_quaternion
+from amr_util.qos import LATCHED
 
 OPEN_ROOM = {"world": "open_room.yaml"}  # start (-1.5, -1.0, 0), walls at x = +-2, y = +-1.5 (0.05 thick)
 DT = 0.05
@@ -146,6 +148,32 @@ def test_goal_reached_stops_the_robot(simulator, probe, executor):
     reached = [s.goal_reached for s in driver.statuses]
     assert reached.index(True) == 30
     assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(driver.ground_truth[30].pose.pose.position.x)
+
+
+def test_without_stop_at_goal_the_goal_is_judged_and_reported_and_the_robot_drives_on(simulator, probe, executor):
+    node, driver = simulator(start=[1.0, -1.25, 0.0], stop_at_goal=False, **OPEN_ROOM), probe()
+    goals = []
+    driver.create_subscription(PoseStamped, "simulator/goal", goals.append, LATCHED)  # the world's goal, latched
+    start(executor, node, driver)
+    assert spin_until(executor, lambda: goals, TIMEOUT)
+    goal = goals[-1]
+    assert (goal.header.frame_id, goal.pose.position.x, goal.pose.position.y) == ("map", 1.5, -1.25)
+    drive(executor, driver, [(0.2, 0.0)] * 40)
+    assert [s.goal_reached for s in driver.statuses].index(True) == 30
+    assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(driver.ground_truth[30].pose.pose.position.x + 0.1)
+
+
+def test_services_answer_only_while_active(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
+    executor.add_node(node)
+    executor.add_node(driver)
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+    assert spin_until(executor, lambda: driver.reset.service_is_ready(), TIMEOUT)
+    refused = call(executor, driver.set_pose, SetPose.Request(x=0.5, y=-0.5, theta=0.0))
+    assert not refused.success and "simulator is inactive" in refused.message and "only while active" in refused.message
+    assert not call(executor, driver.reset, Trigger.Request()).success
+    assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert call(executor, driver.set_pose, SetPose.Request(x=0.5, y=-0.5, theta=0.0)).success
 
 
 def test_render_writes_a_png_and_answers_its_path(simulator, probe, executor, tmp_path):

@@ -1,4 +1,5 @@
-"""The navigation loop's hand-over and planning decisions (amr_planning.navigation), and one whole run."""
+"""The navigation loop (amr_navigation.loop): the Navigator's hand-over and planning decisions carried out with
+the controllers and the planner in process, and one whole run."""
 
 from __future__ import annotations
 
@@ -15,18 +16,30 @@ from amr_control.wall_follower_config import read_parameter_file as read_wall_fi
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_parameters import config_of
 from amr_maps.rasterize import rasterize_world
-from amr_planning.navigation import Mode, Navigator, run_navigation
+from amr_maps.occupancy_grid import OccupancyGrid
+from amr_navigation.loop import NavigationLoop, run_navigation
+from amr_navigation.navigator import Mode
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
 from amr_maps.world import load_world
 from amr_util.parameter_file import node_parameters
 
-from planning_helpers import grid, walled
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "config"
 NO_RETURNS = ScanData(np.full(240, np.inf), 0.0, 2 * math.pi / 240, 0.12, 3.5)
+
+
+def walled(rows: int, cols: int) -> np.ndarray:
+    """A free rows x cols area at 0.05 m closed by a one-cell wall (int8 occupancy data)."""
+    data = np.zeros((rows, cols), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    return data
+
+
+def grid(data: np.ndarray) -> OccupancyGrid:
+    return OccupancyGrid(data, 0.05, (0.0, 0.0, 0.0))
 
 
 class RecordingWallFollower:
@@ -40,10 +53,10 @@ class RecordingWallFollower:
         return Command(0.1, 0.3)
 
 
-def navigator(goal=(2.5, 0.5)) -> tuple[Navigator, RecordingWallFollower]:
+def navigator(goal=(2.5, 0.5)) -> tuple[NavigationLoop, RecordingWallFollower]:
     data = walled(20, 60)  # 1 x 3 m at 0.05 m
     wall = RecordingWallFollower()
-    return Navigator(Planner(grid(data), PlannerConfig(resolution=0.05)), wall, PathFollower(), goal), wall
+    return NavigationLoop(Planner(grid(data), PlannerConfig(resolution=0.05)), wall, PathFollower(), goal), wall
 
 
 def test_explores_until_localized_then_plans_once_and_follows():
@@ -79,13 +92,20 @@ def test_withdrawn_localization_explores_again_and_keeps_the_path():
     assert command.mode is Mode.FOLLOW and nav.plans == 1  # back on the same path
 
 
-def test_no_path_stops_and_is_retried():
-    nav, _ = navigator(goal=(10.0, 10.0))  # off the map
+def test_no_path_stops_and_is_retried_unless_the_goal_itself_is_refused():
+    nav, _ = navigator(goal=(10.0, 10.0))  # off the map: the goal itself is refused
     command = nav.step((0.5, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.0)
     assert command.mode is Mode.NO_PATH and (command.v, command.w) == (0.0, 0.0)
-    nav.step((0.5, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.05)
-    assert len(nav.planning_failures) == 2
+    assert any("off the map" in event for event in command.events)
+    command = nav.step((0.5, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.05)
+    assert command.mode is Mode.NO_PATH and len(nav.planning_failures) == 1 and not command.events  # said once
     nav.set_goal((2.5, 0.5))
+    assert nav.step((0.5, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.1).mode is Mode.FOLLOW
+    nav, _ = navigator()
+    blocked = nav.step((0.02, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.0)  # the estimate inside the wall
+    assert blocked.mode is Mode.NO_PATH and "start" in nav.planning_failures[-1]
+    nav.step((0.02, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.05)
+    assert len(nav.planning_failures) == 2  # a start problem is tried again at the next observation
     assert nav.step((0.5, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.1).mode is Mode.FOLLOW
 
 
@@ -97,8 +117,8 @@ def test_pillar_goal_whole_loop_reaches_the_goal_without_collision():
     pf = ParticleFilter(rasterize_world(world, 0.02), config_of(filter_params), range_max=3.5)
     planner_config = PlannerConfig.from_params(node_parameters(CONFIG / "planner.yaml", "planner"))
     planner = Planner(rasterize_world(world, planner_config.resolution), planner_config)
-    nav = Navigator(planner, WallFollower(read_wall_file(CONFIG / "wall_follower_sim.yaml")),
-                    PathFollower(read_follower_file(CONFIG / "path_follower_sim.yaml")), (world.goal.x, world.goal.y))
+    nav = NavigationLoop(planner, WallFollower(read_wall_file(CONFIG / "wall_follower_sim.yaml")),
+                         PathFollower(read_follower_file(CONFIG / "path_follower_sim.yaml")), (world.goal.x, world.goal.y))
     sim = Simulator(world, SimulationConfig(seed=0, lidar=LidarConfig(noise_std=0.01)))
     run = run_navigation(sim, pf, nav, limit=60.0)
     assert run.reached and run.collisions == 0, run

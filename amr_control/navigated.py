@@ -1,0 +1,60 @@
+"""What a controller node does when a navigator decides who drives (`navigated: true`), no control logic.
+
+The navigator (amr_navigation) publishes one amr_interfaces/NavigatorStatus per observation, stamped
+like the observation's /scan; the controller pairs it with its own inputs of that observation (by the
+synchronizer, as one more input) and answers the observation only when the status names it
+(`controller` == this node's name). So in lockstep exactly one command answers each observation, across
+every hand-over, without any controller listening to /cmd_vel.
+
+An observation the status did not give this node is held (its inputs, by stamp). If the navigator later
+sends a new decision for that same observation (same stamp: a goal arrived while the lockstep simulator
+held the robot) naming this node, the held inputs are answered then. The synchronizer itself drops a
+repeated stamp, so such a status is checked here first.
+"""
+
+from __future__ import annotations
+
+from rclpy.time import Time
+
+NAVIGATOR_STATUS_TOPIC = "navigator/status"
+
+
+def stamp_ns(message) -> int:
+    return Time.from_msg(message.header.stamp).nanoseconds
+
+
+class NavigatorGate:
+    """Whether the navigator gave this controller the latest observation, and the one it did not give."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.in_charge = False
+        """the latest status named this node."""
+        self._held: tuple[int, tuple] | None = None
+
+    def reset(self) -> None:
+        self.in_charge = False
+        self._held = None
+
+    def admit(self, status, inputs: tuple) -> tuple[bool, bool]:
+        """A synchronized set (the status and this node's inputs of one observation): (answer it, charge changed).
+        A set not given to this node is held for a later decision on the same observation."""
+        mine = status.controller == self.name
+        changed = mine != self.in_charge
+        self.in_charge = mine
+        self._held = None if mine else (stamp_ns(status), inputs)
+        return mine, changed
+
+    def replay(self, status) -> tuple | None:
+        """The held inputs, if `status` is a new decision for the held observation that names this node."""
+        if self._held is None or stamp_ns(status) != self._held[0]:
+            return None
+        if status.controller != self.name:
+            return None
+        inputs, self._held = self._held[1], None
+        self.in_charge = True
+        return inputs
+
+    def is_repeat(self, status) -> bool:
+        """A status for the observation held here (the synchronizer would drop it as a repeated stamp)."""
+        return self._held is not None and stamp_ns(status) == self._held[0]

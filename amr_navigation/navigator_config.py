@@ -1,0 +1,43 @@
+"""The navigator node's parameters, each stated once (type, default, range, live or structural, description),
+no ROS (amr_util.parameter_spec). Live ones (the goal, replanning, the request timeout) are used from the next
+observation; the others shape what configure builds (topics, services, names) and are refused while configured.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE
+from amr_util.geometry import all_finite
+from amr_util.parameter_spec import Config, parameter
+
+NODE_NAME = "navigator"
+
+
+def _goal_problem(goal: list) -> str | None:
+    return None if len(goal) in (0, 2) and all_finite(goal) else "must be [] or [x, y] (finite numbers)"
+
+
+@dataclass(frozen=True)
+class NavigatorConfig(Config):
+    goal: list = parameter([], kind="float_array", check=_goal_problem, live=True)
+    """[x, y] a first goal in global_frame; [] = none until a goal message (the latest goal wins: /goal_pose,
+    world_goal_topic, or a set of this parameter)."""
+    replan_distance: float = parameter(DEFAULT_REPLAN_DISTANCE, minimum=0.01, maximum=10.0, live=True)
+    """m the estimate may be from the planned path before a new plan is made."""
+    plan_timeout: float = parameter(10.0, minimum=0.1, maximum=600.0, live=True)
+    """s (wall clock) a ~/plan or ~/follow_path request may take before it counts as failed."""
+    world_goal_topic: str = parameter("")
+    """a latched geometry_msgs/PoseStamped topic whose messages are goals too (the simulator's /simulator/goal:
+    the world's goal); '' = none."""
+    planner_service: str = parameter("planner/plan", nonempty=True)
+    """the planner's amr_interfaces/PlanPath service."""
+    follow_path_service: str = parameter("path_follower/follow_path", nonempty=True)
+    """the path follower's amr_interfaces/FollowPath service."""
+    wall_follower: str = parameter("wall_follower", nonempty=True)
+    """node name of the controller that explores (named in ~/status)."""
+    path_follower: str = parameter("path_follower", nonempty=True)
+    """node name of the controller that follows paths (named in ~/status; its <name>/status reports arrival
+    and requests for a new plan)."""
+    global_frame: str = parameter("map", nonempty=True)
+    """frame of /pose, goals and paths (REP 105: map)."""

@@ -1,0 +1,356 @@
+"""navigator: who drives, observation by observation (lifecycle node, a thin shell over amr_navigation.Navigator).
+
+The one driver of /cmd_vel per robot, in the way nav2's bt_navigator is: it decides, the controllers
+act. For every /pose (amr_interfaces/LocalizedPose: one per observation, from the localizer) it asks
+the Navigator who answers that observation, carries the decision out, and publishes it on ~/status
+(amr_interfaces/NavigatorStatus) stamped with the /pose's stamp. The controllers run `navigated: true`:
+each pairs that status with its own inputs of the same observation and answers only when the status
+names it, so in lockstep exactly one /cmd_vel answers each observation across every hand-over, and no
+controller needs to listen to /cmd_vel to guess whether another one answered.
+
+Carrying a decision out, before the status goes out:
+- a plan: the planner's ~/plan (amr_interfaces/PlanPath) from the estimate to the goal;
+- a new path: the path follower's ~/follow_path (amr_interfaces/FollowPath), so the path is in place
+  before the observation that needs it; then /path (nav_msgs/Path, transient local) for viewers;
+- nobody drives (IDLE, NO_PATH, REACHED): the status names nobody and says why; in lockstep the
+  simulator then holds the robot. A new goal re-decides the held observation (the status goes out again
+  with the same stamp, and the named controller answers the observation it holds).
+Requests are made one at a time; an observation arriving meanwhile is decided after (the latest one).
+A request unanswered for `plan_timeout` (wall clock) counts as failed.
+
+Goals: the `goal` parameter, geometry_msgs/PoseStamped on /goal_pose (RViz's 2D Goal Pose, the
+command line), and, with `world_goal_topic`, a latched PoseStamped (the simulator's ~/goal: the world's
+goal). The latest one wins, at any time, before or after arrival. The path follower's ~/status
+(amr_interfaces/PathFollowerStatus) reports arrival and requests for a new plan.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
+from amr_interfaces.srv import FollowPath, PlanPath
+from builtin_interfaces.msg import Time as TimeMessage
+from geometry_msgs.msg import Pose, PoseStamped
+from nav_msgs.msg import Path
+from rclpy.clock import Clock, ClockType
+from rclpy.lifecycle import State, TransitionCallbackReturn
+
+from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
+from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
+from amr_planning.messages import path_message, path_points
+from amr_util.geometry import all_finite, yaw_from_quaternion
+from amr_util.managed_node import ManagedNode, run
+from amr_util.messages import quaternion
+from amr_util.qos import LATCHED, reliable
+
+CHECK_PERIOD = 0.5
+"""s (wall clock) between checks of a request in flight against plan_timeout."""
+RETRY_PERIOD = 2.0
+"""s (wall clock) between new attempts on an observation held for want of a path (a planner without its map
+yet, a start the estimate put in a wall): in lockstep no new observation would come to try again."""
+
+
+@dataclass(frozen=True)
+class Observation:
+    stamp: TimeMessage
+    pose: tuple[float, float, float]
+    localized: bool
+
+
+class NavigatorNode(ManagedNode):
+    """Wires Navigator to /pose, goals, the planner, the path follower and ~/status; holds no decision logic."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(NODE_NAME, **kwargs)
+        self.declare_specs(NavigatorConfig.parameter_specs())
+        self.navigator: Navigator | None = None
+        self.statuses_sent = 0
+        self._values: dict = {}
+        self._entities: list = []
+        self._outputs: dict = {}
+        self._service_clients: dict = {}
+        self._timer = None
+        self._ids = itertools.count(1)
+        self._inflight: tuple | None = None  # (id, kind, started, request or path, observation or None)
+        self._pending: Observation | None = None
+        self._follower_request: PlanRequest | None = None
+        self._last: tuple[Observation, Decision] | None = None
+        self._last_decided = 0.0
+        self.configure_error = ""
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        problems = self.parameter_problems()
+        if not problems:
+            try:
+                values = NavigatorConfig.from_params(self.parameter_values()).as_params()
+                goal = tuple(values["goal"]) if values["goal"] else None
+                navigator = Navigator(goal, values["replan_distance"])
+            except ValueError as error:  # ConfigError names the key
+                problems = [str(error)]
+        if problems:
+            self.configure_error = "; ".join(problems)
+            return self.fail_configure(problems)
+        self.navigator, self._values = navigator, values
+        self._outputs = {
+            "status": self.create_lifecycle_publisher(NavigatorStatus, "~/status", reliable()),
+            "path": self.create_lifecycle_publisher(Path, "path", LATCHED),
+        }
+        self._entities = [
+            self.create_subscription(LocalizedPose, "pose", self._on_pose, reliable()),
+            self.create_subscription(PoseStamped, "goal_pose", self._on_goal, reliable()),
+            self.create_subscription(PathFollowerStatus, f"{values['path_follower']}/status", self._on_follower,
+                                     reliable()),
+        ]
+        if values["world_goal_topic"]:
+            self._entities.append(self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, LATCHED))
+        self._service_clients = {"plan": self.create_client(PlanPath, values["planner_service"]),
+                                 "follow": self.create_client(FollowPath, values["follow_path_service"])}
+        self.get_logger().info(
+            f"configured: plans with {values['planner_service']}, drives with {values['wall_follower']} (exploring) "
+            f"and {values['path_follower']} (following); goal " + (f"({goal[0]:.2f}, {goal[1]:.2f})" if goal else
+                                                                      "from /goal_pose") +
+            (f" or {values['world_goal_topic']}" if values["world_goal_topic"] else ""))
+        return TransitionCallbackReturn.SUCCESS
+
+    def apply_live(self, changes: dict) -> None:
+        """goal, replan_distance and plan_timeout while configured: used from the next observation."""
+        values = NavigatorConfig.from_params({**self._values, **changes}).as_params()  # ConfigError: refused
+        if "replan_distance" in changes:
+            self.navigator.replan_distance = values["replan_distance"]
+        if changes.get("goal"):
+            self._set_goal(tuple(changes["goal"]), "the goal parameter")
+        self._values = values
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        self._inflight, self._pending, self._follower_request, self._last = None, None, None, None
+        self._timer = self.create_timer(CHECK_PERIOD, self._check_inflight, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        self._inflight, self._pending, self._follower_request = None, None, None  # late answers are ignored
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        for subscription in self._entities:
+            self.destroy_subscription(subscription)
+        for client in self._service_clients.values():
+            self.destroy_client(client)
+        for publisher in self._outputs.values():
+            self.destroy_lifecycle_publisher(publisher)
+        self._entities, self._service_clients, self._outputs = [], {}, {}
+        self.navigator = None
+        return TransitionCallbackReturn.SUCCESS
+
+    @property
+    def active(self) -> bool:
+        return self.state_label == "active" and self.navigator is not None
+
+    # -- inputs -----------------------------------------------------------------------------------
+
+    def _on_pose(self, message: LocalizedPose) -> None:
+        if not self.active:
+            return
+        p = message.pose.pose
+        pose = (p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
+        if not all_finite(pose):
+            self.get_logger().warning("a non-finite /pose was ignored", throttle_duration_sec=2.0)
+            return
+        observation = Observation(message.header.stamp, pose, bool(message.localized))
+        if self._inflight is not None:
+            self._pending = observation  # decided once the request in flight is answered
+            return
+        self._decide(observation)
+
+    def _on_goal(self, message: PoseStamped) -> None:
+        if not self.active:
+            return
+        frame = self._values["global_frame"]
+        if message.header.frame_id not in ("", frame):
+            self.get_logger().warning(f"goal refused: frame {message.header.frame_id!r}, expected {frame!r}")
+            return
+        self._set_goal((message.pose.position.x, message.pose.position.y), "a goal message")
+
+    def _set_goal(self, goal: tuple[float, float], source: str) -> None:
+        try:
+            self.navigator.set_goal(goal)
+        except ValueError as error:
+            self.get_logger().error(f"goal from {source} refused: {error}")
+            return
+        self._log(self.navigator.take_events())
+        if self._last is not None and self._last[1].controller is Controller.NONE and self._inflight is None:
+            self._decide(self._last[0])  # the robot is held on this observation: decide it again
+
+    def _on_follower(self, message: PathFollowerStatus) -> None:
+        if not self.active:
+            return
+        request = self.navigator.followed(message.reached, message.replan, message.message)
+        self._log(self.navigator.take_events())
+        if request is None:
+            return
+        if self._inflight is not None:
+            self._follower_request = request
+            return
+        self._carry_out(None, Decision(self.navigator.mode, Controller.NONE, plan=request))
+
+    # -- carrying a decision out ---------------------------------------------------------------------
+
+    def _decide(self, observation: Observation) -> None:
+        self._carry_out(observation, self.navigator.decide(observation.pose, observation.localized))
+
+    def _carry_out(self, observation: Observation | None, decision: Decision) -> None:
+        """Plan, then hand the path over, then publish the decision (for an observation; a follower's request
+        publishes nothing)."""
+        self._log(decision.events)
+        if decision.plan is not None:
+            self._ask_planner(observation, decision.plan)
+        elif decision.path is not None:
+            self._hand_over(observation, decision)
+        else:
+            self._finish(observation, decision)
+
+    def _ask_planner(self, observation: Observation | None, plan: PlanRequest) -> None:
+        client = self._service_clients["plan"]
+        if not client.service_is_ready():
+            self._planned(observation, plan, None, f"{client.srv_name} is not available", False)
+            return
+        request = PlanPath.Request()
+        request.start.header.frame_id = request.goal.header.frame_id = self._values["global_frame"]
+        request.start.pose.position.x, request.start.pose.position.y = plan.start
+        request.goal.pose.position.x, request.goal.pose.position.y = plan.goal
+        call = next(self._ids)
+        self._inflight = (call, "plan", time.monotonic(), plan, observation)
+        client.call_async(request).add_done_callback(lambda future: self._on_planned(call, future))
+
+    def _on_planned(self, call: int, future) -> None:
+        if self._inflight is None or self._inflight[0] != call:
+            return  # timed out, or the node was deactivated meanwhile
+        _, _, _, plan, observation = self._inflight
+        self._inflight = None
+        try:
+            response = future.result()
+        except Exception as error:
+            self._planned(observation, plan, None, f"~/plan failed: {error!r}", False)
+            return
+        if response.success and response.path.poses:
+            self._planned(observation, plan, response.path, "", False)
+        else:
+            self._planned(observation, plan, None, response.message or "no path", response.goal_refused)
+
+    def _planned(self, observation, plan: PlanRequest, path: Path | None, error: str, goal_refused: bool) -> None:
+        if not self.active:
+            return
+        points = None if path is None else path_points(path)
+        decision = self.navigator.planned(plan, points, error, goal_refused)
+        self._carry_out(observation, decision)
+
+    def _hand_over(self, observation: Observation | None, decision: Decision) -> None:
+        client = self._service_clients["follow"]
+        path = path_message(decision.path, self._values["global_frame"], self.get_clock().now().to_msg())
+        if not client.service_is_ready():
+            self._handed_over(observation, decision, path, f"{client.srv_name} is not available")
+            return
+        call = next(self._ids)
+        self._inflight = (call, "follow", time.monotonic(), (decision, path), observation)
+        client.call_async(FollowPath.Request(path=path)).add_done_callback(lambda future: self._on_handed_over(call, future))
+
+    def _on_handed_over(self, call: int, future) -> None:
+        if self._inflight is None or self._inflight[0] != call:
+            return
+        _, _, _, (decision, path), observation = self._inflight
+        self._inflight = None
+        try:
+            response = future.result()
+            problem = "" if response.success else response.message or "refused"
+        except Exception as error:
+            problem = f"~/follow_path failed: {error!r}"
+        self._handed_over(observation, decision, path, problem)
+
+    def _handed_over(self, observation, decision: Decision, path: Path, problem: str) -> None:
+        if not self.active:
+            return
+        if problem:
+            decision = self.navigator.path_refused(problem)
+            self._log(decision.events)
+        else:
+            self._outputs["path"].publish(path)
+        self._finish(observation, decision)
+
+    def _finish(self, observation: Observation | None, decision: Decision) -> None:
+        """Publish the decision for its observation, then go on with what waited meanwhile."""
+        if observation is not None:
+            self._publish_status(observation, decision)
+            self._last, self._last_decided = (observation, decision), time.monotonic()
+        if self._follower_request is not None:
+            request, self._follower_request = self._follower_request, None
+            self._carry_out(None, Decision(self.navigator.mode, Controller.NONE, plan=request))
+        elif self._pending is not None:
+            pending, self._pending = self._pending, None
+            self._decide(pending)
+
+    def _check_inflight(self) -> None:
+        """A request the planner or the path follower did not answer within plan_timeout has failed; an
+        observation held for want of a path is tried again every RETRY_PERIOD."""
+        now = time.monotonic()
+        if self._inflight is None:
+            held = self._last is not None and self._last[1].mode is Mode.NO_PATH and not self.navigator.goal_refused
+            if held and now - self._last_decided >= RETRY_PERIOD:
+                self._decide(self._last[0])
+            return
+        if now - self._inflight[2] <= self._values["plan_timeout"]:
+            return
+        call, kind, _, payload, observation = self._inflight
+        self._inflight = None
+        problem = f"no answer within {self._values['plan_timeout']} s"
+        if kind == "plan":
+            self._planned(observation, payload, None, f"{self._service_clients['plan'].srv_name}: {problem}", False)
+        else:
+            self._handed_over(observation, payload[0], payload[1], f"{self._service_clients['follow'].srv_name}: {problem}")
+
+    # -- outputs ----------------------------------------------------------------------------------
+
+    def _controller_name(self, controller: Controller) -> str:
+        return {Controller.WALL_FOLLOWER: self._values["wall_follower"],
+                Controller.PATH_FOLLOWER: self._values["path_follower"]}.get(controller, "")
+
+    def _publish_status(self, observation: Observation, decision: Decision) -> None:
+        navigator = self.navigator
+        status = NavigatorStatus(mode=decision.mode.value, controller=self._controller_name(decision.controller),
+                                 reason=decision.reason, localized=observation.localized,
+                                 has_goal=navigator.goal is not None, plans=navigator.counters.plans,
+                                 planning_failures=len(navigator.counters.planning_failures))
+        status.header.stamp, status.header.frame_id = observation.stamp, self._values["global_frame"]
+        status.pose = self._pose_message(observation.pose)
+        if navigator.goal is not None:
+            status.goal.x, status.goal.y = navigator.goal
+        self._outputs["status"].publish(status)
+        self.statuses_sent += 1
+
+    @staticmethod
+    def _pose_message(pose: tuple[float, float, float]) -> Pose:
+        message = Pose()
+        message.position.x, message.position.y = pose[0], pose[1]
+        message.orientation = quaternion(pose[2])
+        return message
+
+    def _log(self, events) -> None:
+        for event in events:
+            if event.startswith(("no path", "path refused", "replanning for the path follower failed")):
+                self.get_logger().warning(event)
+            else:
+                self.get_logger().info(event)
+
+
+def main(args=None) -> None:
+    run(NavigatorNode, args=args)
+
+
+if __name__ == "__main__":
+    main()
