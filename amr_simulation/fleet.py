@@ -9,7 +9,7 @@ Every Fleet.step(commands) advances exactly config.dt seconds for every robot at
      odometry integrates it;
   4. every LiDAR scans from its robot's new pose: it sees the walls and the other robots (discs of
      the robot radius), never its own body; each robot's goal region is checked.
-A robot that has reached its goal ignores its commands and stays put until reset; the others go on.
+A robot that has reached its goal ignores its commands and stays put until reset (unless stop_at_goal is false); the others go on.
 
 Each robot has its own random streams (LiDAR noise, encoder noise and slip, beacons), seeded from the
 config's seed and the robot's name: robot `name` draws from SeedSequence(seed, spawn_key=name's UTF-8
