@@ -5,7 +5,7 @@ LiDAR noise 0.01-0.03 m with encoder noise 0.02 and slip 0.05; the goal is alway
 configured hand reaches (maze_families.goal_reachable) within maze_families.WALK_BUDGET m of
 boundary walk (36 m: 360 s at 0.1 m/s); "walk" is that length, "v walk" walk / time to goal.
 The real-robot configuration runs as on a TurtleBot3: 360 beams (LDS-01) and, with
---lds-rate, a scan every 0.2 s with the command held in between. Library closed loop (bench/wall_follower_runs.py), 600 s per run.
+--lds-rate, a scan every 0.2 s with the command held in between. Library closed loop (amr_evaluation/wall_follower_loop.py), 600 s per run.
 
     python bench/bench_wall_follower_families.py [--seeds 5] [--noise 0.01 0.02 0.03]
         [--families perfect bends ...] [--configs sim real] [--jobs 2] [--outliers 0.002] [--png DIR]
@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
 from amr_simulation.maze_families import FAMILIES, generate, walk_length  # noqa: E402
 from amr_simulation.world import load_world, world_from_dict  # noqa: E402
-from wall_follower_runs import RunResult, run  # noqa: E402
+from amr_evaluation.wall_follower_loop import RunResult, run  # noqa: E402
 
 CONFIGS = {"sim": ROOT / "config" / "wall_follower_sim.yaml", "real": ROOT / "config" / "wall_follower_real.yaml"}
 SHIPPED = ("hard_maze", "inner_maze", "open_room", "outer_corridor")

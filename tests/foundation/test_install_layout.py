@@ -12,7 +12,7 @@ from ament_index_python.packages import get_package_prefix, get_package_share_di
 
 ROOT = Path(__file__).resolve().parents[2]
 PREFIX = Path(sys.prefix)
-PACKAGES = ["amr_util", "amr_bringup", "amr_control", "amr_simulation", "amr_turtlebot3", "amr_kinematics", "amr_maps", "amr_localization", "amr_planning"]
+PACKAGES = ["amr_util", "amr_bringup", "amr_control", "amr_simulation", "amr_turtlebot3", "amr_kinematics", "amr_maps", "amr_localization", "amr_planning", "amr_evaluation"]
 NODES = [(pkg, exe.name) for pkg in PACKAGES for exe in sorted((ROOT / "resource" / "lib" / pkg).glob("*"))]
 
 

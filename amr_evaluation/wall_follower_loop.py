@@ -1,5 +1,7 @@
 """One library-level closed-loop run of the wall follower, and the figures issue 14 asks of it.
 
+The wall-follower episode of amr_evaluation (episode.py) and bench/bench_wall_follower_families.py run it.
+
 The simulator library and the controller in lockstep, as tests/control/test_closed_loop.py
 does (minus the synchronizer: lockstep stamps are identical, so every pair is the step's own).
 Options the ROS path has and the library loop lacks are emulated here:
@@ -47,6 +49,7 @@ class RunResult:
     collisions: int
     stalls: int
     mean_speed: float
+    distance: float  # m, ground truth
     state_time: dict[str, float]  # fraction of the run in each state
     wall_error_run: float
     wall_error_following: float
@@ -115,6 +118,7 @@ def run(
         collisions=sim.collisions,
         stalls=stalls,
         mean_speed=distance / max(sim.time, 1e-9),
+        distance=distance,
         state_time={state: count / total for state, count in states.items()},
         wall_error_run=float(np.mean(run_errors)) if run_errors else math.nan,
         wall_error_following=float(np.mean(following_errors)) if following_errors else math.nan,
