@@ -45,7 +45,7 @@ class _InlineExecutor(Executor):
 
 
 @contextmanager
-def executor_for(workers: int = 1, scheduler: str | None = None) -> Iterator[Executor]:
+def executor_for(workers: int = 1, scheduler: str | None = None, connect_timeout: float = 10.0) -> Iterator[Executor]:
     """The executor a sweep runs on (see the module docstring); closed on exit."""
     if scheduler:
         try:
@@ -54,7 +54,7 @@ def executor_for(workers: int = 1, scheduler: str | None = None) -> Iterator[Exe
             raise SweepError("--scheduler needs Dask: pip install 'amr_suite[evaluation]' "
                              "(dask[distributed])") from error
         try:
-            client = Client(scheduler, timeout="10s")
+            client = Client(scheduler, timeout=f"{connect_timeout}s")
         except (OSError, TimeoutError) as error:
             raise SweepError(f"no Dask scheduler answered at {scheduler}: {error}") from error
         try:
@@ -108,7 +108,7 @@ class Progress:
 
 def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int = 1, scheduler: str | None = None,
               progress: bool = True, on_record: Callable[[dict[str, Any]], None] | None = None,
-              episode: Callable[[dict], dict] = run_episode) -> list[dict[str, Any]]:
+              episode: Callable[[dict], dict] = run_episode, connect_timeout: float = 10.0) -> list[dict[str, Any]]:
     """Every spec's record (in the order of ``specs``), running only those without a finished one in ``results``.
 
     ``on_record`` is called with each new record as it arrives (in completion order).
@@ -121,7 +121,7 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
     todo = [spec for key, spec in unique.items() if not finished(known.get(key))]
     bar = Progress(len(unique), len(unique) - len(todo)) if progress and todo else None
     if todo:
-        with RecordWriter(results) as writer, executor_for(workers, scheduler) as executor:
+        with RecordWriter(results) as writer, executor_for(workers, scheduler, connect_timeout) as executor:
             futures = {executor.submit(episode, spec.to_dict()): spec for spec in todo}
             try:
                 for future in as_completed(futures):

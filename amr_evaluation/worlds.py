@@ -59,7 +59,10 @@ def world_spec_of_file(path_or_name: str) -> dict[str, Any]:
         raise WorldSpecError(f"{path}: a world file is a mapping (walls, boxes or grid; start; goal)")
     if "map" in data:
         return {"file": str(path.resolve())}
-    world_from_dict(data, default_name=path.stem)  # refuse a bad file now, naming it, not in every episode
+    try:  # refuse a bad file now, naming it, rather than in every episode
+        world_from_dict(data, source=str(path), default_name=path.stem)
+    except ValueError as error:
+        raise WorldSpecError(str(error)) from error
     return {"data": data, "name": path.stem}
 
 
