@@ -114,8 +114,7 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
         hand = hand if hand in ("right", "left") else "right"
         worlds = []
         for name in options.worlds:
-            file = name if Path(name).is_file() or name.endswith(".yaml") else f"{name}.yaml"
-            worlds += [(world_spec_of_file(file), seed) for seed in seeds]
+            worlds += [(world_spec_of_file(name), seed) for seed in seeds]
         for family in options.families:
             maze_options = {"hand": hand}
             if options.width is not None and family not in ("pillars", "open_room"):

@@ -175,45 +175,48 @@ def _watch(spec, domain: int, process: subprocess.Popen) -> dict[str, Any]:
     lock = threading.Lock()
     state: dict[str, Any] = {"status": None, "first_error": None, "max_error": 0.0}
 
+    max_collisions = int(spec.options.get("max_collisions", 5)) if spec.controller == "navigation" else None
+
     def on_status(message: SimulatorStatus) -> None:
+        # lockstep runs ahead of this thread: the record is the first status that ends the episode
         with lock:
+            if state.get("reason"):
+                return
             state["status"] = message
             if message.localization_enabled and message.localized and math.isfinite(message.position_error):
                 if state["first_error"] is None:
                     state["first_error"] = message.position_error
                 state["max_error"] = max(state["max_error"], message.position_error)
+            if message.goal_reached:
+                state["reason"] = "goal region reached"
+            elif message.sim_time >= spec.duration - 1e-9:
+                state["reason"] = f"time limit {spec.duration:g} s"
+            elif max_collisions is not None and message.collisions >= max_collisions:
+                state["reason"] = f"{message.collisions} collisions"
 
     node = rclpy.create_node("amr_evaluate_observer", context=context)
-    node.create_subscription(SimulatorStatus, "simulator/status", on_status, 10)
+    node.create_subscription(SimulatorStatus, "simulator/status", on_status, 1000)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    max_collisions = int(spec.options.get("max_collisions", 5)) if spec.controller == "navigation" else None
     try:
         deadline = time.monotonic() + STARTUP_TIMEOUT
         last_time = -1.0
-        reason = ""
         while True:
             time.sleep(0.05)
+            with lock:
+                status, reason = state["status"], state.get("reason")
+            if reason:
+                break
             if process.poll() is not None:
                 raise RosEpisodeError(f"the stack exited with code {process.returncode}")
-            with lock:
-                status = state["status"]
             if status is None or status.sim_time <= last_time:
                 if time.monotonic() > deadline:
                     raise RosEpisodeError("no progress on /simulator/status" if status else
                                           f"no /simulator/status within {STARTUP_TIMEOUT:.0f} s")
                 continue
             last_time, deadline = status.sim_time, time.monotonic() + STALL_TIMEOUT
-            if status.goal_reached:
-                reason = "goal region reached"
-            elif status.sim_time >= spec.duration:
-                reason = f"time limit {spec.duration:g} s"
-            elif max_collisions is not None and status.collisions >= max_collisions:
-                reason = f"{status.collisions} collisions"
-            if reason:
-                break
         with lock:
             first_error, max_error = state["first_error"], state["max_error"]
     finally:

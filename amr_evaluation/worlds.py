@@ -45,6 +45,9 @@ def world_spec_of_file(path_or_name: str) -> dict[str, Any]:
     A file naming a map_server map (``map: lab.yaml``) stays a path (the map is read where the episode runs).
     """
     path = Path(path_or_name)
+    if not path.is_file() and not path.suffix:
+        path_or_name += ".yaml"  # a shipped world by its name: hard_maze
+        path = Path(path_or_name)
     if not path.is_file():
         try:
             resolve_world_path(path_or_name)
