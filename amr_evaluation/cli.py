@@ -50,7 +50,8 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     what.add_argument("--encoder-noise", type=float, nargs="+", default=[0.0])
     what.add_argument("--slip", type=float, nargs="+", default=[0.0])
     what.add_argument("--duration", type=float, default=600.0, help="s simulated at most (default 600)")
-    what.add_argument("--beams", type=int, help="wall_follower: LiDAR beams (default 240; the real LDS-01 has 360)")
+    what.add_argument("--beams", type=int, help="wall_follower: LiDAR beams (default 240, or 360 as the LDS-01 has for "
+                                                "a configuration with simulation: false, e.g. real)")
     what.add_argument("--scan-period", type=float, help="wall_follower: s between scans, the command held between")
     what.add_argument("--outliers", type=float, default=0.0, help="wall_follower: per-beam spurious return rate")
     what.add_argument("--mode", choices=MODES, default="library",
@@ -122,7 +123,9 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
             if options.size is not None:
                 maze_options["size"] = options.size
             worlds += [({"family": family, "seed": seed, "options": maze_options}, seed) for seed in seeds]
-        extra = wall_options if controller == "wall_follower" else {}
+        extra = dict(wall_options) if controller == "wall_follower" else {}
+        if controller == "wall_follower" and options.beams is None and parameters["wall_follower"].get("simulation") is False:
+            extra["beams"] = 360  # the real robot's LDS-01
         for (world, seed), lidar, encoder, slip in itertools.product(worlds, options.lidar_noise,
                                                                      options.encoder_noise, options.slip):
             specs.append(EpisodeSpec(controller, label, parameters, world, options.goal, seed, lidar, encoder, slip,
