@@ -59,28 +59,24 @@ def shipped_parameters(node: str, variant: str = "default") -> dict[str, Any]:
 
 
 def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]]]:
-    """(label, parameters) of ``controller`` in configuration ``config``: a shipped name or a file path.
+    """(label, parameters) of ``controller`` in configuration ``config``: a shipped name, a file, or BASE:FILE.
 
-    The label names the configuration in records and tables: the shipped name, or the file's stem
-    followed by 8 hex digits of its content's hash (two versions of one file do not mix in a table).
+    The label names the configuration in records and tables: the shipped name, or the file's stem followed
+    by 8 hex digits of its content's hash (two versions of one file do not mix in a table), after its base.
     """
     if controller not in CONTROLLERS:
         raise ConfigurationError(f"unknown controller {controller!r} (known: {', '.join(CONTROLLERS)})")
-    base, _, path = config.partition(":") if config.startswith(("sim:", "real:", "default:")) else ("", "", config)
-    if controller == "wall_follower" and path in ("sim", "real") and not base:
-        return path, {"wall_follower": shipped_parameters("wall_follower", path)}
-    if path == "default" and not base and controller != "wall_follower":
-        return "default", {node: shipped_parameters(node, "sim") for node in NODES[controller]}
-    if controller == "wall_follower":
-        base = base or "sim"
-        if base not in ("sim", "real"):
-            raise ConfigurationError(f"wall_follower: {config!r}: a file is laid over sim or real, not {base!r}")
-    elif base not in ("", "default"):
-        raise ConfigurationError(f"{controller}: {config!r}: its only shipped configuration is 'default'")
+    shipped = ("sim", "real") if controller == "wall_follower" else ("default",)
+    if config in shipped:
+        variant = config if controller == "wall_follower" else "sim"
+        return config, {node: shipped_parameters(node, variant) for node in NODES[controller]}
+    base, separator, path = config.partition(":")
+    if not separator or base not in shipped:
+        base, path = shipped[0], config
     file = Path(path)
     if not file.is_file():
-        known = "sim, real" if controller == "wall_follower" else "default"
-        raise ConfigurationError(f"{controller}: configuration {config!r} is neither a shipped one ({known}) nor a file")
+        raise ConfigurationError(f"{controller}: configuration {config!r} is neither a shipped one "
+                                 f"({', '.join(shipped)}) nor a file")
     try:
         data = yaml.safe_load(file.read_text(encoding="utf-8"))
     except (OSError, yaml.YAMLError) as problem:
@@ -91,11 +87,8 @@ def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]
     if unknown:
         raise ConfigurationError(f"{file}: section {unknown[0]!r} is not a node of the {controller} controller "
                                  f"(its nodes: {', '.join(NODES[controller])})")
-    variant = base if controller == "wall_follower" else "sim"
-    parameters = {node: shipped_parameters(node, variant) for node in NODES[controller]}
+    _, parameters = resolve(controller, base)
     for node in data:
         parameters[node] = {**parameters[node], **node_parameters(file, node, ConfigurationError)}
     digest = hashlib.sha256(file.read_bytes()).hexdigest()[:8]
-    label = f"{file.stem}-{digest}" if not base or base == "default" else f"{base}:{file.stem}-{digest}"
-    return label, parameters
-
+    return f"{base}:{file.stem}-{digest}", parameters

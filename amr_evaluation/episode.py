@@ -31,11 +31,11 @@ from typing import Any
 
 import numpy as np
 
+from amr_evaluation.figures import path_figures
+
 SCHEMA = 1
 """bumped when a record's meaning changes: part of every key, so old records are not mixed in."""
 MODES = ("library", "ros")
-STALL_SECONDS = 30.0
-STALL_CELL = 0.25  # m
 
 RECORD_FIELDS = (
     "key", "controller", "config", "world", "family", "world_seed", "goal", "seed", "lidar_noise", "encoder_noise",
@@ -168,26 +168,6 @@ def wall_follower_config(spec: EpisodeSpec):
     return WallFollowerConfig.from_params(params)
 
 
-def trajectory_figures(trajectory: np.ndarray, dt: float) -> dict[str, Any]:
-    """distance (m) and stalls (30 s without entering a 0.25 m cell not visited before) of a path."""
-    path = np.asarray(trajectory, dtype=float)[:, :2]
-    distance = float(np.nansum(np.hypot(*np.diff(path, axis=0).T))) if len(path) > 1 else 0.0
-    visited: set[tuple[int, int]] = set()
-    last_new, stalls = 0.0, 0
-    for index, (x, y) in enumerate(path):
-        if not (math.isfinite(x) and math.isfinite(y)):
-            continue  # a teleport's break in the path
-        t = index * dt
-        cell = (math.floor(x / STALL_CELL), math.floor(y / STALL_CELL))
-        if cell not in visited:
-            visited.add(cell)
-            last_new = t
-        elif t - last_new >= STALL_SECONDS:
-            stalls += 1
-            last_new = t
-    return {"distance": distance, "stalls": stalls}
-
-
 def _goal_figures(reached: bool | None, end: float) -> dict[str, Any]:
     return {"goal_reached": reached, "time_to_goal": end if reached else None}
 
@@ -270,7 +250,7 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
     reached = bool(run.reached and run.goal_distance <= world.goal.radius + 1e-9)
     return {
         **_goal_figures(reached, run.time), "time": run.time, "reason": run.reason, "collisions": run.collisions,
-        **trajectory_figures(sim.trajectory, wall.dt),
+        **path_figures(sim.trajectory, wall.dt),
         "time_to_localized": run.first_localized,
         "localization_error_max": run.max_localized_error if run.first_localized is not None else None,
         "localization_losses": run.localization_losses, "plans": run.plans,
@@ -298,7 +278,7 @@ def _localization(spec: EpisodeSpec) -> dict[str, Any]:
     t, localized, position, heading = trace.arrays()
     first = trace.first_localized()
     figures: dict[str, Any] = {"time": sim.time, "reason": f"time limit {spec.duration:g} s",
-                               "collisions": sim.collisions, **trajectory_figures(sim.trajectory, follower.dt)}
+                               "collisions": sim.collisions, **path_figures(sim.trajectory, follower.dt)}
     extra: dict[str, Any] = {"update_time_mean": float(np.mean(trace.update_time)) if trace.update_time else None}
     if first is not None:
         after = localized & (t >= t[first])
@@ -339,7 +319,7 @@ def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
     reason = "goal region reached" if run.reached else (run.message or f"time limit {spec.duration:g} s")
     return {
         **_goal_figures(run.reached, run.time), "time": run.time, "reason": reason, "collisions": run.collisions,
-        **trajectory_figures(sim.trajectory, follower.dt), "cross_track": run.cross_track, "plans": 1 + run.replans
+        **path_figures(sim.trajectory, follower.dt), "cross_track": run.cross_track, "plans": 1 + run.replans
         if run.planned else 0, "planning_failures": 0 if run.planned else 1, "planning_time": run.planning_time,
         "extra": {"planned": run.planned, "message": run.message, "resolution": resolution},
     }

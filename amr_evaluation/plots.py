@@ -26,7 +26,7 @@ def _runs(records: Iterable[dict[str, Any]]) -> tuple[list[str], list[str], list
     return families, configs, kept
 
 
-def _grouped_axes(count: int, width: float = 0.8):
+def _grouped_axes(count: int):
     figure, axes = plt.subplots(figsize=(max(6.0, 0.9 * count + 2.5), 4.2))
     return figure, axes
 

@@ -91,7 +91,7 @@ class Progress:
             self._bar = tqdm(total=total, initial=done, desc=description, unit="ep", file=self.stream,
                              dynamic_ncols=True)
 
-    def update(self, failed: bool = False) -> None:
+    def update(self) -> None:
         self.count += 1
         if self._bar is not None:
             self._bar.update(1)
@@ -131,7 +131,7 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
                     if on_record is not None:
                         on_record(record)
                     if bar is not None:
-                        bar.update(failed=record.get("error") is not None)
+                        bar.update()
             except BaseException:
                 for future in futures:
                     future.cancel()

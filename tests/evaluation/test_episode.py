@@ -64,7 +64,7 @@ def test_user_parameter_file_is_laid_over_the_shipped_config(tmp_path):
     label, parameters = configs.resolve("wall_follower", str(path))
     sim = configs.shipped_parameters("wall_follower", "sim")
     assert parameters["wall_follower"] == {**sim, "kp": 3.0, "linear_speed": 0.1}
-    assert label.startswith("sim:mine-")
+    assert label.startswith("sim:mine-") and len(label) == len("sim:mine-") + 8
     _, real = configs.resolve("wall_follower", f"real:{path}")
     assert real["wall_follower"]["flip_angular_sign"] is True and real["wall_follower"]["kp"] == 3.0
 
