@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import os
 import sys
 from pathlib import Path
 from typing import Sequence
@@ -56,6 +57,9 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     what.add_argument("--outliers", type=float, default=0.0, help="wall_follower: per-beam spurious return rate")
     what.add_argument("--mode", choices=MODES, default="library",
                       help="library (no DDS, default) or ros (the amr-bringup stack per episode)")
+    what.add_argument("--ros-domains", metavar="FIRST-LAST",
+                      help="--mode ros: the ROS domains episodes take one each of (default: $AMR_EVALUATE_ROS_DOMAINS "
+                           "or 120-199; Dask workers read their own environment)")
     where = parser.add_argument_group("where")
     where.add_argument("--workers", type=int, default=None, help="local processes (default 2, or the cores if fewer)")
     where.add_argument("--scheduler", metavar="tcp://HOST:8786", help="run on this Dask cluster instead")
@@ -80,6 +84,10 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     if not options.worlds and not options.families:
         parser.error("give --worlds, --families, or both")
     options.goal = _goal(parser, options.goal)
+    if options.ros_domains is not None:
+        first, _, last = options.ros_domains.partition("-")
+        if not (first.isdigit() and last.isdigit() and int(first) <= int(last) <= 232):
+            parser.error(f"--ros-domains {options.ros_domains!r}: expected FIRST-LAST within 0-232, e.g. 48-55")
     return options
 
 
@@ -150,6 +158,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     from amr_evaluation.records import format_summary, summarize
     from amr_evaluation.runner import SweepError, default_workers, run_sweep
 
+    if options.ros_domains is not None:
+        from amr_evaluation.ros_episode import DOMAINS_VARIABLE
+
+        os.environ[DOMAINS_VARIABLE] = options.ros_domains  # local workers inherit it
     out = Path(options.out)
     workers = options.workers or default_workers()
     where = f"Dask scheduler {options.scheduler}" if options.scheduler else f"{workers} local worker(s)"

@@ -38,6 +38,7 @@ def test_list_shows_every_episode_of_the_grid(capsys):
     (["--families", "perfect", "mazy"], "--families: unknown 'mazy'"),
     (["--worlds", "open_room", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "exclude each other"),
     (["--worlds", "open_room", "--goal", "1,2"], "--goal '1,2'"),
+    (["--worlds", "open_room", "--mode", "ros", "--ros-domains", "60-50"], "--ros-domains '60-50'"),
 ])
 def test_bad_arguments_are_refused_naming_them(arguments, message, capsys):
     with pytest.raises(SystemExit):
