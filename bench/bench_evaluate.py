@@ -104,7 +104,7 @@ def throughput(episodes: int, seconds: float, dask: bool) -> None:
         two_time, two = timed_sweep(specs, directory, "two", workers=2)
         same = [without_timing(r) for r in one] == [without_timing(r) for r in two]
         print(f"2 local workers:       {two_time:6.1f} s, {episodes / two_time:5.2f} episodes/s "
-              f"({one_time / two_time:.2f}x; records {'identical' if same else 'DIFFER'})")
+              f"({one_time / two_time:.2f}x; records {'identical' if same else 'DIFFER'}; {_overhead(two_time, 2, two)})")
         if dask:
             address, processes, start = loopback_cluster(directory)
             try:
@@ -114,8 +114,8 @@ def throughput(episodes: int, seconds: float, dask: bool) -> None:
                 stop(processes)
             same = [without_timing(r) for r in one] == [without_timing(r) for r in remote]
             print(f"loopback Dask, 2 worker processes: {dask_time:6.1f} s, {episodes / dask_time:5.2f} episodes/s "
-                  f"({one_time / dask_time:.2f}x; records {'identical' if same else 'DIFFER'}; the cluster took "
-                  f"{start:.1f} s to start)")
+                  f"({one_time / dask_time:.2f}x; records {'identical' if same else 'DIFFER'}; "
+                  f"{_overhead(dask_time, 2, remote)}; the cluster took {start:.1f} s to start)")
         own = [r["wall_time"] for r in one]
         per_episode = one_time / episodes
         overhead = per_episode - statistics.mean(own)
@@ -123,6 +123,13 @@ def throughput(episodes: int, seconds: float, dask: bool) -> None:
               f"{1e3 * statistics.mean(own):.1f} ms: {1e3 * overhead:.2f} ms ({100 * overhead / per_episode:.2f} % "
               "of the episode; goal < 5 %) for the key, the record's line (json, write, fsync) and the future")
     set_up(specs)
+
+
+def _overhead(elapsed: float, workers: int, records: list[dict]) -> str:
+    """Worker time per episode beyond the episode's own (its record's wall_time): pool, transport, records."""
+    per_episode = elapsed * workers / len(records)
+    extra = per_episode - statistics.mean(r["wall_time"] for r in records)
+    return f"{1e3 * extra:.0f} ms per episode beyond its own ({100 * extra / per_episode:.1f} %)"
 
 
 def set_up(specs) -> None:
