@@ -175,16 +175,20 @@ class MazeEnv(gymnasium.Env):
 
     def _observation(self) -> np.ndarray:
         sim = self.sim
-        ranges = np.asarray(sim.ranges, dtype=float)[self.beam_indices]
-        scan = np.nan_to_num(ranges / self.lidar.range_max, nan=1.0, posinf=1.0, neginf=0.0)
+        beams = len(self.beam_indices)
+        observation = np.empty(beams + 4, dtype=np.float32)
+        scan = np.asarray(sim.ranges, dtype=float)[self.beam_indices] / self.lidar.range_max
+        np.clip(scan, 0.0, 1.0, out=scan)  # +inf (no return) -> 1, -inf (closer than range_min) -> 0
+        scan[np.isnan(scan)] = 1.0
+        observation[:beams] = scan
         v, w = sim.odom_twist
         pose, goal = sim.pose, sim.goal
         dx, dy = goal.x - pose.x, goal.y - pose.y
         c, s = math.cos(pose.theta), math.sin(pose.theta)
-        rest = np.array([v / self.robot.max_linear, w / self.robot.max_angular,
-                         (c * dx + s * dy) / self.goal_scale, (-s * dx + c * dy) / self.goal_scale])
-        observation = np.concatenate([np.clip(scan, 0.0, 1.0), np.clip(np.nan_to_num(rest), -1.0, 1.0)])
-        return observation.astype(np.float32)
+        for index, value in enumerate((v / self.robot.max_linear, w / self.robot.max_angular,
+                                       (c * dx + s * dy) / self.goal_scale, (-s * dx + c * dy) / self.goal_scale)):
+            observation[beams + index] = min(1.0, max(-1.0, value)) if math.isfinite(value) else 0.0
+        return observation
 
     def _info(self, collided: bool = False) -> dict[str, Any]:
         sim = self.sim
