@@ -93,3 +93,17 @@ def test_user_world_file_travels_inside_the_spec(tmp_path):
     bad.write_text("walls: [[0, 0, 2, 0]]\nstart: [0.5, 0.5, 0.0]\n")
     with pytest.raises(WorldSpecError, match="bad.yaml.*wall_thickness"):
         world_spec_of_file(str(bad))
+
+
+def test_localization_episode_localizes_and_plan_follow_reaches_the_goal():
+    label, parameters = configs.resolve("localization", "default")
+    record = run_episode(EpisodeSpec("localization", label, parameters, {"file": "inner_maze.yaml"}, seed=0,
+                                     duration=8.0))  # localized at about 5 s
+    assert record["error"] is None and record["goal_reached"] is None  # inner_maze has no goal
+    assert 0.0 < record["time_to_localized"] < 8.0 and record["localization_error"] < 0.05
+    assert record["localization_rms"] <= record["localization_error_max"]
+    label, parameters = configs.resolve("plan_follow", "default")
+    record = run_episode(EpisodeSpec("plan_follow", label, parameters, {"file": "open_room.yaml"}, seed=0,
+                                     duration=30.0))
+    assert record["error"] is None and record["goal_reached"] is True and record["plans"] >= 1
+    assert record["cross_track"] < 0.03 and record["time_to_goal"] < 30.0
