@@ -127,7 +127,9 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
     header = (f"{'controller':13s} {'config':14s} {'family':16s} {'runs':>5s} {'goal':>9s} {'t goal':>7s} "
               f"{'coll-free':>9s} {'stalls':>6s} {'wall err':>8s} {'loc':>5s} {'t loc':>6s} {'loc err':>7s} "
               f"{'xte':>5s} {'err':>4s}")
-    lines = [header, "-" * len(header)]
+    units = f"{'':13s} {'':14s} {'':16s} {'':>5s} {'':>9s} {'s':>7s} {'':>9s} {'':>6s} {'cm':>8s} {'':>5s} {'s':>6s} " \
+            f"{'cm':>7s} {'cm':>5s}"
+    lines = [header, units.rstrip(), "-" * len(header)]
     totals: dict[tuple, list[dict]] = defaultdict(list)
     for row in rows:
         totals[(row["controller"], row["config"])].append(row)
@@ -135,8 +137,8 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
         lines.append(
             f"{row['controller']:13s} {row['config'][:14]:14s} {row['family'][:16]:16s} {row['episodes']:5d} "
             f"{goal:>9s} {number(row['time_to_goal']):>7s} {row['collision_free']:4d}/{row['episodes'] - row['errors']:<4d} "
-            f"{row['stalls']:6d} {number(row['wall_error_run'], 100, 1):>6s}cm {row['localized']:5d} "
-            f"{number(row['time_to_localized']):>6s} {number(row['localization_error'], 100, 1):>5s}cm "
+            f"{row['stalls']:6d} {number(row['wall_error_run'], 100, 1):>8s} {row['localized']:5d} "
+            f"{number(row['time_to_localized']):>6s} {number(row['localization_error'], 100, 1):>7s} "
             f"{number(row['cross_track'], 100, 2):>5s} {row['errors']:4d}")
     for (controller, config), items in totals.items():
         with_goal = sum(r["with_goal"] for r in items)
@@ -148,5 +150,5 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
                      f"errors {sum(r['errors'] for r in items)}, {sum(r['wall_time'] for r in items):.0f} s of episode time")
     lines.append("goal: reached / episodes with a goal; t goal, t loc: median s; wall err: median of the mean |wall "
                  "distance - target| over a run; loc err: median error at the first declaration; xte: median of the "
-                 "mean cross-track error, cm")
+                 "mean cross-track error")
     return "\n".join(lines)
