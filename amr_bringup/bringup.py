@@ -31,19 +31,19 @@ from collections.abc import Callable, Sequence
 
 import rclpy
 from rclpy.logging import LoggingSeverity
-from rclpy.parameter import Parameter
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
+from amr_bringup.bag_writer import bag_directory
+from amr_bringup.lifecycle_manager import LifecycleManager
+from amr_bringup.processes import NodeProcess, executable_path, stop_processes
 from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_matched
 from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
-                                      parse_assignments)
-from amr_bringup.processes import NodeProcess, executable_path, stop_processes
+                                      parse_assignments, shipped_stacks)
 from amr_bringup.status import StatusMonitor, format_table
-from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_util.executors import NodeSpinners
 from amr_util.stop_signals import Flag, StopSignals
-from amr_maps.bag_writer import bag_directory
 
 GRACE_PERIOD = 5.0
 """s a node gets to exit after SIGINT (or a clean shutdown takes) before SIGKILL."""
@@ -331,10 +331,14 @@ def format_arguments(bringup: Bringup) -> str:
 
 
 def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
+    stacks = shipped_stacks()
+    width = max(map(len, stacks), default=0)
     parser = argparse.ArgumentParser(
-        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.")
-    parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped one (maze_sim, "
-                                        "maze_sim_odometry, maze_localization, real_robot, real_robot_sim, ik_service)")
+        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="shipped stacks (config/bringup/<name>.yaml):\n" + "\n".join(
+            f"  {name:<{width}}  {summary}" for name, summary in stacks.items()) if stacks else None)
+    parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped stack (listed below)")
     parser.add_argument("arguments", nargs="*", metavar="name:=value",
                         help="the stack's arguments (see --show-args), e.g. world:=hard_maze.yaml")
     parser.add_argument("-p", dest="parameters", action="append", default=[], metavar="NODE.PARAMETER:=VALUE",

@@ -3,7 +3,7 @@
 What `ros2 bag record -s mcap` does, for machines without rosbag2: every topic of the graph (or the
 ones in `topics`) is found by discovery, subscribed to raw (no deserialization) with a QoS that
 matches all its publishers (reliable only if every publisher is, transient local only if every
-publisher is, as rosbag2 adapts it), and written with amr_maps.bag_writer together with its type,
+publisher is, as rosbag2 adapts it), and written with amr_bringup.bag_writer together with its type,
 definition and the offered QoS. Each message is stamped with this node's clock when it arrives
 (simulated time under use_sim_time, as `ros2 bag record --use-sim-time`). Topics that appear later
 are picked up every `discovery_period`. The bag is finished (metadata.yaml written) when the node is
@@ -23,13 +23,13 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
+from amr_bringup.bag_writer import BagError, BagWriter, TopicQos
 from amr_bringup.recording import recorded_by_default
 from amr_bringup.status import message_class
-from amr_maps.bag_writer import BagError, BagWriter, TopicQos
 from amr_util.managed_node import SpecifiedParameters, spin_nodes
 from amr_util.parameter_spec import ParameterSpec
 
@@ -49,6 +49,15 @@ CATCH_UP_TIMEOUT = 3.0
 """s a startup waits for the recorder to subscribe to a node's topics before activating it."""
 MATCH_SETTLE = 0.05
 """s after the match is seen: the writer side learns of the new reader a moment after the reader sees it."""
+
+
+def offered_depth(profiles) -> int | None:
+    """The history depth every publisher offers, or None (unknown) when discovery does not tell it, which
+    is always the case for DDS (a depth-10 publisher is reported as history UNKNOWN, depth 0): the bag
+    then says so, as rosbag2's does, instead of a depth nobody offered."""
+    if profiles and all(p.history == HistoryPolicy.KEEP_LAST and p.depth > 0 for p in profiles):
+        return max(p.depth for p in profiles)
+    return None
 
 
 class Recorder(SpecifiedParameters, Node):
@@ -134,7 +143,7 @@ class Recorder(SpecifiedParameters, Node):
         latched = all(p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in profiles)
         try:
             kind = message_class(type_name)
-            self._writer.add_topic(topic, type_name, TopicQos(reliable, latched, max(p.depth for p in profiles) or 1))
+            self._writer.add_topic(topic, type_name, TopicQos(reliable, latched, offered_depth(profiles)))
         except (ImportError, AttributeError, ValueError) as error:  # BagError is a ValueError
             self._skipped.add(topic)
             self.get_logger().warning(f"not recording {topic} ({type_name}): {error}")

@@ -33,15 +33,17 @@ import json
 import math
 import os
 import re
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
-from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+from ament_index_python.packages import PackageNotFoundError
 
+from amr_bringup.lifecycle_sequence import MANAGER_PARAMETERS
 from amr_util.parameter_file import dotted, node_parameters
+from amr_util.parameter_spec import ConfigError
+from amr_util.share import package_prefix, share_directory
 
 BRINGUP_PACKAGE = "amr_bringup"
 """The package whose share/<package>/config/bringup holds the shipped bringup files."""
@@ -196,31 +198,35 @@ class Bringup:
         return {"node_startup_order": list(self.node_startup_order), **self.manager_timeouts}
 
 
-def package_prefix(package: str) -> Path:
-    """The install prefix of `package`: the ament index's answer, else this Python's prefix if its index lists it.
-
-    The fallback is a venv used with no ROS environment sourced (AMENT_PREFIX_PATH unset),
-    where `pip install` put the index markers under sys.prefix.
-    """
-    try:
-        return Path(get_package_prefix(package))
-    except (PackageNotFoundError, OSError):  # OSError: AMENT_PREFIX_PATH is not set
-        if (Path(sys.prefix) / "share" / "ament_index" / "resource_index" / "packages" / package).is_file():
-            return Path(sys.prefix)
-        raise PackageNotFoundError(f"package {package!r} not found in the ament index nor under {sys.prefix}") from None
-
-
-def share_directory(package: str) -> Path:
-    return package_prefix(package) / "share" / package
-
-
 def parameter_file_path(package: str, name: str) -> Path:
     path = Path(name)
-    return path if path.is_absolute() else share_directory(package) / "config" / path
+    return path if path.is_absolute() else share_directory(package, must_exist=True) / "config" / path
 
 
 def shipped_bringup_dir() -> Path:
-    return share_directory(BRINGUP_PACKAGE) / "config" / "bringup"
+    return share_directory(BRINGUP_PACKAGE, must_exist=True) / "config" / "bringup"
+
+
+def stack_summary(path: Path) -> str:
+    """What a bringup file is, in a few words: its first comment up to the first colon or full stop."""
+    words = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#") or line.startswith("#   "):
+            break
+        words.append(line.lstrip("#").strip())
+    text = " ".join(words)
+    for end in (": ", ". "):
+        text = text.split(end)[0]
+    return text.rstrip(".")
+
+
+def shipped_stacks() -> dict[str, str]:
+    """{name: summary} of every shipped bringup (config/bringup/*.yaml installed in share/amr_bringup)."""
+    try:
+        directory = shipped_bringup_dir()
+    except PackageNotFoundError:
+        return {}
+    return {path.stem: stack_summary(path) for path in sorted(directory.glob("*.yaml"))}
 
 
 def find_bringup(name_or_path: str) -> Path:
@@ -273,12 +279,13 @@ def parse_bringup(document: object, source: Path) -> Bringup:
     where.no_unknown_keys("lifecycle_manager", manager, MANAGER_KEYS)
     order = _parse_startup_order(where, manager, nodes)
     timeouts = {}
+    specs = {spec.name: spec for spec in MANAGER_PARAMETERS}
     for key in ("wait_timeout", "transition_timeout"):
         if key in manager:
-            value = manager[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise where.error(f"lifecycle_manager.{key}", f"must be a positive number of seconds, got {value!r}")
-            timeouts[key] = float(value)
+            try:
+                timeouts[key] = specs[key].coerce(manager[key])
+            except ConfigError as error:
+                raise where.error(f"lifecycle_manager.{key}", str(error).removeprefix(f"{key}: ")) from None
     arguments = _parse_arguments(where, document.get("arguments") or {}, nodes)
     return Bringup(source, nodes, order, timeouts, arguments)
 

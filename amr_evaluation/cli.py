@@ -29,7 +29,7 @@ DEFAULT_OUT = "out/evaluation/results.jsonl"
 
 
 def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
-    from amr_simulation.maze_families import FAMILIES
+    from amr_maps.maze_families import FAMILIES
 
     parser = argparse.ArgumentParser(prog="amr-evaluate", description=__doc__.split("\n\n")[0],
                                      epilog=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)

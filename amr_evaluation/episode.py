@@ -12,7 +12,7 @@ Controllers (library level, no DDS: the simulator library and the controllers' p
 - ``wall_follower``: amr_evaluation.wall_follower_loop (goal, collisions, stalls, wall distance error);
 - ``navigation``: amr_planning.navigation (explore until the particle filter says localized, plan from
   the estimate, follow, replan; the maze_navigation stack's decisions without ROS);
-- ``localization``: amr_localization.closed_loop (the wall follower explores while the filter localizes);
+- ``localization``: amr_evaluation.closed_loop (the wall follower explores while the filter localizes);
 - ``plan_follow``: amr_evaluation.plan_follow (plan and follow from the true pose).
 
 ``mode="ros"`` runs the same spec through the ROS nodes (amr_evaluation.ros_episode: an amr-bringup
@@ -266,7 +266,7 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
 
 def _localization(spec: EpisodeSpec) -> dict[str, Any]:
     from amr_evaluation.worlds import build_world, with_goal
-    from amr_localization.closed_loop import run
+    from amr_evaluation.closed_loop import run
 
     world = with_goal(build_world(spec.world), spec.goal, spec.seed)
     follower = wall_follower_config(spec)

@@ -25,7 +25,7 @@ new wall contact. Terminated at the goal or on a contact (``terminate_on_collisi
 ``max_steps`` steps.
 
 World: ``world`` fixed (a shipped name, a path, or a world spec of amr_evaluation.worlds), or drawn at each
-``reset(seed=...)`` from ``families`` (default: all of amr_simulation.maze_families) with a maze seed
+``reset(seed=...)`` from ``families`` (default: all of amr_maps.maze_families) with a maze seed
 from the environment's generator, so the same seed gives the same world, start, noise and episode. A
 world without a goal gets its farthest free point as one.
 """
@@ -39,10 +39,10 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 from amr_evaluation.worlds import build_world, with_goal, world_spec_of_file
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
-from amr_simulation.maze_families import FAMILIES
+from amr_maps.maze_families import FAMILIES
 from amr_simulation.simulator import Simulator
 
 ENV_ID = "amr/Maze-v0"

@@ -17,7 +17,7 @@ import numpy as np
 
 from amr_control.path_follower import PathFollower, State
 from amr_control.path_follower_config import PathFollowerConfig
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 from amr_maps.rasterize import rasterize_world
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap

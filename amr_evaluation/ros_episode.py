@@ -1,11 +1,15 @@
-"""An episode through the ROS nodes: the controller's amr-bringup stack in a child process, watched over DDS.
+"""An episode through the ROS nodes: the controller's amr-bringup stack, composed, in a child process of its own.
 
-The stack (``maze_sim`` for the wall follower, ``maze_localization``, ``maze_navigation``) runs composed
-(``amr-bringup <stack> --composed``) in lockstep on simulated time, with the spec's world (written to a
-temporary file when generated), parameters (one temporary parameter file for the controller's nodes),
-seed and noise. This process follows ``/simulator/status`` until the duration, the goal, or
-``max_collisions``, then stops the stack with SIGINT (as Ctrl-C would) and makes the record from the
-status: goal, times, collisions, distance, the first localized declaration and the estimate's error.
+The stack (``maze_sim`` for the wall follower, ``maze_localization``, ``maze_navigation``) is the shipped
+bringup file with the spec's world (written to a temporary file when generated), parameters (one temporary
+parameter file for the controller's nodes and the simulator: seed, noise, slip), in lockstep on simulated
+time. The child (``python -m amr_evaluation.ros_episode SPEC RECORD``) composes it as ``amr-bringup
+--composed`` does (amr_bringup's ComposedStack and LifecycleManager) together with an observer of
+``/simulator/status``, created before the lifecycle manager starts anything: in lockstep the simulator runs
+as fast as the loop allows from its activation on, and an observer in another process could miss the first
+seconds while discovery matches it. The episode ends at the first status that reaches the duration, the
+goal, or ``max_collisions``; the record is made from it (goal, times, collisions, distance, the first
+localized declaration and the estimate's error) and written as JSON for the parent.
 
 Each episode takes a ROS domain of its own for its lifetime: the first free one of
 ``AMR_EVALUATE_ROS_DOMAINS`` (``first-last``, default 120-199), claimed with a lock file in the temporary
@@ -85,7 +89,7 @@ def _world_file(spec, directory: Path) -> str:
     if data is None and spec.goal is None:
         return spec.world["file"]
     if data is None:
-        from amr_simulation.world import resolve_world_path
+        from amr_maps.world import resolve_world_path
 
         data = yaml.safe_load(resolve_world_path(spec.world["file"]).read_text(encoding="utf-8"))
     if spec.goal is not None:
@@ -96,9 +100,11 @@ def _world_file(spec, directory: Path) -> str:
     return str(path)
 
 
-def command_of(spec, directory: Path) -> list[str]:
-    """The amr-bringup command line of an episode (its files written into ``directory``)."""
+def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
+    """(stack name, its arguments) of an episode, its files written into ``directory``."""
     from amr_evaluation.worlds import world_hand
+    from amr_util.parameter_file import node_parameters
+    from amr_util.share import share_directory
 
     stack = STACKS.get(spec.controller)
     if stack is None:
@@ -115,9 +121,6 @@ def command_of(spec, directory: Path) -> list[str]:
         parameters["wall_follower"]["preferred_wall"] = hand
     parameters.get("planner", {}).pop("world", None)  # the stack's world argument sets the planner's map
     parameters.get("particle_filter", {}).pop("world", None)
-    from amr_util.parameter_file import node_parameters
-    from amr_util.share import share_directory
-
     simulator = node_parameters(share_directory("amr_simulation") / "config" / "simulator.yaml", "simulator")
     simulator["seed"] = spec.seed
     simulator["lidar"] = {**simulator.get("lidar", {}), "noise_std": spec.lidar_noise}
@@ -128,28 +131,34 @@ def command_of(spec, directory: Path) -> list[str]:
     params_file = directory / "parameters.yaml"
     params_file.write_text(yaml.safe_dump({node: {"ros__parameters": values} for node, values in parameters.items()}),
                            encoding="utf-8")
-    command = [sys.executable, "-m", "amr_bringup.bringup", stack, f"world:={_world_file(spec, directory)}"]
-    command += [f"{node}_params_file:={params_file}" for node in parameters]
-    return command + ["--composed"]
+    arguments = {"world": _world_file(spec, directory)}
+    arguments.update({f"{node}_params_file": str(params_file) for node in parameters})
+    return stack, arguments
 
 
 def run_ros(spec) -> dict[str, Any]:
+    """The record's figures of ``spec`` run through its stack in a child process (see the module docstring)."""
+    import json
+
     with tempfile.TemporaryDirectory(prefix="amr_evaluate_") as scratch, claimed_domain() as domain:
         directory = Path(scratch)
-        command = command_of(spec, directory)
-        log = (directory / "stack.log").open("w+")
+        stack_of(spec, directory)  # refuse what cannot run here, before a process is started
+        (directory / "spec.json").write_text(json.dumps(spec.to_dict()), encoding="utf-8")
+        result = directory / "record.json"
         env = child_environment(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
-        try:
-            figures = _watch(spec, domain, process)
-        except RosEpisodeError as error:
-            log.flush()
+        with (directory / "stack.log").open("w+") as log:
+            process = subprocess.Popen([sys.executable, "-m", "amr_evaluation.ros_episode", str(directory / "spec.json"),
+                                        str(result)], stdout=log, stderr=subprocess.STDOUT, env=env,
+                                       start_new_session=True)
+            try:
+                process.wait(timeout=STARTUP_TIMEOUT + spec.duration * 2.0 + 60.0)
+            except subprocess.TimeoutExpired:
+                _stop(process)
             log.seek(0)
-            tail = log.read()[-1500:]
-            raise RosEpisodeError(f"{error}; the stack said: {tail}") from error
-        finally:
-            _stop(process)
-            log.close()
+            said = log.read()[-1500:]
+        if process.returncode != 0 or not result.exists():
+            raise RosEpisodeError(f"the stack's process exited with code {process.returncode}: {said}")
+        figures = json.loads(result.read_text(encoding="utf-8"))
     figures["extra"] = {**figures.get("extra", {}), "ros_domain": domain}
     return figures
 
@@ -164,23 +173,29 @@ def _stop(process: subprocess.Popen) -> None:
             process.wait()
 
 
-def _watch(spec, domain: int, process: subprocess.Popen) -> dict[str, Any]:
+def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
+    """The child's work: the stack composed with the observer, started, watched, taken down."""
     import rclpy
     from amr_interfaces.msg import SimulatorStatus
-    from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
 
-    context = Context()
-    rclpy.init(context=context, domain_id=domain)
-    lock = threading.Lock()
-    state: dict[str, Any] = {"status": None, "first_error": None, "max_error": 0.0}
+    from amr_bringup.bringup import ComposedStack, Console, check_composable
+    from amr_bringup.lifecycle_manager import LifecycleManager
+    from amr_bringup.stack_config import load_bringup
+    from amr_util.executors import NodeSpinners
+    from amr_util.stop_signals import Flag
 
+    name, arguments = stack_of(spec, directory)
+    bringup = load_bringup(name).with_overrides(arguments, {})
+    check_composable(bringup)
     max_collisions = int(spec.options.get("max_collisions", 5)) if spec.controller == "navigation" else None
+    lock = threading.Lock()
+    state: dict[str, Any] = {"status": None, "reason": "", "first_error": None, "max_error": 0.0}
 
     def on_status(message: SimulatorStatus) -> None:
         # lockstep runs ahead of this thread: the record is the first status that ends the episode
         with lock:
-            if state.get("reason"):
+            if state["reason"]:
                 return
             state["status"] = message
             if message.localization_enabled and message.localized and math.isfinite(message.position_error):
@@ -194,47 +209,54 @@ def _watch(spec, domain: int, process: subprocess.Popen) -> dict[str, Any]:
             elif max_collisions is not None and message.collisions >= max_collisions:
                 state["reason"] = f"{message.collisions} collisions"
 
-    node = rclpy.create_node("amr_evaluate_observer", context=context)
-    node.create_subscription(SimulatorStatus, "simulator/status", on_status, 1000)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
+    rclpy.init(args=[])
+    spinners = NodeSpinners()
+    stack = None
     try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT
-        last_time = -1.0
+        observer = rclpy.create_node("amr_evaluate_observer")
+        observer.create_subscription(SimulatorStatus, "simulator/status", on_status, 1000)
+        spinners.add_node(observer)
+        stack = ComposedStack(bringup, Console(live=False))
+        for node in stack.nodes:
+            spinners.add_node(node)
+        manager = LifecycleManager(cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
+                                   parameter_overrides=[Parameter(k, value=v)
+                                                        for k, v in bringup.manager_parameters().items()])
+        spinners.add_node(manager)
+        steps = manager.startup()
+        if not manager.started:
+            failed = next((step for step in steps if not step.ok), None)
+            raise RosEpisodeError(f"startup failed at {failed.transition} of {failed.node}: {failed.detail}"
+                                  if failed else "startup failed")
+        deadline, last_time = time.monotonic() + STARTUP_TIMEOUT, -1.0
         while True:
-            time.sleep(0.05)
+            time.sleep(0.02)
             with lock:
-                status, reason = state["status"], state.get("reason")
+                status, reason = state["status"], state["reason"]
             if reason:
                 break
-            if process.poll() is not None:
-                raise RosEpisodeError(f"the stack exited with code {process.returncode}")
+            if stack.failure():
+                raise RosEpisodeError(stack.failure())
             if status is None or status.sim_time <= last_time:
                 if time.monotonic() > deadline:
                     raise RosEpisodeError("no progress on /simulator/status" if status else
                                           f"no /simulator/status within {STARTUP_TIMEOUT:.0f} s")
                 continue
             last_time, deadline = status.sim_time, time.monotonic() + STALL_TIMEOUT
-        with lock:
-            first_error, max_error = state["first_error"], state["max_error"]
+        manager.shutdown()
     finally:
-        executor.shutdown(timeout_sec=5.0)
-        spinner.join(timeout=5.0)
-        node.destroy_node()
-        rclpy.shutdown(context=context)
-    figures: dict[str, Any] = {
-        "time": status.sim_time, "reason": reason, "collisions": int(status.collisions),
-        "distance": float(status.distance_travelled),
-    }
-    has_goal = spec.goal is not None or _world_has_goal(spec)
-    if has_goal:
+        spinners.shutdown()
+        if stack is not None:
+            stack.stop(Flag())
+        rclpy.shutdown()
+    figures: dict[str, Any] = {"time": status.sim_time, "reason": reason, "collisions": int(status.collisions),
+                               "distance": float(status.distance_travelled)}
+    if spec.goal is not None or _world_has_goal(spec):
         figures.update(goal_reached=bool(status.goal_reached),
                        time_to_goal=status.sim_time if status.goal_reached else None)
     if status.localization_enabled and status.first_localized_time >= 0.0:
-        figures.update(time_to_localized=status.first_localized_time, localization_error=first_error,
-                       localization_error_max=max_error)
+        figures.update(time_to_localized=status.first_localized_time, localization_error=state["first_error"],
+                       localization_error_max=state["max_error"])
     return figures
 
 
@@ -242,3 +264,20 @@ def _world_has_goal(spec) -> bool:
     from amr_evaluation.worlds import build_world
 
     return build_world(spec.world).goal is not None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The child process: SPEC (a spec's JSON file) in, RECORD (the figures' JSON file) out."""
+    import json
+
+    from amr_evaluation.episode import EpisodeSpec
+
+    spec_path, record_path = (argv if argv is not None else sys.argv[1:])[:2]
+    spec = EpisodeSpec.from_dict(json.loads(Path(spec_path).read_text(encoding="utf-8")))
+    figures = _episode_in_this_process(spec, Path(spec_path).parent)
+    Path(record_path).write_text(json.dumps(figures), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

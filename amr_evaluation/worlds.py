@@ -6,7 +6,7 @@ A world spec is a small JSON-able dict:
 - ``{"data": {...}, "name": "lab"}``: a world's YAML content itself (a user's file is read into this when
   the sweep is built, so a worker on another machine needs no copy of it);
 - ``{"family": "perfect", "seed": 3, "options": {"width": 0.45, "hand": "right"}}``: a generated maze
-  (amr_simulation.maze_families.generate: the same family, seed and options give the same world).
+  (amr_maps.maze_families.generate: the same family, seed and options give the same world).
 
 A goal spec replaces the world's goal: None keeps it, ``[x, y, radius]`` sets one, ``"far"`` the free cell
 farthest from the start and ``"random"`` a random free cell over 1 m from it (drawn from the episode's
@@ -26,8 +26,8 @@ import yaml
 from amr_evaluation.cases import far_free_point
 from amr_maps.rasterize import rasterize_world
 from amr_planning.costmap import Costmap
-from amr_simulation.maze_families import generate
-from amr_simulation.world import Goal, World, load_world, resolve_world_path, world_from_dict
+from amr_maps.maze_families import generate
+from amr_maps.world import Goal, World, load_world, resolve_world_path, world_from_dict
 
 GOAL_RADIUS = 0.1
 """m, the radius of a "far" or "random" goal."""

@@ -43,7 +43,6 @@ from typing import Sequence
 
 import numpy as np
 
-from amr_control.scan_sectors import ScanData
 from amr_localization.augmented_mcl import RecoveryRate
 from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons, same_beacons
 from amr_localization.beam_model import BeamModel, BeamModelParams
@@ -54,8 +53,7 @@ from amr_localization.free_space import FreeSpace
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, odometry_increment, sample_motion_model_odometry
-from amr_localization.poses import compose, relative_pose, wrap
-from amr_localization.particle_filter_config import BUILT_FIELDS, ParticleFilterConfig
+from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.rival_check import RivalCheckParams, Snapshot, find_rivals
@@ -64,6 +62,8 @@ from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
 from amr_maps.occupancy_grid import OccupancyGrid
+from amr_util.geometry import compose, relative_pose, wrap_angle
+from amr_util.scan import ScanData
 
 WITHDRAW_SPREAD_FACTOR = 2.0
 """localized is withdrawn when the spread exceeds this many times the declaration limit ..."""
@@ -114,7 +114,7 @@ class ParticleFilter:
         self.free_space = FreeSpace(self.field, config.free_space_clearance)
         self.mount = SensorMount(config.lidar_x, config.lidar_y, config.lidar_yaw)
         self.noise = OdometryNoise(config.alpha1, config.alpha2, config.alpha3, config.alpha4)
-        if config.laser_model == "beam":
+        if config.laser_model_type == "beam":
             self._laser = BeamModel(self.field, BeamModelParams(sigma_hit=config.sigma_hit), self.mount)
         else:
             params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
@@ -134,7 +134,7 @@ class ParticleFilter:
     def retune(self, config: ParticleFilterConfig) -> None:
         """Use `config` from the next update. Only what the filter reads at each update may differ
         (counts, thresholds, motion noise, ...); the fields it built models from may not."""
-        changed = [name for name in sorted(BUILT_FIELDS) if getattr(config, name) != getattr(self.config, name)]
+        changed = self.config.structural_changes(config)
         if changed:
             raise LocalizationError(f"{', '.join(changed)}: cannot change in a built filter (build a new one)")
         self.config = config
@@ -171,7 +171,7 @@ class ParticleFilter:
         if len(inside) == 0:
             raise LocalizationError(f"initial pose: ({x:.3f}, {y:.3f}) and its spread lie outside the map's free space")
         self.particles = inside[:count] if len(inside) >= count else inside[self._rng.integers(0, len(inside), count)]
-        self.particles[:, 2] = wrap(self.particles[:, 2])
+        self.particles[:, 2] = wrap_angle(self.particles[:, 2])
         self._reset_belief()
 
     def _reset_belief(self) -> None:
@@ -212,7 +212,7 @@ class ParticleFilter:
         odometry = tuple(float(v) for v in odometry)
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
             raise LocalizationError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
-        selected = select_beams(scan, self.config.max_beams, self.config.laser_model == "beam") if scan is not None else None
+        selected = select_beams(scan, self.config.max_beams, self.config.laser_model_type == "beam") if scan is not None else None
         if beacons is not None and self.beacons is None:
             raise LocalizationError("beacon ranges: this filter was built without beacon positions")
         if beacons is not None and len(beacons.ranges) != len(self.beacons):
@@ -233,7 +233,7 @@ class ParticleFilter:
 
     def _predict(self, odometry: tuple[float, float, float]) -> None:
         _, d_trans, _ = odometry_increment(self._odometry, odometry)
-        d_theta = abs(float(wrap(odometry[2] - self._odometry[2])))
+        d_theta = abs(float(wrap_angle(odometry[2] - self._odometry[2])))
         if d_trans > self.config.max_odometry_jump:
             # a robot does not move this far between two observations: odometry was reset or is corrupt
             # re-anchor so that the pose reported stays where it was: est_odom' = new (+) old^-1 (+) est_odom
@@ -309,7 +309,7 @@ class ParticleFilter:
         if self._history:
             last = self._history[-1].odometry
             moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
-            turned = abs(float(wrap(self._odometry[2] - last[2])))
+            turned = abs(float(wrap_angle(self._odometry[2] - last[2])))
             if moved < self.config.history_spacing and turned < 2.0 * self.config.history_spacing:
                 self._newest = snapshot
                 return
@@ -414,7 +414,7 @@ class ParticleFilter:
         weights = [self.weights]
         for rival in rivals:
             cloud = rival + self._rng.standard_normal((count, 3)) * spread
-            cloud[:, 2] = wrap(cloud[:, 2])
+            cloud[:, 2] = wrap_angle(cloud[:, 2])
             clouds.append(cloud)
             weights.append(np.where(self.free_space.contains(cloud[:, 0], cloud[:, 1]), mass / count, 0.0))
         self.particles = np.concatenate(clouds)

@@ -1,13 +1,6 @@
-"""Exceptions of the simulator library: all ValueErrors, so callers may catch one type."""
+"""Exceptions of the simulator library: all ValueErrors, so callers may catch one type (a malformed world
+is amr_maps.world.WorldError, a bad parameter amr_util.parameter_spec.ConfigError: ValueErrors too)."""
 
 
 class SimulationError(ValueError):
     """A request the simulator cannot honour (bad command, pose inside a wall, ...)."""
-
-
-class WorldError(SimulationError):
-    """A world description that is malformed; the message names the file and the key."""
-
-
-class ConfigError(SimulationError):
-    """A parameter that is missing, of the wrong type or out of range; the message names it."""

@@ -37,7 +37,7 @@ from amr_evaluation.records import without_timing  # noqa: E402
 from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_evaluation.wall_follower_loop import run  # noqa: E402
 from amr_evaluation.worlds import build_world  # noqa: E402
-from amr_simulation.maze_families import FAMILIES  # noqa: E402
+from amr_maps.maze_families import FAMILIES  # noqa: E402
 from amr_util.environment import child_environment  # noqa: E402
 
 

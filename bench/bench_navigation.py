@@ -11,7 +11,7 @@ the wall follower in X of Y cases both solve. Asserts nothing.
 Cases: the shipped worlds with a goal (a few seeds); inner_maze and outer_corridor, which have none,
 with their far free point (a 0.1 m goal region there); twin_rooms (symmetric: the filter must never say
 localized there, so no goal is expected; reported apart, as are generated worlds whose walls map onto
-themselves under a 90 or 180 deg rotation, e.g. plain rectangular open rooms); generated mazes of amr_simulation.maze_families
+themselves under a 90 or 180 deg rotation, e.g. plain rectangular open rooms); generated mazes of amr_maps.maze_families
 (corridors 0.35 / 0.45 / 0.6 m, LiDAR noise 0 / 0.01 / 0.03 m cycled over the seeds, as bench_planning.py)
 with the family's goal (reachable by the wall follower's hand) and a random free goal in the start's
 connected free space (often one no wall follower reaches).
@@ -47,8 +47,8 @@ from amr_evaluation.cases import maze_variant  # noqa: E402
 from amr_evaluation.episode import EpisodeSpec  # noqa: E402
 from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_evaluation.worlds import build_world, rotationally_symmetric  # noqa: E402
-from amr_simulation.maze_families import FAMILIES  # noqa: E402
-from amr_simulation.world import load_world  # noqa: E402
+from amr_maps.maze_families import FAMILIES  # noqa: E402
+from amr_maps.world import load_world  # noqa: E402
 
 WORLDS = ROOT / "config" / "worlds"
 LIMIT = 600.0

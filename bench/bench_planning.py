@@ -42,8 +42,8 @@ from amr_planning.astar import GridAStar  # noqa: E402
 from amr_planning.costmap import Costmap  # noqa: E402
 from amr_planning.errors import PlanningError  # noqa: E402
 from amr_planning.roadmap import Roadmap, RoadmapConfig  # noqa: E402
-from amr_simulation.maze_families import FAMILIES, generate  # noqa: E402
-from amr_simulation.world import load_world, world_from_dict  # noqa: E402
+from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
+from amr_maps.world import load_world, world_from_dict  # noqa: E402
 
 RESOLUTION = 0.05
 LOOP_RESOLUTION = 0.025  # closed loops: at 0.05 m the conservative map closes many 0.35 m corridors

@@ -1,6 +1,6 @@
 """Wall follower on generated maze families (issue 14): goal, time, collisions, stalls, states, wall error.
 
-Every family of amr_simulation.maze_families, several seeds, both shipped configurations, at
+Every family of amr_maps.maze_families, several seeds, both shipped configurations, at
 LiDAR noise 0.01-0.03 m with encoder noise 0.02 and slip 0.05; the goal is always one the
 configured hand reaches (maze_families.goal_reachable) within maze_families.WALK_BUDGET m of
 boundary walk (36 m: 360 s at 0.1 m/s); "walk" is that length, "v walk" walk / time to goal.
@@ -35,7 +35,7 @@ from amr_evaluation.episode import EpisodeSpec, wall_follower_config  # noqa: E4
 from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_evaluation.wall_follower_loop import run  # noqa: E402
 from amr_evaluation.worlds import build_world, world_dict  # noqa: E402
-from amr_simulation.maze_families import FAMILIES, walk_length  # noqa: E402
+from amr_maps.maze_families import FAMILIES, walk_length  # noqa: E402
 
 CONFIGS = ("sim", "real")
 SHIPPED = ("hard_maze", "inner_maze", "open_room", "outer_corridor")

@@ -1,0 +1,81 @@
+"""Global localization while exploring, without ROS: simulator + wall follower + particle filter, lockstep.
+
+Each period the filter gets the encoder odometry pose and the scan, the wall
+follower the odometry twist and the scan, and its command advances the
+simulator by dt: the node stack's loop minus the transport. The tests and
+bench/bench_localization.py run it; `kidnap` teleports the robot mid-run
+without telling the filter (the odometry it is given carries on as if nothing
+happened, which is what a kidnapped robot's wheels report).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from amr_control.wall_follower import WallFollower
+from amr_control.wall_follower_config import WallFollowerConfig
+from amr_localization.particle_filter import ParticleFilter
+from amr_simulation.simulator import Simulator
+from amr_util.geometry import compose, wrap_angle
+from amr_util.scan import scan_of
+
+
+@dataclass
+class Trace:
+    """Per-step record of a run."""
+
+    time: list[float] = field(default_factory=list)
+    localized: list[bool] = field(default_factory=list)
+    position_error: list[float] = field(default_factory=list)
+    heading_error: list[float] = field(default_factory=list)
+    update_time: list[float] = field(default_factory=list)
+    kidnapped_at: float | None = None
+
+    def arrays(self):
+        return (np.array(self.time), np.array(self.localized, dtype=bool), np.array(self.position_error),
+                np.array(self.heading_error))
+
+    def first_localized(self, after: float = -1.0) -> int | None:
+        """Index of the first localized step after time `after` (None if never)."""
+        t, localized, _, _ = self.arrays()
+        index = np.flatnonzero(localized & (t > after))
+        return int(index[0]) if index.size else None
+
+
+def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig, seconds: float,
+        kidnap: tuple[float, tuple[float, float, float]] | None = None, stop_when_localized: bool = False) -> Trace:
+    """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once."""
+    follower = WallFollower(follower_config)
+    trace = Trace()
+    odometry_frame = np.zeros(3)  # what the filter's odometry frame is in the simulator's odometry frame
+    while sim.time < seconds:
+        if kidnap is not None and trace.kidnapped_at is None and sim.time >= kidnap[0]:
+            before = compose(odometry_frame[None, :], np.array(sim.odom_pose))[0]
+            sim.set_pose(*kidnap[1])  # the simulator's odometry restarts at the new pose ...
+            odometry_frame = _frame_mapping(before, np.array(sim.odom_pose))  # ... the filter's carries on
+            trace.kidnapped_at = sim.time
+        odometry = compose(odometry_frame[None, :], np.array(sim.odom_pose))[0]
+        scan = scan_of(sim)
+        estimate = pf.update(tuple(odometry), scan)
+        truth = sim.pose
+        trace.time.append(sim.time)
+        trace.localized.append(estimate.localized)
+        trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
+        trace.heading_error.append(abs(float(wrap_angle(estimate.pose.theta - truth.theta))))
+        trace.update_time.append(estimate.status.update_time)
+        if stop_when_localized and estimate.localized:
+            break
+        command = follower.compute(scan, *sim.odom_twist, sim.time)
+        sim.step(command.v, command.w)
+    return trace
+
+
+def _frame_mapping(before: np.ndarray, restarted: np.ndarray) -> np.ndarray:
+    """The frame F with F (+) restarted = before: maps the restarted odometry onto the old one."""
+    c, s = math.cos(before[2] - restarted[2]), math.sin(before[2] - restarted[2])
+    theta = float(wrap_angle(before[2] - restarted[2]))
+    return np.array([before[0] - (c * restarted[0] - s * restarted[1]),
+                     before[1] - (s * restarted[0] + c * restarted[1]), theta])
