@@ -15,7 +15,10 @@ seed), both in the start's connected free space on the planner's costmap, with a
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -85,10 +88,18 @@ def world_family(spec: dict[str, Any]) -> str:
 def world_dict(spec: dict[str, Any]) -> dict[str, Any] | None:
     """The world as a dict (generated or inline), or None for a file."""
     if "family" in spec:
-        return generate(spec["family"], int(spec["seed"]), **dict(spec.get("options") or {}))
+        options = json.dumps(spec.get("options") or {}, sort_keys=True)
+        return copy.deepcopy(_generated(spec["family"], int(spec["seed"]), options))
     if "data" in spec:
         return dict(spec["data"])
     return None
+
+
+@functools.lru_cache(maxsize=32)
+def _generated(family: str, seed: int, options: str) -> dict[str, Any]:
+    """A generated maze, once per process: a sweep runs each world under several configurations and noise
+    levels, and drawing one (goal placement included) costs 0.1-0.3 s."""
+    return generate(family, seed, **json.loads(options))
 
 
 def build_world(spec: dict[str, Any]) -> World:
