@@ -95,6 +95,11 @@ def world_dict(spec: dict[str, Any]) -> dict[str, Any] | None:
     return None
 
 
+def forget_generated_worlds() -> None:
+    """Empty this process's cache of generated mazes (benchmarks timing a sweep from cold)."""
+    _generated.cache_clear()
+
+
 @functools.lru_cache(maxsize=32)
 def _generated(family: str, seed: int, options: str) -> dict[str, Any]:
     """A generated maze, once per process: a sweep runs each world under several configurations and noise

@@ -36,7 +36,7 @@ from amr_evaluation.episode import EpisodeSpec, run_episode, wall_follower_confi
 from amr_evaluation.records import without_timing  # noqa: E402
 from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_evaluation.wall_follower_loop import run  # noqa: E402
-from amr_evaluation.worlds import build_world  # noqa: E402
+from amr_evaluation.worlds import build_world, forget_generated_worlds  # noqa: E402
 from amr_maps.maze_families import FAMILIES  # noqa: E402
 from amr_util.environment import child_environment  # noqa: E402
 
@@ -49,6 +49,7 @@ def specs_of(count: int, seconds: float, first_seed: int = 0) -> list[EpisodeSpe
 
 
 def timed_sweep(specs, directory: Path, name: str, **where) -> tuple[float, list[dict]]:
+    forget_generated_worlds()  # every sweep draws its mazes (a forked pool would inherit them drawn)
     began = time.perf_counter()
     records = run_sweep(specs, directory / f"{name}.jsonl", progress=False, **where)
     return time.perf_counter() - began, records
@@ -121,7 +122,7 @@ def throughput(episodes: int, seconds: float, dask: bool) -> None:
         overhead = per_episode - statistics.mean(own)
         print(f"== runner overhead, 1 worker: {1e3 * per_episode:.1f} ms per episode, of which the episode itself "
               f"{1e3 * statistics.mean(own):.1f} ms: {1e3 * overhead:.2f} ms ({100 * overhead / per_episode:.2f} % "
-              "of the episode; goal < 5 %) for the key, the record's line (json, write, fsync) and the future")
+              "of the episode; goal < 5 %) for the key, the record's line (json, write, flush; fsync once a second) and the future")
     set_up(specs)
 
 
