@@ -4,7 +4,7 @@
 file), runs the others on an executor, appends each record the moment it finishes, and returns every
 spec's record in the order of ``specs``. Executors:
 
-- ``workers=1``: in this process, one after the other (no pool to start: the cheapest for small sweeps);
+- ``workers=1``: in this process, one after the other, each record written as it finishes (no pool to start);
 - ``workers=N``: a ``concurrent.futures.ProcessPoolExecutor`` of N processes (fork);
 - ``scheduler="tcp://host:8786"``: ``distributed.Client(address).get_executor()``, a standard
   ``concurrent.futures.Executor`` over an existing Dask cluster. Its workers need this suite installed
@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
@@ -32,21 +32,10 @@ class SweepError(RuntimeError):
     """The sweep could not run (no scheduler at that address, Dask not installed, ...)."""
 
 
-class _InlineExecutor(Executor):
-    """Runs each submitted call at once, in this process."""
-
-    def submit(self, fn, /, *args, **kwargs) -> Future:
-        future: Future = Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except BaseException as error:  # noqa: BLE001 - handed to the caller through the future
-            future.set_exception(error)
-        return future
-
-
 @contextmanager
-def executor_for(workers: int = 1, scheduler: str | None = None, connect_timeout: float = 10.0) -> Iterator[Executor]:
-    """The executor a sweep runs on (see the module docstring); closed on exit."""
+def executor_for(workers: int = 1, scheduler: str | None = None,
+                 connect_timeout: float = 10.0) -> Iterator[Executor | None]:
+    """The executor a sweep runs on (see the module docstring; None: this process); closed on exit."""
     if scheduler:
         try:
             from distributed import Client
@@ -66,7 +55,7 @@ def executor_for(workers: int = 1, scheduler: str | None = None, connect_timeout
     if workers < 1:
         raise SweepError(f"workers must be at least 1, got {workers}")
     if workers == 1:
-        yield _InlineExecutor()
+        yield None
         return
     import multiprocessing
 
@@ -122,24 +111,33 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
     bar = Progress(len(unique), len(unique) - len(todo)) if progress and todo else None
     if todo:
         with RecordWriter(results) as writer, executor_for(workers, scheduler, connect_timeout) as executor:
-            futures = {executor.submit(episode, spec.to_dict()): spec for spec in todo}
             try:
-                for future in as_completed(futures):
-                    record = future.result()
+                for record in _run(executor, episode, todo):
                     writer.write(record)
                     known[record["key"]] = record
                     if on_record is not None:
                         on_record(record)
                     if bar is not None:
                         bar.update()
-            except BaseException:
-                for future in futures:
-                    future.cancel()
-                raise
             finally:
                 if bar is not None:
                     bar.close()
     return [known[spec.key] for spec in specs]
+
+
+def _run(executor: Executor | None, episode: Callable[[dict], dict], todo: Sequence[EpisodeSpec]) -> Iterator[dict]:
+    """The records of ``todo`` as they finish: one after the other here, or as the executor completes them."""
+    if executor is None:
+        for spec in todo:
+            yield episode(spec.to_dict())
+        return
+    futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
+    try:
+        for future in as_completed(futures):
+            yield future.result()
+    finally:  # stopped early (an exception, Ctrl-C): what has not started is not started
+        for future in futures:
+            future.cancel()
 
 
 def default_workers() -> int:

@@ -65,8 +65,10 @@ def test_two_local_workers_give_the_records_of_one(tmp_path):
 def test_a_killed_sweep_resumes_without_redoing_finished_episodes(tmp_path):
     specs = tiny_specs(8, duration=4.0)
     results = tmp_path / "killed.jsonl"
-    script = ("import sys; from eval_helpers import tiny_specs; from amr_evaluation.runner import run_sweep; "
-              f"run_sweep(tiny_specs(8, duration=4.0), sys.argv[1], workers=1, progress=False)")
+    script = ("import sys, time; from eval_helpers import tiny_specs; from amr_evaluation.runner import run_sweep; "
+              "from amr_evaluation.episode import run_episode; "
+              "slow = lambda spec: (run_episode(spec), time.sleep(0.3))[0]; "  # a window to kill it in, on any load
+              f"run_sweep(tiny_specs(8, duration=4.0), sys.argv[1], workers=1, progress=False, episode=slow)")
     env = child_environment(PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
     process = subprocess.Popen([sys.executable, "-c", script, str(results)], env=env)
     try:
