@@ -2,8 +2,12 @@
 symmetric worlds, the beacon localizer's pyramidal search against the exhaustive grid, and, on the beacon
 world (open_room), the beacon localizer against the particle filter with beacons, scan + beacons and scan.
 
+The sweeps (global localization, symmetric worlds, kidnapping) are amr_evaluation episodes (controller
+`localization`: config/wall_follower_sim.yaml and config/particle_filter.yaml) run by its runner: --jobs N local
+processes, --scheduler tcp://host:8786 a Dask cluster, --results FILE keeps the records and resumes from them.
+
 Prints; asserts nothing.
-Usage: .venv/bin/python bench/bench_localization.py [--quick] [--beacon-comparison (that alone)]
+Usage: .venv/bin/python bench/bench_localization.py [--quick] [--jobs 2] [--beacon-comparison (that alone)]
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -19,30 +24,32 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from amr_util.scan import scan_of  # noqa: E402
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
-from amr_evaluation.closed_loop import run  # noqa: E402
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig  # noqa: E402
 from amr_localization.beacons import BeaconReading, expected_ranges  # noqa: E402
+from amr_evaluation import configs  # noqa: E402
+from amr_evaluation.episode import EpisodeSpec  # noqa: E402
+from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_localization.distance_field import DistanceField  # noqa: E402
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams  # noqa: E402
 from amr_localization.particle_filter import ParticleFilter  # noqa: E402
 from amr_localization.particle_filter_config import ParticleFilterConfig  # noqa: E402
+from amr_util.geometry import wrap_angle  # noqa: E402
 from amr_localization.scan_beams import select_beams  # noqa: E402
 from amr_localization.sensor_mount import SensorMount  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
-from amr_maps.world import World, load_world, world_from_dict  # noqa: E402
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_util.geometry import wrap_angle  # noqa: E402
-from amr_util.scan import scan_of  # noqa: E402
+from amr_maps.world import World, load_world  # noqa: E402
 
 WORLDS = ROOT / "config" / "worlds"
 FOLLOWER = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
 RESOLUTION = 0.02
 
 
-def random_maze(seed: int) -> World:
+def random_maze(seed: int) -> dict:
     """A perfect maze (depth-first carving) of random size 3-8 m and corridor 0.35-0.6 m, plus a few loops."""
     rng = np.random.default_rng(seed)
     corridor = float(rng.uniform(0.35, 0.6))
@@ -78,7 +85,7 @@ def random_maze(seed: int) -> World:
     start = [(start_c + 0.5) * corridor, (start_r + 0.5) * corridor, float(rng.uniform(-math.pi, math.pi))]
     data = {"name": f"maze{seed}_{cols}x{rows}_{corridor:.2f}", "wall_thickness": 0.02,
             "walls": [[float(v) for v in w] for w in walls], "start": start}
-    return world_from_dict(data)
+    return data
 
 
 def bench_update_cost(repeats: int) -> None:
@@ -115,50 +122,65 @@ def bench_update_cost(repeats: int) -> None:
     print(f"median {1e3 * np.median(times):.2f} ms, p90 {1e3 * np.percentile(times, 90):.2f} ms")
 
 
-def localization_run(world: World, seed: int, lidar_noise: float, encoder_noise: float, slip: float, seconds: float,
-                     kidnap=None):
-    sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=seed, lidar=LidarConfig(noise_std=lidar_noise),
-                                            encoders=EncoderConfig(noise=encoder_noise, slip=slip)))
-    pf = ParticleFilter(rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, seed=seed), range_max=3.5)
-    started = time.perf_counter()
-    trace = run(sim, pf, FOLLOWER, seconds, kidnap=kidnap)
-    return trace, time.perf_counter() - started
+LABEL, PARAMETERS = configs.resolve("localization", "default")
 
 
-def summarize(name: str, trace, wall: float) -> dict:
-    t, localized, position, heading = trace.arrays()
-    first = trace.first_localized()
-    result = {"name": name, "localized": first is not None and t[first] <= 60.0, "wall": wall}
-    if first is None:
-        print(f"{name:28s} never localized ({t[-1]:.0f} s)  wall {wall:5.1f} s")
+def localization_spec(world: dict, seed: int, lidar_noise: float, encoder_noise: float, slip: float, seconds: float,
+                      kidnap=None) -> EpisodeSpec:
+    return EpisodeSpec("localization", LABEL, PARAMETERS, world, None, seed, lidar_noise, encoder_noise, slip, seconds,
+                       {"kidnap": [kidnap[0], *kidnap[1]]} if kidnap else {})
+
+
+class Sweep:
+    """Where the localization episodes run, and the records file they resume from."""
+
+    def __init__(self, jobs: int, scheduler: str | None, results: str | None) -> None:
+        self.jobs, self.scheduler = jobs, scheduler
+        if results is None:
+            out = ROOT / "out" / "bench"
+            out.mkdir(parents=True, exist_ok=True)
+            results = Path(tempfile.mkdtemp(prefix="localization_", dir=out)) / "records.jsonl"
+        self.results = results
+
+    def run(self, specs: list[EpisodeSpec]) -> list[dict]:
+        return run_sweep(specs, self.results, workers=self.jobs, scheduler=self.scheduler, progress=False)
+
+
+def summarize(name: str, record: dict) -> dict:
+    first = record["time_to_localized"]
+    result = {"name": name, "localized": first is not None and first <= 60.0, "wall": record["wall_time"]}
+    if record["error"]:
+        print(f"{name:28s} run failed: {record['error']}")
+        result["localized"] = None
         return result
-    after = localized & (t >= t[first])
-    rms_position = float(np.sqrt(np.mean(position[after] ** 2)))
-    rms_heading = math.degrees(float(np.sqrt(np.mean(heading[after] ** 2))))
-    withdrawn = int(np.count_nonzero(np.diff(localized[first:].astype(int)) < 0))
-    result.update(time=t[first], error=position[first], heading=math.degrees(heading[first]), rms=rms_position,
-                  rms_heading=rms_heading, withdrawn=withdrawn)
-    print(f"{name:28s} localized at {t[first]:5.1f} s  error {100 * position[first]:5.1f} cm {math.degrees(heading[first]):4.1f} deg"
-          f"  RMS after {100 * rms_position:4.1f} cm {rms_heading:4.2f} deg  withdrawals {withdrawn}  wall {wall:5.1f} s")
+    if first is None:
+        print(f"{name:28s} never localized ({record['time']:.0f} s)  wall {record['wall_time']:5.1f} s")
+        return result
+    extra = record["extra"]
+    result.update(time=first, error=record["localization_error"], heading=extra["heading_error"],
+                  rms=record["localization_rms"], rms_heading=extra["heading_rms"],
+                  withdrawn=record["localization_losses"])
+    print(f"{name:28s} localized at {first:5.1f} s  error {100 * result['error']:5.1f} cm {result['heading']:4.1f} deg"
+          f"  RMS after {100 * result['rms']:4.1f} cm {result['rms_heading']:4.2f} deg  withdrawals "
+          f"{result['withdrawn']}  wall {record['wall_time']:5.1f} s")
     return result
 
 
-def bench_global(seeds: int, mazes: int, seconds: float) -> None:
+def bench_global(sweep: Sweep, seeds: int, mazes: int, seconds: float) -> None:
     print(f"== global localization while wall following ({seconds:.0f} s simulated; lidar noise 0.01-0.03 m, "
           "encoder noise 0-0.03, slip 0-0.05)")
-    results = []
     rng = np.random.default_rng(12)
-    cases = [(load_world(path), path.stem) for path in sorted(WORLDS.glob("*.yaml")) if path.stem != "twin_rooms"]
+    cases = [({"file": path.name}, path.stem) for path in sorted(WORLDS.glob("*.yaml")) if path.stem != "twin_rooms"]
     runs = [(world, name, seed) for world, name in cases for seed in range(seeds)]
-    runs += [(random_maze(seed), "", seed) for seed in range(100, 100 + mazes)]
+    for seed in range(100, 100 + mazes):
+        data = random_maze(seed)
+        runs.append(({"data": data, "name": data["name"]}, data["name"], seed))
+    specs = []
     for world, name, seed in runs:
         noise = (float(rng.uniform(0.01, 0.03)), float(rng.uniform(0.0, 0.03)), float(rng.uniform(0.0, 0.05)))
-        try:
-            trace, wall = localization_run(world, seed, *noise, seconds)
-        except Exception as error:  # a generated maze the follower cannot start in, say: report, go on
-            print(f"{world.name}: run failed: {error}")
-            continue
-        results.append(summarize(f"{name or world.name} s{seed}", trace, wall))
+        specs.append(localization_spec(world, seed, *noise, seconds))
+    results = [summarize(f"{name} s{seed}", record) for (_, name, seed), record in zip(runs, sweep.run(specs))]
+    results = [r for r in results if r["localized"] is not None]  # a run that failed is reported, not counted
     ok = [r for r in results if r["localized"]]
     print(f"localized within 60 s: {len(ok)}/{len(results)} ({100 * len(ok) / max(len(results), 1):.0f} %)")
     if ok:
@@ -167,41 +189,40 @@ def bench_global(seeds: int, mazes: int, seconds: float) -> None:
               f"{sum(r['error'] <= 0.1 and r['heading'] <= 10 for r in ok)}/{len(ok)}")
         print(f"RMS while localized: worst {100 * max(r['rms'] for r in ok):.1f} cm, {max(r['rms_heading'] for r in ok):.2f} deg; "
               f"median {100 * np.median([r['rms'] for r in ok]):.1f} cm, {np.median([r['rms_heading'] for r in ok]):.2f} deg")
+        withdrawals = sum(r["withdrawn"] for r in ok)
+        print(f"withdrawals while localized: {withdrawals} in {len(ok)} runs")
 
 
-def bench_symmetric(seeds: int, seconds: float) -> None:
+def bench_symmetric(sweep: Sweep, seeds: int, seconds: float) -> None:
     print(f"== twin_rooms (two identical rooms, symmetric under a half turn): {seconds:.0f} s each")
-    world = load_world(WORLDS / "twin_rooms.yaml")
+    specs = [localization_spec({"file": "twin_rooms.yaml"}, seed, 0.02, 0.02, 0.03, seconds) for seed in range(seeds)]
     false = 0
-    for seed in range(seeds):
-        trace, wall = localization_run(world, seed, 0.02, 0.02, 0.03, seconds)
-        first = trace.first_localized()
+    for seed, record in enumerate(sweep.run(specs)):
+        first = record["time_to_localized"]
         false += first is not None
-        print(f"seed {seed}: {'LOCALIZED at %.1f s' % trace.time[first] if first is not None else 'never localized'}  wall {wall:.1f} s")
+        print(f"seed {seed}: {'LOCALIZED at %.1f s' % first if first is not None else 'never localized'}  "
+              f"wall {record['wall_time']:.1f} s" + (f"  ERROR {record['error']}" if record["error"] else ""))
     print(f"false declarations: {false}/{seeds}")
 
 
-def bench_kidnap(seeds: int) -> None:
+def bench_kidnap(sweep: Sweep, seeds: int) -> None:
     print("== kidnapping (teleport at 30 s, the filter not told)")
     targets = {"inner_maze": [(-1.0, 1.0, 0.0), (1.0, 0.2, 3.0), (-0.2, -1.0, 1.5)],
                "hard_maze": [(-1.3, 1.25, 0.0), (1.3, -1.2, 1.6), (0.25, 0.35, -1.6)]}
-    for name, poses in targets.items():
-        world = load_world(WORLDS / f"{name}.yaml")
-        for seed, pose in enumerate(poses[:seeds]):
-            try:
-                trace, wall = localization_run(world, seed, 0.02, 0.02, 0.03, 100.0, kidnap=(30.0, pose))
-            except Exception as error:
-                print(f"{name} -> {pose}: {error}")
-                continue
-            t, localized, position, heading = trace.arrays()
-            before = bool(localized[np.flatnonzero(t < trace.kidnapped_at)[-1]])
-            lost = np.flatnonzero((t >= trace.kidnapped_at) & ~localized)
-            withdrawn = t[lost[0]] - trace.kidnapped_at if lost.size else math.inf
-            again = trace.first_localized(after=t[lost[0]]) if lost.size else None
-            regained = t[again] - trace.kidnapped_at if again is not None else math.inf
-            error = f"{100 * position[again]:.1f} cm {math.degrees(heading[again]):.1f} deg" if again is not None else "-"
-            print(f"{name} seed {seed}: localized before {before}, withdrawn after {withdrawn:.2f} s, "
-                  f"regained after {regained:.1f} s (error {error})")
+    cases = [(name, seed, pose) for name, poses in targets.items() for seed, pose in enumerate(poses[:seeds])]
+    specs = [localization_spec({"file": f"{name}.yaml"}, seed, 0.02, 0.02, 0.03, 100.0, kidnap=(30.0, pose))
+             for name, seed, pose in cases]
+    for (name, seed, pose), record in zip(cases, sweep.run(specs)):
+        if record["error"]:
+            print(f"{name} -> {pose}: {record['error']}")
+            continue
+        extra = record["extra"]
+        withdrawn = extra["withdrawn_after"] if extra["withdrawn_after"] is not None else math.inf
+        regained = extra["regained_after"] if extra["regained_after"] is not None else math.inf
+        error = (f"{100 * extra['regained_error']:.1f} cm {extra['regained_heading_error']:.1f} deg"
+                 if extra["regained_after"] is not None else "-")
+        print(f"{name} seed {seed}: localized before {extra['localized_before']}, withdrawn after {withdrawn:.2f} s, "
+              f"regained after {regained:.1f} s (error {error})")
 
 
 def bench_beacons(cases: int) -> None:
@@ -332,16 +353,24 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer runs")
     parser.add_argument("--beacon-comparison", action="store_true",
                         help="only the beacon world comparison (beacon localizer vs particle filter)")
+    parser.add_argument("--jobs", type=int, default=2, help="local processes for the sweeps (default 2)")
+    parser.add_argument("--scheduler", help="a Dask scheduler address (tcp://host:8786) for the sweeps")
+    parser.add_argument("--results", help="the sweeps' records file (JSON lines): kept, and a run resumes from it")
+    parser.add_argument("--sweeps-only", action="store_true", help="only the sweeps (symmetric, kidnapping, global)")
     args = parser.parse_args()
     quick = args.quick
     if args.beacon_comparison:
         bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
         return
-    bench_update_cost(repeats=20 if quick else 50)
-    bench_beacons(cases=5 if quick else 20)
-    bench_symmetric(seeds=2 if quick else 5, seconds=60.0 if quick else 120.0)
-    bench_kidnap(seeds=1 if quick else 3)
-    bench_global(seeds=1 if quick else 3, mazes=4 if quick else 16, seconds=90.0)
+    sweep = Sweep(args.jobs, args.scheduler, args.results)
+    if not args.sweeps_only:
+        bench_update_cost(repeats=20 if quick else 50)
+        bench_beacons(cases=5 if quick else 20)
+    bench_symmetric(sweep, seeds=2 if quick else 5, seconds=60.0 if quick else 120.0)
+    bench_kidnap(sweep, seeds=1 if quick else 3)
+    bench_global(sweep, seeds=1 if quick else 3, mazes=4 if quick else 16, seconds=90.0)
+    if args.sweeps_only:
+        return
     bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
 
 

@@ -10,16 +10,20 @@
    (often one it cannot: islands, mid-room); reached (target >= 98 %), collision-free (target 100 %),
    and the time to the family's goal against the wall follower alone (target: faster in >= 90 %).
 
-    python bench/bench_planning.py [--seeds 4] [--repeat 20] [--quick]
+3 and 4 are amr_evaluation episodes (controllers `plan_follow` and `wall_follower`) run by its runner:
+`--jobs N` local processes, `--scheduler tcp://host:8786` a Dask cluster, `--results FILE` to keep and resume.
+
+    python bench/bench_planning.py [--seeds 4] [--repeat 20] [--quick] [--jobs 2] [--no-timing]
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
+import os
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,30 +32,25 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from generated_cases import far_free_point, maze_variant  # noqa: E402
-
-from amr_control.path_follower import PathFollower, State  # noqa: E402
-from amr_control.wall_follower import WallFollower  # noqa: E402
-from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
-from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
+from amr_evaluation import configs  # noqa: E402
+from amr_evaluation.cases import far_free_point, maze_variant  # noqa: E402
+from amr_evaluation.episode import EpisodeSpec  # noqa: E402
+from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_maps.occupancy_grid import OccupancyGrid  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
-from amr_maps.world import Goal, World, load_world, world_from_dict  # noqa: E402
 from amr_planning.astar import GridAStar  # noqa: E402
 from amr_planning.costmap import Costmap  # noqa: E402
 from amr_planning.errors import PlanningError  # noqa: E402
 from amr_planning.roadmap import Roadmap, RoadmapConfig  # noqa: E402
-from amr_planning.smoothing import smooth_path  # noqa: E402
-from amr_simulation.config import LidarConfig, SimulationConfig  # noqa: E402
-from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_util.scan import ScanData  # noqa: E402
+from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
+from amr_maps.world import load_world, world_from_dict  # noqa: E402
 
 RESOLUTION = 0.05
 LOOP_RESOLUTION = 0.025  # closed loops: at 0.05 m the conservative map closes many 0.35 m corridors
-MAX_REPLANS = 20
 PRM_MAX_NODES = 24000  # 60 nodes per m2, capped (the build is about 0.3 ms per node)
 WORLDS = sorted((ROOT / "config" / "worlds").glob("*.yaml"))
-WALL_CONFIG = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
+PLAN_LABEL, PLAN_PARAMS = configs.resolve("plan_follow", "default")
+WALL_LABEL, WALL_PARAMS = configs.resolve("wall_follower", "sim")
 FOLLOW_LIMIT = 600.0  # s simulated for plan + follow (as for the wall follower)
 WALL_LIMIT = 600.0  # s simulated for the wall follower alone
 
@@ -121,131 +120,83 @@ def planning_times(repeat: int) -> None:
               f"{prm_build:8.1f}ms {prm_query}ms {config.node_count:6d}")
 
 
-# -- 3 and 4: closed loops --------------------------------------------------------------------
+# -- 3 and 4: closed loops, as amr_evaluation episodes -----------------------------------------------------
 
 
-@dataclasses.dataclass
-class Run:
-    planned: bool
-    reached: bool
-    collisions: int
-    time: float
-    cross_track: float
-    message: str = ""
-    replans: int = 0
+def plan_follow_spec(world: dict, goal, noise: float, seed: int, resolution: float = LOOP_RESOLUTION) -> EpisodeSpec:
+    return EpisodeSpec("plan_follow", PLAN_LABEL, PLAN_PARAMS, world, goal, seed, noise, 0.0, 0.0, FOLLOW_LIMIT,
+                       {"resolution": resolution})
 
 
-def plan_and_follow(world: World, goal, noise: float, seed: int, resolution: float = LOOP_RESOLUTION,
-                    limit: float = FOLLOW_LIMIT) -> Run:
-    """Plan on the rasterized world from the true start, then follow with pure pursuit on the true pose;
-    when the follower asks for a new plan (blocked), plan again from where the robot is, as the planner
-    node does (at most MAX_REPLANS times)."""
-    costmap = Costmap(rasterize_world(world, resolution))
-    planner = GridAStar(costmap)
-    sim = Simulator(world, SimulationConfig(seed=seed, lidar=LidarConfig(noise_std=noise)))
-    follower = PathFollower()
-    lidar = sim.lidar
-    errors = []
-    replans = 0
-    try:
-        follower.set_path(smooth_path(planner.plan((world.start.x, world.start.y), goal).points, costmap))
-    except PlanningError as error:
-        return Run(False, False, 0, math.nan, math.nan, str(error))
-    while sim.time < limit and not sim.goal_reached:
-        pose = sim.pose
-        scan = ScanData(sim.ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
-        command = follower.compute(pose.x, pose.y, pose.theta, scan)
-        if command.state is State.TRACK:
-            errors.append(command.cross_track)
-        if command.reached:
-            break
-        if command.replan:
-            if replans == MAX_REPLANS:
-                break
-            replans += 1
-            try:
-                follower.set_path(smooth_path(planner.plan((pose.x, pose.y), goal).points, costmap))
-            except PlanningError as error:
-                return Run(True, False, sim.collisions, sim.time, math.nan, f"replan failed: {error}")
-        sim.step(command.v, command.w)
-    message = "" if sim.goal_reached else f"stopped in {follower.state.value} at t={sim.time:.1f} s"
-    if replans:
-        message += f" ({replans} replans)"
-    mean_error = float(np.mean(errors)) if errors else math.nan
-    return Run(True, sim.goal_reached, sim.collisions, sim.time, mean_error, message.strip(), replans)
+def wall_follow_spec(world: dict, noise: float, seed: int) -> EpisodeSpec:
+    return EpisodeSpec("wall_follower", WALL_LABEL, WALL_PARAMS, world, None, seed, noise, 0.0, 0.0, WALL_LIMIT)
 
 
-def wall_follow(world: World, hand: str, noise: float, seed: int) -> Run:
-    sim = Simulator(world, SimulationConfig(seed=seed, lidar=LidarConfig(noise_std=noise)))
-    follower = WallFollower(dataclasses.replace(WALL_CONFIG, preferred_wall=hand))
-    lidar = sim.lidar
-    while sim.time < WALL_LIMIT and not sim.goal_reached:
-        scan = ScanData(sim.ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
-        command = follower.compute(scan, *sim.odom_twist, sim.time)
-        sim.step(command.v, command.w)
-    return Run(True, sim.goal_reached, sim.collisions, sim.time, math.nan)
-
-
-def with_goal(world_dict: dict, goal, radius: float) -> World:
-    return world_from_dict({**world_dict, "goal": [float(goal[0]), float(goal[1]), radius]})
-
-
-def shipped_worlds() -> None:
-    print("\n== Path following from the true pose on the shipped worlds (LiDAR noise 0.01 m)")
+def shipped_specs() -> list[tuple[str, float, EpisodeSpec]]:
+    """(world, map resolution, spec): each shipped world's goal, or its far free point on the 0.05 m map."""
+    specs = []
     for path in WORLDS:
         world = load_world(path)
+        goal = None
         if world.goal is None:  # a far free point as the goal
             costmap = Costmap(rasterize_world(world, RESOLUTION))
-            goal = far_free_point(costmap, (world.start.x, world.start.y))
-            world = dataclasses.replace(world, goal=Goal(float(goal[0]), float(goal[1]), 0.1))
-        goal_xy = (world.goal.x, world.goal.y)
+            x, y = far_free_point(costmap, (world.start.x, world.start.y))
+            goal = [float(x), float(y), 0.1]
         for resolution in (RESOLUTION, LOOP_RESOLUTION):
-            run = plan_and_follow(world, goal_xy, 0.01, seed=0, resolution=resolution)
-            print(f"{path.stem:16s} map {resolution} m: reached={run.reached} t={run.time:6.1f} s "
-                  f"collisions={run.collisions} mean cross-track={100 * run.cross_track:.2f} cm {run.message}")
+            specs.append((path.stem, resolution, plan_follow_spec({"file": path.name}, goal, 0.01, 0, resolution)))
+    return specs
 
 
-def generated_mazes(seeds: int) -> None:
-    print("\n== Plan + follow from the true pose on generated mazes, against the wall follower alone")
-    runs, comparisons, failures = [], [], []
-    cross_tracks = []
-    began = time.perf_counter()
+def maze_specs(seeds: int) -> list[tuple[str, int, dict, float, str, EpisodeSpec]]:
+    """(family, seed, options, noise, goal kind, spec) of plan + follow to the family's goal and a random one."""
+    specs = []
     for family in FAMILIES:
         for seed in range(seeds):
-            options, _, noise, hand = maze_variant(family, seed)
-            world_dict = generate(family, seed, **options)
-            world = world_from_dict(world_dict)
-            family_goal = (world.goal.x, world.goal.y)
-            costmap = Costmap(rasterize_world(world, LOOP_RESOLUTION))
-            try:
-                random_goal = far_free_point(costmap, (world.start.x, world.start.y), np.random.default_rng(seed))
-            except PlanningError as error:
-                failures.append(f"{family} seed {seed}: no free start ({error})")
-                continue
-            for kind, goal, radius in (("family", family_goal, world.goal.radius), ("random", random_goal, 0.1)):
-                run = plan_and_follow(with_goal(world_dict, goal, radius), goal, noise, seed)
-                runs.append((family, kind, run))
-                if not math.isnan(run.cross_track):
-                    cross_tracks.append(run.cross_track)
-                if not run.reached or run.collisions:
-                    failures.append(f"{family} seed {seed} width {options.get('width', '-')} noise {noise} {kind} goal: "
-                                    f"reached={run.reached} collisions={run.collisions} {run.message}")
-                if kind == "family":
-                    wall = wall_follow(world, hand, noise, seed)
-                    if run.reached and wall.reached:
-                        comparisons.append((family, run.time, wall.time))
+            options, _, noise, _ = maze_variant(family, seed)
+            world = {"family": family, "seed": seed, "options": options}
+            for kind, goal in (("family", None), ("random", "random")):
+                specs.append((family, seed, options, noise, kind, plan_follow_spec(world, goal, noise, seed)))
+    return specs
+
+
+def shipped_worlds(rows, records) -> None:
+    print("\n== Path following from the true pose on the shipped worlds (LiDAR noise 0.01 m)")
+    for name, resolution, spec in rows:
+        r = records[spec.key]
+        cross = "-" if r["cross_track"] is None else f"{100 * r['cross_track']:.2f}"
+        message = r["extra"].get("message", "") if not r["error"] else r["error"]
+        print(f"{name:16s} map {resolution} m: reached={r['goal_reached']} t={r['time'] or math.nan:6.1f} s "
+              f"collisions={r['collisions']} mean cross-track={cross} cm {message}")
+
+
+def generated_mazes(rows, records, seeds: int, elapsed: float) -> None:
+    print("\n== Plan + follow from the true pose on generated mazes, against the wall follower alone")
+    runs, comparisons, failures, cross_tracks = [], [], [], []
+    for family, seed, options, noise, kind, spec in rows:
+        run = records[spec.key]
+        runs.append((family, kind, run))
+        if run["cross_track"] is not None:
+            cross_tracks.append(run["cross_track"])
+        if not run["goal_reached"] or run["collisions"]:
+            message = run["error"] or run["extra"].get("message", "")
+            failures.append(f"{family} seed {seed} width {options.get('width', '-')} noise {noise} {kind} goal: "
+                            f"reached={run['goal_reached']} collisions={run['collisions']} {message}")
+        if kind == "family":
+            wall = records[wall_follow_spec(spec.world, noise, seed).key]
+            if run["goal_reached"] and wall["goal_reached"]:
+                comparisons.append((family, run["time"], wall["time"]))
     total = len(runs)
-    reached = sum(r.reached for _, _, r in runs)
-    clean = sum(r.collisions == 0 for _, _, r in runs)
+    reached = sum(bool(r["goal_reached"]) for _, _, r in runs)
+    clean = sum(r["collisions"] == 0 for _, _, r in runs)
     faster = sum(p < w for _, p, w in comparisons)
-    print(f"{total} runs over {len(FAMILIES)} families x {seeds} seeds x 2 goals "
-          f"({time.perf_counter() - began:.0f} s wall clock)")
+    print(f"{total} runs over {len(FAMILIES)} families x {seeds} seeds x 2 goals ({elapsed:.0f} s wall clock for "
+          "every closed-loop episode, the wall follower alone's included)")
     for family in FAMILIES:
         mine = [r for f, _, r in runs if f == family]
         times = [(p, w) for f, p, w in comparisons if f == family]
         ratio = statistics.median([w / p for p, w in times]) if times else math.nan
-        print(f"  {family:11s} reached {sum(r.reached for r in mine)}/{len(mine)}, collision-free "
-              f"{sum(r.collisions == 0 for r in mine)}/{len(mine)}, both solve {len(times)}, "
+        print(f"  {family:11s} reached {sum(bool(r['goal_reached']) for r in mine)}/{len(mine)}, collision-free "
+              f"{sum(r['collisions'] == 0 for r in mine)}/{len(mine)}, both solve {len(times)}, "
               f"median wall-follower time / plan+follow time {ratio:.2f}")
     print(f"reached: {reached}/{total} = {100 * reached / total:.1f} % (target >= 98 %)")
     print(f"collision-free: {clean}/{total} = {100 * clean / total:.1f} % (target 100 %)")
@@ -254,10 +205,28 @@ def generated_mazes(seeds: int) -> None:
               f"of the worlds both solve (target >= 90 %)")
     if cross_tracks:
         print(f"mean cross-track error over the runs: {100 * statistics.mean(cross_tracks):.2f} cm")
-    replanned = [r.replans for _, _, r in runs if r.replans]
+    replanned = [r["plans"] - 1 for _, _, r in runs if (r["plans"] or 0) > 1]
     print(f"runs that replanned after a block: {len(replanned)} ({sum(replanned)} replans)")
     for line in failures:
         print("  not reached / collided:", line)
+
+
+def closed_loops(seeds: int, jobs: int, scheduler: str | None, results: str | None) -> None:
+    shipped = shipped_specs()
+    mazes = maze_specs(seeds)
+    walls = [wall_follow_spec(spec.world, noise, seed) for _, seed, _, noise, kind, spec in mazes if kind == "family"]
+    specs = [spec for *_, spec in shipped] + [spec for *_, spec in mazes] + walls
+    if results is None:
+        out = ROOT / "out" / "bench"
+        out.mkdir(parents=True, exist_ok=True)
+        results = Path(tempfile.mkdtemp(prefix="planning_", dir=out)) / "records.jsonl"
+    print(f"\n{len(specs)} closed-loop episodes on {f'Dask at {scheduler}' if scheduler else f'{jobs} process(es)'}; "
+          f"records in {results}")
+    began = time.perf_counter()
+    records = dict(zip((s.key for s in specs), run_sweep(specs, results, workers=jobs, scheduler=scheduler)))
+    elapsed = time.perf_counter() - began
+    shipped_worlds(shipped, records)
+    generated_mazes(mazes, records, seeds, elapsed)
 
 
 def main() -> None:
@@ -265,12 +234,16 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=6, help="generated mazes per family")
     parser.add_argument("--repeat", type=int, default=20, help="timed runs per planning case")
     parser.add_argument("--quick", action="store_true", help="2 seeds, 5 repeats")
+    parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="closed loops: local processes")
+    parser.add_argument("--scheduler", help="closed loops: a Dask scheduler address (tcp://host:8786)")
+    parser.add_argument("--results", help="closed loops: records file (JSON lines), kept and resumed from")
+    parser.add_argument("--no-timing", action="store_true", help="only the closed loops (3 and 4)")
     args = parser.parse_args()
     if args.quick:
         args.seeds, args.repeat = 2, 5
-    planning_times(args.repeat)
-    shipped_worlds()
-    generated_mazes(args.seeds)
+    if not args.no_timing:
+        planning_times(args.repeat)
+    closed_loops(args.seeds, args.jobs, args.scheduler, args.results)
 
 
 if __name__ == "__main__":

@@ -50,7 +50,7 @@ ALWAYS_KNOWN = {"use_sim_time", "autostart"}
 PLACEHOLDERS = ("<", "...", "path/to", "my_", "/path/")
 ACCEPTED = {  # commands whose effect needs a ROS graph or another machine: their words are not checked
     ("ros2", "node"), ("ros2", "topic"), ("ros2", "pkg"), ("ros2", "doctor"), ("ros2", "bag"), ("ros2", "lifecycle"),
-    ("cd",), ("git",), ("source",), ("rviz2",), ("rosdep",), ("pip",),
+    ("cd",), ("git",), ("source",), ("rviz2",), ("rosdep",), ("pip",), ("dask",),
 }
 
 

@@ -35,6 +35,7 @@ ROSDEP_KEYS = {
     "PIL": "python3-pil", "rosbags": "python3-rosbags-pip", "numba": "python3-numba", "pytest": "python3-pytest",
     "hypothesis": "python3-hypothesis", "transforms3d": "python3-transforms3d",
     "mcap": "mcap-ros2-support", "mcap_ros2": "mcap-ros2-support",  # rosdep has no key for mcap alone
+    "gymnasium": "python3-gymnasium-pip", "tqdm": "python3-tqdm",
 }
 """Python import names -> their keys in rosdistro's rosdep/python.yaml."""
 JAZZY_PACKAGES = {
@@ -42,7 +43,7 @@ JAZZY_PACKAGES = {
     "rcl_interfaces", "rclpy", "rosgraph_msgs", "sensor_msgs", "std_msgs", "std_srvs", "tf2_msgs",
 }
 """ROS packages of rosdistro's jazzy/distribution.yaml that the suite imports."""
-WITHOUT_ROSDEP_KEY = {"pymunk", "contourpy"}
+WITHOUT_ROSDEP_KEY = {"pymunk", "contourpy", "distributed"}
 """Python imports no rosdep key provides: the README says to pip install them."""
 TEST_HELPERS = {"conftest"}
 

@@ -1,5 +1,7 @@
 """One library-level closed-loop run of the wall follower, and the figures issue 14 asks of it.
 
+The wall-follower episode of amr_evaluation (episode.py) and bench/bench_wall_follower_families.py run it.
+
 The simulator library and the controller in lockstep, as tests/control/test_closed_loop.py
 does (minus the synchronizer: lockstep stamps are identical, so every pair is the step's own).
 Options the ROS path has and the library loop lacks are emulated here:
@@ -10,8 +12,8 @@ Options the ROS path has and the library loop lacks are emulated here:
 * ``outlier_rate``: each beam is, with this probability, replaced by a spurious short return
   (uniform between range_min and 1 m), the single-beam outliers of a real LiDAR.
 
-Figures: goal reached and when, collisions, stalls (a stall: 30 s without entering a 0.25 m
-cell not visited before), time in each state, and the wall distance error two ways:
+Figures: goal reached and when, collisions, stalls (amr_evaluation.figures: 30 s without entering
+a 0.25 m cell not visited before), time in each state, and the wall distance error two ways:
 ``wall_error_run``, the MIT RSS wall-follower lab metric, is the mean over the whole run of
 |d - target| with d the true distance from the LiDAR to the nearest wall on the followed side
 (closest points seen between 30 and 150 deg off the heading, capped at 1 m: searching,
@@ -29,6 +31,7 @@ import numpy as np
 
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
+from amr_evaluation.figures import path_figures
 from amr_maps.world import World
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.render import save_png
@@ -36,8 +39,6 @@ from amr_simulation.simulator import Simulator
 from amr_util.geometry import wrap_angle
 from amr_util.scan import ScanData
 
-STALL_SECONDS = 30.0
-STALL_CELL = 0.25  # m
 ERROR_CAP = 1.0  # m
 
 
@@ -48,6 +49,7 @@ class RunResult:
     collisions: int
     stalls: int
     mean_speed: float
+    distance: float  # m, ground truth
     state_time: dict[str, float]  # fraction of the run in each state
     wall_error_run: float
     wall_error_following: float
@@ -77,7 +79,6 @@ def run(
     every = 1 if scan_period is None else max(1, round(scan_period / config.dt))
     states: Counter[str] = Counter()
     following_errors, run_errors = [], []
-    visited, last_new, stalls = set(), 0.0, 0
     faces = world.faces
     command, issues = None, 0
     while sim.time < seconds and not sim.goal_reached:
@@ -93,29 +94,22 @@ def run(
             if follower.state == "FOLLOW":
                 following_errors.append(abs(follower.measurements.wall_distance - config.target_wall_distance))
         states[follower.state] += 1
-        pose = sim.pose
-        run_errors.append(abs(_side_wall_distance(faces, pose, config.lidar_x, follower.followed_wall)
+        run_errors.append(abs(_side_wall_distance(faces, sim.pose, config.lidar_x, follower.followed_wall)
                               - config.target_wall_distance))
-        cell = (math.floor(pose.x / STALL_CELL), math.floor(pose.y / STALL_CELL))
-        if cell not in visited:
-            visited.add(cell)
-            last_new = sim.time
-        elif sim.time - last_new >= STALL_SECONDS:
-            stalls += 1
-            last_new = sim.time  # the next stall needs another 30 s without new ground
         sim.step(command.v, command.w)
 
     if render_path is not None:
         save_png(sim, render_path)
-    path = sim.trajectory[:, :2]
-    distance = float(np.nansum(np.hypot(*np.diff(path, axis=0).T)))
+    path = path_figures(sim.trajectory, config.dt)
+    distance = path["distance"]
     total = sum(states.values()) or 1
     return RunResult(
         goal=sim.goal_reached if sim.goal is not None else None,
         time=sim.time,
         collisions=sim.collisions,
-        stalls=stalls,
+        stalls=path["stalls"],
         mean_speed=distance / max(sim.time, 1e-9),
+        distance=distance,
         state_time={state: count / total for state, count in states.items()},
         wall_error_run=float(np.mean(run_errors)) if run_errors else math.nan,
         wall_error_following=float(np.mean(following_errors)) if following_errors else math.nan,

@@ -1,6 +1,7 @@
-"""What bench_planning.py and bench_navigation.py share: the generated maze cases and the goals they pick.
+"""The generated maze cases of the planning and navigation sweeps (bench_planning.py, bench_navigation.py), and
+the free goals an episode draws (amr_evaluation.worlds).
 
-Each family's seeds cycle through every corridor width x LiDAR noise pair (9 seeds cover them all) and
+In maze_variant, each family's seeds cycle through every corridor width x LiDAR noise pair (9 seeds cover them all) and
 alternate the wall follower's hand; pillar rooms and open rooms take no width.
 """
 

@@ -1,0 +1,330 @@
+"""An episode: one run of one controller in one world, a pure function of its spec, returning one record.
+
+``EpisodeSpec`` holds everything the run depends on (the controller and its parameters themselves, the
+world or maze family and seed, the goal, the seed of every random stream, LiDAR and encoder noise and
+slip, the duration, controller options), as JSON-able data; ``spec.key`` is a stable hash of it (sha256
+of its canonical JSON), which keys its record in a results file. ``run_episode(spec)`` builds the world
+and the controller from the spec alone and returns a flat record (``RECORD_FIELDS``): the same spec
+gives the same record on any machine, apart from the ``TIMING_FIELDS`` (wall-clock measures).
+
+Controllers (library level, no DDS: the simulator library and the controllers' plain classes in lockstep):
+
+- ``wall_follower``: amr_evaluation.wall_follower_loop (goal, collisions, stalls, wall distance error);
+- ``navigation``: amr_navigation.loop (explore until the particle filter says localized, plan from
+  the estimate, follow, replan; the maze_navigation stack's decisions without ROS);
+- ``localization``: amr_evaluation.closed_loop (the wall follower explores while the filter localizes);
+- ``plan_follow``: amr_evaluation.plan_follow (plan and follow from the true pose).
+
+``mode="ros"`` runs the same spec through the ROS nodes (amr_evaluation.ros_episode: an amr-bringup
+stack in a child process with its own ROS_DOMAIN_ID).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import time
+import traceback
+from typing import Any
+
+import numpy as np
+
+from amr_evaluation.figures import path_figures
+
+SCHEMA = 1
+"""bumped when a record's meaning changes: part of every key, so old records are not mixed in."""
+MODES = ("library", "ros")
+
+RECORD_FIELDS = (
+    "key", "controller", "config", "world", "family", "world_seed", "goal", "seed", "lidar_noise", "encoder_noise",
+    "slip", "duration", "mode",
+    "goal_reached", "time_to_goal", "time", "reason", "collisions", "distance", "mean_speed", "stalls",
+    "wall_error_run", "wall_error_following", "time_to_localized", "localization_error", "localization_error_max",
+    "localization_rms", "localization_losses", "plans", "planning_failures", "cross_track",
+    "planning_time", "wall_time", "error", "extra", "spec",
+)
+"""every record has these keys (None where a controller has no such figure)."""
+TIMING_FIELDS = ("planning_time", "wall_time")
+"""wall-clock measures: the only fields that differ between two runs of one spec."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeSpec:
+    controller: str
+    """wall_follower, navigation, localization or plan_follow."""
+    config: str
+    """the configuration's label (sim, real, default, a file's stem and hash)."""
+    parameters: dict
+    """node name -> {parameter: value}: the controller's whole configuration (amr_evaluation.configs)."""
+    world: dict
+    """a world spec (amr_evaluation.worlds)."""
+    goal: Any = None
+    """None (the world's), [x, y, radius], "far" or "random"."""
+    seed: int = 0
+    """the simulator's noise and slip streams, the particle filter's, random goals."""
+    lidar_noise: float = 0.01
+    encoder_noise: float = 0.0
+    slip: float = 0.0
+    duration: float = 600.0
+    """s of simulated time at most."""
+    options: dict = dataclasses.field(default_factory=dict)
+    """controller options: beams, scan_period, outlier_rate (wall_follower); max_collisions (navigation);
+    kidnap [t, x, y, theta] (localization); resolution (plan_follow)."""
+    mode: str = "library"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"schema": SCHEMA, **dataclasses.asdict(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "EpisodeSpec":
+        fields = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in fields})
+
+    @property
+    def key(self) -> str:
+        """16 hex digits of the sha256 of the spec's canonical JSON: equal specs, equal keys, anywhere."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def run_episode(spec: EpisodeSpec | dict) -> dict[str, Any]:
+    """The record of one episode. An episode that raises gives a record with ``error`` set (the sweep goes on)."""
+    if isinstance(spec, dict):
+        spec = EpisodeSpec.from_dict(spec)
+    began = time.perf_counter()
+    record = _blank(spec)
+    try:
+        if spec.mode == "ros":
+            from amr_evaluation.ros_episode import run_ros
+
+            record.update(run_ros(spec))
+        elif spec.mode == "library":
+            runner = _CONTROLLERS.get(spec.controller)
+            if runner is None:
+                raise ValueError(f"controller {spec.controller!r}: unknown (known: {', '.join(_CONTROLLERS)})")
+            record.update(runner(spec))
+        else:
+            raise ValueError(f"mode {spec.mode!r}: expected one of {MODES}")
+    except Exception as error:  # one bad episode must not end a sweep of thousands: its record says why
+        record["error"] = f"{type(error).__name__}: {error}"
+        record["extra"] = {"traceback": traceback.format_exc(limit=6)}
+    if record["mean_speed"] is None and record["distance"] is not None and record["time"]:
+        record["mean_speed"] = record["distance"] / record["time"]
+    record["wall_time"] = time.perf_counter() - began
+    return _finite(record)
+
+
+def _blank(spec: EpisodeSpec) -> dict[str, Any]:
+    from amr_evaluation.worlds import world_family, world_label
+
+    record = dict.fromkeys(RECORD_FIELDS)
+    record.update(
+        key=spec.key, controller=spec.controller, config=spec.config, world=world_label(spec.world),
+        family=world_family(spec.world), world_seed=spec.world.get("seed"), goal=spec.goal, seed=spec.seed,
+        lidar_noise=spec.lidar_noise, encoder_noise=spec.encoder_noise, slip=spec.slip, duration=spec.duration,
+        mode=spec.mode, extra={}, spec=spec.to_dict(),
+    )
+    return record
+
+
+def _finite(value: Any) -> Any:
+    """NaN and infinities to None (JSON has neither), numpy scalars to Python ones, recursively."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, (np.floating, float)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+# -- shared pieces ------------------------------------------------------------------------------
+
+
+def simulator_for(spec: EpisodeSpec, world, dt: float = 0.05, beams: int = 240):
+    from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
+    from amr_simulation.simulator import Simulator
+
+    return Simulator(world, SimulationConfig(
+        dt=dt, seed=spec.seed, lidar=LidarConfig(beams=beams, noise_std=spec.lidar_noise),
+        encoders=EncoderConfig(noise=spec.encoder_noise, slip=spec.slip)))
+
+
+def wall_follower_config(spec: EpisodeSpec):
+    """The wall follower's config; a generated world's hand (its goal was placed for it) sets the followed side."""
+    from amr_control.wall_follower_config import WallFollowerConfig
+    from amr_evaluation.worlds import world_hand
+
+    params = dict(spec.parameters["wall_follower"])
+    hand = world_hand(spec.world)
+    if hand is not None:
+        params["preferred_wall"] = hand
+    return WallFollowerConfig.from_params(params)
+
+
+def _goal_figures(reached: bool | None, end: float) -> dict[str, Any]:
+    return {"goal_reached": reached, "time_to_goal": end if reached else None}
+
+
+# -- the controllers ------------------------------------------------------------------------------
+
+
+def _wall_follower(spec: EpisodeSpec) -> dict[str, Any]:
+    from amr_evaluation.wall_follower_loop import run
+    from amr_evaluation.worlds import build_world, with_goal
+
+    config = wall_follower_config(spec)
+    world = with_goal(build_world(spec.world), spec.goal, spec.seed)
+    options = spec.options
+    result = run(world, config, spec.duration, lidar_noise=spec.lidar_noise, encoder_noise=spec.encoder_noise,
+                 slip=spec.slip, seed=spec.seed, beams=int(options.get("beams", 240)),
+                 scan_period=options.get("scan_period"), outlier_rate=float(options.get("outlier_rate", 0.0)))
+    reason = "goal region reached" if result.goal else f"time limit {spec.duration:g} s"
+    return {
+        **_goal_figures(result.goal, result.time), "time": result.time, "reason": reason,
+        "collisions": result.collisions, "distance": result.distance, "mean_speed": result.mean_speed,
+        "stalls": result.stalls, "wall_error_run": result.wall_error_run,
+        "wall_error_following": result.wall_error_following,
+        "extra": {"state_time": result.state_time, "commands_with_issues": result.commands_with_issues,
+                  "preferred_wall": config.preferred_wall},
+    }
+
+
+class _TimedPlanner:
+    """The planner with the wall-clock time of its plan() calls added up (the navigator calls plan())."""
+
+    def __init__(self, planner) -> None:
+        self._planner = planner
+        self.seconds = 0.0
+
+    def plan(self, *args, **kwargs):
+        began = time.perf_counter()
+        try:
+            return self._planner.plan(*args, **kwargs)
+        finally:
+            self.seconds += time.perf_counter() - began
+
+    def __getattr__(self, name: str):
+        return getattr(self._planner, name)
+
+
+def _particle_filter(spec: EpisodeSpec, world):
+    from amr_localization.particle_filter import ParticleFilter
+    from amr_localization.particle_filter_parameters import config_of
+    from amr_maps.rasterize import rasterize_world
+
+    params = {**spec.parameters["particle_filter"], "seed": spec.seed}
+    return ParticleFilter(rasterize_world(world, params["map_resolution"]), config_of(params),
+                          range_max=params["laser_max_range"])
+
+
+def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
+    from amr_control.path_follower import PathFollower
+    from amr_control.path_follower_config import PathFollowerConfig
+    from amr_control.wall_follower import WallFollower
+    from amr_evaluation.worlds import build_world, with_goal
+    from amr_maps.rasterize import rasterize_world
+    from amr_navigation.loop import NavigationLoop, run_navigation
+    from amr_planning.planner import Planner, PlannerConfig
+
+    world = build_world(spec.world)
+    planner_config = PlannerConfig.from_params({**spec.parameters["planner"], "world": ""})
+    planner = _TimedPlanner(Planner(rasterize_world(world, planner_config.resolution), planner_config))
+    world = with_goal(world, spec.goal, spec.seed, planner.costmap)
+    if world.goal is None:
+        raise ValueError(f"{world.name}: has no goal; give one (goal: far, random or [x, y, radius])")
+    wall = wall_follower_config(spec)
+    navigator = NavigationLoop(planner, WallFollower(wall), PathFollower(PathFollowerConfig.from_params(
+        spec.parameters["path_follower"])), (world.goal.x, world.goal.y),
+        replan_distance=float(spec.parameters["navigator"]["replan_distance"]))
+    particle_filter = _particle_filter(spec, world)
+    sim = simulator_for(spec, world, dt=wall.dt)
+    run = run_navigation(sim, particle_filter, navigator, limit=spec.duration,
+                         max_collisions=int(spec.options.get("max_collisions", 5)))
+    # reached: the true pose in the goal region (run.reached checks it when the follower says REACHED)
+    reached = bool(run.reached and run.goal_distance <= world.goal.radius + 1e-9)
+    return {
+        **_goal_figures(reached, run.time), "time": run.time, "reason": run.reason, "collisions": run.collisions,
+        **path_figures(sim.trajectory, wall.dt),
+        "time_to_localized": run.first_localized,
+        "localization_error_max": run.max_localized_error if run.first_localized is not None else None,
+        "localization_losses": run.localization_losses, "plans": run.plans,
+        "planning_failures": len(run.planning_failures), "cross_track": run.mean_cross_track,
+        "planning_time": planner.seconds,
+        "extra": {"follower_reached": run.follower_reached, "goal_distance": run.goal_distance,
+                  "estimate_error": run.estimate_error, "steps": run.steps, "goal_xy": [world.goal.x, world.goal.y],
+                  "last_planning_failure": run.planning_failures[-1] if run.planning_failures else None,
+                  "estimated_cross_track": float(np.mean(run.estimated_cross_track))
+                  if run.estimated_cross_track else None},
+    }
+
+
+def _localization(spec: EpisodeSpec) -> dict[str, Any]:
+    from amr_evaluation.worlds import build_world, with_goal
+    from amr_evaluation.closed_loop import run
+
+    world = with_goal(build_world(spec.world), spec.goal, spec.seed)
+    follower = wall_follower_config(spec)
+    sim = simulator_for(spec, world, dt=follower.dt)
+    particle_filter = _particle_filter(spec, world)
+    kidnap = spec.options.get("kidnap")
+    trace = run(sim, particle_filter, follower, spec.duration,
+                kidnap=(float(kidnap[0]), tuple(float(v) for v in kidnap[1:4])) if kidnap else None)
+    t, localized, position, heading = trace.arrays()
+    first = trace.first_localized()
+    figures: dict[str, Any] = {"time": sim.time, "reason": f"time limit {spec.duration:g} s",
+                               "collisions": sim.collisions, **path_figures(sim.trajectory, follower.dt)}
+    extra: dict[str, Any] = {"update_time_mean": float(np.mean(trace.update_time)) if trace.update_time else None}
+    if first is not None:
+        after = localized & (t >= t[first])
+        figures.update(
+            time_to_localized=t[first], localization_error=position[first],
+            localization_error_max=float(position[after].max()),
+            localization_rms=float(np.sqrt(np.mean(position[after] ** 2))),
+            localization_losses=int(np.count_nonzero(np.diff(localized[first:].astype(int)) < 0)))
+        extra.update(heading_error=math.degrees(heading[first]),
+                     heading_rms=math.degrees(float(np.sqrt(np.mean(heading[after] ** 2)))))
+    if trace.kidnapped_at is not None:
+        before = t < trace.kidnapped_at
+        lost = np.flatnonzero((t >= trace.kidnapped_at) & ~localized)
+        again = trace.first_localized(after=t[lost[0]]) if lost.size else None
+        extra.update(kidnapped_at=trace.kidnapped_at, localized_before=bool(localized[np.flatnonzero(before)[-1]]),
+                     withdrawn_after=float(t[lost[0]] - trace.kidnapped_at) if lost.size else None,
+                     regained_after=float(t[again] - trace.kidnapped_at) if again is not None else None,
+                     regained_error=float(position[again]) if again is not None else None,
+                     regained_heading_error=math.degrees(heading[again]) if again is not None else None)
+    if world.goal is not None:
+        figures.update(_goal_figures(sim.goal_reached, sim.time))
+    figures["extra"] = extra
+    return figures
+
+
+def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
+    from amr_control.path_follower_config import PathFollowerConfig
+    from amr_evaluation.plan_follow import plan_and_follow
+    from amr_evaluation.worlds import build_world, with_goal
+
+    world = with_goal(build_world(spec.world), spec.goal, spec.seed)
+    if world.goal is None:
+        raise ValueError(f"{world.name}: has no goal; give one (goal: far, random or [x, y, radius])")
+    follower = PathFollowerConfig.from_params(spec.parameters["path_follower"])
+    sim = simulator_for(spec, world, dt=follower.dt)
+    resolution = float(spec.options.get("resolution", spec.parameters["planner"]["resolution"]))
+    run = plan_and_follow(sim, (world.goal.x, world.goal.y), follower, resolution=resolution, limit=spec.duration)
+    reason = "goal region reached" if run.reached else (run.message or f"time limit {spec.duration:g} s")
+    return {
+        **_goal_figures(run.reached, run.time), "time": run.time, "reason": reason, "collisions": run.collisions,
+        **path_figures(sim.trajectory, follower.dt), "cross_track": run.cross_track, "plans": 1 + run.replans
+        if run.planned else 0, "planning_failures": 0 if run.planned else 1, "planning_time": run.planning_time,
+        "extra": {"planned": run.planned, "message": run.message, "resolution": resolution},
+    }
+
+
+_CONTROLLERS = {"wall_follower": _wall_follower, "navigation": _navigation, "localization": _localization,
+                "plan_follow": _plan_follow}

@@ -1,0 +1,92 @@
+"""Plan on the map from the true pose, follow with pure pursuit on the true pose: the planner and the path
+follower without localization (bench/bench_planning.py's closed loop, now an episode of amr_evaluation).
+
+The world is rasterized at ``resolution``, A* plans from the start to the goal on its costmap and the
+course's smoothing follows; the path follower answers each step with the true pose and the scan. When
+it asks for a new plan (blocked, strayed), A* plans again from where the robot is, as the planner node
+does, at most ``max_replans`` times. Stops at the goal region, at the follower's REACHED, or at ``limit``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from amr_control.path_follower import PathFollower, State
+from amr_control.path_follower_config import PathFollowerConfig
+from amr_util.scan import ScanData
+from amr_maps.rasterize import rasterize_world
+from amr_planning.astar import GridAStar
+from amr_planning.costmap import Costmap
+from amr_planning.errors import PlanningError
+from amr_planning.smoothing import smooth_path
+from amr_simulation.simulator import Simulator
+
+MAX_REPLANS = 20
+
+
+@dataclasses.dataclass
+class PlanFollowRun:
+    planned: bool
+    reached: bool
+    collisions: int
+    time: float
+    cross_track: float
+    """m, mean of the follower's cross-track error while tracking (NaN: never tracked)."""
+    message: str = ""
+    replans: int = 0
+    planning_time: float = 0.0
+    """s of wall-clock time in A* and smoothing."""
+
+
+def plan_and_follow(sim: Simulator, goal: tuple[float, float], follower_config: PathFollowerConfig | None = None,
+                    resolution: float = 0.025, limit: float = 600.0, max_replans: int = MAX_REPLANS) -> PlanFollowRun:
+    """Run ``sim`` (its world, start and noise) to ``goal``; see the module docstring."""
+    world = sim.world
+    costmap = Costmap(rasterize_world(world, resolution))
+    planner = GridAStar(costmap)
+    follower = PathFollower(follower_config or PathFollowerConfig())
+    lidar = sim.lidar
+    errors: list[float] = []
+    replans = 0
+    planning = [0.0]
+
+    def plan(start) -> np.ndarray:
+        began = time.perf_counter()
+        try:
+            return smooth_path(planner.plan(start, goal).points, costmap)
+        finally:
+            planning[0] += time.perf_counter() - began
+
+    start = sim.pose
+    try:
+        follower.set_path(plan((start.x, start.y)))
+    except PlanningError as error:
+        return PlanFollowRun(False, False, 0, math.nan, math.nan, str(error), planning_time=planning[0])
+    while sim.time < limit and not sim.goal_reached:
+        pose = sim.pose
+        scan = ScanData(sim.ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
+        command = follower.compute(pose.x, pose.y, pose.theta, scan)
+        if command.state is State.TRACK:
+            errors.append(command.cross_track)
+        if command.reached:
+            break
+        if command.replan:
+            if replans == max_replans:
+                break
+            replans += 1
+            try:
+                follower.set_path(plan((pose.x, pose.y)))
+            except PlanningError as error:
+                return PlanFollowRun(True, False, sim.collisions, sim.time, math.nan, f"replan failed: {error}",
+                                     replans, planning[0])
+        sim.step(command.v, command.w)
+    message = "" if sim.goal_reached else f"stopped in {follower.state.value} at t={sim.time:.1f} s"
+    if replans:
+        message += f" ({replans} replans)"
+    mean_error = float(np.mean(errors)) if errors else math.nan
+    return PlanFollowRun(True, sim.goal_reached, sim.collisions, sim.time, mean_error, message.strip(), replans,
+                         planning[0])

@@ -1,0 +1,283 @@
+"""An episode through the ROS nodes: the controller's amr-bringup stack, composed, in a child process of its own.
+
+The stack (``maze_sim`` for the wall follower, ``maze_localization``, ``maze_navigation``) is the shipped
+bringup file with the spec's world (written to a temporary file when generated), parameters (one temporary
+parameter file for the controller's nodes and the simulator: seed, noise, slip), in lockstep on simulated
+time. The child (``python -m amr_evaluation.ros_episode SPEC RECORD``) composes it as ``amr-bringup
+--composed`` does (amr_bringup's ComposedStack and LifecycleManager) together with an observer of
+``/simulator/status``, created before the lifecycle manager starts anything: in lockstep the simulator runs
+as fast as the loop allows from its activation on, and an observer in another process could miss the first
+seconds while discovery matches it. The episode ends at the first status that reaches the duration, the
+goal, or ``max_collisions``; the record is made from it (goal, times, collisions, distance, the first
+localized declaration and the estimate's error) and written as JSON for the parent.
+
+Each episode takes a ROS domain of its own for its lifetime: the first free one of
+``AMR_EVALUATE_ROS_DOMAINS`` (``first-last``, default 120-199), claimed with a lock file in the temporary
+directory, so parallel workers of one machine never share a DDS graph. The child's environment is this
+one without the ROS wheels' bootstrap markers (amr_util.environment), plus its ROS_DOMAIN_ID and
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, Iterator
+
+import yaml
+
+from amr_util.environment import child_environment
+
+STACKS = {"wall_follower": "maze_sim", "localization": "maze_localization", "navigation": "maze_navigation"}
+DOMAINS_VARIABLE = "AMR_EVALUATE_ROS_DOMAINS"
+DEFAULT_DOMAINS = "120-199"
+STARTUP_TIMEOUT = 60.0
+"""wall-clock s for the stack to come up and publish its first status."""
+STALL_TIMEOUT = 30.0
+"""wall-clock s without simulated time advancing before the episode is given up."""
+
+
+class RosEpisodeError(RuntimeError):
+    """The stack did not come up, stopped advancing, or the spec cannot run through ROS (named)."""
+
+
+def domain_range() -> range:
+    text = os.environ.get(DOMAINS_VARIABLE, DEFAULT_DOMAINS)
+    try:
+        first, last = (int(v) for v in text.split("-"))
+    except ValueError as error:
+        raise RosEpisodeError(f"{DOMAINS_VARIABLE}={text!r}: expected first-last, e.g. 48-55") from error
+    if not 0 <= first <= last <= 232:
+        raise RosEpisodeError(f"{DOMAINS_VARIABLE}={text!r}: domains lie in 0-232")
+    return range(first, last + 1)
+
+
+@contextlib.contextmanager
+def claimed_domain() -> Iterator[int]:
+    """A ROS domain no other episode of this machine holds, until the block ends."""
+    for domain in domain_range():
+        path = Path(tempfile.gettempdir()) / f"amr_evaluate_domain_{domain}.lock"
+        stream = path.open("a")
+        try:
+            fcntl.flock(stream, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            stream.close()
+            continue
+        try:
+            yield domain
+        finally:
+            fcntl.flock(stream, fcntl.LOCK_UN)
+            stream.close()
+        return
+    raise RosEpisodeError(f"every ROS domain of {DOMAINS_VARIABLE} ({os.environ.get(DOMAINS_VARIABLE, DEFAULT_DOMAINS)}) "
+                          "is held by another episode: widen the range or run fewer workers")
+
+
+def _world_file(spec, directory: Path) -> str:
+    from amr_evaluation.worlds import build_world, with_goal, world_dict
+
+    data = world_dict(spec.world)
+    if data is None and spec.goal is None:
+        return spec.world["file"]
+    if data is None:
+        from amr_maps.world import resolve_world_path
+
+        data = yaml.safe_load(resolve_world_path(spec.world["file"]).read_text(encoding="utf-8"))
+    if spec.goal is not None:
+        world = with_goal(build_world(spec.world), spec.goal, spec.seed)
+        data["goal"] = [world.goal.x, world.goal.y, world.goal.radius]
+    path = directory / "world.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return str(path)
+
+
+def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
+    """(stack name, its arguments) of an episode, its files written into ``directory``."""
+    from amr_evaluation.worlds import world_hand
+    from amr_util.parameter_file import node_parameters
+    from amr_util.share import share_directory
+
+    stack = STACKS.get(spec.controller)
+    if stack is None:
+        raise RosEpisodeError(f"mode ros: controller {spec.controller!r} has no stack (ros mode runs "
+                              f"{', '.join(STACKS)}); run it at library level")
+    parameters = {node: dict(values) for node, values in spec.parameters.items()}
+    wall = parameters.get("wall_follower", {})
+    if wall.get("simulation") is False:
+        raise RosEpisodeError("mode ros: this wall follower configuration has simulation: false (a timer on real "
+                              "time, plain Twist); the lockstep stacks take simulation: true configurations "
+                              "(rehearse the real one with amr-bringup real_robot_sim)")
+    hand = world_hand(spec.world)
+    if hand is not None and "wall_follower" in parameters:
+        parameters["wall_follower"]["preferred_wall"] = hand
+    parameters.get("planner", {}).pop("world", None)  # the stack's world argument sets the planner's map
+    parameters.get("particle_filter", {}).pop("world", None)
+    simulator = node_parameters(share_directory("amr_simulation") / "config" / "simulator.yaml", "simulator")
+    simulator["seed"] = spec.seed
+    simulator["lidar"] = {**simulator.get("lidar", {}), "noise_std": spec.lidar_noise}
+    simulator["encoders"] = {**simulator.get("encoders", {}), "noise": spec.encoder_noise, "slip": spec.slip}
+    parameters["simulator"] = simulator
+    if "particle_filter" in parameters:
+        parameters["particle_filter"]["seed"] = spec.seed
+    params_file = directory / "parameters.yaml"
+    params_file.write_text(yaml.safe_dump({node: {"ros__parameters": values} for node, values in parameters.items()}),
+                           encoding="utf-8")
+    arguments = {"world": _world_file(spec, directory)}
+    arguments.update({f"{node}_params_file": str(params_file) for node in parameters})
+    return stack, arguments
+
+
+def run_ros(spec) -> dict[str, Any]:
+    """The record's figures of ``spec`` run through its stack in a child process (see the module docstring)."""
+    import json
+
+    with tempfile.TemporaryDirectory(prefix="amr_evaluate_") as scratch, claimed_domain() as domain:
+        directory = Path(scratch)
+        stack_of(spec, directory)  # refuse what cannot run here, before a process is started
+        (directory / "spec.json").write_text(json.dumps(spec.to_dict()), encoding="utf-8")
+        result = directory / "record.json"
+        env = child_environment(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        with (directory / "stack.log").open("w+") as log:
+            process = subprocess.Popen([sys.executable, "-m", "amr_evaluation.ros_episode", str(directory / "spec.json"),
+                                        str(result)], stdout=log, stderr=subprocess.STDOUT, env=env,
+                                       start_new_session=True)
+            try:
+                process.wait(timeout=STARTUP_TIMEOUT + spec.duration * 2.0 + 60.0)
+            except subprocess.TimeoutExpired:
+                _stop(process)
+            log.seek(0)
+            said = log.read()[-1500:]
+        if process.returncode != 0 or not result.exists():
+            raise RosEpisodeError(f"the stack's process exited with code {process.returncode}: {said}")
+        figures = json.loads(result.read_text(encoding="utf-8"))
+    figures["extra"] = {**figures.get("extra", {}), "ros_domain": domain}
+    return figures
+
+
+def _stop(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=15.0)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
+    """The child's work: the stack composed with the observer, started, watched, taken down."""
+    import rclpy
+    from amr_interfaces.msg import SimulatorStatus
+    from rclpy.parameter import Parameter
+
+    from amr_bringup.bringup import ComposedStack, Console, check_composable
+    from amr_bringup.lifecycle_manager import LifecycleManager
+    from amr_bringup.stack_config import load_bringup
+    from amr_util.executors import NodeSpinners
+    from amr_util.stop_signals import Flag
+
+    name, arguments = stack_of(spec, directory)
+    bringup = load_bringup(name).with_overrides(arguments, {})
+    check_composable(bringup)
+    max_collisions = int(spec.options.get("max_collisions", 5)) if spec.controller == "navigation" else None
+    lock = threading.Lock()
+    state: dict[str, Any] = {"status": None, "reason": "", "first_error": None, "max_error": 0.0}
+
+    def on_status(message: SimulatorStatus) -> None:
+        # lockstep runs ahead of this thread: the record is the first status that ends the episode
+        with lock:
+            if state["reason"]:
+                return
+            state["status"] = message
+            if message.localization_enabled and message.localized and math.isfinite(message.position_error):
+                if state["first_error"] is None:
+                    state["first_error"] = message.position_error
+                state["max_error"] = max(state["max_error"], message.position_error)
+            if message.goal_reached:
+                state["reason"] = "goal region reached"
+            elif message.sim_time >= spec.duration - 1e-9:
+                state["reason"] = f"time limit {spec.duration:g} s"
+            elif max_collisions is not None and message.collisions >= max_collisions:
+                state["reason"] = f"{message.collisions} collisions"
+
+    rclpy.init(args=[])
+    spinners = NodeSpinners()
+    stack = None
+    try:
+        observer = rclpy.create_node("amr_evaluate_observer")
+        observer.create_subscription(SimulatorStatus, "simulator/status", on_status, 1000)
+        spinners.add_node(observer)
+        stack = ComposedStack(bringup, Console(live=False))
+        for node in stack.nodes:
+            spinners.add_node(node)
+        manager = LifecycleManager(cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
+                                   parameter_overrides=[Parameter(k, value=v)
+                                                        for k, v in bringup.manager_parameters().items()])
+        spinners.add_node(manager)
+        steps = manager.startup()
+        if not manager.started:
+            failed = next((step for step in steps if not step.ok), None)
+            raise RosEpisodeError(f"startup failed at {failed.transition} of {failed.node}: {failed.detail}"
+                                  if failed else "startup failed")
+        deadline, last_time = time.monotonic() + STARTUP_TIMEOUT, -1.0
+        while True:
+            time.sleep(0.02)
+            with lock:
+                status, reason = state["status"], state["reason"]
+            if reason:
+                break
+            if stack.failure():
+                raise RosEpisodeError(stack.failure())
+            if status is None or status.sim_time <= last_time:
+                if time.monotonic() > deadline:
+                    raise RosEpisodeError("no progress on /simulator/status" if status else
+                                          f"no /simulator/status within {STARTUP_TIMEOUT:.0f} s")
+                continue
+            last_time, deadline = status.sim_time, time.monotonic() + STALL_TIMEOUT
+        manager.shutdown()
+    finally:
+        spinners.shutdown()
+        if stack is not None:
+            stack.stop(Flag())
+        rclpy.shutdown()
+    figures: dict[str, Any] = {"time": status.sim_time, "reason": reason, "collisions": int(status.collisions),
+                               "distance": float(status.distance_travelled)}
+    if spec.goal is not None or _world_has_goal(spec):
+        figures.update(goal_reached=bool(status.goal_reached),
+                       time_to_goal=status.sim_time if status.goal_reached else None)
+    if status.localization_enabled and status.first_localized_time >= 0.0:
+        figures.update(time_to_localized=status.first_localized_time, localization_error=state["first_error"],
+                       localization_error_max=state["max_error"])
+    return figures
+
+
+def _world_has_goal(spec) -> bool:
+    from amr_evaluation.worlds import build_world
+
+    return build_world(spec.world).goal is not None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The child process: SPEC (a spec's JSON file) in, RECORD (the figures' JSON file) out."""
+    import json
+
+    from amr_evaluation.episode import EpisodeSpec
+
+    spec_path, record_path = (argv if argv is not None else sys.argv[1:])[:2]
+    spec = EpisodeSpec.from_dict(json.loads(Path(spec_path).read_text(encoding="utf-8")))
+    figures = _episode_in_this_process(spec, Path(spec_path).parent)
+    Path(record_path).write_text(json.dumps(figures), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,144 @@
+"""One runner for every sweep: episodes in a local process pool (default) or on a Dask cluster.
+
+``run_sweep(specs, results)`` skips the specs whose key has a finished record in ``results`` (a JSON lines
+file), runs the others on an executor, appends each record the moment it finishes, and returns every
+spec's record in the order of ``specs``. Executors:
+
+- ``workers=1``: in this process, one after the other, each record written as it finishes (no pool to start);
+- ``workers=N``: a ``concurrent.futures.ProcessPoolExecutor`` of N processes (fork);
+- ``scheduler="tcp://host:8786"``: ``distributed.Client(address).get_executor()``, a standard
+  ``concurrent.futures.Executor`` over an existing Dask cluster. Its workers need this suite installed
+  (the same version: a record depends on the code as much as on its spec).
+
+Each episode is a pure function of its spec (amr_evaluation.episode), so the records are the same
+wherever they ran, apart from their wall-clock fields.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Callable, Iterator, Sequence
+
+from amr_evaluation.episode import EpisodeSpec, run_episode
+from amr_evaluation.records import RecordWriter, finished, read_records
+
+
+class SweepError(RuntimeError):
+    """The sweep could not run (no scheduler at that address, Dask not installed, ...)."""
+
+
+@contextmanager
+def executor_for(workers: int = 1, scheduler: str | None = None,
+                 connect_timeout: float = 10.0) -> Iterator[Executor | None]:
+    """The executor a sweep runs on (see the module docstring; None: this process); closed on exit."""
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError as error:
+            raise SweepError("--scheduler needs Dask: pip install 'amr_suite[evaluation]' "
+                             "(dask[distributed])") from error
+        try:
+            client = Client(scheduler, timeout=f"{connect_timeout}s")
+        except (OSError, TimeoutError) as error:
+            raise SweepError(f"no Dask scheduler answered at {scheduler}: {error}") from error
+        try:
+            with client.get_executor() as executor:
+                yield executor
+        finally:
+            client.close()
+        return
+    if workers < 1:
+        raise SweepError(f"workers must be at least 1, got {workers}")
+    if workers == 1:
+        yield None
+        return
+    import multiprocessing
+
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as executor:
+        yield executor
+
+
+class Progress:
+    """tqdm's bar when tqdm is installed and the output is a terminal; else a line every few seconds."""
+
+    def __init__(self, total: int, done: int, description: str = "episodes", stream=None) -> None:
+        self.total, self.count = total, done
+        self.stream = stream or sys.stderr
+        self._bar = None
+        self._last = 0.0
+        self._began = time.monotonic()
+        try:
+            from tqdm import tqdm
+        except ImportError:
+            tqdm = None
+        if tqdm is not None and self.stream.isatty():
+            self._bar = tqdm(total=total, initial=done, desc=description, unit="ep", file=self.stream,
+                             dynamic_ncols=True)
+
+    def update(self) -> None:
+        self.count += 1
+        if self._bar is not None:
+            self._bar.update(1)
+            return
+        now = time.monotonic()
+        if now - self._last >= 5.0 or self.count == self.total:
+            self._last = now
+            print(f"  {self.count}/{self.total} episodes, {now - self._began:.0f} s", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int = 1, scheduler: str | None = None,
+              progress: bool = True, on_record: Callable[[dict[str, Any]], None] | None = None,
+              episode: Callable[[dict], dict] = run_episode, connect_timeout: float = 10.0) -> list[dict[str, Any]]:
+    """Every spec's record (in the order of ``specs``), running only those without a finished one in ``results``.
+
+    ``on_record`` is called with each new record as it arrives (in completion order).
+    """
+    results = Path(results)
+    known = read_records(results)
+    unique: dict[str, EpisodeSpec] = {}
+    for spec in specs:
+        unique.setdefault(spec.key, spec)
+    todo = [spec for key, spec in unique.items() if not finished(known.get(key))]
+    bar = Progress(len(unique), len(unique) - len(todo)) if progress and todo else None
+    if todo:
+        with RecordWriter(results) as writer, executor_for(workers, scheduler, connect_timeout) as executor:
+            try:
+                for record in _run(executor, episode, todo):
+                    writer.write(record)
+                    known[record["key"]] = record
+                    if on_record is not None:
+                        on_record(record)
+                    if bar is not None:
+                        bar.update()
+            finally:
+                if bar is not None:
+                    bar.close()
+    return [known[spec.key] for spec in specs]
+
+
+def _run(executor: Executor | None, episode: Callable[[dict], dict], todo: Sequence[EpisodeSpec]) -> Iterator[dict]:
+    """The records of ``todo`` as they finish: one after the other here, or as the executor completes them."""
+    if executor is None:
+        for spec in todo:
+            yield episode(spec.to_dict())
+        return
+    futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
+    try:
+        for future in as_completed(futures):
+            yield future.result()
+    finally:  # stopped early (an exception, Ctrl-C): what has not started is not started
+        for future in futures:
+            future.cancel()
+
+
+def default_workers() -> int:
+    return max(1, min(2, os.cpu_count() or 1))
