@@ -2,7 +2,7 @@
 
 The library's parameters are SimulationConfig's fields (flat, dotted: "lidar.beams"), described by
 their docstrings; the node adds its topics, frames and timers. Live (applied at the next step while
-the node runs): sensor and encoder noise, slip, the realtime command timeout, the render path.
+the node runs): sensor and encoder noise, slip, the realtime command timeout, the render path, the pace.
 Everything else shapes the world, the robot or the node's interfaces and is refused while
 configured.
 """
@@ -20,7 +20,7 @@ from amr_simulation.config import param_defaults
 from amr_util.parameter_spec import ParameterSpec, field_docs
 
 LIVE = frozenset({"lidar.noise_std", "encoders.noise", "encoders.slip", "beacons.range_noise_std",
-                  "beacons.compass_noise_std", "command_timeout", "render_path"})
+                  "beacons.compass_noise_std", "command_timeout", "render_path", "pace"})
 RANGES: dict[str, tuple[float, float]] = {
     "dt": (0.001, 1.0), "seed": (0, 2**31 - 1), "max_substep_distance": (0.0001, 0.1), "rate": (0.01, 1000.0),
     "command_timeout": (0.0, 60.0), "robot.radius": (0.01, 2.0), "robot.wheel_radius": (0.005, 1.0),
@@ -29,6 +29,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "lidar.fov": (0.001, 2 * math.pi), "lidar.range_min": (0.0, 100.0), "lidar.range_max": (0.01, 1000.0),
     "lidar.noise_std": (0.0, 1.0), "lidar.x": (-2.0, 2.0), "lidar.y": (-2.0, 2.0), "encoders.noise": (0.0, 1.0),
     "encoders.slip": (0.0, 1.0), "beacons.range_noise_std": (0.0, 10.0), "beacons.compass_noise_std": (0.0, 3.2), "qos_depth": (1, 1000), "lockstep_resend_period": (0.0, 60.0),
+    "pace": (0.0, 1000.0),
 }
 CHOICES = {"mode": MODES, "lidar.method": RAY_CAST_METHODS}
 NODE_PARAMETERS = {
@@ -53,6 +54,9 @@ NODE_PARAMETERS = {
     "enable_localization": (False, "compare /pose (a localizer's LocalizedPose) with the ground truth: log the first "
                                    "localization, report the estimate's error in ~/status"),
     "render_path": (str(Path(tempfile.gettempdir()) / "amr_simulator.png"), "PNG file ~/render writes"),
+    "pace": (0.0, "simulated seconds per wall-clock second at most: lockstep 0 = each /cmd_vel steps at once (as "
+                  "fast as the loop goes), N = a held command steps on a timer at dt / N; realtime 0 = `rate`, "
+                  "N = N x real time instead of `rate`"),
 }
 
 
