@@ -21,6 +21,7 @@ ROSDEP_KEYS = {
     "numpy": "python3-numpy", "yaml": "python3-yaml", "pymunk": "python3-pymunk", "scipy": "python3-scipy",
     "matplotlib": "python3-matplotlib", "transforms3d": "python3-transforms3d", "PIL": "python3-pil",
     "rosbags": "python3-rosbags", "mcap": "python3-mcap", "numba": "python3-numba", "contourpy": "python3-contourpy",
+    "viser": "python3-viser",
 }
 """Python distributions -> their rosdep keys (what package.xml names)."""
 
