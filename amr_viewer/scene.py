@@ -2,7 +2,8 @@
 
 Everything lies on the floor (z = 0, the map) a few millimetres apart so nothing flickers: map, world goal, trail,
 path, particles, scan, estimate, goal, robot. Point clouds and line sets keep one colour each, so a new set of any
-size replaces the old in one message; the trail's full chunks are drawn once and never sent again.
+size replaces the old in one message; the trail's full chunks are drawn once and never sent again. Without a GPU
+(a headless browser's software WebGL) rendering dominates: dots and short line sets keep it cheap.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import viser
 
 from amr_viewer.arms import ArmSet
 from amr_viewer.geometry import Pose, wxyz_of
-from amr_viewer.state import RobotState, Trail
+from amr_viewer.state import RobotState
 
 COLORS = {
     "robot": (40, 90, 200), "heading": (250, 250, 250), "truth": (20, 20, 20), "scan": (230, 40, 40),
@@ -73,7 +74,7 @@ class Scene:
         self.hidden: set[str] = set()
         self._drawn: dict[tuple[str, str], int] = {}
         self._handles: dict[str, object] = {}
-        self._trail_chunks: dict[str, int] = {}
+        self._trail_chunks: dict[str, set[int]] = {}
         self._arm_versions: dict[str, int] = {}
         self._colors: dict[str, tuple] = {}
         self.scene.set_up_direction("+z")
@@ -188,20 +189,21 @@ class Scene:
         self._segments(f"{root}/goal", segments_at(marks, HEIGHTS["goal"]), COLORS["goal"], 1.5 * LINE)
 
     def _draw_trail(self, state: RobotState, root: str) -> None:
+        """The trail as dots (a line set of thousands of segments is slow to render without a GPU); full chunks are
+        sent once, the last one again as it grows."""
         trail, namespace = state.trail, state.namespace
-        frozen = self._trail_chunks.get(namespace, 0)
-        first = trail.dropped
-        if frozen < first:  # chunks dropped from the front, or the trail cleared
-            for index in range(frozen - 1, first):
-                self._drop(f"{root}/trail/chunk{index}")
-            frozen = first
-        for index in range(frozen, first + len(trail.chunks) - 1):  # full chunks: drawn once
-            segments = segments_at(Trail.segments(trail.chunks[index - first]), HEIGHTS["trail"])
-            self._segments(f"{root}/trail/chunk{index}", segments, COLORS["trail"])
-        frozen = first + len(trail.chunks) - 1
-        self._trail_chunks[namespace] = frozen
-        self._segments(f"{root}/trail/chunk{frozen}", segments_at(Trail.segments(trail.chunks[-1]), HEIGHTS["trail"]),
-                       COLORS["trail"])
+        drawn = self._trail_chunks.setdefault(namespace, set())
+        first, last = trail.dropped, trail.dropped + len(trail.chunks) - 1
+        for index in [i for i in drawn if not first <= i <= last]:  # dropped from the front, or the trail cleared
+            self._drop(f"{root}/trail/chunk{index}")
+            drawn.discard(index)
+        for index in range(first, last + 1):
+            if index in drawn and index != last:
+                continue
+            points = np.asarray(trail.chunks[index - first], dtype=float).reshape(-1, 2)
+            points = points[np.isfinite(points).all(axis=1)]
+            self._cloud(f"{root}/trail/chunk{index}", points3(points, HEIGHTS["trail"]), COLORS["trail"], 0.015)
+            drawn.add(index)
 
     def _draw_particles(self, state: RobotState, root: str) -> None:
         self._cloud(f"{root}/particles", points3(state.particles[:, :2], HEIGHTS["particles"]), COLORS["particles"],

@@ -111,7 +111,7 @@ def decimate(points: np.ndarray, limit: int) -> np.ndarray:
 @dataclass
 class Trail:
     """The path the robot took: points at least `spacing` apart, in chunks of `chunk` points so a scene can freeze
-    full chunks; a NaN row is a break (a jump longer than TRAIL_BREAK)."""
+    full chunks; a NaN row marks a break (a jump longer than TRAIL_BREAK: a reset, a teleport)."""
 
     spacing: float = 0.02
     chunk: int = 500
@@ -152,15 +152,6 @@ class Trail:
     def clear(self) -> None:
         self.dropped += len(self.chunks)
         self.chunks = [[]]
-
-    @staticmethod
-    def segments(points: list[tuple[float, float]]) -> np.ndarray:
-        """(M, 2, 2) line segments between consecutive points, none across a break."""
-        array = np.asarray(points, dtype=float).reshape(-1, 2)
-        if len(array) < 2:
-            return np.zeros((0, 2, 2))
-        pairs = np.stack([array[:-1], array[1:]], axis=1)
-        return pairs[np.isfinite(pairs).all(axis=(1, 2))]
 
 
 class RobotState:

@@ -455,11 +455,12 @@ class ViewerNode(ManagedNode):
                 link.decode()
             except ValueError as error:
                 self.get_logger().warning(f"a message was not drawn: {error}", throttle_duration_sec=WARNING_PERIOD)
-            if drawing:
-                self.scene.draw(link.state)
         if drawing:
-            for key, arms in self.arms.items():
-                self.scene.draw_arms(arms, "arms" + key.replace("/", "_"))
+            with self.server.atomic():  # one redraw per tick in the browser, not one per layer
+                for link in self.robots.values():
+                    self.scene.draw(link.state)
+                for key, arms in self.arms.items():
+                    self.scene.draw_arms(arms, "arms" + key.replace("/", "_"))
             for client_id, client in self.server.get_clients().items():
                 if client_id not in self._framed:  # nothing to frame when it connected
                     self._frame(client, "top" if self.robots else "arms")
