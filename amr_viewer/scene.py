@@ -29,6 +29,8 @@ CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * math.pi, 41)), np.sin(np.lin
 LINE = 0.012
 """m, the thickness of drawn lines."""
 TOGGLED = ("particles", "scan", "trail", "truth", "path")
+MAP_PIXELS, MAP_UPSCALE = 1024, 8
+"""A map image is repeated (nearest cell) up to about MAP_PIXELS on its long side, at most MAP_UPSCALE times."""
 """Layers a user can hide."""
 
 
@@ -161,8 +163,10 @@ class Scene:
         if image is None:
             self._drop(f"{root}/map")
             return
+        factor = max(1, min(MAP_UPSCALE, MAP_PIXELS // max(image.rgb.shape[:2])))  # sharp cells: the browser
+        rgb = np.repeat(np.repeat(image.rgb, factor, axis=0), factor, axis=1)      # interpolates the texture
         self._put(f"{root}/map", self.scene.add_image(
-            f"{root}/map", image.rgb, image.width, image.height, format="png", cast_shadow=False,
+            f"{root}/map", rgb, image.width, image.height, format="png", cast_shadow=False,
             receive_shadow=False, position=(image.center.x, image.center.y, -0.001), wxyz=wxyz_of(image.center.yaw)))
 
     def _draw_world(self, state: RobotState, root: str) -> None:
