@@ -32,20 +32,19 @@ from collections.abc import Callable, Sequence
 
 import rclpy
 from rclpy.logging import LoggingSeverity
-from rclpy.parameter import Parameter
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
-from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_matched
-from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
-                                      parse_assignments)
-from amr_bringup.processes import NodeProcess, executable_path, stop_processes
-from amr_bringup.status import StatusMonitor, format_table
+from amr_bringup.bag_writer import bag_directory
 from amr_bringup.lifecycle_manager import LifecycleManager
+from amr_bringup.processes import NodeProcess, executable_path, stop_processes
+from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_matched
+from amr_bringup.stack_config import Bringup, BringupError, NodeSpec, check_installed, load_bringup, parse_assignments
+from amr_bringup.status import StatusMonitor, format_table
 from amr_bringup.viewing import DEFAULT_HOST, DEFAULT_PORT, ViewerProcess, port_problem
 from amr_util.executors import NodeSpinners
 from amr_util.stop_signals import Flag, StopSignals
-from amr_maps.bag_writer import bag_directory
 
 GRACE_PERIOD = 5.0
 """s a node gets to exit after SIGINT (or a clean shutdown takes) before SIGKILL."""

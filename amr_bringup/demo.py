@@ -27,30 +27,31 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 import numpy as np  # noqa: E402
 import rclpy  # noqa: E402
 from amr_interfaces.msg import LocalizedPose, SimulatorStatus, WallFollowerStatus  # noqa: E402
-from geometry_msgs.msg import PoseArray  # noqa: E402
-from nav_msgs.msg import Odometry, Path as PathMessage  # noqa: E402
 from amr_interfaces.srv import ComputeFK, SolveIK  # noqa: E402
+from geometry_msgs.msg import PoseArray  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
+from nav_msgs.msg import Path as PathMessage  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from amr_bringup import demo_figures  # noqa: E402
+from amr_bringup.bag_animation import animate_bag  # noqa: E402
 from amr_bringup.lifecycle_manager import LifecycleManager  # noqa: E402
 from amr_bringup.recorder import BackgroundSpin, Recorder  # noqa: E402
-from amr_maps.bag_animation import animate_bag  # noqa: E402
-from amr_maps.map_server_node import MapServerNode  # noqa: E402
-from amr_simulation.simulator_node import world_dirs  # noqa: E402
-from amr_simulation.world import load_world, resolve_world_path  # noqa: E402
-from amr_util.share import share_directory  # noqa: E402
+from amr_control.path_follower_node import PathFollowerNode  # noqa: E402
 from amr_control.wall_follower_node import WallFollowerNode  # noqa: E402
 from amr_kinematics.ik_service_node import IKServiceNode  # noqa: E402
-from amr_localization.messages import yaw_of  # noqa: E402
 from amr_localization.particle_filter_node import ParticleFilterNode  # noqa: E402
-from amr_control.path_follower_node import PathFollowerNode  # noqa: E402
+from amr_maps.map_server_node import MapServerNode  # noqa: E402
+from amr_maps.world import load_world, resolve_world_path  # noqa: E402
 from amr_planning.planner_node import PlannerNode  # noqa: E402
 from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
 from amr_turtlebot3.odometry_node import OdometryNode  # noqa: E402
+from amr_util.geometry import yaw_from_quaternion  # noqa: E402
+from amr_util.share import share_directory  # noqa: E402
+from amr_util.stamps import stamp_seconds  # noqa: E402
 
 FOLLOWING = "FOLLOW"  # the state in which the distance to the wall is being controlled
 PROGRESS_PERIOD = 3.0  # wall-clock seconds between progress lines
@@ -89,7 +90,7 @@ class Observer(Node):
             self.sim = message
 
     def _on_follower(self, message: WallFollowerStatus) -> None:
-        t = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+        t = stamp_seconds(message.header.stamp)
         with self.lock:
             self.follower.append((t, message.wall_distance, message.target_wall_distance,
                                   message.state == FOLLOWING))
@@ -217,12 +218,8 @@ def wait_for_run(observer: Observer, duration: float, started: float, progress: 
             return status
 
 
-def stamp_seconds(message) -> float:
-    return message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
-
-
 def planar(pose) -> tuple[float, float, float]:
-    return pose.position.x, pose.position.y, yaw_of(pose.orientation)
+    return pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation)
 
 
 class LocalizationObserver(Observer):
@@ -239,16 +236,16 @@ class LocalizationObserver(Observer):
 
     def _on_pose(self, message: LocalizedPose) -> None:
         with self.lock:
-            self.poses.append((stamp_seconds(message), planar(message.pose.pose), message.localized))
+            self.poses.append((stamp_seconds(message.header.stamp), planar(message.pose.pose), message.localized))
 
     def _on_cloud(self, message: PoseArray) -> None:
         particles = np.array([planar(p) for p in message.poses])
         with self.lock:
-            self.clouds.append((stamp_seconds(message), particles))
+            self.clouds.append((stamp_seconds(message.header.stamp), particles))
 
     def _on_truth(self, message: Odometry) -> None:
         with self.lock:
-            self.truth[stamp_seconds(message)] = planar(message.pose.pose)
+            self.truth[stamp_seconds(message.header.stamp)] = planar(message.pose.pose)
 
 
 NAVIGATION_WORLD = "pillar_goal.yaml"  # a goal beside a free-standing pillar: a wall follower never gets there
@@ -297,7 +294,7 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
         index = int(np.argmin(np.abs(times - t)))
         estimate = rows[index][1] if localized[index] else None
         snapshots.append((f"{title} (t = {t:.2f} s)", particles, truth.get(t, rows[index][3]), estimate))
-    polygons = load_world(resolve_world_path(world, world_dirs())).polygons
+    polygons = load_world(resolve_world_path(world)).polygons
     demo_figures.localization_figure(out / "localization.png", polygons, snapshots)
     after = localized & (times >= t_first)
     summary = {"world": world, "simulated_time_s": round(status.sim_time, 3), "wall_time_s": round(elapsed, 3),
@@ -325,7 +322,7 @@ class NavigationObserver(LocalizationObserver):
     def _on_path(self, message: PathMessage) -> None:
         points = np.array([[p.pose.position.x, p.pose.position.y] for p in message.poses])
         with self.lock:
-            self.paths.append((stamp_seconds(message), points))
+            self.paths.append((stamp_seconds(message.header.stamp), points))
 
 
 def run_navigation(context, out: Path, world: str, duration: float) -> dict:
@@ -360,7 +357,7 @@ def run_navigation(context, out: Path, world: str, duration: float) -> dict:
     trajectory = np.array([truth[t][:2] for t in stamps])
     localized_at = {t: flag for t, _, flag in poses}
     explored = np.array([not localized_at.get(t, False) for t in stamps])  # the wall follower's steps
-    loaded = load_world(resolve_world_path(world, world_dirs()))
+    loaded = load_world(resolve_world_path(world))
     demo_figures.navigation_figure(out / "navigation.png", loaded.polygons, loaded.goal, trajectory, explored,
                                    [points for _, points in paths], title=(
                                        f"{world}: localized at t = {first:.1f} s, " if first is not None else
@@ -456,7 +453,7 @@ def summary_of(response: SolveIK.Response, scale: float = 1.0, unit: str = "m") 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=180.0, help="simulated seconds (default 180)")
-    parser.add_argument("--world", default="inner_maze.yaml", help="a world in share/amr_simulation/config/worlds")
+    parser.add_argument("--world", default="inner_maze.yaml", help="a world in share/amr_maps/config/worlds")
     parser.add_argument("--localization-duration", type=float, default=40.0,
                         help="simulated seconds of the localization run (default 40)")
     parser.add_argument("--out", type=Path, default=Path("out"))
@@ -472,7 +469,7 @@ def main(argv: list[str] | None = None) -> None:
         shutil.rmtree(bag, ignore_errors=True)  # a recording never overwrites: the demo replaces its own
         maze, samples = run_maze(context, args.world, args.duration, render_path=out / "maze.png", record_path=bag)
         gif_started = time.monotonic()
-        world = load_world(resolve_world_path(args.world, world_dirs()))
+        world = load_world(resolve_world_path(args.world))
         animate_bag(bag, out / "maze.gif", world, frames=180)
         maze["animation"] = {"gif": "maze.gif", "bag": "maze_run", "seconds": round(time.monotonic() - gif_started, 2)}
         demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1],

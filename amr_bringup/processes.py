@@ -16,8 +16,8 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from amr_bringup.stack_config import package_prefix
 from amr_util.environment import child_environment
+from amr_util.share import package_prefix
 from amr_util.stop_signals import Flag
 
 

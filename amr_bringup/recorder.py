@@ -3,7 +3,7 @@
 What `ros2 bag record -s mcap` does, for machines without rosbag2: every topic of the graph (or the
 ones in `topics`) is found by discovery, subscribed to raw (no deserialization) with a QoS that
 matches all its publishers (reliable only if every publisher is, transient local only if every
-publisher is, as rosbag2 adapts it), and written with amr_maps.bag_writer together with its type,
+publisher is, as rosbag2 adapts it), and written with amr_bringup.bag_writer together with its type,
 definition and the offered QoS. Each message is stamped with this node's clock when it arrives
 (simulated time under use_sim_time, as `ros2 bag record --use-sim-time`). Topics that appear later
 are picked up every `discovery_period`. The bag is finished (metadata.yaml written) when the node is
@@ -27,9 +27,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
+from amr_bringup.bag_writer import BagError, BagWriter, TopicQos
 from amr_bringup.recording import recorded_by_default
 from amr_bringup.status import message_class
-from amr_maps.bag_writer import BagError, BagWriter, TopicQos
 from amr_util.managed_node import SpecifiedParameters, spin_nodes
 from amr_util.parameter_spec import ParameterSpec
 

@@ -33,15 +33,15 @@ import json
 import math
 import os
 import re
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
-from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+from ament_index_python.packages import PackageNotFoundError
 
 from amr_util.parameter_file import dotted, node_parameters
+from amr_util.share import package_prefix, share_directory
 
 BRINGUP_PACKAGE = "amr_bringup"
 """The package whose share/<package>/config/bringup holds the shipped bringup files."""
@@ -196,31 +196,13 @@ class Bringup:
         return {"node_startup_order": list(self.node_startup_order), **self.manager_timeouts}
 
 
-def package_prefix(package: str) -> Path:
-    """The install prefix of `package`: the ament index's answer, else this Python's prefix if its index lists it.
-
-    The fallback is a venv used with no ROS environment sourced (AMENT_PREFIX_PATH unset),
-    where `pip install` put the index markers under sys.prefix.
-    """
-    try:
-        return Path(get_package_prefix(package))
-    except (PackageNotFoundError, OSError):  # OSError: AMENT_PREFIX_PATH is not set
-        if (Path(sys.prefix) / "share" / "ament_index" / "resource_index" / "packages" / package).is_file():
-            return Path(sys.prefix)
-        raise PackageNotFoundError(f"package {package!r} not found in the ament index nor under {sys.prefix}") from None
-
-
-def share_directory(package: str) -> Path:
-    return package_prefix(package) / "share" / package
-
-
 def parameter_file_path(package: str, name: str) -> Path:
     path = Path(name)
-    return path if path.is_absolute() else share_directory(package) / "config" / path
+    return path if path.is_absolute() else share_directory(package, must_exist=True) / "config" / path
 
 
 def shipped_bringup_dir() -> Path:
-    return share_directory(BRINGUP_PACKAGE) / "config" / "bringup"
+    return share_directory(BRINGUP_PACKAGE, must_exist=True) / "config" / "bringup"
 
 
 def find_bringup(name_or_path: str) -> Path:

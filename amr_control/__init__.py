@@ -1,1 +1,1 @@
-"""Controllers: the synchronized wall follower, its approximate-time synchronizer and scan reading."""
+"""Controllers: the synchronized wall follower and the path follower (pure pursuit), and scan sectors (no ROS), with their nodes."""

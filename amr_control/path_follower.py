@@ -14,7 +14,7 @@ frame) and, if there is one, the latest LiDAR scan, and returns the velocity com
 
 3. Speed: ``linear_speed``, at most ``curve_angular_speed / |k|`` in curves and
    ``approach_gain * s`` with s the distance left along the path, never below ``min_linear_speed``;
-   the twist is then saturated keeping its curvature (amr_kinematics.DiffDrive).
+   the twist is then saturated keeping its curvature (amr_util.diff_drive.DiffDrive).
 4. Turn in place (``ALIGN``) while the lookahead point is more than ``align_angle_deg`` off the
    heading (a path that starts behind the robot), until it is within ``aligned_angle_deg``.
 5. Goal: within ``goal_tolerance`` of the last point, turn in place to the goal heading if the
@@ -42,7 +42,6 @@ reason in :attr:`FollowCommand.message`; a bad path is refused by :meth:`set_pat
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any, Mapping
@@ -50,8 +49,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from amr_control.path_follower_config import PathFollowerConfig
-from amr_control.scan_sectors import ScanData
-from amr_kinematics.diff_drive import DiffDrive
+from amr_util.diff_drive import DiffDrive
+from amr_util.geometry import is_finite_number, wrap_angle
+from amr_util.scan import ScanData
 
 BLOCKED_TURN_DEG = 3.0
 """A blocked robot turns in place towards the lookahead point while it is further off than this."""
@@ -185,7 +185,7 @@ class PathFollower:
         """The command for the localized pose (x, y, theta) and the latest scan (None: no safety check)."""
         if self._points is None:
             return FollowCommand(0.0, 0.0, State.IDLE, message="no path")
-        if not all(_finite_number(v) for v in (x, y, theta)):
+        if not all(is_finite_number(v) for v in (x, y, theta)):
             return self._halt(State(self._state), math.nan, math.nan, False, f"non-finite pose ({x}, {y}, {theta}): stopping")
         if self._state is State.REACHED:
             return FollowCommand(0.0, 0.0, State.REACHED, message="goal reached")
@@ -216,7 +216,7 @@ class PathFollower:
         target = self._lookahead_point(progress)
         dx, dy = target[0] - x, target[1] - y
         distance = math.hypot(dx, dy)
-        alpha = _wrap(math.atan2(dy, dx) - theta) if distance > 1e-9 else 0.0
+        alpha = wrap_angle(math.atan2(dy, dx) - theta) if distance > 1e-9 else 0.0
         limit = self._aligned if self._state is State.ALIGN else self._align
         if abs(alpha) > limit:
             self._state = State.ALIGN
@@ -331,13 +331,13 @@ class PathFollower:
                 return self._emit(speed, 0.0, cross_track, remaining, "escaping a graze: driving away from it")
             self._escape = None  # done (or blocked again: pursuit decides)
             return None
-        bearing = _wrap(math.atan2(escape.y - y, escape.x - x) - theta)
+        bearing = wrap_angle(math.atan2(escape.y - y, escape.x - x) - theta)
         if abs(bearing) >= self._escape_bearing:
             escape.driving, escape.start_x, escape.start_y = True, x, y
             self._state = State.ESCAPE
             self._blocked_steps = 0
             return self._emit(speed, 0.0, cross_track, remaining, "escaping a graze: driving away from it")
-        if escape.sign * _wrap(theta - escape.theta) >= self._escape_max_turn:
+        if escape.sign * wrap_angle(theta - escape.theta) >= self._escape_max_turn:
             self._escape = None  # turned as far as it may: the block stands
             return None
         self._state = State.ESCAPE
@@ -348,7 +348,7 @@ class PathFollower:
 
     def _finish(self, theta: float, cross_track: float, remaining: float) -> FollowCommand:
         if self._goal_heading is not None:
-            error = _wrap(self._goal_heading - theta)
+            error = wrap_angle(self._goal_heading - theta)
             if abs(error) > self._heading_tolerance:
                 self._state = State.HEADING
                 return self._emit(0.0, self._turn(error), cross_track, remaining, "at the goal: turning to its heading")
@@ -381,14 +381,6 @@ class _Escape:
     start_x: float = 0.0
     start_y: float = 0.0
     """where the drive away began."""
-
-
-def _wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
-def _finite_number(value: Any) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _returns(scan: ScanData | None, lidar_x: float) -> np.ndarray | str:

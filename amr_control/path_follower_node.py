@@ -13,33 +13,26 @@ answer. Bad messages are refused with a throttled warning; nothing raises out of
 
 from __future__ import annotations
 
-import math
-
 from amr_interfaces.msg import LocalizedPose
 from amr_interfaces.srv import PlanPath
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Path
 from rclpy.lifecycle import State, TransitionCallbackReturn
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.messages import scan_data, velocity_command
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
 from amr_control.path_follower_parameters import parameter_specs
-from amr_control.sync import ApproximateTimeSynchronizer
+from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
+from amr_util.messages import scan_data, velocity_command
+from amr_util.qos import LATCHED, SENSOR_DATA
+from amr_util.sync import ApproximateTimeSynchronizer
 
 POSE, SCAN = 0, 1
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WARNING_PERIOD = 2.0
 SYNC_SLOP = 0.02  # s: /pose and /scan of one lockstep step carry the same stamp
-
-
-def yaw_of(orientation) -> float:
-    q = orientation
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class PathFollowerNode(ManagedNode):
@@ -83,7 +76,7 @@ class PathFollowerNode(ManagedNode):
             self.create_subscription(twist_type, "cmd_vel", self._on_other_command, 10),
             self.create_subscription(Path, "path", self._on_path, LATCHED),
             self.create_subscription(LocalizedPose, "pose", lambda m: self._on_message(POSE, m), 10),
-            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), qos_profile_sensor_data),
+            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
         ]
         self._client = self.create_client(PlanPath, config.planner_service)
         return TransitionCallbackReturn.SUCCESS
@@ -186,7 +179,7 @@ class PathFollowerNode(ManagedNode):
     def _compute(self, pose: LocalizedPose, scan: LaserScan) -> None:
         try:
             p = pose.pose.pose
-            command = self.follower.compute(p.position.x, p.position.y, yaw_of(p.orientation), scan_data(scan))
+            command = self.follower.compute(p.position.x, p.position.y, yaw_from_quaternion(p.orientation), scan_data(scan))
         except Exception as error:  # a controller bug must not take the robot's node down
             self.get_logger().error(f"path follower failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
             command = None

@@ -18,27 +18,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-
-@dataclass(frozen=True)
-class ScanData:
-    """The fields of a sensor_msgs/LaserScan that the controller reads."""
-
-    ranges: Sequence[float] | np.ndarray
-    angle_min: float
-    angle_increment: float
-    range_min: float = 0.0
-    range_max: float = math.inf
-
-
-def scan_of(sim) -> ScanData:
-    """The current scan of a simulator (amr_simulation.simulator.Simulator: ``ranges``, ``lidar``), copied:
-    the library loops that drive one without ROS (closed loops, benchmarks) read it this way."""
-    lidar = sim.lidar
-    return ScanData(np.array(sim.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
+from amr_util.scan import ScanData
 
 
 @dataclass(frozen=True)

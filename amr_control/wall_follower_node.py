@@ -24,13 +24,14 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.messages import scan_data, velocity_command
-from amr_control.sync import NANOSECONDS_PER_SECOND, ApproximateTimeSynchronizer
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import ConfigError, WallFollowerConfig
 from amr_control.wall_follower_parameters import parameter_specs
 from amr_util.managed_node import ManagedNode, run
+from amr_util.messages import scan_data, velocity_command
 from amr_util.qos import SENSOR_DATA, reliable
+from amr_util.stamps import NANOSECONDS_PER_SECOND
+from amr_util.sync import ApproximateTimeSynchronizer
 
 WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
 ODOMETRY, SCAN, POSE = 0, 1, 2

@@ -143,8 +143,3 @@ def rotation_error(r00, r01, r02, r10, r11, r12, r20, r21, r22,
     else:
         ax, ay = math.copysign(ax, e02 + e20), math.copysign(ay, e12 + e21)
     return ax * math.pi, ay * math.pi, az * math.pi
-
-
-def wrap_angle(angle: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi

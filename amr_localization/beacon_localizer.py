@@ -4,7 +4,7 @@ The pose is tracked by odometry. Each beacon reading (ranges d_i to known
 beacons, in their order, and a compass heading) is compared with the ranges
 expected from the tracked pose:
 
-    mismatch = sum_i | d_i(pose) - z_i | + | wrap(theta - z_theta) |
+    mismatch = sum_i | d_i(pose) - z_i | + | wrap_angle(theta - z_theta) |
 
 and when it exceeds `threshold` the robot relocalizes:
 
@@ -28,7 +28,7 @@ import numpy as np
 from amr_localization.beacons import BeaconReading, checked_beacons, range_mismatch
 from amr_localization.errors import LocalizationError
 from amr_localization.grid_search import SearchResult, exhaustive_search, pyramidal_search
-from amr_localization.poses import compose, relative_pose, wrap
+from amr_util.geometry import compose, relative_pose, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -105,7 +105,7 @@ class BeaconLocalizer:
 
     def mismatch(self, pose: tuple[float, float, float], reading: BeaconReading) -> float:
         ranges = range_mismatch(np.array([pose[:2]]), self.beacons, reading)[0]
-        return float(ranges + abs(float(wrap(pose[2] - reading.compass))))
+        return float(ranges + abs(float(wrap_angle(pose[2] - reading.compass))))
 
     def relocalize(self, reading: BeaconReading, pyramidal: bool | None = None) -> SearchResult:
         """Grid search around the tracked pose; heading from the compass. Updates and returns the pose found."""
@@ -120,5 +120,5 @@ class BeaconLocalizer:
             result = pyramidal_search(cost, centre, radius, self.config.resolution, self.config.half_cells)
         else:
             result = exhaustive_search(cost, centre, radius, self.config.resolution)
-        self.pose = (float(result.position[0]), float(result.position[1]), float(wrap(reading.compass)))
+        self.pose = (float(result.position[0]), float(result.position[1]), float(wrap_angle(reading.compass)))
         return result

@@ -1,8 +1,8 @@
 """Range-to-beacon measurements with a compass (the ULL robot's sense(): d_1..d_n plus a heading).
 
     expected d_i(x, y) = || (x, y) - b_i ||
-    mismatch(pose)     = sum_i | d_i(pose) - z_i | + | wrap(theta - z_theta) |          (seed 000, chapter 4)
-    log p(z | pose)    = sum_i log N(z_i; d_i, sigma_range) + log N(wrap(theta - z_theta); 0, sigma_compass)
+    mismatch(pose)     = sum_i | d_i(pose) - z_i | + | wrap_angle(theta - z_theta) |          (seed 000, chapter 4)
+    log p(z | pose)    = sum_i log N(z_i; d_i, sigma_range) + log N(wrap_angle(theta - z_theta); 0, sigma_compass)
 
 Beacon i is the i-th row of `positions`; BeaconRanges messages keep that order.
 """
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from amr_localization.errors import LocalizationError
-from amr_localization.poses import wrap
+from amr_util.geometry import wrap_angle
 
 
 def checked_beacons(positions) -> np.ndarray:
@@ -81,5 +81,5 @@ def beacon_log_likelihood(
 ) -> np.ndarray:
     """(N,) log p(ranges, compass | pose), Gaussian in each range and in the heading error."""
     range_error = expected_ranges(particles[:, :2], beacons) - reading.ranges[None, :]
-    heading_error = wrap(particles[:, 2] - reading.compass)
+    heading_error = wrap_angle(particles[:, 2] - reading.compass)
     return -0.5 * ((range_error / sigma_range) ** 2).sum(axis=1) - 0.5 * (heading_error / sigma_compass) ** 2

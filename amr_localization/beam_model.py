@@ -1,6 +1,6 @@
 """Beam measurement model (Thrun et al., table 6.1; AMCL's "beam"), ranges predicted by ray casting.
 
-Each particle's expected range z*_k per beam comes from amr_simulation's
+Each particle's expected range z*_k per beam comes from amr_maps'
 NumpyRayCaster over the outline of the map's occupied cells (+inf where no
 wall is in range is read as range_max). A reading z_k then scores
 
@@ -25,8 +25,8 @@ from amr_localization.distance_field import DistanceField
 from amr_localization.errors import LocalizationError
 from amr_localization.scan_beams import Beams
 from amr_localization.sensor_mount import SensorMount
-from amr_simulation.raycast import NumpyRayCaster
-from amr_simulation.world import world_from_dict
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import world_from_dict
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 stamped inputs by the approximate-time policy and publishes an estimate the same way.
 
 Inputs: each message's stamp is checked (malformed or negative: dropped with a warning) and handed to
-amr_control.sync.ApproximateTimeSynchronizer (a pure algorithm module); stamps going back beyond
+amr_util.sync.ApproximateTimeSynchronizer (a pure algorithm module); stamps going back beyond
 stamp_jump_threshold (a simulator reset) restart the pairing with a warning.
 Outputs, all stamped with the observation's stamp: /pose (LocalizedPose in global_frame), map -> odom on
 /tf (when publish_tf), ~/status (LocalizerStatus). A non-finite estimate is never published.
@@ -18,13 +18,14 @@ from nav_msgs.msg import Odometry
 from rclpy.time import Time
 from tf2_msgs.msg import TFMessage
 
-from amr_control.sync import NANOSECONDS_PER_SECOND, ApproximateTimeSynchronizer
 from amr_localization import messages
 from amr_localization.pose_estimate import PoseEstimate
-from amr_localization.poses import map_to_odom
+from amr_util.geometry import map_to_odom
 from amr_util.managed_node import ManagedNode
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
+from amr_util.stamps import NANOSECONDS_PER_SECOND
+from amr_util.sync import ApproximateTimeSynchronizer
 
 WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""

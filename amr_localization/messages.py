@@ -12,35 +12,25 @@ import math
 import numpy as np
 from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance, Quaternion, TransformStamped
+from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance, TransformStamped
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
-from transforms3d.euler import quat2euler
 
-from amr_control.scan_sectors import ScanData
 from amr_localization.beacons import BeaconReading, same_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import FilterStatus
 from amr_localization.pose_estimate import PoseEstimate
+from amr_util.geometry import yaw_from_quaternion
+from amr_util.messages import quaternion
 
 PLANAR_AXES = (0, 1, 5)
 """x, y, yaw in the row-major 6x6 covariance of PoseWithCovariance."""
 
 
-def quaternion(theta: float) -> Quaternion:
-    return Quaternion(w=math.cos(0.5 * theta), z=math.sin(0.5 * theta))
-
-
-def yaw_of(q: Quaternion) -> float:
-    """Yaw of a quaternion (transforms3d's quat2euler, static z-y-x)."""
-    return float(quat2euler((q.w, q.x, q.y, q.z))[2])
-
-
 def odometry_pose(message: Odometry) -> tuple[float, float, float]:
     """(x, y, theta) of the robot in the odometry frame."""
     pose = message.pose.pose
-    return float(pose.position.x), float(pose.position.y), yaw_of(pose.orientation)
+    return float(pose.position.x), float(pose.position.y), yaw_from_quaternion(pose.orientation)
 
 
 def beacon_positions(message: BeaconRanges) -> np.ndarray:
@@ -53,11 +43,6 @@ def beacon_reading(message: BeaconRanges, positions: np.ndarray) -> BeaconReadin
     raises LocalizationError naming the problem: other positions, a wrong count, a NaN or negative range."""
     same_beacons(positions, beacon_positions(message))
     return BeaconReading.checked(list(message.ranges), message.compass, len(positions))
-
-
-def scan_data(message: LaserScan) -> ScanData:
-    return ScanData(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
-                    message.range_min, message.range_max)
 
 
 def pose_with_covariance(x: float, y: float, theta: float, covariance: np.ndarray) -> PoseWithCovariance:
@@ -85,7 +70,7 @@ def initial_pose(message: PoseWithCovariance) -> tuple[float, float, float, np.n
     if abs(math.sqrt(q.w**2 + q.x**2 + q.y**2 + q.z**2) - 1.0) > 1e-3:
         raise LocalizationError("initial pose: the orientation is not a unit quaternion")
     covariance = planar_covariance(message)
-    return (float(message.pose.position.x), float(message.pose.position.y), yaw_of(q),
+    return (float(message.pose.position.x), float(message.pose.position.y), yaw_from_quaternion(q),
             None if not covariance.any() else covariance)
 
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from amr_localization.errors import LocalizationError
-from amr_localization.poses import wrap
+from amr_util.geometry import wrap_angle
 
 STILL = 1e-4
 """m: below this translation d_rot1 is undefined and taken as 0 (the whole turn goes into d_rot2)."""
@@ -53,8 +53,8 @@ def odometry_increment(previous: tuple[float, float, float], current: tuple[floa
     """(d_rot1, d_trans, d_rot2) between two odometry poses."""
     dx, dy = current[0] - previous[0], current[1] - previous[1]
     d_trans = math.hypot(dx, dy)
-    d_rot1 = float(wrap(math.atan2(dy, dx) - previous[2])) if d_trans >= STILL else 0.0
-    d_rot2 = float(wrap(current[2] - previous[2] - d_rot1))
+    d_rot1 = float(wrap_angle(math.atan2(dy, dx) - previous[2])) if d_trans >= STILL else 0.0
+    d_rot2 = float(wrap_angle(current[2] - previous[2] - d_rot1))
     return d_rot1, d_trans, d_rot2
 
 
@@ -68,8 +68,8 @@ def sample_motion_model_odometry(
     """New (N, 3) poses: each particle moved by its own noisy sample of the odometry increment."""
     d_rot1, d_trans, d_rot2 = odometry_increment(previous, current)
     # noise of a backwards move: measured on the rotation that does not turn around
-    rot1_noise = min(abs(d_rot1), abs(float(wrap(d_rot1 - math.pi))))
-    rot2_noise = min(abs(d_rot2), abs(float(wrap(d_rot2 - math.pi))))
+    rot1_noise = min(abs(d_rot1), abs(float(wrap_angle(d_rot1 - math.pi))))
+    rot2_noise = min(abs(d_rot2), abs(float(wrap_angle(d_rot2 - math.pi))))
     count = len(particles)
     draws = rng.standard_normal((count, 3))
     rot1 = d_rot1 - draws[:, 0] * math.sqrt(noise.alpha1 * rot1_noise**2 + noise.alpha2 * d_trans**2)
@@ -79,5 +79,5 @@ def sample_motion_model_odometry(
     heading = particles[:, 2] + rot1
     moved[:, 0] = particles[:, 0] + trans * np.cos(heading)
     moved[:, 1] = particles[:, 1] + trans * np.sin(heading)
-    moved[:, 2] = wrap(heading + rot2)
+    moved[:, 2] = wrap_angle(heading + rot2)
     return moved

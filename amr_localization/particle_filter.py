@@ -43,7 +43,6 @@ from typing import Sequence
 
 import numpy as np
 
-from amr_control.scan_sectors import ScanData
 from amr_localization.augmented_mcl import RecoveryRate
 from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons, same_beacons
 from amr_localization.beam_model import BeamModel, BeamModelParams
@@ -54,7 +53,6 @@ from amr_localization.free_space import FreeSpace
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, odometry_increment, sample_motion_model_odometry
-from amr_localization.poses import compose, relative_pose, wrap
 from amr_localization.particle_filter_config import BUILT_FIELDS, ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
@@ -64,6 +62,8 @@ from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
 from amr_maps.occupancy_grid import OccupancyGrid
+from amr_util.geometry import compose, relative_pose, wrap_angle
+from amr_util.scan import ScanData
 
 WITHDRAW_SPREAD_FACTOR = 2.0
 """localized is withdrawn when the spread exceeds this many times the declaration limit ..."""
@@ -171,7 +171,7 @@ class ParticleFilter:
         if len(inside) == 0:
             raise LocalizationError(f"initial pose: ({x:.3f}, {y:.3f}) and its spread lie outside the map's free space")
         self.particles = inside[:count] if len(inside) >= count else inside[self._rng.integers(0, len(inside), count)]
-        self.particles[:, 2] = wrap(self.particles[:, 2])
+        self.particles[:, 2] = wrap_angle(self.particles[:, 2])
         self._reset_belief()
 
     def _reset_belief(self) -> None:
@@ -233,7 +233,7 @@ class ParticleFilter:
 
     def _predict(self, odometry: tuple[float, float, float]) -> None:
         _, d_trans, _ = odometry_increment(self._odometry, odometry)
-        d_theta = abs(float(wrap(odometry[2] - self._odometry[2])))
+        d_theta = abs(float(wrap_angle(odometry[2] - self._odometry[2])))
         if d_trans > self.config.max_odometry_jump:
             # a robot does not move this far between two observations: odometry was reset or is corrupt
             # re-anchor so that the pose reported stays where it was: est_odom' = new (+) old^-1 (+) est_odom
@@ -309,7 +309,7 @@ class ParticleFilter:
         if self._history:
             last = self._history[-1].odometry
             moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
-            turned = abs(float(wrap(self._odometry[2] - last[2])))
+            turned = abs(float(wrap_angle(self._odometry[2] - last[2])))
             if moved < self.config.history_spacing and turned < 2.0 * self.config.history_spacing:
                 self._newest = snapshot
                 return
@@ -414,7 +414,7 @@ class ParticleFilter:
         weights = [self.weights]
         for rival in rivals:
             cloud = rival + self._rng.standard_normal((count, 3)) * spread
-            cloud[:, 2] = wrap(cloud[:, 2])
+            cloud[:, 2] = wrap_angle(cloud[:, 2])
             clouds.append(cloud)
             weights.append(np.where(self.free_space.contains(cloud[:, 0], cloud[:, 1]), mass / count, 0.0))
         self.particles = np.concatenate(clouds)

@@ -6,7 +6,7 @@ configure  reads the parameters and the map (`world`, rasterized; or `map_yaml`,
            else the `map` topic, transient local: the filter is built when the first map arrives),
            builds the filter (particles uniform over free space: global localization) and its topics.
 active     /odometry + /scan (use_scan) + /beacons (use_beacons: amr_interfaces/BeaconRanges) are paired by
-           stamp (amr_control.sync, the approximate-time policy); each set is one filter update and gets, all
+           stamp (amr_util.sync, the approximate-time policy); each set is one filter update and gets, all
            stamped with the scan's stamp (the beacons' without a scan):
            /pose (amr_interfaces/LocalizedPose, frame map), map -> odom on /tf, ~/status, and
            /particle_cloud (geometry_msgs/PoseArray) at most every particle_cloud_period seconds.
@@ -38,7 +38,6 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
-from amr_control.sync import NANOSECONDS_PER_SECOND
 from amr_localization import messages
 from amr_localization.beacons import BeaconReading, checked_beacons
 from amr_localization.errors import LocalizationError
@@ -46,31 +45,16 @@ from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, Localiz
 from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_localization.particle_filter_parameters import NODE_SPECS, config_of, parameter_specs
 from amr_maps.map_io import load_map
+from amr_maps.messages import grid_from_message
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.rasterize import rasterize_world
-from amr_simulation.world import load_world, resolve_world_path, world_search_dirs
+from amr_maps.world import load_world, resolve_world_path
 from amr_util.managed_node import run
-from amr_util.qos import MAP, SENSOR_DATA, reliable
-from amr_util.share import share_directory
+from amr_util.messages import scan_data
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
+from amr_util.stamps import NANOSECONDS_PER_SECOND
 
 NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS + SHELL_SPECS)
-
-
-def world_dirs() -> list[Path]:
-    """Where a relative world name is looked up (as the simulator does): share/amr_simulation, then the library's."""
-    return [share_directory("amr_simulation") / "config" / "worlds", *world_search_dirs()]
-
-
-def grid_from_message(message: OccupancyGridMessage) -> OccupancyGrid:
-    """nav_msgs/OccupancyGrid -> OccupancyGrid (row-major from cell (0, 0)); raises naming what is wrong."""
-    info = message.info
-    width, height = int(info.width), int(info.height)
-    if width * height != len(message.data) or width * height == 0:
-        raise LocalizationError(f"map: {width} x {height} cells but {len(message.data)} values")
-    origin = info.origin
-    yaw = messages.yaw_of(origin.orientation)
-    data = np.asarray(message.data, dtype=np.int8).reshape(height, width)
-    return OccupancyGrid(data, info.resolution, (origin.position.x, origin.position.y, yaw), message.header.frame_id or "map")
 
 
 class ParticleFilterNode(LocalizerNode):
@@ -128,7 +112,7 @@ class ParticleFilterNode(LocalizerNode):
         if values["world"] and values["map_yaml"]:
             raise LocalizationError("world and map_yaml: give one map source, not both")
         if values["world"]:
-            world = load_world(resolve_world_path(values["world"], world_dirs()))
+            world = load_world(resolve_world_path(values["world"]))
             if values["use_beacons"] and world.beacons:
                 self._beacon_positions = checked_beacons(world.beacons)
             return rasterize_world(world, values["map_resolution"], frame_id=values["global_frame"])
@@ -151,7 +135,7 @@ class ParticleFilterNode(LocalizerNode):
             self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, reliable()))
         if self.filter is None:
             self._inputs.append(
-                self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, MAP))
+                self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, LATCHED))
         self._node_services = [self.create_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
 
     def _input_callback(self, index: int):
@@ -226,7 +210,7 @@ class ParticleFilterNode(LocalizerNode):
         pose = messages.odometry_pose(odometry)
         reading = self._beacon_reading(beacons) if beacons is not None else None
         try:
-            return self.filter.update(pose, messages.scan_data(scan) if scan is not None else None, beacons=reading)
+            return self.filter.update(pose, scan_data(scan) if scan is not None else None, beacons=reading)
         except LocalizationError as error:
             if "odometry" in str(error):
                 self._warn(f"{error}: the last pose is repeated")

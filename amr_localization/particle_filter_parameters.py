@@ -71,7 +71,7 @@ RANGES: dict[str, tuple[float, float]] = {
 
 NODE_SPECS = (
     ParameterSpec("world", "", "the map as a simulator world file (rasterized at map_resolution): a name in "
-                  "share/amr_simulation/config/worlds or a path; '' = map_yaml or the map topic"),
+                  "share/amr_maps/config/worlds or a path; '' = map_yaml or the map topic"),
     ParameterSpec("map_yaml", "", "the map as a map_server YAML file (image + resolution + origin); "
                   "'' = world or the map topic"),
     ParameterSpec("map_resolution", 0.02, "m/cell at which a world is rasterized", minimum=0.005, maximum=1.0),

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from amr_localization.poses import wrap
+from amr_util.geometry import wrap_angle
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,6 @@ def weighted_pose(particles: np.ndarray, weights: np.ndarray) -> PoseEstimate:
     w = weights / weights.sum()
     x, y = w @ particles[:, 0], w @ particles[:, 1]
     theta = math.atan2(w @ np.sin(particles[:, 2]), w @ np.cos(particles[:, 2]))
-    deviation = np.column_stack([particles[:, 0] - x, particles[:, 1] - y, wrap(particles[:, 2] - theta)])
+    deviation = np.column_stack([particles[:, 0] - x, particles[:, 1] - y, wrap_angle(particles[:, 2] - theta)])
     covariance = (deviation * w[:, None]).T @ deviation
-    return PoseEstimate(float(x), float(y), float(wrap(theta)), covariance)
+    return PoseEstimate(float(x), float(y), float(wrap_angle(theta)), covariance)

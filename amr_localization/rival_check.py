@@ -32,8 +32,8 @@ import numpy as np
 
 from amr_localization.free_space import FreeSpace
 from amr_localization.likelihood_field import LikelihoodField
-from amr_localization.poses import compose, relative_pose, wrap
 from amr_localization.scan_beams import Beams
+from amr_util.geometry import compose, relative_pose, wrap_angle
 
 CHUNK = 20000
 """poses scored per batch in the coarse search (bounds the (poses x beams) arrays to a few MB)."""
@@ -96,7 +96,7 @@ def coarse_candidates(free_space: FreeSpace, coarse_model: LikelihoodField, beam
     headings = np.linspace(-math.pi, math.pi, params.coarse_headings, endpoint=False)
     poses = np.column_stack([np.repeat(x, headings.size), np.repeat(y, headings.size), np.tile(headings, x.size)])
     far = (np.hypot(poses[:, 0] - estimate[0], poses[:, 1] - estimate[1]) > params.exclusion_radius) | (
-        np.abs(wrap(poses[:, 2] - estimate[2])) > params.exclusion_angle)
+        np.abs(wrap_angle(poses[:, 2] - estimate[2])) > params.exclusion_angle)
     poses = poses[far]
     if len(poses) == 0:
         return poses
@@ -107,7 +107,7 @@ def coarse_candidates(free_space: FreeSpace, coarse_model: LikelihoodField, beam
     chosen: list[np.ndarray] = []
     for pose in poses[order]:
         if all(math.hypot(pose[0] - c[0], pose[1] - c[1]) > params.coarse_step
-               or abs(float(wrap(pose[2] - c[2]))) > 2.0 * math.pi / params.coarse_headings for c in chosen):
+               or abs(float(wrap_angle(pose[2] - c[2]))) > 2.0 * math.pi / params.coarse_headings for c in chosen):
             chosen.append(pose)
             if len(chosen) == params.rivals:
                 break
@@ -129,7 +129,7 @@ def refine(model: LikelihoodField, poses: np.ndarray, history: Sequence[Snapshot
         best[better] = trial.reshape(len(best), len(offsets), 3)[better, pick[better]]
         scores[better] = trial_scores[better, pick[better]]
         step = step / 2.0
-    best[:, 2] = wrap(best[:, 2])
+    best[:, 2] = wrap_angle(best[:, 2])
     return best, scores
 
 
@@ -143,11 +143,11 @@ def find_rivals(free_space: FreeSpace, model: LikelihoodField, coarse_model: Lik
     own_pose, own_score = refine(model, estimate[None, :], history, now, params)
     rivals, scores = refine(model, candidates, history, now, params)
     away = (np.hypot(rivals[:, 0] - own_pose[0, 0], rivals[:, 1] - own_pose[0, 1]) > params.exclusion_radius) | (
-        np.abs(wrap(rivals[:, 2] - own_pose[0, 2])) > params.exclusion_angle)
+        np.abs(wrap_angle(rivals[:, 2] - own_pose[0, 2])) > params.exclusion_angle)
     rivals = rivals[away & (scores >= own_score[0] - params.margin)]
     distinct: list[np.ndarray] = []  # refinements of neighbouring candidates may meet at one place
     for rival in rivals:
         if all(math.hypot(rival[0] - d[0], rival[1] - d[1]) > params.coarse_step
-               or abs(float(wrap(rival[2] - d[2]))) > params.exclusion_angle for d in distinct):
+               or abs(float(wrap_angle(rival[2] - d[2]))) > params.exclusion_angle for d in distinct):
             distinct.append(rival)
     return np.array(distinct).reshape(-1, 3)

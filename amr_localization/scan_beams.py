@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from amr_control.scan_sectors import ScanData
 from amr_localization.errors import LocalizationError
+from amr_util.scan import ScanData
 
 
 @dataclass(frozen=True)

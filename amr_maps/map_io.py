@@ -18,15 +18,14 @@ Unlike nav2 (which keeps 3 significant digits), the YAML keeps full float precis
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import yaml
 from PIL import Image, UnidentifiedImageError
 
 from amr_maps.occupancy_grid import FREE, OCCUPIED, UNKNOWN, MapError, OccupancyGrid
+from amr_util.geometry import is_finite_number
 
 MODES = ("trinary", "scale", "raw")
 REQUIRED_KEYS = ("image", "resolution", "origin", "occupied_thresh", "free_thresh", "negate")
@@ -60,7 +59,7 @@ def map_yaml_keys(path: str | Path) -> dict:
     if resolution <= 0.0:
         raise MapError(f"{path}: resolution: must be positive, got {resolution}")
     origin = data["origin"]
-    if not (isinstance(origin, list) and len(origin) == 3 and all(map(_is_number, origin))):
+    if not (isinstance(origin, list) and len(origin) == 3 and all(map(is_finite_number, origin))):
         raise MapError(f"{path}: origin: expected [x, y, yaw] (3 finite numbers), got {origin!r}")
     occupied = _number(data, "occupied_thresh", path)
     free = _number(data, "free_thresh", path)
@@ -184,12 +183,8 @@ def pixels_from_occupancy(values: np.ndarray, mode: str, occupied_thresh: float,
     return np.stack([grey, np.where(unknown, 0, 255).astype(np.uint8)], axis=-1)
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _number(data: dict, key: str, path: Path) -> float:
     value = data[key]
-    if not _is_number(value):
+    if not is_finite_number(value):
         raise MapError(f"{path}: {key}: must be a finite number, got {value!r}")
     return float(value)

@@ -4,7 +4,7 @@ configure  loads the map named by `yaml_filename` (a map_server YAML + image) or
            rasterized at `resolution`), stamps its load time with the node clock, and creates the
            publisher and the `~/map` service (nav_msgs/srv/GetMap); a malformed file fails the
            transition naming the file and the key, and leaves nothing behind.
-activate   publishes the map once on `topic_name` with transient-local durability (amr_util.qos.MAP):
+activate   publishes the map once on `topic_name` with transient-local durability (amr_util.qos.LATCHED):
            a subscriber that joins later still gets it, as from nav2's map_server.
 cleanup    frees the map, the publisher and the service.
 
@@ -20,9 +20,9 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from amr_maps.map_source import load_grid, parameter_specs
 from amr_maps.messages import grid_message
-from amr_simulation.simulator_node import world_dirs, world_problem
+from amr_maps.world import world_problem
 from amr_util.managed_node import ManagedNode, run
-from amr_util.qos import MAP
+from amr_util.qos import LATCHED
 
 
 class MapServerNode(ManagedNode):
@@ -40,13 +40,13 @@ class MapServerNode(ManagedNode):
         if problems:
             return self.fail_configure(problems)
         try:
-            grid = load_grid(self.parameter_values(), world_dirs())
+            grid = load_grid(self.parameter_values())
         except ValueError as error:  # MapError names the parameter, the file and the key
             return self.fail_configure([str(error)])
         now = self.get_clock().now().to_msg()
         self._message = grid_message(grid, now, now)
         self._publisher = self.create_lifecycle_publisher(
-            OccupancyGridMessage, self.get_parameter("topic_name").value, MAP)
+            OccupancyGridMessage, self.get_parameter("topic_name").value, LATCHED)
         self._service = self.create_service(GetMap, "~/map", self._on_get_map)
         self.get_logger().info(
             f"map {grid.width} x {grid.height} cells at {grid.resolution} m, origin {grid.origin[:2]}, "

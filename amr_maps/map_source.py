@@ -13,8 +13,7 @@ from pathlib import Path
 from amr_maps.map_io import load_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.rasterize import DEFAULT_RESOLUTION, rasterize_world
-from amr_simulation.errors import WorldError
-from amr_simulation.world import load_world, resolve_world_path
+from amr_maps.world import WorldError, load_world, resolve_world_path
 from amr_util.parameter_spec import ParameterSpec
 
 
@@ -23,7 +22,7 @@ def parameter_specs(world_problem: Callable[[str], str | None] | None = None) ->
     return (
         ParameterSpec("yaml_filename", "", "a map_server map file (name.yaml + its image), as nav2's map_server "
                       "takes it; '' = use `world`"),
-        ParameterSpec("world", "", "a simulation world (name in share/amr_simulation/config/worlds, or a path), "
+        ParameterSpec("world", "", "a world file (name in share/amr_maps/config/worlds, or a path), "
                       "rasterized at `resolution`; '' = use `yaml_filename`",
                       check=(lambda name: world_problem(name) if name and world_problem else None)),
         ParameterSpec("resolution", DEFAULT_RESOLUTION, "m per cell when the map is rasterized from `world`",
@@ -34,7 +33,8 @@ def parameter_specs(world_problem: Callable[[str], str | None] | None = None) ->
 
 
 def load_grid(values: dict, world_dirs: Sequence[Path] = ()) -> OccupancyGrid:
-    """The grid the parameter `values` name; MapError naming the parameter, file and key on failure."""
+    """The grid the parameter `values` name (a world name looked up in world_dirs, default
+    amr_maps.world.world_search_path()); MapError naming the parameter, file and key on failure."""
     yaml_filename, world = values.get("yaml_filename", ""), values.get("world", "")
     frame_id = values.get("frame_id", "map")
     if bool(yaml_filename) == bool(world):

@@ -1,7 +1,7 @@
 """An occupancy grid as a simulation world: occupied cells become solids.
 
 A map saved by a real robot's SLAM becomes a maze to simulate. Runs of occupied cells are merged into
-boxes (amr_simulation.world.solid_cells) so physics and ray casting stay fast; unknown cells are left
+boxes (amr_maps.world.solid_cells) so physics and ray casting stay fast; unknown cells are left
 open (nothing to collide with), which is what a simulated robot inside the walls never reaches.
 A world file can also name a map (`map: lab.yaml` beside `start:`); this module is for grids in memory
 and for bare map files, where a start pose may be missing.
@@ -16,8 +16,8 @@ from scipy import ndimage
 
 from amr_maps.map_io import load_map
 from amr_maps.occupancy_grid import FREE, MapError, OccupancyGrid
-from amr_simulation.pose import Pose2D, wrap_angle
-from amr_simulation.world import Goal, World, solid_cells
+from amr_maps.world import Goal, World, solid_cells
+from amr_util.geometry import Pose2D, wrap_angle
 
 OCCUPIED_PERCENT = 65
 """Cells at or above this value are solid: map_server's default occupied_thresh 0.65."""

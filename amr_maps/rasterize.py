@@ -23,7 +23,7 @@ import numpy as np
 from scipy import ndimage
 
 from amr_maps.occupancy_grid import FREE, OCCUPIED, UNKNOWN, MapError, OccupancyGrid
-from amr_simulation.world import World
+from amr_maps.world import World
 
 DEFAULT_RESOLUTION = 0.05
 DEFAULT_MARGIN = 0.1

@@ -35,10 +35,10 @@ from enum import Enum
 import numpy as np
 
 from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
-from amr_control.scan_sectors import ScanData, scan_of
 from amr_control.wall_follower import WallFollower
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
+from amr_util.scan import ScanData, scan_of
 
 
 class Mode(str, Enum):

@@ -20,6 +20,7 @@ from amr_planning.costmap import Costmap, CostmapConfig, CostmapConfigError
 from amr_planning.errors import PlanningError
 from amr_planning.roadmap import Roadmap, RoadmapConfig, RoadmapConfigError
 from amr_planning.smoothing import SmoothingConfig, SmoothingConfigError, smooth_path
+from amr_util.geometry import is_finite_number
 
 NODE_NAME = "planner"
 PLANNERS = ("astar", "prm")
@@ -71,11 +72,11 @@ class PlannerConfig:
     def __post_init__(self) -> None:
         if self.planner not in PLANNERS:
             raise PlannerConfigError(f"planner: must be one of {PLANNERS}, got {self.planner!r}")
-        if len(self.goal) not in (0, 2) or not all(_finite_number(v) for v in self.goal):
+        if len(self.goal) not in (0, 2) or not all(is_finite_number(v) for v in self.goal):
             raise PlannerConfigError(f"goal: must be [] or [x, y] (finite numbers), got {self.goal!r}")
         for name in ("resolution", "replan_distance", "snap_distance"):
             value = getattr(self, name)
-            if not (_finite_number(value) and value > 0.0):
+            if not (is_finite_number(value) and value > 0.0):
                 raise PlannerConfigError(f"{name}: must be a positive number, got {value!r}")
         try:  # the parts validate their own values; their messages name the parameter
             self.costmap, self.roadmap, self.smoothing
@@ -139,10 +140,6 @@ def distance_to_path(points: np.ndarray, x: float, y: float) -> float:
     return float(np.hypot(*(starts + t[:, None] * vectors - (x, y)).T).min())
 
 
-def _finite_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _typed(key: str, default: Any, value: Any) -> Any:
     if isinstance(default, bool):
         if not isinstance(value, bool):
@@ -159,7 +156,7 @@ def _typed(key: str, default: Any, value: Any) -> Any:
     if isinstance(default, list):
         if not isinstance(value, (list, tuple)):
             raise PlannerConfigError(f"{key}: must be a list, got {value!r}")
-        return [float(v) if _finite_number(v) else v for v in value]
+        return [float(v) if is_finite_number(v) else v for v in value]
     if not isinstance(value, str):
         raise PlannerConfigError(f"{key}: must be a string, got {value!r}")
     return value

@@ -21,29 +21,19 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from nav_msgs.msg import Path
 from rclpy.lifecycle import State, TransitionCallbackReturn
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from amr_maps.occupancy_grid import MapError, OccupancyGrid
+from amr_maps.messages import grid_from_message
+from amr_maps.occupancy_grid import MapError
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import load_world, resolve_world_path
 from amr_planning.errors import PlanningError
 from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, PlannerConfigError, distance_to_path
 from amr_planning.planner_parameters import parameter_specs
 from amr_util.managed_node import ManagedNode, run
+from amr_util.messages import quaternion
+from amr_util.qos import LATCHED
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 WARNING_PERIOD = 2.0
-
-
-def grid_from_message(message: OccupancyGridMessage) -> OccupancyGrid:
-    """The suite's OccupancyGrid of a nav_msgs/OccupancyGrid; MapError naming what is wrong."""
-    info = message.info
-    width, height = int(info.width), int(info.height)
-    if width * height != len(message.data):
-        raise MapError(f"/map: {len(message.data)} cells for width {width} x height {height}")
-    q = info.origin.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-    data = np.asarray(message.data, dtype=np.int8).reshape(height, width) if width * height else np.zeros((0, 0))
-    return OccupancyGrid(data, info.resolution, (info.origin.position.x, info.origin.position.y, yaw),
-                         message.header.frame_id or "map")
 
 
 class PlannerNode(ManagedNode):
@@ -111,9 +101,6 @@ class PlannerNode(ManagedNode):
         return TransitionCallbackReturn.SUCCESS
 
     def _load_world(self, config: PlannerConfig) -> None:
-        from amr_maps.rasterize import rasterize_world  # the maps package's rasterizer
-        from amr_simulation.world import load_world, resolve_world_path
-
         world = load_world(resolve_world_path(config.world))
         self.planner = Planner(rasterize_world(world, config.resolution), config)
         if world.goal is not None and not config.goal:
@@ -196,7 +183,7 @@ class PlannerNode(ManagedNode):
             pose = PoseStamped()
             pose.header = message.header
             pose.pose.position.x, pose.pose.position.y = float(x), float(y)
-            pose.pose.orientation.z, pose.pose.orientation.w = math.sin(heading / 2), math.cos(heading / 2)
+            pose.pose.orientation = quaternion(heading)
             message.poses.append(pose)
         return message
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from amr_simulation.config import BeaconConfig
-from amr_simulation.pose import Pose2D, wrap_angle
+from amr_util.geometry import Pose2D, wrap_angle
 
 
 class BeaconSensor:

@@ -1,12 +1,9 @@
-"""Exceptions of the simulator library: all ValueErrors, so callers may catch one type."""
+"""Exceptions of the simulator library: all ValueErrors, so callers may catch one type (a malformed world
+is amr_maps.world.WorldError, also a ValueError)."""
 
 
 class SimulationError(ValueError):
     """A request the simulator cannot honour (bad command, pose inside a wall, ...)."""
-
-
-class WorldError(SimulationError):
-    """A world description that is malformed; the message names the file and the key."""
 
 
 class ConfigError(SimulationError):

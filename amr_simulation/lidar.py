@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from amr_maps.raycast import NumpyRayCaster
 from amr_simulation.config import LidarConfig
-from amr_simulation.pose import Pose2D, compose
-from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster
+from amr_simulation.raycast import PymunkRayCaster
+from amr_util.geometry import Pose2D, compose
 
 
 class Lidar:

@@ -13,7 +13,7 @@ import math
 from collections import OrderedDict
 from dataclasses import dataclass
 
-from amr_simulation.pose import Pose2D, wrap_angle
+from amr_util.geometry import Pose2D, wrap_angle
 
 HISTORY = 200
 """Observations remembered (10 s at dt = 0.05): an estimate older than that is not judged."""

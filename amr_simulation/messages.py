@@ -6,34 +6,24 @@ Poses are planar; a yaw theta is the quaternion (w, x, y, z) = (cos(theta/2), 0,
 from __future__ import annotations
 
 import array
-import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 from amr_interfaces.msg import BeaconRanges, SimulatorStatus
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import Point, TransformStamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from amr_simulation.config import BeaconConfig, LidarConfig
-from amr_simulation.pose import Pose2D
+from amr_util.geometry import Pose2D
+from amr_util.messages import quaternion
 
 if TYPE_CHECKING:
     from amr_simulation.simulator import Simulator
-
-NANOSECONDS = 1_000_000_000
-
-
-def stamp(seconds: float) -> Time:
-    """A builtin_interfaces/Time from simulated seconds (>= 0)."""
-    total = round(seconds * NANOSECONDS)
-    return Time(sec=total // NANOSECONDS, nanosec=total % NANOSECONDS)
-
 
 def clock(time: Time) -> Clock:
     return Clock(clock=time)
@@ -45,9 +35,9 @@ def transform(time: Time, parent: str, child: str, pose: Pose2D) -> TransformSta
     message.header.stamp = time
     message.header.frame_id = parent
     message.child_frame_id = child
-    translation, rotation = message.transform.translation, message.transform.rotation
+    translation = message.transform.translation
     translation.x, translation.y = pose.x, pose.y
-    rotation.w, rotation.z = math.cos(0.5 * pose.theta), math.sin(0.5 * pose.theta)
+    message.transform.rotation = quaternion(pose.theta)
     return message
 
 
@@ -62,9 +52,9 @@ def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequ
     message.header.stamp = time
     message.header.frame_id = frame
     message.child_frame_id = child_frame
-    position, orientation = message.pose.pose.position, message.pose.pose.orientation
+    position = message.pose.pose.position
     position.x, position.y = pose.x, pose.y
-    orientation.w, orientation.z = math.cos(0.5 * pose.theta), math.sin(0.5 * pose.theta)
+    message.pose.pose.orientation = quaternion(pose.theta)
     vx, vy, w = twist
     message.twist.twist.linear.x, message.twist.twist.linear.y = vx, vy
     message.twist.twist.angular.z = w

@@ -18,9 +18,9 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, FancyArrow, Polygon
 
+from amr_maps.world import World
 from amr_simulation.config import LidarConfig
-from amr_simulation.pose import Pose2D
-from amr_simulation.world import World
+from amr_util.geometry import Pose2D
 
 if TYPE_CHECKING:
     from amr_simulation.simulator import Simulator

@@ -20,16 +20,17 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from amr_kinematics.diff_drive import DiffDrive
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import Goal, World, load_world, resolve_world_path
 from amr_simulation.beacon_sensor import BeaconSensor
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.encoders import Encoders
 from amr_simulation.errors import SimulationError
 from amr_simulation.lidar import Lidar
 from amr_simulation.physics import WALLS_ONLY, Physics, substeps
-from amr_simulation.pose import Pose2D, arc_twist, chord_factor, integrate_arc, wrap_angle
-from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster
-from amr_simulation.world import Goal, World, load_world, resolve_world_path
+from amr_simulation.raycast import PymunkRayCaster
+from amr_util.diff_drive import DiffDrive
+from amr_util.geometry import Pose2D, arc_twist, chord_factor, integrate_arc, wrap_angle
 
 
 class Simulator:
@@ -53,7 +54,8 @@ class Simulator:
     def from_params(
         cls, params: Mapping[str, Any], worlds_dirs: Sequence[str | Path] = (), ignore: Iterable[str] = ()
     ) -> "Simulator":
-        """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs."""
+        """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs (default:
+        amr_maps.world.world_search_path())."""
         config = SimulationConfig.from_params(params, ignore)
         return cls(load_world(resolve_world_path(config.world, worlds_dirs)), config)
 

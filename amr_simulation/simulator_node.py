@@ -46,7 +46,6 @@ import time
 from collections import deque
 from pathlib import Path
 
-from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
 from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
 from amr_interfaces.srv import SetPose
 from geometry_msgs.msg import Twist, TwistStamped
@@ -59,16 +58,16 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
+from amr_maps.world import world_problem
 from amr_simulation import messages
 from amr_simulation.config import SimulationConfig
-from amr_simulation.errors import WorldError
 from amr_simulation.localization_check import LocalizationCheck
 from amr_simulation.parameters import NODE_PARAMETERS, parameter_specs
-from amr_simulation.pose import Pose2D, map_to_odom
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import resolve_world_path, world_search_dirs
+from amr_util.geometry import Pose2D, map_to_odom, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
-from amr_util.qos import MAP, SENSOR_DATA, reliable
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
+from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
 
 TF_DEPTH = 100
 """Queue depth of /tf (tf2's dynamic broadcaster uses 100)."""
@@ -76,24 +75,6 @@ WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
 RATE_WINDOW = 20
 """Steps over which the status real-time factor is measured."""
-
-
-def world_dirs() -> list[Path]:
-    """Where a relative world name is looked up: the package share directory, then the library's."""
-    try:
-        share = [Path(get_package_share_directory("amr_simulation")) / "config" / "worlds"]
-    except (PackageNotFoundError, EnvironmentError):
-        share = []
-    return share + list(world_search_dirs())
-
-
-def world_problem(name: str) -> str | None:
-    """Why the world parameter names no world file, or None."""
-    try:
-        resolve_world_path(name, world_dirs())
-    except (WorldError, ValueError, OSError) as problem:
-        return str(problem)
-    return None
 
 
 class RateMeter:
@@ -150,7 +131,7 @@ class SimulatorNode(ManagedNode):
         if problems:
             return self.fail_configure(problems)
         try:
-            self._sim = Simulator.from_params(self._library_parameters(), world_dirs())
+            self._sim = Simulator.from_params(self._library_parameters())
             self._create_interfaces()
         except Exception as error:  # ValueErrors name the key; anything else is reported as is
             self._teardown()
@@ -252,7 +233,7 @@ class SimulatorNode(ManagedNode):
         """/tf (reliable, volatile) and /tf_static (transient local: late joiners get the mounting)."""
         self._tf_parts = (self.get_parameter("publish_tf").value, self.get_parameter("publish_map_to_odom").value)
         if self._tf_parts[0]:
-            self._outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, "/tf_static", MAP)
+            self._outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, "/tf_static", LATCHED)
         if any(self._tf_parts):
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "/tf", reliable(TF_DEPTH))
 
@@ -389,7 +370,7 @@ class SimulatorNode(ManagedNode):
         self._last_output = time.monotonic()
         sim, frames, outputs = self._sim, self._frames, self._outputs
         now = self._now()
-        stamp = messages.stamp(now)
+        stamp = stamp_from_seconds(now)
         if "clock" in outputs:
             outputs["clock"].publish(messages.clock(stamp))
         if "tf" in outputs:
@@ -425,7 +406,7 @@ class SimulatorNode(ManagedNode):
     def _publish_localization_inputs(self, stamp) -> None:
         """Per observation: the beacon reading, and the true pose the next /pose will be judged against."""
         if self._localization_check is not None:
-            self._localization_check.observed(stamp.sec * 1_000_000_000 + stamp.nanosec, self._sim.pose, self._sim.time)
+            self._localization_check.observed(stamp_nanoseconds(stamp), self._sim.pose, self._sim.time)
         reading = self._sim.beacon_reading() if "beacons" in self._outputs else None
         if reading is not None:
             self._outputs["beacons"].publish(messages.beacon_ranges(stamp, self._frames["world"], *reading,
@@ -434,9 +415,8 @@ class SimulatorNode(ManagedNode):
     def _on_pose(self, message: LocalizedPose) -> None:
         try:
             pose = message.pose.pose
-            q = pose.orientation
-            theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-            stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
+            theta = yaw_from_quaternion(pose.orientation)
+            stamp = stamp_nanoseconds(message.header.stamp)
             line = self._localization_check.estimate(stamp, pose.position.x, pose.position.y, theta, message.localized)
             if line:
                 self.get_logger().info(line)
@@ -468,7 +448,7 @@ class SimulatorNode(ManagedNode):
         """base -> scan: where the LiDAR sits on the robot (lidar.x, lidar.y), latched for late joiners."""
         if "tf_static" in self._outputs:
             lidar = self._sim.lidar
-            mounting = messages.transform(messages.stamp(self._now()), self._frames["base"], self._frames["scan"],
+            mounting = messages.transform(stamp_from_seconds(self._now()), self._frames["base"], self._frames["scan"],
                                           Pose2D(lidar.x, lidar.y, 0.0))
             self._outputs["tf_static"].publish(messages.tf_message([mounting]))
 

@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
+from amr_util.geometry import wrap_angle
+
 
 class Verdict(Enum):
     """What happened to a pose sample."""
@@ -42,11 +44,6 @@ class Estimate:
     @property
     def accepted(self) -> bool:
         return self.verdict in (Verdict.FIRST, Verdict.OK)
-
-
-def wrap_angle(angle: float) -> float:
-    """The same angle in [-pi, pi]."""
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 class PoseDifferentiator:

@@ -5,9 +5,9 @@ from __future__ import annotations
 from nav_msgs.msg import Odometry
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
-from transforms3d.euler import quat2euler
 
 from amr_turtlebot3.odometry import PoseDifferentiator, PoseSample, Verdict
+from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run, topic_name_problem
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
@@ -22,12 +22,10 @@ PARAMETERS = (
 
 
 def pose_sample(message: Odometry) -> PoseSample:
-    """Stamp, position and yaw of an Odometry message (yaw through transforms3d's quat2euler)."""
+    """Stamp, position and yaw of an Odometry message."""
     pose = message.pose.pose
-    q = pose.orientation
-    _, _, yaw = quat2euler((q.w, q.x, q.y, q.z))
     stamp = Time.from_msg(message.header.stamp).nanoseconds * 1e-9
-    return PoseSample(stamp, pose.position.x, pose.position.y, yaw)
+    return PoseSample(stamp, pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation))
 
 
 class OdometryNode(ManagedNode):

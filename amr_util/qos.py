@@ -13,6 +13,7 @@ def reliable(depth: int = 10) -> QoSProfile:
     return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE)
 
 
-MAP = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                 history=HistoryPolicy.KEEP_LAST)
-"""Maps and static transforms: latched (transient local), as map_server and tf_static publish them."""
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                     history=HistoryPolicy.KEEP_LAST)
+"""Maps, paths and static transforms: latched (transient local, the last one kept), as map_server and
+tf_static publish them: a subscriber that joins later still gets the last message."""

@@ -13,7 +13,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from amr_viewer.geometry import Pose, yaw_of
+from amr_util.geometry import Pose2D, yaw_from_quaternion
+
+
+class Quaternion(NamedTuple):
+    x: float
+    y: float
+    z: float
+    w: float
 
 
 class CdrError(ValueError):
@@ -30,7 +37,7 @@ class StampedTransform(NamedTuple):
     parent: str
     child: str
     stamp: float
-    pose: Pose
+    pose: Pose2D
 
 
 class Reader:
@@ -73,9 +80,9 @@ class Reader:
         sec, nanosec = self.int32(), self.uint32()
         return Stamped(self.string(), sec + nanosec * 1e-9)
 
-    def pose(self) -> Pose:
+    def pose(self) -> Pose2D:
         x, y, _z, qx, qy, qz, qw = self.float64s(7)
-        return Pose(x, y, yaw_of(qx, qy, qz, qw))
+        return Pose2D(x, y, yaw_from_quaternion(Quaternion(qx, qy, qz, qw)))
 
 
 def tf_message(data: bytes) -> list[StampedTransform]:
@@ -106,5 +113,5 @@ def pose_array(data: bytes) -> tuple[Stamped, np.ndarray]:
         raise CdrError(f"PoseArray of {count} poses")
     values = reader.float64_array(7 * count).reshape(count, 7)
     qx, qy, qz, qw = values[:, 3], values[:, 4], values[:, 5], values[:, 6]
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)  # yaw_from_quaternion, vectorized
     return header, np.column_stack([values[:, 0], values[:, 1], yaw])

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 
-from amr_viewer.geometry import Pose, finite
+from amr_util.geometry import Pose2D
+from amr_viewer.geometry import finite
 
 GOAL, INITIAL_POSE, OFF = "goal", "initial pose", "off"
 MODES = (GOAL, INITIAL_POSE, OFF)
@@ -32,7 +33,7 @@ class ClickTool:
     def set_two_clicks(self, two_clicks: bool) -> None:
         self.two_clicks, self.pending = bool(two_clicks), None
 
-    def click(self, x: float, y: float, robot: Pose | None) -> tuple[str, Pose] | None:
+    def click(self, x: float, y: float, robot: Pose2D | None) -> tuple[str, Pose] | None:
         """(mode, pose) to send, or None (off, a first click of two, or a point that is not finite)."""
         if self.mode == OFF or not finite(x, y):
             return None
@@ -41,12 +42,12 @@ class ClickTool:
                 self.pending = (x, y)
                 return None
             (px, py), self.pending = self.pending, None
-            return self.mode, Pose(px, py, heading(px, py, x, y, 0.0))
+            return self.mode, Pose2D(px, py, heading(px, py, x, y, 0.0))
         if robot is None or not finite(*robot):
-            return self.mode, Pose(x, y, 0.0)
+            return self.mode, Pose2D(x, y, 0.0)
         if self.mode == GOAL:
-            return self.mode, Pose(x, y, heading(robot.x, robot.y, x, y, robot.yaw))
-        return self.mode, Pose(x, y, robot.yaw)
+            return self.mode, Pose2D(x, y, heading(robot.x, robot.y, x, y, robot.theta))
+        return self.mode, Pose2D(x, y, robot.theta)
 
 
 def heading(x0: float, y0: float, x1: float, y1: float, default: float) -> float:

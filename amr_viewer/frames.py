@@ -6,7 +6,8 @@ Only the latest transform is kept: a view draws the present, not an interpolated
 
 from __future__ import annotations
 
-from amr_viewer.geometry import IDENTITY, Pose, compose, finite, inverse
+from amr_util.geometry import Pose2D, compose, inverse
+from amr_viewer.geometry import IDENTITY, finite
 
 MAX_DEPTH = 64
 """Frames followed up a chain before it is taken for a loop."""
@@ -16,7 +17,7 @@ class TransformTree:
     def __init__(self) -> None:
         self._parents: dict[str, tuple[str, Pose]] = {}
 
-    def set(self, parent: str, child: str, pose: Pose) -> bool:
+    def set(self, parent: str, child: str, pose: Pose2D) -> bool:
         """Record parent -> child; False (and nothing kept) for a non-finite pose, an empty name or a self loop."""
         parent, child = parent.lstrip("/"), child.lstrip("/")
         if not parent or not child or parent == child or not finite(*pose):
@@ -39,7 +40,7 @@ class TransformTree:
             pose, frame, seen = compose(step, pose), parent, seen + 1
         return frame, pose
 
-    def lookup(self, target: str, source: str) -> Pose | None:
+    def lookup(self, target: str, source: str) -> Pose2D | None:
         """The pose of frame `source` in frame `target`, or None when they are not connected."""
         target, source = target.lstrip("/"), source.lstrip("/")
         if target == source:
@@ -50,7 +51,7 @@ class TransformTree:
             return None
         return compose(inverse(target_pose), source_pose)
 
-    def lookup_or_assume(self, target: str, source: str, assumed: tuple[str, str]) -> Pose | None:
+    def lookup_or_assume(self, target: str, source: str, assumed: tuple[str, str]) -> Pose2D | None:
         """lookup(); when it fails and the frames connect once `assumed` (parent, child) is taken as identity (a map
         -> odom no localizer publishes: odometry is then drawn as if it were the map), with that."""
         found = self.lookup(target, source)

@@ -1,7 +1,7 @@
-"""Planar poses, covariance ellipses, the floor under a click and the top-down camera: no ROS, no viser.
+"""Covariance ellipses, scans in the plane, the floor under a click and the top-down camera: no ROS, no viser.
 
-Angles follow REP 103 (radians, counter-clockwise); quaternions are (x, y, z, w) as in ROS messages,
-and `wxyz` is viser's order.
+Poses are amr_util.geometry's Pose2D (x, y, theta; REP 103) and composed with its compose/inverse; `wxyz` is
+viser's quaternion order (ROS's is x, y, z, w).
 """
 
 from __future__ import annotations
@@ -11,56 +11,25 @@ from typing import NamedTuple
 
 import numpy as np
 
-
-class Pose(NamedTuple):
-    """x, y in metres, yaw in radians."""
-
-    x: float
-    y: float
-    yaw: float
+from amr_util.geometry import Pose2D, all_finite, quaternion_from_yaw
 
 
-IDENTITY = Pose(0.0, 0.0, 0.0)
+IDENTITY = Pose2D(0.0, 0.0, 0.0)
 
 
-def yaw_of(qx: float, qy: float, qz: float, qw: float) -> float:
-    """The heading (rotation about z) of a quaternion."""
-    return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-
-
-def quaternion_of(yaw: float) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation by `yaw` about z."""
-    return 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw)
-
-
-def wxyz_of(yaw: float) -> tuple[float, float, float, float]:
-    """viser's (w, x, y, z) of a rotation by `yaw` about z."""
-    return math.cos(0.5 * yaw), 0.0, 0.0, math.sin(0.5 * yaw)
-
-
-def compose(a: Pose, b: Pose) -> Pose:
-    """a * b: the pose b (given in a's frame) in a's parent frame."""
-    c, s = math.cos(a.yaw), math.sin(a.yaw)
-    return Pose(a.x + c * b.x - s * b.y, a.y + s * b.x + c * b.y, wrap(a.yaw + b.yaw))
-
-
-def inverse(a: Pose) -> Pose:
-    c, s = math.cos(a.yaw), math.sin(a.yaw)
-    return Pose(-c * a.x - s * a.y, s * a.x - c * a.y, wrap(-a.yaw))
-
-
-def wrap(angle: float) -> float:
-    """The angle in [-pi, pi)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+def wxyz_of(theta: float) -> tuple[float, float, float, float]:
+    """viser's (w, x, y, z) of a rotation by `theta` about z."""
+    x, y, z, w = quaternion_from_yaw(theta)
+    return w, x, y, z
 
 
 def finite(*values: float) -> bool:
-    return all(math.isfinite(v) for v in values)
+    return all_finite(values)
 
 
-def transform_points(pose: Pose, points: np.ndarray) -> np.ndarray:
+def transform_points(pose: Pose2D, points: np.ndarray) -> np.ndarray:
     """(N, 2) points given in the frame `pose` places, in its parent frame."""
-    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    c, s = math.cos(pose.theta), math.sin(pose.theta)
     rotation = np.array([[c, -s], [s, c]])
     return points @ rotation.T + np.array([pose.x, pose.y])
 

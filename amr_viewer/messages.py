@@ -9,17 +9,19 @@ import math
 
 import numpy as np
 
-from amr_viewer.geometry import Pose, finite, quaternion_of, yaw_of
+from amr_util.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
+from amr_util.messages import scan_data
+from amr_viewer.geometry import finite
 from amr_viewer.state import Estimate, MapImage, Scan, map_image
 
 INITIAL_POSE_VARIANCE = (0.25, 0.25, 0.06853891945200942)
 """(x, y, yaw) variances RViz's 2D Pose Estimate sends: 0.5 m and pi / 12 rad standard deviations."""
 
 
-def pose_of(pose) -> Pose:
+def pose_of(pose) -> Pose2D:
     """A geometry_msgs/Pose in the plane."""
     q = pose.orientation
-    return Pose(pose.position.x, pose.position.y, yaw_of(q.x, q.y, q.z, q.w))
+    return Pose2D(pose.position.x, pose.position.y, yaw_from_quaternion(q))
 
 
 def occupancy_grid(message) -> MapImage:
@@ -28,8 +30,7 @@ def occupancy_grid(message) -> MapImage:
 
 
 def laser_scan(message) -> Scan:
-    return Scan(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
-                message.range_min, message.range_max, message.header.frame_id)
+    return Scan(scan_data(message), message.header.frame_id)
 
 
 def localized_pose(message) -> Estimate:
@@ -58,7 +59,7 @@ def simulator_status(message) -> dict:
     return {name: getattr(message, name) for name in STATUS_FIELDS}
 
 
-def fill_pose_stamped(message, frame_id: str, stamp, pose: Pose):
+def fill_pose_stamped(message, frame_id: str, stamp, pose: Pose2D):
     """A geometry_msgs/PoseStamped (given empty) set to `pose` in `frame_id`; ValueError for a non-finite pose."""
     if not finite(*pose):
         raise ValueError(f"pose {tuple(pose)} is not finite")
@@ -67,7 +68,7 @@ def fill_pose_stamped(message, frame_id: str, stamp, pose: Pose):
     return message
 
 
-def fill_initial_pose(message, frame_id: str, stamp, pose: Pose, variance=INITIAL_POSE_VARIANCE):
+def fill_initial_pose(message, frame_id: str, stamp, pose: Pose2D, variance=INITIAL_POSE_VARIANCE):
     """A geometry_msgs/PoseWithCovarianceStamped (given empty) as RViz's 2D Pose Estimate sends it."""
     if not finite(*pose):
         raise ValueError(f"pose {tuple(pose)} is not finite")
@@ -79,9 +80,9 @@ def fill_initial_pose(message, frame_id: str, stamp, pose: Pose, variance=INITIA
     return message
 
 
-def _fill_pose(target, pose: Pose) -> None:
+def _fill_pose(target, pose: Pose2D) -> None:
     target.position.x, target.position.y, target.position.z = float(pose.x), float(pose.y), 0.0
-    qx, qy, qz, qw = quaternion_of(pose.yaw)
+    qx, qy, qz, qw = quaternion_from_yaw(pose.theta)
     target.orientation.x, target.orientation.y, target.orientation.z, target.orientation.w = qx, qy, qz, qw
 
 

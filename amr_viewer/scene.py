@@ -14,7 +14,8 @@ import numpy as np
 import viser
 
 from amr_viewer.arms import ArmSet
-from amr_viewer.geometry import Pose, wxyz_of
+from amr_util.geometry import Pose2D
+from amr_viewer.geometry import wxyz_of
 from amr_viewer.state import RobotState
 
 COLORS = {
@@ -50,11 +51,11 @@ def segments_at(segments: np.ndarray, z: float) -> np.ndarray:
     return out
 
 
-def arrow(pose: Pose, length: float) -> np.ndarray:
+def arrow(pose: Pose2D, length: float) -> np.ndarray:
     """A heading arrow as (3, 2, 2) segments: shaft and two barbs."""
-    tip = np.array([pose.x + length * math.cos(pose.yaw), pose.y + length * math.sin(pose.yaw)])
+    tip = np.array([pose.x + length * math.cos(pose.theta), pose.y + length * math.sin(pose.theta)])
     base = np.array([pose.x, pose.y])
-    barbs = [tip - 0.35 * length * np.array([math.cos(pose.yaw + s), math.sin(pose.yaw + s)]) for s in (0.5, -0.5)]
+    barbs = [tip - 0.35 * length * np.array([math.cos(pose.theta + s), math.sin(pose.theta + s)]) for s in (0.5, -0.5)]
     return np.array([[base, tip], [tip, barbs[0]], [tip, barbs[1]]])
 
 
@@ -167,7 +168,7 @@ class Scene:
         rgb = np.repeat(np.repeat(image.rgb, factor, axis=0), factor, axis=1)      # interpolates the texture
         self._put(f"{root}/map", self.scene.add_image(
             f"{root}/map", rgb, image.width, image.height, format="png", cast_shadow=False,
-            receive_shadow=False, position=(image.center.x, image.center.y, -0.001), wxyz=wxyz_of(image.center.yaw)))
+            receive_shadow=False, position=(image.center.x, image.center.y, -0.001), wxyz=wxyz_of(image.center.theta)))
 
     def _draw_world(self, state: RobotState, root: str) -> None:
         goal = state.world_goal
@@ -260,7 +261,7 @@ class Scene:
             self._handles[f"{name}/heading"] = self.scene.add_line_segments(
                 f"{name}/heading", nose, COLORS["heading"], thickness=2 * LINE)
         handle.position = (pose.x, pose.y, HEIGHTS["robot"])
-        handle.wxyz = wxyz_of(pose.yaw)
+        handle.wxyz = wxyz_of(pose.theta)
         handle.visible = True
 
     # -- arms -------------------------------------------------------------------------------------------------

@@ -16,7 +16,9 @@ import numpy as np
 
 from amr_viewer.cdr import StampedTransform
 from amr_viewer.frames import TransformTree
-from amr_viewer.geometry import Pose, covariance_ellipse, finite, scan_points, transform_points
+from amr_util.geometry import Pose2D
+from amr_util.scan import ScanData
+from amr_viewer.geometry import covariance_ellipse, finite, scan_points, transform_points
 
 LAYERS = ("map", "robot", "truth", "scan", "particles", "estimate", "path", "goal", "world", "beacons", "trail")
 TRAIL_BREAK = 0.5
@@ -40,13 +42,13 @@ class MapImage:
     width: float
     """m along the grid's x"""
     height: float
-    center: Pose
+    center: Pose2D
     """the image centre and the grid's yaw, in the map frame"""
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) of the image's corners in the map frame."""
-        c, s = math.cos(self.center.yaw), math.sin(self.center.yaw)
+        c, s = math.cos(self.center.theta), math.sin(self.center.theta)
         corners = [(sx * self.width / 2, sy * self.height / 2) for sx in (-1, 1) for sy in (-1, 1)]
         xs = [self.center.x + c * u - s * v for u, v in corners]
         ys = [self.center.y + s * u + c * v for u, v in corners]
@@ -56,7 +58,7 @@ class MapImage:
 FREE_GRAY, OCCUPIED_GRAY, UNKNOWN_GRAY = 250, 45, 200
 
 
-def map_image(width: int, height: int, resolution: float, origin: Pose, data) -> MapImage:
+def map_image(width: int, height: int, resolution: float, origin: Pose2D, data) -> MapImage:
     """An OccupancyGrid's cells (row-major from cell (0, 0)) as gray levels: free light, occupied dark, unknown
     mid-gray; ValueError naming what is wrong with the grid."""
     if width <= 0 or height <= 0 or not (resolution > 0.0 and math.isfinite(resolution)) or not finite(*origin):
@@ -69,24 +71,20 @@ def map_image(width: int, height: int, resolution: float, origin: Pose, data) ->
     gray = FREE_GRAY + (OCCUPIED_GRAY - FREE_GRAY) * known
     gray = np.where(cells < 0, UNKNOWN_GRAY, gray).astype(np.uint8)
     w, h = width * resolution, height * resolution
-    c, s = math.cos(origin.yaw), math.sin(origin.yaw)
-    center = Pose(origin.x + c * w / 2 - s * h / 2, origin.y + s * w / 2 + c * h / 2, origin.yaw)
+    c, s = math.cos(origin.theta), math.sin(origin.theta)
+    center = Pose2D(origin.x + c * w / 2 - s * h / 2, origin.y + s * w / 2 + c * h / 2, origin.theta)
     return MapImage(np.repeat(gray[:, :, None], 3, axis=2), w, h, center)
 
 
 @dataclass
 class Scan:
-    ranges: np.ndarray
-    angle_min: float
-    angle_increment: float
-    range_min: float
-    range_max: float
+    data: ScanData
     frame_id: str
 
 
 @dataclass
 class Estimate:
-    pose: Pose
+    pose: Pose2D
     covariance: tuple[float, float, float]
     """(xx, xy, yy) m^2"""
     localized: bool
@@ -165,13 +163,13 @@ class RobotState:
         self.tree = TransformTree()
         self.versions: Counter[str] = Counter()
         self.map: MapImage | None = None
-        self.truth: Pose | None = None
+        self.truth: Pose2D | None = None
         self.scan: Scan | None = None
         self.particles: np.ndarray = np.zeros((0, 3))
         self.particle_count = 0
         self.estimate: Estimate | None = None
         self.path: np.ndarray = np.zeros((0, 2))
-        self.goal: Pose | None = None
+        self.goal: Pose2D | None = None
         self.world_goal: WorldGoal | None = None
         self.beacons: np.ndarray = np.zeros((0, 2))
         self.trail = Trail(spacing=trail_spacing)
@@ -231,7 +229,7 @@ class RobotState:
         self.path = points[np.isfinite(points).all(axis=1)]
         self._changed("path")
 
-    def on_goal(self, pose: Pose) -> None:
+    def on_goal(self, pose: Pose2D) -> None:
         if finite(*pose):
             self.goal = pose
             self._changed("goal")
@@ -257,7 +255,7 @@ class RobotState:
 
     # -- what is drawn ------------------------------------------------------------------------------------------
 
-    def robot_pose(self) -> Pose | None:
+    def robot_pose(self) -> Pose2D | None:
         """base_footprint in the map: through TF, else the ground truth."""
         frames = self.frames
         pose = self.tree.lookup_or_assume(frames.map, frames.base, (frames.map, frames.odom))
@@ -273,9 +271,9 @@ class RobotState:
             pose = self.truth
         if pose is None:
             return np.zeros((0, 2))
-        scan = self.scan
-        return transform_points(pose, scan_points(scan.ranges, scan.angle_min, scan.angle_increment,
-                                                  scan.range_min, scan.range_max))
+        data = self.scan.data
+        return transform_points(pose, scan_points(data.ranges, data.angle_min, data.angle_increment,
+                                                  data.range_min, data.range_max))
 
     def estimate_ellipse(self, sigmas: float = 2.0) -> np.ndarray | None:
         if self.estimate is None:

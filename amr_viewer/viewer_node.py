@@ -37,14 +37,15 @@ from sensor_msgs.msg import JointState, LaserScan
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
-from amr_simulation.world import load_world, resolve_world_path
+from amr_maps.world import load_world, resolve_world_path
 from amr_util.managed_node import ManagedNode, run
 from amr_util.parameter_spec import ParameterSpec
-from amr_util.qos import MAP, SENSOR_DATA, reliable
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_viewer import cdr, messages, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool
-from amr_viewer.geometry import Pose, floor_point, oblique_camera, top_down_camera
+from amr_util.geometry import Pose2D
+from amr_viewer.geometry import floor_point, oblique_camera, top_down_camera
 from amr_viewer.parameters import entry_from, value_of, visible
 from amr_viewer.state import Frames, RobotState, WorldGoal
 
@@ -88,7 +89,7 @@ class RobotLink:
         "tf": (TFMessage, reliable(100), True), "tf_static": (TFMessage, TF_STATIC, True),
         "ground_truth": (Odometry, reliable(10), True), "scan": (LaserScan, SENSOR_DATA, False),
         "particle_cloud": (PoseArray, reliable(2), False), "pose": (LocalizedPose, reliable(10), False),
-        "path": (Path, MAP, False), "beacons": (BeaconRanges, reliable(10), False), "map": (OccupancyGrid, MAP, False),
+        "path": (Path, LATCHED, False), "beacons": (BeaconRanges, reliable(10), False), "map": (OccupancyGrid, LATCHED, False),
         "simulator/status": (SimulatorStatus, reliable(10), False),
     }
 
@@ -581,7 +582,7 @@ class ViewerNode(ManagedNode):
         mode, pose = chosen
         self.send_pose(mode, pose, link.state.namespace if link is not None else "")
 
-    def send_pose(self, mode: str, pose: Pose, namespace: str = "") -> None:
+    def send_pose(self, mode: str, pose: Pose2D, namespace: str = "") -> None:
         """Publish a goal (/goal_pose) or a pose estimate (/initialpose) in the map frame, in `namespace`."""
         stamp = self.get_clock().now().to_msg()
         if mode == GOAL:
@@ -593,7 +594,7 @@ class ViewerNode(ManagedNode):
             self._pose_publishers[topic] = self.create_publisher(type(message), topic, reliable(10))
         self._pose_publishers[topic].publish(message)
         self.panels.click_reply.content = f"sent {topic}: ({pose.x:.2f}, {pose.y:.2f}), " \
-                                          f"{math.degrees(pose.yaw):.0f} deg"
+                                          f"{math.degrees(pose.theta):.0f} deg"
 
     # -- the parameters panel ---------------------------------------------------------------------------------
 

@@ -19,23 +19,23 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from amr_control.scan_sectors import scan_of  # noqa: E402
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
+from amr_evaluation.closed_loop import run  # noqa: E402
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig  # noqa: E402
 from amr_localization.beacons import BeaconReading, expected_ranges  # noqa: E402
-from amr_localization.closed_loop import run  # noqa: E402
 from amr_localization.distance_field import DistanceField  # noqa: E402
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams  # noqa: E402
 from amr_localization.particle_filter import ParticleFilter  # noqa: E402
 from amr_localization.particle_filter_config import ParticleFilterConfig  # noqa: E402
-from amr_localization.poses import wrap  # noqa: E402
 from amr_localization.scan_beams import select_beams  # noqa: E402
 from amr_localization.sensor_mount import SensorMount  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
+from amr_maps.world import World, load_world, world_from_dict  # noqa: E402
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.world import World, load_world, world_from_dict  # noqa: E402
+from amr_util.geometry import wrap_angle  # noqa: E402
+from amr_util.scan import scan_of  # noqa: E402
 
 WORLDS = ROOT / "config" / "worlds"
 FOLLOWER = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
@@ -280,7 +280,7 @@ def beacon_comparison_run(world: World, start, seed: int, seconds: float) -> dic
             pose, localized = localizer.update(odometry, scan, reading)
             cpu = time.process_time() - started
             for values, value in zip(traces[name], (sim.time, localized, math.hypot(pose[0] - truth.x, pose[1] - truth.y),
-                                                     abs(float(wrap(pose[2] - truth.theta))), cpu)):
+                                                     abs(float(wrap_angle(pose[2] - truth.theta))), cpu)):
                 values.append(value)
         command = follower.compute(scan, *sim.odom_twist, sim.time)
         sim.step(command.v, command.w)

@@ -11,7 +11,7 @@ the wall follower in X of Y cases both solve. Asserts nothing.
 Cases: the shipped worlds with a goal (a few seeds); inner_maze and outer_corridor, which have none,
 with their far free point (as bench_planning.py); twin_rooms (symmetric: the filter must never say
 localized there, so no goal is expected; reported apart, as are generated worlds whose walls map onto
-themselves under a 90 or 180 deg rotation, e.g. plain rectangular open rooms); generated mazes of amr_simulation.maze_families
+themselves under a 90 or 180 deg rotation, e.g. plain rectangular open rooms); generated mazes of amr_maps.maze_families
 (corridors 0.35 / 0.45 / 0.6 m, LiDAR noise 0 / 0.01 / 0.03 m cycled over the seeds, as bench_planning.py)
 with the family's goal (reachable by the wall follower's hand) and a random free goal in the start's
 connected free space (often one no wall follower reaches).
@@ -41,22 +41,23 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
+from generated_cases import far_free_point, maze_variant  # noqa: E402
+
 from amr_control.path_follower import PathFollower  # noqa: E402
-from amr_control.scan_sectors import scan_of  # noqa: E402
 from amr_control.path_follower_config import read_parameter_file as read_follower_file  # noqa: E402
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file as read_wall_file  # noqa: E402
 from amr_localization.particle_filter import ParticleFilter  # noqa: E402
 from amr_localization.particle_filter_parameters import config_of  # noqa: E402
+from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
+from amr_maps.world import Goal, World, load_world, world_from_dict  # noqa: E402
 from amr_planning.navigation import Navigator, run_navigation  # noqa: E402
 from amr_planning.planner import Planner, PlannerConfig  # noqa: E402
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
-from amr_simulation.maze_families import FAMILIES, generate  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.world import Goal, World, load_world, world_from_dict  # noqa: E402
 from amr_util.parameter_file import node_parameters  # noqa: E402
-from generated_cases import far_free_point, maze_variant  # noqa: E402
+from amr_util.scan import scan_of  # noqa: E402
 
 CONFIG = ROOT / "config"
 WORLDS = CONFIG / "worlds"

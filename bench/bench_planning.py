@@ -28,22 +28,23 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from generated_cases import far_free_point, maze_variant  # noqa: E402
+
 from amr_control.path_follower import PathFollower, State  # noqa: E402
-from amr_control.scan_sectors import ScanData  # noqa: E402
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
+from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
 from amr_maps.occupancy_grid import OccupancyGrid  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
+from amr_maps.world import Goal, World, load_world, world_from_dict  # noqa: E402
 from amr_planning.astar import GridAStar  # noqa: E402
 from amr_planning.costmap import Costmap  # noqa: E402
 from amr_planning.errors import PlanningError  # noqa: E402
 from amr_planning.roadmap import Roadmap, RoadmapConfig  # noqa: E402
 from amr_planning.smoothing import smooth_path  # noqa: E402
 from amr_simulation.config import LidarConfig, SimulationConfig  # noqa: E402
-from amr_simulation.maze_families import FAMILIES, generate  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.world import Goal, World, load_world, world_from_dict  # noqa: E402
-from generated_cases import far_free_point, maze_variant  # noqa: E402
+from amr_util.scan import ScanData  # noqa: E402
 
 RESOLUTION = 0.05
 LOOP_RESOLUTION = 0.025  # closed loops: at 0.05 m the conservative map closes many 0.35 m corridors

@@ -31,23 +31,22 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(10, 99)))
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import rclpy  # noqa: E402
 from mcap.writer import Writer as McapWriter  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.serialization import serialize_message  # noqa: E402
-from sensor_msgs.msg import LaserScan  # noqa: E402
-
-import rclpy  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.serialization import serialize_message  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
+from sensor_msgs.msg import LaserScan  # noqa: E402
 
+from amr_bringup.bag_writer import BagWriter, suite_typestore  # noqa: E402
 from amr_bringup.composed import composed_stack  # noqa: E402
 from amr_bringup.processes import stop_processes  # noqa: E402
 from amr_bringup.recorder import BackgroundSpin, Recorder  # noqa: E402
 from amr_bringup.recording import RecorderProcess  # noqa: E402
-from amr_maps.bag_writer import BagWriter, suite_typestore  # noqa: E402
+from amr_maps.world import load_world, resolve_world_path  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.world import load_world, resolve_world_path  # noqa: E402
 
 MESSAGES_PER_STEP = 5
 

@@ -26,12 +26,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from amr_maps.raycast import NumpyRayCaster  # noqa: E402
+from amr_maps.world import World, load_world, world_from_dict  # noqa: E402
 from amr_simulation.config import LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.physics import WALLS_ONLY, Physics  # noqa: E402
-from amr_simulation.pose import Pose2D  # noqa: E402
-from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster  # noqa: E402
+from amr_simulation.raycast import PymunkRayCaster  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.world import World, load_world, world_from_dict  # noqa: E402
+from amr_util.geometry import Pose2D  # noqa: E402
 
 WORLDS = Path(__file__).resolve().parents[1] / "config" / "worlds"
 DT = 0.05

@@ -40,7 +40,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data  # 
 from sensor_msgs.msg import LaserScan  # noqa: E402
 
 from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.simulator_node import SimulatorNode, world_dirs  # noqa: E402
+from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
 
 DT = 0.05
 FRONT_HALF_WIDTH = math.radians(45.0)
@@ -122,7 +122,7 @@ def report(label: str, steps: int, seconds: float) -> None:
 
 
 def bench_library(world: str, steps: int) -> None:
-    sim = Simulator.from_params({"world": world, "dt": DT}, world_dirs())
+    sim = Simulator.from_params({"world": world, "dt": DT})
     lidar = sim.lidar
     start = time.perf_counter()
     for _ in range(steps):

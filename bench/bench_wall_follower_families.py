@@ -1,6 +1,6 @@
 """Wall follower on generated maze families (issue 14): goal, time, collisions, stalls, states, wall error.
 
-Every family of amr_simulation.maze_families, several seeds, both shipped configurations, at
+Every family of amr_maps.maze_families, several seeds, both shipped configurations, at
 LiDAR noise 0.01-0.03 m with encoder noise 0.02 and slip 0.05; the goal is always one the
 configured hand reaches (maze_families.goal_reachable) within maze_families.WALK_BUDGET m of
 boundary walk (36 m: 360 s at 0.1 m/s); "walk" is that length, "v walk" walk / time to goal.
@@ -28,10 +28,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
-from amr_simulation.maze_families import FAMILIES, generate, walk_length  # noqa: E402
-from amr_simulation.world import load_world, world_from_dict  # noqa: E402
 from wall_follower_runs import RunResult, run  # noqa: E402
+
+from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
+from amr_maps.maze_families import FAMILIES, generate, walk_length  # noqa: E402
+from amr_maps.world import load_world, world_from_dict  # noqa: E402
 
 CONFIGS = {"sim": ROOT / "config" / "wall_follower_sim.yaml", "real": ROOT / "config" / "wall_follower_real.yaml"}
 SHIPPED = ("hard_maze", "inner_maze", "open_room", "outer_corridor")

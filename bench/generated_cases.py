@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from amr_maps.maze_families import FAMILIES
 from amr_planning.costmap import Costmap
-from amr_simulation.maze_families import FAMILIES
 
 WIDTHS = (0.35, 0.45, 0.6)
 NOISES = (0.0, 0.01, 0.03)

@@ -27,13 +27,14 @@ from collections import Counter
 
 import numpy as np
 
-from amr_control.scan_sectors import ScanData
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
+from amr_maps.world import World
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.render import save_png
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import World
+from amr_util.geometry import wrap_angle
+from amr_util.scan import ScanData
 
 STALL_SECONDS = 30.0
 STALL_CELL = 0.25  # m
@@ -132,7 +133,7 @@ def _side_wall_distance(faces: np.ndarray, pose, lidar_x: float, side: str) -> f
     v = a + t[:, None] * ab - p
     d = np.hypot(v[:, 0], v[:, 1])
     bearing = np.arctan2(v[:, 1], v[:, 0]) - pose.theta
-    bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi
+    bearing = wrap_angle(bearing)
     sign = -1.0 if side == "right" else 1.0
     on_side = (sign * bearing >= math.radians(30.0)) & (sign * bearing <= math.radians(150.0))
     return float(min(d[on_side].min(), ERROR_CAP)) if on_side.any() else ERROR_CAP

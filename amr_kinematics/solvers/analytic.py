@@ -15,9 +15,10 @@ import math
 
 import numpy as np
 
+from amr_util.geometry import wrap_angle
+
 from ..chain import Chain
 from ..errors import SolverNotApplicableError
-from ..transforms import wrap_angle
 from .base import IKResult, Solver, finish
 
 

@@ -20,8 +20,9 @@ import time
 
 import numpy as np
 
+from amr_util.geometry import wrap_angle
+
 from ..errors import SolverNotApplicableError
-from ..transforms import wrap_angle
 from . import options as opt
 from .base import IKResult, IterationRecord, Solver, finish
 from .starts import SpreadStarts

@@ -14,8 +14,8 @@ from rclpy.parameter import Parameter
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.recorder import BackgroundSpin, Recorder
-from amr_maps import render_bag
-from amr_maps.bag_reader import read_bag
+from amr_bringup import render_bag
+from amr_bringup.bag_reader import read_bag
 from test_bringup_run import Bringup
 
 SPAN = 60.0

@@ -18,10 +18,12 @@ from tf2_msgs.msg import TFMessage
 from amr_bringup.composed import composed_stack
 from amr_bringup.status import message_class
 from amr_maps.rasterize import rasterize_world
-from amr_simulation.pose import Pose2D, compose
-from amr_simulation.simulator_node import world_dirs
-from amr_simulation.world import load_world, resolve_world_path
-from amr_util.qos import MAP, reliable
+from amr_util.geometry import Pose2D, compose
+from amr_util.geometry import yaw_from_quaternion as yaw
+from amr_maps.world import load_world, resolve_world_path
+from amr_util.qos import LATCHED as LATCHED_QOS
+from amr_util.qos import reliable
+from amr_util.stamps import stamp_seconds as seconds
 
 DT = 0.05
 STEPS = 60
@@ -30,14 +32,6 @@ LATCHED = ("/map", "/tf_static")
 GATED = "/follower_cmd_vel"
 WORLD = "outer_corridor.yaml"
 LIDAR_MOUNTING = (-0.032, 0.0)  # config/simulator.yaml lidar.x, lidar.y
-
-
-def seconds(stamp) -> float:
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
-def yaw(q) -> float:
-    return 2.0 * math.atan2(q.z, q.w)
 
 
 def stamps(message) -> list[float]:
@@ -67,7 +61,7 @@ class GateProbe(Node):
             publishers = self.get_publishers_info_by_topic(topic)
             reliable_only = publishers and all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE
                                                for p in publishers)  # best effort would drop some under load
-            qos = MAP if topic in LATCHED else QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE
+            qos = LATCHED_QOS if topic in LATCHED else QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE
                                                           if reliable_only else ReliabilityPolicy.BEST_EFFORT)
             self.received[topic] = []
             self.subscribed[topic] = self.create_subscription(
@@ -131,7 +125,7 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
 
     # /map: latched for the late joiner, the rasterized world, in the map frame
     (grid,) = probe.received["/map"]
-    world = rasterize_world(load_world(resolve_world_path(WORLD, world_dirs())), 0.05)
+    world = rasterize_world(load_world(resolve_world_path(WORLD)), 0.05)
     assert grid.header.frame_id == "map" and grid.info.resolution == pytest.approx(0.05)
     assert (grid.info.origin.position.x, grid.info.origin.position.y) == pytest.approx(world.origin[:2])
     assert (grid.info.width, grid.info.height) == (world.width, world.height)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 
 BIG = 100.0
 

@@ -17,14 +17,15 @@ import numpy as np
 import pytest
 import yaml
 
-from amr_control.scan_sectors import ScanData
-from amr_control.sync import NANOSECONDS_PER_SECOND, ApproximateTimeSynchronizer
+from amr_util.scan import ScanData
+from amr_util.stamps import NANOSECONDS_PER_SECOND
+from amr_util.sync import ApproximateTimeSynchronizer
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig, read_parameter_file
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
-from amr_simulation.maze_families import goal_reachable
+from amr_maps.maze_families import goal_reachable
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import World, load_world
+from amr_maps.world import World, load_world
 
 ROOT = Path(__file__).resolve().parents[2]
 WORLDS = sorted((ROOT / "config" / "worlds").glob("*.yaml"))

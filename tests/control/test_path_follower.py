@@ -10,14 +10,14 @@ import yaml
 
 from amr_control.path_follower import PathError, PathFollower, State
 from amr_control.path_follower_config import ConfigError, PathFollowerConfig
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap
 from amr_planning.smoothing import smooth_path
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 from control_helpers import cast, corridor
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 from amr_control.wall_follower import Issue, WallFollower
 from control_helpers import BIG, cast, corridor
 

@@ -1,6 +1,6 @@
 """Issue 14 on generated geometry: bends of any angle, narrowing corridors under noise, open space, outliers.
 
-Closed loop through the library (test_closed_loop.run_loop) on amr_simulation.maze_families
+Closed loop through the library (test_closed_loop.run_loop) on amr_maps.maze_families
 worlds kept small so each run lasts seconds; the sweeps over families, seeds and noise are in
 bench/bench_wall_follower_families.py.
 """
@@ -15,8 +15,8 @@ import pytest
 from amr_control.scan_sectors import Footprint, ScanData, SectorReader, Sectors
 from amr_control.wall_follower import WallFollower
 from amr_simulation.config import EncoderConfig, LidarConfig
-from amr_simulation.maze_families import generate
-from amr_simulation.world import world_from_dict
+from amr_maps.maze_families import generate
+from amr_maps.world import world_from_dict
 from control_helpers import cast, corridor
 from test_closed_loop import REAL_CONFIG, SIM_CONFIG, run_loop
 

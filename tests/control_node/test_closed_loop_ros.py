@@ -11,7 +11,7 @@ import pytest
 from amr_bringup.demo import run_maze
 from amr_util.share import share_directory
 
-SHIPPED = share_directory("amr_simulation") / "config" / "worlds"
+SHIPPED = share_directory("amr_maps") / "config" / "worlds"
 # twin_rooms (two plain rooms, for localization) adds nothing to wall following but 90 s of test time:
 # the library closed loop (tests/control/test_closed_loop.py) still drives it
 WORLDS = sorted(p.name for p in SHIPPED.glob("*.yaml") if p.stem != "twin_rooms")

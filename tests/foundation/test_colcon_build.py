@@ -31,9 +31,12 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
     assert build.returncode == 0, build.stdout[-3000:] + build.stderr[-3000:]
 
     install = workspace / "install"
-    for package, executable in [("amr_turtlebot3", "odometry_node"), ("amr_kinematics", "ik_service")]:
+    for package, executable in [("amr_turtlebot3", "odometry_node"), ("amr_kinematics", "ik_service"), ("amr_maps", "maze")]:
         assert os.access(install / "amr_suite" / "lib" / package / executable, os.X_OK)
+    for package in sorted(p.parent.name for p in (ROOT / "resource").glob("*/package.xml")):
         assert (install / "amr_suite" / "share" / "ament_index" / "resource_index" / "packages" / package).is_file()
+        assert (install / "amr_suite" / "share" / package / "package.xml").is_file()
+    assert (install / "amr_suite" / "share" / "amr_maps" / "config" / "worlds" / "inner_maze.yaml").is_file()
 
     # what `source install/setup.sh` gives: the colcon-built interfaces import and the odometry module runs
     site = f"lib/python{sys.version_info.major}.{sys.version_info.minor}/site-packages"
@@ -41,7 +44,8 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
     env["LD_LIBRARY_PATH"] = f"{install / 'amr_interfaces' / 'lib'}{os.pathsep}{PREFIX / 'lib'}"
     env["_ROS_WHEELS_BOOTSTRAP_COMPLETE"] = "1"
     probe = subprocess.run(
-        [sys.executable, "-c", "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls; "
+        [sys.executable, "-c", "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls, amr_maps.maze_command, "
+         "amr_evaluation.closed_loop; "
          "print(s.SolveIK.__module__, s.SolveIK.Request().__class__.__name__, o.__file__)"],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
     assert probe.returncode == 0, probe.stderr

@@ -12,7 +12,7 @@ from amr_kinematics.chain import Chain
 from amr_kinematics.errors import InvalidRequestError, SolverNotApplicableError
 from amr_kinematics.solvers import get_solver
 from amr_kinematics.solvers.task import parse_task
-from amr_kinematics.transforms import wrap_angle
+from amr_util.geometry import wrap_angle
 
 from kin_helpers import chain_set, random_targets, raw_params, unseen_set  # noqa: F401 (fixtures)
 

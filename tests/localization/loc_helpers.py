@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from amr_control.scan_sectors import scan_of  # noqa: F401  (re-exported for the tests)
+from amr_util.scan import scan_of  # noqa: F401  (re-exported for the tests)
 from amr_maps.rasterize import rasterize_world as grid_of  # noqa: F401  (the shared rasterizer)
 from amr_simulation.simulator import Simulator
 

@@ -12,7 +12,7 @@ from amr_localization.beacons import BeaconReading, expected_ranges, same_beacon
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 
 from loc_helpers import WORLDS_DIR, grid_of
 

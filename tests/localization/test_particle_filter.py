@@ -8,17 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 from amr_control.wall_follower_config import read_parameter_file
 from amr_localization.beacons import BeaconReading
-from amr_localization.closed_loop import run
+from amr_evaluation.closed_loop import run
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_maps.occupancy_grid import OCCUPIED, UNKNOWN, OccupancyGrid
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world, world_from_dict
+from amr_maps.world import load_world, world_from_dict
 
 from loc_helpers import ROOT, WORLDS_DIR, grid_of, odometry_of, scan_of
 

@@ -16,11 +16,12 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from amr_localization.beacon_localizer_node import BeaconLocalizerNode
-from amr_localization.messages import yaw_of
-from amr_localization.poses import wrap
-from amr_simulation.errors import WorldError
+from amr_util.geometry import yaw_from_quaternion
+from amr_util.stamps import stamp_nanoseconds
+from amr_util.geometry import wrap_angle
+from amr_maps.world import WorldError
 from amr_simulation.simulator_node import SimulatorNode
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 
 BEACONS = [[-1.9, -1.4], [1.9, -1.4], [1.9, 1.4], [-1.9, 1.4]]
 ROOM = {"name": "beacon_room", "wall_thickness": 0.05,
@@ -56,11 +57,11 @@ class Driver(Node):
         truth = self.truth[stamp_ns(pose)].pose.pose
         estimate = pose.pose.pose
         return (math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y),
-                abs(float(wrap(yaw_of(estimate.orientation) - yaw_of(truth.orientation)))))
+                abs(float(wrap_angle(yaw_from_quaternion(estimate.orientation) - yaw_from_quaternion(truth.orientation)))))
 
 
 def stamp_ns(message) -> int:
-    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
+    return stamp_nanoseconds(message.header.stamp)
 
 
 def test_relocalizes_from_beacons_and_tracks_with_one_pose_per_reading(executor, tmp_path):

@@ -22,17 +22,19 @@ from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
 from amr_control.wall_follower_node import WallFollowerNode
-from amr_localization.messages import odometry_pose, yaw_of
+from amr_localization.messages import odometry_pose
+from amr_util.geometry import yaw_from_quaternion
+from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
 from amr_localization.particle_filter_node import ParticleFilterNode
-from amr_localization.poses import compose, wrap
+from amr_util.geometry import compose, wrap_angle
 from amr_simulation import messages as sim_messages
-from amr_simulation.pose import Pose2D
+from amr_util.geometry import Pose2D
 from amr_simulation.simulator import Simulator
 from amr_simulation.simulator_node import SimulatorNode
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 from amr_util.share import share_directory
 
-WORLDS = share_directory("amr_simulation") / "config" / "worlds"
+WORLDS = share_directory("amr_maps") / "config" / "worlds"
 PARTICLES = 3000
 CLOUD_PERIOD = 1.0
 STEPS_AFTER_HANDOVER = 10
@@ -114,7 +116,7 @@ def assert_finite(poses) -> None:
 
 
 def stamp_ns(message) -> int:
-    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
+    return stamp_nanoseconds(message.header.stamp)
 
 
 def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(executor):
@@ -158,7 +160,7 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     truth = recorder.truth[stamp_ns(poses[first])].pose.pose
     estimate = poses[first].pose.pose
     assert math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y) <= 0.10
-    assert abs(float(wrap(yaw_of(estimate.orientation) - yaw_of(truth.orientation)))) <= math.radians(10)
+    assert abs(float(wrap_angle(yaw_from_quaternion(estimate.orientation) - yaw_from_quaternion(truth.orientation)))) <= math.radians(10)
     # the simulator's check agrees
     status = recorder.sim_status
     assert status.localization_enabled and status.localized
@@ -176,11 +178,11 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     assert len(tf) == len(poses)
     last = tf[-1].transforms[0]
     assert last.child_frame_id == "odom" and stamp_ns(last) == stamp_ns(poses[-1])
-    correction = np.array([last.transform.translation.x, last.transform.translation.y, yaw_of(last.transform.rotation)])
+    correction = np.array([last.transform.translation.x, last.transform.translation.y, yaw_from_quaternion(last.transform.rotation)])
     robot = compose(correction[None, :], np.array(odometry_pose(recorder.odometry[stamp_ns(last)])))[0]
     published = poses[-1].pose.pose
     assert robot[:2] == pytest.approx([published.position.x, published.position.y], abs=1e-9)
-    assert float(wrap(robot[2] - yaw_of(published.orientation))) == pytest.approx(0.0, abs=1e-9)
+    assert float(wrap_angle(robot[2] - yaw_from_quaternion(published.orientation))) == pytest.approx(0.0, abs=1e-9)
     # ~/status: one per scan, the particle count it reports is the cloud's
     assert len(recorder.status) == len(poses)
     assert recorder.status[0].particles == PARTICLES and recorder.status[-1].localized
@@ -203,7 +205,7 @@ class Rig(Node):
     def send(self, stamp: float, odometry_pose=None, ranges=None) -> None:
         sim = self.sim
         pose = Pose2D(*(odometry_pose or sim.odom_pose))
-        time = sim_messages.stamp(stamp)
+        time = stamp_from_seconds(stamp)
         self.odometry.publish(sim_messages.odometry(time, "odom", "base_footprint", pose, (0.0, 0.0, 0.0)))
         scan = sim_messages.laser_scan(time, "base_scan", sim.ranges, sim.lidar, 0.05)
         if ranges is not None:
@@ -367,7 +369,7 @@ class BeaconRig(Rig):
 
     def send_reading(self, stamp: float, positions=None, ranges=None) -> None:
         real_positions, real_ranges, compass = self.sim.beacon_reading()
-        message = sim_messages.beacon_ranges(sim_messages.stamp(stamp), "map",
+        message = sim_messages.beacon_ranges(stamp_from_seconds(stamp), "map",
                                              real_positions if positions is None else np.asarray(positions),
                                              real_ranges if ranges is None else np.asarray(ranges), compass,
                                              self.sim.config.beacons)

@@ -17,10 +17,9 @@ from amr_maps.map_source import load_grid
 from amr_maps.messages import grid_from_message, grid_message
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.rasterize import rasterize_world
-from amr_simulation.messages import stamp
-from amr_simulation.simulator_node import world_dirs
-from amr_simulation.world import load_world, resolve_world_path
-from amr_util.qos import MAP
+from amr_util.stamps import stamp_from_seconds as stamp
+from amr_maps.world import load_world, resolve_world_path
+from amr_util.qos import LATCHED
 
 RNG = np.random.default_rng(5)
 TIMEOUT = 10.0
@@ -52,9 +51,9 @@ def test_an_inconsistent_message_is_refused_by_field():
 def test_the_map_comes_from_exactly_one_of_yaml_filename_and_world(tmp_path):
     for values in ({}, {"yaml_filename": "a.yaml", "world": "inner_maze.yaml"}):
         with pytest.raises(MapError, match="yaml_filename, world: give exactly one"):
-            load_grid(values, world_dirs())
-    grid = load_grid({"world": "hard_maze.yaml", "resolution": 0.02}, world_dirs())
-    expected = rasterize_world(load_world(resolve_world_path("hard_maze.yaml", world_dirs())), 0.02)
+            load_grid(values)
+    grid = load_grid({"world": "hard_maze.yaml", "resolution": 0.02})
+    expected = rasterize_world(load_world(resolve_world_path("hard_maze.yaml")), 0.02)
     assert np.array_equal(grid.data, expected.data) and grid.origin == expected.origin
     saved = save_map(expected, tmp_path / "hard")
     assert np.array_equal(load_grid({"yaml_filename": str(saved)}).data, expected.data)
@@ -80,7 +79,7 @@ class LateJoiner(Node):
     def __init__(self, context):
         super().__init__("map_late_joiner", context=context)
         self.maps: list[OccupancyGridMessage] = []
-        self.create_subscription(OccupancyGridMessage, "/map", self.maps.append, MAP)
+        self.create_subscription(OccupancyGridMessage, "/map", self.maps.append, LATCHED)
         self.get_map = self.create_client(GetMap, "/map_server/map")
 
 
@@ -95,7 +94,7 @@ def test_the_node_latches_the_map_for_a_late_subscriber_and_answers_get_map(ros_
     late = LateJoiner(ros_context)  # joins after the map went out
     executor.add_node(late)
     assert spin_until(executor, lambda: late.maps, TIMEOUT), "a late subscriber did not get the latched /map"
-    expected = rasterize_world(load_world(resolve_world_path("inner_maze.yaml", world_dirs())), 0.05)
+    expected = rasterize_world(load_world(resolve_world_path("inner_maze.yaml")), 0.05)
     got = grid_from_message(late.maps[0])
     assert late.maps[0].header.frame_id == "map" and got.resolution == pytest.approx(0.05)
     assert got.origin == pytest.approx(expected.origin) and np.array_equal(got.data, expected.data)

@@ -10,11 +10,10 @@ from amr_maps.map_io import save_map
 from amr_maps.map_world import load_map_world, most_open_pose, world_from_grid
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.rasterize import rasterize_world
-from amr_simulation.errors import WorldError
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world, world_from_dict, world_search_dirs
+from amr_maps.world import SOURCE_WORLDS, WorldError, load_world, world_from_dict
 
-SHIPPED_WORLDS = sorted(world_search_dirs()[0].glob("*.yaml"))
+SHIPPED_WORLDS = sorted(SOURCE_WORLDS.glob("*.yaml"))
 LATTICE = 0.005  # every shipped world's coordinates are multiples of it from their lower-left corner
 
 

@@ -7,9 +7,9 @@ import pytest
 
 from amr_maps.occupancy_grid import FREE, OCCUPIED, UNKNOWN, MapError
 from amr_maps.rasterize import rasterize_world
-from amr_simulation.world import load_world, world_from_dict, world_search_dirs
+from amr_maps.world import SOURCE_WORLDS, load_world, world_from_dict
 
-SHIPPED_WORLDS = sorted(world_search_dirs()[0].glob("*.yaml"))
+SHIPPED_WORLDS = sorted(SOURCE_WORLDS.glob("*.yaml"))
 
 
 def clipped_area(polygon, x0, y0, x1, y1):
@@ -88,8 +88,8 @@ def test_solids_on_the_cell_lattice_fill_their_cells_and_no_neighbour():
 
 
 def test_an_ascii_grid_world_comes_back_cell_for_cell():
-    world = load_world(world_search_dirs()[0] / "hard_maze.yaml")
-    rows = [r for r in (world_search_dirs()[0] / "hard_maze.yaml").read_text().splitlines() if r.strip().startswith('- "')]
+    world = load_world(SOURCE_WORLDS / "hard_maze.yaml")
+    rows = [r for r in (SOURCE_WORLDS / "hard_maze.yaml").read_text().splitlines() if r.strip().startswith('- "')]
     solid = np.array([[c == "#" for c in r.strip()[3:-1]] for r in reversed(rows)])
     grid = rasterize_world(world, 0.1, margin=0.2)
     assert grid.origin[:2] == pytest.approx((-2.25, -2.25))

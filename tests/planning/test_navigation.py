@@ -9,7 +9,7 @@ import numpy as np
 
 from amr_control.path_follower import PathFollower
 from amr_control.path_follower_config import read_parameter_file as read_follower_file
-from amr_control.scan_sectors import ScanData
+from amr_util.scan import ScanData
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import read_parameter_file as read_wall_file
 from amr_localization.particle_filter import ParticleFilter
@@ -19,7 +19,7 @@ from amr_planning.navigation import Mode, Navigator, run_navigation
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 from amr_util.parameter_file import node_parameters
 
 from planning_helpers import grid, walled

@@ -11,13 +11,13 @@ from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import OccupancyGrid, Path
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
 from amr_control.path_follower_node import PathFollowerNode
 from amr_planning.planner_node import PlannerNode
+from amr_util.qos import LATCHED
 
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def two_rooms() -> OccupancyGrid:

@@ -11,15 +11,14 @@ from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from amr_bringup.demo import config_file, params_file_args
 from amr_control.path_follower_node import PathFollowerNode
 from amr_planning.planner_node import PlannerNode
+from amr_util.qos import LATCHED
 from amr_simulation.simulator_node import SimulatorNode
 
 ROOT = Path(__file__).resolve().parents[2]
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def hard_maze_map() -> OccupancyGrid:

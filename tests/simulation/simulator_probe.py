@@ -20,6 +20,7 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Trigger
 
 from amr_simulation.simulator_node import SimulatorNode
+from amr_util.stamps import stamp_seconds
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 TIMEOUT = 10.0
@@ -27,7 +28,7 @@ TIMEOUT = 10.0
 
 
 def seconds(stamp) -> float:
-    return stamp.sec + stamp.nanosec * 1e-9
+    return stamp_seconds(stamp)
 
 
 class Probe(Node):

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world, world_from_dict
+from amr_maps.world import load_world, world_from_dict
 from sim_helpers import WORLDS, make_config
 
 RADIUS = 0.105

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from amr_simulation import messages
-from amr_simulation.pose import Pose2D, compose, inverse, map_to_odom, wrap_angle
+from amr_util.geometry import Pose2D, compose, inverse, map_to_odom, wrap_angle
+from amr_util.stamps import stamp_from_seconds
 
 RNG = np.random.default_rng(11)
 POSES = [Pose2D(*RNG.uniform(-5.0, 5.0, 2), float(RNG.uniform(-math.pi, math.pi))) for _ in range(40)]
@@ -40,7 +41,7 @@ def test_map_to_odom_composed_with_odometry_is_the_true_pose(truth, odom):
 
 
 def test_transform_message_carries_the_pose_as_translation_and_yaw_quaternion():
-    message = messages.transform(messages.stamp(1.25), "odom", "base_footprint", Pose2D(1.0, -2.0, 2.5))
+    message = messages.transform(stamp_from_seconds(1.25), "odom", "base_footprint", Pose2D(1.0, -2.0, 2.5))
     assert (message.header.frame_id, message.child_frame_id) == ("odom", "base_footprint")
     assert (message.header.stamp.sec, message.header.stamp.nanosec) == (1, 250_000_000)
     t, q = message.transform.translation, message.transform.rotation

@@ -11,10 +11,11 @@ from hypothesis import strategies as st
 
 from amr_simulation.lidar import Lidar
 from amr_simulation.physics import WALLS_ONLY, Physics
-from amr_simulation.pose import Pose2D
-from amr_simulation.raycast import NumpyRayCaster, PymunkRayCaster
+from amr_util.geometry import Pose2D
+from amr_maps.raycast import NumpyRayCaster
+from amr_simulation.raycast import PymunkRayCaster
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world, world_from_dict
+from amr_maps.world import load_world, world_from_dict
 from sim_helpers import WORLDS, make_config
 
 # Inner faces at x = +-1.95 and y = +-0.95.

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from amr_simulation.errors import SimulationError
-from amr_simulation.pose import wrap_angle
+from amr_util.geometry import wrap_angle
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 from sim_helpers import WORLDS, make_config
 
 

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 
 from amr_simulation.render import draw_simulation
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world
+from amr_maps.world import load_world
 from sim_helpers import WORLDS, make_config
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -1,8 +1,6 @@
 """The simulator node in-process, lockstep mode: the seed's contract, services, lifecycle and bad input."""
 
 import math
-import sys
-from pathlib import Path
 
 import pytest
 from amr_interfaces.srv import SetPose
@@ -14,16 +12,14 @@ from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
 from std_srvs.srv import Trigger
 
 from amr_simulation.config import LidarConfig
-from amr_simulation.simulator_node import world_dirs
-from amr_simulation.world import world_search_dirs
+from amr_util.geometry import yaw_from_quaternion
 
 OPEN_ROOM = {"world": "open_room.yaml"}  # start (-1.5, -1.0, 0), walls at x = +-2, y = +-1.5 (0.05 thick)
 DT = 0.05
 
 
 def yaw(message) -> float:
-    q = message.pose.pose.orientation
-    return 2.0 * math.atan2(q.z, q.w)
+    return yaw_from_quaternion(message.pose.pose.orientation)
 
 
 def test_straight_for_10_s_ends_1_5_m_ahead_on_ground_truth_and_odometry(simulator, probe, executor):
@@ -221,12 +217,3 @@ def test_bad_configuration_fails_configure_naming_the_key(simulator, probe, exec
 
 
 LIBRARY_DEFAULTS = {"world": "open_room.yaml", "dt": 0.05, "mode": "lockstep", "start": []}
-
-
-def test_relative_world_names_look_in_the_package_share_directory_first(monkeypatch):
-    monkeypatch.setenv("AMENT_PREFIX_PATH", sys.prefix)
-    share = Path(sys.prefix) / "share" / "amr_simulation" / "config" / "worlds"
-    assert world_dirs()[0] == share
-    assert (share / "open_room.yaml").is_file(), "worlds are installed with the package (make setup)"
-    monkeypatch.delenv("AMENT_PREFIX_PATH")
-    assert world_dirs() == list(world_search_dirs()), "without an ament prefix, the library's own search path"

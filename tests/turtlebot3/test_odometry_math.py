@@ -4,7 +4,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from amr_turtlebot3.odometry import PoseDifferentiator, PoseSample, Verdict, wrap_angle
+from amr_turtlebot3.odometry import PoseDifferentiator, PoseSample, Verdict
+from amr_util.geometry import wrap_angle
 
 
 def run(samples):

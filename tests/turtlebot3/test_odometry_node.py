@@ -11,7 +11,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from transforms3d.euler import euler2quat
 
-from amr_turtlebot3.odometry import wrap_angle
+from amr_util.geometry import wrap_angle
 from amr_turtlebot3.odometry_node import OdometryNode
 
 QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)

@@ -41,7 +41,7 @@ from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 
 from amr_util.environment import child_environment  # noqa: E402
-from amr_util.qos import MAP, reliable  # noqa: E402
+from amr_util.qos import LATCHED, reliable  # noqa: E402
 from amr_viewer.geometry import top_down_camera  # noqa: E402
 from amr_viewer.messages import occupancy_grid  # noqa: E402
 from amr_viewer.parameters import value_of  # noqa: E402
@@ -88,8 +88,8 @@ class Probe(Node):
         self.create_subscription(Odometry, "/ground_truth", lambda m: self.truth.append(
             (m.pose.pose.position.x, m.pose.pose.position.y)), reliable(100))
         self.create_subscription(PoseStamped, "/goal_pose", self.goals.append, reliable(10))
-        self.create_subscription(PathMessage, "/path", self.paths.append, MAP)
-        self.create_subscription(OccupancyGrid, "/map", lambda m: setattr(self, "map", m), MAP)
+        self.create_subscription(PathMessage, "/path", self.paths.append, LATCHED)
+        self.create_subscription(OccupancyGrid, "/map", lambda m: setattr(self, "map", m), LATCHED)
         self._parameter_clients: dict[str, AsyncParameterClient] = {}
 
     def parameter(self, node: str, name: str):

@@ -11,7 +11,7 @@ from rclpy.serialization import serialize_message
 from tf2_msgs.msg import TFMessage
 
 from amr_viewer import cdr
-from amr_viewer.geometry import quaternion_of
+from amr_util.geometry import quaternion_from_yaw as quaternion_of
 
 RNG = np.random.default_rng(7)
 NAMES = ["", "m", "map", "odom", "base_footprint", "robot_12/base_scan", "a" * 37]

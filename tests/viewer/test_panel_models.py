@@ -9,7 +9,7 @@ from amr_util.managed_node import descriptor_of
 from amr_util.parameter_spec import ParameterSpec
 from amr_viewer import topics
 from amr_viewer.clicks import GOAL, INITIAL_POSE, OFF, ClickTool
-from amr_viewer.geometry import Pose
+from amr_util.geometry import Pose2D
 from amr_viewer.parameters import entry_from, nice_step, parameter_value, value_of, visible
 
 T = ParameterType
@@ -120,12 +120,12 @@ def test_simulators_arms_and_lifecycle_nodes_are_found():
 
 
 def test_one_click_goal_faces_away_from_the_robot_and_an_estimate_keeps_its_heading():
-    tool, robot = ClickTool(), Pose(1.0, 1.0, 0.3)
-    assert tool.click(2.0, 2.0, robot) == (GOAL, Pose(2.0, 2.0, math.pi / 4))
-    assert tool.click(1.0, 1.0, robot) == (GOAL, Pose(1.0, 1.0, 0.3)), "on the robot: its own heading"
-    assert tool.click(2.0, 2.0, None) == (GOAL, Pose(2.0, 2.0, 0.0))
+    tool, robot = ClickTool(), Pose2D(1.0, 1.0, 0.3)
+    assert tool.click(2.0, 2.0, robot) == (GOAL, Pose2D(2.0, 2.0, math.pi / 4))
+    assert tool.click(1.0, 1.0, robot) == (GOAL, Pose2D(1.0, 1.0, 0.3)), "on the robot: its own heading"
+    assert tool.click(2.0, 2.0, None) == (GOAL, Pose2D(2.0, 2.0, 0.0))
     tool.set_mode(INITIAL_POSE)
-    assert tool.click(-1.0, 0.5, robot) == (INITIAL_POSE, Pose(-1.0, 0.5, 0.3))
+    assert tool.click(-1.0, 0.5, robot) == (INITIAL_POSE, Pose2D(-1.0, 0.5, 0.3))
     assert tool.click(math.nan, 0.5, robot) is None
     tool.set_mode(OFF)
     assert tool.click(0.0, 0.0, robot) is None
@@ -136,7 +136,7 @@ def test_one_click_goal_faces_away_from_the_robot_and_an_estimate_keeps_its_head
 def test_two_clicks_give_position_then_heading():
     tool = ClickTool(mode=INITIAL_POSE, two_clicks=True)
     assert tool.click(1.0, 1.0, None) is None and tool.pending == (1.0, 1.0)
-    assert tool.click(1.0, 3.0, Pose(0, 0, 0)) == (INITIAL_POSE, Pose(1.0, 1.0, math.pi / 2))
+    assert tool.click(1.0, 3.0, Pose2D(0, 0, 0)) == (INITIAL_POSE, Pose2D(1.0, 1.0, math.pi / 2))
     assert tool.pending is None
     tool.click(0.0, 0.0, None)
     tool.set_mode(GOAL)

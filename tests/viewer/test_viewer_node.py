@@ -19,9 +19,9 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from amr_control.wall_follower_node import WallFollowerNode
-from amr_util.qos import MAP, SENSOR_DATA, reliable
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_viewer.clicks import INITIAL_POSE
-from amr_viewer.geometry import quaternion_of
+from amr_util.geometry import quaternion_from_yaw as quaternion_of
 from amr_viewer.viewer_node import TF_STATIC, ViewerNode
 
 TIMEOUT = 15.0
@@ -33,13 +33,13 @@ class FakeRobot(Node):
 
     def __init__(self, context):
         super().__init__("fake_robot", context=context)
-        self.map = self.create_publisher(OccupancyGrid, "map", MAP)
+        self.map = self.create_publisher(OccupancyGrid, "map", LATCHED)
         self.tf = self.create_publisher(TFMessage, "tf", reliable(100))
         self.tf_static = self.create_publisher(TFMessage, "tf_static", TF_STATIC)
         self.scan = self.create_publisher(LaserScan, "scan", SENSOR_DATA)
         self.cloud = self.create_publisher(PoseArray, "particle_cloud", reliable(2))
         self.pose = self.create_publisher(LocalizedPose, "pose", reliable(10))
-        self.path = self.create_publisher(Path, "path", MAP)
+        self.path = self.create_publisher(Path, "path", LATCHED)
         self.status = self.create_publisher(SimulatorStatus, "simulator/status", reliable(10))
         self.goals, self.initial_poses = [], []
         self.create_subscription(PoseStamped, "goal_pose", self.goals.append, 10)

@@ -15,10 +15,10 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
-from amr_maps.bag_reader import read_bag, render_bag
-from amr_maps.bag_writer import BagError, BagWriter, TopicQos
+from amr_bringup.bag_reader import read_bag, render_bag
+from amr_bringup.bag_writer import BagError, BagWriter, TopicQos
 from amr_simulation.simulator import Simulator
-from amr_simulation.world import load_world, resolve_world_path
+from amr_maps.world import load_world, resolve_world_path
 
 STEPS = 1200  # 60 s at dt = 0.05
 TOPICS = {"/scan": ("sensor_msgs/msg/LaserScan", TopicQos(reliable=False, depth=5)),

@@ -1,4 +1,4 @@
-"""Differential-drive kinematics (seed 002, sections 1-2).
+"""Differential-drive kinematics (seed 002, sections 1-2): the simulator's wheels and the controllers' limits.
 
 Forward:  v = r (w_r + w_l) / 2,   w = r (w_r - w_l) / b
 Inverse:  w_r = (v + w b / 2) / r,  w_l = (v - w b / 2) / r
@@ -14,14 +14,17 @@ import math
 import numbers
 from dataclasses import dataclass
 
-from .errors import KinematicsError
+from amr_util.geometry import is_finite_number
+
+
+class DiffDriveError(ValueError):
+    """A drive that cannot exist (a non-positive radius, track or limit) or a non-finite speed."""
 
 
 def _finite(name: str, *values: float) -> None:
     """Non-finite speeds would turn into NaN wheel commands: refuse them."""
-    for value in values:
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-            raise KinematicsError(f"DiffDrive.{name}: speeds must be finite numbers, got {values!r}")
+    if not all(map(is_finite_number, values)):
+        raise DiffDriveError(f"DiffDrive.{name}: speeds must be finite numbers, got {values!r}")
 
 
 @dataclass(frozen=True)
@@ -38,9 +41,9 @@ class DiffDrive:
         for name in ("wheel_radius", "track", "max_wheel_speed", "max_linear", "max_angular"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or math.isnan(value) or value <= 0.0:
-                raise KinematicsError(f"DiffDrive.{name} must be a positive number, got {value!r}")
+                raise DiffDriveError(f"DiffDrive.{name} must be a positive number, got {value!r}")
         if math.isinf(self.wheel_radius) or math.isinf(self.track):
-            raise KinematicsError("DiffDrive wheel_radius and track must be finite")
+            raise DiffDriveError("DiffDrive wheel_radius and track must be finite")
 
     def wheel_speeds(self, linear: float, angular: float) -> tuple[float, float]:
         """(left, right) wheel angular speeds in rad/s for a body twist, unsaturated."""

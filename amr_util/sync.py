@@ -68,23 +68,18 @@ from __future__ import annotations
 
 import bisect
 import itertools
-import math
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from numbers import Integral, Real
+from numbers import Integral
 from typing import Any
 
-NANOSECONDS_PER_SECOND = 1_000_000_000
+from amr_util.geometry import is_finite_number
+from amr_util.stamps import NANOSECONDS_PER_SECOND
 
 
 class SyncError(ValueError):
     """A synchronizer was built or fed with invalid arguments."""
-
-
-def to_nanoseconds(sec: int, nanosec: int) -> int:
-    """Integer nanoseconds of a ``builtin_interfaces/Time`` (sec, nanosec) pair."""
-    return int(sec) * NANOSECONDS_PER_SECOND + int(nanosec)
 
 
 @dataclass
@@ -107,7 +102,7 @@ class _Entry:
 
 
 def _positive_seconds_to_ns(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value) or value < 0:
+    if not is_finite_number(value) or value < 0:
         raise SyncError(f"{name} must be a finite number of seconds >= 0, got {value!r}")
     return round(float(value) * NANOSECONDS_PER_SECOND)
 
@@ -116,7 +111,7 @@ class ApproximateTimeSynchronizer:
     """Calls ``callback(*messages)`` with one message per input whenever a set is decided.
 
     Stamps are integer nanoseconds (``rclpy.time.Time.from_msg(stamp).nanoseconds``
-    or :func:`to_nanoseconds`); ``slop`` and the lower bounds are in seconds.
+    or :func:`amr_util.stamps.to_nanoseconds`); ``slop`` and the lower bounds are in seconds.
     Thread-safe: ``add`` may be called from several executor threads; the
     callback runs inside the lock, in publication order, so it must not call
     ``add`` from another thread and wait for it.
@@ -140,12 +135,7 @@ class ApproximateTimeSynchronizer:
             raise SyncError(f"queue_size must be an integer >= 1, got {queue_size!r}")
         if not callable(callback):
             raise SyncError(f"callback must be callable, got {callback!r}")
-        if (
-            isinstance(age_penalty, bool)
-            or not isinstance(age_penalty, Real)
-            or not math.isfinite(age_penalty)
-            or age_penalty < 0
-        ):
+        if not is_finite_number(age_penalty) or age_penalty < 0:
             raise SyncError(f"age_penalty must be a finite number >= 0, got {age_penalty!r}")
         bounds = [0.0] * n_inputs if inter_message_lower_bounds is None else list(inter_message_lower_bounds)
         if len(bounds) != n_inputs:

@@ -8,12 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from amr_kinematics.diff_drive import DiffDrive
+from amr_util.diff_drive import DiffDrive, DiffDriveError
 
 # TurtleBot3 Burger figures (ROBOTIS e-Manual), as config/simulator.yaml gives them to the simulator
 TURTLEBOT3_BURGER = DiffDrive(wheel_radius=0.033, track=0.160, max_wheel_speed=0.22 / 0.033,
                               max_linear=0.22, max_angular=2.84)
-from amr_kinematics.errors import KinematicsError
 
 speeds = st.floats(-5.0, 5.0, allow_nan=False)
 
@@ -71,20 +70,20 @@ def test_command_within_limits_is_unchanged():
 @pytest.mark.parametrize("field", ["wheel_radius", "track", "max_wheel_speed", "max_linear", "max_angular"])
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, True, "1"])
 def test_bad_parameters_are_refused(field, bad):
-    with pytest.raises(KinematicsError, match=field):
+    with pytest.raises(DiffDriveError, match=field):
         DiffDrive(**{field: bad})
 
 
 def test_infinite_geometry_is_refused():
-    with pytest.raises(KinematicsError):
+    with pytest.raises(DiffDriveError):
         DiffDrive(track=math.inf)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
 def test_non_finite_speeds_are_refused(bad):
-    with pytest.raises(KinematicsError):
+    with pytest.raises(DiffDriveError):
         TURTLEBOT3_BURGER.command(bad, 0.0)
-    with pytest.raises(KinematicsError):
+    with pytest.raises(DiffDriveError):
         TURTLEBOT3_BURGER.body_twist(0.0, bad)
 
 

@@ -1,7 +1,7 @@
-"""Generated worlds for tests and benchmarks: maze families with a free start and a goal, no ROS.
+"""Generated worlds: maze families with a free start and a goal, no ROS (the `amr-maze` command writes them).
 
 ``generate(family, seed, **options)`` returns a world dict that
-:func:`amr_simulation.world.world_from_dict` accepts (walls with one
+:func:`amr_maps.world.world_from_dict` accepts (walls with one
 ``wall_thickness``, axis-aligned ``boxes``, ``start``, ``goal``); the same
 family, seed and options always give the same dict. Every value an option does
 not fix is drawn from ``numpy.random.default_rng(seed)``.
@@ -48,8 +48,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from amr_simulation.boundary_walk import BoundaryWalk
-from amr_simulation.world import world_from_dict
+from amr_maps.boundary_walk import BoundaryWalk
+from amr_maps.world import world_from_dict
 
 FAMILIES = (
     "perfect", "loops", "rotated", "bends", "curved", "pillars", "narrowing", "dead_ends", "thin_walls", "open_room",
@@ -100,6 +100,13 @@ def generate(family: str, seed: int, **options: Any) -> dict:
     return _rounded(world)
 
 
+def family_options(family: str) -> tuple[str, ...]:
+    """The options ``generate`` takes for ``family``: the common ones, then the family's own."""
+    if family not in FAMILIES:
+        raise MazeError(f"unknown maze family {family!r} (known: {', '.join(FAMILIES)})")
+    return _COMMON + _FAMILY_OPTIONS[family]
+
+
 def goal_reachable(
     world: dict,
     hand: str = "right",
@@ -125,7 +132,7 @@ def walk_length(world: dict, hand: str = "right", robot_radius: float = ROBOT_RA
                 wall_lost_distance: float = WALL_LOST_DISTANCE) -> float:
     """Metres an ideal ``hand`` wall follower walks from the world's start to its goal (inf: never).
 
-    Measured on the followed solid's offset curve (amr_simulation.boundary_walk); generated
+    Measured on the followed solid's offset curve (amr_maps.boundary_walk); generated
     goals are placed within WALK_BUDGET of it.
     """
     if hand not in HANDS:

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from amr_simulation.errors import WorldError
+from amr_maps.world import (SOURCE_WORLDS, WorldError, load_world, resolve_world_path, world_from_dict,
+                            world_search_path)
 from amr_simulation.physics import Physics
-from amr_simulation.world import load_world, resolve_world_path, world_from_dict
 
 WORLDS = Path(__file__).resolve().parents[2] / "config" / "worlds"
 SHIPPED = sorted(p.name for p in WORLDS.glob("*.yaml"))
@@ -159,10 +160,19 @@ def test_outer_corridor_is_a_ring_closed_by_a_dead_end() -> None:
 def test_set_pose_outside_the_world_bounds_is_refused_naming_them():
     from amr_simulation.errors import SimulationError
     from amr_simulation.simulator import Simulator
-    from amr_simulation.world import load_world, resolve_world_path
+    from amr_maps.world import load_world, resolve_world_path
 
     sim = Simulator(load_world(resolve_world_path("outer_corridor.yaml")))
     with pytest.raises(SimulationError, match=r"\(100.000, 0.000\) lies outside the bounds of .*x in \[-4\.\d+, 4\.\d+\]"):
         sim.set_pose(100.0, 0.0, 0.0)
     xmin, ymin, xmax, ymax = sim.bounds
     assert xmin < -1.2 - 3.4 and xmax > 1.2 + 3.4, "the walls' extent plus the LiDAR range"
+
+
+def test_relative_world_names_look_in_the_package_share_directory_first(monkeypatch):
+    monkeypatch.setenv("AMENT_PREFIX_PATH", sys.prefix)
+    share = Path(sys.prefix) / "share" / "amr_maps" / "config" / "worlds"
+    assert world_search_path()[0] == share
+    assert (share / "open_room.yaml").is_file(), "worlds are installed with the package (make setup)"
+    monkeypatch.delenv("AMENT_PREFIX_PATH")
+    assert world_search_path() == (share, SOURCE_WORLDS), "without an ament prefix, this prefix's share, then the source"

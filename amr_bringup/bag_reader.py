@@ -18,12 +18,12 @@ from matplotlib.figure import Figure
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2.errors import ReaderError
 
-from amr_maps.bag_writer import BagError, bag_directory
+from amr_bringup.bag_writer import BagError, bag_directory
+from amr_maps.world import World
 from amr_simulation.config import LidarConfig
 from amr_simulation.lidar import Lidar
-from amr_simulation.pose import Pose2D
 from amr_simulation.render import draw_robot, draw_scan, draw_trajectory, draw_world
-from amr_simulation.world import World
+from amr_util.geometry import Pose2D, yaw_from_quaternion
 
 POSE_TOPICS = ("/ground_truth", "/odom", "/odometry")
 SCAN_TOPIC = "/scan"
@@ -69,9 +69,8 @@ def trajectory(recording: Recording, pose_topic: str | None = None) -> tuple[np.
     poses, rows = [], []
     for _, message in recording.topics[topic]:
         p, q = message.pose.pose.position, message.pose.pose.orientation
-        theta = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
         twist = message.twist.twist.linear
-        poses.append(Pose2D(p.x, p.y, theta))
+        poses.append(Pose2D(p.x, p.y, yaw_from_quaternion(q)))
         rows.append((p.x, p.y, math.hypot(twist.x, twist.y)))
     return np.array(rows, dtype=float), poses
 

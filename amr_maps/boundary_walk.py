@@ -1,7 +1,7 @@
 """How far an ideal wall follower walks from its start to a goal: the honest time budget of a maze.
 
 A right-hand (left-hand) follower keeps one connected solid on its hand side and travels
-along the closed curve at a fixed offset from it (amr_simulation.maze_families explains why
+along the closed curve at a fixed offset from it (amr_maps.maze_families explains why
 it is one curve). The walk is measured on that curve:
 
 * the solid is rasterised on a grid of ``resolution`` m and its distance field

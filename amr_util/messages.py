@@ -1,4 +1,7 @@
-"""Messages in and out of the controllers: a LaserScan as the controllers read it, and /cmd_vel."""
+"""Message helpers the nodes share: a LaserScan as the scan readers take it, /cmd_vel, yaw quaternions.
+
+Plain functions of message types (no rclpy), so that nodes stay thin shells and tests need no node.
+"""
 
 from __future__ import annotations
 
@@ -6,16 +9,23 @@ import math
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Twist, TwistStamped
+from geometry_msgs.msg import Quaternion, Twist, TwistStamped
 from sensor_msgs.msg import LaserScan
 
-from amr_control.scan_sectors import ScanData
+from amr_util.geometry import quaternion_from_yaw
+from amr_util.scan import ScanData
 
 
 def scan_data(message: LaserScan) -> ScanData:
-    """The ranges and geometry of a LaserScan as the controllers' scan readers take them."""
+    """The ranges and geometry of a LaserScan as the scan readers (controllers, localizers) take them."""
     return ScanData(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
                     message.range_min, message.range_max)
+
+
+def quaternion(theta: float) -> Quaternion:
+    """geometry_msgs/Quaternion of the rotation theta about z (amr_util.geometry.yaw_from_quaternion's inverse)."""
+    x, y, z, w = quaternion_from_yaw(theta)
+    return Quaternion(x=x, y=y, z=z, w=w)
 
 
 def velocity_command(v: float, w: float, *, stamped: bool, flip_angular_sign: bool, stamp: Time,

@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from amr_control.scan_sectors import scan_of
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_localization.particle_filter import ParticleFilter
-from amr_localization.poses import compose, wrap
 from amr_simulation.simulator import Simulator
+from amr_util.geometry import compose, wrap_angle
+from amr_util.scan import scan_of
 
 
 @dataclass
@@ -64,7 +64,7 @@ def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig,
         trace.time.append(sim.time)
         trace.localized.append(estimate.localized)
         trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
-        trace.heading_error.append(abs(float(wrap(estimate.pose.theta - truth.theta))))
+        trace.heading_error.append(abs(float(wrap_angle(estimate.pose.theta - truth.theta))))
         trace.update_time.append(estimate.status.update_time)
         if stop_when_localized and estimate.localized:
             break
@@ -76,6 +76,6 @@ def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig,
 def _frame_mapping(before: np.ndarray, restarted: np.ndarray) -> np.ndarray:
     """The frame F with F (+) restarted = before: maps the restarted odometry onto the old one."""
     c, s = math.cos(before[2] - restarted[2]), math.sin(before[2] - restarted[2])
-    theta = float(wrap(before[2] - restarted[2]))
+    theta = float(wrap_angle(before[2] - restarted[2]))
     return np.array([before[0] - (c * restarted[0] - s * restarted[1]),
                      before[1] - (s * restarted[0] + c * restarted[1]), theta])

@@ -15,12 +15,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from PIL import Image
 
-from amr_maps.bag_reader import SCAN_TOPIC, POSE_TOPICS, read_bag, trajectory
-from amr_maps.bag_writer import BagError
+from amr_bringup.bag_reader import POSE_TOPICS, SCAN_TOPIC, read_bag, trajectory
+from amr_bringup.bag_writer import BagError
+from amr_maps.world import World
 from amr_simulation.config import LidarConfig
 from amr_simulation.lidar import Lidar
 from amr_simulation.render import draw_robot, draw_scan, draw_trajectory, draw_world
-from amr_simulation.world import World
 
 COLOURS = 64
 

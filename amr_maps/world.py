@@ -1,4 +1,8 @@
-"""Worlds: static walls, boxes and ASCII-grid blocks, a start pose and an optional goal.
+"""Worlds: static walls, boxes and ASCII-grid blocks, a start pose and an optional goal. No ROS, no pymunk.
+
+The format every package reads a world in: the simulator collides with it, map_server rasterizes it,
+the localizers and the planner take their map from it. A relative world name is looked up along
+world_search_path() (share/amr_maps/config/worlds, then the source tree's config/worlds).
 
 A world YAML file (config/worlds/*.yaml) holds any mix of:
 
@@ -29,7 +33,6 @@ outward normal is the right-hand normal of the edge.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -39,13 +42,19 @@ import yaml
 
 from amr_maps.map_io import load_map
 from amr_maps.occupancy_grid import MapError
-from amr_simulation.errors import WorldError
-from amr_simulation.pose import Pose2D, wrap_angle
+from amr_util.geometry import Pose2D, is_finite_number, wrap_angle
+from amr_util.share import share_directory
 
 WORLD_KEYS = ("name", "wall_thickness", "walls", "boxes", "grid", "map", "start", "goal", "beacons")
 GRID_KEYS = ("cell_size", "origin", "rows")
 SOLID_CELL = "#"
 FREE_CELL = "."
+SOURCE_WORLDS = Path(__file__).resolve().parents[1] / "config" / "worlds"
+"""The worlds of the source tree (installed to share/amr_maps/config/worlds)."""
+
+
+class WorldError(ValueError):
+    """A world description that is malformed or missing; the message names the file and the key."""
 
 
 @dataclass(frozen=True)
@@ -90,27 +99,35 @@ class World:
         return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
 
 
-def world_search_dirs() -> tuple[Path, ...]:
-    """Where world names are looked up: the source tree, then the installed share directory."""
-    return (
-        Path(__file__).resolve().parents[1] / "config" / "worlds",
-        Path(sys.prefix) / "share" / "amr_simulation" / "config" / "worlds",
-    )
+def world_search_path() -> tuple[Path, ...]:
+    """Where a relative world name is looked up, in order: the installed share/amr_maps/config/worlds
+    (from the ament index, else under this Python's prefix), then the source tree's config/worlds."""
+    installed = share_directory("amr_maps") / "config" / "worlds"
+    return (installed,) if installed == SOURCE_WORLDS else (installed, SOURCE_WORLDS)
 
 
 def resolve_world_path(name: str, search_dirs: Sequence[str | Path] = ()) -> Path:
     """An existing path as given, else the first search directory holding that file name.
 
-    With no search_dirs, world_search_dirs() is used.
+    With no search_dirs, world_search_path() is used.
     """
     candidate = Path(name).expanduser()
     if candidate.is_file():
         return candidate
-    dirs = [Path(d) for d in search_dirs] or list(world_search_dirs())
+    dirs = [Path(d) for d in search_dirs] or list(world_search_path())
     for directory in dirs:
         if (directory / name).is_file():
             return directory / name
     raise WorldError(f"world file {name!r} not found as a path nor in {', '.join(map(str, dirs))}")
+
+
+def world_problem(name: str) -> str | None:
+    """Why `name` names no world file along world_search_path(), or None (a parameter check)."""
+    try:
+        resolve_world_path(name)
+    except (WorldError, ValueError, OSError) as problem:
+        return str(problem)
+    return None
 
 
 def load_world(path: str | Path) -> World:
@@ -224,18 +241,14 @@ def _list(data: dict, key: str, where: _Where) -> list:
     return value
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _numbers(value: Any, count: int, key: str, where: _Where, form: str) -> tuple[float, ...]:
-    if not isinstance(value, (list, tuple)) or len(value) != count or not all(map(_is_number, value)):
+    if not isinstance(value, (list, tuple)) or len(value) != count or not all(map(is_finite_number, value)):
         raise where.error(key, f"expected {form} ({count} finite numbers), got {value!r}")
     return tuple(float(v) for v in value)
 
 
 def _positive(value: Any, key: str, where: _Where) -> float:
-    if not _is_number(value) or value <= 0.0:
+    if not is_finite_number(value) or value <= 0.0:
         raise where.error(key, f"must be a positive number, got {value!r}")
     return float(value)
 

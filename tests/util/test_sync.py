@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from amr_control.sync import ApproximateTimeSynchronizer, SyncError, to_nanoseconds
+from amr_util.stamps import to_nanoseconds
+from amr_util.sync import ApproximateTimeSynchronizer, SyncError
 
 MS = 1_000_000  # nanoseconds per millisecond
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from amr_simulation.boundary_walk import BoundaryWalk
-from amr_simulation.world import world_from_dict
+from amr_maps.boundary_walk import BoundaryWalk
+from amr_maps.world import world_from_dict
 
 HALF, THICKNESS, OFFSET = 2.0, 0.05, 0.105
 

@@ -2,7 +2,7 @@
 
     amr-render-bag out/run out/run.png                      # walls from the bag's /map
     amr-render-bag out/run out/run.png --world inner_maze.yaml
-    python -m amr_maps.render_bag out/run.mcap out/run.png
+    python -m amr_bringup.render_bag out/run.mcap out/run.png
 
 The walls come from --world (a world file or a map_server YAML) or, without it, from the first
 /map the bag holds (a real robot's map_server or SLAM map); the LiDAR mounting from /tf_static
@@ -17,14 +17,12 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from amr_maps.bag_reader import read_bag, render_bag
+from amr_bringup.bag_reader import read_bag, render_bag
 from amr_maps.map_world import world_from_grid
 from amr_maps.messages import grid_from_message
 from amr_maps.occupancy_grid import MapError
+from amr_maps.world import World, WorldError, load_world, resolve_world_path
 from amr_simulation.config import LidarConfig
-from amr_simulation.errors import WorldError
-from amr_simulation.world import World, load_world, resolve_world_path, world_search_dirs
-from amr_util.share import share_directory
 
 MAP_TOPIC = "/map"
 TF_STATIC_TOPIC = "/tf_static"
@@ -34,8 +32,7 @@ SCAN_FRAME = "base_scan"
 def bag_world(bag: str | Path, world: str | None) -> World:
     """--world when given, else the first /map of the bag as walls."""
     if world:
-        dirs = [share_directory("amr_simulation") / "config" / "worlds", *world_search_dirs()]
-        return load_world(resolve_world_path(world, dirs))
+        return load_world(resolve_world_path(world))
     recording = read_bag(bag, (MAP_TOPIC,))
     if not recording.count(MAP_TOPIC):
         raise MapError(f"{bag}: no {MAP_TOPIC} in the bag: name the walls with --world")
