@@ -241,11 +241,7 @@ class ViewerNode(ManagedNode):
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         result = super().on_activate(state)
-        self._timers = [
-            self.create_timer(self.get_parameter("discovery_period").value, self._guarded(self._discover),
-                              clock=self._steady),
-            self.create_timer(self.get_parameter("draw_period").value, self._guarded(self._draw), clock=self._steady),
-        ]
+        self._start_timers(self.get_parameter("discovery_period").value, self.get_parameter("draw_period").value)
         self._guarded(self._discover)()
         return result
 
@@ -265,6 +261,11 @@ class ViewerNode(ManagedNode):
         self._release()
         super().destroy_node()
 
+    def _start_timers(self, discovery_period: float, draw_period: float) -> None:
+        self._stop_timers()
+        self._timers = [self.create_timer(discovery_period, self._guarded(self._discover), clock=self._steady),
+                        self.create_timer(draw_period, self._guarded(self._draw), clock=self._steady)]
+
     def _stop_timers(self) -> None:
         for timer in self._timers:
             self.destroy_timer(timer)
@@ -278,8 +279,15 @@ class ViewerNode(ManagedNode):
                 self.destroy_subscription(subscription)
         for subscription in self._arm_subscriptions:
             self.destroy_subscription(subscription)
-        self.robots, self.arms, self._arm_subscriptions = {}, {}, []
+        for client in list(self.clients):  # simulator controls, node states, parameter services
+            self.destroy_client(client)
+        for publisher in self._pose_publishers.values():
+            self.destroy_publisher(publisher)
+        if self._guard is not None:
+            self.destroy_guard_condition(self._guard)
+        self.robots, self.arms, self._arm_subscriptions, self._pose_publishers, self._guard = {}, {}, [], {}, None
         self._arms_asked, self._worlds_asked, self.simulators = set(), set(), {}
+        self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
         if self.server is not None:
             self.server.stop()
         self.server = self.scene = self.panels = None
@@ -292,10 +300,7 @@ class ViewerNode(ManagedNode):
         if {"draw_period", "discovery_period"} & set(changes) and self._timers:
             periods = {"discovery_period": self.get_parameter("discovery_period").value,
                        "draw_period": self.get_parameter("draw_period").value, **changes}
-            self._stop_timers()
-            self._timers = [
-                self.create_timer(periods["discovery_period"], self._guarded(self._discover), clock=self._steady),
-                self.create_timer(periods["draw_period"], self._guarded(self._draw), clock=self._steady)]
+            self._start_timers(periods["discovery_period"], periods["draw_period"])
 
     # -- requests from the page (viser threads) -> this node's executor -----------------------------------------
 

@@ -204,3 +204,20 @@ def test_a_port_in_use_fails_configure_naming_it(ros_context, viewer):
         node = viewer(port=port)
         assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
         assert node.server is None and node.state_label == "unconfigured"
+
+
+def test_cleanup_stops_serving_and_a_second_configure_serves_again(ros_context, executor, viewer):
+    node = viewer(discovery_period=0.2)
+    executor.add_node(node)
+    for _ in range(2):
+        assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+        assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+        port = node.server.get_port()
+        with socket.create_connection(("127.0.0.1", port), timeout=5.0):
+            pass  # the page is served
+        spin_until(executor, lambda: False, 0.5)  # a few discoveries and draws
+        assert node.try_transition(Transition.TRANSITION_DEACTIVATE)
+        assert node.try_transition(Transition.TRANSITION_CLEANUP)
+        assert node.server is None and not list(node.clients) and node.robots == {}
+        with pytest.raises(OSError):
+            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
