@@ -113,5 +113,6 @@ def pose_array(data: bytes) -> tuple[Stamped, np.ndarray]:
         raise CdrError(f"PoseArray of {count} poses")
     values = reader.float64_array(7 * count).reshape(count, 7)
     qx, qy, qz, qw = values[:, 3], values[:, 4], values[:, 5], values[:, 6]
-    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)  # yaw_from_quaternion, vectorized
+    # amr_util.geometry.yaw_from_quaternion, for every pose at once
+    yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
     return header, np.column_stack([values[:, 0], values[:, 1], yaw])

@@ -13,7 +13,7 @@ from typing import Protocol
 import viser
 
 from amr_viewer.clicks import GOAL, INITIAL_POSE, OFF
-from amr_viewer.parameters import ParameterEntry
+from amr_viewer.parameters import ParameterEntry, format_value
 from amr_viewer.scene import TOGGLED
 
 PACES = {"as fast as possible": 0.0, "0.5x real time": 0.5, "1x real time": 1.0, "2x real time": 2.0,
@@ -44,7 +44,8 @@ class Panels:
                     lambda event, service=service: self.actions.control(service))
             self.pace = gui.add_dropdown("Pace", tuple(PACES), initial_value="as fast as possible",
                                          hint="the simulator's pace parameter")
-            self.pace.on_update(lambda event: event.client is not None and self.actions.set_pace(PACES[self.pace.value]))
+            self.pace.on_update(
+                lambda event: event.client is not None and self.actions.set_pace(PACES[self.pace.value]))
             self.simulation_reply = gui.add_markdown("")
         with gui.add_folder("Click on the floor"):
             self.click_mode = gui.add_dropdown("Sends", tuple(CLICK_MODES), initial_value="goal (/goal_pose)")
@@ -135,7 +136,6 @@ class Panels:
         if handle is None or node != self._shown_node:
             return
         if entry.widget in ("text", "readonly"):
-            from amr_viewer.parameters import format_value
             handle.value = format_value(value)
         elif entry.widget in ("slider", "number"):
             handle.value = int(value) if entry.is_integer else float(value)

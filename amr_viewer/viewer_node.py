@@ -89,7 +89,8 @@ class RobotLink:
         "tf": (TFMessage, reliable(100), True), "tf_static": (TFMessage, TF_STATIC, True),
         "ground_truth": (Odometry, reliable(10), True), "scan": (LaserScan, SENSOR_DATA, False),
         "particle_cloud": (PoseArray, reliable(2), False), "pose": (LocalizedPose, reliable(10), False),
-        "path": (Path, LATCHED, False), "beacons": (BeaconRanges, reliable(10), False), "map": (OccupancyGrid, LATCHED, False),
+        "path": (Path, LATCHED, False), "beacons": (BeaconRanges, reliable(10), False),
+        "map": (OccupancyGrid, LATCHED, False),
         "simulator/status": (SimulatorStatus, reliable(10), False),
     }
 

@@ -220,8 +220,8 @@ def main() -> None:
         print(f"run {run + 1}: " + ", ".join(f"{name} {values[-1][0]:.0f} steps/s" for name, values in results.items()),
               flush=True)
     base = statistics.median(rate for rate, _ in results["none"])
-    print(f"maze_localization composed, 5,000 particles in the loop, lockstep, first {args.steps} steps of a fresh stack, median "
-          f"of {args.runs}, {os.cpu_count()} cores (load average {os.getloadavg()[0]:.1f}):")
+    print(f"maze_localization composed, 5,000 particles in the loop, lockstep, first {args.steps} steps of a fresh "
+          f"stack, median of {args.runs}, {os.cpu_count()} cores (load average {os.getloadavg()[0]:.1f}):")
     print(f"  {'no viewer':30s} {base:7.1f} steps/s ({base * 0.05:5.1f}x real time)")
     labels = {"listener": "control: a /clock listener", "viewer": "viewer, no browser",
               "browser": "viewer + headless chromium"}

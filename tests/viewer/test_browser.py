@@ -2,7 +2,8 @@
 
 `amr-bringup maze_navigation --composed --view` (one stack for the module) and `amr-bringup ik_service --view`;
 a probe node in this process watches /clock, /ground_truth, /goal_pose and the nodes' parameters. Without
-/usr/bin/chromium (or playwright) the whole module is skipped with one line saying how to install it.
+/usr/bin/chromium (AMR_CHROMIUM names another) or playwright the whole module is skipped with one line saying how to
+install it.
 AMR_VIEWER_SCREENSHOT=docs/viewer.png keeps the screenshot of the last test there.
 """
 
@@ -24,10 +25,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM = Path(os.environ.get("AMR_CHROMIUM", "/usr/bin/chromium"))
 if not CHROMIUM.exists():
-    pytest.skip("browser tests: no /usr/bin/chromium (install it: apt-get install chromium)", allow_module_level=True)
-playwright_api = pytest.importorskip("playwright.sync_api", reason="browser tests: no playwright (pip install -e '.[test]')")
+    pytest.skip(f"browser tests: no {CHROMIUM} (install it: apt-get install chromium)", allow_module_level=True)
+playwright_api = pytest.importorskip("playwright.sync_api",
+                                     reason="browser tests: no playwright (pip install -e '.[test]')")
 
 import rclpy  # noqa: E402
 from conftest import fresh_domain  # noqa: E402
@@ -118,8 +120,8 @@ class Stack:
         self.executor.add_node(self.probe)
         self._spinner = threading.Thread(target=self._spin, daemon=True)
         self._spinner.start()
-        wait_for(lambda: ("all nodes active" in self.output() and serving(self.port)) or self.process.poll() is not None,
-                 STARTUP, f"{name} and its viewer to come up")
+        wait_for(lambda: ("all nodes active" in self.output() and serving(self.port)) or
+                 self.process.poll() is not None, STARTUP, f"{name} and its viewer to come up")
         assert self.process.poll() is None, self.output()
 
     def _spin(self) -> None:
