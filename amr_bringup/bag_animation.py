@@ -8,6 +8,7 @@ No rclpy here.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +60,7 @@ def animate_bag(path: str | Path, gif: str | Path, world: World, frames: int = 1
         if at >= 0:
             _, scan = scans[at]
             ranges = np.asarray(scan.ranges, dtype=float)
-            fan = LidarConfig(beams=ranges.size, angle_min=scan.angle_min, fov=scan.angle_increment * ranges.size,
+            fan = LidarConfig(beams=ranges.size, angle_min=scan.angle_min, fov=min(scan.angle_increment * ranges.size, 2 * math.pi),  # float32 steps overshoot 2 pi
                               range_min=scan.range_min, range_max=scan.range_max, x=lidar.x, y=lidar.y)
             sensor = Lidar(fan, caster=None, rng=None).sensor_pose(poses[index])
             draw_scan(ax, sensor, np.where(ranges > scan.range_max, np.inf, ranges), fan)

@@ -90,7 +90,7 @@ def render_bag(path: str | Path, png: str | Path, world: World, pose_topic: str 
     if recording.count(SCAN_TOPIC):
         _, scan = recording.topics[SCAN_TOPIC][-1]
         ranges = np.asarray(scan.ranges, dtype=float)
-        fan = LidarConfig(beams=ranges.size, angle_min=scan.angle_min, fov=scan.angle_increment * ranges.size,
+        fan = LidarConfig(beams=ranges.size, angle_min=scan.angle_min, fov=min(scan.angle_increment * ranges.size, 2 * math.pi),  # float32 steps overshoot 2 pi
                           range_min=scan.range_min, range_max=scan.range_max, x=lidar.x, y=lidar.y)
         sensor = Lidar(fan, caster=None, rng=None).sensor_pose(poses[-1])  # the mounting only: no casting
         draw_scan(ax, sensor, np.where(ranges > scan.range_max, np.inf, ranges), fan)

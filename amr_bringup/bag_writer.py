@@ -31,17 +31,25 @@ class BagError(ValueError):
     """A bag that cannot be written or read, naming what is wrong."""
 
 
+ROS_DISTRO = "jazzy"
+"""What metadata.yaml names as the recording's distribution (rosbags writes its own name there)."""
+
+
 @dataclass(frozen=True)
 class TopicQos:
-    """The QoS a recorded topic was offered with (plain data; the ROS recorder fills it)."""
+    """The QoS a recorded topic was offered with (plain data; the ROS recorder fills it).
+
+    depth None: history unknown, depth 0, which is what DDS discovery reports for every publisher
+    (history is not part of the discovery data) and what rosbag2 records then.
+    """
 
     reliable: bool = True
     transient_local: bool = False
-    depth: int = 10
+    depth: int | None = 10
 
     def rosbags_qos(self) -> Qos:
         return Qos(
-            history=QosHistory.KEEP_LAST, depth=self.depth,
+            history=QosHistory.UNKNOWN if self.depth is None else QosHistory.KEEP_LAST, depth=self.depth or 0,
             reliability=QosReliability.RELIABLE if self.reliable else QosReliability.BEST_EFFORT,
             durability=QosDurability.TRANSIENT_LOCAL if self.transient_local else QosDurability.VOLATILE,
             deadline=UNSET_TIME, lifespan=UNSET_TIME, liveliness=QosLiveliness.AUTOMATIC,
@@ -111,6 +119,9 @@ class BagWriter:
     def close(self) -> None:
         """Finish the MCAP file and write metadata.yaml (a bag is only readable after this)."""
         self._writer.close()
+        metadata = self.path / "metadata.yaml"
+        text = metadata.read_text(encoding="utf-8")
+        metadata.write_text(text.replace("\n  ros_distro: rosbags\n", f"\n  ros_distro: {ROS_DISTRO}\n"), encoding="utf-8")
 
     def __enter__(self) -> "BagWriter":
         return self

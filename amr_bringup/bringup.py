@@ -40,7 +40,8 @@ from amr_bringup.bag_writer import bag_directory
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_bringup.processes import NodeProcess, executable_path, stop_processes
 from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_matched
-from amr_bringup.stack_config import Bringup, BringupError, NodeSpec, check_installed, load_bringup, parse_assignments
+from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
+                                      parse_assignments, shipped_stacks)
 from amr_bringup.status import StatusMonitor, format_table
 from amr_bringup.viewing import DEFAULT_HOST, DEFAULT_PORT, ViewerProcess, port_problem
 from amr_util.executors import NodeSpinners
@@ -352,10 +353,14 @@ def format_arguments(bringup: Bringup) -> str:
 
 
 def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
+    stacks = shipped_stacks()
+    width = max(map(len, stacks), default=0)
     parser = argparse.ArgumentParser(
-        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.")
-    parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped one (maze_sim, "
-                                        "maze_sim_odometry, maze_localization, real_robot, real_robot_sim, ik_service)")
+        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="shipped stacks (config/bringup/<name>.yaml):\n" + "\n".join(
+            f"  {name:<{width}}  {summary}" for name, summary in stacks.items()) if stacks else None)
+    parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped stack (listed below)")
     parser.add_argument("arguments", nargs="*", metavar="name:=value",
                         help="the stack's arguments (see --show-args), e.g. world:=hard_maze.yaml")
     parser.add_argument("-p", dest="parameters", action="append", default=[], metavar="NODE.PARAMETER:=VALUE",

@@ -22,22 +22,12 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
-from amr_bringup.lifecycle_sequence import LifecycleSequencer, Step
+from amr_bringup.lifecycle_sequence import MANAGER_PARAMETERS, LifecycleSequencer, Step
 from amr_util.managed_node import SpecifiedParameters
-from amr_util.parameter_spec import ParameterSpec
 from amr_util.stop_signals import StopSignals
 
 
-PARAMETERS = (
-    ParameterSpec("node_startup_order", [""], "lifecycle nodes to configure and activate, in this order "
-                  "(taken down in reverse)", kind="str_array", read_only=True),
-    ParameterSpec("wait_timeout", 30.0, "s to wait for a node's lifecycle services", minimum=0.1,
-                  maximum=3600.0, read_only=True),
-    ParameterSpec("transition_timeout", 15.0, "s for one lifecycle service call", minimum=0.1, maximum=3600.0,
-                  read_only=True),
-    ParameterSpec("autostart", True, "bring the nodes up at start (else wait for ~/startup)", read_only=True),
-)
-"""Read-only: the sequence is built from them at start."""
+PARAMETERS = MANAGER_PARAMETERS
 SHUTDOWN_BUDGET = 3.0  # s to bring the managed nodes down on Ctrl-C (launch escalates to SIGTERM after 5 s)
 
 

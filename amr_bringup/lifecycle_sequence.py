@@ -14,6 +14,20 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
+from amr_util.parameter_spec import ParameterSpec
+
+MANAGER_PARAMETERS = (
+    ParameterSpec("node_startup_order", [""], "lifecycle nodes to configure and activate, in this order "
+                  "(taken down in reverse)", kind="str_array", read_only=True),
+    ParameterSpec("wait_timeout", 30.0, "s to wait for a node's lifecycle services", minimum=0.1,
+                  maximum=3600.0, read_only=True),
+    ParameterSpec("transition_timeout", 15.0, "s for one lifecycle service call", minimum=0.1, maximum=3600.0,
+                  read_only=True),
+    ParameterSpec("autostart", True, "bring the nodes up at start (else wait for ~/startup)", read_only=True),
+)
+"""The lifecycle manager's parameters (read-only: the sequence is built from them at start); a stack file's
+`lifecycle_manager:` section is checked against them too."""
+
 UP = ("configure", "activate")
 DOWN = ("deactivate", "cleanup")
 WAIT_SLICE = 0.25  # s between looks at a cancel request while waiting for a node's services

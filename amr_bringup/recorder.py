@@ -23,7 +23,7 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
@@ -49,6 +49,15 @@ CATCH_UP_TIMEOUT = 3.0
 """s a startup waits for the recorder to subscribe to a node's topics before activating it."""
 MATCH_SETTLE = 0.05
 """s after the match is seen: the writer side learns of the new reader a moment after the reader sees it."""
+
+
+def offered_depth(profiles) -> int | None:
+    """The history depth every publisher offers, or None (unknown) when discovery does not tell it, which
+    is always the case for DDS (a depth-10 publisher is reported as history UNKNOWN, depth 0): the bag
+    then says so, as rosbag2's does, instead of a depth nobody offered."""
+    if profiles and all(p.history == HistoryPolicy.KEEP_LAST and p.depth > 0 for p in profiles):
+        return max(p.depth for p in profiles)
+    return None
 
 
 class Recorder(SpecifiedParameters, Node):
@@ -134,7 +143,7 @@ class Recorder(SpecifiedParameters, Node):
         latched = all(p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in profiles)
         try:
             kind = message_class(type_name)
-            self._writer.add_topic(topic, type_name, TopicQos(reliable, latched, max(p.depth for p in profiles) or 1))
+            self._writer.add_topic(topic, type_name, TopicQos(reliable, latched, offered_depth(profiles)))
         except (ImportError, AttributeError, ValueError) as error:  # BagError is a ValueError
             self._skipped.add(topic)
             self.get_logger().warning(f"not recording {topic} ({type_name}): {error}")

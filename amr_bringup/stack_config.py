@@ -40,7 +40,9 @@ from pathlib import Path
 import yaml
 from ament_index_python.packages import PackageNotFoundError
 
+from amr_bringup.lifecycle_sequence import MANAGER_PARAMETERS
 from amr_util.parameter_file import dotted, node_parameters
+from amr_util.parameter_spec import ConfigError
 from amr_util.share import package_prefix, share_directory
 
 BRINGUP_PACKAGE = "amr_bringup"
@@ -205,6 +207,28 @@ def shipped_bringup_dir() -> Path:
     return share_directory(BRINGUP_PACKAGE, must_exist=True) / "config" / "bringup"
 
 
+def stack_summary(path: Path) -> str:
+    """What a bringup file is, in a few words: its first comment up to the first colon or full stop."""
+    words = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#") or line.startswith("#   "):
+            break
+        words.append(line.lstrip("#").strip())
+    text = " ".join(words)
+    for end in (": ", ". "):
+        text = text.split(end)[0]
+    return text.rstrip(".")
+
+
+def shipped_stacks() -> dict[str, str]:
+    """{name: summary} of every shipped bringup (config/bringup/*.yaml installed in share/amr_bringup)."""
+    try:
+        directory = shipped_bringup_dir()
+    except PackageNotFoundError:
+        return {}
+    return {path.stem: stack_summary(path) for path in sorted(directory.glob("*.yaml"))}
+
+
 def find_bringup(name_or_path: str) -> Path:
     """A path to an existing file, or the bare name of a shipped bringup (`maze_sim`)."""
     path = Path(name_or_path)
@@ -255,12 +279,13 @@ def parse_bringup(document: object, source: Path) -> Bringup:
     where.no_unknown_keys("lifecycle_manager", manager, MANAGER_KEYS)
     order = _parse_startup_order(where, manager, nodes)
     timeouts = {}
+    specs = {spec.name: spec for spec in MANAGER_PARAMETERS}
     for key in ("wait_timeout", "transition_timeout"):
         if key in manager:
-            value = manager[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
-                raise where.error(f"lifecycle_manager.{key}", f"must be a positive number of seconds, got {value!r}")
-            timeouts[key] = float(value)
+            try:
+                timeouts[key] = specs[key].coerce(manager[key])
+            except ConfigError as error:
+                raise where.error(f"lifecycle_manager.{key}", str(error).removeprefix(f"{key}: ")) from None
     arguments = _parse_arguments(where, document.get("arguments") or {}, nodes)
     return Bringup(source, nodes, order, timeouts, arguments)
 

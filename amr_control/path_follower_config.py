@@ -1,19 +1,21 @@
-"""Parameters of the path follower (pure pursuit): defaults, types and validation, no ROS.
+"""Parameters of the path follower (pure pursuit), each stated once (type, default, range, live or
+structural, description), no ROS.
 
 One flat dict of ROS 2 parameters (node name ``path_follower``) configures both the controller and
-its node shell, as for the wall follower: unknown keys and wrong types raise :class:`ConfigError`
-naming the key. Angles are in degrees where the key says ``_deg``.
+its node shell, as for the wall follower: unknown keys, wrong types and values out of range raise
+:class:`ConfigError` naming the key. Structural parameters shape what configure builds (publisher
+type, timer, planner client) and are refused while configured; every other one is live: validated
+with the whole configuration and used from the next observation. Angles are in degrees where the
+key says ``_deg``.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from amr_control.flat_config import ConfigError, FlatConfig
+from amr_util.parameter_spec import Config, ConfigError, parameter
 
 NODE_NAME = "path_follower"
 
@@ -21,89 +23,71 @@ __all__ = ["ConfigError", "NODE_NAME", "PathFollowerConfig", "parameter_defaults
 
 
 @dataclass(frozen=True)
-class PathFollowerConfig(FlatConfig):
+class PathFollowerConfig(Config):
     # -- node shell --------------------------------------------------------------------
-    simulation: bool = True
+    simulation: bool = parameter(True)
     """True: /cmd_vel is TwistStamped and one command answers each observation (lockstep).
     False: Twist, and a timer computes every dt from the latest pose and scan."""
-    dt: float = 0.05
+    dt: float = parameter(0.05, minimum=0.001, maximum=1.0)
     """s, control period (timer period on the real robot)."""
-    stale_timeout: float = 0.5
+    stale_timeout: float = parameter(0.5, minimum=0.001, maximum=10.0, live=True)
     """s without a fresh localized /pose + /scan before the timer architecture publishes zero velocity
     (2.5 periods of the LDS-01's 5 Hz scans)."""
-    flip_angular_sign: bool = False
+    flip_angular_sign: bool = parameter(False, live=True)
     """Publish -w: seed 002 section 5.2.1 found the real robot's angular sign clockwise-positive."""
-    planner_service: str = "/planner/plan"
+    planner_service: str = parameter("/planner/plan", nonempty=True)
     """amr_interfaces/PlanPath service asked for a new path when the follower is blocked or strays."""
     # -- pure pursuit ----------------------------------------------------------------
-    lookahead_distance: float = 0.15
+    lookahead_distance: float = parameter(0.15, minimum=0.01, maximum=5.0, live=True)
     """m along the path ahead of the closest point: the point the robot steers to (course: 0.2-0.3;
     shorter cuts corners less, which 0.35 m corridors need)."""
-    linear_speed: float = 0.2
+    linear_speed: float = parameter(0.2, minimum=0.001, maximum=5.0, live=True)
     """m/s on straight stretches."""
-    min_linear_speed: float = 0.03
+    min_linear_speed: float = parameter(0.03, above=0.0, maximum=5.0, live=True)
     """m/s, the least forward speed while tracking (slowing never stalls the robot)."""
-    curve_angular_speed: float = 0.8
+    curve_angular_speed: float = parameter(0.8, minimum=0.01, maximum=100.0, live=True)
     """rad/s: in a curve of curvature k the speed is at most this / |k| (slowing in curves)."""
-    approach_gain: float = 1.0
+    approach_gain: float = parameter(1.0, minimum=0.01, maximum=100.0, live=True)
     """1/s: near the goal the speed is at most this times the distance left along the path."""
-    angular_limit: float = 2.84
+    angular_limit: float = parameter(2.84, minimum=0.01, maximum=10.0, live=True)
     """rad/s, saturation (curvature kept: the whole twist is scaled)."""
-    turn_speed: float = 1.5
+    turn_speed: float = parameter(1.5, minimum=0.01, maximum=10.0, live=True)
     """rad/s, the fastest in-place turn (towards the path, and to the goal heading)."""
-    turn_gain: float = 2.0
+    turn_gain: float = parameter(2.0, minimum=0.01, maximum=100.0, live=True)
     """rad/s per rad of heading error in in-place turns, capped at turn_speed."""
-    align_angle_deg: float = 75.0
+    align_angle_deg: float = parameter(75.0, minimum=1.0, maximum=180.0, live=True)
     """a lookahead point further than this off the heading (the path starts behind): turn in place."""
-    aligned_angle_deg: float = 15.0
+    aligned_angle_deg: float = parameter(15.0, minimum=0.1, maximum=179.0, live=True)
     """an in-place turn towards the path ends within this."""
-    goal_tolerance: float = 0.05
+    goal_tolerance: float = parameter(0.05, minimum=0.001, maximum=2.0, live=True)
     """m from the path's last point at which the goal is reached."""
-    heading_tolerance_deg: float = 10.0
+    heading_tolerance_deg: float = parameter(10.0, minimum=0.1, maximum=179.0, live=True)
     """when the goal has a heading: the final in-place turn ends within this."""
     # -- safety ------------------------------------------------------------------------
-    robot_radius: float = 0.105
+    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0, live=True)
     """m, the disc the scan check keeps clear (TurtleBot3 Burger)."""
-    lidar_x: float = -0.032
+    lidar_x: float = parameter(-0.032, minimum=-1.0, maximum=1.0, live=True)
     """m, LiDAR position ahead of the rotation centre (Burger: 3.2 cm behind the axle)."""
-    safety_margin: float = 0.01
+    safety_margin: float = parameter(0.01, minimum=0.0, maximum=1.0, live=True)
     """m: the robot stops rather than move its disc closer to a return that is (or would get) within
     this (0.35 m corridors leave the robot 5-6 cm a side: 0.02 m already stalls in their bends)."""
-    blocked_replan_time: float = 0.5
+    blocked_replan_time: float = parameter(0.5, minimum=0.01, maximum=60.0, live=True)
     """s of being blocked before the follower asks for a new plan."""
-    stray_distance: float = 0.25
+    stray_distance: float = parameter(0.25, minimum=0.01, maximum=10.0, live=True)
     """m from the path (a pose that jumped, a robot pushed off): stop and ask for a new plan."""
-    progress_window: float = 0.5
+    progress_window: float = parameter(0.5, minimum=0.01, maximum=100.0, live=True)
     """m of path ahead of the last closest point searched for the next one (a path passing close to
     itself is not short-cut)."""
 
-    def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if f.type == "float" and not math.isfinite(value):
-                raise ConfigError(f"{f.name}: must be finite, got {value!r}")
-        positive = (
-            "dt", "stale_timeout", "lookahead_distance", "linear_speed", "min_linear_speed", "curve_angular_speed", "approach_gain",
-            "angular_limit", "turn_speed", "turn_gain", "align_angle_deg", "aligned_angle_deg", "goal_tolerance",
-            "heading_tolerance_deg", "robot_radius", "stray_distance", "progress_window", "blocked_replan_time",
-        )
-        for name in positive:
-            if getattr(self, name) <= 0:
-                raise ConfigError(f"{name}: must be positive, got {getattr(self, name)!r}")
-        if not self.planner_service:
-            raise ConfigError("planner_service: must name a service")
-        if self.safety_margin < 0:
-            raise ConfigError(f"safety_margin: must be >= 0, got {self.safety_margin!r}")
+    def validate(self) -> None:
         if self.min_linear_speed > self.linear_speed:
             raise ConfigError(
                 f"min_linear_speed ({self.min_linear_speed}) must not exceed linear_speed ({self.linear_speed})"
             )
-        if not self.aligned_angle_deg < self.align_angle_deg <= 180.0:
+        if not self.aligned_angle_deg < self.align_angle_deg:
             raise ConfigError(
                 f"need aligned_angle_deg ({self.aligned_angle_deg}) < align_angle_deg ({self.align_angle_deg}) <= 180"
             )
-        if self.heading_tolerance_deg >= 180.0:
-            raise ConfigError(f"heading_tolerance_deg: must be below 180, got {self.heading_tolerance_deg!r}")
         if self.stray_distance <= self.goal_tolerance:
             raise ConfigError(
                 f"stray_distance ({self.stray_distance}) must exceed goal_tolerance ({self.goal_tolerance})"

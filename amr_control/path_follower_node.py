@@ -23,7 +23,6 @@ from sensor_msgs.msg import LaserScan
 
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
-from amr_control.path_follower_parameters import parameter_specs
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
@@ -40,7 +39,7 @@ class PathFollowerNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        self.declare_specs(parameter_specs())
+        self.declare_specs(PathFollowerConfig.parameter_specs())
         self.config: PathFollowerConfig | None = None
         self.follower: PathFollower | None = None
         self.last_command: FollowCommand | None = None

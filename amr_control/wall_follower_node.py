@@ -25,10 +25,10 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
 from amr_control.wall_follower import Command, WallFollower
-from amr_control.wall_follower_config import ConfigError, WallFollowerConfig
-from amr_control.wall_follower_parameters import parameter_specs
+from amr_control.wall_follower_config import WallFollowerConfig
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
+from amr_util.parameter_spec import ConfigError
 from amr_util.qos import SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND
 from amr_util.sync import ApproximateTimeSynchronizer
@@ -42,7 +42,7 @@ class WallFollowerNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__("wall_follower", **kwargs)
-        self.declare_specs(parameter_specs())
+        self.declare_specs(WallFollowerConfig.parameter_specs())
         self.config: WallFollowerConfig | None = None
         self.controller: WallFollower | None = None
         self._sync: ApproximateTimeSynchronizer | None = None

@@ -29,6 +29,7 @@ chains are errors (a typo must not fall back to a default silently).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
@@ -36,24 +37,74 @@ from typing import Any, Mapping
 import numpy as np
 
 from amr_util.parameter_file import dotted
+from amr_util.parameter_spec import ConfigError, ParameterSpec
 
 from .chain import CONVENTIONS, JOINT_TYPES, PLANAR, Chain, Coupling
-from .errors import ChainConfigError, KinematicsError
+from .errors import ChainConfigError, KinematicsError, SolverNotApplicableError
 from .urdf import urdf_chain
 from .solvers import SOLVERS, IKResult, get_solver
+from .solvers.task import parse_task
 from .solvers.base import DEFAULT_MAX_ITERATIONS, DEFAULT_TIMEOUT, DEFAULT_TOLERANCE, MAX_TIMEOUT, MAX_TOLERANCE
 from .transforms import xyz_rpy_matrix
 
+PARTIAL_POSE_WEIGHTS = (1.0, 1.0, 1.0, 0.0, 0.0, 1.0)
+"""Position and yaw: the partial pose the warm-up solves once."""
+
 NODE_NAME = "ik_service"
 
-_STRING = {"convention", "solver", "coupling_update", "urdf", "base_link", "tip_link"}
-_STRING_LIST = {"joint_names", "types", "coupled_joint"}
-_FLOAT = {"tolerance", "orientation_tolerance", "timeout", "damping", "adaptive_damping", "angular_weight", "gain"}
-_FLOAT_LIST = {"theta", "a", "d", "alpha", "lower", "upper", "base_xyz_rpy", "tool_xyz_rpy", "coupling_offset",
-               "coupling_coefficients", "home", "axis_tolerance"}
-_INT = {"max_iterations", "samples"}
-_BOOL = {"restarts"}
-_KNOWN = _STRING | _STRING_LIST | _FLOAT | _FLOAT_LIST | _INT | _BOOL
+def _key(kind: str, description: str, live: bool = False, default=None, **limits) -> ParameterSpec:
+    """One chain key: its kind, meaning, default (what a chain without the key gets) and limits (named
+    `<chain>.<key>` where used)."""
+    neutral = {"str": "", "bool": False, "int": 1, "float": 0.0}
+    if default is None:
+        default = [] if kind.endswith("_array") else neutral[kind]
+    return ParameterSpec("", default, description, kind=kind, live=live,
+                         nonempty=kind.startswith("str") or kind.endswith("_array"), integers_as_floats=False,
+                         **limits)
+
+
+CHAIN_KEYS: dict[str, ParameterSpec] = {
+    # geometry (structural: refused while the node is configured)
+    "convention": _key("str", "standard_dh | modified_dh | planar (required without urdf)"),
+    "joint_names": _key("str_array", "one name per joint (required without urdf)"),
+    "types": _key("str_array", "revolute | prismatic, one per joint (required without urdf)"),
+    "theta": _key("float_array", "rad, DH joint angle offsets (required without urdf)"),
+    "a": _key("float_array", "m, DH link lengths (required without urdf)"),
+    "d": _key("float_array", "m, DH link offsets (required for a DH chain)"),
+    "alpha": _key("float_array", "rad, DH link twists (required for a DH chain)"),
+    "lower": _key("float_array", "joint lower limits, rad or m (required without urdf)"),
+    "upper": _key("float_array", "joint upper limits, rad or m (required without urdf)"),
+    "base_xyz_rpy": _key("float_array", "[x, y, z, roll, pitch, yaw] of the chain's base in the world"),
+    "tool_xyz_rpy": _key("float_array", "[x, y, z, roll, pitch, yaw] of the tool in the last link"),
+    "coupled_joint": _key("str_array", "joints driven by others: q = offset + sum c_i q_i"),
+    "coupling_offset": _key("float_array", "one offset per coupled joint"),
+    "coupling_coefficients": _key("float_array", "n coefficients per coupled joint"),
+    "home": _key("float_array", "the seed when a request gives none ([]: zeros clamped into the limits)"),
+    "urdf": _key("str", "a URDF instead of a DH table: file path, package://<pkg>/<path> or the XML itself"),
+    "base_link": _key("str", "URDF link the chain starts at"),
+    "tip_link": _key("str", "URDF link the chain ends at (the tool)"),
+    # solve defaults (live: the chain set is validated again and used from the next request)
+    "solver": _key("str", "default solver: ccd | dls | pinv | analytic", live=True, default="dls"),
+    "tolerance": _key("float", "m (and rad), default position tolerance", live=True, default=DEFAULT_TOLERANCE,
+                      minimum=0.0, exclusive_minimum=True, maximum=MAX_TOLERANCE),
+    "orientation_tolerance": _key("float", "rad, default orientation tolerance (unset: the tolerance)", live=True,
+                                  default=DEFAULT_TOLERANCE, minimum=0.0, exclusive_minimum=True, maximum=math.pi),
+    "max_iterations": _key("int", "default iteration cap of one descent", live=True, default=DEFAULT_MAX_ITERATIONS,
+                           minimum=0, exclusive_minimum=True, maximum=10_000_000),
+    "timeout": _key("float", "s, default solve budget", live=True, default=DEFAULT_TIMEOUT,
+                    minimum=0.0, exclusive_minimum=True, maximum=MAX_TIMEOUT),
+    "damping": _key("float", "DLS damping factor", live=True, minimum=0.0, maximum=100.0),
+    "adaptive_damping": _key("float", "DLS adaptive damping", live=True),
+    "angular_weight": _key("float", "weight of orientation error against position error", live=True),
+    "coupling_update": _key("str", "coupling handling", live=True),
+    "axis_tolerance": _key("float_array", "per-axis tolerances", live=True),
+    "restarts": _key("bool", "random restarts inside the budget", live=True),
+    "samples": _key("int", "pinv multi-start samples", live=True, minimum=0, exclusive_minimum=True, maximum=100_000),
+    "gain": _key("float", "step gain", live=True, minimum=0.0, maximum=10.0),
+}
+"""Every key a chain may have, stated once: the loader checks values with these, the node declares them
+(`<chain>.<key>`) and the docs list them."""
+
 _REQUIRED = ("convention", "joint_names", "types", "theta", "a", "lower", "upper")
 _URDF_KEYS = ("urdf", "base_link", "tip_link")
 _FROM_URDF = ("convention", "joint_names", "types", "theta", "a", "d", "alpha", "lower", "upper", "coupled_joint",
@@ -137,6 +188,14 @@ class ChainConfig:
         far = goal[:2 if chain.planar else 3, 3] + 1e3
         for name in applicable_solvers(chain, False):
             self.solve(far, solver=name, seed=start, timeout=0.002)
+        if not chain.planar:  # a weighted (partial-pose) request compiles kernels of its own on a cold cache
+            task = parse_task(PARTIAL_POSE_WEIGHTS)
+            for name in applicable_solvers(chain, False):
+                try:  # with the config's tolerances, and with an explicit one (no per-axis tolerance)
+                    self.solve(goal, solver=name, seed=start, task=task, timeout=0.05)
+                    self.solve(goal, solver=name, seed=start, task=task, timeout=0.05, tolerance=1e-6)
+                except SolverNotApplicableError:
+                    pass
 
 
 def flatten_parameters(params: Mapping) -> dict:
@@ -172,49 +231,20 @@ def load_chain_set(params: Mapping) -> dict[str, ChainConfig]:
 
 
 def _typed(name: str, key: str, value):
-    """The value checked against the type its key requires."""
+    """The value checked against its key's spec; ChainConfigError naming chain and key."""
     full = f"{name}.{key}"
-    if key in _STRING:
-        if not isinstance(value, str) or not value:
-            raise ChainConfigError(name, full, f"must be a non-empty string, got {value!r}")
-        return value
     if key in ("types", "joint_names") and (value is None or value == []):  # rclpy reads `[]` as unset (None)
         raise ChainConfigError(name, full, "is empty: a chain needs at least one joint")
-    if key in _STRING_LIST:
-        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) and v for v in value):
-            raise ChainConfigError(name, full, f"must be a list of non-empty strings, got {value!r}")
-        return list(value)
-    if key in _BOOL:
-        if not isinstance(value, bool):
-            raise ChainConfigError(name, full, f"must be true or false, got {value!r}")
-        return value
-    if key in _INT:
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ChainConfigError(name, full, f"must be a positive integer, got {value!r}")
-        return value
-    if key in _FLOAT:
-        return _float(name, full, value)
-    if not isinstance(value, (list, tuple)) or not value:
-        raise ChainConfigError(name, full, f"must be a non-empty list of floats, got {value!r}")
-    return [_float(name, f"{full}[{i}]", v) for i, v in enumerate(value)]
-
-
-def _float(name: str, full: str, value) -> float:
-    if isinstance(value, bool) or isinstance(value, int):
-        raise ChainConfigError(name, full.split("[")[0], (
-            f"{value!r} is an integer where a float is required: write {value}.0 (rclpy reads [1, 2] "
-            f"as an integer array and refuses a list mixing 1 and 2.5)"))
-    if not isinstance(value, float):
-        raise ChainConfigError(name, full.split("[")[0], f"must be a float, got {value!r}")
-    if not math.isfinite(value):
-        raise ChainConfigError(name, full.split("[")[0], f"must be finite, got {value!r}")
-    return value
+    try:
+        return dataclasses.replace(CHAIN_KEYS[key], name=full).coerce(value)
+    except ConfigError as error:
+        raise ChainConfigError(name, full, str(error).removeprefix(f"{full}: ")) from None
 
 
 def _chain_config(name: str, raw: dict) -> ChainConfig:
-    unknown = sorted(set(raw) - _KNOWN)
+    unknown = sorted(set(raw) - set(CHAIN_KEYS))
     if unknown:
-        raise ChainConfigError(name, f"{name}.{unknown[0]}", f"unknown key; known keys: {sorted(_KNOWN)}")
+        raise ChainConfigError(name, f"{name}.{unknown[0]}", f"unknown key; known keys: {sorted(CHAIN_KEYS)}")
     first = ("types", "joint_names")  # an empty chain is named as such, not by its first empty list
     ordered = [key for key in first if key in raw] + [key for key in raw if key not in first]
     values = {key: _typed(name, key, raw[key]) for key in ordered}
@@ -233,11 +263,11 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
     home.setflags(write=False)
     config = ChainConfig(
         chain=chain, home=home,
-        solver=values.get("solver", "dls"),
-        tolerance=values.get("tolerance", DEFAULT_TOLERANCE),
+        solver=values.get("solver", CHAIN_KEYS["solver"].default),
+        tolerance=values.get("tolerance", CHAIN_KEYS["tolerance"].default),
         orientation_tolerance=values.get("orientation_tolerance"),
-        max_iterations=values.get("max_iterations", DEFAULT_MAX_ITERATIONS),
-        timeout=values.get("timeout", DEFAULT_TIMEOUT),
+        max_iterations=values.get("max_iterations", CHAIN_KEYS["max_iterations"].default),
+        timeout=values.get("timeout", CHAIN_KEYS["timeout"].default),
         solver_options={k: values[k] for k in _SOLVER_OPTIONS if k in values},
     )
     _check_defaults(name, config)
@@ -320,10 +350,6 @@ def _check_defaults(name: str, config: ChainConfig) -> None:
     """The defaults must give a working solve: known, applicable solver, sane options."""
     if config.solver not in SOLVERS:
         raise ChainConfigError(name, f"{name}.solver", f"unknown solver {config.solver!r}; known: {sorted(SOLVERS)}")
-    for key, value, limit in (("tolerance", config.tolerance, MAX_TOLERANCE), ("timeout", config.timeout, MAX_TIMEOUT),
-                              ("orientation_tolerance", config.orientation_tolerance, math.pi)):
-        if value is not None and not 0.0 < value <= limit:
-            raise ChainConfigError(name, f"{name}.{key}", f"must be in (0, {limit:g}], got {value}")
     try:
         get_solver(config.solver).check(config.chain)
     except KinematicsError as exc:

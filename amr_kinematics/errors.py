@@ -6,13 +6,16 @@ the IK service node can catch the one base class and turn it into a reply.
 
 from __future__ import annotations
 
+from amr_util.parameter_spec import ConfigError
+
 
 class KinematicsError(ValueError):
     """Base class: bad input to the kinematics library."""
 
 
-class ChainConfigError(KinematicsError):
-    """A chain description (parameters, JSON) is malformed; names chain and key."""
+class ChainConfigError(KinematicsError, ConfigError):
+    """A chain description (parameters, JSON) is malformed; names chain and key. The suite's
+    ConfigError (amr_util.parameter_spec) too, as every bad parameter is."""
 
     def __init__(self, chain: str | None, key: str | None, problem: str) -> None:
         self.chain = chain

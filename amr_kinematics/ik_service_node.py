@@ -39,8 +39,8 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from amr_kinematics.config import NODE_NAME, ChainConfig, flatten_parameters, load_chain_set
-from amr_kinematics.parameters import CHAIN_KEYS, chain_specs
+from amr_kinematics.config import CHAIN_KEYS, NODE_NAME, ChainConfig, flatten_parameters, load_chain_set
+from amr_kinematics.parameters import chain_specs
 from amr_kinematics.errors import KinematicsError
 from amr_kinematics.solvers.task import parse_task
 from amr_kinematics.transforms import matrix_quaternion, pose_matrix

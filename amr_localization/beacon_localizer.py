@@ -29,28 +29,23 @@ from amr_localization.beacons import BeaconReading, checked_beacons, range_misma
 from amr_localization.errors import LocalizationError
 from amr_localization.grid_search import SearchResult, exhaustive_search, pyramidal_search
 from amr_util.geometry import compose, relative_pose, wrap_angle
+from amr_util.parameter_spec import Config, parameter
 
 
 @dataclass(frozen=True)
-class BeaconLocalizerConfig:
-    threshold: float = 0.1
-    """mismatch (m + rad) above which the robot relocalizes."""
-    margin: float = 0.5
-    """m around the beacons' bounding box the first search square covers."""
-    resolution: float = 0.005
-    """m, the final grid spacing."""
-    half_cells: int = 4
-    """each pyramid level is a (2 half_cells + 1)^2 grid."""
-    pyramidal: bool = True
-    """false: the chapter's exhaustive grid at `resolution` (for comparison: slow)."""
+class BeaconLocalizerConfig(Config):
+    """The beacon_localizer node's tuning (every field live: read at each relocalization)."""
 
-    def __post_init__(self) -> None:
-        for name in ("threshold", "margin", "resolution"):
-            value = getattr(self, name)
-            if not math.isfinite(value) or value < 0.0 or (name == "resolution" and value == 0.0):
-                raise LocalizationError(f"{name}: must be a finite number >= 0 (resolution > 0), got {value!r}")
-        if self.half_cells < 1:
-            raise LocalizationError(f"half_cells: must be at least 1, got {self.half_cells}")
+    threshold: float = parameter(0.1, minimum=0.0, maximum=100.0, live=True)
+    """mismatch (m + rad) above which the robot relocalizes."""
+    margin: float = parameter(0.5, minimum=0.0, maximum=100.0, live=True)
+    """m around the beacons' bounding box the first search square covers."""
+    resolution: float = parameter(0.005, minimum=0.0001, maximum=1.0, live=True)
+    """m, the final grid spacing."""
+    half_cells: int = parameter(4, minimum=1, maximum=100, live=True)
+    """each pyramid level is a (2 half_cells + 1)^2 grid."""
+    pyramidal: bool = parameter(True, live=True)
+    """false: the chapter's exhaustive grid at `resolution` (for comparison: slow)."""
 
 
 @dataclass(frozen=True)

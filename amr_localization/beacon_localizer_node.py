@@ -11,7 +11,6 @@ change). Malformed readings (NaN ranges, a wrong count) are logged and the pose 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -26,28 +25,23 @@ from amr_localization.errors import LocalizationError
 from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.managed_node import run
-from amr_util.parameter_spec import ParameterSpec, field_docs
+from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 
 BEACONS, ODOMETRY = 0, 1
-RANGES = {"threshold": (0.0, 100.0), "margin": (0.0, 100.0), "resolution": (0.0001, 1.0), "half_cells": (1, 100)}
+INITIAL_POSE = ParameterSpec("initial_pose", [0.0, 0.0, 0.0], "[x, y, theta] the pose is tracked from until the first "
+                             "relocalization", kind="float_array",
+                             check=lambda v: None if len(v) == 3 else "must be [x, y, theta]")
 
 
 def parameter_specs() -> tuple[ParameterSpec, ...]:
-    """BeaconLocalizerConfig's fields (all live: read at each relocalization), the initial pose, the shell's."""
-    docs, defaults = field_docs(BeaconLocalizerConfig), BeaconLocalizerConfig()
-    specs = [ParameterSpec(field.name, getattr(defaults, field.name), docs.get(field.name, ""),
-                           minimum=RANGES.get(field.name, (None, None))[0],
-                           maximum=RANGES.get(field.name, (None, None))[1], live=True)
-             for field in dataclasses.fields(BeaconLocalizerConfig)]
-    specs.append(ParameterSpec("initial_pose", [0.0, 0.0, 0.0], "[x, y, theta] the pose is tracked from until the "
-                               "first relocalization", kind="float_array",
-                               check=lambda v: None if len(v) == 3 else "must be [x, y, theta]"))
-    return tuple(specs) + SHELL_SPECS
+    """BeaconLocalizerConfig's (all live: read at each relocalization), the initial pose, the shell's."""
+    return BeaconLocalizerConfig.parameter_specs() + (INITIAL_POSE,) + SHELL_SPECS
 
 
 def config_of(values: dict) -> BeaconLocalizerConfig:
-    return BeaconLocalizerConfig(**{field.name: values[field.name] for field in dataclasses.fields(BeaconLocalizerConfig)})
+    names = {spec.name for spec in BeaconLocalizerConfig.parameter_specs()}
+    return BeaconLocalizerConfig.from_params({name: value for name, value in values.items() if name in names})
 
 
 class BeaconLocalizerNode(LocalizerNode):
@@ -67,7 +61,7 @@ class BeaconLocalizerNode(LocalizerNode):
         if not problems:
             try:
                 self._config = config_of(values)
-            except LocalizationError as error:
+            except ValueError as error:  # ConfigError names the key
                 problems = [str(error)]
         if problems:
             self.configure_error = "; ".join(problems)

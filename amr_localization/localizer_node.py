@@ -4,8 +4,8 @@ stamped inputs by the approximate-time policy and publishes an estimate the same
 Inputs: each message's stamp is checked (malformed or negative: dropped with a warning) and handed to
 amr_util.sync.ApproximateTimeSynchronizer (a pure algorithm module); stamps going back beyond
 stamp_jump_threshold (a simulator reset) restart the pairing with a warning.
-Outputs, all stamped with the observation's stamp: /pose (LocalizedPose in global_frame), map -> odom on
-/tf (when publish_tf), ~/status (LocalizerStatus). A non-finite estimate is never published.
+Outputs, all stamped with the observation's stamp: /pose (LocalizedPose in global_frame_id), map -> odom on
+/tf (when tf_broadcast), ~/status (LocalizerStatus). A non-finite estimate is never published.
 """
 
 from __future__ import annotations
@@ -31,9 +31,12 @@ WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
 
 SHELL_SPECS = (
-    ParameterSpec("global_frame", "map", "frame of /pose (and /particle_cloud): the parent of the published transform"),
-    ParameterSpec("odom_frame", "odom", "frame of the odometry: the child of the published transform"),
-    ParameterSpec("publish_tf", True, "publish map -> odom on /tf after every observation processed"),
+    ParameterSpec("global_frame_id", "map", "frame of /pose (and /particle_cloud): the parent of the published "
+                  "transform (AMCL global_frame_id)"),
+    ParameterSpec("odom_frame_id", "odom", "frame of the odometry: the child of the published transform "
+                  "(AMCL odom_frame_id)"),
+    ParameterSpec("tf_broadcast", True, "publish map -> odom on /tf after every observation processed "
+                  "(AMCL tf_broadcast)"),
     ParameterSpec("sync_slop", 0.05, "s, the stamps of paired inputs differ by at most this", minimum=0.0, maximum=100.0),
     ParameterSpec("sync_queue_size", 10, "messages kept per input while pairing", minimum=1, maximum=1000),
     ParameterSpec("stamp_jump_threshold", 0.5, "s: stamps this much older than the last pair mean the clock "
@@ -63,7 +66,7 @@ class LocalizerNode(ManagedNode):
             "pose": self.create_lifecycle_publisher(LocalizedPose, "pose", reliable()),
             "status": self.create_lifecycle_publisher(LocalizerStatus, "~/status", reliable()),
         })
-        if values["publish_tf"]:
+        if values["tf_broadcast"]:
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "/tf", reliable(100))
 
     def _destroy_outputs(self) -> None:
@@ -98,12 +101,12 @@ class LocalizerNode(ManagedNode):
         if not messages.is_finite(pose):
             self.get_logger().error("the estimate is not finite: nothing published", throttle_duration_sec=WARNING_PERIOD)
             return False
-        frame = self._settings["global_frame"]
+        frame = self._settings["global_frame_id"]
         self._outputs["pose"].publish(messages.localized_pose(stamp, frame, pose, localized))
         odom = messages.odometry_pose(odometry)
         if "tf" in self._outputs and all(map(math.isfinite, odom)):
             correction = map_to_odom((pose.x, pose.y, pose.theta), odom)
-            self._outputs["tf"].publish(messages.transform(stamp, frame, self._settings["odom_frame"], correction))
+            self._outputs["tf"].publish(messages.transform(stamp, frame, self._settings["odom_frame_id"], correction))
         status.header.stamp, status.header.frame_id = stamp, frame
         self._outputs["status"].publish(status)
         return True

@@ -53,7 +53,7 @@ from amr_localization.free_space import FreeSpace
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, odometry_increment, sample_motion_model_odometry
-from amr_localization.particle_filter_config import BUILT_FIELDS, ParticleFilterConfig
+from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.rival_check import RivalCheckParams, Snapshot, find_rivals
@@ -114,7 +114,7 @@ class ParticleFilter:
         self.free_space = FreeSpace(self.field, config.free_space_clearance)
         self.mount = SensorMount(config.lidar_x, config.lidar_y, config.lidar_yaw)
         self.noise = OdometryNoise(config.alpha1, config.alpha2, config.alpha3, config.alpha4)
-        if config.laser_model == "beam":
+        if config.laser_model_type == "beam":
             self._laser = BeamModel(self.field, BeamModelParams(sigma_hit=config.sigma_hit), self.mount)
         else:
             params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
@@ -134,7 +134,7 @@ class ParticleFilter:
     def retune(self, config: ParticleFilterConfig) -> None:
         """Use `config` from the next update. Only what the filter reads at each update may differ
         (counts, thresholds, motion noise, ...); the fields it built models from may not."""
-        changed = [name for name in sorted(BUILT_FIELDS) if getattr(config, name) != getattr(self.config, name)]
+        changed = self.config.structural_changes(config)
         if changed:
             raise LocalizationError(f"{', '.join(changed)}: cannot change in a built filter (build a new one)")
         self.config = config
@@ -212,7 +212,7 @@ class ParticleFilter:
         odometry = tuple(float(v) for v in odometry)
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
             raise LocalizationError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
-        selected = select_beams(scan, self.config.max_beams, self.config.laser_model == "beam") if scan is not None else None
+        selected = select_beams(scan, self.config.max_beams, self.config.laser_model_type == "beam") if scan is not None else None
         if beacons is not None and self.beacons is None:
             raise LocalizationError("beacon ranges: this filter was built without beacon positions")
         if beacons is not None and len(beacons.ranges) != len(self.beacons):

@@ -1,151 +1,141 @@
-"""Parameters of the particle filter, with AMCL's names where AMCL has the same knob.
+"""Parameters of the particle filter, each stated once (type, default, range, live or structural,
+description), with nav2 AMCL's names where AMCL has the same knob.
 
-Built from a flat dict (a node's parameters) by from_params: an unknown name or a
-value out of range raises a LocalizationError naming the key.
+Names that differ from AMCL's: kld_epsilon and kld_delta (AMCL pf_err, and pf_z as a quantile),
+lidar_x/lidar_y/lidar_yaw (AMCL reads the mount from tf), and the knobs AMCL has no counterpart for
+(tempering, clustering, the localized test, the rival check). The node's frame and map parameters
+(global_frame_id, odom_frame_id, tf_broadcast, laser_max_range, map_topic) are AMCL's names too.
+
+Built from a flat dict (a node's parameters) by from_params: an unknown name, a wrong type or a
+value out of range raises a ConfigError naming the key. Structural fields are the ones a
+ParticleFilter builds objects from at construction (models, free space, recovery filter, RNG):
+fixed for the filter's life; every live field is read at each update (ParticleFilter.retune).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping
 
-from amr_localization.errors import LocalizationError
+from amr_util.parameter_spec import Config, ConfigError, parameter
 
-LASER_MODELS = ("likelihood_field", "beam")
-BUILT_FIELDS = frozenset({
-    "laser_model", "sigma_hit", "z_hit", "z_rand", "laser_likelihood_max_dist", "lidar_x", "lidar_y", "lidar_yaw",
-    "free_space_clearance", "recovery_alpha_slow", "recovery_alpha_fast", "rival_margin", "rival_coarse_sigma",
-    "history_length", "seed",
-})
-"""Fields a ParticleFilter builds objects from at construction (models, free space, recovery filter, RNG):
-fixed for the filter's life; every other field is read at each update (ParticleFilter.retune)."""
+LASER_MODEL_TYPES = ("likelihood_field", "beam")
 
 
 @dataclass(frozen=True)
-class ParticleFilterConfig:
+class ParticleFilterConfig(Config):
     # particle count: KLD-sampling between min and max (AMCL: pf_err, pf_z as kld_epsilon, 1 - kld_delta)
-    min_particles: int = 100
-    max_particles: int = 5000
-    kld_epsilon: float = 0.05
-    kld_delta: float = 0.01
-    kld_bin_size: float = 0.1
+    min_particles: int = parameter(100, minimum=1, maximum=1_000_000, live=True)
+    """particle count floor once a single cluster remains (KLD sampling; AMCL min_particles)."""
+    max_particles: int = parameter(5000, minimum=1, maximum=1_000_000, live=True)
+    """particle count while spread (global localization; AMCL max_particles)."""
+    kld_epsilon: float = parameter(0.05, above=0.0, below=1.0, live=True)
+    """KLD sampling: bound on the distribution error (AMCL pf_err)."""
+    kld_delta: float = parameter(0.01, above=0.0, below=1.0, live=True)
+    """KLD sampling: probability that the bound fails (AMCL pf_z is the upper 1 - kld_delta quantile of the
+    standard normal: 0.99 for 0.01)."""
+    kld_bin_size: float = parameter(0.1, minimum=0.001, maximum=10.0, live=True)
     """m, x and y side of a KLD histogram bin."""
-    kld_bin_angle: float = math.radians(10.0)
-    resample_threshold: float = 0.5
+    kld_bin_angle: float = parameter(math.radians(10.0), minimum=0.001, maximum=math.pi, live=True)
+    """rad, heading side of a KLD histogram bin."""
+    resample_threshold: float = parameter(0.5, above=0.0, maximum=1.0, live=True)
     """resample when N_eff < resample_threshold * N."""
     # motion: filter updates when odometry has moved this much (AMCL update_min_d, update_min_a)
-    update_min_d: float = 0.02
-    update_min_a: float = 0.05
-    max_odometry_jump: float = 0.5
+    update_min_d: float = parameter(0.02, minimum=0.0, maximum=10.0, live=True)
+    """m of odometry translation before a filter update; AMCL update_min_d."""
+    update_min_a: float = parameter(0.05, minimum=0.0, maximum=math.pi, live=True)
+    """rad of odometry rotation before a filter update; AMCL update_min_a."""
+    max_odometry_jump: float = parameter(0.5, minimum=0.01, maximum=100.0, live=True)
     """m of odometry between two calls beyond which it is taken as a reset, not as motion."""
-    alpha1: float = 0.1
-    alpha2: float = 0.1
-    alpha3: float = 0.1
-    alpha4: float = 0.1
-    free_space_clearance: float = 0.08
+    alpha1: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)
+    """rotation noise from rotation (AMCL alpha1)."""
+    alpha2: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)
+    """rotation noise from translation (AMCL alpha2)."""
+    alpha3: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)
+    """translation noise from translation (AMCL alpha3)."""
+    alpha4: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)
+    """translation noise from rotation (AMCL alpha4)."""
+    free_space_clearance: float = parameter(0.08, minimum=0.0, maximum=2.0)
     """m: particles live this far from walls at least (under the robot's radius, for map error)."""
     # laser
-    laser_model: str = "likelihood_field"
-    max_beams: int = 60
-    sigma_hit: float = 0.05
-    z_hit: float = 0.9
-    z_rand: float = 0.1
-    laser_likelihood_max_dist: float = 2.0
-    likelihood_exponent: float = 0.1
+    laser_model_type: str = parameter("likelihood_field", choices=LASER_MODEL_TYPES)
+    """measurement model of the scan: likelihood_field or beam (AMCL laser_model_type; no likelihood_field_prob)."""
+    max_beams: int = parameter(60, minimum=1, maximum=10_000, live=True)
+    """beams of each scan used, evenly spread over the valid returns; AMCL max_beams."""
+    sigma_hit: float = parameter(0.05, minimum=0.001, maximum=10.0)
+    """m, std of a beam end point's distance to the nearest obstacle; AMCL sigma_hit."""
+    z_hit: float = parameter(0.9, minimum=0.0, maximum=1.0)
+    """weight of the hit term of the likelihood field mixture; AMCL z_hit."""
+    z_rand: float = parameter(0.1, minimum=0.0, maximum=1.0)
+    """weight of the random term of the likelihood field mixture; AMCL z_rand."""
+    laser_likelihood_max_dist: float = parameter(2.0, minimum=0.01, maximum=100.0)
+    """m, distance to obstacles beyond which the field is flat; AMCL laser_likelihood_max_dist."""
+    likelihood_exponent: float = parameter(0.1, minimum=0.001, maximum=1.0, live=True)
     """a scan's log-likelihood is scaled by this (beams are correlated); beacon ranges count fully."""
-    tempering_min_ess_ratio: float = 0.8
+    tempering_min_ess_ratio: float = parameter(0.8, above=0.0, maximum=1.0, live=True)
     """one update may shrink N_eff to this share at most: beta is lowered until it does not (tempering.py)."""
-    lidar_x: float = 0.0
-    lidar_y: float = 0.0
-    lidar_yaw: float = 0.0
+    lidar_x: float = parameter(0.0, minimum=-2.0, maximum=2.0)
+    """m, base_scan in base_footprint (x)."""
+    lidar_y: float = parameter(0.0, minimum=-2.0, maximum=2.0)
+    """m, base_scan in base_footprint (y)."""
+    lidar_yaw: float = parameter(0.0, minimum=-math.pi, maximum=math.pi)
+    """rad, base_scan's yaw in base_footprint."""
     # beacons
-    beacon_sigma_range: float = 0.05
-    beacon_sigma_compass: float = 0.05
+    beacon_sigma_range: float = parameter(0.05, minimum=0.0001, maximum=10.0, live=True)
+    """m, std of a beacon range."""
+    beacon_sigma_compass: float = parameter(0.05, minimum=0.0001, maximum=math.pi, live=True)
+    """rad, std of the compass."""
     # augmented MCL
-    recovery_alpha_slow: float = 0.001
-    recovery_alpha_fast: float = 0.1
+    recovery_alpha_slow: float = parameter(0.001, minimum=0.0, maximum=1.0)
+    """augmented MCL: slow average of the likelihood; AMCL recovery_alpha_slow."""
+    recovery_alpha_fast: float = parameter(0.1, minimum=0.0, maximum=1.0)
+    """augmented MCL: fast average of the likelihood; AMCL recovery_alpha_fast."""
     # localized: one cluster holding the weight, tight, and the scan fits its pose
-    cluster_radius: float = 0.1
-    cluster_min_size: int = 10
-    localized_min_cluster_share: float = 0.95
-    localized_max_position_std: float = 0.05
-    localized_max_heading_std: float = math.radians(5.0)
-    localized_min_fit: float = 0.9
-    fit_distance: float = 0.06
-    localized_confirmations: int = 10
+    cluster_radius: float = parameter(0.1, minimum=0.001, maximum=10.0, live=True)
+    """m, particles closer than this belong to one cluster."""
+    cluster_min_size: int = parameter(10, minimum=1, maximum=100_000, live=True)
+    """particles a cluster needs to count as a hypothesis."""
+    localized_min_cluster_share: float = parameter(0.95, above=0.5, maximum=1.0, live=True)
+    """weight one cluster must hold before localized is declared."""
+    localized_max_position_std: float = parameter(0.05, minimum=0.001, maximum=10.0, live=True)
+    """m, position spread of that cluster at most."""
+    localized_max_heading_std: float = parameter(math.radians(5.0), minimum=0.001, maximum=math.pi, live=True)
+    """rad, heading spread of that cluster at most."""
+    localized_min_fit: float = parameter(0.9, minimum=0.0, maximum=1.0, live=True)
+    """share of the scan's beams within fit_distance of a wall at the estimate."""
+    fit_distance: float = parameter(0.06, minimum=0.001, maximum=1.0, live=True)
+    """m, a beam end point this close to a wall fits."""
+    localized_confirmations: int = parameter(10, minimum=1, maximum=10_000, live=True)
     """consecutive measurement updates meeting every condition before localized is declared."""
-    lost_updates: int = 25
-    """consecutive measurement updates with one cluster holding the weight while the scan does not fit it
-    (fit < localized_min_fit) before the filter gives that cluster up and restarts global localization
-    (a kidnapped robot; augmented MCL's few random particles rarely land near the truth); 0 = never."""
+    lost_updates: int = parameter(25, minimum=0, maximum=100_000, live=True)
+    """consecutive measurement updates with one cluster holding the weight while the scan does not fit it (fit <
+    localized_min_fit) before the filter gives that cluster up and restarts global localization (a kidnapped
+    robot; augmented MCL's few random particles rarely land near the truth); 0 = never."""
     # rival check before declaring (rival_check.py)
-    rival_check: bool = True
-    rival_margin: float = 0.05
+    rival_check: bool = parameter(True, live=True)
+    """before declaring, search the map for other places that explain the recent scans as well."""
+    rival_margin: float = parameter(0.05, minimum=0.0, maximum=10.0)
     """per-beam log-likelihood: a rival scoring within this of the estimate makes the belief ambiguous."""
-    rival_coarse_sigma: float = 0.1
-    recheck_updates: int = 5
+    rival_coarse_sigma: float = parameter(0.1, minimum=0.001, maximum=10.0)
+    """m, sigma_hit of the coarse likelihood field the rival search scores candidate places with."""
+    recheck_updates: int = parameter(5, minimum=0, maximum=100_000, live=True)
     """while localized, the rival search runs again every this many measurement updates; 0 = never."""
-    recheck_margin: float = 0.15
-    """per-beam log-likelihood: a place elsewhere explaining the recent scans better than the estimate by this
-    much withdraws localized and gets particles (a robot kidnapped into a look-alike place; tracking the
-    right place, the best rival scored at most 0.001 above the estimate, a kidnapped robot's true place
-    0.2-0.35 above it within 5 s)."""
-    history_length: int = 10
-    history_spacing: float = 0.1
+    recheck_margin: float = parameter(0.15, minimum=0.0, maximum=10.0, live=True)
+    """per-beam log-likelihood: a place elsewhere explaining the recent scans better than the estimate by this much
+    withdraws localized and gets particles (a robot kidnapped into a look-alike place; tracking the right place,
+    the best rival scored at most 0.001 above the estimate, a kidnapped robot's true place 0.2-0.35 above it
+    within 5 s)."""
+    history_length: int = parameter(10, minimum=1, maximum=1000)
+    """scans kept (history_spacing apart) for the rival check."""
+    history_spacing: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)
     """m (or 2 x this in rad) of odometry between two scans kept for the rival check."""
-    seed: int = 0
+    seed: int = parameter(0, minimum=0, maximum=2**31 - 1)
+    """seeds the filter's random stream: the same seed and inputs give the same estimates."""
 
-    def __post_init__(self) -> None:
-        def need(ok: bool, name: str, problem: str) -> None:
-            if not ok:
-                raise LocalizationError(f"{name}: {problem}, got {getattr(self, name)!r}")
+    def validate(self) -> None:
+        if self.max_particles < self.min_particles:
+            raise ConfigError(f"max_particles: must be >= min_particles ({self.min_particles}), got {self.max_particles}")
+        if self.recovery_alpha_slow > self.recovery_alpha_fast:
+            raise ConfigError(f"recovery_alpha_slow: needs 0 <= recovery_alpha_slow <= recovery_alpha_fast <= 1, "
+                              f"got {self.recovery_alpha_slow} > {self.recovery_alpha_fast}")
 
-        for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if field.type in ("float", float):
-                need(isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value),
-                     field.name, "must be a finite number")
-            elif field.type in ("int", int):
-                need(isinstance(value, int) and not isinstance(value, bool), field.name, "must be an integer")
-        need(self.min_particles >= 1, "min_particles", "must be at least 1")
-        need(self.max_particles >= self.min_particles, "max_particles", "must be >= min_particles")
-        need(0.0 < self.kld_epsilon < 1.0, "kld_epsilon", "must be in (0, 1)")
-        need(0.0 < self.kld_delta < 1.0, "kld_delta", "must be in (0, 1)")
-        for name in ("kld_bin_size", "kld_bin_angle", "max_odometry_jump", "sigma_hit", "laser_likelihood_max_dist", "beacon_sigma_range",
-                     "beacon_sigma_compass", "cluster_radius", "localized_max_position_std",
-                     "localized_max_heading_std", "fit_distance", "likelihood_exponent"):
-            need(getattr(self, name) > 0.0, name, "must be positive")
-        for name in ("update_min_d", "update_min_a", "alpha1", "alpha2", "alpha3", "alpha4", "free_space_clearance",
-                     "z_hit", "z_rand"):
-            need(getattr(self, name) >= 0.0, name, "must be >= 0")
-        need(0.0 < self.tempering_min_ess_ratio <= 1.0, "tempering_min_ess_ratio", "must be in (0, 1]")
-        need(0.0 < self.resample_threshold <= 1.0, "resample_threshold", "must be in (0, 1]")
-        need(self.laser_model in LASER_MODELS, "laser_model", f"must be one of {', '.join(LASER_MODELS)}")
-        need(self.max_beams >= 1, "max_beams", "must be at least 1")
-        need(0.0 <= self.recovery_alpha_slow <= self.recovery_alpha_fast <= 1.0, "recovery_alpha_slow",
-             "needs 0 <= recovery_alpha_slow <= recovery_alpha_fast <= 1")
-        need(self.cluster_min_size >= 1, "cluster_min_size", "must be at least 1")
-        need(0.5 < self.localized_min_cluster_share <= 1.0, "localized_min_cluster_share", "must be in (0.5, 1]")
-        need(0.0 <= self.localized_min_fit <= 1.0, "localized_min_fit", "must be in [0, 1]")
-        need(self.history_length >= 1, "history_length", "must be at least 1")
-        need(self.rival_margin >= 0.0, "rival_margin", "must be >= 0")
-        need(self.rival_coarse_sigma > 0.0, "rival_coarse_sigma", "must be positive")
-        need(self.history_spacing >= 0.0, "history_spacing", "must be >= 0")
-        need(isinstance(self.rival_check, bool), "rival_check", "must be true or false")
-        need(self.localized_confirmations >= 1, "localized_confirmations", "must be at least 1")
-        need(self.lost_updates >= 0, "lost_updates", "must be >= 0 (0 = never restart)")
-        need(self.recheck_updates >= 0, "recheck_updates", "must be >= 0 (0 = never)")
-        need(self.recheck_margin >= 0.0, "recheck_margin", "must be >= 0")
-
-    @classmethod
-    def from_params(cls, params: Mapping[str, Any]) -> "ParticleFilterConfig":
-        names = {field.name for field in dataclasses.fields(cls)}
-        unknown = sorted(set(params) - names)
-        if unknown:
-            raise LocalizationError(f"{unknown[0]}: unknown particle filter parameter")
-        values = {name: (float(v) if isinstance(v, int) and not isinstance(v, bool) and
-                         cls.__dataclass_fields__[name].type in ("float", float) else v)
-                  for name, v in params.items()}
-        return cls(**values)

@@ -115,9 +115,9 @@ class ParticleFilterNode(LocalizerNode):
             world = load_world(resolve_world_path(values["world"]))
             if values["use_beacons"] and world.beacons:
                 self._beacon_positions = checked_beacons(world.beacons)
-            return rasterize_world(world, values["map_resolution"], frame_id=values["global_frame"])
+            return rasterize_world(world, values["map_resolution"], frame_id=values["global_frame_id"])
         if values["map_yaml"]:
-            return load_map(Path(values["map_yaml"]).expanduser(), frame_id=values["global_frame"])
+            return load_map(Path(values["map_yaml"]).expanduser(), frame_id=values["global_frame_id"])
         return None
 
     def _build_filter(self, grid: OccupancyGrid) -> ParticleFilter:
@@ -236,7 +236,7 @@ class ParticleFilterNode(LocalizerNode):
 
     def _on_initial_pose(self, message: PoseWithCovarianceStamped) -> None:
         try:
-            frame = self._settings["global_frame"]
+            frame = self._settings["global_frame_id"]
             if message.header.frame_id not in ("", frame):
                 raise LocalizationError(f"initial pose: frame {message.header.frame_id!r}, expected {frame!r}")
             if self.filter is None:
@@ -272,7 +272,7 @@ class ParticleFilterNode(LocalizerNode):
         if self._last_cloud_ns is None or now - self._last_cloud_ns >= period or now < self._last_cloud_ns:
             self._last_cloud_ns = now
             self._outputs["cloud"].publish(
-                messages.particle_cloud(stamp, self._settings["global_frame"], self.filter.particles))
+                messages.particle_cloud(stamp, self._settings["global_frame_id"], self.filter.particles))
 
 
 def main(args=None) -> None:

@@ -35,46 +35,28 @@ from scipy.ndimage import distance_transform_edt
 
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_planning.errors import PlanningError, Reason
+from amr_util.parameter_spec import Config, parameter
 
 MIN_COST = 1.0
 """The cost of a cell far from every wall: the factor that keeps the octile heuristic admissible."""
 
 
-class CostmapConfigError(ValueError):
-    """A costmap parameter out of range, named."""
-
-
 @dataclass(frozen=True)
-class CostmapConfig:
-    robot_radius: float = 0.105
+class CostmapConfig(Config):
+    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0)
     """m, the disc footprint (TurtleBot3 Burger)."""
-    safety_margin: float = 0.02
+    safety_margin: float = parameter(0.02, minimum=0.0, maximum=1.0)
     """m kept between the footprint and any obstacle by every planned point."""
-    cost_weight: float = 3.0
+    cost_weight: float = parameter(3.0, minimum=0.0, maximum=1000.0)
     """extra cost at the edge of the inflated band (0: shortest paths, hugging the inflation)."""
-    cost_distance: float = 0.2
+    cost_distance: float = parameter(0.2, minimum=0.001, maximum=5.0)
     """m beyond the inflated band over which the extra cost falls to zero."""
-    margin_cost: float = 50.0
+    margin_cost: float = parameter(50.0, minimum=0.0, maximum=1e6)
     """extra cost of a cell inside the safety margin (where the robot fits, but barely)."""
-    occupied_threshold: int = 65
+    occupied_threshold: int = parameter(65, minimum=1, maximum=100)
     """cells at or above this occupancy (percent) are obstacles (map_server's occupied_thresh)."""
-    unknown_is_obstacle: bool = True
+    unknown_is_obstacle: bool = parameter(True)
     """unknown cells (-1) are obstacles; false: they are free."""
-
-    def __post_init__(self) -> None:
-        for name in ("robot_radius", "safety_margin", "cost_weight", "cost_distance", "margin_cost"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise CostmapConfigError(f"{name}: must be a finite number, got {value!r}")
-        if self.robot_radius <= 0.0 or self.cost_distance <= 0.0:
-            raise CostmapConfigError(
-                f"robot_radius and cost_distance must be positive, got {self.robot_radius!r}, {self.cost_distance!r}"
-            )
-        for name in ("safety_margin", "cost_weight", "margin_cost"):
-            if getattr(self, name) < 0.0:
-                raise CostmapConfigError(f"{name}: must be >= 0, got {getattr(self, name)!r}")
-        if not 1 <= self.occupied_threshold <= 100:
-            raise CostmapConfigError(f"occupied_threshold: must be in 1..100, got {self.occupied_threshold!r}")
 
     @property
     def inflation_radius(self) -> float:

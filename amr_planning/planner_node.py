@@ -27,8 +27,7 @@ from amr_maps.occupancy_grid import MapError
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world, resolve_world_path
 from amr_planning.errors import PlanningError
-from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, PlannerConfigError, distance_to_path
-from amr_planning.planner_parameters import parameter_specs
+from amr_planning.planner import NODE_NAME, Planner, PlannerConfig, distance_to_path
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import quaternion
 from amr_util.qos import LATCHED
@@ -41,7 +40,7 @@ class PlannerNode(ManagedNode):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        self.declare_specs(parameter_specs())
+        self.declare_specs(PlannerConfig.parameter_specs())
         self.config: PlannerConfig | None = None
         self.planner: Planner | None = None
         self.path: np.ndarray | None = None
@@ -60,7 +59,7 @@ class PlannerNode(ManagedNode):
                 config = PlannerConfig.from_params(self.parameter_values())
                 if config.world:
                     self._load_world(config)
-            except (PlannerConfigError, MapError, PlanningError, ValueError, OSError) as error:
+            except (ValueError, OSError) as error:  # ConfigError, MapError, PlanningError name the problem
                 problems = [str(error)]
         if problems:
             self.configure_error = "; ".join(problems)
@@ -80,10 +79,7 @@ class PlannerNode(ManagedNode):
 
     def apply_live(self, changes: dict) -> None:
         """A tunable set while configured: checked as a whole, the costmap rebuilt from the current map."""
-        try:
-            config = PlannerConfig.from_params({**self.config.as_params(), **changes})
-        except PlannerConfigError as error:
-            raise ValueError(str(error)) from error
+        config = PlannerConfig.from_params({**self.config.as_params(), **changes})  # ConfigError: refused
         self.config = config
         if self.planner is not None:
             self.planner = Planner(self.planner.costmap.grid, config)

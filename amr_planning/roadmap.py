@@ -28,30 +28,19 @@ from amr_planning.astar import GridPath
 from amr_planning.costmap import Costmap
 from amr_planning.endpoints import Endpoint, resolve
 from amr_planning.errors import PlanningError, Reason
-
-
-class RoadmapConfigError(ValueError):
-    """A roadmap parameter out of range, named."""
+from amr_util.parameter_spec import Config, parameter
 
 
 @dataclass(frozen=True)
-class RoadmapConfig:
-    node_count: int = 400
+class RoadmapConfig(Config):
+    node_count: int = parameter(400, minimum=1, maximum=1_000_000)
     """random nodes (course: 250)."""
-    connection_distance: float = 0.6
+    connection_distance: float = parameter(0.6, minimum=0.01, maximum=100.0)
     """m, the longest edge tried (course: 0.15-0.3 on its 2-2.4 m maps)."""
-    seed: int = 0
+    seed: int = parameter(0, minimum=0, maximum=2**31 - 1)
     """the same seed and map give the same roadmap."""
-    snap_distance: float = 0.3
+    snap_distance: float = parameter(0.3, above=0.0, maximum=5.0)
     """m, how far a start or goal in the inflated band may be moved to a free cell."""
-
-    def __post_init__(self) -> None:
-        if isinstance(self.node_count, bool) or not isinstance(self.node_count, int) or self.node_count < 1:
-            raise RoadmapConfigError(f"node_count: must be a positive integer, got {self.node_count!r}")
-        if not (math.isfinite(self.connection_distance) and self.connection_distance > 0.0):
-            raise RoadmapConfigError(f"connection_distance: must be a positive number, got {self.connection_distance!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise RoadmapConfigError(f"seed: must be an integer >= 0, got {self.seed!r}")
 
 
 class Roadmap:

@@ -21,45 +21,26 @@ Before smoothing, points are inserted so that consecutive points are at most `sp
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from amr_planning.costmap import Costmap
-
-
-class SmoothingConfigError(ValueError):
-    """A smoothing parameter out of range, named."""
+from amr_util.parameter_spec import Config, parameter
 
 
 @dataclass(frozen=True)
-class SmoothingConfig:
-    data_weight: float = 0.1
+class SmoothingConfig(Config):
+    data_weight: float = parameter(0.1, minimum=0.001, maximum=1.0)
     """a: pull towards the planned point (course: 0.1)."""
-    smooth_weight: float = 0.3
-    """b: pull towards the neighbours' midpoint (course: 0.3)."""
-    spacing: float = 0.05
+    smooth_weight: float = parameter(0.3, minimum=0.0, maximum=0.5)
+    """b: pull towards the neighbours' midpoint (course: 0.3; above 0.5 a point overshoots the midpoint)."""
+    spacing: float = parameter(0.05, minimum=0.001, maximum=1.0)
     """m, the largest gap left between consecutive points before smoothing."""
-    tolerance: float = 1e-5
+    tolerance: float = parameter(1e-5, above=0.0, maximum=1.0)
     """m, stop when no point moves more than this in a sweep."""
-    max_iterations: int = 1000
-
-    def __post_init__(self) -> None:
-        for name in ("data_weight", "smooth_weight", "spacing", "tolerance"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise SmoothingConfigError(f"{name}: must be a finite number, got {value!r}")
-        if not 0.0 < self.data_weight <= 1.0:
-            raise SmoothingConfigError(f"data_weight: must be in (0, 1], got {self.data_weight!r}")
-        if not 0.0 <= self.smooth_weight <= 0.5:
-            raise SmoothingConfigError(
-                f"smooth_weight: must be in [0, 0.5] (a larger pull overshoots the midpoint), got {self.smooth_weight!r}"
-            )
-        if self.spacing <= 0.0 or self.tolerance <= 0.0:
-            raise SmoothingConfigError(f"spacing and tolerance must be positive, got {self.spacing!r}, {self.tolerance!r}")
-        if isinstance(self.max_iterations, bool) or not isinstance(self.max_iterations, int) or self.max_iterations < 1:
-            raise SmoothingConfigError(f"max_iterations: must be a positive integer, got {self.max_iterations!r}")
+    max_iterations: int = parameter(1000, minimum=1, maximum=1_000_000)
+    """sweeps at most."""
 
 
 def densify(points: np.ndarray, spacing: float) -> np.ndarray:

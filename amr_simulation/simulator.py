@@ -13,7 +13,6 @@ After the goal is reached the robot ignores commands and stays put until reset.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -90,13 +89,10 @@ class Simulator:
 
         Raises SimulationError if anything else differs: that needs a new simulator.
         """
-        tunable = dataclasses.replace(
-            self.config, command_timeout=config.command_timeout,
-            lidar=dataclasses.replace(self.config.lidar, noise_std=config.lidar.noise_std),
-            encoders=config.encoders, beacons=config.beacons)
-        if tunable != config:
-            raise SimulationError("retune: only lidar.noise_std, encoders.noise, encoders.slip, beacon noise and "
-                                  "command_timeout change on a running simulator")
+        changed = self.config.structural_changes(config)
+        if changed:
+            live = ", ".join(spec.name for spec in config.parameter_specs() if spec.live)
+            raise SimulationError(f"retune: {', '.join(changed)} cannot change on a running simulator (only {live})")
         self.config = config
         self._lidar.config = config.lidar
         self._encoders.config = config.encoders

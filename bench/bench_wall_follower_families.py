@@ -9,7 +9,7 @@ The real-robot configuration runs as on a TurtleBot3: 360 beams (LDS-01) and, wi
 
     python bench/bench_wall_follower_families.py [--seeds 5] [--noise 0.01 0.02 0.03]
         [--families perfect bends ...] [--configs sim real] [--jobs 2] [--outliers 0.002] [--png DIR]
-    python bench/bench_wall_follower_families.py --shipped   # the shipped worlds, as README's table
+    python bench/bench_wall_follower_families.py --shipped   # the shipped worlds, as bench/README.md's table
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def main() -> None:
 
 
 def shipped(seconds: float) -> None:
-    """README's closed-loop table: goal, time, collisions, mean speed, wall error per shipped world."""
+    """bench/README.md's closed-loop table: goal, time, collisions, mean speed, wall error per shipped world."""
     config = read_parameter_file(CONFIGS["sim"])
     print(f"shipped worlds, sim config, LiDAR noise 0.01 m, {seconds:.0f} s max")
     for name in SHIPPED:

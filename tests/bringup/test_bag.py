@@ -22,7 +22,7 @@ from amr_maps.world import load_world, resolve_world_path
 
 STEPS = 1200  # 60 s at dt = 0.05
 TOPICS = {"/scan": ("sensor_msgs/msg/LaserScan", TopicQos(reliable=False, depth=5)),
-          "/ground_truth": ("nav_msgs/msg/Odometry", TopicQos()),
+          "/ground_truth": ("nav_msgs/msg/Odometry", TopicQos(depth=None)),  # history as discovery reports it
           "/tf": ("tf2_msgs/msg/TFMessage", TopicQos(depth=100)),
           "/simulator/status": ("amr_interfaces/msg/SimulatorStatus", TopicQos(transient_local=True, depth=1))}
 
@@ -92,7 +92,10 @@ def test_the_metadata_is_what_rosbag2_reads(recorded):
     assert scan["type"] == "sensor_msgs/msg/LaserScan" and scan["serialization_format"] == "cdr"
     assert scan["offered_qos_profiles"][0]["reliability"] == "best_effort"
     status = topics["/simulator/status"]["topic_metadata"]["offered_qos_profiles"][0]
-    assert status["durability"] == "transient_local" and status["depth"] == 1
+    assert status["durability"] == "transient_local" and (status["history"], status["depth"]) == ("keep_last", 1)
+    unknown = topics["/ground_truth"]["topic_metadata"]["offered_qos_profiles"][0]
+    assert (unknown["history"], unknown["depth"]) == ("unknown", 0)  # what discovery says, as rosbag2 writes it
+    assert info["ros_distro"] == "jazzy"
     tf_hash = topics["/tf"]["topic_metadata"]["type_description_hash"]
     assert tf_hash == "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"  # Jazzy's
 

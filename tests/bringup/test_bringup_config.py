@@ -145,7 +145,7 @@ GOOD = {"name": "a", "package": "amr_control", "executable": "wall_follower"}
     ({"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["a", "a"]}},
      "lifecycle_manager.node_startup_order: names a node twice"),
     ({"nodes": [GOOD], "lifecycle_manager": {"wait_timeout": -1}},
-     "lifecycle_manager.wait_timeout: must be a positive number"),
+     "lifecycle_manager.wait_timeout: must be in [0.1, 3600], got -1.0"),
 ])
 def test_errors_name_the_file_and_the_key(document, key, tmp_path):
     source = tmp_path / "stack.yaml"
@@ -234,3 +234,17 @@ def test_bad_argument_sections_are_refused_naming_the_key(tmp_path):
         parse_bringup(document, tmp_path / "s.yaml")
     with pytest.raises(BringupError, match=r"arguments.gain: unknown key"):
         parse_bringup({"nodes": [GOOD], "arguments": {"gain": {"sets": ["a.kp"], "default": 1}}}, tmp_path / "s.yaml")
+
+
+def test_help_lists_every_shipped_stack_with_its_summary(capsys):
+    from amr_bringup.bringup import parse_arguments
+
+    with pytest.raises(SystemExit) as exit:
+        parse_arguments(["--help"])
+    assert exit.value.code == 0
+    shown = capsys.readouterr().out.split("shipped stacks")[1]
+    stacks = sorted(path.stem for path in (ROOT / "config" / "bringup").glob("*.yaml"))
+    assert "maze_navigation" in stacks
+    listed = [line.split()[0] for line in shown.splitlines()[1:] if line.strip()]
+    assert listed == stacks
+    assert "maze_navigation    Explore, localize, plan, go" in shown

@@ -74,6 +74,9 @@ def test_a_60_s_maze_run_is_recorded_complete_with_rosbag2_metadata_and_renders(
     qos = {name: t["topic_metadata"]["offered_qos_profiles"][0] for name, t in topics.items()}
     assert qos["/scan"]["reliability"] == "best_effort" and qos["/odometry"]["reliability"] == "reliable"
     assert qos["/map"]["durability"] == qos["/tf_static"]["durability"] == "transient_local"
+    # what discovery offers: DDS does not carry history, so it is unknown with depth 0, as rosbag2 records it
+    assert {(q["history"], q["depth"]) for q in qos.values()} == {("unknown", 0)}
+    assert info["ros_distro"] == "jazzy"
     assert topics["/tf"]["topic_metadata"]["type"] == "tf2_msgs/msg/TFMessage"
     # stamped on /clock: the bag spans the simulated run, not the wall-clock seconds it took
     assert info["duration"]["nanoseconds"] == pytest.approx(steps * DT * 1e9, abs=2 * DT * 1e9)

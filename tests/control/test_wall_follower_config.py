@@ -66,7 +66,7 @@ def test_ints_pass_for_floats_but_not_the_reverse():
         ({"linear_speed": 0.0}, "linear_speed: must be positive"),
         ({"dt": math.nan}, "dt: must be finite"),
         ({"angular_limit": math.inf}, "angular_limit: must be finite"),
-        ({"side_window_deg": 90.0}, "side_window_deg: a half width must stay below 90"),
+        ({"side_window_deg": 90.0}, r"side_window_deg: must be in \[1, 90\), got 90.0"),  # a half width below 90 deg
         ({"abeam_window_deg": 30.0}, "abeam_window_deg"),
         ({"turn_exit_distance": 0.2}, "turn_exit_distance"),
         ({"wall_lost_distance": 0.1}, "wall_lost_distance"),

@@ -279,7 +279,7 @@ def test_bad_solver_option():
 def test_bad_integer_default():
     params = good()
     params["arm"]["max_iterations"] = 0
-    refused(params, "arm", "arm.max_iterations", "positive integer")
+    refused(params, "arm", "arm.max_iterations", "must be positive")
 
 
 def test_all_or_nothing():

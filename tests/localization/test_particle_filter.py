@@ -19,6 +19,7 @@ from amr_maps.occupancy_grid import OCCUPIED, UNKNOWN, OccupancyGrid
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
 from amr_maps.world import load_world, world_from_dict
+from amr_util.parameter_spec import ConfigError
 
 from loc_helpers import ROOT, WORLDS_DIR, grid_of, odometry_of, scan_of
 
@@ -179,9 +180,9 @@ def test_bad_input_is_refused_with_its_name_and_the_filter_carries_on():
     assert (jump.pose.x, jump.pose.y) == pytest.approx((blind.pose.x, blind.pose.y))
     short = pf.update((5.05, 0.0, 0.0), ScanData([1.0, 2.0], 0.0, 0.1, 0.12, 3.5))  # two beams: used, no crash
     assert np.isfinite(short.pose.covariance).all()
-    for params, key in [({"max_particles": 10, "min_particles": 100}, "max_particles"), ({"laser_model": "sonar"}, "laser_model"),
+    for params, key in [({"max_particles": 10, "min_particles": 100}, "max_particles"), ({"laser_model_type": "sonar"}, "laser_model_type"),
                         ({"sigma_hit": -1.0}, "sigma_hit"), ({"nonsense": 1}, "nonsense")]:
-        with pytest.raises(LocalizationError, match=key):
+        with pytest.raises(ConfigError, match=key):
             ParticleFilterConfig.from_params(params)
     with pytest.raises(LocalizationError, match="no free cell"):
         ParticleFilter(OccupancyGrid(np.full((30, 30), UNKNOWN, dtype=np.int8), 0.05))

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from amr_planning.costmap import MIN_COST, Costmap, CostmapConfig, CostmapConfigError
+from amr_planning.costmap import MIN_COST, Costmap, CostmapConfig
+from amr_util.parameter_spec import ConfigError
 from planning_helpers import grid, walled
 
 
@@ -75,5 +76,5 @@ def test_segments_are_checked_against_lethal_cells():
     ({"occupied_threshold": 0}, "occupied_threshold"),
 ])
 def test_bad_configs_are_refused_by_name(kwargs, name):
-    with pytest.raises(CostmapConfigError, match=name):
+    with pytest.raises(ConfigError, match=name):
         CostmapConfig(**kwargs)

@@ -4,8 +4,9 @@ from pathlib import Path
 
 import pytest
 
-from amr_planning.planner import PlannerConfig, PlannerConfigError, distance_to_path
+from amr_planning.planner import PlannerConfig, distance_to_path
 from amr_util.parameter_file import node_parameters
+from amr_util.parameter_spec import ConfigError
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -21,7 +22,7 @@ def test_the_shipped_parameter_file_is_valid_and_matches_the_defaults():
     ({"smoothing_smooth_weight": 0.9}, "smooth_weight"), ({"world": 3}, "world"),
 ])
 def test_bad_parameters_are_refused_by_name(params, name):
-    with pytest.raises(PlannerConfigError, match=name):
+    with pytest.raises(ConfigError, match=name):
         PlannerConfig.from_params(params)
 
 

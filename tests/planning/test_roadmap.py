@@ -5,7 +5,8 @@ import pytest
 
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError, Reason
-from amr_planning.roadmap import Roadmap, RoadmapConfig, RoadmapConfigError
+from amr_planning.roadmap import Roadmap, RoadmapConfig
+from amr_util.parameter_spec import ConfigError
 from planning_helpers import grid, walled
 
 
@@ -77,5 +78,5 @@ def test_a_closed_wall_makes_the_goal_unreachable_with_a_message():
     ({"node_count": 0}, "node_count"), ({"connection_distance": -1.0}, "connection_distance"), ({"seed": -1}, "seed"),
 ])
 def test_bad_configs_are_refused_by_name(kwargs, name):
-    with pytest.raises(RoadmapConfigError, match=name):
+    with pytest.raises(ConfigError, match=name):
         RoadmapConfig(**kwargs)

@@ -7,7 +7,8 @@ from scipy.ndimage import label
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap, CostmapConfig
 from amr_planning.roadmap import Roadmap, RoadmapConfig
-from amr_planning.smoothing import SmoothingConfig, SmoothingConfigError, densify, smooth_path
+from amr_planning.smoothing import SmoothingConfig, densify, smooth_path
+from amr_util.parameter_spec import ConfigError
 from planning_helpers import grid, random_blocks
 
 
@@ -80,5 +81,5 @@ def test_densify_bounds_the_gaps_and_keeps_the_points():
     ({"spacing": 0.0}, "spacing"), ({"max_iterations": 0}, "max_iterations"),
 ])
 def test_bad_configs_are_refused_by_name(kwargs, name):
-    with pytest.raises(SmoothingConfigError, match=name):
+    with pytest.raises(ConfigError, match=name):
         SmoothingConfig(**kwargs)

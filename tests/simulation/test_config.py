@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from amr_simulation.config import SimulationConfig, param_defaults, read_parameter_file
-from amr_simulation.errors import ConfigError
 from amr_simulation.simulator import Simulator
+from amr_util.parameter_spec import ConfigError
 from sim_helpers import WORLDS
 
 PARAMETER_FILE = Path(__file__).resolve().parents[2] / "config" / "simulator.yaml"
