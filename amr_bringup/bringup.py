@@ -396,15 +396,16 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
         parser.error("--view-port and --view-host need --view")
     if options.view and not 1 <= options.view_port <= 65535:
         parser.error(f"--view-port must be in 1..65535, got {options.view_port}")
-    if options.view and not options.show_args:
-        problem = port_problem(options.view_host, options.view_port)
-        if problem:
-            parser.error(f"--view: {problem} (choose another with --view-port)")
     return options
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     options = parse_arguments(argv)
+    if options.view and not options.show_args:  # here, not in the parser: parsing binds nothing
+        problem = port_problem(options.view_host, options.view_port)
+        if problem:
+            print(f"amr-bringup: --view: {problem} (choose another with --view-port)", file=sys.stderr)
+            return 2
     try:
         bringup = load_bringup(options.bringup)
         if options.show_args:

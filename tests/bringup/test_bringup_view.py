@@ -4,7 +4,7 @@ import socket
 
 import pytest
 
-from amr_bringup.bringup import parse_arguments
+from amr_bringup.bringup import main, parse_arguments
 from amr_bringup.viewing import port_problem, viewer_command, viewer_url
 
 
@@ -30,9 +30,7 @@ def test_a_port_in_use_is_refused_before_the_stack_starts(capsys):
         taken.listen()
         port = taken.getsockname()[1]
         assert "cannot serve on 127.0.0.1:" in port_problem("127.0.0.1", port)
-        with pytest.raises(SystemExit) as exit_:
-            parse_arguments(["maze_sim", "--view", "--view-port", str(port)])
-    assert exit_.value.code == 2
+        assert main(["maze_sim", "--view", "--view-port", str(port)]) == 2
     error = capsys.readouterr().err
     assert f"--view: cannot serve on 127.0.0.1:{port}" in error and "choose another with --view-port" in error
 
