@@ -5,11 +5,15 @@ the beam model of the particle filter predicts ranges with it. It returns, per b
 from the origin to the first solid face along the beam, +inf when there is none; a hit beyond
 max_range is either +inf or its distance (callers compare with the range anyway). The beams are
 angles phi_i = phi_0 + i * increment (world frame, i = 0 .. count - 1). Faces are rows
-[x1, y1, x2, y2] with the solid on the left (amr_maps.world.World.faces).
+[x1, y1, x2, y2] with the solid on the left (amr_maps.world.World.faces). cast_many casts many fans
+at once (a fleet's LiDARs, a filter's particles), each row bit for bit what cast would return.
 """
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 from amr_util.geometry import TWO_PI
@@ -18,10 +22,35 @@ GRAZING = 1e-12
 """Smallest cos(beam, inward normal) kept: below it a beam runs along the face."""
 
 
-def _period(increment: float, count: int) -> float:
+def beams_per_turn(increment: float, count: int) -> float:
     """Beams per full turn; exactly count when the fan closes the circle."""
     turn = TWO_PI / increment
     return float(count) if abs(turn - count) < 1e-9 * count else turn
+
+
+def fan_spans(k_lo: np.ndarray, k_hi: np.ndarray, turns: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The beams that items covering the beam positions k in [k_lo, k_hi] span, as (first, counts).
+
+    k_lo lies in [0, period), k_hi in [k_lo, k_lo + period); turns is [[0], [period]] (beams per turn).
+    Beam j sits at k = j and, one turn on, at k = j + period: an item straddling k = 0 covers beams
+    ceil(k_lo) .. count - 1 and 0 .. floor(k_hi - period). first and counts are (2 n,): item i spans
+    beams first[i] .. first[i] + counts[i] - 1 in its first turn and first[n + i] .. in its second.
+    """
+    first = np.ceil(np.maximum(k_lo - turns, 0.0))
+    counts = np.maximum(np.minimum(np.floor(k_hi - turns), count - 1) - first + 1.0, 0.0)
+    return first.ravel().astype(np.intp), counts.ravel().astype(np.intp)
+
+
+@numba.njit(cache=True)
+def _sweep_faces(ranges, rows, first, counts, headings, distances, increment):  # pragma: no cover - compiled
+    """ranges[row, beam] = min(itself, d / max(cos(heading + increment * beam), GRAZING)) over each span:
+    the hits of the faces on the beams they span (the same arithmetic numpy would do, beam by beam)."""
+    for item in range(first.size):
+        row, heading, distance = rows[item], headings[item], distances[item]
+        for beam in range(first[item], first[item] + counts[item]):
+            hit = distance / max(math.cos(heading + increment * beam), GRAZING)
+            if hit < ranges[row, beam]:
+                ranges[row, beam] = hit
 
 
 class NumpyRayCaster:
@@ -57,55 +86,57 @@ class NumpyRayCaster:
         self._lower = (float(self._box[0].min()), float(self._box[1].min()))
         self._upper = (float(self._box[2].max()), float(self._box[3].max()))
         self._turns: dict[tuple[float, int], np.ndarray] = {}
-        self._empty: dict[int, np.ndarray] = {}
+        self._empty: dict[tuple[int, int], np.ndarray] = {}
 
     def cast(self, x: float, y: float, phi0: float, increment: float, count: int, max_range: float) -> np.ndarray:
         """Distances per beam, +inf for no hit; hits beyond max_range may be returned as they are."""
-        ranges = self._no_hits(count)
-        distance = self._line @ (x, y, 1.0)
+        return self.cast_many(np.array([x]), np.array([y]), np.array([phi0]), increment, count, max_range)[0]
+
+    def cast_many(self, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, increment: float, count: int,
+                  max_range: float) -> np.ndarray:
+        """(N, count) distances for N fans from origins (x[n], y[n]) starting at angles phi0[n]: row n is
+        cast(x[n], y[n], phi0[n], ...) bit for bit, for the cost of a few more pairs rather than N casts."""
+        ranges = self._no_hits(len(x), count)
+        origins = list(zip(x.tolist(), y.tolist()))
+        distance = np.empty((len(origins), len(self._line)))
+        for row, (px, py) in enumerate(origins):  # a matrix-matrix product might round differently
+            distance[row] = self._line @ (px, py, 1.0)
         keep = distance > 0.0  # faces turned towards the origin ...
-        if (
-            self._lower[0] < x - max_range or self._lower[1] < y - max_range
-            or self._upper[0] > x + max_range or self._upper[1] > y + max_range
-        ):  # ... and, when the world outgrows the range, within a square of half side max_range
+        (xmin, ymin), (xmax, ymax) = self._lower, self._upper
+        outgrown = [xmin < px - max_range or ymin < py - max_range or xmax > px + max_range or ymax > py + max_range
+                    for px, py in origins]
+        if any(outgrown):  # ... and, when the world outgrows the range, within a square of half side max_range
             box = self._box
-            keep &= (
-                (box[0] < x + max_range) & (box[1] < y + max_range)
-                & (box[2] > x - max_range) & (box[3] > y - max_range)
+            near = (
+                (box[0] < x[:, None] + max_range) & (box[1] < y[:, None] + max_range)
+                & (box[2] > x[:, None] - max_range) & (box[3] > y[:, None] - max_range)
             )
-        index = keep.nonzero()[0]
+            keep &= near | ~np.array(outgrown)[:, None]
+        origin, index = keep.nonzero()  # the (origin, face) items, origin by origin
         if index.size == 0:
             return ranges
         # Seen from the origin, a front face runs clockwise from end a to end b: it covers
         # the beam positions k in [k_b, k_a], k = ((angle - phi0) mod 2 pi) / increment.
         ends = self._ends[:, :, index]
-        k_a, k_b = np.mod(np.arctan2(ends[1] - y, ends[0] - x) - phi0, TWO_PI) / increment
+        start = phi0[origin]
+        k_a, k_b = np.mod(np.arctan2(ends[1] - y[origin], ends[0] - x[origin]) - start, TWO_PI) / increment
         turns = self._period_offsets(increment, count)
         k_a = k_b + np.mod(k_a - k_b, turns[1, 0])
-        # Beam j sits at k = j and, one turn on, at k = j + period: a face straddling
-        # k = 0 covers beams ceil(k_b) .. count - 1 and 0 .. floor(k_a - period).
-        first = np.ceil(np.maximum(k_b - turns, 0.0))
-        counts = np.maximum(np.minimum(np.floor(k_a - turns), count - 1) - first + 1.0, 0.0).astype(np.intp).ravel()
-        total = int(counts.sum())
-        if total == 0:
-            return ranges
-        # Flatten the (face, beam) pairs, face by face: pair p is beam[p] against face f(p).
-        ends_at = counts.cumsum()
-        beam = np.arange(total) - (ends_at - counts - first.ravel().astype(np.intp)).repeat(counts)
-        heading = np.concatenate([phi0 - self._inward[index]] * 2).repeat(counts) + increment * beam
-        distance = np.concatenate([distance[index]] * 2).repeat(counts)
-        np.minimum.at(ranges, beam, distance / np.maximum(np.cos(heading), GRAZING))
+        first, counts = fan_spans(k_b, k_a, turns, count)
+        _sweep_faces(ranges, np.concatenate([origin] * 2), first, counts,
+                     np.concatenate([start - self._inward[index]] * 2),
+                     np.concatenate([distance[origin, index]] * 2), increment)
         return ranges
 
-    def _no_hits(self, count: int) -> np.ndarray:
+    def _no_hits(self, origins: int, count: int) -> np.ndarray:
         """A fresh all-+inf result (copying a cached one is the cheapest way to make it)."""
-        if count not in self._empty:
-            self._empty[count] = np.full(count, np.inf)
-        return self._empty[count].copy()
+        if (origins, count) not in self._empty:
+            self._empty[origins, count] = np.full((origins, count), np.inf)
+        return self._empty[origins, count].copy()
 
     def _period_offsets(self, increment: float, count: int) -> np.ndarray:
         """[[0], [period]]: the k offsets of a beam's first and second turn (cached)."""
         key = (increment, count)
         if key not in self._turns:
-            self._turns[key] = np.array([[0.0], [_period(increment, count)]])
+            self._turns[key] = np.array([[0.0], [beams_per_turn(increment, count)]])
         return self._turns[key]

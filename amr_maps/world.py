@@ -22,6 +22,13 @@ A world YAML file (config/worlds/*.yaml) holds any mix of:
     goal: [0.6, -1.0, 0.15]         # optional: x, y, radius (m)
     beacons: [[0.0, 0.0], [2.0, 0.5]]  # optional: [x, y] of range beacons (m); the simulator then
                                     # publishes the noisy range to each, in this order, and a compass
+    robots:                         # optional, instead of start and goal: several robots (docs/fleet.md)
+      - name: r1                    # a ROS name token: the namespace of its topics and nodes
+        start: [-1.5, -1.5, 0.0]    # x, y, theta (rad)
+        goal: [1.5, 1.5, 0.15]      # optional: x, y, radius (m)
+
+A world without `robots` holds one robot (start, goal) that has no name: its topics are not
+namespaced. World.fleet lists the robots either way.
 
 Every solid becomes a convex polygon (a wall is the rectangle around its centre
 line, extended by half the thickness past both ends so that walls meeting at a
@@ -33,6 +40,7 @@ outward normal is the right-hand normal of the edge.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -45,7 +53,10 @@ from amr_maps.occupancy_grid import MapError
 from amr_util.geometry import Pose2D, is_finite_number, wrap_angle
 from amr_util.share import share_directory
 
-WORLD_KEYS = ("name", "wall_thickness", "walls", "boxes", "grid", "map", "start", "goal", "beacons")
+WORLD_KEYS = ("name", "wall_thickness", "walls", "boxes", "grid", "map", "start", "goal", "beacons", "robots")
+ROBOT_KEYS = ("name", "start", "goal")
+ROBOT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+"""A ROS name token (what rclpy's validate_namespace accepts as one namespace level)."""
 GRID_KEYS = ("cell_size", "origin", "rows")
 SOLID_CELL = "#"
 FREE_CELL = "."
@@ -70,6 +81,16 @@ class Goal:
 
 
 @dataclass(frozen=True)
+class RobotSpec:
+    """One robot of a world: where it starts and, optionally, where it should go."""
+
+    name: str
+    """The namespace of its topics and nodes; "" for the one robot of a world without `robots`."""
+    start: Pose2D
+    goal: Goal | None = None
+
+
+@dataclass(frozen=True)
 class World:
     """Static geometry plus start and goal; build with load_world or world_from_dict."""
 
@@ -83,6 +104,9 @@ class World:
     source: str = "<dict>"
     beacons: tuple[tuple[float, float], ...] = ()
     """Range beacons (x, y), in the world file's order (BeaconRanges keeps it); () = none."""
+    robots: tuple[RobotSpec, ...] = ()
+    """The `robots` list of the file, in its order; () for a world of one robot (then start and goal
+    are that robot's; with a list they are its first robot's)."""
 
     def __post_init__(self) -> None:
         # Physics resolves a corner (two solids touched at once) in the order the solids were added,
@@ -97,6 +121,32 @@ class World:
         xs = np.concatenate([self.faces[:, 0], self.faces[:, 2]])
         ys = np.concatenate([self.faces[:, 1], self.faces[:, 3]])
         return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
+
+    @property
+    def fleet(self) -> tuple[RobotSpec, ...]:
+        """Every robot of the world: the `robots` list, or the one unnamed robot of start and goal."""
+        return self.robots or (RobotSpec("", self.start, self.goal),)
+
+    def clearance(self, points: np.ndarray) -> np.ndarray:
+        """(P,) distance from each point of (P, 2) to the nearest solid, negative inside one."""
+        return solid_clearance(self.polygons, self.faces, points)
+
+    def check_footprints(self, radius: float) -> None:
+        """Raise WorldError unless every robot of the `robots` list, a disc of `radius`, starts clear of
+        the solids and of the other robots (a world of one robot is checked where it is placed)."""
+        where = _Where(self.source)
+        starts = np.array([[robot.start.x, robot.start.y] for robot in self.robots]).reshape(-1, 2)
+        for index, (robot, clear) in enumerate(zip(self.robots, self.clearance(starts))):
+            if clear < radius:
+                raise where.error(f"robots[{index}].start", f"{_pose_text(robot.start)}: {robot.name} (radius "
+                                  f"{radius} m) overlaps a solid (clearance {clear:.3f} m)")
+            for other_index, other in enumerate(self.robots[:index]):
+                gap = math.hypot(robot.start.x - other.start.x, robot.start.y - other.start.y)
+                if gap < 2.0 * radius:
+                    raise where.error(
+                        f"robots[{index}].start", f"{_pose_text(robot.start)}: {robot.name} overlaps {other.name} "
+                        f"(robots[{other_index}]): centres {gap:.3f} m apart, robots of radius {radius} m need "
+                        f"{2.0 * radius:.3f} m")
 
 
 def world_search_path() -> tuple[Path, ...]:
@@ -193,26 +243,110 @@ def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "worl
     if not polygons:
         raise where.error("walls", "the world has no solids: give walls, boxes or a grid")
 
-    if "start" not in data:
-        raise where.error("start", "is required: [x, y, theta]")
-    x, y, theta = _numbers(data["start"], 3, "start", where, "[x, y, theta]")
-    goal = None
-    if data.get("goal") is not None:
-        gx, gy, radius = _numbers(data["goal"], 3, "goal", where, "[x, y, radius]")
-        if radius <= 0.0:
-            raise where.error("goal", f"radius must be positive, got {radius}")
-        goal = Goal(gx, gy, radius)
+    all_faces = np.concatenate(faces).astype(float)
+    robots: tuple[RobotSpec, ...] = ()
+    if "robots" in data:
+        robots = _robots(data, polygons, all_faces, where)
+        start, goal = robots[0].start, robots[0].goal
+    else:
+        if "start" not in data:
+            raise where.error("start", "is required: [x, y, theta]")
+        start = _start(data["start"], "start", where)
+        goal = _goal(data["goal"], "goal", where) if data.get("goal") is not None else None
     beacons = _beacons(data["beacons"], where) if "beacons" in data else ()
 
     return World(
         name=name,
         polygons=tuple(polygons),
-        faces=np.concatenate(faces).astype(float),
-        start=Pose2D(x, y, wrap_angle(theta)),
+        faces=all_faces,
+        start=start,
         goal=goal,
         source=source,
         beacons=beacons,
+        robots=robots,
     )
+
+
+def _start(value: Any, key: str, where: "_Where") -> Pose2D:
+    x, y, theta = _numbers(value, 3, key, where, "[x, y, theta]")
+    return Pose2D(x, y, wrap_angle(theta))
+
+
+def _goal(value: Any, key: str, where: "_Where") -> Goal:
+    gx, gy, radius = _numbers(value, 3, key, where, "[x, y, radius]")
+    if radius <= 0.0:
+        raise where.error(key, f"radius must be positive, got {radius}")
+    return Goal(gx, gy, radius)
+
+
+def _pose_text(pose: Pose2D) -> str:
+    return f"[{pose.x:g}, {pose.y:g}, {pose.theta:g}]"
+
+
+def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where: "_Where") -> tuple[RobotSpec, ...]:
+    """The `robots` list: named robots, each starting (and ending, if it has a goal) in free space
+    within the solids' extent; the footprints are checked by World.check_footprints(radius)."""
+    for key in ("start", "goal"):
+        if key in data:
+            raise where.error(key, "a world with `robots` gives each robot its own start and goal: "
+                                   f"move {key} into the robots' entries")
+    value = data["robots"]
+    if not isinstance(value, list) or not value:
+        raise where.error("robots", f"must be a non-empty list of robots (omit the key for one robot), got {value!r}")
+    robots: list[RobotSpec] = []
+    names: dict[str, int] = {}
+    for index, item in enumerate(value):
+        key = f"robots[{index}]"
+        if not isinstance(item, dict):
+            raise where.error(key, f"must be a mapping with {', '.join(ROBOT_KEYS)}, got {item!r}")
+        unknown = sorted(set(map(str, item)) - set(ROBOT_KEYS))
+        if unknown:
+            raise where.error(f"{key}.{unknown[0]}", f"unknown key (expected some of {', '.join(ROBOT_KEYS)})")
+        for required in ("name", "start"):
+            if required not in item:
+                raise where.error(f"{key}.{required}", "is required")
+        name = item["name"]
+        if not isinstance(name, str) or not ROBOT_NAME.match(name):
+            raise where.error(f"{key}.name", f"must be a ROS name token (a letter or '_', then letters, digits "
+                                             f"or '_'), got {name!r}")
+        if name in names:
+            raise where.error(f"{key}.name", f"{name!r} is already the name of robots[{names[name]}]")
+        names[name] = index
+        goal = _goal(item["goal"], f"{key}.goal", where) if item.get("goal") is not None else None
+        robots.append(RobotSpec(name, _start(item["start"], f"{key}.start", where), goal))
+    points = [(f"robots[{i}].start", (r.start.x, r.start.y)) for i, r in enumerate(robots)]
+    points += [(f"robots[{i}].goal", (r.goal.x, r.goal.y)) for i, r in enumerate(robots) if r.goal is not None]
+    xmin, ymin = faces[:, [0, 2]].min(), faces[:, [1, 3]].min()
+    xmax, ymax = faces[:, [0, 2]].max(), faces[:, [1, 3]].max()
+    clearance = solid_clearance(polygons, faces, np.array([point for _, point in points]))
+    for (key, (x, y)), clear in zip(points, clearance):
+        if not (xmin <= x <= xmax and ymin <= y <= ymax):
+            raise where.error(key, f"({x:g}, {y:g}) lies outside the solids' extent: x in [{xmin:g}, {xmax:g}], "
+                                   f"y in [{ymin:g}, {ymax:g}]")
+        if clear < 0.0:
+            raise where.error(key, f"({x:g}, {y:g}) lies inside a solid")
+    return tuple(robots)
+
+
+def solid_clearance(polygons: Sequence[np.ndarray], faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(P,) distance from each point of (P, 2) to the nearest face, negated inside a (convex) solid."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    a, b = faces[None, :, :2], faces[None, :, 2:]
+    p = points[:, None, :]
+    ab = b - a
+    along = np.clip(np.sum((p - a) * ab, axis=2) / np.maximum(np.sum(ab * ab, axis=2), 1e-300), 0.0, 1.0)
+    distance = np.linalg.norm(p - (a + along[..., None] * ab), axis=2).min(axis=1, initial=np.inf)
+    inside = np.zeros(len(points), dtype=bool)
+    by_size: dict[int, list[np.ndarray]] = {}
+    for polygon in polygons:
+        by_size.setdefault(len(polygon), []).append(polygon)
+    for group in by_size.values():
+        corners = np.stack(group)  # (S, k, 2), counter-clockwise
+        edges = np.roll(corners, -1, axis=1) - corners
+        offset = p[:, None, :, :] - corners[None]  # (P, S, k, 2)
+        cross = edges[None, ..., 0] * offset[..., 1] - edges[None, ..., 1] * offset[..., 0]
+        inside |= np.any(np.all(cross > 0.0, axis=2), axis=1)
+    return np.where(inside, -distance, distance)
 
 
 def _beacons(value: Any, where: "_Where") -> tuple[tuple[float, float], ...]:

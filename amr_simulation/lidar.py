@@ -36,10 +36,19 @@ class Lidar:
 
     def scan(self, robot: Pose2D) -> np.ndarray:
         """One noisy scan; always draws one normal sample per beam, so streams stay aligned."""
+        return readings(self.true_ranges(robot), self.noise(), self.config)
+
+    def noise(self) -> np.ndarray | None:
+        """One scan's range noise (beams,) from this LiDAR's stream, None when noise_std is 0."""
         c = self.config
-        ranges = self.true_ranges(robot)
-        readings = ranges + self._rng.normal(0.0, c.noise_std, c.beams) if c.noise_std > 0.0 else ranges.copy()
-        np.minimum(np.maximum(readings, c.range_min, out=readings), c.range_max, out=readings)
-        readings[ranges > c.range_max] = np.inf
-        readings[ranges < c.range_min] = -np.inf
-        return readings
+        return self._rng.normal(0.0, c.noise_std, c.beams) if c.noise_std > 0.0 else None
+
+
+def readings(ranges: np.ndarray, noise: np.ndarray | None, config: LidarConfig) -> np.ndarray:
+    """What LiDARs read from true ranges (..., beams) plus their noise (same shape, or None)."""
+    c = config
+    out = ranges + noise if noise is not None else ranges.copy()
+    np.minimum(np.maximum(out, c.range_min, out=out), c.range_max, out=out)
+    out[ranges > c.range_max] = np.inf
+    out[ranges < c.range_min] = -np.inf
+    return out

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -23,6 +23,7 @@ from amr_simulation.config import LidarConfig
 from amr_util.geometry import Pose2D
 
 if TYPE_CHECKING:
+    from amr_simulation.fleet import Fleet
     from amr_simulation.simulator import Simulator
 
 WALL_COLOUR = "0.25"
@@ -36,15 +37,19 @@ MARGIN = 0.2
 
 
 def draw_world(ax: Axes, world: World) -> None:
-    """Solids, the start pose (green arrow) and the goal region (orange disc)."""
+    """Solids, every robot's start pose (green arrow) and goal region (orange disc, named in a fleet)."""
     for polygon in world.polygons:
         ax.add_patch(Polygon(polygon, closed=True, facecolor=WALL_COLOUR, edgecolor=WALL_COLOUR, linewidth=0.5))
-    x, y, theta = world.start
-    ax.add_patch(
-        FancyArrow(x, y, 0.15 * math.cos(theta), 0.15 * math.sin(theta), width=0.02, color=START_COLOUR, zorder=3)
-    )
-    if world.goal is not None:
-        ax.add_patch(Circle((world.goal.x, world.goal.y), world.goal.radius, color=GOAL_COLOUR, alpha=0.4, zorder=1))
+    for robot in world.fleet:
+        x, y, theta = robot.start
+        ax.add_patch(
+            FancyArrow(x, y, 0.15 * math.cos(theta), 0.15 * math.sin(theta), width=0.02, color=START_COLOUR, zorder=3)
+        )
+        if robot.goal is not None:
+            goal = robot.goal
+            ax.add_patch(Circle((goal.x, goal.y), goal.radius, color=GOAL_COLOUR, alpha=0.4, zorder=1))
+            if robot.name:
+                ax.annotate(robot.name, (goal.x, goal.y), ha="center", va="center", fontsize=7, zorder=6)
     xmin, ymin, xmax, ymax = world.bounds
     ax.set_xlim(xmin - MARGIN, xmax + MARGIN)
     ax.set_ylim(ymin - MARGIN, ymax + MARGIN)
@@ -64,24 +69,24 @@ def draw_trajectory(ax: Axes, trajectory: np.ndarray, max_speed: float) -> LineC
     return lines
 
 
-def draw_robot(ax: Axes, pose: Pose2D, radius: float) -> None:
+def draw_robot(ax: Axes, pose: Pose2D, radius: float, colour: str = ROBOT_COLOUR) -> None:
     """The footprint and a heading line."""
-    ax.add_patch(Circle((pose.x, pose.y), radius, facecolor="none", edgecolor=ROBOT_COLOUR, linewidth=1.5, zorder=4))
+    ax.add_patch(Circle((pose.x, pose.y), radius, facecolor="none", edgecolor=colour, linewidth=1.5, zorder=4))
     ax.plot(
         [pose.x, pose.x + radius * math.cos(pose.theta)],
         [pose.y, pose.y + radius * math.sin(pose.theta)],
-        color=ROBOT_COLOUR, linewidth=1.5, zorder=4,
+        color=colour, linewidth=1.5, zorder=4,
     )
 
 
-def draw_scan(ax: Axes, sensor: Pose2D, ranges: np.ndarray, lidar: LidarConfig) -> None:
+def draw_scan(ax: Axes, sensor: Pose2D, ranges: np.ndarray, lidar: LidarConfig, colour: str = HIT_COLOUR) -> None:
     """The LiDAR returns as dots in the world frame (no-return beams are left out)."""
     angles = sensor.theta + lidar.angle_min + lidar.angle_increment * np.arange(ranges.size)
     valid = np.isfinite(ranges)
     ax.scatter(
         sensor.x + ranges[valid] * np.cos(angles[valid]),
         sensor.y + ranges[valid] * np.sin(angles[valid]),
-        s=4, color=HIT_COLOUR, zorder=5, linewidths=0,
+        s=4, color=colour, zorder=5, linewidths=0,
     )
 
 
@@ -96,13 +101,35 @@ def draw_simulation(ax: Axes, sim: "Simulator") -> LineCollection:
     return lines
 
 
-def save_png(sim: "Simulator", path: str | Path, dpi: int = 120) -> Path:
-    """A PNG of the simulator with a speed colour bar."""
+def draw_fleet(ax: Axes, fleet: "Fleet") -> LineCollection:
+    """World, and per robot (one colour each) its trajectory, footprint, name and last scan; returns the
+    first robot's trajectory lines."""
+    draw_world(ax, fleet.world)
+    radius = fleet.config.robot.radius
+    lines = []
+    for index, robot in enumerate(fleet.robots):
+        colour = f"C{index % 10}"
+        lines.append(draw_trajectory(ax, robot.trajectory, fleet.config.robot.max_linear))
+        draw_robot(ax, robot.pose, radius, colour)
+        draw_scan(ax, robot.sensor_pose, np.asarray(robot.ranges), fleet.lidar, colour)
+        if robot.name:
+            ax.annotate(robot.name, (robot.pose.x, robot.pose.y + 1.6 * radius), ha="center", fontsize=7,
+                        color=colour, zorder=6)
+    hits = sum(robot.collisions for robot in fleet.robots)
+    reached = sum(robot.goal_reached for robot in fleet.robots)
+    ax.set_title(f"{fleet.world.name}   t = {fleet.time:.2f} s   {len(fleet)} robots   collisions: {hits}   "
+                 f"goals reached: {reached}")
+    return lines[0]
+
+
+def save_png(sim: "Simulator | Fleet", path: str | Path, dpi: int = 120,
+             draw: Callable[[Axes, Any], LineCollection] = draw_simulation) -> Path:
+    """A PNG of the simulator (or, with draw=draw_fleet, of a fleet) with a speed colour bar."""
     path = Path(path)
     figure = Figure(figsize=(7.0, 6.0), layout="constrained")
     FigureCanvasAgg(figure)
     ax = figure.add_subplot()
-    lines = draw_simulation(ax, sim)
+    lines = draw(ax, sim)
     figure.colorbar(lines, ax=ax, label="speed [m/s]", shrink=0.8)
     figure.savefig(path, dpi=dpi)
     return path
