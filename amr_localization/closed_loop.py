@@ -32,6 +32,8 @@ class Trace:
     position_error: list[float] = field(default_factory=list)
     heading_error: list[float] = field(default_factory=list)
     update_time: list[float] = field(default_factory=list)
+    truth: list[tuple[float, float, float]] = field(default_factory=list)
+    """the true pose (x, y, theta) at each step."""
     kidnapped_at: float | None = None
 
     def arrays(self):
@@ -66,6 +68,7 @@ def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig,
         trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
         trace.heading_error.append(abs(float(wrap(estimate.pose.theta - truth.theta))))
         trace.update_time.append(estimate.status.update_time)
+        trace.truth.append((truth.x, truth.y, truth.theta))
         if stop_when_localized and estimate.localized:
             break
         command = follower.compute(scan, *sim.odom_twist, sim.time)

@@ -17,7 +17,7 @@ LASER_MODELS = ("likelihood_field", "beam")
 BUILT_FIELDS = frozenset({
     "laser_model", "sigma_hit", "z_hit", "z_rand", "laser_likelihood_max_dist", "lidar_x", "lidar_y", "lidar_yaw",
     "free_space_clearance", "recovery_alpha_slow", "recovery_alpha_fast", "rival_margin", "rival_coarse_sigma",
-    "history_length", "seed",
+    "history_length", "seed", "evidence_threshold", "evidence_dead_zone",
 })
 """Fields a ParticleFilter builds objects from at construction (models, free space, recovery filter, RNG):
 fixed for the filter's life; every other field is read at each update (ParticleFilter.retune)."""
@@ -92,6 +92,13 @@ class ParticleFilterConfig:
     much withdraws localized and gets particles (a robot kidnapped into a look-alike place; tracking the
     right place, the best rival scored at most 0.001 above the estimate, a kidnapped robot's true place
     0.2-0.35 above it within 5 s)."""
+    evidence_threshold: float = 8.0
+    """log-evidence (scan log-likelihoods x likelihood_exponent, summed since the evidence ledger began following
+    a place): a place explaining the recent scans as well as the estimate but this far below it is ruled out
+    (evidence_ledger.py)."""
+    evidence_dead_zone: float = 0.02
+    """per-beam log-likelihood: a scan fitting two followed places closer than this adds no evidence to either
+    (a consistent difference this small is map or motion error, not a feature)."""
     history_length: int = 10
     history_spacing: float = 0.1
     """m (or 2 x this in rad) of odometry between two scans kept for the rival check."""
@@ -138,6 +145,8 @@ class ParticleFilterConfig:
         need(self.lost_updates >= 0, "lost_updates", "must be >= 0 (0 = never restart)")
         need(self.recheck_updates >= 0, "recheck_updates", "must be >= 0 (0 = never)")
         need(self.recheck_margin >= 0.0, "recheck_margin", "must be >= 0")
+        need(self.evidence_threshold > 0.0, "evidence_threshold", "must be positive")
+        need(self.evidence_dead_zone >= 0.0, "evidence_dead_zone", "must be >= 0")
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> "ParticleFilterConfig":

@@ -66,7 +66,8 @@ RANGES: dict[str, tuple[float, float]] = {
     "localized_min_fit": (0.0, 1.0), "fit_distance": (0.001, 1.0), "localized_confirmations": (1, 10_000),
     "lost_updates": (0, 100_000), "recheck_updates": (0, 100_000), "recheck_margin": (0.0, 10.0),
     "rival_margin": (0.0, 10.0), "rival_coarse_sigma": (0.001, 10.0), "history_length": (1, 1000),
-    "history_spacing": (0.0, 10.0), "seed": (0, 2**31 - 1),
+    "history_spacing": (0.0, 10.0), "seed": (0, 2**31 - 1), "evidence_threshold": (0.1, 1000.0),
+    "evidence_dead_zone": (0.0, 10.0),
 }
 
 NODE_SPECS = (

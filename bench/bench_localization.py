@@ -1,9 +1,11 @@
 """Localization figures (issue 12): update cost, global localization while wall following, kidnapping,
 symmetric worlds, the beacon localizer's pyramidal search against the exhaustive grid, and, on the beacon
 world (open_room), the beacon localizer against the particle filter with beacons, scan + beacons and scan.
+--symmetry (issue 20): generated square rooms whose four-fold symmetry one feature breaks (a doorway, a
+notch, a missing or an extra pillar; amr_simulation.symmetry_families) and truly symmetric controls.
 
 Prints; asserts nothing.
-Usage: .venv/bin/python bench/bench_localization.py [--quick] [--beacon-comparison (that alone)]
+Usage: .venv/bin/python bench/bench_localization.py [--quick] [--beacon-comparison | --symmetry (that alone)]
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from amr_localization.sensor_mount import SensorMount  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
+from amr_simulation.symmetry_families import BROKEN, SYMMETRIC, FeatureView, symmetry_case  # noqa: E402
 from amr_simulation.world import World, load_world, world_from_dict  # noqa: E402
 
 WORLDS = ROOT / "config" / "worlds"
@@ -204,6 +207,87 @@ def bench_kidnap(seeds: int) -> None:
                   f"regained after {regained:.1f} s (error {error})")
 
 
+def first_in_view(trace, view: FeatureView, lidar: LidarConfig, beams: int = 3) -> float | None:
+    """Simulated time of the first step at which `beams` or more noise-free LiDAR beams from the true pose see
+    what breaks the symmetry (their ranges differ by more than 5 cm from the symmetric counterpart's)."""
+    for t, (x, y, theta) in zip(trace.time, trace.truth):
+        sx, sy = x + lidar.x * math.cos(theta) - lidar.y * math.sin(theta), y + lidar.x * math.sin(theta) + lidar.y * math.cos(theta)
+        if view.differing_beams(sx, sy, theta + lidar.angle_min, lidar.angle_increment, lidar.beams, lidar.range_max) >= beams:
+            return t
+    return None
+
+
+def symmetry_run(world: World, seed: int, noise: tuple[float, float, float], seconds: float, stop: bool):
+    lidar_noise, encoder_noise, slip = noise
+    sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=seed, lidar=LidarConfig(noise_std=lidar_noise),
+                                            encoders=EncoderConfig(noise=encoder_noise, slip=slip)))
+    pf = ParticleFilter(rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, seed=seed), range_max=3.5)
+    started = time.perf_counter()
+    trace = run(sim, pf, FOLLOWER, seconds, stop_when_localized=stop)
+    return trace, sim.lidar, time.perf_counter() - started
+
+
+def bench_symmetry(seeds: int, seconds: float, control_seeds: int, control_seconds: float) -> None:
+    print(f"== symmetry broken by one feature (issue 20): {len(BROKEN)} families x {seeds} seeds, square rooms 3.5-6.5 m, "
+          f"features 0.2-0.6 m, LiDAR noise 0.01-0.03 m, encoder noise 0.005-0.03, slip 0.01-0.05; up to {seconds:.0f} s "
+          "simulated; 'in view': 3+ noise-free beams of the scan (240) see the feature (differ by > 5 cm from the symmetric room)")
+    rng = np.random.default_rng(20)
+    rows = []
+    for kind in BROKEN:
+        for seed in range(seeds):
+            noise = (float(rng.uniform(0.01, 0.03)), float(rng.uniform(0.005, 0.03)), float(rng.uniform(0.01, 0.05)))
+            case = symmetry_case(kind, seed)
+            world, symmetric = world_from_dict(case.world), world_from_dict(case.symmetric)
+            trace, lidar, wall = symmetry_run(world, seed, noise, seconds, stop=True)
+            seen = first_in_view(trace, FeatureView(world, symmetric), lidar)
+            first = trace.first_localized()
+            t, _, position, heading = trace.arrays()
+            row = {"kind": kind, "seen": seen, "time": t[first] if first is not None else None,
+                   "error": position[first] if first is not None else None,
+                   "heading": math.degrees(heading[first]) if first is not None else None}
+            row["ok"] = (first is not None and seen is not None and row["time"] <= seen + 60.0
+                         and row["error"] <= 0.10 and row["heading"] <= 10.0)
+            rows.append(row)
+            when = (f"localized at {row['time']:5.1f} s ({row['time'] - seen if seen is not None else math.nan:+6.1f} s "
+                    f"after), error {100 * row['error']:4.1f} cm {row['heading']:4.1f} deg" if first is not None
+                    else f"never localized in {t[-1]:.0f} s")
+            print(f"{case.world['name']:18s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  feature in view at "
+                  f"{seen if seen is not None else math.nan:5.1f} s  {when}  {'ok' if row['ok'] else 'MISSED'}  "
+                  f"wall {wall:5.1f} s", flush=True)
+    seen_rows = [r for r in rows if r["seen"] is not None]
+    ok = [r for r in seen_rows if r["ok"]]
+    print(f"localized within 60 s of the feature first in view, error <= 10 cm and 10 deg: {len(ok)}/{len(seen_rows)} "
+          f"({100 * len(ok) / max(len(seen_rows), 1):.0f} %); feature never in view: {len(rows) - len(seen_rows)}")
+    for kind in BROKEN:
+        mine = [r for r in seen_rows if r["kind"] == kind]
+        delays = [r["time"] - r["seen"] for r in mine if r["time"] is not None]
+        print(f"  {kind:15s} {sum(r['ok'] for r in mine)}/{len(mine)}  delay after first in view: "
+              + (f"median {np.median(delays):5.1f} s, max {max(delays):5.1f} s" if delays else "-"))
+    declared = [r for r in rows if r["time"] is not None]
+    if declared:
+        print(f"error at the first declaration: max {100 * max(r['error'] for r in declared):.1f} cm, "
+              f"{max(r['heading'] for r in declared):.1f} deg; wrong (> 10 cm or 10 deg): "
+              f"{sum(r['error'] > 0.10 or r['heading'] > 10.0 for r in declared)}/{len(declared)}")
+    print(f"== truly symmetric controls, {control_seconds:.0f} s each: twin_rooms, and {', '.join(SYMMETRIC)} with "
+          "coordinates on the 2 cm lattice (the map exactly as symmetric as the world) and off it (the map not quite)")
+    controls = [(load_world(WORLDS / "twin_rooms.yaml"), f"twin_rooms s{seed}", seed) for seed in range(control_seeds)]
+    for kind in SYMMETRIC:
+        for seed in range(control_seeds):
+            for lattice in (True, False):
+                case = symmetry_case(kind, seed, lattice=lattice)
+                controls.append((world_from_dict(case.world), f"{case.world['name']}{'' if lattice else ' off'}", seed))
+    false = 0
+    for world, name, seed in controls:
+        noise = (float(rng.uniform(0.01, 0.03)), float(rng.uniform(0.005, 0.03)), float(rng.uniform(0.01, 0.05)))
+        trace, _, wall = symmetry_run(world, seed, noise, control_seconds, stop=True)
+        first = trace.first_localized()
+        false += first is not None
+        print(f"{name:22s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  "
+              f"{'LOCALIZED at %.1f s' % trace.time[first] if first is not None else 'never localized'}  wall {wall:5.1f} s",
+              flush=True)
+    print(f"false declarations in truly symmetric worlds: {false}/{len(controls)}")
+
+
 def bench_beacons(cases: int) -> None:
     print("== beacon localizer: pyramidal vs exhaustive grid at the same final resolution (5 mm), range noise 5 mm")
     beacons = np.array([[0.0, 0.0], [4.0, 0.5], [3.5, 4.0], [0.5, 3.5]])
@@ -332,8 +416,14 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer runs")
     parser.add_argument("--beacon-comparison", action="store_true",
                         help="only the beacon world comparison (beacon localizer vs particle filter)")
+    parser.add_argument("--symmetry", action="store_true",
+                        help="only the rooms whose symmetry one feature breaks, and the truly symmetric controls")
     args = parser.parse_args()
     quick = args.quick
+    if args.symmetry:
+        bench_symmetry(seeds=2 if quick else 10, seconds=240.0, control_seeds=1 if quick else 2,
+                       control_seconds=120.0 if quick else 300.0)
+        return
     if args.beacon_comparison:
         bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
         return

@@ -1,0 +1,188 @@
+"""What the particles forget about look-alike places: their accumulated log-evidence (issue 20).
+
+In a room that one small feature alone tells apart from its rotated copies, the
+scans that see the feature (or the place where a copy would see it) are the only
+ones that weigh the copies against each other, and they come for a few seconds
+per lap. Measured in generated rooms (docs/localization_symmetry.md), the filter
+lost that evidence in three ways: tempering let each update use only part of it
+(beta 0.3-0.9 while the copies shared the weight); a copy holding little weight
+died out, or a copy with no evidence against it lost most of its weight to
+sampling and to how its cloud fitted; and, worst, the rival search before each
+declaration, which looks at the last metre of scans only, found the copies
+explaining those scans as well as the estimate and gave each a cloud as heavy as
+the estimate's: log-odds of 12-165 against a copy, gathered while the feature
+was in view, were reset to even odds again and again.
+
+The ledger keeps what those steps lose. Each entry is one hypothesis of the
+robot's pose (the estimate's place and the places the rival search found);
+every filter update moves each entry by the odometry increment, re-fits it to
+the scan by a small local search (robot-frame steps, so that it does not drift
+off the map and so that two mirror-image entries stay mirror images), and adds
+the scan's log-likelihood there (times likelihood_exponent, as the particles
+get it, but never tempered) to its log-evidence. The evidence is kept relative
+to the best entry (the best is 0).
+
+A scan whose mean per-beam log-likelihood differs between two entries by less
+than `dead_zone` says nothing about them: a consistent difference that small is
+map and motion error (a wall rasterized a cell off at one copy and not at the
+other), and summed over thousands of scans it would otherwise become a
+confident answer in a world that stays symmetric.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from amr_localization.free_space import FreeSpace
+from amr_localization.likelihood_field import LikelihoodField
+from amr_localization.poses import compose, wrap
+from amr_localization.scan_beams import Beams
+
+_OFFSETS = np.stack(np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
+
+
+@dataclass(frozen=True)
+class LedgerParams:
+    threshold: float = 8.0
+    """log-evidence: a place this far below the estimate is ruled out (odds e^8 ~ 3,000:1)."""
+    dead_zone: float = 0.02
+    """per-beam log-likelihood: a scan fitting two entries closer than this adds nothing to either."""
+    match_distance: float = 0.3
+    """m: a pose this close to an entry (and within match_angle) is that entry's place."""
+    match_angle: float = math.radians(30.0)
+    max_entries: int = 48
+    floor: float = -200.0
+    """log-evidence is kept above this (ruled out long ago; bounded numbers)."""
+    refine_levels: int = 2
+    refine_step: float = 0.01
+    """m, the local search's first step along and across the robot (halved at each level)."""
+    refine_angle: float = math.radians(1.0)
+    free_path_margin: float = 0.1
+    free_path_step: float = 0.02
+    free_path_angle: float = math.radians(2.0)
+    """m: a beam's path must be free up to this short of its end point (LiDAR noise and the entry's pose error)."""
+
+
+class EvidenceLedger:
+    """Hypotheses of the pose with their accumulated log-evidence. Not thread-safe."""
+
+    def __init__(self, model: LikelihoodField, free_space: FreeSpace, params: LedgerParams | None = None) -> None:
+        self.model = model
+        self.free_space = free_space
+        self.params = params or LedgerParams()
+        self.clear()
+
+    def clear(self) -> None:
+        self.poses = np.zeros((0, 3))
+        self.evidence = np.zeros(0)
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    def move(self, increment: np.ndarray) -> None:
+        """Every entry moved by the odometry increment (robot frame); entries that leave free space are dropped."""
+        if not len(self):
+            return
+        self.poses = compose(self.poses, increment)
+        inside = self.free_space.contains(self.poses[:, 0], self.poses[:, 1])
+        self.poses, self.evidence = self.poses[inside], self.evidence[inside]
+        self._normalize()
+
+    def observe(self, beams: Beams, weight: float) -> None:
+        """Re-fit each entry to the scan and add the scan's log-likelihood at it, times `weight`, to its evidence."""
+        used = len(beams.ranges)
+        if not len(self) or not beams.returned.any():
+            return
+        self.poses, _ = self._refine(beams)
+        score = self._free_path_score(beams)
+        gain = score - score.max()
+        gain[-gain < self.params.dead_zone * used] = 0.0
+        gain *= weight
+        self.evidence = self.evidence + gain
+        self._normalize()
+
+    def find(self, pose: np.ndarray) -> int:
+        """Index of the entry at `pose`'s place (the best-supported one if several), -1 if none."""
+        if not len(self):
+            return -1
+        pose = np.asarray(pose, float)
+        near = (np.hypot(self.poses[:, 0] - pose[0], self.poses[:, 1] - pose[1]) <= self.params.match_distance) & (
+            np.abs(wrap(self.poses[:, 2] - pose[2])) <= self.params.match_angle)
+        if not near.any():
+            return -1
+        index = np.flatnonzero(near)
+        return int(index[np.argmax(self.evidence[index])])
+
+    def add(self, pose: np.ndarray, evidence: float) -> int:
+        """A new entry (or, at an entry's place, that entry: its evidence is kept). Returns its index."""
+        found = self.find(pose)
+        if found >= 0:
+            return found
+        if len(self) >= self.params.max_entries:  # forget the least supported place
+            keep = np.argsort(-self.evidence, kind="stable")[: self.params.max_entries - 1]
+            self.poses, self.evidence = self.poses[keep], self.evidence[keep]
+        self.poses = np.vstack([self.poses, np.asarray(pose, float)[None, :3]])
+        self.evidence = np.append(self.evidence, float(evidence))
+        self._normalize()
+        return len(self) - 1
+
+    def ruled_out(self) -> np.ndarray:
+        """(K,) whether each entry is threshold or more below the best one."""
+        return self.evidence <= -self.params.threshold
+
+    def near(self, poses: np.ndarray, index: int) -> np.ndarray:
+        """(N,) whether each of `poses` lies at entry `index`'s place."""
+        entry = self.poses[index]
+        return (np.hypot(poses[:, 0] - entry[0], poses[:, 1] - entry[1]) <= self.params.match_distance) & (
+            np.abs(wrap(poses[:, 2] - entry[2])) <= self.params.match_angle)
+
+    def _free_path_score(self, beams: Beams) -> np.ndarray:
+        """(K,) the best free-path log-likelihood within one tolerance step (free_path_step, free_path_angle)
+        of each entry: a beam that grazes a corner at the entry's pose but not a few mm or a degree away
+        is pose error, not evidence; a wall across a doorway's view stays a wall a few cm away."""
+        step = np.array([self.params.free_path_step, self.params.free_path_step, self.params.free_path_angle])
+        trial = self._around(self.poses, _OFFSETS * step)
+        score = self.model.log_likelihood_free_path(trial, beams, self.params.free_path_margin)
+        return score.reshape(len(self), len(_OFFSETS)).max(axis=1)
+
+    @staticmethod
+    def _around(poses: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        """(K x M, 3) each pose composed with each robot-frame offset."""
+        c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+        return np.stack([poses[:, None, 0] + c * offsets[:, 0] - s * offsets[:, 1],
+                         poses[:, None, 1] + s * offsets[:, 0] + c * offsets[:, 1],
+                         poses[:, None, 2] + offsets[:, 2]], axis=-1).reshape(-1, 3)
+
+    def _refine(self, beams: Beams) -> tuple[np.ndarray, np.ndarray]:
+        """Each entry's best pose near it (robot-frame steps halving) and its log-likelihood there."""
+        best = self.poses.copy()
+        score = self.model.log_likelihood(best, beams)
+        step = np.array([self.params.refine_step, self.params.refine_step, self.params.refine_angle])
+        count = len(best)
+        for _ in range(self.params.refine_levels):
+            offsets = _OFFSETS * step
+            trial = self._around(best, offsets)
+            trial_score = self.model.log_likelihood(trial, beams).reshape(count, len(offsets))
+            pick = trial_score.argmax(axis=1)
+            better = trial_score[np.arange(count), pick] > score
+            best[better] = trial.reshape(count, len(offsets), 3)[better, pick[better]]
+            score[better] = trial_score[better, pick[better]]
+            step = step / 2.0
+        best[:, 2] = wrap(best[:, 2])
+        return best, score
+
+    def _normalize(self) -> None:
+        """Best evidence 0, none below floor; two entries that met at one place become one (the better one)."""
+        if not len(self):
+            return
+        self.evidence = np.maximum(self.evidence - self.evidence.max(), self.params.floor)
+        keep: list[int] = []
+        for index in np.argsort(-self.evidence, kind="stable"):
+            if not any(self.near(self.poses[index][None, :], other)[0] for other in keep):
+                keep.append(int(index))
+        if len(keep) < len(self):
+            keep.sort()
+            self.poses, self.evidence = self.poses[keep], self.evidence[keep]
