@@ -48,18 +48,22 @@ _OFFSETS = np.stack(np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [-1.0, 0.0, 
 class LedgerParams:
     threshold: float = 8.0
     """log-evidence: a place this far below the estimate is ruled out (odds e^8 ~ 3,000:1)."""
-    dead_zone: float = 0.02
-    """per-beam log-likelihood: a scan fitting two entries closer than this adds nothing to either."""
+    dead_zone: float = 1.0
+    """log-likelihood: a beam whose term differs between an entry and the best fitting one by less than this
+    adds nothing to either (map and pose error; a feature's beams differ by 3-5.5)."""
     match_distance: float = 0.3
     """m: a pose this close to an entry (and within match_angle) is that entry's place."""
     match_angle: float = math.radians(30.0)
     max_entries: int = 48
     floor: float = -200.0
     """log-evidence is kept above this (ruled out long ago; bounded numbers)."""
-    refine_levels: int = 2
-    refine_step: float = 0.01
+    settle_updates: int = 5
+    """scans a new entry is only fitted to (from the rival search's pose, up to a few cm off) before its
+    evidence counts: a place must not lose evidence while its pose is still being found."""
+    refine_levels: int = 3
+    refine_step: float = 0.02
     """m, the local search's first step along and across the robot (halved at each level)."""
-    refine_angle: float = math.radians(1.0)
+    refine_angle: float = math.radians(2.0)
     free_path_margin: float = 0.1
     free_path_step: float = 0.02
     free_path_angle: float = math.radians(2.0)
@@ -78,6 +82,8 @@ class EvidenceLedger:
     def clear(self) -> None:
         self.poses = np.zeros((0, 3))
         self.evidence = np.zeros(0)
+        self.age = np.zeros(0, dtype=np.int64)
+        """scans each entry has been fitted to; the first settle_updates add no evidence."""
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -87,8 +93,7 @@ class EvidenceLedger:
         if not len(self):
             return
         self.poses = compose(self.poses, increment)
-        inside = self.free_space.contains(self.poses[:, 0], self.poses[:, 1])
-        self.poses, self.evidence = self.poses[inside], self.evidence[inside]
+        self._keep(self.free_space.contains(self.poses[:, 0], self.poses[:, 1]))
         self._normalize()
 
     def observe(self, beams: Beams, weight: float) -> None:
@@ -97,11 +102,17 @@ class EvidenceLedger:
         if not len(self) or not beams.returned.any():
             return
         self.poses, _ = self._refine(beams)
-        score = self._free_path_score(beams)
-        gain = score - score.max()
-        gain[-gain < self.params.dead_zone * used] = 0.0
-        gain *= weight
-        self.evidence = self.evidence + gain
+        terms = self._free_path_terms(beams)
+        settled = self.age >= self.params.settle_updates
+        self.age = self.age + 1
+        if not settled.any():
+            return
+        score = terms.sum(axis=1)
+        reference = terms[np.flatnonzero(settled)[np.argmax(score[settled])]]
+        difference = terms - reference
+        difference[np.abs(difference) < self.params.dead_zone] = 0.0
+        gain = np.where(settled, difference.sum(axis=1), 0.0)
+        self.evidence = self.evidence + weight * gain
         self._normalize()
 
     def find(self, pose: np.ndarray) -> int:
@@ -122,10 +133,12 @@ class EvidenceLedger:
         if found >= 0:
             return found
         if len(self) >= self.params.max_entries:  # forget the least supported place
-            keep = np.argsort(-self.evidence, kind="stable")[: self.params.max_entries - 1]
-            self.poses, self.evidence = self.poses[keep], self.evidence[keep]
+            keep = np.zeros(len(self), dtype=bool)
+            keep[np.argsort(-self.evidence, kind="stable")[: self.params.max_entries - 1]] = True
+            self._keep(keep)
         self.poses = np.vstack([self.poses, np.asarray(pose, float)[None, :3]])
         self.evidence = np.append(self.evidence, float(evidence))
+        self.age = np.append(self.age, 0)
         self._normalize()
         return len(self) - 1
 
@@ -139,14 +152,15 @@ class EvidenceLedger:
         return (np.hypot(poses[:, 0] - entry[0], poses[:, 1] - entry[1]) <= self.params.match_distance) & (
             np.abs(wrap(poses[:, 2] - entry[2])) <= self.params.match_angle)
 
-    def _free_path_score(self, beams: Beams) -> np.ndarray:
-        """(K,) the best free-path log-likelihood within one tolerance step (free_path_step, free_path_angle)
-        of each entry: a beam that grazes a corner at the entry's pose but not a few mm or a degree away
-        is pose error, not evidence; a wall across a doorway's view stays a wall a few cm away."""
+    def _free_path_terms(self, beams: Beams) -> np.ndarray:
+        """(K, beams) each beam's free-path log-likelihood term at its best within one tolerance step
+        (free_path_step, free_path_angle) of each entry: a beam that grazes a corner, or meets a wall a
+        cell off where the map was rasterized, at the entry's pose but not a couple of cm or a degree away
+        is pose or map error, not evidence; a wall across a doorway's view stays a wall a few cm away."""
         step = np.array([self.params.free_path_step, self.params.free_path_step, self.params.free_path_angle])
         trial = self._around(self.poses, _OFFSETS * step)
-        score = self.model.log_likelihood_free_path(trial, beams, self.params.free_path_margin)
-        return score.reshape(len(self), len(_OFFSETS)).max(axis=1)
+        terms = self.model.log_likelihood_free_path(trial, beams, self.params.free_path_margin, per_beam=True)
+        return terms.reshape(len(self), len(_OFFSETS), -1).max(axis=1)
 
     @staticmethod
     def _around(poses: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -184,5 +198,9 @@ class EvidenceLedger:
             if not any(self.near(self.poses[index][None, :], other)[0] for other in keep):
                 keep.append(int(index))
         if len(keep) < len(self):
-            keep.sort()
-            self.poses, self.evidence = self.poses[keep], self.evidence[keep]
+            mask = np.zeros(len(self), dtype=bool)
+            mask[keep] = True
+            self._keep(mask)
+
+    def _keep(self, mask: np.ndarray) -> None:
+        self.poses, self.evidence, self.age = self.poses[mask], self.evidence[mask], self.age[mask]

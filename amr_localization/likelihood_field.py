@@ -93,11 +93,13 @@ class LikelihoodField:
                             along, across, out)
         return out
 
-    def log_likelihood_free_path(self, particles: np.ndarray, beams: Beams, margin: float) -> np.ndarray:
+    def log_likelihood_free_path(self, particles: np.ndarray, beams: Beams, margin: float,
+                                 per_beam: bool = False) -> np.ndarray:
         """(N,) log_likelihood, except that a beam whose path from the sensor to `margin` m short of its end
         point goes through a wall scores as a random reading (log z_rand / range_max) at best. A beam without
         a return (beams selected with keep_no_return) scores 0, as in log_likelihood, unless a wall stands
         on its path within range_max - margin: then it scores that too (a wall in range returns).
+        per_beam: (N, beams) terms instead of their sums.
 
         The likelihood field alone only asks how near a wall each end point lies, so a beam seen through a
         doorway, whose end point lands near a wall behind it, scores as well at a place where a wall stands
@@ -111,11 +113,11 @@ class LikelihoodField:
         sensor = self.mount.sensor_poses(particles)
         col0 = (sensor[:, 0] - self._origin[0]) / self._resolution + 1.0
         row0 = (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0
-        out = np.empty(len(particles))
+        out = np.empty((len(particles), len(ranges)))
         rows, cols = self._shape
-        _sum_free_path(self._table, self._cells, rows, cols, col0, row0, sensor[:, 2], beams.angles, ranges,
-                       beams.returned, margin / self._resolution, self._see_through, out)
-        return out
+        _free_path_terms(self._table, self._cells, rows, cols, col0, row0, sensor[:, 2], beams.angles, ranges,
+                         beams.returned, margin / self._resolution, self._see_through, out)
+        return out if per_beam else out.sum(axis=1)
 
 
 @numba.njit(cache=True)
@@ -136,8 +138,8 @@ def _sum_log_likelihood(table, rows, cols, col0, row0, cos_theta, sin_theta, alo
 
 
 @numba.njit(cache=True)
-def _sum_free_path(table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out):
-    """The likelihood field's sum, a beam crossing an occupied cell before range - margin capped at see_through.
+def _free_path_terms(table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out):
+    """out[i, k]: the likelihood field's term of beam k for particle i, a beam crossing an occupied cell before range - margin capped at see_through.
 
     Sphere tracing in cells: from the sensor, step along the beam by the distance to the nearest occupied cell
     centre minus 1.5 cells (a point and an occupied cell are each up to half a diagonal from their centres), at
@@ -147,7 +149,6 @@ def _sum_free_path(table, cells, rows, cols, col0, row0, theta, angles, ranges, 
     """
     for i in range(col0.shape[0]):
         x, y = col0[i], row0[i]
-        total = 0.0
         for k in range(angles.shape[0]):
             c, s = math.cos(theta[i] + angles[k]), math.sin(theta[i] + angles[k])
             value = 0.0
@@ -170,5 +171,4 @@ def _sum_free_path(table, cells, rows, cols, col0, row0, theta, angles, ranges, 
                     value = min(value, see_through)
                     break
                 t += max(distance - 1.5, 0.5)
-            total += value
-        out[i] = total
+            out[i, k] = value

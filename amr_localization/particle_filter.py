@@ -433,15 +433,16 @@ class ParticleFilter:
     def _weigh_rivals(self, search: PlaceSearch) -> tuple[np.ndarray, np.ndarray]:
         """The places explaining the recent scans as well as the estimate that the ledger's evidence does not rule
         out, and each one's odds against the estimate. Every place the search found explaining the recent scans
-        within LEDGER_MARGIN of the estimate enters the ledger (the history's log-likelihood difference as its
-        evidence), so that a place ruled out now is not taken for a new one later."""
-        ledger, scale = self._ledger, self.config.likelihood_exponent
-        if ledger.find(search.own_pose) < 0:  # a place not followed yet: as good as the best until scans say otherwise
+        within LEDGER_MARGIN of the estimate that the ledger does not follow yet enters it as likely as the
+        estimate (the search's own scores are no evidence: a refinement caught in a local optimum scored the true
+        place 0.27 per beam below its rotated copy), so that the scans from now on weigh it."""
+        ledger = self._ledger
+        if ledger.find(search.own_pose) < 0:  # not followed yet: as good as the best until the scans say otherwise
             ledger.add(search.own_pose, float(ledger.evidence.max()) if len(ledger) else 0.0)
         own_evidence = float(ledger.evidence[ledger.find(search.own_pose)])
         for place, score in zip(search.poses, search.scores):
             if score >= search.own_score - LEDGER_MARGIN:
-                ledger.add(place, own_evidence + scale * search.beams * (score - search.own_score))
+                ledger.add(place, own_evidence)
         own = ledger.find(search.own_pose)
         rivals = search.within(self._rival_params.margin)
         # a rival the ledger dropped (it holds max_entries places) counts as likely as the estimate

@@ -96,9 +96,10 @@ class ParticleFilterConfig:
     """log-evidence (scan log-likelihoods x likelihood_exponent, summed since the evidence ledger began following
     a place): a place explaining the recent scans as well as the estimate but this far below it is ruled out
     (evidence_ledger.py)."""
-    evidence_dead_zone: float = 0.02
-    """per-beam log-likelihood: a scan fitting two followed places closer than this adds no evidence to either
-    (a consistent difference this small is map or motion error, not a feature)."""
+    evidence_dead_zone: float = 1.0
+    """log-likelihood: a beam whose term differs between two followed places by less than this adds no evidence
+    to either (map and pose error stayed under 1.35, 99.9 % under 0.25, in symmetric rooms rasterized off the
+    lattice; a feature's beams differ by 3-5.5)."""
     history_length: int = 10
     history_spacing: float = 0.1
     """m (or 2 x this in rad) of odometry between two scans kept for the rival check."""
