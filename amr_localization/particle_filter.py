@@ -9,7 +9,11 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    (default) or the beam model for a scan (its log-likelihood scaled by
    likelihood_exponent: 60 beams on one map are far from independent), by the
    beacon model for ranges, with beta <= 1 tempered so that one update cannot
-   wipe out most hypotheses (tempering.py);
+   wipe out most hypotheses (tempering.py); the places the evidence ledger
+   follows (evidence_ledger.py: the estimate's and its rivals', moved by the
+   odometry, re-fitted to each scan) add the scan's log-likelihood, untempered
+   and with the beams' free paths checked, to their accumulated evidence, and
+   particles at a place it has ruled out die;
 3. resampling, when N_eff < resample_threshold N: systematic, to
    max_particles while the particles form several clusters (the course's
    rule: every candidate place keeps thousands of particles, so that chance
@@ -21,7 +25,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    covariance; `localized` is declared after localized_confirmations updates
    in a row with one cluster holding localized_min_cluster_share of the weight,
    its spread under the position and heading limits and the scan fitting its
-   pose (scan_fit.py), and withdrawn as soon as the cluster's share, spread or
+   pose (scan_fit.py), and no other place explains the recent scans as well
+   (the rival search) unless the ledger's evidence since it began following
+   that place rules it out; withdrawn as soon as the cluster's share, spread or
    fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*), or when,
    searched again every recheck_updates updates, another place explains the
    recent scans clearly better (a kidnapping into a look-alike place); when one
@@ -30,7 +36,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
 
 Between filter updates the estimate follows odometry, so every call returns a
 pose. A particle filter in a world with symmetric places keeps one cluster per
-place, so it does not declare itself localized until the symmetry is broken.
+place, so it does not declare itself localized until the symmetry is broken;
+where one feature seen for a few seconds per lap breaks it, the ledger keeps
+what was seen (docs/localization_symmetry.md).
 """
 
 from __future__ import annotations
@@ -74,6 +82,8 @@ LEDGER_MARGIN = 0.5
 """per-beam log-likelihood: places the rival search finds within this of the estimate enter the evidence ledger."""
 LEDGER_BEAMS = 180
 """beams of each scan the evidence ledger weighs its few places on."""
+LEDGER_SEED_SHARE = 0.5
+"""the ledger, when it follows nothing, begins with the heaviest cluster's place once it holds this share."""
 MAX_LOG_ODDS = 50.0
 """a rival's cloud is at most e^50 times as heavy as the estimate's cluster (numbers stay finite)."""
 
@@ -269,9 +279,14 @@ class ParticleFilter:
             self.status.event = "every particle moved into a wall: global localization restarted"
 
     def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
+        scanned = beams is not None and bool(beams.returned.any())
+        if scanned:
+            self._remember(beams)
+            if len(self._ledger):  # first: it may kill particles at ruled-out places, or add clouds
+                self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
         log_likelihood = np.zeros(len(self.particles))
         used = 0
-        if beams is not None and beams.returned.any():
+        if scanned:
             # scan beams are not independent: their log-likelihood counts likelihood_exponent times
             log_likelihood += self.config.likelihood_exponent * self._laser.log_likelihood(self.particles, beams)
             used += int(np.count_nonzero(beams.returned))
@@ -281,10 +296,6 @@ class ParticleFilter:
             used += len(self.beacons) + 1
         if used == 0:
             return
-        if beams is not None and beams.returned.any():
-            self._remember(beams)
-            if len(self._ledger):
-                self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
         alive = self.weights > 0.0
         log_prior = np.full(len(self.particles), -np.inf)
         log_prior[alive] = np.log(self.weights[alive])
@@ -325,22 +336,27 @@ class ParticleFilter:
         self._prune_ruled_out()
 
     def _prune_ruled_out(self) -> None:
-        """Particles at a place the evidence ledger has ruled out die, as those that cross a wall do (unless
-        that would leave none: then the ledger and the particles disagree everywhere and the rival search
-        settles it)."""
+        """Particles at a place the evidence ledger has ruled out die, as those that cross a wall do; if that
+        leaves none (the particles all sit at ruled-out places), the places the ledger still follows get
+        clouds first, as heavy as their odds."""
         ledger = self._ledger
-        out = np.flatnonzero(ledger.ruled_out())
-        if not out.size:
+        out = ledger.ruled_out()
+        if not out.any():
             return
         doomed = np.zeros(len(self.particles), dtype=bool)
-        for index in out:
+        for index in np.flatnonzero(out):
             doomed |= ledger.near(self.particles, index)
-        for index in np.flatnonzero(~ledger.ruled_out()):
+        for index in np.flatnonzero(~out):
             doomed &= ~ledger.near(self.particles, index)
         alive = self.weights > 0.0
-        if (alive & ~doomed).any():
-            self.weights = np.where(doomed, 0.0, self.weights)
-            self.status.killed += int(np.count_nonzero(doomed & alive))
+        if not (alive & ~doomed).any():
+            count = len(self.particles)
+            self._adopt_rivals(ledger.poses[~out], np.exp(ledger.evidence[~out]))
+            doomed = np.concatenate([doomed, np.zeros(len(self.particles) - count, dtype=bool)])
+            alive = self.weights > 0.0
+        self.status.killed += int(np.count_nonzero(doomed & alive))
+        self.weights = np.where(doomed, 0.0, self.weights)
+        self.weights /= self.weights.sum()
 
     def _remember(self, beams: Beams) -> None:
         """Keep scans history_spacing apart for the rival check, and the newest one."""
@@ -399,6 +415,8 @@ class ParticleFilter:
                 and position_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_position_std
                 and heading_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_heading_std
             )
+            if not self._localized:  # the robot may have been carried: the places followed came from the old pose
+                self._ledger.clear()
             self._confirmations = 0
             self._since_recheck += 1
             if self._localized and config.rival_check and config.recheck_updates and \
@@ -412,6 +430,12 @@ class ParticleFilter:
             self.status.event = (f"lost: the scan has not fitted the only cluster for {config.lost_updates} updates "
                                  f"(fit {fit:.2f}): global localization restarted")
             return
+        recent = self.recent_scans()
+        if config.rival_check and recent and not len(self._ledger) and share >= LEDGER_SEED_SHARE:
+            # the particles begin to agree: follow their place and its look-alikes from now on, so that a
+            # feature seen before the first declaration attempt is not lost (a robot starting beside it)
+            self._follow(search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
+                                       self._rival_params))
         confident = (
             share >= config.localized_min_cluster_share
             and fit >= config.localized_min_fit
@@ -419,7 +443,6 @@ class ParticleFilter:
             and heading_std <= config.localized_max_heading_std
         )
         self._confirmations = self._confirmations + 1 if confident else 0
-        recent = self.recent_scans()
         if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
             search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
             self.rivals, odds = self._weigh_rivals(search)
@@ -430,12 +453,12 @@ class ParticleFilter:
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
 
-    def _weigh_rivals(self, search: PlaceSearch) -> tuple[np.ndarray, np.ndarray]:
-        """The places explaining the recent scans as well as the estimate that the ledger's evidence does not rule
-        out, and each one's odds against the estimate. Every place the search found explaining the recent scans
-        within LEDGER_MARGIN of the estimate that the ledger does not follow yet enters it as likely as the
-        estimate (the search's own scores are no evidence: a refinement caught in a local optimum scored the true
-        place 0.27 per beam below its rotated copy), so that the scans from now on weigh it."""
+    def _follow(self, search: PlaceSearch) -> int:
+        """Enter the estimate's place and every place the search found explaining the recent scans within
+        LEDGER_MARGIN of it into the ledger, those it does not follow yet as likely as the estimate (the
+        search's own scores are no evidence: a refinement caught in a local optimum scored the true place 0.27
+        per beam below its rotated copy), so that the scans from now on weigh them. Returns the estimate's
+        entry."""
         ledger = self._ledger
         if ledger.find(search.own_pose) < 0:  # not followed yet: as good as the best until the scans say otherwise
             ledger.add(search.own_pose, float(ledger.evidence.max()) if len(ledger) else 0.0)
@@ -443,7 +466,13 @@ class ParticleFilter:
         for place, score in zip(search.poses, search.scores):
             if score >= search.own_score - LEDGER_MARGIN:
                 ledger.add(place, own_evidence)
-        own = ledger.find(search.own_pose)
+        return ledger.find(search.own_pose)
+
+    def _weigh_rivals(self, search: PlaceSearch) -> tuple[np.ndarray, np.ndarray]:
+        """The places explaining the recent scans as well as the estimate that the ledger's evidence does not rule
+        out, and each one's odds against the estimate."""
+        ledger = self._ledger
+        own = self._follow(search)
         rivals = search.within(self._rival_params.margin)
         # a rival the ledger dropped (it holds max_entries places) counts as likely as the estimate
         evidence = np.array([ledger.evidence[i] if i >= 0 else ledger.evidence[own] for i in map(ledger.find, rivals)])
@@ -463,7 +492,7 @@ class ParticleFilter:
         if len(better):
             self._localized = False
             self.rivals = better
-            self._ledger.clear()  # carried elsewhere: what the ledger followed came from the old chain of odometry
+            self._ledger.clear()
             self._adopt_rivals(better)
             self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
                                  "estimate: localized withdrawn")

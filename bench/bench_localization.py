@@ -251,9 +251,11 @@ def bench_symmetry(seeds: int, seconds: float, control_seeds: int, control_secon
             when = (f"localized at {row['time']:5.1f} s ({row['time'] - seen if seen is not None else math.nan:+6.1f} s "
                     f"after), error {100 * row['error']:4.1f} cm {row['heading']:4.1f} deg" if first is not None
                     else f"never localized in {t[-1]:.0f} s")
+            verdict = "ok" if row["ok"] else "MISSED" if seen is not None else "(feature never in view: not counted)"
             print(f"{case.world['name']:18s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  feature in view at "
-                  f"{seen if seen is not None else math.nan:5.1f} s  {when}  {'ok' if row['ok'] else 'MISSED'}  "
-                  f"wall {wall:5.1f} s", flush=True)
+                  f"{seen if seen is not None else math.nan:5.1f} s  {when}  {verdict}  "
+                  f"CPU per observation {1e3 * np.mean(trace.update_time):.2f} ms mean, "
+                  f"{1e3 * np.max(trace.update_time):.0f} ms max  wall {wall:5.1f} s", flush=True)
     seen_rows = [r for r in rows if r["seen"] is not None]
     ok = [r for r in seen_rows if r["ok"]]
     print(f"localized within 60 s of the feature first in view, error <= 10 cm and 10 deg: {len(ok)}/{len(seen_rows)} "
