@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from amr_control.scan_sectors import scan_of
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
-from amr_localization.particle_filter import ParticleFilter
+from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_localization.poses import compose, wrap
 from amr_simulation.simulator import Simulator
 
@@ -48,8 +49,10 @@ class Trace:
 
 
 def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig, seconds: float,
-        kidnap: tuple[float, tuple[float, float, float]] | None = None, stop_when_localized: bool = False) -> Trace:
-    """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once."""
+        kidnap: tuple[float, tuple[float, float, float]] | None = None, stop_when_localized: bool = False,
+        until: Callable[[Simulator, Estimate], bool] | None = None) -> Trace:
+    """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once; `until`, called
+    after each step's estimate, ends the run early when it returns True."""
     follower = WallFollower(follower_config)
     trace = Trace()
     odometry_frame = np.zeros(3)  # what the filter's odometry frame is in the simulator's odometry frame
@@ -69,7 +72,7 @@ def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig,
         trace.heading_error.append(abs(float(wrap(estimate.pose.theta - truth.theta))))
         trace.update_time.append(estimate.status.update_time)
         trace.truth.append((truth.x, truth.y, truth.theta))
-        if stop_when_localized and estimate.localized:
+        if (stop_when_localized and estimate.localized) or (until is not None and until(sim, estimate)):
             break
         command = follower.compute(scan, *sim.odom_twist, sim.time)
         sim.step(command.v, command.w)

@@ -83,7 +83,7 @@ LEDGER_MARGIN = 0.5
 LEDGER_BEAMS = 180
 """beams of each scan the evidence ledger weighs its few places on."""
 LEDGER_SEED_SHARE = 0.5
-"""the ledger, when it follows nothing, begins with the heaviest cluster's place once it holds this share."""
+"""the ledger, when it begins (it follows nothing), follows the heaviest cluster's place too if it holds this share."""
 MAX_LOG_ODDS = 50.0
 """a rival's cloud is at most e^50 times as heavy as the estimate's cluster (numbers stay finite)."""
 
@@ -341,7 +341,9 @@ class ParticleFilter:
         clouds first, as heavy as their odds."""
         ledger = self._ledger
         out = ledger.ruled_out()
-        if not out.any():
+        if out.all():  # every place it followed left free space: it knows nothing any more
+            ledger.clear()
+        if not out.any() or out.all():
             return
         doomed = np.zeros(len(self.particles), dtype=bool)
         for index in np.flatnonzero(out):
@@ -431,11 +433,12 @@ class ParticleFilter:
                                  f"(fit {fit:.2f}): global localization restarted")
             return
         recent = self.recent_scans()
-        if config.rival_check and recent and not len(self._ledger) and share >= LEDGER_SEED_SHARE:
-            # the particles begin to agree: follow their place and its look-alikes from now on, so that a
-            # feature seen before the first declaration attempt is not lost (a robot starting beside it)
+        if config.rival_check and recent and not len(self._ledger):
+            # from the first scan on (and again after the ledger was cleared), follow the places that explain
+            # the scans best, so that a feature seen before the first declaration attempt is not lost (a robot
+            # starting beside it); the estimate's place too once the particles begin to agree on it
             self._follow(search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
-                                       self._rival_params))
+                                       self._rival_params), with_estimate=share >= LEDGER_SEED_SHARE)
         confident = (
             share >= config.localized_min_cluster_share
             and fit >= config.localized_min_fit
@@ -453,13 +456,18 @@ class ParticleFilter:
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
 
-    def _follow(self, search: PlaceSearch) -> int:
+    def _follow(self, search: PlaceSearch, with_estimate: bool = True) -> int:
         """Enter the estimate's place and every place the search found explaining the recent scans within
         LEDGER_MARGIN of it into the ledger, those it does not follow yet as likely as the estimate (the
         search's own scores are no evidence: a refinement caught in a local optimum scored the true place 0.27
-        per beam below its rotated copy), so that the scans from now on weigh them. Returns the estimate's
-        entry."""
+        per beam below its rotated copy), so that the scans from now on weigh them. Without the estimate (the
+        particles do not agree on a place yet): every place the search found, as likely as each other. Returns
+        the estimate's entry (-1 without it)."""
         ledger = self._ledger
+        if not with_estimate:
+            for place in search.poses:
+                ledger.add(place, float(ledger.evidence.max()) if len(ledger) else 0.0)
+            return -1
         if ledger.find(search.own_pose) < 0:  # not followed yet: as good as the best until the scans say otherwise
             ledger.add(search.own_pose, float(ledger.evidence.max()) if len(ledger) else 0.0)
         own_evidence = float(ledger.evidence[ledger.find(search.own_pose)])

@@ -86,9 +86,11 @@ def symmetry_case(kind: str, seed: int, **options: Any) -> SymmetryCase:
     world, symmetric = _BUILDERS[kind](draw, size, thickness)
     name = f"{kind}_{seed}"
     world = dict(world, name=name, wall_thickness=thickness)
-    symmetric = dict(symmetric, name=f"{name}_symmetric", wall_thickness=thickness)
     start = _start(rng, world, size, thickness)
-    return SymmetryCase(kind, dict(world, start=start), dict(symmetric, start=start))
+    world = dict(world, start=start)
+    if kind in SYMMETRIC:
+        return SymmetryCase(kind, world, world)
+    return SymmetryCase(kind, world, dict(symmetric, name=f"{name}_symmetric", wall_thickness=thickness, start=start))
 
 
 def feature_in_view(world: World, symmetric: World) -> "FeatureView":
@@ -98,7 +100,9 @@ def feature_in_view(world: World, symmetric: World) -> "FeatureView":
 
 class FeatureView:
     """Which beams of a scan see what breaks the symmetry: their noise-free ranges differ by more than
-    `tolerance` between the world and its symmetric counterpart at the same sensor pose."""
+    `tolerance` between the world and its symmetric counterpart at the same sensor pose (differing_beams);
+    and which beams tell the pose from its quarter turns about the origin, in the world itself
+    (told_apart: the feature seen, or a wall seen where a turned copy would see the feature)."""
 
     def __init__(self, world: World, symmetric: World, tolerance: float = 0.05) -> None:
         from amr_simulation.raycast import NumpyRayCaster  # noqa: PLC0415 (only the benchmarks need it)
@@ -109,6 +113,19 @@ class FeatureView:
         """Beams from sensor pose (x, y), first beam at phi0, whose ranges (clipped at range_max) differ."""
         ranges = [np.minimum(caster.cast(x, y, phi0, increment, count, range_max), range_max) for caster in self._casters]
         return int(np.count_nonzero(np.abs(ranges[0] - ranges[1]) > self.tolerance))
+
+    def told_apart(self, x: float, y: float, phi0: float, increment: float, count: int, range_max: float) -> list[int]:
+        """For each quarter turn k = 1, 2, 3: beams whose ranges in the world differ between sensor pose
+        (x, y, phi0) and that pose turned by k x 90 deg about the origin."""
+        caster = self._casters[0]
+        here = np.minimum(caster.cast(x, y, phi0, increment, count, range_max), range_max)
+        out = []
+        for k in (1, 2, 3):
+            c, s = math.cos(k * math.pi / 2), math.sin(k * math.pi / 2)
+            turned = np.minimum(caster.cast(c * x - s * y, s * x + c * y, phi0 + k * math.pi / 2, increment, count,
+                                            range_max), range_max)
+            out.append(int(np.count_nonzero(np.abs(turned - here) > self.tolerance)))
+        return out
 
 
 # -- drawing ---------------------------------------------------------------------------------
