@@ -9,8 +9,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    (default) or the beam model for a scan (its log-likelihood scaled by
    likelihood_exponent: 60 beams on one map are far from independent), by the
    beacon model for ranges, with beta <= 1 tempered so that one update cannot
-   wipe out most hypotheses (tempering.py); the places the evidence ledger
-   follows (evidence_ledger.py: the estimate's and its rivals', moved by the
+   wipe out most hypotheses (tempering.py); until localized is declared, the
+   places the evidence ledger follows (evidence_ledger.py: those the rival
+   search finds from the first scan on and the estimate's, moved by the
    odometry, re-fitted to each scan) add the scan's log-likelihood, untempered
    and with the beams' free paths checked, to their accumulated evidence, and
    particles at a place it has ruled out die;
@@ -417,8 +418,6 @@ class ParticleFilter:
                 and position_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_position_std
                 and heading_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_heading_std
             )
-            if not self._localized:  # the robot may have been carried: the places followed came from the old pose
-                self._ledger.clear()
             self._confirmations = 0
             self._since_recheck += 1
             if self._localized and config.rival_check and config.recheck_updates and \
@@ -455,6 +454,8 @@ class ParticleFilter:
                 self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
+        if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
+            self._ledger.clear()  # a withdrawal starts it afresh from the scans then
 
     def _follow(self, search: PlaceSearch, with_estimate: bool = True) -> int:
         """Enter the estimate's place and every place the search found explaining the recent scans within
@@ -500,7 +501,6 @@ class ParticleFilter:
         if len(better):
             self._localized = False
             self.rivals = better
-            self._ledger.clear()
             self._adopt_rivals(better)
             self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
                                  "estimate: localized withdrawn")
