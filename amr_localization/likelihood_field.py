@@ -139,7 +139,8 @@ def _sum_log_likelihood(table, rows, cols, col0, row0, cos_theta, sin_theta, alo
 
 @numba.njit(cache=True)
 def _free_path_terms(table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out):
-    """out[i, k]: the likelihood field's term of beam k for particle i, a beam crossing an occupied cell before range - margin capped at see_through.
+    """out[i, k]: the likelihood field's term of beam k for particle i, capped at see_through for a beam whose
+    path goes through an occupied cell before range - margin.
 
     Sphere tracing in cells: from the sensor, step along the beam by the distance to the nearest occupied cell
     centre minus 1.5 cells (a point and an occupied cell are each up to half a diagonal from their centres), at

@@ -35,6 +35,8 @@ from amr_localization.likelihood_field import LikelihoodField
 from amr_localization.poses import compose, relative_pose, wrap
 from amr_localization.scan_beams import Beams
 
+NEIGHBOURS = np.stack(np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
+"""(27, 3) a pose and its neighbours one step away in x, y and heading (the local searches' pattern)."""
 CHUNK = 20000
 """poses scored per batch in the coarse search (bounds the (poses x beams) arrays to a few MB)."""
 
@@ -117,7 +119,7 @@ def coarse_candidates(free_space: FreeSpace, coarse_model: LikelihoodField, beam
 def refine(model: LikelihoodField, poses: np.ndarray, history: Sequence[Snapshot], now: tuple[float, float, float],
            params: RivalCheckParams) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal local search of each pose on the history score: 3 x 3 x 3 around the best, steps halving."""
-    offsets = np.stack(np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
+    offsets = NEIGHBOURS
     step = np.array([params.coarse_step / 2.0, params.coarse_step / 2.0, math.pi / params.coarse_headings])
     best = poses.copy()
     scores = history_score(model, best, history, now)

@@ -22,11 +22,12 @@ Symmetric kinds (``SYMMETRIC``), unchanged by a quarter turn about the origin (t
 themselves): ``ring`` (a square corridor loop 0.6-1.0 m wide), ``island`` (a square room with a
 centred square island), ``pillar_grid`` (the full k x k grid).
 
-Every coordinate lies on a 2 cm lattice (wall thicknesses on 4 cm) so that a map rasterized at
-2 cm (amr_maps.rasterize aligns its grid on the lower-left corner) is exactly as symmetric as the
-world: a symmetric world's map turned by a quarter turn is the same map. ``lattice=False`` draws
-them off it: the world stays as symmetric, its map at 2 cm not quite (walls a cell apart in places). The start is by the outer
-wall, heading along it with the wall on the right (a right-hand wall follower goes round the room).
+Every coordinate lies on a 2 cm lattice (wall thicknesses on 4 cm) so that a map rasterized at 2 cm
+(amr_maps.rasterize aligns its grid on the lower-left corner) is exactly as symmetric as the world:
+a symmetric world's map turned by a quarter turn is the same map. ``lattice=False`` draws them off
+it: the world stays as symmetric, its map at 2 cm not quite (walls a cell apart in places). The
+start is by the outer wall, heading along it with the wall on the right (a right-hand wall follower
+goes round the room).
 """
 
 from __future__ import annotations
@@ -47,7 +48,8 @@ LATTICE = 0.02
 _OPTIONS = {
     "doorway": ("size", "feature", "thickness"), "notch": ("size", "feature", "depth", "thickness"),
     "missing_pillar": ("size", "feature", "thickness"), "extra_pillar": ("size", "feature", "thickness"),
-    "ring": ("size", "width", "thickness"), "island": ("size", "thickness"), "pillar_grid": ("size", "feature", "thickness"),
+    "ring": ("size", "width", "thickness"), "island": ("size", "thickness"),
+    "pillar_grid": ("size", "feature", "thickness"),
 }
 START_CLEARANCE = 0.2
 """m from the start to every solid at least (the robot's radius is 0.105)."""
@@ -111,7 +113,8 @@ class FeatureView:
 
     def differing_beams(self, x: float, y: float, phi0: float, increment: float, count: int, range_max: float) -> int:
         """Beams from sensor pose (x, y), first beam at phi0, whose ranges (clipped at range_max) differ."""
-        ranges = [np.minimum(caster.cast(x, y, phi0, increment, count, range_max), range_max) for caster in self._casters]
+        ranges = [np.minimum(caster.cast(x, y, phi0, increment, count, range_max), range_max)
+                  for caster in self._casters]
         return int(np.count_nonzero(np.abs(ranges[0] - ranges[1]) > self.tolerance))
 
     def told_apart(self, x: float, y: float, phi0: float, increment: float, count: int, range_max: float) -> list[int]:
