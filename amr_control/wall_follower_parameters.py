@@ -27,6 +27,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "robot_radius": (0.01, 2.0), "lidar_x": (-1.0, 1.0), "safety_margin": (0.0, 1.0), "max_stamp_gap": (0.01, 60.0),
     "turn_timeout_factor": (1.0, 20.0), "scan_median_beams": (1, 15), "wall_lost_hysteresis": (0.0, 0.5),
     "open_travel_distance": (0.05, 3.0), "open_sweep_deg": (91.0, 179.0),
+    "wall_direction_window_deg": (1.0, 89.0),
 }
 
 

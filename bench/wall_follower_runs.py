@@ -51,6 +51,7 @@ class RunResult:
     wall_error_run: float
     wall_error_following: float
     commands_with_issues: int
+    path: np.ndarray | None = None  # the robot centre's (x, y) every step, m (issue 20's routes)
 
 
 def run(
@@ -119,6 +120,7 @@ def run(
         wall_error_run=float(np.mean(run_errors)) if run_errors else math.nan,
         wall_error_following=float(np.mean(following_errors)) if following_errors else math.nan,
         commands_with_issues=issues,
+        path=path,
     )
 
 
