@@ -47,7 +47,8 @@ class Bringup:
 
 
 @pytest.fixture
-def bringups():
+def bringups(ros_domain):
+    """Starts amr-bringup runs in this test's own DDS domain (no ghosts of earlier tests' stacks)."""
     started: list[Bringup] = []
 
     def start(*arguments: str) -> Bringup:
