@@ -24,11 +24,14 @@ Activation, ~/reset and ~/set_pose each publish one observation too (a new start
 Watching a run (issue 21): ~/pause holds the loop (lockstep: the /cmd_vel that answers the last
 observation is kept, not stepped; realtime: the timer steps no more), ~/resume lets it go on (the
 held command steps at once), ~/step advances exactly one step and stays paused (pausing first if
-running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes). A paused
-and stepped lockstep run is the run it would have been: every command still advances one dt, in
-order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
+running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes, or, when none
+has come for lockstep_resend_period, a step at zero velocity is taken: the driver holds the robot, as
+a navigator does while nobody drives). While paused no observation is resent: /clock stops exactly. A
+paused and stepped lockstep run is the run it would have been: every command still advances one dt,
+in order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
 each command until a steady timer at dt / N releases it (at most N x real time); realtime N > 0
-replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation).
+replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation); ~/reset also publishes the
+world's goal on ~/goal again (the run starts over: a navigator that reached the goal pursues it again).
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
 
@@ -340,12 +343,25 @@ class SimulatorNode(ManagedNode):
 
     def _on_resend_timer(self) -> None:
         """Lockstep waits for a command; if none came, the observation may have gone unheard (a held command
-        was heard: the loop is paused or paced, not starved)."""
-        if self._active and not self._held and \
-                time.monotonic() - self._last_output > self.get_parameter("lockstep_resend_period").value:
-            self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
-                                   throttle_duration_sec=WARNING_PERIOD)
-            self._publish_observation()
+        was heard: the loop is paused or paced, not starved). Paused, nothing is resent (/clock stops); a step
+        owed is taken at zero velocity instead (the driver holds the robot)."""
+        try:
+            if self._active and self._unanswered():
+                if not self._paused:
+                    self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
+                                           throttle_duration_sec=WARNING_PERIOD)
+                    self._publish_observation()
+                elif self._owed > 0:
+                    self._owed -= 1
+                    self._advance(0.0, 0.0)
+        except Exception as error:
+            self.get_logger().error(
+                f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+
+    def _unanswered(self) -> bool:
+        """Lockstep: no /cmd_vel has come for the last observation in lockstep_resend_period (0: never says so)."""
+        period = self.get_parameter("lockstep_resend_period").value
+        return period > 0.0 and not self._held and time.monotonic() - self._last_output > period
 
     def _advance(self, v: float, w: float) -> None:
         """One step, its log lines (contacts, goal) and its observation."""
@@ -482,6 +498,7 @@ class SimulatorNode(ManagedNode):
             self._sim.reset()
             self._distance = 0.0
             response.success, response.message = True, self._restarted("reset")
+            self._publish_goal()
         except Exception as error:
             response.success, response.message = False, f"reset failed: {error}"
             self.get_logger().error(response.message)
@@ -507,13 +524,10 @@ class SimulatorNode(ManagedNode):
         return self._control(response, self._step_once)
 
     def _control(self, response: Trigger.Response, action) -> Trigger.Response:
-        """A pause/resume/step request: refused unless active, answered with what happened."""
+        """A pause/resume/step request (create_active_service refuses them unless active): what happened."""
         try:
-            if not self._active:
-                response.success, response.message = False, f"not active (state {self.state_label})"
-            else:
-                response.success, response.message = True, action()
-                self.get_logger().info(response.message)
+            response.success, response.message = True, action()
+            self.get_logger().info(response.message)
         except Exception as error:
             response.success, response.message = False, f"{type(error).__name__}: {error}"
             self.get_logger().error(response.message)
@@ -537,9 +551,13 @@ class SimulatorNode(ManagedNode):
         self._owed += 1
         if self._sim.config.mode == "lockstep":
             self._release()
+            if self._owed > 0 and self._unanswered():  # the driver holds the robot: no command is coming
+                self._owed -= 1
+                self._advance(0.0, 0.0)
         if self._sim.steps > steps:
             return f"{note}stepped to t = {self._sim.time:.2f} s (step {self._sim.steps})"
-        waiting = "the next /cmd_vel" if self._sim.config.mode == "lockstep" else "the next tick"
+        waiting = "the next /cmd_vel (or at zero velocity if none comes)" if self._sim.config.mode == "lockstep" \
+            else "the next tick"
         return f"{note}{self._owed} step(s) owed at t = {self._sim.time:.2f} s: taken on {waiting}"
 
     def _on_render(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

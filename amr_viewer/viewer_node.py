@@ -34,7 +34,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, LaserScan
-from std_srvs.srv import Trigger
+from std_srvs.srv import Empty, Trigger
 from tf2_msgs.msg import TFMessage
 
 from amr_maps.world import load_world, resolve_world_path
@@ -184,6 +184,8 @@ class ViewerNode(ManagedNode):
         self._arms_asked: set[str] = set()
         self._worlds_asked: set[str] = set()
         self.simulators: dict[str, dict[str, object]] = {}
+        self.localizers: dict[str, object] = {}
+        """Node -> client of its ~/reinitialize_global_localization: called after a successful Reset."""
         self.node_states: dict[str, str] = {}
         self._state_clients: dict[str, object] = {}
         self._parameter_clients: dict[str, AsyncParameterClient] = {}
@@ -287,7 +289,7 @@ class ViewerNode(ManagedNode):
         if self._guard is not None:
             self.destroy_guard_condition(self._guard)
         self.robots, self.arms, self._arm_subscriptions, self._pose_publishers, self._guard = {}, {}, [], {}, None
-        self._arms_asked, self._worlds_asked, self.simulators = set(), set(), {}
+        self._arms_asked, self._worlds_asked, self.simulators, self.localizers = set(), set(), {}, {}
         self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
         if self.server is not None:
             self.server.stop()
@@ -372,6 +374,9 @@ class ViewerNode(ManagedNode):
                 self.simulators[simulator] = {name: self.create_client(Trigger, f"{simulator}/{name}")
                                               for name in topics.CONTROL_SERVICES}
             self._ask_world(simulator)
+        for localizer in topics.localizers(services):
+            if localizer not in self.localizers:
+                self.localizers[localizer] = self.create_client(Empty, f"{localizer}/{topics.GLOBAL_LOCALIZATION}")
         for node in topics.joint_state_nodes(graph_topics):
             self._ask_arms(node)
         for node in topics.lifecycle_nodes(services):
@@ -555,11 +560,21 @@ class ViewerNode(ManagedNode):
                     text = f"{simulator}: {response.message}"
                     if response.success and service in ("pause", "step", "resume"):
                         self.paused = service != "resume"
+                    if response.success and service == "reset":
+                        text += self._relocalize()
                 self.panels.simulation_reply.content = text
 
             self.pending.add(client.call_async(Trigger.Request()), answered,
                              lambda simulator=simulator: setattr(self.panels.simulation_reply, "content",
                                                                  f"{simulator}/{service}: no answer"))
+
+    def _relocalize(self) -> str:
+        """After a reset the robot is back at its start, unknown to the localizers (a kidnapping): each one found
+        starts global localization again, as it did at the start of the run. Returns what the reply adds."""
+        ready = [node for node, client in self.localizers.items() if client.service_is_ready()]
+        for node in ready:
+            self.pending.add(self.localizers[node].call_async(Empty.Request()), lambda response: None, lambda: None)
+        return f"; global localization restarted on {', '.join(ready)}" if ready else ""
 
     def _set_simulator_parameter(self, name: str, value) -> None:
         for simulator in self.simulators:

@@ -144,9 +144,10 @@ def test_controls_are_refused_unless_active(simulator, probe, executor):
     executor.add_node(driver)
     from lifecycle_msgs.msg import Transition
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
-    for client in control.values():
+    for name, client in control.items():
         answer = trigger(executor, client)
-        assert not answer.success and answer.message == "not active (state inactive)"
+        assert not answer.success and answer.message == \
+            f"simulator is inactive: ~/{name} answers only while active"
 
 
 def test_reset_while_paused_drops_the_held_command_and_stays_paused(simulator, probe, executor):
