@@ -4,9 +4,12 @@ realtime; a paused and stepped lockstep run is the run it would have been."""
 import pytest
 from conftest import spin_until
 from rclpy.parameter import Parameter
+from geometry_msgs.msg import PoseStamped
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT, call, drive, nodes, probe, settle, simulator, start)
+    TIMEOUT, call, drive, nodes, probe, seconds, settle, simulator, start)
 from std_srvs.srv import Trigger
+
+from amr_util.qos import LATCHED
 
 OPEN_ROOM = {"world": "open_room.yaml"}
 COMMANDS = [(0.2, 0.0), (0.2, 0.5), (0.1, -0.8), (0.22, 0.3), (0.0, 1.0), (0.15, 0.0)]
@@ -168,3 +171,57 @@ def test_reset_while_paused_drops_the_held_command_and_stays_paused(simulator, p
     assert spin_until(executor, lambda: driver.observations() == 5, TIMEOUT)
     assert driver.statuses[-1].steps == 1
     assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(-1.5 + 0.2 * 0.05)
+
+
+def clock_seconds(driver) -> list[float]:
+    return [seconds(m.clock) for m in driver.clocks]
+
+
+def test_a_held_robot_pauses_without_resends_and_steps_at_zero_velocity(simulator, probe, executor):
+    """A driver that holds the robot (a navigator with nobody driving) sends no /cmd_vel: while running the
+    observation is resent; paused, /clock stops exactly; Step takes its step at zero velocity once no /cmd_vel has
+    come for lockstep_resend_period."""
+    node, driver = simulator(**OPEN_ROOM, lockstep_resend_period=0.3), probe()
+    control = clients(driver)
+    start(executor, node, driver)
+    drive(executor, driver, [(0.2, 0.0)] * 2)
+    count = len(driver.clocks)
+    assert spin_until(executor, lambda: len(driver.clocks) > count, TIMEOUT), "running: the observation is resent"
+    assert clock_seconds(driver)[-1] == pytest.approx(0.10), "a resend does not advance time"
+
+    assert trigger(executor, control["pause"]).success
+    settle(executor, 0.2)
+    count = len(driver.clocks)
+    settle(executor, 1.0)
+    assert len(driver.clocks) == count, "paused: nothing is resent"
+
+    answer = trigger(executor, control["step"])  # no /cmd_vel for longer than the period: stepped at once
+    assert answer.success and answer.message.startswith("stepped to t = 0.15 s (step 3)"), answer.message
+    assert spin_until(executor, lambda: len(driver.clocks) == count + 1, TIMEOUT)
+    x = driver.ground_truth[-1].pose.pose.position.x
+    answer = trigger(executor, control["step"])  # just stepped: owed, taken when no /cmd_vel comes for the period
+    assert answer.success and "1 step(s) owed" in answer.message, answer.message
+    assert spin_until(executor, lambda: len(driver.clocks) == count + 2, TIMEOUT), "the owed step is taken"
+    settle(executor, 1.0)
+    assert clock_seconds(driver)[count:] == pytest.approx([0.15, 0.20]), "exactly one dt per Step, nothing resent"
+    assert driver.statuses[-1].steps == 4
+    assert abs(driver.ground_truth[-1].twist.twist.linear.x) < 0.2, "stepped at zero velocity: the robot slows"
+    assert driver.ground_truth[-1].pose.pose.position.x - x < 0.2 * 0.05
+
+    assert trigger(executor, control["resume"]).success
+    count = len(driver.clocks)
+    assert spin_until(executor, lambda: len(driver.clocks) > count, TIMEOUT), "running again: resends resume"
+    assert clock_seconds(driver)[-1] == pytest.approx(0.20)
+
+
+def test_reset_publishes_the_worlds_goal_again(simulator, probe, executor):
+    node, driver = simulator(**OPEN_ROOM), probe()
+    goals = []
+    driver.create_subscription(PoseStamped, "simulator/goal", goals.append, LATCHED)
+    start(executor, node, driver)
+    assert spin_until(executor, lambda: len(goals) == 1, TIMEOUT), "the world's goal, at activation"
+    drive(executor, driver, [(0.2, 0.0)] * 2)
+    assert call(executor, driver.reset, Trigger.Request()).success
+    assert spin_until(executor, lambda: len(goals) == 2, TIMEOUT), "a reset starts the run over: its goal again"
+    assert (goals[-1].pose.position.x, goals[-1].pose.position.y) == pytest.approx((1.5, -1.25))
+    assert goals[-1].header.frame_id == "map"
