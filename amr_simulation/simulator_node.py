@@ -30,8 +30,7 @@ a navigator does while nobody drives). While paused no observation is resent: /c
 paused and stepped lockstep run is the run it would have been: every command still advances one dt,
 in order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
 each command until a steady timer at dt / N releases it (at most N x real time); realtime N > 0
-replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation); ~/reset also publishes the
-world's goal on ~/goal again (the run starts over: a navigator that reached the goal pursues it again).
+replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation).
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
 
@@ -498,7 +497,6 @@ class SimulatorNode(ManagedNode):
             self._sim.reset()
             self._distance = 0.0
             response.success, response.message = True, self._restarted("reset")
-            self._publish_goal()
         except Exception as error:
             response.success, response.message = False, f"reset failed: {error}"
             self.get_logger().error(response.message)

@@ -185,7 +185,7 @@ class ViewerNode(ManagedNode):
         self._worlds_asked: set[str] = set()
         self.simulators: dict[str, dict[str, object]] = {}
         self.localizers: dict[str, object] = {}
-        """Node -> client of its ~/reinitialize_global_localization: called after a successful Reset."""
+        """Node -> client of its ~/reinitialize_global_localization: called before the simulator's reset."""
         self.node_states: dict[str, str] = {}
         self._state_clients: dict[str, object] = {}
         self._parameter_clients: dict[str, AsyncParameterClient] = {}
@@ -547,6 +547,26 @@ class ViewerNode(ManagedNode):
         if not self.simulators:
             self.panels.simulation_reply.content = "no simulator found (a node with ~/pause, ~/resume, ~/step, ~/reset)"
             return
+        localizers = [node for node, client in self.localizers.items() if client.service_is_ready()]
+        if service != "reset" or not localizers:
+            self._call_simulators(service)
+            return
+        # A reset puts the robot back at its start, which no localizer is told (a kidnapping): each one starts
+        # global localization again first, so that the reset's observation is the first one it judges afresh.
+        waiting = set(localizers)
+        note = f"; global localization restarted on {', '.join(localizers)}"
+
+        def done(node: str) -> None:
+            waiting.discard(node)
+            if not waiting:
+                self._call_simulators(service, note)
+
+        for node in localizers:
+            self.pending.add(self.localizers[node].call_async(Empty.Request()),
+                             lambda answer, node=node: done(node), lambda node=node: done(node))
+
+    def _call_simulators(self, service: str, note: str = "") -> None:
+        """Each simulator's ~/<service>; its answer (and `note` after a success) under the buttons."""
         for simulator, clients in self.simulators.items():
             client = clients[service]
             if not client.service_is_ready():
@@ -557,24 +577,14 @@ class ViewerNode(ManagedNode):
                 if isinstance(response, Exception):
                     text = f"{simulator}/{service}: {response}"
                 else:
-                    text = f"{simulator}: {response.message}"
+                    text = f"{simulator}: {response.message}" + (note if response.success else "")
                     if response.success and service in ("pause", "step", "resume"):
                         self.paused = service != "resume"
-                    if response.success and service == "reset":
-                        text += self._relocalize()
                 self.panels.simulation_reply.content = text
 
             self.pending.add(client.call_async(Trigger.Request()), answered,
                              lambda simulator=simulator: setattr(self.panels.simulation_reply, "content",
                                                                  f"{simulator}/{service}: no answer"))
-
-    def _relocalize(self) -> str:
-        """After a reset the robot is back at its start, unknown to the localizers (a kidnapping): each one found
-        starts global localization again, as it did at the start of the run. Returns what the reply adds."""
-        ready = [node for node, client in self.localizers.items() if client.service_is_ready()]
-        for node in ready:
-            self.pending.add(self.localizers[node].call_async(Empty.Request()), lambda response: None, lambda: None)
-        return f"; global localization restarted on {', '.join(ready)}" if ready else ""
 
     def _set_simulator_parameter(self, name: str, value) -> None:
         for simulator in self.simulators:

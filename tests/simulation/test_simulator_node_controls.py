@@ -4,12 +4,9 @@ realtime; a paused and stepped lockstep run is the run it would have been."""
 import pytest
 from conftest import spin_until
 from rclpy.parameter import Parameter
-from geometry_msgs.msg import PoseStamped
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
     TIMEOUT, call, drive, nodes, probe, seconds, settle, simulator, start)
 from std_srvs.srv import Trigger
-
-from amr_util.qos import LATCHED
 
 OPEN_ROOM = {"world": "open_room.yaml"}
 COMMANDS = [(0.2, 0.0), (0.2, 0.5), (0.1, -0.8), (0.22, 0.3), (0.0, 1.0), (0.15, 0.0)]
@@ -213,15 +210,3 @@ def test_a_held_robot_pauses_without_resends_and_steps_at_zero_velocity(simulato
     assert spin_until(executor, lambda: len(driver.clocks) > count, TIMEOUT), "running again: resends resume"
     assert clock_seconds(driver)[-1] == pytest.approx(0.20)
 
-
-def test_reset_publishes_the_worlds_goal_again(simulator, probe, executor):
-    node, driver = simulator(**OPEN_ROOM), probe()
-    goals = []
-    driver.create_subscription(PoseStamped, "simulator/goal", goals.append, LATCHED)
-    start(executor, node, driver)
-    assert spin_until(executor, lambda: len(goals) == 1, TIMEOUT), "the world's goal, at activation"
-    drive(executor, driver, [(0.2, 0.0)] * 2)
-    assert call(executor, driver.reset, Trigger.Request()).success
-    assert spin_until(executor, lambda: len(goals) == 2, TIMEOUT), "a reset starts the run over: its goal again"
-    assert (goals[-1].pose.position.x, goals[-1].pose.position.y) == pytest.approx((1.5, -1.25))
-    assert goals[-1].header.frame_id == "map"
