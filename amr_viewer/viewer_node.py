@@ -134,18 +134,21 @@ class RobotLink:
             state.on_ground_truth(cdr.odometry_pose(data))
         elif leaf == "particle_cloud":
             state.on_particles(cdr.pose_array(data)[1])
-        elif leaf == "scan":
-            state.on_scan(messages.laser_scan(deserialize_message(data, LaserScan)))
-        elif leaf == "pose":
-            state.on_estimate(messages.localized_pose(deserialize_message(data, LocalizedPose)))
-        elif leaf == "path":
-            state.on_path(messages.path_points(deserialize_message(data, Path)))
-        elif leaf == "beacons":
-            state.on_beacons(messages.beacon_positions(deserialize_message(data, BeaconRanges)))
-        elif leaf == "map":
-            state.on_map(messages.occupancy_grid(deserialize_message(data, OccupancyGrid)))
-        elif leaf == "simulator/status":
-            state.on_status(messages.simulator_status(deserialize_message(data, SimulatorStatus)))
+        else:
+            convert, take = DECODED[leaf]
+            getattr(state, take)(convert(deserialize_message(data, self.RAW_TOPICS[leaf][0])))
+
+
+DECODED = {
+    "scan": (messages.laser_scan, "on_scan"),
+    "pose": (messages.localized_pose, "on_estimate"),
+    "path": (messages.path_points, "on_path"),
+    "beacons": (messages.beacon_positions, "on_beacons"),
+    "map": (messages.occupancy_grid, "on_map"),
+    "simulator/status": (messages.simulator_status, "on_status"),
+}
+"""Leaf -> (converter to plain data, RobotState method) of the topics deserialized by rclpy (the others are decoded
+straight from CDR, amr_viewer.cdr)."""
 
 
 class Pending:
