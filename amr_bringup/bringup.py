@@ -4,6 +4,7 @@
     amr-bringup my_stack.yaml --composed        # every node in this one process
     amr-bringup real_robot --status --duration 30
     amr-bringup maze_sim --record out/run.mcap [--topics /scan /tf ...]   # a rosbag2 MCAP bag of the run
+    amr-bringup maze_navigation --view          # and watch it in a browser: http://127.0.0.1:8080
 
 By default each node is its own process, started as `ros2 run` would
 (lib/<package>/<executable> --ros-args ...), its output prefixed with its name. With
@@ -42,6 +43,7 @@ from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_
 from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
                                       parse_assignments, shipped_stacks)
 from amr_bringup.status import StatusMonitor, format_table
+from amr_bringup.viewing import DEFAULT_HOST, DEFAULT_PORT, ViewerProcess, port_problem
 from amr_util.executors import NodeSpinners
 from amr_util.stop_signals import Flag, StopSignals
 
@@ -186,6 +188,7 @@ class Supervisor:
         self.monitor: StatusMonitor | None = None
         self.recorder: RecorderProcess | None = None
         self.recorder_client: Node | None = None
+        self.viewer: ViewerProcess | None = None
         self.active = False
         self.active_since = self.started_at
         self._startup_steps: list = []
@@ -222,6 +225,8 @@ class Supervisor:
             self.spinners.add_node(node)
         if self.options.record:
             self._add_recorder()
+        if self.options.view:
+            self._add_viewer()
         self.manager = LifecycleManager(
             before_activate=self._before_activate,
             cli_args=["--ros-args", "-r", f"__node:={self.bringup.manager_name}"],
@@ -261,6 +266,17 @@ class Supervisor:
                           f"to {bag_directory(self.options.record)}" + (" (stamps on /clock)" if simulated else "") +
                           f": {' '.join(self.recorder.command)}")
 
+    def _add_viewer(self) -> None:
+        """The viewer (amr_viewer) as a process of its own, on simulated time with a simulated stack."""
+        simulated = any(node.parameters.get("use_sim_time") is True for node in self.bringup.nodes)
+        try:
+            self.viewer = ViewerProcess(f"viewer_{self.bringup.name}", self.options.view_host, self.options.view_port,
+                                        simulated, self.console.line)
+        except OSError as error:
+            raise StackError(f"--view: the viewer failed to start: {error}") from error
+        self.console.note(f"viewer at {self.viewer.url} (no authentication: anyone who can reach it can drive the "
+                          f"robot): {' '.join(self.viewer.command)}")
+
     def _on_callback_error(self, error: BaseException) -> None:
         if isinstance(self.stack, ComposedStack):  # a callback raised: the composed stack is broken
             self.stack.record_crash(error)
@@ -275,6 +291,10 @@ class Supervisor:
             if self.recorder is not None and self.recorder.process.exit_code() is not None:
                 return f"the recorder (pid {self.recorder.process.pid}) exited with code " \
                        f"{self.recorder.process.exit_code()}"
+            if self.viewer is not None and not self.viewer.reported and self.viewer.process.exit_code() is not None:
+                self.viewer.reported = True  # the stack goes on without its view
+                self.console.note(f"the viewer (pid {self.viewer.process.pid}) exited with code "
+                                  f"{self.viewer.process.exit_code()}; the stack goes on")
             if not self._startup.is_alive() and not self.active:
                 if not self.manager.started:
                     last = self._startup_steps[-1] if self._startup_steps else None
@@ -309,6 +329,8 @@ class Supervisor:
         """Stop spinning, stop the stack (the labels of killed processes are returned), free ROS."""
         self.spinners.shutdown(timeout_sec=GRACE_PERIOD)  # no callback runs while the nodes are taken down
         killed = self.stack.stop(self.signals.hurry) if self.stack is not None else []
+        if self.viewer is not None:
+            killed += stop_processes([self.viewer.process], GRACE_PERIOD, self.signals.hurry)
         if self.recorder is not None:  # last: the bag holds everything the nodes said on their way down
             killed += stop_processes([self.recorder.process], GRACE_PERIOD, self.signals.hurry)
             self.recorder.process.close()
@@ -355,6 +377,15 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--record", metavar="BAG", help="record a rosbag2 MCAP bag: out/run.mcap writes the "
                                                           "directory out/run (every topic, or --topics)")
     parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="with --record: only these topics")
+    parser.add_argument("--view", action="store_true",
+                        help="watch and steer the stack in a browser (amr_viewer, a process of its own); prints its "
+                             "address. There is no authentication: keep --view-host on localhost unless you trust "
+                             "your network")
+    parser.add_argument("--view-port", type=int, default=DEFAULT_PORT, metavar="PORT",
+                        help=f"with --view: the port of the viewer's web server (default {DEFAULT_PORT})")
+    parser.add_argument("--view-host", default=DEFAULT_HOST, metavar="ADDRESS",
+                        help=f"with --view: the address it binds (default {DEFAULT_HOST}, this machine only; "
+                             "0.0.0.0 for every interface)")
     options = parser.parse_args(argv)
     if options.duration is not None and not options.duration > 0:
         parser.error("--duration must be positive")
@@ -362,11 +393,20 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
         parser.error("--topics needs --record")
     if options.record and bag_directory(options.record).exists():
         parser.error(f"--record: {bag_directory(options.record)} exists already; a recording never overwrites a bag")
+    if not options.view and (options.view_port != DEFAULT_PORT or options.view_host != DEFAULT_HOST):
+        parser.error("--view-port and --view-host need --view")
+    if options.view and not 1 <= options.view_port <= 65535:
+        parser.error(f"--view-port must be in 1..65535, got {options.view_port}")
     return options
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     options = parse_arguments(argv)
+    if options.view and not options.show_args:  # here, not in the parser: parsing binds nothing
+        problem = port_problem(options.view_host, options.view_port)
+        if problem:
+            print(f"amr-bringup: --view: {problem} (choose another with --view-port)", file=sys.stderr)
+            return 2
     try:
         bringup = load_bringup(options.bringup)
         if options.show_args:

@@ -2,7 +2,7 @@
 the node's own topics, frames and timers below, no ROS.
 
 Live (applied at the next step while the node runs): sensor and encoder noise, slip, the realtime command
-timeout, the render path. Everything else shapes the world, the robot or the node's interfaces and is
+timeout, the render path, the pace. Everything else shapes the world, the robot or the node's interfaces and is
 refused while configured.
 """
 
@@ -40,6 +40,9 @@ NODE_SPECS = (
                   "log the first localization, report the estimate's error in ~/status"),
     ParameterSpec("render_path", str(Path(tempfile.gettempdir()) / "amr_simulator.png"), "PNG file ~/render writes",
                   live=True),
+    ParameterSpec("pace", 0.0, "simulated seconds per wall-clock second at most: lockstep 0 = each /cmd_vel steps at "
+                  "once (as fast as the loop goes), N = each command held until a steady timer at dt / N releases it; "
+                  "realtime 0 = `rate`, N = N x real time instead of `rate`", minimum=0.0, maximum=1000.0, live=True),
 )
 """The node's own parameters (topics, frames, timers): the library's are SimulationConfig's."""
 NODE_PARAMETERS = frozenset(spec.name for spec in NODE_SPECS)

@@ -20,6 +20,17 @@ base_footprint, and map -> odom with publish_map_to_odom), odometry, odom, groun
 node of a simulated stack can run on use_sim_time; /tf_static (base_footprint -> base_scan, the
 LiDAR mounting) is published once, latched, at activation.
 Activation, ~/reset and ~/set_pose each publish one observation too (a new starting point).
+
+Watching a run (issue 21): ~/pause holds the loop (lockstep: the /cmd_vel that answers the last
+observation is kept, not stepped; realtime: the timer steps no more), ~/resume lets it go on (the
+held command steps at once), ~/step advances exactly one step and stays paused (pausing first if
+running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes, or, when none
+has come for lockstep_resend_period, a step at zero velocity is taken: the driver holds the robot, as
+a navigator does while nobody drives). While paused no observation is resent: /clock stops exactly. A
+paused and stepped lockstep run is the run it would have been: every command still advances one dt,
+in order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
+each command until a steady timer at dt / N releases it (at most N x real time); realtime N > 0
+replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation).
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
 
@@ -93,7 +104,7 @@ class SimulatorNode(ManagedNode):
         self._outputs: dict[str, object] = {}
         self._cmd_vel_subscription = None
         self._node_services: list = []
-        self._step_timer = None
+        self._resend_timer = None
         self._last_output = 0.0
         self._frames: dict[str, str] = {}
         self._tf_parts = (False, False)
@@ -106,6 +117,14 @@ class SimulatorNode(ManagedNode):
         self._meter = RateMeter()
         self._localization_check: LocalizationCheck | None = None
         self._localization_inputs: list = []
+        self._paused = False
+        self._held: deque[tuple[float, float]] = deque()
+        """Lockstep: commands received but not stepped yet (paused, or waiting for the pace timer)."""
+        self._owed = 0
+        """Steps ~/step asked for while paused, not taken yet."""
+        self._pace_timer = None
+        self._pace_ready = True
+        self._steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # timers immune to use_sim_time on this node
 
     # -- lifecycle -------------------------------------------------------------------------
 
@@ -133,12 +152,12 @@ class SimulatorNode(ManagedNode):
         config = self._sim.config
         self._command, self._command_stamp = (0.0, 0.0), self._now()
         self._meter.clear()
-        steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # immune to use_sim_time on this very node
+        self._held.clear()
+        self._paused, self._owed = False, 0
         resend = self.get_parameter("lockstep_resend_period").value
-        if config.mode == "realtime":
-            self._step_timer = self.create_timer(config.dt / config.rate, self._on_timer, clock=steady)
-        elif resend > 0.0:
-            self._step_timer = self.create_timer(resend, self._on_resend_timer, clock=steady)
+        if config.mode == "lockstep" and resend > 0.0:
+            self._resend_timer = self.create_timer(resend, self._on_resend_timer, clock=self._steady)
+        self._set_pace(self.get_parameter("pace").value)
         self._active = True
         self._publish_static_tf()
         self._publish_goal()
@@ -149,6 +168,7 @@ class SimulatorNode(ManagedNode):
         self._active = False
         self._stop_timer()
         self._command = (0.0, 0.0)
+        self._held.clear()
         self.get_logger().info(f"stopped at t = {self._sim.time:.2f} s")
         return super().on_deactivate(state)
 
@@ -168,12 +188,15 @@ class SimulatorNode(ManagedNode):
         return {name: value for name, value in self.parameter_values().items() if name not in NODE_PARAMETERS}
 
     def apply_live(self, changes: dict) -> None:
-        """Noise, slip or the command timeout while configured: checked as a whole, used from the next step."""
+        """Noise, slip, the command timeout or the pace while configured: checked as a whole, used from the next
+        step."""
         if self._sim is None:
             return
         library = {name: value for name, value in changes.items() if name not in NODE_PARAMETERS}
         if library:
             self._sim.retune(SimulationConfig.from_params({**self._library_parameters(), **library}))
+        if "pace" in changes and self._active:
+            self._set_pace(changes["pace"])
 
     def _create_interfaces(self) -> None:
         get = lambda name: self.get_parameter(name).value  # noqa: E731
@@ -200,6 +223,9 @@ class SimulatorNode(ManagedNode):
             self.create_active_service(Trigger, "~/reset", self._on_reset),
             self.create_active_service(SetPose, "~/set_pose", self._on_set_pose),
             self.create_active_service(Trigger, "~/render", self._on_render),
+            self.create_active_service(Trigger, "~/pause", self._on_pause),
+            self.create_active_service(Trigger, "~/resume", self._on_resume),
+            self.create_active_service(Trigger, "~/step", self._on_step),
         ]
         self._create_localization_interfaces(qos)
 
@@ -226,9 +252,27 @@ class SimulatorNode(ManagedNode):
         self._localization_inputs, self._localization_check = [], None
 
     def _stop_timer(self) -> None:
-        if self._step_timer is not None:
-            self.destroy_timer(self._step_timer)
-            self._step_timer = None
+        for timer in (self._resend_timer, self._pace_timer):
+            if timer is not None:
+                self.destroy_timer(timer)
+        self._resend_timer = self._pace_timer = None
+
+    def _set_pace(self, pace: float) -> None:
+        """The steady timer that paces the steps: lockstep, none for 0 (a command steps at once); realtime, the
+        step timer itself (dt / pace, or dt / rate for 0)."""
+        if self._pace_timer is not None:
+            self.destroy_timer(self._pace_timer)
+            self._pace_timer = None
+        config = self._sim.config
+        if config.mode == "realtime":
+            period = config.dt / (pace or config.rate)
+            self._pace_timer = self.create_timer(period, self._on_timer, clock=self._steady)
+        elif pace > 0.0:
+            self._pace_ready = False
+            self._pace_timer = self.create_timer(config.dt / pace, self._on_pace_timer, clock=self._steady)
+        else:
+            self._pace_ready = True
+            self._release()
 
     # -- stepping --------------------------------------------------------------------------
 
@@ -252,15 +296,41 @@ class SimulatorNode(ManagedNode):
                     f"/cmd_vel (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, "
                     f"w={sw:.4g})", throttle_duration_sec=WARNING_PERIOD)
             if self._sim.config.mode == "lockstep":
-                self._advance(v, w) if finite else self._advance(0.0, 0.0)
+                self._held.append((v, w) if finite else (0.0, 0.0))
+                self._release()
             elif finite:
                 self._command, self._command_stamp = (v, w), self._now()
         except Exception as error:
             self.get_logger().error(
                 f"/cmd_vel callback: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
 
+    def _release(self) -> None:
+        """Lockstep: step the held commands, in order, as far as pausing and the pace allow."""
+        while self._held and self._active:
+            if self._paused:
+                if self._owed <= 0:
+                    return
+                self._owed -= 1
+            elif not self._pace_ready:
+                return
+            elif self._pace_timer is not None:
+                self._pace_ready = False  # one step per pace period
+            self._advance(*self._held.popleft())
+
+    def _on_pace_timer(self) -> None:
+        try:
+            self._pace_ready = True
+            self._release()
+        except Exception as error:
+            self.get_logger().error(
+                f"pace timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+
     def _on_timer(self) -> None:
         try:
+            if self._paused:
+                if self._owed <= 0:
+                    return
+                self._owed -= 1
             timeout = self._sim.config.command_timeout
             if timeout > 0.0 and self._command != (0.0, 0.0) and self._now() - self._command_stamp > timeout:
                 self._command = (0.0, 0.0)
@@ -271,11 +341,26 @@ class SimulatorNode(ManagedNode):
                 f"step timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
 
     def _on_resend_timer(self) -> None:
-        """Lockstep waits for a command; if none came, the observation may have gone unheard."""
-        if self._active and time.monotonic() - self._last_output > self.get_parameter("lockstep_resend_period").value:
-            self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
-                                   throttle_duration_sec=WARNING_PERIOD)
-            self._publish_observation()
+        """Lockstep waits for a command; if none came, the observation may have gone unheard (a held command
+        was heard: the loop is paused or paced, not starved). Paused, nothing is resent (/clock stops); a step
+        owed is taken at zero velocity instead (the driver holds the robot)."""
+        try:
+            if self._active and self._unanswered():
+                if not self._paused:
+                    self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
+                                           throttle_duration_sec=WARNING_PERIOD)
+                    self._publish_observation()
+                elif self._owed > 0:
+                    self._owed -= 1
+                    self._advance(0.0, 0.0)
+        except Exception as error:
+            self.get_logger().error(
+                f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+
+    def _unanswered(self) -> bool:
+        """Lockstep: no /cmd_vel has come for the last observation in lockstep_resend_period (0: never says so)."""
+        period = self.get_parameter("lockstep_resend_period").value
+        return period > 0.0 and not self._held and time.monotonic() - self._last_output > period
 
     def _advance(self, v: float, w: float) -> None:
         """One step, its log lines (contacts, goal) and its observation."""
@@ -396,6 +481,8 @@ class SimulatorNode(ManagedNode):
     def _restarted(self, what: str) -> str:
         """After a reset or teleport: the held command is dropped, a new first observation goes out."""
         self._command, self._command_stamp = (0.0, 0.0), self._now()
+        self._held.clear()
+        self._owed = 0
         self._meter.clear()
         if self._active:
             self._publish_observation()
@@ -424,6 +511,52 @@ class SimulatorNode(ManagedNode):
             response.success, response.message = False, str(error)
             self.get_logger().warning(response.message)
         return response
+
+    def _on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        return self._control(response, self._pause)
+
+    def _on_resume(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        return self._control(response, self._resume)
+
+    def _on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        return self._control(response, self._step_once)
+
+    def _control(self, response: Trigger.Response, action) -> Trigger.Response:
+        """A pause/resume/step request (create_active_service refuses them unless active): what happened."""
+        try:
+            response.success, response.message = True, action()
+            self.get_logger().info(response.message)
+        except Exception as error:
+            response.success, response.message = False, f"{type(error).__name__}: {error}"
+            self.get_logger().error(response.message)
+        return response
+
+    def _pause(self) -> str:
+        was = self._paused
+        self._paused, self._owed = True, 0
+        return f"{'already ' if was else ''}paused at t = {self._sim.time:.2f} s (step {self._sim.steps})"
+
+    def _resume(self) -> str:
+        was = self._paused
+        self._paused, self._owed = False, 0
+        self._release()
+        return f"{'running' if was else 'already running'} from t = {self._sim.time:.2f} s (step {self._sim.steps})"
+
+    def _step_once(self) -> str:
+        note = "" if self._paused else "paused; "
+        self._paused = True
+        steps = self._sim.steps
+        self._owed += 1
+        if self._sim.config.mode == "lockstep":
+            self._release()
+            if self._owed > 0 and self._unanswered():  # the driver holds the robot: no command is coming
+                self._owed -= 1
+                self._advance(0.0, 0.0)
+        if self._sim.steps > steps:
+            return f"{note}stepped to t = {self._sim.time:.2f} s (step {self._sim.steps})"
+        waiting = "the next /cmd_vel (or at zero velocity if none comes)" if self._sim.config.mode == "lockstep" \
+            else "the next tick"
+        return f"{note}{self._owed} step(s) owed at t = {self._sim.time:.2f} s: taken on {waiting}"
 
     def _on_render(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         try:

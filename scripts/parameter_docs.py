@@ -114,6 +114,11 @@ def _ik_chain_keys():
     return tuple(replace(spec, name=f"<chain>.{key}") for key, spec in CHAIN_KEYS.items())
 
 
+def _viewer():
+    from amr_viewer.viewer_node import specs
+    return specs()
+
+
 NODES = (
     Node("amr_simulation", "simulator", _simulator, ("simulator.yaml",)),
     Node("amr_control", "wall_follower", _wall_follower, ("wall_follower_sim.yaml", "wall_follower_real.yaml")),
@@ -128,6 +133,7 @@ NODES = (
     Node("amr_bringup", "recorder", _recorder),
     Node("amr_kinematics", "ik_service", _ik_service),
     Node("amr_kinematics", "ik_service.chain_keys", _ik_chain_keys),
+    Node("amr_viewer", "viewer", _viewer),
 )
 
 

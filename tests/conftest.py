@@ -29,6 +29,11 @@ FIRST_TEST_DOMAIN, TEST_DOMAINS = 101, 132
 _next_domain = itertools.count(random.SystemRandom().randrange(TEST_DOMAINS))
 
 
+def fresh_domain() -> int:
+    """The next DDS domain of the tests' range (101-232), round robin."""
+    return FIRST_TEST_DOMAIN + next(_next_domain) % TEST_DOMAINS
+
+
 @pytest.fixture
 def ros_domain(monkeypatch) -> int:
     """A DDS domain (101-232) of this test's own, also for the processes it starts.
@@ -36,7 +41,7 @@ def ros_domain(monkeypatch) -> int:
     DDS announces the participants of earlier tests until their lease runs out (about 20 s); in a
     shared domain their ghost services shadow live namesakes and requests go unanswered.
     """
-    domain = FIRST_TEST_DOMAIN + next(_next_domain) % TEST_DOMAINS
+    domain = fresh_domain()
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     return domain
 

@@ -43,8 +43,10 @@ JAZZY_PACKAGES = {
     "rcl_interfaces", "rclpy", "rosgraph_msgs", "sensor_msgs", "std_msgs", "std_srvs", "tf2_msgs",
 }
 """ROS packages of rosdistro's jazzy/distribution.yaml that the suite imports."""
-WITHOUT_ROSDEP_KEY = {"pymunk", "contourpy", "distributed"}
+WITHOUT_ROSDEP_KEY = {"pymunk", "contourpy", "distributed", "viser"}
 """Python imports no rosdep key provides: the README says to pip install them."""
+TESTS_WITHOUT_ROSDEP_KEY = {"playwright"}
+"""The same for the tests (the browser tests drive chromium with it; in the test extras)."""
 TEST_HELPERS = {"conftest"}
 
 
@@ -62,7 +64,7 @@ def imports_of(paths) -> set[str]:
 def keys_of(names: set[str]) -> set[str]:
     """The manifest keys of imported names: our packages and ROS packages as they are, Python modules by
     the table; the ones without a key left out."""
-    return {ROSDEP_KEYS.get(name, name) for name in names - WITHOUT_ROSDEP_KEY}
+    return {ROSDEP_KEYS.get(name, name) for name in names - WITHOUT_ROSDEP_KEY - TESTS_WITHOUT_ROSDEP_KEY}
 
 
 def imported_packages(package: str) -> set[str]:
@@ -76,7 +78,7 @@ def declared(manifest: Path, tags=("depend", "exec_depend", "build_export_depend
 
 def test_every_package_is_checked():
     assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup"} == set(PACKAGES)
+            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer"} == set(PACKAGES)
 
 
 @pytest.mark.parametrize("package", PACKAGES)

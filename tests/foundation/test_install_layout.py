@@ -38,12 +38,12 @@ def test_expected_nodes_are_all_there():
             ("amr_bringup", "lifecycle_manager"), ("amr_kinematics", "ik_service"), ("amr_maps", "map_server"),
             ("amr_bringup", "recorder"), ("amr_planning", "planner"), ("amr_control", "path_follower"),
             ("amr_localization", "particle_filter"), ("amr_localization", "beacon_localizer"),
-            ("amr_maps", "maze")} <= set(NODES)
+            ("amr_maps", "maze"), ("amr_viewer", "viewer")} <= set(NODES)
 
 
 def test_every_package_is_installed():
     assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup"} == set(PACKAGES)
+            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer"} == set(PACKAGES)
 
 
 def test_ros_wheels_are_pinned_to_jazzy():

@@ -37,6 +37,7 @@ ALLOWED: dict[str, set[str]] = {
                               "amr_turtlebot3", "amr_navigation", "amr_bringup"},
     "amr_bringup": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
                            "amr_turtlebot3", "amr_navigation"},
+    "amr_viewer": MAPS | {"amr_kinematics"},  # topics, not imports, for the rest; arms drawn by the chains' own FK
 }
 """package -> the amr_* packages its modules may import (besides itself and amr_interfaces)."""
 SIDE_BY_SIDE = {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics", "amr_turtlebot3"}

@@ -1,0 +1,57 @@
+"""A click on the floor as RViz's 2D Goal Pose or 2D Pose Estimate: which pose it means; no rclpy, no viser.
+
+One click gives the position; its heading is the direction from the robot to the point for a goal, the robot's
+heading as drawn for a pose estimate (0 without a robot). With `two_clicks`, a second click gives the heading
+instead: the direction from the first point to the second (RViz's drag, for a browser where a drag turns the view).
+"""
+
+from __future__ import annotations
+
+import math
+
+from amr_util.geometry import Pose2D
+from amr_viewer.geometry import finite
+
+GOAL, INITIAL_POSE, OFF = "goal", "initial pose", "off"
+MODES = (GOAL, INITIAL_POSE, OFF)
+MIN_HEADING_DISTANCE = 1e-3
+"""m between two clicks for them to give a heading (closer: heading 0)."""
+
+
+class ClickTool:
+    def __init__(self, mode: str = GOAL, two_clicks: bool = False) -> None:
+        self.mode = mode
+        self.two_clicks = two_clicks
+        self.pending: tuple[float, float] | None = None
+        """The first click of two, waiting for the heading."""
+
+    def set_mode(self, mode: str) -> None:
+        if mode not in MODES:
+            raise ValueError(f"click mode {mode!r}: expected one of {MODES}")
+        self.mode, self.pending = mode, None
+
+    def set_two_clicks(self, two_clicks: bool) -> None:
+        self.two_clicks, self.pending = bool(two_clicks), None
+
+    def click(self, x: float, y: float, robot: Pose2D | None) -> tuple[str, Pose] | None:
+        """(mode, pose) to send, or None (off, a first click of two, or a point that is not finite)."""
+        if self.mode == OFF or not finite(x, y):
+            return None
+        if self.two_clicks:
+            if self.pending is None:
+                self.pending = (x, y)
+                return None
+            (px, py), self.pending = self.pending, None
+            return self.mode, Pose2D(px, py, heading(px, py, x, y, 0.0))
+        if robot is None or not finite(*robot):
+            return self.mode, Pose2D(x, y, 0.0)
+        if self.mode == GOAL:
+            return self.mode, Pose2D(x, y, heading(robot.x, robot.y, x, y, robot.theta))
+        return self.mode, Pose2D(x, y, robot.theta)
+
+
+def heading(x0: float, y0: float, x1: float, y1: float, default: float) -> float:
+    """The direction from (x0, y0) to (x1, y1), `default` when they (nearly) coincide."""
+    if math.hypot(x1 - x0, y1 - y0) < MIN_HEADING_DISTANCE:
+        return default
+    return math.atan2(y1 - y0, x1 - x0)

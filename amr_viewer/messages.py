@@ -1,0 +1,101 @@
+"""ROS messages to the plain data of amr_viewer.state, and the messages the viewer sends: no rclpy.
+
+Readers take any object with the message's fields (a deserialized message, or a stand-in in a test).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from amr_util.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
+from amr_util.messages import scan_data
+from amr_viewer.geometry import finite
+from amr_viewer.state import Estimate, MapImage, Scan, map_image
+
+INITIAL_POSE_VARIANCE = (0.25, 0.25, 0.06853891945200942)
+"""(x, y, yaw) variances RViz's 2D Pose Estimate sends: 0.5 m and pi / 12 rad standard deviations."""
+
+
+def pose_of(pose) -> Pose2D:
+    """A geometry_msgs/Pose in the plane."""
+    q = pose.orientation
+    return Pose2D(pose.position.x, pose.position.y, yaw_from_quaternion(q))
+
+
+def occupancy_grid(message) -> MapImage:
+    info = message.info
+    return map_image(info.width, info.height, info.resolution, pose_of(info.origin), message.data)
+
+
+def laser_scan(message) -> Scan:
+    return Scan(scan_data(message), message.header.frame_id)
+
+
+def localized_pose(message) -> Estimate:
+    """amr_interfaces/LocalizedPose (a PoseWithCovariance and a `localized` flag)."""
+    covariance = message.pose.covariance
+    return Estimate(pose_of(message.pose.pose), (covariance[0], covariance[1], covariance[7]), bool(message.localized))
+
+
+def path_points(message) -> np.ndarray:
+    """nav_msgs/Path as (N, 2)."""
+    return np.array([(p.pose.position.x, p.pose.position.y) for p in message.poses], dtype=float).reshape(-1, 2)
+
+
+def beacon_positions(message) -> np.ndarray:
+    """amr_interfaces/BeaconRanges' beacon positions as (B, 2)."""
+    return np.array([(p.x, p.y) for p in message.beacons], dtype=float).reshape(-1, 2)
+
+
+STATUS_FIELDS = ("sim_time", "steps", "collisions", "in_contact", "goal_reached", "distance_travelled",
+                 "real_time_factor", "localization_enabled", "localized", "first_localized_time", "position_error",
+                 "heading_error")
+
+
+def simulator_status(message) -> dict:
+    """amr_interfaces/SimulatorStatus as a dict of its fields."""
+    return {name: getattr(message, name) for name in STATUS_FIELDS}
+
+
+def fill_pose_stamped(message, frame_id: str, stamp, pose: Pose2D):
+    """A geometry_msgs/PoseStamped (given empty) set to `pose` in `frame_id`; ValueError for a non-finite pose."""
+    if not finite(*pose):
+        raise ValueError(f"pose {tuple(pose)} is not finite")
+    message.header.frame_id, message.header.stamp = frame_id, stamp
+    _fill_pose(message.pose, pose)
+    return message
+
+
+def fill_initial_pose(message, frame_id: str, stamp, pose: Pose2D, variance=INITIAL_POSE_VARIANCE):
+    """A geometry_msgs/PoseWithCovarianceStamped (given empty) as RViz's 2D Pose Estimate sends it."""
+    if not finite(*pose):
+        raise ValueError(f"pose {tuple(pose)} is not finite")
+    message.header.frame_id, message.header.stamp = frame_id, stamp
+    _fill_pose(message.pose.pose, pose)
+    covariance = [0.0] * 36
+    covariance[0], covariance[7], covariance[35] = variance
+    message.pose.covariance = covariance
+    return message
+
+
+def _fill_pose(target, pose: Pose2D) -> None:
+    target.position.x, target.position.y, target.position.z = float(pose.x), float(pose.y), 0.0
+    qx, qy, qz, qw = quaternion_from_yaw(pose.theta)
+    target.orientation.x, target.orientation.y, target.orientation.z, target.orientation.w = qx, qy, qz, qw
+
+
+def format_status(status: dict) -> list[str]:
+    """A simulator status as short lines for the status panel."""
+    if not status:
+        return []
+    lines = [f"sim time {status['sim_time']:.2f} s (step {status['steps']}), "
+             f"{status['real_time_factor']:.1f}x real time",
+             f"collisions {status['collisions']}" + (" (in contact)" if status["in_contact"] else "") +
+             f", {status['distance_travelled']:.2f} m travelled" + (", goal reached" if status["goal_reached"] else "")]
+    if status["localization_enabled"]:
+        error = status["position_error"]
+        judged = f", error {100 * error:.1f} cm" if math.isfinite(error) else ""
+        lines.append(("localized" if status["localized"] else "not localized") + judged)
+    return lines

@@ -1,0 +1,297 @@
+"""What the viewer knows of each robot, as plain data the scene draws: no rclpy, no viser.
+
+One RobotState per namespace (a fleet draws every one). Inputs arrive decoded (amr_viewer.messages, amr_viewer.cdr);
+each layer keeps a version number that changes when it does, so the scene redraws only what changed. The robot is
+placed through TF (map -> odom -> base_footprint; without a map -> odom, odometry is drawn as if it were the map, as
+the simulator starts it), else at its ground truth; the scan through TF at the scan's frame.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from amr_viewer.cdr import StampedTransform
+from amr_viewer.frames import TransformTree
+from amr_util.geometry import Pose2D
+from amr_util.scan import ScanData
+from amr_viewer.geometry import covariance_ellipse, finite, scan_points, transform_points
+
+LAYERS = ("map", "robot", "truth", "scan", "particles", "estimate", "path", "goal", "world", "beacons", "trail")
+TRAIL_BREAK = 0.5
+"""m: a jump longer than this between two trail points (a reset, a teleport) is not drawn as a line."""
+
+
+@dataclass(frozen=True)
+class Frames:
+    """The REP 105 frame names a robot uses."""
+
+    map: str = "map"
+    odom: str = "odom"
+    base: str = "base_footprint"
+
+
+@dataclass(frozen=True)
+class MapImage:
+    """An occupancy grid as an RGB image placed in the map frame (row 0 = the grid's first row, at the origin)."""
+
+    rgb: np.ndarray
+    width: float
+    """m along the grid's x"""
+    height: float
+    center: Pose2D
+    """the image centre and the grid's yaw, in the map frame"""
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the image's corners in the map frame."""
+        c, s = math.cos(self.center.theta), math.sin(self.center.theta)
+        corners = [(sx * self.width / 2, sy * self.height / 2) for sx in (-1, 1) for sy in (-1, 1)]
+        xs = [self.center.x + c * u - s * v for u, v in corners]
+        ys = [self.center.y + s * u + c * v for u, v in corners]
+        return min(xs), min(ys), max(xs), max(ys)
+
+
+FREE_GRAY, OCCUPIED_GRAY, UNKNOWN_GRAY = 250, 45, 200
+
+
+def map_image(width: int, height: int, resolution: float, origin: Pose2D, data) -> MapImage:
+    """An OccupancyGrid's cells (row-major from cell (0, 0)) as gray levels: free light, occupied dark, unknown
+    mid-gray; ValueError naming what is wrong with the grid."""
+    if width <= 0 or height <= 0 or not (resolution > 0.0 and math.isfinite(resolution)) or not finite(*origin):
+        raise ValueError(f"map of {width} x {height} cells at {resolution} m from {tuple(origin)}: not drawable")
+    cells = np.asarray(data, dtype=np.int16)
+    if cells.size != width * height:
+        raise ValueError(f"map data holds {cells.size} cells, {width} x {height} = {width * height} expected")
+    cells = cells.reshape(height, width)
+    known = np.clip(cells, 0, 100).astype(float) / 100.0
+    gray = FREE_GRAY + (OCCUPIED_GRAY - FREE_GRAY) * known
+    gray = np.where(cells < 0, UNKNOWN_GRAY, gray).astype(np.uint8)
+    w, h = width * resolution, height * resolution
+    c, s = math.cos(origin.theta), math.sin(origin.theta)
+    center = Pose2D(origin.x + c * w / 2 - s * h / 2, origin.y + s * w / 2 + c * h / 2, origin.theta)
+    return MapImage(np.repeat(gray[:, :, None], 3, axis=2), w, h, center)
+
+
+@dataclass
+class Scan:
+    data: ScanData
+    frame_id: str
+
+
+@dataclass
+class Estimate:
+    pose: Pose2D
+    covariance: tuple[float, float, float]
+    """(xx, xy, yy) m^2"""
+    localized: bool
+
+
+@dataclass(frozen=True)
+class WorldGoal:
+    x: float
+    y: float
+    radius: float
+
+
+def decimate(points: np.ndarray, limit: int) -> np.ndarray:
+    """At most `limit` rows, evenly strided (deterministic: the same cloud draws the same points)."""
+    if limit <= 0:
+        return points[:0]
+    if len(points) <= limit:
+        return points
+    return points[np.linspace(0, len(points) - 1, limit).round().astype(int)]
+
+
+@dataclass
+class Trail:
+    """The path the robot took: points at least `spacing` apart, in chunks of `chunk` points so a scene can freeze
+    full chunks; a NaN row marks a break (a jump longer than TRAIL_BREAK: a reset, a teleport)."""
+
+    spacing: float = 0.02
+    chunk: int = 500
+    max_chunks: int = 40
+    chunks: list[list[tuple[float, float]]] = field(default_factory=lambda: [[]])
+    dropped: int = 0
+    """chunks dropped from the front (max_chunks reached)"""
+
+    def add(self, x: float, y: float) -> bool:
+        """Add a point if it is far enough from the last; True when the trail changed."""
+        if not finite(x, y):
+            return False
+        last = self.last()
+        if last is not None:
+            distance = math.hypot(x - last[0], y - last[1])
+            if distance < self.spacing:
+                return False
+            if distance > TRAIL_BREAK:
+                self._append((math.nan, math.nan))
+        self._append((x, y))
+        return True
+
+    def last(self) -> tuple[float, float] | None:
+        for chunk in reversed(self.chunks):
+            if chunk:
+                return chunk[-1] if math.isfinite(chunk[-1][0]) else None
+        return None
+
+    def _append(self, point: tuple[float, float]) -> None:
+        current = self.chunks[-1]
+        current.append(point)
+        if len(current) >= self.chunk:
+            self.chunks.append([point])  # the next chunk starts where this one ends: no gap in the line
+            if len(self.chunks) > self.max_chunks:
+                self.chunks.pop(0)
+                self.dropped += 1
+
+    def clear(self) -> None:
+        self.dropped += len(self.chunks)
+        self.chunks = [[]]
+
+
+class RobotState:
+    """Everything drawn for one robot namespace; inputs from the node, reads by the scene."""
+
+    def __init__(self, namespace: str, frames: Frames = Frames(), max_particles: int = 1000,
+                 trail_spacing: float = 0.02) -> None:
+        self.namespace = namespace
+        self.frames = frames
+        self.max_particles = max_particles
+        self.tree = TransformTree()
+        self.versions: Counter[str] = Counter()
+        self.map: MapImage | None = None
+        self.truth: Pose2D | None = None
+        self.scan: Scan | None = None
+        self.particles: np.ndarray = np.zeros((0, 3))
+        self.particle_count = 0
+        self.estimate: Estimate | None = None
+        self.path: np.ndarray = np.zeros((0, 2))
+        self.goal: Pose2D | None = None
+        self.world_goal: WorldGoal | None = None
+        self.beacons: np.ndarray = np.zeros((0, 2))
+        self.trail = Trail(spacing=trail_spacing)
+        self.status: dict = {}
+
+    def _changed(self, *layers: str) -> None:
+        for layer in layers:
+            self.versions[layer] += 1
+
+    # -- inputs -------------------------------------------------------------------------------------------------
+
+    def on_map(self, image: MapImage) -> None:
+        self.map = image
+        self._changed("map")
+
+    def on_transforms(self, transforms: list[StampedTransform]) -> None:
+        changed = False
+        for transform in transforms:
+            changed |= self.tree.set(transform.parent, transform.child, transform.pose)
+        if changed:
+            self._changed("robot", "scan")
+            if self.truth is None:  # no ground truth: the trail follows the robot as TF places it
+                pose = self.robot_pose()
+                if pose is not None and self.trail.add(pose.x, pose.y):
+                    self._changed("trail")
+
+    def on_ground_truth(self, transform: StampedTransform) -> None:
+        if not finite(*transform.pose):
+            return
+        self.truth = transform.pose
+        self._changed("truth")
+        if self.tree.lookup(self.frames.map, self.frames.base) is None and \
+                self.tree.lookup(self.frames.odom, self.frames.base) is None:
+            self._changed("robot", "scan")  # no TF: the robot is drawn at its ground truth
+        if self.trail.add(transform.pose.x, transform.pose.y):
+            self._changed("trail")
+
+    def on_scan(self, scan: Scan) -> None:
+        self.scan = scan
+        self._changed("scan")
+
+    def on_particles(self, poses: np.ndarray) -> None:
+        """(N, 3) x, y, yaw; non-finite rows dropped, at most max_particles kept for drawing."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        poses = poses[np.isfinite(poses).all(axis=1)]
+        self.particle_count = len(poses)
+        self.particles = decimate(poses, self.max_particles)
+        self._changed("particles")
+
+    def on_estimate(self, estimate: Estimate) -> None:
+        if finite(*estimate.pose):
+            self.estimate = estimate
+            self._changed("estimate")
+
+    def on_path(self, points: np.ndarray) -> None:
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        self.path = points[np.isfinite(points).all(axis=1)]
+        self._changed("path")
+
+    def on_goal(self, pose: Pose2D) -> None:
+        if finite(*pose):
+            self.goal = pose
+            self._changed("goal")
+
+    def on_world(self, goal: WorldGoal | None, beacons) -> None:
+        self.world_goal = goal
+        self._changed("world")
+        if len(beacons):
+            self.on_beacons(beacons)
+
+    def on_beacons(self, positions) -> None:
+        positions = np.asarray(positions, dtype=float).reshape(-1, 2)
+        positions = positions[np.isfinite(positions).all(axis=1)]
+        if positions.shape != self.beacons.shape or not np.array_equal(positions, self.beacons):
+            self.beacons = positions
+            self._changed("beacons")
+
+    def on_status(self, status: dict) -> None:
+        if status.get("steps") == 0 and self.status.get("steps", 0) > 0:  # a reset: a new run, a new trail
+            self.trail.clear()
+            self._changed("trail")
+        self.status = status
+
+    # -- what is drawn ------------------------------------------------------------------------------------------
+
+    def robot_pose(self) -> Pose2D | None:
+        """base_footprint in the map: through TF, else the ground truth."""
+        frames = self.frames
+        pose = self.tree.lookup_or_assume(frames.map, frames.base, (frames.map, frames.odom))
+        return pose if pose is not None else self.truth
+
+    def scan_in_map(self) -> np.ndarray:
+        """(N, 2) scan end points in the map frame; empty when the scan's frame is not placed yet."""
+        if self.scan is None:
+            return np.zeros((0, 2))
+        frames = self.frames
+        pose = self.tree.lookup_or_assume(frames.map, self.scan.frame_id, (frames.map, frames.odom))
+        if pose is None and self.truth is not None and self.scan.frame_id.lstrip("/") == frames.base:
+            pose = self.truth
+        if pose is None:
+            return np.zeros((0, 2))
+        data = self.scan.data
+        return transform_points(pose, scan_points(data.ranges, data.angle_min, data.angle_increment,
+                                                  data.range_min, data.range_max))
+
+    def estimate_ellipse(self, sigmas: float = 2.0) -> np.ndarray | None:
+        if self.estimate is None:
+            return None
+        xx, xy, yy = self.estimate.covariance
+        return covariance_ellipse(self.estimate.pose.x, self.estimate.pose.y, xx, xy, yy, sigmas)
+
+    @property
+    def localized(self) -> bool | None:
+        """The localizer's word (None without one)."""
+        return None if self.estimate is None else self.estimate.localized
+
+    def extent(self) -> tuple[float, float, float, float] | None:
+        """(xmin, ymin, xmax, ymax) worth looking at: the map, else what is known of the robot's surroundings."""
+        if self.map is not None:
+            return self.map.bounds
+        points = [p for p in (self.robot_pose(), self.truth) if p is not None]
+        if not points:
+            return None
+        xs, ys = [p.x for p in points], [p.y for p in points]
+        return min(xs) - 2.0, min(ys) - 2.0, max(xs) + 2.0, max(ys) + 2.0

@@ -1,0 +1,101 @@
+"""Which robots, simulators, arms and nodes the graph holds, from its names and types: no rclpy.
+
+A robot is a namespace with any of the standard robot topics (`<ns>/scan`, `<ns>/ground_truth`, `<ns>/pose`,
+`<ns>/particle_cloud`, `<ns>/odom`); its topics are those names in that namespace, so a fleet (one namespace per
+robot, nav2's convention: `/robot1/scan`, `/robot1/tf`) gives one RobotTopics each and the root namespace gives the
+single robot of today's stacks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+ROBOT_MARKERS = {
+    "scan": "sensor_msgs/msg/LaserScan",
+    "ground_truth": "nav_msgs/msg/Odometry",
+    "pose": "amr_interfaces/msg/LocalizedPose",
+    "particle_cloud": "geometry_msgs/msg/PoseArray",
+    "odom": "nav_msgs/msg/Odometry",
+}
+"""Topic leaf name -> type that makes its namespace a robot."""
+SIMULATOR_STATUS = "amr_interfaces/msg/SimulatorStatus"
+JOINT_STATES = "sensor_msgs/msg/JointState"
+CONTROL_SERVICES = ("pause", "resume", "step", "reset")
+TRIGGER = "std_srvs/srv/Trigger"
+EMPTY = "std_srvs/srv/Empty"
+GLOBAL_LOCALIZATION = "reinitialize_global_localization"
+"""A localizer's service that spreads its estimate over the map again (nav2 AMCL's name; our particle filter's)."""
+GET_STATE = "lifecycle_msgs/srv/GetState"
+
+
+def split(name: str) -> tuple[str, str]:
+    """'/a/b/scan' -> ('/a/b', 'scan'); '/scan' -> ('', 'scan')."""
+    namespace, _, leaf = name.rpartition("/")
+    return namespace, leaf
+
+
+def join(namespace: str, name: str) -> str:
+    return f"{namespace}/{name}" if namespace else f"/{name}"
+
+
+@dataclass(frozen=True)
+class RobotTopics:
+    """The names a robot's topics have in its namespace ('' = the root)."""
+
+    namespace: str
+
+    def __getattr__(self, leaf: str) -> str:
+        if leaf.startswith("_"):
+            raise AttributeError(leaf)
+        return join(self.namespace, leaf)
+
+    @property
+    def label(self) -> str:
+        return self.namespace or "/"
+
+
+def robot_namespaces(topics: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    """Namespaces with a robot marker topic of the right type, sorted (the root first)."""
+    found = set()
+    for name, types in topics:
+        namespace, leaf = split(name)
+        if ROBOT_MARKERS.get(leaf) in set(types):
+            found.add(namespace)
+    return sorted(found)
+
+
+def simulator_status_topics(topics: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    return sorted(name for name, types in topics if SIMULATOR_STATUS in set(types))
+
+
+def joint_state_nodes(topics: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    """Nodes publishing `<node>/joint_states` (an IK service's private topic): their full names."""
+    return sorted(split(name)[0] for name, types in topics
+                  if split(name)[1] == "joint_states" and split(name)[0] and JOINT_STATES in set(types))
+
+
+def simulators(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    """Nodes serving every simulator control (`<node>/pause`, `/resume`, `/step`, `/reset` as Trigger)."""
+    offered: dict[str, set[str]] = {}
+    for name, types in services:
+        node, leaf = split(name)
+        if leaf in CONTROL_SERVICES and TRIGGER in set(types):
+            offered.setdefault(node, set()).add(leaf)
+    return sorted(node for node, leaves in offered.items() if leaves == set(CONTROL_SERVICES))
+
+
+def localizers(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    """Nodes serving `<node>/reinitialize_global_localization` (std_srvs/Empty): their full names."""
+    return sorted(split(name)[0] for name, types in services
+                  if split(name)[1] == GLOBAL_LOCALIZATION and EMPTY in set(types))
+
+
+def lifecycle_nodes(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    """Nodes with a `get_state` lifecycle service."""
+    return sorted(split(name)[0] for name, types in services if split(name)[1] == "get_state" and
+                  GET_STATE in set(types))
+
+
+def full_name(name: str, namespace: str) -> str:
+    return f"{namespace.rstrip('/')}/{name}"
