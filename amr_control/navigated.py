@@ -58,3 +58,13 @@ class NavigatorGate:
     def is_repeat(self, status) -> bool:
         """A status for the observation held here (the synchronizer would drop it as a repeated stamp)."""
         return self._held is not None and stamp_ns(status) == self._held[0]
+
+    def route(self, status, answer, pair) -> None:
+        """A status as it arrives: a new decision on the held observation answers it (``answer(*held)``) when it
+        names this node, a repeat that does not is dropped, any other status goes to ``pair`` (the synchronizer)."""
+        if self.is_repeat(status):
+            held = self.replay(status)
+            if held is not None:
+                answer(*held)
+            return
+        pair(status)

@@ -173,12 +173,7 @@ class PathFollowerNode(ManagedNode):
         """A new decision for an observation held here is answered at once; any other status is paired."""
         if self.state_label != "active":
             return
-        if self._gate.is_repeat(message):
-            held = self._gate.replay(message)
-            if held is not None:
-                self._answer(*held)
-            return
-        self._on_message(STATUS, message)
+        self._gate.route(message, self._answer, lambda status: self._on_message(STATUS, status))
 
     def _on_navigated_triple(self, pose: LocalizedPose, scan: LaserScan, status: NavigatorStatus) -> None:
         mine, changed = self._gate.admit(status, (pose, scan))

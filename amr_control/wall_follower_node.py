@@ -157,13 +157,11 @@ class WallFollowerNode(ManagedNode):
         """A new decision for an observation held here is answered at once; any other status is paired."""
         if self.state_label != "active":
             return
-        if self._gate.is_repeat(message):
-            held = self._gate.replay(message)
-            if held is not None:
-                self.get_logger().info(f"the navigator gave this node the held observation ({message.mode})")
-                self._on_pair(*held)
-            return
-        self._on_message(STATUS, message)
+        self._gate.route(message, self._on_held_pair, lambda status: self._on_message(STATUS, status))
+
+    def _on_held_pair(self, odometry: Odometry, scan: LaserScan) -> None:
+        self.get_logger().info("the navigator gave this node the held observation")
+        self._on_pair(odometry, scan)
 
     def _on_navigated_triple(self, odometry: Odometry, scan: LaserScan, status: NavigatorStatus) -> None:
         """Answer the observation if the navigator gave it to this node; on losing the charge, stop once (timer)."""

@@ -118,12 +118,7 @@ def goal_reachable(
 
     None when the goal lies within a few cm of the boundary of that set (too close to call).
     """
-    if hand not in HANDS:
-        raise MazeError(f"hand must be one of {HANDS}, got {hand!r}")
-    built = world_from_dict(world)
-    if built.goal is None:
-        raise MazeError(f"{built.name}: has no goal")
-    geometry = _Geometry(built.polygons, robot_radius)
+    built, geometry = _follower_geometry(world, hand, robot_radius)
     solid = geometry.followed_component(built.start.x, built.start.y, built.start.theta, hand, wall_lost_distance)
     return geometry.goal_on_contour(solid, built.goal.x, built.goal.y, built.goal.radius, target_wall_distance)
 
@@ -135,14 +130,19 @@ def walk_length(world: dict, hand: str = "right", robot_radius: float = ROBOT_RA
     Measured on the followed solid's offset curve (amr_maps.boundary_walk); generated
     goals are placed within WALK_BUDGET of it.
     """
+    built, geometry = _follower_geometry(world, hand, robot_radius)
+    walk = geometry.walk(built.start.x, built.start.y, built.start.theta, hand, wall_lost_distance)
+    return walk.length_to(built.goal.x, built.goal.y, _goal_reach(built.goal.radius))
+
+
+def _follower_geometry(world: dict, hand: str, robot_radius: float):
+    """The built world (it must have a goal) and its geometry for a ``hand`` follower of ``robot_radius``."""
     if hand not in HANDS:
         raise MazeError(f"hand must be one of {HANDS}, got {hand!r}")
     built = world_from_dict(world)
     if built.goal is None:
         raise MazeError(f"{built.name}: has no goal")
-    geometry = _Geometry(built.polygons, robot_radius)
-    walk = geometry.walk(built.start.x, built.start.y, built.start.theta, hand, wall_lost_distance)
-    return walk.length_to(built.goal.x, built.goal.y, _goal_reach(built.goal.radius))
+    return built, _Geometry(built.polygons, robot_radius)
 
 
 def _goal_reach(radius: float) -> float:
