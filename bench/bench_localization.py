@@ -455,12 +455,14 @@ def main() -> None:
     parser.add_argument("--symmetry", action="store_true",
                         help="only the rooms whose symmetry one feature breaks, and the truly symmetric controls")
     parser.add_argument("--seeds", type=int, help="--symmetry: seeds per family (default 10, --quick 2)")
+    parser.add_argument("--control-seeds", type=int, help="--symmetry: seeds per symmetric control (default 2, --quick 1)")
     args = parser.parse_args()
     quick = args.quick
     if args.symmetry:
         seeds = args.seeds or (2 if quick else 10)
         bench_symmetry(Sweep(args.jobs, args.scheduler, args.results), seeds=seeds, seconds=240.0,
-                       control_seeds=1 if quick else 2, control_seconds=120.0 if quick else 300.0)
+                       control_seeds=args.control_seeds or (1 if quick else 2),
+                       control_seconds=120.0 if quick else 300.0)
         return
     if args.beacon_comparison:
         bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
