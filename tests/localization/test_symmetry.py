@@ -128,7 +128,7 @@ def _closed_loop(case_world, seconds, max_particles=5000, seed=3):
     return sim, run(sim, pf, FOLLOWER, seconds, stop_when_localized=True)
 
 
-@pytest.mark.parametrize("kind, seed", [("doorway", 1), ("extra_pillar", 0)])
+@pytest.mark.parametrize("kind, seed", [("doorway", 1), ("extra_pillar", 0), ("notch", 1)])
 def test_a_room_one_feature_tells_apart_is_localized_soon_after_the_feature_is_seen(kind, seed):
     case = symmetry_case(kind, seed)
     sim, trace = _closed_loop(case.world, 30.0)
