@@ -23,7 +23,7 @@ from amr_util.geometry import Pose2D
 from amr_util.messages import quaternion
 
 if TYPE_CHECKING:
-    from amr_simulation.simulator import Simulator
+    from amr_simulation.fleet import Fleet, SimulatedRobot
 
 def clock(time: Time) -> Clock:
     return Clock(clock=time)
@@ -76,11 +76,15 @@ def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, s
     return message
 
 
-def status(time: Time, frame: str, sim: "Simulator", distance: float, real_time_factor: float) -> SimulatorStatus:
-    """amr_interfaces/SimulatorStatus of a simulator; distance and real-time factor are the node's."""
+def status(time: Time, frame: str, fleet: "Fleet", robot: "SimulatedRobot", distance: float,
+           real_time_factor: float) -> SimulatorStatus:
+    """amr_interfaces/SimulatorStatus of one robot of a fleet (the one robot of a Simulator's fleet: robot "");
+    distance and real-time factor are the node's."""
     message = SimulatorStatus(
-        sim_time=sim.time, steps=sim.steps, collisions=sim.collisions, in_contact=sim.in_contact,
-        goal_reached=sim.goal_reached, distance_travelled=distance, real_time_factor=real_time_factor,
+        robot=robot.name, sim_time=fleet.time, steps=fleet.steps, collisions=robot.collisions,
+        wall_collisions=robot.wall_collisions, robot_collisions=sum(robot.robot_collisions.values()),
+        in_contact=robot.in_contact, goal_reached=robot.goal_reached, distance_travelled=distance,
+        real_time_factor=real_time_factor,
     )
     message.header.stamp = time
     message.header.frame_id = frame
