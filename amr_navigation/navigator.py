@@ -11,7 +11,8 @@ The decisions, observation by observation:
 
 - not localized: EXPLORE, the wall follower drives (to localize); a path and the goal are kept;
 - localized, no goal: IDLE, nobody drives (waiting for a goal);
-- localized, the path follower reported the goal reached: REACHED, nobody drives until a new goal;
+- localized, the path follower reported the goal reached: REACHED, nobody drives until a new goal or a
+  loss of localization (the robot was moved: once localized again the goal is pursued again);
 - localized, a plan is due (a first goal, a new goal, the estimate more than `replan_distance` from the
   path last planned, or no path yet for this goal): a `PlanRequest` from the estimate to the goal; the
   caller plans, reports with `planned`, and gets the decision for this observation;
@@ -55,7 +56,7 @@ class Mode(str, Enum):
     NO_PATH = "NO_PATH"
     """localized, the goal cannot be planned to: nobody drives (the reason says why)."""
     REACHED = "REACHED"
-    """the path follower reached the goal: nobody drives until a new goal."""
+    """the path follower reached the goal: nobody drives until a new goal or a loss of localization."""
     PLANNING = "PLANNING"
     """a plan is being made for this observation (the node: the planner has not answered yet)."""
 
@@ -160,6 +161,8 @@ class Navigator:
         if localized != self._localized:
             if not localized:
                 self.counters.localization_losses += 1
+                if self._reached_goal is not None:  # moved after arrival (kidnapped, a reset): a new trip, planned anew
+                    self._reached_goal = self.planned_path = None
             self._say("localized" if localized else "localization withdrawn: exploring again", once=False)
             self._localized = localized
         if not localized:

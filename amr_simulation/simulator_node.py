@@ -24,13 +24,23 @@ Activation, ~/reset and ~/set_pose each publish one observation too (a new start
 Watching a run (issue 21): ~/pause holds the loop (lockstep: the /cmd_vel that answers the last
 observation is kept, not stepped; realtime: the timer steps no more), ~/resume lets it go on (the
 held command steps at once), ~/step advances exactly one step and stays paused (pausing first if
-running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes). A paused
-and stepped lockstep run is the run it would have been: every command still advances one dt, in
-order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
+running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes, or, when none
+has come for lockstep_resend_period, a step at zero velocity is taken: the driver holds the robot, as
+a navigator does while nobody drives). While paused no observation is resent: /clock stops exactly. A
+paused and stepped lockstep run is the run it would have been: every command still advances one dt,
+in order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
 each command until a steady timer at dt / N releases it (at most N x real time); realtime N > 0
 replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation).
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
+
+Several robots (issue 22, docs/fleet.md): a world with a `robots` list runs them all here, each robot's topics
+and services in its namespace (<name>/cmd_vel, <name>/scan, <name>/status, <name>/tf, <name>/set_pose,
+<name>/reset, ...; with one_tf_tree the shared /tf with prefixed frames). Lockstep advances the world when every
+robot has a command held, then every robot's observation goes out; the resend timer republishes only to the
+robots that have not answered, and a step owed while paused takes zero velocity for those. Realtime steps every
+robot with its latest command (each one's own command_timeout). ~/reset, ~/pause, ~/resume, ~/step, ~/render act
+on the world. A world without `robots` is the node described above, topic for topic.
 
 Localization (issue 12): a world that declares `beacons` adds /beacons (amr_interfaces/BeaconRanges:
 noisy range to each beacon in the world's order, and a noisy compass) to every observation. With
@@ -436,22 +446,44 @@ class SimulatorNode(ManagedNode):
     def _on_resend_timer(self) -> None:
         """Lockstep waits for every robot's command; a robot whose command has not come may not have heard its
         observation: it goes out again (a held command was heard: that robot waits for the others, or the loop
-        is paused or paced)."""
-        if not self._active:
-            return
+        is paused or paced). Paused, nothing is resent (/clock stops); a step owed is taken instead, the silent
+        robots at zero velocity (their drivers hold them)."""
+        try:
+            silent = self._unanswered() if self._active else []
+            if not silent:
+                return
+            if not self._paused:
+                if self._fleet.world.robots:
+                    waiting = ", ".join(f"/{channel.prefix}cmd_vel" for channel in silent)
+                    self.get_logger().info(f"step {self._fleet.steps} waits for {waiting}: publishing their "
+                                           "observation again", throttle_duration_sec=WARNING_PERIOD)
+                else:
+                    self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
+                                           throttle_duration_sec=WARNING_PERIOD)
+                self._publish_observation(silent)
+            elif self._owed > 0 and self._stalled(silent):
+                self._owed -= 1
+                self._advance_holding_the_silent()
+        except Exception as error:
+            self.get_logger().error(
+                f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+
+    def _unanswered(self) -> list[RobotChannel]:
+        """Lockstep: the robots whose /cmd_vel has not come for their last observation in lockstep_resend_period
+        (0: none ever is)."""
         period = self.get_parameter("lockstep_resend_period").value
-        silent = [channel for channel in self._robots
-                  if not channel.held and time.monotonic() - channel.last_output > period]
-        if not silent:
-            return
-        if self._fleet.world.robots:
-            waiting = ", ".join(f"/{channel.prefix}cmd_vel" for channel in silent)
-            self.get_logger().info(f"step {self._fleet.steps} waits for {waiting}: publishing their observation "
-                                   "again", throttle_duration_sec=WARNING_PERIOD)
-        else:
-            self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
-                                   throttle_duration_sec=WARNING_PERIOD)
-        self._publish_observation(silent)
+        if period <= 0.0:
+            return []
+        now = time.monotonic()
+        return [channel for channel in self._robots if not channel.held and now - channel.last_output > period]
+
+    def _stalled(self, silent: list[RobotChannel]) -> bool:
+        """Every robot has either a command held or none coming (silent): nothing more will arrive to step on."""
+        return bool(silent) and all(channel.held or channel in silent for channel in self._robots)
+
+    def _advance_holding_the_silent(self) -> None:
+        """A step owed while paused: the held commands, zero velocity for the robots without one."""
+        self._advance([channel.held.popleft() if channel.held else (0.0, 0.0) for channel in self._robots])
 
     def _advance(self, commands: list[tuple[float, float]]) -> None:
         """One step of every robot, its log lines (contacts, goal) and every robot's observation."""
@@ -668,13 +700,10 @@ class SimulatorNode(ManagedNode):
         return self._control(response, self._step_once)
 
     def _control(self, response: Trigger.Response, action) -> Trigger.Response:
-        """A pause/resume/step request: refused unless active, answered with what happened."""
+        """A pause/resume/step request (create_active_service refuses them unless active): what happened."""
         try:
-            if not self._active:
-                response.success, response.message = False, f"not active (state {self.state_label})"
-            else:
-                response.success, response.message = True, action()
-                self.get_logger().info(response.message)
+            response.success, response.message = True, action()
+            self.get_logger().info(response.message)
         except Exception as error:
             response.success, response.message = False, f"{type(error).__name__}: {error}"
             self.get_logger().error(response.message)
@@ -700,10 +729,13 @@ class SimulatorNode(ManagedNode):
         self._owed += 1
         if fleet.config.mode == "lockstep":
             self._release()
+            if self._owed > 0 and self._stalled(self._unanswered()):  # their drivers hold them: no command comes
+                self._owed -= 1
+                self._advance_holding_the_silent()
         if fleet.steps > steps:
             return f"{note}stepped to t = {fleet.time:.2f} s (step {fleet.steps})"
-        waiting = ("the next /cmd_vel" if not fleet.world.robots else "every robot's next cmd_vel") \
-            if fleet.config.mode == "lockstep" else "the next tick"
+        waiting = (("the next /cmd_vel" if not fleet.world.robots else "every robot's next cmd_vel") +
+                   " (or at zero velocity if none comes)") if fleet.config.mode == "lockstep" else "the next tick"
         return f"{note}{self._owed} step(s) owed at t = {fleet.time:.2f} s: taken on {waiting}"
 
     def _on_render(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

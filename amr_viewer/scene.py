@@ -137,18 +137,8 @@ class Scene:
         if handle is not None:
             handle.remove()
 
-    def _segments(self, name: str, segments: np.ndarray, color, thickness: float = LINE) -> None:
-        """Line segments (M, 2, 3); none drawn for M = 0."""
-        if len(segments) == 0:
-            self._drop(name)
-            return
-        handle = self._handles.get(name)
-        if handle is not None:
-            handle.points = segments
-        else:
-            self._put(name, self.scene.add_line_segments(name, segments, color, thickness=thickness))
-
-    def _cloud(self, name: str, points: np.ndarray, color, size: float, shape: str = "circle") -> None:
+    def _points(self, name: str, points: np.ndarray, add) -> None:
+        """Points of a handle with a `points` property: updated in place, added with add(), dropped when empty."""
         if len(points) == 0:
             self._drop(name)
             return
@@ -156,8 +146,15 @@ class Scene:
         if handle is not None:
             handle.points = points
         else:
-            self._put(name, self.scene.add_point_cloud(name, points, color, point_size=size, point_shape=shape,
-                                                       precision="float32", point_shading="flat"))
+            self._put(name, add())
+
+    def _segments(self, name: str, segments: np.ndarray, color, thickness: float = LINE) -> None:
+        """Line segments (M, 2, 3); none drawn for M = 0."""
+        self._points(name, segments, lambda: self.scene.add_line_segments(name, segments, color, thickness=thickness))
+
+    def _cloud(self, name: str, points: np.ndarray, color, size: float, shape: str = "circle") -> None:
+        self._points(name, points, lambda: self.scene.add_point_cloud(
+            name, points, color, point_size=size, point_shape=shape, precision="float32", point_shading="flat"))
 
     def _draw_map(self, state: RobotState, root: str) -> None:
         image = state.map

@@ -23,6 +23,9 @@ SIMULATOR_STATUS = "amr_interfaces/msg/SimulatorStatus"
 JOINT_STATES = "sensor_msgs/msg/JointState"
 CONTROL_SERVICES = ("pause", "resume", "step", "reset")
 TRIGGER = "std_srvs/srv/Trigger"
+EMPTY = "std_srvs/srv/Empty"
+GLOBAL_LOCALIZATION = "reinitialize_global_localization"
+"""A localizer's service that spreads its estimate over the map again (nav2 AMCL's name; our particle filter's)."""
 GET_STATE = "lifecycle_msgs/srv/GetState"
 
 
@@ -80,6 +83,12 @@ def simulators(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
         if leaf in CONTROL_SERVICES and TRIGGER in set(types):
             offered.setdefault(node, set()).add(leaf)
     return sorted(node for node, leaves in offered.items() if leaves == set(CONTROL_SERVICES))
+
+
+def localizers(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
+    """Nodes serving `<node>/reinitialize_global_localization` (std_srvs/Empty): their full names."""
+    return sorted(split(name)[0] for name, types in services
+                  if split(name)[1] == GLOBAL_LOCALIZATION and EMPTY in set(types))
 
 
 def lifecycle_nodes(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:

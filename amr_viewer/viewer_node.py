@@ -34,7 +34,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, LaserScan
-from std_srvs.srv import Trigger
+from std_srvs.srv import Empty, Trigger
 from tf2_msgs.msg import TFMessage
 
 from amr_maps.world import load_world, resolve_world_path
@@ -134,18 +134,21 @@ class RobotLink:
             state.on_ground_truth(cdr.odometry_pose(data))
         elif leaf == "particle_cloud":
             state.on_particles(cdr.pose_array(data)[1])
-        elif leaf == "scan":
-            state.on_scan(messages.laser_scan(deserialize_message(data, LaserScan)))
-        elif leaf == "pose":
-            state.on_estimate(messages.localized_pose(deserialize_message(data, LocalizedPose)))
-        elif leaf == "path":
-            state.on_path(messages.path_points(deserialize_message(data, Path)))
-        elif leaf == "beacons":
-            state.on_beacons(messages.beacon_positions(deserialize_message(data, BeaconRanges)))
-        elif leaf == "map":
-            state.on_map(messages.occupancy_grid(deserialize_message(data, OccupancyGrid)))
-        elif leaf == "simulator/status":
-            state.on_status(messages.simulator_status(deserialize_message(data, SimulatorStatus)))
+        else:
+            convert, take = DECODED[leaf]
+            getattr(state, take)(convert(deserialize_message(data, self.RAW_TOPICS[leaf][0])))
+
+
+DECODED = {
+    "scan": (messages.laser_scan, "on_scan"),
+    "pose": (messages.localized_pose, "on_estimate"),
+    "path": (messages.path_points, "on_path"),
+    "beacons": (messages.beacon_positions, "on_beacons"),
+    "map": (messages.occupancy_grid, "on_map"),
+    "simulator/status": (messages.simulator_status, "on_status"),
+}
+"""Leaf -> (converter to plain data, RobotState method) of the topics deserialized by rclpy (the others are decoded
+straight from CDR, amr_viewer.cdr)."""
 
 
 class Pending:
@@ -184,6 +187,8 @@ class ViewerNode(ManagedNode):
         self._arms_asked: set[str] = set()
         self._worlds_asked: set[str] = set()
         self.simulators: dict[str, dict[str, object]] = {}
+        self.localizers: dict[str, object] = {}
+        """Node -> client of its ~/reinitialize_global_localization: called before the simulator's reset."""
         self.node_states: dict[str, str] = {}
         self._state_clients: dict[str, object] = {}
         self._parameter_clients: dict[str, AsyncParameterClient] = {}
@@ -287,7 +292,7 @@ class ViewerNode(ManagedNode):
         if self._guard is not None:
             self.destroy_guard_condition(self._guard)
         self.robots, self.arms, self._arm_subscriptions, self._pose_publishers, self._guard = {}, {}, [], {}, None
-        self._arms_asked, self._worlds_asked, self.simulators = set(), set(), {}
+        self._arms_asked, self._worlds_asked, self.simulators, self.localizers = set(), set(), {}, {}
         self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
         if self.server is not None:
             self.server.stop()
@@ -372,6 +377,9 @@ class ViewerNode(ManagedNode):
                 self.simulators[simulator] = {name: self.create_client(Trigger, f"{simulator}/{name}")
                                               for name in topics.CONTROL_SERVICES}
             self._ask_world(simulator)
+        for localizer in topics.localizers(services):
+            if localizer not in self.localizers:
+                self.localizers[localizer] = self.create_client(Empty, f"{localizer}/{topics.GLOBAL_LOCALIZATION}")
         for node in topics.joint_state_nodes(graph_topics):
             self._ask_arms(node)
         for node in topics.lifecycle_nodes(services):
@@ -542,6 +550,26 @@ class ViewerNode(ManagedNode):
         if not self.simulators:
             self.panels.simulation_reply.content = "no simulator found (a node with ~/pause, ~/resume, ~/step, ~/reset)"
             return
+        localizers = [node for node, client in self.localizers.items() if client.service_is_ready()]
+        if service != "reset" or not localizers:
+            self._call_simulators(service)
+            return
+        # A reset puts the robot back at its start, which no localizer is told (a kidnapping): each one starts
+        # global localization again first, so that the reset's observation is the first one it judges afresh.
+        waiting = set(localizers)
+        note = f"; global localization restarted on {', '.join(localizers)}"
+
+        def done(node: str) -> None:
+            waiting.discard(node)
+            if not waiting:
+                self._call_simulators(service, note)
+
+        for node in localizers:
+            self.pending.add(self.localizers[node].call_async(Empty.Request()),
+                             lambda answer, node=node: done(node), lambda node=node: done(node))
+
+    def _call_simulators(self, service: str, note: str = "") -> None:
+        """Each simulator's ~/<service>; its answer (and `note` after a success) under the buttons."""
         for simulator, clients in self.simulators.items():
             client = clients[service]
             if not client.service_is_ready():
@@ -552,7 +580,7 @@ class ViewerNode(ManagedNode):
                 if isinstance(response, Exception):
                     text = f"{simulator}/{service}: {response}"
                 else:
-                    text = f"{simulator}: {response.message}"
+                    text = f"{simulator}: {response.message}" + (note if response.success else "")
                     if response.success and service in ("pause", "step", "resume"):
                         self.paused = service != "resume"
                 self.panels.simulation_reply.content = text

@@ -115,6 +115,19 @@ def test_withdrawn_localization_explores_again_and_keeps_the_path():
     assert back.controller is Controller.PATH_FOLLOWER and back.plan is None and nav.counters.plans == 1
 
 
+def test_a_loss_of_localization_after_arrival_pursues_the_goal_again():
+    """The robot moved after arrival (kidnapped, a simulator reset): once localized again the goal is planned for."""
+    nav = Navigator((2.5, 0.5))
+    planned(nav, nav.decide((0.5, 0.5, 0.0), True))
+    nav.followed(reached=True, replan=False)
+    assert nav.decide((2.5, 0.5, 0.0), True).mode is Mode.REACHED
+    assert nav.decide((2.5, 0.5, 0.0), True).mode is Mode.REACHED, "held while localized"
+    assert nav.decide((0.5, 0.5, 0.0), False).controller is Controller.WALL_FOLLOWER
+    again = nav.decide((0.5, 0.5, 0.0), True)
+    assert again.mode is Mode.PLANNING and again.plan.goal == (2.5, 0.5) and again.plan.start == (0.5, 0.5)
+    assert planned(nav, again).mode is Mode.FOLLOW
+
+
 def test_a_goal_changed_while_planning_is_planned_for_instead():
     nav = Navigator((2.5, 0.5))
     asked = nav.decide((0.5, 0.5, 0.0), True)

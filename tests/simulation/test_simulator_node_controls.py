@@ -5,7 +5,7 @@ import pytest
 from conftest import spin_until
 from rclpy.parameter import Parameter
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT, call, drive, nodes, probe, settle, simulator, start)
+    TIMEOUT, call, drive, nodes, probe, seconds, settle, simulator, start)
 from std_srvs.srv import Trigger
 
 OPEN_ROOM = {"world": "open_room.yaml"}
@@ -144,9 +144,10 @@ def test_controls_are_refused_unless_active(simulator, probe, executor):
     executor.add_node(driver)
     from lifecycle_msgs.msg import Transition
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
-    for client in control.values():
+    for name, client in control.items():
         answer = trigger(executor, client)
-        assert not answer.success and answer.message == "not active (state inactive)"
+        assert not answer.success and answer.message == \
+            f"simulator is inactive: ~/{name} answers only while active"
 
 
 def test_reset_while_paused_drops_the_held_command_and_stays_paused(simulator, probe, executor):
@@ -167,3 +168,45 @@ def test_reset_while_paused_drops_the_held_command_and_stays_paused(simulator, p
     assert spin_until(executor, lambda: driver.observations() == 5, TIMEOUT)
     assert driver.statuses[-1].steps == 1
     assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(-1.5 + 0.2 * 0.05)
+
+
+def clock_seconds(driver) -> list[float]:
+    return [seconds(m.clock) for m in driver.clocks]
+
+
+def test_a_held_robot_pauses_without_resends_and_steps_at_zero_velocity(simulator, probe, executor):
+    """A driver that holds the robot (a navigator with nobody driving) sends no /cmd_vel: while running the
+    observation is resent; paused, /clock stops exactly; Step takes its step at zero velocity once no /cmd_vel has
+    come for lockstep_resend_period."""
+    node, driver = simulator(**OPEN_ROOM, lockstep_resend_period=0.3), probe()
+    control = clients(driver)
+    start(executor, node, driver)
+    drive(executor, driver, [(0.2, 0.0)] * 2)
+    count = len(driver.clocks)
+    assert spin_until(executor, lambda: len(driver.clocks) > count, TIMEOUT), "running: the observation is resent"
+    assert clock_seconds(driver)[-1] == pytest.approx(0.10), "a resend does not advance time"
+
+    assert trigger(executor, control["pause"]).success
+    settle(executor, 0.2)
+    count = len(driver.clocks)
+    settle(executor, 1.0)
+    assert len(driver.clocks) == count, "paused: nothing is resent"
+
+    answer = trigger(executor, control["step"])  # no /cmd_vel for longer than the period: stepped at once
+    assert answer.success and answer.message.startswith("stepped to t = 0.15 s (step 3)"), answer.message
+    assert spin_until(executor, lambda: len(driver.clocks) == count + 1, TIMEOUT)
+    x = driver.ground_truth[-1].pose.pose.position.x
+    answer = trigger(executor, control["step"])  # just stepped: owed, taken when no /cmd_vel comes for the period
+    assert answer.success and "1 step(s) owed" in answer.message, answer.message
+    assert spin_until(executor, lambda: len(driver.clocks) == count + 2, TIMEOUT), "the owed step is taken"
+    settle(executor, 1.0)
+    assert clock_seconds(driver)[count:] == pytest.approx([0.15, 0.20]), "exactly one dt per Step, nothing resent"
+    assert driver.statuses[-1].steps == 4
+    assert abs(driver.ground_truth[-1].twist.twist.linear.x) < 0.2, "stepped at zero velocity: the robot slows"
+    assert driver.ground_truth[-1].pose.pose.position.x - x < 0.2 * 0.05
+
+    assert trigger(executor, control["resume"]).success
+    count = len(driver.clocks)
+    assert spin_until(executor, lambda: len(driver.clocks) > count, TIMEOUT), "running again: resends resume"
+    assert clock_seconds(driver)[-1] == pytest.approx(0.20)
+

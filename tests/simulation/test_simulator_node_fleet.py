@@ -252,3 +252,26 @@ def test_a_fleet_world_refuses_the_start_override(simulator, executor, two_world
     assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert "start: overrides the start of a world of one unnamed robot" in capfd.readouterr().err
     assert node.robot_names == ()
+
+
+def test_paused_a_step_waits_for_every_robot_and_holds_a_silent_one_at_zero(simulator, probe, executor, two_world):
+    node = simulator(world=two_world, lockstep_resend_period=0.3)
+    r1, r2 = probe(robot="r1"), probe(robot="r2")
+    start_fleet(executor, node, [r1, r2])
+    pause, step = (node.create_client(Trigger, f"/simulator/{name}") for name in ("pause", "step"))
+    assert call(executor, pause, Trigger.Request()).success  # (the resend timer may have resent the first one)
+    settle(executor, 0.1)
+    seen = (r1.observations(), r2.observations())
+    r1.send(0.2)
+    settle(executor, 0.8)
+    assert (r1.observations(), r2.observations()) == seen, "paused: nothing steps, nothing is resent"
+    answer = call(executor, step, Trigger.Request())
+    assert answer.success, answer.message
+    # r2 has said nothing for longer than the resend period: the owed step moves r1 and holds r2
+    assert spin_until(executor, lambda: r1.ground_truth[-1].header.stamp.nanosec > 0, TIMEOUT)
+    assert r1.statuses[-1].steps == 1
+    assert r1.ground_truth[-1].pose.pose.position.x == pytest.approx(-1.0 + 0.2 * DT, abs=1e-9)
+    assert spin_until(executor, lambda: r2.statuses[-1].steps == 1, TIMEOUT)
+    assert r2.ground_truth[-1].pose.pose.position.x == 1.0
+    settle(executor, 0.8)
+    assert r1.statuses[-1].steps == r2.statuses[-1].steps == 1, "one step owed, one taken"

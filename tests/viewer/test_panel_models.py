@@ -102,6 +102,8 @@ SERVICES = [(f"/simulator/{leaf}", ["std_srvs/srv/Trigger"]) for leaf in ("pause
     ("/robot1/simulator/pause", ["std_srvs/srv/Trigger"]),  # not every control: not a simulator to steer
     ("/simulator/get_state", ["lifecycle_msgs/srv/GetState"]), ("/planner/get_state", ["lifecycle_msgs/srv/GetState"]),
     ("/x/get_state", ["std_srvs/srv/Trigger"]),
+    ("/particle_filter/reinitialize_global_localization", ["std_srvs/srv/Empty"]),
+    ("/y/reinitialize_global_localization", ["std_srvs/srv/Trigger"]),  # not the standard type: not a localizer
 ]
 
 
@@ -114,6 +116,7 @@ def test_every_namespace_with_robot_topics_is_a_robot():
 def test_simulators_arms_and_lifecycle_nodes_are_found():
     assert topics.simulators(SERVICES) == ["/simulator"]
     assert topics.lifecycle_nodes(SERVICES) == ["/planner", "/simulator"]
+    assert topics.localizers(SERVICES) == ["/particle_filter"]
     assert topics.joint_state_nodes(GRAPH) == ["/ik_service"]
     assert topics.simulator_status_topics(GRAPH) == ["/simulator/status"]
     assert topics.split("/a/b/c") == ("/a/b", "c") and topics.join("", "goal_pose") == "/goal_pose"

@@ -16,6 +16,7 @@ from nav_msgs.msg import OccupancyGrid, Path
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan
+from std_srvs.srv import Empty, Trigger
 from tf2_msgs.msg import TFMessage
 
 from amr_control.wall_follower_node import WallFollowerNode
@@ -221,3 +222,41 @@ def test_cleanup_stops_serving_and_a_second_configure_serves_again(ros_context, 
         assert node.server is None and not list(node.clients) and node.robots == {}
         with pytest.raises(OSError):
             socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+
+
+class FakeControls(Node):
+    """A simulator's four controls and a localizer's ~/reinitialize_global_localization, counting the calls."""
+
+    def __init__(self, context):
+        super().__init__("fake_controls", context=context)
+        self.calls: list[str] = []
+
+        def answer(name):
+            def callback(request, response):
+                self.calls.append(name)
+                response.success, response.message = True, f"{name} done"
+                return response
+            return callback
+
+        for name in ("pause", "resume", "step", "reset"):
+            self.create_service(Trigger, f"/simulator/{name}", answer(name))
+        self.create_service(Empty, "/particle_filter/reinitialize_global_localization",
+                            lambda request, response: self.calls.append("relocalize") or response)
+
+
+def test_reset_restarts_global_localization_on_every_localizer_first(ros_context, executor, viewer):
+    node, controls = viewer(), FakeControls(ros_context)
+    executor.add_node(node)
+    executor.add_node(controls)
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE) and node.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert spin_until(executor, lambda: node.simulators and node.localizers and all(
+        client.service_is_ready() for client in [*node.simulators["/simulator"].values(), *node.localizers.values()]),
+        TIMEOUT), "the simulator and the localizer found in the graph"
+    node._control("pause")
+    assert spin_until(executor, lambda: "pause done" in node.panels.simulation_reply.content, TIMEOUT)
+    node._control("reset")
+    assert spin_until(executor, lambda: "reset" in controls.calls, TIMEOUT)
+    assert controls.calls == ["pause", "relocalize", "reset"], "the localizer first: it judges the reset afresh"
+    assert spin_until(executor, lambda: "reset done" in node.panels.simulation_reply.content, TIMEOUT)
+    assert node.panels.simulation_reply.content == \
+        "/simulator: reset done; global localization restarted on /particle_filter"
