@@ -172,7 +172,8 @@ class Bringup:
 
     def with_overrides(self, arguments: Mapping[str, str] | None = None,
                        parameters: Mapping[str, str] | None = None) -> "Bringup":
-        """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied.
+        """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied, then its
+        per_robot nodes copied for the robots of its world (for_robots): the stack as it is started.
 
         Values are YAML, as `ros2 run -p` reads them. An unknown argument or node is refused with
         the known ones; an unknown parameter reaches the node, which refuses it at configure. A parameter
