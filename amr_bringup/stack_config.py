@@ -224,7 +224,8 @@ class Bringup:
         try:
             robots = load_world(resolve_world_path(world_name)).fleet
         except (OSError, ValueError) as error:
-            raise BringupError(f"{self.source}: {key}: {'.'.join(self.robots_from)} = {world_name!r}: {error}") from None
+            raise BringupError(
+                f"{self.source}: {key}: {'.'.join(self.robots_from)} = {world_name!r}: {error}") from None
         copies = {node.name: robot_nodes(node, robots) for node in self.nodes if node.per_robot}
         nodes = tuple(copy for node in self.nodes for copy in copies.get(node.name, [node]))
         order = tuple(name for entry in self.node_startup_order

@@ -536,7 +536,8 @@ class SimulatorNode(ManagedNode):
         robot = fleet.robots[channel.index]
         if "odometry" in outputs:
             v, w = robot.odom_twist
-            outputs["odometry"].publish(channel.odometry("odometry", stamp, frames["odom"], robot.odom_pose, (v, 0.0, w)))
+            outputs["odometry"].publish(
+                channel.odometry("odometry", stamp, frames["odom"], robot.odom_pose, (v, 0.0, w)))
         if "odom" in outputs:
             outputs["odom"].publish(channel.odometry("odom", stamp, frames["odom"], robot.odom_pose, (0.0, 0.0, 0.0)))
         if "ground_truth" in outputs:

@@ -296,8 +296,9 @@ def main() -> None:
             for count in args.counts:
                 result = min((ros_run(description, count, args.ros_steps, args.ros_warmup, lean)
                               for _ in range(args.repeats)), key=lambda r: r["seconds"] / r["steps"])
+                share = (library[count]["seconds"] / library[count]["steps"]) / (result["seconds"] / result["steps"])
                 print(row("amr ROS lean" if lean else "amr ROS", result, dt, library.get(1)) +
-                      f" | library {100 * library[count]['seconds'] / library[count]['steps'] / (result['seconds'] / result['steps']):.0f} %")
+                      f" | library {100 * share:.0f} %")
     if not args.no_irsim and not args.ros_only:
         peer, why = irsim_runs(description, args.irsim_python)
         if peer is None:

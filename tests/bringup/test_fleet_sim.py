@@ -169,7 +169,8 @@ def test_robot_copies_are_namespaced_and_carry_the_file_values_inline():
     ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": True},
                 {"name": "s", "package": "p", "executable": "e"}], "robots_from": "a.world"},
      r"robots_from: 'a.world' is not <node>.<parameter> of a node in \['s'\]"),
-    ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": "yes"}]}, r"nodes\[0\].per_robot: must be true or false"),
+    ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": "yes"}]},
+     r"nodes\[0\].per_robot: must be true or false"),
 ])
 def test_bad_per_robot_sections_are_refused_naming_the_key(document, message, tmp_path):
     with pytest.raises(BringupError, match=message):

@@ -130,8 +130,8 @@ def test_every_topic_is_in_its_robots_namespace_and_the_world_steps_when_every_r
 def test_tf_per_namespace_with_plain_frames(simulator, probe, executor, two_world):
     node = simulator(world=two_world, publish_map_to_odom=True)
     r1, r2 = probe(robot="r1"), probe(robot="r2")
-    tf = TfProbe(node.context, {"/r1/tf": False, "/r2/tf": False, "/r1/tf_static": True, "/r2/tf_static": True, "/tf": False,
-                                  "/tf_static": True})
+    tf = TfProbe(node.context, {"/r1/tf": False, "/r2/tf": False, "/r1/tf_static": True, "/r2/tf_static": True,
+                                "/tf": False, "/tf_static": True})
     start_fleet(executor, node, [r1, r2], [tf])
     drive_all(executor, [r1, r2], [((0.1, 0.0), (0.0, 0.5))] * 3)
     assert spin_until(executor, lambda: all(len(tf.messages[f"/{r}/tf"]) >= 4 for r in ("r1", "r2")), TIMEOUT)
