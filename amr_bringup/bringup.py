@@ -112,11 +112,11 @@ class ProcessStack:
         for node in bringup.nodes:
             command = [str(executable_path(node.package, node.executable)), *node.ros_arguments()]
             try:
-                self.processes.append(NodeProcess(node.name, command, console.line))
+                self.processes.append(NodeProcess(node.managed_name.lstrip("/"), command, console.line))
             except OSError as error:
                 self.stop(Flag())
-                raise StackError(f"node {node.name} failed to start: {error}") from error
-            console.note(f"started {node.name} (pid {self.processes[-1].pid}): {' '.join(command)}")
+                raise StackError(f"node {node.managed_name} failed to start: {error}") from error
+            console.note(f"started {node.managed_name} (pid {self.processes[-1].pid}): {' '.join(command)}")
 
     def failure(self) -> str | None:
         for process in self.processes:
@@ -140,8 +140,9 @@ class ComposedStack:
                 self.nodes.append(node_class(node)(cli_args=node.ros_arguments()))
             except Exception as error:
                 self.stop(Flag())
-                raise StackError(f"node {node.name} failed to start: {type(error).__name__}: {error}") from error
-            console.note(f"created {node.name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
+                raise StackError(f"node {node.managed_name} failed to start: {type(error).__name__}: {error}") \
+                    from error
+            console.note(f"created {node.managed_name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
 
     def failure(self) -> str | None:
         return self.crash

@@ -17,11 +17,12 @@ from amr_util.executors import NodeSpinners
 @contextmanager
 def composed_stack(context, stack: str, arguments=None, parameters=None, remappings=None, extra_nodes=(),
                    before_activate=lambda node: None):
-    """Yields (nodes by name, manager, spinners); the stack is built but not started (call manager.startup())."""
+    """Yields (nodes by managed name: `simulator`, `/r1/wall_follower`, manager, spinners); the stack is built but
+    not started (call manager.startup()). `remappings` by node name apply to every robot's copy of a per_robot node."""
     bringup = load_bringup(stack).with_overrides(arguments or {}, parameters or {})
     specs = [replace(spec, remappings=spec.remappings + tuple((remappings or {}).get(spec.name, ())))
              for spec in bringup.nodes]
-    nodes = {spec.name: node_class(spec)(context=context, cli_args=spec.ros_arguments()) for spec in specs}
+    nodes = {spec.managed_name: node_class(spec)(context=context, cli_args=spec.ros_arguments()) for spec in specs}
     manager = LifecycleManager(before_activate=before_activate, context=context, cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
                                parameter_overrides=[Parameter(k, value=v)
                                                     for k, v in bringup.manager_parameters().items()])

@@ -11,14 +11,22 @@ files in launch/, so the node lists and parameters have one source. The format:
         parameter_files: [wall_follower_sim.yaml]  # relative: share/<package>/config/<file>
         parameters: {preferred_wall: left}   # optional inline parameters, after the files
         remappings: {cmd_vel: /robot/cmd_vel}  # optional, from: to
+        per_robot: false                     # optional: true = one copy per robot of the world (below)
     lifecycle_manager:                       # optional
       node_startup_order: [wall_follower]    # default: every node, in the order listed
       wait_timeout: 30.0                     # optional, s, passed to the manager
       transition_timeout: 15.0               # optional, s
+    robots_from: simulator.world             # with a per_robot node: the <node>.<parameter> naming the world
     arguments:                               # optional: what a user changes per run
       preferred_wall:                        # `amr-bringup <stack> preferred_wall:=left`,
         sets: [wall_follower.preferred_wall] # `ros2 launch ... preferred_wall:=left`
         description: right, left or random
+
+A node with `per_robot: true` is a description of every robot's copy: when the stack is made (`with_overrides`,
+which amr-bringup, `ros2 launch` and `composed_stack` all call), `robot_nodes` maps the robots of the world that
+`robots_from` names (amr_maps.world.World.fleet) to one copy each in the robot's namespace (`/r1/wall_follower`),
+and the copies take the template's place in the lifecycle order, robot by robot. A world without a `robots` list
+is one unnamed robot: one copy in the template's own namespace, exactly as a node without per_robot.
 
 Every stack also has the arguments `use_sim_time` (every node) and `<node>_params_file` (replaces
 that node's parameter files). An argument left unset changes nothing: the files decide.
@@ -47,10 +55,10 @@ from amr_util.share import package_prefix, share_directory
 
 BRINGUP_PACKAGE = "amr_bringup"
 """The package whose share/<package>/config/bringup holds the shipped bringup files."""
-NODE_KEYS = {"name", "package", "executable", "namespace", "parameter_files", "parameters", "remappings"}
+NODE_KEYS = {"name", "package", "executable", "namespace", "parameter_files", "parameters", "remappings", "per_robot"}
 REQUIRED_NODE_KEYS = ("name", "package", "executable")
 MANAGER_KEYS = {"node_startup_order", "wait_timeout", "transition_timeout"}
-TOP_KEYS = {"nodes", "lifecycle_manager", "arguments"}
+TOP_KEYS = {"nodes", "lifecycle_manager", "arguments", "robots_from"}
 ARGUMENT_KEYS = {"sets", "description"}
 NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 """A ROS node name, package name or namespace token (rcl's rules, kept to the common subset)."""
@@ -74,6 +82,8 @@ class NodeSpec:
     parameters: dict[str, object] = field(default_factory=dict)
     """Flat: nested mappings become dotted names, as ROS declares them (`lidar.beams`)."""
     remappings: tuple[tuple[str, str], ...] = ()
+    per_robot: bool = False
+    """A description of every robot's copy (robot_nodes), not a node itself."""
 
     @property
     def managed_name(self) -> str:
@@ -123,6 +133,8 @@ class Bringup:
     node_startup_order: tuple[str, ...]
     manager_timeouts: dict[str, float] = field(default_factory=dict)
     declared_arguments: tuple[StackArgument, ...] = ()
+    robots_from: tuple[str, str] | None = None
+    """(node, parameter) naming the world whose robots the per_robot nodes are copied for."""
 
     @property
     def arguments(self) -> dict[str, StackArgument]:
@@ -142,7 +154,11 @@ class Bringup:
         node = self._node(spec.params_file_of or spec.sets[0][0])
         if spec.params_file_of:
             return ", ".join(str(path) for path in node.parameter_file_paths()) or None
-        parameter = spec.sets[0][1]
+        return self._value(node, spec.sets[0][1])
+
+    @staticmethod
+    def _value(node: NodeSpec, parameter: str) -> object:
+        """What `node` gives `parameter` now (inline, else its files), None if nothing."""
         if parameter in node.parameters:
             return node.parameters[parameter]
         for path in reversed(node.parameter_file_paths()):
@@ -156,7 +172,8 @@ class Bringup:
 
     def with_overrides(self, arguments: Mapping[str, str] | None = None,
                        parameters: Mapping[str, str] | None = None) -> "Bringup":
-        """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied.
+        """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied, then its
+        per_robot nodes copied for the robots of its world (for_robots): the stack as it is started.
 
         Values are YAML, as `ros2 run -p` reads them. An unknown argument or node is refused with
         the known ones; an unknown parameter reaches the node, which refuses it at configure. A parameter
@@ -187,7 +204,33 @@ class Bringup:
                     f"{', '.join(f'{n}.{q}' for n, q in tied.sets if (n, q) != (node_name, parameter))} by the stack "
                     f"argument {tied.name}:= (they must agree); give {tied.name}:={text} instead")
             nodes[node_name] = _with_parameter(nodes[node_name], parameter, text)
-        return replace(self, nodes=tuple(nodes[node.name] for node in self.nodes))
+        return replace(self, nodes=tuple(nodes[node.name] for node in self.nodes)).for_robots()
+
+    def robots_world(self) -> str | None:
+        """The world the per_robot nodes are copied for (the value of `robots_from`), None without per_robot nodes."""
+        if self.robots_from is None:
+            return None
+        node, parameter = self.robots_from
+        return str(self._value(self._node(node), parameter) or "")
+
+    def for_robots(self) -> "Bringup":
+        """This stack with each per_robot node replaced by its copies for the robots of `robots_world()`."""
+        if not any(node.per_robot for node in self.nodes):
+            return self
+        from amr_maps.world import load_world, resolve_world_path  # a fleet stack only
+
+        world_name = self.robots_world()
+        key = "robots_from"
+        try:
+            robots = load_world(resolve_world_path(world_name)).fleet
+        except (OSError, ValueError) as error:
+            raise BringupError(
+                f"{self.source}: {key}: {'.'.join(self.robots_from)} = {world_name!r}: {error}") from None
+        copies = {node.name: robot_nodes(node, robots) for node in self.nodes if node.per_robot}
+        nodes = tuple(copy for node in self.nodes for copy in copies.get(node.name, [node]))
+        order = tuple(name for entry in self.node_startup_order
+                      for name in ([copy.managed_name for copy in copies[entry]] if entry in copies else [entry]))
+        return replace(self, nodes=nodes, node_startup_order=order)
 
     def tying_argument(self, node: str, parameter: str) -> StackArgument | None:
         """The declared argument that sets `node.parameter` together with another node's parameter, if any.
@@ -215,6 +258,25 @@ class Bringup:
     def manager_parameters(self) -> dict[str, object]:
         """Parameters of amr_bringup.lifecycle_manager for this stack."""
         return {"node_startup_order": list(self.node_startup_order), **self.manager_timeouts}
+
+
+def robot_nodes(template: NodeSpec, robots: Sequence) -> list[NodeSpec]:
+    """One node per robot (amr_maps.world.RobotSpec, World.fleet order) from a per_robot description: in the
+    robot's namespace under the template's own (`/r1/wall_follower`), its parameter files' values inlined (a file's
+    `wall_follower:` section does not reach /r1/wall_follower; the inline parameters still win); the unnamed robot
+    of a one-robot world is the template itself, in its own namespace."""
+    copies = []
+    for robot in robots:
+        if not robot.name:
+            copies.append(replace(template, per_robot=False))
+            continue
+        inlined: dict[str, object] = {}
+        for path in template.parameter_file_paths():
+            inlined.update(dotted(node_parameters(path, template.name, BringupError)))
+        inlined.update(template.parameters)
+        copies.append(replace(template, per_robot=False, namespace=f"{template.namespace}/{robot.name}",
+                              parameter_files=(), parameters=inlined))
+    return copies
 
 
 def parameter_file_path(package: str, name: str) -> Path:
@@ -306,7 +368,7 @@ def parse_bringup(document: object, source: Path) -> Bringup:
             except ConfigError as error:
                 raise where.error(f"lifecycle_manager.{key}", str(error).removeprefix(f"{key}: ")) from None
     arguments = _parse_arguments(where, document.get("arguments") or {}, nodes)
-    return Bringup(source, nodes, order, timeouts, arguments)
+    return Bringup(source, nodes, order, timeouts, arguments, _parse_robots_from(where, document, nodes))
 
 
 def parse_assignments(words: Sequence[str], what: str) -> dict[str, str]:
@@ -396,11 +458,32 @@ def _parse_node(where: _Where, key: str, entry: object) -> NodeSpec:
         for name in (source, target):
             if not isinstance(name, str) or not TOPIC.match(name):
                 raise where.error(f"{key}.remappings", f"{name!r} is not a topic or service name")
+    per_robot = entry.get("per_robot", False)
+    if not isinstance(per_robot, bool):
+        raise where.error(f"{key}.per_robot", f"must be true or false, got {per_robot!r}")
     return NodeSpec(
         name=entry["name"], package=entry["package"], executable=entry["executable"],
         namespace="/" + "/".join(tokens) if tokens else "",
         parameter_files=tuple(files), parameters=_flat_parameters(where, f"{key}.parameters", parameters),
-        remappings=tuple(remappings.items()))
+        remappings=tuple(remappings.items()), per_robot=per_robot)
+
+
+def _parse_robots_from(where: _Where, document: dict, nodes: tuple[NodeSpec, ...]) -> tuple[str, str] | None:
+    """`robots_from: <node>.<parameter>`: required with a per_robot node, refused without one."""
+    value = document.get("robots_from")
+    templates = [node.name for node in nodes if node.per_robot]
+    if value is None:
+        if templates:
+            raise where.error("robots_from", f"required with per_robot nodes ({', '.join(templates)}): the "
+                                             "<node>.<parameter> naming the world whose robots they serve")
+        return None
+    if not templates:
+        raise where.error("robots_from", "no node has per_robot: true")
+    node, dot, parameter = str(value).partition(".")
+    fixed = {n.name for n in nodes if not n.per_robot}
+    if not dot or node not in fixed or not parameter:
+        raise where.error("robots_from", f"{value!r} is not <node>.<parameter> of a node in {sorted(fixed)}")
+    return node, parameter
 
 
 def _flat_parameters(where: _Where, key: str, parameters: Mapping, prefix: str = "") -> dict[str, object]:

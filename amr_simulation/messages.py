@@ -19,11 +19,10 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from amr_simulation.config import BeaconConfig, LidarConfig
-from amr_util.geometry import Pose2D
-from amr_util.messages import quaternion
+from amr_util.geometry import Pose2D, quaternion_from_yaw
 
 if TYPE_CHECKING:
-    from amr_simulation.simulator import Simulator
+    from amr_simulation.fleet import Fleet, SimulatedRobot
 
 def clock(time: Time) -> Clock:
     return Clock(clock=time)
@@ -32,12 +31,18 @@ def clock(time: Time) -> Clock:
 def transform(time: Time, parent: str, child: str, pose: Pose2D) -> TransformStamped:
     """geometry_msgs/TransformStamped placing frame `child` at `pose` in frame `parent` (tf2's convention)."""
     message = TransformStamped()
-    message.header.stamp = time
     message.header.frame_id = parent
     message.child_frame_id = child
+    return fill_transform(message, time, pose)
+
+
+def fill_transform(message: TransformStamped, time: Time, pose: Pose2D) -> TransformStamped:
+    """A transform's stamp and pose set anew (its frames kept)."""
+    message.header.stamp = time
     translation = message.transform.translation
     translation.x, translation.y = pose.x, pose.y
-    message.transform.rotation = quaternion(pose.theta)
+    rotation = message.transform.rotation
+    rotation.x, rotation.y, rotation.z, rotation.w = quaternion_from_yaw(pose.theta)
     return message
 
 
@@ -49,12 +54,19 @@ def tf_message(transforms: Sequence[TransformStamped]) -> TFMessage:
 def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequence[float]) -> Odometry:
     """nav_msgs/Odometry: pose in `frame`, twist (vx, vy, w) in `child_frame` (the body)."""
     message = Odometry()
-    message.header.stamp = time
     message.header.frame_id = frame
     message.child_frame_id = child_frame
+    return fill_odometry(message, time, pose, twist)
+
+
+def fill_odometry(message: Odometry, time: Time, pose: Pose2D, twist: Sequence[float]) -> Odometry:
+    """An odometry message's stamp, pose and twist set anew (its frames kept): the simulator node refills one
+    message per topic each step, since publish serializes at the call and building an Odometry costs more."""
+    message.header.stamp = time
     position = message.pose.pose.position
     position.x, position.y = pose.x, pose.y
-    message.pose.pose.orientation = quaternion(pose.theta)
+    orientation = message.pose.pose.orientation
+    orientation.x, orientation.y, orientation.z, orientation.w = quaternion_from_yaw(pose.theta)
     vx, vy, w = twist
     message.twist.twist.linear.x, message.twist.twist.linear.y = vx, vy
     message.twist.twist.angular.z = w
@@ -64,7 +76,6 @@ def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequ
 def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, scan_time: float) -> LaserScan:
     """sensor_msgs/LaserScan of one scan taken at once (time_increment 0); +-inf kept (REP 117)."""
     message = LaserScan()
-    message.header.stamp = time
     message.header.frame_id = frame
     message.angle_min = lidar.angle_min
     message.angle_max = lidar.angle_max
@@ -72,15 +83,25 @@ def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, s
     message.scan_time = scan_time
     message.range_min = lidar.range_min
     message.range_max = lidar.range_max
+    return fill_laser_scan(message, time, ranges)
+
+
+def fill_laser_scan(message: LaserScan, time: Time, ranges: np.ndarray) -> LaserScan:
+    """A scan's stamp and ranges set anew (its frame and beam geometry kept)."""
+    message.header.stamp = time
     message.ranges = array.array("f", np.asarray(ranges, dtype=np.float32).tobytes())
     return message
 
 
-def status(time: Time, frame: str, sim: "Simulator", distance: float, real_time_factor: float) -> SimulatorStatus:
-    """amr_interfaces/SimulatorStatus of a simulator; distance and real-time factor are the node's."""
+def status(time: Time, frame: str, fleet: "Fleet", robot: "SimulatedRobot", distance: float,
+           real_time_factor: float) -> SimulatorStatus:
+    """amr_interfaces/SimulatorStatus of one robot of a fleet (the one robot of a Simulator's fleet: robot "");
+    distance and real-time factor are the node's."""
     message = SimulatorStatus(
-        sim_time=sim.time, steps=sim.steps, collisions=sim.collisions, in_contact=sim.in_contact,
-        goal_reached=sim.goal_reached, distance_travelled=distance, real_time_factor=real_time_factor,
+        robot=robot.name, sim_time=fleet.time, steps=fleet.steps, collisions=robot.collisions,
+        wall_collisions=robot.wall_collisions, robot_collisions=sum(robot.robot_collisions.values()),
+        in_contact=robot.in_contact, goal_reached=robot.goal_reached, distance_travelled=distance,
+        real_time_factor=real_time_factor,
     )
     message.header.stamp = time
     message.header.frame_id = frame

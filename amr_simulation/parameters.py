@@ -32,6 +32,10 @@ NODE_SPECS = (
                   "base_frame -> scan_frame (the LiDAR mounting lidar.x, lidar.y; transient local)"),
     ParameterSpec("publish_map_to_odom", False, "/tf world_frame -> odom_frame from the ground truth, so that map-frame "
                   "views work without a localizer (whose job it is otherwise)"),
+    ParameterSpec("one_tf_tree", False, "a world with `robots`: every robot's transforms on the one /tf and /tf_static "
+                  "with frames prefixed by its name (<name>/odom, <name>/base_footprint; world_frame shared), as "
+                  "Stage's one_tf_tree, for views of the whole fleet; false: /<name>/tf and /<name>/tf_static with "
+                  "plain frame names, as nav2's multi-robot bringup. No effect on a one-robot world"),
     ParameterSpec("qos_depth", 10, "queue depth of /cmd_vel and the reliable publishers", minimum=1, maximum=1000),
     ParameterSpec("lockstep_resend_period", 1.0, "lockstep: wall-clock s without a /cmd_vel after which the last "
                   "observation goes out again (one sent before the controller listened); 0 disables",

@@ -34,6 +34,14 @@ replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
 
+Several robots (issue 22, docs/fleet.md): a world with a `robots` list runs them all here, each robot's topics
+and services in its namespace (<name>/cmd_vel, <name>/scan, <name>/status, <name>/tf, <name>/set_pose,
+<name>/reset, ...; with one_tf_tree the shared /tf with prefixed frames). Lockstep advances the world when every
+robot has a command held, then every robot's observation goes out; the resend timer republishes only to the
+robots that have not answered, and a step owed while paused takes zero velocity for those. Realtime steps every
+robot with its latest command (each one's own command_timeout). ~/reset, ~/pause, ~/resume, ~/step, ~/render act
+on the world. A world without `robots` is the node described above, topic for topic.
+
 Localization (issue 12): a world that declares `beacons` adds /beacons (amr_interfaces/BeaconRanges:
 noisy range to each beacon in the world's order, and a noisy compass) to every observation. With
 `enable_localization` the node listens to /pose (a localizer's LocalizedPose), compares each estimate
@@ -60,9 +68,10 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
-from amr_maps.world import world_problem
+from amr_maps.world import load_world, resolve_world_path, world_problem
 from amr_simulation import messages
 from amr_simulation.config import SimulationConfig
+from amr_simulation.fleet import Fleet
 from amr_simulation.localization_check import LocalizationCheck
 from amr_simulation.parameters import NODE_PARAMETERS, parameter_specs
 from amr_simulation.simulator import Simulator
@@ -94,37 +103,89 @@ class RateMeter:
         return (sim1 - sim0) / (wall1 - wall0) if wall1 > wall0 else 0.0
 
 
+class RobotChannel:
+    """One robot's side of the node: its topics, frames, command queue and counters.
+
+    The one robot of a world without `robots` has the topics the node always had (`scan`, `~/status`, `/tf`,
+    ...); a robot of a fleet has them in its namespace (`<name>/scan`, `<name>/status`, `<name>/tf`, ...).
+    """
+
+    def __init__(self, index: int, name: str) -> None:
+        self.index = index
+        self.name = name
+        self.prefix = f"{name}/" if name else ""
+        """Of its topic and service names: relative, so `<name>/scan` is /<name>/scan in the root namespace."""
+        self.label = f"{name}: " if name else ""
+        """Of its log lines."""
+        self.frames: dict[str, str] = {}
+        self.outputs: dict[str, object] = {}
+        self.tf = None
+        """The publisher its transforms go out on (/tf shared, or <name>/tf)."""
+        self.tf_static = None
+        self.cmd_vel_subscription = None
+        self.services: list = []
+        self.held: deque[tuple[float, float]] = deque()
+        """Lockstep: commands received but not stepped yet (waiting for the other robots, paused, or paced)."""
+        self.command = (0.0, 0.0)
+        self.command_stamp = 0.0
+        self.distance = 0.0
+        self.last_output = 0.0
+        self.localization_check: LocalizationCheck | None = None
+        self.localization_inputs: list = []
+        self.messages: dict[str, object] = {}
+        """Its outgoing messages by topic, built at the first observation and refilled at each one after (publish
+        serializes at the call; filling a message costs a fraction of building one)."""
+
+    def odometry(self, key: str, stamp, frame: str, pose, twist):
+        message = self.messages.get(key)
+        if message is None:
+            message = self.messages[key] = messages.odometry(stamp, frame, self.frames["base"], pose, twist)
+            return message
+        return messages.fill_odometry(message, stamp, pose, twist)
+
+    def transform(self, key: str, stamp, parent: str, child: str, pose):
+        message = self.messages.get(key)
+        if message is None:
+            message = self.messages[key] = messages.transform(stamp, parent, child, pose)
+            return message
+        return messages.fill_transform(message, stamp, pose)
+
+    def topic(self, name: str) -> str:
+        """Its topic `name`: a `~/` name of the one robot stays the node's, a fleet robot's is in its namespace."""
+        if name.startswith("~/"):
+            return f"{self.prefix}{name[2:]}" if self.name else name
+        return f"{self.prefix}{name}"
+
+
 class SimulatorNode(ManagedNode):
-    """A thin shell: parameters in, Simulator steps, messages out."""
+    """A thin shell: parameters in, the world's robots step, messages out."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__("simulator", **kwargs)
         self.declare_specs(parameter_specs(world_problem))
-        self._sim: Simulator | None = None
+        self._sim: Simulator | Fleet | None = None
+        self._fleet: Fleet | None = None
+        self._robots: list[RobotChannel] = []
         self._outputs: dict[str, object] = {}
-        self._cmd_vel_subscription = None
+        """World-wide publishers: /clock, and /tf and /tf_static when the robots share them."""
         self._node_services: list = []
         self._resend_timer = None
-        self._last_output = 0.0
-        self._frames: dict[str, str] = {}
         self._tf_parts = (False, False)
         self._stamped = True
         self._active = False
-        self._command = (0.0, 0.0)
-        self._command_stamp = 0.0
         self._stamp_offset = 0.0
-        self._distance = 0.0
         self._meter = RateMeter()
-        self._localization_check: LocalizationCheck | None = None
-        self._localization_inputs: list = []
         self._paused = False
-        self._held: deque[tuple[float, float]] = deque()
-        """Lockstep: commands received but not stepped yet (paused, or waiting for the pace timer)."""
         self._owed = 0
         """Steps ~/step asked for while paused, not taken yet."""
         self._pace_timer = None
         self._pace_ready = True
         self._steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # timers immune to use_sim_time on this node
+
+    @property
+    def robot_names(self) -> tuple[str, ...]:
+        """The names of the robots it simulates (("",) for a world without `robots`); () before configure."""
+        return tuple(channel.name for channel in self._robots)
 
     # -- lifecycle -------------------------------------------------------------------------
 
@@ -133,26 +194,36 @@ class SimulatorNode(ManagedNode):
         if problems:
             return self.fail_configure(problems)
         try:
-            self._sim = Simulator.from_params(self._library_parameters())
+            self._sim = self._build(self._library_parameters())
+            self._fleet = self._sim if isinstance(self._sim, Fleet) else self._sim.fleet
             self._create_interfaces()
         except Exception as error:  # ValueErrors name the key; anything else is reported as is
             self._teardown()
             detail = str(error) if isinstance(error, ValueError) else f"{type(error).__name__}: {error}"
             self.get_logger().error(f"configure failed: {detail}")
             return TransitionCallbackReturn.FAILURE
-        self._stamp_offset = self._distance = 0.0
-        config = self._sim.config
+        self._stamp_offset = 0.0
+        config = self._fleet.config
+        robots = f", robots {', '.join(self.robot_names)}" if self._fleet.world.robots else ""
         self.get_logger().info(
-            f"world {self._sim.world.name} ({self._sim.world.source}), mode {config.mode}, dt {config.dt} s"
+            f"world {self._fleet.world.name} ({self._fleet.world.source}){robots}, mode {config.mode}, dt {config.dt} s"
             + (f", rate {config.rate}" if config.mode == "realtime" else ""))
         return TransitionCallbackReturn.SUCCESS
 
+    @staticmethod
+    def _build(params: dict) -> Simulator | Fleet:
+        """A Simulator for a world of one unnamed robot (the node as it always was), a Fleet for a `robots` list."""
+        config = SimulationConfig.from_params(params)
+        world = load_world(resolve_world_path(config.world))
+        return Fleet(world, config) if world.robots else Simulator(world, config)
+
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         result = super().on_activate(state)
-        config = self._sim.config
-        self._command, self._command_stamp = (0.0, 0.0), self._now()
+        config = self._fleet.config
+        for channel in self._robots:
+            channel.command, channel.command_stamp = (0.0, 0.0), self._now()
+            channel.held.clear()
         self._meter.clear()
-        self._held.clear()
         self._paused, self._owed = False, 0
         resend = self.get_parameter("lockstep_resend_period").value
         if config.mode == "lockstep" and resend > 0.0:
@@ -160,16 +231,17 @@ class SimulatorNode(ManagedNode):
         self._set_pace(self.get_parameter("pace").value)
         self._active = True
         self._publish_static_tf()
-        self._publish_goal()
-        self._publish_observation()
+        self._publish_goals()
+        self._publish_observation(self._robots)
         return result
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
         self._active = False
         self._stop_timer()
-        self._command = (0.0, 0.0)
-        self._held.clear()
-        self.get_logger().info(f"stopped at t = {self._sim.time:.2f} s")
+        for channel in self._robots:
+            channel.command = (0.0, 0.0)
+            channel.held.clear()
+        self.get_logger().info(f"stopped at t = {self._fleet.time:.2f} s")
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
@@ -201,55 +273,81 @@ class SimulatorNode(ManagedNode):
     def _create_interfaces(self) -> None:
         get = lambda name: self.get_parameter(name).value  # noqa: E731
         qos = reliable(get("qos_depth"))
+        fleet = self._fleet
+        named = bool(fleet.world.robots)
+        shared_tf = not named or get("one_tf_tree")
+        self._stamped = fleet.config.cmd_vel_stamped
+        if get("publish_clock"):
+            self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", qos)
+        self._tf_parts = (get("publish_tf"), get("publish_map_to_odom"))
+        if shared_tf:
+            self._create_tf_publishers(self._outputs, "/tf", "/tf_static")
         topics = {
             "odometry": (Odometry, qos), "odom": (Odometry, qos),
             "ground_truth": (Odometry, qos), "scan": (LaserScan, SENSOR_DATA),
             "status": (SimulatorStatus, qos),
         }
-        for name, (kind, qos) in topics.items():
-            if get(f"publish_{name}"):
-                topic = "~/status" if name == "status" else name
-                self._outputs[name] = self.create_lifecycle_publisher(kind, topic, qos)
-        if get("publish_clock"):
-            self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", qos)
-        self._create_tf_publishers()
-        if self._sim.world.goal is not None:
-            self._outputs["goal"] = self.create_lifecycle_publisher(PoseStamped, "~/goal", LATCHED)
-        self._frames = {name: get(f"{name}_frame") for name in ("odom", "world", "base", "scan")}
-        self._stamped = self._sim.config.cmd_vel_stamped
-        self._cmd_vel_subscription = self.create_subscription(
-            TwistStamped if self._stamped else Twist, "cmd_vel", self._on_cmd_vel, qos)
+        plain = {name: get(f"{name}_frame") for name in ("odom", "world", "base", "scan")}
+        for robot in fleet.robots:
+            channel = RobotChannel(robot.index, robot.name)
+            self._robots.append(channel)
+            prefix = f"{robot.name}/" if named and shared_tf else ""
+            channel.frames = {name: frame if name == "world" else prefix + frame for name, frame in plain.items()}
+            for name, (kind, topic_qos) in topics.items():
+                if get(f"publish_{name}"):
+                    topic = channel.topic("~/status" if name == "status" else name)
+                    channel.outputs[name] = self.create_lifecycle_publisher(kind, topic, topic_qos)
+            if not shared_tf:
+                self._create_tf_publishers(channel.outputs, channel.topic("tf"), channel.topic("tf_static"))
+            outputs = self._outputs if shared_tf else channel.outputs
+            channel.tf, channel.tf_static = outputs.get("tf"), outputs.get("tf_static")
+            if robot.goal is not None:
+                channel.outputs["goal"] = self.create_lifecycle_publisher(PoseStamped, channel.topic("~/goal"), LATCHED)
+            channel.cmd_vel_subscription = self.create_subscription(
+                TwistStamped if self._stamped else Twist, channel.topic("cmd_vel"),
+                lambda message, channel=channel: self._on_cmd_vel(channel, message), qos)
+            if named:
+                channel.services = [
+                    self.create_active_service(Trigger, channel.topic("reset"),
+                                               lambda q, a, channel=channel: self._on_reset_robot(channel, q, a)),
+                    self.create_active_service(SetPose, channel.topic("set_pose"),
+                                               lambda q, a, channel=channel: self._on_set_pose(channel, q, a)),
+                ]
+            self._create_localization_interfaces(channel, qos)
         self._node_services = [
             self.create_active_service(Trigger, "~/reset", self._on_reset),
-            self.create_active_service(SetPose, "~/set_pose", self._on_set_pose),
             self.create_active_service(Trigger, "~/render", self._on_render),
             self.create_active_service(Trigger, "~/pause", self._on_pause),
             self.create_active_service(Trigger, "~/resume", self._on_resume),
             self.create_active_service(Trigger, "~/step", self._on_step),
         ]
-        self._create_localization_interfaces(qos)
+        if not named:
+            self._node_services.append(self.create_active_service(
+                SetPose, "~/set_pose", lambda q, a: self._on_set_pose(self._robots[0], q, a)))
 
-    def _create_tf_publishers(self) -> None:
-        """/tf (reliable, volatile) and /tf_static (transient local: late joiners get the mounting)."""
-        self._tf_parts = (self.get_parameter("publish_tf").value, self.get_parameter("publish_map_to_odom").value)
+    def _create_tf_publishers(self, outputs: dict, tf: str, tf_static: str) -> None:
+        """tf (reliable, volatile) and tf_static (transient local: late joiners get the mounting)."""
         if self._tf_parts[0]:
-            self._outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, "/tf_static", LATCHED)
+            outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, tf_static, LATCHED)
         if any(self._tf_parts):
-            self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "/tf", reliable(TF_DEPTH))
+            outputs["tf"] = self.create_lifecycle_publisher(TFMessage, tf, reliable(TF_DEPTH))
 
     def _teardown(self) -> None:
         """Destroy whatever exists; safe on a half-built node."""
         self._stop_timer()
         for service in self._node_services:
             self.destroy_service(service)
-        if self._cmd_vel_subscription is not None:
-            self.destroy_subscription(self._cmd_vel_subscription)
+        for channel in self._robots:
+            for service in channel.services:
+                self.destroy_service(service)
+            for subscription in [channel.cmd_vel_subscription, *channel.localization_inputs]:
+                if subscription is not None:
+                    self.destroy_subscription(subscription)
+            for publisher in channel.outputs.values():
+                self.destroy_lifecycle_publisher(publisher)
         for publisher in self._outputs.values():
             self.destroy_lifecycle_publisher(publisher)
-        self._node_services, self._cmd_vel_subscription, self._outputs, self._sim = [], None, {}, None
-        for subscription in self._localization_inputs:
-            self.destroy_subscription(subscription)
-        self._localization_inputs, self._localization_check = [], None
+        self._node_services, self._robots, self._outputs, self._sim, self._fleet = [], [], {}, None, None
 
     def _stop_timer(self) -> None:
         for timer in (self._resend_timer, self._pace_timer):
@@ -263,7 +361,7 @@ class SimulatorNode(ManagedNode):
         if self._pace_timer is not None:
             self.destroy_timer(self._pace_timer)
             self._pace_timer = None
-        config = self._sim.config
+        config = self._fleet.config
         if config.mode == "realtime":
             period = config.dt / (pace or config.rate)
             self._pace_timer = self.create_timer(period, self._on_timer, clock=self._steady)
@@ -278,35 +376,38 @@ class SimulatorNode(ManagedNode):
 
     def _now(self) -> float:
         """The simulated time of the stamps: the simulator's time since reset plus an offset."""
-        return self._stamp_offset + self._sim.time
+        return self._stamp_offset + self._fleet.time
 
-    def _on_cmd_vel(self, message: TwistStamped | Twist) -> None:
+    def _on_cmd_vel(self, channel: RobotChannel, message: TwistStamped | Twist) -> None:
         if not self._active:
             return
         try:
             twist = message.twist if self._stamped else message
             v, w = twist.linear.x, twist.angular.z
             finite = math.isfinite(v) and math.isfinite(w)
+            topic = f"/{channel.prefix}cmd_vel"
+            drive = self._fleet.drive
             if not finite:
                 self.get_logger().warning(
-                    f"refused a non-finite /cmd_vel (v={v}, w={w})", throttle_duration_sec=WARNING_PERIOD)
-            elif self._sim.drive.saturation_scale(v, w) < 1.0:
-                sv, sw = self._sim.drive.saturate(v, w)
+                    f"refused a non-finite {topic} (v={v}, w={w})", throttle_duration_sec=WARNING_PERIOD)
+            elif drive.saturation_scale(v, w) < 1.0:
+                sv, sw = drive.saturate(v, w)
                 self.get_logger().warning(
-                    f"/cmd_vel (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, "
+                    f"{topic} (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, "
                     f"w={sw:.4g})", throttle_duration_sec=WARNING_PERIOD)
-            if self._sim.config.mode == "lockstep":
-                self._held.append((v, w) if finite else (0.0, 0.0))
+            if self._fleet.config.mode == "lockstep":
+                channel.held.append((v, w) if finite else (0.0, 0.0))
                 self._release()
             elif finite:
-                self._command, self._command_stamp = (v, w), self._now()
+                channel.command, channel.command_stamp = (v, w), self._now()
         except Exception as error:
             self.get_logger().error(
-                f"/cmd_vel callback: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+                f"{channel.label}cmd_vel callback: {type(error).__name__}: {error}",
+                throttle_duration_sec=WARNING_PERIOD)
 
     def _release(self) -> None:
-        """Lockstep: step the held commands, in order, as far as pausing and the pace allow."""
-        while self._held and self._active:
+        """Lockstep: step the held commands, in order, while every robot has one and pausing and the pace allow."""
+        while self._active and self._robots and all(channel.held for channel in self._robots):
             if self._paused:
                 if self._owed <= 0:
                     return
@@ -315,7 +416,7 @@ class SimulatorNode(ManagedNode):
                 return
             elif self._pace_timer is not None:
                 self._pace_ready = False  # one step per pace period
-            self._advance(*self._held.popleft())
+            self._advance([channel.held.popleft() for channel in self._robots])
 
     def _on_pace_timer(self) -> None:
         try:
@@ -331,115 +432,164 @@ class SimulatorNode(ManagedNode):
                 if self._owed <= 0:
                     return
                 self._owed -= 1
-            timeout = self._sim.config.command_timeout
-            if timeout > 0.0 and self._command != (0.0, 0.0) and self._now() - self._command_stamp > timeout:
-                self._command = (0.0, 0.0)
-                self.get_logger().info(f"no /cmd_vel for {timeout} s: stopping")
-            self._advance(*self._command)
+            timeout = self._fleet.config.command_timeout
+            for channel in self._robots:
+                if timeout > 0.0 and channel.command != (0.0, 0.0) and \
+                        self._now() - channel.command_stamp > timeout:
+                    channel.command = (0.0, 0.0)
+                    self.get_logger().info(f"{channel.label}no /{channel.prefix}cmd_vel for {timeout} s: stopping")
+            self._advance([channel.command for channel in self._robots])
         except Exception as error:
             self.get_logger().error(
                 f"step timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
 
     def _on_resend_timer(self) -> None:
-        """Lockstep waits for a command; if none came, the observation may have gone unheard (a held command
-        was heard: the loop is paused or paced, not starved). Paused, nothing is resent (/clock stops); a step
-        owed is taken at zero velocity instead (the driver holds the robot)."""
+        """Lockstep waits for every robot's command; a robot whose command has not come may not have heard its
+        observation: it goes out again (a held command was heard: that robot waits for the others, or the loop
+        is paused or paced). Paused, nothing is resent (/clock stops); a step owed is taken instead, the silent
+        robots at zero velocity (their drivers hold them)."""
         try:
-            if self._active and self._unanswered():
-                if not self._paused:
+            silent = self._unanswered() if self._active else []
+            if not silent:
+                return
+            if not self._paused:
+                if self._fleet.world.robots:
+                    waiting = ", ".join(f"/{channel.prefix}cmd_vel" for channel in silent)
+                    self.get_logger().info(f"step {self._fleet.steps} waits for {waiting}: publishing their "
+                                           "observation again", throttle_duration_sec=WARNING_PERIOD)
+                else:
                     self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
                                            throttle_duration_sec=WARNING_PERIOD)
-                    self._publish_observation()
-                elif self._owed > 0:
-                    self._owed -= 1
-                    self._advance(0.0, 0.0)
+                self._publish_observation(silent)
+            elif self._owed > 0 and self._stalled(silent):
+                self._owed -= 1
+                self._advance_holding_the_silent()
         except Exception as error:
             self.get_logger().error(
                 f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
 
-    def _unanswered(self) -> bool:
-        """Lockstep: no /cmd_vel has come for the last observation in lockstep_resend_period (0: never says so)."""
+    def _unanswered(self) -> list[RobotChannel]:
+        """Lockstep: the robots whose /cmd_vel has not come for their last observation in lockstep_resend_period
+        (0: none ever is)."""
         period = self.get_parameter("lockstep_resend_period").value
-        return period > 0.0 and not self._held and time.monotonic() - self._last_output > period
+        if period <= 0.0:
+            return []
+        now = time.monotonic()
+        return [channel for channel in self._robots if not channel.held and now - channel.last_output > period]
 
-    def _advance(self, v: float, w: float) -> None:
-        """One step, its log lines (contacts, goal) and its observation."""
-        sim = self._sim
-        collisions, reached = sim.collisions, sim.goal_reached
-        sim.step(v, w)
-        vx, vy, _ = sim.twist
-        self._distance += math.hypot(vx, vy) * sim.config.dt
-        x, y, _ = sim.pose
-        if sim.collisions > collisions:
-            self.get_logger().warning(f"collision {sim.collisions} at ({x:.3f}, {y:.3f}), t = {sim.time:.2f} s")
-        if sim.goal_reached and not reached:
-            stopping = sim.config.stop_at_goal
-            if stopping:
-                self._command = (0.0, 0.0)
-            self.get_logger().info(
-                f"goal reached at ({x:.3f}, {y:.3f}), t = {sim.time:.2f} s, {self._distance:.2f} m, "
-                f"{sim.collisions} collisions" + (": stopping" if stopping else ""))
-        self._publish_observation()
+    def _stalled(self, silent: list[RobotChannel]) -> bool:
+        """Every robot has either a command held or none coming (silent): nothing more will arrive to step on."""
+        return bool(silent) and all(channel.held or channel in silent for channel in self._robots)
 
-    def _publish_observation(self) -> None:
-        self._last_output = time.monotonic()
-        sim, frames, outputs = self._sim, self._frames, self._outputs
+    def _advance_holding_the_silent(self) -> None:
+        """A step owed while paused: the held commands, zero velocity for the robots without one."""
+        self._advance([channel.held.popleft() if channel.held else (0.0, 0.0) for channel in self._robots])
+
+    def _advance(self, commands: list[tuple[float, float]]) -> None:
+        """One step of every robot, its log lines (contacts, goal) and every robot's observation."""
+        fleet = self._fleet
+        before = [(robot.collisions, robot.goal_reached) for robot in fleet.robots]
+        fleet.step(commands)
+        dt = fleet.config.dt
+        for channel, robot, (collisions, reached) in zip(self._robots, fleet.robots, before):
+            vx, vy, _ = robot.twist
+            channel.distance += math.hypot(vx, vy) * dt
+            x, y, _ = robot.pose
+            if robot.collisions > collisions:
+                self.get_logger().warning(f"{channel.label}collision {robot.collisions} at ({x:.3f}, {y:.3f}), "
+                                          f"t = {fleet.time:.2f} s{self._contact_detail(robot)}")
+            if robot.goal_reached and not reached:
+                stopping = fleet.config.stop_at_goal
+                if stopping:
+                    channel.command = (0.0, 0.0)
+                self.get_logger().info(
+                    f"{channel.label}goal reached at ({x:.3f}, {y:.3f}), t = {fleet.time:.2f} s, "
+                    f"{channel.distance:.2f} m, {robot.collisions} collisions" + (": stopping" if stopping else ""))
+        self._publish_observation(self._robots)
+
+    def _contact_detail(self, robot) -> str:
+        """For a fleet robot: what it has run into so far (walls, which robots)."""
+        if not self._fleet.world.robots:
+            return ""
+        others = ", ".join(f"{name} {count}" for name, count in robot.robot_collisions.items() if count)
+        return f" (walls {robot.wall_collisions}" + (f", robots: {others})" if others else ")")
+
+    def _publish_observation(self, channels: list[RobotChannel]) -> None:
+        """/clock, then each robot's transforms (one TFMessage per tf topic), then each robot's messages."""
         now = self._now()
         stamp = stamp_from_seconds(now)
-        if "clock" in outputs:
-            outputs["clock"].publish(messages.clock(stamp))
-        if "tf" in outputs:
-            self._publish_tf(stamp)
-        if "odometry" in outputs:
-            v, w = sim.odom_twist
-            outputs["odometry"].publish(
-                messages.odometry(stamp, frames["odom"], frames["base"], sim.odom_pose, (v, 0.0, w)))
-        if "odom" in outputs:
-            outputs["odom"].publish(
-                messages.odometry(stamp, frames["odom"], frames["base"], sim.odom_pose, (0.0, 0.0, 0.0)))
-        if "ground_truth" in outputs:
-            outputs["ground_truth"].publish(
-                messages.odometry(stamp, frames["world"], frames["base"], sim.pose, sim.twist))
-        if "scan" in outputs:
-            outputs["scan"].publish(messages.laser_scan(stamp, frames["scan"], sim.ranges, sim.lidar, sim.config.dt))
-        self._publish_localization_inputs(stamp)
+        if "clock" in self._outputs:
+            self._outputs["clock"].publish(messages.clock(stamp))
+        transforms: dict[int, tuple[object, list]] = {}
+        for channel in channels:
+            if channel.tf is not None:
+                transforms.setdefault(id(channel.tf), (channel.tf, []))[1].extend(self._transforms(channel, stamp))
+        for publisher, parts in transforms.values():
+            publisher.publish(messages.tf_message(parts))
         rate = self._meter.update(now)
+        for channel in channels:
+            self._publish_robot(channel, stamp, rate)
+
+    def _publish_robot(self, channel: RobotChannel, stamp, rate: float) -> None:
+        channel.last_output = time.monotonic()
+        fleet, frames, outputs = self._fleet, channel.frames, channel.outputs
+        robot = fleet.robots[channel.index]
+        if "odometry" in outputs:
+            v, w = robot.odom_twist
+            outputs["odometry"].publish(
+                channel.odometry("odometry", stamp, frames["odom"], robot.odom_pose, (v, 0.0, w)))
+        if "odom" in outputs:
+            outputs["odom"].publish(channel.odometry("odom", stamp, frames["odom"], robot.odom_pose, (0.0, 0.0, 0.0)))
+        if "ground_truth" in outputs:
+            outputs["ground_truth"].publish(channel.odometry("ground_truth", stamp, frames["world"], robot.pose,
+                                                             robot.twist))
+        if "scan" in outputs:
+            scan = channel.messages.get("scan")
+            outputs["scan"].publish(
+                messages.fill_laser_scan(scan, stamp, robot.ranges) if scan is not None else
+                channel.messages.setdefault("scan", messages.laser_scan(stamp, frames["scan"], robot.ranges,
+                                                                        fleet.lidar, fleet.config.dt)))
+        self._publish_localization_inputs(channel, robot, stamp)
         if "status" in outputs:
-            status = messages.status(stamp, frames["world"], sim, self._distance, rate)
-            self._report_localization(status)
+            status = messages.status(stamp, frames["world"], fleet, robot, channel.distance, rate)
+            self._report_localization(channel, status)
             outputs["status"].publish(status)
 
     # -- localization (issue 12): beacons out, /pose checked against the ground truth -------------
 
-    def _create_localization_interfaces(self, qos) -> None:
-        if self._sim.world.beacons:
-            self._outputs["beacons"] = self.create_lifecycle_publisher(BeaconRanges, "beacons", qos)
+    def _create_localization_interfaces(self, channel: RobotChannel, qos) -> None:
+        if self._fleet.world.beacons:
+            channel.outputs["beacons"] = self.create_lifecycle_publisher(BeaconRanges, channel.topic("beacons"), qos)
         if self.get_parameter("enable_localization").value:
-            self._localization_check = LocalizationCheck()
-            self._localization_inputs = [self.create_subscription(LocalizedPose, "pose", self._on_pose, qos)]
+            channel.localization_check = LocalizationCheck()
+            channel.localization_inputs = [self.create_subscription(
+                LocalizedPose, channel.topic("pose"), lambda message: self._on_pose(channel, message), qos)]
 
-    def _publish_localization_inputs(self, stamp) -> None:
-        """Per observation: the beacon reading, and the true pose the next /pose will be judged against."""
-        if self._localization_check is not None:
-            self._localization_check.observed(stamp_nanoseconds(stamp), self._sim.pose, self._sim.time)
-        reading = self._sim.beacon_reading() if "beacons" in self._outputs else None
+    def _publish_localization_inputs(self, channel: RobotChannel, robot, stamp) -> None:
+        """Per observation: the beacon reading, and the true pose the next pose will be judged against."""
+        if channel.localization_check is not None:
+            channel.localization_check.observed(stamp_nanoseconds(stamp), robot.pose, self._fleet.time)
+        reading = robot.beacon_reading() if "beacons" in channel.outputs else None
         if reading is not None:
-            self._outputs["beacons"].publish(messages.beacon_ranges(stamp, self._frames["world"], *reading,
-                                                                    self._sim.config.beacons))
+            channel.outputs["beacons"].publish(messages.beacon_ranges(stamp, channel.frames["world"], *reading,
+                                                                      self._fleet.config.beacons))
 
-    def _on_pose(self, message: LocalizedPose) -> None:
+    def _on_pose(self, channel: RobotChannel, message: LocalizedPose) -> None:
         try:
             pose = message.pose.pose
             theta = yaw_from_quaternion(pose.orientation)
             stamp = stamp_nanoseconds(message.header.stamp)
-            line = self._localization_check.estimate(stamp, pose.position.x, pose.position.y, theta, message.localized)
+            line = channel.localization_check.estimate(
+                stamp, pose.position.x, pose.position.y, theta, message.localized)
             if line:
-                self.get_logger().info(line)
+                self.get_logger().info(channel.label + line)
         except Exception as error:  # a NaN or stale estimate: say so, keep simulating
-            self.get_logger().warning(f"/pose not judged: {error}", throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().warning(f"/{channel.prefix}pose not judged: {error}",
+                                      throttle_duration_sec=WARNING_PERIOD)
 
-    def _report_localization(self, status: SimulatorStatus) -> None:
-        check = self._localization_check
+    @staticmethod
+    def _report_localization(channel: RobotChannel, status: SimulatorStatus) -> None:
+        check = channel.localization_check
         status.localization_enabled = check is not None
         state = check.state if check is not None else None
         status.localized = bool(state and state.localized)
@@ -447,68 +597,97 @@ class SimulatorNode(ManagedNode):
         status.position_error = state.position_error if state else math.nan
         status.heading_error = state.heading_error if state else math.nan
 
-    def _publish_tf(self, stamp) -> None:
-        """odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom; one TFMessage."""
-        sim, frames = self._sim, self._frames
+    def _transforms(self, channel: RobotChannel, stamp) -> list:
+        """odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom."""
+        robot, frames = self._fleet.robots[channel.index], channel.frames
         odom_to_base, map_to_odom_wanted = self._tf_parts
         transforms = []
         if odom_to_base:
-            transforms.append(messages.transform(stamp, frames["odom"], frames["base"], sim.odom_pose))
+            transforms.append(channel.transform("tf odom", stamp, frames["odom"], frames["base"], robot.odom_pose))
         if map_to_odom_wanted:
-            transforms.append(messages.transform(
-                stamp, frames["world"], frames["odom"], map_to_odom(sim.pose, sim.odom_pose)))
-        self._outputs["tf"].publish(messages.tf_message(transforms))
+            transforms.append(channel.transform(
+                "tf map", stamp, frames["world"], frames["odom"], map_to_odom(robot.pose, robot.odom_pose)))
+        return transforms
 
-    def _publish_goal(self) -> None:
-        """The world's goal on ~/goal (latched), for a navigator to take as a goal; the goal check judges it."""
-        if "goal" in self._outputs:
-            goal = PoseStamped()
-            goal.header.stamp, goal.header.frame_id = stamp_from_seconds(self._now()), self._frames["world"]
-            goal.pose.position.x, goal.pose.position.y = self._sim.goal.x, self._sim.goal.y
-            goal.pose.orientation.w = 1.0
-            self._outputs["goal"].publish(goal)
+    def _publish_goals(self) -> None:
+        """Each robot's goal on ~/goal (a fleet robot's on <name>/goal; latched), for a navigator to take as a goal;
+        the goal check judges it."""
+        for channel in self._robots:
+            goal_region = self._fleet.robots[channel.index].goal
+            if "goal" in channel.outputs:
+                goal = PoseStamped()
+                goal.header.stamp, goal.header.frame_id = stamp_from_seconds(self._now()), channel.frames["world"]
+                goal.pose.position.x, goal.pose.position.y = goal_region.x, goal_region.y
+                goal.pose.orientation.w = 1.0
+                channel.outputs["goal"].publish(goal)
 
     def _publish_static_tf(self) -> None:
-        """base -> scan: where the LiDAR sits on the robot (lidar.x, lidar.y), latched for late joiners."""
-        if "tf_static" in self._outputs:
-            lidar = self._sim.lidar
-            mounting = messages.transform(stamp_from_seconds(self._now()), self._frames["base"], self._frames["scan"],
-                                          Pose2D(lidar.x, lidar.y, 0.0))
-            self._outputs["tf_static"].publish(messages.tf_message([mounting]))
+        """base -> scan: where the LiDAR sits on each robot (lidar.x, lidar.y), latched for late joiners (one
+        message per tf_static topic: a latched topic keeps its last message only)."""
+        lidar = self._fleet.lidar
+        mountings: dict[int, tuple[object, list]] = {}
+        for channel in self._robots:
+            if channel.tf_static is not None:
+                mounting = messages.transform(stamp_from_seconds(self._now()), channel.frames["base"],
+                                              channel.frames["scan"], Pose2D(lidar.x, lidar.y, 0.0))
+                mountings.setdefault(id(channel.tf_static), (channel.tf_static, []))[1].append(mounting)
+        for publisher, parts in mountings.values():
+            publisher.publish(messages.tf_message(parts))
 
     # -- services --------------------------------------------------------------------------
 
-    def _restarted(self, what: str) -> str:
-        """After a reset or teleport: the held command is dropped, a new first observation goes out."""
-        self._command, self._command_stamp = (0.0, 0.0), self._now()
-        self._held.clear()
+    def _restarted(self, what: str, channels: list[RobotChannel]) -> str:
+        """After a reset or teleport: the robots' held commands are dropped, new first observations go out."""
+        for channel in channels:
+            channel.command, channel.command_stamp = (0.0, 0.0), self._now()
+            channel.held.clear()
         self._owed = 0
         self._meter.clear()
         if self._active:
-            self._publish_observation()
-        x, y, theta = self._sim.pose
-        message = f"{what}: robot at ({x:.3f}, {y:.3f}, {theta:.3f})"
+            self._publish_observation(channels)
+        lines = []
+        for channel in channels:
+            x, y, theta = self._fleet.robots[channel.index].pose
+            lines.append(f"{channel.label}robot at ({x:.3f}, {y:.3f}, {theta:.3f})")
+        message = f"{what}: {'; '.join(lines)}"
         self.get_logger().info(message)
         return message
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         try:
-            self._stamp_offset = self._now() + self._sim.config.dt
+            self._stamp_offset = self._now() + self._fleet.config.dt
             self._sim.reset()
-            self._distance = 0.0
-            response.success, response.message = True, self._restarted("reset")
+            for channel in self._robots:
+                channel.distance = 0.0
+            response.success, response.message = True, self._restarted("reset", self._robots)
         except Exception as error:
             response.success, response.message = False, f"reset failed: {error}"
             self.get_logger().error(response.message)
         return response
 
-    def _on_set_pose(self, request: SetPose.Request, response: SetPose.Response) -> SetPose.Response:
+    def _on_reset_robot(self, channel: RobotChannel, request: Trigger.Request,
+                        response: Trigger.Response) -> Trigger.Response:
+        """A fleet robot back to its start; the world's time and the other robots go on (its new observation is
+        stamped one dt on, so stamps never repeat)."""
         try:
-            self._sim.set_pose(request.x, request.y, request.theta)
-            self._stamp_offset += self._sim.config.dt
-            response.success, response.message = True, self._restarted("set_pose")
-        except Exception as error:  # SimulationError: inside a wall, or not finite
-            response.success, response.message = False, str(error)
+            self._fleet.reset_robot(channel.index)
+            self._stamp_offset += self._fleet.config.dt
+            channel.distance = 0.0
+            response.success, response.message = True, self._restarted("reset", [channel])
+        except Exception as error:  # SimulationError: another robot stands on its start
+            response.success, response.message = False, f"{channel.label}reset failed: {error}"
+            self.get_logger().warning(response.message)
+        return response
+
+    def _on_set_pose(self, channel: RobotChannel, request: SetPose.Request,
+                     response: SetPose.Response) -> SetPose.Response:
+        try:
+            self._fleet.set_pose(request.x, request.y, request.theta, robot=channel.index) \
+                if self._fleet.world.robots else self._sim.set_pose(request.x, request.y, request.theta)
+            self._stamp_offset += self._fleet.config.dt
+            response.success, response.message = True, self._restarted("set_pose", [channel])
+        except Exception as error:  # SimulationError: inside a wall or another robot, or not finite
+            response.success, response.message = False, f"{channel.label}{error}"
             self.get_logger().warning(response.message)
         return response
 
@@ -534,29 +713,31 @@ class SimulatorNode(ManagedNode):
     def _pause(self) -> str:
         was = self._paused
         self._paused, self._owed = True, 0
-        return f"{'already ' if was else ''}paused at t = {self._sim.time:.2f} s (step {self._sim.steps})"
+        return f"{'already ' if was else ''}paused at t = {self._fleet.time:.2f} s (step {self._fleet.steps})"
 
     def _resume(self) -> str:
         was = self._paused
         self._paused, self._owed = False, 0
         self._release()
-        return f"{'running' if was else 'already running'} from t = {self._sim.time:.2f} s (step {self._sim.steps})"
+        return (f"{'running' if was else 'already running'} from t = {self._fleet.time:.2f} s "
+                f"(step {self._fleet.steps})")
 
     def _step_once(self) -> str:
         note = "" if self._paused else "paused; "
         self._paused = True
-        steps = self._sim.steps
+        fleet = self._fleet
+        steps = fleet.steps
         self._owed += 1
-        if self._sim.config.mode == "lockstep":
+        if fleet.config.mode == "lockstep":
             self._release()
-            if self._owed > 0 and self._unanswered():  # the driver holds the robot: no command is coming
+            if self._owed > 0 and self._stalled(self._unanswered()):  # their drivers hold them: no command comes
                 self._owed -= 1
-                self._advance(0.0, 0.0)
-        if self._sim.steps > steps:
-            return f"{note}stepped to t = {self._sim.time:.2f} s (step {self._sim.steps})"
-        waiting = "the next /cmd_vel (or at zero velocity if none comes)" if self._sim.config.mode == "lockstep" \
-            else "the next tick"
-        return f"{note}{self._owed} step(s) owed at t = {self._sim.time:.2f} s: taken on {waiting}"
+                self._advance_holding_the_silent()
+        if fleet.steps > steps:
+            return f"{note}stepped to t = {fleet.time:.2f} s (step {fleet.steps})"
+        waiting = (("the next /cmd_vel" if not fleet.world.robots else "every robot's next cmd_vel") +
+                   " (or at zero velocity if none comes)") if fleet.config.mode == "lockstep" else "the next tick"
+        return f"{note}{self._owed} step(s) owed at t = {fleet.time:.2f} s: taken on {waiting}"
 
     def _on_render(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         try:

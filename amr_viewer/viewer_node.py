@@ -103,6 +103,8 @@ class RobotLink:
             topic = topics.join(namespace, leaf)
             if leaf in ("map", "tf", "tf_static") and namespace and topic not in graph:
                 topic = "/" + leaf  # a fleet sharing the root's map and tree
+            if leaf == "simulator/status" and namespace and topics.join(namespace, "status") in graph:
+                topic = topics.join(namespace, "status")  # a fleet robot's status, in its namespace (docs/fleet.md)
             buffer = self.raw[leaf] = deque(maxlen=RAW_KEEP if ring else 1)
             self.subscriptions.append(node.create_subscription(
                 kind, topic, lambda data, buffer=buffer: buffer.append(data), qos, raw=True))

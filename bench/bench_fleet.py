@@ -1,6 +1,8 @@
-"""Fleet speed at library level: steps per second with 1, 5, 10 and 20 robots, side by side with IR-SIM.
+"""Fleet speed: steps per second with 1, 5, 10 and 20 robots, at library level side by side with IR-SIM, and
+through ROS in lockstep.
 
     python bench/bench_fleet.py [--steps 400] [--repeats 3] [--irsim-python /path/to/python] [--profile 10]
+    python bench/bench_fleet.py --ros [--ros-steps 400] [--counts 1 5 10 20]
 
 The scene: an 8 m x 6 m room (walls 5 cm thick) with four boxes; N TurtleBot3-like robots start on
 a grid of free points with seeded headings. Every robot has a 240-beam 360-degree LiDAR (3.5 m)
@@ -16,6 +18,14 @@ from its own scans, only env.step() timed, headless, its LiDAR noise off) in the
 script: in this interpreter if it imports ir-sim, else in the interpreter given by --irsim-python
 (a scratch venv: `python -m venv /tmp/irsim && /tmp/irsim/bin/pip install ir-sim==2.12.0`), else
 it is skipped with a message.
+
+--ros: the same scene through ROS 2, composed: the simulator node (lockstep, every topic on: /clock, and per
+robot odometry, odom, ground_truth, scan, status, tf) and one driver node per robot in the robot's namespace
+(/r0/..., as fleet_sim's wall followers), all in this process on one single-threaded executor. Each driver
+answers its robot's observation (odometry and scan of one stamp) with the bump-and-turn command on
+/<robot>/cmd_vel; the world steps when every robot's command is in. Timed: the wall clock and this process's
+CPU time from the first command to the last observation (the driver's rule included: it is the loop's), after
+`--ros-warmup` steps, the best of `repeats` runs. --ros-lean adds runs with only /clock, odometry and scan published.
 """
 
 from __future__ import annotations
@@ -31,8 +41,15 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+import os
+import random
+import tempfile
 
+import numpy as np
+import yaml
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # before rclpy: no traffic leaves this machine
+os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(101, 232)))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from amr_simulation.config import SimulationConfig  # noqa: E402
@@ -98,6 +115,113 @@ def run(description: dict, count: int) -> dict:
             "collisions": collisions}
 
 
+def world_file(description: dict, count: int, directory: Path) -> Path:
+    """The scene with `count` robots as a world file, for the simulator node's `world` parameter."""
+    robots = [{"name": f"r{i}", "start": start} for i, start in enumerate(description["starts"][:count])]
+    path = directory / f"bench_room_{count}.yaml"
+    path.write_text(yaml.safe_dump({"name": f"bench_room_{count}", "boxes": description["boxes"], "robots": robots}))
+    return path
+
+
+LEAN = {"publish_odom": False, "publish_ground_truth": False, "publish_status": False, "publish_tf": False,
+        "publish_clock": True}
+"""--ros-lean: the simulator publishes /clock and each robot's odometry and scan only (what its driver reads)."""
+
+
+def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool = False) -> dict:
+    """The simulator node and `count` drivers composed on one executor; wall and CPU seconds for `steps` steps."""
+    import rclpy
+    from geometry_msgs.msg import TwistStamped
+    from nav_msgs.msg import Odometry
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+    from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+    from sensor_msgs.msg import LaserScan
+
+    from amr_simulation.simulator_node import SimulatorNode
+
+    class Driver(Node):
+        """One robot's controller: answers odometry + scan of one stamp with the bump-and-turn command."""
+
+        def __init__(self, context, robot: str) -> None:
+            super().__init__("driver", namespace=robot, context=context)
+            reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+            self.cmd_vel = self.create_publisher(TwistStamped, "cmd_vel", reliable)
+            self.odometry = self.create_subscription(Odometry, "odometry", self._on_odometry, reliable)
+            self.scan = self.create_subscription(LaserScan, "scan", self._on_scan, qos_profile_sensor_data)
+            self.observations = 0
+            self._stamps = [None, None]
+            self._command = (0.2, 0.0)
+
+        def _on_odometry(self, message: Odometry) -> None:
+            self._stamps[0] = (message.header.stamp.sec, message.header.stamp.nanosec)
+            self._answer()
+
+        def _on_scan(self, message: LaserScan) -> None:
+            self._stamps[1] = (message.header.stamp.sec, message.header.stamp.nanosec)
+            self._command = bump_and_turn(np.asarray(message.ranges, dtype=float))
+            self._answer()
+
+        def _answer(self) -> None:
+            if self._stamps[0] is None or self._stamps[0] != self._stamps[1]:
+                return
+            self._stamps = [None, None]
+            self.observations += 1
+            self.send()
+
+        def send(self) -> None:
+            message = TwistStamped()
+            message.twist.linear.x, message.twist.angular.z = self._command
+            self.cmd_vel.publish(message)
+
+        def connected(self) -> bool:
+            return (self.cmd_vel.get_subscription_count() > 0 and self.odometry.get_publisher_count() > 0
+                    and self.scan.get_publisher_count() > 0)
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    with tempfile.TemporaryDirectory() as directory:
+        path = world_file(description, count, Path(directory))
+        node = SimulatorNode(context=context, parameter_overrides=[
+            Parameter("world", value=str(path)), Parameter("lockstep_resend_period", value=0.0),
+            *(Parameter(name, value=value) for name, value in (LEAN if lean else {}).items())])
+        drivers = [Driver(context, f"r{i}") for i in range(count)]
+        try:
+            for each in (node, *drivers):
+                executor.add_node(each)
+            node.trigger_configure()
+            deadline = time.monotonic() + 30.0
+            while not all(d.connected() for d in drivers) and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+            node.trigger_activate()  # the first observation: every driver answers, the loop runs
+            marks = {}
+            last, last_progress = -1, time.monotonic()
+            while True:
+                done = min(d.observations for d in drivers)
+                if done >= warmup and "start" not in marks:
+                    marks["start"] = (done, time.perf_counter(), time.process_time())
+                if done >= warmup + steps:
+                    marks["end"] = (done, time.perf_counter(), time.process_time())
+                    break
+                if done != last:
+                    last, last_progress = done, time.monotonic()
+                elif time.monotonic() - last_progress > 10.0:
+                    raise RuntimeError(f"{count} robots: the loop stalled after {done} steps")
+                executor.spin_once(timeout_sec=0.1)
+            collisions = (sum(r.wall_collisions for r in node._fleet.robots),
+                          sum(sum(r.robot_collisions.values()) for r in node._fleet.robots) // 2)
+        finally:
+            executor.shutdown()
+            for each in (node, *drivers):
+                each.destroy_node()
+            context.try_shutdown()
+    (first, wall0, cpu0), (last_step, wall1, cpu1) = marks["start"], marks["end"]
+    return {"robots": count, "seconds": cpu1 - cpu0, "wall": wall1 - wall0, "steps": last_step - first,
+            "collisions": collisions}
+
+
 def crossing_figure(path: Path, steps: int = 130) -> Path:
     """The crossing world after `steps` of each robot heading for its goal but for the bump-and-turn rule."""
     fleet = Fleet(load_world(resolve_world_path("fleets/crossing.yaml")))
@@ -142,6 +266,13 @@ def main() -> None:
     parser.add_argument("--no-irsim", action="store_true", help="skip IR-SIM")
     parser.add_argument("--profile", type=int, metavar="N", help="print a cProfile of our run with N robots")
     parser.add_argument("--figure", type=Path, help="only draw docs/fleet.md's picture of fleets/crossing.yaml here")
+    parser.add_argument("--ros", action="store_true", help="also through ROS: the simulator node and a driver "
+                                                           "node per robot, composed, lockstep")
+    parser.add_argument("--ros-only", action="store_true", help="through ROS and the library only (no IR-SIM)")
+    parser.add_argument("--ros-lean", action="store_true", help="also through ROS with only /clock, odometry and "
+                                                                "scan published")
+    parser.add_argument("--ros-steps", type=int, default=400, help="timed steps per ROS run")
+    parser.add_argument("--ros-warmup", type=int, default=40, help="steps before the ROS timing starts")
     args = parser.parse_args()
     if args.figure:
         print(f"wrote {crossing_figure(args.figure)}")
@@ -157,7 +288,18 @@ def main() -> None:
     ours = [run(description, count) for count in args.counts]
     for result in ours:
         print(row("amr", result, dt, ours[0]))
-    if not args.no_irsim:
+    if args.ros or args.ros_only:
+        library = {result["robots"]: result for result in ours}
+        print(f"through ROS: {args.ros_steps} steps after {args.ros_warmup}, best of {args.repeats}; 'per robot vs 1' "
+              "against the library's one robot; last column: the library's share of a ROS step (CPU)")
+        for lean in (False, True) if args.ros_lean else (False,):
+            for count in args.counts:
+                result = min((ros_run(description, count, args.ros_steps, args.ros_warmup, lean)
+                              for _ in range(args.repeats)), key=lambda r: r["seconds"] / r["steps"])
+                share = (library[count]["seconds"] / library[count]["steps"]) / (result["seconds"] / result["steps"])
+                print(row("amr ROS lean" if lean else "amr ROS", result, dt, library.get(1)) +
+                      f" | library {100 * share:.0f} %")
+    if not args.no_irsim and not args.ros_only:
         peer, why = irsim_runs(description, args.irsim_python)
         if peer is None:
             print(why)

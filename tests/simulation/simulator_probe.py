@@ -34,13 +34,16 @@ def seconds(stamp) -> float:
 class Probe(Node):
     """Publishes /cmd_vel, records /odometry, /odom, /ground_truth, /scan, ~/status and /clock."""
 
-    def __init__(self, context, stamped: bool = True, use_sim_time: bool = False) -> None:
-        super().__init__("simulator_probe", context=context,
+    def __init__(self, context, stamped: bool = True, use_sim_time: bool = False, robot: str = "") -> None:
+        super().__init__(f"simulator_probe_{robot}" if robot else "simulator_probe", context=context,
                          parameter_overrides=[Parameter("use_sim_time", value=use_sim_time)])
         self.stamped = stamped
+        self.robot = robot
+        """A robot of a fleet world: its topics in its namespace (/<robot>/scan, /<robot>/status, ...)."""
+        ns = f"/{robot}/" if robot else ""
         self.expected = {"status", "odometry", "odom", "ground_truth", "scan"}
         """The observation topics the simulator under test publishes."""
-        self.cmd_vel = self.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", RELIABLE)
+        self.cmd_vel = self.create_publisher(TwistStamped if stamped else Twist, f"{ns}cmd_vel", RELIABLE)
         self.odometry: list[Odometry] = []
         self.odom: list[Odometry] = []
         self.ground_truth: list[Odometry] = []
@@ -48,15 +51,17 @@ class Probe(Node):
         self.statuses: list[SimulatorStatus] = []
         self.clocks: list[Clock] = []
         self.observation_subscriptions = {
-            "status": self.create_subscription(SimulatorStatus, "simulator/status", self.statuses.append, RELIABLE),
-            "odometry": self.create_subscription(Odometry, "odometry", self.odometry.append, RELIABLE),
-            "odom": self.create_subscription(Odometry, "odom", self.odom.append, RELIABLE),
-            "ground_truth": self.create_subscription(Odometry, "ground_truth", self.ground_truth.append, RELIABLE),
-            "scan": self.create_subscription(LaserScan, "scan", self.scans.append, qos_profile_sensor_data),
+            "status": self.create_subscription(SimulatorStatus, f"{ns}status" if robot else "simulator/status",
+                                               self.statuses.append, RELIABLE),
+            "odometry": self.create_subscription(Odometry, f"{ns}odometry", self.odometry.append, RELIABLE),
+            "odom": self.create_subscription(Odometry, f"{ns}odom", self.odom.append, RELIABLE),
+            "ground_truth": self.create_subscription(Odometry, f"{ns}ground_truth", self.ground_truth.append,
+                                                     RELIABLE),
+            "scan": self.create_subscription(LaserScan, f"{ns}scan", self.scans.append, qos_profile_sensor_data),
         }
         self.clock_subscription = self.create_subscription(Clock, "/clock", self.clocks.append, RELIABLE)
-        self.reset = self.create_client(Trigger, "simulator/reset")
-        self.set_pose = self.create_client(SetPose, "simulator/set_pose")
+        self.reset = self.create_client(Trigger, f"{ns}reset" if robot else "simulator/reset")
+        self.set_pose = self.create_client(SetPose, f"{ns}set_pose" if robot else "simulator/set_pose")
         self.render = self.create_client(Trigger, "simulator/render")
         self.change_state = self.create_client(ChangeState, "simulator/change_state")
         self.get_state = self.create_client(GetState, "simulator/get_state")

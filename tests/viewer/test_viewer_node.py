@@ -260,3 +260,42 @@ def test_reset_restarts_global_localization_on_every_localizer_first(ros_context
     assert spin_until(executor, lambda: "reset done" in node.panels.simulation_reply.content, TIMEOUT)
     assert node.panels.simulation_reply.content == \
         "/simulator: reset done; global localization restarted on /particle_filter"
+
+
+FLEET_WORLD = """\
+name: two_in_a_room
+wall_thickness: 0.05
+walls: [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]]
+robots:
+  - {name: r1, start: [-1.0, -0.5, 0.0]}
+  - {name: r2, start: [1.0, 0.5, 3.14159265358979]}
+"""
+
+
+def test_it_draws_every_robot_of_a_fleet_in_its_namespace(ros_context, executor, viewer, tmp_path):
+    """fleet_sim (docs/fleet.md): one robot per namespace, each with its own tree, scan and simulator status."""
+    from amr_bringup.composed import composed_stack
+
+    world = tmp_path / "two.yaml"
+    world.write_text(FLEET_WORLD)
+    with composed_stack(ros_context, "fleet_sim", arguments={"world": str(world)}) as (_, manager, _):
+        node = viewer(discovery_period=0.2)
+        executor.add_node(node)
+        assert node.try_transition(Transition.TRANSITION_CONFIGURE)
+        assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+        assert all(step.ok for step in manager.startup()), "fleet_sim did not come up"
+        assert spin_until(executor, lambda: {"/r1", "/r2"} <= set(node.robots), TIMEOUT), sorted(node.robots)
+        assert "" not in node.robots, "nothing of a robot outside its namespace"
+        states = {name: node.robots[name].state for name in ("/r1", "/r2")}
+
+        def drawn() -> bool:
+            for link in node.robots.values():
+                link.decode()
+            return all(s.status.get("steps", 0) > 5 and s.scan is not None and s.robot_pose() is not None
+                       for s in states.values())
+
+        assert spin_until(executor, drawn, TIMEOUT)
+        executor.remove_node(node)
+    assert states["/r1"].robot_pose().x < 0.0 < states["/r2"].robot_pose().x, "each robot where its tree puts it"
+    for s in states.values():
+        assert len(s.scan_in_map()) > 0
