@@ -134,7 +134,10 @@ class _Geometry:
         self.left_cs = (cos[windows[2]], sin[windows[2]])
         self.right_cs = (cos[windows[3]], sin[windows[3]])
         # Beams averaged for the window minima: MINIMUM_MEAN_ANGLE either side (none on a coarse scan).
-        self.mean_beams = 2 * int(MINIMUM_MEAN_ANGLE / max(abs(increment), 1e-9) + 1e-9) + 1
+        # (At most MAX_MEAN_BEAMS and never more than the scan holds: a scan of absurdly fine
+        # increment must not make the average a window of millions of beams.)
+        half = min(int(MINIMUM_MEAN_ANGLE / max(abs(increment), 1e-9) + 1e-9), MAX_MEAN_BEAMS // 2, max(count - 1, 0) // 2)
+        self.mean_beams = 2 * half + 1
         wide = sectors.side_half_width if sectors.direction_half_width is None else sectors.direction_half_width
         self.directions = [window(center, wide) for center in (sectors.left_center, sectors.right_center)]
         self.direction_cs = [(cos[w], sin[w]) for w in self.directions]
@@ -295,6 +298,8 @@ MINIMUM_MEAN_ANGLE = math.radians(3.0)
 """The window minima read ranges averaged (_flat_mean) over the beams this close on either side
 (5 beams of the 240-beam scan, 7 of the 360-beam LDS-01): at 3 cm noise the minimum of a front
 window then lies about 2 cm short instead of 6; a flat wall reads exactly."""
+MAX_MEAN_BEAMS = 61
+"""The most beams one window-minimum average spans (+-3 deg of a 0.1 deg scan)."""
 SMOOTH_SPREAD = 0.12
 """m: neighbouring ranges further apart than this are an edge, not noise on one surface."""
 
