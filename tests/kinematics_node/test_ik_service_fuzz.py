@@ -15,7 +15,7 @@ from amr_kinematics.config import flatten_parameters
 
 from ik_node_helpers import CONFIG, call, config_overrides, launch, pose, solve_request  # noqa: F401 (fixture)
 
-SOLVE_REQUESTS = 2000
+SOLVE_REQUESTS = 1200
 FK_REQUESTS = 400
 PARAMS = flatten_parameters(yaml.safe_load(CONFIG.read_text(encoding="utf-8")))
 CHAINS = PARAMS["chains"]
