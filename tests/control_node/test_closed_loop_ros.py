@@ -1,7 +1,7 @@
 """Issue 6's closed loop through ROS: simulator + (odometry node) + wall follower + lifecycle manager,
-one process, lockstep, every shipped world, 2 simulated minutes, not one collision.
+one process, lockstep, every shipped world, 1 simulated minute, not one collision.
 
-The 10-minute runs on every world and noise level are the library closed loop's
+The 7.5-minute runs on every world and noise level are the library closed loop's
 (tests/control/test_closed_loop.py) and the benches'; through ROS, each step costs the messages of
 the whole graph (/clock, /tf, status), so the ROS runs are kept to what only they can show: the same
 behaviour through topics, one command per observation, the odometry node in the loop."""
@@ -15,7 +15,7 @@ SHIPPED = share_directory("amr_maps") / "config" / "worlds"
 # twin_rooms (two plain rooms, for localization) adds nothing to wall following but 90 s of test time:
 # the library closed loop (tests/control/test_closed_loop.py) still drives it
 WORLDS = sorted(p.name for p in SHIPPED.glob("*.yaml") if p.stem != "twin_rooms")
-SPAN = 120.0  # s of simulated time (the library closed loop runs 600 s on every world and noise level)
+SPAN = 60.0  # s of simulated time (the library closed loop runs 450 s on every world and noise level)
 
 
 def test_every_shipped_world_is_tested():
