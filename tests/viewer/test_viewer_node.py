@@ -291,11 +291,9 @@ def test_it_draws_every_robot_of_a_fleet_in_its_namespace(ros_context, executor,
         def drawn() -> bool:
             for link in node.robots.values():
                 link.decode()
-            return all(s.status.get("steps", 0) > 5 and s.scan is not None and s.robot_pose() is not None
-                       for s in states.values())
+            return all(s.status.get("steps", 0) > 5 and s.robot_pose() is not None and len(s.scan_in_map()) > 0
+                       for s in states.values())  # the scan placed: its frame's static transform may come last
 
         assert spin_until(executor, drawn, TIMEOUT)
         executor.remove_node(node)
     assert states["/r1"].robot_pose().x < 0.0 < states["/r2"].robot_pose().x, "each robot where its tree puts it"
-    for s in states.values():
-        assert len(s.scan_in_map()) > 0
