@@ -40,7 +40,8 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
-from amr_planning.messages import path_message, path_points
+from amr_planning.messages import path_message
+from amr_util.messages import path_points
 from amr_util.geometry import all_finite, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import quaternion

@@ -26,6 +26,3 @@ def path_message(points: np.ndarray, frame_id: str, stamp) -> Path:
     return message
 
 
-def path_points(message: Path) -> np.ndarray:
-    """(N, 2) positions of a nav_msgs/Path."""
-    return np.array([(p.pose.position.x, p.pose.position.y) for p in message.poses], dtype=float).reshape(-1, 2)

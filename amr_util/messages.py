@@ -44,3 +44,8 @@ def velocity_command(v: float, w: float, *, stamped: bool, flip_angular_sign: bo
         message = twist = Twist()
     twist.linear.x, twist.angular.z = float(v), float(w)
     return message
+
+
+def path_points(message) -> np.ndarray:
+    """(N, 2) positions of a nav_msgs/Path."""
+    return np.array([(p.pose.position.x, p.pose.position.y) for p in message.poses], dtype=float).reshape(-1, 2)

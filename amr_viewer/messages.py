@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from amr_util.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
-from amr_util.messages import scan_data
+from amr_util.messages import path_points, scan_data  # noqa: F401 (path_points: the viewer's path reader)
 from amr_viewer.geometry import finite
 from amr_viewer.state import Estimate, MapImage, Scan, map_image
 
@@ -37,11 +37,6 @@ def localized_pose(message) -> Estimate:
     """amr_interfaces/LocalizedPose (a PoseWithCovariance and a `localized` flag)."""
     covariance = message.pose.covariance
     return Estimate(pose_of(message.pose.pose), (covariance[0], covariance[1], covariance[7]), bool(message.localized))
-
-
-def path_points(message) -> np.ndarray:
-    """nav_msgs/Path as (N, 2)."""
-    return np.array([(p.pose.position.x, p.pose.position.y) for p in message.poses], dtype=float).reshape(-1, 2)
 
 
 def beacon_positions(message) -> np.ndarray:
