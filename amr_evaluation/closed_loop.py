@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
-from amr_localization.particle_filter import ParticleFilter
+from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_simulation.simulator import Simulator
 from amr_util.geometry import compose, wrap_angle
 from amr_util.scan import scan_of
@@ -32,6 +33,8 @@ class Trace:
     position_error: list[float] = field(default_factory=list)
     heading_error: list[float] = field(default_factory=list)
     update_time: list[float] = field(default_factory=list)
+    truth: list[tuple[float, float, float]] = field(default_factory=list)
+    """the true pose (x, y, theta) at each step."""
     kidnapped_at: float | None = None
 
     def arrays(self):
@@ -46,8 +49,10 @@ class Trace:
 
 
 def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig, seconds: float,
-        kidnap: tuple[float, tuple[float, float, float]] | None = None, stop_when_localized: bool = False) -> Trace:
-    """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once."""
+        kidnap: tuple[float, tuple[float, float, float]] | None = None, stop_when_localized: bool = False,
+        until: Callable[[Simulator, Estimate], bool] | None = None) -> Trace:
+    """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once; `until`, called
+    after each step's estimate, ends the run early when it returns True."""
     follower = WallFollower(follower_config)
     trace = Trace()
     odometry_frame = np.zeros(3)  # what the filter's odometry frame is in the simulator's odometry frame
@@ -66,7 +71,8 @@ def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig,
         trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
         trace.heading_error.append(abs(float(wrap_angle(estimate.pose.theta - truth.theta))))
         trace.update_time.append(estimate.status.update_time)
-        if stop_when_localized and estimate.localized:
+        trace.truth.append((truth.x, truth.y, truth.theta))
+        if (stop_when_localized and estimate.localized) or (until is not None and until(sim, estimate)):
             break
         command = follower.compute(scan, *sim.odom_twist, sim.time)
         sim.step(command.v, command.w)

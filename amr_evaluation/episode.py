@@ -71,7 +71,9 @@ class EpisodeSpec:
     """s of simulated time at most."""
     options: dict = dataclasses.field(default_factory=dict)
     """controller options: beams, scan_period, outlier_rate (wall_follower); max_collisions (navigation);
-    kidnap [t, x, y, theta] (localization); resolution (plan_follow)."""
+    kidnap [t, x, y, theta], symmetric (the world's symmetric counterpart, a world dict: the record's extra says
+    when the feature breaking the symmetry was first seen), stop_after (s after the first declaration, and the
+    feature seen, the run ends) (localization); resolution (plan_follow)."""
     mode: str = "library"
 
     def to_dict(self) -> dict[str, Any]:
@@ -274,8 +276,19 @@ def _localization(spec: EpisodeSpec) -> dict[str, Any]:
     sim = simulator_for(spec, world, dt=follower.dt)
     particle_filter = _particle_filter(spec, world)
     kidnap = spec.options.get("kidnap")
+    watch = None
+    if spec.options.get("symmetric") is not None:  # a room one feature breaks the symmetry of: watch the feature
+        from amr_evaluation.feature_watch import FeatureWatch
+        from amr_maps.symmetry_families import FeatureView
+        from amr_maps.world import world_from_dict
+
+        watch = FeatureWatch(FeatureView(world, world_from_dict(spec.options["symmetric"])), sim.config.lidar)
+    stop_after = spec.options.get("stop_after")
+    until = None
+    if stop_after is not None:
+        until = watch.stop_after(float(stop_after)) if watch is not None else _localized_for(float(stop_after))
     trace = run(sim, particle_filter, follower, spec.duration,
-                kidnap=(float(kidnap[0]), tuple(float(v) for v in kidnap[1:4])) if kidnap else None)
+                kidnap=(float(kidnap[0]), tuple(float(v) for v in kidnap[1:4])) if kidnap else None, until=until)
     t, localized, position, heading = trace.arrays()
     first = trace.first_localized()
     figures: dict[str, Any] = {"time": sim.time, "reason": f"time limit {spec.duration:g} s",
@@ -299,10 +312,23 @@ def _localization(spec: EpisodeSpec) -> dict[str, Any]:
                      regained_after=float(t[again] - trace.kidnapped_at) if again is not None else None,
                      regained_error=float(position[again]) if again is not None else None,
                      regained_heading_error=math.degrees(heading[again]) if again is not None else None)
+    if watch is not None:
+        extra.update(feature_seen=watch.seen, feature_glimpsed=watch.glimpsed, turns_apart=watch.apart)
     if world.goal is not None:
         figures.update(_goal_figures(sim.goal_reached, sim.time))
     figures["extra"] = extra
     return figures
+
+
+def _localized_for(seconds: float):
+    """A closed_loop.run `until`: True once the filter has been localized since `seconds` ago."""
+    first: list[float] = []
+
+    def until(sim, estimate) -> bool:
+        if estimate.localized and not first:
+            first.append(sim.time)
+        return bool(first) and sim.time >= first[0] + seconds
+    return until
 
 
 def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:

@@ -9,7 +9,12 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    (default) or the beam model for a scan (its log-likelihood scaled by
    likelihood_exponent: 60 beams on one map are far from independent), by the
    beacon model for ranges, with beta <= 1 tempered so that one update cannot
-   wipe out most hypotheses (tempering.py);
+   wipe out most hypotheses (tempering.py); until localized is declared, the
+   places the evidence ledger follows (evidence_ledger.py: those the rival
+   search finds from the first scan on and the estimate's, moved by the
+   odometry, re-fitted to each scan) add the scan's log-likelihood, untempered
+   and with the beams' free paths checked, to their accumulated evidence, and
+   particles at a place it has ruled out die;
 3. resampling, when N_eff < resample_threshold N: systematic, to
    max_particles while the particles form several clusters (the course's
    rule: every candidate place keeps thousands of particles, so that chance
@@ -21,7 +26,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    covariance; `localized` is declared after localized_confirmations updates
    in a row with one cluster holding localized_min_cluster_share of the weight,
    its spread under the position and heading limits and the scan fitting its
-   pose (scan_fit.py), and withdrawn as soon as the cluster's share, spread or
+   pose (scan_fit.py), and no other place explains the recent scans as well
+   (the rival search) unless the ledger's evidence since it began following
+   that place rules it out; withdrawn as soon as the cluster's share, spread or
    fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*), or when,
    searched again every recheck_updates updates, another place explains the
    recent scans clearly better (a kidnapping into a look-alike place); when one
@@ -30,7 +37,9 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
 
 Between filter updates the estimate follows odometry, so every call returns a
 pose. A particle filter in a world with symmetric places keeps one cluster per
-place, so it does not declare itself localized until the symmetry is broken.
+place, so it does not declare itself localized until the symmetry is broken;
+where one feature seen for a few seconds per lap breaks it, the ledger keeps
+what was seen (docs/localization_symmetry.md).
 """
 
 from __future__ import annotations
@@ -49,6 +58,7 @@ from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
 from amr_localization.errors import BeaconError, LocalizationError, OdometryError
+from amr_localization.evidence_ledger import EvidenceLedger, LedgerParams
 from amr_localization.free_space import FreeSpace
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
@@ -56,7 +66,7 @@ from amr_localization.motion_model import OdometryNoise, odometry_increment, sam
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
-from amr_localization.rival_check import RivalCheckParams, Snapshot, find_rivals
+from amr_localization.rival_check import PlaceSearch, RivalCheckParams, Snapshot, find_rivals, search_places
 from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
@@ -69,6 +79,14 @@ WITHDRAW_SPREAD_FACTOR = 2.0
 """localized is withdrawn when the spread exceeds this many times the declaration limit ..."""
 WITHDRAW_MARGIN = 0.15
 """... or the cluster's share or the fit falls this far below their declaration limits."""
+LEDGER_MARGIN = 0.5
+"""per-beam log-likelihood: places the rival search finds within this of the estimate enter the evidence ledger."""
+LEDGER_BEAMS = 180
+"""beams of each scan the evidence ledger weighs its few places on."""
+LEDGER_SEED_SHARE = 0.5
+"""the ledger, when it begins (it follows nothing), follows the heaviest cluster's place too if it holds this share."""
+MAX_LOG_ODDS = 50.0
+"""a rival's cloud is at most e^50 times as heavy as the estimate's cluster (numbers stay finite)."""
 
 
 @dataclass
@@ -123,6 +141,9 @@ class ParticleFilter:
         self._coarse_scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.rival_coarse_sigma), self.mount,
                                               range_max)
         self._rival_params = RivalCheckParams(margin=config.rival_margin)
+        self._ledger = EvidenceLedger(self._scorer, self.free_space,
+                                      LedgerParams(threshold=config.evidence_threshold,
+                                                   dead_zone=config.evidence_dead_zone))
         self._history: deque[Snapshot] = deque(maxlen=config.history_length)  # scans history_spacing apart
         self._newest: Snapshot | None = None  # ... and the newest since the last of them
         self.beacons = checked_beacons(beacons) if beacons is not None else None
@@ -186,6 +207,7 @@ class ParticleFilter:
         self._estimate_odometry = self._odometry
         self._history.clear()
         self._newest = None
+        self._ledger.clear()
         self.rivals = np.zeros((0, 3))
         self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
                                            self.config.cluster_min_size)
@@ -227,7 +249,7 @@ class ParticleFilter:
         if selected is not None and not selected.returned.any():
             self.status.event = "scan skipped: no valid return (NaN, inf or out of range everywhere)"
         if self._pending_measurement and (selected is not None or beacons is not None):
-            self._measure(selected, beacons)
+            self._measure(selected, beacons, scan)
         self.status.update_time = time.process_time() - started
         return Estimate(self._current_pose(odometry), self._localized, self.status)
 
@@ -246,6 +268,7 @@ class ParticleFilter:
         if d_trans < self.config.update_min_d and d_theta < self.config.update_min_a:
             return
         moved = sample_motion_model_odometry(self.particles, self._odometry, odometry, self.noise, self._rng)
+        self._ledger.move(relative_pose(self._odometry, odometry))
         alive = self.free_space.segments_free(self.particles[:, :2], moved[:, :2])
         self.particles = moved
         self.status.killed = int(np.count_nonzero(~alive))
@@ -256,10 +279,15 @@ class ParticleFilter:
             self.reinitialize_global()
             self.status.event = "every particle moved into a wall: global localization restarted"
 
-    def _measure(self, beams: Beams | None, beacons: BeaconReading | None) -> None:
+    def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
+        scanned = beams is not None and bool(beams.returned.any())
+        if scanned:
+            self._remember(beams)
+            if len(self._ledger):  # first: it may kill particles at ruled-out places, or add clouds
+                self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
         log_likelihood = np.zeros(len(self.particles))
         used = 0
-        if beams is not None and beams.returned.any():
+        if scanned:
             # scan beams are not independent: their log-likelihood counts likelihood_exponent times
             log_likelihood += self.config.likelihood_exponent * self._laser.log_likelihood(self.particles, beams)
             used += int(np.count_nonzero(beams.returned))
@@ -269,8 +297,6 @@ class ParticleFilter:
             used += len(self.beacons) + 1
         if used == 0:
             return
-        if beams is not None and beams.returned.any():
-            self._remember(beams)
         alive = self.weights > 0.0
         log_prior = np.full(len(self.particles), -np.inf)
         log_prior[alive] = np.log(self.weights[alive])
@@ -302,6 +328,38 @@ class ParticleFilter:
         self.status.updated = True
         self.status.particles = len(self.particles)
         self.status.clusters = self._clusters.count
+
+    def _observe_evidence(self, scan: ScanData, used: int) -> None:
+        """The ledger weighs its places on LEDGER_BEAMS beams (a doorway a few degrees wide falls between the
+        filter's max_beams), each scan counting as much as it does for the particles."""
+        beams = select_beams(scan, LEDGER_BEAMS, keep_no_return=True)  # no return is a free path too
+        self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1))
+        self._prune_ruled_out()
+
+    def _prune_ruled_out(self) -> None:
+        """Particles at a place the evidence ledger has ruled out die, as those that cross a wall do; if that
+        leaves none (the particles all sit at ruled-out places), the places the ledger still follows get
+        clouds first, as heavy as their odds."""
+        ledger = self._ledger
+        out = ledger.ruled_out()
+        if out.all():  # every place it followed left free space: it knows nothing any more
+            ledger.clear()
+        if not out.any() or out.all():
+            return
+        doomed = np.zeros(len(self.particles), dtype=bool)
+        for index in np.flatnonzero(out):
+            doomed |= ledger.near(self.particles, index)
+        for index in np.flatnonzero(~out):
+            doomed &= ~ledger.near(self.particles, index)
+        alive = self.weights > 0.0
+        if not (alive & ~doomed).any():
+            count = len(self.particles)
+            self._adopt_rivals(ledger.poses[~out], np.exp(ledger.evidence[~out]))
+            doomed = np.concatenate([doomed, np.zeros(len(self.particles) - count, dtype=bool)])
+            alive = self.weights > 0.0
+        self.status.killed += int(np.count_nonzero(doomed & alive))
+        self.weights = np.where(doomed, 0.0, self.weights)
+        self.weights /= self.weights.sum()
 
     def _remember(self, beams: Beams) -> None:
         """Keep scans history_spacing apart for the rival check, and the newest one."""
@@ -373,6 +431,13 @@ class ParticleFilter:
             self.status.event = (f"lost: the scan has not fitted the only cluster for {config.lost_updates} updates "
                                  f"(fit {fit:.2f}): global localization restarted")
             return
+        recent = self.recent_scans()
+        if config.rival_check and recent and not len(self._ledger):
+            # from the first scan on (and again after the ledger was cleared), follow the places that explain
+            # the scans best, so that a feature seen before the first declaration attempt is not lost (a robot
+            # starting beside it); the estimate's place too once the particles begin to agree on it
+            self._follow(search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
+                                       self._rival_params), with_estimate=share >= LEDGER_SEED_SHARE)
         confident = (
             share >= config.localized_min_cluster_share
             and fit >= config.localized_min_fit
@@ -380,15 +445,50 @@ class ParticleFilter:
             and heading_std <= config.localized_max_heading_std
         )
         self._confirmations = self._confirmations + 1 if confident else 0
-        recent = self.recent_scans()
         if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
-            self.rivals = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
-                                      self._rival_params)
+            search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
+            self.rivals, odds = self._weigh_rivals(search)
             if len(self.rivals):
-                self._adopt_rivals(self.rivals)
+                self._adopt_rivals(self.rivals, odds)
                 self._confirmations = 0
-                self.status.event = f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well"
+                self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
+                                     "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
+        if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
+            self._ledger.clear()  # a withdrawal starts it afresh from the scans then
+
+    def _follow(self, search: PlaceSearch, with_estimate: bool = True) -> int:
+        """Enter the estimate's place and every place the search found explaining the recent scans within
+        LEDGER_MARGIN of it into the ledger, those it does not follow yet as likely as the estimate (the
+        search's own scores are no evidence: a refinement caught in a local optimum scored the true place 0.27
+        per beam below its rotated copy), so that the scans from now on weigh them. Without the estimate (the
+        particles do not agree on a place yet): every place the search found, as likely as each other. Returns
+        the estimate's entry (-1 without it)."""
+        ledger = self._ledger
+        if not with_estimate:
+            for place in search.poses:
+                ledger.add(place, float(ledger.evidence.max()) if len(ledger) else 0.0)
+            return -1
+        if ledger.find(search.own_pose) < 0:  # not followed yet: as good as the best until the scans say otherwise
+            ledger.add(search.own_pose, float(ledger.evidence.max()) if len(ledger) else 0.0)
+        own_evidence = float(ledger.evidence[ledger.find(search.own_pose)])
+        for place, score in zip(search.poses, search.scores):
+            if score >= search.own_score - LEDGER_MARGIN:
+                ledger.add(place, own_evidence)
+        return ledger.find(search.own_pose)
+
+    def _weigh_rivals(self, search: PlaceSearch) -> tuple[np.ndarray, np.ndarray]:
+        """The places explaining the recent scans as well as the estimate that the ledger's evidence does not rule
+        out, and each one's odds against the estimate."""
+        ledger = self._ledger
+        own = self._follow(search)
+        rivals = search.within(self._rival_params.margin)
+        # a rival the ledger dropped (it holds max_entries places) counts as likely as the estimate
+        evidence = np.array([ledger.evidence[i] if i >= 0 else ledger.evidence[own] for i in map(ledger.find, rivals)])
+        best = max(float(ledger.evidence[own]), float(evidence.max(initial=-np.inf)))
+        viable = evidence > best - ledger.params.threshold
+        odds = np.exp(np.minimum(evidence[viable] - ledger.evidence[own], MAX_LOG_ODDS))
+        return rivals[viable].reshape(-1, 3), odds
 
     def _recheck(self, pose: np.ndarray) -> None:
         """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
@@ -405,18 +505,20 @@ class ParticleFilter:
             self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
                                  "estimate: localized withdrawn")
 
-    def _adopt_rivals(self, rivals: np.ndarray) -> None:
-        """Give every rival a cloud of particles as heavy as the current cluster: as likely, as far as we know."""
+    def _adopt_rivals(self, rivals: np.ndarray, odds: np.ndarray | None = None) -> None:
+        """Give every rival a cloud of particles as heavy as the current cluster times its odds against it
+        (1: as likely, as far as we know)."""
         count = len(self.particles)
         spread = np.array([self.config.cluster_radius / 2.0, self.config.cluster_radius / 2.0, math.radians(3.0)])
         clouds = [self.particles]
         mass = float(self._clusters.weights[0]) if self._clusters.count else 1.0
         weights = [self.weights]
-        for rival in rivals:
+        odds = np.ones(len(rivals)) if odds is None else odds
+        for rival, rival_odds in zip(rivals, odds):
             cloud = rival + self._rng.standard_normal((count, 3)) * spread
             cloud[:, 2] = wrap_angle(cloud[:, 2])
             clouds.append(cloud)
-            weights.append(np.where(self.free_space.contains(cloud[:, 0], cloud[:, 1]), mass / count, 0.0))
+            weights.append(np.where(self.free_space.contains(cloud[:, 0], cloud[:, 1]), rival_odds * mass / count, 0.0))
         self.particles = np.concatenate(clouds)
         weights = np.concatenate(weights)
         self.weights = weights / weights.sum()

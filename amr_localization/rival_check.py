@@ -35,6 +35,8 @@ from amr_localization.likelihood_field import LikelihoodField
 from amr_localization.scan_beams import Beams
 from amr_util.geometry import compose, relative_pose, wrap_angle
 
+NEIGHBOURS = np.stack(np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
+"""(27, 3) a pose and its neighbours one step away in x, y and heading (the local searches' pattern)."""
 CHUNK = 20000
 """poses scored per batch in the coarse search (bounds the (poses x beams) arrays to a few MB)."""
 
@@ -117,7 +119,7 @@ def coarse_candidates(free_space: FreeSpace, coarse_model: LikelihoodField, beam
 def refine(model: LikelihoodField, poses: np.ndarray, history: Sequence[Snapshot], now: tuple[float, float, float],
            params: RivalCheckParams) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal local search of each pose on the history score: 3 x 3 x 3 around the best, steps halving."""
-    offsets = np.stack(np.meshgrid([-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], indexing="ij"), -1).reshape(-1, 3)
+    offsets = NEIGHBOURS
     step = np.array([params.coarse_step / 2.0, params.coarse_step / 2.0, math.pi / params.coarse_headings])
     best = poses.copy()
     scores = history_score(model, best, history, now)
@@ -133,21 +135,49 @@ def refine(model: LikelihoodField, poses: np.ndarray, history: Sequence[Snapshot
     return best, scores
 
 
+@dataclass(frozen=True)
+class PlaceSearch:
+    """What one search found: the estimate refined, and the distinct places away from it, best first."""
+
+    own_pose: np.ndarray
+    """(3,) the estimate after the local search."""
+    own_score: float
+    """its history score (mean per-beam log-likelihood)."""
+    poses: np.ndarray
+    """(M, 3) distinct places away from the estimate, refined."""
+    scores: np.ndarray
+    """(M,) their history scores."""
+    beams: int
+    """beams in the history the scores average over (score x beams = the history's log-likelihood)."""
+
+    def within(self, margin: float) -> np.ndarray:
+        """(R, 3) the places scoring within `margin` of the estimate (margin < 0: better by -margin at least)."""
+        return self.poses[self.scores >= self.own_score - margin].reshape(-1, 3)
+
+
+def search_places(free_space: FreeSpace, model: LikelihoodField, coarse_model: LikelihoodField,
+                  history: Sequence[Snapshot], estimate: np.ndarray, params: RivalCheckParams) -> PlaceSearch:
+    """The coarse search and refinement of every candidate, whatever its score (find_rivals keeps the close ones)."""
+    now = history[-1].odometry
+    beams = sum(int(np.count_nonzero(snapshot.beams.returned)) for snapshot in history)
+    own_pose, own_score = refine(model, estimate[None, :], history, now, params)
+    candidates = coarse_candidates(free_space, coarse_model, history[-1].beams, params, estimate)
+    if len(candidates) == 0:
+        return PlaceSearch(own_pose[0], float(own_score[0]), np.zeros((0, 3)), np.zeros(0), beams)
+    places, scores = refine(model, candidates, history, now, params)
+    away = (np.hypot(places[:, 0] - own_pose[0, 0], places[:, 1] - own_pose[0, 1]) > params.exclusion_radius) | (
+        np.abs(wrap_angle(places[:, 2] - own_pose[0, 2])) > params.exclusion_angle)
+    order = np.flatnonzero(away)[np.argsort(-scores[away], kind="stable")]
+    distinct: list[int] = []  # refinements of neighbouring candidates may meet at one place: keep the best
+    for index in order:
+        place = places[index]
+        if all(math.hypot(place[0] - places[d, 0], place[1] - places[d, 1]) > params.coarse_step
+               or abs(float(wrap_angle(place[2] - places[d, 2]))) > params.exclusion_angle for d in distinct):
+            distinct.append(int(index))
+    return PlaceSearch(own_pose[0], float(own_score[0]), places[distinct].reshape(-1, 3), scores[distinct], beams)
+
+
 def find_rivals(free_space: FreeSpace, model: LikelihoodField, coarse_model: LikelihoodField, history: Sequence[Snapshot],
                 estimate: np.ndarray, params: RivalCheckParams) -> np.ndarray:
     """(R, 3) poses elsewhere that explain the history within `margin` of the estimate (none: unambiguous)."""
-    now = history[-1].odometry
-    candidates = coarse_candidates(free_space, coarse_model, history[-1].beams, params, estimate)
-    if len(candidates) == 0:
-        return candidates
-    own_pose, own_score = refine(model, estimate[None, :], history, now, params)
-    rivals, scores = refine(model, candidates, history, now, params)
-    away = (np.hypot(rivals[:, 0] - own_pose[0, 0], rivals[:, 1] - own_pose[0, 1]) > params.exclusion_radius) | (
-        np.abs(wrap_angle(rivals[:, 2] - own_pose[0, 2])) > params.exclusion_angle)
-    rivals = rivals[away & (scores >= own_score[0] - params.margin)]
-    distinct: list[np.ndarray] = []  # refinements of neighbouring candidates may meet at one place
-    for rival in rivals:
-        if all(math.hypot(rival[0] - d[0], rival[1] - d[1]) > params.coarse_step
-               or abs(float(wrap_angle(rival[2] - d[2]))) > params.exclusion_angle for d in distinct):
-            distinct.append(rival)
-    return np.array(distinct).reshape(-1, 3)
+    return search_places(free_space, model, coarse_model, history, estimate, params).within(params.margin)

@@ -1,13 +1,17 @@
 """Localization figures (issue 12): update cost, global localization while wall following, kidnapping,
 symmetric worlds, the beacon localizer's pyramidal search against the exhaustive grid, and, on the beacon
 world (open_room), the beacon localizer against the particle filter with beacons, scan + beacons and scan.
+--symmetry (issue 20): generated square rooms whose four-fold symmetry one feature breaks (a doorway, a
+notch, a missing or an extra pillar; amr_maps.symmetry_families) and truly symmetric controls
+(docs/localization_symmetry.md).
 
 The sweeps (global localization, symmetric worlds, kidnapping) are amr_evaluation episodes (controller
 `localization`: config/wall_follower_sim.yaml and config/particle_filter.yaml) run by its runner: --jobs N local
 processes, --scheduler tcp://host:8786 a Dask cluster, --results FILE keeps the records and resumes from them.
 
 Prints; asserts nothing.
-Usage: .venv/bin/python bench/bench_localization.py [--quick] [--jobs 2] [--beacon-comparison (that alone)]
+Usage: .venv/bin/python bench/bench_localization.py [--quick] [--jobs 2] [--beacon-comparison | --symmetry (that alone)]
+       [--seeds N (--symmetry: seeds per family)]
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from amr_localization.sensor_mount import SensorMount  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
 from amr_simulation.simulator import Simulator  # noqa: E402
+from amr_maps.symmetry_families import BROKEN, SYMMETRIC, symmetry_case  # noqa: E402
 from amr_maps.world import World, load_world  # noqa: E402
 
 WORLDS = ROOT / "config" / "worlds"
@@ -225,6 +230,96 @@ def bench_kidnap(sweep: Sweep, seeds: int) -> None:
               f"regained after {regained:.1f} s (error {error})")
 
 
+def _noise(rng: np.random.Generator) -> tuple[float, float, float]:
+    return float(rng.uniform(0.01, 0.03)), float(rng.uniform(0.005, 0.03)), float(rng.uniform(0.01, 0.05))
+
+
+def bench_symmetry(sweep: Sweep, seeds: int, seconds: float, control_seeds: int, control_seconds: float) -> None:
+    after = 15.0
+    print(f"== symmetry broken by one feature (issue 20): {len(BROKEN)} families x {seeds} seeds, square rooms 3.5-6.5 m, "
+          f"features 0.2-0.6 m, LiDAR noise 0.01-0.03 m, encoder noise 0.005-0.03, slip 0.01-0.05; until {after:.0f} s "
+          f"after the first declaration with the feature seen, at most {seconds:.0f} s simulated. 'seen': 3 noise-free "
+          "beams of the scan (240) see the feature (differ by > 5 cm from the symmetric room), 'glimpsed': one does; "
+          "'apart': by then every quarter turn of the pose has been told apart by 3 beams at least once (the feature, "
+          "or a wall where a turned copy would see it)")
+    rng = np.random.default_rng(20)
+    cases, specs = [], []
+    for kind in BROKEN:
+        for seed in range(seeds):
+            noise = _noise(rng)
+            case = symmetry_case(kind, seed)
+            cases.append((case, noise))
+            specs.append(EpisodeSpec("localization", LABEL, PARAMETERS, {"data": case.world, "name": case.world["name"]},
+                                     None, seed, *noise, seconds, {"symmetric": case.symmetric, "stop_after": after}))
+    rows = []
+    for (case, noise), record in zip(cases, sweep.run(specs)):
+        name = case.world["name"]
+        if record["error"]:
+            print(f"{name:18s} run failed: {record['error']}")
+            continue
+        extra = record["extra"]
+        seen, glimpsed, apart = extra["feature_seen"], extra["feature_glimpsed"], extra["turns_apart"]
+        first = record["time_to_localized"]
+        row = {"kind": case.kind, "seen": seen, "apart": apart, "time": first, "error": record["localization_error"],
+               "heading": extra.get("heading_error"), "withdrawn": record["localization_losses"] or 0}
+        right = first is not None and row["error"] <= 0.10 and row["heading"] <= 10.0
+        row["ok"] = right and (seen is None or first <= seen + 60.0)
+        row["ok_glimpsed"] = right and (glimpsed is None or first <= glimpsed + 60.0)
+        row["counted"] = seen is not None or first is not None
+        rows.append(row)
+        if first is not None:
+            when = (f"localized at {first:5.1f} s, error {100 * row['error']:4.1f} cm {row['heading']:4.1f} deg, "
+                    f"{row['withdrawn']} withdrawals in the {record['time'] - first:.0f} s after")
+        else:
+            when = f"never localized in {record['time']:.0f} s"
+        verdict = "ok" if row["ok"] else "MISSED" if row["counted"] else "(never seen nor localized: not counted)"
+        nan = math.nan
+        print(f"{name:18s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  seen at "
+              f"{seen if seen is not None else nan:5.1f} s (glimpsed {glimpsed if glimpsed is not None else nan:5.1f} s), "
+              f"apart at {apart if apart is not None else nan:5.1f} s, {when}  {verdict}  CPU per observation "
+              f"{1e3 * (extra['update_time_mean'] or 0.0):.2f} ms mean  wall {record['wall_time']:5.1f} s", flush=True)
+    counted = [r for r in rows if r["counted"]]
+    ok = [r for r in counted if r["ok"]]
+    print(f"localized within 60 s of the feature first in view (or before it), error <= 10 cm and 10 deg: "
+          f"{len(ok)}/{len(counted)} ({100 * len(ok) / max(len(counted), 1):.0f} %); counting from the first beam "
+          f"that grazes it: {sum(r['ok_glimpsed'] for r in counted)}/{len(counted)}")
+    for kind in BROKEN:
+        mine = [r for r in counted if r["kind"] == kind]
+        delays = [r["time"] - r["seen"] for r in mine if r["time"] is not None and r["seen"] is not None]
+        strict = [r["time"] - r["apart"] for r in mine if r["time"] is not None and r["apart"] is not None]
+        print(f"  {kind:15s} {sum(r['ok'] for r in mine)}/{len(mine)}  after first seen: "
+              + (f"median {np.median(delays):5.1f} s, max {max(delays):5.1f} s" if delays else "-")
+              + "; after every turn told apart: "
+              + (f"median {np.median(strict):5.1f} s, max {max(strict):5.1f} s" if strict else "-"))
+    declared = [r for r in rows if r["time"] is not None]
+    if declared:
+        print(f"error at the first declaration: max {100 * max(r['error'] for r in declared):.1f} cm, "
+              f"{max(r['heading'] for r in declared):.1f} deg; wrong (> 10 cm or 10 deg): "
+              f"{sum(r['error'] > 0.10 or r['heading'] > 10.0 for r in declared)}/{len(declared)}; withdrawals after it: "
+              f"{sum(r['withdrawn'] for r in declared)}")
+    print(f"== truly symmetric controls, {control_seconds:.0f} s each: twin_rooms, and {', '.join(SYMMETRIC)} with "
+          "coordinates on the 2 cm lattice (the map exactly as symmetric as the world) and off it (the map not quite)")
+    controls = [({"file": "twin_rooms.yaml"}, f"twin_rooms s{seed}", seed) for seed in range(control_seeds)]
+    for kind in SYMMETRIC:
+        for seed in range(control_seeds):
+            for lattice in (True, False):
+                case = symmetry_case(kind, seed, lattice=lattice)
+                name = f"{case.world['name']}{'' if lattice else '_off'}"
+                controls.append(({"data": case.world, "name": name}, name, seed))
+    noises = [_noise(rng) for _ in controls]
+    specs = [EpisodeSpec("localization", LABEL, PARAMETERS, world, None, seed, *noise, control_seconds, {"stop_after": 0.0})
+             for (world, _, seed), noise in zip(controls, noises)]
+    false = 0
+    for (_, name, _), noise, record in zip(controls, noises, sweep.run(specs)):
+        first = record["time_to_localized"]
+        false += first is not None
+        print(f"{name:22s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  "
+              f"{'LOCALIZED at %.1f s' % first if first is not None else 'never localized'}  CPU per observation "
+              f"{1e3 * (record['extra'].get('update_time_mean') or 0.0):.2f} ms mean  wall {record['wall_time']:5.1f} s"
+              + (f"  ERROR {record['error']}" if record["error"] else ""), flush=True)
+    print(f"false declarations in truly symmetric worlds: {false}/{len(controls)}")
+
+
 def bench_beacons(cases: int) -> None:
     print("== beacon localizer: pyramidal vs exhaustive grid at the same final resolution (5 mm), range noise 5 mm")
     beacons = np.array([[0.0, 0.0], [4.0, 0.5], [3.5, 4.0], [0.5, 3.5]])
@@ -357,8 +452,18 @@ def main() -> None:
     parser.add_argument("--scheduler", help="a Dask scheduler address (tcp://host:8786) for the sweeps")
     parser.add_argument("--results", help="the sweeps' records file (JSON lines): kept, and a run resumes from it")
     parser.add_argument("--sweeps-only", action="store_true", help="only the sweeps (symmetric, kidnapping, global)")
+    parser.add_argument("--symmetry", action="store_true",
+                        help="only the rooms whose symmetry one feature breaks, and the truly symmetric controls")
+    parser.add_argument("--seeds", type=int, help="--symmetry: seeds per family (default 10, --quick 2)")
+    parser.add_argument("--control-seeds", type=int, help="--symmetry: seeds per symmetric control (default 2, --quick 1)")
     args = parser.parse_args()
     quick = args.quick
+    if args.symmetry:
+        seeds = args.seeds or (2 if quick else 10)
+        bench_symmetry(Sweep(args.jobs, args.scheduler, args.results), seeds=seeds, seconds=240.0,
+                       control_seeds=args.control_seeds or (1 if quick else 2),
+                       control_seconds=120.0 if quick else 300.0)
+        return
     if args.beacon_comparison:
         bench_beacon_comparison(starts=3 if quick else len(COMPARISON_STARTS), seconds=60.0)
         return

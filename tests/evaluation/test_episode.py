@@ -107,3 +107,18 @@ def test_localization_episode_localizes_and_plan_follow_reaches_the_goal():
                                      duration=30.0))
     assert record["error"] is None and record["goal_reached"] is True and record["plans"] >= 1
     assert record["cross_track"] < 0.03 and record["time_to_goal"] < 30.0
+
+
+def test_a_localization_episode_in_a_room_one_feature_breaks_records_when_the_feature_was_seen():
+    from amr_maps.symmetry_families import symmetry_case
+
+    case = symmetry_case("notch", 1)  # the notch comes into view at about 13 s, the filter declares a few s later
+    label, parameters = configs.resolve("localization", "default")
+    record = run_episode(EpisodeSpec("localization", label, parameters, {"data": case.world, "name": "notch_1"},
+                                     seed=1, lidar_noise=0.02, encoder_noise=0.02, slip=0.02, duration=60.0,
+                                     options={"symmetric": case.symmetric, "stop_after": 1.0}))
+    assert record["error"] is None, record["extra"]
+    extra = record["extra"]
+    assert 0.0 < extra["feature_glimpsed"] <= extra["feature_seen"] < 60.0
+    assert record["time_to_localized"] is not None and record["localization_error"] <= 0.10
+    assert record["time"] <= record["time_to_localized"] + 1.0 + 0.1, "stop_after ends the run"
