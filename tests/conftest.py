@@ -25,18 +25,31 @@ ROOT = Path(__file__).resolve().parent.parent
 PREFIX = Path(sys.prefix)
 
 
-FIRST_TEST_DOMAIN, TEST_DOMAINS = 101, 132
+def _test_domains() -> tuple[int, int]:
+    """(first, count) of the DDS domains the tests take one by one: 101-232, or AMR_TEST_DOMAINS=<first>-<last>
+    (runs side by side on one machine each give their own range)."""
+    text = os.environ.get("AMR_TEST_DOMAINS", "101-232")
+    try:
+        first, last = (int(part) for part in text.split("-"))
+    except ValueError:
+        raise pytest.UsageError(f"AMR_TEST_DOMAINS={text!r}: expected <first>-<last>, e.g. 101-232") from None
+    if not 0 <= first <= last <= 232:
+        raise pytest.UsageError(f"AMR_TEST_DOMAINS={text!r}: a DDS domain is 0-232, first <= last")
+    return first, last - first + 1
+
+
+FIRST_TEST_DOMAIN, TEST_DOMAINS = _test_domains()
 _next_domain = itertools.count(random.SystemRandom().randrange(TEST_DOMAINS))
 
 
 def fresh_domain() -> int:
-    """The next DDS domain of the tests' range (101-232), round robin."""
+    """The next DDS domain of the tests' range (101-232, or AMR_TEST_DOMAINS), round robin."""
     return FIRST_TEST_DOMAIN + next(_next_domain) % TEST_DOMAINS
 
 
 @pytest.fixture
 def ros_domain(monkeypatch) -> int:
-    """A DDS domain (101-232) of this test's own, also for the processes it starts.
+    """A DDS domain (fresh_domain) of this test's own, also for the processes it starts.
 
     DDS announces the participants of earlier tests until their lease runs out (about 20 s); in a
     shared domain their ghost services shadow live namesakes and requests go unanswered.
