@@ -250,10 +250,6 @@ class LocalizationObserver(Observer):
 NAVIGATION_WORLD = "pillar_goal.yaml"  # a goal beside a free-standing pillar: a wall follower never gets there
 NAVIGATION_DURATION = 120.0  # s of simulated time at most
 LOCALIZATION_CLOUD_PERIOD = 0.25  # s of simulated time between the particle clouds the demo records
-# The particle filter is not part of the lockstep loop (the simulator waits for /cmd_vel only): unpaced, a
-# quiet machine ran the loop at 5x real time and the filter, behind, took 12-18 scans in 25 s and never
-# localized; at 3x it takes every scan (about 500 in 25 s) and localizes in 5-6 s (inner_maze).
-LOCALIZATION_PACE = 3.0
 
 
 def run_localization(context, out: Path, world: str, duration: float) -> dict:
@@ -261,8 +257,7 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
     takes the map server's /map): global localization from an unknown start while the wall follower explores."""
     observer = LocalizationObserver(context=context)
     with composed_stack(context, "maze_localization", arguments={"world": world},
-                        parameters={"particle_filter.particle_cloud_period": str(LOCALIZATION_CLOUD_PERIOD),
-                                    "simulator.pace": str(LOCALIZATION_PACE)},
+                        parameters={"particle_filter.particle_cloud_period": str(LOCALIZATION_CLOUD_PERIOD)},
                         extra_nodes=[observer]) as (_, manager, _):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the localization stack did not come up (see the log above)")

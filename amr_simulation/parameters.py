@@ -42,6 +42,10 @@ NODE_SPECS = (
                   minimum=0.0, maximum=60.0),
     ParameterSpec("enable_localization", False, "compare /pose (a localizer's LocalizedPose) with the ground truth: "
                   "log the first localization, report the estimate's error in ~/status"),
+    ParameterSpec("lockstep_pose_wait", 0.0, "lockstep with enable_localization: wall-clock s at most that each step "
+                  "also waits for the localizer's /pose answering the last observation (a filter outside the loop "
+                  "starves when the loop runs faster than it); 0 = the localizer is not waited for",
+                  minimum=0.0, maximum=60.0),
     ParameterSpec("render_path", str(Path(tempfile.gettempdir()) / "amr_simulator.png"), "PNG file ~/render writes",
                   live=True),
     ParameterSpec("pace", 0.0, "simulated seconds per wall-clock second at most: lockstep 0 = each /cmd_vel steps at "

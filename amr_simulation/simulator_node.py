@@ -46,7 +46,10 @@ Localization (issue 12): a world that declares `beacons` adds /beacons (amr_inte
 noisy range to each beacon in the world's order, and a noisy compass) to every observation. With
 `enable_localization` the node listens to /pose (a localizer's LocalizedPose), compares each estimate
 with the true pose at its stamp, logs once when the robot is first localized ("localized at t = ...,
-error x m, y deg") and reports the latest error in ~/status.
+error x m, y deg") and reports the latest error in ~/status. With `lockstep_pose_wait` > 0 as well, lockstep
+takes the localizer into the loop: a step waits, besides every /cmd_vel, for the /pose stamped with the last
+observation (each robot's own), at most that many wall-clock seconds (then it steps without it and says so).
+A localizer outside the loop falls behind when the loop runs faster than it, and drops observations.
 """
 
 from __future__ import annotations
@@ -132,6 +135,8 @@ class RobotChannel:
         self.last_output = 0.0
         self.localization_check: LocalizationCheck | None = None
         self.localization_inputs: list = []
+        self.pose_due: int | None = None
+        """lockstep_pose_wait: the stamp (ns) of the observation whose /pose the next step waits for."""
         self.messages: dict[str, object] = {}
         """Its outgoing messages by topic, built at the first observation and refilled at each one after (publish
         serializes at the call; filling a message costs a fraction of building one)."""
@@ -180,6 +185,8 @@ class SimulatorNode(ManagedNode):
         """Steps ~/step asked for while paused, not taken yet."""
         self._pace_timer = None
         self._pace_ready = True
+        self._pose_wait = 0.0
+        self._pose_wait_timer = None
         self._steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # timers immune to use_sim_time on this node
 
     @property
@@ -229,6 +236,10 @@ class SimulatorNode(ManagedNode):
         if config.mode == "lockstep" and resend > 0.0:
             self._resend_timer = self.create_timer(resend, self._on_resend_timer, clock=self._steady)
         self._set_pace(self.get_parameter("pace").value)
+        self._pose_wait = self.get_parameter("lockstep_pose_wait").value if config.mode == "lockstep" and \
+            self.get_parameter("enable_localization").value else 0.0
+        if self._pose_wait > 0.0:
+            self._pose_wait_timer = self.create_timer(self._pose_wait / 2, self._release_late, clock=self._steady)
         self._active = True
         self._publish_static_tf()
         self._publish_goals()
@@ -350,10 +361,12 @@ class SimulatorNode(ManagedNode):
         self._node_services, self._robots, self._outputs, self._sim, self._fleet = [], [], {}, None, None
 
     def _stop_timer(self) -> None:
-        for timer in (self._resend_timer, self._pace_timer):
+        for timer in (self._resend_timer, self._pace_timer, self._pose_wait_timer):
             if timer is not None:
                 self.destroy_timer(timer)
-        self._resend_timer = self._pace_timer = None
+        self._resend_timer = self._pace_timer = self._pose_wait_timer = None
+        for channel in self._robots:
+            channel.pose_due = None
 
     def _set_pace(self, pace: float) -> None:
         """The steady timer that paces the steps: lockstep, none for 0 (a command steps at once); realtime, the
@@ -406,8 +419,10 @@ class SimulatorNode(ManagedNode):
                 throttle_duration_sec=WARNING_PERIOD)
 
     def _release(self) -> None:
-        """Lockstep: step the held commands, in order, while every robot has one and pausing and the pace allow."""
-        while self._active and self._robots and all(channel.held for channel in self._robots):
+        """Lockstep: step the held commands, in order, while every robot has one (and, with lockstep_pose_wait, its
+        /pose for the last observation) and pausing and the pace allow."""
+        while self._active and self._robots and all(channel.held for channel in self._robots) and \
+                not self._poses_due():
             if self._paused:
                 if self._owed <= 0:
                     return
@@ -417,6 +432,35 @@ class SimulatorNode(ManagedNode):
             elif self._pace_timer is not None:
                 self._pace_ready = False  # one step per pace period
             self._advance([channel.held.popleft() for channel in self._robots])
+
+    def _poses_due(self) -> bool:
+        """lockstep_pose_wait: some robot's /pose for the last observation has not come, and its wait is not over
+        (a wait that is over is given up on, with a line in the log)."""
+        if self._pose_wait <= 0.0:
+            return False
+        due = False
+        now = time.monotonic()
+        for channel in self._robots:
+            if channel.pose_due is None:
+                continue
+            if now - channel.last_output < self._pose_wait:
+                due = True
+            else:
+                channel.pose_due = None
+                self.get_logger().info(
+                    f"{channel.label}no /{channel.prefix}pose for the observation of step {self._fleet.steps} "
+                    f"within lockstep_pose_wait ({self._pose_wait} s): stepping without it",
+                    throttle_duration_sec=WARNING_PERIOD)
+        return due
+
+    def _release_late(self) -> None:
+        """lockstep_pose_wait: a step that waits only for a /pose that has not come goes once the wait is over."""
+        try:
+            if any(channel.pose_due is not None for channel in self._robots):
+                self._release()
+        except Exception as error:
+            self.get_logger().error(
+                f"pose wait timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
 
     def _on_pace_timer(self) -> None:
         try:
@@ -532,6 +576,8 @@ class SimulatorNode(ManagedNode):
 
     def _publish_robot(self, channel: RobotChannel, stamp, rate: float) -> None:
         channel.last_output = time.monotonic()
+        if self._pose_wait > 0.0 and channel.localization_check is not None:
+            channel.pose_due = stamp_nanoseconds(stamp)
         fleet, frames, outputs = self._fleet, channel.frames, channel.outputs
         robot = fleet.robots[channel.index]
         if "odometry" in outputs:
@@ -575,10 +621,13 @@ class SimulatorNode(ManagedNode):
                                                                       self._fleet.config.beacons))
 
     def _on_pose(self, channel: RobotChannel, message: LocalizedPose) -> None:
+        answered = False
         try:
             pose = message.pose.pose
             theta = yaw_from_quaternion(pose.orientation)
             stamp = stamp_nanoseconds(message.header.stamp)
+            if channel.pose_due is not None and stamp >= channel.pose_due:
+                channel.pose_due, answered = None, True
             line = channel.localization_check.estimate(
                 stamp, pose.position.x, pose.position.y, theta, message.localized)
             if line:
@@ -586,6 +635,12 @@ class SimulatorNode(ManagedNode):
         except Exception as error:  # a NaN or stale estimate: say so, keep simulating
             self.get_logger().warning(f"/{channel.prefix}pose not judged: {error}",
                                       throttle_duration_sec=WARNING_PERIOD)
+        if answered:
+            try:
+                self._release()
+            except Exception as error:
+                self.get_logger().error(f"{channel.label}step after /pose: {type(error).__name__}: {error}",
+                                        throttle_duration_sec=WARNING_PERIOD)
 
     @staticmethod
     def _report_localization(channel: RobotChannel, status: SimulatorStatus) -> None:
