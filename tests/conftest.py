@@ -38,7 +38,22 @@ def _test_domains() -> tuple[int, int]:
     return first, last - first + 1
 
 
-FIRST_TEST_DOMAIN, TEST_DOMAINS = _test_domains()
+def _worker_domains(first: int, count: int) -> tuple[int, int]:
+    """Under pytest-xdist (`pytest -n N`): worker i of N takes the i-th part of the range, and its first domain
+    becomes its ROS_DOMAIN_ID (the tests without a domain of their own), so the workers never meet."""
+    worker, workers = os.environ.get("PYTEST_XDIST_WORKER"), os.environ.get("PYTEST_XDIST_WORKER_COUNT")
+    if not worker or not workers:
+        return first, count
+    index, workers = int(worker.removeprefix("gw")), int(workers)
+    share = count // workers
+    if share < 2:
+        raise pytest.UsageError(f"{count} test domains cannot be shared by {workers} workers (2 each at least)")
+    first += index * share
+    os.environ["ROS_DOMAIN_ID"] = str(first)
+    return first + 1, share - 1
+
+
+FIRST_TEST_DOMAIN, TEST_DOMAINS = _worker_domains(*_test_domains())
 _next_domain = itertools.count(random.SystemRandom().randrange(TEST_DOMAINS))
 
 

@@ -182,7 +182,8 @@ def test_absurd_limits_are_capped_and_the_timeout_holds(served):
     elapsed = time.monotonic() - started
     assert not reply.success
     assert f"timeout capped at {MAX_TIMEOUT} s" in reply.message and "max_iterations capped at 100000" in reply.message
-    assert MAX_TIMEOUT * 0.9 <= elapsed <= MAX_TIMEOUT + 1.0  # uncapped: seconds
+    assert reply.iterations < 100_000, "the capped timeout, not the iteration cap, must end this solve"
+    assert MAX_TIMEOUT * 0.9 <= elapsed <= MAX_TIMEOUT + 5.0  # round trip included, slack for a loaded machine
 
 
 @pytest.mark.parametrize("chain, solver", [("ur5", "dls"), ("panda", "pinv"), ("ull3", "ccd")])
@@ -192,7 +193,7 @@ def test_a_solve_never_runs_past_its_timeout(served, chain, solver):
     reply = solve(served, chain, pose(2.0, 2.0, 2.0), solver=solver, timeout=timeout, max_iterations=100_000,
                   tolerance=1e-12)
     assert not reply.success and reply.message and reply.iterations < 100_000
-    assert time.monotonic() - started <= timeout + 1.0  # round trip included, slack for a loaded machine
+    assert time.monotonic() - started <= timeout + 5.0  # round trip included, slack for a loaded machine
 
 
 def test_forward_kinematics_gives_tool_pose_and_joint_origins(served):
