@@ -71,6 +71,7 @@ from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
+from amr_localization.unexpected_obstacles import MapRanges, without_unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
@@ -106,6 +107,8 @@ class FilterStatus:
     """whether this call ran a filter update (False: odometry had not moved enough, or no data)."""
     update_time: float = 0.0
     """s of CPU for this call."""
+    unexpected: int = 0
+    """beams of the last scan dropped as unexpected obstacles (reading short of the map at the estimate)."""
     event: str = ""
     """the last notable event (global re-initialization, skipped scan and why)."""
 
@@ -138,6 +141,7 @@ class ParticleFilter:
             params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
             self._laser = LikelihoodField(self.field, params, self.mount, range_max)
         self._scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.sigma_hit), self.mount, range_max)
+        self._map_ranges = MapRanges(self.field, self.mount)
         self._coarse_scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.rival_coarse_sigma), self.mount,
                                               range_max)
         self._rival_params = RivalCheckParams(margin=config.rival_margin)
@@ -282,6 +286,7 @@ class ParticleFilter:
     def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
         scanned = beams is not None and bool(beams.returned.any())
         if scanned:
+            beams = self._expected(beams, count=True)
             self._remember(beams)
             if len(self._ledger):  # first: it may kill particles at ruled-out places, or add clouds
                 self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
@@ -332,7 +337,7 @@ class ParticleFilter:
     def _observe_evidence(self, scan: ScanData, used: int) -> None:
         """The ledger weighs its places on LEDGER_BEAMS beams (a doorway a few degrees wide falls between the
         filter's max_beams), each scan counting as much as it does for the particles."""
-        beams = select_beams(scan, LEDGER_BEAMS, keep_no_return=True)  # no return is a free path too
+        beams = self._expected(select_beams(scan, LEDGER_BEAMS, keep_no_return=True))  # no return: a free path too
         self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1))
         self._prune_ruled_out()
 
@@ -360,6 +365,21 @@ class ParticleFilter:
         self.status.killed += int(np.count_nonzero(doomed & alive))
         self.weights = np.where(doomed, 0.0, self.weights)
         self.weights /= self.weights.sum()
+
+    def _expected(self, beams: Beams, count: bool = False) -> Beams:
+        """The beams without those ending on something not on the map (another robot): reading short of the
+        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py)."""
+        config = self.config
+        if not config.unexpected_obstacles or not self._clusters.count or \
+                self._clusters.weights[0] < config.unexpected_min_cluster_share:
+            return beams
+        estimate = self._current_pose(self._odometry)
+        kept, dropped = without_unexpected(self._map_ranges, np.array([estimate.x, estimate.y, estimate.theta]),
+                                           beams, config.unexpected_obstacle_margin,
+                                           config.unexpected_obstacle_max_share)
+        if count:
+            self.status.unexpected = dropped
+        return kept
 
     def _remember(self, beams: Beams) -> None:
         """Keep scans history_spacing apart for the rival check, and the newest one."""
