@@ -457,6 +457,7 @@ def _crowded_case(args) -> dict:
     family, seed, others, mode, noise, known, seconds, overrides = args
     base = generate(family, seed, width=0.7)
     world = crowded_world(base, others, seed)
+    mode = "stand" if mode == "alone" else mode
     params = {**PARAMETERS["particle_filter"], "seed": seed, **overrides}
     follower = WallFollowerConfig.from_params(dict(PARAMETERS["wall_follower"]))
     started = time.perf_counter()
@@ -477,11 +478,13 @@ def bench_crowded(seeds: int, jobs: int, seconds: float, known: bool, overrides:
         for family in CROWDED_FAMILIES:
             for mode in ("stand", "drive"):
                 others = int(rng.integers(1, 6))
-                cases.append((family, seed, others, mode, float(rng.uniform(0.01, 0.03)), known, seconds,
-                              dict(overrides or {})))
+                noise = float(rng.uniform(0.01, 0.03))
+                cases.append((family, seed, others, mode, noise, known, seconds, dict(overrides or {})))
+            # the control: the same world and start, no other robot (what the world alone does to the filter)
+            cases.append((family, seed, 0, "alone", noise, known, seconds, dict(overrides or {})))
     what = "tracking from the true start" if known else "global localization (particles spread over the map)"
     print(f"== crowded scans (issue 22): {what}, {seconds:.0f} s, {len(cases)} runs: {', '.join(CROWDED_FAMILIES)} "
-          f"x {seeds} seeds x stand/drive, 1-5 other robots 0.3-1.2 m from the start, LiDAR noise 0.01-0.03 m, "
+          f"x {seeds} seeds x stand/drive (and alone: the control), 1-5 other robots 0.3-1.2 m from the start, LiDAR noise 0.01-0.03 m, "
           f"encoder noise 0.01, slip 0.02" + (f"; filter overrides {overrides}" if overrides else ""))
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         results = list(pool.map(_crowded_case, cases))
@@ -496,6 +499,10 @@ def bench_crowded(seeds: int, jobs: int, seconds: float, known: bool, overrides:
         print(f"{head}  localized at {f.first_localized:5.1f} s  max err {100 * f.max_error[0]:5.1f} cm "
               f"{f.max_error[1]:5.1f} deg  RMS {100 * f.rms[0]:4.1f} cm {f.rms[1]:4.2f} deg  kept {100 * f.localized_share:5.1f} %"
               f"  withdrawals {f.withdrawals}  false {f.false_localized}  {occluded}  wall {result['wall']:5.1f} s")
+    alone = [r["figures"] for r in results if r["case"][3] == "alone"]
+    results = [r for r in results if r["case"][3] != "alone"]
+    print(f"controls without other robots: localized {sum(f.first_localized is not None for f in alone)}/{len(alone)}, "
+          f"steps falsely localized {sum(f.false_localized for f in alone)}")
     done = [r["figures"] for r in results if r["figures"].first_localized is not None]
     print(f"localized: {len(done)}/{len(results)}; within 60 s: {sum(f.first_localized <= 60 for f in done)}; "
           f"every localized step within 10 cm / 10 deg: {sum(f.tracking_within for f in done)}/{len(done)}; "
