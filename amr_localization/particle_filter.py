@@ -286,8 +286,8 @@ class ParticleFilter:
     def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
         scanned = beams is not None and bool(beams.returned.any())
         if scanned:
-            beams = self._expected(beams, count=True)
-            self._remember(beams)
+            whole, beams = beams, self._expected(beams, count=True)
+            self._remember(beams, whole)
             if len(self._ledger):  # first: it may kill particles at ruled-out places, or add clouds
                 self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
         log_likelihood = np.zeros(len(self.particles))
@@ -381,9 +381,12 @@ class ParticleFilter:
             self.status.unexpected = dropped
         return kept
 
-    def _remember(self, beams: Beams) -> None:
-        """Keep scans history_spacing apart for the rival check, and the newest one."""
-        snapshot = Snapshot(self._odometry, beams)
+    def _remember(self, beams: Beams, whole: Beams) -> None:
+        """Keep scans history_spacing apart for the rival check, and the newest one: the beams the particles were
+        weighed on (without those reading short at the estimate) and, for the recheck while localized, the whole
+        scan (a robot carried to a look-alike place: the beams reading short at the old estimate are the ones that
+        tell the places apart)."""
+        snapshot = Snapshot(self._odometry, beams, None if whole is beams else whole)
         if self._history:
             last = self._history[-1].odometry
             moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
@@ -394,12 +397,16 @@ class ParticleFilter:
         self._history.append(snapshot)
         self._newest = None
 
-    def recent_scans(self) -> list[Snapshot]:
-        """At most history_length scans: history_spacing apart over the recent path, then the newest."""
-        if self._newest is None:
-            return list(self._history)
-        full = len(self._history) == self.config.history_length
-        return list(self._history)[1 if full else 0:] + [self._newest]
+    def recent_scans(self, whole: bool = False) -> list[Snapshot]:
+        """At most history_length scans: history_spacing apart over the recent path, then the newest; whole: with
+        every beam of each scan, those that read short of the map at the estimate too."""
+        recent = list(self._history)
+        if self._newest is not None:
+            full = len(self._history) == self.config.history_length
+            recent = recent[1 if full else 0:] + [self._newest]
+        if whole:
+            recent = [Snapshot(s.odometry, s.whole) if s.whole is not None else s for s in recent]
+        return recent
 
     def _resample(self) -> None:
         config = self.config
@@ -513,7 +520,9 @@ class ParticleFilter:
     def _recheck(self, pose: np.ndarray) -> None:
         """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
         self._since_recheck = 0
-        recent = self.recent_scans()
+        # every beam, those reading short at the estimate too: a robot kidnapped into a look-alike place shows it
+        # in them (the hard_maze kidnapping was not withdrawn in 10 s without them)
+        recent = self.recent_scans(whole=True)
         if not recent:  # beacons only: no scans to search with
             return
         better = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
