@@ -66,7 +66,8 @@ from amr_localization.motion_model import OdometryNoise, odometry_increment, sam
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
-from amr_localization.rival_check import PlaceSearch, RivalCheckParams, Snapshot, find_rivals, search_places
+from amr_localization.rival_check import (PlaceSearch, RivalCheckParams, Snapshot, find_rivals, history_score,
+                                          search_places)
 from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
@@ -527,6 +528,14 @@ class ParticleFilter:
             return
         better = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
                              replace(self._rival_params, margin=-self.config.recheck_margin))
+        if len(better) and len(recent) and any(snapshot.whole is not None for snapshot in self.recent_scans()):
+            # ... but a place that wins only by explaining the beams on something not on the map (another robot
+            # standing where it has a wall) is no rival: it must explain the other beams as well as the estimate
+            kept = self.recent_scans()
+            now = kept[-1].odometry
+            own = float(history_score(self._scorer, pose[None, :], kept, now)[0])
+            scores = history_score(self._scorer, better, kept, now)
+            better = better[scores >= own - self._rival_params.margin].reshape(-1, 3)
         if len(better):
             self._localized = False
             self.rivals = better
