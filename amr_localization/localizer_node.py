@@ -66,8 +66,9 @@ class LocalizerNode(ManagedNode):
             "pose": self.create_lifecycle_publisher(LocalizedPose, "pose", reliable()),
             "status": self.create_lifecycle_publisher(LocalizerStatus, "~/status", reliable()),
         })
-        if values["tf_broadcast"]:
-            self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "/tf", reliable(100))
+        if values["tf_broadcast"]:  # relative: /tf in the root namespace, /r1/tf for a robot of a fleet (as the
+            # simulator publishes each robot's odom -> base_footprint, nav2's multi-robot layout)
+            self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
 
     def _destroy_outputs(self) -> None:
         for publisher in self._outputs.values():

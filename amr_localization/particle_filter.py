@@ -66,11 +66,13 @@ from amr_localization.motion_model import OdometryNoise, odometry_increment, sam
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
-from amr_localization.rival_check import PlaceSearch, RivalCheckParams, Snapshot, find_rivals, search_places
+from amr_localization.rival_check import (PlaceSearch, RivalCheckParams, Snapshot, find_rivals, history_score,
+                                          search_places)
 from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
+from amr_localization.unexpected_obstacles import MapRanges, without_unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
@@ -106,6 +108,8 @@ class FilterStatus:
     """whether this call ran a filter update (False: odometry had not moved enough, or no data)."""
     update_time: float = 0.0
     """s of CPU for this call."""
+    unexpected: int = 0
+    """beams of the last scan dropped as unexpected obstacles (reading short of the map at the estimate)."""
     event: str = ""
     """the last notable event (global re-initialization, skipped scan and why)."""
 
@@ -138,6 +142,7 @@ class ParticleFilter:
             params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
             self._laser = LikelihoodField(self.field, params, self.mount, range_max)
         self._scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.sigma_hit), self.mount, range_max)
+        self._map_ranges = MapRanges(self.field, self.mount)
         self._coarse_scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.rival_coarse_sigma), self.mount,
                                               range_max)
         self._rival_params = RivalCheckParams(margin=config.rival_margin)
@@ -282,7 +287,8 @@ class ParticleFilter:
     def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
         scanned = beams is not None and bool(beams.returned.any())
         if scanned:
-            self._remember(beams)
+            whole, beams = beams, self._expected(beams, count=True)
+            self._remember(beams, whole)
             if len(self._ledger):  # first: it may kill particles at ruled-out places, or add clouds
                 self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
         log_likelihood = np.zeros(len(self.particles))
@@ -332,7 +338,7 @@ class ParticleFilter:
     def _observe_evidence(self, scan: ScanData, used: int) -> None:
         """The ledger weighs its places on LEDGER_BEAMS beams (a doorway a few degrees wide falls between the
         filter's max_beams), each scan counting as much as it does for the particles."""
-        beams = select_beams(scan, LEDGER_BEAMS, keep_no_return=True)  # no return is a free path too
+        beams = self._expected(select_beams(scan, LEDGER_BEAMS, keep_no_return=True))  # no return: a free path too
         self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1))
         self._prune_ruled_out()
 
@@ -361,9 +367,27 @@ class ParticleFilter:
         self.weights = np.where(doomed, 0.0, self.weights)
         self.weights /= self.weights.sum()
 
-    def _remember(self, beams: Beams) -> None:
-        """Keep scans history_spacing apart for the rival check, and the newest one."""
-        snapshot = Snapshot(self._odometry, beams)
+    def _expected(self, beams: Beams, count: bool = False) -> Beams:
+        """The beams without those ending on something not on the map (another robot): reading short of the
+        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py)."""
+        config = self.config
+        if not config.unexpected_obstacles or not self._clusters.count or \
+                self._clusters.weights[0] < config.unexpected_min_cluster_share:
+            return beams
+        estimate = self._current_pose(self._odometry)
+        kept, dropped = without_unexpected(self._map_ranges, np.array([estimate.x, estimate.y, estimate.theta]),
+                                           beams, config.unexpected_obstacle_margin,
+                                           config.unexpected_obstacle_max_share)
+        if count:
+            self.status.unexpected = dropped
+        return kept
+
+    def _remember(self, beams: Beams, whole: Beams) -> None:
+        """Keep scans history_spacing apart for the rival check, and the newest one: the beams the particles were
+        weighed on (without those reading short at the estimate) and, for the recheck while localized, the whole
+        scan (a robot carried to a look-alike place: the beams reading short at the old estimate are the ones that
+        tell the places apart)."""
+        snapshot = Snapshot(self._odometry, beams, None if whole is beams else whole)
         if self._history:
             last = self._history[-1].odometry
             moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
@@ -374,12 +398,16 @@ class ParticleFilter:
         self._history.append(snapshot)
         self._newest = None
 
-    def recent_scans(self) -> list[Snapshot]:
-        """At most history_length scans: history_spacing apart over the recent path, then the newest."""
-        if self._newest is None:
-            return list(self._history)
-        full = len(self._history) == self.config.history_length
-        return list(self._history)[1 if full else 0:] + [self._newest]
+    def recent_scans(self, whole: bool = False) -> list[Snapshot]:
+        """At most history_length scans: history_spacing apart over the recent path, then the newest; whole: with
+        every beam of each scan, those that read short of the map at the estimate too."""
+        recent = list(self._history)
+        if self._newest is not None:
+            full = len(self._history) == self.config.history_length
+            recent = recent[1 if full else 0:] + [self._newest]
+        if whole:
+            recent = [Snapshot(s.odometry, s.whole) if s.whole is not None else s for s in recent]
+        return recent
 
     def _resample(self) -> None:
         config = self.config
@@ -493,11 +521,21 @@ class ParticleFilter:
     def _recheck(self, pose: np.ndarray) -> None:
         """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
         self._since_recheck = 0
-        recent = self.recent_scans()
+        # every beam, those reading short at the estimate too: a robot kidnapped into a look-alike place shows it
+        # in them (the hard_maze kidnapping was not withdrawn in 10 s without them)
+        recent = self.recent_scans(whole=True)
         if not recent:  # beacons only: no scans to search with
             return
         better = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
                              replace(self._rival_params, margin=-self.config.recheck_margin))
+        if len(better) and len(recent) and any(snapshot.whole is not None for snapshot in self.recent_scans()):
+            # ... but a place that wins only by explaining the beams on something not on the map (another robot
+            # standing where it has a wall) is no rival: it must explain the other beams as well as the estimate
+            kept = self.recent_scans()
+            now = kept[-1].odometry
+            own = float(history_score(self._scorer, pose[None, :], kept, now)[0])
+            scores = history_score(self._scorer, better, kept, now)
+            better = better[scores >= own - self._rival_params.margin].reshape(-1, 3)
         if len(better):
             self._localized = False
             self.rivals = better

@@ -70,6 +70,18 @@ class ParticleFilterConfig(Config):
     """weight of the random term of the likelihood field mixture; AMCL z_rand."""
     laser_likelihood_max_dist: float = parameter(2.0, minimum=0.01, maximum=100.0)
     """m, distance to obstacles beyond which the field is flat; AMCL laser_likelihood_max_dist."""
+    unexpected_obstacles: bool = parameter(True, live=True)
+    """once one cluster holds unexpected_min_cluster_share of the weight, drop the beams reading
+    unexpected_obstacle_margin or more short of the map's range at the estimate (other robots, people: not on the
+    map) from the particles' weighting, the scan fit and the rival search (unexpected_obstacles.py)."""
+    unexpected_obstacle_margin: float = parameter(0.15, minimum=0.01, maximum=10.0, live=True)
+    """m: a beam this much shorter than the map's range at the estimate ended on something not on the map."""
+    unexpected_obstacle_max_share: float = parameter(0.6, above=0.0, maximum=1.0, live=True)
+    """when more of the returned beams than this share read short, none is dropped (the estimate is what is
+    wrong: a kidnapped robot)."""
+    unexpected_min_cluster_share: float = parameter(0.5, above=0.0, maximum=1.0, live=True)
+    """the heaviest cluster's share of the weight before beams are judged against its estimate (while the
+    particles are spread there is no estimate to judge by)."""
     likelihood_exponent: float = parameter(0.1, minimum=0.001, maximum=1.0, live=True)
     """a scan's log-likelihood is scaled by this (beams are correlated); beacon ranges count fully."""
     tempering_min_ess_ratio: float = parameter(0.8, above=0.0, maximum=1.0, live=True)

@@ -62,6 +62,8 @@ class Snapshot:
 
     odometry: tuple[float, float, float]
     beams: Beams
+    whole: Beams | None = None
+    """the scan's beams before those reading short of the map were dropped (None: `beams` is the whole scan)."""
 
 
 def history_score(model: LikelihoodField, poses: np.ndarray, history: Sequence[Snapshot], now: tuple[float, float, float]) -> np.ndarray:

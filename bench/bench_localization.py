@@ -4,6 +4,8 @@ world (open_room), the beacon localizer against the particle filter with beacons
 --symmetry (issue 20): generated square rooms whose four-fold symmetry one feature breaks (a doorway, a
 notch, a missing or an extra pillar; amr_maps.symmetry_families) and truly symmetric controls
 (docs/localization_symmetry.md).
+--crowded (issue 22): a robot localizing while 1-5 other robots, not on the map, stand or drive near it and fill
+part of its scan (amr_evaluation.crowded_localization; docs/fleet.md).
 
 The sweeps (global localization, symmetric worlds, kidnapping) are amr_evaluation episodes (controller
 `localization`: config/wall_follower_sim.yaml and config/particle_filter.yaml) run by its runner: --jobs N local
@@ -443,6 +445,78 @@ def bench_beacon_comparison(starts: int, seconds: float) -> None:
               f"CPU {1e3 * np.mean([r['cpu'] for r in rows]):.2f} ms (max {1e3 * max(r['cpu_max'] for r in rows):.1f})")
 
 
+CROWDED_FAMILIES = ("open_room", "pillars", "loops", "perfect")
+
+
+def _crowded_case(args) -> dict:
+    from amr_evaluation.crowded_localization import crowded_world, figures, run_crowded
+    from amr_localization.particle_filter_parameters import config_of
+    from amr_control.wall_follower_config import WallFollowerConfig
+    from amr_maps.maze_families import generate
+
+    family, seed, others, mode, noise, known, seconds, overrides = args
+    base = generate(family, seed, width=0.7)
+    world = crowded_world(base, others, seed)
+    mode = "stand" if mode == "alone" else mode
+    params = {**PARAMETERS["particle_filter"], "seed": seed, **overrides}
+    follower = WallFollowerConfig.from_params(dict(PARAMETERS["wall_follower"]))
+    started = time.perf_counter()
+    trace = run_crowded(world, config_of(params), follower, seconds, mode=mode, lidar_noise=noise, seed=seed,
+                        known_start=known, range_max=params["laser_max_range"], resolution=params["map_resolution"])
+    return {"case": args, "figures": figures(trace), "wall": time.perf_counter() - started,
+            "collisions": trace.robot_collisions}
+
+
+def bench_crowded(seeds: int, jobs: int, seconds: float, known: bool, overrides: dict | None = None) -> list[dict]:
+    """The ego's filter among 1-5 other robots: generated rooms and mazes (corridors 0.7 m), other robots placed
+    0.3-1.2 m from its start, standing or wall following, LiDAR noise 0.01-0.03 m."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    rng = np.random.default_rng(22)
+    cases = []
+    for seed in range(seeds):
+        for family in CROWDED_FAMILIES:
+            for mode in ("stand", "drive"):
+                others = int(rng.integers(1, 6))
+                noise = float(rng.uniform(0.01, 0.03))
+                cases.append((family, seed, others, mode, noise, known, seconds, dict(overrides or {})))
+            # the control: the same world and start, no other robot (what the world alone does to the filter)
+            cases.append((family, seed, 0, "alone", noise, known, seconds, dict(overrides or {})))
+    what = "tracking from the true start" if known else "global localization (particles spread over the map)"
+    print(f"== crowded scans (issue 22): {what}, {seconds:.0f} s, {len(cases)} runs: {', '.join(CROWDED_FAMILIES)} "
+          f"x {seeds} seeds x stand/drive (and alone: the control), 1-5 other robots 0.3-1.2 m from the start, LiDAR noise 0.01-0.03 m, "
+          f"encoder noise 0.01, slip 0.02" + (f"; filter overrides {overrides}" if overrides else ""))
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        results = list(pool.map(_crowded_case, cases))
+    for result in results:
+        family, seed, others, mode, noise, *_ = result["case"]
+        f = result["figures"]
+        head = f"{family:>9s} s{seed} {others} {mode:5s} noise {noise:.3f}"
+        occluded = f"beams on robots mean {100 * f.occluded_mean:4.1f} % max {100 * f.occluded_max:4.1f} %"
+        if f.first_localized is None:
+            print(f"{head}  never localized  {occluded}  wall {result['wall']:5.1f} s")
+            continue
+        print(f"{head}  localized at {f.first_localized:5.1f} s  max err {100 * f.max_error[0]:5.1f} cm "
+              f"{f.max_error[1]:5.1f} deg  RMS {100 * f.rms[0]:4.1f} cm {f.rms[1]:4.2f} deg  kept {100 * f.localized_share:5.1f} %"
+              f"  withdrawals {f.withdrawals}  false {f.false_localized}  {occluded}  wall {result['wall']:5.1f} s")
+    alone = [r["figures"] for r in results if r["case"][3] == "alone"]
+    results = [r for r in results if r["case"][3] != "alone"]
+    print(f"controls without other robots: localized {sum(f.first_localized is not None for f in alone)}/{len(alone)}, "
+          f"steps falsely localized {sum(f.false_localized for f in alone)}")
+    done = [r["figures"] for r in results if r["figures"].first_localized is not None]
+    print(f"localized: {len(done)}/{len(results)}; within 60 s: {sum(f.first_localized <= 60 for f in done)}; "
+          f"every localized step within 10 cm / 10 deg: {sum(f.tracking_within for f in done)}/{len(done)}; "
+          f"steps falsely localized: {sum(f.false_localized for f in (r['figures'] for r in results))}")
+    if done:
+        print(f"worst error while localized {100 * max(f.max_error[0] for f in done):.1f} cm, "
+              f"{max(f.max_error[1] for f in done):.1f} deg; worst RMS {100 * max(f.rms[0] for f in done):.1f} cm, "
+              f"{max(f.rms[1] for f in done):.2f} deg; localized share after the first declaration: min "
+              f"{100 * min(f.localized_share for f in done):.1f} %, withdrawals {sum(f.withdrawals for f in done)}")
+    print(f"beams on other robots: mean of runs {100 * np.mean([r['figures'].occluded_mean for r in results]):.1f} %, "
+          f"largest in a step {100 * max(r['figures'].occluded_max for r in results):.1f} %")
+    return results
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="fewer runs")
@@ -454,10 +528,19 @@ def main() -> None:
     parser.add_argument("--sweeps-only", action="store_true", help="only the sweeps (symmetric, kidnapping, global)")
     parser.add_argument("--symmetry", action="store_true",
                         help="only the rooms whose symmetry one feature breaks, and the truly symmetric controls")
-    parser.add_argument("--seeds", type=int, help="--symmetry: seeds per family (default 10, --quick 2)")
+    parser.add_argument("--seeds", type=int, help="--symmetry: seeds per family (default 10, --quick 2); --crowded: "
+                        "seeds per family and mode (default 3, --quick 1)")
     parser.add_argument("--control-seeds", type=int, help="--symmetry: seeds per symmetric control (default 2, --quick 1)")
+    parser.add_argument("--crowded", action="store_true",
+                        help="only the robot localizing among other robots (issue 22): tracking and global")
+    parser.add_argument("--seconds", type=float, help="--crowded: simulated s per run (default 90, --quick 40)")
     args = parser.parse_args()
     quick = args.quick
+    if args.crowded:
+        seeds, seconds = args.seeds or (1 if quick else 3), args.seconds or (40.0 if quick else 90.0)
+        bench_crowded(seeds, args.jobs, seconds, known=True)
+        bench_crowded(seeds, args.jobs, seconds, known=False)
+        return
     if args.symmetry:
         seeds = args.seeds or (2 if quick else 10)
         bench_symmetry(Sweep(args.jobs, args.scheduler, args.results), seeds=seeds, seconds=240.0,

@@ -16,7 +16,7 @@ SHIPPED = sorted(path.stem for path in (ROOT / "config" / "bringup").glob("*.yam
 
 
 def test_the_stacks_are_shipped():
-    assert SHIPPED == ["fleet_sim", "ik_service", "maze_localization", "maze_navigation", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_sim"]
+    assert SHIPPED == ["fleet_navigation", "fleet_sim", "ik_service", "maze_localization", "maze_navigation", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_sim"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -222,7 +222,7 @@ def test_invalid_yaml_names_the_file(tmp_path):
 
 def test_a_bare_name_finds_the_shipped_file_and_an_unknown_one_lists_them(tmp_path):
     assert find_bringup("real_robot") == find_bringup("real_robot.yaml")
-    with pytest.raises(BringupError, match="shipped: fleet_sim, ik_service, maze_localization, maze_navigation, maze_sim, maze_sim_odometry, real_robot"):
+    with pytest.raises(BringupError, match="shipped: fleet_navigation, fleet_sim, ik_service, maze_localization, maze_navigation, maze_sim, maze_sim_odometry, real_robot"):
         find_bringup("maze")
     own = tmp_path / "mine.yaml"
     own.write_text(yaml.safe_dump({"nodes": [GOOD]}))

@@ -1,0 +1,84 @@
+"""Beams ending on something not on the map (issue 22): the map's expected ranges, and which beams are dropped."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from amr_localization.distance_field import DistanceField
+from amr_localization.scan_beams import select_beams
+from amr_localization.sensor_mount import SensorMount
+from amr_localization.unexpected_obstacles import MapRanges, unexpected, without_unexpected
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import world_from_dict
+from amr_simulation.config import LidarConfig, SimulationConfig
+from amr_simulation.fleet import Fleet
+from amr_util.scan import ScanData
+
+from loc_helpers import grid_of
+
+ROOM = {  # 3 x 2.4 m, a box off-centre
+    "wall_thickness": 0.04,
+    "walls": [[-1.5, -1.2, 1.5, -1.2], [1.5, -1.2, 1.5, 1.2], [1.5, 1.2, -1.5, 1.2], [-1.5, 1.2, -1.5, -1.2]],
+    "boxes": [[0.3, 0.2, 0.7, 0.6]],
+    "robots": [{"name": "me", "start": [-0.8, -0.5, 0.3]}, {"name": "you", "start": [-0.2, -0.3, 2.0]}],
+}
+MOUNT = SensorMount(x=-0.032)
+
+
+def scan_of(fleet: Fleet, name: str) -> ScanData:
+    lidar = fleet.lidar
+    return ScanData(np.array(fleet.robot(name).ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min,
+                    lidar.range_max)
+
+
+def test_expected_ranges_agree_with_ray_casting_on_the_world():
+    world = world_from_dict({k: v for k, v in ROOM.items() if k != "robots"} | {"start": [0, 0, 0]})
+    ranges = MapRanges(DistanceField(grid_of(world, 0.02)), MOUNT)
+    caster = NumpyRayCaster(world.faces)
+    rng = np.random.default_rng(3)
+    angles = np.linspace(0.0, 2.0 * math.pi, 120, endpoint=False)
+    differences = []
+    for _ in range(20):
+        pose = np.array([rng.uniform(-1.3, 1.3), rng.uniform(-1.0, 1.0), rng.uniform(-math.pi, math.pi)])
+        if world.clearance(pose[None, :2])[0] < 0.12:
+            continue
+        sensor = MOUNT.sensor_poses(pose[None, :])[0]
+        cast = np.minimum(caster.cast(sensor[0], sensor[1], sensor[2], angles[1], len(angles), 3.5), 3.5)
+        differences.append(np.abs(ranges.expected(pose, angles, 3.5) - cast))
+    differences = np.concatenate(differences)
+    assert np.percentile(differences, 95) < 0.03, "within a cell and a half but where a beam grazes a corner"
+    assert np.median(differences) < 0.015
+
+
+def test_the_beams_on_another_robot_are_the_ones_dropped():
+    fleet = Fleet(world_from_dict(ROOM), SimulationConfig(lidar=LidarConfig(noise_std=0.01)))
+    me, you = fleet.robot("me"), fleet.robot("you")
+    map_ranges = MapRanges(DistanceField(grid_of(fleet.world, 0.02)), MOUNT)
+    beams = select_beams(scan_of(fleet, "me"), 240)
+    pose = np.array(me.pose)
+    short = unexpected(map_ranges, pose, beams, 0.15)
+    # the beams that point at the other robot's disc, from the true sensor pose
+    sensor = me.sensor_pose
+    bearing = math.atan2(you.pose.y - sensor.y, you.pose.x - sensor.x) - sensor.theta
+    distance = math.hypot(you.pose.x - sensor.x, you.pose.y - sensor.y)
+    half = math.asin(0.105 / distance)
+    towards = np.abs(np.remainder(beams.angles - bearing + math.pi, 2.0 * math.pi) - math.pi) < half - 0.02
+    assert towards.sum() >= 10
+    assert short[towards].all(), "every beam well inside the disc reads short of the map"
+    assert not short[~towards & (np.abs(np.remainder(beams.angles - bearing + math.pi, 2 * math.pi) - math.pi)
+                                 > half + 0.05)].any(), "no beam off the disc does"
+    kept, dropped = without_unexpected(map_ranges, pose, beams, 0.15, 0.6)
+    assert dropped == int(short.sum()) and len(kept.ranges) == len(beams.ranges) - dropped
+    assert np.isin(kept.angles, beams.angles[~short]).all()
+
+
+def test_nothing_is_dropped_when_most_beams_read_short():
+    fleet = Fleet(world_from_dict(ROOM), SimulationConfig(lidar=LidarConfig(noise_std=0.0)))
+    map_ranges = MapRanges(DistanceField(grid_of(fleet.world, 0.02)), MOUNT)
+    scan = scan_of(fleet, "me")
+    halved = ScanData(scan.ranges * 0.5, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max)
+    beams = select_beams(halved, 240)
+    kept, dropped = without_unexpected(map_ranges, np.array(fleet.robot("me").pose), beams, 0.15, 0.6)
+    assert dropped == 0 and kept is beams, "a scan mostly short says the estimate is wrong, not the world"
