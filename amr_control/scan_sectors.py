@@ -235,6 +235,37 @@ class SectorReader:
         index = int(np.argmin(self._ranges))
         return float(self._geometry.angles[index]), float(self._ranges[index])
 
+    def wall_end(self, side: float, distance: float, skew: float) -> float | None:
+        """Where a side wall that the robot has just passed the end of ends, or None if not seen.
+
+        ``side``: +1 left, -1 right; ``distance``: the wall's distance from the LiDAR (its last
+        fit); ``skew``: the heading error against the walls (LineFit.angle convention). The
+        returns are turned into the walls' frame (x along the walls, rotation centre at 0); those
+        within WALL_END_BAND of the wall's line split into runs where consecutive ones lie further
+        than WALL_END_GAP apart along it; the passed wall is the last run that ends before the
+        LiDAR, and its last return (its end face included) gives the x returned. A wall resuming
+        beyond an opening lies further on the same line and ends ahead of the robot, if at all. Range noise moves these returns
+        mostly across the line, so the end is read to about a centimetre, where a window
+        abeam reads it only when its last beam has passed it (later still when the robot is
+        skewed towards the wall).
+        """
+        if self._ranges is None or self._geometry is None or not math.isfinite(distance):
+            return None
+        seen = self._ranges < np.inf
+        r = self._ranges[seen]
+        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
+        y = r * self._geometry.sin[seen]
+        c, s = math.cos(skew), math.sin(skew)
+        along, across = c * x + s * y, -s * x + c * y  # turned by -skew: the walls' frame
+        lidar = self.footprint.lidar_x * c
+        on_line = (np.abs(across - side * distance) < WALL_END_BAND) & (np.abs(along - lidar) < WALL_END_REACH)
+        along = np.sort(along[on_line])
+        if along.size == 0:
+            return None
+        ends = along[np.append(np.flatnonzero(np.diff(along) > WALL_END_GAP), along.size - 1)]
+        passed = ends[ends <= lidar + WALL_END_SLACK]
+        return float(passed[-1]) if passed.size else None
+
     def free_travel(self, directions: np.ndarray, shrink: float = 0.0) -> np.ndarray:
         """For each direction (rad, robot frame), how far the disc can drive along it before touching a return.
 
@@ -290,6 +321,15 @@ class SectorReader:
         nearest = int(np.argmin(travel))
         return float(max(travel[nearest], 0.0)), (1 if y[nearest] > 0.0 else -1)
 
+
+WALL_END_BAND = 0.08
+"""m: returns this close to a passed wall's line belong to it (LiDAR noise up to 3 cm, end faces)."""
+WALL_END_GAP = 0.1
+"""m: a gap this long along the line ends the wall (an opening is at least a corridor wide)."""
+WALL_END_SLACK = 0.03
+"""m: the passed wall is the last run of returns on its line that ends before the LiDAR (plus this)."""
+WALL_END_REACH = 0.8
+"""m: returns further along the walls than this are not looked at."""
 
 CLEARANCE_MEAN_BEAMS = 5
 """The clearance reads ranges averaged over this many beams: range noise (sigma 3 cm) would

@@ -54,6 +54,8 @@ import numpy as np
 from amr_control.scan_sectors import Footprint, LineFit, Readings, ScanData, SectorReader, Sectors
 from amr_control.wall_follower_config import WallFollowerConfig
 
+import os
+_NO_A = bool(os.environ.get('WF_NO_A'))
 PLAUSIBLE_FACTOR = 2.0
 """Odometry beyond this many times the fastest commanded speed is treated as corrupt."""
 ANGLE_FLOOR = math.radians(1.0)
@@ -267,6 +269,7 @@ class WallFollower:
         self._error_rate = 0.0
         self._straight = False  # whether the last PD error came from a fitted line
         self._tracking = False  # whether the last front block met the robot following a wall
+        self._wall_line = math.inf  # the followed wall's distance from the LiDAR, last fitted while following
         self._command = (0.0, 0.0)
         self._measurements = Measurements(followed_wall=self._followed)
 
@@ -396,13 +399,17 @@ class WallFollower:
         elif state == State.CORNER:
             if present:  # the opening was only a short gap
                 self._enter(State.FOLLOW)
-            elif self._traveled >= c.corner_advance:
+            elif self._corner_reached():
                 self._turn_into_opening()
         elif state == State.APPROACH:
             if r.front <= self._pivot_distance or self._traveled >= c.front_threshold - self._pivot_distance:
                 self._decide_turn(r)
         elif not present:  # FOLLOW: the followed wall ended
             self._enter(State.CORNER)
+        else:
+            fit = self._fit(r, self._followed)
+            if fit is not None:
+                self._wall_line = fit.distance
 
         if self._state in MOVING:
             if r.front < c.front_threshold and self._state != State.APPROACH and not self._committed(r):
@@ -417,6 +424,24 @@ class WallFollower:
                 self._resume = (self._state, self._state_time, self._traveled)
                 self._enter(State.AVOID)
                 self._turn_sign = -1.0 if r.clearance_side > 0 else 1.0
+
+    def _corner_reached(self) -> bool:
+        """Whether the robot, past the end of the followed wall, is where it turns into the opening.
+
+        Where the wall's end is seen (SectorReader.wall_end, in the walls' frame by the skew):
+        once the rotation centre is target_wall_distance past it, so that the turn leaves the
+        robot on its line in the new corridor. Noise-free that is where corner_advance past the
+        point the wall was lost puts it; under noise the abeam window reads the wall's end late
+        (a robot skewed 10 deg towards the wall saw it 18 cm late, and then turned back out of
+        the overshot side corridor), the measured end does not. Without a measured end:
+        corner_advance past the point the wall was lost.
+        """
+        c = self.config
+        side = 1.0 if self._followed == "left" else -1.0
+        end = self._reader.wall_end(side, self._wall_line, self._skew)
+        if end is None:
+            return self._traveled >= c.corner_advance
+        return -end >= c.target_wall_distance
 
     def _committed(self, r: Readings) -> bool:
         """Whether the robot, just out of a turn, is committed to the corridor it turned into.
@@ -463,7 +488,13 @@ class WallFollower:
             error = min(error, 0.0)
         if straight != self._straight:  # a different measurement: no rate across the switch
             self._straight, self._last_error = straight, None
-        if self._last_error is None:
+        if straight and self._skew_seen and not _NO_A:
+            # Along a straight wall de/dt = v sin(skew) (sign by side): the skew is carried by
+            # odometry and corrected by every fit, where differentiating one noisy fit after another
+            # at 3 cm LiDAR noise put about 1 rad/s of noise into w, and the heading wandered 10-15
+            # deg off the corridor between corrections (late corner detection, turns off square).
+            self._error_rate = (1.0 if self._followed == "left" else -1.0) * c.linear_speed * math.sin(self._skew)
+        elif self._last_error is None:
             self._error_rate = 0.0
         elif rate_valid and elapsed > 0.0:
             raw = (error - self._last_error) / elapsed
@@ -584,6 +615,7 @@ class WallFollower:
             nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
             self._turn_angle = nominal + sign * self._skew
         self._skew_filter.forget()  # the walls alongside after the turn are other walls
+        self._wall_line = math.inf
         self._skew, self._skew_seen = 0.0, False
 
     def _enter(self, state: State) -> None:
