@@ -54,8 +54,6 @@ import numpy as np
 from amr_control.scan_sectors import Footprint, LineFit, Readings, ScanData, SectorReader, Sectors
 from amr_control.wall_follower_config import WallFollowerConfig
 
-import os
-_NO_A = bool(os.environ.get('WF_NO_A'))
 PLAUSIBLE_FACTOR = 2.0
 """Odometry beyond this many times the fastest commanded speed is treated as corrupt."""
 ANGLE_FLOOR = math.radians(1.0)
@@ -488,7 +486,7 @@ class WallFollower:
             error = min(error, 0.0)
         if straight != self._straight:  # a different measurement: no rate across the switch
             self._straight, self._last_error = straight, None
-        if straight and self._skew_seen and not _NO_A:
+        if straight and self._skew_seen:
             # Along a straight wall de/dt = v sin(skew) (sign by side): the skew is carried by
             # odometry and corrected by every fit, where differentiating one noisy fit after another
             # at 3 cm LiDAR noise put about 1 rad/s of noise into w, and the heading wandered 10-15
