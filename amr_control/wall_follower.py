@@ -9,11 +9,14 @@ state machine (``WallFollower.state``):
 * ``FOLLOW``: keep the followed wall at ``target_wall_distance`` with PD
   control on the distance error e = d - target,
   ``w = s (kp e + kd de/dt)`` with s = +1 for the left wall, -1 for the right,
-  de/dt over the real time between stamps (optionally low-passed), saturated
-  at ``angular_limit``. d is the distance to the line fitted to the side
-  window; where the wall is not straight only e < 0 is corrected.
-* ``CORNER``: the followed wall ended (an opening on that side): drive
-  ``corner_advance`` further, then turn towards the opening.
+  saturated at ``angular_limit``. d is the distance to the line fitted to the
+  side window; where the wall is not straight only e < 0 is corrected. Along a
+  straight wall de/dt = s v sin(skew) from the filtered skew (SkewFilter), else
+  over the real time between stamps (optionally low-passed).
+* ``CORNER``: the followed wall ended (an opening on that side): drive on until
+  the rotation centre is ``target_wall_distance`` past the wall's measured end
+  (``corner_advance`` past where it was lost if the end is not seen), then turn
+  towards the opening.
 * ``APPROACH``: a front return closer than ``front_threshold`` at a corner:
   creep on at ``stabilize_speed`` until the rotation centre is
   ``target_wall_distance`` from the wall ahead (a threshold above that, as on
