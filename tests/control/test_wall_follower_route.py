@@ -8,6 +8,7 @@ mazes, seeds and both configurations are in bench/bench_wall_follower_families.p
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -176,6 +177,30 @@ def test_while_following_the_same_return_is_a_junction():
     assert follower.state == "FOLLOW"
     follower.compute(corridor_mouth_edge(), 0.15, 0.0, DT)
     assert follower.state.startswith("TURN")
+
+
+@pytest.mark.parametrize("corner_advance", [0.0, 0.15, 0.4])
+@pytest.mark.parametrize("sigma", [0.0, 0.03])
+def test_a_corner_turn_comes_target_wall_distance_past_the_walls_end(corner_advance, sigma):
+    # Driving along +x past the end (x = 0) of the followed right wall, a side corridor 0.4 m wide
+    # beyond it: the turn comes once the rotation centre is target_wall_distance (0.2 m) past the
+    # measured end, whatever corner_advance and the noise (which delays the abeam window's loss).
+    rng = np.random.default_rng(5)
+    walls = [(-3.0, 0.2, 3.0, 0.2), (-3.0, -0.2, 0.0, -0.2), (0.0, -0.2, 0.0, -0.26), (0.4, -0.2, 3.0, -0.2)]
+    follower = WallFollower(dataclasses.replace(SIM_CONFIG, corner_advance=corner_advance))
+    lidar = -0.4
+    for step in range(200):
+        shifted = [(a - lidar, b, c - lidar, d) for a, b, c, d in walls]
+        scan = cast(shifted)
+        follower.compute(noisy(scan, rng, sigma) if sigma else scan, 0.15, 0.0, step * DT)
+        if follower.state.startswith("TURN"):
+            break
+        lidar += 0.15 * DT
+    assert follower.state == "TURN_RIGHT"
+    centre = lidar + 0.032
+    # Noise-free to a step (7.5 mm); at 3 cm noise the last return of the end's run lies up to 3 cm long
+    # (noise along the steep beams that see it); corner_advance from the loss would put it at 0.05-0.45 m.
+    assert centre == pytest.approx(0.2, abs=0.015 + 1.2 * sigma)
 
 
 def test_the_direction_window_is_checked():
