@@ -231,7 +231,7 @@ TIGHT_MAZE = ("rotated", 0, {"size": 6.0, "width": 0.35, "loop_fraction": 0.0})
 the noise-free route at its 80th cell (it turned back out of a side corridor, 374 s in)."""
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [2])  # the seed that left the route before; more seeds: the bench's --route
 def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(seed):
     family, maze, options = TIGHT_MAZE
     world = generate(family, maze, **options)
