@@ -1,7 +1,8 @@
 """Issue 20: the route through a tree maze must not depend on noise.
 
 Unit tests of the decision changes (the skew averaged along the way, window minima read on
-averaged ranges, the commitment to the corridor a turn faces) on synthetic scans, and a noisy
+averaged ranges, the commitment to the corridor a turn faces, corner turns anchored on the
+measured end of the followed wall) on synthetic scans, and a noisy
 tight maze whose route, cell by cell, is compared with the noise-free one; the sweeps over many
 mazes, seeds and both configurations are in bench/bench_wall_follower_families.py --route.
 """
