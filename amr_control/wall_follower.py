@@ -9,11 +9,14 @@ state machine (``WallFollower.state``):
 * ``FOLLOW``: keep the followed wall at ``target_wall_distance`` with PD
   control on the distance error e = d - target,
   ``w = s (kp e + kd de/dt)`` with s = +1 for the left wall, -1 for the right,
-  de/dt over the real time between stamps (optionally low-passed), saturated
-  at ``angular_limit``. d is the distance to the line fitted to the side
-  window; where the wall is not straight only e < 0 is corrected.
-* ``CORNER``: the followed wall ended (an opening on that side): drive
-  ``corner_advance`` further, then turn towards the opening.
+  saturated at ``angular_limit``. d is the distance to the line fitted to the
+  side window; where the wall is not straight only e < 0 is corrected. Along a
+  straight wall de/dt = s v sin(skew) from the filtered skew (SkewFilter), else
+  over the real time between stamps (optionally low-passed).
+* ``CORNER``: the followed wall ended (an opening on that side): drive on until
+  the rotation centre is ``target_wall_distance`` past the wall's measured end
+  (``corner_advance`` past where it was lost if the end is not seen), then turn
+  towards the opening.
 * ``APPROACH``: a front return closer than ``front_threshold`` at a corner:
   creep on at ``stabilize_speed`` until the rotation centre is
   ``target_wall_distance`` from the wall ahead (a threshold above that, as on
@@ -56,8 +59,19 @@ from amr_control.wall_follower_config import WallFollowerConfig
 
 PLAUSIBLE_FACTOR = 2.0
 """Odometry beyond this many times the fastest commanded speed is treated as corrupt."""
-SKEW_MEMORY = math.radians(5.0)
-"""A skew measured before the robot turned more than this no longer describes its heading."""
+ANGLE_FLOOR = math.radians(1.0)
+"""No single line fit gives the walls' direction better than this (rad, standard deviation)."""
+WALL_WANDER = 0.1
+"""rad per sqrt(m): how fast the walls' direction may wander as the robot drives (bends, curves)."""
+TURN_ERROR = 0.05
+"""Share of an angle turned that the odometry heading may be wrong by (wheel slip)."""
+SKEW_GATE = 3.0
+"""A fit this many standard deviations from the estimate (and at least GATE_MIN off) is an outlier..."""
+GATE_MIN = math.radians(10.0)
+GATE_PATIENCE = 3
+"""... and this many in a row are another wall: the estimate starts afresh from the last."""
+STALE_SKEW = math.radians(10.0)
+"""An estimate less certain than this (standard deviation) is not used."""
 OPEN_STEP_DEG = 5.0
 """Spacing of the candidate directions of a turn."""
 OPEN_AIM = math.radians(30.0)
@@ -133,6 +147,71 @@ class Measurements:
     """straight-ahead travel left before the footprint touches something"""
 
 
+class SkewFilter:
+    """The heading error against the walls (the skew), from side-wall fits averaged along the way.
+
+    The skew squares every turn (90 deg corrected by it), so its error ends up in the heading
+    the robot enters the next corridor with. One fit's direction is poor under range noise
+    (Sectors.direction_half_width): at 3 cm LiDAR noise a +-40 deg window 0.175 m from a wall
+    still scatters by about 3 deg. The filter carries the skew along with the odometry (turning
+    by a counter-clockwise changes it by -a) as a one-state Kalman filter: each fit counts by
+    its own standard error (LineFit.angle_std, at least ANGLE_FLOOR); the estimate ages with
+    the distance driven (WALL_WANDER: walls may bend) and the angle turned (TURN_ERROR: odometry
+    heading error). A fit further than SKEW_GATE sigma (and GATE_MIN) from the estimate is an
+    outlier and ignored, unless GATE_PATIENCE in a row are (another wall): the estimate then
+    starts afresh from the last one. A tentative fit (the other side's wall) is only used when
+    it agrees.
+    """
+
+    def __init__(self) -> None:
+        self.forget()
+
+    def forget(self) -> None:
+        """No estimate (after a turn in place the walls alongside are other walls)."""
+        self._skew: float | None = None
+        self._variance = math.inf
+        self._misses = 0
+
+    def move(self, distance: float, turn: float) -> None:
+        """The robot drove ``distance`` m and turned ``turn`` rad (counter-clockwise positive) by odometry."""
+        if self._skew is not None:
+            self._skew = _half_turn(self._skew - turn)
+            self._variance += WALL_WANDER**2 * abs(distance) + (TURN_ERROR * turn) ** 2
+
+    def measure(self, fit: LineFit, tentative: bool = False) -> None:
+        """A fitted wall; ``tentative``: only used if it agrees with the estimate (the other side's wall)."""
+        r = max(fit.angle_std, ANGLE_FLOOR) ** 2
+        if self._skew is None:
+            if not tentative:
+                self._skew, self._variance, self._misses = fit.angle, r, 0
+            return
+        innovation = _half_turn(fit.angle - self._skew)
+        if abs(innovation) > max(SKEW_GATE * math.sqrt(self._variance + r), GATE_MIN):
+            if not tentative:
+                self._misses += 1
+                if self._misses >= GATE_PATIENCE:
+                    self._skew, self._variance, self._misses = fit.angle, r, 0
+            return
+        if not tentative:
+            self._misses = 0
+        gain = self._variance / (self._variance + r)
+        self._skew = _half_turn(self._skew + gain * innovation)
+        self._variance *= 1.0 - gain
+
+    @property
+    def skew(self) -> float | None:
+        """rad, the heading error against the walls, as LineFit.angle (positive: the robot is turned
+        clockwise of them); None without an estimate or when it is staler than STALE_SKEW."""
+        if self._skew is None or self._variance > STALE_SKEW**2:
+            return None
+        return self._skew
+
+    @property
+    def std(self) -> float:
+        """rad, the estimate's standard deviation (inf without one)."""
+        return math.sqrt(self._variance)
+
+
 class WallFollower:
     """Seed 002's wall follower: construct from a parameter dict or a WallFollowerConfig."""
 
@@ -154,6 +233,7 @@ class WallFollower:
                 math.radians(config.front_window_deg),
                 math.radians(config.side_window_deg),
                 math.radians(config.abeam_window_deg),
+                direction_half_width=math.radians(config.wall_direction_window_deg),
             ),
             Footprint(config.robot_radius, config.lidar_x, 0.5 * config.safety_margin),
             config.scan_median_beams,
@@ -179,9 +259,9 @@ class WallFollower:
         self._resume = (State.SEARCH, 0.0, 0.0)  # (state, state_time, traveled) AVOID returns to
         self._turn_sign = 0.0
         self._turn_angle = 0.0
-        self._skew = 0.0  # angle of the last fitted side wall: the heading error against the walls
-        self._skew_seen = False  # whether the current scan has such a wall
-        self._turned_since_skew = math.inf  # rad the robot turned since the skew was measured
+        self._skew_filter = SkewFilter()
+        self._skew = 0.0  # the heading error against the walls (SkewFilter), 0 when unknown
+        self._skew_seen = False  # whether it is known and this scan has a fitted wall
         self._state_time = 0.0
         self._traveled = 0.0
         self._turned = 0.0
@@ -190,6 +270,7 @@ class WallFollower:
         self._error_rate = 0.0
         self._straight = False  # whether the last PD error came from a fitted line
         self._tracking = False  # whether the last front block met the robot following a wall
+        self._wall_line = math.inf  # the followed wall's distance from the LiDAR, last fitted while following
         self._command = (0.0, 0.0)
         self._measurements = Measurements(followed_wall=self._followed)
 
@@ -217,7 +298,9 @@ class WallFollower:
         """The command for one synchronized (scan, odometry) pair stamped ``stamp`` seconds."""
         issues: list[Issue] = []
         elapsed, rate_valid = self._advance_clock(stamp, issues)
-        moved, turned = self._motion(odometry_v, odometry_w, elapsed, issues)
+        moved, rotation = self._motion(odometry_v, odometry_w, elapsed, issues)
+        turned = abs(rotation)
+        self._skew_filter.move(moved, rotation)
 
         readings = self._reader.read(scan)
         if isinstance(readings, str) or not self._windows_covered(readings):
@@ -228,7 +311,6 @@ class WallFollower:
         self._state_time += elapsed
         self._traveled += moved
         self._turned += turned
-        self._turned_since_skew += turned
         self._transition(readings)
         v, w = self._command_for(readings, elapsed, rate_valid)
         self._record(readings)
@@ -260,7 +342,8 @@ class WallFollower:
         return dt, True
 
     def _motion(self, v: float, w: float, elapsed: float, issues: list[Issue]) -> tuple[float, float]:
-        """Distance driven and angle turned since the previous pair, from odometry when it is sane."""
+        """Distance driven and angle turned (counter-clockwise positive) since the previous pair, from
+        odometry when it is sane."""
         v, w = _as_float(v), _as_float(w)
         sane = (
             math.isfinite(v) and math.isfinite(w)
@@ -269,7 +352,7 @@ class WallFollower:
         if not sane:
             issues.append(Issue.BAD_ODOMETRY)
             v, w = self._command
-        return abs(v) * elapsed, abs(w) * elapsed
+        return abs(v) * elapsed, w * elapsed
 
     # -- the state machine -----------------------------------------------------------------
 
@@ -317,16 +400,20 @@ class WallFollower:
         elif state == State.CORNER:
             if present:  # the opening was only a short gap
                 self._enter(State.FOLLOW)
-            elif self._traveled >= c.corner_advance:
+            elif self._corner_reached():
                 self._turn_into_opening()
         elif state == State.APPROACH:
             if r.front <= self._pivot_distance or self._traveled >= c.front_threshold - self._pivot_distance:
                 self._decide_turn(r)
         elif not present:  # FOLLOW: the followed wall ended
             self._enter(State.CORNER)
+        else:
+            fit = self._fit(r, self._followed)
+            if fit is not None:
+                self._wall_line = fit.distance
 
         if self._state in MOVING:
-            if r.front < c.front_threshold and self._state != State.APPROACH:
+            if r.front < c.front_threshold and self._state != State.APPROACH and not self._committed(r):
                 # Following a wall (or just past its end) rather than looking for one?
                 self._tracking = present or self._state == State.CORNER
                 dead_end = self._open_direction(self._followed == "right", hand_on_wall=present) is None
@@ -338,6 +425,37 @@ class WallFollower:
                 self._resume = (self._state, self._state_time, self._traveled)
                 self._enter(State.AVOID)
                 self._turn_sign = -1.0 if r.clearance_side > 0 else 1.0
+
+    def _corner_reached(self) -> bool:
+        """Whether the robot, past the end of the followed wall, is where it turns into the opening.
+
+        Where the wall's end is seen (SectorReader.wall_end, in the walls' frame by the skew):
+        once the rotation centre is target_wall_distance past it, so that the turn leaves the
+        robot on its line in the new corridor. Noise-free that is where corner_advance past the
+        point the wall was lost puts it; under noise the abeam window reads the wall's end late
+        (a robot skewed 10 deg towards the wall saw it 18 cm late, and then turned back out of
+        the overshot side corridor), the measured end does not. Without a measured end:
+        corner_advance past the point the wall was lost.
+        """
+        c = self.config
+        side = 1.0 if self._followed == "left" else -1.0
+        end = self._reader.wall_end(side, self._wall_line, self._skew)
+        if end is None:
+            return self._traveled >= c.corner_advance
+        return -end >= c.target_wall_distance
+
+    def _committed(self, r: Readings) -> bool:
+        """Whether the robot, just out of a turn, is committed to the corridor it turned into.
+
+        A turn ends facing a way ahead that is open (turn_exit_distance in the narrow window
+        ahead). Skewed or off the corridor's line by a few cm, as noise leaves a robot after a
+        turn in a 0.35 m corridor, the +-15 deg front window then still catches the edge of that
+        corridor's mouth: that is no junction, and deciding there took the way back (the mouth of
+        the corridor just left reads open beside the robot). While stabilizing with the way ahead
+        open, a front return does not start a turn; the safety check still turns it off a return
+        the footprint would touch.
+        """
+        return self._state == State.STABILIZE and r.ahead >= self.config.turn_exit_distance
 
     def _command_for(self, r: Readings, elapsed: float, rate_valid: bool) -> tuple[float, float]:
         c = self.config
@@ -371,7 +489,13 @@ class WallFollower:
             error = min(error, 0.0)
         if straight != self._straight:  # a different measurement: no rate across the switch
             self._straight, self._last_error = straight, None
-        if self._last_error is None:
+        if straight and self._skew_seen:
+            # Along a straight wall de/dt = v sin(skew) (sign by side): the skew is carried by
+            # odometry and corrected by every fit, where differentiating one noisy fit after another
+            # at 3 cm LiDAR noise put about 1 rad/s of noise into w, and the heading wandered 10-15
+            # deg off the corridor between corrections (late corner detection, turns off square).
+            self._error_rate = (1.0 if self._followed == "left" else -1.0) * c.linear_speed * math.sin(self._skew)
+        elif self._last_error is None:
             self._error_rate = 0.0
         elif rate_valid and elapsed > 0.0:
             raw = (error - self._last_error) / elapsed
@@ -430,7 +554,7 @@ class WallFollower:
         """
         # Swept about the walls' direction, not the heading: a robot skewed towards the followed
         # wall would otherwise count the way it came as an opening on that side.
-        candidates = self._candidates + (self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0)
+        candidates = self._candidates + self._skew
         is_open = self._reader.free_travel(candidates, NOISE_ALLOWANCE) >= self.config.open_travel_distance
         if hand_on_wall:
             behind = -0.5 * math.pi - BEHIND_HAND if prefer_clockwise else 0.5 * math.pi + BEHIND_HAND
@@ -471,8 +595,7 @@ class WallFollower:
         """
         state = State.TURN_LEFT if direction > 0.0 else State.TURN_RIGHT
         sign = 1.0 if direction > 0.0 else -1.0
-        skew = self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0
-        square = 0.5 * math.pi + sign * skew
+        square = 0.5 * math.pi + sign * self._skew
         if abs(abs(direction) - 0.5 * math.pi) <= SQUARE_SNAP and abs(square - abs(direction)) <= SQUARE_SNAP:
             self._start_turn(state)
         else:
@@ -489,10 +612,12 @@ class WallFollower:
         self._turn_sign = sign
         if angle is not None:
             self._turn_angle = angle
-            return
-        nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
-        skew = self._skew if self._turned_since_skew <= SKEW_MEMORY else 0.0
-        self._turn_angle = nominal + sign * skew
+        else:
+            nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
+            self._turn_angle = nominal + sign * self._skew
+        self._skew_filter.forget()  # the walls alongside after the turn are other walls
+        self._wall_line = math.inf
+        self._skew, self._skew_seen = 0.0, False
 
     def _enter(self, state: State) -> None:
         self._state = state
@@ -516,10 +641,14 @@ class WallFollower:
             return fit.distance
         return r.left if self._followed == "left" else r.right
 
-    def _fit(self, r: Readings, side: str) -> LineFit | None:
-        """The side's fitted line if it is a straight wall within reach and near parallel."""
+    def _fit(self, r: Readings, side: str, direction: bool = False) -> LineFit | None:
+        """The side's fitted line if it is a straight wall within reach and near parallel; ``direction``:
+        the one fitted over the wider direction window."""
         c = self.config
-        fit = r.left_fit if side == "left" else r.right_fit
+        if direction:
+            fit = r.left_direction_fit if side == "left" else r.right_direction_fit
+        else:
+            fit = r.left_fit if side == "left" else r.right_fit
         if (
             fit is None
             or fit.rms > c.line_fit_tolerance
@@ -530,12 +659,29 @@ class WallFollower:
         return fit
 
     def _update_skew(self, r: Readings) -> None:
-        """The heading error against the walls, from the followed side's fit, else the other side's."""
-        other = "right" if self._followed == "left" else "left"
-        fit = self._fit(r, self._followed) or self._fit(r, other)
-        self._skew_seen = fit is not None
-        if fit is not None:
-            self._skew, self._turned_since_skew = fit.angle, 0.0
+        """The heading error against the walls (SkewFilter), from the followed side's fit and the other
+        side's where it agrees (a corridor), else from the other side's alone.
+
+        Not while turning in place: the walls then sweep through the side windows, and a fit of
+        a wall the robot is turning away from, carried through the rest of the turn by odometry,
+        left a skew of -70 deg at the turn's end (noise-free) that rotated the next turn's
+        candidate directions. An estimate that has grown past max_skew_deg is dropped likewise.
+        """
+        if self._state not in TURNING:
+            followed = self._fit(r, self._followed, direction=True)
+            other = self._fit(r, "right" if self._followed == "left" else "left", direction=True)
+            if followed is not None:
+                self._skew_filter.measure(followed)
+            if other is not None:
+                self._skew_filter.measure(other, tentative=followed is not None)
+        else:
+            followed = other = None
+        skew = self._skew_filter.skew
+        if skew is not None and abs(skew) > math.radians(self.config.max_skew_deg):
+            self._skew_filter.forget()
+            skew = None
+        self._skew_seen = skew is not None and (followed or other) is not None
+        self._skew = 0.0 if skew is None else skew
 
     def _sides_square(self, r: Readings) -> tuple[float, float]:
         """(left, right) readings square to the walls rather than to the heading.
@@ -579,6 +725,11 @@ class WallFollower:
         w = min(max(w, -self._max_w), self._max_w)
         self._command = (v, w)
         return Command(v, w, tuple(issues))
+
+
+def _half_turn(angle: float) -> float:
+    """A line direction difference (rad) wrapped to [-pi/2, pi/2]: lines are the same after half a turn."""
+    return math.remainder(angle, math.pi)
 
 
 def _as_float(value: Any) -> float:

@@ -70,10 +70,11 @@ class EpisodeSpec:
     duration: float = 600.0
     """s of simulated time at most."""
     options: dict = dataclasses.field(default_factory=dict)
-    """controller options: beams, scan_period, outlier_rate (wall_follower); max_collisions (navigation);
-    kidnap [t, x, y, theta], symmetric (the world's symmetric counterpart, a world dict: the record's extra says
-    when the feature breaking the symmetry was first seen), stop_after (s after the first declaration, and the
-    feature seen, the run ends) (localization); resolution (plan_follow)."""
+    """controller options: beams, scan_period, outlier_rate, route (wall_follower: record the grid cells
+    entered as extra["route"], amr_maps.maze_route); max_collisions (navigation); kidnap [t, x, y, theta],
+    symmetric (the world's symmetric counterpart, a world dict: the record's extra says when the feature
+    breaking the symmetry was first seen), stop_after (s after the first declaration, and the feature seen,
+    the run ends) (localization); resolution (plan_follow)."""
     mode: str = "library"
 
     def to_dict(self) -> dict[str, Any]:
@@ -179,14 +180,22 @@ def _goal_figures(reached: bool | None, end: float) -> dict[str, Any]:
 
 def _wall_follower(spec: EpisodeSpec) -> dict[str, Any]:
     from amr_evaluation.wall_follower_loop import run
-    from amr_evaluation.worlds import build_world, with_goal
+    from amr_evaluation.worlds import build_world, with_goal, world_dict
+    from amr_maps.maze_route import MazeGrid
 
     config = wall_follower_config(spec)
     world = with_goal(build_world(spec.world), spec.goal, spec.seed)
     options = spec.options
+    grid = None
+    if options.get("route"):  # the cells entered, for a grid maze's route (issue 20)
+        data = world_dict(spec.world)
+        if data is None:
+            raise ValueError(f"option route: world {spec.world} is not a generated or inline grid maze")
+        grid = MazeGrid.from_world(data)
     result = run(world, config, spec.duration, lidar_noise=spec.lidar_noise, encoder_noise=spec.encoder_noise,
                  slip=spec.slip, seed=spec.seed, beams=int(options.get("beams", 240)),
-                 scan_period=options.get("scan_period"), outlier_rate=float(options.get("outlier_rate", 0.0)))
+                 scan_period=options.get("scan_period"), outlier_rate=float(options.get("outlier_rate", 0.0)),
+                 grid=grid)
     reason = "goal region reached" if result.goal else f"time limit {spec.duration:g} s"
     return {
         **_goal_figures(result.goal, result.time), "time": result.time, "reason": reason,
@@ -194,7 +203,8 @@ def _wall_follower(spec: EpisodeSpec) -> dict[str, Any]:
         "stalls": result.stalls, "wall_error_run": result.wall_error_run,
         "wall_error_following": result.wall_error_following,
         "extra": {"state_time": result.state_time, "commands_with_issues": result.commands_with_issues,
-                  "preferred_wall": config.preferred_wall},
+                  "preferred_wall": config.preferred_wall,
+                  **({} if result.route is None else {"route": [list(cell) for cell in result.route]})},
     }
 
 

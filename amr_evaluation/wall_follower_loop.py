@@ -18,7 +18,8 @@ a 0.25 m cell not visited before), time in each state, and the wall distance err
 |d - target| with d the true distance from the LiDAR to the nearest wall on the followed side
 (closest points seen between 30 and 150 deg off the heading, capped at 1 m: searching,
 turning and crossing rooms count); ``wall_error_following`` is the mean of the controller's
-own |d - target| while it is in FOLLOW (the figure reported before).
+own |d - target| while it is in FOLLOW (the figure reported before). With a ``grid``
+(amr_maps.maze_route.MazeGrid of a grid maze), ``route`` is the sequence of cells entered (issue 20).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy as np
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_evaluation.figures import path_figures
+from amr_maps.maze_route import MazeGrid, cell_route
 from amr_maps.world import World
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.render import save_png
@@ -54,6 +56,8 @@ class RunResult:
     wall_error_run: float
     wall_error_following: float
     commands_with_issues: int
+    route: list[tuple[int, int]] | None = None
+    """the grid cells entered, in order (amr_maps.maze_route.cell_route), when run with a ``grid``"""
 
 
 def run(
@@ -68,6 +72,7 @@ def run(
     scan_period: float | None = None,
     outlier_rate: float = 0.0,
     render_path: str | None = None,
+    grid: MazeGrid | None = None,
 ) -> RunResult:
     sim = Simulator(world, SimulationConfig(
         dt=config.dt, seed=seed, lidar=LidarConfig(beams=beams, noise_std=lidar_noise),
@@ -114,6 +119,7 @@ def run(
         wall_error_run=float(np.mean(run_errors)) if run_errors else math.nan,
         wall_error_following=float(np.mean(following_errors)) if following_errors else math.nan,
         commands_with_issues=issues,
+        route=None if grid is None else cell_route(grid, sim.trajectory[:, :2]),
     )
 
 

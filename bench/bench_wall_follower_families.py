@@ -14,6 +14,14 @@ a fresh file in out/bench/). --png re-runs each episode in this process to draw 
     python bench/bench_wall_follower_families.py [--seeds 5] [--noise 0.01 0.02 0.03]
         [--families perfect bends ...] [--configs sim real] [--jobs 2] [--scheduler tcp://host:8786] [--outliers 0.002] [--png DIR]
     python bench/bench_wall_follower_families.py --shipped   # the shipped worlds, as README's table
+    python bench/bench_wall_follower_families.py --route [--mazes 6] [--run-seeds 3] [--jobs 2]
+
+--route (issue 20: the route must not depend on noise): tree mazes (perfect; rotated and thin_walls
+without loops; dead_ends), 6, 7 or 8 m across with 0.35, 0.4 or 0.45 m corridors by maze seed. On each,
+the noise-free sim run is the reference; the sim config at LiDAR noise 0.03 m with encoder noise 0.02
+and slip 0.05 (--run-seeds seeds) and the real config (noise-free and noisy) are compared with it cell by
+cell (amr_maps.maze_route.cell_route: the cells entered, a cell counting once the robot's centre is
+5 cm inside it), and every run with the maze's ideal hand tour (amr_maps.maze_route.hand_tour).
 """
 
 from __future__ import annotations
@@ -36,6 +44,7 @@ from amr_evaluation.runner import run_sweep  # noqa: E402
 from amr_evaluation.wall_follower_loop import run  # noqa: E402
 from amr_evaluation.worlds import build_world, world_dict  # noqa: E402
 from amr_maps.maze_families import FAMILIES, walk_length  # noqa: E402
+from amr_maps.maze_route import MazeGrid, first_difference, hand_tour  # noqa: E402
 
 CONFIGS = ("sim", "real")
 SHIPPED = ("hard_maze", "inner_maze", "open_room", "outer_corridor")
@@ -81,10 +90,18 @@ def main() -> None:
     parser.add_argument("--png", help="directory: save every run's trajectory there as a PNG")
     parser.add_argument("--shipped", action="store_true",
                         help="instead: the shipped worlds, sim config, LiDAR noise 0.01, no encoder noise")
+    parser.add_argument("--route", action="store_true",
+                        help="instead: routes through tree mazes compared with the noise-free run's (issue 20)")
+    parser.add_argument("--mazes", type=int, default=6, help="--route: mazes per family (seeds first-seed..)")
+    parser.add_argument("--route-families", nargs="+", default=list(ROUTE_FAMILIES), choices=ROUTE_FAMILIES)
+    parser.add_argument("--run-seeds", type=int, default=3, help="--route: noisy sim runs per maze")
     args = parser.parse_args()
     results = Path(args.results) if args.results else _fresh_results()
     if args.shipped:
         shipped(args.seconds, results, args.jobs, args.scheduler)
+        return
+    if args.route:
+        routes(args, results)
         return
 
     jobs = [(family, seed, config_name, noise)
@@ -159,6 +176,95 @@ def shipped(seconds: float, results: Path, jobs: int, scheduler: str | None) -> 
         goal = "no goal" if r["goal_reached"] is None else f"goal {'reached' if r['goal_reached'] else 'missed'}"
         print(f"{name:15s} {goal:13s} t={r['time']:6.1f} s  collisions {r['collisions']}  speed {r['mean_speed']:.3f} m/s  "
               f"wall error following {r['wall_error_following'] * 1000:.1f} mm, whole run {r['wall_error_run'] * 1000:.1f} mm")
+
+
+ROUTE_FAMILIES = ("perfect", "rotated", "thin_walls", "dead_ends")
+ROUTE_WIDTHS = (0.35, 0.4, 0.45)
+ROUTE_SIZES = (6.0, 7.0, 8.0)
+ROUTE_NOISE = 0.03
+
+
+def tree_maze(family: str, seed: int, hand: str) -> dict:
+    """The world spec of a tree maze: 6, 7 or 8 m across and 0.35, 0.4 or 0.45 m corridors, by seed."""
+    options = {"size": ROUTE_SIZES[(seed // len(ROUTE_WIDTHS)) % len(ROUTE_SIZES)],
+               "width": ROUTE_WIDTHS[seed % len(ROUTE_WIDTHS)], "hand": hand}
+    if family in ("rotated", "thin_walls"):
+        options["loop_fraction"] = 0.0
+    return {"family": family, "seed": seed, "options": options}
+
+
+def routes(args: argparse.Namespace, results: Path) -> None:
+    """Issue 20: does the route depend on noise? Cell routes compared with the noise-free sim run's."""
+    kinds = [("sim", 0.0, 0)] + [("sim", ROUTE_NOISE, s + 1) for s in range(args.run_seeds)]
+    if "real" in args.configs:
+        kinds += [("real", 0.0, 0), ("real", ROUTE_NOISE, 1)]
+    mazes = [(f, m) for f in args.route_families for m in range(args.first_seed, args.first_seed + args.mazes)]
+    specs, keys = [], []
+    for family, maze in mazes:
+        for config_name, noise, seed in kinds:
+            label, parameters = configs.resolve("wall_follower", config_name)
+            real = config_name == "real"
+            options = {"beams": 360 if real else 240, "route": True}
+            if real and args.lds_rate:
+                options["scan_period"] = 0.2
+            world = tree_maze(family, maze, parameters["wall_follower"]["preferred_wall"])
+            motion = (0.02, 0.05) if noise > 0.0 else (0.0, 0.0)
+            specs.append(EpisodeSpec("wall_follower", label, parameters, world, None, seed, noise, *motion,
+                                     args.seconds, options))
+            keys.append((family, maze, config_name, noise, seed))
+    started = time.monotonic()
+    records = dict(zip(keys, run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler)))
+    elapsed = time.monotonic() - started
+    where = f"Dask at {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)"
+    print(f"routes: {len(mazes)} tree mazes ({', '.join(args.route_families)}; 6-8 m, corridors 0.35-0.45 m), "
+          f"{len(specs)} runs, {elapsed:.0f} s wall clock, {where}; noisy = LiDAR {ROUTE_NOISE} m, encoder noise "
+          f"0.02, slip 0.05; real config 360 beams at {'5 Hz' if args.lds_rate else '20 Hz'}; {args.seconds:.0f} s "
+          f"max; records in {results}")
+    print("same: the run's cells = the noise-free sim run's (up to where the shorter ends at its goal); tour: the "
+          "run's cells follow the maze's ideal hand tour; goal: reached within the time; coll: collisions")
+    print(f"{'config':6s} {'noise':>5s} {'runs':>4s} {'same':>7s} {'tour':>7s} {'goal':>7s} {'coll':>4s} {'t goal':>6s}")
+    tours = {}
+    for family, maze in mazes:
+        spec = next(s for s, k in zip(specs, keys) if k[:2] == (family, maze))
+        data = world_dict(spec.world)
+        tours[(family, maze)] = hand_tour(MazeGrid.from_world(data), data["start"], spec.world["options"]["hand"])
+    notes = []
+    for config_name, noise in dict.fromkeys((c, n) for c, n, _ in kinds):
+        rows = [(k, r) for k, r in records.items() if k[2] == config_name and k[3] == noise]
+        same = on_tour = reached = collisions = 0
+        times = []
+        for key, r in rows:
+            if r["error"]:
+                notes.append(f"    {key}: raised {r['error']}")
+                continue
+            route = [tuple(c) for c in r["extra"]["route"]]
+            ref_record = records[(key[0], key[1], "sim", 0.0, 0)]
+            reference = [tuple(c) for c in ref_record["extra"].get("route", [])] if not ref_record["error"] else []
+            shorter = min(len(route), len(reference))
+            at = first_difference(route[:shorter], reference[:shorter])
+            off = first_difference(route, tours[key[:2]])
+            same += at is None
+            on_tour += off is None
+            reached += bool(r["goal_reached"])
+            collisions += r["collisions"]
+            if r["goal_reached"]:
+                times.append(r["time"])
+            if at is not None or off is not None or not r["goal_reached"] or r["collisions"]:
+                tour = tours[key[:2]]
+                leaves = "" if off is None else (
+                    f"; leaves the tour after cell {off - 1}: {route[off - 1]} -> "
+                    f"{route[off] if off < len(route) else '(end)'} where the tour goes to "
+                    f"{tour[off] if off < len(tour) else '(end)'}")
+                notes.append(f"    {key[0]} {key[1]} {config_name} noise {noise} seed {key[4]}: goal "
+                             f"{'reached' if r['goal_reached'] else 'missed'} at {r['time']:.0f} s, {len(route)} cells, "
+                             f"collisions {r['collisions']}, "
+                             f"{'same cells as noise-free' if at is None else f'differs from noise-free at cell {at}'}"
+                             f"{leaves}")
+        n = len(rows)
+        print(f"{config_name:6s} {noise:5.2f} {n:4d} {same:3d}/{n:<3d} {on_tour:3d}/{n:<3d} {reached:3d}/{n:<3d} "
+              f"{collisions:4d} {statistics.mean(times) if times else math.nan:6.1f}")
+    for note in notes:
+        print(note)
 
 
 def _fresh_results() -> Path:

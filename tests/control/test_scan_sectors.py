@@ -99,3 +99,22 @@ def test_clearance_sees_an_oblique_obstacle_the_front_window_misses():
     assert r.front == math.inf
     assert r.clearance < 0.02
     assert r.clearance_side == -1
+
+
+@pytest.mark.parametrize("skew_deg", [0.0, 8.0])
+@pytest.mark.parametrize("noise", [0.0, 0.03])
+def test_wall_end_is_where_the_passed_wall_ends_not_where_it_resumes(skew_deg, noise):
+    # A right wall 0.2 m away ending 5 cm behind the LiDAR, resuming 0.35 m further on (a side
+    # corridor): the robot (turned skew_deg clockwise of the walls) has passed the first end.
+    skew = math.radians(skew_deg)
+    end, resume = -0.05, 0.30
+    walls = [(-3.0, -0.2, end, -0.2), (end, -0.2, end, -0.26), (resume, -0.2, 3.0, -0.2), (-3.0, 0.5, 3.0, 0.5)]
+    scan = cast(walls, beams=360, heading=-skew)
+    if noise:
+        ranges = np.asarray(scan.ranges) + np.random.default_rng(3).normal(0.0, noise, len(scan.ranges))
+        scan = ScanData(ranges, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max)
+    reader = SectorReader(Sectors(math.radians(15), math.radians(20), math.radians(5)), Footprint(0.105, -0.032, 0.01), 3)
+    reader.read(scan)
+    found = reader.wall_end(-1.0, 0.2, skew)
+    assert found == pytest.approx(-0.032 + end, abs=0.01 + noise)  # rotation-centre frame, along the walls
+    assert reader.wall_end(-1.0, 0.6, skew) is None  # nothing on that line

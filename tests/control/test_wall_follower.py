@@ -77,16 +77,33 @@ def test_pd_output_saturates():
     assert drive.step(cast(corridor(left=1.0, right=0.35))).w == pytest.approx(-0.34)
 
 
+NO_SKEW = {"wall_direction_window_deg": 1.0}
+"""Direction windows too narrow for a fit: no skew, so the error rate is the difference of the fits."""
+
+
+def test_along_a_straight_wall_the_error_rate_comes_from_the_skew():
+    # A jump of the fitted distance between two scans of a parallel wall is noise: no rate.
+    drive = Drive({"kp": 0.0, "kd": 1.0})
+    drive.step(cast(corridor(left=1.0, right=0.20)))
+    assert drive.step(cast(corridor(left=1.0, right=0.21))).w == pytest.approx(0.0, abs=1e-9)
+    # A right wall running 10 deg counter-clockwise of the heading (the robot turned clockwise of
+    # it, closing in at v sin 10 deg): de/dt = -v sin(skew), so w = kd v sin(skew), away from it.
+    angle = math.radians(10.0)
+    wall = [(-BIG, 1.0, BIG, 1.0), (-1.0, -0.2 - math.tan(angle), 1.0, -0.2 + math.tan(angle))]
+    command = Drive({"kp": 0.0, "kd": 1.0}).step(cast(wall))
+    assert command.w == pytest.approx(0.15 * math.sin(angle), rel=0.05)
+
+
 @pytest.mark.parametrize("dt, filter_time, expected", [(0.05, 0.0, -0.2), (0.1, 0.0, -0.1), (0.05, 0.05, -0.1)])
 def test_derivative_uses_the_real_time_between_stamps(dt, filter_time, expected):
-    drive = Drive({"kp": 0.0, "kd": 1.0, "derivative_filter_time": filter_time})
+    drive = Drive({"kp": 0.0, "kd": 1.0, "derivative_filter_time": filter_time, **NO_SKEW})
     drive.step(cast(corridor(left=1.0, right=0.20)), dt=dt)
     command = drive.step(cast(corridor(left=1.0, right=0.21)))
     assert command.w == pytest.approx(expected)  # de/dt = 0.01 m / dt, halved by the filter when tau = dt
 
 
 def test_repeated_stamp_freezes_the_derivative():
-    drive = Drive({"kp": 0.0, "kd": 1.0})
+    drive = Drive({"kp": 0.0, "kd": 1.0, **NO_SKEW})
     drive.step(cast(corridor(left=1.0, right=0.20)))
     drive.step(cast(corridor(left=1.0, right=0.21)), dt=0.0)
     command = drive.step(cast(corridor(left=1.0, right=0.25)))
@@ -95,7 +112,7 @@ def test_repeated_stamp_freezes_the_derivative():
 
 
 def test_time_going_backwards_or_jumping_resets_the_derivative():
-    drive = Drive({"kp": 0.0, "kd": 1.0}, t0=10.0)
+    drive = Drive({"kp": 0.0, "kd": 1.0, **NO_SKEW}, t0=10.0)
     drive.step(cast(corridor(left=1.0, right=0.20)))
     drive.t = 5.0
     command = drive.step(cast(corridor(left=1.0, right=0.21)))
