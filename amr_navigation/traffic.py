@@ -80,7 +80,7 @@ class TrafficConfig(Config):
     map_tolerance: float = parameter(0.08, minimum=0.0, maximum=1.0)
     """m: a scan return farther than this from every obstacle of the map is unmapped (estimate error and
     range noise stay within it)."""
-    path_clearance: float = parameter(0.04, minimum=0.0, maximum=1.0)
+    path_clearance: float = parameter(0.03, minimum=0.0, maximum=1.0)
     """m beyond robot_radius: a return this close to the path ahead is in the way."""
     min_returns: int = parameter(3, minimum=1, maximum=100)
     """unmapped returns that must be in the way before the robot slows or stops (single noisy beams do not)."""
@@ -98,7 +98,7 @@ class TrafficConfig(Config):
     """m a beam must reach beyond a mark for the mark to count as gone."""
     conflict_distance: float = parameter(0.9, minimum=0.1, maximum=10.0)
     """m of path ahead posted on the board and checked for other robots (who blocks whom)."""
-    yield_clearance: float = parameter(0.1, minimum=0.0, maximum=2.0)
+    yield_clearance: float = parameter(0.15, minimum=0.0, maximum=2.0)
     """m beyond 2 robot_radius: a place to wait aside is at least this far from the others' paths (more than
     path_clearance, plus the path follower's goal tolerance)."""
     yield_search: float = parameter(4.0, minimum=0.1, maximum=50.0)
@@ -255,7 +255,7 @@ class TrafficPost:
     pose: tuple[float, float, float] | None = None
     """the estimate in the map frame; None while not localized."""
     path: np.ndarray | None = None
-    """(M, 2) the next conflict_distance m of the path it follows; None without one."""
+    """(M, 2) the rest of the path it follows (from its closest point on); None without one."""
     blocked_by: str = ""
     """the robot whose centre stands on that stretch of path, in front of it ('' none)."""
     yielding_to: tuple[str, ...] = ()
@@ -342,6 +342,7 @@ class Traffic:
         self._aside_since: float | None = None
         self._cannot_yield = False
         self._route = np.zeros((0, 2))
+        self._remaining = np.zeros((0, 2))
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
 
     # -- planner ---------------------------------------------------------------------------------
@@ -371,7 +372,9 @@ class Traffic:
         """The advice for one observation driven with the path follower along `path` (the followed one)."""
         config = self.config
         x, y, theta = pose
+        remaining = path_ahead(path, x, y, math.inf, spacing=0.05)
         stretch = path_ahead(path, x, y, config.conflict_distance)
+        self._remaining = remaining
         others = [post for post in self.board.others(self.name) if post.pose is not None]
         blocker = self._blocker(pose, stretch, others)
         events: list[str] = []
@@ -382,7 +385,7 @@ class Traffic:
                 return advice
             events.append("done giving way: planning to the goal again")
             self.phase, self._spot, self._yield_to = Phase.GO, None, ()
-            self._post(pose, stretch, blocker)
+            self._post(pose, blocker)
             return Advice(replan=True, events=tuple(events))
 
         # right of way: yield to a robot blocked by this one when the rule says so
@@ -399,7 +402,7 @@ class Traffic:
             if self._waiting_for_yield_since is None:
                 self._waiting_for_yield_since = stamp
             if stamp - self._waiting_for_yield_since < config.yield_timeout:
-                self._post(pose, stretch, blocker)
+                self._post(pose, blocker)
                 return Advice(speed_limit=0.0)
         else:
             self._waiting_for_yield_since = None
@@ -410,7 +413,7 @@ class Traffic:
         front = loose & (local[:, 0] > 0.0)
         travel = free_travel(stretch, world[front], config.robot_radius + config.path_clearance, config.min_returns)
         limit = obstacle_speed(travel, config.stop_distance, config.slow_distance, speed)
-        self._post(pose, stretch, blocker)
+        self._post(pose, blocker)
         self._clear_marks(world, pose, events)
         if len(self.marks) == 0 and self._marked_path:
             self._marked_path = False
@@ -445,8 +448,8 @@ class Traffic:
 
     # -- helpers ---------------------------------------------------------------------------------
 
-    def _post(self, pose, stretch, blocker, passive: bool = False) -> None:
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), stretch,
+    def _post(self, pose, blocker, passive: bool = False) -> None:
+        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._remaining,
                                     blocker.name if blocker is not None else "", self._yield_to, passive,
                                     self._cannot_yield))
 
@@ -505,7 +508,7 @@ class Traffic:
             if passive:
                 self.post_idle(pose, True)
             else:
-                self._post(pose, stretch, blocker)
+                self._post(pose, blocker)
             return None
         self._cannot_yield = False
         self.counters.yields += 1
