@@ -73,37 +73,37 @@ NODE_NAME = "traffic"
 
 @dataclass(frozen=True)
 class TrafficConfig(Config):
-    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0)
+    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0, live=True)
     """m, every robot's disc (TurtleBot3 Burger)."""
-    lidar_x: float = parameter(-0.032, minimum=-1.0, maximum=1.0)
+    lidar_x: float = parameter(-0.032, minimum=-1.0, maximum=1.0, live=True)
     """m, LiDAR position ahead of the rotation centre (Burger: 3.2 cm behind the axle)."""
-    map_tolerance: float = parameter(0.08, minimum=0.0, maximum=1.0)
+    map_tolerance: float = parameter(0.08, minimum=0.0, maximum=1.0, live=True)
     """m: a scan return farther than this from every obstacle of the map is unmapped (estimate error and
     range noise stay within it)."""
-    path_clearance: float = parameter(0.03, minimum=0.0, maximum=1.0)
+    path_clearance: float = parameter(0.03, minimum=0.0, maximum=1.0, live=True)
     """m beyond robot_radius: a return this close to the path ahead is in the way."""
-    min_returns: int = parameter(3, minimum=1, maximum=100)
+    min_returns: int = parameter(3, minimum=1, maximum=100, live=True)
     """unmapped returns that must be in the way before the robot slows or stops (single noisy beams do not)."""
-    stop_distance: float = parameter(0.12, minimum=0.0, maximum=5.0)
+    stop_distance: float = parameter(0.12, minimum=0.0, maximum=5.0, live=True)
     """m of free travel along the path at or below which the robot stops."""
-    slow_distance: float = parameter(0.45, minimum=0.01, maximum=10.0)
+    slow_distance: float = parameter(0.45, minimum=0.01, maximum=10.0, live=True)
     """m of free travel from which on the speed is not capped (linear from 0 at stop_distance)."""
-    wait_time: float = parameter(2.0, minimum=0.0, maximum=600.0)
+    wait_time: float = parameter(2.0, minimum=0.0, maximum=600.0, live=True)
     """s stopped by an unmapped obstacle before planning around it (and between failed attempts)."""
-    mark_radius: float = parameter(0.04, minimum=0.0, maximum=1.0)
+    mark_radius: float = parameter(0.04, minimum=0.0, maximum=1.0, live=True)
     """m, disc marked around each unmapped return (and a point one robot radius behind it) for a replan."""
-    mark_range: float = parameter(1.5, minimum=0.1, maximum=20.0)
+    mark_range: float = parameter(1.5, minimum=0.1, maximum=20.0, live=True)
     """m, unmapped returns within this of the robot are marked for a replan."""
-    clear_distance: float = parameter(0.15, minimum=0.01, maximum=5.0)
+    clear_distance: float = parameter(0.15, minimum=0.01, maximum=5.0, live=True)
     """m a beam must reach beyond a mark for the mark to count as gone."""
-    conflict_distance: float = parameter(0.9, minimum=0.1, maximum=10.0)
+    conflict_distance: float = parameter(0.9, minimum=0.1, maximum=10.0, live=True)
     """m of path ahead posted on the board and checked for other robots (who blocks whom)."""
-    yield_clearance: float = parameter(0.15, minimum=0.0, maximum=2.0)
+    yield_clearance: float = parameter(0.15, minimum=0.0, maximum=2.0, live=True)
     """m beyond 2 robot_radius: a place to wait aside is at least this far from the others' paths (more than
     path_clearance, plus the path follower's goal tolerance)."""
-    yield_search: float = parameter(4.0, minimum=0.1, maximum=50.0)
+    yield_search: float = parameter(4.0, minimum=0.1, maximum=50.0, live=True)
     """m of steps at most from the robot to a place to wait aside."""
-    yield_timeout: float = parameter(30.0, minimum=0.1, maximum=3600.0)
+    yield_timeout: float = parameter(30.0, minimum=0.1, maximum=3600.0, live=True)
     """s at most waiting aside (or waiting for a robot that yields) before going on regardless."""
 
     def validate(self) -> None:
