@@ -20,7 +20,6 @@ time) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
@@ -32,40 +31,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from amr_maps.maze_families import generate  # noqa: E402
-from amr_maps.rasterize import rasterize_world  # noqa: E402
+from amr_evaluation.fleet_navigation import with_robots  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
-from amr_planning.costmap import Costmap  # noqa: E402
-
-MIN_SEPARATION = 0.7
-"""m between any two starts."""
-START_CLEARANCE = 0.16
-"""m from a start to the nearest wall (the robot's radius and 5.5 cm)."""
-GOAL_RADIUS = 0.15
-
 
 def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:
     """A generated world with `robots` robots, each sent to the next one's start."""
-    data = generate(family, seed, size=size)
-    probe = world_from_dict(data)  # its own start and goal: only the solids matter here
-    data.pop("start", None)
-    data.pop("goal", None)
-    costmap = Costmap(rasterize_world(probe, 0.025))
-    rows, cols = np.nonzero(costmap.clearance >= START_CLEARANCE)
-    points = costmap.centre(rows, cols)
-    rng = np.random.default_rng([seed, robots])
-    chosen = [points[rng.integers(len(points))]]
-    distance = np.hypot(*(points - chosen[0]).T)
-    while len(chosen) < robots:
-        index = int(np.argmax(distance))
-        if distance[index] < MIN_SEPARATION:
-            raise ValueError(f"{family} {seed}: no room for {robots} robots {MIN_SEPARATION} m apart")
-        chosen.append(points[index])
-        distance = np.minimum(distance, np.hypot(*(points - points[index]).T))
-    order = rng.permutation(robots)
-    starts = [chosen[i] for i in order]
-    data["robots"] = [{"name": f"r{i + 1}", "start": [float(s[0]), float(s[1]), float(rng.uniform(-math.pi, math.pi))],
-                       "goal": [float(starts[(i + 1) % robots][0]), float(starts[(i + 1) % robots][1]), GOAL_RADIUS]}
-                      for i, s in enumerate(starts)]
+    data = with_robots(generate(family, seed, size=size), robots, seed)
     data["name"] = f"{family}_{seed}_{robots}robots"
     return data
 
