@@ -35,7 +35,7 @@ The navigator of one robot runs them on every observation it drives with the pat
    their centres, is the place to wait; the robot is handed a path there (a detour: the navigator keeps
    its goal and does not count the detour as straying), waits there (zero speed) until none of them
    needs the place (their posted paths pass more than that distance away and they are farther than
-   that), or `yield_timeout` s, then plans to its goal again. Without such a place it posts
+   that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it posts
    `cannot_yield`, and the other robot yields instead. The robot with the right of way, blocked by a
    robot that yields to it, waits without replanning around it (for at most `yield_timeout`).
 
@@ -67,6 +67,8 @@ from amr_planning.planner import Planner
 from amr_util.parameter_spec import Config, ConfigError, parameter
 from amr_util.scan import ScanData
 
+PROGRESS = 0.05
+"""m a robot must move for a robot waiting on it to count it as making progress (which restarts its timeout)."""
 NODE_NAME = "traffic"
 """the section of config/traffic.yaml (the traffic rules' parameters; the navigator would declare them)."""
 
@@ -103,8 +105,9 @@ class TrafficConfig(Config):
     path_clearance, plus the path follower's goal tolerance)."""
     yield_search: float = parameter(4.0, minimum=0.1, maximum=50.0, live=True)
     """m of steps at most from the robot to a place to wait aside."""
-    yield_timeout: float = parameter(30.0, minimum=0.1, maximum=3600.0, live=True)
-    """s at most waiting aside (or waiting for a robot that yields) before going on regardless."""
+    yield_timeout: float = parameter(20.0, minimum=0.1, maximum=3600.0, live=True)
+    """s waiting aside while the robots it gives way to stand still (each move of theirs restarts it), or held
+    for a robot that gives way, before going on regardless."""
 
     def validate(self) -> None:
         if self.slow_distance <= self.stop_distance:
@@ -343,6 +346,7 @@ class Traffic:
         self._cannot_yield = False
         self._route = np.zeros((0, 2))
         self._remaining = np.zeros((0, 2))
+        self._awaited: dict[str, tuple[float, float]] = {}
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
 
     # -- planner ---------------------------------------------------------------------------------
@@ -518,6 +522,7 @@ class Traffic:
         else:
             self._route = np.concatenate([np.asarray(detour)[::-1], self._route])
         self.phase, self._spot, self._yield_to, self._aside_since = Phase.YIELD, spot, names, stamp
+        self._awaited = {}
         self._stopped_since = None
         self.board.post(TrafficPost(self.name, self.priority, tuple(pose), None, "", names, True, False))
         return Advice(detour=detour, events=(f"giving way to {', '.join(names)}: going aside to "
@@ -530,6 +535,12 @@ class Traffic:
         config = self.config
         reach = 2.0 * config.robot_radius + config.path_clearance
         self.board.post(TrafficPost(self.name, self.priority, tuple(pose), None, "", self._yield_to, True, False))
+        for post in others:  # the wait times out only while the robots it gives way to stand still
+            if post.name in self._yield_to:
+                last = self._awaited.get(post.name)
+                if last is None or math.hypot(post.pose[0] - last[0], post.pose[1] - last[1]) > PROGRESS:
+                    self._awaited[post.name] = (post.pose[0], post.pose[1])
+                    self._aside_since = stamp
         if stamp - self._aside_since >= config.yield_timeout:
             return None
         # someone newly blocked by this robot: go aside for them too
