@@ -36,7 +36,7 @@ The navigator of one robot runs them on every observation it drives with the pat
    its goal and does not count the detour as straying), waits there (zero speed) until none of them
    needs the place (their posted paths pass more than that distance away and they are farther than
    that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it posts
-   `cannot_yield`, and the other robot yields instead. The robot with the right of way, blocked by a
+   `cannot_yield` (and looks again after `wait_time`), and the other robot yields instead. The robot with the right of way, blocked by a
    robot that yields to it, waits without replanning around it (for at most `yield_timeout`).
 
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
@@ -347,6 +347,8 @@ class Traffic:
         self._route = np.zeros((0, 2))
         self._remaining = np.zeros((0, 2))
         self._awaited: dict[str, tuple[float, float]] = {}
+        self._retry_at = -math.inf
+        """no place to wait was found: the next search is not before this stamp."""
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
 
     # -- planner ---------------------------------------------------------------------------------
@@ -366,7 +368,7 @@ class Traffic:
     def wants_to_move(self, pose: tuple[float, float, float], costmap: Costmap, stamp: float) -> Advice | None:
         """At the goal (passive): a detour if some robot is blocked by this one, else None."""
         blocked = [post for post in self.board.others(self.name) if post.blocked_by == self.name]
-        if not blocked:
+        if not blocked or stamp < self._retry_at:
             self.post_idle(pose, True)
             return None
         return self._go_aside(pose, costmap, blocked, stamp, passive=True)
@@ -394,11 +396,13 @@ class Traffic:
 
         # right of way: yield to a robot blocked by this one when the rule says so
         yield_to = [post for post in others if post.blocked_by == self.name and self._must_yield(post, blocker)]
+        if stamp < self._retry_at:
+            yield_to = []  # no place to wait was found: look again after wait_time, not every observation
         if yield_to:
             advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker)
             if advice is not None:
                 return advice
-        else:
+        elif stamp >= self._retry_at:
             self._cannot_yield = False
 
         # the robot ahead is making way for this one: hold until it is off this stretch of path
@@ -509,6 +513,7 @@ class Traffic:
             if not self._cannot_yield:
                 self.counters.cannot_yield += 1
             self._cannot_yield = True
+            self._retry_at = stamp + config.wait_time
             if passive:
                 self.post_idle(pose, True)
             else:
