@@ -80,6 +80,8 @@ class State(str, Enum):
     ESCAPE = "ESCAPE"
     """grazing a wall with the path straight ahead: turning away from it, then straight on a little."""
     STRAYED = "STRAYED"
+    WAITING = "WAITING"
+    """the caller's speed limit is 0 (an obstacle in the way): standing still on the path."""
 
 
 @dataclass(frozen=True)
@@ -175,14 +177,24 @@ class PathFollower:
         return self._points is not None
 
     @property
+    def points(self) -> np.ndarray | None:
+        """The path followed (N, 2), None without one."""
+        return None if self._points is None else self._points.copy()
+
+    @property
     def goal(self) -> np.ndarray | None:
         """The path's last point (x, y), None without a path."""
         return None if self._points is None else self._points[-1].copy()
 
     # -- control -----------------------------------------------------------------------
 
-    def compute(self, x: float, y: float, theta: float, scan: ScanData | None = None) -> FollowCommand:
-        """The command for the localized pose (x, y, theta) and the latest scan (None: no safety check)."""
+    def compute(self, x: float, y: float, theta: float, scan: ScanData | None = None,
+                speed_limit: float | None = None) -> FollowCommand:
+        """The command for the localized pose (x, y, theta) and the latest scan (None: no safety check).
+
+        speed_limit (m/s, None: none) caps the forward speed while tracking, as nav2's speed limits do (the
+        navigator's traffic rules slow the robot for an obstacle ahead); 0 stands the robot still on the path
+        (WAITING) while in-place turns (towards the path, to the goal heading) go on."""
         if self._points is None:
             return FollowCommand(0.0, 0.0, State.IDLE, message="no path")
         if not all(is_finite_number(v) for v in (x, y, theta)):
@@ -228,6 +240,11 @@ class PathFollower:
             v = min(v, self.config.curve_angular_speed / abs(curvature))
         v = min(v, self.config.approach_gain * max(remaining, to_goal))
         v = max(v, self.config.min_linear_speed)
+        if speed_limit is not None:
+            if not speed_limit > 0.0:  # 0, negative or NaN: stand still
+                self._state = State.WAITING
+                return self._emit(0.0, 0.0, cross_track, remaining, "waiting: speed limit 0 (something in the way)")
+            v = min(v, speed_limit)
 
         w = v * curvature
         returns = _returns(scan, self.config.lidar_x)

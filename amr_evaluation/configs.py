@@ -12,7 +12,9 @@ Configurations per controller:
 - ``localization`` (explore with the wall follower while the particle filter localizes): ``default`` =
   wall_follower_sim.yaml and particle_filter.yaml;
 - ``plan_follow`` (plan on the map from the true pose, pure pursuit on the true pose): ``default`` =
-  path_follower_sim.yaml and planner.yaml.
+  path_follower_sim.yaml and planner.yaml;
+- ``fleet_navigation`` (every robot of a world navigating to its goal, with the traffic rules among robots):
+  ``default`` = navigation's files and traffic.yaml.
 
 A user's file is a ROS 2 parameter file (``<node>: ros__parameters: ...``, what ``--params-file`` takes)
 laid over the controller's default: each of its sections named after one of the controller's nodes
@@ -31,19 +33,21 @@ import yaml
 from amr_util.parameter_file import node_parameters
 from amr_util.share import share_directory
 
-CONTROLLERS = ("wall_follower", "navigation", "localization", "plan_follow")
+CONTROLLERS = ("wall_follower", "navigation", "localization", "plan_follow", "fleet_navigation")
 _FILES = {
     "wall_follower": ("amr_control", {"sim": "wall_follower_sim.yaml", "real": "wall_follower_real.yaml"}),
     "path_follower": ("amr_control", {"default": "path_follower_sim.yaml"}),
     "planner": ("amr_planning", {"default": "planner.yaml"}),
     "particle_filter": ("amr_localization", {"default": "particle_filter.yaml"}),
     "navigator": ("amr_navigation", {"default": "navigator.yaml"}),
+    "traffic": ("amr_navigation", {"default": "traffic.yaml"}),
 }
 NODES = {
     "wall_follower": ("wall_follower",),
     "navigation": ("wall_follower", "path_follower", "planner", "particle_filter", "navigator"),
     "localization": ("wall_follower", "particle_filter"),
     "plan_follow": ("path_follower", "planner"),
+    "fleet_navigation": ("wall_follower", "path_follower", "planner", "particle_filter", "navigator", "traffic"),
 }
 """the nodes whose parameters each controller takes."""
 

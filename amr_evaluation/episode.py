@@ -13,7 +13,9 @@ Controllers (library level, no DDS: the simulator library and the controllers' p
 - ``navigation``: amr_navigation.loop (explore until the particle filter says localized, plan from
   the estimate, follow, replan; the maze_navigation stack's decisions without ROS);
 - ``localization``: amr_evaluation.closed_loop (the wall follower explores while the filter localizes);
-- ``plan_follow``: amr_evaluation.plan_follow (plan and follow from the true pose).
+- ``plan_follow``: amr_evaluation.plan_follow (plan and follow from the true pose);
+- ``fleet_navigation``: amr_evaluation.fleet_navigation (every robot of the world to its goal, each with the
+  navigation loop, its own particle filter and the traffic rules; options robots, localization).
 
 ``mode="ros"`` runs the same spec through the ROS nodes (amr_evaluation.ros_episode: an amr-bringup
 stack in a child process with its own ROS_DOMAIN_ID).
@@ -362,5 +364,39 @@ def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
     }
 
 
+def _fleet_navigation(spec: EpisodeSpec) -> dict[str, Any]:
+    """Every robot of the world to its goal (amr_evaluation.fleet_navigation); options: robots (place that many
+    on the world, each sent to the next one's start: with_robots), localization ('filter' or 'truth')."""
+    from amr_evaluation.fleet_navigation import run_fleet, with_robots
+    from amr_evaluation.worlds import build_world, world_dict
+    from amr_maps.world import world_from_dict
+    from amr_navigation.traffic import TrafficConfig
+
+    robots = spec.options.get("robots")
+    if robots is not None:
+        data = world_dict(spec.world)
+        if data is None:
+            from amr_maps.world import resolve_world_path
+            import yaml
+
+            data = yaml.safe_load(resolve_world_path(spec.world["file"]).read_text(encoding="utf-8"))
+        world = world_from_dict(with_robots(data, int(robots), spec.seed), default_name=spec.world.get("name", "world"))
+    else:
+        world = build_world(spec.world)
+    run = run_fleet(world, spec.parameters, seed=spec.seed, lidar_noise=spec.lidar_noise,
+                    encoder_noise=spec.encoder_noise, slip=spec.slip, duration=spec.duration,
+                    localization=spec.options.get("localization", "filter"),
+                    traffic=TrafficConfig.from_params(spec.parameters["traffic"]))
+    every = run.reached == len(run.robots)
+    summary = run.as_dict()
+    return {
+        **_goal_figures(every, run.time), "time": run.time, "reason": run.reason,
+        "collisions": run.wall_contacts + run.robot_contacts, "distance": sum(r.distance for r in run.robots),
+        "plans": sum(r.plans for r in run.robots),
+        "extra": {key: summary[key] for key in ("reached", "robots", "robot_contacts", "wall_contacts",
+                                                "false_localized", "per_robot")},
+    }
+
+
 _CONTROLLERS = {"wall_follower": _wall_follower, "navigation": _navigation, "localization": _localization,
-                "plan_follow": _plan_follow}
+                "plan_follow": _plan_follow, "fleet_navigation": _fleet_navigation}

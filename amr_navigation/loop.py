@@ -25,6 +25,7 @@ import numpy as np
 from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
 from amr_control.wall_follower import WallFollower
 from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE, Controller, Decision, Mode, Navigator, PlanRequest
+from amr_navigation.traffic import Traffic
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
 from amr_util.scan import ScanData, scan_of
@@ -45,11 +46,14 @@ class NavigationLoop:
     """A Navigator with its planner and controllers in process."""
 
     def __init__(self, planner: Planner, wall_follower: WallFollower, path_follower: PathFollower,
-                 goal: tuple[float, float] | None, replan_distance: float = DEFAULT_REPLAN_DISTANCE) -> None:
+                 goal: tuple[float, float] | None, replan_distance: float = DEFAULT_REPLAN_DISTANCE,
+                 traffic: Traffic | None = None) -> None:
         self.planner = planner
         self.wall_follower = wall_follower
         self.path_follower = path_follower
         self.navigator = Navigator(goal, replan_distance)
+        self.traffic = traffic
+        """the traffic rules among other robots (amr_navigation.traffic); None: a robot alone, as before."""
 
     # what the bench and the tests read
     @property
@@ -84,12 +88,44 @@ class NavigationLoop:
              odometry_v: float, odometry_w: float, stamp: float) -> NavigationCommand:
         decision = self._carry_out(self.navigator.decide(pose, localized))
         events = list(decision.events)
+        traffic = self.traffic
         if decision.controller is Controller.WALL_FOLLOWER:
+            if traffic is not None:
+                traffic.post_idle(None, False)
             command = self.wall_follower.compute(scan, odometry_v, odometry_w, stamp)
             return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events))
         if decision.controller is not Controller.PATH_FOLLOWER:
-            return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events))
-        follow = self.path_follower.compute(pose[0], pose[1], pose[2], scan)
+            if traffic is None:
+                return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events))
+            advice = None
+            if decision.mode is Mode.REACHED:  # at the goal: make way for a robot it blocks
+                advice = traffic.wants_to_move(pose, self.planner.costmap, stamp)
+            else:
+                traffic.post_idle(pose, False)
+            if advice is None or advice.detour is None:
+                return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events))
+            events += advice.events
+            events += self._carry_out(self.navigator.detour(advice.detour, "going aside")).events
+        limit = None
+        if traffic is not None:
+            advice = traffic.advise(pose, scan, self.navigator.followed_path, self.planner.costmap,
+                                    self.path_follower.config.linear_speed, stamp)
+            events += advice.events
+            if advice.hold:
+                return NavigationCommand(0.0, 0.0, Mode.FOLLOW, None, tuple(events))
+            if advice.replan:
+                self.navigator.plan_again("traffic: plan to the goal again")
+                events += self.navigator.take_events()
+                return NavigationCommand(0.0, 0.0, Mode.FOLLOW, None, tuple(events))
+            if advice.detour is not None:
+                events += self._carry_out(self.navigator.detour(advice.detour, "going aside")).events
+            if advice.replan_around is not None:
+                events += self._plan_around(pose, advice.replan_around)
+            limit = advice.speed_limit
+        follow = self.path_follower.compute(pose[0], pose[1], pose[2], scan, speed_limit=limit)
+        if traffic is not None and follow.reached and self.navigator.on_detour:
+            traffic.arrived(stamp)
+            return NavigationCommand(0.0, 0.0, Mode.FOLLOW, follow, tuple(events))
         request = self.navigator.followed(follow.reached, follow.replan, follow.message)
         if request is not None:
             events += self._carry_out(self._plan(request)).events
@@ -112,9 +148,22 @@ class NavigationLoop:
                 events += decision.events
         return Decision(decision.mode, decision.controller, None, decision.path, decision.reason, tuple(events))
 
-    def _plan(self, request: PlanRequest) -> Decision:
+    def _plan_around(self, pose: tuple[float, float, float], marks: np.ndarray) -> list[str]:
+        """Plan to the goal with `marks` (unmapped returns) on a copy of the costmap; the events."""
+        goal = self.navigator.goal
+        planner = self.planner.with_obstacles(marks, self.traffic.config.mark_radius)
         try:
-            points = self.planner.plan(request.start, request.goal)
+            points = planner.plan((pose[0], pose[1]), goal)
+        except PlanningError as error:
+            self.traffic.replanned_around(marks, False)
+            return [f"no way around the obstacle: {error}"]
+        self.traffic.replanned_around(marks, True)
+        return list(self._carry_out(self.navigator.adopt(points, "around an obstacle not on the map")).events)
+
+    def _plan(self, request: PlanRequest) -> Decision:
+        planner = self.planner if self.traffic is None else self.traffic.planner(self.planner)
+        try:
+            points = planner.plan(request.start, request.goal)
         except PlanningError as error:
             return self.navigator.planned(request, None, str(error), goal_refused=error.goal_refused)
         return self.navigator.planned(request, points)

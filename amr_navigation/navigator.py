@@ -137,6 +137,8 @@ class Navigator:
         self._reached_goal: tuple[float, float] | None = None
         self._refused_goal: tuple[float, float] | None = None
         self._localized = False
+        self._detour = False
+        """following a detour (going aside for another robot): not a stray, and its end is not the goal."""
         self._said: set[str] = set()
         self._events: list[str] = []
         if goal is not None:
@@ -212,6 +214,7 @@ class Navigator:
         self.counters.plans += 1
         self.planned_path = self.followed_path = path
         self._followed_goal = self.goal
+        self._detour = False
         self._said = {said for said in self._said if not said.startswith("no path")}
         self._say(f"planned {len(path)} points to ({self.goal[0]:.2f}, {self.goal[1]:.2f}) ({request.why})", once=False)
         return self._drive(path)
@@ -225,6 +228,8 @@ class Navigator:
 
     def followed(self, reached: bool, replan: bool, why: str = "") -> PlanRequest | None:
         """The path follower's report on a command it computed: the goal reached, or a new plan wanted."""
+        if self._detour:
+            reached = False  # the end of a detour is not the goal
         if reached and self.goal is not None and self._followed_goal == self.goal:
             if self._reached_goal != self.goal:
                 self._say(f"goal ({self.goal[0]:.2f}, {self.goal[1]:.2f}) reached", once=False)
@@ -235,6 +240,41 @@ class Navigator:
             return PlanRequest((self.pose[0], self.pose[1]), (float(end[0]), float(end[1])), Purpose.FOLLOWER,
                                f"the follower asked: {why}" if why else "the follower asked")
         return None
+
+    # -- traffic (amr_navigation.traffic): unused by a robot alone ---------------------------------
+
+    def adopt(self, path: np.ndarray, why: str) -> Decision:
+        """A path to the goal planned by the caller (around obstacles the map does not hold): followed, and
+        the stray check's reference from now on."""
+        path = np.asarray(path, dtype=float)
+        self.counters.plans += 1
+        self.planned_path = self.followed_path = path
+        self._followed_goal = self._planned_goal = self.goal
+        self._detour = False
+        self._say(f"planned {len(path)} points to the goal ({why})", once=False)
+        return self._drive(path)
+
+    def detour(self, path: np.ndarray, why: str) -> Decision:
+        """Follow `path` for a while instead of the path to the goal (going aside for another robot): no stray
+        check, its end is not the goal, and a goal reached is pursued again afterwards (plan_again)."""
+        path = np.asarray(path, dtype=float)
+        self.followed_path = path
+        self._followed_goal = self.goal
+        self._reached_goal = None
+        self._detour = True
+        self._say(why, once=False)
+        return self._drive(path)
+
+    def plan_again(self, why: str) -> None:
+        """End a detour (or drop a path planned around obstacles): a plan to the goal is due at the next
+        localized observation."""
+        self.planned_path = None
+        self._detour = False
+        self._say(why, once=False)
+
+    @property
+    def on_detour(self) -> bool:
+        return self._detour
 
     @property
     def goal_refused(self) -> bool:
@@ -254,6 +294,8 @@ class Navigator:
             return "new goal" if self._followed_goal is not None else "first plan"
         if self.planned_path is None:
             return "no path yet"
+        if self._detour:
+            return ""
         distance = distance_to_path(self.planned_path, x, y)
         if distance > self.replan_distance:
             self._say(f"strayed {distance:.2f} m from the planned path (more than {self.replan_distance} m): "

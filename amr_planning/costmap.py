@@ -28,7 +28,7 @@ in an occupied cell); maps of 0.35 m corridors need 0.025 m cells to leave the r
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -89,6 +89,28 @@ class Costmap:
     @property
     def resolution(self) -> float:
         return self.grid.resolution
+
+    def with_obstacles(self, points, radius: float) -> "Costmap":
+        """A new costmap, same config, of a copy of this map with discs of `radius` (m) around `points`
+        (N, 2) marked occupied: obstacles seen but not on the map (another robot), inflated as walls are.
+        Points off the map mark nothing; this costmap and its grid are unchanged."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        points = points[np.isfinite(points).all(axis=1)]
+        if len(points) == 0 or not (math.isfinite(radius) and radius >= 0.0):
+            return Costmap(self.grid, self.config)
+        data = np.array(self.grid.data)
+        resolution = self.grid.resolution
+        reach = int(math.ceil(radius / resolution)) + 1
+        offsets = np.arange(-reach, reach + 1)
+        d_row, d_col = np.meshgrid(offsets, offsets, indexing="ij")
+        rows, cols = self.grid.world_to_cell(points[:, 0], points[:, 1])
+        rows = (np.asarray(rows)[:, None, None] + d_row).ravel()
+        cols = (np.asarray(cols)[:, None, None] + d_col).ravel()
+        centres = self.centre(rows, cols)
+        near = np.hypot(*(np.repeat(points, d_row.size, axis=0) - centres).T) <= radius + 0.5 * resolution
+        inside = self.grid.inside(rows, cols) & near
+        data[rows[inside], cols[inside]] = 100
+        return Costmap(replace(self.grid, data=data), self.config)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -82,13 +82,19 @@ class PlannerConfig(Config):
 class Planner:
     """The costmap of one map and the configured search; plan() gives smoothed paths."""
 
-    def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
+    def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None,
+                 costmap: Costmap | None = None) -> None:
         self.config = config or PlannerConfig()
-        self.costmap = Costmap(grid, self.config.costmap)
+        self.costmap = costmap if costmap is not None else Costmap(grid, self.config.costmap)
         if self.config.planner == "prm":
             self._search = Roadmap(self.costmap, self.config.roadmap)
         else:
             self._search = GridAStar(self.costmap, self.config.snap_distance)
+
+    def with_obstacles(self, points, radius: float) -> "Planner":
+        """A planner of the same config on a copy of this map with discs of `radius` around `points` (N, 2)
+        marked occupied (Costmap.with_obstacles): to plan around obstacles seen but not on the map."""
+        return Planner(self.costmap.grid, self.config, self.costmap.with_obstacles(points, radius))
 
     def plan(self, start, goal) -> np.ndarray:
         """The smoothed path (N, 2) from start (x, y) to goal (x, y); PlanningError if there is none."""

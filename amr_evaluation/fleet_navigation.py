@@ -1,0 +1,228 @@
+"""Several robots navigating in one world at library level (issue 22): the simulator's Fleet in lockstep, and
+per robot the navigation loop (amr_navigation.loop.NavigationLoop: explore, localize, plan, follow) with its
+own particle filter, wall follower, path follower and traffic rules (amr_navigation.traffic), the robots'
+traffic posts on one shared board.
+
+Each period every robot's filter gets its odometry pose and scan, its loop the estimate, the scan and the
+odometry twist; the commands of all robots then advance the fleet by dt together. `localization="truth"`
+gives each loop its true pose, localized from the start (the traffic rules' own tests); `"filter"` (the
+default) runs a particle filter per robot, seeded per robot.
+
+A robot's goal counts as reached when its true centre first enters its goal region (the simulator's latch);
+the simulator runs with `stop_at_goal: false` so that a robot at its goal can still make way for another
+(the traffic rules' passive robots). The run ends when every robot has reached its goal, or at the time
+limit. A *false localized* is a step at which a robot's filter said localized with its estimate farther
+than FALSE_LOCALIZED_ERROR from the true pose.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from amr_control.path_follower import PathFollower
+from amr_control.path_follower_config import PathFollowerConfig
+from amr_control.wall_follower import WallFollower
+from amr_control.wall_follower_config import WallFollowerConfig
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import World
+from amr_navigation.loop import NavigationLoop
+from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
+from amr_planning.planner import Planner, PlannerConfig
+from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
+from amr_simulation.fleet import Fleet
+from amr_util.scan import ScanData
+
+MIN_SEPARATION = 0.7
+"""m between any two starts placed by with_robots."""
+START_CLEARANCE = 0.16
+"""m from a placed start to the nearest wall (the robot's radius and 5.5 cm)."""
+GOAL_RADIUS = 0.15
+FALSE_LOCALIZED_ERROR = 0.3
+"""m: an estimate said localized this far from the true pose is a false localized."""
+LOCALIZATIONS = ("filter", "truth")
+
+
+@dataclass
+class RobotRun:
+    name: str
+    reached: bool = False
+    time_to_goal: float | None = None
+    wall_collisions: int = 0
+    robot_collisions: int = 0
+    """times it began touching another robot."""
+    first_localized: float | None = None
+    false_localized_steps: int = 0
+    max_localized_error: float = 0.0
+    plans: int = 0
+    stops: int = 0
+    replans_around: int = 0
+    yields: int = 0
+    cannot_yield: int = 0
+    distance: float = 0.0
+    events: list[str] = field(default_factory=list)
+
+
+@dataclass
+class FleetRun:
+    robots: list[RobotRun]
+    time: float
+    wall_time: float
+    reason: str
+
+    @property
+    def reached(self) -> int:
+        return sum(robot.reached for robot in self.robots)
+
+    @property
+    def robot_contacts(self) -> int:
+        """robot-robot contacts (each counted once, not once per robot)."""
+        return sum(robot.robot_collisions for robot in self.robots) // 2
+
+    @property
+    def wall_contacts(self) -> int:
+        return sum(robot.wall_collisions for robot in self.robots)
+
+    @property
+    def false_localized(self) -> int:
+        """robots that were ever falsely localized."""
+        return sum(robot.false_localized_steps > 0 for robot in self.robots)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"reached": self.reached, "robots": len(self.robots), "robot_contacts": self.robot_contacts,
+                "wall_contacts": self.wall_contacts, "false_localized": self.false_localized, "time": self.time,
+                "wall_time": self.wall_time, "reason": self.reason,
+                "per_robot": [{k: v for k, v in vars(r).items() if k != "events"} for r in self.robots]}
+
+
+def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -> dict:
+    """The world dict `data` (its start and goal dropped) with `robots` robots r1, r2, ... placed on free cells
+    spread over it (farthest-point sampling on the planner's costmap from a random first cell, at least
+    MIN_SEPARATION apart, START_CLEARANCE from walls, random headings, all from `seed`), each sent to the next
+    one's start (the last to the first's): every path runs against another robot's. ValueError if they do not
+    fit."""
+    from amr_maps.world import world_from_dict
+    from amr_planning.costmap import Costmap
+
+    if robots < 1:
+        raise ValueError(f"robots: must be at least 1, got {robots}")
+    data = {key: value for key, value in data.items() if key not in ("start", "goal", "robots")}
+    probe = world_from_dict({**data, "start": [0.0, 0.0, 0.0]})  # only the solids matter here
+    costmap = Costmap(rasterize_world(probe, resolution))
+    rows, cols = np.nonzero(costmap.clearance >= START_CLEARANCE)
+    if len(rows) == 0:
+        raise ValueError(f"{data.get('name', 'world')}: no free cell {START_CLEARANCE} m from the walls")
+    points = costmap.centre(rows, cols)
+    rng = np.random.default_rng([seed, robots])
+    chosen = [points[rng.integers(len(points))]]
+    distance = np.hypot(*(points - chosen[0]).T)
+    while len(chosen) < robots:
+        index = int(np.argmax(distance))
+        if distance[index] < MIN_SEPARATION:
+            raise ValueError(f"{data.get('name', 'world')}: no room for {robots} robots {MIN_SEPARATION} m apart")
+        chosen.append(points[index])
+        distance = np.minimum(distance, np.hypot(*(points - points[index]).T))
+    starts = [chosen[i] for i in rng.permutation(robots)]
+    data["robots"] = [{"name": f"r{i + 1}", "start": [float(s[0]), float(s[1]), float(rng.uniform(-math.pi, math.pi))],
+                       "goal": [float(starts[(i + 1) % robots][0]), float(starts[(i + 1) % robots][1]), GOAL_RADIUS]}
+                      for i, s in enumerate(starts)]
+    return data
+
+
+def _particle_filter(parameters: dict, world: World, seed: int):
+    from amr_localization.particle_filter import ParticleFilter
+    from amr_localization.particle_filter_parameters import config_of
+
+    params = {**parameters["particle_filter"], "seed": seed}
+    return ParticleFilter(rasterize_world(world, params["map_resolution"]), config_of(params),
+                          range_max=params["laser_max_range"])
+
+
+def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, lidar_noise: float = 0.01,
+              encoder_noise: float = 0.0, slip: float = 0.0, duration: float = 300.0,
+              localization: str = "filter", traffic: TrafficConfig | None = None, use_traffic: bool = True,
+              map_world: World | None = None, log: bool = False) -> FleetRun:
+    """Run every robot of `world` (its `robots` list, each with a goal) to its goal; see the module docstring.
+
+    parameters: node name -> {parameter: value} for wall_follower, path_follower, planner, navigator and
+    particle_filter (amr_evaluation.configs.resolve("navigation", "default")[1] when None). map_world: the
+    world the robots' map is made of (planner, filter; default `world`): one without some of `world`'s solids
+    gives obstacles that are not on the map."""
+    if localization not in LOCALIZATIONS:
+        raise ValueError(f"localization {localization!r}: expected one of {', '.join(LOCALIZATIONS)}")
+    if parameters is None:
+        from amr_evaluation.configs import resolve
+
+        parameters = resolve("navigation", "default")[1]
+    missing = [spec.name or "(unnamed)" for spec in world.fleet if spec.goal is None]
+    if missing:
+        raise ValueError(f"{world.source}: robots without a goal: {', '.join(missing)}")
+    began = time.perf_counter()
+    wall = WallFollowerConfig.from_params(parameters["wall_follower"])
+    follower = PathFollowerConfig.from_params(parameters["path_follower"])
+    planner_config = PlannerConfig.from_params({**parameters["planner"], "world": ""})
+    known = map_world if map_world is not None else world
+    planner = Planner(rasterize_world(known, planner_config.resolution), planner_config)
+    fleet = Fleet(world, SimulationConfig(
+        dt=follower.dt, seed=seed, stop_at_goal=False, lidar=LidarConfig(noise_std=lidar_noise),
+        encoders=EncoderConfig(noise=encoder_noise, slip=slip)))
+    board = TrafficBoard()
+    loops, filters, runs = [], [], []
+    replan_distance = float(parameters["navigator"]["replan_distance"])
+    for index, robot in enumerate(fleet.robots):
+        rules = Traffic(robot.name, index, board, traffic) if use_traffic else None
+        loops.append(NavigationLoop(planner, WallFollower(wall), PathFollower(follower),
+                                    (robot.goal.x, robot.goal.y), replan_distance, traffic=rules))
+        filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
+        runs.append(RobotRun(robot.name))
+    lidar = fleet.lidar
+    reason = f"time limit {duration:g} s"
+    while True:
+        for robot, run in zip(fleet.robots, runs):
+            if robot.goal_reached and not run.reached:
+                run.reached, run.time_to_goal = True, fleet.time
+        if all(run.reached for run in runs):
+            reason = "every robot reached its goal"
+            break
+        if fleet.time >= duration:
+            break
+        commands = []
+        for robot, loop, pf, run in zip(fleet.robots, loops, filters, runs):
+            scan = ScanData(np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min,
+                            lidar.range_max)
+            truth = robot.pose
+            if pf is None:
+                pose, localized = (truth.x, truth.y, truth.theta), True
+            else:
+                estimate = pf.update(tuple(robot.odom_pose), scan)
+                pose, localized = (estimate.pose.x, estimate.pose.y, estimate.pose.theta), estimate.localized
+            if localized:
+                error = math.hypot(pose[0] - truth.x, pose[1] - truth.y)
+                run.max_localized_error = max(run.max_localized_error, error)
+                if run.first_localized is None:
+                    run.first_localized = fleet.time
+                if error > FALSE_LOCALIZED_ERROR:
+                    run.false_localized_steps += 1
+            command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
+            if log:
+                for event in command.events:
+                    print(f"{fleet.time:7.2f} {robot.name}: {event}")
+            run.events.extend(f"{fleet.time:.2f} {event}" for event in command.events)
+            commands.append((command.v, command.w))
+        fleet.step(commands)
+    for robot, loop, run in zip(fleet.robots, loops, runs):
+        run.wall_collisions = robot.wall_collisions
+        run.robot_collisions = sum(robot.robot_collisions.values())
+        run.plans = loop.plans
+        trajectory = robot.trajectory
+        steps = np.diff(trajectory[:, :2], axis=0)
+        run.distance = float(np.nansum(np.hypot(steps[:, 0], steps[:, 1])))
+        if loop.traffic is not None:
+            counters = loop.traffic.counters
+            run.stops, run.replans_around, run.yields, run.cannot_yield = (
+                counters.stops, counters.replans_around, counters.yields, counters.cannot_yield)
+    return FleetRun(runs, fleet.time, time.perf_counter() - began, reason)

@@ -1,0 +1,142 @@
+"""Traffic rules among robots (amr_navigation.traffic): the speed rule, what counts as in the way, the costmap
+with marks, the path follower's speed limit, and whole runs in the simulator's fleet: a box that is not on the
+map (stop, wait, replan around it), two robots face to face in a corridor one robot wide (right of way)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_control.path_follower import PathFollower, State
+from amr_evaluation.fleet_navigation import run_fleet
+from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.world import world_from_dict
+from amr_navigation.traffic import (TrafficConfig, free_travel, obstacle_speed, path_ahead, place_aside,
+                                    unmapped)
+from amr_planning.costmap import Costmap
+from amr_planning.planner import Planner
+from amr_util.parameter_spec import ConfigError
+from amr_util.scan import ScanData
+
+
+def open_grid(rows: int = 60, cols: int = 100, resolution: float = 0.025) -> OccupancyGrid:
+    data = np.zeros((rows, cols), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    return OccupancyGrid(data, resolution)
+
+
+def test_speed_rule_stops_within_the_stop_distance_and_ramps_to_full_speed():
+    assert obstacle_speed(0.05, 0.1, 0.5, 0.2) == 0.0
+    assert obstacle_speed(0.1, 0.1, 0.5, 0.2) == 0.0
+    assert obstacle_speed(0.3, 0.1, 0.5, 0.2) == pytest.approx(0.1)
+    assert obstacle_speed(0.5, 0.1, 0.5, 0.2) == 0.2
+    assert obstacle_speed(math.inf, 0.1, 0.5, 0.2) == 0.2
+    assert obstacle_speed(math.nan, 0.1, 0.5, 0.2) == 0.0
+
+
+def test_config_refuses_a_slow_distance_below_the_stop_distance_and_a_yield_clearance_within_the_path_clearance():
+    with pytest.raises(ConfigError, match="slow_distance"):
+        TrafficConfig(stop_distance=0.5, slow_distance=0.4)
+    with pytest.raises(ConfigError, match="yield_clearance"):
+        TrafficConfig(path_clearance=0.1, yield_clearance=0.05)
+
+
+def test_free_travel_is_the_arc_to_the_first_disc_touching_enough_returns():
+    stretch = path_ahead(np.array([[0.0, 0.0], [2.0, 0.0]]), 0.0, 0.0, 1.5)
+    assert stretch[0] == pytest.approx([0.0, 0.0]) and stretch[-1] == pytest.approx([1.5, 0.0])
+    wall = np.array([[1.0, y] for y in (-0.05, 0.0, 0.05)])
+    assert free_travel(stretch, wall, 0.15, 3) == pytest.approx(0.85, abs=0.03)
+    assert free_travel(stretch, wall[:2], 0.15, 3) == math.inf  # fewer returns than min_returns
+    beside = wall + [0.0, 0.5]
+    assert free_travel(stretch, beside, 0.15, 3) == math.inf  # off the path
+
+
+def test_unmapped_returns_are_those_away_from_the_map():
+    costmap = Costmap(open_grid())
+    points = np.array([[0.01, 0.5], [1.2, 0.7], [1.2, 0.03], [50.0, 50.0]])
+    assert unmapped(costmap, points, 0.08).tolist() == [False, True, False, False]
+
+
+def test_costmap_with_obstacles_marks_a_copy_and_the_planner_goes_around():
+    grid = open_grid(60, 120)
+    planner = Planner(grid)
+    straight = planner.plan((0.4, 0.75), (2.6, 0.75))
+    marked = planner.with_obstacles(np.array([[1.5, 0.75]]), 0.1)
+    assert marked.costmap.lethal.sum() > planner.costmap.lethal.sum()
+    assert not planner.costmap.obstacle[planner.costmap.cell(1.5, 0.75)]  # the original is unchanged
+    around = marked.plan((0.4, 0.75), (2.6, 0.75))
+    assert np.abs(straight[:, 1] - 0.75).max() < 0.03
+    assert np.hypot(around[:, 0] - 1.5, around[:, 1] - 0.75).min() > 0.1 + 0.105
+
+
+def test_place_aside_is_the_nearest_cell_clear_of_the_avoided_path():
+    costmap = Costmap(open_grid(60, 120))
+    avoid = np.stack([np.linspace(0.2, 2.8, 60), np.full(60, 0.75)], axis=1)
+    spot = place_aside(costmap, (1.5, 0.75), avoid, 0.36, 3.0)
+    assert spot is not None and abs(spot[1] - 0.75) >= 0.36 and abs(spot[0] - 1.5) < 0.05
+    assert place_aside(costmap, (1.5, 0.75), avoid, 2.0, 3.0) is None  # the room is not that wide
+
+
+def test_path_follower_speed_limit_caps_and_zero_waits():
+    scan = ScanData(np.full(240, np.inf), 0.0, 2 * math.pi / 240, 0.12, 3.5)
+    path = np.array([[0.0, 0.0], [2.0, 0.0]])
+    free, limited, stopped = PathFollower(), PathFollower(), PathFollower()
+    for follower in (free, limited, stopped):
+        follower.set_path(path)
+    v_free = free.compute(0.0, 0.0, 0.0, scan).v
+    assert limited.compute(0.0, 0.0, 0.0, scan, speed_limit=0.05).v == pytest.approx(0.05)
+    held = stopped.compute(0.0, 0.0, 0.0, scan, speed_limit=0.0)
+    assert v_free > 0.05 and (held.v, held.w) == (0.0, 0.0) and held.state is State.WAITING
+    assert stopped.compute(0.0, 0.0, 0.0, scan).v == pytest.approx(v_free)  # the limit lifted: on it goes
+
+
+def test_a_box_not_on_the_map_stops_the_robot_which_replans_around_it():
+    walls = [[-1.5, -0.75, 1.5, -0.75], [1.5, -0.75, 1.5, 0.75], [1.5, 0.75, -1.5, 0.75], [-1.5, 0.75, -1.5, -0.75]]
+    robots = [{"name": "r1", "start": [-1.1, 0.0, 0.0], "goal": [1.1, 0.0, 0.1]}]
+    known = world_from_dict({"name": "room", "wall_thickness": 0.05, "walls": walls, "robots": robots})
+    real = world_from_dict({"name": "room_box", "wall_thickness": 0.05, "walls": walls, "robots": robots,
+                            "boxes": [[-0.1, -0.15, 0.1, 0.15]]})
+    run = run_fleet(real, map_world=known, localization="truth", duration=60.0, seed=1)
+    robot = run.robots[0]
+    assert robot.reached, robot.events
+    assert robot.wall_collisions == 0  # the box is a solid: touching it is a wall collision
+    assert robot.stops >= 1 and robot.replans_around >= 1, robot.events
+
+
+def corridor(pocket_x: float, junction: bool = False, length: float = 2.0):
+    """A corridor one robot wide (0.35 m free) from -length to length along x, with a side pocket (0.35 m wide,
+    0.475 m deep) or, with junction, a side corridor leading on at pocket_x; r1 and r2 face each other."""
+    side = 0.7 if not junction else 1.2
+    walls = [[-length, -0.2, length, -0.2], [-length, 0.2, pocket_x - 0.2, 0.2], [pocket_x + 0.2, 0.2, length, 0.2],
+             [pocket_x - 0.2, 0.2, pocket_x - 0.2, side], [pocket_x + 0.2, 0.2, pocket_x + 0.2, side],
+             [-length, -0.2, -length, 0.2], [length, -0.2, length, 0.2]]
+    if junction:  # the side corridor turns and ends in a room
+        walls += [[pocket_x - 0.2, side, pocket_x - 0.6, side], [pocket_x + 0.2, side, pocket_x + 0.2, side + 0.6],
+                  [pocket_x - 0.6, side, pocket_x - 0.6, side + 0.6], [pocket_x - 0.6, side + 0.6, pocket_x + 0.2, side + 0.6]]
+    else:
+        walls.append([pocket_x - 0.2, side, pocket_x + 0.2, side])
+    return world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "robots": [
+        {"name": "r1", "start": [-length + 0.3, 0.0, 0.0], "goal": [length - 0.3, 0.0, 0.1]},
+        {"name": "r2", "start": [length - 0.3, 0.0, math.pi], "goal": [-length + 0.3, 0.0, 0.1]}]})
+
+
+@pytest.mark.parametrize("pocket_x, junction", [(0.8, False), (-0.8, False), (0.9, True), (-0.5, True)])
+def test_two_robots_face_to_face_in_a_one_wide_corridor_both_reach_their_goals(pocket_x, junction):
+    run = run_fleet(corridor(pocket_x, junction), localization="truth", duration=150.0, seed=2)
+    events = {robot.name: robot.events for robot in run.robots}
+    assert run.reached == 2, events
+    assert run.robot_contacts == 0 and run.wall_contacts == 0, events
+    r1, r2 = run.robots
+    # the rule: r2 (second in the list) gives way where it can; where it cannot (the place to wait lies on r1's
+    # side), it says so and r1 gives way
+    if pocket_x > 0:
+        assert r2.yields >= 1 and r1.yields == 0, events
+    else:
+        assert r2.cannot_yield >= 1 and r1.yields >= 1, events
+
+
+def test_without_the_rules_the_corridor_deadlocks():
+    run = run_fleet(corridor(0.8), localization="truth", duration=60.0, seed=2, use_traffic=False)
+    assert run.reached < 2 or run.robot_contacts > 0
