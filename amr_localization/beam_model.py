@@ -58,6 +58,27 @@ def map_faces(field: DistanceField) -> np.ndarray:
     return world.faces
 
 
+class MapRays:
+    """The range each selected beam would read on the map from one sensor pose: the outline of the map's occupied
+    cells, ray cast (range_max where nothing is in range; everywhere on a map without an occupied cell)."""
+
+    def __init__(self, field: DistanceField) -> None:
+        self._caster = NumpyRayCaster(map_faces(field)) if (field.distances == 0.0).any() else None
+
+    def expected_ranges(self, sensor: np.ndarray, beams: Beams) -> np.ndarray:
+        """(K,) m per selected beam from the sensor pose (x, y, theta): one fan over the selected span."""
+        if self._caster is None or beams.ranges.size == 0:
+            return np.full(beams.ranges.size, float(beams.range_max))
+        span = int(beams.steps[-1]) + 1
+        increment = beams.angle_increment if span > 1 else 1.0
+        if increment > 0.0:
+            fan = self._caster.cast(sensor[0], sensor[1], sensor[2] + beams.angles[0], increment, span, beams.range_max)
+        else:  # a clockwise scan: cast the same fan counter-clockwise from its last beam
+            first = sensor[2] + beams.angles[-1]
+            fan = self._caster.cast(sensor[0], sensor[1], first, -increment, span, beams.range_max)[::-1]
+        return np.minimum(fan[beams.steps], beams.range_max)
+
+
 class BeamModel:
     """log p(scan | pose) by ray casting every particle's beams."""
 
@@ -66,18 +87,11 @@ class BeamModel:
             raise LocalizationError("map: the beam model needs at least one occupied cell to cast rays at")
         self.params = params
         self.mount = mount
-        self._caster = NumpyRayCaster(map_faces(field))
+        self._rays = MapRays(field)
 
     def expected_ranges(self, sensor: np.ndarray, beams: Beams) -> np.ndarray:
-        """Predicted range per selected beam from one sensor pose: one fan over the selected span."""
-        span = int(beams.steps[-1]) + 1
-        increment = beams.angle_increment if span > 1 else 1.0
-        if increment > 0.0:
-            fan = self._caster.cast(sensor[0], sensor[1], sensor[2] + beams.angles[0], increment, span, beams.range_max)
-        else:  # a clockwise scan: cast the same fan counter-clockwise from its last beam
-            first = sensor[2] + beams.angles[-1]
-            fan = self._caster.cast(sensor[0], sensor[1], first, -increment, span, beams.range_max)[::-1]
-        return fan[beams.steps]
+        """Predicted range per selected beam from one sensor pose (MapRays)."""
+        return self._rays.expected_ranges(sensor, beams)
 
     def log_likelihood(self, particles: np.ndarray, beams: Beams) -> np.ndarray:
         p = self.params
@@ -85,7 +99,6 @@ class BeamModel:
             return np.zeros(len(particles))
         sensors = self.mount.sensor_poses(particles)
         expected = np.array([self.expected_ranges(pose, beams) for pose in sensors])
-        expected = np.minimum(expected, beams.range_max)
         z = beams.ranges[None, :]
         hit = p.z_hit * np.exp(-0.5 * ((z - expected) / p.sigma_hit) ** 2) / (p.sigma_hit * math.sqrt(2.0 * math.pi))
         short = np.where(z < expected, p.z_short * p.lambda_short * np.exp(-p.lambda_short * z), 0.0)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from amr_localization.distance_field import DistanceField
-from amr_localization.scan_beams import select_beams
+from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.unexpected_obstacles import MapRanges, unexpected, without_unexpected
 from amr_maps.raycast import NumpyRayCaster
@@ -46,7 +46,9 @@ def test_expected_ranges_agree_with_ray_casting_on_the_world():
             continue
         sensor = MOUNT.sensor_poses(pose[None, :])[0]
         cast = np.minimum(caster.cast(sensor[0], sensor[1], sensor[2], angles[1], len(angles), 3.5), 3.5)
-        differences.append(np.abs(ranges.expected(pose, angles, 3.5) - cast))
+        beams = Beams(np.zeros(len(angles)), angles, np.ones(len(angles), dtype=bool), 3.5, np.arange(len(angles)),
+                      angles[1])
+        differences.append(np.abs(ranges.expected(pose, beams) - cast))
     differences = np.concatenate(differences)
     assert np.percentile(differences, 95) < 0.03, "within a cell and a half but where a beam grazes a corner"
     assert np.median(differences) < 0.015
