@@ -182,7 +182,7 @@ def test_absurd_limits_are_capped_and_the_timeout_holds(served):
     elapsed = time.monotonic() - started
     assert not reply.success
     assert f"timeout capped at {MAX_TIMEOUT} s" in reply.message and "max_iterations capped at 100000" in reply.message
-    assert reply.iterations < 100_000, "the capped timeout, not the iteration cap, must end this solve"
+    assert reply.message.startswith("timeout:"), "the capped timeout must end this solve (dls restarts until then)"
     assert MAX_TIMEOUT * 0.9 <= elapsed <= MAX_TIMEOUT + 5.0  # round trip included, slack for a loaded machine
 
 
