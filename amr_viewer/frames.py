@@ -28,6 +28,10 @@ class TransformTree:
     def clear(self) -> None:
         self._parents.clear()
 
+    def has(self, frame: str) -> bool:
+        """Whether `frame` is a child in the tree (has a parent)."""
+        return frame.lstrip("/") in self._parents
+
     @property
     def frames(self) -> set[str]:
         return set(self._parents) | {parent for parent, _ in self._parents.values()}

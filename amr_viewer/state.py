@@ -158,7 +158,11 @@ class RobotState:
     def __init__(self, namespace: str, frames: Frames = Frames(), max_particles: int = 1000,
                  trail_spacing: float = 0.02) -> None:
         self.namespace = namespace
-        self.frames = frames
+        self.plain_frames = frames
+        prefix = namespace.strip("/")
+        self.prefixed_frames = Frames(frames.map, f"{prefix}/{frames.odom}", f"{prefix}/{frames.base}") \
+            if prefix else frames
+        """a fleet on one shared tree (the simulator's `one_tf_tree`, as Stage's): `<name>/odom`, `<name>/base_footprint`"""
         self.max_particles = max_particles
         self.tree = TransformTree()
         self.versions: Counter[str] = Counter()
@@ -178,6 +182,15 @@ class RobotState:
     def _changed(self, *layers: str) -> None:
         for layer in layers:
             self.versions[layer] += 1
+
+    @property
+    def frames(self) -> Frames:
+        """The plain REP 105 frames, or the ones prefixed by the namespace once the tree holds the robot under those
+        (a fleet's one shared tree: every robot's transforms arrive on /tf, each drawn from its own frames)."""
+        if self.prefixed_frames is not self.plain_frames and self.tree.has(self.prefixed_frames.base) \
+                and not self.tree.has(self.plain_frames.base):
+            return self.prefixed_frames
+        return self.plain_frames
 
     # -- inputs -------------------------------------------------------------------------------------------------
 

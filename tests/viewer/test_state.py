@@ -42,6 +42,26 @@ def test_without_a_localizer_odometry_is_drawn_as_the_map():
     assert state.robot_pose() == pytest.approx((1.5, 2.0, 0.3)), "a localizer's map -> odom counts once it comes"
 
 
+def test_a_fleet_on_one_shared_tree_is_drawn_from_its_prefixed_frames():
+    # the simulator's one_tf_tree: every robot's transforms on the one /tf, frames prefixed by its name
+    shared = [tf("map", "r1/odom", 0.5, 0.0, 0.0), tf("r1/odom", "r1/base_footprint", 1.0, 2.0, 0.3),
+              tf("map", "r2/odom", 0.0, 0.0, 0.0), tf("r2/odom", "r2/base_footprint", -1.0, -2.0, 1.0),
+              tf("r1/base_footprint", "r1/base_scan", -0.032, 0.0, 0.0)]
+    r1, r2 = RobotState("/r1"), RobotState("r2")
+    for state in (r1, r2):
+        assert state.robot_pose() is None
+        state.on_transforms(shared)
+    assert r1.robot_pose() == pytest.approx((1.5, 2.0, 0.3))
+    assert r2.robot_pose() == pytest.approx((-1.0, -2.0, 1.0))
+    r1.on_scan(Scan(ScanData(np.array([1.0]), 0.0, 0.1, 0.1, 4.0), "r1/base_scan"))
+    assert r1.scan_in_map() == pytest.approx(np.array([[1.5 - 0.032 * math.cos(0.3) + math.cos(0.3),
+                                                       2.0 - 0.032 * math.sin(0.3) + math.sin(0.3)]]))
+    # a namespaced robot whose own tree has the plain frames keeps them
+    plain = RobotState("/r3")
+    plain.on_transforms([tf("odom", "base_footprint", 3.0, 0.0, 0.0)])
+    assert plain.robot_pose() == pytest.approx((3.0, 0.0, 0.0)) and plain.frames.base == "base_footprint"
+
+
 def test_the_ground_truth_places_a_robot_without_tf():
     state = RobotState("")
     assert state.robot_pose() is None and state.extent() is None
