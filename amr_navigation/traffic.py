@@ -69,6 +69,10 @@ from amr_util.scan import ScanData
 
 PROGRESS = 0.05
 """m a robot must move for a robot waiting on it to count it as making progress (which restarts its timeout)."""
+RESUME_MARGIN = 0.05
+"""m beyond stop_distance the free travel must reach before a stopped robot moves on (without it, range noise
+and the estimate's jitter around stop_distance made a robot stop and creep a few times a second: each counted
+as a stop, and each restarted the wait before planning around)."""
 NODE_NAME = "traffic"
 """the section of config/traffic.yaml (the traffic rules' parameters; the navigator would declare them)."""
 
@@ -348,6 +352,10 @@ class Traffic:
         self._remaining = np.zeros((0, 2))
         self._awaited: dict[str, tuple[float, float]] = {}
         self._retry_at = -math.inf
+        self._through: tuple[str, ...] = ()
+        """the robots a boxed-in robot's way aside passes (they make way for it first)."""
+        self._detour = np.zeros((0, 2))
+        """the path to the place aside."""
         """no place to wait was found: the next search is not before this stamp."""
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
 
@@ -390,8 +398,9 @@ class Traffic:
             if advice is not None:
                 return advice
             events.append("done giving way: planning to the goal again")
-            self.phase, self._spot, self._yield_to = Phase.GO, None, ()
-            self._post(pose, blocker)
+            self.phase, self._spot, self._yield_to, self._through = Phase.GO, None, (), ()
+            self._remaining = self._route  # until the new plan: the way back and the stretch it left
+            self._post(pose, None)
             return Advice(replan=True, events=tuple(events))
 
         # right of way: yield to a robot blocked by this one when the rule says so
@@ -421,6 +430,8 @@ class Traffic:
         front = loose & (local[:, 0] > 0.0)
         travel = free_travel(stretch, world[front], config.robot_radius + config.path_clearance, config.min_returns)
         limit = obstacle_speed(travel, config.stop_distance, config.slow_distance, speed)
+        if self._stopped_since is not None and not travel > config.stop_distance + RESUME_MARGIN:
+            limit = 0.0  # stopped: moves on only once the way is clear by a margin (hysteresis)
         self._post(pose, blocker)
         self._clear_marks(world, pose, events)
         if len(self.marks) == 0 and self._marked_path:
@@ -499,16 +510,24 @@ class Traffic:
         distance = 2.0 * config.robot_radius + config.yield_clearance
         avoid = [np.asarray(post.path).reshape(-1, 2) for post in yield_to if post.path is not None]
         avoid += [np.array([post.pose[:2]]) for post in yield_to]
-        others = [post.pose[:2] for post in self.board.others(self.name) if post.pose is not None]
-        marked = costmap.with_obstacles(np.array(others), config.robot_radius) if others else costmap
-        spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, config.yield_search)
         names = tuple(post.name for post in yield_to)
-        detour = None
-        if spot is not None:
+        others = {post.name: post.pose[:2] for post in self.board.others(self.name) if post.pose is not None}
+        # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
+        # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
+        spot = detour = None
+        for passing in ((), names) if passive else ((),):
+            discs = [xy for name, xy in others.items() if name not in passing]
+            marked = costmap.with_obstacles(np.array(discs), config.robot_radius) if discs else costmap
+            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, config.yield_search)
+            if spot is None:
+                continue
             try:
                 detour = Planner(marked.grid, costmap=marked).plan(pose[:2], spot)
             except PlanningError:
-                detour = None
+                continue
+            self._through = tuple(sorted(set(self._through) | set(passing)))
+            way = f" past {', '.join(passing)} (boxed in: they make way first)" if passing else ""
+            break
         if detour is None:
             if not self._cannot_yield:
                 self.counters.cannot_yield += 1
@@ -529,9 +548,10 @@ class Traffic:
         self.phase, self._spot, self._yield_to, self._aside_since = Phase.YIELD, spot, names, stamp
         self._awaited = {}
         self._stopped_since = None
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), None, "", names, True, False))
+        self._detour = np.asarray(detour, dtype=float).reshape(-1, 2)
+        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._detour, "", names, True, False))
         return Advice(detour=detour, events=(f"giving way to {', '.join(names)}: going aside to "
-                                             f"({spot[0]:.2f}, {spot[1]:.2f})",))
+                                             f"({spot[0]:.2f}, {spot[1]:.2f}){way}",))
 
     def _yielding(self, pose, stretch, costmap, others, stamp) -> Advice | None:
         """The advice while going or waiting aside; None once the wait is over: every robot it gives way to
@@ -539,7 +559,11 @@ class Traffic:
         yield_timeout has passed."""
         config = self.config
         reach = 2.0 * config.robot_radius + config.path_clearance
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), None, "", self._yield_to, True, False))
+        driving = self.phase is Phase.YIELD
+        # on the way aside the post carries the rest of the detour (robots it gives way to wait until it is off
+        # their way); once there, no path
+        way = path_ahead(self._detour, pose[0], pose[1], math.inf, spacing=0.05) if driving else None
+        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, "", self._yield_to, True, False))
         for post in others:  # the wait times out only while the robots it gives way to stand still
             if post.name in self._yield_to:
                 last = self._awaited.get(post.name)
@@ -548,19 +572,30 @@ class Traffic:
                     self._aside_since = stamp
         if stamp - self._aside_since >= config.yield_timeout:
             return None
-        # someone newly blocked by this robot: go aside for them too
-        fresh = [post for post in others if post.blocked_by == self.name and post.name not in self._yield_to]
-        if fresh:
-            keep = [post for post in others if post.name in self._yield_to]
+        # someone newly blocked by this robot (or, waiting aside, one it gives way to that now finds it in its
+        # way): go aside for them too
+        fresh = [post for post in others if post.blocked_by == self.name and (
+            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))]
+        if fresh and stamp >= self._retry_at:
+            renewed = {post.name for post in fresh}
+            keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]
             advice = self._go_aside(pose, costmap, keep + fresh, stamp, passive=True)
             if advice is not None:
                 return advice
-        if self.phase is Phase.YIELD:
+        if driving:
+            # a robot standing on the way aside: hold, and tell it this one cannot give way (it makes way)
+            blocker = self._blocker(pose, path_ahead(self._detour, pose[0], pose[1], config.conflict_distance),
+                                    others)
+            if blocker is not None:
+                self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, blocker.name, (), False, True))
+                return Advice(hold=True)
             return Advice()  # follow the detour (the loop reports its end with `arrived`)
         posts = {post.name: post for post in self.board.others(self.name)}
         for name in self._yield_to:
             post = posts.get(name)
-            if post is None or post.passive:
+            if post is not None and name in self._through and self.name in post.yielding_to:
+                return Advice(hold=True)  # boxed in, it came out past this robot: that one goes first
+            if post is None or (post.passive and post.path is None):
                 continue
             if post.pose is None:
                 return Advice(hold=True)  # lost: wait (at most yield_timeout)
