@@ -9,7 +9,8 @@ The navigator of one robot runs them on every observation it drives with the pat
    free travel is the arc length to the first path point whose disc (`robot_radius` +
    `path_clearance`) would touch `min_returns` of them. The speed rule (`obstacle_speed`, a pure
    function, as nav2's regulated pure pursuit slows near obstacles) caps the path follower's speed:
-   0 within `stop_distance` of free travel, rising linearly to no cap at `slow_distance`.
+   0 within `stop_distance` of free travel, rising linearly to no cap at `slow_distance`; a stopped robot
+   moves on once the free travel exceeds `stop_distance` by RESUME_MARGIN (not at the first noisy beam).
 2. **Wait, then replan around it.** Stopped for `wait_time` with the obstacle still there, the robot
    plans again to its goal on a copy of the costmap with the unmapped returns marked (each return and
    a point one robot radius behind it along its beam, as discs of `mark_radius`, inflated as walls
@@ -38,6 +39,30 @@ The navigator of one robot runs them on every observation it drives with the pat
    that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it posts
    `cannot_yield` (and looks again after `wait_time`), and the other robot yields instead. The robot with the right of way, blocked by a
    robot that yields to it, waits without replanning around it (for at most `yield_timeout`).
+   A robot waiting aside that a robot it gives way to finds in its way again (that robot's new path passes
+   the place) goes aside again for it.
+4. **Way out** (a passive robot boxed in). A robot parked at its goal in a dead end, or in a corridor one
+   robot wide, blocks a robot that must pass it, and the only way to any place aside is where that robot
+   stands: the rule above finds no place. It then looks again as if the robots it blocks were not there
+   (they can make way; the place must still be that distance from their paths and centres), and takes a
+   place beyond them. Driving there it holds while a robot stands on its way (within 2 `robot_radius` +
+   `path_clearance` of the next `conflict_distance` m), and posts that robot as its blocker and itself as
+   `cannot_yield`, not passive: the blocked robot is then blocked by a robot that cannot yield, and by
+   rule 3 goes aside, off the boxed-in robot's way out (and its place). Once the boxed-in robot has
+   arrived, the other is done waiting (its way is free; if the place turns out to lie on its new path,
+   the boxed-in robot goes aside again for it); the boxed-in robot goes back only when that robot no
+   longer waits aside for it and its posted path no longer comes near the way back (it has passed), so
+   the two do not meet again at the goal. While driving aside a robot always posts the rest of its
+   detour (robots waiting for it to pass see it), and the post of a robot done waiting aside carries its
+   way back until it has a new plan.
+
+   Where it holds: a dead end or a corridor with a junction, a pocket or a room within `yield_search` m of
+   steps beyond the blocked robot, on the far side from the boxed-in one (the boxed-in robot's place), and
+   a second branch, or the corridor farther back, for the blocked robot to wait in off that way. Rooms
+   need none of it (there is a place aside within reach). A corridor with no branch within reach on the
+   blocked robot's side is not resolved: both post `cannot_yield` and wait (the boxed-in robot gives up
+   after `yield_timeout` and parks again, then tries again). tests/navigation/test_traffic.py runs a robot
+   parked in a dead end with the other coming in to a goal behind it, in either order of the list.
 
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
