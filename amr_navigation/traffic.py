@@ -231,6 +231,9 @@ def place_aside(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray,
     from every point of `avoid` (N, 2) (others' paths and centres), within `search` m of steps; None if none.
     Cells clear of the safety margin are preferred (searched first); else any non-lethal cell."""
     avoid = np.asarray(avoid, dtype=float).reshape(-1, 2)
+    # points farther than that from every cell the search can reach change nothing: left out (the cost is per point)
+    avoid = avoid[np.abs(avoid - np.asarray(start, dtype=float)).max(axis=1)
+                  <= search + distance + 2.0 * costmap.grid.resolution]
     for passable in (~costmap.inflated, ~costmap.lethal):
         found = _breadth_first(costmap, passable, start, avoid, distance, search)
         if found is not None:
