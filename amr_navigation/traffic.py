@@ -617,6 +617,7 @@ class Traffic:
             if blocker is not None:
                 self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, blocker.name, (), False, True))
                 return Advice(hold=True)
+            self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, "", self._yield_to, True, False))
             return Advice()  # follow the detour (the loop reports its end with `arrived`)
         posts = {post.name: post for post in self.board.others(self.name)}
         for name in self._yield_to:
