@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -57,6 +57,8 @@ class RobotRun:
     """times it began touching another robot."""
     first_localized: float | None = None
     false_localized_steps: int = 0
+    falsely_localized: bool = False
+    """at the last step (the run's events say when it began and ended)."""
     max_localized_error: float = 0.0
     plans: int = 0
     stops: int = 0
@@ -200,6 +202,7 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
             else:
                 estimate = pf.update(tuple(robot.odom_pose), scan)
                 pose, localized = (estimate.pose.x, estimate.pose.y, estimate.pose.theta), estimate.localized
+            false = False
             if localized:
                 error = math.hypot(pose[0] - truth.x, pose[1] - truth.y)
                 run.max_localized_error = max(run.max_localized_error, error)
@@ -207,7 +210,13 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                     run.first_localized = fleet.time
                 if error > FALSE_LOCALIZED_ERROR:
                     run.false_localized_steps += 1
+                    false = True
             command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
+            if false != run.falsely_localized:  # the episode's own events: when a false localized begins and ends
+                run.falsely_localized = false
+                event = (f"falsely localized: estimate ({pose[0]:.2f}, {pose[1]:.2f}) is {error:.2f} m from the "
+                         f"true pose ({truth.x:.2f}, {truth.y:.2f})" if false else "no longer falsely localized")
+                command = replace(command, events=command.events + (event,))
             if log:
                 for event in command.events:
                     print(f"{fleet.time:7.2f} {robot.name}: {event}")

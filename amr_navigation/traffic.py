@@ -9,7 +9,8 @@ The navigator of one robot runs them on every observation it drives with the pat
    free travel is the arc length to the first path point whose disc (`robot_radius` +
    `path_clearance`) would touch `min_returns` of them. The speed rule (`obstacle_speed`, a pure
    function, as nav2's regulated pure pursuit slows near obstacles) caps the path follower's speed:
-   0 within `stop_distance` of free travel, rising linearly to no cap at `slow_distance`.
+   0 within `stop_distance` of free travel, rising linearly to no cap at `slow_distance`; a stopped robot
+   moves on once the free travel exceeds `stop_distance` by RESUME_MARGIN (not at the first noisy beam).
 2. **Wait, then replan around it.** Stopped for `wait_time` with the obstacle still there, the robot
    plans again to its goal on a copy of the costmap with the unmapped returns marked (each return and
    a point one robot radius behind it along its beam, as discs of `mark_radius`, inflated as walls
@@ -38,6 +39,30 @@ The navigator of one robot runs them on every observation it drives with the pat
    that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it posts
    `cannot_yield` (and looks again after `wait_time`), and the other robot yields instead. The robot with the right of way, blocked by a
    robot that yields to it, waits without replanning around it (for at most `yield_timeout`).
+   A robot waiting aside that a robot it gives way to finds in its way again (that robot's new path passes
+   the place) goes aside again for it.
+4. **Way out** (a passive robot boxed in). A robot parked at its goal in a dead end, or in a corridor one
+   robot wide, blocks a robot that must pass it, and the only way to any place aside is where that robot
+   stands: the rule above finds no place. It then looks again as if the robots it blocks were not there
+   (they can make way; the place must still be that distance from their paths and centres), and takes a
+   place beyond them. Driving there it holds while a robot stands on its way (within 2 `robot_radius` +
+   `path_clearance` of the next `conflict_distance` m), and posts that robot as its blocker and itself as
+   `cannot_yield`, not passive: the blocked robot is then blocked by a robot that cannot yield, and by
+   rule 3 goes aside, off the boxed-in robot's way out (and its place). Once the boxed-in robot has
+   arrived, the other is done waiting (its way is free; if the place turns out to lie on its new path,
+   the boxed-in robot goes aside again for it); the boxed-in robot goes back only when that robot no
+   longer waits aside for it and its posted path no longer comes near the way back (it has passed), so
+   the two do not meet again at the goal. While driving aside a robot always posts the rest of its
+   detour (robots waiting for it to pass see it), and the post of a robot done waiting aside carries its
+   way back until it has a new plan.
+
+   Where it holds: a dead end or a corridor with a junction, a pocket or a room within `yield_search` m of
+   steps beyond the blocked robot, on the far side from the boxed-in one (the boxed-in robot's place), and
+   a second branch, or the corridor farther back, for the blocked robot to wait in off that way. Rooms
+   need none of it (there is a place aside within reach). A corridor with no branch within reach on the
+   blocked robot's side is not resolved: both post `cannot_yield` and wait (the boxed-in robot gives up
+   after `yield_timeout` and parks again, then tries again). tests/navigation/test_traffic.py runs a robot
+   parked in a dead end with the other coming in to a goal behind it, in either order of the list.
 
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
@@ -69,6 +94,10 @@ from amr_util.scan import ScanData
 
 PROGRESS = 0.05
 """m a robot must move for a robot waiting on it to count it as making progress (which restarts its timeout)."""
+RESUME_MARGIN = 0.05
+"""m beyond stop_distance the free travel must reach before a stopped robot moves on (without it, range noise
+and the estimate's jitter around stop_distance made a robot stop and creep a few times a second: each counted
+as a stop, and each restarted the wait before planning around)."""
 NODE_NAME = "traffic"
 """the section of config/traffic.yaml (the traffic rules' parameters; the navigator would declare them)."""
 
@@ -202,6 +231,9 @@ def place_aside(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray,
     from every point of `avoid` (N, 2) (others' paths and centres), within `search` m of steps; None if none.
     Cells clear of the safety margin are preferred (searched first); else any non-lethal cell."""
     avoid = np.asarray(avoid, dtype=float).reshape(-1, 2)
+    # points farther than that from every cell the search can reach change nothing: left out (the cost is per point)
+    avoid = avoid[np.abs(avoid - np.asarray(start, dtype=float)).max(axis=1)
+                  <= search + distance + 2.0 * costmap.grid.resolution]
     for passable in (~costmap.inflated, ~costmap.lethal):
         found = _breadth_first(costmap, passable, start, avoid, distance, search)
         if found is not None:
@@ -348,6 +380,10 @@ class Traffic:
         self._remaining = np.zeros((0, 2))
         self._awaited: dict[str, tuple[float, float]] = {}
         self._retry_at = -math.inf
+        self._through: tuple[str, ...] = ()
+        """the robots a boxed-in robot's way aside passes (they make way for it first)."""
+        self._detour = np.zeros((0, 2))
+        """the path to the place aside."""
         """no place to wait was found: the next search is not before this stamp."""
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
 
@@ -390,8 +426,9 @@ class Traffic:
             if advice is not None:
                 return advice
             events.append("done giving way: planning to the goal again")
-            self.phase, self._spot, self._yield_to = Phase.GO, None, ()
-            self._post(pose, blocker)
+            self.phase, self._spot, self._yield_to, self._through = Phase.GO, None, (), ()
+            self._remaining = self._route  # until the new plan: the way back and the stretch it left
+            self._post(pose, None)
             return Advice(replan=True, events=tuple(events))
 
         # right of way: yield to a robot blocked by this one when the rule says so
@@ -421,6 +458,8 @@ class Traffic:
         front = loose & (local[:, 0] > 0.0)
         travel = free_travel(stretch, world[front], config.robot_radius + config.path_clearance, config.min_returns)
         limit = obstacle_speed(travel, config.stop_distance, config.slow_distance, speed)
+        if self._stopped_since is not None and not travel > config.stop_distance + RESUME_MARGIN:
+            limit = 0.0  # stopped: moves on only once the way is clear by a margin (hysteresis)
         self._post(pose, blocker)
         self._clear_marks(world, pose, events)
         if len(self.marks) == 0 and self._marked_path:
@@ -499,16 +538,24 @@ class Traffic:
         distance = 2.0 * config.robot_radius + config.yield_clearance
         avoid = [np.asarray(post.path).reshape(-1, 2) for post in yield_to if post.path is not None]
         avoid += [np.array([post.pose[:2]]) for post in yield_to]
-        others = [post.pose[:2] for post in self.board.others(self.name) if post.pose is not None]
-        marked = costmap.with_obstacles(np.array(others), config.robot_radius) if others else costmap
-        spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, config.yield_search)
         names = tuple(post.name for post in yield_to)
-        detour = None
-        if spot is not None:
+        others = {post.name: post.pose[:2] for post in self.board.others(self.name) if post.pose is not None}
+        # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
+        # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
+        spot = detour = None
+        for passing in ((), names) if passive else ((),):
+            discs = [xy for name, xy in others.items() if name not in passing]
+            marked = costmap.with_obstacles(np.array(discs), config.robot_radius) if discs else costmap
+            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, config.yield_search)
+            if spot is None:
+                continue
             try:
                 detour = Planner(marked.grid, costmap=marked).plan(pose[:2], spot)
             except PlanningError:
-                detour = None
+                continue
+            self._through = tuple(sorted(set(self._through) | set(passing)))
+            way = f" past {', '.join(passing)} (boxed in: they make way first)" if passing else ""
+            break
         if detour is None:
             if not self._cannot_yield:
                 self.counters.cannot_yield += 1
@@ -529,9 +576,10 @@ class Traffic:
         self.phase, self._spot, self._yield_to, self._aside_since = Phase.YIELD, spot, names, stamp
         self._awaited = {}
         self._stopped_since = None
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), None, "", names, True, False))
+        self._detour = np.asarray(detour, dtype=float).reshape(-1, 2)
+        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._detour, "", names, True, False))
         return Advice(detour=detour, events=(f"giving way to {', '.join(names)}: going aside to "
-                                             f"({spot[0]:.2f}, {spot[1]:.2f})",))
+                                             f"({spot[0]:.2f}, {spot[1]:.2f}){way}",))
 
     def _yielding(self, pose, stretch, costmap, others, stamp) -> Advice | None:
         """The advice while going or waiting aside; None once the wait is over: every robot it gives way to
@@ -539,7 +587,11 @@ class Traffic:
         yield_timeout has passed."""
         config = self.config
         reach = 2.0 * config.robot_radius + config.path_clearance
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), None, "", self._yield_to, True, False))
+        driving = self.phase is Phase.YIELD
+        # on the way aside the post carries the rest of the detour (robots it gives way to wait until it is off
+        # their way); once there, no path
+        way = path_ahead(self._detour, pose[0], pose[1], math.inf, spacing=0.05) if driving else None
+        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, "", self._yield_to, True, False))
         for post in others:  # the wait times out only while the robots it gives way to stand still
             if post.name in self._yield_to:
                 last = self._awaited.get(post.name)
@@ -548,19 +600,31 @@ class Traffic:
                     self._aside_since = stamp
         if stamp - self._aside_since >= config.yield_timeout:
             return None
-        # someone newly blocked by this robot: go aside for them too
-        fresh = [post for post in others if post.blocked_by == self.name and post.name not in self._yield_to]
-        if fresh:
-            keep = [post for post in others if post.name in self._yield_to]
+        # someone newly blocked by this robot (or, waiting aside, one it gives way to that now finds it in its
+        # way): go aside for them too
+        fresh = [post for post in others if post.blocked_by == self.name and (
+            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))]
+        if fresh and stamp >= self._retry_at:
+            renewed = {post.name for post in fresh}
+            keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]
             advice = self._go_aside(pose, costmap, keep + fresh, stamp, passive=True)
             if advice is not None:
                 return advice
-        if self.phase is Phase.YIELD:
+        if driving:
+            # a robot standing on the way aside: hold, and tell it this one cannot give way (it makes way)
+            blocker = self._blocker(pose, path_ahead(self._detour, pose[0], pose[1], config.conflict_distance),
+                                    others)
+            if blocker is not None:
+                self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, blocker.name, (), False, True))
+                return Advice(hold=True)
+            self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, "", self._yield_to, True, False))
             return Advice()  # follow the detour (the loop reports its end with `arrived`)
         posts = {post.name: post for post in self.board.others(self.name)}
         for name in self._yield_to:
             post = posts.get(name)
-            if post is None or post.passive:
+            if post is not None and name in self._through and self.name in post.yielding_to:
+                return Advice(hold=True)  # boxed in, it came out past this robot: that one goes first
+            if post is None or (post.passive and post.path is None):
                 continue
             if post.pose is None:
                 return Advice(hold=True)  # lost: wait (at most yield_timeout)

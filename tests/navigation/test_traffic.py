@@ -140,3 +140,57 @@ def test_two_robots_face_to_face_in_a_one_wide_corridor_both_reach_their_goals(p
 def test_without_the_rules_the_corridor_deadlocks():
     run = run_fleet(corridor(0.8), localization="truth", duration=60.0, seed=2, use_traffic=False)
     assert run.reached < 2 or run.robot_contacts > 0
+
+
+def dead_end(parked_first: bool):
+    """A corridor one robot wide (0.35 m free) closed at x = -2, with a side pocket (0.35 m wide, 0.65 m deep)
+    at x = 0.8 and open on to x = 2. One robot is parked at its goal at x = -0.6 (it starts there); the other
+    comes from x = 1.7 to a goal at x = -1.6, deeper in the dead end: it must pass the parked robot, which has no
+    place aside but out past it."""
+    walls = [[-2.0, -0.2, 2.0, -0.2], [-2.0, 0.2, 0.6, 0.2], [1.0, 0.2, 2.0, 0.2], [0.6, 0.2, 0.6, 0.9],
+             [1.0, 0.2, 1.0, 0.9], [0.6, 0.9, 1.0, 0.9], [-2.0, -0.2, -2.0, 0.2], [2.0, -0.2, 2.0, 0.2]]
+    parked = {"name": "parked", "start": [-0.6, 0.0, 0.0], "goal": [-0.6, 0.0, 0.1]}
+    mover = {"name": "mover", "start": [1.7, 0.0, math.pi], "goal": [-1.6, 0.0, 0.1]}
+    return world_from_dict({"name": "dead_end", "wall_thickness": 0.05, "walls": walls,
+                            "robots": [parked, mover] if parked_first else [mover, parked]})
+
+
+@pytest.mark.parametrize("parked_first", [True, False])
+def test_a_robot_parked_in_a_dead_end_comes_out_past_the_robot_that_must_pass_it(parked_first):
+    run = run_fleet(dead_end(parked_first), localization="truth", duration=150.0, seed=3)
+    robots = {robot.name: robot for robot in run.robots}
+    events = {robot.name: robot.events for robot in run.robots}
+    assert run.reached == 2, events
+    assert run.robot_contacts == 0 and run.wall_contacts == 0, events
+    # the way-out rule: the parked robot, boxed in, went aside past the mover, which made way for it first
+    assert any("boxed in" in event for event in robots["parked"].events), events
+    assert robots["mover"].yields >= 1 and robots["parked"].yields >= 1, events
+
+
+def face_scan(distance: float, lidar_x: float = -0.032) -> ScanData:
+    """A flat face across the robot's heading `distance` m ahead of its centre, seen over +-10 degrees."""
+    angles = np.radians(np.arange(360) - 180.0)
+    ranges = np.full(360, np.inf)
+    ahead = np.abs(angles) <= np.radians(10.0)
+    ranges[ahead] = (distance - lidar_x) / np.cos(angles[ahead])
+    return ScanData(ranges, float(angles[0]), float(np.radians(1.0)), 0.12, 3.5)
+
+
+def test_a_stopped_robot_moves_on_only_once_the_way_is_clear_by_a_margin():
+    from amr_navigation.traffic import RESUME_MARGIN, Traffic, TrafficBoard
+
+    costmap = Costmap(open_grid())
+    path = np.array([[1.0, 0.75], [2.4, 0.75]])
+    pose = (1.0, 0.75, 0.0)
+    config = TrafficConfig()
+    near, beyond, clear = 0.22, 0.28, 0.7  # free travel 0.10 (< stop_distance 0.12), 0.15, 0.575 (25 mm steps)
+    fresh = Traffic("a", 0, TrafficBoard(), config)
+    assert fresh.advise(pose, face_scan(beyond), path, costmap, 0.2, 0.0).speed_limit > 0.0  # not stopped: creeps
+    rules = Traffic("b", 0, TrafficBoard(), config)
+    stamps = iter(np.arange(0.0, 10.0, 0.05))
+    limits = []
+    for distance in (near, beyond) * 5:  # range noise and the estimate's jitter around the stop distance
+        limits.append(rules.advise(pose, face_scan(distance), path, costmap, 0.2, next(stamps)).speed_limit)
+    assert limits == [0.0] * 10 and rules.counters.stops == 1
+    assert config.stop_distance + RESUME_MARGIN < 0.5
+    assert rules.advise(pose, face_scan(clear), path, costmap, 0.2, next(stamps)).speed_limit is None
