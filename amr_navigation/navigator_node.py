@@ -114,6 +114,8 @@ class NavigatorNode(ManagedNode):
         self._scan: LaserScan | None = None
         self._map_planner: Planner | None = None
         self._advised: tuple[int, float | None] | None = None  # (observation stamp ns, speed limit)
+        self._reports_after = -1
+        """traffic: the path follower's reports up to this observation stamp (ns) are of a path the rules dropped."""
 
     # -- lifecycle ------------------------------------------------------------------------------
 
@@ -180,7 +182,7 @@ class NavigatorNode(ManagedNode):
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._inflight, self._pending, self._follower_request, self._last = None, None, None, None
-        self._advised = None
+        self._advised, self._reports_after = None, -1
         self._timer = self.create_timer(CHECK_PERIOD, self._check_inflight, clock=Clock(clock_type=ClockType.STEADY_TIME))
         return super().on_activate(state)
 
@@ -268,7 +270,10 @@ class NavigatorNode(ManagedNode):
     def _on_follower(self, message: PathFollowerStatus) -> None:
         if not self.active:
             return
-        stamp = stamp_nanoseconds(message.header.stamp) * 1e-9
+        stamp_ns = stamp_nanoseconds(message.header.stamp)
+        stamp = stamp_ns * 1e-9
+        if self.traffic is not None and stamp_ns <= self._reports_after:
+            return  # about the path the rules just dropped (a detour's end reached again): a plan is due
         if detour_done(self.traffic, self.navigator, message.reached, stamp):
             return  # at the place aside: the rules wait there
         if self.traffic is not None and message.reached and self.navigator.mode is Mode.REACHED:
@@ -461,6 +466,7 @@ class NavigatorNode(ManagedNode):
         if advice.replan:
             navigator.plan_again("traffic: plan to the goal again")
             self._log(navigator.take_events())
+            self._reports_after = stamp_ns
             return self._limited(observation, decision, 0.0)
         self._advised = (stamp_ns, advice.speed_limit)
         if advice.detour is not None:
