@@ -7,6 +7,7 @@ ground truth as its /<name>/pose, localized), as the library test runs with loca
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import pytest
 from amr_interfaces.msg import LocalizedPose, SimulatorStatus
@@ -46,15 +47,31 @@ def corridor_yaml(pocket_x: float = 0.8, length: float = 2.0) -> str:
     return "\n".join(lines) + "\n"
 
 
+ROOM = """\
+name: room{suffix}
+wall_thickness: 0.05
+walls:
+  - [-1.5, -0.75, 1.5, -0.75]
+  - [1.5, -0.75, 1.5, 0.75]
+  - [1.5, 0.75, -1.5, 0.75]
+  - [-1.5, 0.75, -1.5, -0.75]
+{boxes}robots:
+  - name: r1
+    start: [-1.1, 0.0, 0.0]
+    goal: [1.1, 0.0, 0.1]
+"""
+
+
 class Truth(Node):
     """Each robot's ground truth relayed as its /<name>/pose (localized, same stamp), and its simulator status."""
 
-    def __init__(self, context) -> None:
+    def __init__(self, context, robots=ROBOTS) -> None:
         super().__init__("fleet_traffic_truth", context=context)
+        self.robots = robots
         self.status: dict[str, SimulatorStatus] = {}
-        self.publishers_ = {r: self.create_publisher(LocalizedPose, f"/{r}/pose", RELIABLE) for r in ROBOTS}
+        self.publishers_ = {r: self.create_publisher(LocalizedPose, f"/{r}/pose", RELIABLE) for r in robots}
         self.keep = []
-        for r in ROBOTS:
+        for r in robots:
             self.keep += [
                 self.create_subscription(Odometry, f"/{r}/ground_truth", lambda m, r=r: self._relay(r, m), RELIABLE),
                 self.create_subscription(SimulatorStatus, f"/{r}/status", lambda m, r=r: self.status.__setitem__(r, m),
@@ -68,7 +85,7 @@ class Truth(Node):
         self.publishers_[robot].publish(message)
 
     def reached(self) -> int:
-        return sum(1 for r in ROBOTS if r in self.status and self.status[r].goal_reached)
+        return sum(1 for r in self.robots if r in self.status and self.status[r].goal_reached)
 
     def robot_contacts(self) -> int:
         return sum(status.robot_collisions for status in self.status.values())
@@ -81,11 +98,26 @@ def run_corridor(ros_context, tmp_path, traffic: bool) -> tuple[int, int, float,
     """(robots at their goals, robot-robot contacts, simulated s) of one run; both navigators' traffic counters."""
     world = tmp_path / "corridor.yaml"
     world.write_text(corridor_yaml())
+    reached, contacts, _, sim_time, detail = run_stack(ros_context, world, None, ROBOTS, traffic)
+    return reached, contacts, sim_time, detail
+
+
+def run_stack(ros_context, world, map_world, robots, traffic: bool) -> tuple[int, int, int, float, dict]:
+    """(robots at their goals, robot-robot contacts, wall contacts, simulated s, {wall: s, robot: its traffic
+    counters}) of one run of fleet_navigation on `world` (the map made of `map_world` when given)."""
     away = (("pose", "particle_filter_unused/pose"), ("scan", "particle_filter_unused/scan"))
     parameters = {"simulator.lockstep_resend_period": "0.5", "navigator.traffic": str(traffic).lower()}
+
+    def the_map(bringup):  # the map of another world than the simulator's (one without a box)
+        if map_world is None:
+            return bringup
+        nodes = tuple(replace(node, parameters={**node.parameters, "world": str(map_world)})
+                      if node.name == "map_server" else node for node in bringup.nodes)
+        return replace(bringup, nodes=nodes)
+
     with composed_stack(ros_context, "fleet_navigation", arguments={"world": str(world)}, parameters=parameters,
-                        remappings={"particle_filter": away}) as (nodes, manager, _):
-        truth = Truth(ros_context)
+                        remappings={"particle_filter": away}, adjust=the_map) as (nodes, manager, _):
+        truth = Truth(ros_context, robots)
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(truth)
         try:
@@ -97,7 +129,7 @@ def run_corridor(ros_context, tmp_path, traffic: bool) -> tuple[int, int, float,
                 now, sim = time.monotonic(), truth.sim_time()
                 if sim > progress[0]:
                     progress[:] = [sim, now]
-                return (truth.reached() == 2 or truth.robot_contacts() > 0 or sim >= SIM_LIMIT
+                return (truth.reached() == len(robots) or truth.robot_contacts() > 0 or sim >= SIM_LIMIT
                         or now - progress[1] > STALLED)
 
             spin_until(executor, over, WALL_LIMIT)
@@ -105,8 +137,9 @@ def run_corridor(ros_context, tmp_path, traffic: bool) -> tuple[int, int, float,
         finally:
             executor.remove_node(truth)
             executor.shutdown()
-        counters = {r: nodes[f"/{r}/navigator"].traffic.counters if traffic else None for r in ROBOTS}
-        result = truth.reached(), truth.robot_contacts(), truth.sim_time(), {"wall": wall, **counters}
+        counters = {r: nodes[f"/{r}/navigator"].traffic.counters if traffic else None for r in robots}
+        walls = sum(status.wall_collisions for status in truth.status.values())
+        result = truth.reached(), truth.robot_contacts(), walls, truth.sim_time(), {"wall": wall, **counters}
         truth.destroy_node()
     return result
 
@@ -123,3 +156,13 @@ def test_without_the_rules_the_corridor_deadlocks_or_collides_through_ros(ros_co
     reached, contacts, sim_time, detail = run_corridor(ros_context, tmp_path, traffic=False)
     print(f"traffic off: {reached} reached, {contacts} contacts, {sim_time:.1f} s simulated, {detail}")
     assert reached < 2 or contacts > 0, (reached, contacts, sim_time, detail)
+
+
+def test_a_box_not_on_the_map_stops_the_robot_which_replans_around_it_through_the_planner_node(ros_context, tmp_path):
+    world, known = tmp_path / "room_box.yaml", tmp_path / "room.yaml"
+    world.write_text(ROOM.format(suffix="_box", boxes="boxes:\n  - [-0.1, -0.15, 0.1, 0.15]\n"))
+    known.write_text(ROOM.format(suffix="", boxes=""))
+    reached, _, walls, sim_time, detail = run_stack(ros_context, world, known, ("r1",), traffic=True)
+    print(f"box: {reached} reached, {walls} wall contacts, {sim_time:.1f} s simulated, {detail}")
+    assert reached == 1 and walls == 0, (sim_time, detail)  # the box is a solid: touching it is a wall contact
+    assert detail["r1"].stops >= 1 and detail["r1"].replans_around >= 1, detail
