@@ -27,6 +27,9 @@ which amr-bringup, `ros2 launch` and `composed_stack` all call), `robot_nodes` m
 `robots_from` names (amr_maps.world.World.fleet) to one copy each in the robot's namespace (`/r1/wall_follower`),
 and the copies take the template's place in the lifecycle order, robot by robot. A world without a `robots` list
 is one unnamed robot: one copy in the template's own namespace, exactly as a node without per_robot.
+A per_robot node's parameter whose value is the string `{robot_index}` gets, in each copy, the robot's index in
+the world's `robots` list (0 for the first, and for the one robot of a world without the list): the navigator's
+traffic `priority`.
 
 Every stack also has the arguments `use_sim_time` (every node) and `<node>_params_file` (replaces
 that node's parameter files). An argument left unset changes nothing: the files decide.
@@ -266,17 +269,25 @@ def robot_nodes(template: NodeSpec, robots: Sequence) -> list[NodeSpec]:
     `wall_follower:` section does not reach /r1/wall_follower; the inline parameters still win); the unnamed robot
     of a one-robot world is the template itself, in its own namespace."""
     copies = []
-    for robot in robots:
+    for index, robot in enumerate(robots):
         if not robot.name:
-            copies.append(replace(template, per_robot=False))
+            copies.append(replace(template, per_robot=False, parameters=_indexed(template.parameters, index)))
             continue
         inlined: dict[str, object] = {}
         for path in template.parameter_file_paths():
             inlined.update(dotted(node_parameters(path, template.name, BringupError)))
         inlined.update(template.parameters)
         copies.append(replace(template, per_robot=False, namespace=f"{template.namespace}/{robot.name}",
-                              parameter_files=(), parameters=inlined))
+                              parameter_files=(), parameters=_indexed(inlined, index)))
     return copies
+
+
+ROBOT_INDEX = "{robot_index}"
+"""a per_robot node's parameter value replaced by the robot's index in the world's robots list."""
+
+
+def _indexed(parameters: dict[str, object], index: int) -> dict[str, object]:
+    return {key: index if value == ROBOT_INDEX else value for key, value in parameters.items()}
 
 
 def parameter_file_path(package: str, name: str) -> Path:

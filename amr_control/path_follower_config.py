@@ -80,6 +80,11 @@ class PathFollowerConfig(Config):
     progress_window: float = parameter(0.5, minimum=0.01, maximum=100.0, live=True)
     """m of path ahead of the last closest point searched for the next one (a path passing close to
     itself is not short-cut)."""
+    speed_limit_timeout: float = parameter(1.0, minimum=0.01, maximum=60.0, live=True)
+    """s (the observations' clock): a speed limit on speed_limit (amr_interfaces/SpeedLimit, the navigator's
+    traffic rules) applies to observations at most this much newer than its stamp; older it has expired and
+    the path follower goes uncapped (a navigator that stopped advising cannot hold the robot for ever; under a
+    navigator nothing drives without its fresh status anyway)."""
 
     def validate(self) -> None:
         if self.min_linear_speed > self.linear_speed:

@@ -14,11 +14,19 @@ zero when the node stops being in charge. Every computed command is reported on 
 (amr_interfaces/PathFollowerStatus: state, reached, replan); a request for a new plan (blocked,
 strayed) is only reported there, for the navigator to act on. Deactivation and shutdown send a zero
 command. Bad messages are refused with a throttled warning; nothing raises out of a callback.
+
+Speed limit: the latest amr_interfaces/SpeedLimit on `speed_limit` (the navigator's traffic rules, one per
+observation it gives the path follower, stamped with that observation) caps the forward speed of the
+observations stamped at most `speed_limit_timeout` after it (PathFollower.compute's speed_limit: 0 = stand,
+WAITING, in-place turns go on); an older limit has expired: uncapped. The limit for an observation is published
+before the navigator's status that names this node for it.
 """
 
 from __future__ import annotations
 
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
+import math
+
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
 from amr_interfaces.srv import FollowPath
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Path
@@ -58,6 +66,7 @@ class PathFollowerNode(ManagedNode):
         self._latest_pair = None
         self._latest_pair_time: Time | None = None
         self._gate = NavigatorGate(self.get_name())
+        self._speed_limit: tuple[int, float | None] | None = None  # (stamp ns, m/s or None)
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -82,6 +91,7 @@ class PathFollowerNode(ManagedNode):
             self.create_subscription(LocalizedPose, "pose", lambda m: self._on_message(POSE, m), 10),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
             self.create_active_service(FollowPath, "~/follow_path", self._on_follow_path),
+            self.create_subscription(SpeedLimit, "speed_limit", self._on_speed_limit, reliable()),
         ]
         if config.navigated:
             self._entities.append(self.create_subscription(
@@ -103,6 +113,7 @@ class PathFollowerNode(ManagedNode):
         self._sync.reset()
         self._gate.reset()
         self._latest_pair = self._latest_pair_time = None
+        self._speed_limit = None
         if not self.config.simulation:
             self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
@@ -169,6 +180,25 @@ class PathFollowerNode(ManagedNode):
             return
         self._sync.add(index, stamp, message)
 
+    def _on_speed_limit(self, message: SpeedLimit) -> None:
+        if self.state_label != "active":
+            return
+        stamp = Time.from_msg(message.header.stamp).nanoseconds
+        speed = float(message.speed)
+        if message.limited and not (math.isfinite(speed) and speed >= 0.0):
+            self._warn(f"a speed limit of {speed!r} m/s was taken as a stop")
+            speed = 0.0
+        self._speed_limit = (stamp, speed if message.limited else None)
+
+    def speed_limit_for(self, stamp: int) -> float | None:
+        """The cap (m/s) for the observation of `stamp` (ns): the latest limit unless it has expired."""
+        if self._speed_limit is None:
+            return None
+        limit_stamp, speed = self._speed_limit
+        if (stamp - limit_stamp) * 1e-9 > self.config.speed_limit_timeout:
+            return None
+        return speed
+
     def _on_navigator_status(self, message: NavigatorStatus) -> None:
         """A new decision for an observation held here is answered at once; any other status is paired."""
         if self.state_label != "active":
@@ -213,7 +243,9 @@ class PathFollowerNode(ManagedNode):
     def _compute(self, pose: LocalizedPose, scan: LaserScan) -> None:
         try:
             p = pose.pose.pose
-            command = self.follower.compute(p.position.x, p.position.y, yaw_from_quaternion(p.orientation), scan_data(scan))
+            limit = self.speed_limit_for(Time.from_msg(pose.header.stamp).nanoseconds)
+            command = self.follower.compute(p.position.x, p.position.y, yaw_from_quaternion(p.orientation),
+                                            scan_data(scan), speed_limit=limit)
         except Exception as error:  # a controller bug must not take the robot's node down
             self.get_logger().error(f"path follower failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
             command = None

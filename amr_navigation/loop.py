@@ -26,6 +26,7 @@ from amr_control.path_follower import FollowCommand, PathError, PathFollower, St
 from amr_control.wall_follower import WallFollower
 from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE, Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.traffic import Traffic
+from amr_navigation.traffic_steps import detour_done, idle_advice
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
 from amr_util.scan import ScanData, scan_of
@@ -89,20 +90,14 @@ class NavigationLoop:
         decision = self._carry_out(self.navigator.decide(pose, localized))
         events = list(decision.events)
         traffic = self.traffic
-        if decision.controller is Controller.WALL_FOLLOWER:
-            if traffic is not None:
-                traffic.post_idle(None, False)
-            command = self.wall_follower.compute(scan, odometry_v, odometry_w, stamp)
-            return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events))
         if decision.controller is not Controller.PATH_FOLLOWER:
-            if traffic is None:
-                return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events))
             advice = None
-            if decision.mode is Mode.REACHED:  # at the goal: make way for a robot it blocks
-                advice = traffic.wants_to_move(pose, self.planner.costmap, stamp)
-            else:
-                traffic.post_idle(pose, False)
-            if advice is None or advice.detour is None:
+            if traffic is not None:  # posted; at the goal: make way for a robot it blocks
+                advice = idle_advice(traffic, decision, pose, self.planner.costmap, stamp)
+            if decision.controller is Controller.WALL_FOLLOWER:
+                command = self.wall_follower.compute(scan, odometry_v, odometry_w, stamp)
+                return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events))
+            if advice is None:
                 return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events))
             events += advice.events
             events += self._carry_out(self.navigator.detour(advice.detour, "going aside")).events
@@ -123,8 +118,7 @@ class NavigationLoop:
                 events += self._plan_around(pose, advice.replan_around)
             limit = advice.speed_limit
         follow = self.path_follower.compute(pose[0], pose[1], pose[2], scan, speed_limit=limit)
-        if traffic is not None and follow.reached and self.navigator.on_detour:
-            traffic.arrived(stamp)
+        if detour_done(traffic, self.navigator, follow.reached, stamp):
             return NavigationCommand(0.0, 0.0, Mode.FOLLOW, follow, tuple(events))
         request = self.navigator.followed(follow.reached, follow.replan, follow.message)
         if request is not None:

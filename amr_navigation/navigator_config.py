@@ -5,9 +5,10 @@ observation; the others shape what configure builds (topics, services, names) an
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE
+from amr_navigation.traffic import TrafficConfig
 from amr_util.geometry import all_finite
 from amr_util.parameter_spec import Config, parameter
 
@@ -41,3 +42,16 @@ class NavigatorConfig(Config):
     and requests for a new plan)."""
     global_frame: str = parameter("map", nonempty=True)
     """frame of /pose, goals and paths (REP 105: map)."""
+    # -- traffic rules among robots (issue 22) ----------------------------------------------------
+    traffic: bool = parameter(False)
+    """run the traffic rules among robots (amr_navigation.traffic): post on /traffic, read everyone's posts,
+    cap the path follower's speed (speed_limit), plan around what is not on the map, give way. False: a robot
+    alone, exactly as before (none of the traffic topics exist)."""
+    priority: int = parameter(0, minimum=0, maximum=100000)
+    """with traffic: lower goes first (the robot's index in the world's robots list)."""
+    follower_speed: float = parameter(0.2, minimum=0.001, maximum=5.0, live=True)
+    """m/s, with traffic: the path follower's linear_speed (the slow-down before an obstacle ramps up to it)."""
+    post_timeout: float = parameter(3.0, minimum=0.1, maximum=600.0, live=True)
+    """s (node clock), with traffic: another robot's post older than this is dropped (a robot gone quiet)."""
+    traffic_rules: TrafficConfig = field(default_factory=TrafficConfig)
+    """the rules' parameters (config/traffic.yaml's values are the defaults)."""

@@ -22,6 +22,18 @@ Goals: the `goal` parameter, geometry_msgs/PoseStamped on /goal_pose (RViz's 2D 
 command line), and, with `world_goal_topic`, a latched PoseStamped (the simulator's ~/goal: the world's
 goal). The latest one wins, at any time, before or after arrival. The path follower's ~/status
 (amr_interfaces/PathFollowerStatus) reports arrival and requests for a new plan.
+
+Traffic rules among robots (`traffic: true`, the fleet_navigation stack; amr_navigation.traffic): the node keeps
+the latest scan (sensor-data QoS) and the one /map (transient local; the costmap built as the planner node
+builds it, Planner(grid_from_message(...))), publishes this robot's post (amr_interfaces/TrafficPost, its name
+is the namespace) on the absolute topic /traffic and reads everyone's (its own ignored, a malformed one dropped
+and logged, one older than post_timeout forgotten) into a board, and on every observation calls the rules as
+NavigationLoop does (amr_navigation.traffic_steps holds what both share): the advice's speed limit goes out on
+speed_limit (amr_interfaces/SpeedLimit, stamped with the observation, before the status), a replan around
+marks is a ~/plan request carrying the marks as obstacles, a detour is handed to the path follower, a hold or
+a replan is a speed limit of 0 for that observation. With the rules, a robot at its goal (REACHED) and one
+holding still are answered by the path follower with a limit of 0 (not by nobody): the others still need the
+lockstep world to go on, and a robot at its goal may have to make way.
 """
 
 from __future__ import annotations
@@ -30,7 +42,14 @@ import itertools
 import time
 from dataclasses import dataclass
 
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
+import math
+
+import numpy as np
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
+from amr_interfaces.msg import TrafficPost as TrafficPostMessage
+from geometry_msgs.msg import Point
+from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from sensor_msgs.msg import LaserScan
 from amr_interfaces.srv import FollowPath, PlanPath
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import Pose, PoseStamped
@@ -40,6 +59,14 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
+from amr_navigation.traffic import Traffic
+from amr_navigation.traffic_messages import TRAFFIC_TOPIC, PostError, post_from_message, post_message, speed_limit_message
+from amr_navigation.traffic_steps import FleetBoard, detour_done, idle_advice
+from amr_maps.messages import grid_from_message
+from amr_planning.planner import Planner, PlannerConfig
+from amr_util.messages import scan_data
+from amr_util.qos import SENSOR_DATA
+from amr_util.stamps import stamp_nanoseconds
 from amr_planning.messages import path_message
 from amr_util.messages import path_points
 from amr_util.geometry import all_finite, yaw_from_quaternion
@@ -81,6 +108,14 @@ class NavigatorNode(ManagedNode):
         self._last: tuple[Observation, Decision] | None = None
         self._last_decided = 0.0
         self.configure_error = ""
+        self.traffic: Traffic | None = None
+        self.board: FleetBoard | None = None
+        self.posts_dropped = 0
+        self._scan: LaserScan | None = None
+        self._map_planner: Planner | None = None
+        self._advised: tuple[int, float | None] | None = None  # (observation stamp ns, speed limit)
+        self._reports_after = -1
+        """traffic: the path follower's reports up to this observation stamp (ns) are of a path the rules dropped."""
 
     # -- lifecycle ------------------------------------------------------------------------------
 
@@ -109,6 +144,8 @@ class NavigatorNode(ManagedNode):
         ]
         if values["world_goal_topic"]:
             self._entities.append(self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, LATCHED))
+        if values["traffic"]:
+            self._configure_traffic(NavigatorConfig.from_params(values))
         self._service_clients = {"plan": self.create_client(PlanPath, values["planner_service"]),
                                  "follow": self.create_client(FollowPath, values["follow_path_service"])}
         self.get_logger().info(
@@ -118,17 +155,34 @@ class NavigatorNode(ManagedNode):
             (f" or {values['world_goal_topic']}" if values["world_goal_topic"] else ""))
         return TransitionCallbackReturn.SUCCESS
 
+    def _configure_traffic(self, config: NavigatorConfig) -> None:
+        name = self.get_namespace().strip("/") or self.get_name()
+        self.board = FleetBoard(config.post_timeout)
+        self.traffic = Traffic(name, config.priority, self.board, config.traffic_rules)
+        self._outputs["traffic"] = self.create_lifecycle_publisher(TrafficPostMessage, TRAFFIC_TOPIC, reliable())
+        self._outputs["speed_limit"] = self.create_lifecycle_publisher(SpeedLimit, "speed_limit", reliable())
+        self._entities += [
+            self.create_subscription(TrafficPostMessage, TRAFFIC_TOPIC, self._on_post, reliable(depth=50)),
+            self.create_subscription(LaserScan, "scan", self._on_scan, SENSOR_DATA),
+            self.create_subscription(OccupancyGridMessage, "/map", self._on_map, LATCHED),
+        ]
+        self.get_logger().info(f"traffic rules on: {name}, priority {config.priority}, posts on {TRAFFIC_TOPIC}")
+
     def apply_live(self, changes: dict) -> None:
         """goal, replan_distance and plan_timeout while configured: used from the next observation."""
         values = NavigatorConfig.from_params({**self._values, **changes}).as_params()  # ConfigError: refused
         if "replan_distance" in changes:
             self.navigator.replan_distance = values["replan_distance"]
+        if self.traffic is not None:
+            config = NavigatorConfig.from_params(values)
+            self.traffic.config, self.board.timeout = config.traffic_rules, config.post_timeout
         if changes.get("goal"):
             self._set_goal(tuple(changes["goal"]), "the goal parameter")
         self._values = values
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._inflight, self._pending, self._follower_request, self._last = None, None, None, None
+        self._advised, self._reports_after = None, -1
         self._timer = self.create_timer(CHECK_PERIOD, self._check_inflight, clock=Clock(clock_type=ClockType.STEADY_TIME))
         return super().on_activate(state)
 
@@ -148,6 +202,7 @@ class NavigatorNode(ManagedNode):
             self.destroy_lifecycle_publisher(publisher)
         self._entities, self._service_clients, self._outputs = [], {}, {}
         self.navigator = None
+        self.traffic = self.board = self._scan = self._map_planner = self._advised = None
         return TransitionCallbackReturn.SUCCESS
 
     @property
@@ -169,6 +224,29 @@ class NavigatorNode(ManagedNode):
             self._pending = observation  # decided once the request in flight is answered
             return
         self._decide(observation)
+
+    def _on_scan(self, message: LaserScan) -> None:
+        self._scan = message
+
+    def _on_map(self, message: OccupancyGridMessage) -> None:
+        try:  # the costmap as the planner node builds it
+            self._map_planner = Planner(grid_from_message(message), PlannerConfig())
+        except Exception as error:  # a bad map must not take the node down
+            self.get_logger().error(f"/map refused for the traffic rules, keeping the previous one: {error}")
+
+    def _on_post(self, message: TrafficPostMessage) -> None:
+        """Another robot's post onto the board; a malformed one is dropped and logged, never raised."""
+        if self.board is None:
+            return
+        try:
+            post = post_from_message(message)
+        except (PostError, ValueError, TypeError) as error:
+            self.posts_dropped += 1
+            self.get_logger().warning(f"a traffic post was dropped: {error}", throttle_duration_sec=2.0)
+            return
+        if post.name == self.traffic.name:
+            return
+        self.board.receive(post, stamp_nanoseconds(message.header.stamp) * 1e-9)
 
     def _on_goal(self, message: PoseStamped) -> None:
         if not self.active:
@@ -192,6 +270,14 @@ class NavigatorNode(ManagedNode):
     def _on_follower(self, message: PathFollowerStatus) -> None:
         if not self.active:
             return
+        stamp_ns = stamp_nanoseconds(message.header.stamp)
+        stamp = stamp_ns * 1e-9
+        if self.traffic is not None and stamp_ns <= self._reports_after:
+            return  # about the path the rules just dropped (a detour's end reached again): a plan is due
+        if detour_done(self.traffic, self.navigator, message.reached, stamp):
+            return  # at the place aside: the rules wait there
+        if self.traffic is not None and message.reached and self.navigator.mode is Mode.REACHED:
+            return  # held at its goal by the path follower (traffic): arrival was already taken
         request = self.navigator.followed(message.reached, message.replan, message.message)
         self._log(self.navigator.take_events())
         if request is None:
@@ -217,18 +303,61 @@ class NavigatorNode(ManagedNode):
         else:
             self._finish(observation, decision)
 
+    def _plan_request(self, start, goal, marks: np.ndarray | None) -> PlanPath.Request:
+        request = PlanPath.Request()
+        request.start.header.frame_id = request.goal.header.frame_id = self._values["global_frame"]
+        request.start.pose.position.x, request.start.pose.position.y = float(start[0]), float(start[1])
+        request.goal.pose.position.x, request.goal.pose.position.y = float(goal[0]), float(goal[1])
+        if marks is not None and len(marks):  # the traffic rules' marks: planned around on a copy of the costmap
+            request.obstacles = [Point(x=float(x), y=float(y)) for x, y in marks]
+            request.mark_radius = float(self.traffic.config.mark_radius)
+        return request
+
     def _ask_planner(self, observation: Observation | None, plan: PlanRequest) -> None:
         client = self._service_clients["plan"]
         if not client.service_is_ready():
             self._planned(observation, plan, None, f"{client.srv_name} is not available", False)
             return
-        request = PlanPath.Request()
-        request.start.header.frame_id = request.goal.header.frame_id = self._values["global_frame"]
-        request.start.pose.position.x, request.start.pose.position.y = plan.start
-        request.goal.pose.position.x, request.goal.pose.position.y = plan.goal
+        marks = self.traffic.marks if self.traffic is not None else None
+        request = self._plan_request(plan.start, plan.goal, marks)
         call = next(self._ids)
         self._inflight = (call, "plan", time.monotonic(), plan, observation)
         client.call_async(request).add_done_callback(lambda future: self._on_planned(call, future))
+
+    def _plan_around(self, observation: Observation, decision: Decision, marks: np.ndarray) -> None:
+        """The traffic rules' replan around marks: a ~/plan with them as obstacles; the path adopted, or the
+        observation answered as decided (held by its speed limit of 0)."""
+        client = self._service_clients["plan"]
+        if not client.service_is_ready() or self.navigator.goal is None:
+            self.traffic.replanned_around(marks, False)
+            self._finish(observation, decision)
+            return
+        request = self._plan_request(observation.pose[:2], self.navigator.goal, marks)
+        call = next(self._ids)
+        self._inflight = (call, "around", time.monotonic(), (decision, marks), observation)
+        client.call_async(request).add_done_callback(lambda future: self._on_planned_around(call, future))
+
+    def _on_planned_around(self, call: int, future) -> None:
+        if self._inflight is None or self._inflight[0] != call:
+            return
+        _, _, _, (decision, marks), observation = self._inflight
+        self._inflight = None
+        try:
+            response = future.result()
+            success, problem = bool(response.success and response.path.poses), response.message
+        except Exception as error:
+            response, success, problem = None, False, f"~/plan failed: {error!r}"
+        self._planned_around(observation, decision, marks, response.path if success else None, problem)
+
+    def _planned_around(self, observation, decision: Decision, marks, path: Path | None, problem: str) -> None:
+        if not self.active:
+            return
+        self.traffic.replanned_around(marks, path is not None)
+        if path is None:
+            self._log([f"no way around the obstacle: {problem}"])
+            self._finish(observation, decision)
+            return
+        self._carry_out(observation, self.navigator.adopt(path_points(path), "around an obstacle not on the map"))
 
     def _on_planned(self, call: int, future) -> None:
         if self._inflight is None or self._inflight[0] != call:
@@ -286,6 +415,10 @@ class NavigatorNode(ManagedNode):
 
     def _finish(self, observation: Observation | None, decision: Decision) -> None:
         """Publish the decision for its observation, then go on with what waited meanwhile."""
+        if observation is not None and self.traffic is not None:
+            decision = self._traffic(observation, decision)
+            if decision is None:
+                return  # a request went out for this observation: finished when it is answered
         if observation is not None:
             self._publish_status(observation, decision)
             self._last, self._last_decided = (observation, decision), time.monotonic()
@@ -295,6 +428,77 @@ class NavigatorNode(ManagedNode):
         elif self._pending is not None:
             pending, self._pending = self._pending, None
             self._decide(pending)
+
+    def _traffic(self, observation: Observation, decision: Decision) -> Decision | None:
+        """The traffic rules on one observation, as NavigationLoop.step applies them: the decision to publish
+        (with its speed limit sent first), or None when a request (a detour handed over, a plan around marks)
+        went out and will finish the observation."""
+        traffic, navigator = self.traffic, self.navigator
+        stamp_ns = stamp_nanoseconds(observation.stamp)
+        stamp = stamp_ns * 1e-9
+        if self._advised is not None and self._advised[0] == stamp_ns:  # advised already (a detour since)
+            return self._limited(observation, decision, self._advised[1])
+        self.board.prune(self.get_clock().now().nanoseconds * 1e-9)
+        costmap = self._map_planner.costmap if self._map_planner is not None else None
+        scan = scan_data(self._scan) if self._scan is not None else None
+        if costmap is None or scan is None:  # the rules need the map and a scan: hold until both came
+            if decision.controller is Controller.PATH_FOLLOWER or decision.mode is Mode.REACHED:
+                self.get_logger().warning("traffic rules without /map or scan yet: holding", throttle_duration_sec=2.0)
+                return self._limited(observation, decision, 0.0)
+            traffic.post_idle(None, False)
+            return self._posted(decision)
+        if decision.controller is not Controller.PATH_FOLLOWER:
+            advice = idle_advice(traffic, decision, observation.pose, costmap, stamp)
+            if advice is None:
+                self._posted(decision)
+                if decision.mode is Mode.REACHED:  # held at its goal by the path follower: the world goes on
+                    return self._limited(observation, decision, 0.0)
+                return decision
+            self._log(advice.events)
+            self._carry_out(observation, navigator.detour(advice.detour, "going aside"))
+            return None
+        advice = traffic.advise(observation.pose, scan, navigator.followed_path, costmap,
+                                self._values["follower_speed"], stamp)
+        self._log(advice.events)
+        self._posted(decision)
+        if advice.hold:
+            return self._limited(observation, decision, 0.0)
+        if advice.replan:
+            navigator.plan_again("traffic: plan to the goal again")
+            self._log(navigator.take_events())
+            self._reports_after = stamp_ns
+            return self._limited(observation, decision, 0.0)
+        self._advised = (stamp_ns, advice.speed_limit)
+        if advice.detour is not None:
+            self._carry_out(observation, navigator.detour(advice.detour, "going aside"))
+            return None
+        if advice.replan_around is not None:
+            self._plan_around(observation, decision, advice.replan_around)
+            return None
+        return self._limited(observation, decision, advice.speed_limit)
+
+    def _limited(self, observation: Observation, decision: Decision, limit: float | None) -> Decision:
+        """The decision with the path follower named and `limit` sent for its observation (a robot at its goal
+        is held by the path follower with 0)."""
+        self._advised = (stamp_nanoseconds(observation.stamp), limit)
+        self._outputs["speed_limit"].publish(speed_limit_message(limit, observation.stamp, self._values["global_frame"]))
+        if decision.controller is Controller.NONE and self.path_follower_has_path():
+            return Decision(decision.mode, Controller.PATH_FOLLOWER, None, None, decision.reason, ())
+        return decision
+
+    def path_follower_has_path(self) -> bool:
+        return self.navigator.followed_path is not None
+
+    def _posted(self, decision: Decision) -> Decision:
+        """Publish this robot's latest post (what the rules just put on the board) on /traffic."""
+        post = self.board.get(self.traffic.name)
+        if post is not None:
+            try:
+                self._outputs["traffic"].publish(post_message(post, self.get_clock().now().to_msg(),
+                                                              self._values["global_frame"]))
+            except PostError as error:  # never a NaN on /traffic
+                self.get_logger().error(f"own traffic post not sent: {error}", throttle_duration_sec=2.0)
+        return decision
 
     def _check_inflight(self) -> None:
         """A request the planner or the path follower did not answer within plan_timeout has failed; an
@@ -312,6 +516,8 @@ class NavigatorNode(ManagedNode):
         problem = f"no answer within {self._values['plan_timeout']} s"
         if kind == "plan":
             self._planned(observation, payload, None, f"{self._service_clients['plan'].srv_name}: {problem}", False)
+        elif kind == "around":
+            self._planned_around(observation, payload[0], payload[1], None, problem)
         else:
             self._handed_over(observation, payload[0], payload[1], f"{self._service_clients['follow'].srv_name}: {problem}")
 

@@ -72,9 +72,9 @@ pocket lies on its side). tests/navigation/test_traffic.py runs that world in th
 
 What a robot needs of the others is exactly its board post (`TrafficPost`). At library level the
 board is one object shared by the robots' navigators (amr_evaluation.fleet_navigation). Through ROS it
-would be a topic in a namespace shared by the fleet (absolute name `/traffic`, every robot's navigator
-publishing its post there and subscribing to everyone's), not a per-robot topic: the navigator node
-does not carry these rules out yet (docs/amr_navigation.md says so).
+is a topic shared by the fleet (absolute name `/traffic`, amr_interfaces/TrafficPost, every robot's
+navigator node publishing its post there and subscribing to everyone's: amr_navigation.navigator_node with
+`traffic: true`, amr_navigation.traffic_messages), not a per-robot topic.
 """
 
 from __future__ import annotations

@@ -5,12 +5,19 @@ standalone use the world file of the `world` parameter rasterized at `resolution
 ~/plan (amr_interfaces/PlanPath) plans between any two poses of the map frame: a smoothed path, or
 success false with the reason (unreachable goal, start in an obstacle, goal off the map, NaN) and
 goal_refused when the goal itself can never be planned to. It answers only while the node is active.
+A request may carry obstacle points and a mark_radius (the navigator's traffic rules planning around what is
+not on the map): they are marked on a copy of the costmap for that plan only (Costmap.with_obstacles, through
+Planner.with_obstacles); points that are not finite, more than MAX_OBSTACLES of them, or a mark_radius not in
+[0, MAX_MARK_RADIUS] are refused with the reason.
 The planner decides nothing: when to plan, and to which goal, is the navigator's decision
 (amr_navigation). A failed request is logged once per distinct reason, not at every retry.
 """
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 from amr_interfaces.srv import PlanPath
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.lifecycle import State, TransitionCallbackReturn
@@ -24,6 +31,25 @@ from amr_planning.messages import path_message
 from amr_planning.planner import NODE_NAME, Planner, PlannerConfig
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED
+
+MAX_OBSTACLES = 20000
+"""obstacle points a ~/plan request may carry (a 240-beam scan extended behind each return is 480)."""
+MAX_MARK_RADIUS = 1.0
+"""m, the largest disc marked around an obstacle point."""
+
+
+def request_obstacles(request) -> tuple[np.ndarray, float]:
+    """(points (N, 2), mark radius) of a PlanPath request; ValueError with the reason for a malformed one."""
+    count = len(request.obstacles)
+    if count > MAX_OBSTACLES:
+        raise ValueError(f"{count} obstacle points (at most {MAX_OBSTACLES})")
+    radius = float(request.mark_radius)
+    if not math.isfinite(radius) or not 0.0 <= radius <= MAX_MARK_RADIUS:
+        raise ValueError(f"mark_radius {radius!r} is not a finite number of m in [0, {MAX_MARK_RADIUS}]")
+    points = np.array([(p.x, p.y) for p in request.obstacles], dtype=float).reshape(-1, 2)
+    if not np.isfinite(points).all():
+        raise ValueError("an obstacle point is not finite")
+    return points, radius
 
 
 class PlannerNode(ManagedNode):
@@ -98,7 +124,13 @@ class PlannerNode(ManagedNode):
         start = (request.start.pose.position.x, request.start.pose.position.y)
         goal = (request.goal.pose.position.x, request.goal.pose.position.y)
         try:
-            points = self.planner.plan(start, goal)
+            obstacles, radius = request_obstacles(request)
+        except ValueError as error:
+            response.message = f"obstacles refused: {error}"
+            return self._failed(response)
+        try:
+            planner = self.planner.with_obstacles(obstacles, radius) if len(obstacles) else self.planner
+            points = planner.plan(start, goal)
         except PlanningError as error:
             response.message, response.goal_refused = str(error), error.goal_refused
             return self._failed(response)

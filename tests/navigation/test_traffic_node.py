@@ -1,0 +1,61 @@
+"""The navigator node's traffic rules option: off by default (nothing of it exists, a robot alone as before); on, the
+posts of the others come onto its board, its own is ignored, a malformed one is dropped and logged (never raised
+in the callback), a stale one is forgotten."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from lifecycle_msgs.msg import Transition
+from rclpy.parameter import Parameter
+
+from amr_navigation.navigator_node import NavigatorNode
+from amr_navigation.traffic import TrafficPost
+from amr_navigation.traffic_messages import post_message
+from builtin_interfaces.msg import Time
+
+
+def navigator(context, **parameters) -> NavigatorNode:
+    node = NavigatorNode(context=context, namespace="/r1",
+                         parameter_overrides=[Parameter(k, value=v) for k, v in parameters.items()])
+    assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
+    return node
+
+
+def test_without_traffic_the_navigator_has_no_rules_and_no_traffic_topics(ros_context):
+    node = navigator(ros_context)
+    try:
+        assert node.traffic is None and node.board is None
+        topics = {name for name, _ in node.get_publisher_names_and_types_by_node("navigator", "/r1")}
+        assert "/traffic" not in topics and "/r1/speed_limit" not in topics, topics
+    finally:
+        node.destroy_node()
+
+
+def test_posts_come_onto_the_board_and_a_garbage_one_is_dropped_not_raised(ros_context):
+    node = navigator(ros_context, traffic=True, priority=3, post_timeout=2.0)
+    try:
+        assert node.traffic.name == "r1" and node.traffic.priority == 3
+        topics = {name for name, _ in node.get_publisher_names_and_types_by_node("navigator", "/r1")}
+        assert {"/traffic", "/r1/speed_limit"} <= topics, topics
+        good = TrafficPost("r2", 1, (1.0, 0.5, math.pi), np.array([[1.0, 0.5], [0.5, 0.5]]), "r1", (), False, False)
+        node._on_post(post_message(good, Time(sec=10)))
+        assert node.board.get("r2") is not None and node.board.get("r2").pose == (1.0, 0.5, math.pi)
+
+        garbage = post_message(TrafficPost("r3", 2, (0.0, 0.0, 0.0)), Time(sec=10))
+        garbage.pose.y = math.nan
+        node._on_post(garbage)  # must not raise
+        nameless = post_message(TrafficPost("r4", 3), Time(sec=10))
+        nameless.name = ""
+        node._on_post(nameless)
+        assert node.posts_dropped == 2 and node.board.get("r3") is None
+
+        node._on_post(post_message(TrafficPost("r1", 0, (9.0, 9.0, 0.0)), Time(sec=10)))  # its own: ignored
+        assert node.board.get("r1") is None
+
+        assert [post.name for post in node.board.others("r1")] == ["r2"]
+        assert node.board.prune(11.5) == [] and node.board.get("r2") is not None
+        assert node.board.prune(12.5) == ["r2"] and node.board.others("r1") == []  # gone quiet: forgotten
+    finally:
+        node.destroy_node()
