@@ -266,6 +266,33 @@ class SectorReader:
         passed = ends[ends <= lidar + WALL_END_SLACK]
         return float(passed[-1]) if passed.size else None
 
+    def side_edge(self, side: float, reach: float, skew: float) -> float | None:
+        """Where the solid on one side that the robot has passed ends, for a side without a fitted wall.
+
+        Just out of a turn the followed side may show no wall to fit: only the end face of a thin
+        wall across the robot's way (a hairpin round it, a one-cell dead end beyond it) and that
+        wall's faces running away from the robot. ``side``: +1 left, -1 right; ``reach``: m from
+        the LiDAR across the walls (wall_lost_distance); ``skew`` as in wall_end. The returns are
+        turned into the walls' frame (x along them, rotation centre at 0, averaged on surfaces so
+        that range noise does not push single returns ahead); of those on that side within
+        ``reach`` across and no further ahead than the LiDAR (plus WALL_END_SLACK), the furthest
+        along gives the x returned: beyond it, up to the LiDAR, that side is open (the opening the
+        robot turns into); ahead of the LiDAR a wall beyond the opening does not count. None where
+        nothing on that side lies within reach behind the LiDAR.
+        """
+        if self._smoothed is None or self._geometry is None:
+            return None
+        seen = self._smoothed < np.inf
+        r = self._smoothed[seen]
+        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
+        y = r * self._geometry.sin[seen]
+        c, s = math.cos(skew), math.sin(skew)
+        along, across = c * x + s * y, -s * x + c * y
+        lidar = self.footprint.lidar_x * c
+        near = (side * across > 0.0) & (side * across <= reach)
+        near &= (along <= lidar + WALL_END_SLACK) & (along > lidar - WALL_END_REACH)
+        return float(along[near].max()) if near.any() else None
+
     def free_travel(self, directions: np.ndarray, shrink: float = 0.0) -> np.ndarray:
         """For each direction (rad, robot frame), how far the disc can drive along it before touching a return.
 
