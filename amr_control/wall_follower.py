@@ -15,8 +15,9 @@ state machine (``WallFollower.state``):
   over the real time between stamps (optionally low-passed).
 * ``CORNER``: the followed wall ended (an opening on that side): drive on until
   the rotation centre is ``target_wall_distance`` past the wall's measured end
-  (``corner_advance`` past where it was lost if the end is not seen), then turn
-  towards the opening.
+  (where no wall was fitted since the last turn, the edge of the solid passed on
+  that side, such as a thin wall's end face; ``corner_advance`` past where it was
+  lost if neither is seen), then turn towards the opening.
 * ``APPROACH``: a front return closer than ``front_threshold`` at a corner:
   creep on at ``stabilize_speed`` until the rotation centre is
   ``target_wall_distance`` from the wall ahead (a threshold above that, as on
@@ -26,7 +27,8 @@ state machine (``WallFollower.state``):
   square to the walls: towards the followed side if open (while following
   a wall; while searching, away from it first), else the other side if open,
   else around. A turn ends when odometry says the angle is done (nominal plus
-  the skew against the last fitted wall, so it ends square) and the narrow
+  the skew against the walls, so it ends square; the skew is carried through a
+  square turn by odometry, a quarter turn on) and the narrow
   window ahead reads ``turn_exit_distance`` (or after ``turn_timeout_factor``
   times its nominal duration).
 * ``STABILIZE``: the seed's Fixed_Front: straight ahead at
@@ -445,8 +447,10 @@ class WallFollower:
         robot on its line in the new corridor. Noise-free that is where corner_advance past the
         point the wall was lost puts it; under noise the abeam window reads the wall's end late
         (a robot skewed 10 deg towards the wall saw it 18 cm late, and then turned back out of
-        the overshot side corridor), the measured end does not. Without a measured end:
-        corner_advance past the point the wall was lost.
+        the overshot side corridor), the measured end does not. Where no wall was fitted since the
+        last turn (a hairpin round a thin wall's end face just out of a turn): the edge of the solid
+        passed on that side (_track_side_edge). Without either: corner_advance past the point the
+        wall was lost.
         """
         c = self.config
         side = 1.0 if self._followed == "left" else -1.0
