@@ -266,6 +266,35 @@ class SectorReader:
         passed = ends[ends <= lidar + WALL_END_SLACK]
         return float(passed[-1]) if passed.size else None
 
+    def side_edge(self, side: float, reach: float, skew: float) -> float | None:
+        """Where the solid on one side that the robot has passed ends, for a side without a fitted wall.
+
+        Just out of a turn the followed side may show no wall to fit: only the end face of a thin
+        wall across the robot's way (a hairpin round it, a one-cell dead end beyond it) and that
+        wall's faces running away from the robot. ``side``: +1 left, -1 right; ``reach``: m from
+        the LiDAR across the walls (wall_lost_distance); ``skew`` as in wall_end. The returns are
+        turned into the walls' frame (x along them, rotation centre at 0, averaged on surfaces so
+        that range noise does not push single returns ahead); of those on that side within
+        ``reach`` across that are passing the LiDAR (no further ahead than WALL_END_SLACK, no
+        further behind than EDGE_BEHIND), the furthest along gives the x returned: beyond it, up
+        to the LiDAR, that side is open (the opening the robot turns into). A wall beyond the
+        opening, ahead, does not count, nor one behind the robot (the far wall of the cell it
+        turned in), which it never passed. None where nothing on that side is passing the LiDAR;
+        the caller keeps what was seen (a face can drop out of a scan) and carries it back.
+        """
+        if self._smoothed is None or self._geometry is None:
+            return None
+        seen = self._smoothed < np.inf
+        r = self._smoothed[seen]
+        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
+        y = r * self._geometry.sin[seen]
+        c, s = math.cos(skew), math.sin(skew)
+        along, across = c * x + s * y, -s * x + c * y
+        lidar = self.footprint.lidar_x * c
+        near = (side * across > 0.0) & (side * across <= reach)
+        near &= (along <= lidar + WALL_END_SLACK) & (along > lidar - EDGE_BEHIND)
+        return float(along[near].max()) if near.any() else None
+
     def free_travel(self, directions: np.ndarray, shrink: float = 0.0) -> np.ndarray:
         """For each direction (rad, robot frame), how far the disc can drive along it before touching a return.
 
@@ -330,6 +359,8 @@ WALL_END_SLACK = 0.03
 """m: the passed wall is the last run of returns on its line that ends before the LiDAR (plus this)."""
 WALL_END_REACH = 0.8
 """m: returns further along the walls than this are not looked at."""
+EDGE_BEHIND = 0.1
+"""m: SectorReader.side_edge takes returns passing the LiDAR, at most this far behind it."""
 
 CLEARANCE_MEAN_BEAMS = 5
 """The clearance reads ranges averaged over this many beams: range noise (sigma 3 cm) would

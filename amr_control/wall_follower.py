@@ -15,8 +15,9 @@ state machine (``WallFollower.state``):
   over the real time between stamps (optionally low-passed).
 * ``CORNER``: the followed wall ended (an opening on that side): drive on until
   the rotation centre is ``target_wall_distance`` past the wall's measured end
-  (``corner_advance`` past where it was lost if the end is not seen), then turn
-  towards the opening.
+  (where no wall was fitted since the last turn, the edge of the solid passed on
+  that side, such as a thin wall's end face; ``corner_advance`` past where it was
+  lost if neither is seen), then turn towards the opening.
 * ``APPROACH``: a front return closer than ``front_threshold`` at a corner:
   creep on at ``stabilize_speed`` until the rotation centre is
   ``target_wall_distance`` from the wall ahead (a threshold above that, as on
@@ -26,7 +27,8 @@ state machine (``WallFollower.state``):
   square to the walls: towards the followed side if open (while following
   a wall; while searching, away from it first), else the other side if open,
   else around. A turn ends when odometry says the angle is done (nominal plus
-  the skew against the last fitted wall, so it ends square) and the narrow
+  the skew against the walls, so it ends square; the skew is carried through a
+  square turn by odometry, a quarter turn on) and the narrow
   window ahead reads ``turn_exit_distance`` (or after ``turn_timeout_factor``
   times its nominal duration).
 * ``STABILIZE``: the seed's Fixed_Front: straight ahead at
@@ -178,6 +180,12 @@ class SkewFilter:
             self._skew = _half_turn(self._skew - turn)
             self._variance += WALL_WANDER**2 * abs(distance) + (TURN_ERROR * turn) ** 2
 
+    def square(self) -> None:
+        """After a square turn in place (90 or 180 deg by odometry): the walls alongside are square to
+        the ones before, so the estimate carried through the turn holds up to a quarter turn."""
+        if self._skew is not None:
+            self._skew = math.remainder(self._skew, 0.5 * math.pi)
+
     def measure(self, fit: LineFit, tentative: bool = False) -> None:
         """A fitted wall; ``tentative``: only used if it agrees with the estimate (the other side's wall)."""
         r = max(fit.angle_std, ANGLE_FLOOR) ** 2
@@ -259,6 +267,7 @@ class WallFollower:
         self._resume = (State.SEARCH, 0.0, 0.0)  # (state, state_time, traveled) AVOID returns to
         self._turn_sign = 0.0
         self._turn_angle = 0.0
+        self._square_turn = False  # whether the turn in place is a square one (the skew is carried through it)
         self._skew_filter = SkewFilter()
         self._skew = 0.0  # the heading error against the walls (SkewFilter), 0 when unknown
         self._skew_seen = False  # whether it is known and this scan has a fitted wall
@@ -271,6 +280,7 @@ class WallFollower:
         self._straight = False  # whether the last PD error came from a fitted line
         self._tracking = False  # whether the last front block met the robot following a wall
         self._wall_line = math.inf  # the followed wall's distance from the LiDAR, last fitted while following
+        self._side_edge = -math.inf  # SectorReader.side_edge since the last turn, carried along as the robot drives
         self._command = (0.0, 0.0)
         self._measurements = Measurements(followed_wall=self._followed)
 
@@ -311,6 +321,7 @@ class WallFollower:
         self._state_time += elapsed
         self._traveled += moved
         self._turned += turned
+        self._track_side_edge(moved)
         self._transition(readings)
         v, w = self._command_for(readings, elapsed, rate_valid)
         self._record(readings)
@@ -373,6 +384,8 @@ class WallFollower:
             # the way back is the first direction with that much room.
             done = self._turned >= self._turn_angle and (room or self._turned >= self._turn_angle + TURN_OVERSHOOT)
             if done or self._state_time >= c.turn_timeout_factor * self._turn_angle / c.turn_speed:
+                if self._square_turn:
+                    self._skew_filter.square()
                 self._enter(State.STABILIZE)
         elif state == State.STABILIZE:
             if self._state_time >= c.stabilize_time:
@@ -434,15 +447,32 @@ class WallFollower:
         robot on its line in the new corridor. Noise-free that is where corner_advance past the
         point the wall was lost puts it; under noise the abeam window reads the wall's end late
         (a robot skewed 10 deg towards the wall saw it 18 cm late, and then turned back out of
-        the overshot side corridor), the measured end does not. Without a measured end:
-        corner_advance past the point the wall was lost.
+        the overshot side corridor), the measured end does not. Where no wall was fitted since the
+        last turn (a hairpin round a thin wall's end face just out of a turn): the edge of the solid
+        passed on that side (_track_side_edge). Without either: corner_advance past the point the
+        wall was lost.
         """
         c = self.config
         side = 1.0 if self._followed == "left" else -1.0
-        end = self._reader.wall_end(side, self._wall_line, self._skew)
+        if math.isfinite(self._wall_line):
+            end = self._reader.wall_end(side, self._wall_line, self._skew)
+        else:  # no wall fitted since the last turn: the end of whatever solid the robot passed on that side
+            end = self._side_edge if math.isfinite(self._side_edge) else None
         if end is None:
             return self._traveled >= c.corner_advance
         return -end >= c.target_wall_distance
+
+    def _track_side_edge(self, moved: float) -> None:
+        """Where the solid passed on the followed side ends (SectorReader.side_edge), kept since the last
+        turn: the furthest seen, carried back as the robot drives. A thin wall's end face can drop out
+        of a scan (a 7 mm wall end-on from its own line: one beam, removed by the median), and the
+        edge read on that scan alone jumped back to the wall before it, 0.4 m behind: an early turn."""
+        self._side_edge -= moved * math.cos(self._skew)
+        if self._state in MOVING:
+            side = 1.0 if self._followed == "left" else -1.0
+            edge = self._reader.side_edge(side, self.config.wall_lost_distance, self._skew)
+            if edge is not None:
+                self._side_edge = max(self._side_edge, edge)
 
     def _committed(self, r: Readings) -> bool:
         """Whether the robot, just out of a turn, is committed to the corridor it turned into.
@@ -610,13 +640,20 @@ class WallFollower:
         if state != State.TURN_AROUND:
             sign = 1.0 if state == State.TURN_LEFT else -1.0
         self._turn_sign = sign
+        self._square_turn = angle is None
         if angle is not None:
             self._turn_angle = angle
+            self._skew_filter.forget()  # the walls alongside after a turn of another angle are other walls
         else:
             nominal = math.pi if state == State.TURN_AROUND else 0.5 * math.pi
             self._turn_angle = nominal + sign * self._skew
-        self._skew_filter.forget()  # the walls alongside after the turn are other walls
+            # A square turn: the walls alongside after it are square to these, and the estimate is
+            # carried through it by odometry (SkewFilter.move, square at its end). Without it a robot
+            # leaving a turn where no wall runs alongside (a hairpin round the end of a thin wall, a
+            # junction of several corridors) drove on at whatever heading the turn and the avoidance
+            # turns after it left, 15 deg off, and misread where the wall it turned round ended.
         self._wall_line = math.inf
+        self._side_edge = -math.inf
         self._skew, self._skew_seen = 0.0, False
 
     def _enter(self, state: State) -> None:
@@ -667,15 +704,15 @@ class WallFollower:
         left a skew of -70 deg at the turn's end (noise-free) that rotated the next turn's
         candidate directions. An estimate that has grown past max_skew_deg is dropped likewise.
         """
-        if self._state not in TURNING:
-            followed = self._fit(r, self._followed, direction=True)
-            other = self._fit(r, "right" if self._followed == "left" else "left", direction=True)
-            if followed is not None:
-                self._skew_filter.measure(followed)
-            if other is not None:
-                self._skew_filter.measure(other, tentative=followed is not None)
-        else:
-            followed = other = None
+        if self._state in TURNING:  # carried through the turn, not used until it ends
+            self._skew, self._skew_seen = 0.0, False
+            return
+        followed = self._fit(r, self._followed, direction=True)
+        other = self._fit(r, "right" if self._followed == "left" else "left", direction=True)
+        if followed is not None:
+            self._skew_filter.measure(followed)
+        if other is not None:
+            self._skew_filter.measure(other, tentative=followed is not None)
         skew = self._skew_filter.skew
         if skew is not None and abs(skew) > math.radians(self.config.max_skew_deg):
             self._skew_filter.forget()

@@ -2,7 +2,8 @@
 
 Unit tests of the decision changes (the skew averaged along the way, window minima read on
 averaged ranges, the commitment to the corridor a turn faces, corner turns anchored on the
-measured end of the followed wall) on synthetic scans, and a noisy
+measured end of the followed wall or, where none was fitted, of the solid passed; the skew kept
+through square turns) on synthetic scans, and a noisy
 tight maze whose route, cell by cell, is compared with the noise-free one; the sweeps over many
 mazes, seeds and both configurations are in bench/bench_wall_follower_families.py --route.
 """
@@ -204,6 +205,56 @@ def test_a_corner_turn_comes_target_wall_distance_past_the_walls_end(corner_adva
     assert centre == pytest.approx(0.2, abs=0.015 + 1.2 * sigma)
 
 
+@pytest.mark.parametrize("corner_advance", [0.0, 0.4])
+@pytest.mark.parametrize("sigma", [0.0, 0.03])
+def test_a_thin_wall_seen_only_end_on_anchors_the_corner_turn(corner_advance, sigma):
+    # No wall fitted on the followed side (as just out of a turn): driving along +x past the end face
+    # (x from -0.01 to 0) of a 1 cm wall running away to the right, a corridor on each side of it (the
+    # first scan's nearest return, so the follower takes it for its wall). The
+    # turn comes once the rotation centre is target_wall_distance (0.2 m) past x = 0, whatever
+    # corner_advance: the edge of the solid passed on the right (SectorReader.side_edge), kept while
+    # it passes the LiDAR's own line, where the face drops to a single beam.
+    rng = np.random.default_rng(6)
+    walls = [(-3.0, 0.3, 3.0, 0.3), (-0.01, -0.2, 0.0, -0.2), (-0.01, -0.2, -0.01, -3.0), (0.0, -0.2, 0.0, -3.0)]
+    follower = WallFollower(dataclasses.replace(SIM_CONFIG, corner_advance=corner_advance))
+    lidar = -0.06
+    for step in range(200):
+        shifted = [(a - lidar, b, c - lidar, d) for a, b, c, d in walls]
+        scan = cast(shifted)
+        follower.compute(noisy(scan, rng, sigma) if sigma else scan, 0.15, 0.0, step * DT)
+        if follower.state.startswith("TURN"):
+            break
+        lidar += 0.15 * DT
+    assert follower.state == "TURN_RIGHT"
+    centre = lidar + 0.032
+    assert centre == pytest.approx(0.2, abs=0.015 + 1.2 * sigma)
+
+
+def test_the_side_edge_is_the_end_of_the_solid_passed_not_the_wall_beyond_the_opening():
+    # The followed right wall ends at x = 0 and resumes at x = 0.4 beyond a side opening; the LiDAR at
+    # x = 0.05: the edge is the end at 0 (in the rotation centre's frame: -0.05 - 0.032), not the wall ahead.
+    walls = [(-3.0, 0.2, 3.0, 0.2), (-3.0, -0.2, 0.0, -0.2), (0.4, -0.2, 3.0, -0.2)]
+    reader = SectorReader(READER.sectors, READER.footprint, 1)
+    reader.read(cast([(a - 0.05, b, c - 0.05, d) for a, b, c, d in walls]))
+    assert reader.side_edge(-1.0, 0.4, 0.0) == pytest.approx(-0.05 - 0.032, abs=0.01)
+    assert reader.side_edge(1.0, 0.4, 0.0) == pytest.approx(0.03 - 0.032, abs=0.03)  # the left wall runs on
+    # A wall behind the robot, across its right side (the far wall of the cell it turned in): never passed.
+    reader.read(cast([(-3.0, 0.2, 3.0, 0.2), (-0.25, 0.2, -0.25, -0.4)]))
+    assert reader.side_edge(-1.0, 0.4, 0.0) is None
+
+
+def test_the_skew_is_kept_through_a_square_turn():
+    # The robot is 0.1 rad clockwise of the walls; a right turn of 90 deg minus that by odometry,
+    # overshooting by 0.02, leaves it 0.02 clockwise of the walls it faces then (square to the others).
+    skew = SkewFilter()
+    for _ in range(5):
+        skew.measure(fit(math.degrees(0.1), 1.0))
+    skew.move(0.0, -(0.5 * math.pi - 0.1 + 0.02))
+    skew.square()
+    assert skew.skew == pytest.approx(0.02, abs=0.005)
+    assert skew.std < math.radians(6.0)
+
+
 def test_the_direction_window_is_checked():
     with pytest.raises(ConfigError, match=r"wall_direction_window_deg: must be in \[1, 90\), got 90.0"):
         WallFollowerConfig.from_params({"wall_direction_window_deg": 90.0})
@@ -227,14 +278,21 @@ def route_of(world: dict, seconds: float, **simulation) -> tuple[list, bool]:
     return cell_route(MazeGrid.from_world(world), sim.trajectory[:, :2]), sim.goal_reached
 
 
-TIGHT_MAZE = ("rotated", 0, {"size": 6.0, "width": 0.35, "loop_fraction": 0.0})
-"""6 m across, 0.35 m corridors, turned by 29 deg: before issue 20's changes the noisy run of seed 2 left
-the noise-free route at its 80th cell (it turned back out of a side corridor, 374 s in)."""
+TIGHT_MAZES = {
+    "rotated": (("rotated", 0, {"size": 6.0, "width": 0.35, "loop_fraction": 0.0}), 2),
+    "hairpins": (("dead_ends", 0, {"size": 6.0, "width": 0.35}), 2),
+}
+"""6 m across, 0.35 m corridors, and the noisy run's seed. rotated: turned by 29 deg; before issue 20's
+changes the noisy run left the noise-free route at its 80th cell (it turned back out of a side corridor,
+374 s in). hairpins: 2 cm walls whose end faces the right hand turns round twice in a row; before the
+skew was kept through square turns and the corner anchored on the edge of the solid passed, the noisy
+run left the route at its 53rd cell (avoidance turns off the end faces left it 15 deg off with nothing
+to measure that by, and it overshot the second turn)."""
 
 
-@pytest.mark.parametrize("seed", [2])  # the seed that left the route before; more seeds: the bench's --route
-def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(seed):
-    family, maze, options = TIGHT_MAZE
+@pytest.mark.parametrize("name", list(TIGHT_MAZES))  # more mazes and seeds: the bench's --route
+def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(name):
+    (family, maze, options), seed = TIGHT_MAZES[name]
     world = generate(family, maze, **options)
     reference, reached = route_of(world, 600.0, lidar=LidarConfig(noise_std=0.0))
     tour = hand_tour(MazeGrid.from_world(world), world["start"])
@@ -242,4 +300,7 @@ def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(seed
     route, reached = route_of(world, 600.0, seed=seed, lidar=LidarConfig(noise_std=0.03),
                               encoders=EncoderConfig(noise=0.02, slip=0.05))
     assert reached, f"goal missed; route {route}"
-    assert route == reference, f"left the noise-free route at cell {first_difference(route, reference)}"
+    # The same cells up to where the shorter ends at the goal (which may be reached a cell early or late).
+    shorter = min(len(route), len(reference))
+    at = first_difference(route[:shorter], reference[:shorter])
+    assert at is None, f"left the noise-free route at cell {at}"
