@@ -436,7 +436,10 @@ class Traffic:
         if stamp < self._retry_at:
             yield_to = []  # no place to wait was found: look again after wait_time, not every observation
         if yield_to:
-            advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker)
+            # rule 5: the lower-priority robot of a pair that both cannot yield searches the whole map
+            far = any(post.cannot_yield and not self._outranks(post) for post in yield_to)
+            advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker,
+                                    far=far)
             if advice is not None:
                 return advice
         elif stamp >= self._retry_at:
@@ -533,8 +536,13 @@ class Traffic:
         return not self._outranks(post) or post.cannot_yield
 
     def _go_aside(self, pose, costmap: Costmap, yield_to: list[TrafficPost], stamp: float, passive: bool,
-                  stretch: np.ndarray | None = None, blocker: TrafficPost | None = None) -> Advice | None:
+                  stretch: np.ndarray | None = None, blocker: TrafficPost | None = None,
+                  far: bool = False) -> Advice | None:
         config = self.config
+        search = config.yield_search
+        if far:  # rule 5: no bound but the map (every cell reachable without passing another robot)
+            grid = costmap.grid
+            search = max(search, (grid.width + grid.height) * grid.resolution)
         distance = 2.0 * config.robot_radius + config.yield_clearance
         avoid = [np.asarray(post.path).reshape(-1, 2) for post in yield_to if post.path is not None]
         avoid += [np.array([post.pose[:2]]) for post in yield_to]
@@ -546,7 +554,7 @@ class Traffic:
         for passing in ((), names) if passive else ((),):
             discs = [xy for name, xy in others.items() if name not in passing]
             marked = costmap.with_obstacles(np.array(discs), config.robot_radius) if discs else costmap
-            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, config.yield_search)
+            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, search)
             if spot is None:
                 continue
             try:
@@ -555,6 +563,8 @@ class Traffic:
                 continue
             self._through = tuple(sorted(set(self._through) | set(passing)))
             way = f" past {', '.join(passing)} (boxed in: they make way first)" if passing else ""
+            if far:
+                way += f" (neither could give way within {config.yield_search:g} m: searched farther)"
             break
         if detour is None:
             if not self._cannot_yield:
