@@ -63,6 +63,20 @@ The navigator of one robot runs them on every observation it drives with the pat
    blocked robot's side is not resolved: both post `cannot_yield` and wait (the boxed-in robot gives up
    after `yield_timeout` and parks again, then tries again). tests/navigation/test_traffic.py runs a robot
    parked in a dead end with the other coming in to a goal behind it, in either order of the list.
+5. **Search farther** (neither can give way within reach). Two robots blocked by each other that both post
+   `cannot_yield` (the lower-priority one found no place within `yield_search`, then the other found none
+   either) would wait for ever. The lower-priority one then searches again without the `yield_search` bound:
+   every cell it reaches without passing another robot (the others' discs are marked), the place still that
+   distance from the other's path and centre; it goes there as in rule 3 while the other holds (at most
+   `yield_timeout`, then it follows, held back by rule 1). Why this resolves a tree maze (one way between any
+   two cells): the stretch between the two splits the free space into two sides; the other robot's path
+   runs through this robot's side to its goal, so a place on this side is any cell that far from that path:
+   a branch off it, or the dead end beyond the other's goal (then the other parks at its goal in front of
+   this robot, and rules 3 and 4 get this one out). The bound only made the search give up early; the
+   nearest place is still taken (breadth-first). Not resolved: a side with no such cell anywhere (a bare
+   corridor ending at the other's goal) while the other's only place is farther than `yield_search`: both
+   wait (the higher-priority one does not search farther). tests/navigation/test_traffic.py runs a corridor
+   whose only place aside is a pocket 5 m behind the lower-priority robot (neither moves without the rule).
 
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
