@@ -63,6 +63,24 @@ The navigator of one robot runs them on every observation it drives with the pat
    blocked robot's side is not resolved: both post `cannot_yield` and wait (the boxed-in robot gives up
    after `yield_timeout` and parks again, then tries again). tests/navigation/test_traffic.py runs a robot
    parked in a dead end with the other coming in to a goal behind it, in either order of the list.
+5. **Search farther** (neither can give way within reach). Two robots blocked by each other that both post
+   `cannot_yield` (the lower-priority one found no place within `yield_search`, then the other found none
+   either) would wait for ever. The lower-priority one then searches again with no bound but the map, and
+   past robots parked at their goals (they make way for it by rule 3 when it holds before them on its way;
+   the place is still that distance from them), the place still that distance from the other's path and
+   centre; it goes there as in rule 3 while the other holds (at most `yield_timeout`, then it follows, held
+   back by rule 1). Should that fail too, the other does the same once its own search has failed for
+   `wait_time` (the lower-priority one has had its turn first). Both look again every `wait_time` and a robot
+   clears its flag on the observation it looks again, so each reads the other's `cannot_yield` as seen
+   within the last `wait_time`. Why this resolves a tree maze (one way between any two cells): the stretch
+   between the two splits the free space into two sides; the other's path runs through this robot's side to
+   its goal, so a place on this side is any cell that far from that path: a branch off it, or the dead end
+   beyond the other's goal (then the other parks at its goal in front of this robot, and rules 3 and 4 get
+   this one out). The bound, and the parked robots taken as walls, only made the search give up early; the
+   nearest place is still taken (breadth-first). Not resolved: neither side has such a cell anywhere (each a
+   bare corridor ending at the other's goal: no swap is possible), and a robot on the way that is not parked
+   (exploring, or itself giving way) still counts as a wall. tests/navigation/test_traffic.py runs a corridor
+   whose only place aside is a pocket 5 m behind the lower-priority robot (neither moves without the rule).
 
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
@@ -383,6 +401,10 @@ class Traffic:
         self._through: tuple[str, ...] = ()
         """the robots a boxed-in robot's way aside passes (they make way for it first)."""
         self._detour = np.zeros((0, 2))
+        self._said_cannot: dict[str, float] = {}
+        self._failing_since: float | None = None
+        """the stamp of the first of the searches for a place aside that have failed since (rule 5)."""
+        """the last stamp at which each other robot was seen posting cannot_yield (rule 5)."""
         """the path to the place aside."""
         """no place to wait was found: the next search is not before this stamp."""
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
@@ -420,6 +442,11 @@ class Traffic:
         others = [post for post in self.board.others(self.name) if post.pose is not None]
         blocker = self._blocker(pose, stretch, others)
         events: list[str] = []
+        for post in others:
+            if post.cannot_yield:
+                self._said_cannot[post.name] = stamp
+        if blocker is None:
+            self._failing_since = None
 
         if self.phase is not Phase.GO:
             advice = self._yielding(pose, stretch, costmap, others, stamp)
@@ -436,7 +463,16 @@ class Traffic:
         if stamp < self._retry_at:
             yield_to = []  # no place to wait was found: look again after wait_time, not every observation
         if yield_to:
-            advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker)
+            # rule 5: the lower-priority robot of a pair that both cannot yield searches the whole map
+            # (the other's flag is read as seen within wait_time: both look again every wait_time, and the other
+            # clears its flag for the observation on which it looks again)
+            # the one with the right of way searches farther too once its own search has failed for wait_time
+            # (the other has had its turn at the farther search)
+            failing = self._failing_since is not None and stamp - self._failing_since >= config.wait_time
+            far = any((failing or not self._outranks(post))
+                      and stamp - self._said_cannot.get(post.name, -math.inf) <= config.wait_time for post in yield_to)
+            advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker,
+                                    far=far)
             if advice is not None:
                 return advice
         elif stamp >= self._retry_at:
@@ -533,20 +569,31 @@ class Traffic:
         return not self._outranks(post) or post.cannot_yield
 
     def _go_aside(self, pose, costmap: Costmap, yield_to: list[TrafficPost], stamp: float, passive: bool,
-                  stretch: np.ndarray | None = None, blocker: TrafficPost | None = None) -> Advice | None:
+                  stretch: np.ndarray | None = None, blocker: TrafficPost | None = None,
+                  far: bool = False) -> Advice | None:
         config = self.config
+        search = config.yield_search
+        if far:  # rule 5: no bound but the map (every cell reachable without passing another robot)
+            grid = costmap.grid
+            search = max(search, (grid.width + grid.height) * grid.resolution)
         distance = 2.0 * config.robot_radius + config.yield_clearance
         avoid = [np.asarray(post.path).reshape(-1, 2) for post in yield_to if post.path is not None]
         avoid += [np.array([post.pose[:2]]) for post in yield_to]
         names = tuple(post.name for post in yield_to)
         others = {post.name: post.pose[:2] for post in self.board.others(self.name) if post.pose is not None}
+        if far:  # rule 5: robots parked at their goals make way (rule 3) for one driving past them: not walls here
+            parked = [post for post in self.board.others(self.name) if post.pose is not None and post.passive
+                      and post.path is None and not post.yielding_to and post.name not in names]
+            for post in parked:
+                del others[post.name]
+            avoid += [np.array([post.pose[:2]]) for post in parked]  # the place is not where one is parked
         # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
         # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
         spot = detour = None
         for passing in ((), names) if passive else ((),):
             discs = [xy for name, xy in others.items() if name not in passing]
             marked = costmap.with_obstacles(np.array(discs), config.robot_radius) if discs else costmap
-            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, config.yield_search)
+            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, search)
             if spot is None:
                 continue
             try:
@@ -555,8 +602,12 @@ class Traffic:
                 continue
             self._through = tuple(sorted(set(self._through) | set(passing)))
             way = f" past {', '.join(passing)} (boxed in: they make way first)" if passing else ""
+            if far:
+                way += f" (neither could give way within {config.yield_search:g} m: searched farther)"
             break
         if detour is None:
+            if self._failing_since is None:
+                self._failing_since = stamp
             if not self._cannot_yield:
                 self.counters.cannot_yield += 1
             self._cannot_yield = True
@@ -567,6 +618,7 @@ class Traffic:
                 self._post(pose, blocker)
             return None
         self._cannot_yield = False
+        self._failing_since = None
         self.counters.yields += 1
         if self.phase is Phase.GO:  # the way back to where it left its path, and the stretch it left
             behind = np.asarray(stretch if stretch is not None else [pose[:2]], dtype=float).reshape(-1, 2)

@@ -194,3 +194,27 @@ def test_a_stopped_robot_moves_on_only_once_the_way_is_clear_by_a_margin():
     assert limits == [0.0] * 10 and rules.counters.stops == 1
     assert config.stop_distance + RESUME_MARGIN < 0.5
     assert rules.advise(pose, face_scan(clear), path, costmap, 0.2, next(stamps)).speed_limit is None
+
+
+def far_pocket():
+    """A corridor one robot wide (0.35 m free) from x = -2 to x = 7, closed at both ends, with one side pocket
+    (0.35 m wide, 0.65 m deep) at x = 6. r1 (first in the list) goes from x = -1.2 to the right end, r2 from
+    x = 1.2 to the left end: they meet near x = 0. Neither has a place aside within yield_search (4 m) of steps:
+    r1's side is the dead end holding r2's goal; r2's only place is the pocket, about 5 m back."""
+    walls = [[-2.0, -0.2, 7.0, -0.2], [-2.0, 0.2, 5.8, 0.2], [6.2, 0.2, 7.0, 0.2], [5.8, 0.2, 5.8, 0.9],
+             [6.2, 0.2, 6.2, 0.9], [5.8, 0.9, 6.2, 0.9], [-2.0, -0.2, -2.0, 0.2], [7.0, -0.2, 7.0, 0.2]]
+    return world_from_dict({"name": "far_pocket", "wall_thickness": 0.05, "walls": walls, "robots": [
+        {"name": "r1", "start": [-1.2, 0.0, 0.0], "goal": [6.7, 0.0, 0.1]},
+        {"name": "r2", "start": [1.2, 0.0, math.pi], "goal": [-1.7, 0.0, 0.1]}]})
+
+
+def test_when_neither_robot_can_give_way_nearby_the_lower_priority_one_searches_farther():
+    run = run_fleet(far_pocket(), localization="truth", duration=300.0, seed=4)
+    robots = {robot.name: robot for robot in run.robots}
+    events = {robot.name: robot.events for robot in run.robots}
+    assert run.reached == 2, events
+    assert run.robot_contacts == 0 and run.wall_contacts == 0, events
+    # rule 5: both said they cannot give way within reach; r2 (second in the list) then went to the far pocket
+    assert robots["r1"].cannot_yield >= 1 and robots["r2"].cannot_yield >= 1, events
+    assert any("searched farther" in event for event in robots["r2"].events), events
+    assert robots["r1"].yields == 0, events
