@@ -251,13 +251,7 @@ class SectorReader:
         """
         if self._ranges is None or self._geometry is None or not math.isfinite(distance):
             return None
-        seen = self._ranges < np.inf
-        r = self._ranges[seen]
-        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
-        y = r * self._geometry.sin[seen]
-        c, s = math.cos(skew), math.sin(skew)
-        along, across = c * x + s * y, -s * x + c * y  # turned by -skew: the walls' frame
-        lidar = self.footprint.lidar_x * c
+        along, across, lidar = self._walls_frame(self._ranges, skew)
         on_line = (np.abs(across - side * distance) < WALL_END_BAND) & (np.abs(along - lidar) < WALL_END_REACH)
         along = np.sort(along[on_line])
         if along.size == 0:
@@ -265,6 +259,16 @@ class SectorReader:
         ends = along[np.append(np.flatnonzero(np.diff(along) > WALL_END_GAP), along.size - 1)]
         passed = ends[ends <= lidar + WALL_END_SLACK]
         return float(passed[-1]) if passed.size else None
+
+    def _walls_frame(self, ranges: np.ndarray, skew: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """(along, across, lidar): the finite returns of ``ranges`` turned by -skew into the walls' frame
+        (rotation centre at 0), and the LiDAR's place along them."""
+        seen = ranges < np.inf
+        r = ranges[seen]
+        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
+        y = r * self._geometry.sin[seen]
+        c, s = math.cos(skew), math.sin(skew)
+        return c * x + s * y, -s * x + c * y, self.footprint.lidar_x * c
 
     def side_edge(self, side: float, reach: float, skew: float) -> float | None:
         """Where the solid on one side that the robot has passed ends, for a side without a fitted wall.
@@ -284,13 +288,7 @@ class SectorReader:
         """
         if self._smoothed is None or self._geometry is None:
             return None
-        seen = self._smoothed < np.inf
-        r = self._smoothed[seen]
-        x = self.footprint.lidar_x + r * self._geometry.cos[seen]
-        y = r * self._geometry.sin[seen]
-        c, s = math.cos(skew), math.sin(skew)
-        along, across = c * x + s * y, -s * x + c * y
-        lidar = self.footprint.lidar_x * c
+        along, across, lidar = self._walls_frame(self._smoothed, skew)
         near = (side * across > 0.0) & (side * across <= reach)
         near &= (along <= lidar + WALL_END_SLACK) & (along > lidar - EDGE_BEHIND)
         return float(along[near].max()) if near.any() else None
