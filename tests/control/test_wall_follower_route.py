@@ -181,6 +181,19 @@ def test_while_following_the_same_return_is_a_junction():
     assert follower.state.startswith("TURN")
 
 
+def drive_until_turn(follower, walls, lidar: float, rng, sigma: float) -> float:
+    """Drive the follower along +x at 0.15 m/s past `walls` (LiDAR starting at x = `lidar`) until it
+    starts a turn (at most 200 periods); the LiDAR's x then."""
+    for step in range(200):
+        shifted = [(a - lidar, b, c - lidar, d) for a, b, c, d in walls]
+        scan = cast(shifted)
+        follower.compute(noisy(scan, rng, sigma) if sigma else scan, 0.15, 0.0, step * DT)
+        if follower.state.startswith("TURN"):
+            break
+        lidar += 0.15 * DT
+    return lidar
+
+
 @pytest.mark.parametrize("corner_advance", [0.0, 0.15, 0.4])
 @pytest.mark.parametrize("sigma", [0.0, 0.03])
 def test_a_corner_turn_comes_target_wall_distance_past_the_walls_end(corner_advance, sigma):
@@ -191,13 +204,7 @@ def test_a_corner_turn_comes_target_wall_distance_past_the_walls_end(corner_adva
     walls = [(-3.0, 0.2, 3.0, 0.2), (-3.0, -0.2, 0.0, -0.2), (0.0, -0.2, 0.0, -0.26), (0.4, -0.2, 3.0, -0.2)]
     follower = WallFollower(dataclasses.replace(SIM_CONFIG, corner_advance=corner_advance))
     lidar = -0.4
-    for step in range(200):
-        shifted = [(a - lidar, b, c - lidar, d) for a, b, c, d in walls]
-        scan = cast(shifted)
-        follower.compute(noisy(scan, rng, sigma) if sigma else scan, 0.15, 0.0, step * DT)
-        if follower.state.startswith("TURN"):
-            break
-        lidar += 0.15 * DT
+    lidar = drive_until_turn(follower, walls, lidar, rng, sigma)
     assert follower.state == "TURN_RIGHT"
     centre = lidar + 0.032
     # Noise-free to a step (7.5 mm); at 3 cm noise the last return of the end's run lies up to 3 cm long
@@ -218,13 +225,7 @@ def test_a_thin_wall_seen_only_end_on_anchors_the_corner_turn(corner_advance, si
     walls = [(-3.0, 0.3, 3.0, 0.3), (-0.01, -0.2, 0.0, -0.2), (-0.01, -0.2, -0.01, -3.0), (0.0, -0.2, 0.0, -3.0)]
     follower = WallFollower(dataclasses.replace(SIM_CONFIG, corner_advance=corner_advance))
     lidar = -0.06
-    for step in range(200):
-        shifted = [(a - lidar, b, c - lidar, d) for a, b, c, d in walls]
-        scan = cast(shifted)
-        follower.compute(noisy(scan, rng, sigma) if sigma else scan, 0.15, 0.0, step * DT)
-        if follower.state.startswith("TURN"):
-            break
-        lidar += 0.15 * DT
+    lidar = drive_until_turn(follower, walls, lidar, rng, sigma)
     assert follower.state == "TURN_RIGHT"
     centre = lidar + 0.032
     assert centre == pytest.approx(0.2, abs=0.015 + 1.2 * sigma)
