@@ -3,6 +3,7 @@ namespace, copied from one description each; composed through ROS on a two-robot
 active in its namespace, each robot's filter localizing it, every robot driven."""
 
 import math
+from pathlib import Path
 
 from amr_interfaces.msg import LocalizedPose
 from conftest import spin_until
@@ -14,6 +15,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup
+from amr_evaluation.worlds import rotationally_symmetric
+from amr_maps.world import load_world
 from amr_util.stamps import stamp_nanoseconds
 
 RELIABLE = QoSProfile(depth=500, reliability=ReliabilityPolicy.RELIABLE)
@@ -94,6 +97,18 @@ def test_the_stack_is_maze_navigation_per_robot_in_its_namespace():
         for key, value in node.parameters.items():
             if isinstance(value, str) and value.startswith("/"):
                 assert value == "/map", (node.managed_name, key, value)
+
+
+def test_every_shipped_fleet_world_can_be_localized():
+    """fleet_navigation's robots drive only once their filters say localized, and a filter must never say so
+    where a rotation maps the walls onto themselves: a shipped fleet world that has one (crossing.yaml had a
+    half turn) brings the stack up and leaves every robot exploring for ever."""
+    worlds = sorted((Path(__file__).resolve().parents[2] / "config" / "worlds" / "fleets").glob("*.yaml"))
+    assert worlds, "no shipped fleet worlds found"
+    for path in worlds:
+        world = load_world(path)
+        assert world.fleet, f"{path.name}: a fleet world lists its robots"
+        assert rotationally_symmetric(world) == "", f"{path.name}: symmetric under a rotation"
 
 
 def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp_path):
