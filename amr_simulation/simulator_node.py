@@ -65,6 +65,7 @@ from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -89,6 +90,8 @@ WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
 RATE_WINDOW = 20
 """Steps over which the status real-time factor is measured."""
+QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
+"""Event callbacks of the node's publishers: none (see SimulatorNode._publisher)."""
 
 
 class RateMeter:
@@ -289,7 +292,7 @@ class SimulatorNode(ManagedNode):
         shared_tf = not named or get("one_tf_tree")
         self._stamped = fleet.config.cmd_vel_stamped
         if get("publish_clock"):
-            self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", qos)
+            self._outputs["clock"] = self._publisher(Clock, "/clock", qos)
         self._tf_parts = (get("publish_tf"), get("publish_map_to_odom"))
         if shared_tf:
             self._create_tf_publishers(self._outputs, "/tf", "/tf_static")
@@ -307,13 +310,13 @@ class SimulatorNode(ManagedNode):
             for name, (kind, topic_qos) in topics.items():
                 if get(f"publish_{name}"):
                     topic = channel.topic("~/status" if name == "status" else name)
-                    channel.outputs[name] = self.create_lifecycle_publisher(kind, topic, topic_qos)
+                    channel.outputs[name] = self._publisher(kind, topic, topic_qos)
             if not shared_tf:
                 self._create_tf_publishers(channel.outputs, channel.topic("tf"), channel.topic("tf_static"))
             outputs = self._outputs if shared_tf else channel.outputs
             channel.tf, channel.tf_static = outputs.get("tf"), outputs.get("tf_static")
             if robot.goal is not None:
-                channel.outputs["goal"] = self.create_lifecycle_publisher(PoseStamped, channel.topic("~/goal"), LATCHED)
+                channel.outputs["goal"] = self._publisher(PoseStamped, channel.topic("~/goal"), LATCHED)
             channel.cmd_vel_subscription = self.create_subscription(
                 TwistStamped if self._stamped else Twist, channel.topic("cmd_vel"),
                 lambda message, channel=channel: self._on_cmd_vel(channel, message), qos)
@@ -336,12 +339,22 @@ class SimulatorNode(ManagedNode):
             self._node_services.append(self.create_active_service(
                 SetPose, "~/set_pose", lambda q, a: self._on_set_pose(self._robots[0], q, a)))
 
+    def _publisher(self, kind, topic: str, qos):
+        """A lifecycle publisher without rclpy's default QoS-event handlers (incompatible QoS, incompatible type).
+
+        Each handler is a waitable that the executor adds to its wait set and checks at every wait, and the node
+        has six or more publishers per robot: with 5 robots the 74 handlers cost about a fifth of a lockstep step's
+        CPU (docs/fleet.md). The mismatch they would log is logged by the subscriber's own default handler
+        ("New publisher discovered on topic ..., offering incompatible QoS"), where the user is looking anyway;
+        the cmd_vel and pose subscriptions keep theirs (a Twist sent to a TwistStamped cmd_vel is reported here)."""
+        return self.create_lifecycle_publisher(kind, topic, qos, event_callbacks=QUIET_PUBLISHER)
+
     def _create_tf_publishers(self, outputs: dict, tf: str, tf_static: str) -> None:
         """tf (reliable, volatile) and tf_static (transient local: late joiners get the mounting)."""
         if self._tf_parts[0]:
-            outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, tf_static, LATCHED)
+            outputs["tf_static"] = self._publisher(TFMessage, tf_static, LATCHED)
         if any(self._tf_parts):
-            outputs["tf"] = self.create_lifecycle_publisher(TFMessage, tf, reliable(TF_DEPTH))
+            outputs["tf"] = self._publisher(TFMessage, tf, reliable(TF_DEPTH))
 
     def _teardown(self) -> None:
         """Destroy whatever exists; safe on a half-built node."""
@@ -605,7 +618,7 @@ class SimulatorNode(ManagedNode):
 
     def _create_localization_interfaces(self, channel: RobotChannel, qos) -> None:
         if self._fleet.world.beacons:
-            channel.outputs["beacons"] = self.create_lifecycle_publisher(BeaconRanges, channel.topic("beacons"), qos)
+            channel.outputs["beacons"] = self._publisher(BeaconRanges, channel.topic("beacons"), qos)
         if self.get_parameter("enable_localization").value:
             channel.localization_check = LocalizationCheck()
             channel.localization_inputs = [self.create_subscription(
