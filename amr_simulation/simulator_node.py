@@ -602,9 +602,10 @@ class SimulatorNode(ManagedNode):
                 poses.append(robot.odom_pose)
             if map_to_odom_wanted:
                 poses.append(map_to_odom(robot.pose, robot.odom_pose))
-        fields = tuple(f"transforms.{i}.{field}" for i in range(len(poses)) for field in TRANSFORM_FIELDS)
-        wire = group[0].wire(("tf", tuple(channel.index for channel in group)), fields,
-                             lambda: messages.tf_message(self._transforms(group, stamp)))
+        key = ("tf", tuple(channel.index for channel in group))
+        wire = group[0].wires.get(key) or group[0].wire(
+            key, tuple(f"transforms.{i}.{field}" for i in range(len(poses)) for field in TRANSFORM_FIELDS),
+            lambda: messages.tf_message(self._transforms(group, stamp)))
         values = []
         for pose in poses:
             values += (stamp.sec, stamp.nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta))
