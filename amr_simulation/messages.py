@@ -61,8 +61,8 @@ def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequ
 
 
 def fill_odometry(message: Odometry, time: Time, pose: Pose2D, twist: Sequence[float]) -> Odometry:
-    """An odometry message's stamp, pose and twist set anew (its frames kept): the simulator node refills one
-    message per topic each step, since publish serializes at the call and building an Odometry costs more."""
+    """An odometry message's stamp, pose and twist set anew (its frames kept). (The simulator node builds each
+    topic's message here once and then rewrites the serialized bytes in place: amr_util.wire.)"""
     message.header.stamp = time
     position = message.pose.pose.position
     position.x, position.y = pose.x, pose.y
