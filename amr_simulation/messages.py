@@ -6,6 +6,7 @@ Poses are planar; a yaw theta is the quaternion (w, x, y, z) = (cos(theta/2), 0,
 from __future__ import annotations
 
 import array
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -60,8 +61,8 @@ def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequ
 
 
 def fill_odometry(message: Odometry, time: Time, pose: Pose2D, twist: Sequence[float]) -> Odometry:
-    """An odometry message's stamp, pose and twist set anew (its frames kept): the simulator node refills one
-    message per topic each step, since publish serializes at the call and building an Odometry costs more."""
+    """An odometry message's stamp, pose and twist set anew (its frames kept). (The simulator node builds each
+    topic's message here once and then rewrites the serialized bytes in place: amr_util.wire.)"""
     message.header.stamp = time
     position = message.pose.pose.position
     position.x, position.y = pose.x, pose.y
@@ -93,16 +94,34 @@ def fill_laser_scan(message: LaserScan, time: Time, ranges: np.ndarray) -> Laser
     return message
 
 
-def status(time: Time, frame: str, fleet: "Fleet", robot: "SimulatedRobot", distance: float,
-           real_time_factor: float) -> SimulatorStatus:
-    """amr_interfaces/SimulatorStatus of one robot of a fleet (the one robot of a Simulator's fleet: robot "");
-    distance and real-time factor are the node's."""
-    message = SimulatorStatus(
-        robot=robot.name, sim_time=fleet.time, steps=fleet.steps, collisions=robot.collisions,
+STATUS_FIELDS = ("sim_time", "steps", "collisions", "wall_collisions", "robot_collisions", "in_contact", "goal_reached",
+                 "distance_travelled", "real_time_factor", "localization_enabled", "localized", "first_localized_time",
+                 "position_error", "heading_error")
+"""The SimulatorStatus fields that change from step to step (all but the header and the robot's name)."""
+
+
+def status_fields(fleet: "Fleet", robot: "SimulatedRobot", distance: float, real_time_factor: float,
+                  localization=None) -> dict:
+    """SimulatorStatus's changing fields (STATUS_FIELDS) of one robot of a fleet; `localization` is the robot's
+    LocalizationCheck state (None: the check is off, or no /pose yet)."""
+    return dict(
+        sim_time=float(fleet.time), steps=fleet.steps, collisions=robot.collisions,
         wall_collisions=robot.wall_collisions, robot_collisions=sum(robot.robot_collisions.values()),
-        in_contact=robot.in_contact, goal_reached=robot.goal_reached, distance_travelled=distance,
-        real_time_factor=real_time_factor,
-    )
+        in_contact=bool(robot.in_contact), goal_reached=bool(robot.goal_reached), distance_travelled=float(distance),
+        real_time_factor=float(real_time_factor), localization_enabled=localization is not False,
+        localized=bool(localization and localization.localized),
+        first_localized_time=localization.first_localized_time if localization else -1.0,
+        position_error=localization.position_error if localization else math.nan,
+        heading_error=localization.heading_error if localization else math.nan)
+
+
+def status(time: Time, frame: str, fleet: "Fleet", robot: "SimulatedRobot", distance: float,
+           real_time_factor: float, localization=False) -> SimulatorStatus:
+    """amr_interfaces/SimulatorStatus of one robot of a fleet (the one robot of a Simulator's fleet: robot "");
+    distance and real-time factor are the node's; `localization`: False without the localization check, else the
+    check's state (None before the first /pose)."""
+    message = SimulatorStatus(robot=robot.name, **status_fields(fleet, robot, distance, real_time_factor,
+                                                                localization))
     message.header.stamp = time
     message.header.frame_id = frame
     return message

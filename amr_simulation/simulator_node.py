@@ -65,6 +65,7 @@ from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -78,10 +79,11 @@ from amr_simulation.fleet import Fleet
 from amr_simulation.localization_check import LocalizationCheck
 from amr_simulation.parameters import NODE_PARAMETERS, parameter_specs
 from amr_simulation.simulator import Simulator
-from amr_util.geometry import Pose2D, map_to_odom, yaw_from_quaternion
+from amr_util.geometry import Pose2D, map_to_odom, quaternion_from_yaw, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
+from amr_util.wire import WireMessage
 
 TF_DEPTH = 100
 """Queue depth of /tf (tf2's dynamic broadcaster uses 100)."""
@@ -89,6 +91,16 @@ WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
 RATE_WINDOW = 20
 """Steps over which the status real-time factor is measured."""
+ODOMETRY_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "pose.pose.position.x", "pose.pose.position.y",
+                   "pose.pose.orientation.x", "pose.pose.orientation.y", "pose.pose.orientation.z",
+                   "pose.pose.orientation.w", "twist.twist.linear.x", "twist.twist.linear.y", "twist.twist.angular.z")
+SCAN_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "ranges")
+STATUS_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", *messages.STATUS_FIELDS)
+TRANSFORM_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "transform.translation.x", "transform.translation.y",
+                    "transform.rotation.x", "transform.rotation.y", "transform.rotation.z", "transform.rotation.w")
+"""What changes from one observation to the next in each message (the rest: frames, names, geometry, stays)."""
+QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
+"""Event callbacks of the node's publishers: none (see SimulatorNode._publisher)."""
 
 
 class RateMeter:
@@ -137,23 +149,16 @@ class RobotChannel:
         self.localization_inputs: list = []
         self.pose_due: int | None = None
         """lockstep_pose_wait: the stamp (ns) of the observation whose /pose the next step waits for."""
-        self.messages: dict[str, object] = {}
-        """Its outgoing messages by topic, built at the first observation and refilled at each one after (publish
-        serializes at the call; filling a message costs a fraction of building one)."""
+        self.wires: dict[object, WireMessage] = {}
+        """Its outgoing messages by topic, serialized at the first observation and rewritten in place at each one
+        after (amr_util.wire: converting a message for rclpy costs more than writing it)."""
 
-    def odometry(self, key: str, stamp, frame: str, pose, twist):
-        message = self.messages.get(key)
-        if message is None:
-            message = self.messages[key] = messages.odometry(stamp, frame, self.frames["base"], pose, twist)
-            return message
-        return messages.fill_odometry(message, stamp, pose, twist)
-
-    def transform(self, key: str, stamp, parent: str, child: str, pose):
-        message = self.messages.get(key)
-        if message is None:
-            message = self.messages[key] = messages.transform(stamp, parent, child, pose)
-            return message
-        return messages.fill_transform(message, stamp, pose)
+    def wire(self, key, fields: tuple[str, ...], build) -> WireMessage:
+        """The serialized message of `key`, built from `build()` the first time."""
+        wire = self.wires.get(key)
+        if wire is None:
+            wire = self.wires[key] = WireMessage(build(), fields)
+        return wire
 
     def topic(self, name: str) -> str:
         """Its topic `name`: a `~/` name of the one robot stays the node's, a fleet robot's is in its namespace."""
@@ -289,7 +294,7 @@ class SimulatorNode(ManagedNode):
         shared_tf = not named or get("one_tf_tree")
         self._stamped = fleet.config.cmd_vel_stamped
         if get("publish_clock"):
-            self._outputs["clock"] = self.create_lifecycle_publisher(Clock, "/clock", qos)
+            self._outputs["clock"] = self._publisher(Clock, "/clock", qos)
         self._tf_parts = (get("publish_tf"), get("publish_map_to_odom"))
         if shared_tf:
             self._create_tf_publishers(self._outputs, "/tf", "/tf_static")
@@ -307,13 +312,13 @@ class SimulatorNode(ManagedNode):
             for name, (kind, topic_qos) in topics.items():
                 if get(f"publish_{name}"):
                     topic = channel.topic("~/status" if name == "status" else name)
-                    channel.outputs[name] = self.create_lifecycle_publisher(kind, topic, topic_qos)
+                    channel.outputs[name] = self._publisher(kind, topic, topic_qos)
             if not shared_tf:
                 self._create_tf_publishers(channel.outputs, channel.topic("tf"), channel.topic("tf_static"))
             outputs = self._outputs if shared_tf else channel.outputs
             channel.tf, channel.tf_static = outputs.get("tf"), outputs.get("tf_static")
             if robot.goal is not None:
-                channel.outputs["goal"] = self.create_lifecycle_publisher(PoseStamped, channel.topic("~/goal"), LATCHED)
+                channel.outputs["goal"] = self._publisher(PoseStamped, channel.topic("~/goal"), LATCHED)
             channel.cmd_vel_subscription = self.create_subscription(
                 TwistStamped if self._stamped else Twist, channel.topic("cmd_vel"),
                 lambda message, channel=channel: self._on_cmd_vel(channel, message), qos)
@@ -336,12 +341,22 @@ class SimulatorNode(ManagedNode):
             self._node_services.append(self.create_active_service(
                 SetPose, "~/set_pose", lambda q, a: self._on_set_pose(self._robots[0], q, a)))
 
+    def _publisher(self, kind, topic: str, qos):
+        """A lifecycle publisher without rclpy's default QoS-event handlers (incompatible QoS, incompatible type).
+
+        Each handler is a waitable that the executor adds to its wait set and checks at every wait, and the node
+        has six or more publishers per robot: with 5 robots the 74 handlers cost about a fifth of a lockstep step's
+        CPU (docs/fleet.md). The mismatch they would log is logged by the subscriber's own default handler
+        ("New publisher discovered on topic ..., offering incompatible QoS"), where the user is looking anyway;
+        the cmd_vel and pose subscriptions keep theirs (a Twist sent to a TwistStamped cmd_vel is reported here)."""
+        return self.create_lifecycle_publisher(kind, topic, qos, event_callbacks=QUIET_PUBLISHER)
+
     def _create_tf_publishers(self, outputs: dict, tf: str, tf_static: str) -> None:
         """tf (reliable, volatile) and tf_static (transient local: late joiners get the mounting)."""
         if self._tf_parts[0]:
-            outputs["tf_static"] = self.create_lifecycle_publisher(TFMessage, tf_static, LATCHED)
+            outputs["tf_static"] = self._publisher(TFMessage, tf_static, LATCHED)
         if any(self._tf_parts):
-            outputs["tf"] = self.create_lifecycle_publisher(TFMessage, tf, reliable(TF_DEPTH))
+            outputs["tf"] = self._publisher(TFMessage, tf, reliable(TF_DEPTH))
 
     def _teardown(self) -> None:
         """Destroy whatever exists; safe on a half-built node."""
@@ -564,15 +579,37 @@ class SimulatorNode(ManagedNode):
         stamp = stamp_from_seconds(now)
         if "clock" in self._outputs:
             self._outputs["clock"].publish(messages.clock(stamp))
-        transforms: dict[int, tuple[object, list]] = {}
-        for channel in channels:
-            if channel.tf is not None:
-                transforms.setdefault(id(channel.tf), (channel.tf, []))[1].extend(self._transforms(channel, stamp))
-        for publisher, parts in transforms.values():
-            publisher.publish(messages.tf_message(parts))
+        odom_to_base, map_to_odom_wanted = self._tf_parts
+        if odom_to_base or map_to_odom_wanted:
+            groups: dict[int, tuple[object, list]] = {}
+            for channel in channels:
+                if channel.tf is not None:
+                    groups.setdefault(id(channel.tf), (channel.tf, []))[1].append(channel)
+            for publisher, group in groups.values():
+                publisher.publish(self._tf_wire(group, stamp))
         rate = self._meter.update(now)
         for channel in channels:
             self._publish_robot(channel, stamp, rate)
+
+    def _tf_wire(self, group: list[RobotChannel], stamp) -> bytes:
+        """The TFMessage of these robots' transforms (odom -> base, and map -> odom when asked), serialized; kept by
+        the first robot of the group for the next observation of the same group."""
+        odom_to_base, map_to_odom_wanted = self._tf_parts
+        poses = []
+        for channel in group:
+            robot = self._fleet.robots[channel.index]
+            if odom_to_base:
+                poses.append(robot.odom_pose)
+            if map_to_odom_wanted:
+                poses.append(map_to_odom(robot.pose, robot.odom_pose))
+        key = ("tf", tuple(channel.index for channel in group))
+        wire = group[0].wires.get(key) or group[0].wire(
+            key, tuple(f"transforms.{i}.{field}" for i in range(len(poses)) for field in TRANSFORM_FIELDS),
+            lambda: messages.tf_message(self._transforms(group, stamp)))
+        values = []
+        for pose in poses:
+            values += (stamp.sec, stamp.nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta))
+        return wire.fill(*values)
 
     def _publish_robot(self, channel: RobotChannel, stamp, rate: float) -> None:
         channel.last_output = time.monotonic()
@@ -580,32 +617,43 @@ class SimulatorNode(ManagedNode):
             channel.pose_due = stamp_nanoseconds(stamp)
         fleet, frames, outputs = self._fleet, channel.frames, channel.outputs
         robot = fleet.robots[channel.index]
+        sec, nanosec = stamp.sec, stamp.nanosec
+        odom = robot.odom_pose
+        odom_rotation = quaternion_from_yaw(odom.theta)
         if "odometry" in outputs:
             v, w = robot.odom_twist
-            outputs["odometry"].publish(
-                channel.odometry("odometry", stamp, frames["odom"], robot.odom_pose, (v, 0.0, w)))
+            wire = channel.wire("odometry", ODOMETRY_FIELDS, lambda: messages.odometry(
+                stamp, frames["odom"], frames["base"], odom, (v, 0.0, w)))
+            outputs["odometry"].publish(wire.fill(sec, nanosec, odom.x, odom.y, *odom_rotation, v, 0.0, w))
         if "odom" in outputs:
-            outputs["odom"].publish(channel.odometry("odom", stamp, frames["odom"], robot.odom_pose, (0.0, 0.0, 0.0)))
+            wire = channel.wire("odom", ODOMETRY_FIELDS, lambda: messages.odometry(
+                stamp, frames["odom"], frames["base"], odom, (0.0, 0.0, 0.0)))
+            outputs["odom"].publish(wire.fill(sec, nanosec, odom.x, odom.y, *odom_rotation, 0.0, 0.0, 0.0))
         if "ground_truth" in outputs:
-            outputs["ground_truth"].publish(channel.odometry("ground_truth", stamp, frames["world"], robot.pose,
-                                                             robot.twist))
+            pose, (vx, vy, w) = robot.pose, robot.twist
+            wire = channel.wire("ground_truth", ODOMETRY_FIELDS, lambda: messages.odometry(
+                stamp, frames["world"], frames["base"], pose, (vx, vy, w)))
+            outputs["ground_truth"].publish(wire.fill(sec, nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta),
+                                                      vx, vy, w))
         if "scan" in outputs:
-            scan = channel.messages.get("scan")
-            outputs["scan"].publish(
-                messages.fill_laser_scan(scan, stamp, robot.ranges) if scan is not None else
-                channel.messages.setdefault("scan", messages.laser_scan(stamp, frames["scan"], robot.ranges,
-                                                                        fleet.lidar, fleet.config.dt)))
+            ranges = robot.ranges
+            wire = channel.wire(("scan", len(ranges)), SCAN_FIELDS, lambda: messages.laser_scan(
+                stamp, frames["scan"], ranges, fleet.lidar, fleet.config.dt))
+            outputs["scan"].publish(wire.fill(sec, nanosec, ranges))
         self._publish_localization_inputs(channel, robot, stamp)
         if "status" in outputs:
-            status = messages.status(stamp, frames["world"], fleet, robot, channel.distance, rate)
-            self._report_localization(channel, status)
-            outputs["status"].publish(status)
+            check = channel.localization_check
+            localization = check.state if check is not None else False
+            wire = channel.wire("status", STATUS_FIELDS, lambda: messages.status(
+                stamp, frames["world"], fleet, robot, channel.distance, rate, localization))
+            fields = messages.status_fields(fleet, robot, channel.distance, rate, localization)
+            outputs["status"].publish(wire.fill(sec, nanosec, *(fields[name] for name in messages.STATUS_FIELDS)))
 
     # -- localization (issue 12): beacons out, /pose checked against the ground truth -------------
 
     def _create_localization_interfaces(self, channel: RobotChannel, qos) -> None:
         if self._fleet.world.beacons:
-            channel.outputs["beacons"] = self.create_lifecycle_publisher(BeaconRanges, channel.topic("beacons"), qos)
+            channel.outputs["beacons"] = self._publisher(BeaconRanges, channel.topic("beacons"), qos)
         if self.get_parameter("enable_localization").value:
             channel.localization_check = LocalizationCheck()
             channel.localization_inputs = [self.create_subscription(
@@ -642,26 +690,17 @@ class SimulatorNode(ManagedNode):
                 self.get_logger().error(f"{channel.label}step after /pose: {type(error).__name__}: {error}",
                                         throttle_duration_sec=WARNING_PERIOD)
 
-    @staticmethod
-    def _report_localization(channel: RobotChannel, status: SimulatorStatus) -> None:
-        check = channel.localization_check
-        status.localization_enabled = check is not None
-        state = check.state if check is not None else None
-        status.localized = bool(state and state.localized)
-        status.first_localized_time = state.first_localized_time if state else -1.0
-        status.position_error = state.position_error if state else math.nan
-        status.heading_error = state.heading_error if state else math.nan
-
-    def _transforms(self, channel: RobotChannel, stamp) -> list:
-        """odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom."""
-        robot, frames = self._fleet.robots[channel.index], channel.frames
+    def _transforms(self, channels: list[RobotChannel], stamp) -> list:
+        """Of each robot: odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom."""
         odom_to_base, map_to_odom_wanted = self._tf_parts
         transforms = []
-        if odom_to_base:
-            transforms.append(channel.transform("tf odom", stamp, frames["odom"], frames["base"], robot.odom_pose))
-        if map_to_odom_wanted:
-            transforms.append(channel.transform(
-                "tf map", stamp, frames["world"], frames["odom"], map_to_odom(robot.pose, robot.odom_pose)))
+        for channel in channels:
+            robot, frames = self._fleet.robots[channel.index], channel.frames
+            if odom_to_base:
+                transforms.append(messages.transform(stamp, frames["odom"], frames["base"], robot.odom_pose))
+            if map_to_odom_wanted:
+                transforms.append(messages.transform(stamp, frames["world"], frames["odom"],
+                                                     map_to_odom(robot.pose, robot.odom_pose)))
         return transforms
 
     def _publish_goals(self) -> None:

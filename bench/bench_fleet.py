@@ -26,6 +26,8 @@ answers its robot's observation (odometry and scan of one stamp) with the bump-a
 /<robot>/cmd_vel; the world steps when every robot's command is in. Timed: the wall clock and this process's
 CPU time from the first command to the last observation (the driver's rule included: it is the loop's), after
 `--ros-warmup` steps, the best of `repeats` runs. --ros-lean adds runs with only /clock, odometry and scan published.
+--ros-executor events runs them on rclpy's experimental EventsExecutor instead (a comparison: the suite's nodes spin on
+the SingleThreadedExecutor).
 """
 
 from __future__ import annotations
@@ -128,8 +130,10 @@ LEAN = {"publish_odom": False, "publish_ground_truth": False, "publish_status": 
 """--ros-lean: the simulator publishes /clock and each robot's odometry and scan only (what its driver reads)."""
 
 
-def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool = False) -> dict:
-    """The simulator node and `count` drivers composed on one executor; wall and CPU seconds for `steps` steps."""
+def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool = False,
+            executor_kind: str = "single") -> dict:
+    """The simulator node and `count` drivers composed on one executor (rclpy's SingleThreadedExecutor, or with
+    "events" rclpy's experimental EventsExecutor); wall and CPU seconds for `steps` steps."""
     import rclpy
     from geometry_msgs.msg import TwistStamped
     from nav_msgs.msg import Odometry
@@ -181,7 +185,11 @@ def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool =
 
     context = rclpy.Context()
     rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
+    if executor_kind == "events":
+        from rclpy.experimental import EventsExecutor
+        executor = EventsExecutor(context=context)
+    else:
+        executor = SingleThreadedExecutor(context=context)
     with tempfile.TemporaryDirectory() as directory:
         path = world_file(description, count, Path(directory))
         node = SimulatorNode(context=context, parameter_overrides=[
@@ -271,6 +279,9 @@ def main() -> None:
     parser.add_argument("--ros-only", action="store_true", help="through ROS and the library only (no IR-SIM)")
     parser.add_argument("--ros-lean", action="store_true", help="also through ROS with only /clock, odometry and "
                                                                 "scan published")
+    parser.add_argument("--ros-executor", choices=("single", "events"), default="single",
+                        help="the executor of the ROS runs: rclpy's SingleThreadedExecutor (default, what the suite's "
+                             "nodes spin on) or its experimental EventsExecutor (rclpy.experimental, for comparison)")
     parser.add_argument("--ros-steps", type=int, default=400, help="timed steps per ROS run")
     parser.add_argument("--ros-warmup", type=int, default=40, help="steps before the ROS timing starts")
     args = parser.parse_args()
@@ -290,11 +301,12 @@ def main() -> None:
         print(row("amr", result, dt, ours[0]))
     if args.ros or args.ros_only:
         library = {result["robots"]: result for result in ours}
-        print(f"through ROS: {args.ros_steps} steps after {args.ros_warmup}, best of {args.repeats}; 'per robot vs 1' "
+        print(f"through ROS ({args.ros_executor} executor): {args.ros_steps} steps after {args.ros_warmup}, best of "
+              f"{args.repeats}; 'per robot vs 1' "
               "against the library's one robot; last column: the library's share of a ROS step (CPU)")
         for lean in (False, True) if args.ros_lean else (False,):
             for count in args.counts:
-                result = min((ros_run(description, count, args.ros_steps, args.ros_warmup, lean)
+                result = min((ros_run(description, count, args.ros_steps, args.ros_warmup, lean, args.ros_executor)
                               for _ in range(args.repeats)), key=lambda r: r["seconds"] / r["steps"])
                 share = (library[count]["seconds"] / library[count]["steps"]) / (result["seconds"] / result["steps"])
                 print(row("amr ROS lean" if lean else "amr ROS", result, dt, library.get(1)) +

@@ -275,3 +275,50 @@ def test_paused_a_step_waits_for_every_robot_and_holds_a_silent_one_at_zero(simu
     assert r2.ground_truth[-1].pose.pose.position.x == 1.0
     settle(executor, 0.8)
     assert r1.statuses[-1].steps == r2.statuses[-1].steps == 1, "one step owed, one taken"
+
+
+def test_every_message_of_robot_2_is_what_the_library_state_gives(simulator, probe, executor, two_world):
+    """The node keeps its messages serialized and rewrites the changing fields in place (amr_util.wire): what
+    arrives must be the message amr_simulation.messages builds from the library's state, field for field."""
+    from amr_simulation import messages
+    from amr_util.geometry import map_to_odom
+
+    node = simulator(world=two_world, publish_map_to_odom=True)
+    r1, r2 = probe(robot="r1"), probe(robot="r2")
+    tf = TfProbe(node.context, {"/r2/tf": False})
+    start_fleet(executor, node, [r1, r2], [tf])
+    drive_all(executor, [r1, r2], [((0.1, 0.3), (0.15, -0.4))] * 6)
+    assert spin_until(executor, lambda: len(tf.messages["/r2/tf"]) >= 7, TIMEOUT)
+    settle(executor)
+    robot, fleet, channel = node._fleet.robots[1], node._fleet, node._robots[1]
+    stamp = r2.scans[-1].header.stamp
+    assert seconds(stamp) == pytest.approx(6 * DT)
+    v, w = robot.odom_twist
+    assert v != 0.0 and w != 0.0, "the robot moves: the test compares changing fields"
+    expected = {
+        "odometry": messages.odometry(stamp, "odom", "base_footprint", robot.odom_pose, (v, 0.0, w)),
+        "odom": messages.odometry(stamp, "odom", "base_footprint", robot.odom_pose, (0.0, 0.0, 0.0)),
+        "ground_truth": messages.odometry(stamp, "map", "base_footprint", robot.pose, robot.twist),
+    }
+    for name, message in expected.items():
+        received = r2.streams()[name][-1]
+        assert received.header == message.header and received.child_frame_id == message.child_frame_id, name
+        assert received.pose.pose.position.x == pytest.approx(message.pose.pose.position.x, abs=1e-12), name
+        assert received.pose == message.pose and received.twist == message.twist, name
+    scan = messages.laser_scan(stamp, "base_scan", robot.ranges, fleet.lidar, fleet.config.dt)
+    received = r2.scans[-1]
+    assert (received.angle_min, received.angle_increment, received.range_max, received.scan_time) == pytest.approx(
+        (scan.angle_min, scan.angle_increment, scan.range_max, scan.scan_time))
+    assert list(received.ranges) == list(scan.ranges), "the scan is robot 2's own, this step's"
+    status = messages.status(stamp, "map", fleet, robot, channel.distance, 0.0)
+    got = r2.statuses[-1]
+    for name in messages.STATUS_FIELDS:
+        if name not in ("real_time_factor", "position_error", "heading_error"):
+            assert getattr(got, name) == getattr(status, name), name
+    assert got.robot == "r2" and got.header == status.header and got.steps == 6 and got.distance_travelled > 0.0
+    transforms = tf.messages["/r2/tf"][-1].transforms
+    assert [(t.header.frame_id, t.child_frame_id) for t in transforms] == [("odom", "base_footprint"),
+                                                                          ("map", "odom")]
+    for transform, pose in zip(transforms, (robot.odom_pose, map_to_odom(robot.pose, robot.odom_pose))):
+        want = messages.transform(stamp, "", "", pose)
+        assert transform.header.stamp == stamp and transform.transform == want.transform
