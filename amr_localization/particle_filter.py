@@ -72,7 +72,7 @@ from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
-from amr_localization.unexpected_obstacles import MapRanges, without_unexpected
+from amr_localization.unexpected_obstacles import MapRanges, subset, unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
@@ -204,6 +204,7 @@ class ParticleFilter:
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
         self._recovery.reset()
         self._localized = False
+        self._contested = False
         self._confirmations = 0
         self._misfits = 0
         self._since_recheck = 0
@@ -369,15 +370,26 @@ class ParticleFilter:
 
     def _expected(self, beams: Beams, count: bool = False) -> Beams:
         """The beams without those ending on something not on the map (another robot): reading short of the
-        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py)."""
+        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py). While contested
+        (a recheck withdrew localized for a place elsewhere): short at any cluster heavy enough to stand in the way
+        of a declaration, so that the places are weighed on the beams that none of them reads as ending on
+        something unmapped (a beam on another robot where a look-alike place has a wall must not decide)."""
         config = self.config
         if not config.unexpected_obstacles or not self._clusters.count or \
                 self._clusters.weights[0] < config.unexpected_min_cluster_share:
             return beams
         estimate = self._current_pose(self._odometry)
-        kept, dropped = without_unexpected(self._map_ranges, np.array([estimate.x, estimate.y, estimate.theta]),
-                                           beams, config.unexpected_obstacle_margin,
-                                           config.unexpected_obstacle_max_share)
+        poses = [np.array([estimate.x, estimate.y, estimate.theta])]
+        if self._contested:
+            poses += self._cluster_poses(1.0 - config.localized_min_cluster_share)[1:]
+        short = np.zeros(len(beams.ranges), dtype=bool)
+        for pose in poses:
+            short |= unexpected(self._map_ranges, pose, beams, config.unexpected_obstacle_margin)
+        dropped = int(np.count_nonzero(short))
+        if dropped == 0 or dropped > config.unexpected_obstacle_max_share * int(np.count_nonzero(beams.returned)):
+            kept, dropped = beams, 0
+        else:
+            kept = subset(beams, ~short)
         if count:
             self.status.unexpected = dropped
         return kept
@@ -432,6 +444,18 @@ class ParticleFilter:
         member = clusters.labels == 0
         return weighted_pose(self.particles[member], self.weights[member])
 
+    def _cluster_poses(self, min_share: float) -> list[np.ndarray]:
+        """The weighted mean pose (x, y, theta) of every cluster holding at least `min_share` of the weight,
+        heaviest first (the particles as they are now: moved by the last motion update)."""
+        clusters, poses = self._clusters, []
+        for label, weight in enumerate(clusters.weights):
+            member = clusters.labels == label
+            if weight < min_share or not member.any() or not self.weights[member].sum() > 0.0:
+                continue
+            mean = weighted_pose(self.particles[member], self.weights[member])
+            poses.append(np.array([mean.x, mean.y, mean.theta]))
+        return poses
+
     def _decide_localized(self, beams: Beams | None) -> None:
         config = self.config
         share = float(self._clusters.weights[0]) if self._clusters.count else 0.0
@@ -482,6 +506,8 @@ class ParticleFilter:
                 self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
+        if self._localized:
+            self._contested = False
         if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
             self._ledger.clear()  # a withdrawal starts it afresh from the scans then
 
@@ -538,6 +564,7 @@ class ParticleFilter:
             better = better[scores >= own - self._rival_params.margin].reshape(-1, 3)
         if len(better):
             self._localized = False
+            self._contested = True
             self.rivals = better
             self._adopt_rivals(better)
             self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
