@@ -205,6 +205,7 @@ class ParticleFilter:
         self._recovery.reset()
         self._localized = False
         self._contested = False
+        self._withdrawn_from: np.ndarray | None = None  # while contested: the place localized was withdrawn from
         self._confirmations = 0
         self._misfits = 0
         self._since_recheck = 0
@@ -275,6 +276,8 @@ class ParticleFilter:
             return
         moved = sample_motion_model_odometry(self.particles, self._odometry, odometry, self.noise, self._rng)
         self._ledger.move(relative_pose(self._odometry, odometry))
+        if self._withdrawn_from is not None:
+            self._withdrawn_from = compose(self._withdrawn_from[None, :], relative_pose(self._odometry, odometry))[0]
         alive = self.free_space.segments_free(self.particles[:, :2], moved[:, :2])
         self.particles = moved
         self.status.killed = int(np.count_nonzero(~alive))
@@ -340,7 +343,11 @@ class ParticleFilter:
         """The ledger weighs its places on LEDGER_BEAMS beams (a doorway a few degrees wide falls between the
         filter's max_beams), each scan counting as much as it does for the particles."""
         beams = self._expected(select_beams(scan, LEDGER_BEAMS, keep_no_return=True))  # no return: a free path too
-        self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1))
+        short_of = None
+        if self._contested and self.config.unexpected_obstacles:  # a beam short at any place it follows: no evidence
+            margin = self._ledger.params.free_path_margin
+            short_of = lambda poses: np.array([unexpected(self._map_ranges, pose, beams, margin) for pose in poses])
+        self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1), short_of)
         self._prune_ruled_out()
 
     def _prune_ruled_out(self) -> None:
@@ -500,6 +507,7 @@ class ParticleFilter:
         if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
             search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
             self.rivals, odds = self._weigh_rivals(search)
+            self.rivals, odds = self._with_withdrawn_place(pose, self.rivals, odds)
             if len(self.rivals):
                 self._adopt_rivals(self.rivals, odds)
                 self._confirmations = 0
@@ -507,7 +515,7 @@ class ParticleFilter:
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
         if self._localized:
-            self._contested = False
+            self._contested, self._withdrawn_from = False, None
         if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
             self._ledger.clear()  # a withdrawal starts it afresh from the scans then
 
@@ -544,6 +552,25 @@ class ParticleFilter:
         odds = np.exp(np.minimum(evidence[viable] - ledger.evidence[own], MAX_LOG_ODDS))
         return rivals[viable].reshape(-1, 3), odds
 
+    def _with_withdrawn_place(self, pose: np.ndarray, rivals: np.ndarray, odds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """While contested, the place localized was withdrawn from stays a rival of any other place until the
+        ledger rules it out (its evidence there leaves out the beams reading short of the map, which another robot
+        explains): the rival search alone weighs the recent scans, those on the other robots included, and a
+        look-alike place with walls where they stand scored better than the true place, which was then given up
+        in 1.6 s (issue 22's fleet)."""
+        ledger = self._ledger
+        if not self._contested or self._withdrawn_from is None or not len(ledger):
+            return rivals, odds
+        index, own = ledger.find(self._withdrawn_from), ledger.find(pose)
+        if index < 0 or index == own or ledger.ruled_out()[index] or \
+                ledger.near(pose[None, :], index)[0] or \
+                (len(rivals) and ledger.near(np.asarray(rivals).reshape(-1, 3), index).any()):
+            return rivals, odds
+        own_evidence = float(ledger.evidence[own]) if own >= 0 else float(ledger.evidence.max())
+        place_odds = math.exp(min(float(ledger.evidence[index]) - own_evidence, MAX_LOG_ODDS))
+        return (np.vstack([np.asarray(rivals).reshape(-1, 3), ledger.poses[index][None, :]]),
+                np.append(odds, place_odds))
+
     def _recheck(self, pose: np.ndarray) -> None:
         """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
         self._since_recheck = 0
@@ -564,7 +591,7 @@ class ParticleFilter:
             better = better[scores >= own - self._rival_params.margin].reshape(-1, 3)
         if len(better):
             self._localized = False
-            self._contested = True
+            self._contested, self._withdrawn_from = True, pose.copy()
             self.rivals = better
             self._adopt_rivals(better)
             self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
