@@ -588,7 +588,7 @@ class ParticleFilter:
             now = kept[-1].odometry
             own = float(history_score(self._scorer, pose[None, :], kept, now)[0])
             scores = history_score(self._scorer, better, kept, now)
-            better = better[scores >= own - self._rival_params.margin].reshape(-1, 3)
+            better = better[scores >= own].reshape(-1, 3)
         if len(better):
             self._localized = False
             self._contested, self._withdrawn_from = True, pose.copy()
