@@ -589,11 +589,20 @@ class Traffic:
             avoid += [np.array([post.pose[:2]]) for post in parked]  # the place is not where one is parked
         # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
         # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
+        # rule 6 (make room): last, a place past any other robot (one behind this one in a corridor, itself waiting
+        # for the robot ahead); driving there this robot holds before it and posts it as its blocker, unable to
+        # give way, and it makes way first (rule 3), as the robots a boxed-in one passes do (rule 4)
+        bystanders = tuple(name for name in others if name not in names)
+        attempts = [(), names] if passive else [()]
+        if bystanders:
+            attempts.append(bystanders)
         spot = detour = None
-        for passing in ((), names) if passive else ((),):
+        for passing in attempts:
             discs = [xy for name, xy in others.items() if name not in passing]
             marked = costmap.with_obstacles(np.array(discs), config.robot_radius) if discs else costmap
-            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, search)
+            # a place is not where a robot passed stands
+            stand = [np.array([others[name]]) for name in passing if name in others and name not in names]
+            spot = place_aside(marked, pose[:2], np.concatenate(avoid + stand), distance, search)
             if spot is None:
                 continue
             try:
@@ -601,7 +610,8 @@ class Traffic:
             except PlanningError:
                 continue
             self._through = tuple(sorted(set(self._through) | set(passing)))
-            way = f" past {', '.join(passing)} (boxed in: they make way first)" if passing else ""
+            way = (f" past {', '.join(passing)} (they make way first)" if passing and passing == bystanders else
+                   f" past {', '.join(passing)} (boxed in: they make way first)" if passing else "")
             if far:
                 way += f" (neither could give way within {config.yield_search:g} m: searched farther)"
             break
@@ -655,7 +665,8 @@ class Traffic:
         # someone newly blocked by this robot (or, waiting aside, one it gives way to that now finds it in its
         # way): go aside for them too
         fresh = [post for post in others if post.blocked_by == self.name and (
-            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))]
+            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))
+            and not (driving and post.name in self._through and post.name not in self._yield_to)]  # rule 6: it makes way
         if fresh and stamp >= self._retry_at:
             renewed = {post.name for post in fresh}
             keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]
