@@ -598,12 +598,12 @@ class Traffic:
             avoid += [np.array([post.pose[:2]]) for post in parked]  # the place is not where one is parked
         # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
         # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
-        # rule 6 (make room): last, a place past any other robot (one behind this one in a corridor, itself waiting
+        # rule 6 (make room): last, when searching farther (rule 5), a place past any other robot (one behind this one in a corridor, itself waiting
         # for the robot ahead); driving there this robot holds before it and posts it as its blocker, unable to
         # give way, and it makes way first (rule 3), as the robots a boxed-in one passes do (rule 4)
         bystanders = tuple(name for name in others if name not in names)
         attempts = [(), names] if passive else [()]
-        if bystanders:
+        if bystanders and far:  # only once neither robot could give way (rule 5): else the other gives way
             attempts.append(bystanders)
         spot = detour = None
         for passing in attempts:
