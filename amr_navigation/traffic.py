@@ -82,10 +82,12 @@ The navigator of one robot runs them on every observation it drives with the pat
    (exploring, or itself giving way) still counts as a wall. tests/navigation/test_traffic.py runs a corridor
    whose only place aside is a pocket 5 m behind the lower-priority robot (neither moves without the rule).
 
-6. **Make room** (a robot behind the one that must give way). A robot that must give way (rules 3-5) but whose
-   every way to a place aside is where a robot stands that it does not give way to (one waiting behind it in a
-   corridor one robot wide, itself blocked by this robot) looks last for a place past such robots (not where one
-   stands). Driving there it holds before the robot on its way and posts it as its blocker, unable to give way:
+6. **Make room** (a robot behind the one that must give way). When neither robot of a pair could give way nearby
+   (rule 5) and the farther search fails too because every way to a place aside is where a robot stands that it
+   does not give way to (one waiting behind it in a corridor one robot wide, itself blocked by this robot), the
+   robot searching farther looks last for a place past such robots (not where one stands); earlier, before rule
+   5, the other robot gives way instead (letting the lower-priority robot push past bystanders first made a
+   six-robot perfect maze cycle: 0/6 at goal). Driving there it holds before the robot on its way and posts it as its blocker, unable to give way:
    that robot, blocked by one that cannot give way, goes aside first (rule 3), and on it goes; it does not go
    aside for the robots it passes. Without it a convoy in a corridor stands for good: every search treats the
    robot behind as a wall, and planning around fails in a corridor. tests/navigation/test_traffic.py runs two
