@@ -553,7 +553,9 @@ def _with_parameter(node: NodeSpec, parameter: str, text: str) -> NodeSpec:
     if value == []:
         parameters.pop(parameter, None)
     else:
-        flat = _flat_parameters(_Where(Path("command line")), node.name, {parameter: value})
+        for part in reversed(parameter.split(".")[1:]):  # a dotted name (a nested section: traffic_rules.wait_time)
+            value = {part: value}
+        flat = _flat_parameters(_Where(Path("command line")), node.name, {parameter.split(".")[0]: value})
         parameters.update(flat)
     return replace(node, parameters=parameters)
 

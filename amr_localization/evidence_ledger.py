@@ -106,12 +106,18 @@ class EvidenceLedger:
         self.evidence = np.where(inside, self.evidence, -np.inf)
         self._normalize()
 
-    def observe(self, beams: Beams, weight: float) -> None:
-        """Re-fit each entry to the scan and add the scan's log-likelihood at it, times `weight`, to its evidence."""
+    def observe(self, beams: Beams, weight: float, short_of=None) -> None:
+        """Re-fit each entry to the scan and add the scan's log-likelihood at it, times `weight`, to its evidence.
+        short_of: a function (K, 3) poses -> (K, beams) whether each beam reads short of the map there (something
+        not on the map in front); given, such a beam counts for no entry against the others: a place is not
+        ruled out because another robot stands where it has free space (the filter passes it while contested)."""
         if not len(self) or not beams.returned.any():
             return
         self.poses, _ = self._refine(beams)
         terms = self._free_path_terms(beams)
+        if short_of is not None:  # a short reading scores every entry as the best does
+            short = np.asarray(short_of(self.poses), dtype=bool)
+            terms = np.where(short.any(axis=0)[None, :], terms.max(axis=0)[None, :], terms)
         settled = self.age >= self.params.settle_updates
         self.age = self.age + 1
         if not settled.any():

@@ -72,7 +72,7 @@ from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
-from amr_localization.unexpected_obstacles import MapRanges, without_unexpected
+from amr_localization.unexpected_obstacles import MapRanges, subset, unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
@@ -204,6 +204,8 @@ class ParticleFilter:
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
         self._recovery.reset()
         self._localized = False
+        self._contested = False
+        self._withdrawn_from: np.ndarray | None = None  # while contested: the place localized was withdrawn from
         self._confirmations = 0
         self._misfits = 0
         self._since_recheck = 0
@@ -274,6 +276,8 @@ class ParticleFilter:
             return
         moved = sample_motion_model_odometry(self.particles, self._odometry, odometry, self.noise, self._rng)
         self._ledger.move(relative_pose(self._odometry, odometry))
+        if self._withdrawn_from is not None:
+            self._withdrawn_from = compose(self._withdrawn_from[None, :], relative_pose(self._odometry, odometry))[0]
         alive = self.free_space.segments_free(self.particles[:, :2], moved[:, :2])
         self.particles = moved
         self.status.killed = int(np.count_nonzero(~alive))
@@ -339,7 +343,11 @@ class ParticleFilter:
         """The ledger weighs its places on LEDGER_BEAMS beams (a doorway a few degrees wide falls between the
         filter's max_beams), each scan counting as much as it does for the particles."""
         beams = self._expected(select_beams(scan, LEDGER_BEAMS, keep_no_return=True))  # no return: a free path too
-        self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1))
+        short_of = None
+        if self._contested and self.config.unexpected_obstacles:  # a beam short at any place it follows: no evidence
+            margin = self._ledger.params.free_path_margin
+            short_of = lambda poses: np.array([unexpected(self._map_ranges, pose, beams, margin) for pose in poses])
+        self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1), short_of)
         self._prune_ruled_out()
 
     def _prune_ruled_out(self) -> None:
@@ -369,15 +377,26 @@ class ParticleFilter:
 
     def _expected(self, beams: Beams, count: bool = False) -> Beams:
         """The beams without those ending on something not on the map (another robot): reading short of the
-        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py)."""
+        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py). While contested
+        (a recheck withdrew localized for a place elsewhere): short at any cluster heavy enough to stand in the way
+        of a declaration, so that the places are weighed on the beams that none of them reads as ending on
+        something unmapped (a beam on another robot where a look-alike place has a wall must not decide)."""
         config = self.config
         if not config.unexpected_obstacles or not self._clusters.count or \
                 self._clusters.weights[0] < config.unexpected_min_cluster_share:
             return beams
         estimate = self._current_pose(self._odometry)
-        kept, dropped = without_unexpected(self._map_ranges, np.array([estimate.x, estimate.y, estimate.theta]),
-                                           beams, config.unexpected_obstacle_margin,
-                                           config.unexpected_obstacle_max_share)
+        poses = [np.array([estimate.x, estimate.y, estimate.theta])]
+        if self._contested:
+            poses += self._cluster_poses(1.0 - config.localized_min_cluster_share)[1:]
+        short = np.zeros(len(beams.ranges), dtype=bool)
+        for pose in poses:
+            short |= unexpected(self._map_ranges, pose, beams, config.unexpected_obstacle_margin)
+        dropped = int(np.count_nonzero(short))
+        if dropped == 0 or dropped > config.unexpected_obstacle_max_share * int(np.count_nonzero(beams.returned)):
+            kept, dropped = beams, 0
+        else:
+            kept = subset(beams, ~short)
         if count:
             self.status.unexpected = dropped
         return kept
@@ -432,6 +451,18 @@ class ParticleFilter:
         member = clusters.labels == 0
         return weighted_pose(self.particles[member], self.weights[member])
 
+    def _cluster_poses(self, min_share: float) -> list[np.ndarray]:
+        """The weighted mean pose (x, y, theta) of every cluster holding at least `min_share` of the weight,
+        heaviest first (the particles as they are now: moved by the last motion update)."""
+        clusters, poses = self._clusters, []
+        for label, weight in enumerate(clusters.weights):
+            member = clusters.labels == label
+            if weight < min_share or not member.any() or not self.weights[member].sum() > 0.0:
+                continue
+            mean = weighted_pose(self.particles[member], self.weights[member])
+            poses.append(np.array([mean.x, mean.y, mean.theta]))
+        return poses
+
     def _decide_localized(self, beams: Beams | None) -> None:
         config = self.config
         share = float(self._clusters.weights[0]) if self._clusters.count else 0.0
@@ -476,12 +507,15 @@ class ParticleFilter:
         if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
             search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
             self.rivals, odds = self._weigh_rivals(search)
+            self.rivals, odds = self._with_withdrawn_place(pose, self.rivals, odds)
             if len(self.rivals):
                 self._adopt_rivals(self.rivals, odds)
                 self._confirmations = 0
                 self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
+        if self._localized:
+            self._contested, self._withdrawn_from = False, None
         if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
             self._ledger.clear()  # a withdrawal starts it afresh from the scans then
 
@@ -518,6 +552,25 @@ class ParticleFilter:
         odds = np.exp(np.minimum(evidence[viable] - ledger.evidence[own], MAX_LOG_ODDS))
         return rivals[viable].reshape(-1, 3), odds
 
+    def _with_withdrawn_place(self, pose: np.ndarray, rivals: np.ndarray, odds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """While contested, the place localized was withdrawn from stays a rival of any other place until the
+        ledger rules it out (its evidence there leaves out the beams reading short of the map, which another robot
+        explains): the rival search alone weighs the recent scans, those on the other robots included, and a
+        look-alike place with walls where they stand scored better than the true place, which was then given up
+        in 1.6 s (issue 22's fleet)."""
+        ledger = self._ledger
+        if not self._contested or self._withdrawn_from is None or not len(ledger):
+            return rivals, odds
+        index, own = ledger.find(self._withdrawn_from), ledger.find(pose)
+        if index < 0 or index == own or ledger.ruled_out()[index] or \
+                ledger.near(pose[None, :], index)[0] or \
+                (len(rivals) and ledger.near(np.asarray(rivals).reshape(-1, 3), index).any()):
+            return rivals, odds
+        own_evidence = float(ledger.evidence[own]) if own >= 0 else float(ledger.evidence.max())
+        place_odds = math.exp(min(float(ledger.evidence[index]) - own_evidence, MAX_LOG_ODDS))
+        return (np.vstack([np.asarray(rivals).reshape(-1, 3), ledger.poses[index][None, :]]),
+                np.append(odds, place_odds))
+
     def _recheck(self, pose: np.ndarray) -> None:
         """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
         self._since_recheck = 0
@@ -535,9 +588,10 @@ class ParticleFilter:
             now = kept[-1].odometry
             own = float(history_score(self._scorer, pose[None, :], kept, now)[0])
             scores = history_score(self._scorer, better, kept, now)
-            better = better[scores >= own - self._rival_params.margin].reshape(-1, 3)
+            better = better[scores >= own].reshape(-1, 3)
         if len(better):
             self._localized = False
+            self._contested, self._withdrawn_from = True, pose.copy()
             self.rivals = better
             self._adopt_rivals(better)
             self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "

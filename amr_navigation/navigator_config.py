@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE
 from amr_navigation.traffic import TrafficConfig
+from amr_planning.costmap import CostmapConfig
 from amr_util.geometry import all_finite
 from amr_util.parameter_spec import Config, parameter
 
@@ -55,3 +56,8 @@ class NavigatorConfig(Config):
     """s (node clock), with traffic: another robot's post older than this is dropped (a robot gone quiet)."""
     traffic_rules: TrafficConfig = field(default_factory=TrafficConfig)
     """the rules' parameters (config/traffic.yaml's values are the defaults)."""
+    costmap: CostmapConfig = field(default_factory=CostmapConfig)
+    """with traffic: the costmap the rules build from /map (places aside, detours, what is unmapped), as the
+    planner builds its own: give it the planner node's robot_radius, safety_margin, cost_weight, cost_distance
+    and margin_cost (the fleet_navigation stack ties them: its robot_radius and safety_margin arguments set
+    both nodes)."""

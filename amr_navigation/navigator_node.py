@@ -24,16 +24,16 @@ goal). The latest one wins, at any time, before or after arrival. The path follo
 (amr_interfaces/PathFollowerStatus) reports arrival and requests for a new plan.
 
 Traffic rules among robots (`traffic: true`, the fleet_navigation stack; amr_navigation.traffic): the node keeps
-the latest scan (sensor-data QoS) and the one /map (transient local; the costmap built as the planner node
-builds it, Planner(grid_from_message(...))), publishes this robot's post (amr_interfaces/TrafficPost, its name
-is the namespace) on the absolute topic /traffic and reads everyone's (its own ignored, a malformed one dropped
-and logged, one older than post_timeout forgotten) into a board, and on every observation calls the rules as
-NavigationLoop does (amr_navigation.traffic_steps holds what both share): the advice's speed limit goes out on
-speed_limit (amr_interfaces/SpeedLimit, stamped with the observation, before the status), a replan around
-marks is a ~/plan request carrying the marks as obstacles, a detour is handed to the path follower, a hold or
-a replan is a speed limit of 0 for that observation. With the rules, a robot at its goal (REACHED) and one
-holding still are answered by the path follower with a limit of 0 (not by nobody): the others still need the
-lockstep world to go on, and a robot at its goal may have to make way.
+the latest scan (sensor-data QoS) and the one /map (transient local; the costmap built as the planner node builds
+it, from the `costmap.*` parameters, which the fleet_navigation stack ties to the planner's), publishes this
+robot's post (amr_interfaces/TrafficPost, its name is the namespace) on the absolute topic /traffic and reads
+everyone's (its own ignored, a malformed one dropped and logged, one older than post_timeout forgotten) into a
+board, and on every observation calls the rules as NavigationLoop does (amr_navigation.traffic_steps holds what
+both share): the advice's speed limit goes out on speed_limit (amr_interfaces/SpeedLimit, stamped with the
+observation, before the status), a replan around marks is a ~/plan request carrying the marks as obstacles, a
+detour is handed to the path follower, a hold or a replan is a speed limit of 0 for that observation. With the
+rules, a robot at its goal (REACHED) and one holding still are answered by the path follower with a limit of 0
+(not by nobody): the others still need the lockstep world to go on, and a robot at its goal may have to make way.
 """
 
 from __future__ import annotations
@@ -63,7 +63,8 @@ from amr_navigation.traffic import Traffic
 from amr_navigation.traffic_messages import TRAFFIC_TOPIC, PostError, post_from_message, post_message, speed_limit_message
 from amr_navigation.traffic_steps import FleetBoard, detour_done, idle_advice
 from amr_maps.messages import grid_from_message
-from amr_planning.planner import Planner, PlannerConfig
+from amr_planning.costmap import Costmap, CostmapConfig
+from amr_planning.planner import Planner
 from amr_util.messages import scan_data
 from amr_util.qos import SENSOR_DATA
 from amr_util.stamps import stamp_nanoseconds
@@ -113,6 +114,7 @@ class NavigatorNode(ManagedNode):
         self.posts_dropped = 0
         self._scan: LaserScan | None = None
         self._map_planner: Planner | None = None
+        self._costmap_config = CostmapConfig()
         self._advised: tuple[int, float | None] | None = None  # (observation stamp ns, speed limit)
         self._reports_after = -1
         """traffic: the path follower's reports up to this observation stamp (ns) are of a path the rules dropped."""
@@ -159,6 +161,7 @@ class NavigatorNode(ManagedNode):
         name = self.get_namespace().strip("/") or self.get_name()
         self.board = FleetBoard(config.post_timeout)
         self.traffic = Traffic(name, config.priority, self.board, config.traffic_rules)
+        self._costmap_config = config.costmap
         self._outputs["traffic"] = self.create_lifecycle_publisher(TrafficPostMessage, TRAFFIC_TOPIC, reliable())
         self._outputs["speed_limit"] = self.create_lifecycle_publisher(SpeedLimit, "speed_limit", reliable())
         self._entities += [
@@ -229,8 +232,9 @@ class NavigatorNode(ManagedNode):
         self._scan = message
 
     def _on_map(self, message: OccupancyGridMessage) -> None:
-        try:  # the costmap as the planner node builds it
-            self._map_planner = Planner(grid_from_message(message), PlannerConfig())
+        try:  # the costmap as the planner node builds it (its costmap parameters are the navigator's costmap.*)
+            grid = grid_from_message(message)
+            self._map_planner = Planner(grid, costmap=Costmap(grid, self._costmap_config))
         except Exception as error:  # a bad map must not take the node down
             self.get_logger().error(f"/map refused for the traffic rules, keeping the previous one: {error}")
 

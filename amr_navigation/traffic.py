@@ -82,6 +82,17 @@ The navigator of one robot runs them on every observation it drives with the pat
    (exploring, or itself giving way) still counts as a wall. tests/navigation/test_traffic.py runs a corridor
    whose only place aside is a pocket 5 m behind the lower-priority robot (neither moves without the rule).
 
+6. **Make room** (a robot behind the one that must give way). When neither robot of a pair could give way nearby
+   (rule 5) and the farther search fails too because every way to a place aside is where a robot stands that it
+   does not give way to (one waiting behind it in a corridor one robot wide, itself blocked by this robot), the
+   robot searching farther looks last for a place past such robots (not where one stands); earlier, before rule
+   5, the other robot gives way instead (letting the lower-priority robot push past bystanders first made a
+   six-robot perfect maze cycle: 0/6 at goal). Driving there it holds before the robot on its way and posts it as its blocker, unable to give way:
+   that robot, blocked by one that cannot give way, goes aside first (rule 3), and on it goes; it does not go
+   aside for the robots it passes. Without it a convoy in a corridor stands for good: every search treats the
+   robot behind as a wall, and planning around fails in a corridor. tests/navigation/test_traffic.py runs two
+   robots in a row meeting a third.
+
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
 other's rule is the same rule with the roles swapped), the yielding one has a place (the pocket, or
@@ -589,11 +600,20 @@ class Traffic:
             avoid += [np.array([post.pose[:2]]) for post in parked]  # the place is not where one is parked
         # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
         # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
+        # rule 6 (make room): last, when searching farther (rule 5), a place past any other robot (one behind this one in a corridor, itself waiting
+        # for the robot ahead); driving there this robot holds before it and posts it as its blocker, unable to
+        # give way, and it makes way first (rule 3), as the robots a boxed-in one passes do (rule 4)
+        bystanders = tuple(name for name in others if name not in names)
+        attempts = [(), names] if passive else [()]
+        if bystanders and far:  # only once neither robot could give way (rule 5): else the other gives way
+            attempts.append(bystanders)
         spot = detour = None
-        for passing in ((), names) if passive else ((),):
+        for passing in attempts:
             discs = [xy for name, xy in others.items() if name not in passing]
             marked = costmap.with_obstacles(np.array(discs), config.robot_radius) if discs else costmap
-            spot = place_aside(marked, pose[:2], np.concatenate(avoid), distance, search)
+            # a place is not where a robot passed stands
+            stand = [np.array([others[name]]) for name in passing if name in others and name not in names]
+            spot = place_aside(marked, pose[:2], np.concatenate(avoid + stand), distance, search)
             if spot is None:
                 continue
             try:
@@ -601,7 +621,8 @@ class Traffic:
             except PlanningError:
                 continue
             self._through = tuple(sorted(set(self._through) | set(passing)))
-            way = f" past {', '.join(passing)} (boxed in: they make way first)" if passing else ""
+            way = (f" past {', '.join(passing)} (they make way first)" if passing and passing == bystanders else
+                   f" past {', '.join(passing)} (boxed in: they make way first)" if passing else "")
             if far:
                 way += f" (neither could give way within {config.yield_search:g} m: searched farther)"
             break
@@ -655,7 +676,8 @@ class Traffic:
         # someone newly blocked by this robot (or, waiting aside, one it gives way to that now finds it in its
         # way): go aside for them too
         fresh = [post for post in others if post.blocked_by == self.name and (
-            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))]
+            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))
+            and not (driving and post.name in self._through and post.name not in self._yield_to)]  # rule 6: it makes way
         if fresh and stamp >= self._retry_at:
             renewed = {post.name for post in fresh}
             keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]

@@ -142,3 +142,32 @@ def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp
     for plain in ("/pose", "/tf", "/cmd_vel", "/scan", "/navigator/status", "/r1/map", "/r2/map"):
         assert plain not in topics, f"{plain}: nothing of a robot outside its namespace, one /map"
     assert {"/map", "/clock"} <= topics
+
+
+def test_every_navigator_builds_its_traffic_costmap_as_its_planner_does():
+    """The navigator's costmap.* (the traffic rules' costmap) agree with the planner's costmap parameters in
+    the stack as started, by default and when the stack's robot_radius and safety_margin arguments change them;
+    a -p on one node alone is refused (they are tied)."""
+    import pytest
+
+    from amr_bringup.stack_config import BringupError
+    from amr_navigation.navigator_config import NavigatorConfig
+    from amr_planning.planner import PlannerConfig
+
+    shared = ("robot_radius", "safety_margin", "cost_weight", "cost_distance", "margin_cost")
+    for arguments in ({}, {"robot_radius": "0.12", "safety_margin": "0.03"}):
+        bringup = load_bringup("fleet_navigation").with_overrides({"world": "fleets/crossing.yaml", **arguments})
+        nodes = {node.managed_name: node for node in bringup.nodes}
+        for robot in ("r1", "r2", "r3", "r4"):
+            planner = nodes[f"/{robot}/planner"].parameters
+            navigator = {key: value for key, value in nodes[f"/{robot}/navigator"].parameters.items()
+                         if key != "use_sim_time"}
+            planner_costmap = PlannerConfig.from_params({k: v for k, v in planner.items() if k != "use_sim_time"}).costmap
+            navigator_costmap = NavigatorConfig.from_params(navigator).costmap
+            for key in shared:
+                assert getattr(navigator_costmap, key) == getattr(planner_costmap, key), (robot, key, arguments)
+        if arguments:
+            assert nodes["/r2/navigator"].parameters["costmap.robot_radius"] == 0.12
+    with pytest.raises(BringupError, match="robot_radius"):
+        load_bringup("fleet_navigation").with_overrides({"world": "fleets/crossing.yaml"},
+                                                        {"planner.robot_radius": "0.2"})

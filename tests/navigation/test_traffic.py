@@ -218,3 +218,30 @@ def test_when_neither_robot_can_give_way_nearby_the_lower_priority_one_searches_
     assert robots["r1"].cannot_yield >= 1 and robots["r2"].cannot_yield >= 1, events
     assert any("searched farther" in event for event in robots["r2"].events), events
     assert robots["r1"].yields == 0, events
+
+
+def convoy():
+    """A corridor one robot wide (0.35 m free) from x = -1 to x = 5, closed at x = 5, opening at x = -1 into a
+    room (1.5 x 1.6 m). r2 and r3 go right, r3 0.8 m behind r2, to goals near the closed end; r1 (first in the
+    list) comes from the closed end to a goal in the room. r1 and r2 meet face to face: r2's only place aside
+    is the room, behind r3, which waits behind r2; r1's side is the dead end holding the others' goals."""
+    walls = [[-1.0, -0.2, 5.0, -0.2], [-1.0, 0.2, 5.0, 0.2], [5.0, -0.2, 5.0, 0.2],
+             [-1.0, 0.2, -1.0, 0.8], [-1.0, -0.2, -1.0, -0.8], [-1.0, 0.8, -2.5, 0.8], [-1.0, -0.8, -2.5, -0.8],
+             [-2.5, -0.8, -2.5, 0.8]]
+    return world_from_dict({"name": "convoy", "wall_thickness": 0.05, "walls": walls, "robots": [
+        {"name": "r1", "start": [4.3, 0.0, math.pi], "goal": [-2.1, 0.45, 0.1]},
+        {"name": "r2", "start": [1.2, 0.0, 0.0], "goal": [4.7, 0.0, 0.1]},
+        {"name": "r3", "start": [0.4, 0.0, 0.0], "goal": [3.9, 0.0, 0.1]}]})
+
+
+def test_a_robot_behind_the_one_that_must_give_way_makes_room_for_it_first():
+    """Rule 6: r2 must give way to r1 but its way to the room is where r3 stands (r3 waits for r2, it gives way to
+    no one): r2 goes aside past r3, holds before it, and r3 makes way first. Without it the three stand for
+    good (every search for a place treats r3 as a wall; planning around fails in the corridor)."""
+    run = run_fleet(convoy(), localization="truth", duration=300.0, seed=5)
+    robots = {robot.name: robot for robot in run.robots}
+    events = {robot.name: robot.events for robot in run.robots}
+    assert run.reached == 3, events
+    assert run.robot_contacts == 0 and run.wall_contacts == 0, events
+    assert any("past r3 (they make way first)" in event for event in robots["r2"].events), events
+    assert robots["r3"].yields >= 1, events

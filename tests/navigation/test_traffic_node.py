@@ -59,3 +59,25 @@ def test_posts_come_onto_the_board_and_a_garbage_one_is_dropped_not_raised(ros_c
         assert node.board.prune(12.5) == ["r2"] and node.board.others("r1") == []  # gone quiet: forgotten
     finally:
         node.destroy_node()
+
+
+def test_the_traffic_costmap_is_built_with_the_costmap_parameters_not_the_defaults(ros_context):
+    """The rules' costmap (places aside, detours, unmapped returns) must be the planner's: the navigator takes
+    the planner's costmap parameters as costmap.* (the fleet_navigation stack ties them)."""
+    from amr_maps.messages import grid_message
+    from amr_maps.rasterize import rasterize_world
+    from amr_maps.world import load_world, resolve_world_path
+    from amr_planning.costmap import Costmap, CostmapConfig
+
+    grid = rasterize_world(load_world(resolve_world_path("fleets/crossing.yaml")), 0.025)
+    node = navigator(ros_context, traffic=True, **{"costmap.robot_radius": 0.2, "costmap.safety_margin": 0.05})
+    try:
+        node._on_map(grid_message(grid, Time(sec=1)))
+        costmap = node._map_planner.costmap
+        assert costmap.config.robot_radius == 0.2 and costmap.config.safety_margin == 0.05
+        wanted = Costmap(grid, CostmapConfig(robot_radius=0.2, safety_margin=0.05))
+        default = Costmap(grid, CostmapConfig())
+        assert np.array_equal(costmap.lethal, wanted.lethal) and np.array_equal(costmap.inflated, wanted.inflated)
+        assert costmap.lethal.sum() > default.lethal.sum(), "a wider robot has more lethal cells"
+    finally:
+        node.destroy_node()
