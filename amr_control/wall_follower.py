@@ -379,10 +379,20 @@ class WallFollower:
                 self._state, self._state_time, self._traveled = self._resume
                 self._last_error = None
         elif state in TURNING:
-            room = r.ahead >= c.turn_exit_distance or not self._turn_needs_room
+            turned = self._turned >= self._turn_angle
+            # A square turn facing an open way (the footprint could drive open_travel_distance along
+            # it) ends at its angle: a corridor that leaves less than turn_exit_distance ahead (a
+            # T-junction or a one-cell side passage of a 0.35 m maze, under the real configuration's
+            # 0.515 m) is still the corridor the turn was square to. Waiting for room there ran the
+            # turn TURN_OVERSHOOT past square, and the next turns inherited the 30 deg.
+            room = (
+                not self._turn_needs_room
+                or r.ahead >= c.turn_exit_distance
+                or (turned and self._square_turn and self._open_ahead())
+            )
             # Never more than TURN_OVERSHOOT past the angle waiting for room: in a narrow bend
             # the way back is the first direction with that much room.
-            done = self._turned >= self._turn_angle and (room or self._turned >= self._turn_angle + TURN_OVERSHOOT)
+            done = turned and (room or self._turned >= self._turn_angle + TURN_OVERSHOOT)
             if done or self._state_time >= c.turn_timeout_factor * self._turn_angle / c.turn_speed:
                 if self._square_turn:
                     self._skew_filter.square()
@@ -473,6 +483,12 @@ class WallFollower:
             edge = self._reader.side_edge(side, self.config.wall_lost_distance, self._skew)
             if edge is not None:
                 self._side_edge = max(self._side_edge, edge)
+
+    def _open_ahead(self) -> bool:
+        """Whether the way straight ahead is open as a turn's candidate directions are (_open_direction):
+        the footprint could drive open_travel_distance along it."""
+        travel = self._reader.free_travel(np.zeros(1), NOISE_ALLOWANCE)
+        return bool(travel[0] >= self.config.open_travel_distance)
 
     def _committed(self, r: Readings) -> bool:
         """Whether the robot, just out of a turn, is committed to the corridor it turned into.
@@ -702,7 +718,10 @@ class WallFollower:
         Not while turning in place: the walls then sweep through the side windows, and a fit of
         a wall the robot is turning away from, carried through the rest of the turn by odometry,
         left a skew of -70 deg at the turn's end (noise-free) that rotated the next turn's
-        candidate directions. An estimate that has grown past max_skew_deg is dropped likewise.
+        candidate directions. An estimate that has grown past max_skew_deg is dropped likewise once a
+        wall is fitted on the scan (the walls then contradict it); on a scan without one it is kept: the
+        odometry carried it there (a turn that ran on past square, SkewFilter.square), and dropping it
+        left the next square turn that far off square.
         """
         if self._state in TURNING:  # carried through the turn, not used until it ends
             self._skew, self._skew_seen = 0.0, False
@@ -714,10 +733,11 @@ class WallFollower:
         if other is not None:
             self._skew_filter.measure(other, tentative=followed is not None)
         skew = self._skew_filter.skew
-        if skew is not None and abs(skew) > math.radians(self.config.max_skew_deg):
+        fitted = (followed or other) is not None
+        if skew is not None and abs(skew) > math.radians(self.config.max_skew_deg) and fitted:
             self._skew_filter.forget()
             skew = None
-        self._skew_seen = skew is not None and (followed or other) is not None
+        self._skew_seen = skew is not None and fitted
         self._skew = 0.0 if skew is None else skew
 
     def _sides_square(self, r: Readings) -> tuple[float, float]:
