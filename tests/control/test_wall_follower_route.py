@@ -3,7 +3,7 @@
 Unit tests of the decision changes (the skew averaged along the way, window minima read on
 averaged ranges, the commitment to the corridor a turn faces, corner turns anchored on the
 measured end of the followed wall or, where none was fitted, of the solid passed; the skew kept
-through square turns) on synthetic scans, and a noisy
+through square turns; square turns facing a short open way ending square) on synthetic scans, and a noisy
 tight maze whose route, cell by cell, is compared with the noise-free one; the sweeps over many
 mazes, seeds and both configurations are in bench/bench_wall_follower_families.py --route.
 """
@@ -26,7 +26,7 @@ from amr_simulation.simulator import Simulator
 from amr_util.scan import ScanData
 from amr_maps.world import world_from_dict
 from control_helpers import cast, corridor
-from test_closed_loop import SIM_CONFIG
+from test_closed_loop import REAL_CONFIG, SIM_CONFIG
 
 DT = 0.05
 READER = SectorReader(
@@ -305,3 +305,84 @@ def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(name
     shorter = min(len(route), len(reference))
     at = first_difference(route[:shorter], reference[:shorter])
     assert at is None, f"left the noise-free route at cell {at}"
+
+
+# -- square turns where the way ahead is short (the real configuration) -----------------------------
+
+SIDE_PASSAGE_MAZE = (
+    ((0, 0), (0, 1)), ((0, 1), (1, 1)), ((1, 1), (1, 0)), ((1, 1), (2, 1)), ((2, 1), (2, 2)), ((2, 2), (3, 2)),
+    ((3, 2), (3, 1)), ((3, 1), (3, 0)), ((3, 0), (2, 0)), ((0, 1), (0, 2)), ((0, 2), (1, 2)),
+)
+"""The passages of a 4 x 3 tree maze (cells (i, j), i east, j north). The right hand from (0, 0), facing
+north, turns into the junction (1, 1), turns around in the dead end (1, 0) below it, and out of the
+junction into the one-cell side passage (2, 1): both turns face a wall 1.5 cells ahead (about 0.50 m
+from the LiDAR), nearer than the real configuration's turn_exit_distance (0.515 m)."""
+
+
+def grid_maze(passages, columns: int, rows: int, width: float = 0.35, thickness: float = 0.008) -> dict:
+    """A world dict of a grid maze: every cell edge is a wall but the passages; start in (0, 0) facing
+    north, goal in the passages' last cell."""
+    pitch = width + thickness
+    opened = {frozenset(p) for p in passages}
+    walls = []
+    for i in range(columns + 1):  # vertical lines x = i pitch: between (i - 1, j) and (i, j)
+        walls += [[i * pitch, j * pitch, i * pitch, (j + 1) * pitch] for j in range(rows)
+                  if frozenset(((i - 1, j), (i, j))) not in opened]
+    for j in range(rows + 1):
+        walls += [[i * pitch, j * pitch, (i + 1) * pitch, j * pitch] for i in range(columns)
+                  if frozenset(((i, j - 1), (i, j))) not in opened]
+    goal = passages[-3][1]  # (2, 0)
+    centre = lambda cell: [(cell[0] + 0.5) * pitch, (cell[1] + 0.5) * pitch]  # noqa: E731
+    return {"name": "side_passage", "wall_thickness": thickness, "walls": walls,
+            "start": centre((0, 0)) + [0.5 * math.pi], "goal": centre(goal) + [0.1]}
+
+
+def test_square_turns_facing_a_short_open_way_end_square_and_keep_the_hand_tour():
+    # Real configuration, noise-free, the LDS's 360 beams. Waiting for turn_exit_distance ahead, the
+    # turn-around ended 23.5 deg past square and the turn into the side passage 30 deg past (the most
+    # a turn waits for room), the skew that odometry carried through it was then dropped as past
+    # max_skew_deg, and the next square turn ended 30 deg off square (thin_walls maze 6 of the route
+    # bench: the robot left the tour there and missed the goal).
+    world = grid_maze(SIDE_PASSAGE_MAZE, 4, 3)
+    grid = MazeGrid.from_world(world)
+    sim = Simulator(world_from_dict(world), SimulationConfig(dt=REAL_CONFIG.dt, lidar=LidarConfig(beams=360, noise_std=0.0),
+                                                             encoders=EncoderConfig(noise=0.0, slip=0.0)))
+    follower = WallFollower(REAL_CONFIG)
+    lidar = sim.lidar
+    turn_ends = []  # heading off square (deg) where a square turn ended
+    while sim.time < 150.0 and not sim.goal_reached:
+        scan = ScanData(np.array(sim.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
+        turning, square = follower.state.startswith("TURN"), follower._square_turn
+        command = follower.compute(scan, *sim.odom_twist, sim.time)
+        if turning and square and not follower.state.startswith("TURN"):
+            quarter = 0.5 * math.pi
+            turn_ends.append(math.degrees(math.remainder(sim.pose.theta - grid.angle, quarter)))
+        sim.step(command.v, command.w)
+    route = cell_route(grid, sim.trajectory[:, :2])
+    tour = hand_tour(grid, world["start"])
+    assert sim.collisions == 0
+    assert len(turn_ends) >= 6, turn_ends
+    assert np.abs(turn_ends).max() < 5.0, turn_ends
+    assert route[:4] == [(0, 0), (0, 1), (1, 1), (1, 0)]  # into the dead end
+    assert sim.goal_reached, f"goal missed; route {route}"
+    assert first_difference(route, tour[: len(route)]) is None, f"left the hand tour: {route}"
+
+
+def test_a_skew_carried_past_max_skew_deg_is_kept_until_a_wall_contradicts_it():
+    # Square to a corridor, then turned 36 deg counter-clockwise by odometry where no wall is within
+    # reach (only a wall 2 m ahead): the skew carried (-36 deg) is past max_skew_deg (30) but nothing
+    # contradicts it, so it is kept (dropping it left the next square turn 30 deg off square).
+    follower = WallFollower(SIM_CONFIG)
+    for step in range(10):
+        follower.compute(cast(corridor(left=0.2, right=0.2)), 0.15, 0.0, step * DT)
+    t = 9 * DT
+    assert follower._skew_filter.skew == pytest.approx(0.0, abs=1e-3)
+    far = cast([(2.0, -3.0, 2.0, 3.0)])
+    for _ in range(36):  # 0.5 rad/s for 0.035 s: 1 deg a scan
+        t += 0.035
+        follower.compute(far, 0.0, math.radians(1.0) / 0.035, t)
+    assert follower._skew_filter.skew is not None
+    assert math.degrees(follower._skew_filter.skew) == pytest.approx(-36.0, abs=0.5)
+    # A wall fitted 10 deg off the heading contradicts it: dropped (the fit then starts it afresh).
+    follower.compute(cast(corridor(left=0.2, right=0.2), heading=math.radians(-10.0)), 0.0, 0.0, t + DT)
+    assert abs(math.degrees(follower._skew_filter.skew or 0.0)) < 30.0
