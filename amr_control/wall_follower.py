@@ -29,8 +29,10 @@ state machine (``WallFollower.state``):
   else around. A turn ends when odometry says the angle is done (nominal plus
   the skew against the walls, so it ends square; the skew is carried through a
   square turn by odometry, a quarter turn on) and the narrow
-  window ahead reads ``turn_exit_distance`` (or after ``turn_timeout_factor``
-  times its nominal duration).
+  window ahead reads ``turn_exit_distance``, or, for a square turn, the way
+  ahead is open (``open_travel_distance``); waiting for room, at most
+  TURN_OVERSHOOT past the angle (or after ``turn_timeout_factor`` times its
+  nominal duration).
 * ``STABILIZE``: the seed's Fixed_Front: straight ahead at
   ``stabilize_speed`` for ``stabilize_time``, then on until the followed wall
   is found (``FOLLOW``) or ``corner_exit_distance`` is driven (``SEARCH``).

@@ -79,7 +79,8 @@ class WallFollowerConfig(Config):
     """s of the stabilization phase before wall following resumes."""
     turn_exit_distance: float = parameter(0.423, minimum=0.05, maximum=5.0, live=True)
     """m, a turn ends once its angle is done and the narrow window ahead reads at least this
-    (seed: front_threshold * sqrt 2 * 1.3 = 0.423 for 0.23)."""
+    (seed: front_threshold * sqrt 2 * 1.3 = 0.423 for 0.23); a square turn also ends there when the
+    way ahead is open (open_travel_distance), as at a T-junction with less room ahead than this."""
     wall_lost_distance: float = parameter(0.4, minimum=0.05, maximum=5.0, live=True)
     """m, a side reading beyond this is an opening, not a wall."""
     corner_advance: float = parameter(0.15, minimum=0.0, maximum=2.0, live=True)
