@@ -72,7 +72,7 @@ from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
-from amr_localization.unexpected_obstacles import MapRanges, subset, unexpected
+from amr_localization.unexpected_obstacles import MapRanges, unexpected, without_unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
@@ -389,14 +389,8 @@ class ParticleFilter:
         poses = [np.array([estimate.x, estimate.y, estimate.theta])]
         if self._contested:
             poses += self._cluster_poses(1.0 - config.localized_min_cluster_share)[1:]
-        short = np.zeros(len(beams.ranges), dtype=bool)
-        for pose in poses:
-            short |= unexpected(self._map_ranges, pose, beams, config.unexpected_obstacle_margin)
-        dropped = int(np.count_nonzero(short))
-        if dropped == 0 or dropped > config.unexpected_obstacle_max_share * int(np.count_nonzero(beams.returned)):
-            kept, dropped = beams, 0
-        else:
-            kept = subset(beams, ~short)
+        kept, dropped = without_unexpected(self._map_ranges, np.array(poses), beams, config.unexpected_obstacle_margin,
+                                           config.unexpected_obstacle_max_share)
         if count:
             self.status.unexpected = dropped
         return kept
@@ -514,10 +508,9 @@ class ParticleFilter:
                 self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
                                      "and the evidence so far does not rule them out")
         self._localized = self._confirmations >= config.localized_confirmations
-        if self._localized:
-            self._contested, self._withdrawn_from = False, None
         if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
             self._ledger.clear()  # a withdrawal starts it afresh from the scans then
+            self._contested, self._withdrawn_from = False, None
 
     def _follow(self, search: PlaceSearch, with_estimate: bool = True) -> int:
         """Enter the estimate's place and every place the search found explaining the recent scans within

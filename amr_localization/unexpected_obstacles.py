@@ -9,7 +9,8 @@ the beams ends on a wall, reads such a scan as not fitting, so `localized` is ne
 
 The beam model's answer (Thrun et al., table 6.1: z_short, an exponential of unexpected obstacles in front of the
 expected range) needs the expected range of every beam at every particle. This module asks it at one pose, the
-filter's estimate, once one hypothesis holds the weight: `MapRanges.expected` ray casts each beam on the map (the
+filter's estimate, once one hypothesis holds the weight (and, while a withdrawal is contested, at every cluster
+heavy enough to block a declaration): `MapRanges.expected` ray casts each beam on the map (the
 beam model's `MapRays`: the outline of the occupied cells), and `without_unexpected` drops the
 returned beams reading `margin` m or more short of it, unless more than `max_share` of them do (then the estimate,
 not the world, is what is wrong: a kidnapped robot; nothing is dropped).
@@ -55,9 +56,12 @@ def unexpected(map_ranges: MapRanges, pose: np.ndarray, beams: Beams, margin: fl
 
 def without_unexpected(map_ranges: MapRanges, pose: np.ndarray, beams: Beams, margin: float,
                        max_share: float) -> tuple[Beams, int]:
-    """`beams` without those reading `margin` m or more short of the map at `pose`, and how many were dropped;
-    all of them (and 0) when more than `max_share` of the returned beams read short."""
-    short = unexpected(map_ranges, pose, beams, margin)
+    """`beams` without those reading `margin` m or more short of the map at `pose` (x, y, theta), or at any of
+    several poses ((P, 3): a beam short at one of the places weighed says nothing between them), and how many
+    were dropped; all of them (and 0) when more than `max_share` of the returned beams read short."""
+    short = np.zeros(len(beams.ranges), dtype=bool)
+    for one in np.asarray(pose, dtype=float).reshape(-1, 3):
+        short |= unexpected(map_ranges, one, beams, margin)
     count = int(np.count_nonzero(short))
     if count == 0 or count > max_share * int(np.count_nonzero(beams.returned)):
         return beams, 0
