@@ -32,14 +32,9 @@ def clock(time: Time) -> Clock:
 def transform(time: Time, parent: str, child: str, pose: Pose2D) -> TransformStamped:
     """geometry_msgs/TransformStamped placing frame `child` at `pose` in frame `parent` (tf2's convention)."""
     message = TransformStamped()
+    message.header.stamp = time
     message.header.frame_id = parent
     message.child_frame_id = child
-    return fill_transform(message, time, pose)
-
-
-def fill_transform(message: TransformStamped, time: Time, pose: Pose2D) -> TransformStamped:
-    """A transform's stamp and pose set anew (its frames kept)."""
-    message.header.stamp = time
     translation = message.transform.translation
     translation.x, translation.y = pose.x, pose.y
     rotation = message.transform.rotation
@@ -55,15 +50,9 @@ def tf_message(transforms: Sequence[TransformStamped]) -> TFMessage:
 def odometry(time: Time, frame: str, child_frame: str, pose: Pose2D, twist: Sequence[float]) -> Odometry:
     """nav_msgs/Odometry: pose in `frame`, twist (vx, vy, w) in `child_frame` (the body)."""
     message = Odometry()
+    message.header.stamp = time
     message.header.frame_id = frame
     message.child_frame_id = child_frame
-    return fill_odometry(message, time, pose, twist)
-
-
-def fill_odometry(message: Odometry, time: Time, pose: Pose2D, twist: Sequence[float]) -> Odometry:
-    """An odometry message's stamp, pose and twist set anew (its frames kept). (The simulator node builds each
-    topic's message here once and then rewrites the serialized bytes in place: amr_util.wire.)"""
-    message.header.stamp = time
     position = message.pose.pose.position
     position.x, position.y = pose.x, pose.y
     orientation = message.pose.pose.orientation
@@ -77,6 +66,7 @@ def fill_odometry(message: Odometry, time: Time, pose: Pose2D, twist: Sequence[f
 def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, scan_time: float) -> LaserScan:
     """sensor_msgs/LaserScan of one scan taken at once (time_increment 0); +-inf kept (REP 117)."""
     message = LaserScan()
+    message.header.stamp = time
     message.header.frame_id = frame
     message.angle_min = lidar.angle_min
     message.angle_max = lidar.angle_max
@@ -84,12 +74,6 @@ def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, s
     message.scan_time = scan_time
     message.range_min = lidar.range_min
     message.range_max = lidar.range_max
-    return fill_laser_scan(message, time, ranges)
-
-
-def fill_laser_scan(message: LaserScan, time: Time, ranges: np.ndarray) -> LaserScan:
-    """A scan's stamp and ranges set anew (its frame and beam geometry kept)."""
-    message.header.stamp = time
     message.ranges = array.array("f", np.asarray(ranges, dtype=np.float32).tobytes())
     return message
 
