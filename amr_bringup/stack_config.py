@@ -553,9 +553,10 @@ def _with_parameter(node: NodeSpec, parameter: str, text: str) -> NodeSpec:
     if value == []:
         parameters.pop(parameter, None)
     else:
-        for part in reversed(parameter.split(".")[1:]):  # a dotted name (a nested section: traffic_rules.wait_time)
+        head, *nested = parameter.split(".")  # a dotted name: a nested section (traffic_rules.wait_time)
+        for part in reversed(nested):
             value = {part: value}
-        flat = _flat_parameters(_Where(Path("command line")), node.name, {parameter.split(".")[0]: value})
+        flat = _flat_parameters(_Where(Path("command line")), node.name, {head: value})
         parameters.update(flat)
     return replace(node, parameters=parameters)
 
