@@ -545,7 +545,8 @@ class ParticleFilter:
         odds = np.exp(np.minimum(evidence[viable] - ledger.evidence[own], MAX_LOG_ODDS))
         return rivals[viable].reshape(-1, 3), odds
 
-    def _with_withdrawn_place(self, pose: np.ndarray, rivals: np.ndarray, odds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _with_withdrawn_place(self, pose: np.ndarray, rivals: np.ndarray,
+                              odds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """While contested, the place localized was withdrawn from stays a rival of any other place until the
         ledger rules it out (its evidence there leaves out the beams reading short of the map, which another robot
         explains): the rival search alone weighs the recent scans, those on the other robots included, and a

@@ -87,9 +87,9 @@ The navigator of one robot runs them on every observation it drives with the pat
    does not give way to (one waiting behind it in a corridor one robot wide, itself blocked by this robot), the
    robot searching farther looks last for a place past such robots (not where one stands); earlier, before rule
    5, the other robot gives way instead (letting the lower-priority robot push past bystanders first made a
-   six-robot perfect maze cycle: 0/6 at goal). Driving there it holds before the robot on its way and posts it as its blocker, unable to give way:
-   that robot, blocked by one that cannot give way, goes aside first (rule 3), and on it goes; it does not go
-   aside for the robots it passes. Without it a convoy in a corridor stands for good: every search treats the
+   six-robot perfect maze cycle: 0/6 at goal). Driving there it holds before the robot on its way and posts it
+   as its blocker, unable to give way: that robot, blocked by one that cannot give way, goes aside first
+   (rule 3), and on it goes; it does not go aside for the robots it passes. Without it a convoy in a corridor stands for good: every search treats the
    robot behind as a wall, and planning around fails in a corridor. tests/navigation/test_traffic.py runs two
    robots in a row meeting a third.
 
@@ -600,9 +600,10 @@ class Traffic:
             avoid += [np.array([post.pose[:2]]) for post in parked]  # the place is not where one is parked
         # a place the robot reaches without passing anyone; a passive robot boxed in (its only way out is
         # where the robots it blocks stand) may pass them: they make way for it (the way-out rule)
-        # rule 6 (make room): last, when searching farther (rule 5), a place past any other robot (one behind this one in a corridor, itself waiting
-        # for the robot ahead); driving there this robot holds before it and posts it as its blocker, unable to
-        # give way, and it makes way first (rule 3), as the robots a boxed-in one passes do (rule 4)
+        # rule 6 (make room): last, when searching farther (rule 5), a place past any other robot (one behind
+        # this one in a corridor, itself waiting for the robot ahead); driving there this robot holds before it
+        # and posts it as its blocker, unable to give way, and it makes way first (rule 3), as the robots a
+        # boxed-in one passes do (rule 4)
         bystanders = tuple(name for name in others if name not in names)
         attempts = [(), names] if passive else [()]
         if bystanders and far:  # only once neither robot could give way (rule 5): else the other gives way
@@ -677,7 +678,8 @@ class Traffic:
         # way): go aside for them too
         fresh = [post for post in others if post.blocked_by == self.name and (
             post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))
-            and not (driving and post.name in self._through and post.name not in self._yield_to)]  # rule 6: it makes way
+            # rule 6: a robot this one drives past makes way for it, not the other way round
+            and not (driving and post.name in self._through and post.name not in self._yield_to)]
         if fresh and stamp >= self._retry_at:
             renewed = {post.name for post in fresh}
             keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]

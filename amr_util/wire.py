@@ -9,9 +9,9 @@ the serialized bytes (CDR, exactly as rmw serializes the message) and overwrite 
 Where each field lies is found by serializing the template with two probe values in the field and finding the one
 place that holds their bytes (no CDR layout is written out here), and checked once at construction: the bytes with
 every field rewritten must deserialize to the message with those values set. (Byte for byte the two may differ in
-the alignment padding, which the serializer leaves as it finds it and no reader looks at.) Only fixed-size fields (numbers and
-booleans, and the elements of a sequence of numbers whose length stays) can be rewritten: strings and the lengths of
-sequences are part of the template.
+the alignment padding, which the serializer leaves as it finds it and no reader looks at.) Only fixed-size fields
+(numbers and booleans, and the elements of a sequence of numbers whose length stays) can be rewritten: strings and
+the lengths of sequences are part of the template.
 """
 
 from __future__ import annotations
