@@ -15,13 +15,25 @@ lockstep on the simulator's Fleet (LiDAR noise 0.01 m, no encoder noise, seeded 
 Prints one line per run (robots at their goal, robot-robot and wall contacts, robots ever falsely localized
 (localized with the estimate more than 0.3 m off), yields, stops, replans around, simulated and wall-clock
 time) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-core machine).
+
+--ros runs the same worlds through ROS instead: the world written to a YAML file, `amr-bringup fleet_navigation
+world:=<file> --composed` started as a process of its own (every node of every robot in one process, the
+particle filters included; the stack's own configuration, config/*.yaml), and each robot's `/<name>/status`
+read until every robot is at its goal or --duration simulated seconds have passed (robots at goal, contacts
+and falsely localized from those statuses; yields, stops and replans are not on a topic: '-'). One world at a
+time (--jobs is ignored); run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own
+(the child inherits both).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import signal
+import subprocess
 import sys
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -55,6 +67,87 @@ def one(args: tuple) -> dict:
     return result
 
 
+def through_ros(args: tuple) -> dict:
+    """One world through ROS: `amr-bringup fleet_navigation --composed` in a process of its own, watched on the
+    robots' status topics."""
+    import rclpy
+    import yaml
+    from rclpy.executors import SingleThreadedExecutor
+
+    from amr_evaluation.fleet_navigation import FALSE_LOCALIZED_ERROR
+    from amr_interfaces.msg import SimulatorStatus
+    from amr_util.environment import child_environment
+
+    family, seed, robots, size, duration, _ = args
+    data = fleet_world(family, seed, robots, size)
+    names = [robot["name"] for robot in data["robots"]]
+    last: dict = {}
+    false_steps = dict.fromkeys(names, 0)
+
+    def watch(name):
+        def on_status(message) -> None:
+            last[name] = message
+            if message.localized and message.position_error > FALSE_LOCALIZED_ERROR:
+                false_steps[name] += 1
+        return on_status
+
+    began = time.perf_counter()
+    reason, errors = "time limit", ""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"{data['name']}.yaml"
+        path.write_text(yaml.safe_dump(data, sort_keys=False))
+        context = rclpy.Context()
+        rclpy.init(context=context)
+        node = rclpy.create_node("bench_fleet_observer", context=context)
+        for name in names:
+            node.create_subscription(SimulatorStatus, f"/{name}/status", watch(name), 10)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        log = open(Path(folder) / "bringup.log", "w+")
+        process = subprocess.Popen([sys.executable, "-m", "amr_bringup.bringup", "fleet_navigation",
+                                    f"world:={path}", "--composed"], env=child_environment(),
+                                   stdout=log, stderr=subprocess.STDOUT)
+        try:
+            while True:
+                executor.spin_once(timeout_sec=0.2)
+                if process.poll() is not None:
+                    reason = f"amr-bringup exited with {process.returncode}"
+                    break
+                if len(last) == len(names) and all(last[name].goal_reached for name in names):
+                    reason = "every robot at its goal"
+                    break
+                if len(last) == len(names) and min(message.sim_time for message in last.values()) >= duration:
+                    break
+                if len(last) < len(names) and time.perf_counter() - began > 300.0:
+                    reason = "not every robot's status within 300 s"
+                    break
+        finally:
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+                try:
+                    process.wait(timeout=60)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait()
+            log.seek(0)
+            errors = log.read()
+            log.close()
+            executor.shutdown()
+            node.destroy_node()
+            context.try_shutdown()
+    if reason != "every robot at its goal" and reason != "time limit":
+        print(f"{data['name']}: {reason}\n{errors[-3000:]}", file=sys.stderr)
+    reached = [name for name in names if name in last and last[name].goal_reached]
+    return {"family": family, "seed": seed, "size": size, "localization": "filter (ROS)", "robots": robots,
+            "reached": len(reached), "robot_contacts": sum(m.robot_collisions for m in last.values()) // 2,
+            "wall_contacts": sum(m.wall_collisions for m in last.values()),
+            "false_localized": sum(steps > 0 for steps in false_steps.values()),
+            "yields": "-", "stops": "-", "replans_around": "-",
+            "time": max((m.sim_time for m in last.values()), default=math.nan),
+            "wall_time": time.perf_counter() - began, "reason": reason,
+            "unreached": [name for name in names if name not in reached]}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", nargs="+", default=["perfect", "loops", "pillars"])
@@ -65,23 +158,27 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=300.0, help="s simulated at most per run")
     parser.add_argument("--localization", choices=("filter", "truth"), default="filter")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--ros", action="store_true",
+                        help="through ROS: amr-bringup fleet_navigation --composed per world, one at a time")
     args = parser.parse_args(argv)
+    if args.ros:
+        args.jobs, args.localization = 1, "filter"
     cases = [(family, seed, robots, args.size, args.duration, args.localization) for family in args.families
              for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]
     print(f"{len(cases)} runs: families {', '.join(args.families)}, {args.size:g} m, robots {args.robots}, "
-          f"{args.seeds} seeds, localization {args.localization}, limit {args.duration:g} s simulated, "
+          f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, limit {args.duration:g} s simulated, "
           f"{args.jobs} processes, load {os.getloadavg()[0]:.1f}")
     print("world                      robots  at goal  robot-robot  wall  false loc.  yields  stops  around  "
           "sim s  wall s")
     began = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        for result in pool.map(one, cases):
+        for result in (map(through_ros, cases) if args.ros else pool.map(one, cases)):
             results.append(result)
             name = f"{result['family']} {result['seed']}"
             print(f"{name:26s} {result['robots']:6d} {result['reached']:8d} {result['robot_contacts']:12d} "
-                  f"{result['wall_contacts']:5d} {result['false_localized']:11d} {result['yields']:7d} "
-                  f"{result['stops']:6d} {result['replans_around']:7d} {result['time']:6.1f} "
+                  f"{result['wall_contacts']:5d} {result['false_localized']:11d} {result['yields']:>7} "
+                  f"{result['stops']:>6} {result['replans_around']:>7} {result['time']:6.1f} "
                   f"{result['wall_time']:7.1f}" + (f"  not at goal: {', '.join(result['unreached'])}"
                                                    if result['unreached'] else ""), flush=True)
     robots = sum(r["robots"] for r in results)
