@@ -99,15 +99,20 @@ matching, and a request sent before the match is lost (volatile durability)."""
 _matched_clients: weakref.WeakSet = weakref.WeakSet()
 
 
-def call(executor, client, request, timeout: float = TIMEOUT):
+def call(executor, client, request, timeout: float = TIMEOUT, attempts: int = 1):
+    """The service's answer; an idempotent request (a query) may be sent `attempts` times: on a loaded machine
+    the first request of a new client can still be lost after MATCH_DELAY (the reply's reader not yet matched)."""
     if client not in _matched_clients:
         assert client.wait_for_service(timeout_sec=timeout), f"{client.srv_name} not available"
         spin_until(executor, lambda: False, MATCH_DELAY)
         _matched_clients.add(client)
-    future = client.call_async(request)
-    executor.spin_until_future_complete(future, timeout_sec=timeout)
-    assert future.done(), f"{client.srv_name} did not answer"
-    return future.result()
+    for _ in range(attempts):
+        future = client.call_async(request)
+        executor.spin_until_future_complete(future, timeout_sec=timeout)
+        if future.done():
+            return future.result()
+        client.remove_pending_request(future)
+    raise AssertionError(f"{client.srv_name} did not answer ({attempts} request(s), {timeout:g} s each)")
 
 
 def change_state(executor, probe: Probe, transition_id: int) -> bool:
@@ -115,7 +120,7 @@ def change_state(executor, probe: Probe, transition_id: int) -> bool:
 
 
 def state_of(executor, probe: Probe) -> str:
-    return call(executor, probe.get_state, GetState.Request()).current_state.label
+    return call(executor, probe.get_state, GetState.Request(), attempts=3).current_state.label
 
 
 def drive(executor, probe: Probe, commands) -> None:
