@@ -14,7 +14,9 @@ lockstep on the simulator's Fleet (LiDAR noise 0.01 m, no encoder noise, seeded 
 
 Prints one line per run (robots at their goal, robot-robot and wall contacts, robots ever falsely localized
 (localized with the estimate more than 0.3 m off), yields, stops, replans around, simulated and wall-clock
-time) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-core machine).
+time; with the filter: times localized was withdrawn after a declaration, s the robots spent unsure after their
+first declaration (summed; while unsure a robot posts no position on the traffic board), and the span of the
+robots' first declarations) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-core machine).
 """
 
 from __future__ import annotations
@@ -55,6 +57,16 @@ def one(args: tuple) -> dict:
     return result
 
 
+def _first_localized(result: dict) -> str:
+    """The robots' first declarations of localized, earliest-latest s (and how many never), '-' with truth."""
+    if result["localization"] == "truth":
+        return "-"
+    times = [r["first_localized"] for r in result["per_robot"] if r["first_localized"] is not None]
+    never = len(result["per_robot"]) - len(times)
+    span = f"{min(times):.1f}-{max(times):.1f}" if times else "none"
+    return span + (f" ({never} never)" if never else "")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", nargs="+", default=["perfect", "loops", "pillars"])
@@ -72,7 +84,7 @@ def main(argv=None) -> int:
           f"{args.seeds} seeds, localization {args.localization}, limit {args.duration:g} s simulated, "
           f"{args.jobs} processes, load {os.getloadavg()[0]:.1f}")
     print("world                      robots  at goal  robot-robot  wall  false loc.  yields  stops  around  "
-          "sim s  wall s")
+          "sim s  wall s  withdrawn  unsure s  first loc. s")
     began = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
@@ -82,14 +94,17 @@ def main(argv=None) -> int:
             print(f"{name:26s} {result['robots']:6d} {result['reached']:8d} {result['robot_contacts']:12d} "
                   f"{result['wall_contacts']:5d} {result['false_localized']:11d} {result['yields']:7d} "
                   f"{result['stops']:6d} {result['replans_around']:7d} {result['time']:6.1f} "
-                  f"{result['wall_time']:7.1f}" + (f"  not at goal: {', '.join(result['unreached'])}"
+                  f"{result['wall_time']:7.1f} {result['withdrawals']:10d} {result['unsure_time']:9.1f}  "
+                  f"{_first_localized(result)}" + (f"  not at goal: {', '.join(result['unreached'])}"
                                                    if result['unreached'] else ""), flush=True)
     robots = sum(r["robots"] for r in results)
     print(f"\ntotal: {sum(r['reached'] for r in results)}/{robots} robots at their goal; "
           f"{sum(r['reached'] == r['robots'] for r in results)}/{len(results)} runs with every robot there; "
           f"robot-robot contacts {sum(r['robot_contacts'] for r in results)}, wall contacts "
           f"{sum(r['wall_contacts'] for r in results)}, robots falsely localized "
-          f"{sum(r['false_localized'] for r in results)}; {time.perf_counter() - began:.0f} s wall clock, "
+          f"{sum(r['false_localized'] for r in results)}, localized withdrawn {sum(r['withdrawals'] for r in results)} "
+          f"times, {sum(r['unsure_time'] for r in results):.1f} robot-s unsure after a first declaration (longest "
+          f"{max((p['longest_unsure'] for r in results for p in r['per_robot']), default=0.0):.1f} s); {time.perf_counter() - began:.0f} s wall clock, "
           f"load {os.getloadavg()[0]:.1f}")
     for family in args.families:
         rows = [r for r in results if r["family"] == family]
