@@ -394,7 +394,8 @@ def _fleet_navigation(spec: EpisodeSpec) -> dict[str, Any]:
         "collisions": run.wall_contacts + run.robot_contacts, "distance": sum(r.distance for r in run.robots),
         "plans": sum(r.plans for r in run.robots),
         "extra": {key: summary[key] for key in ("reached", "robots", "robot_contacts", "wall_contacts",
-                                                "false_localized", "per_robot")},
+                                                "false_localized", "withdrawals", "unsure_time",
+                                                "per_robot")},
     }
 
 

@@ -60,6 +60,13 @@ class RobotRun:
     falsely_localized: bool = False
     """at the last step (the run's events say when it began and ended)."""
     max_localized_error: float = 0.0
+    withdrawals: int = 0
+    """times the filter withdrew localized after declaring it."""
+    unsure_time: float = 0.0
+    """s simulated not localized after the first declaration (while unsure a robot posts no position on the
+    traffic board: the others' right-of-way rules do not see it, only their LiDAR stop rule)."""
+    longest_unsure: float = 0.0
+    """s, the longest of those spans (one still open at the end counts up to the end)."""
     plans: int = 0
     stops: int = 0
     replans_around: int = 0
@@ -67,6 +74,23 @@ class RobotRun:
     cannot_yield: int = 0
     distance: float = 0.0
     events: list[str] = field(default_factory=list)
+    _unsure_since: float | None = field(default=None, repr=False)
+
+    def note_localized(self, time: float, localized: bool, dt: float) -> None:
+        """Count one step of `dt` s at `time` that the filter said `localized` (or not): the first declaration,
+        withdrawals and the time unsure after the first declaration."""
+        if localized:
+            if self.first_localized is None:
+                self.first_localized = time
+            self._unsure_since = None
+            return
+        if self.first_localized is None:
+            return
+        if self._unsure_since is None:
+            self._unsure_since = time
+            self.withdrawals += 1
+        self.unsure_time += dt
+        self.longest_unsure = max(self.longest_unsure, time + dt - self._unsure_since)
 
 
 @dataclass
@@ -90,6 +114,16 @@ class FleetRun:
         return sum(robot.wall_collisions for robot in self.robots)
 
     @property
+    def withdrawals(self) -> int:
+        """localized withdrawn after a declaration, all robots."""
+        return sum(robot.withdrawals for robot in self.robots)
+
+    @property
+    def unsure_time(self) -> float:
+        """s not localized after the first declaration, summed over the robots."""
+        return sum(robot.unsure_time for robot in self.robots)
+
+    @property
     def false_localized(self) -> int:
         """robots that were ever falsely localized."""
         return sum(robot.false_localized_steps > 0 for robot in self.robots)
@@ -98,7 +132,9 @@ class FleetRun:
         return {"reached": self.reached, "robots": len(self.robots), "robot_contacts": self.robot_contacts,
                 "wall_contacts": self.wall_contacts, "false_localized": self.false_localized, "time": self.time,
                 "wall_time": self.wall_time, "reason": self.reason,
-                "per_robot": [{k: v for k, v in vars(r).items() if k != "events"} for r in self.robots]}
+                "withdrawals": self.withdrawals, "unsure_time": self.unsure_time,
+                "per_robot": [{k: v for k, v in vars(r).items() if k != "events" and not k.startswith("_")}
+                              for r in self.robots]}
 
 
 def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -> dict:
@@ -203,11 +239,10 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                 estimate = pf.update(tuple(robot.odom_pose), scan)
                 pose, localized = (estimate.pose.x, estimate.pose.y, estimate.pose.theta), estimate.localized
             false = False
+            run.note_localized(fleet.time, localized, follower.dt)
             if localized:
                 error = math.hypot(pose[0] - truth.x, pose[1] - truth.y)
                 run.max_localized_error = max(run.max_localized_error, error)
-                if run.first_localized is None:
-                    run.first_localized = fleet.time
                 if error > FALSE_LOCALIZED_ERROR:
                     run.false_localized_steps += 1
                     false = True

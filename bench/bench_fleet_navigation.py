@@ -14,15 +14,17 @@ lockstep on the simulator's Fleet (LiDAR noise 0.01 m, no encoder noise, seeded 
 
 Prints one line per run (robots at their goal, robot-robot and wall contacts, robots ever falsely localized
 (localized with the estimate more than 0.3 m off), yields, stops, replans around, simulated and wall-clock
-time) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-core machine).
+time; with the filter: times localized was withdrawn after a declaration, s the robots spent unsure after their
+first declaration (summed; while unsure a robot posts no position on the traffic board), and the span of the
+robots' first declarations) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-core machine).
 
 --ros runs the same worlds through ROS instead: the world written to a YAML file, `amr-bringup fleet_navigation
 world:=<file> --composed` started as a process of its own (every node of every robot in one process, the
 particle filters included; the stack's own configuration, config/*.yaml), and each robot's `/<name>/status`
-read until every robot is at its goal or --duration simulated seconds have passed (robots at goal, contacts
-and falsely localized from those statuses; yields, stops and replans are not on a topic: '-'). One world at a
-time (--jobs is ignored); run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own
-(the child inherits both).
+read until every robot is at its goal or --duration simulated seconds have passed (robots at goal, contacts,
+falsely localized, withdrawals and time unsure from those statuses; yields, stops and replans are not on a
+topic: '-'). One world at a time (--jobs is ignored); run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a
+ROS_DOMAIN_ID of its own (the child inherits both).
 """
 
 from __future__ import annotations
@@ -83,12 +85,26 @@ def through_ros(args: tuple) -> dict:
     names = [robot["name"] for robot in data["robots"]]
     last: dict = {}
     false_steps = dict.fromkeys(names, 0)
+    withdrawals = dict.fromkeys(names, 0)
+    unsure = {name: [0.0, 0.0, 0.0] for name in names}  # s unsure after the first declaration: sum, span, longest
 
     def watch(name):
         def on_status(message) -> None:
+            before = last.get(name)
             last[name] = message
             if message.localized and message.position_error > FALSE_LOCALIZED_ERROR:
                 false_steps[name] += 1
+            if before is None or message.first_localized_time < 0.0:
+                return
+            if before.localized and not message.localized:
+                withdrawals[name] += 1
+            if not message.localized:
+                step = max(0.0, message.sim_time - before.sim_time)
+                unsure[name][0] += step
+                unsure[name][1] += step
+                unsure[name][2] = max(unsure[name][2], unsure[name][1])
+            else:
+                unsure[name][1] = 0.0
         return on_status
 
     began = time.perf_counter()
@@ -143,9 +159,24 @@ def through_ros(args: tuple) -> dict:
             "wall_contacts": sum(m.wall_collisions for m in last.values()),
             "false_localized": sum(steps > 0 for steps in false_steps.values()),
             "yields": "-", "stops": "-", "replans_around": "-",
+            "withdrawals": sum(withdrawals.values()), "unsure_time": sum(u[0] for u in unsure.values()),
+            "per_robot": [{"name": name, "longest_unsure": unsure[name][2],
+                           "first_localized": (last[name].first_localized_time if name in last
+                                               and last[name].first_localized_time >= 0.0 else None)}
+                          for name in names],
             "time": max((m.sim_time for m in last.values()), default=math.nan),
             "wall_time": time.perf_counter() - began, "reason": reason,
             "unreached": [name for name in names if name not in reached]}
+
+
+def _first_localized(result: dict) -> str:
+    """The robots' first declarations of localized, earliest-latest s (and how many never), '-' with truth."""
+    if result["localization"] == "truth":
+        return "-"
+    times = [r["first_localized"] for r in result["per_robot"] if r["first_localized"] is not None]
+    never = len(result["per_robot"]) - len(times)
+    span = f"{min(times):.1f}-{max(times):.1f}" if times else "none"
+    return span + (f" ({never} never)" if never else "")
 
 
 def main(argv=None) -> int:
@@ -166,10 +197,11 @@ def main(argv=None) -> int:
     cases = [(family, seed, robots, args.size, args.duration, args.localization) for family in args.families
              for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]
     print(f"{len(cases)} runs: families {', '.join(args.families)}, {args.size:g} m, robots {args.robots}, "
-          f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, limit {args.duration:g} s simulated, "
+          f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, "
+          f"limit {args.duration:g} s simulated, "
           f"{args.jobs} processes, load {os.getloadavg()[0]:.1f}")
     print("world                      robots  at goal  robot-robot  wall  false loc.  yields  stops  around  "
-          "sim s  wall s")
+          "sim s  wall s  withdrawn  unsure s  first loc. s")
     began = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
@@ -179,14 +211,18 @@ def main(argv=None) -> int:
             print(f"{name:26s} {result['robots']:6d} {result['reached']:8d} {result['robot_contacts']:12d} "
                   f"{result['wall_contacts']:5d} {result['false_localized']:11d} {result['yields']:>7} "
                   f"{result['stops']:>6} {result['replans_around']:>7} {result['time']:6.1f} "
-                  f"{result['wall_time']:7.1f}" + (f"  not at goal: {', '.join(result['unreached'])}"
+                  f"{result['wall_time']:7.1f} {result['withdrawals']:10d} {result['unsure_time']:9.1f}  "
+                  f"{_first_localized(result)}" + (f"  not at goal: {', '.join(result['unreached'])}"
                                                    if result['unreached'] else ""), flush=True)
     robots = sum(r["robots"] for r in results)
+    longest = max((p["longest_unsure"] for r in results for p in r["per_robot"]), default=0.0)
     print(f"\ntotal: {sum(r['reached'] for r in results)}/{robots} robots at their goal; "
           f"{sum(r['reached'] == r['robots'] for r in results)}/{len(results)} runs with every robot there; "
           f"robot-robot contacts {sum(r['robot_contacts'] for r in results)}, wall contacts "
           f"{sum(r['wall_contacts'] for r in results)}, robots falsely localized "
-          f"{sum(r['false_localized'] for r in results)}; {time.perf_counter() - began:.0f} s wall clock, "
+          f"{sum(r['false_localized'] for r in results)}, localized withdrawn {sum(r['withdrawals'] for r in results)} "
+          f"times, {sum(r['unsure_time'] for r in results):.1f} robot-s unsure after a first declaration (longest "
+          f"{longest:.1f} s); {time.perf_counter() - began:.0f} s wall clock, "
           f"load {os.getloadavg()[0]:.1f}")
     for family in args.families:
         rows = [r for r in results if r["family"] == family]

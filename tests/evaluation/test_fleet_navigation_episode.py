@@ -47,3 +47,21 @@ def test_fleet_episode_in_a_generated_room_every_robot_reaches_its_goal_without_
     assert record["extra"]["robots"] == 3 and record["extra"]["robot_contacts"] == 0
     assert math.isfinite(record["time"]) and record["time"] < 120.0
     assert [robot["name"] for robot in record["extra"]["per_robot"]] == ["r1", "r2", "r3"]
+
+
+def test_a_robot_run_counts_withdrawals_and_the_time_unsure_after_the_first_declaration():
+    from amr_evaluation.fleet_navigation import RobotRun
+
+    run = RobotRun("r1")
+    dt = 0.05
+    said = [False] * 20 + [True] * 10 + [False] * 30 + [True] * 5 + [False] * 4  # unsure before: not counted
+    for step, localized in enumerate(said):
+        run.note_localized(step * dt, localized, dt)
+    assert run.first_localized == 20 * dt
+    assert run.withdrawals == 2
+    assert math.isclose(run.unsure_time, 34 * dt)
+    assert math.isclose(run.longest_unsure, 30 * dt)
+    never = RobotRun("r2")
+    for step in range(10):
+        never.note_localized(step * dt, False, dt)
+    assert (never.first_localized, never.withdrawals, never.unsure_time) == (None, 0, 0.0)
