@@ -407,8 +407,7 @@ class Traffic:
         self._cannot_yield = False
         self._route = np.zeros((0, 2))
         self._remaining = np.zeros((0, 2))
-        self._awaited: dict[str, float] = {}
-        """per robot given way to: the least m it has been from the route back (_approach)."""
+        self._awaited: dict[str, tuple[float, float]] = {}
         self._retry_at = -math.inf
         self._through: tuple[str, ...] = ()
         """the robots a boxed-in robot's way aside passes (they make way for it first)."""
@@ -472,10 +471,10 @@ class Traffic:
 
         # right of way: yield to a robot blocked by this one when the rule says so
         yield_to = [post for post in others if post.blocked_by == self.name and self._must_yield(post, blocker)]
-        knot = False
+        knot = []
         if not yield_to and blocker is not None:  # rule 7: a knot of three or more, the last of it gives way
-            yield_to = self._knot(blocker)
-            knot = bool(yield_to)
+            knot = self._knot(blocker)
+            yield_to = knot[-1:]
         if stamp < self._retry_at:
             yield_to = []  # no place to wait was found: look again after wait_time, not every observation
         if yield_to:
@@ -487,10 +486,14 @@ class Traffic:
             failing = self._failing_since is not None and stamp - self._failing_since >= config.wait_time
             far = any((failing or not self._outranks(post))
                       and stamp - self._said_cannot.get(post.name, -math.inf) <= config.wait_time for post in yield_to)
-            far = far or (knot and failing)  # rule 7: no place nearby for wait_time, the knot's last looks farther
+            far = far or bool(knot and failing)  # rule 7: no place nearby for wait_time, the knot's last looks farther
             advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker,
                                     far=far)
             if advice is not None:
+                if knot:
+                    advice = replace(advice, events=advice.events + (
+                        f"the last of a knot of {len(knot) + 1} ({', '.join([self.name] + [p.name for p in knot])}, "
+                        f"each blocked by the next)",))
                 return advice
         elif stamp >= self._retry_at:
             self._cannot_yield = False
@@ -572,8 +575,9 @@ class Traffic:
         return best
 
     def _knot(self, blocker: TrafficPost) -> list[TrafficPost]:
-        """Rule 7: the robot this one blocks, when this one is the last (lowest priority) of a cycle of three or more
-        robots each blocked by the next (none passive or giving way); else []."""
+        """Rule 7: the other robots of a cycle of three or more, each blocked by the next (this one by `blocker`,
+        the last of them by this one; none passive or giving way) when this one is the last of the cycle (the
+        lowest priority); else []. The last of the list is the robot this one blocks."""
         posts = {post.name: post for post in self.board.others(self.name) if post.pose is not None}
         chain = [blocker]
         while chain[-1].blocked_by != self.name:
@@ -583,7 +587,7 @@ class Traffic:
             chain.append(following)
         if len(chain) < 2 or any(post.passive or post.yielding_to for post in chain):
             return []  # a pair (rule 3), or someone in it already makes way
-        return [chain[-1]] if not any(self._outranks(post) for post in chain) else []
+        return chain if not any(self._outranks(post) for post in chain) else []
 
     def _outranks(self, post: TrafficPost) -> bool:
         return (self.priority, self.name) < (post.priority, post.name)
@@ -686,12 +690,11 @@ class Traffic:
         # their way); once there, no path
         way = path_ahead(self._detour, pose[0], pose[1], math.inf, spacing=0.05) if driving else None
         self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, "", self._yield_to, True, False))
-        for post in others:  # the wait times out unless a robot it gives way to comes closer (along its path)
+        for post in others:  # the wait times out only while the robots it gives way to stand still
             if post.name in self._yield_to:
-                gap = _approach(post, self._route, reach)
                 last = self._awaited.get(post.name)
-                if last is None or gap < last - PROGRESS:
-                    self._awaited[post.name] = gap
+                if last is None or math.hypot(post.pose[0] - last[0], post.pose[1] - last[1]) > PROGRESS:
+                    self._awaited[post.name] = (post.pose[0], post.pose[1])
                     self._aside_since = stamp
         if stamp - self._aside_since >= config.yield_timeout:
             return None
@@ -703,9 +706,7 @@ class Traffic:
             and not (driving and post.name in self._through and post.name not in self._yield_to)]
         if fresh and stamp >= self._retry_at:
             renewed = {post.name for post in fresh}
-            # the robots it gave way to that still come near its route (the others have passed, or are not coming)
-            keep = [post for post in others if post.name in self._yield_to and post.name not in renewed
-                    and _approach(post, self._route, reach) < math.inf]
+            keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]
             advice = self._go_aside(pose, costmap, keep + fresh, stamp, passive=True)
             if advice is not None:
                 return advice
@@ -762,25 +763,6 @@ def _near(a: np.ndarray, b: np.ndarray, reach: float) -> bool:
     if len(a) == 0 or len(b) == 0:
         return False
     return bool((np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1]) < reach).any())
-
-
-def _approach(post: TrafficPost, route: np.ndarray, reach: float) -> float:
-    """m `post`'s robot still has to go along its posted path before it comes within reach of `route` (N, 2):
-    0 while its centre is that near, inf when neither its centre nor its path ever is (it is not coming)."""
-    route = np.asarray(route, dtype=float).reshape(-1, 2)
-    if post.pose is None or len(route) == 0:
-        return math.inf
-    if min_distance(route, post.pose[0], post.pose[1]) < reach:
-        return 0.0
-    if post.path is None or len(post.path) == 0:
-        return math.inf
-    path = np.asarray(post.path, dtype=float).reshape(-1, 2)
-    near = (np.hypot(path[:, None, 0] - route[None, :, 0], path[:, None, 1] - route[None, :, 1]) < reach).any(axis=1)
-    if not near.any():
-        return math.inf
-    first = int(np.argmax(near))
-    steps = np.hypot(*np.diff(np.vstack([[post.pose[0], post.pose[1]], path[:first + 1]]), axis=0).T)
-    return float(steps.sum())
 
 
 def _extend(points: np.ndarray, origin: tuple[float, float], depth: float) -> np.ndarray:
