@@ -93,6 +93,14 @@ The navigator of one robot runs them on every observation it drives with the pat
    robot behind as a wall, and planning around fails in a corridor. tests/navigation/test_traffic.py runs two
    robots in a row meeting a third.
 
+7. **Knot** (three or more robots blocked in a cycle). Robots each blocked by the next, the last by the first
+   (a by b, b by c, c by a: three at a junction of one-wide corridors, each facing the next one's centre), are not
+   a pair blocked by each other, so rule 3 never fires for any of them. The robot of the lowest priority in the
+   cycle (none of its robots passive or already giving way) gives way to the robot it blocks, as in rule 3 (a
+   place off that robot's path and centre, that robot holding meanwhile); with no place within `yield_search` for
+   `wait_time` it searches farther (rule 5). Every robot follows the chain of `blocked_by` on the board, so each
+   sees the same cycle and only its last moves. tests/navigation/test_traffic.py builds such a knot on the board.
+
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
 other's rule is the same rule with the roles swapped), the yielding one has a place (the pocket, or
