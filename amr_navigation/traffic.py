@@ -93,6 +93,14 @@ The navigator of one robot runs them on every observation it drives with the pat
    robot behind as a wall, and planning around fails in a corridor. tests/navigation/test_traffic.py runs two
    robots in a row meeting a third.
 
+7. **Knot** (three or more robots blocked in a cycle). Robots each blocked by the next, the last by the first
+   (a by b, b by c, c by a: three at a junction of one-wide corridors, each facing the next one's centre), are not
+   a pair blocked by each other, so rule 3 never fires for any of them. The robot of the lowest priority in the
+   cycle (none of its robots passive or already giving way) gives way to the robot it blocks, as in rule 3 (a
+   place off that robot's path and centre, that robot holding meanwhile); with no place within `yield_search` for
+   `wait_time` it searches farther (rule 5). Every robot follows the chain of `blocked_by` on the board, so each
+   sees the same cycle and only its last moves. tests/navigation/test_traffic.py builds such a knot on the board.
+
 Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
 side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
 other's rule is the same rule with the roles swapped), the yielding one has a place (the pocket, or
@@ -471,6 +479,10 @@ class Traffic:
 
         # right of way: yield to a robot blocked by this one when the rule says so
         yield_to = [post for post in others if post.blocked_by == self.name and self._must_yield(post, blocker)]
+        knot = []
+        if not yield_to and blocker is not None:  # rule 7: a knot of three or more, the last of it gives way
+            knot = self._knot(blocker)
+            yield_to = knot[-1:]
         if stamp < self._retry_at:
             yield_to = []  # no place to wait was found: look again after wait_time, not every observation
         if yield_to:
@@ -482,9 +494,14 @@ class Traffic:
             failing = self._failing_since is not None and stamp - self._failing_since >= config.wait_time
             far = any((failing or not self._outranks(post))
                       and stamp - self._said_cannot.get(post.name, -math.inf) <= config.wait_time for post in yield_to)
+            far = far or bool(knot and failing)  # rule 7: no place nearby for wait_time, the knot's last looks farther
             advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker,
                                     far=far)
             if advice is not None:
+                if knot:
+                    advice = replace(advice, events=advice.events + (
+                        f"the last of a knot of {len(knot) + 1} ({', '.join([self.name] + [p.name for p in knot])}, "
+                        f"each blocked by the next)",))
                 return advice
         elif stamp >= self._retry_at:
             self._cannot_yield = False
@@ -564,6 +581,21 @@ class Traffic:
             if len(on) and arc[on[0]] < best_arc:
                 best, best_arc = post, arc[on[0]]
         return best
+
+    def _knot(self, blocker: TrafficPost) -> list[TrafficPost]:
+        """Rule 7: the other robots of a cycle of three or more, each blocked by the next (this one by `blocker`,
+        the last of them by this one; none passive or giving way) when this one is the last of the cycle (the
+        lowest priority); else []. The last of the list is the robot this one blocks."""
+        posts = {post.name: post for post in self.board.others(self.name) if post.pose is not None}
+        chain = [blocker]
+        while chain[-1].blocked_by != self.name:
+            following = posts.get(chain[-1].blocked_by)
+            if following is None or any(post.name == following.name for post in chain):
+                return []  # no cycle through this robot
+            chain.append(following)
+        if len(chain) < 2 or any(post.passive or post.yielding_to for post in chain):
+            return []  # a pair (rule 3), or someone in it already makes way
+        return chain if not any(self._outranks(post) for post in chain) else []
 
     def _outranks(self, post: TrafficPost) -> bool:
         return (self.priority, self.name) < (post.priority, post.name)

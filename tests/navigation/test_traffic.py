@@ -245,3 +245,42 @@ def test_a_robot_behind_the_one_that_must_give_way_makes_room_for_it_first():
     assert run.robot_contacts == 0 and run.wall_contacts == 0, events
     assert any("past r3 (they make way first)" in event for event in robots["r2"].events), events
     assert robots["r3"].yields >= 1, events
+
+
+def dense(points) -> np.ndarray:
+    """A path through `points` resampled every 5 cm, as robots post theirs."""
+    return path_ahead(np.array(points, dtype=float), points[0][0], points[0][1], math.inf, spacing=0.05)
+
+
+def empty_scan() -> ScanData:
+    return ScanData(np.full(360, np.inf), -math.pi, float(np.radians(1.0)), 0.12, 3.5)
+
+
+def test_the_last_of_a_knot_of_three_gives_way_to_the_robot_it_blocks():
+    """Rule 7: a, b and c each blocked by the next (a by b, b by c, c by a), a cycle the pairwise rule (rule 3) never
+    resolves: the lowest-priority robot of the cycle goes aside, off the path of the one it blocks (c); the others
+    do not."""
+    from amr_navigation.traffic import Traffic, TrafficBoard, TrafficPost
+
+    costmap = Costmap(open_grid(60, 160))
+    path = np.array([[1.5, 0.75], [3.6, 0.75]])
+    pose = (1.5, 0.75, 0.0)
+    c_path = dense([[1.5, 1.1], [1.5, 0.3]])
+
+    def knot(priority: int) -> tuple[Traffic, object]:
+        board = TrafficBoard()
+        board.post(TrafficPost("b", 1 if priority != 1 else 0, (1.8, 0.75, math.pi), dense([[1.8, 0.75], [1.8, 1.3]]),
+                               "c"))
+        board.post(TrafficPost("c", 2 if priority != 2 else 0, (1.5, 1.1, -math.pi / 2), c_path, "a"))
+        rules = Traffic("a", priority, board)
+        return rules, rules.advise(pose, empty_scan(), path, costmap, 0.2, 0.0)
+
+    rules, advice = knot(3)  # a is the last of the knot
+    assert advice.detour is not None and rules.counters.yields == 1, advice
+    assert any("giving way to c" in event for event in advice.events), advice.events
+    assert any("the last of a knot of 3 (a, b, c" in event for event in advice.events), advice.events
+    spot = advice.detour[-1]
+    assert np.hypot(spot[0] - 1.5, spot[1] - c_path[:, 1]).min() >= 2 * 0.105 + 0.15 - 0.03
+    for first in (0, 1):  # a outranks someone in the knot: not a's turn
+        rules, advice = knot(first)
+        assert advice.detour is None and rules.counters.yields == 0, advice
