@@ -153,7 +153,7 @@ def run_ros(spec) -> dict[str, Any]:
             try:
                 process.wait(timeout=STARTUP_TIMEOUT + spec.duration * 2.0 + 60.0)
             except subprocess.TimeoutExpired:
-                _stop(process)
+                stop_process(process)
             log.seek(0)
             said = log.read()[-1500:]
         if process.returncode != 0 or not result.exists():
@@ -163,11 +163,12 @@ def run_ros(spec) -> dict[str, Any]:
     return figures
 
 
-def _stop(process: subprocess.Popen) -> None:
+def stop_process(process: subprocess.Popen, timeout: float = 15.0) -> None:
+    """Ctrl-C to a stack's process (amr-bringup shuts its nodes down in order), killed after `timeout` s."""
     if process.poll() is None:
         process.send_signal(signal.SIGINT)
         try:
-            process.wait(timeout=15.0)
+            process.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()

@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import signal
 import subprocess
 import sys
 import tempfile
@@ -77,6 +76,7 @@ def through_ros(args: tuple) -> dict:
     from rclpy.executors import SingleThreadedExecutor
 
     from amr_evaluation.fleet_navigation import FALSE_LOCALIZED_ERROR
+    from amr_evaluation.ros_episode import stop_process
     from amr_interfaces.msg import SimulatorStatus
     from amr_util.environment import child_environment
 
@@ -138,13 +138,7 @@ def through_ros(args: tuple) -> dict:
                     reason = "not every robot's status within 300 s"
                     break
         finally:
-            if process.poll() is None:
-                process.send_signal(signal.SIGINT)
-                try:
-                    process.wait(timeout=60)
-                except subprocess.TimeoutExpired:
-                    process.kill()
-                    process.wait()
+            stop_process(process, timeout=60.0)
             log.seek(0)
             errors = log.read()
             log.close()
