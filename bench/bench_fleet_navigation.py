@@ -75,7 +75,7 @@ def through_ros(args: tuple) -> dict:
     import yaml
     from rclpy.executors import SingleThreadedExecutor
 
-    from amr_evaluation.fleet_navigation import FALSE_LOCALIZED_ERROR
+    from amr_evaluation.fleet_navigation import FALSE_LOCALIZED_ERROR, FleetRun, RobotRun
     from amr_evaluation.ros_episode import stop_process
     from amr_interfaces.msg import SimulatorStatus
     from amr_util.environment import child_environment
@@ -84,27 +84,18 @@ def through_ros(args: tuple) -> dict:
     data = fleet_world(family, seed, robots, size)
     names = [robot["name"] for robot in data["robots"]]
     last: dict = {}
-    false_steps = dict.fromkeys(names, 0)
-    withdrawals = dict.fromkeys(names, 0)
-    unsure = {name: [0.0, 0.0, 0.0] for name in names}  # s unsure after the first declaration: sum, span, longest
+    runs = {name: RobotRun(name) for name in names}  # counted as the library level's run_fleet does
 
     def watch(name):
         def on_status(message) -> None:
             before = last.get(name)
             last[name] = message
-            if message.localized and message.position_error > FALSE_LOCALIZED_ERROR:
-                false_steps[name] += 1
-            if before is None or message.first_localized_time < 0.0:
-                return
-            if before.localized and not message.localized:
-                withdrawals[name] += 1
-            if not message.localized:
-                step = max(0.0, message.sim_time - before.sim_time)
-                unsure[name][0] += step
-                unsure[name][1] += step
-                unsure[name][2] = max(unsure[name][2], unsure[name][1])
-            else:
-                unsure[name][1] = 0.0
+            run = runs[name]
+            run.note_localized(message.sim_time, message.localized,
+                               max(0.0, message.sim_time - before.sim_time) if before is not None else 0.0)
+            run.false_localized_steps += int(message.localized and message.position_error > FALSE_LOCALIZED_ERROR)
+            run.reached, run.wall_collisions, run.robot_collisions = (
+                message.goal_reached, message.wall_collisions, message.robot_collisions)
         return on_status
 
     began = time.perf_counter()
@@ -147,20 +138,11 @@ def through_ros(args: tuple) -> dict:
             context.try_shutdown()
     if reason != "every robot at its goal" and reason != "time limit":
         print(f"{data['name']}: {reason}\n{errors[-3000:]}", file=sys.stderr)
-    reached = [name for name in names if name in last and last[name].goal_reached]
-    return {"family": family, "seed": seed, "size": size, "localization": "filter (ROS)", "robots": robots,
-            "reached": len(reached), "robot_contacts": sum(m.robot_collisions for m in last.values()) // 2,
-            "wall_contacts": sum(m.wall_collisions for m in last.values()),
-            "false_localized": sum(steps > 0 for steps in false_steps.values()),
-            "yields": "-", "stops": "-", "replans_around": "-",
-            "withdrawals": sum(withdrawals.values()), "unsure_time": sum(u[0] for u in unsure.values()),
-            "per_robot": [{"name": name, "longest_unsure": unsure[name][2],
-                           "first_localized": (last[name].first_localized_time if name in last
-                                               and last[name].first_localized_time >= 0.0 else None)}
-                          for name in names],
-            "time": max((m.sim_time for m in last.values()), default=math.nan),
-            "wall_time": time.perf_counter() - began, "reason": reason,
-            "unreached": [name for name in names if name not in reached]}
+    result = FleetRun(list(runs.values()), max((m.sim_time for m in last.values()), default=math.nan),
+                      time.perf_counter() - began, reason).as_dict()
+    result.update(family=family, seed=seed, size=size, localization="filter (ROS)", yields="-", stops="-",
+                  replans_around="-", unreached=[name for name in names if not runs[name].reached])
+    return result
 
 
 def _first_localized(result: dict) -> str:
