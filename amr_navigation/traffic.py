@@ -17,6 +17,11 @@ The navigator of one robot runs them on every observation it drives with the pat
    are: amr_planning's `Costmap.with_obstacles`), and follows that path. A failed plan (no way round)
    is tried again every `wait_time`. The marks are cleared once the scan sees through them (a beam at
    a mark's bearing reaching `clear_distance` beyond it): the robot then plans again on the map.
+   **2b. Back off** from what no post explains: stopped for `yield_timeout` by unmapped returns while no robot on
+   the board stands on its stretch of path (every plan around them failed), the robot drives to the nearest place
+   `mark_range` from those returns, waits there `yield_timeout`, then plans to its goal again. What stands there
+   may be a robot whose filter is not sure where it is (it posts no position, so rules 3-7 do not see it); in a
+   dead end the robot waiting at its mouth blocks both its way out and the view its filter needs.
 3. **Right of way** (two robots face to face in a corridor one robot wide, or crossing). Every robot
    posts on a `TrafficBoard` what the others need: its name, its priority (its place in the world's
    `robots` list: the first has the right of way over all), its estimate (None while not localized),
@@ -538,9 +543,14 @@ class Traffic:
             self.counters.stops += 1
             events.append(f"stopped: an obstacle not on the map {travel:.2f} m ahead"
                           + (f" ({blocker.name})" if blocker is not None else ""))
+        near = np.hypot(world[:, 0] - x, world[:, 1] - y) <= config.mark_range
+        if blocker is None and stamp - self._stopped_since >= config.yield_timeout and stamp >= self._retry_at:
+            # rule 2b: stopped for yield_timeout by something no robot on the board explains (and no way around it)
+            advice = self._back_off(pose, costmap, world[loose & near], stretch, stamp)
+            if advice is not None:
+                return replace(advice, events=tuple(events) + advice.events)
         if stamp - self._last_attempt >= config.wait_time:
             self._last_attempt = stamp
-            near = np.hypot(world[:, 0] - x, world[:, 1] - y) <= config.mark_range
             marks = _extend(world[loose & near], (x, y), config.robot_radius)
             events.append(f"waited {config.wait_time:g} s: planning around {len(marks)} marked points")
             return Advice(speed_limit=0.0, replan_around=marks, events=tuple(events))
@@ -687,6 +697,37 @@ class Traffic:
         return Advice(detour=detour, events=(f"giving way to {', '.join(names)}: going aside to "
                                              f"({spot[0]:.2f}, {spot[1]:.2f}){way}",))
 
+    def _back_off(self, pose, costmap: Costmap, points: np.ndarray, stretch: np.ndarray, stamp: float) -> Advice | None:
+        """Rule 2b: back off to the nearest place `mark_range` from the unmapped returns in the way, and wait there
+        for yield_timeout before planning to the goal again. What stands there may be a robot whose filter is not
+        sure where it is: it posts no position, so no rule of the others sees it, and in a dead end the robot
+        waiting at its mouth blocks both its way out and the view its filter needs."""
+        config = self.config
+        grid = costmap.grid
+        search = (grid.width + grid.height) * grid.resolution
+        discs = [post.pose[:2] for post in self.board.others(self.name) if post.pose is not None]
+        solid = np.concatenate([np.asarray(points, dtype=float).reshape(-1, 2), np.array(discs).reshape(-1, 2)])
+        marked = costmap.with_obstacles(solid, config.robot_radius) if len(solid) else costmap
+        spot = place_aside(marked, pose[:2], points, config.mark_range, search)
+        detour = None
+        if spot is not None:
+            try:
+                detour = Planner(marked.grid, costmap=marked).plan(pose[:2], spot)
+            except PlanningError:
+                detour = None
+        if detour is None:
+            self._retry_at = stamp + config.wait_time
+            return None
+        self.counters.yields += 1
+        self._route = np.concatenate([np.asarray(detour)[::-1], np.asarray(stretch, dtype=float).reshape(-1, 2)])
+        self.phase, self._spot, self._yield_to, self._aside_since = Phase.YIELD, spot, (), stamp
+        self._awaited, self._stopped_since = {}, None
+        self._detour = np.asarray(detour, dtype=float).reshape(-1, 2)
+        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._detour, "", (), True, False))
+        return Advice(detour=detour, events=(
+            f"stopped {config.yield_timeout:g} s by something not on the map and not on the board (a robot not sure "
+            f"where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move",))
+
     def _yielding(self, pose, stretch, costmap, others, stamp) -> Advice | None:
         """The advice while going or waiting aside; None once the wait is over: every robot it gives way to
         is clear of its route (the way it came aside and the stretch of path it left), or is passive, or
@@ -727,6 +768,8 @@ class Traffic:
                 return Advice(hold=True)
             self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, "", self._yield_to, True, False))
             return Advice()  # follow the detour (the loop reports its end with `arrived`)
+        if not self._yield_to:
+            return Advice(hold=True)  # backed off from something not on the board (rule 2b): until yield_timeout
         posts = {post.name: post for post in self.board.others(self.name)}
         for name in self._yield_to:
             post = posts.get(name)

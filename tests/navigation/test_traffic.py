@@ -284,3 +284,41 @@ def test_the_last_of_a_knot_of_three_gives_way_to_the_robot_it_blocks():
     for first in (0, 1):  # a outranks someone in the knot: not a's turn
         rules, advice = knot(first)
         assert advice.detour is None and rules.counters.yields == 0, advice
+
+
+def test_a_robot_stopped_by_something_no_robot_on_the_board_explains_backs_off_and_comes_back():
+    """Rule 2b: stopped for yield_timeout by returns not on the map that no posted robot explains (a robot whose filter
+    is not sure where it is posts no position), with no way around, the robot backs off to a place mark_range from
+    them, waits there for yield_timeout, then plans to its goal again. A robot on the board standing there is left to
+    the right-of-way rules instead."""
+    from amr_navigation.traffic import Phase, Traffic, TrafficBoard, TrafficPost
+
+    costmap = Costmap(open_grid(60, 160))
+    config = TrafficConfig(yield_timeout=10.0)
+    path = np.array([[2.0, 0.75], [3.6, 0.75]])
+    pose = (2.0, 0.75, 0.0)
+    rules = Traffic("a", 0, TrafficBoard(), config)
+    backed = None
+    for stamp in np.arange(0.0, 10.5, 0.1):
+        advice = rules.advise(pose, face_scan(0.22), path, costmap, 0.2, float(stamp))
+        if advice.detour is not None:
+            backed = (float(stamp), advice)
+            break
+        assert advice.speed_limit == 0.0 or advice.replan_around is not None
+    assert backed is not None and backed[0] >= 10.0, backed
+    stamp, advice = backed
+    assert any("backing off" in event for event in advice.events), advice.events
+    spot = advice.detour[-1]
+    assert math.hypot(spot[0] - 2.2, spot[1] - 0.75) >= config.mark_range - 0.03, spot
+    assert rules.phase is Phase.YIELD and rules.counters.yields == 1
+    rules.arrived(stamp + 5.0)
+    there = (float(spot[0]), float(spot[1]), 0.0)
+    assert rules.advise(there, empty_scan(), advice.detour, costmap, 0.2, stamp + 6.0).hold  # waits there
+    again = rules.advise(there, empty_scan(), advice.detour, costmap, 0.2, stamp + 10.5)
+    assert again.replan and rules.phase is Phase.GO, again.events
+
+    board = TrafficBoard()  # the same returns, but a robot on the board stands there: no backing off
+    board.post(TrafficPost("b", 1, (2.33, 0.75, math.pi), None, "", (), True))
+    posted = Traffic("a", 0, board, config)
+    for stamp in np.arange(0.0, 12.0, 0.1):
+        assert posted.advise(pose, face_scan(0.22), path, costmap, 0.2, float(stamp)).detour is None
