@@ -627,8 +627,7 @@ class Traffic:
         config = self.config
         search = config.yield_search
         if far:  # rule 5: no bound but the map (every cell reachable without passing another robot)
-            grid = costmap.grid
-            search = max(search, (grid.width + grid.height) * grid.resolution)
+            search = max(search, _whole_map(costmap))
         distance = 2.0 * config.robot_radius + config.yield_clearance
         avoid = [np.asarray(post.path).reshape(-1, 2) for post in yield_to if post.path is not None]
         avoid += [np.array([post.pose[:2]]) for post in yield_to]
@@ -683,6 +682,14 @@ class Traffic:
             return None
         self._cannot_yield = False
         self._failing_since = None
+        return self._set_off(pose, spot, detour, names, stretch, stamp,
+                             f"giving way to {', '.join(names)}: going aside to ({spot[0]:.2f}, {spot[1]:.2f}){way}")
+
+    def _set_off(self, pose, spot: tuple[float, float], detour: np.ndarray, names: tuple[str, ...],
+                 stretch: np.ndarray | None, stamp: float, event: str) -> Advice:
+        """Drive to `spot` along `detour` and wait there (phase YIELD, then ASIDE), giving way to `names` (none: rule
+        2b); the route back is the detour reversed and the stretch of path it leaves (or, already aside, the route
+        it had)."""
         self.counters.yields += 1
         if self.phase is Phase.GO:  # the way back to where it left its path, and the stretch it left
             behind = np.asarray(stretch if stretch is not None else [pose[:2]], dtype=float).reshape(-1, 2)
@@ -694,8 +701,7 @@ class Traffic:
         self._stopped_since = None
         self._detour = np.asarray(detour, dtype=float).reshape(-1, 2)
         self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._detour, "", names, True, False))
-        return Advice(detour=detour, events=(f"giving way to {', '.join(names)}: going aside to "
-                                             f"({spot[0]:.2f}, {spot[1]:.2f}){way}",))
+        return Advice(detour=detour, events=(event,))
 
     def _back_off(self, pose, costmap: Costmap, points: np.ndarray, stretch: np.ndarray, stamp: float) -> Advice | None:
         """Rule 2b: back off to the nearest place `mark_range` from the unmapped returns in the way, and wait there
@@ -703,12 +709,10 @@ class Traffic:
         sure where it is: it posts no position, so no rule of the others sees it, and in a dead end the robot
         waiting at its mouth blocks both its way out and the view its filter needs."""
         config = self.config
-        grid = costmap.grid
-        search = (grid.width + grid.height) * grid.resolution
         discs = [post.pose[:2] for post in self.board.others(self.name) if post.pose is not None]
         solid = np.concatenate([np.asarray(points, dtype=float).reshape(-1, 2), np.array(discs).reshape(-1, 2)])
         marked = costmap.with_obstacles(solid, config.robot_radius) if len(solid) else costmap
-        spot = place_aside(marked, pose[:2], points, config.mark_range, search)
+        spot = place_aside(marked, pose[:2], points, config.mark_range, _whole_map(costmap))
         detour = None
         if spot is not None:
             try:
@@ -716,17 +720,11 @@ class Traffic:
             except PlanningError:
                 detour = None
         if detour is None:
-            self._retry_at = stamp + config.wait_time
+            self._retry_at = stamp + config.wait_time  # look again after wait_time, as a failed search aside does
             return None
-        self.counters.yields += 1
-        self._route = np.concatenate([np.asarray(detour)[::-1], np.asarray(stretch, dtype=float).reshape(-1, 2)])
-        self.phase, self._spot, self._yield_to, self._aside_since = Phase.YIELD, spot, (), stamp
-        self._awaited, self._stopped_since = {}, None
-        self._detour = np.asarray(detour, dtype=float).reshape(-1, 2)
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._detour, "", (), True, False))
-        return Advice(detour=detour, events=(
+        return self._set_off(pose, spot, detour, (), stretch, stamp, (
             f"stopped {config.yield_timeout:g} s by something not on the map and not on the board (a robot not sure "
-            f"where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move",))
+            f"where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move"))
 
     def _yielding(self, pose, stretch, costmap, others, stamp) -> Advice | None:
         """The advice while going or waiting aside; None once the wait is over: every robot it gives way to
@@ -806,6 +804,11 @@ class Traffic:
             if not seen_through:
                 keep.append(mark)
         self.marks = np.array(keep).reshape(-1, 2)
+
+
+def _whole_map(costmap: Costmap) -> float:
+    """m of steps that reach every cell of the map (a search bound of no bound but the map)."""
+    return (costmap.grid.width + costmap.grid.height) * costmap.grid.resolution
 
 
 def _near(a: np.ndarray, b: np.ndarray, reach: float) -> bool:
