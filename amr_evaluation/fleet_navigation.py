@@ -45,6 +45,7 @@ GOAL_RADIUS = 0.15
 FALSE_LOCALIZED_ERROR = 0.3
 """m: an estimate said localized this far from the true pose is a false localized."""
 LOCALIZATIONS = ("filter", "truth")
+COORDINATIONS = ("rules", "plan")
 
 
 @dataclass
@@ -183,15 +184,25 @@ def _particle_filter(parameters: dict, world: World, seed: int):
 def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, lidar_noise: float = 0.01,
               encoder_noise: float = 0.0, slip: float = 0.0, duration: float = 300.0,
               localization: str = "filter", traffic: TrafficConfig | None = None, use_traffic: bool = True,
-              map_world: World | None = None, log: bool = False) -> FleetRun:
+              map_world: World | None = None, log: bool = False, coordination: str = "rules",
+              lattice_spacing: float = 0.4) -> FleetRun:
     """Run every robot of `world` (its `robots` list, each with a goal) to its goal; see the module docstring.
 
     parameters: node name -> {parameter: value} for wall_follower, path_follower, planner, navigator and
     particle_filter (amr_evaluation.configs.resolve("navigation", "default")[1] when None). map_world: the
     world the robots' map is made of (planner, filter; default `world`): one without some of `world`'s solids
-    gives obstacles that are not on the map."""
+    gives obstacles that are not on the map.
+
+    coordination: "rules" (each robot's navigation loop with the traffic rules) or "plan" (the fleet planned
+    together before it starts, amr_planning.fleet_plan on a lattice `lattice_spacing` m apart, and each robot's
+    path follower driven along its waypoints as far as amr_navigation.fleet_schedule allows; true poses only: the
+    plan starts from every robot's start)."""
     if localization not in LOCALIZATIONS:
         raise ValueError(f"localization {localization!r}: expected one of {', '.join(LOCALIZATIONS)}")
+    if coordination not in COORDINATIONS:
+        raise ValueError(f"coordination {coordination!r}: expected one of {', '.join(COORDINATIONS)}")
+    if coordination == "plan" and localization != "truth":
+        raise ValueError("coordination 'plan' plans from every robot's start: it needs localization 'truth'")
     if parameters is None:
         from amr_evaluation.configs import resolve
 
@@ -217,6 +228,9 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                                     (robot.goal.x, robot.goal.y), replan_distance, traffic=rules))
         filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
         runs.append(RobotRun(robot.name))
+    schedule = _schedule(planner, fleet, lattice_spacing) if coordination == "plan" else None
+    drivers = [PathFollower(follower) for _ in fleet.robots] if schedule is not None else []
+    driven = [(-1, -1)] * len(fleet.robots)
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
     while True:
@@ -246,6 +260,11 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                 if error > FALSE_LOCALIZED_ERROR:
                     run.false_localized_steps += 1
                     false = True
+            if schedule is not None:
+                index = len(commands)
+                command = _drive(schedule, index, drivers[index], driven, pose, scan, planner)
+                commands.append((command.v, command.w))
+                continue
             command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
             if false != run.falsely_localized:  # the episode's own events: when a false localized begins and ends
                 run.falsely_localized = false
@@ -270,3 +289,46 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
             run.stops, run.replans_around, run.yields, run.cannot_yield = (
                 counters.stops, counters.replans_around, counters.yields, counters.cannot_yield)
     return FleetRun(runs, fleet.time, time.perf_counter() - began, reason)
+
+
+def _schedule(planner: Planner, fleet: Fleet, spacing: float):
+    """The fleet planned together from every robot's start to its goal (coordination "plan")."""
+    from amr_navigation.fleet_schedule import Schedule
+    from amr_planning.fleet_plan import improve, lattice, plan_lacam
+
+    graph = lattice(planner.costmap, spacing)
+    starts = [graph.nearest(robot.pose.x, robot.pose.y) for robot in fleet.robots]
+    goals = [graph.nearest(robot.goal.x, robot.goal.y) for robot in fleet.robots]
+    plan = improve(plan_lacam(graph, starts, goals))
+    return Schedule(plan, [(robot.goal.x, robot.goal.y) for robot in fleet.robots])
+
+
+def _legs(planner: Planner, route: np.ndarray) -> np.ndarray:
+    """The route (K, 2) as the planner's paths from each point to the next (clear of the walls as any planned
+    path is, where a straight line from where the robot stands to its next waypoint would clip a corner); a
+    straight leg where the planner finds none."""
+    from amr_planning.errors import PlanningError
+
+    points = [route[:1]]
+    for a, b in zip(route[:-1], route[1:]):
+        try:
+            leg = planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
+        except PlanningError:
+            leg = np.array([a, b])
+        points.append(np.asarray(leg)[1:])
+    return np.concatenate(points)
+
+
+def _drive(schedule, robot: int, driver: PathFollower, driven: list, pose, scan: ScanData, planner: Planner):
+    """One robot's command under a fleet plan: report where it is, and follow its waypoints as far as it may go."""
+    from amr_control.path_follower import PathError, State
+
+    schedule.report(robot, pose[0], pose[1])
+    span = (schedule.progress[robot], schedule.allowed(robot))
+    if span != driven[robot] or driver.state is State.BLOCKED:  # blocked: set off again from where it stands
+        driven[robot] = span
+        try:
+            driver.set_path(_legs(planner, schedule.route(robot, pose[0], pose[1])))
+        except PathError:
+            driver.clear()
+    return driver.compute(pose[0], pose[1], pose[2], scan)

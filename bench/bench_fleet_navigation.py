@@ -54,12 +54,28 @@ def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:
     return data
 
 
+def lattice_spacing(data: dict, family: str) -> float:
+    """m between the lattice points robots are planned on together (--coordination plan): a grid maze's pitch
+    (the least gap between the distinct coordinates of its axis-aligned walls), else LATTICE_SPACING."""
+    if family not in GRID_MAZES:
+        return LATTICE_SPACING
+    values = np.unique(np.round(np.asarray(data["walls"], dtype=float).ravel(), 4))
+    gaps = np.diff(values)
+    return float(gaps[gaps > 0.05].min())
+
+
+GRID_MAZES = ("perfect", "loops")
+LATTICE_SPACING = 0.4
+"""m, the lattice of the worlds that are not grid mazes (rooms with pillars): two robot diameters less a little."""
+
+
 def one(args: tuple) -> dict:
-    family, seed, robots, size, duration, localization = args
+    family, seed, robots, size, duration, localization, coordination = args
     from amr_evaluation.fleet_navigation import run_fleet
 
     data = fleet_world(family, seed, robots, size)
-    run = run_fleet(world_from_dict(data), seed=seed, duration=duration, localization=localization)
+    run = run_fleet(world_from_dict(data), seed=seed, duration=duration, localization=localization,
+                    coordination=coordination, lattice_spacing=lattice_spacing(data, family))
     result = run.as_dict()
     result.update(family=family, seed=seed, size=size, localization=localization,
                   yields=sum(r.yields for r in run.robots), stops=sum(r.stops for r in run.robots),
@@ -80,7 +96,7 @@ def through_ros(args: tuple) -> dict:
     from amr_interfaces.msg import SimulatorStatus
     from amr_util.environment import child_environment
 
-    family, seed, robots, size, duration, _ = args
+    family, seed, robots, size, duration, _, _ = args
     data = fleet_world(family, seed, robots, size)
     names = [robot["name"] for robot in data["robots"]]
     last: dict = {}
@@ -165,15 +181,23 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=300.0, help="s simulated at most per run")
     parser.add_argument("--localization", choices=("filter", "truth"), default="filter")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--coordination", choices=("rules", "plan"), default="rules",
+                        help="rules: each robot's traffic rules; plan: the fleet planned together (true poses)")
     parser.add_argument("--ros", action="store_true",
                         help="through ROS: amr-bringup fleet_navigation --composed per world, one at a time")
     args = parser.parse_args(argv)
     if args.ros:
         args.jobs, args.localization = 1, "filter"
-    cases = [(family, seed, robots, args.size, args.duration, args.localization) for family in args.families
+        if args.coordination != "rules":
+            parser.error("--ros runs the traffic rules (the fleet plan runs at library level only)")
+    if args.coordination == "plan" and args.localization != "truth":
+        parser.error("--coordination plan plans from every robot's start: use --localization truth")
+    cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
+             for family in args.families
              for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]
     print(f"{len(cases)} runs: families {', '.join(args.families)}, {args.size:g} m, robots {args.robots}, "
           f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, "
+          f"coordination {args.coordination}, "
           f"limit {args.duration:g} s simulated, "
           f"{args.jobs} processes, load {os.getloadavg()[0]:.1f}")
     print("world                      robots  at goal  robot-robot  wall  false loc.  yields  stops  around  "

@@ -1,0 +1,76 @@
+"""Following a fleet plan (amr_planning.fleet_plan) together: which waypoints each robot may drive to now.
+
+A fleet plan gives every robot a list of waypoints (its lattice vertices, waits dropped) and, for each waypoint,
+the moves of other robots that must be done first (the action dependencies: a robot may drive into a vertex only
+once every robot the plan puts there earlier has moved on). `Schedule` keeps each robot's progress (the last
+waypoint it reached, in order) and says how far along its list a robot may go: up to the first waypoint whose
+dependencies are not all done. Robots driven this way at any speeds never meet at a vertex and never wait on one
+another in a cycle (Hoenig et al. 2016). No ROS: amr_evaluation.fleet_navigation runs it at library level.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from amr_planning.fleet_plan import FleetPlan, dependencies
+
+
+class Schedule:
+    """Every robot's progress along a fleet plan, and how far each may go."""
+
+    def __init__(self, plan: FleetPlan, goals: list[tuple[float, float]] | None = None,
+                 reach: float | None = None) -> None:
+        self.reach = 0.45 * plan.graph.spacing if reach is None else float(reach)
+        """m: a robot this close to its next waypoint has reached it (under half the spacing: a robot that has
+        reached its next vertex has left the one before, which a robot waiting for it may then enter)."""
+        self.needs = dependencies(plan)
+        self.waypoints = [plan.waypoints(robot) for robot in range(len(plan.paths))]
+        if goals is not None:  # the last waypoint is the robot's own goal, not the vertex nearest to it
+            for robot, goal in enumerate(goals):
+                self.waypoints[robot] = self.waypoints[robot].copy()
+                self.waypoints[robot][-1] = goal
+        self.progress = [0] * len(self.waypoints)
+        """the index of the last waypoint each robot reached (0: its start vertex, where it begins)."""
+
+    def allowed(self, robot: int) -> int:
+        """The farthest waypoint the robot may drive to now: its progress, then each next waypoint whose
+        dependencies are all done."""
+        last = self.progress[robot]
+        while last + 1 < len(self.waypoints[robot]) and all(
+                self.progress[other] >= action for other, action in self.needs[robot][last + 1]):
+            last += 1
+        return last
+
+    def report(self, robot: int, x: float, y: float) -> bool:
+        """The robot is at (x, y): it has reached its next waypoint if that lies within `reach` (one at a time, in
+        order, never one it may not drive to yet: a waypoint passed by is reached, one skipped is not). True if
+        its progress moved."""
+        moved = False
+        allowed = self.allowed(robot)
+        if self.progress[robot] < allowed:
+            target = self.waypoints[robot][self.progress[robot] + 1]
+            if math.hypot(target[0] - x, target[1] - y) > self.reach:
+                return False
+            self.progress[robot] += 1
+            moved = True
+        return moved
+
+    def done(self, robot: int) -> bool:
+        return self.progress[robot] == len(self.waypoints[robot]) - 1
+
+    def route(self, robot: int, x: float, y: float) -> np.ndarray:
+        """(K, 2) the way from (x, y) through the waypoints the robot may drive to now, as far as it does not come
+        back near a point of it already (a path follower ends a path that returns to its start at once); just
+        (x, y) and its last reached waypoint when it may go no farther."""
+        first, last = self.progress[robot], self.allowed(robot)
+        points = [np.array([x, y], dtype=float)]
+        for index in range(first + 1, last + 1):
+            point = self.waypoints[robot][index]
+            if len(points) > 1 and min(math.hypot(*(point - seen)) for seen in points) <= self.reach:
+                break
+            points.append(point)
+        if len(points) == 1:
+            points.append(self.waypoints[robot][first])
+        return np.array(points)

@@ -1,0 +1,674 @@
+"""Planning several robots together (multi-agent path finding, MAPF) on a lattice of the free space.
+
+Why (issue 22, docs/fleet.md): the fleet's traffic rules (amr_navigation.traffic) let each robot decide alone.
+In a tree maze a dead end that holds several goals must be entered deepest goal first and left in the
+reverse order, and no rule of one robot knows that. Planning the robots together settles it. This module is
+the planner; it is not yet what the fleet's navigators follow (see docs/fleet.md, "Planning together").
+
+1. **Lattice** (`lattice`): points `spacing` m apart, kept where the robot fits clear of the safety margin
+   (outside the costmap's inflated cells); an edge joins two 4-neighbours whose segment stays outside the
+   inflated cells. The grid is shifted by the offset (searched over a `steps` x `steps` grid of the spacing)
+   that keeps the most edges: in a maze of cells `spacing` wide, the cell centres.
+2. **Conflict-based search** (`plan_together`, Sharon et al. 2015, "Conflict-based search for optimal
+   multi-agent pathfinding"). Time runs in steps; in a step a robot moves to a neighbour or waits. Low level:
+   each robot's shortest path in space and time (A* over (vertex, step), the heuristic its lattice distance
+   to the goal, exact), obeying its constraints; a robot done stays at its goal. High level: best first by
+   the sum of the paths' steps (its cost), the first conflict of the paths, either
+
+   - a *vertex* conflict: robots i and j at vertex v at step t, or
+   - an *edge* conflict: i moves u -> v while j moves v -> u in the same step (a swap),
+
+   splits the node into two, each forbidding it to one of the two robots (i may not be at v at t / may not
+   move u -> v arriving at t), and that robot is planned again. The first node without a conflict is a plan of
+   least cost. A robot may enter a vertex in the step another leaves it (following), as in the standard model.
+   The search is exponential in the worst case: it gives up after `max_nodes` nodes (PlanningError).
+3. **Action dependencies** (`dependencies`, Hoenig et al. 2016, "Multi-agent path finding with kinematic
+   constraints"): each robot's plan, waits dropped, is a list of actions (move into a vertex); an action of
+   robot j into v depends on every robot i that the plan puts at v earlier having made its next move (left v).
+   A fleet that starts an action only when its dependencies are done never puts two robots on one vertex
+   and never deadlocks, whatever each robot's speed, as long as the dependencies have no cycle (checked:
+   following around a cycle of the lattice would make one, and is refused).
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from amr_planning.costmap import Costmap
+from amr_planning.errors import PlanningError, Reason
+
+
+@dataclass(frozen=True)
+class Lattice:
+    """The graph robots are planned on: vertex k at `points[k]` (x, y), its neighbours `neighbours[k]`."""
+
+    points: np.ndarray
+    neighbours: tuple[tuple[int, ...], ...]
+    spacing: float
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def nearest(self, x: float, y: float) -> int:
+        """The vertex nearest to (x, y)."""
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise PlanningError(Reason.INVALID, f"point ({x!r}, {y!r}) must be finite")
+        return int(np.argmin(np.hypot(self.points[:, 0] - x, self.points[:, 1] - y)))
+
+    def distances(self, target: int) -> np.ndarray:
+        """Steps from every vertex to `target` (breadth first; -1 where it cannot be reached)."""
+        steps = np.full(len(self), -1, dtype=int)
+        steps[target] = 0
+        queue = deque([target])
+        while queue:
+            vertex = queue.popleft()
+            for other in self.neighbours[vertex]:
+                if steps[other] < 0:
+                    steps[other] = steps[vertex] + 1
+                    queue.append(other)
+        return steps
+
+
+def _clearance(costmap: Costmap, points: np.ndarray) -> np.ndarray:
+    """m from each point (N, 2) to the nearest obstacle of the map."""
+    rows, cols = costmap.grid.world_to_cell(points[:, 0], points[:, 1])
+    return costmap.clearance[rows, cols] if len(points) else np.zeros(0)
+
+
+def lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
+    """The lattice of the free space `spacing` m apart (see the module docstring), shifted to the best of
+    `steps` x `steps` offsets tried over one spacing."""
+    if not (math.isfinite(spacing) and spacing > costmap.resolution):
+        raise PlanningError(Reason.INVALID, f"lattice spacing {spacing!r} must be finite and exceed the map's "
+                                            f"resolution ({costmap.resolution} m)")
+    xmin, ymin, xmax, ymax = costmap.grid.bounds
+    best = None
+    for dx, dy in itertools.product(np.arange(steps) * spacing / steps, repeat=2):
+        xs = np.arange(xmin + dx, xmax, spacing)
+        ys = np.arange(ymin + dy, ymax, spacing)
+        gx, gy = np.meshgrid(xs, ys, indexing="ij")
+        points = np.stack([gx.ravel(), gy.ravel()], axis=1)
+        free = ~costmap.lethal_at(points, costmap.inflated)
+        index = np.full(gx.shape, -1, dtype=int)
+        index.ravel()[np.flatnonzero(free)] = np.arange(int(free.sum()))
+        pairs = []
+        for a, b in ((index[:-1, :], index[1:, :]), (index[:, :-1], index[:, 1:])):
+            both = (a >= 0) & (b >= 0)
+            pairs.append(np.stack([a[both], b[both]], axis=1))
+        pairs = np.concatenate(pairs)
+        kept = points[free]
+        if len(pairs):
+            pairs = pairs[costmap.segments_free(kept[pairs[:, 0]], kept[pairs[:, 1]], costmap.inflated)]
+        score = (len(pairs), float(_clearance(costmap, kept).sum()))
+        if best is None or score > best[0]:
+            best = (score, kept, pairs)
+    _, points, pairs = best
+    neighbours: list[list[int]] = [[] for _ in range(len(points))]
+    for a, b in pairs:
+        neighbours[a].append(int(b))
+        neighbours[b].append(int(a))
+    return Lattice(points, tuple(tuple(sorted(n)) for n in neighbours), float(spacing))
+
+
+# -- low level: one robot in space and time --------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Constraints:
+    vertices: frozenset = frozenset()
+    """(vertex, step) the robot may not be at."""
+    edges: frozenset = frozenset()
+    """(from, to, step) moves the robot may not make (arriving at step)."""
+    held: tuple = ()
+    """(vertex, step): from that step on the vertex is another robot's for good (it is at its goal)."""
+
+    def latest(self, vertex: int) -> int:
+        """The last step a vertex constraint forbids `vertex` (-1 none)."""
+        return max((step for v, step in self.vertices if v == vertex), default=-1)
+
+    def horizon(self) -> int:
+        return max([step for _, step in self.vertices] + [step for _, _, step in self.edges]
+                   + [step for _, step in self.held] + [0])
+
+
+def _path(graph: Lattice, start: int, goal: int, to_goal: np.ndarray, constraints: _Constraints) -> list[int] | None:
+    """The shortest path in space and time from start to goal (one vertex per step, the goal held from its
+    last step on) obeying the constraints; None if none exists."""
+    if to_goal[start] < 0:
+        return None
+    if (start, 0) in constraints.vertices:
+        return None
+    held = dict(constraints.held)
+    if goal in held:
+        return None  # another robot ends there
+    settle = constraints.latest(goal)  # at the goal from here on, for good
+    limit = constraints.horizon() + len(graph) + 1
+    counter = itertools.count()
+    frontier = [(int(to_goal[start]), next(counter), start, 0)]
+    parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, 0): None}
+    while frontier:
+        _, _, vertex, step = heapq.heappop(frontier)
+        if vertex == goal and step > settle:
+            path = [vertex]
+            state = parent[(vertex, step)]
+            while state is not None:
+                path.append(state[0])
+                state = parent[state]
+            return path[::-1]
+        if step >= limit:
+            continue
+        for other in (vertex,) + graph.neighbours[vertex]:
+            state = (other, step + 1)
+            if state in parent or to_goal[other] < 0:
+                continue
+            if state in constraints.vertices or (vertex, other, step + 1) in constraints.edges:
+                continue
+            if other in held and step + 1 >= held[other]:
+                continue
+            parent[state] = (vertex, step)
+            heapq.heappush(frontier, (step + 1 + int(to_goal[other]), next(counter), other, step + 1))
+    return None
+
+
+# -- high level: conflict-based search --------------------------------------------------------------------
+
+
+def _at(path: list[int], step: int) -> int:
+    return path[min(step, len(path) - 1)]
+
+
+def _first_conflict(paths: list[list[int]]):
+    """(i, j, kind, step, vertex or (u, v)) of the earliest conflict between two paths; None if none."""
+    horizon = max(len(path) for path in paths)
+    for step in range(horizon):
+        seen: dict[int, int] = {}
+        for i, path in enumerate(paths):
+            vertex = _at(path, step)
+            if vertex in seen:
+                return seen[vertex], i, "vertex", step, vertex
+            seen[vertex] = i
+        if step == 0:
+            continue
+        moves = {}
+        for i, path in enumerate(paths):
+            u, v = _at(path, step - 1), _at(path, step)
+            if u != v:
+                if (v, u) in moves:
+                    return moves[(v, u)], i, "edge", step, (u, v)
+                moves[(u, v)] = i
+    return None
+
+
+@dataclass(frozen=True)
+class FleetPlan:
+    """A conflict-free plan: one vertex per step for each robot (a robot done holds its goal), on `graph`."""
+
+    graph: Lattice
+    paths: tuple[tuple[int, ...], ...]
+    nodes: int
+    """high-level nodes the search expanded."""
+
+    @property
+    def cost(self) -> int:
+        """The sum over robots of the steps until each is at its goal for good."""
+        return sum(_arrival(path) for path in self.paths)
+
+    @property
+    def makespan(self) -> int:
+        return max(_arrival(path) for path in self.paths)
+
+    def waypoints(self, robot: int) -> np.ndarray:
+        """(K, 2) the points the robot drives through (its vertices with the waits dropped)."""
+        return self.graph.points[[vertex for vertex, _ in _actions(self.paths[robot])]]
+
+
+def _arrival(path) -> int:
+    """The step from which a path stays at its last vertex."""
+    last = len(path) - 1
+    while last > 0 and path[last - 1] == path[-1]:
+        last -= 1
+    return last
+
+
+def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes: int = 20000) -> FleetPlan:
+    """Paths for every robot, starts[i] to goals[i] (lattice vertices), in which no two are ever at one vertex
+    and none swap along an edge, with the least sum of steps (conflict-based search; see the module docstring).
+    PlanningError if two robots share a start or a goal, a goal cannot be reached, or the search gives up."""
+    count = len(starts)
+    if len(goals) != count:
+        raise PlanningError(Reason.INVALID, f"{count} starts but {len(goals)} goals")
+    for what, vertices in (("start", starts), ("goal", goals)):
+        for vertex in vertices:
+            if not 0 <= vertex < len(graph):
+                raise PlanningError(Reason.INVALID, f"{what} vertex {vertex} is not on the lattice of {len(graph)}")
+        if len(set(vertices)) != count:
+            raise PlanningError(Reason.INVALID, f"two robots share a {what} vertex: {list(vertices)}")
+    to_goal = [graph.distances(goal) for goal in goals]
+    constraints = [_Constraints() for _ in range(count)]
+    paths = []
+    for i in range(count):
+        path = _path(graph, starts[i], goals[i], to_goal[i], constraints[i])
+        if path is None:
+            raise PlanningError(Reason.UNREACHABLE, f"robot {i}: goal vertex {goals[i]} cannot be reached "
+                                                         f"from start vertex {starts[i]} on the lattice")
+        paths.append(path)
+    counter = itertools.count()
+    open_list = [(_cost(paths), 0, next(counter), constraints, paths)]
+    expanded = 0
+    while open_list:
+        _, _, _, constraints, paths = heapq.heappop(open_list)
+        conflict = _first_conflict(paths)
+        if conflict is None:
+            return FleetPlan(graph, tuple(tuple(path) for path in paths), expanded)
+        expanded += 1
+        if expanded > max_nodes:
+            raise PlanningError(Reason.UNREACHABLE, f"no conflict-free plan for {count} robots within "
+                                                         f"{max_nodes} search nodes")
+        i, j, kind, step, where = conflict
+        for robot, other in ((i, j), (j, i)):
+            mine = constraints[robot]
+            if kind == "vertex":
+                mine = _Constraints(mine.vertices | {(where, step)}, mine.edges)
+            else:  # the robot's own move of the swap: i moved where[0] -> where[1] ... or the reverse
+                u, v = _at(paths[robot], step - 1), _at(paths[robot], step)
+                mine = _Constraints(mine.vertices, mine.edges | {(u, v, step)})
+            path = _path(graph, starts[robot], goals[robot], to_goal[robot], mine)
+            if path is None:
+                continue
+            child_constraints = list(constraints)
+            child_constraints[robot] = mine
+            child_paths = list(paths)
+            child_paths[robot] = path
+            heapq.heappush(open_list, (_cost(child_paths), _conflicts(child_paths), next(counter),
+                                       child_constraints, child_paths))
+    raise PlanningError(Reason.UNREACHABLE, f"no conflict-free plan exists for these {count} robots on the "
+                                                 f"lattice")
+
+
+def _cost(paths: list[list[int]]) -> int:
+    return sum(_arrival(path) for path in paths)
+
+
+def _conflicts(paths: list[list[int]]) -> int:
+    """The number of (step, conflict) pairs of the paths (the tie-break among nodes of one cost: fewest first)."""
+    count = 0
+    for step in range(max(len(path) for path in paths)):
+        here = [_at(path, step) for path in paths]
+        count += len(here) - len(set(here))
+        if step:
+            moves = {(_at(path, step - 1), vertex) for path, vertex in zip(paths, here) if _at(path, step - 1) != vertex}
+            count += sum(1 for u, v in moves if (v, u) in moves) // 2
+    return count
+
+
+# -- execution: action dependencies ----------------------------------------------------------------------
+
+
+def _actions(path) -> list[tuple[int, int]]:
+    """(vertex, step) of each move of a path, waits dropped; the first is the start at step 0."""
+    actions = [(path[0], 0)]
+    for step in range(1, len(path)):
+        if path[step] != path[step - 1]:
+            actions.append((path[step], step))
+    return actions
+
+
+def dependencies(plan: FleetPlan) -> list[list[list[tuple[int, int]]]]:
+    """For robot i's action a (its a-th vertex, waits dropped; action 0 is its start), the (j, b) that must be
+    done first: robot j has made its action b (moved on from a vertex the plan puts it at before i gets there).
+    PlanningError if the dependencies form a cycle (robots following one another round a cycle of the lattice
+    in one step): the plan could then stall."""
+    actions = [_actions(path) for path in plan.paths]
+    visits: dict[int, list[tuple[int, int, int]]] = {}
+    for robot, moves in enumerate(actions):
+        for index, (vertex, step) in enumerate(moves):
+            visits.setdefault(vertex, []).append((step, robot, index))
+    needs: list[list[list[tuple[int, int]]]] = [[[] for _ in moves] for moves in actions]
+    for vertex, seen in visits.items():
+        for step, robot, index in seen:
+            for other_step, other, other_index in seen:
+                if other == robot or other_step >= step:
+                    continue
+                if other_index + 1 >= len(actions[other]):
+                    raise PlanningError(Reason.INVALID, f"robot {robot} is planned onto vertex {vertex} where robot "
+                                                        f"{other} ends")
+                needs[robot][index].append((other, other_index + 1))
+            if index > 0:
+                needs[robot][index].append((robot, index - 1))
+    _check_acyclic(needs)
+    return [[sorted({dep for dep in action if dep[0] != robot}) for action in moves]
+            for robot, moves in enumerate(needs)]
+
+
+def _check_acyclic(needs) -> None:
+    nodes = [(robot, index) for robot, moves in enumerate(needs) for index in range(len(moves))]
+    waiting = {node: len(set(needs[node[0]][node[1]])) for node in nodes}
+    users: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    for node in nodes:
+        for dep in set(needs[node[0]][node[1]]):
+            users.setdefault(dep, []).append(node)
+    ready = deque(node for node, count in waiting.items() if count == 0)
+    done = 0
+    while ready:
+        node = ready.popleft()
+        done += 1
+        for user in users.get(node, ()):
+            waiting[user] -= 1
+            if waiting[user] == 0:
+                ready.append(user)
+    if done != len(nodes):
+        raise PlanningError(Reason.INVALID, "the plan's action dependencies form a cycle (robots following one "
+                                            "another round a cycle of the lattice): it could stall")
+
+
+# -- LaCAM: a complete search over configurations, PIBT for the next one ----------------------------------
+
+
+@dataclass
+class _Constraint:
+    """A low-level node of LaCAM: robots order[0..depth-1] are told where to go next (who[k] to where[k])."""
+
+    who: tuple[int, ...] = ()
+    where: tuple[int, ...] = ()
+
+
+@dataclass
+class _Node:
+    config: tuple[int, ...]
+    parent: "_Node | None"
+    priorities: list[float]
+    tree: deque
+
+    @property
+    def order(self) -> list[int]:
+        """The robots, highest priority first."""
+        return sorted(range(len(self.config)), key=lambda i: -self.priorities[i])
+
+
+def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: int = 200000,
+               seed: int = 0) -> FleetPlan:
+    """Paths for every robot, starts[i] to goals[i] (lattice vertices), in which no two are ever at one vertex and
+    none swap along an edge (LaCAM, Okumura 2023, "LaCAM: search-based algorithm for quick multi-agent
+    pathfinding"): a depth-first search over configurations (where every robot is), each next one made by PIBT
+    (priority inheritance with backtracking, Okumura et al. 2022: robots in order of priority take their
+    neighbour nearest to their goal, and one pushed by a higher-priority robot moves on first or the other tries
+    its next neighbour), with constraints on the first robots added lazily, one robot at a time, so that every
+    successor of a configuration is tried in the end. Complete: it finds a plan if one exists, else says so
+    (or gives up after `max_nodes` configurations). Not of least cost. PlanningError as plan_together."""
+    count = _check(graph, starts, goals)
+    to_goal = [graph.distances(goal) for goal in goals]
+    for i in range(count):
+        if to_goal[i][starts[i]] < 0:
+            raise PlanningError(Reason.UNREACHABLE, f"robot {i}: goal vertex {goals[i]} cannot be reached from start "
+                                                    f"vertex {starts[i]} on the lattice")
+    rng = np.random.default_rng(seed)
+    target = tuple(goals)
+    start = tuple(starts)
+    pibt = _Pibt(graph, goals, to_goal, rng)
+    root = _Node(start, None, _priorities(start, to_goal, None), deque([_Constraint()]))
+    explored = {start: root}
+    stack = [root]
+    generated = 0
+    while stack:
+        node = stack[-1]
+        if node.config == target:
+            configs = []
+            while node is not None:
+                configs.append(node.config)
+                node = node.parent
+            configs.reverse()
+            paths = tuple(tuple(config[i] for config in configs) for i in range(count))
+            return FleetPlan(graph, tuple(_trim(path) for path in paths), generated)
+        if not node.tree:
+            stack.pop()
+            continue
+        constraint = node.tree.popleft()
+        depth = len(constraint.who)
+        if depth < count:
+            robot = node.order[depth]
+            options = list((node.config[robot],) + graph.neighbours[node.config[robot]])
+            rng.shuffle(options)
+            for vertex in options:
+                node.tree.append(_Constraint(constraint.who + (robot,), constraint.where + (vertex,)))
+        following = pibt.step(node.config, node.order, constraint)
+        if following is None:
+            continue
+        known = explored.get(following)
+        if known is not None:
+            stack.append(known)  # reach it again (its search goes on from where it stopped)
+            continue
+        generated += 1
+        if generated > max_nodes:
+            raise PlanningError(Reason.UNREACHABLE, f"no plan for {count} robots within {max_nodes} configurations")
+        child = _Node(following, node, _priorities(following, to_goal, node.priorities), deque([_Constraint()]))
+        explored[following] = child
+        stack.append(child)
+    raise PlanningError(Reason.UNREACHABLE, f"no plan exists for these {count} robots on the lattice (every "
+                                            f"configuration reachable was searched)")
+
+
+def _check(graph: Lattice, starts: list[int], goals: list[int]) -> int:
+    count = len(starts)
+    if len(goals) != count:
+        raise PlanningError(Reason.INVALID, f"{count} starts but {len(goals)} goals")
+    for what, vertices in (("start", starts), ("goal", goals)):
+        for vertex in vertices:
+            if not 0 <= vertex < len(graph):
+                raise PlanningError(Reason.INVALID, f"{what} vertex {vertex} is not on the lattice of {len(graph)}")
+        if len(set(vertices)) != count:
+            raise PlanningError(Reason.INVALID, f"two robots share a {what} vertex: {list(vertices)}")
+    return count
+
+
+def _priorities(config, to_goal, previous) -> list[float]:
+    """PIBT's dynamic priorities: a robot not at its goal gains 1 each step; one at its goal drops to the fraction
+    (at first: its distance to the goal / 10000, a tie-break)."""
+    if previous is None:
+        return [float(to_goal[i][config[i]]) / 10000.0 for i in range(len(config))]
+    return [previous[i] + 1.0 if to_goal[i][config[i]] else previous[i] - int(previous[i])
+            for i in range(len(config))]
+
+
+class _Pibt:
+    """One next configuration by PIBT with the swap of LaCAM3 (Okumura 2024, "Engineering LaCAM*"): a robot that
+    must pass another head on in a corridor pulls it back along to a junction where the two can swap, instead of
+    pushing it on."""
+
+    def __init__(self, graph: Lattice, goals, to_goal, rng) -> None:
+        self.graph, self.goals, self.to_goal, self.rng = graph, goals, to_goal, rng
+
+    def step(self, config, order, constraint: _Constraint) -> tuple[int, ...] | None:
+        self.config = config
+        self.now = {vertex: robot for robot, vertex in enumerate(config)}
+        self.next: dict[int, int] = {}
+        self.to: list[int] = [-1] * len(config)
+        for robot, vertex in zip(constraint.who, constraint.where):
+            self.to[robot] = vertex
+        for robot, vertex in zip(constraint.who, constraint.where):
+            if vertex in self.next:
+                return None
+            occupant = self.now.get(vertex)
+            if occupant is not None and occupant != robot and self.to[occupant] == config[robot]:
+                return None  # a swap
+            self.next[vertex] = robot
+        for robot in order:
+            if self.to[robot] < 0 and not self._push(robot):
+                return None
+        following = tuple(self.to)
+        return following if _valid_step(self.graph, config, following) else None
+
+    def _push(self, i: int) -> bool:
+        here = self.config[i]
+        options = list(self.graph.neighbours[here]) + [here]
+        ties = self.rng.random(len(options))
+        options = [options[k] for k in np.argsort([self.to_goal[i][v] + t for v, t in zip(options, ties)])]
+        swap = self._swap_partner(i, options)
+        if swap is not None:
+            options.reverse()
+        for k, vertex in enumerate(options):
+            if vertex in self.next:
+                continue
+            j = self.now.get(vertex)
+            if j is not None and self.to[j] == here:
+                continue  # a swap
+            self.next[vertex] = i
+            self.to[i] = vertex
+            if j is not None and vertex != here and self.to[j] < 0 and not self._push(j):
+                continue
+            if swap is not None and k == 0 and self.to[swap] < 0 and here not in self.next:
+                self.next[here] = swap  # pull the other robot back along
+                self.to[swap] = here
+            return True
+        self.next[here] = i
+        self.to[i] = here
+        return False
+
+    def _swap_partner(self, i: int, options: list[int]) -> int | None:
+        """The robot i must swap with (pull back along) rather than push, if any (LaCAM3's
+        is_swap_required_and_possible)."""
+        here, best = self.config[i], options[0]
+        j = self.now.get(best)
+        if (j is not None and j != i and self.to[j] < 0 and self._required(i, j, here, self.config[j])
+                and self._possible(self.config[j], here)):
+            return j
+        if best != here:  # clearing the way, as in push and swap
+            for u in self.graph.neighbours[here]:
+                k = self.now.get(u)
+                if (k is not None and best != self.config[k] and self._required(k, i, here, best)
+                        and self._possible(best, here)):
+                    return k
+        return None
+
+    def _pullable(self, puller: int, pusher: int) -> tuple[int, int]:
+        """How many neighbours of vertex `puller` a pulled robot could step to (not `pusher`, not a dead end
+        where a robot stands at its goal), and one of them."""
+        n, other = 0, -1
+        for u in self.graph.neighbours[puller]:
+            occupant = self.now.get(u)
+            if u == pusher or (len(self.graph.neighbours[u]) == 1 and occupant is not None
+                               and self.goals[occupant] == u):
+                continue
+            n += 1
+            other = u
+        return n, other
+
+    def _required(self, pusher: int, puller: int, v_pusher: int, v_puller: int) -> bool:
+        """The two must swap: pushing the other on along the corridor would take it away from its goal."""
+        distance = self.to_goal[pusher]
+        while distance[v_puller] < distance[v_pusher]:
+            n, other = self._pullable(v_puller, v_pusher)
+            if n >= 2:
+                return False  # they can pass each other there
+            if n <= 0:
+                break
+            v_pusher, v_puller = v_puller, other
+        mine = self.to_goal[puller]
+        return bool(mine[v_pusher] < mine[v_puller]
+                    and (distance[v_pusher] == 0 or distance[v_puller] < distance[v_pusher]))
+
+    def _possible(self, v_pusher: int, v_puller: int) -> bool:
+        """Pulling back along the corridor reaches a junction where the two can swap."""
+        origin = v_pusher
+        while v_puller != origin:
+            n, other = self._pullable(v_puller, v_pusher)
+            if n >= 2:
+                return True
+            if n <= 0:
+                return False
+            v_pusher, v_puller = v_puller, other
+        return False
+
+
+def _valid_step(graph, config, following) -> bool:
+    """No two robots at one vertex, none swapping, every move along an edge."""
+    if len(set(following)) != len(following):
+        return False
+    moves = {(a, b) for a, b in zip(config, following) if a != b}
+    return all(b in graph.neighbours[a] and (b, a) not in moves for a, b in moves)
+
+
+def _trim(path: tuple[int, ...]) -> tuple[int, ...]:
+    """The path without the steps it waits at its goal at the end."""
+    return path[:_arrival(path) + 1]
+
+
+# -- improving a plan: each robot planned again around the others -------------------------------------------
+
+
+def improve(plan: FleetPlan, rounds: int = 4) -> FleetPlan:
+    """A plan with no more moves and no later end, each robot in turn planned again around the others' paths as
+    they stand (a large-neighbourhood search of one robot at a time, as MAPF-LNS does with more): its path of
+    fewest moves (then earliest arrival) that never meets theirs and ends by the plan's last step, kept when it
+    has fewer moves than before. LaCAM's plans carry the back-and-forth moves of PIBT; a robot that stepped aside
+    for nothing now waits instead, one that must make way still does. Stops after `rounds` rounds, or one that
+    changed nothing."""
+    paths = [list(path) for path in plan.paths]
+    goals = [path[-1] for path in paths]
+    horizon = max(len(path) for path in paths) - 1
+    for _ in range(rounds):
+        changed = False
+        for robot in sorted(range(len(paths)), key=lambda i: -_moves(paths[i])):
+            path = _fewest_moves(plan.graph, paths[robot][0], goals[robot], _around(paths, robot), horizon)
+            if path is not None and _moves(path) < _moves(paths[robot]):
+                paths[robot] = path
+                changed = True
+        if not changed:
+            break
+    return FleetPlan(plan.graph, tuple(tuple(_trim(tuple(path))) for path in paths), plan.nodes)
+
+
+def _moves(path) -> int:
+    return sum(1 for a, b in zip(path[:-1], path[1:]) if a != b)
+
+
+def _fewest_moves(graph: Lattice, start: int, goal: int, constraints: _Constraints, horizon: int) -> list[int] | None:
+    """The path from start to goal, at the goal for good by step `horizon`, of fewest moves and then earliest
+    arrival, obeying the constraints (Dijkstra over (vertex, step)); None if none."""
+    held = dict(constraints.held)
+    if goal in held or (start, 0) in constraints.vertices:
+        return None
+    settle = constraints.latest(goal)
+    frontier = [(0, 0, start)]
+    parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, 0): None}
+    while frontier:
+        moves, step, vertex = heapq.heappop(frontier)
+        if vertex == goal and step > settle:
+            path = [vertex]
+            state = parent[(vertex, step)]
+            while state is not None:
+                path.append(state[0])
+                state = parent[state]
+            return path[::-1]
+        if step >= horizon:
+            continue
+        for other in (vertex,) + graph.neighbours[vertex]:
+            state = (other, step + 1)
+            if state in parent or state in constraints.vertices or (vertex, other, step + 1) in constraints.edges:
+                continue
+            if other in held and step + 1 >= held[other]:
+                continue
+            parent[state] = (vertex, step)
+            heapq.heappush(frontier, (moves + (other != vertex), step + 1, other))
+    return None
+
+
+def _around(paths: list[list[int]], robot: int) -> _Constraints:
+    """The constraints that keep one robot clear of the others' paths: never at a vertex where one is, never
+    swapping with one, never on a goal one has reached for good."""
+    vertices, edges, held = set(), set(), []
+    for other, path in enumerate(paths):
+        if other == robot:
+            continue
+        arrival = _arrival(path)
+        for step in range(arrival):
+            vertices.add((path[step], step))
+            if step + 1 <= arrival:
+                edges.add((path[step + 1], path[step], step + 1))
+        held.append((path[-1], arrival))
+    return _Constraints(frozenset(vertices), frozenset(edges), tuple(held))

@@ -1,0 +1,98 @@
+"""Following a fleet plan together (amr_navigation.fleet_schedule): how far each robot may go, when it has
+reached a waypoint, the route it is handed; and whole runs of the simulator's fleet driven by a plan
+(amr_evaluation.fleet_navigation.run_fleet with coordination "plan")."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_evaluation.fleet_navigation import run_fleet
+from amr_maps.world import world_from_dict
+from amr_navigation.fleet_schedule import Schedule
+from amr_planning.fleet_plan import FleetPlan, Lattice
+
+
+def swap_plan() -> FleetPlan:
+    """A corridor 0-1-2-3-4 (1 m apart) with a pocket 5 off vertex 2: robot 0 goes 0 -> 4 while robot 1 comes
+    4 -> 0, stepping into the pocket and out again behind robot 0."""
+    points = np.array([[0, 0], [1, 0], [2, 0], [3, 0], [4, 0], [2, 1]], dtype=float)
+    neighbours = ((1,), (0, 2), (1, 3, 5), (2, 4), (3,), (2,))
+    paths = ((0, 1, 1, 1, 2, 3, 4), (4, 3, 2, 5, 5, 2, 1, 0))
+    return FleetPlan(Lattice(points, neighbours, 1.0), paths, 0)
+
+
+def test_a_robot_may_go_as_far_as_the_moves_it_waits_for_are_done():
+    schedule = Schedule(swap_plan())
+    # robot 0 may enter 1, but 2 only once robot 1 has left it (entered the pocket, its action 3)
+    assert schedule.allowed(0) == 1
+    assert schedule.allowed(1) == 3  # 3, 2 and the pocket: nobody is there before it
+    for x, y in ((3.0, 0.0), (2.0, 0.0), (2.0, 1.0)):
+        assert schedule.report(1, x, y)
+    assert schedule.progress[1] == 3
+    assert schedule.allowed(0) == 4  # 2, 3, 4 are free now
+    # robot 1 may leave the pocket for 2 only once robot 0 has gone on to 3
+    assert schedule.allowed(1) == 3
+    schedule.report(0, 1.0, 0.0)
+    schedule.report(0, 2.0, 0.0)
+    assert schedule.allowed(1) == 3
+    schedule.report(0, 3.0, 0.0)
+    assert schedule.allowed(1) == 6
+
+
+def test_a_waypoint_counts_as_reached_within_reach_in_order_and_never_past_what_is_allowed():
+    schedule = Schedule(swap_plan())
+    assert schedule.reach == pytest.approx(0.45)
+    assert not schedule.report(0, 0.5, 0.0)  # 0.5 m from waypoint 1: not yet
+    assert schedule.report(0, 0.6, 0.0)
+    assert schedule.progress[0] == 1
+    assert not schedule.report(0, 2.0, 0.0)  # at vertex 2, which it may not enter yet: not counted
+    assert schedule.progress[0] == 1
+    assert not schedule.report(1, 2.0, 0.0)  # waypoint 2 skipped (waypoint 1, vertex 3, comes first)
+    assert schedule.progress[1] == 0
+
+
+def test_the_route_goes_as_far_as_allowed_and_stops_before_it_turns_back():
+    schedule = Schedule(swap_plan())
+    route = schedule.route(1, 4.0, 0.0)
+    assert route.tolist() == [[4.0, 0.0], [3.0, 0.0], [2.0, 0.0], [2.0, 1.0]]
+    for x, y in ((3.0, 0.0), (2.0, 0.0), (2.0, 1.0)):
+        schedule.report(1, x, y)
+    for x, y in ((1.0, 0.0), (2.0, 0.0), (3.0, 0.0)):
+        schedule.report(0, x, y)
+    route = schedule.route(1, 2.0, 1.0)  # out of the pocket and on: 2, 1, 0, never back to where it stands
+    assert route.tolist() == [[2.0, 1.0], [2.0, 0.0], [1.0, 0.0], [0.0, 0.0]]
+    blocked = Schedule(swap_plan())
+    assert blocked.route(0, 0.0, 0.0).tolist() == [[0.0, 0.0], [1.0, 0.0]]
+
+
+def test_the_last_waypoint_is_the_robots_own_goal():
+    schedule = Schedule(swap_plan(), goals=[(4.1, 0.05), (-0.1, 0.0)])
+    assert schedule.waypoints[0][-1].tolist() == [4.1, 0.05]
+    assert schedule.waypoints[1][-1].tolist() == [-0.1, 0.0]
+
+
+def corridor() -> object:
+    """A corridor one robot wide (0.35 m free) from -2 to 2 along x, a side pocket at x = 0.8; r1 and r2 face
+    each other from its two ends, each sent to the other's end."""
+    walls = [[-2.0, -0.2, 2.0, -0.2], [-2.0, 0.2, 0.6, 0.2], [1.0, 0.2, 2.0, 0.2], [0.6, 0.2, 0.6, 0.7],
+             [1.0, 0.2, 1.0, 0.7], [0.6, 0.7, 1.0, 0.7], [-2.0, -0.2, -2.0, 0.2], [2.0, -0.2, 2.0, 0.2]]
+    return world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "robots": [
+        {"name": "r1", "start": [-1.6, 0.0, 0.0], "goal": [1.6, 0.0, 0.1]},
+        {"name": "r2", "start": [1.6, 0.0, math.pi], "goal": [-1.6, 0.0, 0.1]}]})
+
+
+def test_two_robots_planned_together_pass_each_other_through_the_pocket():
+    run = run_fleet(corridor(), localization="truth", duration=150.0, seed=2, coordination="plan",
+                    lattice_spacing=0.4)
+    assert run.reached == 2, [robot.events for robot in run.robots]
+    assert run.robot_contacts == 0 and run.wall_contacts == 0
+
+
+def test_a_fleet_plan_needs_true_poses_and_a_known_coordination():
+    with pytest.raises(ValueError, match="needs localization 'truth'"):
+        run_fleet(corridor(), localization="filter", duration=1.0, coordination="plan")
+    with pytest.raises(ValueError, match="coordination 'central'"):
+        run_fleet(corridor(), localization="truth", duration=1.0, coordination="central")

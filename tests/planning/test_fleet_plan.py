@@ -1,0 +1,188 @@
+"""Planning several robots together (amr_planning.fleet_plan): the lattice of a maze, conflict-based search and
+LaCAM on small graphs and generated mazes, the improvement pass, and the action dependencies executed at random
+speeds. Plans are checked here by code of the test's own (no two robots at one vertex, no swap, moves along
+edges, every robot at its goal), not by the module's conflict finder."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_evaluation.fleet_navigation import with_robots
+from amr_maps.maze_families import generate
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import world_from_dict
+from amr_planning.costmap import Costmap
+from amr_planning.errors import PlanningError
+from amr_planning.fleet_plan import (Lattice, dependencies, improve, lattice, plan_lacam, plan_together)
+
+
+def graph_of(points, edges) -> Lattice:
+    neighbours = [[] for _ in points]
+    for a, b in edges:
+        neighbours[a].append(b)
+        neighbours[b].append(a)
+    return Lattice(np.asarray(points, dtype=float), tuple(tuple(sorted(n)) for n in neighbours), 1.0)
+
+
+def corridor_with_pocket() -> Lattice:
+    """0-1-2-3-4 in a row, a pocket 5 off vertex 2."""
+    return graph_of([[0, 0], [1, 0], [2, 0], [3, 0], [4, 0], [2, 1]], [(0, 1), (1, 2), (2, 3), (3, 4), (2, 5)])
+
+
+def check(plan, starts, goals) -> None:
+    """The plan's paths start and end where asked, move along edges, never share a vertex, never swap."""
+    graph = plan.graph
+    paths = [list(path) for path in plan.paths]
+    assert [path[0] for path in paths] == list(starts)
+    assert [path[-1] for path in paths] == list(goals)
+    length = max(len(path) for path in paths)
+    at = [[path[min(step, len(path) - 1)] for path in paths] for step in range(length)]
+    for step in range(length):
+        assert len(set(at[step])) == len(paths), f"two robots on one vertex at step {step}: {at[step]}"
+        if step:
+            for robot, (a, b) in enumerate(zip(at[step - 1], at[step])):
+                assert a == b or b in graph.neighbours[a], f"robot {robot} jumps {a} -> {b}"
+                for other, (c, d) in enumerate(zip(at[step - 1], at[step])):
+                    assert not (other != robot and a != b and (a, b) == (d, c)), f"robots {robot}, {other} swap"
+
+
+@pytest.mark.parametrize("solver", [plan_together, plan_lacam])
+def test_two_robots_swap_ends_of_a_corridor_through_its_pocket(solver):
+    graph = corridor_with_pocket()
+    plan = solver(graph, [0, 4], [4, 0])
+    check(plan, [0, 4], [4, 0])
+    assert 5 in plan.paths[0] or 5 in plan.paths[1]  # one of them waited in the pocket
+    if solver is plan_together:  # least sum of steps: 4 + 4 moves, one detour of 2 and one wait, or the like
+        assert plan.cost == 11
+
+
+def test_a_swap_in_a_bare_corridor_is_refused_as_impossible():
+    graph = graph_of([[0, 0], [1, 0], [2, 0], [3, 0]], [(0, 1), (1, 2), (2, 3)])
+    with pytest.raises(PlanningError, match="no plan exists"):
+        plan_lacam(graph, [0, 3], [3, 0])
+
+
+@pytest.mark.parametrize("starts, goals, message", [
+    ([0, 0], [3, 4], "share a start"), ([0, 1], [4, 4], "share a goal"), ([0, 9], [3, 4], "not on the lattice"),
+    ([0], [3, 4], "1 starts but 2 goals")])
+def test_bad_requests_are_refused_with_what_is_wrong(starts, goals, message):
+    for solver in (plan_together, plan_lacam):
+        with pytest.raises(PlanningError, match=message):
+            solver(corridor_with_pocket(), starts, goals)
+
+
+def maze_case(seed: int, robots: int = 6):
+    data = with_robots(generate("perfect", seed, size=4.0), robots, seed)
+    walls = np.asarray(data["walls"], dtype=float)
+    values = np.unique(np.round(walls.ravel(), 4))
+    pitch = float(np.diff(values)[np.diff(values) > 0.05].min())
+    costmap = Costmap(rasterize_world(world_from_dict(data), 0.025))
+    return data, costmap, pitch
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_the_lattice_of_a_tree_maze_is_its_cells_joined_where_open(seed):
+    data, costmap, pitch = maze_case(seed)
+    graph = lattice(costmap, pitch)
+    walls = np.asarray(data["walls"], dtype=float)
+    extent = walls[:, [0, 2]].max() - walls[:, [0, 2]].min()
+    cells = round(extent / pitch)
+    assert len(graph) == cells * cells
+    edges = sum(len(n) for n in graph.neighbours) // 2
+    assert edges == len(graph) - 1  # a perfect maze is a tree
+    assert (graph.distances(0) >= 0).all()  # connected
+    # the points are the cell centres: half a pitch (less a little) from the nearest wall line
+    low = walls[:, [0, 2]].min()
+    offsets = (graph.points - low) / pitch - 0.5
+    assert np.abs(offsets - np.round(offsets)).max() < 0.1
+
+
+def test_lattice_refuses_a_spacing_below_the_map_resolution():
+    _, costmap, _ = maze_case(0)
+    for spacing in (0.01, math.nan, -1.0):
+        with pytest.raises(PlanningError, match="spacing"):
+            lattice(costmap, spacing)
+
+
+@pytest.mark.parametrize("seed", [1, 6, 9])
+def test_lacam_plans_six_robots_in_generated_tree_mazes_and_improve_keeps_them_valid(seed):
+    """Seeds where the traffic rules leave robots short (docs/fleet.md): every robot is sent to the next one's
+    start, all at once."""
+    data, costmap, pitch = maze_case(seed)
+    graph = lattice(costmap, pitch)
+    starts = [graph.nearest(*robot["start"][:2]) for robot in data["robots"]]
+    goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]
+    plan = plan_lacam(graph, starts, goals)
+    check(plan, starts, goals)
+    better = improve(plan)
+    check(better, starts, goals)
+    moves = [sum(a != b for a, b in zip(path[:-1], path[1:])) for path in (plan.paths, better.paths)
+             for path in path]
+    assert sum(moves[6:]) <= sum(moves[:6])
+    assert better.makespan <= plan.makespan
+    lower = sum(int(graph.distances(goal)[start]) for start, goal in zip(starts, goals))
+    assert sum(moves[6:]) >= lower
+
+
+def execute(plan, rng, needs=None) -> list[dict]:
+    """Carry the plan out with the dependencies at random speeds: each robot starts its next move once every
+    move it depends on is done, and takes 1-5 ticks for it (occupying both vertices meanwhile). The occupancy
+    of every tick (a robot's vertices); fails if a robot enters a vertex another occupies, or the fleet stalls."""
+    needs = dependencies(plan) if needs is None else needs
+    moves = [[path[0]] + [b for a, b in zip(path[:-1], path[1:]) if a != b] for path in plan.paths]
+    done = [0] * len(moves)
+    busy = [0] * len(moves)  # ticks left of the move under way (0: standing at moves[r][done[r]])
+    history = []
+    for _ in range(100000):
+        if all(d == len(m) - 1 for d, m in zip(done, moves)) and not any(busy):
+            return history
+        occupied = {}
+        for robot in range(len(moves)):
+            here = [moves[robot][done[robot]]] + ([moves[robot][done[robot] + 1]] if busy[robot] else [])
+            for vertex in here:
+                assert vertex not in occupied, f"robots {occupied.get(vertex)} and {robot} both on vertex {vertex}"
+                occupied[vertex] = robot
+        history.append(occupied)
+        progressed = False
+        for robot in rng.permutation(len(moves)):
+            if busy[robot]:
+                busy[robot] -= 1
+                if busy[robot] == 0:
+                    left = moves[robot][done[robot]]
+                    if occupied.get(left) == robot:
+                        del occupied[left]
+                    done[robot] += 1
+                progressed = True
+            elif done[robot] + 1 < len(moves[robot]) and all(done[o] >= a for o, a in needs[robot][done[robot] + 1]):
+                target = moves[robot][done[robot] + 1]
+                if target in occupied and occupied[target] != robot:
+                    raise AssertionError(f"robot {robot} may enter {target} while robot {occupied[target]} is there")
+                busy[robot] = int(rng.integers(1, 6))
+                occupied[target] = robot
+                progressed = True
+        assert progressed, f"the fleet stalls with progress {done}"
+    raise AssertionError("no end")
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_robots_following_the_dependencies_at_random_speeds_never_meet_and_all_arrive(seed):
+    data, costmap, pitch = maze_case(seed)
+    graph = lattice(costmap, pitch)
+    starts = [graph.nearest(*robot["start"][:2]) for robot in data["robots"]]
+    goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]
+    plan = improve(plan_lacam(graph, starts, goals))
+    for trial in range(3):
+        execute(plan, np.random.default_rng(trial))
+
+
+def test_without_the_dependencies_random_speeds_make_robots_meet():
+    """The check above can fail: the same execution with no dependencies puts two robots on one vertex."""
+    graph = corridor_with_pocket()
+    plan = plan_lacam(graph, [0, 4], [4, 0])
+    none = [[[] for _ in path] for path in plan.paths]
+    with pytest.raises(AssertionError, match="both on vertex|may enter"):
+        for trial in range(20):
+            execute(plan, np.random.default_rng(trial), none)
