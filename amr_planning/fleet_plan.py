@@ -1,33 +1,37 @@
 """Planning several robots together (multi-agent path finding, MAPF) on a lattice of the free space.
 
 Why (issue 22, docs/fleet.md): the fleet's traffic rules (amr_navigation.traffic) let each robot decide alone.
-In a tree maze a dead end that holds several goals must be entered deepest goal first and left in the
-reverse order, and no rule of one robot knows that. Planning the robots together settles it. This module is
-the planner; it is not yet what the fleet's navigators follow (see docs/fleet.md, "Planning together").
+In a tree maze a dead end that holds several goals must be entered deepest goal first and left in the reverse
+order, and no rule of one robot knows that. Planning the robots together settles it: at library level,
+amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along such a plan
+(amr_navigation.fleet_schedule); the navigator nodes do not yet (docs/fleet.md, "Planning the fleet together").
 
 1. **Lattice** (`lattice`): points `spacing` m apart, kept where the robot fits clear of the safety margin
    (outside the costmap's inflated cells); an edge joins two 4-neighbours whose segment stays outside the
-   inflated cells. The grid is shifted by the offset (searched over a `steps` x `steps` grid of the spacing)
-   that keeps the most edges: in a maze of cells `spacing` wide, the cell centres.
+   inflated cells. The grid is shifted by the offset (of `steps` x `steps` tried over one spacing) that keeps
+   the most edges, and of those the one farthest from the walls (the clearance summed over the points): in a
+   maze of cells `spacing` wide, the cell centres. Time runs in steps; in a step a robot moves to a neighbour
+   or waits. A plan must never put two robots on one vertex in one step (a *vertex* conflict) nor let two swap
+   along an edge (an *edge* conflict); a robot may enter a vertex in the step another leaves it (following).
 2. **Conflict-based search** (`plan_together`, Sharon et al. 2015, "Conflict-based search for optimal
-   multi-agent pathfinding"). Time runs in steps; in a step a robot moves to a neighbour or waits. Low level:
-   each robot's shortest path in space and time (A* over (vertex, step), the heuristic its lattice distance
-   to the goal, exact), obeying its constraints; a robot done stays at its goal. High level: best first by
-   the sum of the paths' steps (its cost), the first conflict of the paths, either
-
-   - a *vertex* conflict: robots i and j at vertex v at step t, or
-   - an *edge* conflict: i moves u -> v while j moves v -> u in the same step (a swap),
-
-   splits the node into two, each forbidding it to one of the two robots (i may not be at v at t / may not
-   move u -> v arriving at t), and that robot is planned again. The first node without a conflict is a plan of
-   least cost. A robot may enter a vertex in the step another leaves it (following), as in the standard model.
-   The search is exponential in the worst case: it gives up after `max_nodes` nodes (PlanningError).
-3. **Action dependencies** (`dependencies`, Hoenig et al. 2016, "Multi-agent path finding with kinematic
+   multi-agent pathfinding"). Low level: each robot's shortest path in space and time (A* over (vertex, step),
+   the heuristic its lattice distance to the goal, exact) obeying its constraints; a robot done stays at its
+   goal. High level: best first by the sum of the paths' steps, the first conflict of the paths splits a node in
+   two, each forbidding it to one of the two robots (i may not be at v at t / may not move u -> v arriving at
+   t), and that robot is planned again. The first node without a conflict is a plan of least cost. Exponential
+   in the worst case; it gives up after `max_nodes` nodes. On six robots in the generated tree mazes it gave up
+   on all ten tried (5000 nodes each): it is the least-cost reference for small fleets, and a step in which
+   robots move round a cycle of the lattice is not a conflict to it (`dependencies` refuses such a plan).
+3. **LaCAM** (`plan_lacam`, Okumura 2023): a depth-first search over configurations, PIBT with the swap of
+   LaCAM3 for each next one, constraints added lazily; complete. What the fleet uses: it planned all 40 of the
+   six-robot tree mazes of the bench in at most 1.1 s each. Never a rotation round a cycle.
+4. **Improvement** (`improve`): each robot planned again around the others' paths, fewest moves first (PIBT
+   leaves back-and-forth moves); no plan gets more moves or a later end.
+5. **Action dependencies** (`dependencies`, Hoenig et al. 2016, "Multi-agent path finding with kinematic
    constraints"): each robot's plan, waits dropped, is a list of actions (move into a vertex); an action of
    robot j into v depends on every robot i that the plan puts at v earlier having made its next move (left v).
-   A fleet that starts an action only when its dependencies are done never puts two robots on one vertex
-   and never deadlocks, whatever each robot's speed, as long as the dependencies have no cycle (checked:
-   following around a cycle of the lattice would make one, and is refused).
+   A fleet that starts an action only when its dependencies are done never puts two robots on one vertex and
+   never deadlocks, whatever each robot's speed, as long as the dependencies have no cycle (checked).
 """
 
 from __future__ import annotations
@@ -586,11 +590,25 @@ class _Pibt:
 
 
 def _valid_step(graph, config, following) -> bool:
-    """No two robots at one vertex, none swapping, every move along an edge."""
+    """No two robots at one vertex, none swapping, every move along an edge, no rotation."""
     if len(set(following)) != len(following):
         return False
     moves = {(a, b) for a, b in zip(config, following) if a != b}
-    return all(b in graph.neighbours[a] and (b, a) not in moves for a, b in moves)
+    return all(b in graph.neighbours[a] and (b, a) not in moves for a, b in moves) and not _rotation(config, following)
+
+
+def _rotation(before, after) -> bool:
+    """Robots moving round a cycle of the lattice in one step, each into the vertex the next one leaves (allowed
+    by the model, but the dependencies of such a step form a cycle: robots at their own speeds would wait on
+    each other for ever)."""
+    onto = {a: b for a, b in zip(before, after) if a != b}
+    for first in onto:
+        vertex, seen = onto[first], 0
+        while vertex in onto and seen <= len(onto):
+            if vertex == first:
+                return True
+            vertex, seen = onto[vertex], seen + 1
+    return False
 
 
 def _trim(path: tuple[int, ...]) -> tuple[int, ...]:
@@ -616,11 +634,21 @@ def improve(plan: FleetPlan, rounds: int = 4) -> FleetPlan:
         for robot in sorted(range(len(paths)), key=lambda i: -_moves(paths[i])):
             path = _fewest_moves(plan.graph, paths[robot][0], goals[robot], _around(paths, robot), horizon)
             if path is not None and _moves(path) < _moves(paths[robot]):
-                paths[robot] = path
-                changed = True
+                kept, paths[robot] = paths[robot], path
+                if _rotates(paths):
+                    paths[robot] = kept  # it would close a rotation with the others: keep the old path
+                else:
+                    changed = True
         if not changed:
             break
     return FleetPlan(plan.graph, tuple(tuple(_trim(tuple(path))) for path in paths), plan.nodes)
+
+
+def _rotates(paths) -> bool:
+    """Some step of the paths is a rotation (see _rotation)."""
+    length = max(len(path) for path in paths)
+    return any(_rotation([_at(path, step - 1) for path in paths], [_at(path, step) for path in paths])
+               for step in range(1, length))
 
 
 def _moves(path) -> int:

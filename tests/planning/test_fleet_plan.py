@@ -186,3 +186,23 @@ def test_without_the_dependencies_random_speeds_make_robots_meet():
     with pytest.raises(AssertionError, match="both on vertex|may enter"):
         for trial in range(20):
             execute(plan, np.random.default_rng(trial), none)
+
+
+def test_no_step_of_a_plan_is_a_rotation_round_a_cycle_of_the_lattice():
+    """Robots on a cycle of the lattice each sent to the next vertex: in the model they may all move at once round
+    it, but robots at their own speeds would then wait on each other for ever (the dependencies form a cycle).
+    Such a step is never planned: four robots on a bare square have no plan; five on a ring of six take turns
+    through the free vertex."""
+    bare = graph_of([[0, 0], [1, 0], [1, 1], [0, 1]], [(0, 1), (1, 2), (2, 3), (3, 0)])
+    with pytest.raises(PlanningError, match="no plan exists"):
+        plan_lacam(bare, [0, 1, 2, 3], [1, 2, 3, 0])
+    ring = graph_of([[math.cos(k * math.pi / 3), math.sin(k * math.pi / 3)] for k in range(6)],
+                    [(k, (k + 1) % 6) for k in range(6)])
+    starts, goals = [0, 1, 2, 3, 4], [1, 2, 3, 4, 5]
+    for plan in (plan_lacam(ring, starts, goals), improve(plan_lacam(ring, starts, goals))):
+        check(plan, starts, goals)
+        dependencies(plan)  # would raise PlanningError on a cycle
+        for step in range(1, max(len(path) for path in plan.paths)):
+            at = [[path[min(t, len(path) - 1)] for path in plan.paths] for t in (step - 1, step)]
+            onto = {a: b for a, b in zip(*at) if a != b}
+            assert not (len(onto) == 6 or set(onto) == set(onto.values()) and onto), f"rotation at step {step}"
