@@ -35,6 +35,7 @@ from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
+from amr_util.geometry import compose, relative_pose
 from amr_util.scan import ScanData
 
 MIN_SEPARATION = 0.7
@@ -194,15 +195,16 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     gives obstacles that are not on the map.
 
     coordination: "rules" (each robot's navigation loop with the traffic rules) or "plan" (the fleet planned
-    together before it starts, amr_planning.fleet_plan on a lattice `lattice_spacing` m apart, and each robot's
-    path follower driven along its waypoints as far as amr_navigation.fleet_schedule allows; true poses only: the
-    plan starts from every robot's start)."""
+    together, amr_planning.fleet_plan on a lattice `lattice_spacing` m apart, and each robot's path follower
+    driven along its waypoints as far as amr_navigation.fleet_schedule allows). With "plan" and the particle
+    filters, each robot explores (its loop: the wall follower) until its filter says localized and then stands
+    still; once every robot is localized the fleet is planned from the estimates, and a robot whose filter
+    withdraws localized goes on by odometry from its last sure estimate until it is sure again.)"""
     if localization not in LOCALIZATIONS:
         raise ValueError(f"localization {localization!r}: expected one of {', '.join(LOCALIZATIONS)}")
     if coordination not in COORDINATIONS:
         raise ValueError(f"coordination {coordination!r}: expected one of {', '.join(COORDINATIONS)}")
-    if coordination == "plan" and localization != "truth":
-        raise ValueError("coordination 'plan' plans from every robot's start: it needs localization 'truth'")
+
     if parameters is None:
         from amr_evaluation.configs import resolve
 
@@ -228,8 +230,13 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                                     (robot.goal.x, robot.goal.y), replan_distance, traffic=rules))
         filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
         runs.append(RobotRun(robot.name))
-    schedule = _schedule(planner, fleet, lattice_spacing) if coordination == "plan" else None
-    drivers = [PathFollower(follower) for _ in fleet.robots] if schedule is not None else []
+    planned = coordination == "plan"
+    schedule = None
+    drivers = [PathFollower(follower) for _ in fleet.robots] if planned else []
+    ready: dict[int, tuple[float, float]] = {}
+    """with "plan", before the plan: the robots localized so far and where they stand (estimate)."""
+    sure: dict[int, tuple] = {}
+    """with "plan": each robot's last estimate said localized, and its odometry pose then."""
     driven = [(-1, -1)] * len(fleet.robots)
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
@@ -260,8 +267,21 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                 if error > FALSE_LOCALIZED_ERROR:
                     run.false_localized_steps += 1
                     false = True
-            if schedule is not None:
-                index = len(commands)
+            index = len(commands)
+            if planned and (localized or schedule is not None):
+                if schedule is None:  # localized: stand still until every robot is
+                    ready[index] = (pose[0], pose[1])
+                    sure[index] = (tuple(pose), tuple(robot.odom_pose))
+                    if len(ready) == len(fleet.robots):
+                        schedule = _schedule(planner, fleet, [ready[i] for i in range(len(ready))], lattice_spacing)
+                        run.events.append(f"{fleet.time:.2f} every robot localized: the fleet planned together")
+                    commands.append((0.0, 0.0))
+                    continue
+                if localized:
+                    sure[index] = (tuple(pose), tuple(robot.odom_pose))
+                else:  # unsure: on by odometry from the last sure estimate (standing still, it would stay unsure)
+                    last, odom = sure[index]
+                    pose = tuple(compose(last, relative_pose(odom, tuple(robot.odom_pose))))
                 command = _drive(schedule, index, drivers[index], driven, pose, scan, planner)
                 commands.append((command.v, command.w))
                 continue
@@ -291,13 +311,17 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     return FleetRun(runs, fleet.time, time.perf_counter() - began, reason)
 
 
-def _schedule(planner: Planner, fleet: Fleet, spacing: float):
-    """The fleet planned together from every robot's start to its goal (coordination "plan")."""
+def _schedule(planner: Planner, fleet: Fleet, positions: list[tuple[float, float]], spacing: float):
+    """The fleet planned together from where the robots stand to their goals (coordination "plan"); each robot
+    starts at the free vertex nearest to it (in the list's order)."""
     from amr_navigation.fleet_schedule import Schedule
     from amr_planning.fleet_plan import improve, lattice, plan_lacam
 
     graph = lattice(planner.costmap, spacing)
-    starts = [graph.nearest(robot.pose.x, robot.pose.y) for robot in fleet.robots]
+    starts: list[int] = []
+    for x, y in positions:
+        order = np.argsort(np.hypot(graph.points[:, 0] - x, graph.points[:, 1] - y))
+        starts.append(int(next(vertex for vertex in order if vertex not in starts)))
     goals = [graph.nearest(robot.goal.x, robot.goal.y) for robot in fleet.robots]
     plan = improve(plan_lacam(graph, starts, goals))
     return Schedule(plan, [(robot.goal.x, robot.goal.y) for robot in fleet.robots])

@@ -182,7 +182,7 @@ def main(argv=None) -> int:
     parser.add_argument("--localization", choices=("filter", "truth"), default="filter")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--coordination", choices=("rules", "plan"), default="rules",
-                        help="rules: each robot's traffic rules; plan: the fleet planned together (true poses)")
+                        help="rules: each robot's traffic rules; plan: the fleet planned together once every robot is localized")
     parser.add_argument("--ros", action="store_true",
                         help="through ROS: amr-bringup fleet_navigation --composed per world, one at a time")
     args = parser.parse_args(argv)
@@ -190,8 +190,6 @@ def main(argv=None) -> int:
         args.jobs, args.localization = 1, "filter"
         if args.coordination != "rules":
             parser.error("--ros runs the traffic rules (the fleet plan runs at library level only)")
-    if args.coordination == "plan" and args.localization != "truth":
-        parser.error("--coordination plan plans from every robot's start: use --localization truth")
     cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
              for family in args.families
              for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]

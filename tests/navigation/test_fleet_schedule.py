@@ -91,8 +91,24 @@ def test_two_robots_planned_together_pass_each_other_through_the_pocket():
     assert run.robot_contacts == 0 and run.wall_contacts == 0
 
 
-def test_a_fleet_plan_needs_true_poses_and_a_known_coordination():
-    with pytest.raises(ValueError, match="needs localization 'truth'"):
-        run_fleet(corridor(), localization="filter", duration=1.0, coordination="plan")
+def test_a_coordination_other_than_rules_or_plan_is_refused():
     with pytest.raises(ValueError, match="coordination 'central'"):
         run_fleet(corridor(), localization="truth", duration=1.0, coordination="central")
+
+
+def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan():
+    """Each robot explores until its filter says localized and stands still; once all are, the fleet is planned
+    from the estimates. A generated tree maze, three robots each sent to the next one's start."""
+    from amr_evaluation.fleet_navigation import with_robots
+    from amr_maps.maze_families import generate
+
+    data = with_robots(generate("perfect", 4, size=4.0), 3, 4)
+    walls = np.asarray(data["walls"], dtype=float)
+    values = np.unique(np.round(walls.ravel(), 4))
+    pitch = float(np.diff(values)[np.diff(values) > 0.05].min())
+    run = run_fleet(world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=pitch)
+    events = [event for robot in run.robots for event in robot.events]
+    assert any("the fleet planned together" in event for event in events), events
+    assert run.reached == 3, events
+    assert run.robot_contacts == 0 and run.wall_contacts == 0
+    assert run.false_localized == 0
