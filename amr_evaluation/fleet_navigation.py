@@ -30,7 +30,8 @@ from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
-from amr_navigation.loop import NavigationLoop
+from amr_navigation.loop import NavigationCommand, NavigationLoop
+from amr_navigation.navigator import Mode
 from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
@@ -197,9 +198,9 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     coordination: "rules" (each robot's navigation loop with the traffic rules) or "plan" (the fleet planned
     together, amr_planning.fleet_plan on a lattice `lattice_spacing` m apart, and each robot's path follower
     driven along its waypoints as far as amr_navigation.fleet_schedule allows). With "plan" and the particle
-    filters, each robot explores (its loop: the wall follower) until its filter says localized and then stands
-    still; once every robot is localized the fleet is planned from the estimates, and a robot whose filter
-    withdraws localized goes on by odometry from its last sure estimate until it is sure again.)"""
+    filters, the robots go as with "rules" (explore until localized, then the traffic rules) until every robot is
+    localized at once; the fleet is then planned from the estimates, and a robot whose filter withdraws localized
+    goes on by odometry from its last sure estimate until it is sure again."""
     if localization not in LOCALIZATIONS:
         raise ValueError(f"localization {localization!r}: expected one of {', '.join(LOCALIZATIONS)}")
     if coordination not in COORDINATIONS:
@@ -234,10 +235,11 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     schedule = None
     drivers = [PathFollower(follower) for _ in fleet.robots] if planned else []
     ready: dict[int, tuple[float, float]] = {}
-    """with "plan", before the plan: the robots localized so far and where they stand (estimate)."""
+    """with "plan", before the plan: the robots localized at this step and where they stand (estimate)."""
     sure: dict[int, tuple] = {}
     """with "plan": each robot's last estimate said localized, and its odometry pose then."""
-    driven = [(-1, -1)] * len(fleet.robots)
+    driven: list = [((-1, -1), None)] * len(fleet.robots)
+    """with "plan": per robot the span of waypoints its path follower was handed, and since when it is blocked."""
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
     while True:
@@ -268,24 +270,25 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                     run.false_localized_steps += 1
                     false = True
             index = len(commands)
-            if planned and (localized or schedule is not None):
-                if schedule is None:  # localized: stand still until every robot is
+            if planned and schedule is None:  # the traffic rules until every robot is localized at once
+                if localized:
                     ready[index] = (pose[0], pose[1])
                     sure[index] = (tuple(pose), tuple(robot.odom_pose))
-                    if len(ready) == len(fleet.robots):
-                        schedule = _schedule(planner, fleet, [ready[i] for i in range(len(ready))], lattice_spacing)
-                        run.events.append(f"{fleet.time:.2f} every robot localized: the fleet planned together")
-                    commands.append((0.0, 0.0))
-                    continue
+                else:
+                    ready.pop(index, None)
+                if len(ready) == len(fleet.robots):
+                    schedule = _schedule(planner, fleet, [ready[i] for i in range(len(ready))], lattice_spacing)
+                    run.events.append(f"{fleet.time:.2f} every robot localized: the fleet planned together")
+            if schedule is not None and index in sure:
                 if localized:
                     sure[index] = (tuple(pose), tuple(robot.odom_pose))
                 else:  # unsure: on by odometry from the last sure estimate (standing still, it would stay unsure)
                     last, odom = sure[index]
                     pose = tuple(compose(last, relative_pose(odom, tuple(robot.odom_pose))))
-                command = _drive(schedule, index, drivers[index], driven, pose, scan, planner)
-                commands.append((command.v, command.w))
-                continue
-            command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
+                follow = _drive(schedule, index, drivers[index], driven, pose, scan, planner, fleet.time)
+                command = NavigationCommand(follow.v, follow.w, Mode.FOLLOW, follow, ())
+            else:
+                command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
             if false != run.falsely_localized:  # the episode's own events: when a false localized begins and ends
                 run.falsely_localized = false
                 event = (f"falsely localized: estimate ({pose[0]:.2f}, {pose[1]:.2f}) is {error:.2f} m from the "
@@ -343,14 +346,24 @@ def _legs(planner: Planner, route: np.ndarray) -> np.ndarray:
     return np.concatenate(points)
 
 
-def _drive(schedule, robot: int, driver: PathFollower, driven: list, pose, scan: ScanData, planner: Planner):
+BLOCKED_RETRY = 1.0
+"""s a robot driven by a fleet plan whose path follower stopped short of something waits before setting off again
+from where it stands (its route planned anew)."""
+
+
+def _drive(schedule, robot: int, driver: PathFollower, driven: list, pose, scan: ScanData, planner: Planner,
+           stamp: float):
     """One robot's command under a fleet plan: report where it is, and follow its waypoints as far as it may go."""
     from amr_control.path_follower import PathError, State
 
     schedule.report(robot, pose[0], pose[1])
     span = (schedule.progress[robot], schedule.allowed(robot))
-    if span != driven[robot] or driver.state is State.BLOCKED:  # blocked: set off again from where it stands
-        driven[robot] = span
+    last_span, blocked_since = driven[robot]
+    if driver.state is State.BLOCKED and blocked_since is None:
+        driven[robot] = (last_span, stamp)
+    retry = driver.state is State.BLOCKED and blocked_since is not None and stamp - blocked_since >= BLOCKED_RETRY
+    if span != last_span or retry:
+        driven[robot] = (span, None)
         try:
             driver.set_path(_legs(planner, schedule.route(robot, pose[0], pose[1])))
         except PathError:
