@@ -143,21 +143,30 @@ class _Constraints:
 
 def _path(graph: Lattice, start: int, goal: int, to_goal: np.ndarray, constraints: _Constraints) -> list[int] | None:
     """The shortest path in space and time from start to goal (one vertex per step, the goal held from its
-    last step on) obeying the constraints; None if none exists."""
+    last step on) obeying the constraints: A*, the lattice distance to the goal as the heuristic; None if none."""
     if to_goal[start] < 0:
         return None
-    if (start, 0) in constraints.vertices:
-        return None
+
+    def estimate(key, vertex, other, step):
+        return None if to_goal[other] < 0 else (step + int(to_goal[other]),)
+
+    return _search(graph, start, goal, constraints, constraints.horizon() + len(graph) + 1, estimate)
+
+
+def _search(graph: Lattice, start: int, goal: int, constraints: _Constraints, limit: int, priority) -> list[int] | None:
+    """Best first over (vertex, step) up to step `limit`, from start to the goal held for good (after the last step a
+    constraint forbids it), never where the constraints forbid; `priority(key, vertex, other, step)` gives the key
+    of stepping from vertex to other (key: the step's parent key, None at the start; None: do not step there).
+    The path (a vertex per step), None if none."""
     held = dict(constraints.held)
-    if goal in held:
-        return None  # another robot ends there
-    settle = constraints.latest(goal)  # at the goal from here on, for good
-    limit = constraints.horizon() + len(graph) + 1
+    if goal in held or (start, 0) in constraints.vertices:
+        return None  # another robot ends at the goal, or stands at the start
+    settle = constraints.latest(goal)
     counter = itertools.count()
-    frontier = [(int(to_goal[start]), next(counter), start, 0)]
+    frontier = [(priority(None, start, start, 0), next(counter), start, 0)]
     parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, 0): None}
     while frontier:
-        _, _, vertex, step = heapq.heappop(frontier)
+        key, _, vertex, step = heapq.heappop(frontier)
         if vertex == goal and step > settle:
             path = [vertex]
             state = parent[(vertex, step)]
@@ -169,14 +178,15 @@ def _path(graph: Lattice, start: int, goal: int, to_goal: np.ndarray, constraint
             continue
         for other in (vertex,) + graph.neighbours[vertex]:
             state = (other, step + 1)
-            if state in parent or to_goal[other] < 0:
-                continue
-            if state in constraints.vertices or (vertex, other, step + 1) in constraints.edges:
+            if state in parent or state in constraints.vertices or (vertex, other, step + 1) in constraints.edges:
                 continue
             if other in held and step + 1 >= held[other]:
                 continue
+            following = priority(key, vertex, other, step + 1)
+            if following is None:
+                continue
             parent[state] = (vertex, step)
-            heapq.heappush(frontier, (step + 1 + int(to_goal[other]), next(counter), other, step + 1))
+            heapq.heappush(frontier, (following, next(counter), other, step + 1))
     return None
 
 
@@ -244,15 +254,7 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
     """Paths for every robot, starts[i] to goals[i] (lattice vertices), in which no two are ever at one vertex
     and none swap along an edge, with the least sum of steps (conflict-based search; see the module docstring).
     PlanningError if two robots share a start or a goal, a goal cannot be reached, or the search gives up."""
-    count = len(starts)
-    if len(goals) != count:
-        raise PlanningError(Reason.INVALID, f"{count} starts but {len(goals)} goals")
-    for what, vertices in (("start", starts), ("goal", goals)):
-        for vertex in vertices:
-            if not 0 <= vertex < len(graph):
-                raise PlanningError(Reason.INVALID, f"{what} vertex {vertex} is not on the lattice of {len(graph)}")
-        if len(set(vertices)) != count:
-            raise PlanningError(Reason.INVALID, f"two robots share a {what} vertex: {list(vertices)}")
+    count = _check(graph, starts, goals)
     to_goal = [graph.distances(goal) for goal in goals]
     constraints = [_Constraints() for _ in range(count)]
     paths = []
@@ -658,32 +660,11 @@ def _moves(path) -> int:
 def _fewest_moves(graph: Lattice, start: int, goal: int, constraints: _Constraints, horizon: int) -> list[int] | None:
     """The path from start to goal, at the goal for good by step `horizon`, of fewest moves and then earliest
     arrival, obeying the constraints (Dijkstra over (vertex, step)); None if none."""
-    held = dict(constraints.held)
-    if goal in held or (start, 0) in constraints.vertices:
-        return None
-    settle = constraints.latest(goal)
-    frontier = [(0, 0, start)]
-    parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, 0): None}
-    while frontier:
-        moves, step, vertex = heapq.heappop(frontier)
-        if vertex == goal and step > settle:
-            path = [vertex]
-            state = parent[(vertex, step)]
-            while state is not None:
-                path.append(state[0])
-                state = parent[state]
-            return path[::-1]
-        if step >= horizon:
-            continue
-        for other in (vertex,) + graph.neighbours[vertex]:
-            state = (other, step + 1)
-            if state in parent or state in constraints.vertices or (vertex, other, step + 1) in constraints.edges:
-                continue
-            if other in held and step + 1 >= held[other]:
-                continue
-            parent[state] = (vertex, step)
-            heapq.heappush(frontier, (moves + (other != vertex), step + 1, other))
-    return None
+
+    def moves(key, vertex, other, step):
+        return (0, 0) if key is None else (key[0] + (other != vertex), step)
+
+    return _search(graph, start, goal, constraints, horizon, moves)
 
 
 def _around(paths: list[list[int]], robot: int) -> _Constraints:
