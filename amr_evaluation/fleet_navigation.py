@@ -30,9 +30,11 @@ from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
+from amr_navigation.fleet_schedule import Schedule, ScheduleDriver
 from amr_navigation.loop import NavigationCommand, NavigationLoop
 from amr_navigation.navigator import Mode
 from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
+from amr_planning.fleet_plan import improve, lattice, plan_lacam
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
@@ -233,13 +235,12 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
         runs.append(RobotRun(robot.name))
     planned = coordination == "plan"
     schedule = None
-    drivers = [PathFollower(follower) for _ in fleet.robots] if planned else []
+    drivers: list = []
+    """with "plan": per robot its ScheduleDriver, once the fleet is planned."""
     ready: dict[int, tuple[float, float]] = {}
     """with "plan", before the plan: the robots localized at this step and where they stand (estimate)."""
     sure: dict[int, tuple] = {}
     """with "plan": each robot's last estimate said localized, and its odometry pose then."""
-    driven: list = [((-1, -1), None)] * len(fleet.robots)
-    """with "plan": per robot the span of waypoints its path follower was handed, and since when it is blocked."""
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
     while True:
@@ -278,6 +279,7 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                     ready.pop(index, None)
                 if len(ready) == len(fleet.robots):
                     schedule = _schedule(planner, fleet, [ready[i] for i in range(len(ready))], lattice_spacing)
+                    drivers = [ScheduleDriver(schedule, i, PathFollower(follower), planner) for i in range(len(ready))]
                     run.events.append(f"{fleet.time:.2f} every robot localized: the fleet planned together")
             if schedule is not None and index in sure:
                 if localized:
@@ -285,7 +287,7 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                 else:  # unsure: on by odometry from the last sure estimate (standing still, it would stay unsure)
                     last, odom = sure[index]
                     pose = tuple(compose(last, relative_pose(odom, tuple(robot.odom_pose))))
-                follow = _drive(schedule, index, drivers[index], driven, pose, scan, planner, fleet.time)
+                follow = drivers[index].command(pose, scan, fleet.time)
                 command = NavigationCommand(follow.v, follow.w, Mode.FOLLOW, follow, ())
             else:
                 command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
@@ -317,55 +319,10 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
 def _schedule(planner: Planner, fleet: Fleet, positions: list[tuple[float, float]], spacing: float):
     """The fleet planned together from where the robots stand to their goals (coordination "plan"); each robot
     starts at the free vertex nearest to it (in the list's order)."""
-    from amr_navigation.fleet_schedule import Schedule
-    from amr_planning.fleet_plan import improve, lattice, plan_lacam
-
     graph = lattice(planner.costmap, spacing)
     starts: list[int] = []
     for x, y in positions:
-        order = np.argsort(np.hypot(graph.points[:, 0] - x, graph.points[:, 1] - y))
-        starts.append(int(next(vertex for vertex in order if vertex not in starts)))
+        starts.append(graph.nearest(x, y, taken=starts))
     goals = [graph.nearest(robot.goal.x, robot.goal.y) for robot in fleet.robots]
     plan = improve(plan_lacam(graph, starts, goals))
     return Schedule(plan, [(robot.goal.x, robot.goal.y) for robot in fleet.robots])
-
-
-def _legs(planner: Planner, route: np.ndarray) -> np.ndarray:
-    """The route (K, 2) as the planner's paths from each point to the next (clear of the walls as any planned
-    path is, where a straight line from where the robot stands to its next waypoint would clip a corner); a
-    straight leg where the planner finds none."""
-    from amr_planning.errors import PlanningError
-
-    points = [route[:1]]
-    for a, b in zip(route[:-1], route[1:]):
-        try:
-            leg = planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
-        except PlanningError:
-            leg = np.array([a, b])
-        points.append(np.asarray(leg)[1:])
-    return np.concatenate(points)
-
-
-BLOCKED_RETRY = 1.0
-"""s a robot driven by a fleet plan whose path follower stopped short of something waits before setting off again
-from where it stands (its route planned anew)."""
-
-
-def _drive(schedule, robot: int, driver: PathFollower, driven: list, pose, scan: ScanData, planner: Planner,
-           stamp: float):
-    """One robot's command under a fleet plan: report where it is, and follow its waypoints as far as it may go."""
-    from amr_control.path_follower import PathError, State
-
-    schedule.report(robot, pose[0], pose[1])
-    span = (schedule.progress[robot], schedule.allowed(robot))
-    last_span, blocked_since = driven[robot]
-    if driver.state is State.BLOCKED and blocked_since is None:
-        driven[robot] = (last_span, stamp)
-    retry = driver.state is State.BLOCKED and blocked_since is not None and stamp - blocked_since >= BLOCKED_RETRY
-    if span != last_span or retry:
-        driven[robot] = (span, None)
-        try:
-            driver.set_path(_legs(planner, schedule.route(robot, pose[0], pose[1])))
-        except PathError:
-            driver.clear()
-    return driver.compute(pose[0], pose[1], pose[2], scan)

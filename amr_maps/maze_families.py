@@ -100,6 +100,18 @@ def generate(family: str, seed: int, **options: Any) -> dict:
     return _rounded(world)
 
 
+def grid_pitch(world: dict) -> float:
+    """m from one cell of a grid maze (`perfect`, `loops`) to the next: the least gap, over 5 cm, between the
+    distinct coordinates of its axis-aligned walls' ends (the lattice spacing that puts a robot on each cell when
+    the fleet is planned together, amr_planning.fleet_plan)."""
+    values = np.unique(np.round(np.asarray(world["walls"], dtype=float).ravel(), 4))
+    gaps = np.diff(values)
+    gaps = gaps[gaps > 0.05]
+    if len(gaps) == 0:
+        raise ValueError("no two walls of the world lie 5 cm apart or more: not a grid maze")
+    return float(gaps.min())
+
+
 def family_options(family: str) -> tuple[str, ...]:
     """The options ``generate`` takes for ``family``: the common ones, then the family's own."""
     if family not in FAMILIES:

@@ -5,7 +5,8 @@ the moves of other robots that must be done first (the action dependencies: a ro
 once every robot the plan puts there earlier has moved on). `Schedule` keeps each robot's progress (the last
 waypoint it reached, in order) and says how far along its list a robot may go: up to the first waypoint whose
 dependencies are not all done. Robots driven this way at any speeds never meet at a vertex and never wait on one
-another in a cycle (Hoenig et al. 2016). No ROS: amr_evaluation.fleet_navigation runs it at library level.
+another in a cycle (Hoenig et al. 2016). `ScheduleDriver` drives one robot's path follower along it. No ROS:
+amr_evaluation.fleet_navigation runs them at library level.
 """
 
 from __future__ import annotations
@@ -14,7 +15,11 @@ import math
 
 import numpy as np
 
+from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
+from amr_planning.errors import PlanningError
 from amr_planning.fleet_plan import FleetPlan, dependencies
+from amr_planning.planner import Planner
+from amr_util.scan import ScanData
 
 
 class Schedule:
@@ -47,18 +52,13 @@ class Schedule:
         """The robot is at (x, y): it has reached its next waypoint if that lies within `reach` (one at a time, in
         order, never one it may not drive to yet: a waypoint passed by is reached, one skipped is not). True if
         its progress moved."""
-        moved = False
-        allowed = self.allowed(robot)
-        if self.progress[robot] < allowed:
-            target = self.waypoints[robot][self.progress[robot] + 1]
-            if math.hypot(target[0] - x, target[1] - y) > self.reach:
-                return False
-            self.progress[robot] += 1
-            moved = True
-        return moved
-
-    def done(self, robot: int) -> bool:
-        return self.progress[robot] == len(self.waypoints[robot]) - 1
+        if self.progress[robot] >= self.allowed(robot):
+            return False
+        target = self.waypoints[robot][self.progress[robot] + 1]
+        if math.hypot(target[0] - x, target[1] - y) > self.reach:
+            return False
+        self.progress[robot] += 1
+        return True
 
     def route(self, robot: int, x: float, y: float) -> np.ndarray:
         """(K, 2) the way from (x, y) through the waypoints the robot may drive to now, as far as it does not come
@@ -74,3 +74,48 @@ class Schedule:
         if len(points) == 1:
             points.append(self.waypoints[robot][first])
         return np.array(points)
+
+
+BLOCKED_RETRY = 1.0
+"""s a robot whose path follower stopped short of something waits before setting off again from where it stands
+(its route planned anew)."""
+
+
+class ScheduleDriver:
+    """One robot driven along a fleet schedule: its path follower handed the planner's paths through the waypoints
+    it may drive to now (clear of the walls as any planned path is, where a straight line from where the robot stands
+    to its next waypoint would clip a corner), handed again whenever it may go farther, or BLOCKED_RETRY s after
+    the follower stopped short of something."""
+
+    def __init__(self, schedule: Schedule, robot: int, follower: PathFollower, planner: Planner) -> None:
+        self.schedule, self.robot, self.follower, self.planner = schedule, robot, follower, planner
+        self._span = (-1, -1)
+        """the (progress, allowed) the follower's path was made for."""
+        self._blocked_since: float | None = None
+
+    def command(self, pose: tuple[float, float, float], scan: ScanData | None, stamp: float) -> FollowCommand:
+        schedule, robot = self.schedule, self.robot
+        schedule.report(robot, pose[0], pose[1])
+        span = (schedule.progress[robot], schedule.allowed(robot))
+        blocked = self.follower.state is State.BLOCKED
+        if blocked and self._blocked_since is None:
+            self._blocked_since = stamp
+        retry = blocked and stamp - self._blocked_since >= BLOCKED_RETRY
+        if span != self._span or retry:
+            self._span, self._blocked_since = span, None
+            try:
+                self.follower.set_path(self._legs(schedule.route(robot, pose[0], pose[1])))
+            except PathError:
+                self.follower.clear()
+        return self.follower.compute(pose[0], pose[1], pose[2], scan)
+
+    def _legs(self, route: np.ndarray) -> np.ndarray:
+        """The route (K, 2) as the planner's paths from each point to the next; a straight leg where it finds none."""
+        points = [route[:1]]
+        for a, b in zip(route[:-1], route[1:]):
+            try:
+                leg = self.planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
+            except PlanningError:
+                leg = np.array([a, b])
+            points.append(np.asarray(leg)[1:])
+        return np.concatenate(points)

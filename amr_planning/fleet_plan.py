@@ -59,11 +59,15 @@ class Lattice:
     def __len__(self) -> int:
         return len(self.points)
 
-    def nearest(self, x: float, y: float) -> int:
-        """The vertex nearest to (x, y)."""
+    def nearest(self, x: float, y: float, taken=()) -> int:
+        """The vertex nearest to (x, y), of those not in `taken`."""
         if not (math.isfinite(x) and math.isfinite(y)):
             raise PlanningError(Reason.INVALID, f"point ({x!r}, {y!r}) must be finite")
-        return int(np.argmin(np.hypot(self.points[:, 0] - x, self.points[:, 1] - y)))
+        gaps = np.hypot(self.points[:, 0] - x, self.points[:, 1] - y)
+        gaps[list(taken)] = np.inf
+        if not np.isfinite(gaps).any():
+            raise PlanningError(Reason.INVALID, f"no vertex left near ({x:.3f}, {y:.3f}): all {len(self)} are taken")
+        return int(np.argmin(gaps))
 
     def distances(self, target: int) -> np.ndarray:
         """Steps from every vertex to `target` (breadth first; -1 where it cannot be reached)."""
@@ -197,26 +201,30 @@ def _at(path: list[int], step: int) -> int:
     return path[min(step, len(path) - 1)]
 
 
-def _first_conflict(paths: list[list[int]]):
-    """(i, j, kind, step, vertex or (u, v)) of the earliest conflict between two paths; None if none."""
-    horizon = max(len(path) for path in paths)
-    for step in range(horizon):
+def _conflicts_of(paths: list[list[int]]):
+    """Every conflict of the paths, step by step: (i, j, kind, step, vertex or (u, v)), kind "vertex" (two robots
+    at one vertex) or "edge" (two swapping along an edge)."""
+    for step in range(max(len(path) for path in paths)):
         seen: dict[int, int] = {}
         for i, path in enumerate(paths):
             vertex = _at(path, step)
             if vertex in seen:
-                return seen[vertex], i, "vertex", step, vertex
+                yield seen[vertex], i, "vertex", step, vertex
             seen[vertex] = i
         if step == 0:
             continue
-        moves = {}
+        moves: dict[tuple[int, int], int] = {}
         for i, path in enumerate(paths):
             u, v = _at(path, step - 1), _at(path, step)
             if u != v:
                 if (v, u) in moves:
-                    return moves[(v, u)], i, "edge", step, (u, v)
+                    yield moves[(v, u)], i, "edge", step, (u, v)
                 moves[(u, v)] = i
-    return None
+
+
+def _first_conflict(paths: list[list[int]]):
+    """The earliest conflict of the paths (see _conflicts_of); None if none."""
+    return next(_conflicts_of(paths), None)
 
 
 @dataclass(frozen=True)
@@ -277,11 +285,11 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
             raise PlanningError(Reason.UNREACHABLE, f"no conflict-free plan for {count} robots within "
                                                          f"{max_nodes} search nodes")
         i, j, kind, step, where = conflict
-        for robot, other in ((i, j), (j, i)):
+        for robot in (i, j):
             mine = constraints[robot]
             if kind == "vertex":
                 mine = _Constraints(mine.vertices | {(where, step)}, mine.edges)
-            else:  # the robot's own move of the swap: i moved where[0] -> where[1] ... or the reverse
+            else:  # forbid the robot its own move of the swap
                 u, v = _at(paths[robot], step - 1), _at(paths[robot], step)
                 mine = _Constraints(mine.vertices, mine.edges | {(u, v, step)})
             path = _path(graph, starts[robot], goals[robot], to_goal[robot], mine)
@@ -302,15 +310,8 @@ def _cost(paths: list[list[int]]) -> int:
 
 
 def _conflicts(paths: list[list[int]]) -> int:
-    """The number of (step, conflict) pairs of the paths (the tie-break among nodes of one cost: fewest first)."""
-    count = 0
-    for step in range(max(len(path) for path in paths)):
-        here = [_at(path, step) for path in paths]
-        count += len(here) - len(set(here))
-        if step:
-            moves = {(_at(path, step - 1), vertex) for path, vertex in zip(paths, here) if _at(path, step - 1) != vertex}
-            count += sum(1 for u, v in moves if (v, u) in moves) // 2
-    return count
+    """How many conflicts the paths have (the tie-break among nodes of one cost: fewest first)."""
+    return sum(1 for _ in _conflicts_of(paths))
 
 
 # -- execution: action dependencies ----------------------------------------------------------------------

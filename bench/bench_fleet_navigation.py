@@ -43,7 +43,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from amr_maps.maze_families import generate  # noqa: E402
+from amr_maps.maze_families import generate, grid_pitch  # noqa: E402
 from amr_evaluation.fleet_navigation import with_robots  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 
@@ -56,12 +56,8 @@ def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:
 
 def lattice_spacing(data: dict, family: str) -> float:
     """m between the lattice points robots are planned on together (--coordination plan): a grid maze's pitch
-    (the least gap between the distinct coordinates of its axis-aligned walls), else LATTICE_SPACING."""
-    if family not in GRID_MAZES:
-        return LATTICE_SPACING
-    values = np.unique(np.round(np.asarray(data["walls"], dtype=float).ravel(), 4))
-    gaps = np.diff(values)
-    return float(gaps[gaps > 0.05].min())
+    (amr_maps.maze_families.grid_pitch), else LATTICE_SPACING."""
+    return grid_pitch(data) if family in GRID_MAZES else LATTICE_SPACING
 
 
 GRID_MAZES = ("perfect", "loops")

@@ -101,13 +101,10 @@ def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan()
     at once; the fleet is then planned from the estimates. A generated tree maze, three robots each sent to the
     next one's start."""
     from amr_evaluation.fleet_navigation import with_robots
-    from amr_maps.maze_families import generate
+    from amr_maps.maze_families import generate, grid_pitch
 
     data = with_robots(generate("perfect", 4, size=4.0), 3, 4)
-    walls = np.asarray(data["walls"], dtype=float)
-    values = np.unique(np.round(walls.ravel(), 4))
-    pitch = float(np.diff(values)[np.diff(values) > 0.05].min())
-    run = run_fleet(world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=pitch)
+    run = run_fleet(world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=grid_pitch(data))
     events = [event for robot in run.robots for event in robot.events]
     assert any("the fleet planned together" in event for event in events), events
     assert run.reached == 3, events

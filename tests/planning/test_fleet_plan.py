@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from amr_evaluation.fleet_navigation import with_robots
-from amr_maps.maze_families import generate
+from amr_maps.maze_families import generate, grid_pitch
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
 from amr_planning.costmap import Costmap
@@ -76,9 +76,7 @@ def test_bad_requests_are_refused_with_what_is_wrong(starts, goals, message):
 
 def maze_case(seed: int, robots: int = 6):
     data = with_robots(generate("perfect", seed, size=4.0), robots, seed)
-    walls = np.asarray(data["walls"], dtype=float)
-    values = np.unique(np.round(walls.ravel(), 4))
-    pitch = float(np.diff(values)[np.diff(values) > 0.05].min())
+    pitch = grid_pitch(data)
     costmap = Costmap(rasterize_world(world_from_dict(data), 0.025))
     return data, costmap, pitch
 
@@ -206,3 +204,10 @@ def test_no_step_of_a_plan_is_a_rotation_round_a_cycle_of_the_lattice():
             at = [[path[min(t, len(path) - 1)] for path in plan.paths] for t in (step - 1, step)]
             onto = {a: b for a, b in zip(*at) if a != b}
             assert not (len(onto) == 6 or set(onto) == set(onto.values()) and onto), f"rotation at step {step}"
+
+
+def test_grid_pitch_is_the_cell_of_a_grid_maze_and_refuses_what_is_none():
+    walls = [[0.0, 0.0, 1.5, 0.0], [0.0, 0.5, 1.0, 0.5], [1.0, 0.5, 1.0, 1.5], [0.0, 1.5, 1.5, 1.5]]
+    assert grid_pitch({"walls": walls}) == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="not a grid maze"):
+        grid_pitch({"walls": [[0.0, 0.0, 0.02, 0.0]]})
