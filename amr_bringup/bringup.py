@@ -64,6 +64,7 @@ NODE_CLASSES: dict[tuple[str, str], tuple[str, str]] = {
     ("amr_planning", "planner"): ("amr_planning.planner_node", "PlannerNode"),
     ("amr_control", "path_follower"): ("amr_control.path_follower_node", "PathFollowerNode"),
     ("amr_navigation", "navigator"): ("amr_navigation.navigator_node", "NavigatorNode"),
+    ("amr_navigation", "fleet_planner"): ("amr_navigation.fleet_planner_node", "FleetPlannerNode"),
 }
 """(package, executable) -> (module, class) of the nodes --composed can host."""
 

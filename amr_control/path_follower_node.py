@@ -20,6 +20,9 @@ observation it gives the path follower, stamped with that observation) caps the 
 observations stamped at most `speed_limit_timeout` after it (PathFollower.compute's speed_limit: 0 = stand,
 WAITING, in-place turns go on); an older limit has expired: uncapped. The limit for an observation is published
 before the navigator's status that names this node for it.
+
+An observation the navigator gives this node although the localizer was unsure of it (a robot on a fleet plan,
+amr_navigation's coordination plan) is driven from the pose in the navigator's status: its dead reckoning.
 """
 
 from __future__ import annotations
@@ -46,6 +49,17 @@ from amr_util.sync import ApproximateTimeSynchronizer
 POSE, SCAN, STATUS = 0, 1, 2
 WARNING_PERIOD = 2.0
 SYNC_SLOP = 0.02  # s: /pose, /scan (and the navigator's status) of one lockstep step carry the same stamp
+
+
+def driven_pose(pose: LocalizedPose, status: NavigatorStatus) -> LocalizedPose:
+    """The pose to drive by for an observation the navigator gave this node: the /pose, or, when the localizer was
+    unsure of it, the pose the navigator decided on (its status's: a robot on a fleet plan goes on by odometry from
+    its last sure estimate; no other navigator mode names the path follower for an unsure /pose)."""
+    if pose.localized:
+        return pose
+    driven = LocalizedPose(header=pose.header, localized=False)
+    driven.pose.pose = status.pose
+    return driven
 
 
 class PathFollowerNode(ManagedNode):
@@ -203,7 +217,8 @@ class PathFollowerNode(ManagedNode):
         """A new decision for an observation held here is answered at once; any other status is paired."""
         if self.state_label != "active":
             return
-        self._gate.route(message, self._answer, lambda status: self._on_message(STATUS, status))
+        self._gate.route(message, lambda pose, scan: self._answer(driven_pose(pose, message), scan),
+                         lambda status: self._on_message(STATUS, status))
 
     def _on_navigated_triple(self, pose: LocalizedPose, scan: LaserScan, status: NavigatorStatus) -> None:
         mine, changed = self._gate.admit(status, (pose, scan))
@@ -212,7 +227,7 @@ class PathFollowerNode(ManagedNode):
             if not self.config.simulation:
                 self._publish(0.0, 0.0)  # the robot stops at the hand-over; the next controller takes it from here
         if mine:
-            self._answer(pose, scan)
+            self._answer(driven_pose(pose, status), scan)
 
     def _on_pair(self, pose: LocalizedPose, scan: LaserScan) -> None:
         if pose.localized and self.in_charge:

@@ -30,7 +30,7 @@ from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
-from amr_navigation.fleet_schedule import Schedule, ScheduleDriver
+from amr_navigation.fleet_schedule import DeadReckoning, Schedule, ScheduleDriver
 from amr_navigation.loop import NavigationCommand, NavigationLoop
 from amr_navigation.navigator import Mode
 from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
@@ -38,7 +38,6 @@ from amr_planning.fleet_plan import improve, lattice, plan_lacam
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
-from amr_util.geometry import compose, relative_pose
 from amr_util.scan import ScanData
 
 MIN_SEPARATION = 0.7
@@ -239,8 +238,8 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     """with "plan": per robot its ScheduleDriver, once the fleet is planned."""
     ready: dict[int, tuple[float, float]] = {}
     """with "plan", before the plan: the robots localized at this step and where they stand (estimate)."""
-    sure: dict[int, tuple] = {}
-    """with "plan": each robot's last estimate said localized, and its odometry pose then."""
+    reckoning = [DeadReckoning() for _ in fleet.robots]
+    """with "plan": each robot's pose to drive by (its last sure estimate moved on by odometry while unsure)."""
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
     while True:
@@ -274,19 +273,16 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
             if planned and schedule is None:  # the traffic rules until every robot is localized at once
                 if localized:
                     ready[index] = (pose[0], pose[1])
-                    sure[index] = (tuple(pose), tuple(robot.odom_pose))
                 else:
                     ready.pop(index, None)
                 if len(ready) == len(fleet.robots):
                     schedule = _schedule(planner, fleet, [ready[i] for i in range(len(ready))], lattice_spacing)
                     drivers = [ScheduleDriver(schedule, i, PathFollower(follower), planner) for i in range(len(ready))]
                     run.events.append(f"{fleet.time:.2f} every robot localized: the fleet planned together")
-            if schedule is not None and index in sure:
-                if localized:
-                    sure[index] = (tuple(pose), tuple(robot.odom_pose))
-                else:  # unsure: on by odometry from the last sure estimate (standing still, it would stay unsure)
-                    last, odom = sure[index]
-                    pose = tuple(compose(last, relative_pose(odom, tuple(robot.odom_pose))))
+            if planned:
+                driving = reckoning[index].pose(pose, localized, robot.odom_pose)
+            if schedule is not None:
+                pose = driving  # unsure: on by odometry from the last sure estimate
                 follow = drivers[index].command(pose, scan, fleet.time)
                 command = NavigationCommand(follow.v, follow.w, Mode.FOLLOW, follow, ())
             else:

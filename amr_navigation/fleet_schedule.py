@@ -19,6 +19,7 @@ from amr_control.path_follower import FollowCommand, PathError, PathFollower, St
 from amr_planning.errors import PlanningError
 from amr_planning.fleet_plan import FleetPlan, dependencies
 from amr_planning.planner import Planner
+from amr_util.geometry import compose, relative_pose
 from amr_util.scan import ScanData
 
 
@@ -77,45 +78,90 @@ class Schedule:
 
 
 BLOCKED_RETRY = 1.0
-"""s a robot whose path follower stopped short of something waits before setting off again from where it stands
-(its route planned anew)."""
+"""s a robot whose path follower stopped short (of something in the way, or strayed from its path) waits before
+setting off again from where it stands (its route planned anew)."""
+STOPPED_SHORT = (State.BLOCKED, State.STRAYED)
+"""the path follower's states that BLOCKED_RETRY answers."""
+
+
+def legs(planner: Planner, route: np.ndarray) -> np.ndarray:
+    """The route (K, 2) as the planner's paths from each point to the next (clear of the walls as any planned path
+    is, where a straight line from where the robot stands to its next waypoint would clip a corner); a straight leg
+    where the planner finds none."""
+    route = np.asarray(route, dtype=float)
+    points = [route[:1]]
+    for a, b in zip(route[:-1], route[1:]):
+        try:
+            leg = planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
+        except PlanningError:
+            leg = np.array([a, b])
+        points.append(np.asarray(leg, dtype=float)[1:])
+    return np.concatenate(points)
+
+
+class HandOver:
+    """When a robot's path follower is due a new path along its route: when what it may drive to changed (`key`:
+    any value that changes with it), or BLOCKED_RETRY s after the follower stopped short of something."""
+
+    def __init__(self) -> None:
+        self._key: object = None
+        self._blocked_since: float | None = None
+
+    def due(self, key: object, blocked: bool, stamp: float) -> bool:
+        """For an observation at `stamp` (s) whose route is `key`, the follower `blocked` or not: hand a new path
+        over now? (True at most once per change, and once per BLOCKED_RETRY while blocked.)"""
+        if not blocked:
+            self._blocked_since = None
+        elif self._blocked_since is None:
+            self._blocked_since = stamp
+        retry = blocked and stamp - self._blocked_since >= BLOCKED_RETRY
+        if key != self._key or retry:
+            self._key, self._blocked_since = key, None
+            return True
+        return False
+
+    def reset(self) -> None:
+        """Forget the route handed over: the next observation is due a path."""
+        self._key, self._blocked_since = None, None
+
+
+class DeadReckoning:
+    """The pose a robot on a fleet plan drives by: its estimate while the localizer is sure of it, else its last
+    sure estimate moved on by odometry since (standing still, an unsure filter would stay unsure; driving on by
+    odometry gives it new views)."""
+
+    def __init__(self) -> None:
+        self.sure: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+        """(the last estimate said localized, the odometry pose then)."""
+
+    def pose(self, estimate, localized: bool, odometry) -> tuple[float, float, float]:
+        """The pose to drive by for one observation (the estimate in the map frame and whether the localizer is
+        sure of it, the odometry pose in the odom frame of the same observation)."""
+        estimate = tuple(float(v) for v in estimate)
+        if localized or self.sure is None:
+            if localized:
+                self.sure = (estimate, tuple(float(v) for v in odometry))
+            return estimate
+        last, then = self.sure
+        return tuple(float(v) for v in compose(last, relative_pose(then, tuple(odometry))))
 
 
 class ScheduleDriver:
     """One robot driven along a fleet schedule: its path follower handed the planner's paths through the waypoints
-    it may drive to now (clear of the walls as any planned path is, where a straight line from where the robot stands
-    to its next waypoint would clip a corner), handed again whenever it may go farther, or BLOCKED_RETRY s after
-    the follower stopped short of something."""
+    it may drive to now (`legs`), handed again whenever it may go farther, or BLOCKED_RETRY s after the follower
+    stopped short of something (`HandOver`)."""
 
     def __init__(self, schedule: Schedule, robot: int, follower: PathFollower, planner: Planner) -> None:
         self.schedule, self.robot, self.follower, self.planner = schedule, robot, follower, planner
-        self._span = (-1, -1)
-        """the (progress, allowed) the follower's path was made for."""
-        self._blocked_since: float | None = None
+        self._hand_over = HandOver()
 
     def command(self, pose: tuple[float, float, float], scan: ScanData | None, stamp: float) -> FollowCommand:
         schedule, robot = self.schedule, self.robot
         schedule.report(robot, pose[0], pose[1])
         span = (schedule.progress[robot], schedule.allowed(robot))
-        blocked = self.follower.state is State.BLOCKED
-        if blocked and self._blocked_since is None:
-            self._blocked_since = stamp
-        retry = blocked and stamp - self._blocked_since >= BLOCKED_RETRY
-        if span != self._span or retry:
-            self._span, self._blocked_since = span, None
+        if self._hand_over.due(span, self.follower.state in STOPPED_SHORT, stamp):
             try:
-                self.follower.set_path(self._legs(schedule.route(robot, pose[0], pose[1])))
+                self.follower.set_path(legs(self.planner, schedule.route(robot, pose[0], pose[1])))
             except PathError:
                 self.follower.clear()
         return self.follower.compute(pose[0], pose[1], pose[2], scan)
-
-    def _legs(self, route: np.ndarray) -> np.ndarray:
-        """The route (K, 2) as the planner's paths from each point to the next; a straight leg where it finds none."""
-        points = [route[:1]]
-        for a, b in zip(route[:-1], route[1:]):
-            try:
-                leg = self.planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
-            except PlanningError:
-                leg = np.array([a, b])
-            points.append(np.asarray(leg)[1:])
-        return np.concatenate(points)

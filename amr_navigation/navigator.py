@@ -272,6 +272,16 @@ class Navigator:
         self._detour = False
         self._say(why, once=False)
 
+    def on_route(self, pose: tuple[float, float, float], why: str) -> Decision:
+        """Coordination by a fleet plan: the decision for an observation while the robot follows its route (the
+        caller hands the paths over, with `adopt` for the last stretch to the goal and `detour` for any other):
+        REACHED once the path follower reached the goal at the end of it, else the path follower drives (holding
+        where the route ends)."""
+        self.pose = tuple(float(v) for v in pose)
+        if self.goal is not None and self._reached_goal == self.goal:
+            return self._decision(Mode.REACHED, f"goal ({self.goal[0]:.2f}, {self.goal[1]:.2f}) reached")
+        return self._decision(Mode.FOLLOW, why)
+
     @property
     def on_detour(self) -> bool:
         return self._detour

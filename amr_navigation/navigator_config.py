@@ -11,9 +11,10 @@ from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE
 from amr_navigation.traffic import TrafficConfig
 from amr_planning.costmap import CostmapConfig
 from amr_util.geometry import all_finite
-from amr_util.parameter_spec import Config, parameter
+from amr_util.parameter_spec import Config, ConfigError, parameter
 
 NODE_NAME = "navigator"
+COORDINATIONS = ("rules", "plan")
 
 
 def _goal_problem(goal: list) -> str | None:
@@ -61,3 +62,18 @@ class NavigatorConfig(Config):
     planner builds its own: give it the planner node's robot_radius, safety_margin, cost_weight, cost_distance
     and margin_cost (the fleet_navigation stack ties them: its robot_radius and safety_margin arguments set
     both nodes)."""
+    coordination: str = parameter("rules", choices=COORDINATIONS)
+    """with traffic: how the robots share the world. rules: each robot by the traffic rules alone. plan: the rules
+    until the fleet planner (amr_navigation fleet_planner) hands this robot a route on route_topic, then that route:
+    the path follower driven through the waypoints it may drive to now, held where it may go no farther, by
+    odometry from the last sure estimate while the localizer is unsure."""
+    route_topic: str = parameter("fleet_route", nonempty=True)
+    """with coordination plan: the fleet planner's amr_interfaces/FleetRoute for this robot (transient local)."""
+    odometry_topic: str = parameter("odometry", nonempty=True)
+    """with coordination plan: nav_msgs/Odometry of the localizer's observations (what the pose to drive by moves on
+    with while the localizer is unsure)."""
+
+    def validate(self) -> None:
+        if self.coordination == "plan" and not self.traffic:
+            raise ConfigError("coordination: 'plan' needs traffic: true (the robots go by the traffic rules until "
+                              "the fleet is planned)")

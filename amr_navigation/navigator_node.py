@@ -40,15 +40,17 @@ from __future__ import annotations
 
 import itertools
 import time
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, replace
 
 import math
 
 import numpy as np
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
+from amr_interfaces.msg import FleetRoute, LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
 from amr_interfaces.msg import TrafficPost as TrafficPostMessage
 from geometry_msgs.msg import Point
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 from amr_interfaces.srv import FollowPath, PlanPath
 from builtin_interfaces.msg import Time as TimeMessage
@@ -57,9 +59,10 @@ from nav_msgs.msg import Path
 from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver, legs
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
-from amr_navigation.traffic import Traffic
+from amr_navigation.traffic import Traffic, TrafficPost
 from amr_navigation.traffic_messages import TRAFFIC_TOPIC, PostError, post_from_message, post_message, speed_limit_message
 from amr_navigation.traffic_steps import FleetBoard, detour_done, idle_advice
 from amr_maps.messages import grid_from_message
@@ -77,6 +80,31 @@ from amr_util.qos import LATCHED, reliable
 
 CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
+ODOMETRY_KEPT = 200
+"""odometry poses kept to pair with /pose by stamp (coordination plan)."""
+ROUTE_NONE, ROUTE_HOLD, ROUTE_FOLLOW = "NONE", "HOLD", "FOLLOW"
+"""amr_interfaces/FleetRoute states."""
+MAX_ROUTE_POINTS = 10000
+STOPPED_SHORT_STATES = tuple(state.value for state in STOPPED_SHORT)
+
+
+def route_problem(message: FleetRoute, frame: str) -> str:
+    """What is wrong with a FleetRoute ('' if nothing): an unknown state, another frame, a FOLLOW without
+    waypoints or with one that is not finite."""
+    if message.state not in (ROUTE_NONE, ROUTE_HOLD, ROUTE_FOLLOW):
+        return f"state {message.state[:40]!r} is not NONE, HOLD or FOLLOW"
+    if message.header.frame_id not in ("", frame):
+        return f"frame {message.header.frame_id!r}, expected {frame!r}"
+    if message.state == ROUTE_FOLLOW:
+        if not message.waypoints:
+            return "FOLLOW without waypoints"
+        if len(message.waypoints) > MAX_ROUTE_POINTS:
+            return f"{len(message.waypoints)} waypoints (at most {MAX_ROUTE_POINTS})"
+        if not all(math.isfinite(p.x) and math.isfinite(p.y) for p in message.waypoints):
+            return "a waypoint is not finite"
+    return ""
+
+
 RETRY_PERIOD = 2.0
 """s (wall clock) between new attempts on an observation held for want of a path (a planner without its map
 yet, a start the estimate put in a wall): in lockstep no new observation would come to try again."""
@@ -87,6 +115,8 @@ class Observation:
     stamp: TimeMessage
     pose: tuple[float, float, float]
     localized: bool
+    on_route: bool = False
+    """decided on the fleet route (coordination plan); pose is then the pose driven by."""
 
 
 class NavigatorNode(ManagedNode):
@@ -118,6 +148,17 @@ class NavigatorNode(ManagedNode):
         self._advised: tuple[int, float | None] | None = None  # (observation stamp ns, speed limit)
         self._reports_after = -1
         """traffic: the path follower's reports up to this observation stamp (ns) are of a path the rules dropped."""
+        self._route: FleetRoute | None = None
+        """coordination plan: the fleet planner's latest HOLD or FOLLOW for this robot (None: the traffic rules)."""
+        self._hand_over_due = HandOver()
+        self._reckoning = DeadReckoning()
+        self._odometry: OrderedDict[int, tuple[float, float, float]] = OrderedDict()
+        """coordination plan: the latest odometry poses by stamp (ns), to pair with /pose."""
+        self._route_handed_at = -1
+        """coordination plan: the observation stamp (ns) the path follower's route path was handed over at; its
+        reports of earlier observations are of an older path."""
+        self._follower_blocked = False
+        self.routes_refused = 0
 
     # -- lifecycle ------------------------------------------------------------------------------
 
@@ -170,6 +211,13 @@ class NavigatorNode(ManagedNode):
             self.create_subscription(OccupancyGridMessage, "/map", self._on_map, LATCHED),
         ]
         self.get_logger().info(f"traffic rules on: {name}, priority {config.priority}, posts on {TRAFFIC_TOPIC}")
+        if config.coordination == "plan":
+            self._entities += [
+                self.create_subscription(FleetRoute, config.route_topic, self._on_route, LATCHED),
+                self.create_subscription(Odometry, config.odometry_topic, self._on_odometry, reliable(depth=50)),
+            ]
+            self.get_logger().info(f"coordination by the fleet plan: routes on {config.route_topic}; the traffic "
+                                   "rules until the first one")
 
     def apply_live(self, changes: dict) -> None:
         """goal, replan_distance and plan_timeout while configured: used from the next observation."""
@@ -186,6 +234,9 @@ class NavigatorNode(ManagedNode):
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._inflight, self._pending, self._follower_request, self._last = None, None, None, None
         self._advised, self._reports_after = None, -1
+        self._route, self._route_handed_at, self._follower_blocked = None, -1, False
+        self._hand_over_due.reset()
+        self._reckoning, self._odometry = DeadReckoning(), OrderedDict()
         self._timer = self.create_timer(CHECK_PERIOD, self._check_inflight, clock=Clock(clock_type=ClockType.STEADY_TIME))
         return super().on_activate(state)
 
@@ -230,6 +281,38 @@ class NavigatorNode(ManagedNode):
 
     def _on_scan(self, message: LaserScan) -> None:
         self._scan = message
+
+    def _on_odometry(self, message: Odometry) -> None:
+        p = message.pose.pose
+        pose = (p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
+        if not all_finite(pose):
+            return  # the localizer refuses it too; the pose to drive by stays the estimate
+        self._odometry[stamp_nanoseconds(message.header.stamp)] = pose
+        while len(self._odometry) > ODOMETRY_KEPT:
+            self._odometry.popitem(last=False)
+
+    def _on_route(self, message: FleetRoute) -> None:
+        """The fleet planner's word for this robot: NONE (the traffic rules), HOLD or FOLLOW; a malformed one is
+        refused with the reason logged, and the previous one stands."""
+        if not self.active:
+            return
+        problem = route_problem(message, self._values["global_frame"])
+        if problem:
+            self.routes_refused += 1
+            self.get_logger().error(f"fleet route refused, keeping the previous one: {problem}")
+            return
+        before, self._route = self._route, (None if message.state == ROUTE_NONE else message)
+        if self._route is None:
+            if before is not None:  # back to the rules: they plan to the goal anew
+                self.navigator.plan_again(f"no fleet plan ({message.reason or 'withdrawn'}): by the traffic rules")
+                self._log(self.navigator.take_events())
+            self._hand_over_due.reset()
+            return
+        if before is None or before.plan != message.plan:
+            self.get_logger().info(f"fleet plan {message.plan}: {message.state}"
+                                   + (f" ({message.reason})" if message.reason else ""))
+        if self._last is not None and self._last[1].controller is Controller.NONE and self._inflight is None:
+            self._decide(self._last[0])  # the robot is held on this observation: decide it again
 
     def _on_map(self, message: OccupancyGridMessage) -> None:
         try:  # the costmap as the planner node builds it (its costmap parameters are the navigator's costmap.*)
@@ -276,6 +359,13 @@ class NavigatorNode(ManagedNode):
             return
         stamp_ns = stamp_nanoseconds(message.header.stamp)
         stamp = stamp_ns * 1e-9
+        if self._route is not None:  # on the fleet route: blocked (retried by HandOver), and the goal reached
+            if stamp_ns >= self._route_handed_at:
+                self._follower_blocked = message.state in STOPPED_SHORT_STATES
+                if message.reached and self._route.final and not self.navigator.on_detour:
+                    self.navigator.followed(True, False)
+                    self._log(self.navigator.take_events())
+            return
         if self.traffic is not None and stamp_ns <= self._reports_after:
             return  # about the path the rules just dropped (a detour's end reached again): a plan is due
         if detour_done(self.traffic, self.navigator, message.reached, stamp):
@@ -294,7 +384,43 @@ class NavigatorNode(ManagedNode):
     # -- carrying a decision out ---------------------------------------------------------------------
 
     def _decide(self, observation: Observation) -> None:
+        if self._values.get("coordination") == "plan":
+            odometry = self._odometry.get(stamp_nanoseconds(observation.stamp))
+            if odometry is None and self._odometry:
+                odometry = next(reversed(self._odometry.values()))  # the latest: at most a step off
+            if odometry is not None:
+                driving = self._reckoning.pose(observation.pose, observation.localized, odometry)
+            else:
+                driving = observation.pose
+            if self._route is not None:
+                self._decide_on_route(replace(observation, pose=driving, on_route=True))
+                return
         self._carry_out(observation, self.navigator.decide(observation.pose, observation.localized))
+
+    def _decide_on_route(self, observation: Observation) -> None:
+        """One observation on the fleet route: hold (HOLD), or the path follower driven through the waypoints it
+        may drive to now, a new path handed over whenever they change or BLOCKED_RETRY s after it was blocked."""
+        route, navigator = self._route, self.navigator
+        if route.state == ROUTE_HOLD:
+            self._finish(observation, navigator.on_route(observation.pose, "holding: the fleet is being planned"))
+            return
+        why = f"fleet plan {route.plan}: waypoint {route.progress} of {route.total}"
+        waypoints = np.array([(point.x, point.y) for point in route.waypoints], dtype=float)
+        stamp_ns = stamp_nanoseconds(observation.stamp)
+        key = (route.plan, route.progress, waypoints.tobytes())
+        if not self._hand_over_due.due(key, self._follower_blocked, stamp_ns * 1e-9):
+            self._finish(observation, navigator.on_route(observation.pose, why))
+            return
+        if self._map_planner is None:  # legs need the map: hold until it came, then hand over
+            self.get_logger().warning("fleet route without /map yet: holding", throttle_duration_sec=2.0)
+            self._hand_over_due.reset()
+            self._finish(observation, navigator.on_route(observation.pose, "holding: no /map yet"))
+            return
+        path = legs(self._map_planner, np.vstack([observation.pose[:2], waypoints]))
+        self._route_handed_at, self._follower_blocked = stamp_ns, False
+        self._log((navigator.adopt if route.final else navigator.detour)(path, why).events)
+        decision = replace(navigator.on_route(observation.pose, why), path=path)
+        self._carry_out(observation, decision)
 
     def _carry_out(self, observation: Observation | None, decision: Decision) -> None:
         """Plan, then hand the path over, then publish the decision (for an observation; a follower's request
@@ -419,7 +545,9 @@ class NavigatorNode(ManagedNode):
 
     def _finish(self, observation: Observation | None, decision: Decision) -> None:
         """Publish the decision for its observation, then go on with what waited meanwhile."""
-        if observation is not None and self.traffic is not None:
+        if observation is not None and observation.on_route:
+            decision = self._on_route_limited(observation, decision)
+        elif observation is not None and self.traffic is not None:
             decision = self._traffic(observation, decision)
             if decision is None:
                 return  # a request went out for this observation: finished when it is answered
@@ -480,6 +608,19 @@ class NavigatorNode(ManagedNode):
             self._plan_around(observation, decision, advice.replan_around)
             return None
         return self._limited(observation, decision, advice.speed_limit)
+
+    def _on_route_limited(self, observation: Observation, decision: Decision) -> Decision:
+        """An observation on the fleet route: posted on /traffic (the pose driven by and the path), the path follower
+        named for it, with a speed limit of 0 while holding or at the goal, none otherwise."""
+        path = self.navigator.followed_path
+        self.board.post(TrafficPost(self.traffic.name, self.traffic.priority, observation.pose, path, "", (),
+                                    decision.mode is Mode.REACHED, False))
+        self._posted(decision)
+        hold = decision.mode is Mode.REACHED or self._route is None or self._route.state == ROUTE_HOLD
+        limit = 0.0 if hold else None
+        self._advised = (stamp_nanoseconds(observation.stamp), limit)
+        self._outputs["speed_limit"].publish(speed_limit_message(limit, observation.stamp, self._values["global_frame"]))
+        return Decision(decision.mode, Controller.PATH_FOLLOWER, None, None, decision.reason, ())
 
     def _limited(self, observation: Observation, decision: Decision, limit: float | None) -> Decision:
         """The decision with the path follower named and `limit` sent for its observation (a robot at its goal

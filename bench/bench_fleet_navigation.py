@@ -21,7 +21,9 @@ robots' first declarations) and the totals. --jobs N runs N worlds at once (at m
 --ros runs the same worlds through ROS instead: the world written to a YAML file, `amr-bringup fleet_navigation
 world:=<file> --composed` started as a process of its own (every node of every robot in one process, the
 particle filters included; the stack's own configuration, config/*.yaml), and each robot's `/<name>/status`
-read until every robot is at its goal or --duration simulated seconds have passed (robots at goal, contacts,
+read until every robot is at its goal or --duration simulated seconds have passed (with --coordination plan the
+stack runs `coordination:=plan` and its fleet_planner node, with the lattice spacing of the library level; robots
+at goal, contacts,
 falsely localized, withdrawals and time unsure from those statuses; yields, stops and replans are not on a
 topic: '-'). One world at a time (--jobs is ignored); run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a
 ROS_DOMAIN_ID of its own (the child inherits both).
@@ -92,8 +94,10 @@ def through_ros(args: tuple) -> dict:
     from amr_interfaces.msg import SimulatorStatus
     from amr_util.environment import child_environment
 
-    family, seed, robots, size, duration, _, _ = args
+    family, seed, robots, size, duration, _, coordination = args
     data = fleet_world(family, seed, robots, size)
+    planned = [f"coordination:={coordination}"] + (
+        [f"lattice_spacing:={lattice_spacing(data, family)}"] if coordination == "plan" else [])
     names = [robot["name"] for robot in data["robots"]]
     last: dict = {}
     runs = {name: RobotRun(name) for name in names}  # counted as the library level's run_fleet does
@@ -124,7 +128,7 @@ def through_ros(args: tuple) -> dict:
         executor.add_node(node)
         log = open(Path(folder) / "bringup.log", "w+")
         process = subprocess.Popen([sys.executable, "-m", "amr_bringup.bringup", "fleet_navigation",
-                                    f"world:={path}", "--composed"], env=child_environment(),
+                                    f"world:={path}", *planned, "--composed"], env=child_environment(),
                                    stdout=log, stderr=subprocess.STDOUT)
         try:
             while True:
@@ -184,8 +188,6 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.ros:
         args.jobs, args.localization = 1, "filter"
-        if args.coordination != "rules":
-            parser.error("--ros runs the traffic rules (the fleet plan runs at library level only)")
     cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
              for family in args.families
              for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]

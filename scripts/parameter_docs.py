@@ -82,6 +82,11 @@ def _navigator():
     return NavigatorConfig.parameter_specs()
 
 
+def _fleet_planner():
+    from amr_navigation.fleet_planner_config import FleetPlannerConfig
+    return FleetPlannerConfig.parameter_specs()
+
+
 def _traffic():
     from amr_navigation.traffic import TrafficConfig
     return TrafficConfig.parameter_specs()
@@ -133,6 +138,7 @@ NODES = (
     Node("amr_planning", "planner", _planner, ("planner.yaml",)),
     Node("amr_navigation", "navigator", _navigator, ("navigator.yaml",)),
     Node("amr_navigation", "traffic", _traffic, ("traffic.yaml",)),
+    Node("amr_navigation", "fleet_planner", _fleet_planner),
     Node("amr_maps", "map_server", _map_server),
     Node("amr_turtlebot3", "odometry_node", _odometry_node, ("odometry_node.yaml",)),
     Node("amr_bringup", "lifecycle_manager", _lifecycle_manager),

@@ -20,6 +20,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from amr_bringup.composed import composed_stack
 
 RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+FLEET_PLANNER = "fleet_planner"
 ROBOTS = ("r1", "r2")
 STARTUP = 40.0
 """s of wall clock for the stack to come up (a loaded 2-core machine)."""
@@ -102,11 +103,14 @@ def run_corridor(ros_context, tmp_path, traffic: bool) -> tuple[int, int, float,
     return reached, contacts, sim_time, detail
 
 
-def run_stack(ros_context, world, map_world, robots, traffic: bool) -> tuple[int, int, int, float, dict]:
+def run_stack(ros_context, world, map_world, robots, traffic: bool,
+              coordination: str = "rules") -> tuple[int, int, int, float, dict]:
     """(robots at their goals, robot-robot contacts, wall contacts, simulated s, {wall: s, robot: its traffic
-    counters}) of one run of fleet_navigation on `world` (the map made of `map_world` when given)."""
+    counters, plans: the fleet planner's}) of one run of fleet_navigation on `world` (the map made of `map_world`
+    when given)."""
     away = (("pose", "particle_filter_unused/pose"), ("scan", "particle_filter_unused/scan"))
-    parameters = {"simulator.lockstep_resend_period": "0.5", "navigator.traffic": str(traffic).lower()}
+    parameters = {"simulator.lockstep_resend_period": "0.5", "navigator.traffic": str(traffic).lower(),
+                  "navigator.coordination": coordination}
 
     def the_map(bringup):  # the map of another world than the simulator's (one without a box)
         if map_world is None:
@@ -138,6 +142,7 @@ def run_stack(ros_context, world, map_world, robots, traffic: bool) -> tuple[int
             executor.remove_node(truth)
             executor.shutdown()
         counters = {r: nodes[f"/{r}/navigator"].traffic.counters if traffic else None for r in robots}
+        counters["plans"] = nodes[FLEET_PLANNER].coordinator.plans
         walls = sum(status.wall_collisions for status in truth.status.values())
         result = truth.reached(), truth.robot_contacts(), walls, truth.sim_time(), {"wall": wall, **counters}
         truth.destroy_node()
@@ -150,6 +155,20 @@ def test_two_robots_face_to_face_in_a_one_wide_corridor_pass_through_ros(ros_con
     assert contacts == 0, detail
     assert reached == 2, (sim_time, detail)
     assert detail["r2"].yields >= 1 and detail["r1"].yields == 0, detail  # r2 (second in the list) gives way
+    assert detail["plans"] == 0, detail  # coordination rules: no navigator listens to a route, nothing is planned
+
+
+def test_planned_together_the_two_robots_pass_through_the_pocket_through_ros(ros_context, tmp_path):
+    """coordination:=plan: the fleet_planner plans both robots as soon as both are localized (at once here), and
+    the navigators follow their routes (one waits in the pocket) without the traffic rules ever acting."""
+    world = tmp_path / "corridor.yaml"
+    world.write_text(corridor_yaml())
+    reached, contacts, walls, sim_time, detail = run_stack(ros_context, world, None, ROBOTS, True, "plan")
+    print(f"planned: {reached} reached, {contacts} contacts, {sim_time:.1f} s simulated, {detail}")
+    assert contacts == 0 and walls == 0, detail
+    assert reached == 2, (sim_time, detail)
+    assert detail["plans"] == 1, detail
+    assert all(detail[r].yields == 0 and detail[r].stops == 0 for r in ROBOTS), detail  # the plan, not the rules
 
 
 def test_without_the_rules_the_corridor_deadlocks_or_collides_through_ros(ros_context, tmp_path):

@@ -110,3 +110,40 @@ def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan()
     assert run.reached == 3, events
     assert run.robot_contacts == 0 and run.wall_contacts == 0
     assert run.false_localized == 0
+
+
+def test_a_new_path_is_due_when_the_route_changes_and_a_second_after_the_follower_stopped_short():
+    from amr_navigation.fleet_schedule import BLOCKED_RETRY, HandOver
+
+    due = HandOver()
+    assert due.due((0, 1), False, 0.0)  # the first route
+    assert not due.due((0, 1), False, 0.05)
+    assert due.due((1, 1), False, 0.1)  # progress moved
+    assert not due.due((1, 1), True, 0.2)  # blocked from 0.2 s
+    assert not due.due((1, 1), True, 0.2 + BLOCKED_RETRY / 2)
+    assert due.due((1, 1), True, 0.2 + BLOCKED_RETRY)  # a second later: set off again
+    assert not due.due((1, 1), True, 0.25 + BLOCKED_RETRY)  # and then a second after that, not at once
+    assert not due.due((1, 1), False, 0.3 + BLOCKED_RETRY)  # unblocked: the wait starts anew next time
+    assert not due.due((1, 1), True, 1.0 + BLOCKED_RETRY)
+    assert due.due((1, 1), True, 1.0 + 2 * BLOCKED_RETRY)
+    due.reset()
+    assert due.due((1, 1), False, 5.0)
+
+
+def test_the_pose_driven_by_is_the_estimate_while_sure_and_odometry_from_the_last_sure_one_after():
+    from amr_navigation.fleet_schedule import DeadReckoning
+
+    reckoning = DeadReckoning()
+    # the odom frame is the map frame turned a quarter turn and shifted (1, 2)
+    def to_map(x, y, theta):
+        return (1.0 - y, 2.0 + x, theta + math.pi / 2)
+
+    assert reckoning.pose((9.0, 9.0, 0.0), False, (0.0, 0.0, 0.0)) == (9.0, 9.0, 0.0)  # never sure: the estimate
+    assert reckoning.pose(to_map(0.5, 0.0, 0.0), True, (0.5, 0.0, 0.0)) == pytest.approx(to_map(0.5, 0.0, 0.0))
+    # unsure: the estimate (far off) is ignored; odometry moved 1 m along +x of the odom frame and turned
+    driven = reckoning.pose((5.0, 5.0, 0.0), False, (1.5, 0.0, 0.3))
+    assert driven == pytest.approx(to_map(1.5, 0.0, 0.3))
+    driven = reckoning.pose((5.0, 5.0, 0.0), False, (1.5, 1.0, 0.3))
+    assert driven == pytest.approx(to_map(1.5, 1.0, 0.3))
+    # sure again: the estimate
+    assert reckoning.pose((0.0, 3.0, 0.2), True, (1.5, 1.0, 0.3)) == (0.0, 3.0, 0.2)

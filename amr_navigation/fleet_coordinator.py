@@ -1,0 +1,200 @@
+"""Who plans the fleet, when, and what each robot is told (the fleet_planner node's logic, no ROS).
+
+The fleet_planner node (amr_navigation.fleet_planner_node) feeds a `FleetCoordinator` each robot's navigator status
+as it comes (where the robot is, whether its localizer is sure, its goal) and the map's costmap, and publishes the
+`Route`s it returns on each robot's fleet_route (amr_interfaces/FleetRoute):
+
+- **NONE** until every robot's latest status says localized, with a goal, within `window` s of the others: the
+  navigators go by the traffic rules meanwhile (as run_fleet's coordination "plan" does at library level).
+- **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_plan.lattice, `spacing`),
+  each robot from the free vertex nearest to it to the vertex nearest its goal, `improve(plan_lacam(...))`.
+- **FOLLOW**: each robot's waypoints it may drive to now (amr_navigation.fleet_schedule.Schedule.route from where
+  it last said it stood), the last one its goal when `final`. Every status moves the schedule on
+  (Schedule.report), and every robot whose span (progress, allowed) changed is told again.
+- A plan that cannot be made (robots on one goal vertex, no lattice, no solution) is NONE to everyone with the
+  reason, and tried again `retry_period` s later. A robot's goal changed (its status's goal is not the plan's),
+  a new map: the plan is dropped (NONE to everyone) and made again once every robot is localized.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from amr_navigation.fleet_schedule import Schedule
+from amr_planning.costmap import Costmap
+from amr_planning.errors import PlanningError
+from amr_planning.fleet_plan import Lattice, improve, lattice, plan_lacam
+
+NONE, HOLD, FOLLOW = "NONE", "HOLD", "FOLLOW"
+GOAL_TOLERANCE = 1e-6
+"""m a status's goal may differ from the plan's before the goal counts as changed."""
+
+
+@dataclass(frozen=True)
+class Route:
+    """What one robot is told (amr_interfaces/FleetRoute field for field)."""
+
+    state: str
+    waypoints: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    """(K, 2) with FOLLOW: the waypoints it may drive to now, in order."""
+    final: bool = False
+    plan: int = 0
+    progress: int = 0
+    total: int = 0
+    reason: str = ""
+
+
+@dataclass
+class RobotStatus:
+    stamp: float
+    x: float
+    y: float
+    localized: bool
+    goal: tuple[float, float] | None
+
+
+class FleetCoordinator:
+    """See the module docstring."""
+
+    def __init__(self, names: list[str], spacing: float, *, window: float = 0.5, retry_period: float = 10.0) -> None:
+        if not names:
+            raise ValueError("robots: the fleet has no robot")
+        if len(set(names)) != len(names):
+            raise ValueError(f"robots: a name is listed twice in {names}")
+        if not (math.isfinite(spacing) and spacing > 0.0):
+            raise ValueError(f"lattice_spacing: must be a positive number of metres, got {spacing!r}")
+        self.names = list(names)
+        self.spacing = float(spacing)
+        self.window = float(window)
+        self.retry_period = float(retry_period)
+        self.statuses: dict[str, RobotStatus] = {}
+        self.schedule: Schedule | None = None
+        self.plans = 0
+        """plans made (the FleetRoute's plan number of the latest)."""
+        self.failures: list[str] = []
+        self.planning_time = 0.0
+        """s (wall clock) the latest plan took."""
+        self._costmap: Costmap | None = None
+        self._lattice: Lattice | None = None
+        self._goals: list[tuple[float, float]] = []
+        self._told: dict[str, tuple] = {}
+        """what each robot was last told (its span on the plan, or its state)."""
+        self._retry_at = -math.inf
+
+    @property
+    def lattice_size(self) -> int:
+        """points of the lattice planned on (0 before the first plan)."""
+        return 0 if self._lattice is None else len(self._lattice)
+
+    # -- inputs ---------------------------------------------------------------------------------------
+
+    def set_costmap(self, costmap: Costmap) -> dict[str, Route]:
+        """A new map's costmap (the lattice is made of it at the next plan); a plan in force is dropped."""
+        self._costmap, self._lattice = costmap, None
+        return self._drop("a new map") if self.schedule is not None else {}
+
+    def observe(self, name: str, stamp: float, x: float, y: float, localized: bool,
+                goal: tuple[float, float] | None) -> dict[str, Route]:
+        """One robot's status (s, m, its goal or None): the routes that change, by robot name (ValueError for a
+        robot not in the fleet or a pose that is not finite)."""
+        if name not in self.names:
+            raise ValueError(f"{name!r} is not a robot of the fleet ({', '.join(self.names)})")
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(stamp)):
+            raise ValueError(f"{name}: status pose ({x}, {y}) at {stamp} is not finite")
+        if goal is not None and not all(math.isfinite(v) for v in goal):
+            goal = None
+        self.statuses[name] = RobotStatus(float(stamp), float(x), float(y), bool(localized),
+                                          None if goal is None else (float(goal[0]), float(goal[1])))
+        if self.schedule is None:
+            return {}
+        robot = self.names.index(name)
+        planned = self._goals[robot]
+        if goal is None or math.hypot(goal[0] - planned[0], goal[1] - planned[1]) > GOAL_TOLERANCE:
+            return self._drop(f"{name}'s goal changed")
+        if not self.schedule.report(robot, x, y):
+            return {}
+        return self._routes()
+
+    # -- planning ---------------------------------------------------------------------------------------
+
+    def plan_due(self) -> bool:
+        """No plan in force, the costmap known, and every robot's latest status localized with a goal, all within
+        `window` s of one another (not before `retry_period` s after a failure)."""
+        if self.schedule is not None or self._costmap is None or len(self.statuses) < len(self.names):
+            return False
+        statuses = [self.statuses[name] for name in self.names]
+        if not all(status.localized and status.goal is not None for status in statuses):
+            return False
+        stamps = [status.stamp for status in statuses]
+        return max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
+
+    def hold(self) -> dict[str, Route]:
+        """HOLD to every robot (while the plan is made)."""
+        return self._tell({name: Route(HOLD, plan=self.plans + 1, reason="the fleet is being planned")
+                           for name in self.names})
+
+    def plan(self) -> dict[str, Route]:
+        """Plan the fleet from where the robots said they stand to their goals: every robot's route (FOLLOW), or
+        NONE to every one with the reason when no plan could be made."""
+        import time
+
+        began = time.perf_counter()
+        statuses = [self.statuses[name] for name in self.names]
+        self._goals = [status.goal for status in statuses]
+        try:
+            if self._lattice is None:
+                self._lattice = lattice(self._costmap, self.spacing)
+            graph = self._lattice
+            starts: list[int] = []
+            for status in statuses:
+                starts.append(graph.nearest(status.x, status.y, taken=starts))
+            goals = [graph.nearest(*goal) for goal in self._goals]
+            plan = improve(plan_lacam(graph, starts, goals))
+        except (PlanningError, ValueError) as error:
+            self.planning_time = time.perf_counter() - began
+            self.failures.append(str(error))
+            self._retry_at = max(status.stamp for status in statuses) + self.retry_period
+            return self._tell({name: Route(NONE, reason=f"no fleet plan: {error}; by the traffic rules, planning "
+                                                        f"again in {self.retry_period:g} s") for name in self.names})
+        self.planning_time = time.perf_counter() - began
+        self.plans += 1
+        self.schedule = Schedule(plan, self._goals)
+        return self._routes()
+
+    def route(self, name: str) -> Route:
+        """What `name` is told now by the plan in force (FOLLOW), NONE without one."""
+        if self.schedule is None:
+            return Route(NONE, reason="no fleet plan yet")
+        schedule, robot = self.schedule, self.names.index(name)
+        status = self.statuses[name]
+        waypoints = schedule.route(robot, status.x, status.y)[1:]
+        last = len(schedule.waypoints[robot]) - 1
+        final = schedule.allowed(robot) == last and bool(
+            np.allclose(waypoints[-1], schedule.waypoints[robot][last]))
+        return Route(FOLLOW, waypoints, final, self.plans, schedule.progress[robot], last,
+                     f"{len(self.names)} robots, planned in {self.planning_time:.2f} s")
+
+    # -- helpers ----------------------------------------------------------------------------------------
+
+    def _routes(self) -> dict[str, Route]:
+        """The FOLLOW routes whose span changed since the robot was last told."""
+        changed = {}
+        for robot, name in enumerate(self.names):
+            span = (FOLLOW, self.plans, self.schedule.progress[robot], self.schedule.allowed(robot))
+            if self._told.get(name) != span:
+                self._told[name] = span
+                changed[name] = self.route(name)
+        return changed
+
+    def _tell(self, routes: dict[str, Route]) -> dict[str, Route]:
+        for name, route in routes.items():
+            self._told[name] = (route.state, route.plan)
+        return routes
+
+    def _drop(self, why: str) -> dict[str, Route]:
+        self.schedule = None
+        return self._tell({name: Route(NONE, reason=f"the fleet plan was dropped: {why}; by the traffic rules "
+                                                    "until every robot is localized again") for name in self.names})

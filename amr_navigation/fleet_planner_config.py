@@ -1,0 +1,47 @@
+"""The fleet planner node's parameters, each stated once (amr_util.parameter_spec), no ROS. All shape what configure
+builds (the robots, topics, the lattice) and are refused while configured."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from amr_planning.costmap import CostmapConfig
+from amr_util.parameter_spec import Config, ConfigError, parameter
+
+NODE_NAME = "fleet_planner"
+
+
+@dataclass(frozen=True)
+class FleetPlannerConfig(Config):
+    world: str = parameter("")
+    """the world whose `robots` list names the fleet (a path, or a name under config/worlds, as the simulator's
+    world); '' = the robots parameter names it."""
+    robots: list = parameter([], kind="str_array")
+    """the robots' names (their namespaces), in priority order; [] = the world's robots list."""
+    lattice_spacing: float = parameter(0.4, minimum=0.1, maximum=5.0)
+    """m between the points of the lattice the fleet is planned on (amr_planning.fleet_plan.lattice): about a
+    robot's width and its clearance; in a maze, the pitch of its cells."""
+    status_topic: str = parameter("navigator/status", nonempty=True)
+    """each robot's amr_interfaces/NavigatorStatus, in its namespace (/<robot>/navigator/status): where it stands,
+    whether it is localized, its goal."""
+    route_topic: str = parameter("fleet_route", nonempty=True)
+    """each robot's amr_interfaces/FleetRoute, in its namespace (/<robot>/fleet_route), transient local."""
+    map_topic: str = parameter("/map", nonempty=True)
+    """the one map (nav_msgs/OccupancyGrid, transient local) the lattice is made of."""
+    global_frame: str = parameter("map", nonempty=True)
+    """frame of the statuses' poses and goals and of the routes' waypoints."""
+    window: float = parameter(0.5, minimum=0.0, maximum=60.0)
+    """s: the robots' latest statuses must all say localized within this much of one another for the fleet to be
+    planned (in lockstep they share each observation's stamp)."""
+    retry_period: float = parameter(10.0, minimum=0.1, maximum=3600.0)
+    """s (statuses' clock) after a plan that could not be made before the next try."""
+    costmap: CostmapConfig = field(default_factory=CostmapConfig)
+    """the costmap the lattice is made of, as the planners build theirs: give it the planner nodes' robot_radius and
+    safety_margin (the fleet_navigation stack ties them)."""
+
+    def validate(self) -> None:
+        if not self.world and not self.robots:
+            raise ConfigError("world, robots: one of them must name the fleet's robots")
+        bad = [name for name in self.robots if not name or not name.replace("_", "a").isalnum()]
+        if bad:
+            raise ConfigError(f"robots: {bad[0]!r} is not a robot name (letters, digits and _)")

@@ -1,0 +1,193 @@
+"""fleet_planner: plans the robots of a fleet together and hands each navigator its route (lifecycle node, a thin
+shell over amr_navigation.fleet_coordinator.FleetCoordinator).
+
+One per fleet, in the root namespace (/fleet_planner). It reads every robot's navigator status
+(/<robot>/navigator/status: where the robot stands, whether its localizer is sure, its goal) and the one /map
+(transient local), and publishes each robot's amr_interfaces/FleetRoute on /<robot>/fleet_route (reliable,
+transient local): NONE (go by the traffic rules) until every robot is localized at once, then HOLD while it plans
+(amr_planning.fleet_plan on a lattice of the map's costmap), then FOLLOW: the waypoints the robot may drive to now,
+sent again whenever the robots' progress lets it go farther. The navigators run `coordination: plan`
+(docs/amr_navigation.md); it plans only when every robot's route has a listener (with coordination: rules the
+navigators do not subscribe, and it stays idle). The robots are the world's `robots` list (or the `robots`
+parameter).
+
+configure  reads the fleet's names, creates the routes' publishers and subscribes to the statuses and the map.
+activate   tells every robot NONE (the traffic rules until the fleet is planned), then plans when due.
+deactivate tells every robot NONE: the navigators go back to the traffic rules.
+cleanup    forgets the plan, the statuses and the map.
+
+A malformed status (a pose or goal that is not finite) or map is refused with a throttled warning; nothing raises
+out of a callback; no route with a NaN is published.
+"""
+
+from __future__ import annotations
+
+from amr_interfaces.msg import FleetRoute, NavigatorStatus
+from geometry_msgs.msg import Point
+from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from rclpy.lifecycle import State, TransitionCallbackReturn
+
+from amr_maps.messages import grid_from_message
+from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route
+from amr_navigation.fleet_planner_config import NODE_NAME, FleetPlannerConfig
+from amr_planning.costmap import Costmap
+from amr_util.managed_node import ManagedNode, run
+from amr_util.qos import LATCHED, reliable
+from amr_util.stamps import stamp_nanoseconds
+
+
+def fleet_names(config: FleetPlannerConfig) -> list[str]:
+    """The robots' names: the robots parameter, else the world's robots list (ValueError naming the world)."""
+    if config.robots:
+        return list(config.robots)
+    from amr_maps.world import load_world, resolve_world_path
+
+    world = load_world(resolve_world_path(config.world))
+    names = [robot.name for robot in world.fleet if robot.name]
+    if not names:
+        raise ValueError(f"world {config.world!r} has no robots list: there is no fleet to plan")
+    return names
+
+
+class FleetPlannerNode(ManagedNode):
+    """Wires FleetCoordinator to the navigators' statuses, /map and the robots' fleet_route; holds no logic."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(NODE_NAME, **kwargs)
+        self.declare_specs(FleetPlannerConfig.parameter_specs())
+        self.coordinator: FleetCoordinator | None = None
+        self.config: FleetPlannerConfig | None = None
+        self.configure_error = ""
+        self.statuses_refused = 0
+        self._routes: dict = {}
+        self._entities: list = []
+        self._latest: dict[str, Route] = {}
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        problems = self.parameter_problems()
+        if not problems:
+            try:
+                config = FleetPlannerConfig.from_params(self.parameter_values())
+                coordinator = FleetCoordinator(fleet_names(config), config.lattice_spacing, window=config.window,
+                                               retry_period=config.retry_period)
+            except (ValueError, OSError) as error:  # ConfigError names the key; a world names its file
+                problems = [str(error)]
+        if problems:
+            self.configure_error = "; ".join(problems)
+            return self.fail_configure(problems)
+        self.config, self.coordinator = config, coordinator
+        for name in coordinator.names:
+            self._routes[name] = self.create_lifecycle_publisher(FleetRoute, f"/{name}/{config.route_topic}", LATCHED)
+            self._entities.append(self.create_subscription(
+                NavigatorStatus, f"/{name}/{config.status_topic}", self._status_callback(name), reliable(depth=50)))
+        self._entities.append(self.create_subscription(OccupancyGridMessage, config.map_topic, self._on_map, LATCHED))
+        self.get_logger().info(f"configured: {len(coordinator.names)} robots ({', '.join(coordinator.names)}), "
+                               f"lattice {config.lattice_spacing} m, routes on /<robot>/{config.route_topic}")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        result = super().on_activate(state)
+        self._publish({name: Route(NONE, reason="no fleet plan yet: by the traffic rules until every robot is "
+                                                "localized") for name in self.coordinator.names})
+        return result
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        self._publish({name: Route(NONE, reason="the fleet planner was deactivated") for name in self.coordinator.names})
+        self.coordinator.schedule = None
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        for entity in self._entities:
+            self.destroy_subscription(entity)
+        for publisher in self._routes.values():
+            self.destroy_lifecycle_publisher(publisher)
+        self._entities, self._routes, self._latest = [], {}, {}
+        self.coordinator = self.config = None
+        return TransitionCallbackReturn.SUCCESS
+
+    @property
+    def active(self) -> bool:
+        return self.state_label == "active" and self.coordinator is not None
+
+    def route_of(self, name: str) -> Route | None:
+        """What `name` was last told."""
+        return self._latest.get(name)
+
+    # -- inputs -------------------------------------------------------------------------------------------
+
+    def _on_map(self, message: OccupancyGridMessage) -> None:
+        if self.coordinator is None:
+            return
+        try:
+            costmap = Costmap(grid_from_message(message), self.config.costmap)
+        except Exception as error:  # a bad map must not take the node down
+            self.get_logger().error(f"{self.config.map_topic} refused, keeping the previous one: {error}")
+            return
+        routes = self.coordinator.set_costmap(costmap)
+        if self.active:
+            self._publish(routes)
+            self._plan_if_due()
+
+    def _status_callback(self, name: str):
+        def on_status(message: NavigatorStatus) -> None:
+            if not self.active:
+                return
+            if message.header.frame_id not in ("", self.config.global_frame):
+                self._refuse(f"{name}: status in frame {message.header.frame_id!r}, expected "
+                             f"{self.config.global_frame!r}")
+                return
+            position = message.pose.position
+            goal = (message.goal.x, message.goal.y) if message.has_goal else None
+            try:
+                routes = self.coordinator.observe(name, stamp_nanoseconds(message.header.stamp) * 1e-9, position.x,
+                                                  position.y, message.localized, goal)
+            except ValueError as error:
+                self._refuse(str(error))
+                return
+            self._publish(routes)
+            self._plan_if_due()
+        return on_status
+
+    def _refuse(self, problem: str) -> None:
+        self.statuses_refused += 1
+        self.get_logger().warning(f"a navigator status was refused: {problem}", throttle_duration_sec=2.0)
+
+    # -- planning -----------------------------------------------------------------------------------------
+
+    def _plan_if_due(self) -> None:
+        coordinator = self.coordinator
+        if not coordinator.plan_due():
+            return
+        deaf = [name for name, publisher in self._routes.items() if publisher.get_subscription_count() == 0]
+        if deaf:  # a navigator of coordination rules: a plan it would not follow would lead the others astray
+            self.get_logger().info(f"not planning: no navigator listens to the route of {', '.join(deaf)} "
+                                   "(coordination: rules)", throttle_duration_sec=30.0)
+            return
+        self._publish(coordinator.hold())
+        routes = coordinator.plan()
+        if coordinator.schedule is None:
+            self.get_logger().error(next(iter(routes.values())).reason)
+        else:
+            self.get_logger().info(
+                f"fleet plan {coordinator.plans}: {len(coordinator.names)} robots on a lattice of "
+                f"{coordinator.lattice_size} points, planned in {coordinator.planning_time:.2f} s; the longest "
+                f"{max(len(w) for w in coordinator.schedule.waypoints) - 1} waypoints")
+        self._publish(routes)
+
+    def _publish(self, routes: dict[str, Route]) -> None:
+        stamp = self.get_clock().now().to_msg()
+        for name, route in routes.items():
+            message = FleetRoute(state=route.state, final=route.final, plan=route.plan, progress=route.progress,
+                                 total=route.total, reason=route.reason)
+            message.header.stamp, message.header.frame_id = stamp, self.config.global_frame
+            message.waypoints = [Point(x=float(x), y=float(y)) for x, y in route.waypoints]
+            self._routes[name].publish(message)
+            self._latest[name] = route
+
+
+def main(args=None) -> None:
+    run(FleetPlannerNode, args=args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,160 @@
+"""Who plans the fleet and what each robot is told (amr_navigation.fleet_coordinator, the fleet_planner node's
+logic): nothing until every robot is localized at once, then HOLD and each robot's route; routes told again only
+when they change; every robot driven along its route reaches its goal; a changed goal or map drops the plan; a plan
+that cannot be made is NONE with the reason, tried again later."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_maps.maze_families import generate
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import world_from_dict
+from amr_navigation.fleet_coordinator import FOLLOW, HOLD, NONE, FleetCoordinator
+from amr_planning.costmap import Costmap
+
+
+def corridor_costmap() -> Costmap:
+    """A corridor 4 m long, 0.4 m between the walls, with a pocket off its middle (+y)."""
+    walls = [[-2, -0.2, 2, -0.2], [-2, 0.2, -0.2, 0.2], [0.2, 0.2, 2, 0.2], [-0.2, 0.2, -0.2, 0.7],
+             [0.2, 0.2, 0.2, 0.7], [-0.2, 0.7, 0.2, 0.7], [-2, -0.2, -2, 0.2], [2, -0.2, 2, 0.2]]
+    world = world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "start": [-1.6, 0, 0]})
+    return Costmap(rasterize_world(world, 0.02))
+
+
+def drive(coordinator: FleetCoordinator, positions: dict, goals: dict, stamp: float, routes: dict,
+          rng: np.random.Generator, steps: int = 400) -> tuple[dict, int]:
+    """Every robot jumps to the next waypoint of the route it was last told, one robot at a time in random order,
+    reporting where it stands; (the routes last told, the reports made) once no robot moves any more."""
+    told = dict(routes)
+    reports = 0
+    for _ in range(steps):
+        moved = False
+        for name in rng.permutation(coordinator.names):
+            route = told[name]
+            assert route.state == FOLLOW
+            target = route.waypoints[0]
+            if np.hypot(*(target - positions[name])) < 1e-9:
+                continue
+            positions[name] = target.copy()
+            moved = True
+            stamp += 0.05
+            reports += 1
+            told.update(coordinator.observe(name, stamp, *positions[name], True, goals[name]))
+        if not moved:
+            break
+    return told, reports
+
+
+def test_nothing_is_planned_until_every_robot_is_localized_at_once_then_hold_and_routes():
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4)
+    goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
+    assert coordinator.observe("r1", 1.0, -1.6, 0.0, True, goals["r1"]) == {}
+    assert not coordinator.plan_due()  # no map yet, and r2 unheard
+    coordinator.set_costmap(corridor_costmap())
+    assert not coordinator.plan_due()
+    coordinator.observe("r2", 1.0, 1.6, 0.0, False, goals["r2"])
+    assert not coordinator.plan_due()  # r2 not localized
+    coordinator.observe("r2", 3.0, 1.6, 0.0, True, goals["r2"])
+    assert not coordinator.plan_due()  # r1's latest status is 2 s older
+    coordinator.observe("r1", 3.0, -1.6, 0.0, True, goals["r1"])
+    assert coordinator.plan_due()
+    held = coordinator.hold()
+    assert {name: route.state for name, route in held.items()} == {"r1": HOLD, "r2": HOLD}
+    routes = coordinator.plan()
+    assert set(routes) == {"r1", "r2"} and all(route.state == FOLLOW for route in routes.values())
+    assert coordinator.plans == 1 and not coordinator.plan_due()
+    assert all(route.plan == 1 and len(route.waypoints) >= 1 for route in routes.values())
+
+
+@pytest.mark.parametrize("family,seed", [("perfect", 3), ("loops", 1), ("pillars", 2)])
+def test_robots_driven_along_their_routes_all_reach_their_goals_and_are_told_only_changes(family, seed):
+    data = generate(family, seed, size=4.0)
+    costmap = Costmap(rasterize_world(world_from_dict(data), 0.025))
+    rng = np.random.default_rng(seed)
+    free = np.argwhere(costmap.clearance >= 0.2)
+    picks = free[rng.choice(len(free), 8, replace=False)]
+    points = [costmap.centre(r, c) for r, c in picks]
+    names = [f"r{i}" for i in range(4)]
+    starts, goal_points = points[:4], points[4:]
+    coordinator = FleetCoordinator(names, 0.4 if family == "pillars" else _pitch(data))
+    coordinator.set_costmap(costmap)
+    goals = {name: (float(g[0]), float(g[1])) for name, g in zip(names, goal_points)}
+    positions = {name: np.array(s, dtype=float) for name, s in zip(names, starts)}
+    for name in names:
+        coordinator.observe(name, 0.0, *positions[name], True, goals[name])
+    assert coordinator.plan_due()
+    coordinator.hold()
+    routes = coordinator.plan()
+    assert coordinator.schedule is not None, coordinator.failures
+    # each robot first goes to the vertex nearest to it, then along its waypoints
+    told, reports = drive(coordinator, positions, goals, 0.0, routes, rng)
+    for name in names:
+        assert told[name].final, (name, told[name])
+        assert np.allclose(positions[name], goals[name]), name
+    assert coordinator.schedule.progress == [len(w) - 1 for w in coordinator.schedule.waypoints]
+    assert reports >= len(names)
+    # a robot is told again only when what it may drive to changes: standing where it is changes nothing
+    for name in names:
+        assert coordinator.observe(name, 99.0, *positions[name], True, goals[name]) == {}
+
+
+def _pitch(data: dict) -> float:
+    from amr_maps.maze_families import grid_pitch
+
+    return grid_pitch(data)
+
+
+def test_a_changed_goal_or_a_new_map_drops_the_plan():
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4)
+    coordinator.set_costmap(corridor_costmap())
+    goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
+    coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
+    coordinator.observe("r2", 0.0, 1.6, 0.0, True, goals["r2"])
+    coordinator.plan()
+    assert coordinator.schedule is not None
+    dropped = coordinator.observe("r2", 0.1, 1.6, 0.0, True, (-1.2, 0.0))
+    assert {route.state for route in dropped.values()} == {NONE} and set(dropped) == {"r1", "r2"}
+    assert "r2's goal changed" in dropped["r1"].reason
+    assert coordinator.plan_due()  # every robot still localized: planned again to the new goal
+    coordinator.plan()
+    assert coordinator.plans == 2
+    assert np.allclose(coordinator.schedule.waypoints[1][-1], (-1.2, 0.0))
+    dropped = coordinator.set_costmap(corridor_costmap())
+    assert {route.state for route in dropped.values()} == {NONE}
+
+
+def test_a_plan_that_cannot_be_made_is_none_with_the_reason_and_tried_again_later():
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, retry_period=10.0)
+    coordinator.set_costmap(corridor_costmap())
+    same = (1.6, 0.0)  # both robots sent to one place
+    coordinator.observe("r1", 0.0, -1.6, 0.0, True, same)
+    coordinator.observe("r2", 0.0, 0.0, 0.0, True, same)
+    routes = coordinator.plan()
+    assert {route.state for route in routes.values()} == {NONE}
+    assert "no fleet plan" in routes["r1"].reason and coordinator.failures
+    coordinator.observe("r1", 5.0, -1.6, 0.0, True, same)
+    coordinator.observe("r2", 5.0, 0.0, 0.0, True, same)
+    assert not coordinator.plan_due()  # within the retry period
+    coordinator.observe("r1", 10.0, -1.6, 0.0, True, same)
+    coordinator.observe("r2", 10.0, 0.0, 0.0, True, same)
+    assert coordinator.plan_due()
+
+
+def test_bad_input_is_refused_naming_it():
+    with pytest.raises(ValueError, match="no robot"):
+        FleetCoordinator([], 0.4)
+    with pytest.raises(ValueError, match="twice"):
+        FleetCoordinator(["r1", "r1"], 0.4)
+    with pytest.raises(ValueError, match="lattice_spacing"):
+        FleetCoordinator(["r1"], math.nan)
+    coordinator = FleetCoordinator(["r1"], 0.4)
+    with pytest.raises(ValueError, match="'r9' is not a robot"):
+        coordinator.observe("r9", 0.0, 0.0, 0.0, True, None)
+    with pytest.raises(ValueError, match="not finite"):
+        coordinator.observe("r1", 0.0, math.nan, 0.0, True, None)
+    coordinator.observe("r1", 0.0, 0.0, 0.0, True, (math.nan, 1.0))  # a goal that is not finite: no goal
+    assert coordinator.statuses["r1"].goal is None
