@@ -4,7 +4,8 @@ Why (issue 22, docs/fleet.md): the fleet's traffic rules (amr_navigation.traffic
 In a tree maze a dead end that holds several goals must be entered deepest goal first and left in the reverse
 order, and no rule of one robot knows that. Planning the robots together settles it: at library level,
 amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along such a plan
-(amr_navigation.fleet_schedule); the navigator nodes do not yet (docs/fleet.md, "Planning the fleet together").
+(amr_navigation.fleet_schedule), and through ROS the fleet_planner node hands each robot's navigator its part
+(amr_navigation.fleet_planner_node, docs/amr_navigation.md).
 
 1. **Lattice** (`lattice`): points `spacing` m apart, kept where the robot fits clear of the safety margin
    (outside the costmap's inflated cells); an edge joins two 4-neighbours whose segment stays outside the

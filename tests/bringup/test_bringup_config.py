@@ -65,12 +65,15 @@ MAP_SOURCES = {"world", "map_yaml", "yaml_filename"}
 """Parameters through which a node loads a world or a map file itself."""
 GEOMETRY_LOADERS = {"simulator", "map_server"}
 """The nodes that need the world's geometry: physics, and the stack's one map."""
+ROBOT_LIST_READERS = {"fleet_planner"}
+"""The nodes that read only the world's robots list (the fleet's names); their geometry comes from /map."""
 
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_every_stack_loads_its_world_once_per_node_that_needs_geometry(name):
     """The simulator (physics) and the map server (/map) load the world; the particle filter and the planner take
-    /map, whatever their parameter files say, and the world argument changes every loader at once."""
+    /map, whatever their parameter files say; the fleet planner reads only its robots list; and the world argument
+    changes every one of them at once."""
     from amr_util.parameter_file import dotted, node_parameters
 
     bringup = load_bringup(name)
@@ -80,12 +83,12 @@ def test_every_stack_loads_its_world_once_per_node_that_needs_geometry(name):
             values.update(dotted(node_parameters(path, spec.name)))
         values.update(spec.parameters)
         loaded = {key for key in MAP_SOURCES if values.get(key)}
-        if spec.executable in GEOMETRY_LOADERS:
+        if spec.executable in GEOMETRY_LOADERS | ROBOT_LIST_READERS:
             assert loaded == {"world"}, (name, spec.name, loaded)
         else:
             assert not loaded, f"{name}: {spec.name} loads {loaded} itself instead of taking /map"
     if "world" in bringup.arguments:
-        loaders = {n.name for n in bringup.nodes if n.executable in GEOMETRY_LOADERS}
+        loaders = {n.name for n in bringup.nodes if n.executable in GEOMETRY_LOADERS | ROBOT_LIST_READERS}
         assert {node for node, _ in bringup.arguments["world"].sets} == loaders
 
 
