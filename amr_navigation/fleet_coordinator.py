@@ -11,6 +11,12 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
 - **FOLLOW**: each robot's waypoints it may drive to now (amr_navigation.fleet_schedule.Schedule.route from where
   it last said it stood), the last one its goal when `final`. Every status moves the schedule on
   (Schedule.report), and every robot whose span (progress, allowed) changed is told again.
+- **Stuck**: a robot that may drive on but has not reached its next waypoint for `stuck_time` s (something not on
+  the map in the way: its path follower stops for it, and tries again every second) has that waypoint's vertex
+  cut off the lattice (every edge of it: a box on a vertex would block a way round that entered it from another
+  side too), and the fleet is planned again at once from where the robots stand, the stuck robot from the vertex
+  it came from (HOLD, then the new routes; every robot drives by odometry where its localizer is unsure, so no
+  localization is waited for). The cut edges stay cut until a new map.
 - A plan that cannot be made (robots on one goal vertex, no lattice, no solution) is NONE to everyone with the
   reason, and tried again `retry_period` s later. A robot's goal changed (its status's goal is not the plan's),
   a new map: the plan is dropped (NONE to everyone) and made again once every robot is localized.
@@ -59,7 +65,8 @@ class RobotStatus:
 class FleetCoordinator:
     """See the module docstring."""
 
-    def __init__(self, names: list[str], spacing: float, *, window: float = 0.5, retry_period: float = 10.0) -> None:
+    def __init__(self, names: list[str], spacing: float, *, window: float = 0.5, retry_period: float = 10.0,
+                 stuck_time: float = 15.0) -> None:
         if not names:
             raise ValueError("robots: the fleet has no robot")
         if len(set(names)) != len(names):
@@ -70,6 +77,17 @@ class FleetCoordinator:
         self.spacing = float(spacing)
         self.window = float(window)
         self.retry_period = float(retry_period)
+        self.stuck_time = float(stuck_time)
+        self.cut: list[tuple[int, int]] = []
+        """the lattice edges found blocked (cut until a new map)."""
+        self.events: list[str] = []
+        """what happened, for the log (taken by take_events)."""
+        self._moving_since: list[float] = []
+        """per robot: since when it has been allowed farther than its progress without its span changing."""
+        self._replan = False
+        """a stuck robot: plan again now, from where the robots stand."""
+        self._restart: dict[int, int] = {}
+        """a stuck robot -> the vertex it is planned again from (the one it came from)."""
         self.statuses: dict[str, RobotStatus] = {}
         self.schedule: Schedule | None = None
         self.plans = 0
@@ -93,7 +111,7 @@ class FleetCoordinator:
 
     def set_costmap(self, costmap: Costmap) -> dict[str, Route]:
         """A new map's costmap (the lattice is made of it at the next plan); a plan in force is dropped."""
-        self._costmap, self._lattice = costmap, None
+        self._costmap, self._lattice, self.cut, self._restart = costmap, None, [], {}
         return self._drop("a new map") if self.schedule is not None else {}
 
     def observe(self, name: str, stamp: float, x: float, y: float, localized: bool,
@@ -114,15 +132,23 @@ class FleetCoordinator:
         planned = self._goals[robot]
         if goal is None or math.hypot(goal[0] - planned[0], goal[1] - planned[1]) > GOAL_TOLERANCE:
             return self._drop(f"{name}'s goal changed")
-        if not self.schedule.report(robot, x, y):
+        if self.schedule.report(robot, x, y):
+            return self._routes()
+        if self._told_span(robot) != self._span(robot):
             return {}
-        return self._routes()
+        if self.schedule.allowed(robot) == self.schedule.progress[robot]:
+            self._moving_since[robot] = stamp  # waiting for others, as planned
+        elif stamp - self._moving_since[robot] > self.stuck_time:
+            self._stuck(robot, stamp)
+        return {}
 
     # -- planning ---------------------------------------------------------------------------------------
 
     def plan_due(self) -> bool:
         """No plan in force, the costmap known, and every robot's latest status localized with a goal, all within
         `window` s of one another (not before `retry_period` s after a failure)."""
+        if self._replan and self.schedule is None and self._costmap is not None:
+            return True
         if self.schedule is not None or self._costmap is None or len(self.statuses) < len(self.names):
             return False
         statuses = [self.statuses[name] for name in self.names]
@@ -144,13 +170,16 @@ class FleetCoordinator:
         began = time.perf_counter()
         statuses = [self.statuses[name] for name in self.names]
         self._goals = [status.goal for status in statuses]
+        self._replan = False
         try:
             if self._lattice is None:
                 self._lattice = lattice(self._costmap, self.spacing)
-            graph = self._lattice
+            graph = self._lattice.without(self.cut)
+            restart, self._restart = self._restart, {}
             starts: list[int] = []
-            for status in statuses:
-                starts.append(graph.nearest(status.x, status.y, taken=starts))
+            for robot, status in enumerate(statuses):
+                taken = starts + [vertex for other, vertex in restart.items() if other != robot]
+                starts.append(restart[robot] if robot in restart else graph.nearest(status.x, status.y, taken=taken))
             goals = [graph.nearest(*goal) for goal in self._goals]
             plan = improve(plan_lacam(graph, starts, goals))
         except (PlanningError, ValueError) as error:
@@ -162,6 +191,7 @@ class FleetCoordinator:
         self.planning_time = time.perf_counter() - began
         self.plans += 1
         self.schedule = Schedule(plan, self._goals)
+        self._moving_since = [max(status.stamp for status in statuses)] * len(self.names)
         return self._routes()
 
     def route(self, name: str) -> Route:
@@ -179,15 +209,40 @@ class FleetCoordinator:
 
     # -- helpers ----------------------------------------------------------------------------------------
 
+    def _span(self, robot: int) -> tuple:
+        return FOLLOW, self.plans, self.schedule.progress[robot], self.schedule.allowed(robot)
+
+    def _told_span(self, robot: int) -> tuple | None:
+        return self._told.get(self.names[robot])
+
     def _routes(self) -> dict[str, Route]:
-        """The FOLLOW routes whose span changed since the robot was last told."""
+        """The FOLLOW routes whose span changed since the robot was last told (its stuck clock restarted)."""
         changed = {}
         for robot, name in enumerate(self.names):
-            span = (FOLLOW, self.plans, self.schedule.progress[robot], self.schedule.allowed(robot))
+            span = self._span(robot)
             if self._told.get(name) != span:
                 self._told[name] = span
+                self._moving_since[robot] = self.statuses[name].stamp
                 changed[name] = self.route(name)
         return changed
+
+    def _stuck(self, robot: int, stamp: float) -> None:
+        """The robot has not reached its next waypoint for stuck_time s: cut that vertex off, plan again now (the
+        robot from the vertex it came from)."""
+        vertices = self.schedule.plan.vertices(robot)
+        progress = self.schedule.progress[robot]
+        came_from, blocked = vertices[progress], vertices[progress + 1]
+        self.cut += [(blocked, other) for other in self._lattice.neighbours[blocked]]
+        self._restart[robot] = came_from
+        x, y = self._lattice.points[blocked]
+        self.events.append(f"{self.names[robot]} has not reached its next waypoint ({x:.2f}, {y:.2f}) for "
+                           f"{self.stuck_time:g} s: that lattice vertex cut off ({len(self.cut)} edges cut), the fleet "
+                           "planned again from where the robots stand")
+        self.schedule, self._replan = None, True
+
+    def take_events(self) -> list[str]:
+        events, self.events = self.events, []
+        return events
 
     def _tell(self, routes: dict[str, Route]) -> dict[str, Route]:
         for name, route in routes.items():

@@ -35,6 +35,9 @@ class FleetPlannerConfig(Config):
     planned (in lockstep they share each observation's stamp)."""
     retry_period: float = parameter(10.0, minimum=0.1, maximum=3600.0)
     """s (statuses' clock) after a plan that could not be made before the next try."""
+    stuck_time: float = parameter(15.0, minimum=1.0, maximum=3600.0)
+    """s (statuses' clock) a robot allowed to drive on may go without reaching its next waypoint before the lattice
+    edge it is on counts as blocked (something not on the map): the edge is cut and the fleet planned again."""
     costmap: CostmapConfig = field(default_factory=CostmapConfig)
     """the costmap the lattice is made of, as the planners build theirs: give it the planner nodes' robot_radius and
     safety_margin (the fleet_navigation stack ties them)."""

@@ -6,7 +6,8 @@ One per fleet, in the root namespace (/fleet_planner). It reads every robot's na
 (transient local), and publishes each robot's amr_interfaces/FleetRoute on /<robot>/fleet_route (reliable,
 transient local): NONE (go by the traffic rules) until every robot is localized at once, then HOLD while it plans
 (amr_planning.fleet_plan on a lattice of the map's costmap), then FOLLOW: the waypoints the robot may drive to now,
-sent again whenever the robots' progress lets it go farther. The navigators run `coordination: plan`
+sent again whenever the robots' progress lets it go farther; a robot stuck on its way (something not on the map)
+has the lattice edge it is on cut and the fleet is planned again. The navigators run `coordination: plan`
 (docs/amr_navigation.md); it plans only when every robot's route has a listener (with coordination: rules the
 navigators do not subscribe, and it stays idle). The robots are the world's `robots` list (or the `robots`
 parameter).
@@ -69,7 +70,7 @@ class FleetPlannerNode(ManagedNode):
             try:
                 config = FleetPlannerConfig.from_params(self.parameter_values())
                 coordinator = FleetCoordinator(fleet_names(config), config.lattice_spacing, window=config.window,
-                                               retry_period=config.retry_period)
+                                               retry_period=config.retry_period, stuck_time=config.stuck_time)
             except (ValueError, OSError) as error:  # ConfigError names the key; a world names its file
                 problems = [str(error)]
         if problems:
@@ -144,6 +145,8 @@ class FleetPlannerNode(ManagedNode):
             except ValueError as error:
                 self._refuse(str(error))
                 return
+            for event in self.coordinator.take_events():
+                self.get_logger().warning(event)
             self._publish(routes)
             self._plan_if_due()
         return on_status

@@ -31,6 +31,7 @@ class Schedule:
         self.reach = 0.45 * plan.graph.spacing if reach is None else float(reach)
         """m: a robot this close to its next waypoint has reached it (under half the spacing: a robot that has
         reached its next vertex has left the one before, which a robot waiting for it may then enter)."""
+        self.plan = plan
         self.needs = dependencies(plan)
         self.waypoints = [plan.waypoints(robot) for robot in range(len(plan.paths))]
         if goals is not None:  # the last waypoint is the robot's own goal, not the vertex nearest to it

@@ -70,6 +70,12 @@ class Lattice:
             raise PlanningError(Reason.INVALID, f"no vertex left near ({x:.3f}, {y:.3f}): all {len(self)} are taken")
         return int(np.argmin(gaps))
 
+    def without(self, edges) -> "Lattice":
+        """This lattice without the edges (u, v) given (each both ways): an edge found blocked."""
+        cut = {(int(u), int(v)) for u, v in edges} | {(int(v), int(u)) for u, v in edges}
+        return Lattice(self.points, tuple(tuple(n for n in neighbours if (k, n) not in cut)
+                                          for k, neighbours in enumerate(self.neighbours)), self.spacing)
+
     def distances(self, target: int) -> np.ndarray:
         """Steps from every vertex to `target` (breadth first; -1 where it cannot be reached)."""
         steps = np.full(len(self), -1, dtype=int)
@@ -246,9 +252,13 @@ class FleetPlan:
     def makespan(self) -> int:
         return max(_arrival(path) for path in self.paths)
 
+    def vertices(self, robot: int) -> list[int]:
+        """The vertices the robot drives through (its path with the waits dropped)."""
+        return [vertex for vertex, _ in _actions(self.paths[robot])]
+
     def waypoints(self, robot: int) -> np.ndarray:
         """(K, 2) the points the robot drives through (its vertices with the waits dropped)."""
-        return self.graph.points[[vertex for vertex, _ in _actions(self.paths[robot])]]
+        return self.graph.points[self.vertices(robot)]
 
 
 def _arrival(path) -> int:

@@ -143,6 +143,7 @@ def run_stack(ros_context, world, map_world, robots, traffic: bool,
             executor.shutdown()
         counters = {r: nodes[f"/{r}/navigator"].traffic.counters if traffic else None for r in robots}
         counters["plans"] = nodes[FLEET_PLANNER].coordinator.plans
+        counters["cut"] = list(nodes[FLEET_PLANNER].coordinator.cut)
         walls = sum(status.wall_collisions for status in truth.status.values())
         result = truth.reached(), truth.robot_contacts(), walls, truth.sim_time(), {"wall": wall, **counters}
         truth.destroy_node()
@@ -185,3 +186,16 @@ def test_a_box_not_on_the_map_stops_the_robot_which_replans_around_it_through_th
     print(f"box: {reached} reached, {walls} wall contacts, {sim_time:.1f} s simulated, {detail}")
     assert reached == 1 and walls == 0, (sim_time, detail)  # the box is a solid: touching it is a wall contact
     assert detail["r1"].stops >= 1 and detail["r1"].replans_around >= 1, detail
+
+
+def test_planned_together_a_box_not_on_the_map_gets_its_edge_cut_and_the_robot_planned_around_it(ros_context, tmp_path):
+    """coordination:=plan, a box the map does not hold across the robot's planned way: its path follower stops for
+    it, the fleet planner cuts the lattice edge after stuck_time and plans again, and the robot goes round."""
+    world, known = tmp_path / "room_box.yaml", tmp_path / "room.yaml"
+    world.write_text(ROOM.format(suffix="_box", boxes="boxes:\n  - [-0.1, -0.15, 0.1, 0.15]\n"))
+    known.write_text(ROOM.format(suffix="", boxes=""))
+    reached, _, walls, sim_time, detail = run_stack(ros_context, world, known, ("r1",), True, "plan")
+    print(f"box, planned: {reached} reached, {walls} wall contacts, {sim_time:.1f} s simulated, {detail}")
+    assert reached == 1 and walls == 0, (sim_time, detail)
+    assert detail["plans"] >= 2 and detail["cut"], detail
+

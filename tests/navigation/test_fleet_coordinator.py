@@ -158,3 +158,40 @@ def test_bad_input_is_refused_naming_it():
         coordinator.observe("r1", 0.0, math.nan, 0.0, True, None)
     coordinator.observe("r1", 0.0, 0.0, 0.0, True, (math.nan, 1.0))  # a goal that is not finite: no goal
     assert coordinator.statuses["r1"].goal is None
+
+
+def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_around_it():
+    """A ring corridor: r1's way is blocked (it reports the same place for longer than stuck_time); the vertex it
+    could not reach is cut off and the new plan takes it the other way round, from the vertex it came from."""
+    walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
+             [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
+    world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0)
+    coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
+    goal = (1.0, -0.2)
+    coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
+    assert coordinator.plan_due()
+    coordinator.hold()
+    first = coordinator.plan()["r1"]
+    assert first.state == FOLLOW
+    vertices = coordinator.schedule.plan.vertices(0)
+    going_right = coordinator.schedule.plan.graph.points[vertices[1]][0] > -1.0 + 1e-6  # the shorter way: along the bottom
+    assert going_right
+    # r1 stands where it is: waiting is not stuck before stuck_time, stuck after
+    assert coordinator.observe("r1", 10.0, -1.0, -1.0, True, goal) == {}
+    assert coordinator.schedule is not None and not coordinator.plan_due()
+    assert coordinator.observe("r1", 15.5, -1.0, -1.0, True, goal) == {}
+    assert coordinator.schedule is None and coordinator.plan_due()  # no localization waited for
+    cut = {frozenset(edge) for edge in coordinator.cut}
+    assert frozenset((vertices[0], vertices[1])) in cut and all(vertices[1] in edge for edge in cut)
+    assert "cut" in coordinator.take_events()[0]
+    coordinator.hold()
+    second = coordinator.plan()["r1"]
+    assert second.state == FOLLOW and second.plan == 2
+    new = coordinator.schedule.plan.vertices(0)
+    assert new[0] == vertices[0]  # from the vertex it came from
+    assert coordinator.schedule.plan.graph.points[new[1]][1] > -1.0 + 1e-6  # up the left side, the long way round
+    assert vertices[1] not in new
+    # a new map forgets the cut edges
+    coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
+    assert coordinator.cut == []
