@@ -30,11 +30,11 @@ from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
-from amr_navigation.fleet_schedule import DeadReckoning, Schedule, ScheduleDriver
+from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route, RouteDriver
+from amr_navigation.fleet_schedule import DeadReckoning
 from amr_navigation.loop import NavigationCommand, NavigationLoop
 from amr_navigation.navigator import Mode
 from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
-from amr_planning.fleet_plan import improve, lattice, plan_lacam
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
@@ -197,11 +197,12 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     gives obstacles that are not on the map.
 
     coordination: "rules" (each robot's navigation loop with the traffic rules) or "plan" (the fleet planned
-    together, amr_planning.fleet_plan on a lattice `lattice_spacing` m apart, and each robot's path follower
-    driven along its waypoints as far as amr_navigation.fleet_schedule allows). With "plan" and the particle
-    filters, the robots go as with "rules" (explore until localized, then the traffic rules) until every robot is
-    localized at once; the fleet is then planned from the estimates, and a robot whose filter withdraws localized
-    goes on by odometry from its last sure estimate until it is sure again."""
+    together as the fleet_planner node plans it: amr_navigation.fleet_coordinator.FleetCoordinator fed every
+    robot's pose, localized and goal each step, on a lattice `lattice_spacing` m apart; each robot's path follower
+    driven along the route it was last told by a RouteDriver, as the navigator node's coordination "plan" does).
+    With "plan" and the particle filters, the robots go as with "rules" (explore until localized, then the traffic
+    rules) until every robot is localized at once; the fleet is then planned from the estimates, and a robot whose
+    filter withdraws localized goes on by odometry from its last sure estimate until it is sure again."""
     if localization not in LOCALIZATIONS:
         raise ValueError(f"localization {localization!r}: expected one of {', '.join(LOCALIZATIONS)}")
     if coordination not in COORDINATIONS:
@@ -233,11 +234,13 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
         filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
         runs.append(RobotRun(robot.name))
     planned = coordination == "plan"
-    schedule = None
-    drivers: list = []
-    """with "plan": per robot its ScheduleDriver, once the fleet is planned."""
-    ready: dict[int, tuple[float, float]] = {}
-    """with "plan", before the plan: the robots localized at this step and where they stand (estimate)."""
+    coordinator = FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing) if planned else None
+    """with "plan": the fleet_planner node's logic (when to plan, what each robot is told)."""
+    if planned:
+        coordinator.set_costmap(planner.costmap)
+    told: dict[str, Route] = {}
+    """with "plan": what each robot was last told (NONE or none: the traffic rules)."""
+    drivers = [RouteDriver(PathFollower(follower), planner) for _ in fleet.robots] if planned else []
     reckoning = [DeadReckoning() for _ in fleet.robots]
     """with "plan": each robot's pose to drive by (its last sure estimate moved on by odometry while unsure)."""
     lidar = fleet.lidar
@@ -270,20 +273,20 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                     run.false_localized_steps += 1
                     false = True
             index = len(commands)
-            if planned and schedule is None:  # the traffic rules until every robot is localized at once
-                if localized:
-                    ready[index] = (pose[0], pose[1])
-                else:
-                    ready.pop(index, None)
-                if len(ready) == len(fleet.robots):
-                    schedule = _schedule(planner, fleet, [ready[i] for i in range(len(ready))], lattice_spacing)
-                    drivers = [ScheduleDriver(schedule, i, PathFollower(follower), planner) for i in range(len(ready))]
-                    run.events.append(f"{fleet.time:.2f} every robot localized: the fleet planned together")
-            if planned:
+            if planned:  # the navigator node's coordination "plan", the fleet_planner node's coordinator
                 driving = reckoning[index].pose(pose, localized, robot.odom_pose)
-            if schedule is not None:
+                told.update(coordinator.observe(robot.name, fleet.time, driving[0], driving[1], localized,
+                                                (robot.goal.x, robot.goal.y)))
+                run.events.extend(f"{fleet.time:.2f} {event}" for event in coordinator.take_events())
+                if coordinator.plan_due():
+                    told.update(coordinator.hold())
+                    told.update(coordinator.plan())
+                    run.events.append(f"{fleet.time:.2f} fleet plan {coordinator.plans}: "
+                                      + (told[robot.name].reason or "made"))
+            route = told.get(robot.name)
+            if route is not None and route.state != NONE:
                 pose = driving  # unsure: on by odometry from the last sure estimate
-                follow = drivers[index].command(pose, scan, fleet.time)
+                follow = drivers[index].command(pose, scan, fleet.time, route)
                 command = NavigationCommand(follow.v, follow.w, Mode.FOLLOW, follow, ())
             else:
                 command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
@@ -310,15 +313,3 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
             run.stops, run.replans_around, run.yields, run.cannot_yield = (
                 counters.stops, counters.replans_around, counters.yields, counters.cannot_yield)
     return FleetRun(runs, fleet.time, time.perf_counter() - began, reason)
-
-
-def _schedule(planner: Planner, fleet: Fleet, positions: list[tuple[float, float]], spacing: float):
-    """The fleet planned together from where the robots stand to their goals (coordination "plan"); each robot
-    starts at the free vertex nearest to it (in the list's order)."""
-    graph = lattice(planner.costmap, spacing)
-    starts: list[int] = []
-    for x, y in positions:
-        starts.append(graph.nearest(x, y, taken=starts))
-    goals = [graph.nearest(robot.goal.x, robot.goal.y) for robot in fleet.robots]
-    plan = improve(plan_lacam(graph, starts, goals))
-    return Schedule(plan, [(robot.goal.x, robot.goal.y) for robot in fleet.robots])

@@ -5,8 +5,9 @@ the moves of other robots that must be done first (the action dependencies: a ro
 once every robot the plan puts there earlier has moved on). `Schedule` keeps each robot's progress (the last
 waypoint it reached, in order) and says how far along its list a robot may go: up to the first waypoint whose
 dependencies are not all done. Robots driven this way at any speeds never meet at a vertex and never wait on one
-another in a cycle (Hoenig et al. 2016). `ScheduleDriver` drives one robot's path follower along it. No ROS:
-amr_evaluation.fleet_navigation runs them at library level.
+another in a cycle (Hoenig et al. 2016). What following a route needs, shared by the navigator node and the library
+level (amr_navigation.fleet_coordinator.RouteDriver): `legs` (the planner's paths through the waypoints),
+`HandOver` (when a new path is due), `DeadReckoning` (the pose to drive by). No ROS.
 """
 
 from __future__ import annotations
@@ -15,12 +16,11 @@ import math
 
 import numpy as np
 
-from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
+from amr_control.path_follower import State
 from amr_planning.errors import PlanningError
 from amr_planning.fleet_plan import FleetPlan, dependencies
 from amr_planning.planner import Planner
 from amr_util.geometry import compose, relative_pose
-from amr_util.scan import ScanData
 
 
 class Schedule:
@@ -145,24 +145,3 @@ class DeadReckoning:
             return estimate
         last, then = self.sure
         return tuple(float(v) for v in compose(last, relative_pose(then, tuple(odometry))))
-
-
-class ScheduleDriver:
-    """One robot driven along a fleet schedule: its path follower handed the planner's paths through the waypoints
-    it may drive to now (`legs`), handed again whenever it may go farther, or BLOCKED_RETRY s after the follower
-    stopped short of something (`HandOver`)."""
-
-    def __init__(self, schedule: Schedule, robot: int, follower: PathFollower, planner: Planner) -> None:
-        self.schedule, self.robot, self.follower, self.planner = schedule, robot, follower, planner
-        self._hand_over = HandOver()
-
-    def command(self, pose: tuple[float, float, float], scan: ScanData | None, stamp: float) -> FollowCommand:
-        schedule, robot = self.schedule, self.robot
-        schedule.report(robot, pose[0], pose[1])
-        span = (schedule.progress[robot], schedule.allowed(robot))
-        if self._hand_over.due(span, self.follower.state in STOPPED_SHORT, stamp):
-            try:
-                self.follower.set_path(legs(self.planner, schedule.route(robot, pose[0], pose[1])))
-            except PathError:
-                self.follower.clear()
-        return self.follower.compute(pose[0], pose[1], pose[2], scan)

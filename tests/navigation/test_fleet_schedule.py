@@ -106,7 +106,7 @@ def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan()
     data = with_robots(generate("perfect", 4, size=4.0), 3, 4)
     run = run_fleet(world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=grid_pitch(data))
     events = [event for robot in run.robots for event in robot.events]
-    assert any("the fleet planned together" in event for event in events), events
+    assert any("fleet plan 1" in event for event in events), events
     assert run.reached == 3, events
     assert run.robot_contacts == 0 and run.wall_contacts == 0
     assert run.false_localized == 0
