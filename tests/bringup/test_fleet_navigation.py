@@ -82,7 +82,8 @@ def test_the_stack_is_maze_navigation_per_robot_in_its_namespace():
     bringup = load_bringup("fleet_navigation").with_overrides({"world": "fleets/crossing.yaml"})
     names = [node.managed_name for node in bringup.nodes]
     robots = ("r1", "r2", "r3", "r4")
-    assert sorted(names) == sorted(["map_server", "simulator"] + [f"/{r}/{n}" for r in robots for n in PER_ROBOT])
+    assert sorted(names) == sorted(["map_server", "simulator", "fleet_planner"]
+                                   + [f"/{r}/{n}" for r in robots for n in PER_ROBOT])
     assert bringup.node_startup_order[0] == "map_server" and bringup.node_startup_order[-1] == "simulator"
     maze = {node.name: node for node in load_bringup("maze_navigation").nodes}
     for node in bringup.nodes:
@@ -93,6 +94,8 @@ def test_the_stack_is_maze_navigation_per_robot_in_its_namespace():
     assert nodes["/r1/particle_filter"].parameters["map_topic"] == "/map", "the one map"
     assert dict(nodes["/r1/planner"].remappings) == {"map": "/map"}, "the one map"
     assert nodes["/r3/navigator"].parameters["world_goal_topic"] == "goal", "the robot's own goal: /r3/goal"
+    assert nodes["fleet_planner"].parameters["world"] == nodes["simulator"].parameters["world"], "one fleet"
+    assert nodes["/r2/navigator"].parameters["coordination"] == "rules", "the traffic rules by default"
     for node in bringup.nodes:  # nothing of a robot's leaves its namespace but the map
         for key, value in node.parameters.items():
             if isinstance(value, str) and value.startswith("/"):
@@ -116,7 +119,8 @@ def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp
     world.write_text(TWO)
     with composed_stack(ros_context, "fleet_navigation", arguments={"world": str(world)},
                         parameters={"simulator.lockstep_resend_period": "0.5"}) as (nodes, manager, _):
-        assert set(nodes) == {"map_server", "simulator"} | {f"/{r}/{n}" for r in ROBOTS for n in PER_ROBOT}
+        assert set(nodes) == {"map_server", "simulator", "fleet_planner"} | {f"/{r}/{n}" for r in ROBOTS
+                                                                              for n in PER_ROBOT}
         observer = Observer(ros_context)
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(observer)
