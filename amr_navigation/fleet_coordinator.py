@@ -25,17 +25,18 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_navigation.fleet_schedule import STOPPED_SHORT, HandOver, Schedule, legs
-from amr_planning.planner import Planner
-from amr_util.scan import ScanData
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
 from amr_planning.fleet_plan import Lattice, improve, lattice, plan_lacam
+from amr_planning.planner import Planner
+from amr_util.scan import ScanData
 
 NONE, HOLD, FOLLOW = "NONE", "HOLD", "FOLLOW"
 GOAL_TOLERANCE = 1e-6
@@ -115,7 +116,7 @@ class FleetCoordinator:
     def set_costmap(self, costmap: Costmap) -> dict[str, Route]:
         """A new map's costmap (the lattice is made of it at the next plan); a plan in force is dropped."""
         self._costmap, self._lattice, self.cut, self._restart = costmap, None, [], {}
-        return self._drop("a new map") if self.schedule is not None else {}
+        return self.drop("a new map") if self.schedule is not None else {}
 
     def observe(self, name: str, stamp: float, x: float, y: float, localized: bool,
                 goal: tuple[float, float] | None) -> dict[str, Route]:
@@ -134,15 +135,13 @@ class FleetCoordinator:
         robot = self.names.index(name)
         planned = self._goals[robot]
         if goal is None or math.hypot(goal[0] - planned[0], goal[1] - planned[1]) > GOAL_TOLERANCE:
-            return self._drop(f"{name}'s goal changed")
+            return self.drop(f"{name}'s goal changed")
         if self.schedule.report(robot, x, y):
             return self._routes()
-        if self._told_span(robot) != self._span(robot):
-            return {}
         if self.schedule.allowed(robot) == self.schedule.progress[robot]:
             self._moving_since[robot] = stamp  # waiting for others, as planned
         elif stamp - self._moving_since[robot] > self.stuck_time:
-            self._stuck(robot, stamp)
+            self._stuck(robot)
         return {}
 
     # -- planning ---------------------------------------------------------------------------------------
@@ -168,8 +167,6 @@ class FleetCoordinator:
     def plan(self) -> dict[str, Route]:
         """Plan the fleet from where the robots said they stand to their goals: every robot's route (FOLLOW), or
         NONE to every one with the reason when no plan could be made."""
-        import time
-
         began = time.perf_counter()
         statuses = [self.statuses[name] for name in self.names]
         self._goals = [status.goal for status in statuses]
@@ -186,12 +183,12 @@ class FleetCoordinator:
             goals = [graph.nearest(*goal) for goal in self._goals]
             plan = improve(plan_lacam(graph, starts, goals))
         except (PlanningError, ValueError) as error:
-            self.planning_time = time.perf_counter() - began
             self.failures.append(str(error))
             self._retry_at = max(status.stamp for status in statuses) + self.retry_period
             return self._tell({name: Route(NONE, reason=f"no fleet plan: {error}; by the traffic rules, planning "
                                                         f"again in {self.retry_period:g} s") for name in self.names})
-        self.planning_time = time.perf_counter() - began
+        finally:
+            self.planning_time = time.perf_counter() - began
         self.plans += 1
         self.schedule = Schedule(plan, self._goals)
         self._moving_since = [max(status.stamp for status in statuses)] * len(self.names)
@@ -215,9 +212,6 @@ class FleetCoordinator:
     def _span(self, robot: int) -> tuple:
         return FOLLOW, self.plans, self.schedule.progress[robot], self.schedule.allowed(robot)
 
-    def _told_span(self, robot: int) -> tuple | None:
-        return self._told.get(self.names[robot])
-
     def _routes(self) -> dict[str, Route]:
         """The FOLLOW routes whose span changed since the robot was last told (its stuck clock restarted)."""
         changed = {}
@@ -229,7 +223,7 @@ class FleetCoordinator:
                 changed[name] = self.route(name)
         return changed
 
-    def _stuck(self, robot: int, stamp: float) -> None:
+    def _stuck(self, robot: int) -> None:
         """The robot has not reached its next waypoint for stuck_time s: cut that vertex off, plan again now (the
         robot from the vertex it came from)."""
         vertices = self.schedule.plan.vertices(robot)
@@ -252,7 +246,8 @@ class FleetCoordinator:
             self._told[name] = (route.state, route.plan)
         return routes
 
-    def _drop(self, why: str) -> dict[str, Route]:
+    def drop(self, why: str) -> dict[str, Route]:
+        """Drop the plan in force (if any): NONE to every robot, with `why`."""
         self.schedule = None
         return self._tell({name: Route(NONE, reason=f"the fleet plan was dropped: {why}; by the traffic rules "
                                                     "until every robot is localized again") for name in self.names})

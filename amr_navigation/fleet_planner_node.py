@@ -7,7 +7,7 @@ One per fleet, in the root namespace (/fleet_planner). It reads every robot's na
 transient local): NONE (go by the traffic rules) until every robot is localized at once, then HOLD while it plans
 (amr_planning.fleet_plan on a lattice of the map's costmap), then FOLLOW: the waypoints the robot may drive to now,
 sent again whenever the robots' progress lets it go farther; a robot stuck on its way (something not on the map)
-has the lattice edge it is on cut and the fleet is planned again. The navigators run `coordination: plan`
+has the lattice vertex it could not reach cut off and the fleet planned again. The navigators run `coordination: plan`
 (docs/amr_navigation.md); it plans only when every robot's route has a listener (with coordination: rules the
 navigators do not subscribe, and it stays idle). The robots are the world's `robots` list (or the `robots`
 parameter).
@@ -24,13 +24,13 @@ out of a callback; no route with a NaN is published.
 from __future__ import annotations
 
 from amr_interfaces.msg import FleetRoute, NavigatorStatus
-from geometry_msgs.msg import Point
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from amr_maps.messages import grid_from_message
 from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route
 from amr_navigation.fleet_planner_config import NODE_NAME, FleetPlannerConfig
+from amr_navigation.fleet_route_messages import route_message
 from amr_planning.costmap import Costmap
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED, reliable
@@ -62,7 +62,6 @@ class FleetPlannerNode(ManagedNode):
         self.statuses_refused = 0
         self._routes: dict = {}
         self._entities: list = []
-        self._latest: dict[str, Route] = {}
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
         problems = self.parameter_problems()
@@ -93,8 +92,7 @@ class FleetPlannerNode(ManagedNode):
         return result
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        self._publish({name: Route(NONE, reason="the fleet planner was deactivated") for name in self.coordinator.names})
-        self.coordinator.schedule = None
+        self._publish(self.coordinator.drop("the fleet planner was deactivated"))
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
@@ -102,17 +100,13 @@ class FleetPlannerNode(ManagedNode):
             self.destroy_subscription(entity)
         for publisher in self._routes.values():
             self.destroy_lifecycle_publisher(publisher)
-        self._entities, self._routes, self._latest = [], {}, {}
+        self._entities, self._routes = [], {}
         self.coordinator = self.config = None
         return TransitionCallbackReturn.SUCCESS
 
     @property
     def active(self) -> bool:
         return self.state_label == "active" and self.coordinator is not None
-
-    def route_of(self, name: str) -> Route | None:
-        """What `name` was last told."""
-        return self._latest.get(name)
 
     # -- inputs -------------------------------------------------------------------------------------------
 
@@ -180,12 +174,7 @@ class FleetPlannerNode(ManagedNode):
     def _publish(self, routes: dict[str, Route]) -> None:
         stamp = self.get_clock().now().to_msg()
         for name, route in routes.items():
-            message = FleetRoute(state=route.state, final=route.final, plan=route.plan, progress=route.progress,
-                                 total=route.total, reason=route.reason)
-            message.header.stamp, message.header.frame_id = stamp, self.config.global_frame
-            message.waypoints = [Point(x=float(x), y=float(y)) for x, y in route.waypoints]
-            self._routes[name].publish(message)
-            self._latest[name] = route
+            self._routes[name].publish(route_message(route, stamp, self.config.global_frame))
 
 
 def main(args=None) -> None:

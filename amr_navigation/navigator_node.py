@@ -59,6 +59,8 @@ from nav_msgs.msg import Path
 from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from amr_navigation.fleet_coordinator import HOLD, NONE, Route
+from amr_navigation.fleet_route_messages import RouteError, route_from_message
 from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver, legs
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
@@ -82,27 +84,7 @@ CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
 ODOMETRY_KEPT = 200
 """odometry poses kept to pair with /pose by stamp (coordination plan)."""
-ROUTE_NONE, ROUTE_HOLD, ROUTE_FOLLOW = "NONE", "HOLD", "FOLLOW"
-"""amr_interfaces/FleetRoute states."""
-MAX_ROUTE_POINTS = 10000
 STOPPED_SHORT_STATES = tuple(state.value for state in STOPPED_SHORT)
-
-
-def route_problem(message: FleetRoute, frame: str) -> str:
-    """What is wrong with a FleetRoute ('' if nothing): an unknown state, another frame, a FOLLOW without
-    waypoints or with one that is not finite."""
-    if message.state not in (ROUTE_NONE, ROUTE_HOLD, ROUTE_FOLLOW):
-        return f"state {message.state[:40]!r} is not NONE, HOLD or FOLLOW"
-    if message.header.frame_id not in ("", frame):
-        return f"frame {message.header.frame_id!r}, expected {frame!r}"
-    if message.state == ROUTE_FOLLOW:
-        if not message.waypoints:
-            return "FOLLOW without waypoints"
-        if len(message.waypoints) > MAX_ROUTE_POINTS:
-            return f"{len(message.waypoints)} waypoints (at most {MAX_ROUTE_POINTS})"
-        if not all(math.isfinite(p.x) and math.isfinite(p.y) for p in message.waypoints):
-            return "a waypoint is not finite"
-    return ""
 
 
 RETRY_PERIOD = 2.0
@@ -148,7 +130,7 @@ class NavigatorNode(ManagedNode):
         self._advised: tuple[int, float | None] | None = None  # (observation stamp ns, speed limit)
         self._reports_after = -1
         """traffic: the path follower's reports up to this observation stamp (ns) are of a path the rules dropped."""
-        self._route: FleetRoute | None = None
+        self._route: Route | None = None
         """coordination plan: the fleet planner's latest HOLD or FOLLOW for this robot (None: the traffic rules)."""
         self._hand_over_due = HandOver()
         self._reckoning = DeadReckoning()
@@ -296,21 +278,22 @@ class NavigatorNode(ManagedNode):
         refused with the reason logged, and the previous one stands."""
         if not self.active:
             return
-        problem = route_problem(message, self._values["global_frame"])
-        if problem:
+        try:
+            route = route_from_message(message, self._values["global_frame"])
+        except RouteError as error:
             self.routes_refused += 1
-            self.get_logger().error(f"fleet route refused, keeping the previous one: {problem}")
+            self.get_logger().error(f"fleet route refused, keeping the previous one: {error}")
             return
-        before, self._route = self._route, (None if message.state == ROUTE_NONE else message)
+        before, self._route = self._route, (None if route.state == NONE else route)
         if self._route is None:
             if before is not None:  # back to the rules: they plan to the goal anew
-                self.navigator.plan_again(f"no fleet plan ({message.reason or 'withdrawn'}): by the traffic rules")
+                self.navigator.plan_again(f"no fleet plan ({route.reason or 'withdrawn'}): by the traffic rules")
                 self._log(self.navigator.take_events())
             self._hand_over_due.reset()
             return
-        if before is None or before.plan != message.plan:
-            self.get_logger().info(f"fleet plan {message.plan}: {message.state}"
-                                   + (f" ({message.reason})" if message.reason else ""))
+        if before is None or before.plan != route.plan:
+            self.get_logger().info(f"fleet plan {route.plan}: {route.state}"
+                                   + (f" ({route.reason})" if route.reason else ""))
         if self._last is not None and self._last[1].controller is Controller.NONE and self._inflight is None:
             self._decide(self._last[0])  # the robot is held on this observation: decide it again
 
@@ -385,29 +368,32 @@ class NavigatorNode(ManagedNode):
 
     def _decide(self, observation: Observation) -> None:
         if self._values.get("coordination") == "plan":
-            odometry = self._odometry.get(stamp_nanoseconds(observation.stamp))
-            if odometry is None and self._odometry:
-                odometry = next(reversed(self._odometry.values()))  # the latest: at most a step off
-            if odometry is not None:
-                driving = self._reckoning.pose(observation.pose, observation.localized, odometry)
-            else:
-                driving = observation.pose
+            driving = self._driving_pose(observation)  # every observation: the last sure estimate is kept
             if self._route is not None:
                 self._decide_on_route(replace(observation, pose=driving, on_route=True))
                 return
         self._carry_out(observation, self.navigator.decide(observation.pose, observation.localized))
 
+    def _driving_pose(self, observation: Observation) -> tuple[float, float, float]:
+        """Coordination plan: the pose to drive by (DeadReckoning on the odometry of the observation's stamp, the
+        latest one if none has it: at most a step off; the estimate before any odometry came)."""
+        odometry = self._odometry.get(stamp_nanoseconds(observation.stamp))
+        if odometry is None and self._odometry:
+            odometry = next(reversed(self._odometry.values()))
+        if odometry is None:
+            return observation.pose
+        return self._reckoning.pose(observation.pose, observation.localized, odometry)
+
     def _decide_on_route(self, observation: Observation) -> None:
         """One observation on the fleet route: hold (HOLD), or the path follower driven through the waypoints it
         may drive to now, a new path handed over whenever they change or BLOCKED_RETRY s after it was blocked."""
         route, navigator = self._route, self.navigator
-        if route.state == ROUTE_HOLD:
+        if route.state == HOLD:
             self._finish(observation, navigator.on_route(observation.pose, "holding: the fleet is being planned"))
             return
         why = f"fleet plan {route.plan}: waypoint {route.progress} of {route.total}"
-        waypoints = np.array([(point.x, point.y) for point in route.waypoints], dtype=float)
         stamp_ns = stamp_nanoseconds(observation.stamp)
-        key = (route.plan, route.progress, waypoints.tobytes())
+        key = (route.plan, route.progress, route.waypoints.tobytes())
         if not self._hand_over_due.due(key, self._follower_blocked, stamp_ns * 1e-9):
             self._finish(observation, navigator.on_route(observation.pose, why))
             return
@@ -416,7 +402,7 @@ class NavigatorNode(ManagedNode):
             self._hand_over_due.reset()
             self._finish(observation, navigator.on_route(observation.pose, "holding: no /map yet"))
             return
-        path = legs(self._map_planner, np.vstack([observation.pose[:2], waypoints]))
+        path = legs(self._map_planner, np.vstack([observation.pose[:2], route.waypoints]))
         self._route_handed_at, self._follower_blocked = stamp_ns, False
         self._log((navigator.adopt if route.final else navigator.detour)(path, why).events)
         decision = replace(navigator.on_route(observation.pose, why), path=path)
@@ -616,11 +602,8 @@ class NavigatorNode(ManagedNode):
         self.board.post(TrafficPost(self.traffic.name, self.traffic.priority, observation.pose, path, "", (),
                                     decision.mode is Mode.REACHED, False))
         self._posted(decision)
-        hold = decision.mode is Mode.REACHED or self._route is None or self._route.state == ROUTE_HOLD
-        limit = 0.0 if hold else None
-        self._advised = (stamp_nanoseconds(observation.stamp), limit)
-        self._outputs["speed_limit"].publish(speed_limit_message(limit, observation.stamp, self._values["global_frame"]))
-        return Decision(decision.mode, Controller.PATH_FOLLOWER, None, None, decision.reason, ())
+        hold = decision.mode is Mode.REACHED or self._route is None or self._route.state == HOLD
+        return self._limited(observation, replace(decision, controller=Controller.PATH_FOLLOWER), 0.0 if hold else None)
 
     def _limited(self, observation: Observation, decision: Decision, limit: float | None) -> Decision:
         """The decision with the path follower named and `limit` sent for its observation (a robot at its goal

@@ -184,7 +184,7 @@ def test_a_malformed_route_is_refused_and_the_previous_one_stands(navigator):
     for message in bad + [other]:
         node._on_route(message)  # must not raise
     assert node.routes_refused == 4
-    assert node._route.waypoints[0].x == -1.2
+    assert node._route.waypoints[0][0] == -1.2
 
 
 def test_the_path_follower_drives_an_unsure_observation_from_the_navigators_pose():
