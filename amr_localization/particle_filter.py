@@ -26,9 +26,12 @@ Each call to update(odometry, scan=..., beacons=...) does, in this order:
    covariance; `localized` is declared after localized_confirmations updates
    in a row with one cluster holding localized_min_cluster_share of the weight,
    its spread under the position and heading limits and the scan fitting its
-   pose (scan_fit.py), and no other place explains the recent scans as well
-   (the rival search) unless the ledger's evidence since it began following
-   that place rules it out; withdrawn as soon as the cluster's share, spread or
+   pose (scan_fit.py), no more than see_through_max_share of the scan's beams
+   reading through the map's walls there (other robots hiding the walls that
+   tell a look-alike place apart: unexpected_obstacles.seen_through), and no
+   other place explains the recent scans as well (the rival search) unless
+   the ledger's evidence since it began following that place rules it out;
+   withdrawn as soon as the cluster's share, spread or
    fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*), or when,
    searched again every recheck_updates updates, another place explains the
    recent scans clearly better (a kidnapping into a look-alike place); when one
@@ -72,7 +75,7 @@ from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
 from amr_localization.tempering import tempered_exponent
-from amr_localization.unexpected_obstacles import MapRanges, unexpected, without_unexpected
+from amr_localization.unexpected_obstacles import MapRanges, seen_through, unexpected, without_unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
@@ -87,6 +90,8 @@ LEDGER_BEAMS = 180
 """beams of each scan the evidence ledger weighs its few places on."""
 LEDGER_SEED_SHARE = 0.5
 """the ledger, when it begins (it follows nothing), follows the heaviest cluster's place too if it holds this share."""
+SEE_THROUGH_BEAMS = 360
+"""beams of the scan the see-through check counts (every one of a 1-degree LiDAR's)."""
 MAX_LOG_ODDS = 50.0
 """a rival's cloud is at most e^50 times as heavy as the estimate's cluster (numbers stay finite)."""
 
@@ -334,7 +339,7 @@ class ParticleFilter:
                                            self.config.cluster_min_size)
         self._estimate = self._cluster_estimate()
         self._estimate_odometry = self._odometry
-        self._decide_localized(beams)
+        self._decide_localized(beams, scan)
         self.status.updated = True
         self.status.particles = len(self.particles)
         self.status.clusters = self._clusters.count
@@ -457,7 +462,7 @@ class ParticleFilter:
             poses.append(np.array([mean.x, mean.y, mean.theta]))
         return poses
 
-    def _decide_localized(self, beams: Beams | None) -> None:
+    def _decide_localized(self, beams: Beams | None, scan: ScanData | None = None) -> None:
         config = self.config
         share = float(self._clusters.weights[0]) if self._clusters.count else 0.0
         pose = np.array([self._estimate.x, self._estimate.y, self._estimate.theta])
@@ -498,6 +503,8 @@ class ParticleFilter:
             and heading_std <= config.localized_max_heading_std
         )
         self._confirmations = self._confirmations + 1 if confident else 0
+        if self._confirmations >= config.localized_confirmations and config.see_through_check and scan is not None:
+            self._refuse_seen_through(pose, scan)
         if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
             search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
             self.rivals, odds = self._weigh_rivals(search)
@@ -511,6 +518,21 @@ class ParticleFilter:
         if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
             self._ledger.clear()  # a withdrawal starts it afresh from the scans then
             self._contested, self._withdrawn_from = False, None
+
+    def _refuse_seen_through(self, pose: np.ndarray, scan: ScanData) -> None:
+        """No declaration at a place where more than see_through_max_share of the returned beams read through
+        its walls (unexpected_obstacles.seen_through, within the declaration limits of the estimate): other robots
+        hid what tells it from the robot's place."""
+        config = self.config
+        beams = select_beams(scan, SEE_THROUGH_BEAMS)
+        through = int(np.count_nonzero(seen_through(
+            self._map_ranges, pose, beams, config.see_through_margin,
+            (config.localized_max_position_std, config.localized_max_heading_std))))
+        returned = int(np.count_nonzero(beams.returned))
+        if through > config.see_through_max_share * returned:
+            self._confirmations = 0
+            self.status.event = (f"not localized at ({pose[0]:.2f}, {pose[1]:.2f}): {through} of {returned} beams "
+                                 f"read {config.see_through_margin:g} m or more beyond the map's walls there")
 
     def _follow(self, search: PlaceSearch, with_estimate: bool = True) -> int:
         """Enter the estimate's place and every place the search found explaining the recent scans within

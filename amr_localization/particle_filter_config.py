@@ -82,6 +82,15 @@ class ParticleFilterConfig(Config):
     unexpected_min_cluster_share: float = parameter(0.5, above=0.0, maximum=1.0, live=True)
     """the heaviest cluster's share of the weight before beams are judged against its estimate (while the
     particles are spread there is no estimate to judge by)."""
+    see_through_check: bool = parameter(True, live=True)
+    """no declaration of localized where more than see_through_max_share of the scan's returned beams read
+    see_through_margin or more beyond the map's range at the estimate and at every pose within the declaration
+    limits (localized_max_position_std, localized_max_heading_std) of it: they went through a wall of the map, so
+    the place is not the robot's (other robots hiding the walls that tell it apart; unexpected_obstacles.py)."""
+    see_through_margin: float = parameter(0.15, minimum=0.01, maximum=10.0, live=True)
+    """m: a returned beam this much longer than the map's range went through a wall of the map."""
+    see_through_max_share: float = parameter(0.05, minimum=0.0, maximum=1.0, live=True)
+    """share of the returned beams that may read through a wall at a place localized is declared at."""
     likelihood_exponent: float = parameter(0.1, minimum=0.001, maximum=1.0, live=True)
     """a scan's log-likelihood is scaled by this (beams are correlated); beacon ranges count fully."""
     tempering_min_ess_ratio: float = parameter(0.8, above=0.0, maximum=1.0, live=True)
