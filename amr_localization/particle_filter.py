@@ -503,8 +503,6 @@ class ParticleFilter:
             and heading_std <= config.localized_max_heading_std
         )
         self._confirmations = self._confirmations + 1 if confident else 0
-        if self._confirmations >= config.localized_confirmations and config.see_through_check and scan is not None:
-            self._refuse_seen_through(pose, scan)
         if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
             search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
             self.rivals, odds = self._weigh_rivals(search)
@@ -514,6 +512,10 @@ class ParticleFilter:
                 self._confirmations = 0
                 self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
                                      "and the evidence so far does not rule them out")
+        # last (the rival search gives the other places their particles, so it goes first): no place the scan reads
+        # through the walls of
+        if self._confirmations >= config.localized_confirmations and config.see_through_check and scan is not None:
+            self._refuse_seen_through(pose, scan)
         self._localized = self._confirmations >= config.localized_confirmations
         if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
             self._ledger.clear()  # a withdrawal starts it afresh from the scans then
