@@ -19,7 +19,8 @@ The navigator of one robot runs them on every observation it drives with the pat
    a mark's bearing reaching `clear_distance` beyond it): the robot then plans again on the map.
    **2b. Back off** from what no post explains: stopped for `yield_timeout` by unmapped returns while no robot on
    the board stands on its stretch of path (every plan around them failed), the robot drives to the nearest place
-   `mark_range` from those returns, waits there `yield_timeout`, then plans to its goal again. What stands there
+   `mark_range` from those returns (in a dead end shorter than that: as far from them as the dead end goes, if
+   that is two radii farther than it stands), waits there `yield_timeout`, then plans to its goal again. What stands there
    may be a robot whose filter is not sure where it is (it posts no position, so rules 3-7 do not see it); in a
    dead end the robot waiting at its mouth blocks both its way out and the view its filter needs.
 3. **Right of way** (two robots face to face in a corridor one robot wide, or crossing). Every robot
@@ -127,6 +128,7 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
+from scipy.ndimage import distance_transform_edt, label
 
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
@@ -281,6 +283,36 @@ def place_aside(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray,
         if found is not None:
             return found
     return None
+
+
+def farthest_place(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray) -> tuple[tuple[float, float], float] | None:
+    """The cell reachable from `start` (4-connected over the cells where the robot fits; those clear of the safety
+    margin if the start has any such neighbour) farthest from every point of `avoid` (N, 2), and that distance (m);
+    None if `avoid` is empty or the start is off the map. Where no place lies a given distance away (a dead end
+    shorter than that), the way as far as it goes."""
+    avoid = np.asarray(avoid, dtype=float).reshape(-1, 2)
+    grid = costmap.grid
+    row, col = (int(v) for v in grid.world_to_cell(start[0], start[1]))
+    if len(avoid) == 0 or not grid.inside(row, col):
+        return None
+    seeds = np.zeros(costmap.shape, dtype=bool)
+    rows, cols = grid.world_to_cell(avoid[:, 0], avoid[:, 1])
+    inside = grid.inside(rows, cols)
+    seeds[np.asarray(rows)[inside], np.asarray(cols)[inside]] = True
+    if not seeds.any():
+        return None
+    away = distance_transform_edt(~seeds) * grid.resolution
+    for passable in (~costmap.inflated, ~costmap.lethal):
+        walk = passable.copy()
+        walk[row, col] = True  # the robot stands where it stands, whatever the marks say
+        parts, _ = label(walk)
+        reach = parts == parts[row, col]
+        if reach.sum() > 1:
+            break
+    score = np.where(reach, away, -1.0)
+    best = np.unravel_index(int(np.argmax(score)), score.shape)
+    x, y = costmap.centre(best[0], best[1])
+    return (float(x), float(y)), float(score[best])
 
 
 def _breadth_first(costmap, passable, start, avoid, distance, search):
@@ -710,9 +742,17 @@ class Traffic:
         waiting at its mouth blocks both its way out and the view its filter needs."""
         config = self.config
         discs = [post.pose[:2] for post in self.board.others(self.name) if post.pose is not None]
-        solid = np.concatenate([np.asarray(points, dtype=float).reshape(-1, 2), np.array(discs).reshape(-1, 2)])
-        marked = costmap.with_obstacles(solid, config.robot_radius) if len(solid) else costmap
+        # a return is a point on a surface, marked as the cell it lies in (the costmap keeps the robot's centre a
+        # radius from it, as from a wall); a posted robot is its disc. Returns marked as discs would put the
+        # robot's own cell inside them when what it backs off from stands closer than two radii: no way out.
+        marked = costmap.with_obstacles(points, 0.0).with_obstacles(np.array(discs).reshape(-1, 2),
+                                                                     config.robot_radius)
         spot = place_aside(marked, pose[:2], points, config.mark_range, _whole_map(costmap))
+        if spot is None and len(points):  # a dead end shorter than mark_range: back off as far as it goes
+            farthest = farthest_place(marked, pose[:2], points)
+            standing = float(np.hypot(*(np.asarray(points, dtype=float).reshape(-1, 2) - pose[:2]).T).min())
+            if farthest is not None and farthest[1] >= standing + 2.0 * config.robot_radius:
+                spot = farthest[0]
         detour = None
         if spot is not None:
             try:

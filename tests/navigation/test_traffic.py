@@ -322,3 +322,33 @@ def test_a_robot_stopped_by_something_no_robot_on_the_board_explains_backs_off_a
     posted = Traffic("a", 0, board, config)
     for stamp in np.arange(0.0, 12.0, 0.1):
         assert posted.advise(pose, face_scan(0.22), path, costmap, 0.2, float(stamp)).detour is None
+
+
+def test_in_a_dead_end_shorter_than_mark_range_a_robot_backs_off_as_far_as_it_goes():
+    """Rule 2b where no place lies mark_range from what stops it (a dead end 1 m deep) and it stands closer than two
+    radii to it (a robot not sure where it is, 0.19 m ahead): it backs off to the dead end's far end. Before, the
+    returns were marked as robot-sized discs, the robot's own cell lay inside them, and no place was ever found
+    (fleet `perfect 15`: two robots boxed an unlocalized one in a corridor for 150 s)."""
+    from amr_navigation.traffic import Phase, Traffic, TrafficBoard, farthest_place
+
+    costmap = Costmap(open_grid(18, 60))  # a corridor 0.4 m wide, 1.5 m long, closed at both ends
+    config = TrafficConfig(yield_timeout=10.0)
+    pose = (0.9, 0.225, 0.0)
+    path = np.array([[0.9, 0.225], [1.4, 0.225]])
+    rules = Traffic("a", 0, TrafficBoard(), config)
+    backed = None
+    for stamp in np.arange(0.0, 10.5, 0.1):
+        advice = rules.advise(pose, face_scan(0.19), path, costmap, 0.2, float(stamp))
+        if advice.detour is not None:
+            backed = (float(stamp), advice)
+            break
+    assert backed is not None and backed[0] >= 10.0, backed
+    stamp, advice = backed
+    assert any("backing off" in event for event in advice.events), advice.events
+    spot = advice.detour[-1]
+    assert spot[0] < 0.3 and 0.1 < spot[1] < 0.35, spot  # at the far end of the dead end
+    assert rules.phase is Phase.YIELD
+
+    place, distance = farthest_place(costmap, (0.9, 0.225), np.array([[1.09, 0.225]]))
+    assert place[0] < 0.3 and distance > 0.8
+    assert farthest_place(costmap, (0.9, 0.225), np.zeros((0, 2))) is None
