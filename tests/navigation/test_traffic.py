@@ -286,6 +286,19 @@ def test_the_last_of_a_knot_of_three_gives_way_to_the_robot_it_blocks():
         assert advice.detour is None and rules.counters.yields == 0, advice
 
 
+def backed_off(rules, pose, scan: ScanData, path: np.ndarray, costmap: Costmap, timeout: float):
+    """Advise `rules` every 0.1 s with the same scan until it hands out a detour: (stamp, advice), asserting that
+    it stood still until then, that it backed off no sooner than `timeout` and that it said so."""
+    for stamp in np.arange(0.0, timeout + 0.5, 0.1):
+        advice = rules.advise(pose, scan, path, costmap, 0.2, float(stamp))
+        if advice.detour is not None:
+            assert stamp >= timeout, stamp
+            assert any("backing off" in event for event in advice.events), advice.events
+            return float(stamp), advice
+        assert advice.speed_limit == 0.0 or advice.replan_around is not None
+    raise AssertionError(f"no backing off within {timeout + 0.5:g} s")
+
+
 def test_a_robot_stopped_by_something_no_robot_on_the_board_explains_backs_off_and_comes_back():
     """Rule 2b: stopped for yield_timeout by returns not on the map that no posted robot explains (a robot whose filter
     is not sure where it is posts no position), with no way around, the robot backs off to a place mark_range from
@@ -298,16 +311,7 @@ def test_a_robot_stopped_by_something_no_robot_on_the_board_explains_backs_off_a
     path = np.array([[2.0, 0.75], [3.6, 0.75]])
     pose = (2.0, 0.75, 0.0)
     rules = Traffic("a", 0, TrafficBoard(), config)
-    backed = None
-    for stamp in np.arange(0.0, 10.5, 0.1):
-        advice = rules.advise(pose, face_scan(0.22), path, costmap, 0.2, float(stamp))
-        if advice.detour is not None:
-            backed = (float(stamp), advice)
-            break
-        assert advice.speed_limit == 0.0 or advice.replan_around is not None
-    assert backed is not None and backed[0] >= 10.0, backed
-    stamp, advice = backed
-    assert any("backing off" in event for event in advice.events), advice.events
+    stamp, advice = backed_off(rules, pose, face_scan(0.22), path, costmap, config.yield_timeout)
     spot = advice.detour[-1]
     assert math.hypot(spot[0] - 2.2, spot[1] - 0.75) >= config.mark_range - 0.03, spot
     assert rules.phase is Phase.YIELD and rules.counters.yields == 1
@@ -336,15 +340,7 @@ def test_in_a_dead_end_shorter_than_mark_range_a_robot_backs_off_as_far_as_it_go
     pose = (0.9, 0.225, 0.0)
     path = np.array([[0.9, 0.225], [1.4, 0.225]])
     rules = Traffic("a", 0, TrafficBoard(), config)
-    backed = None
-    for stamp in np.arange(0.0, 10.5, 0.1):
-        advice = rules.advise(pose, face_scan(0.19), path, costmap, 0.2, float(stamp))
-        if advice.detour is not None:
-            backed = (float(stamp), advice)
-            break
-    assert backed is not None and backed[0] >= 10.0, backed
-    stamp, advice = backed
-    assert any("backing off" in event for event in advice.events), advice.events
+    stamp, advice = backed_off(rules, pose, face_scan(0.19), path, costmap, config.yield_timeout)
     spot = advice.detour[-1]
     assert spot[0] < 0.3 and 0.1 < spot[1] < 0.35, spot  # at the far end of the dead end
     assert rules.phase is Phase.YIELD
