@@ -16,7 +16,9 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   cut off the lattice (every edge of it: a box on a vertex would block a way round that entered it from another
   side too), and the fleet is planned again at once from where the robots stand, the stuck robot from the vertex
   it came from (HOLD, then the new routes; every robot drives by odometry where its localizer is unsure, so no
-  localization is waited for). The cut edges stay cut until a new map.
+  localization is waited for). The cut edges stay cut until a new map, or until a plan cannot be made with them
+  (in a tree maze a vertex cut off may be the only way to a goal): then they are restored and the fleet is planned
+  on the whole lattice.
 - A plan that cannot be made (robots on one goal vertex, no lattice, no solution) is NONE to everyone with the
   reason, and tried again `retry_period` s later. A robot's goal changed (its status's goal is not the plan's),
   a new map: the plan is dropped (NONE to everyone) and made again once every robot is localized.
@@ -174,14 +176,18 @@ class FleetCoordinator:
         try:
             if self._lattice is None:
                 self._lattice = lattice(self._costmap, self.spacing)
-            graph = self._lattice.without(self.cut)
             restart, self._restart = self._restart, {}
-            starts: list[int] = []
-            for robot, status in enumerate(statuses):
-                taken = starts + [vertex for other, vertex in restart.items() if other != robot]
-                starts.append(restart[robot] if robot in restart else graph.nearest(status.x, status.y, taken=taken))
-            goals = [graph.nearest(*goal) for goal in self._goals]
-            plan = improve(plan_lacam(graph, starts, goals))
+            try:
+                plan = self._plan_on(self._lattice.without(self.cut), statuses, restart)
+            except (PlanningError, ValueError) as error:
+                if not self.cut:
+                    raise
+                # in a tree maze a vertex cut off may be the only way to a goal: the cuts were guesses at something
+                # the map does not hold, and no plan at all is worse than meeting it again (the stuck rule stays)
+                self.events.append(f"no fleet plan with {len(self.cut)} lattice edges cut off ({error}): they are "
+                                   "restored, the fleet planned on the whole lattice")
+                self.cut = []
+                plan = self._plan_on(self._lattice, statuses, restart)
         except (PlanningError, ValueError) as error:
             self.failures.append(str(error))
             self._retry_at = max(status.stamp for status in statuses) + self.retry_period
@@ -193,6 +199,16 @@ class FleetCoordinator:
         self.schedule = Schedule(plan, self._goals)
         self._moving_since = [max(status.stamp for status in statuses)] * len(self.names)
         return self._routes()
+
+    def _plan_on(self, graph: Lattice, statuses: list, restart: dict[int, int]):
+        """The fleet plan on `graph` from the robots' vertices (`restart`'s, else the free vertex nearest each) to
+        the vertices nearest their goals; PlanningError or ValueError when none is found."""
+        starts: list[int] = []
+        for robot, status in enumerate(statuses):
+            taken = starts + [vertex for other, vertex in restart.items() if other != robot]
+            starts.append(restart[robot] if robot in restart else graph.nearest(status.x, status.y, taken=taken))
+        goals = [graph.nearest(*goal) for goal in self._goals]
+        return improve(plan_lacam(graph, starts, goals))
 
     def route(self, name: str) -> Route:
         """What `name` is told now by the plan in force (FOLLOW), NONE without one."""

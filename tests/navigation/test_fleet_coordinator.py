@@ -195,3 +195,26 @@ def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_arou
     # a new map forgets the cut edges
     coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
     assert coordinator.cut == []
+
+
+def test_cut_edges_that_leave_a_goal_unreachable_are_restored_and_the_fleet_planned_on_the_whole_lattice():
+    """A corridor without a way round (a tree maze's corridor): r1 stuck on its way has the vertex it could not reach
+    cut off, which leaves its goal unreachable. Rather than no plan at all (`perfect 15`: every retry failed for the
+    rest of the run), the cut edges are restored and the fleet planned as before, from the vertex it came from."""
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0)
+    coordinator.set_costmap(corridor_costmap())
+    goal = (1.6, 0.0)
+    coordinator.observe("r1", 0.0, -1.6, 0.0, True, goal)
+    coordinator.hold()
+    assert coordinator.plan()["r1"].state == FOLLOW
+    vertices = coordinator.schedule.plan.vertices(0)
+    coordinator.observe("r1", 15.5, -1.6, 0.0, True, goal)  # stuck where it started
+    assert coordinator.schedule is None and coordinator.cut
+    coordinator.take_events()
+    coordinator.hold()
+    again = coordinator.plan()["r1"]
+    assert again.state == FOLLOW and again.plan == 2, again.reason
+    assert coordinator.cut == []
+    assert any("restored" in event for event in coordinator.take_events())
+    assert coordinator.schedule.plan.vertices(0)[0] == vertices[0]
+    assert coordinator.failures == []
