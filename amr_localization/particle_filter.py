@@ -462,7 +462,7 @@ class ParticleFilter:
             poses.append(np.array([mean.x, mean.y, mean.theta]))
         return poses
 
-    def _decide_localized(self, beams: Beams | None, scan: ScanData | None = None) -> None:
+    def _decide_localized(self, beams: Beams | None, scan: ScanData | None) -> None:
         config = self.config
         share = float(self._clusters.weights[0]) if self._clusters.count else 0.0
         pose = np.array([self._estimate.x, self._estimate.y, self._estimate.theta])

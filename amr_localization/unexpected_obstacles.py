@@ -98,13 +98,13 @@ def seen_through(map_ranges: MapRanges, pose: np.ndarray, beams: Beams, margin: 
         return np.zeros(len(beams.ranges), dtype=bool)
     position, heading = tolerance
     centre = np.asarray(pose, dtype=float).reshape(3)
-    longest = None
+    at_pose = map_ranges.expected(centre, beams)
+    longest = at_pose
     for dx in (-position, 0.0, position):
         for dy in (-position, 0.0, position):
             for dtheta in (-heading, 0.0, heading):
-                expected = map_ranges.expected(centre + np.array([dx, dy, dtheta]), beams)
-                longest = expected if longest is None else np.maximum(longest, expected)
-    at_pose = map_ranges.expected(centre, beams)
+                if dx or dy or dtheta:  # the pose itself is cast once, above
+                    longest = np.maximum(longest, map_ranges.expected(centre + np.array([dx, dy, dtheta]), beams))
     if len(at_pose) > 1:
         slope = np.gradient(at_pose, beams.steps * beams.angle_increment)
         cell = map_ranges.resolution * np.sqrt(1.0 + (slope / np.maximum(at_pose, 1e-6)) ** 2)
