@@ -7,7 +7,10 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
 - **NONE** until every robot's latest status says localized, with a goal, within `window` s of the others: the
   navigators go by the traffic rules meanwhile (as run_fleet's coordination "plan" does at library level).
 - **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_plan.lattice, `spacing`),
-  each robot from the free vertex nearest to it to the vertex nearest its goal, `improve(plan_lacam(...))`.
+  each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_plan.assign:
+  the assignment of least squared way lengths, the way straight to a vertex the robot sees, then along the
+  lattice; not each robot's nearest free vertex, which for the second of two robots in one maze cell may lie
+  beyond a wall), `improve(plan_lacam(...))`.
 - **FOLLOW**: each robot's waypoints it may drive to now (amr_navigation.fleet_schedule.Schedule.route from where
   it last said it stood), the last one its goal when `final`. Every status moves the schedule on
   (Schedule.report), and every robot whose span (progress, allowed) changed is told again.
@@ -15,7 +18,8 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   the map in the way: its path follower stops for it, and tries again every second) has that waypoint's vertex
   cut off the lattice (every edge of it: a box on a vertex would block a way round that entered it from another
   side too), and the fleet is planned again at once from where the robots stand, the stuck robot from the vertex
-  it came from (HOLD, then the new routes; every robot drives by odometry where its localizer is unsure, so no
+  it came from if it stands within a spacing of it (else from where it stands, as the others; never from a vertex
+  cut off) (HOLD, then the new routes; every robot drives by odometry where its localizer is unsure, so no
   localization is waited for). The cut edges stay cut until a new map, or until a plan cannot be made with them
   (in a tree maze a vertex cut off may be the only way to a goal): then they are restored and the fleet is planned
   on the whole lattice.
@@ -36,7 +40,7 @@ from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_navigation.fleet_schedule import STOPPED_SHORT, HandOver, Schedule, legs
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_plan import Lattice, improve, lattice, plan_lacam
+from amr_planning.fleet_plan import Lattice, assign, improve, lattice, plan_lacam
 from amr_planning.planner import Planner
 from amr_util.scan import ScanData
 
@@ -93,7 +97,7 @@ class FleetCoordinator:
         self._replan = False
         """a stuck robot: plan again now, from where the robots stand."""
         self._restart: dict[int, int] = {}
-        """a stuck robot -> the vertex it is planned again from (the one it came from)."""
+        """a stuck robot -> the vertex it is planned again from (the one it came from, if it is near it)."""
         self.statuses: dict[str, RobotStatus] = {}
         self.schedule: Schedule | None = None
         self.plans = 0
@@ -201,14 +205,19 @@ class FleetCoordinator:
         return self._routes()
 
     def _plan_on(self, graph: Lattice, statuses: list, restart: dict[int, int]):
-        """The fleet plan on `graph` from the robots' vertices (`restart`'s, else the free vertex nearest each) to
-        the vertices nearest their goals; PlanningError or ValueError when none is found."""
-        starts: list[int] = []
-        for robot, status in enumerate(statuses):
-            taken = starts + [vertex for other, vertex in restart.items() if other != robot]
-            starts.append(restart[robot] if robot in restart else graph.nearest(status.x, status.y, taken=taken))
-        goals = [graph.nearest(*goal) for goal in self._goals]
-        return improve(plan_lacam(graph, starts, goals))
+        """The fleet plan on `graph` from the robots' vertices (`restart`'s, else assigned to where they stand:
+        amr_planning.fleet_plan.assign) to the vertices nearest their goals; PlanningError or ValueError when
+        none is found."""
+        moving = [robot for robot in range(len(statuses)) if robot not in restart]
+        # a vertex whose every edge is cut is where a robot was stuck: no robot is planned from it
+        blocked = [vertex for vertex in range(len(graph)) if not graph.neighbours[vertex]
+                   and self._lattice.neighbours[vertex]]
+        starts = dict(restart)
+        chosen = assign(graph, self._costmap, [(statuses[robot].x, statuses[robot].y) for robot in moving],
+                        taken=list(restart.values()) + blocked)
+        starts.update(zip(moving, chosen))
+        goals = [graph.nearest(*goal) for goal in self._goals]  # two goals on one vertex: too close, refused
+        return improve(plan_lacam(graph, [starts[robot] for robot in range(len(statuses))], goals))
 
     def route(self, name: str) -> Route:
         """What `name` is told now by the plan in force (FOLLOW), NONE without one."""
@@ -241,12 +250,16 @@ class FleetCoordinator:
 
     def _stuck(self, robot: int) -> None:
         """The robot has not reached its next waypoint for stuck_time s: cut that vertex off, plan again now (the
-        robot from the vertex it came from)."""
+        robot from the vertex it came from if it stands within a spacing of it: it may have been driven far from
+        it, around something, by its path follower)."""
         vertices = self.schedule.plan.vertices(robot)
         progress = self.schedule.progress[robot]
         came_from, blocked = vertices[progress], vertices[progress + 1]
         self.cut += [(blocked, other) for other in self._lattice.neighbours[blocked]]
-        self._restart[robot] = came_from
+        status = self.statuses[self.names[robot]]
+        x, y = self._lattice.points[came_from]
+        if math.hypot(status.x - x, status.y - y) <= self.spacing:
+            self._restart[robot] = came_from
         x, y = self._lattice.points[blocked]
         self.events.append(f"{self.names[robot]} has not reached its next waypoint ({x:.2f}, {y:.2f}) for "
                            f"{self.stuck_time:g} s: that lattice vertex cut off ({len(self.cut)} edges cut), the fleet "

@@ -131,6 +131,53 @@ def lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
     return Lattice(points, tuple(tuple(sorted(n)) for n in neighbours), float(spacing))
 
 
+UNREACHABLE = 1e6
+"""m, the way length standing for "no way" in `assign` (finite: the assignment solver needs finite costs)."""
+
+
+def assign(graph: Lattice, costmap: Costmap, points, taken=(), reach: float = 1.5) -> list[int]:
+    """Distinct vertices for the points (N, 2), e.g. the robots of a fleet where they stand: the assignment that
+    least sums the squared lengths of the ways from each point to its vertex (scipy's linear_sum_assignment).
+
+    The way from a point to a vertex v goes straight to a *home* vertex u, then along the lattice:
+    |p - u| + spacing * steps(u, v). A point's homes are the vertices within `reach` spacings it sees (the segment
+    outside the costmap's lethal cells), or the vertex nearest to it if it sees none (a point squeezed against a
+    wall). Why not each point's nearest free vertex: two robots in one maze cell have one nearest vertex; the
+    second nearest may lie beyond a wall, and the robot planned from there drives the long way round to it,
+    against the plan. Squared lengths keep robots in a corridor in their order. `taken`: vertices no point may
+    have. PlanningError when there are fewer vertices than points or a point is not finite."""
+    from scipy.optimize import linear_sum_assignment
+
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not np.isfinite(points).all():
+        raise PlanningError(Reason.INVALID, f"points {points.tolist()} must be finite")
+    free = np.setdiff1d(np.arange(len(graph)), np.asarray(list(taken), dtype=int))
+    if len(points) > len(free):
+        raise PlanningError(Reason.INVALID, f"no vertex left: {len(points)} points, {len(free)} of the "
+                                            f"{len(graph)} vertices free")
+    if len(points) == 0:
+        return []
+    cost = np.empty((len(points), len(free)))
+    steps: dict[int, np.ndarray] = {}
+    for row, point in enumerate(points):
+        gaps = np.hypot(*(graph.points - point).T)
+        near = np.flatnonzero(gaps <= reach * graph.spacing)
+        homes = near[costmap.segments_free(np.repeat(point[None], len(near), axis=0), graph.points[near])]
+        if len(homes) == 0:
+            homes = np.array([int(np.argmin(gaps))])
+        best = np.full(len(graph), np.inf)
+        for home in homes:
+            if home not in steps:
+                steps[home] = graph.distances(int(home)).astype(float)
+                steps[home][steps[home] < 0] = np.inf
+            best = np.minimum(best, gaps[home] + graph.spacing * steps[home])
+        cost[row] = np.minimum(best[free], UNREACHABLE)
+    rows, columns = linear_sum_assignment(cost ** 2)
+    chosen = np.empty(len(points), dtype=int)
+    chosen[rows] = free[columns]
+    return chosen.tolist()
+
+
 # -- low level: one robot in space and time --------------------------------------------------------------
 
 

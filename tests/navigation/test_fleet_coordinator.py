@@ -218,3 +218,27 @@ def test_cut_edges_that_leave_a_goal_unreachable_are_restored_and_the_fleet_plan
     assert any("restored" in event for event in coordinator.take_events())
     assert coordinator.schedule.plan.vertices(0)[0] == vertices[0]
     assert coordinator.failures == []
+
+
+def test_a_robot_stuck_far_from_the_vertex_it_came_from_is_planned_again_from_where_it_stands():
+    """The ring corridor: r1, planned along the bottom, was driven round by its path follower and stands stuck at
+    the top left, more than a spacing from the vertex it came from. Planning it from that vertex (`perfect 15`: 1.2 m
+    away, the same waypoint stuck every 15 s to the end of the run) would hand it a route that starts where it is
+    not; it is planned from a vertex where it stands."""
+    walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
+             [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
+    world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0)
+    coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
+    goal = (1.0, -0.2)
+    coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
+    coordinator.hold()
+    assert coordinator.plan()["r1"].state == FOLLOW
+    came_from = coordinator.schedule.plan.vertices(0)[0]
+    coordinator.observe("r1", 15.5, -1.0, 1.0, True, goal)  # stuck, at the top left
+    assert coordinator.schedule is None and coordinator.plan_due()
+    coordinator.hold()
+    assert coordinator.plan()["r1"].state == FOLLOW
+    start = coordinator.schedule.plan.graph.points[coordinator.schedule.plan.vertices(0)[0]]
+    assert coordinator.schedule.plan.vertices(0)[0] != came_from
+    assert math.hypot(start[0] + 1.0, start[1] - 1.0) < 0.4

@@ -16,7 +16,7 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_plan import (Lattice, dependencies, improve, lattice, plan_lacam, plan_together)
+from amr_planning.fleet_plan import (Lattice, assign, dependencies, improve, lattice, plan_lacam, plan_together)
 
 
 def graph_of(points, edges) -> Lattice:
@@ -211,3 +211,40 @@ def test_grid_pitch_is_the_cell_of_a_grid_maze_and_refuses_what_is_none():
     assert grid_pitch({"walls": walls}) == pytest.approx(0.5)
     with pytest.raises(ValueError, match="not a grid maze"):
         grid_pitch({"walls": [[0.0, 0.0, 0.02, 0.0]]})
+
+
+def two_rows_costmap() -> Costmap:
+    """Two corridors of two cells 0.6 m wide, one above the other, joined only at the left (x < 0.6)."""
+    walls = [[0, 0, 1.2, 0], [1.2, 0, 1.2, 1.2], [1.2, 1.2, 0, 1.2], [0, 1.2, 0, 0], [0.6, 0.6, 1.2, 0.6]]
+    world = world_from_dict({"name": "two_rows", "wall_thickness": 0.05, "walls": walls, "start": [0.3, 0.3, 0]})
+    return Costmap(rasterize_world(world, 0.02))
+
+
+def test_assign_keeps_two_robots_in_one_cell_on_their_side_of_the_wall_and_in_their_order():
+    """Two robots in the bottom right cell: the second one's nearest free vertex is the cell above, beyond the wall
+    (what planning each from its nearest free vertex gave: in `perfect 15` that robot drove the long way round and
+    stood stuck far from the vertex it was planned from). assign gives each a vertex it reaches without that detour,
+    the left one the left vertex."""
+    costmap = two_rows_costmap()
+    graph = lattice(costmap, 0.6)
+    vertex = {name: graph.nearest(*centre) for name, centre in
+              {"bottom_left": (0.3, 0.3), "bottom_right": (0.9, 0.3), "top_right": (0.9, 0.9)}.items()}
+    assert np.allclose(graph.points[vertex["top_right"]], (0.9, 0.9), atol=0.05)
+    right, left = (0.95, 0.25), (0.85, 0.42)
+    greedy = [graph.nearest(*right)]
+    greedy.append(graph.nearest(*left, taken=greedy))
+    assert greedy == [vertex["bottom_right"], vertex["top_right"]]  # beyond the wall
+    assert assign(graph, costmap, [right, left]) == [vertex["bottom_right"], vertex["bottom_left"]]
+    assert assign(graph, costmap, [left, right]) == [vertex["bottom_left"], vertex["bottom_right"]]
+    # a vertex taken (a stuck robot's) is never given; the way goes on along the lattice past it
+    assert assign(graph, costmap, [left], taken=[vertex["bottom_left"]]) == [vertex["bottom_right"]]
+    assert assign(graph, costmap, []) == []
+
+
+def test_assign_refuses_more_points_than_vertices_and_points_that_are_not_finite():
+    costmap = two_rows_costmap()
+    graph = lattice(costmap, 0.6)
+    with pytest.raises(PlanningError, match="no vertex left"):
+        assign(graph, costmap, [(0.3, 0.3)] * (len(graph) + 1))
+    with pytest.raises(PlanningError, match="finite"):
+        assign(graph, costmap, [(math.nan, 0.3)])
