@@ -23,10 +23,10 @@ world:=<file> --composed` started as a process of its own (every node of every r
 particle filters included; the stack's own configuration, config/*.yaml), and each robot's `/<name>/status`
 read until every robot is at its goal or --duration simulated seconds have passed (with --coordination plan the
 stack runs `coordination:=plan` and its fleet_planner node, with the lattice spacing of the library level; robots
-at goal, contacts,
-falsely localized, withdrawals and time unsure from those statuses; yields, stops and replans are not on a
-topic: '-'). One world at a time (--jobs is ignored); run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a
-ROS_DOMAIN_ID of its own (the child inherits both).
+at goal, contacts, falsely localized (each spell printed: robot, from-to s, the largest error), withdrawals and
+time unsure from those statuses; yields, stops and replans are not on a topic: '-'). --keep DIR keeps each run's
+world YAML and amr-bringup log in DIR. One world at a time (--jobs is ignored); run it under
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child inherits both).
 """
 
 from __future__ import annotations
@@ -101,6 +101,8 @@ def through_ros(args: tuple) -> dict:
     names = [robot["name"] for robot in data["robots"]]
     last: dict = {}
     runs = {name: RobotRun(name) for name in names}  # counted as the library level's run_fleet does
+    spells: dict = {name: [] for name in names}
+    """per robot: [begin, end, largest error] of each time it was falsely localized (end None: to the last)."""
 
     def watch(name):
         def on_status(message) -> None:
@@ -109,7 +111,15 @@ def through_ros(args: tuple) -> dict:
             run = runs[name]
             run.note_localized(message.sim_time, message.localized,
                                max(0.0, message.sim_time - before.sim_time) if before is not None else 0.0)
-            run.false_localized_steps += int(message.localized and message.position_error > FALSE_LOCALIZED_ERROR)
+            false = bool(message.localized and message.position_error > FALSE_LOCALIZED_ERROR)
+            run.false_localized_steps += int(false)
+            spell = spells[name][-1] if spells[name] and spells[name][-1][1] is None else None
+            if false and spell is None:
+                spells[name].append([message.sim_time, None, message.position_error])
+            elif false:
+                spell[2] = max(spell[2], message.position_error)
+            elif spell is not None:
+                spell[1] = message.sim_time
             run.reached, run.wall_collisions, run.robot_collisions = (
                 message.goal_reached, message.wall_collisions, message.robot_collisions)
         return on_status
@@ -149,6 +159,10 @@ def through_ros(args: tuple) -> dict:
             log.seek(0)
             errors = log.read()
             log.close()
+            if KEEP is not None:  # the world and the stack's log, to trace a run
+                KEEP.mkdir(parents=True, exist_ok=True)
+                (KEEP / path.name).write_text(path.read_text())
+                (KEEP / f"{data['name']}.log").write_text(errors)
             executor.shutdown()
             node.destroy_node()
             context.try_shutdown()
@@ -157,8 +171,14 @@ def through_ros(args: tuple) -> dict:
     result = FleetRun(list(runs.values()), max((m.sim_time for m in last.values()), default=math.nan),
                       time.perf_counter() - began, reason).as_dict()
     result.update(family=family, seed=seed, size=size, localization="filter (ROS)", yields="-", stops="-",
-                  replans_around="-", unreached=[name for name in names if not runs[name].reached])
+                  replans_around="-", unreached=[name for name in names if not runs[name].reached],
+                  false_spells=[f"{name} {begin:.1f}-{'end' if end is None else f'{end:.1f}'} s "
+                                f"({largest:.2f} m off)" for name in names for begin, end, largest in spells[name]])
     return result
+
+
+KEEP: Path | None = None
+"""--keep: the folder each ROS run's world and log are kept in."""
 
 
 def _first_localized(result: dict) -> str:
@@ -185,7 +205,11 @@ def main(argv=None) -> int:
                         help="rules: each robot's traffic rules; plan: the fleet planned together once every robot is localized")
     parser.add_argument("--ros", action="store_true",
                         help="through ROS: amr-bringup fleet_navigation --composed per world, one at a time")
+    parser.add_argument("--keep", type=Path, metavar="DIR",
+                        help="with --ros: keep each run's world YAML and amr-bringup log in DIR")
     args = parser.parse_args(argv)
+    global KEEP
+    KEEP = args.keep
     if args.ros:
         args.jobs, args.localization = 1, "filter"
     cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
@@ -209,7 +233,9 @@ def main(argv=None) -> int:
                   f"{result['stops']:>6} {result['replans_around']:>7} {result['time']:6.1f} "
                   f"{result['wall_time']:7.1f} {result['withdrawals']:10d} {result['unsure_time']:9.1f}  "
                   f"{_first_localized(result)}" + (f"  not at goal: {', '.join(result['unreached'])}"
-                                                   if result['unreached'] else ""), flush=True)
+                                                   if result['unreached'] else "")
+                  + (f"  falsely localized: {'; '.join(result['false_spells'])}" if result.get('false_spells')
+                     else ""), flush=True)
     robots = sum(r["robots"] for r in results)
     longest = max((p["longest_unsure"] for r in results for p in r["per_robot"]), default=0.0)
     print(f"\ntotal: {sum(r['reached'] for r in results)}/{robots} robots at their goal; "
