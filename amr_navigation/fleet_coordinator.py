@@ -4,8 +4,11 @@ The fleet_planner node (amr_navigation.fleet_planner_node) feeds a `FleetCoordin
 as it comes (where the robot is, whether its localizer is sure, its goal) and the map's costmap, and publishes the
 `Route`s it returns on each robot's fleet_route (amr_interfaces/FleetRoute):
 
-- **NONE** until every robot's latest status says localized, with a goal, within `window` s of the others: the
-  navigators go by the traffic rules meanwhile (as run_fleet's coordination "plan" does at library level).
+- **NONE** until every robot's latest status says localized, with a goal, within `window` s of the others, and
+  has said localized without a break for `settle_time` s: the navigators go by the traffic rules meanwhile (as
+  run_fleet's coordination "plan" does at library level). A filter that has just declared may withdraw within a
+  second (a rival place found: through ROS, `perfect 15`'s r2 declared 1.58 m off and withdrew 0.8 s later), and a
+  plan made from that estimate sends the robot the wrong way.
 - **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_plan.lattice, `spacing`),
   each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_plan.assign:
   the assignment of least squared way lengths, the way straight to a vertex the robot sees, then along the
@@ -23,6 +26,9 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   localization is waited for). The cut edges stay cut until a new map, or until a plan cannot be made with them
   (in a tree maze a vertex cut off may be the only way to a goal): then they are restored and the fleet is planned
   on the whole lattice.
+- **Jumped**: a robot whose status pose moves farther than half a spacing beyond what it could have driven since
+  its last status (JUMP_SPEED) had its estimate moved by its localizer (withdrawn and declared again elsewhere):
+  the plan assumed it was elsewhere, and the fleet is planned again at once from where the robots stand.
 - A plan that cannot be made (robots on one goal vertex, no lattice, no solution) is NONE to everyone with the
   reason, and tried again `retry_period` s later. A robot's goal changed (its status's goal is not the plan's),
   a new map: the plan is dropped (NONE to everyone) and made again once every robot is localized.
@@ -47,6 +53,8 @@ from amr_util.scan import ScanData
 NONE, HOLD, FOLLOW = "NONE", "HOLD", "FOLLOW"
 GOAL_TOLERANCE = 1e-6
 """m a status's goal may differ from the plan's before the goal counts as changed."""
+JUMP_SPEED = 1.0
+"""m/s no robot of the fleet drives faster than (a TurtleBot3 Burger 0.22): a status pose moving faster jumped."""
 
 
 @dataclass(frozen=True)
@@ -76,18 +84,23 @@ class FleetCoordinator:
     """See the module docstring."""
 
     def __init__(self, names: list[str], spacing: float, *, window: float = 0.5, retry_period: float = 10.0,
-                 stuck_time: float = 15.0) -> None:
+                 stuck_time: float = 15.0, settle_time: float = 3.0) -> None:
         if not names:
             raise ValueError("robots: the fleet has no robot")
         if len(set(names)) != len(names):
             raise ValueError(f"robots: a name is listed twice in {names}")
         if not (math.isfinite(spacing) and spacing > 0.0):
             raise ValueError(f"lattice_spacing: must be a positive number of metres, got {spacing!r}")
+        if not (math.isfinite(settle_time) and settle_time >= 0.0):
+            raise ValueError(f"settle_time: must be a number of seconds, 0 or more, got {settle_time!r}")
         self.names = list(names)
         self.spacing = float(spacing)
         self.window = float(window)
         self.retry_period = float(retry_period)
         self.stuck_time = float(stuck_time)
+        self.settle_time = float(settle_time)
+        self._localized_since: dict[str, float] = {}
+        """per robot: the stamp of the first of its latest unbroken run of localized statuses."""
         self.cut: list[tuple[int, int]] = []
         """the lattice edges found blocked (cut until a new map)."""
         self.events: list[str] = []
@@ -134,6 +147,11 @@ class FleetCoordinator:
             raise ValueError(f"{name}: status pose ({x}, {y}) at {stamp} is not finite")
         if goal is not None and not all(math.isfinite(v) for v in goal):
             goal = None
+        before = self.statuses.get(name)
+        if not localized:
+            self._localized_since.pop(name, None)
+        elif stamp < self._localized_since.get(name, math.inf):  # the first, or the clock went back
+            self._localized_since[name] = float(stamp)
         self.statuses[name] = RobotStatus(float(stamp), float(x), float(y), bool(localized),
                                           None if goal is None else (float(goal[0]), float(goal[1])))
         if self.schedule is None:
@@ -142,6 +160,12 @@ class FleetCoordinator:
         planned = self._goals[robot]
         if goal is None or math.hypot(goal[0] - planned[0], goal[1] - planned[1]) > GOAL_TOLERANCE:
             return self.drop(f"{name}'s goal changed")
+        if before is not None and self._jumped(before, self.statuses[name]):
+            self.events.append(f"{name}'s pose jumped {math.hypot(x - before.x, y - before.y):.2f} m in "
+                               f"{stamp - before.stamp:.2f} s (its localizer moved its estimate): the fleet planned "
+                               "again from where the robots stand")
+            self.schedule, self._replan = None, True
+            return {}
         if self.schedule.report(robot, x, y):
             return self._routes()
         if self.schedule.allowed(robot) == self.schedule.progress[robot]:
@@ -154,7 +178,8 @@ class FleetCoordinator:
 
     def plan_due(self) -> bool:
         """No plan in force, the costmap known, and every robot's latest status localized with a goal, all within
-        `window` s of one another (not before `retry_period` s after a failure)."""
+        `window` s of one another, each localized without a break for `settle_time` s (not before `retry_period` s
+        after a failure)."""
         if self._replan and self.schedule is None and self._costmap is not None:
             return True
         if self.schedule is not None or self._costmap is None or len(self.statuses) < len(self.names):
@@ -163,7 +188,9 @@ class FleetCoordinator:
         if not all(status.localized and status.goal is not None for status in statuses):
             return False
         stamps = [status.stamp for status in statuses]
-        return max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
+        settled = all(status.stamp - self._localized_since[name] >= self.settle_time
+                      for name, status in zip(self.names, statuses))
+        return settled and max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
 
     def hold(self) -> dict[str, Route]:
         """HOLD to every robot (while the plan is made)."""
@@ -247,6 +274,11 @@ class FleetCoordinator:
                 self._moving_since[robot] = self.statuses[name].stamp
                 changed[name] = self.route(name)
         return changed
+
+    def _jumped(self, before: RobotStatus, now: RobotStatus) -> bool:
+        """The status pose moved farther than half a spacing beyond JUMP_SPEED times the time between the two."""
+        gap = max(0.0, now.stamp - before.stamp)
+        return math.hypot(now.x - before.x, now.y - before.y) > 0.5 * self.spacing + JUMP_SPEED * gap
 
     def _stuck(self, robot: int) -> None:
         """The robot has not reached its next waypoint for stuck_time s: cut that vertex off, plan again now (the

@@ -33,6 +33,10 @@ class FleetPlannerConfig(Config):
     window: float = parameter(0.5, minimum=0.0, maximum=60.0)
     """s: the robots' latest statuses must all say localized within this much of one another for the fleet to be
     planned (in lockstep they share each observation's stamp)."""
+    settle_time: float = parameter(3.0, minimum=0.0, maximum=600.0)
+    """s (statuses' clock) every robot must have said localized without a break before the fleet is planned: a
+    filter that has just declared may withdraw within a second (a rival place found), and a plan made from that
+    estimate sends the robot the wrong way."""
     retry_period: float = parameter(10.0, minimum=0.1, maximum=3600.0)
     """s (statuses' clock) after a plan that could not be made before the next try."""
     stuck_time: float = parameter(15.0, minimum=1.0, maximum=3600.0)

@@ -27,8 +27,8 @@ def corridor_costmap() -> Costmap:
 
 def drive(coordinator: FleetCoordinator, positions: dict, goals: dict, stamp: float, routes: dict,
           rng: np.random.Generator, steps: int = 400) -> tuple[dict, int]:
-    """Every robot jumps to the next waypoint of the route it was last told, one robot at a time in random order,
-    reporting where it stands; (the routes last told, the reports made) once no robot moves any more."""
+    """Every robot goes to the next waypoint of the route it was last told, one robot at a time in random order,
+    reporting where it stands the time it takes at 0.2 m/s later; (the routes last told, the reports made) once no robot moves any more."""
     told = dict(routes)
     reports = 0
     for _ in range(steps):
@@ -39,9 +39,9 @@ def drive(coordinator: FleetCoordinator, positions: dict, goals: dict, stamp: fl
             target = route.waypoints[0]
             if np.hypot(*(target - positions[name])) < 1e-9:
                 continue
+            stamp += np.hypot(*(target - positions[name])) / 0.2  # driven there at 0.2 m/s (no jump)
             positions[name] = target.copy()
             moved = True
-            stamp += 0.05
             reports += 1
             told.update(coordinator.observe(name, stamp, *positions[name], True, goals[name]))
         if not moved:
@@ -61,6 +61,14 @@ def test_nothing_is_planned_until_every_robot_is_localized_at_once_then_hold_and
     coordinator.observe("r2", 3.0, 1.6, 0.0, True, goals["r2"])
     assert not coordinator.plan_due()  # r1's latest status is 2 s older
     coordinator.observe("r1", 3.0, -1.6, 0.0, True, goals["r1"])
+    assert not coordinator.plan_due()  # r2 has just declared: not settle_time (3 s) yet
+    coordinator.observe("r2", 4.0, 1.6, 0.0, False, goals["r2"])  # withdrawn: its settle time starts again
+    coordinator.observe("r2", 5.0, 1.6, 0.0, True, goals["r2"])
+    coordinator.observe("r1", 6.0, -1.6, 0.0, True, goals["r1"])
+    coordinator.observe("r2", 6.0, 1.6, 0.0, True, goals["r2"])
+    assert not coordinator.plan_due()  # r2 localized for 1 s only
+    coordinator.observe("r1", 8.0, -1.6, 0.0, True, goals["r1"])
+    coordinator.observe("r2", 8.0, 1.6, 0.0, True, goals["r2"])
     assert coordinator.plan_due()
     held = coordinator.hold()
     assert {name: route.state for name, route in held.items()} == {"r1": HOLD, "r2": HOLD}
@@ -80,7 +88,7 @@ def test_robots_driven_along_their_routes_all_reach_their_goals_and_are_told_onl
     points = [costmap.centre(r, c) for r, c in picks]
     names = [f"r{i}" for i in range(4)]
     starts, goal_points = points[:4], points[4:]
-    coordinator = FleetCoordinator(names, 0.4 if family == "pillars" else _pitch(data))
+    coordinator = FleetCoordinator(names, 0.4 if family == "pillars" else _pitch(data), settle_time=0.0)
     coordinator.set_costmap(costmap)
     goals = {name: (float(g[0]), float(g[1])) for name, g in zip(names, goal_points)}
     positions = {name: np.array(s, dtype=float) for name, s in zip(names, starts)}
@@ -109,7 +117,7 @@ def _pitch(data: dict) -> float:
 
 
 def test_a_changed_goal_or_a_new_map_drops_the_plan():
-    coordinator = FleetCoordinator(["r1", "r2"], 0.4)
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0)
     coordinator.set_costmap(corridor_costmap())
     goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
@@ -128,7 +136,7 @@ def test_a_changed_goal_or_a_new_map_drops_the_plan():
 
 
 def test_a_plan_that_cannot_be_made_is_none_with_the_reason_and_tried_again_later():
-    coordinator = FleetCoordinator(["r1", "r2"], 0.4, retry_period=10.0)
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, retry_period=10.0, settle_time=0.0)
     coordinator.set_costmap(corridor_costmap())
     same = (1.6, 0.0)  # both robots sent to one place
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, same)
@@ -166,7 +174,7 @@ def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_arou
     walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
              [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
     world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
     coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
@@ -201,7 +209,7 @@ def test_cut_edges_that_leave_a_goal_unreachable_are_restored_and_the_fleet_plan
     """A corridor without a way round (a tree maze's corridor): r1 stuck on its way has the vertex it could not reach
     cut off, which leaves its goal unreachable. Rather than no plan at all (`perfect 15`: every retry failed for the
     rest of the run), the cut edges are restored and the fleet planned as before, from the vertex it came from."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
     coordinator.set_costmap(corridor_costmap())
     goal = (1.6, 0.0)
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goal)
@@ -228,7 +236,7 @@ def test_a_robot_stuck_far_from_the_vertex_it_came_from_is_planned_again_from_wh
     walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
              [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
     world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
     coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
@@ -242,3 +250,26 @@ def test_a_robot_stuck_far_from_the_vertex_it_came_from_is_planned_again_from_wh
     start = coordinator.schedule.plan.graph.points[coordinator.schedule.plan.vertices(0)[0]]
     assert coordinator.schedule.plan.vertices(0)[0] != came_from
     assert math.hypot(start[0] + 1.0, start[1] - 1.0) < 0.4
+
+
+def test_a_robot_whose_pose_jumps_has_the_fleet_planned_again_from_where_it_stands():
+    """Through ROS, `perfect 15`: r2's filter declared localized 1.58 m off, the fleet was planned from that estimate,
+    the filter withdrew and declared again at the true place. A status pose that moves farther than the robot
+    could have driven since the last one (half a spacing beyond JUMP_SPEED) drops the plan and the fleet is planned
+    again at once, from where the robots stand now; moves a robot can drive do not."""
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0)
+    coordinator.set_costmap(corridor_costmap())
+    goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
+    coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
+    coordinator.observe("r2", 0.0, 1.6, 0.0, True, goals["r2"])
+    coordinator.plan()
+    coordinator.observe("r2", 1.0, 1.4, 0.0, True, goals["r2"])  # 0.2 m in 1 s: driven
+    coordinator.observe("r2", 1.05, 1.35, 0.0, True, goals["r2"])
+    assert coordinator.schedule is not None and not coordinator.plan_due()
+    assert coordinator.observe("r2", 1.1, 0.6, 0.0, True, goals["r2"]) == {}  # 0.75 m in 0.05 s: jumped
+    assert coordinator.schedule is None and coordinator.plan_due()
+    assert "jumped" in coordinator.take_events()[0]
+    coordinator.plan()
+    assert coordinator.plans == 2
+    start = coordinator.schedule.plan.graph.points[coordinator.schedule.plan.vertices(1)[0]]
+    assert abs(start[0] - 0.6) < 0.3  # from where r2 stands now

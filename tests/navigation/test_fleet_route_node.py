@@ -231,14 +231,17 @@ def test_the_fleet_planner_says_none_then_holds_and_hands_out_routes_once_all_ar
     r2(status_message(1.0, 1.6, 0.0, False, (-1.6, 0.0)))
     assert states("r1") == ["NONE"]
     r2(status_message(1.05, 1.6, 0.0, True, (-1.6, 0.0)))
+    assert states("r1") == ["NONE"]  # r2 has just declared: the plan waits settle_time (3 s)
+    r1(status_message(4.05, -1.6, 0.0, True, (1.6, 0.0)))
+    r2(status_message(4.05, 1.6, 0.0, True, (-1.6, 0.0)))
     assert states("r1") == ["NONE", "HOLD", "FOLLOW"] and states("r2") == ["NONE", "HOLD", "FOLLOW"]
     route = node._routes["r1"].messages[-1]
     assert route.plan == 1 and route.header.frame_id == "map" and route.waypoints
     assert all(math.isfinite(p.x) and math.isfinite(p.y) for p in route.waypoints)
     # garbage statuses are refused, not raised; nothing published for them
     before = len(node._routes["r1"].messages)
-    r1(status_message(1.1, math.nan, 0.0, True, (1.6, 0.0)))
-    wrong = status_message(1.1, -1.6, 0.0, True, (1.6, 0.0))
+    r1(status_message(4.1, math.nan, 0.0, True, (1.6, 0.0)))
+    wrong = status_message(4.1, -1.6, 0.0, True, (1.6, 0.0))
     wrong.header.frame_id = "odom"
     r1(wrong)
     assert node.statuses_refused == 2 and len(node._routes["r1"].messages) == before
@@ -251,8 +254,10 @@ def test_the_fleet_planner_does_not_plan_while_a_navigator_does_not_listen(plann
     node = planner
     node._routes["r2"].subscribers = 0  # r2's navigator runs coordination: rules
     node._on_map(corridor_map())
-    node._status_callback("r1")(status_message(1.0, -1.6, 0.0, True, (1.6, 0.0)))
-    node._status_callback("r2")(status_message(1.0, 1.6, 0.0, True, (-1.6, 0.0)))
+    for stamp in (1.0, 5.0):  # localized long enough: only r2's deaf navigator holds the plan back
+        node._status_callback("r1")(status_message(stamp, -1.6, 0.0, True, (1.6, 0.0)))
+        node._status_callback("r2")(status_message(stamp, 1.6, 0.0, True, (-1.6, 0.0)))
+    assert node.coordinator.plan_due()
     assert [m.state for m in node._routes["r1"].messages] == ["NONE"] and node.coordinator.plans == 0
 
 
