@@ -248,3 +248,18 @@ def test_assign_refuses_more_points_than_vertices_and_points_that_are_not_finite
         assign(graph, costmap, [(0.3, 0.3)] * (len(graph) + 1))
     with pytest.raises(PlanningError, match="finite"):
         assign(graph, costmap, [(math.nan, 0.3)])
+
+
+@pytest.mark.parametrize("starts", [[22, 17, 12, 31, 20, 28], [35, 15, 10, 19, 34, 17], [10, 13, 20, 24, 15, 22]])
+def test_lacam_restarts_find_plans_one_long_search_does_not(starts):
+    """Six robots from starts where one search (seed 0) runs out of 3000 configurations on `perfect 15`'s lattice;
+    restarting with the next seed and twice the budget from 250 finds each plan within the same 3000 (random
+    starts there once took one search 130 s)."""
+    data, costmap, pitch = maze_case(15)
+    graph = lattice(costmap, pitch)
+    goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]
+    with pytest.raises(PlanningError, match="within 3000 configurations"):
+        plan_lacam(graph, starts, goals, max_nodes=3000, first_budget=3000)
+    plan = plan_lacam(graph, starts, goals, max_nodes=3000)
+    check(plan, starts, goals)
+    assert plan.nodes <= 3000
