@@ -25,7 +25,9 @@ amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along suc
    robots move round a cycle of the lattice is not a conflict to it (`dependencies` refuses such a plan).
 3. **LaCAM** (`plan_lacam`, Okumura 2023): a depth-first search over configurations, PIBT with the swap of
    LaCAM3 for each next one, constraints added lazily; complete. What the fleet uses: it planned all 40 of the
-   six-robot tree mazes of the bench in at most 1.1 s each. Never a rotation round a cycle.
+   six-robot tree mazes of the bench in at most 1.1 s each. Never a rotation round a cycle. Restarted with the
+   next seed and twice the budget from 250 configurations: one search's time is heavy-tailed (107 s from one of 60
+   random starts on `perfect 15`'s lattice; bench/bench_fleet_plan.py).
 4. **Improvement** (`improve`): each robot planned again around the others' paths, fewest moves first (PIBT
    leaves back-and-forth moves); no plan gets more moves or a later end.
 5. **Action dependencies** (`dependencies`, Hoenig et al. 2016, "Multi-agent path finding with kinematic
@@ -468,7 +470,7 @@ def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: i
     (or gives up after `max_nodes` configurations). Not of least cost. PlanningError as plan_together.
 
     Restarts: the search's time is heavy-tailed. From random starts on `perfect 15`'s lattice (36 vertices, six
-    robots) the median plan took 0.04 s and the slowest 130 s, while another seed found each slow one within a
+    robots) the median plan took 0.006 s and the slowest 107 s, while another seed found each slow one within a
     few hundred configurations. So the search is run with `first_budget` configurations, and, where that is
     not enough, again with the next seed and twice the budget, until `max_nodes` are spent in all (Luby et al.
     1993, "Optimal speedup of Las Vegas algorithms"). A search that runs out of configurations to try proves

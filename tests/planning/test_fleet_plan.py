@@ -254,7 +254,7 @@ def test_assign_refuses_more_points_than_vertices_and_points_that_are_not_finite
 def test_lacam_restarts_find_plans_one_long_search_does_not(starts):
     """Six robots from starts where one search (seed 0) runs out of 3000 configurations on `perfect 15`'s lattice;
     restarting with the next seed and twice the budget from 250 finds each plan within the same 3000 (random
-    starts there once took one search 130 s)."""
+    starts there took one search up to 107 s: bench/bench_fleet_plan.py)."""
     data, costmap, pitch = maze_case(15)
     graph = lattice(costmap, pitch)
     goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]

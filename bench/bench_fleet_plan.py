@@ -1,0 +1,88 @@
+"""How long a fleet plan takes (amr_planning.fleet_plan.plan_lacam, library level, no ROS): prints, asserts nothing.
+
+Six robots (--robots) from random distinct lattice vertices (--trials of them, numpy default_rng(--seed)) to the
+bench's goals of a generated tree maze (`perfect` --maze, amr_evaluation.fleet_navigation.with_robots: each robot
+sent to the next one's start), the lattice the maze's cells (grid_pitch). Random starts stand for what the fleet
+planner meets when it plans again from where the robots stand (a robot stuck, a pose that jumped): not the
+bench's own starts, which are spread apart. Each start is planned with restarts (plan_lacam's default: 250
+configurations, then the next seed with twice the budget) and, with --single, by one search of up to
+`max_nodes` configurations, as before the restarts (slow: one took 107 s on `perfect 15`).
+
+    python bench/bench_fleet_plan.py [--maze 15] [--trials 60] [--single]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from amr_evaluation.fleet_navigation import with_robots  # noqa: E402
+from amr_maps.maze_families import generate, grid_pitch  # noqa: E402
+from amr_maps.rasterize import rasterize_world  # noqa: E402
+from amr_maps.world import world_from_dict  # noqa: E402
+from amr_planning.costmap import Costmap, CostmapConfig  # noqa: E402
+from amr_planning.errors import PlanningError  # noqa: E402
+from amr_planning.fleet_plan import lattice, plan_lacam  # noqa: E402
+
+MAX_NODES = 200000
+"""plan_lacam's default budget of configurations."""
+
+
+def timed(graph, starts, goals, first_budget: int) -> tuple[float, str]:
+    began = time.perf_counter()
+    try:
+        plan = plan_lacam(graph, starts, goals, max_nodes=MAX_NODES, first_budget=first_budget)
+        outcome = f"{plan.nodes} configurations"
+    except PlanningError as error:
+        outcome = f"failed: {error}"
+    return time.perf_counter() - began, outcome
+
+
+def summary(name: str, times: list[float]) -> str:
+    values = np.array(times)
+    return (f"{name}: median {np.median(values):.3f} s, 90th percentile {np.percentile(values, 90):.3f} s, "
+            f"slowest {values.max():.2f} s, total {values.sum():.1f} s")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--maze", type=int, default=15, help="seed of the `perfect` maze (4 m)")
+    parser.add_argument("--robots", type=int, default=6)
+    parser.add_argument("--trials", type=int, default=60)
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random starts")
+    parser.add_argument("--single", action="store_true", help="also one search of up to 200,000 configurations")
+    args = parser.parse_args(argv)
+    data = with_robots(generate("perfect", args.maze, size=4.0), args.robots, args.maze)
+    costmap = Costmap(rasterize_world(world_from_dict(data), 0.025), CostmapConfig(robot_radius=0.105,
+                                                                                   safety_margin=0.02))
+    graph = lattice(costmap, grid_pitch(data))
+    goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]
+    rng = np.random.default_rng(args.seed)
+    print(f"perfect {args.maze}: lattice of {len(graph)} vertices, {args.robots} robots, {args.trials} random "
+          f"starts (default_rng({args.seed})), load {os.getloadavg()[0]:.1f}")
+    restarts, single = [], []
+    for trial in range(args.trials):
+        starts = [int(v) for v in rng.choice(len(graph), args.robots, replace=False)]
+        seconds, outcome = timed(graph, starts, goals, 250)
+        restarts.append(seconds)
+        line = f"{trial:3d} {starts}: restarts {seconds:7.3f} s ({outcome})"
+        if args.single:
+            seconds, outcome = timed(graph, starts, goals, MAX_NODES)
+            single.append(seconds)
+            line += f"; one search {seconds:7.3f} s ({outcome})"
+        print(line, flush=True)
+    print(summary("restarts", restarts))
+    if single:
+        print(summary("one search", single))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
