@@ -25,6 +25,14 @@ def corridor_costmap() -> Costmap:
     return Costmap(rasterize_world(world, 0.02))
 
 
+def ring_costmap() -> Costmap:
+    """A ring corridor 0.4 m wide round a 1.6 m square block."""
+    walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
+             [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
+    world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
+    return Costmap(rasterize_world(world, 0.02))
+
+
 def drive(coordinator: FleetCoordinator, positions: dict, goals: dict, stamp: float, routes: dict,
           rng: np.random.Generator, steps: int = 400) -> tuple[dict, int]:
     """Every robot goes to the next waypoint of the route it was last told, one robot at a time in random order,
@@ -116,13 +124,19 @@ def _pitch(data: dict) -> float:
     return grid_pitch(data)
 
 
-def test_a_changed_goal_or_a_new_map_drops_the_plan():
+def planned_in_the_corridor() -> tuple[FleetCoordinator, dict]:
+    """Two robots at the corridor's ends sent to the other end, planned (no settle time)."""
     coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0)
     coordinator.set_costmap(corridor_costmap())
     goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
     coordinator.observe("r2", 0.0, 1.6, 0.0, True, goals["r2"])
     coordinator.plan()
+    return coordinator, goals
+
+
+def test_a_changed_goal_or_a_new_map_drops_the_plan():
+    coordinator, goals = planned_in_the_corridor()
     assert coordinator.schedule is not None
     dropped = coordinator.observe("r2", 0.1, 1.6, 0.0, True, (-1.2, 0.0))
     assert {route.state for route in dropped.values()} == {NONE} and set(dropped) == {"r1", "r2"}
@@ -171,11 +185,8 @@ def test_bad_input_is_refused_naming_it():
 def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_around_it():
     """A ring corridor: r1's way is blocked (it reports the same place for longer than stuck_time); the vertex it
     could not reach is cut off and the new plan takes it the other way round, from the vertex it came from."""
-    walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
-             [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
-    world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
     coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
-    coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
+    coordinator.set_costmap(ring_costmap())
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
     assert coordinator.plan_due()
@@ -201,7 +212,7 @@ def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_arou
     assert coordinator.schedule.plan.graph.points[new[1]][1] > -1.0 + 1e-6  # up the left side, the long way round
     assert vertices[1] not in new
     # a new map forgets the cut edges
-    coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
+    coordinator.set_costmap(ring_costmap())
     assert coordinator.cut == []
 
 
@@ -233,11 +244,8 @@ def test_a_robot_stuck_far_from_the_vertex_it_came_from_is_planned_again_from_wh
     the top left, more than a spacing from the vertex it came from. Planning it from that vertex (`perfect 15`: 1.2 m
     away, the same waypoint stuck every 15 s to the end of the run) would hand it a route that starts where it is
     not; it is planned from a vertex where it stands."""
-    walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
-             [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
-    world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
     coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
-    coordinator.set_costmap(Costmap(rasterize_world(world, 0.02)))
+    coordinator.set_costmap(ring_costmap())
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
     coordinator.hold()
@@ -257,12 +265,7 @@ def test_a_robot_whose_pose_jumps_has_the_fleet_planned_again_from_where_it_stan
     the filter withdrew and declared again at the true place. A status pose that moves farther than the robot
     could have driven since the last one (half a spacing beyond JUMP_SPEED) drops the plan and the fleet is planned
     again at once, from where the robots stand now; moves a robot can drive do not."""
-    coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0)
-    coordinator.set_costmap(corridor_costmap())
-    goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
-    coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
-    coordinator.observe("r2", 0.0, 1.6, 0.0, True, goals["r2"])
-    coordinator.plan()
+    coordinator, goals = planned_in_the_corridor()
     coordinator.observe("r2", 1.0, 1.4, 0.0, True, goals["r2"])  # 0.2 m in 1 s: driven
     coordinator.observe("r2", 1.05, 1.35, 0.0, True, goals["r2"])
     assert coordinator.schedule is not None and not coordinator.plan_due()
