@@ -13,7 +13,7 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_plan.assign:
   the assignment of least squared way lengths, the way straight to a vertex the robot sees, then along the
   lattice; not each robot's nearest free vertex, which for the second of two robots in one maze cell may lie
-  beyond a wall), `improve(plan_lacam(...))`.
+  beyond a wall), `improve(plan_lacam(...))` with PLAN_SEEDS seeds, the plan of least makespan kept.
 - **FOLLOW**: each robot's waypoints it may drive to now (amr_navigation.fleet_schedule.Schedule.route from where
   it last said it stood), the last one its goal when `final`. Every status moves the schedule on
   (Schedule.report), and every robot whose span (progress, allowed) changed is told again.
@@ -53,6 +53,8 @@ from amr_util.scan import ScanData
 NONE, HOLD, FOLLOW = "NONE", "HOLD", "FOLLOW"
 GOAL_TOLERANCE = 1e-6
 """m a status's goal may differ from the plan's before the goal counts as changed."""
+PLAN_SEEDS = 4
+"""LaCAM searches per plan (their seeds 1000 apart): the plan of least makespan, then cost, is kept."""
 JUMP_SPEED = 1.0
 """m/s no robot of the fleet drives faster than (a TurtleBot3 Burger 0.22): a status pose moving faster jumped."""
 
@@ -244,7 +246,9 @@ class FleetCoordinator:
                         taken=list(restart.values()) + blocked)
         starts.update(zip(moving, chosen))
         goals = [graph.nearest(*goal) for goal in self._goals]  # two goals on one vertex: too close, refused
-        return improve(plan_lacam(graph, [starts[robot] for robot in range(len(statuses))], goals))
+        starts = [starts[robot] for robot in range(len(statuses))]
+        plans = [improve(plan_lacam(graph, starts, goals, seed=1000 * k)) for k in range(PLAN_SEEDS)]
+        return min(plans, key=lambda plan: (plan.makespan, plan.cost))
 
     def route(self, name: str) -> Route:
         """What `name` is told now by the plan in force (FOLLOW), NONE without one."""
