@@ -7,7 +7,7 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
 - **NONE** until every robot's latest status says localized, with a goal, within `window` s of the others, and
   has said localized without a break for `settle_time` s: the navigators go by the traffic rules meanwhile (as
   run_fleet's coordination "plan" does at library level). A filter that has just declared may withdraw within a
-  second (a rival place found: through ROS, `perfect 15`'s r2 declared 1.58 m off and withdrew 0.8 s later), and a
+  second (a rival place found: through ROS, `perfect 15`'s r2 declared 1.58 m off and withdrew 0.2 s later), and a
   plan made from that estimate sends the robot the wrong way.
 - **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_plan.lattice, `spacing`),
   each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_plan.assign:
@@ -241,12 +241,11 @@ class FleetCoordinator:
         # a vertex whose every edge is cut is where a robot was stuck: no robot is planned from it
         blocked = [vertex for vertex in range(len(graph)) if not graph.neighbours[vertex]
                    and self._lattice.neighbours[vertex]]
-        starts = dict(restart)
         chosen = assign(graph, self._costmap, [(statuses[robot].x, statuses[robot].y) for robot in moving],
                         taken=list(restart.values()) + blocked)
-        starts.update(zip(moving, chosen))
+        vertex_of = {**restart, **dict(zip(moving, chosen))}
+        starts = [vertex_of[robot] for robot in range(len(statuses))]
         goals = [graph.nearest(*goal) for goal in self._goals]  # two goals on one vertex: too close, refused
-        starts = [starts[robot] for robot in range(len(statuses))]
         plans = [improve(plan_lacam(graph, starts, goals, seed=1000 * k)) for k in range(PLAN_SEEDS)]
         return min(plans, key=lambda plan: (plan.makespan, plan.cost))
 

@@ -458,7 +458,11 @@ class _Node:
         return sorted(range(len(self.config)), key=lambda i: -self.priorities[i])
 
 
-def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: int = 200000,
+MAX_NODES = 200000
+"""configurations plan_lacam searches at most by default (over all its restarts)."""
+
+
+def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: int = MAX_NODES,
                seed: int = 0, first_budget: int = 250) -> FleetPlan:
     """Paths for every robot, starts[i] to goals[i] (lattice vertices), in which no two are ever at one vertex and
     none swap along an edge (LaCAM, Okumura 2023, "LaCAM: search-based algorithm for quick multi-agent

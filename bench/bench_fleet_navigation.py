@@ -82,9 +82,9 @@ def one(args: tuple) -> dict:
     return result
 
 
-def through_ros(args: tuple) -> dict:
+def through_ros(args: tuple, keep: Path | None = None) -> dict:
     """One world through ROS: `amr-bringup fleet_navigation --composed` in a process of its own, watched on the
-    robots' status topics."""
+    robots' status topics (the world and the stack's log kept in `keep` if given)."""
     import rclpy
     import yaml
     from rclpy.executors import SingleThreadedExecutor
@@ -159,10 +159,10 @@ def through_ros(args: tuple) -> dict:
             log.seek(0)
             errors = log.read()
             log.close()
-            if KEEP is not None:  # the world and the stack's log, to trace a run
-                KEEP.mkdir(parents=True, exist_ok=True)
-                (KEEP / path.name).write_text(path.read_text())
-                (KEEP / f"{data['name']}.log").write_text(errors)
+            if keep is not None:  # the world and the stack's log, to trace a run
+                keep.mkdir(parents=True, exist_ok=True)
+                (keep / path.name).write_text(path.read_text())
+                (keep / f"{data['name']}.log").write_text(errors)
             executor.shutdown()
             node.destroy_node()
             context.try_shutdown()
@@ -176,9 +176,6 @@ def through_ros(args: tuple) -> dict:
                                 f"({largest:.2f} m off)" for name in names for begin, end, largest in spells[name]])
     return result
 
-
-KEEP: Path | None = None
-"""--keep: the folder each ROS run's world and log are kept in."""
 
 
 def _first_localized(result: dict) -> str:
@@ -208,8 +205,6 @@ def main(argv=None) -> int:
     parser.add_argument("--keep", type=Path, metavar="DIR",
                         help="with --ros: keep each run's world YAML and amr-bringup log in DIR")
     args = parser.parse_args(argv)
-    global KEEP
-    KEEP = args.keep
     if args.ros:
         args.jobs, args.localization = 1, "filter"
     cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
@@ -225,7 +220,7 @@ def main(argv=None) -> int:
     began = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        for result in (map(through_ros, cases) if args.ros else pool.map(one, cases)):
+        for result in ((through_ros(case, args.keep) for case in cases) if args.ros else pool.map(one, cases)):
             results.append(result)
             name = f"{result['family']} {result['seed']}"
             print(f"{name:26s} {result['robots']:6d} {result['reached']:8d} {result['robot_contacts']:12d} "

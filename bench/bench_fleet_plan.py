@@ -29,10 +29,7 @@ from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 from amr_planning.costmap import Costmap, CostmapConfig  # noqa: E402
 from amr_planning.errors import PlanningError  # noqa: E402
-from amr_planning.fleet_plan import lattice, plan_lacam  # noqa: E402
-
-MAX_NODES = 200000
-"""plan_lacam's default budget of configurations."""
+from amr_planning.fleet_plan import MAX_NODES, lattice, plan_lacam  # noqa: E402
 
 
 def timed(graph, starts, goals, first_budget: int) -> tuple[float, str]:
@@ -81,6 +78,7 @@ def main(argv=None) -> int:
     print(summary("restarts", restarts))
     if single:
         print(summary("one search", single))
+    print(f"load {os.getloadavg()[0]:.1f} at the end")
     return 0
 
 
