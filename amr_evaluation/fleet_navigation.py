@@ -234,7 +234,8 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
         filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
         runs.append(RobotRun(robot.name))
     planned = coordination == "plan"
-    coordinator = FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing) if planned else None
+    coordinator = FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing,
+                                   speed=follower.linear_speed) if planned else None
     """with "plan": the fleet_planner node's logic (when to plan, what each robot is told)."""
     if planned:
         coordinator.set_costmap(planner.costmap)

@@ -42,6 +42,11 @@ class FleetPlannerConfig(Config):
     stuck_time: float = parameter(15.0, minimum=1.0, maximum=3600.0)
     """s (statuses' clock) a robot allowed to drive on may go without reaching its next waypoint before the lattice
     edge it is on counts as blocked (something not on the map): the edge is cut and the fleet planned again."""
+    follower_speed: float = parameter(0.2, minimum=0.01, maximum=5.0)
+    """m/s the plans are timed at (the path followers' linear_speed): of the searches' plans the one whose robots,
+    driven by its action dependencies, would all arrive first is kept (amr_planning.fleet_plan.execution_time)."""
+    turn_rate: float = parameter(1.0, minimum=0.01, maximum=10.0)
+    """rad/s the plans are timed at for a robot turning in place where its way bends."""
     costmap: CostmapConfig = field(default_factory=CostmapConfig)
     """the costmap the lattice is made of, as the planners build theirs: give it the planner nodes' robot_radius and
     safety_margin (the fleet_navigation stack ties them)."""
