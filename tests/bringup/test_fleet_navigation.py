@@ -95,7 +95,7 @@ def test_the_stack_is_maze_navigation_per_robot_in_its_namespace():
     assert dict(nodes["/r1/planner"].remappings) == {"map": "/map"}, "the one map"
     assert nodes["/r3/navigator"].parameters["world_goal_topic"] == "goal", "the robot's own goal: /r3/goal"
     assert nodes["fleet_planner"].parameters["world"] == nodes["simulator"].parameters["world"], "one fleet"
-    assert nodes["/r2/navigator"].parameters["coordination"] == "rules", "the traffic rules by default"
+    assert nodes["/r2/navigator"].parameters["coordination"] == "plan", "planned together by default"
     for node in bringup.nodes:  # nothing of a robot's leaves its namespace but the map
         for key, value in node.parameters.items():
             if isinstance(value, str) and value.startswith("/"):
