@@ -35,6 +35,8 @@ amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along suc
    robot j into v depends on every robot i that the plan puts at v earlier having made its next move (left v).
    A fleet that starts an action only when its dependencies are done never puts two robots on one vertex and
    never deadlocks, whatever each robot's speed, as long as the dependencies have no cycle (checked).
+6. **Execution time** (`execution_time`): how long a plan takes followed so, each move and turn timed (the
+   critical path through the dependencies); the fleet planner keeps, of several plans, the one that ends first.
 """
 
 from __future__ import annotations
@@ -464,8 +466,7 @@ def execution_time(plan: FleetPlan, speed: float = 0.2, turn_rate: float = 1.0) 
             before, after = way[index - 1] - way[index - 2], way[index] - way[index - 1]
             turn = math.atan2(before[0] * after[1] - before[1] * after[0], float(before @ after))
             duration += abs(turn) / turn_rate
-        start = max([finish[robot, index - 1]] + [finish[dep] for dep in needs[robot][index]])
-        finish[robot, index] = start + duration
+        finish[robot, index] = max(finish[dep] for dep in needs[robot][index]) + duration  # its own last move too
     return max((finish[robot, len(way) - 1] for robot, way in enumerate(ways)), default=0.0)
 
 
