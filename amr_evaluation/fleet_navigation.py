@@ -235,7 +235,7 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
         runs.append(RobotRun(robot.name))
     planned = coordination == "plan"
     coordinator = FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing,
-                                   speed=follower.linear_speed) if planned else None
+                                   follower_speed=follower.linear_speed) if planned else None
     """with "plan": the fleet_planner node's logic (when to plan, what each robot is told)."""
     if planned:
         coordinator.set_costmap(planner.costmap)

@@ -14,7 +14,7 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   the assignment of least squared way lengths, the way straight to a vertex the robot sees, then along the
   lattice; not each robot's nearest free vertex, which for the second of two robots in one maze cell may lie
   beyond a wall), `improve(plan_lacam(...))` with PLAN_SEEDS seeds, the plan that would end first kept
-  (fleet_plan.execution_time: its robots driven at `speed`, turning at `turn_rate`, each move as soon as its
+  (fleet_plan.execution_time: its robots driven at `follower_speed`, turning at `turn_rate`, each move as soon as its
   dependencies are done; not the makespan, which counts lockstep steps: in `perfect 9` the plan of 95 steps
   brought the last robot home at 308.5 s, the one of 112 steps timed shortest at 248.2 s).
 - **FOLLOW**: each robot's waypoints it may drive to now (amr_navigation.fleet_schedule.Schedule.route from where
@@ -90,7 +90,7 @@ class FleetCoordinator:
     """See the module docstring."""
 
     def __init__(self, names: list[str], spacing: float, *, window: float = 0.5, retry_period: float = 10.0,
-                 stuck_time: float = 15.0, settle_time: float = 3.0, speed: float = 0.2,
+                 stuck_time: float = 15.0, settle_time: float = 3.0, follower_speed: float = 0.2,
                  turn_rate: float = 1.0) -> None:
         if not names:
             raise ValueError("robots: the fleet has no robot")
@@ -100,7 +100,7 @@ class FleetCoordinator:
             raise ValueError(f"lattice_spacing: must be a positive number of metres, got {spacing!r}")
         if not (math.isfinite(settle_time) and settle_time >= 0.0):
             raise ValueError(f"settle_time: must be a number of seconds, 0 or more, got {settle_time!r}")
-        for key, value in (("follower_speed", speed), ("turn_rate", turn_rate)):
+        for key, value in (("follower_speed", follower_speed), ("turn_rate", turn_rate)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{key}: must be a positive number, got {value!r}")
         self.names = list(names)
@@ -109,7 +109,7 @@ class FleetCoordinator:
         self.retry_period = float(retry_period)
         self.stuck_time = float(stuck_time)
         self.settle_time = float(settle_time)
-        self.speed, self.turn_rate = float(speed), float(turn_rate)
+        self.follower_speed, self.turn_rate = float(follower_speed), float(turn_rate)
         """m/s and rad/s the plans are timed at (fleet_plan.execution_time), to keep the one that ends first."""
         self._localized_since: dict[str, float] = {}
         """per robot: the stamp of the first of its latest unbroken run of localized statuses."""
@@ -257,7 +257,8 @@ class FleetCoordinator:
         starts = [vertex_of[robot] for robot in range(len(statuses))]
         goals = [graph.nearest(*goal) for goal in self._goals]  # two goals on one vertex: too close, refused
         plans = [improve(plan_lacam(graph, starts, goals, seed=1000 * k)) for k in range(PLAN_SEEDS)]
-        return min(plans, key=lambda plan: (execution_time(plan, self.speed, self.turn_rate), plan.makespan, plan.cost))
+        return min(plans, key=lambda plan: (execution_time(plan, self.follower_speed, self.turn_rate),
+                                            plan.makespan, plan.cost))
 
     def route(self, name: str) -> Route:
         """What `name` is told now by the plan in force (FOLLOW), NONE without one."""

@@ -70,7 +70,7 @@ class FleetPlannerNode(ManagedNode):
                 config = FleetPlannerConfig.from_params(self.parameter_values())
                 coordinator = FleetCoordinator(fleet_names(config), config.lattice_spacing, window=config.window,
                                                retry_period=config.retry_period, stuck_time=config.stuck_time,
-                                               settle_time=config.settle_time, speed=config.follower_speed,
+                                               settle_time=config.settle_time, follower_speed=config.follower_speed,
                                                turn_rate=config.turn_rate)
             except (ValueError, OSError) as error:  # ConfigError names the key; a world names its file
                 problems = [str(error)]

@@ -393,6 +393,14 @@ def dependencies(plan: FleetPlan) -> list[list[list[tuple[int, int]]]]:
     done first: robot j has made its action b (moved on from a vertex the plan puts it at before i gets there).
     PlanningError if the dependencies form a cycle (robots following one another round a cycle of the lattice
     in one step): the plan could then stall."""
+    needs, _ = _action_graph(plan)
+    return [[sorted({dep for dep in action if dep[0] != robot}) for action in moves]
+            for robot, moves in enumerate(needs)]
+
+
+def _action_graph(plan: FleetPlan):
+    """Every action's needs, its robot's action before it included, and the actions in an order that keeps them
+    (see dependencies; PlanningError on a cycle)."""
     actions = [_actions(path) for path in plan.paths]
     visits: dict[int, list[tuple[int, int, int]]] = {}
     for robot, moves in enumerate(actions):
@@ -410,9 +418,7 @@ def dependencies(plan: FleetPlan) -> list[list[list[tuple[int, int]]]]:
                 needs[robot][index].append((other, other_index + 1))
             if index > 0:
                 needs[robot][index].append((robot, index - 1))
-    _topological_order(needs)
-    return [[sorted({dep for dep in action if dep[0] != robot}) for action in moves]
-            for robot, moves in enumerate(needs)]
+    return needs, _topological_order(needs)
 
 
 def _topological_order(needs) -> list[tuple[int, int]]:
@@ -451,12 +457,11 @@ def execution_time(plan: FleetPlan, speed: float = 0.2, turn_rate: float = 1.0) 
         d(i, a) = |p(i, a) - p(i, a-1)| / speed + |heading change at p(i, a-1)| / turn_rate."""
     if not (math.isfinite(speed) and speed > 0.0 and math.isfinite(turn_rate) and turn_rate > 0.0):
         raise ValueError(f"execution_time: speed and turn_rate must be positive numbers, got {speed!r}, {turn_rate!r}")
-    needs = [[deps + ([(robot, index - 1)] if index else []) for index, deps in enumerate(moves)]
-             for robot, moves in enumerate(dependencies(plan))]
+    needs, order = _action_graph(plan)
     points = plan.graph.points
     ways = [points[plan.vertices(robot)] for robot in range(len(plan.paths))]
     finish: dict[tuple[int, int], float] = {}
-    for robot, index in _topological_order(needs):
+    for robot, index in order:
         if index == 0:
             finish[robot, 0] = 0.0
             continue

@@ -288,7 +288,7 @@ def test_the_plan_kept_is_the_one_of_several_lacam_searches_that_would_end_first
 
     data = with_robots(generate("perfect", 9, size=4.0), 6, 9)
     names = [robot["name"] for robot in data["robots"]]
-    coordinator = FleetCoordinator(names, _pitch(data), settle_time=0.0, speed=0.15, turn_rate=0.8)
+    coordinator = FleetCoordinator(names, _pitch(data), settle_time=0.0, follower_speed=0.15, turn_rate=0.8)
     coordinator.set_costmap(Costmap(rasterize_world(world_from_dict(data), 0.025)))
     for robot in data["robots"]:
         coordinator.observe(robot["name"], 0.0, *robot["start"][:2], True, tuple(robot["goal"][:2]))
