@@ -145,8 +145,12 @@ def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -
     """The world dict `data` (its start and goal dropped) with `robots` robots r1, r2, ... placed on free cells
     spread over it (farthest-point sampling on the planner's costmap from a random first cell, at least
     MIN_SEPARATION apart, START_CLEARANCE from walls, random headings, all from `seed`), each sent to the next
-    one's start (the last to the first's): every path runs against another robot's. ValueError if they do not
-    fit."""
+    one's start (the last to the first's): every path runs against another robot's. Every start lies in the
+    largest region of the free space a robot can drive through (8-connected cells clear of the robot's radius, as
+    the planner's A* moves): a closed pocket (the `dead_ends` family draws walled cells) gets no robot, so every
+    goal can be reached. ValueError if they do not fit."""
+    from scipy.ndimage import label
+
     from amr_maps.world import world_from_dict
     from amr_planning.costmap import Costmap
 
@@ -155,7 +159,9 @@ def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -
     data = {key: value for key, value in data.items() if key not in ("start", "goal", "robots")}
     probe = world_from_dict({**data, "start": [0.0, 0.0, 0.0]})  # only the solids matter here
     costmap = Costmap(rasterize_world(probe, resolution))
-    rows, cols = np.nonzero(costmap.clearance >= START_CLEARANCE)
+    regions, count = label(~costmap.lethal, structure=np.ones((3, 3), dtype=bool))
+    largest = 1 + int(np.argmax(np.bincount(regions.ravel())[1:])) if count else 0
+    rows, cols = np.nonzero((costmap.clearance >= START_CLEARANCE) & (regions == largest))
     if len(rows) == 0:
         raise ValueError(f"{data.get('name', 'world')}: no free cell {START_CLEARANCE} m from the walls")
     points = costmap.centre(rows, cols)

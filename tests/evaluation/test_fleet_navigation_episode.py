@@ -30,6 +30,22 @@ def test_with_robots_spreads_the_starts_and_sends_each_robot_to_the_next_start()
         with_robots(generate("perfect", 3, size=3.0), 40, seed=7)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 3])
+def test_with_robots_places_no_robot_in_a_closed_pocket(seed):
+    """`dead_ends` mazes draw walled cells a robot fits in but cannot leave: every start, and so every goal,
+    must be one the planner reaches from every other start."""
+    from amr_maps.rasterize import rasterize_world
+    from amr_planning.planner import Planner, PlannerConfig
+
+    data = with_robots(generate("dead_ends", seed, size=4.0), 6, seed)
+    world = world_from_dict(data)
+    config = PlannerConfig.from_params({**configs.resolve("navigation", "default")[1]["planner"], "world": ""})
+    planner = Planner(rasterize_world(world, config.resolution), config)
+    for spec in world.fleet:
+        path = planner.plan((spec.start.x, spec.start.y), (spec.goal.x, spec.goal.y))
+        assert math.hypot(*(path[-1] - (spec.goal.x, spec.goal.y))) < 0.05, spec.name
+
+
 def test_run_fleet_refuses_a_robot_without_a_goal():
     data = with_robots(generate("pillars", 1, size=3.0), 2, seed=1)
     del data["robots"][1]["goal"]
