@@ -101,11 +101,23 @@ def _clearance(costmap: Costmap, points: np.ndarray) -> np.ndarray:
 
 
 def lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
-    """The lattice of the free space `spacing` m apart (see the module docstring), shifted to the best of
-    `steps` x `steps` offsets tried over one spacing."""
+    """The lattice of the free space `spacing` m apart (see the module docstring): the square grid
+    (`grid_lattice`) where it follows the free space (`follows_free_space`), else points sampled over the free
+    space (`sampled_lattice`)."""
+    grid = grid_lattice(costmap, spacing, steps)
+    return grid if follows_free_space(costmap, grid) else sampled_lattice(costmap, spacing)
+
+
+def _check_spacing(costmap: Costmap, spacing: float) -> None:
     if not (math.isfinite(spacing) and spacing > costmap.resolution):
         raise PlanningError(Reason.INVALID, f"lattice spacing {spacing!r} must be finite and exceed the map's "
                                             f"resolution ({costmap.resolution} m)")
+
+
+def grid_lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
+    """The square grid of the free space `spacing` m apart, 4-neighbours joined (see the module docstring),
+    shifted to the best of `steps` x `steps` offsets tried over one spacing."""
+    _check_spacing(costmap, spacing)
     xmin, ymin, xmax, ymax = costmap.grid.bounds
     best = None
     for dx, dy in itertools.product(np.arange(steps) * spacing / steps, repeat=2):
@@ -132,6 +144,131 @@ def lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
     for a, b in pairs:
         neighbours[a].append(int(b))
         neighbours[b].append(int(a))
+    return Lattice(points, tuple(tuple(sorted(n)) for n in neighbours), float(spacing))
+
+
+COVER = 2.0
+"""spacings: a grid lattice follows the free space only if every free cell of a region it reaches lies this close to
+one of its points (a wider room's grid leaves at most about 1.7 spacings near walls and pillars)."""
+
+
+def _free_regions(costmap: Costmap) -> np.ndarray:
+    """The free space's regions (cells outside the inflated band, 8-connected as the planner's A* moves), 0 in
+    the band."""
+    from scipy.ndimage import label
+
+    regions, _ = label(~costmap.inflated, structure=np.ones((3, 3), dtype=bool))
+    return regions
+
+
+def _components(graph: Lattice) -> np.ndarray:
+    """The connected component of each vertex (labels 0, 1, ...)."""
+    component = np.full(len(graph), -1, dtype=int)
+    count = 0
+    for first in range(len(graph)):
+        if component[first] >= 0:
+            continue
+        component[first], queue = count, deque([first])
+        while queue:
+            for other in graph.neighbours[queue.popleft()]:
+                if component[other] < 0:
+                    component[other] = count
+                    queue.append(other)
+        count += 1
+    return component
+
+
+def follows_free_space(costmap: Costmap, graph: Lattice, cover: float = COVER) -> bool:
+    """Whether `graph` is a lattice robots can be planned on everywhere in the free space it reaches: in each
+    region of the free space (`_free_regions`) that holds vertices, they are joined into one graph, and every
+    free cell lies within `cover` spacings of one. A square grid follows the rooms and the grid mazes whose cells
+    it fits; it does not follow a corridor at an angle to it (rotated, bent or curved ones), which it leaves in
+    pieces or unvisited. A region without a vertex (a pocket no robot can leave) does not count."""
+    from scipy.ndimage import distance_transform_edt
+
+    if len(graph) == 0:
+        return False
+    regions = _free_regions(costmap)
+    rows, cols = costmap.grid.world_to_cell(graph.points[:, 0], graph.points[:, 1])
+    held = regions[rows, cols]
+    component = _components(graph)
+    for region in np.unique(held):
+        if region == 0 or len(np.unique(component[held == region])) > 1:
+            return False
+    away = np.ones(regions.shape, dtype=bool)
+    away[rows, cols] = False
+    distance = distance_transform_edt(away) * costmap.resolution
+    reached = np.isin(regions, np.unique(held))
+    return bool(distance[reached].max() <= cover * graph.spacing)
+
+
+def sampled_lattice(costmap: Costmap, spacing: float) -> Lattice:
+    """A lattice of the free space for any layout (a corridor at any angle, bent or curved):
+
+    - **Points**: the free cells (outside the inflated band; every cell an eighth of a spacing apart at most),
+      taken farthest from the walls first, each kept unless a point already kept lies within `spacing` in sight
+      of it (a point beyond a wall, in the next corridor, does not count). Corridors get points along their
+      middle, and every free cell lies within about a spacing of a point it sees.
+    - **Edges**: each free cell belongs to the point nearest to it along the free space (a geodesic Voronoi
+      partition: multi-source Dijkstra over the free cells, 8-connected as the planner's A* moves); two points
+      are joined where their cells touch. So the lattice is connected wherever the free space is, round corners
+      and bends, and a robot driving from a point to a neighbour stays within their two cells, clear of a robot
+      waiting at a third point."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    _check_spacing(costmap, spacing)
+    stride = max(1, int(spacing / (8.0 * costmap.resolution)))
+    candidates = np.zeros(costmap.inflated.shape, dtype=bool)
+    candidates[::stride, ::stride] = ~costmap.inflated[::stride, ::stride]
+    rows, cols = np.nonzero(candidates)
+    if len(rows) == 0:
+        return Lattice(np.zeros((0, 2)), (), float(spacing))
+    order = np.lexsort((cols, rows, -costmap.clearance[rows, cols]))  # farthest from the walls first, then raster
+    kept: list[np.ndarray] = []
+    kept_cells: list[tuple[int, int]] = []
+    buckets: dict[tuple[int, int], list[np.ndarray]] = {}
+    limit = spacing * spacing - 1e-12
+    for row, col in zip(rows[order], cols[order]):
+        point = costmap.centre(row, col)
+        key = (int(point[0] // spacing), int(point[1] // spacing))
+        near = [other for dx in (-1, 0, 1) for dy in (-1, 0, 1) for other in buckets.get((key[0] + dx, key[1] + dy), ())
+                if float((point - other) @ (point - other)) < limit]
+        if near and costmap.segments_free(np.repeat(point[None], len(near), axis=0), np.array(near),
+                                          costmap.lethal).any():
+            continue
+        kept.append(point)
+        kept_cells.append((int(row), int(col)))
+        buckets.setdefault(key, []).append(point)
+    points = np.array(kept)
+    # the geodesic Voronoi partition of the free cells among the points
+    free = ~costmap.inflated
+    index = np.full(free.shape, -1, dtype=int)
+    index[free] = np.arange(int(free.sum()))
+    heads, tails, weights = [], [], []
+    height, width = free.shape
+    for d_row, d_col in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = index[max(0, -d_row):height - max(0, d_row), max(0, -d_col):width - max(0, d_col)]
+        b = index[max(0, d_row):height - max(0, -d_row) or None, max(0, d_col):width - max(0, -d_col) or None]
+        both = (a >= 0) & (b >= 0)
+        heads.append(a[both])
+        tails.append(b[both])
+        weights.append(np.full(int(both.sum()), math.hypot(d_row, d_col)))
+    heads, tails, weights = np.concatenate(heads), np.concatenate(tails), np.concatenate(weights)
+    count = int(free.sum())
+    graph = coo_matrix((weights, (heads, tails)), shape=(count, count)).tocsr()
+    sources = np.array([index[row, col] for row, col in kept_cells])
+    _, _, owner_cell = dijkstra(graph, directed=False, indices=sources, min_only=True, return_predecessors=True)
+    vertex_of = np.full(count, -1, dtype=int)
+    vertex_of[sources] = np.arange(len(sources))
+    owner = np.where(owner_cell >= 0, vertex_of[np.maximum(owner_cell, 0)], -1)
+    a, b = owner[heads], owner[tails]
+    touching = (a >= 0) & (b >= 0) & (a != b)
+    pairs = np.unique(np.sort(np.stack([a[touching], b[touching]], axis=1), axis=1), axis=0)
+    neighbours: list[list[int]] = [[] for _ in range(len(points))]
+    for u, v in pairs:
+        neighbours[u].append(int(v))
+        neighbours[v].append(int(u))
     return Lattice(points, tuple(tuple(sorted(n)) for n in neighbours), float(spacing))
 
 
@@ -526,6 +663,7 @@ def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: i
         if to_goal[i][starts[i]] < 0:
             raise PlanningError(Reason.UNREACHABLE, f"robot {i}: goal vertex {goals[i]} cannot be reached from start "
                                                     f"vertex {starts[i]} on the lattice")
+    _check_order_in_corridors(graph, starts, goals)
     spent, attempt = 0, 0
     while True:
         budget = max(1, min(first_budget * 2 ** attempt, max_nodes - spent))
@@ -536,6 +674,33 @@ def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: i
         if spent >= max_nodes:
             raise PlanningError(Reason.UNREACHABLE, f"no plan for {count} robots within {max_nodes} configurations "
                                                     f"({attempt} searches)")
+
+
+def _check_order_in_corridors(graph: Lattice, starts: list[int], goals: list[int]) -> None:
+    """PlanningError at once where robots would have to pass each other in a corridor: in a part of the lattice
+    that is a bare path (no branch, no cycle: a single corridor, bent or curved), robots keep their order along it
+    whatever they do, so goals in another order than the starts have no plan. The search would prove it too, but
+    only after trying every configuration reachable: for six robots on 28 vertices that is up to C(28, 6) =
+    376,740 of them, minutes of work, where it says so in no time here."""
+    robots_of: dict[int, list[int]] = {}
+    component = _components(graph)
+    for robot, start in enumerate(starts):
+        robots_of.setdefault(int(component[start]), []).append(robot)
+    for part, robots in robots_of.items():
+        vertices = np.flatnonzero(component == part)
+        degrees = [len(graph.neighbours[v]) for v in vertices]
+        edges = sum(degrees) // 2
+        if len(robots) < 2 or max(degrees) > 2 or edges != len(vertices) - 1:
+            continue  # a branch or a cycle: robots may pass each other there
+        end = next(int(v) for v, d in zip(vertices, degrees) if d <= 1)
+        position = graph.distances(end)
+        by_start = sorted(robots, key=lambda robot: position[starts[robot]])
+        by_goal = sorted(robots, key=lambda robot: position[goals[robot]])
+        if by_start != by_goal:
+            first = next(i for i, (a, b) in enumerate(zip(by_start, by_goal)) if a != b)
+            raise PlanningError(Reason.UNREACHABLE, f"no plan exists: robots {by_start} stand in a corridor without a "
+                                                    f"branch in that order and their goals are in the order {by_goal} "
+                                                    f"(robot {by_start[first]} would have to pass another)")
 
 
 def _lacam(graph: Lattice, starts, goals, to_goal, max_nodes: int, seed: int) -> FleetPlan | None:

@@ -210,6 +210,14 @@ def main(argv=None) -> int:
     cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
              for family in args.families
              for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]
+    fitting = []
+    for case in cases:  # a world too small for the robots (a short corridor) is named and left out
+        try:
+            fleet_world(*case[:4])
+            fitting.append(case)
+        except ValueError as error:
+            print(f"left out: {error}")
+    cases = fitting
     print(f"{len(cases)} runs: families {', '.join(args.families)}, {args.size:g} m, robots {args.robots}, "
           f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, "
           f"coordination {args.coordination}, "
