@@ -7,11 +7,14 @@ amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along suc
 (amr_navigation.fleet_schedule), and through ROS the fleet_planner node hands each robot's navigator its part
 (amr_navigation.fleet_planner_node, docs/amr_navigation.md).
 
-1. **Lattice** (`lattice`): points `spacing` m apart, kept where the robot fits clear of the safety margin
-   (outside the costmap's inflated cells); an edge joins two 4-neighbours whose segment stays outside the
-   inflated cells. The grid is shifted by the offset (of `steps` x `steps` tried over one spacing) that keeps
-   the most edges, and of those the one farthest from the walls (the clearance summed over the points): in a
-   maze of cells `spacing` wide, the cell centres. Time runs in steps; in a step a robot moves to a neighbour
+1. **Lattice** (`lattice`): `grid_lattice`, points `spacing` m apart, kept where the robot fits clear of the
+   safety margin (outside the costmap's inflated cells); an edge joins two 4-neighbours whose segment stays
+   outside the inflated cells. The grid is shifted by the offset (of `steps` x `steps` tried over one spacing)
+   that keeps the most edges, and of those the one farthest from the walls (the clearance summed over the
+   points): in a maze of cells `spacing` wide, the cell centres. A corridor at an angle to the grid (a rotated
+   maze, bends, curves) leaves such a grid in pieces; where it does not follow the free space
+   (`follows_free_space`) the lattice is `sampled_lattice` instead: points spread along the free space, joined
+   where their geodesic Voronoi cells touch. Time runs in steps; in a step a robot moves to a neighbour
    or waits. A plan must never put two robots on one vertex in one step (a *vertex* conflict) nor let two swap
    along an edge (an *edge* conflict); a robot may enter a vertex in the step another leaves it (following).
 2. **Conflict-based search** (`plan_together`, Sharon et al. 2015, "Conflict-based search for optimal

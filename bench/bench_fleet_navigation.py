@@ -4,8 +4,9 @@
     .venv/bin/python bench/bench_fleet_navigation.py --robots 2 3 --families perfect pillars --seeds 2
 
 Worlds: generated mazes (`perfect`, `loops`) and rooms with pillars (`pillars`) of amr_maps.maze_families
-(--size m a side), their own start and goal dropped. N robots start on free cells spread over the world
-(farthest-point sampling on the planner's costmap, at least MIN_SEPARATION apart, random headings), and each
+(--size m a side; other families of it by name), their own start and goal dropped. N robots start on free cells
+spread over the world (farthest-point sampling on the planner's costmap, at least MIN_SEPARATION apart, random
+headings, all in the largest region a robot can drive through: `dead_ends` mazes have walled cells), and each
 is sent to the next one's start (robot i to robot i+1's, the last to the first's): every path runs against
 another robot's, and in a maze face to face in corridors one robot wide. Per robot: the whole loop (explore
 with the wall follower until its particle filter says localized, plan, follow) with the traffic rules
@@ -16,7 +17,10 @@ Prints one line per run (robots at their goal, robot-robot and wall contacts, ro
 (localized with the estimate more than 0.3 m off), yields, stops, replans around, simulated and wall-clock
 time; with the filter: times localized was withdrawn after a declaration, s the robots spent unsure after their
 first declaration (summed; while unsure a robot posts no position on the traffic board), and the span of the
-robots' first declarations) and the totals. --jobs N runs N worlds at once (at most 2 on the shared 2-core machine).
+robots' first declarations) and the totals. A world too small for N robots MIN_SEPARATION apart is named and left
+out. In a single corridor (`bends`, `curved`, `narrowing`) robots cannot pass each other, so sending each to the
+next one's start has no solution there: those families are no test of the fleet (docs/fleet.md). --jobs N runs N
+worlds at once (at most 2 on the shared 2-core machine).
 
 --ros runs the same worlds through ROS instead: the world written to a YAML file, `amr-bringup fleet_navigation
 world:=<file> --composed` started as a process of its own (every node of every robot in one process, the
