@@ -19,8 +19,9 @@ class FleetPlannerConfig(Config):
     robots: list = parameter([], kind="str_array")
     """the robots' names (their namespaces), in priority order; [] = the world's robots list."""
     lattice_spacing: float = parameter(0.4, minimum=0.1, maximum=5.0)
-    """m between the points of the lattice the fleet is planned on (amr_planning.fleet_plan.lattice): about a
-    robot's width and its clearance; in a maze, the pitch of its cells."""
+    """m between the points of the lattice the fleet is planned on (amr_planning.fleet_plan.lattice: a square grid
+    where it follows the free space, else points sampled along it at least this far apart): about a robot's width
+    and its clearance; in a maze, the pitch of its cells."""
     status_topic: str = parameter("navigator/status", nonempty=True)
     """each robot's amr_interfaces/NavigatorStatus, in its namespace (/<robot>/navigator/status): where it stands,
     whether it is localized, its goal."""
