@@ -149,8 +149,6 @@ def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -
     largest region of the free space a robot can drive through (8-connected cells clear of the robot's radius, as
     the planner's A* moves): a closed pocket (the `dead_ends` family draws walled cells) gets no robot, so every
     goal can be reached. ValueError if they do not fit."""
-    from scipy.ndimage import label
-
     from amr_maps.world import world_from_dict
     from amr_planning.costmap import Costmap
 
@@ -159,8 +157,8 @@ def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -
     data = {key: value for key, value in data.items() if key not in ("start", "goal", "robots")}
     probe = world_from_dict({**data, "start": [0.0, 0.0, 0.0]})  # only the solids matter here
     costmap = Costmap(rasterize_world(probe, resolution))
-    regions, count = label(~costmap.lethal, structure=np.ones((3, 3), dtype=bool))
-    largest = 1 + int(np.argmax(np.bincount(regions.ravel())[1:])) if count else 0
+    regions = costmap.regions()
+    largest = 1 + int(np.argmax(np.bincount(regions.ravel())[1:])) if regions.max() > 0 else 0
     rows, cols = np.nonzero((costmap.clearance >= START_CLEARANCE) & (regions == largest))
     if len(rows) == 0:
         raise ValueError(f"{data.get('name', 'world')}: no free cell {START_CLEARANCE} m from the walls")
@@ -179,6 +177,20 @@ def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -
                        "goal": [float(starts[(i + 1) % robots][0]), float(starts[(i + 1) % robots][1]), GOAL_RADIUS]}
                       for i, s in enumerate(starts)]
     return data
+
+
+GRID_MAZES = ("perfect", "loops")
+LATTICE_SPACING = 0.4
+"""m, the lattice of the worlds that are not grid mazes (rooms with pillars, other layouts): two robot diameters
+less a little."""
+
+
+def lattice_spacing(data: dict, family: str) -> float:
+    """m between the lattice points robots are planned on together (coordination "plan") in a world of
+    amr_maps.maze_families: a grid maze's pitch (`grid_pitch`), else LATTICE_SPACING."""
+    from amr_maps.maze_families import grid_pitch
+
+    return grid_pitch(data) if family in GRID_MAZES else LATTICE_SPACING
 
 
 def _particle_filter(parameters: dict, world: World, seed: int):

@@ -112,6 +112,15 @@ class Costmap:
         data[rows[inside], cols[inside]] = 100
         return Costmap(replace(self.grid, data=data), self.config)
 
+    def regions(self, mask: np.ndarray | None = None) -> np.ndarray:
+        """The regions of the cells outside the lethal cells (or outside `mask`, e.g. `inflated`), 8-connected as
+        A* moves: labels 1, 2, ..., 0 in the cells left out."""
+        from scipy.ndimage import label
+
+        blocked = self.lethal if mask is None else mask
+        regions, _ = label(~blocked, structure=np.ones((3, 3), dtype=bool))
+        return regions
+
     @property
     def shape(self) -> tuple[int, int]:
         return self.lethal.shape  # type: ignore[return-value]

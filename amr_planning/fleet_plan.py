@@ -83,6 +83,22 @@ class Lattice:
         return Lattice(self.points, tuple(tuple(n for n in neighbours if (k, n) not in cut)
                                           for k, neighbours in enumerate(self.neighbours)), self.spacing)
 
+    def components(self) -> np.ndarray:
+        """The connected component of each vertex (labels 0, 1, ...)."""
+        component = np.full(len(self), -1, dtype=int)
+        count = 0
+        for first in range(len(self)):
+            if component[first] >= 0:
+                continue
+            component[first], queue = count, deque([first])
+            while queue:
+                for other in self.neighbours[queue.popleft()]:
+                    if component[other] < 0:
+                        component[other] = count
+                        queue.append(other)
+            count += 1
+        return component
+
     def distances(self, target: int) -> np.ndarray:
         """Steps from every vertex to `target` (breadth first; -1 where it cannot be reached)."""
         steps = np.full(len(self), -1, dtype=int)
@@ -155,35 +171,9 @@ COVER = 2.0
 one of its points (a wider room's grid leaves at most about 1.7 spacings near walls and pillars)."""
 
 
-def _free_regions(costmap: Costmap) -> np.ndarray:
-    """The free space's regions (cells outside the inflated band, 8-connected as the planner's A* moves), 0 in
-    the band."""
-    from scipy.ndimage import label
-
-    regions, _ = label(~costmap.inflated, structure=np.ones((3, 3), dtype=bool))
-    return regions
-
-
-def _components(graph: Lattice) -> np.ndarray:
-    """The connected component of each vertex (labels 0, 1, ...)."""
-    component = np.full(len(graph), -1, dtype=int)
-    count = 0
-    for first in range(len(graph)):
-        if component[first] >= 0:
-            continue
-        component[first], queue = count, deque([first])
-        while queue:
-            for other in graph.neighbours[queue.popleft()]:
-                if component[other] < 0:
-                    component[other] = count
-                    queue.append(other)
-        count += 1
-    return component
-
-
 def follows_free_space(costmap: Costmap, graph: Lattice, cover: float = COVER) -> bool:
     """Whether `graph` is a lattice robots can be planned on everywhere in the free space it reaches: in each
-    region of the free space (`_free_regions`) that holds vertices, they are joined into one graph, and every
+    region of the free space (cells outside the inflated band, `Costmap.regions`) that holds vertices, they are joined into one graph, and every
     free cell lies within `cover` spacings of one. A square grid follows the rooms and the grid mazes whose cells
     it fits; it does not follow a corridor at an angle to it (rotated, bent or curved ones), which it leaves in
     pieces or unvisited. A region without a vertex (a pocket no robot can leave) does not count."""
@@ -191,10 +181,10 @@ def follows_free_space(costmap: Costmap, graph: Lattice, cover: float = COVER) -
 
     if len(graph) == 0:
         return False
-    regions = _free_regions(costmap)
+    regions = costmap.regions(costmap.inflated)
     rows, cols = costmap.grid.world_to_cell(graph.points[:, 0], graph.points[:, 1])
     held = regions[rows, cols]
-    component = _components(graph)
+    component = graph.components()
     for region in np.unique(held):
         if region == 0 or len(np.unique(component[held == region])) > 1:
             return False
@@ -260,7 +250,7 @@ def sampled_lattice(costmap: Costmap, spacing: float) -> Lattice:
     heads, tails, weights = np.concatenate(heads), np.concatenate(tails), np.concatenate(weights)
     count = int(free.sum())
     graph = coo_matrix((weights, (heads, tails)), shape=(count, count)).tocsr()
-    sources = np.array([index[row, col] for row, col in kept_cells])
+    sources = index[tuple(np.array(kept_cells).T)]
     _, _, owner_cell = dijkstra(graph, directed=False, indices=sources, min_only=True, return_predecessors=True)
     vertex_of = np.full(count, -1, dtype=int)
     vertex_of[sources] = np.arange(len(sources))
@@ -686,7 +676,7 @@ def _check_order_in_corridors(graph: Lattice, starts: list[int], goals: list[int
     only after trying every configuration reachable: for six robots on 28 vertices that is up to C(28, 6) =
     376,740 of them, minutes of work, where it says so in no time here."""
     robots_of: dict[int, list[int]] = {}
-    component = _components(graph)
+    component = graph.components()
     for robot, start in enumerate(starts):
         robots_of.setdefault(int(component[start]), []).append(robot)
     for part, robots in robots_of.items():

@@ -49,8 +49,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from amr_maps.maze_families import generate, grid_pitch  # noqa: E402
-from amr_evaluation.fleet_navigation import with_robots  # noqa: E402
+from amr_maps.maze_families import generate  # noqa: E402
+from amr_evaluation.fleet_navigation import lattice_spacing, with_robots  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 
 def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:
@@ -58,17 +58,6 @@ def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:
     data = with_robots(generate(family, seed, size=size), robots, seed)
     data["name"] = f"{family}_{seed}_{robots}robots"
     return data
-
-
-def lattice_spacing(data: dict, family: str) -> float:
-    """m between the lattice points robots are planned on together (--coordination plan): a grid maze's pitch
-    (amr_maps.maze_families.grid_pitch), else LATTICE_SPACING."""
-    return grid_pitch(data) if family in GRID_MAZES else LATTICE_SPACING
-
-
-GRID_MAZES = ("perfect", "loops")
-LATTICE_SPACING = 0.4
-"""m, the lattice of the worlds that are not grid mazes (rooms with pillars): two robot diameters less a little."""
 
 
 def one(args: tuple) -> dict:

@@ -28,8 +28,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from amr_evaluation.fleet_navigation import with_robots  # noqa: E402
-from amr_maps.maze_families import generate, grid_pitch  # noqa: E402
+from amr_evaluation.fleet_navigation import lattice_spacing, with_robots  # noqa: E402
+from amr_maps.maze_families import generate  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 from amr_planning.costmap import Costmap, CostmapConfig  # noqa: E402
@@ -96,7 +96,7 @@ def main(argv=None) -> int:
     data = with_robots(generate(args.family, args.maze, size=4.0), args.robots, args.maze)
     costmap = Costmap(rasterize_world(world_from_dict(data), 0.025), CostmapConfig(robot_radius=0.105,
                                                                                    safety_margin=0.02))
-    graph = lattice(costmap, grid_pitch(data) if args.family in ("perfect", "loops") else 0.4)
+    graph = lattice(costmap, lattice_spacing(data, args.family))
     if args.figure:
         draw(costmap, graph, data, args.figure, f"{args.family} {args.maze}")
     goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]
