@@ -30,19 +30,22 @@ ALLOWED: dict[str, set[str]] = {
     "amr_control": MAPS,
     "amr_localization": MAPS,
     "amr_planning": MAPS,
+    "amr_mapping": MAPS,
+    "amr_datasets": MAPS,
     "amr_navigation": MAPS | {"amr_control", "amr_planning"},  # the Navigator and its loop drive their libraries
     "amr_kinematics": BOTTOM,
     "amr_turtlebot3": BOTTOM,
     "amr_evaluation": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                              "amr_turtlebot3", "amr_navigation", "amr_bringup"},
+                              "amr_turtlebot3", "amr_navigation", "amr_bringup", "amr_mapping", "amr_datasets"},
     "amr_bringup": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                           "amr_turtlebot3", "amr_navigation"},
+                           "amr_turtlebot3", "amr_navigation", "amr_mapping", "amr_datasets"},
     "amr_viewer": MAPS | {"amr_kinematics"},  # topics, not imports, for the rest; arms drawn by the chains' own FK
 }
 """package -> the amr_* packages its modules may import (besides itself and amr_interfaces)."""
-SIDE_BY_SIDE = {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics", "amr_turtlebot3"}
+SIDE_BY_SIDE = {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics", "amr_turtlebot3",
+                "amr_mapping", "amr_datasets"}
 NO_SIMULATOR = {"amr_util", "amr_maps", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                "amr_turtlebot3", "amr_navigation"}
+                "amr_turtlebot3", "amr_navigation", "amr_mapping", "amr_datasets"}
 """Packages that run on a real robot: they import neither amr_simulation nor pymunk."""
 
 

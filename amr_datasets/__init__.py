@@ -1,0 +1,1 @@
+"""Public robot datasets as first-class inputs."""
