@@ -44,6 +44,7 @@ import json
 import math
 import os
 import re
+import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -97,10 +98,20 @@ class NodeSpec:
         """The parameter files as paths: absolute ones as given, others in share/<package>/config."""
         return [parameter_file_path(self.package, name) for name in self.parameter_files]
 
-    def launch_parameters(self) -> list[str | dict[str, object]]:
-        """launch_ros's `parameters=`: the files, then the inline parameters (which win), as ros_arguments."""
-        files: list[str | dict[str, object]] = [str(path) for path in self.parameter_file_paths()]
-        return files + [dict(self.parameters)] if self.parameters else files
+    def launch_parameters(self, directory: str | Path | None = None) -> list[str | dict[str, object]]:
+        """launch_ros's `parameters=`: the files, then the inline parameters (which win), as ros_arguments.
+
+        launch_ros takes inline only what `launch_inline_value` accepts (no empty list: the navigator's `goal: []`
+        stops `ros2 launch` with "Expected 'value' to be one of [float, int, str, bool, bytes]"); the other inline
+        values go, in their place between the files and the inline dict, through a parameter file written to
+        `directory` (the system's temporary directory by default, as launch_ros writes its own).
+        """
+        entries: list[str | dict[str, object]] = [str(path) for path in self.parameter_file_paths()]
+        inline = {name: value for name, value in self.parameters.items() if launch_inline_value(value)}
+        refused = {name: value for name, value in self.parameters.items() if name not in inline}
+        if refused:
+            entries.append(str(write_parameter_file(refused, directory, prefix=f"amr_{self.name}_")))
+        return entries + [inline] if inline else entries
 
     def ros_arguments(self) -> list[str]:
         """`--ros-args ...` giving this node its name, namespace, parameters and remappings."""
@@ -423,6 +434,44 @@ def yaml_scalar(value: object) -> str:
     if isinstance(value, str):
         return json.dumps(value)
     return "[" + ", ".join(yaml_scalar(item) for item in value) + "]"
+
+
+def launch_inline_value(value: object) -> bool:
+    """A value launch_ros 0.26.6 takes in a node's inline `parameters` dict and hands on with its type.
+
+    Its rule (launch_ros/utilities/normalize_parameters.py and evaluate_parameters.py): bool, int, float, str,
+    bytes, or a non-empty list whose items are all of one of bool, int, float, str (launch_ros would turn a list
+    mixing ints and floats into floats, and refuses every other mix, an empty list and a nested one). Non-finite
+    floats are kept out too: they reach the node through a file, as YAML's .inf/.nan.
+    """
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, (bool, int, str, bytes)):
+        return True
+    if not isinstance(value, (list, tuple)) or not value:
+        return False
+    kind = type(value[0])
+    return kind in (bool, int, float, str) and all(type(item) is kind and launch_inline_value(item) for item in value)
+
+
+def write_parameter_file(parameters: Mapping[str, object], directory: str | Path | None = None, *,
+                         prefix: str = "amr_params_") -> Path:
+    """`parameters` (flat, dotted names) in a new ROS 2 parameter file for any node (`/**: ros__parameters:`),
+    nested as ROS reads dotted names; lists mixing ints and floats as floats (rcl refuses a mixed list)."""
+    nested: dict[str, object] = {}
+    for name, value in parameters.items():
+        *groups, last = name.split(".")
+        level = nested
+        for group in groups:
+            level = level.setdefault(group, {})
+        if isinstance(value, (list, tuple)) and value and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            value = [float(v) for v in value] if any(isinstance(v, float) for v in value) else list(value)
+        level[last] = list(value) if isinstance(value, tuple) else value
+    handle, name = tempfile.mkstemp(prefix=prefix, suffix=".yaml", dir=directory)
+    with os.fdopen(handle, "w", encoding="utf-8") as stream:
+        yaml.safe_dump({"/**": {"ros__parameters": nested}}, stream, default_flow_style=None)
+    return Path(name)
 
 
 # -- parsing helpers ----------------------------------------------------------------------------

@@ -62,6 +62,17 @@ def driven_pose(pose: LocalizedPose, status: NavigatorStatus) -> LocalizedPose:
     return driven
 
 
+def ends_at_goal(path_end, goal: tuple[float, float] | None, tolerance: float) -> bool:
+    """Whether the end of the path followed is the goal: a path's end is logged as "goal reached" only then.
+
+    `goal` is the navigator's (its latest status's; None alone or while it has named none: the path is the goal).
+    A fleet route is handed over in legs, each ending at a waypoint; only the last one ends at the goal.
+    """
+    if goal is None or path_end is None:
+        return True
+    return math.hypot(float(path_end[0]) - goal[0], float(path_end[1]) - goal[1]) <= tolerance
+
+
 class PathFollowerNode(ManagedNode):
     """Wires PathFollower to its path, /pose, /scan and /cmd_vel; holds no control logic."""
 
@@ -81,6 +92,7 @@ class PathFollowerNode(ManagedNode):
         self._latest_pair_time: Time | None = None
         self._gate = NavigatorGate(self.get_name())
         self._speed_limit: tuple[int, float | None] | None = None  # (stamp ns, m/s or None)
+        self._navigator_goal: tuple[float, float] | None = None  # the latest navigator status's goal
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -128,6 +140,7 @@ class PathFollowerNode(ManagedNode):
         self._gate.reset()
         self._latest_pair = self._latest_pair_time = None
         self._speed_limit = None
+        self._navigator_goal = None
         if not self.config.simulation:
             self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
@@ -217,6 +230,7 @@ class PathFollowerNode(ManagedNode):
         """A new decision for an observation held here is answered at once; any other status is paired."""
         if self.state_label != "active":
             return
+        self._navigator_goal = (message.goal.x, message.goal.y) if message.has_goal else None
         self._gate.route(message, lambda pose, scan: self._answer(driven_pose(pose, message), scan),
                          lambda status: self._on_message(STATUS, status))
 
@@ -270,7 +284,10 @@ class PathFollowerNode(ManagedNode):
         if command.message and not command.reached:
             self._warn(command.message)
         if command.reached and (self.last_command is None or not self.last_command.reached):
-            self.get_logger().info("goal reached")
+            if ends_at_goal(self.follower.goal, self._navigator_goal, self.config.goal_tolerance):
+                self.get_logger().info("goal reached")
+            else:  # a leg of a fleet route: the navigator hands over the next
+                self.get_logger().debug("end of the path reached (a leg of the route, not the goal)")
         self.last_command = command
         self._publish(command.v, command.w)
         self._publish_status(scan, command)
