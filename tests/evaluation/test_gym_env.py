@@ -9,11 +9,12 @@ gymnasium = pytest.importorskip("gymnasium")
 
 from amr_control.wall_follower import WallFollower  # noqa: E402
 from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.gym_env import ENV_ID, MazeEnv  # noqa: E402
+from amr_evaluation.gym_env import ENV_ID, MIN_GOAL_DISTANCE, QUALIFIED_ENV_ID, START_CLEARANCE, MazeEnv  # noqa: E402
 from amr_evaluation.wall_follower_loop import run  # noqa: E402
 from amr_evaluation.worlds import build_world  # noqa: E402
 from amr_control.wall_follower_config import WallFollowerConfig  # noqa: E402
 from gymnasium.utils.env_checker import check_env  # noqa: E402
+from amr_util.environment import child_environment  # noqa: E402
 
 
 def test_passes_the_gymnasium_env_checker():
@@ -112,3 +113,102 @@ def test_the_wall_follower_as_a_policy_reaches_the_goals_it_reaches_in_the_close
     closed_loop = run(build_world(spec), config, seconds, lidar_noise=0.01, seed=sim_seed)
     assert closed_loop.goal is expected  # the case is what it claims to be
     assert reached is expected
+
+
+def _episode(env: MazeEnv, policy, seed: int) -> tuple[float, dict, dict]:
+    """(return, the first info, the last info) of one episode of `policy(observation) -> action`."""
+    observation, first = env.reset(seed=seed)
+    total, info = 0.0, first
+    for _ in range(env.max_steps):
+        observation, reward, terminated, truncated, info = env.step(policy(observation))
+        assert sum(info["reward_terms"].values()) == pytest.approx(reward)
+        total += reward
+        if terminated or truncated:
+            break
+    return total, first, info
+
+
+def still(observation):
+    return np.zeros(2, dtype=np.float32)
+
+
+def crash_first(observation):
+    """Full speed ahead, never turning: into the first wall ahead."""
+    return np.array([1.0, 0.0], dtype=np.float32)
+
+
+def to_the_goal(observation):
+    """Turn toward the goal (the observation's last two values: its x, y in the robot frame), then drive to it."""
+    x, y = float(observation[-2]), float(observation[-1])
+    bearing = np.arctan2(y, x)
+    return np.array([1.0 if abs(bearing) < 0.3 else 0.0, np.clip(2.0 * bearing, -1.0, 1.0)], dtype=np.float32)
+
+
+def test_crashing_never_pays_still_crash_first_and_a_good_policy():
+    env = MazeEnv(world="open_room", max_steps=600)
+    good, _, good_end = _episode(env, to_the_goal, 0)
+    stand, _, stand_end = _episode(env, still, 0)
+    crash, _, crash_end = _episode(env, crash_first, 0)
+    assert good_end["is_success"] and good_end["goal_reached"] and good_end["collisions"] == 0
+    assert not stand_end["is_success"] and stand_end["collisions"] == 0
+    assert stand == pytest.approx(-env.time_penalty * env.max_steps, abs=1e-6)  # the step cost, nothing else
+    assert crash_end["collided"] and not crash_end["is_success"]
+    assert good > 0.0 > stand > crash
+
+
+@pytest.mark.parametrize("world", ["inner_maze", "outer_corridor", "hard_maze"])
+def test_a_crash_scores_below_the_worst_run_without_one(world):
+    """From random starts and goals: every crash-first episode scores below what any run without a contact can
+    score at worst (it moves as far from the goal as the world lets it, for every step), and below standing."""
+    env = MazeEnv(world=world, max_steps=400, random_start_goal=True, lidar_noise=0.0)
+    travel = env.robot.max_linear * env.config.dt * env.max_steps
+    for seed in range(4):
+        crash, first, end = _episode(env, crash_first, seed)
+        assert end["collided"], "the case is what it claims to be"
+        start, goal = first["start"], first["goal"]
+        xmin, ymin, xmax, ymax = env.world.bounds
+        farthest = min(max(np.hypot(x - goal[0], y - goal[1]) for x in (xmin, xmax) for y in (ymin, ymax)),
+                       first["goal_distance"] + travel)
+        worst_without = env.progress_weight * (first["goal_distance"] - farthest) - env.time_penalty * env.max_steps
+        assert crash < worst_without
+        assert crash < _episode(env, still, seed)[0]
+
+
+def test_random_starts_and_goals_come_from_the_reset_seed():
+    env = MazeEnv(world="inner_maze", random_start_goal=True)
+    places = [env.reset(seed=seed)[1] for seed in (3, 3, 4)]
+    assert places[0]["start"] == places[1]["start"] and places[0]["goal"] == places[1]["goal"]
+    assert places[0]["start"] != places[2]["start"]
+    for info in places:
+        start, goal = np.array(info["start"][:2]), np.array(info["goal"][:2])
+        assert np.hypot(*(goal - start)) > MIN_GOAL_DISTANCE
+        assert env.world.clearance(np.array([start, goal])).min() >= START_CLEARANCE - 0.02
+    assert (env.sim.pose.x, env.sim.pose.y) == pytest.approx(places[2]["start"][:2])  # the simulator starts there
+    assert (env.sim.goal.x, env.sim.goal.y) == pytest.approx(places[2]["goal"][:2])
+    fixed = MazeEnv(world="inner_maze")
+    assert fixed.reset(seed=3)[1]["start"] == fixed.reset(seed=4)[1]["start"]  # off: the world's own
+    with pytest.raises(ValueError, match="fixed world"):
+        MazeEnv(random_start_goal=True)
+
+
+def test_every_info_key_is_there_at_reset_and_step():
+    env = MazeEnv(world="open_room", max_steps=5)
+    keys = {"world", "time", "goal_distance", "collisions", "collided", "goal_reached", "is_success", "sim_seed",
+            "start", "goal", "collision_cost", "reward_terms"}
+    _, info = env.reset(seed=0)
+    assert set(info) == keys and info["reward_terms"] == {"progress": 0.0, "step": 0.0, "goal": 0.0, "collision": 0.0}
+    assert set(env.step(still(None))[4]) == keys
+    assert info["collision_cost"] > env.time_penalty * env.max_steps + env.goal_reward
+
+
+def test_the_qualified_id_registers_in_a_fresh_process():
+    """What a SubprocVecEnv's worker does: gymnasium.make with the module-qualified id, nothing imported first."""
+    import subprocess
+    import sys
+
+    code = (f"import gymnasium; env = gymnasium.make({QUALIFIED_ENV_ID!r}, world='open_room', max_steps=3); "
+            "print(env.reset(seed=0)[1]['world'])")
+    done = subprocess.run([sys.executable, "-c", code], env=child_environment(), capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "open_room"
