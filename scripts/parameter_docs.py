@@ -129,6 +129,11 @@ def _viewer():
     return specs()
 
 
+def _log_player():
+    from amr_datasets.player_node import PARAMETERS
+    return PARAMETERS
+
+
 NODES = (
     Node("amr_simulation", "simulator", _simulator, ("simulator.yaml",)),
     Node("amr_control", "wall_follower", _wall_follower, ("wall_follower_sim.yaml", "wall_follower_real.yaml")),
@@ -146,6 +151,7 @@ NODES = (
     Node("amr_kinematics", "ik_service", _ik_service),
     Node("amr_kinematics", "ik_service.chain_keys", _ik_chain_keys),
     Node("amr_viewer", "viewer", _viewer),
+    Node("amr_datasets", "log_player", _log_player),
 )
 
 
