@@ -1,0 +1,121 @@
+"""The Pose2 pose graph: a known trajectory recovered from drifting odometry and loop closures, a false closure
+survived by the robust kernel (and not without it), divergence refused with the poses kept, bad edges refused."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import amr_mapping.pose_graph as pose_graph_module
+from amr_mapping.errors import MappingError
+from amr_mapping.pose_graph import PoseGraph
+from amr_util.geometry import compose, relative_pose
+
+SIGMA = np.array([0.02, 0.02, np.radians(0.5)])
+INFO = np.diag(1.0 / SIGMA ** 2)
+ODOMETRY_SIGMA = np.array([0.05, 0.05, np.radians(2.0)])
+"""Odometry's stated uncertainty covers its noise (SIGMA) and its heading bias (1 deg a step)."""
+
+
+def _square_loops(laps: int = 2, side: int = 6) -> np.ndarray:
+    """True poses: `laps` laps of a square of `side` 1 m steps, turning 90 deg at each corner."""
+    poses = [np.zeros(3)]
+    for _ in range(laps):
+        for _ in range(4):
+            for step in range(side):
+                turn = np.pi / 2 if step == side - 1 else 0.0
+                poses.append(np.array(compose(poses[-1], (1.0, 0.0, turn))))
+    return np.array(poses)
+
+
+def _graph(truth: np.ndarray, seed: int, loop_kernel: str = "cauchy") -> tuple[PoseGraph, np.ndarray]:
+    """Odometry with noise and a heading bias chained into the initial guess; loop closures (exact up to the
+    noise) between poses at the same true place."""
+    rng = np.random.default_rng(seed)
+    graph = PoseGraph(loop_kernel=loop_kernel)
+    guess = truth[0].copy()
+    graph.add_node(guess)
+    for k in range(1, len(truth)):
+        z = np.array(relative_pose(truth[k - 1], truth[k])) + rng.normal(0.0, SIGMA) + (0.0, 0.0, np.radians(1.0))
+        guess = np.array(compose(guess, z))
+        graph.add_node(guess)
+        graph.add_edge(k - 1, k, z, np.diag(1.0 / ODOMETRY_SIGMA ** 2))
+    for j in range(len(truth)):
+        for i in range(j - 5):
+            if np.hypot(*(truth[i, :2] - truth[j, :2])) < 1e-6:
+                z = np.array(relative_pose(truth[i], truth[j])) + rng.normal(0.0, SIGMA)
+                graph.add_edge(i, j, z, INFO, loop=True)
+    return graph, guess
+
+
+def _position_error(graph: PoseGraph, truth: np.ndarray) -> float:
+    return float(np.max(np.hypot(*(graph.poses[:, :2] - truth[:, :2]).T)))
+
+
+def test_loop_closures_recover_the_trajectory_from_drifting_odometry():
+    truth = _square_loops()
+    graph, _ = _graph(truth, seed=1)
+    drift = _position_error(graph, truth)
+    assert drift > 1.0  # 1 deg a step of heading bias
+    result = graph.optimize()
+    assert result.converged and result.final_cost < result.initial_cost
+    assert _position_error(graph, truth) < 0.1
+    assert graph.loop.sum() > 0 and graph.edges.shape == (graph.edge_count, 2)
+
+
+def _with_false_closure(loop_kernel: str) -> float:
+    truth = _square_loops()
+    graph, _ = _graph(truth, seed=2, loop_kernel=loop_kernel)
+    # a false closure: node 9 (on the second side) said to be 0.5 m ahead of node 0, 4 m from where it is
+    graph.add_edge(0, 9, (0.5, 0.0, 0.0), INFO, loop=True)
+    graph.optimize(max_iterations=50)
+    return _position_error(graph, truth)
+
+
+def test_the_robust_kernel_survives_a_false_closure():
+    assert _with_false_closure("cauchy") < 0.15  # 0.07 m without the false closure
+
+
+def test_without_the_kernel_the_false_closure_wrecks_the_map_and_huber_only_softens_it():
+    wrecked = _with_false_closure("none")
+    assert wrecked > 2.0
+    assert 0.15 < _with_false_closure("huber") < wrecked / 2  # convex: the false closure still pulls
+
+
+def test_a_diverging_optimization_raises_and_keeps_the_poses(monkeypatch):
+    truth = _square_loops(laps=1)
+    graph, _ = _graph(truth, seed=3)
+    before = graph.poses
+
+    class Broken:
+        def solve(self, rhs):
+            return np.full_like(rhs, np.nan)
+
+    monkeypatch.setattr(pose_graph_module, "splu", lambda *args, **kwargs: Broken())
+    with pytest.raises(MappingError, match="diverged"):
+        graph.optimize()
+    assert np.array_equal(graph.poses, before)
+
+
+def test_an_optimized_graph_optimizes_again_without_moving():
+    graph, _ = _graph(_square_loops(laps=1), seed=4)
+    graph.optimize()
+    again = graph.optimize()
+    assert again.converged and again.max_change < 1e-3
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda g: g.add_edge(0, 0, (1, 0, 0), INFO), "two different nodes"),
+    (lambda g: g.add_edge(0, 5, (1, 0, 0), INFO), "two different nodes"),
+    (lambda g: g.add_edge(0, 1, (np.nan, 0, 0), INFO), "finite"),
+    (lambda g: g.add_edge(0, 1, (1, 0, 0), -INFO), "positive definite"),
+    (lambda g: g.add_edge(0, 1, (1, 0, 0), INFO + np.triu(np.ones((3, 3)), 1)), "symmetric"),
+    (lambda g: g.add_node((0, np.inf, 0)), "finite"),
+    (lambda g: PoseGraph(loop_kernel="tukey"), "loop_kernel"),
+])
+def test_bad_input_is_refused(call, message):
+    graph = PoseGraph()
+    graph.add_node((0, 0, 0))
+    graph.add_node((1, 0, 0))
+    with pytest.raises(MappingError, match=message):
+        call(graph)
