@@ -1,0 +1,359 @@
+"""slam: online 2D graph SLAM as a lifecycle node (`ros2 run amr_mapping slam`), a thin shell over
+amr_mapping.slam.GraphSlam.
+
+configure  reads the parameters (SlamConfig's, the library's own, plus the node's below), builds GraphSlam and
+           the topics. The map frame is where the robot started: its first scan's pose is (0, 0, 0).
+active     /odometry + /scan are paired by stamp (amr_util.sync, the approximate-time policy, as the particle
+           filter pairs them); each pair is one GraphSlam.add and gets, stamped with the scan's stamp:
+           /pose (amr_interfaces/LocalizedPose in the map frame, localized true, confidence 1.0: the navigator
+           and the lockstep simulator take it as they take the filter's), map -> odom on /tf, ~/status
+           (amr_interfaces/LocalizerStatus: updated = a node was added, update_time, event = loop closures).
+           /map (nav_msgs/OccupancyGrid, transient local) and ~/graph (amr_interfaces/PoseGraph) go out when the
+           map changed, at most every map_publish_period s of scan time (a steady timer sends a change left over
+           when no scan comes: a lockstep simulator holding the robot).
+           ~/save_map (amr_interfaces/SaveMap) writes <path>.yaml, <path>.pgm and <path>.poses.csv; a path that
+           cannot be written is answered success false with the reason, and the map is kept.
+
+One /pose answers every pair, so a lockstep loop that waits for it never stalls: a scan the library refuses
+(MappingError) is logged and the pose follows odometry from the last correction (map -> odom kept). Nothing
+non-finite is published; no exception leaves a callback. Stamps going back (a simulator reset) restart the
+pairing with a log line; the map is kept (the world did not change).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+from amr_interfaces.msg import LocalizedPose, LocalizerStatus, PoseGraph
+from amr_interfaces.srv import SaveMap
+from builtin_interfaces.msg import Time as TimeMessage
+from geometry_msgs.msg import Pose2D as Pose2DMessage
+from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from nav_msgs.msg import Odometry
+from rclpy.clock import Clock, ClockType
+from rclpy.lifecycle import State, TransitionCallbackReturn
+from rclpy.time import Time
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+
+from amr_maps.messages import grid_message
+from amr_mapping.errors import MappingError
+from amr_mapping.slam import GraphSlam, SlamConfig
+from amr_util.geometry import all_finite, compose, yaw_from_quaternion
+from amr_util.managed_node import ManagedNode, run
+from amr_util.messages import quaternion, scan_data
+from amr_util.parameter_spec import ParameterSpec
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
+from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
+from amr_util.sync import ApproximateTimeSynchronizer
+
+NODE_NAME = "slam"
+WARNING_PERIOD = 2.0
+"""s between repeats of one kind of warning."""
+FLUSH_PERIOD = 0.5
+"""s (wall clock) between checks for a map change left unpublished."""
+
+NODE_SPECS = (
+    ParameterSpec("global_frame_id", "map", "frame of /map, /pose and ~/graph: the parent of the published "
+                  "transform; its origin is the robot's pose at the first scan"),
+    ParameterSpec("odom_frame_id", "odom", "frame of the odometry: the child of the published transform"),
+    ParameterSpec("tf_broadcast", True, "publish map -> odom on /tf after every pair processed"),
+    ParameterSpec("map_publish_period", 1.0, "s of scan time at least between two /map (and ~/graph) messages; "
+                  "each goes out once the map changed", minimum=0.0, maximum=3600.0, live=True),
+    ParameterSpec("sync_slop", 0.05, "s, the stamps of a paired /odometry and /scan differ by at most this",
+                  minimum=0.0, maximum=100.0),
+    ParameterSpec("sync_queue_size", 10, "messages kept per input while pairing", minimum=1, maximum=1000),
+    ParameterSpec("stamp_jump_threshold", 0.5, "s: stamps this much older than the last pair mean the clock "
+                  "jumped (a simulator reset): pairing starts afresh", minimum=0.01, maximum=3600.0),
+)
+NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS)
+
+
+def parameter_specs() -> tuple[ParameterSpec, ...]:
+    """SlamConfig's parameters (the library's own) and the node's."""
+    return SlamConfig.parameter_specs() + NODE_SPECS
+
+
+def config_of(values: dict) -> SlamConfig:
+    """The library's configuration from the node's parameter values (the node's own keys left out)."""
+    names = {field.name for field in dataclasses.fields(SlamConfig)}
+    return SlamConfig.from_params({name: value for name, value in values.items()
+                                   if name.partition(".")[0] in names})
+
+
+def odometry_pose(message: Odometry) -> tuple[float, float, float]:
+    pose = message.pose.pose
+    return float(pose.position.x), float(pose.position.y), yaw_from_quaternion(pose.orientation)
+
+
+def localized_pose(stamp: TimeMessage, frame: str, pose) -> LocalizedPose:
+    """The SLAM pose as a localizer's: localized, confidence 1, covariance 0 (the graph's is not estimated)."""
+    message = LocalizedPose(localized=True, confidence=1.0, runner_up_confidence=0.0)
+    message.header.stamp, message.header.frame_id = stamp, frame
+    message.pose.pose.position.x, message.pose.pose.position.y = float(pose[0]), float(pose[1])
+    message.pose.pose.orientation = quaternion(float(pose[2]))
+    return message
+
+
+def transform(stamp: TimeMessage, parent: str, child: str, pose) -> TFMessage:
+    message = TransformStamped()
+    message.header.stamp, message.header.frame_id = stamp, parent
+    message.child_frame_id = child
+    message.transform.translation.x, message.transform.translation.y = float(pose[0]), float(pose[1])
+    message.transform.rotation = quaternion(float(pose[2]))
+    return TFMessage(transforms=[message])
+
+
+def pose_graph_message(stamp: TimeMessage, frame: str, poses, edges, loop) -> PoseGraph:
+    message = PoseGraph()
+    message.header.stamp, message.header.frame_id = stamp, frame
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    message.poses = [Pose2DMessage(x=float(x), y=float(y), theta=float(t)) for x, y, t in poses]
+    message.edge_from = [int(v) for v in edges[:, 0]]
+    message.edge_to = [int(v) for v in edges[:, 1]]
+    message.loop_closure = [bool(v) for v in np.asarray(loop, dtype=bool).reshape(-1)]
+    return message
+
+
+def closure_count(value) -> int:
+    """SlamUpdate.loop_closures as a count (an int, or a sequence of the closures made)."""
+    if isinstance(value, (bool, np.bool_)):
+        return int(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    try:
+        return len(value)
+    except TypeError:
+        return 0
+
+
+class SlamNode(ManagedNode):
+    """Wires GraphSlam to /odometry, /scan, /map, /pose, /tf, ~/graph, ~/status and ~/save_map; no mapping logic."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__(NODE_NAME, **kwargs)
+        self.declare_specs(parameter_specs())
+        self.slam: GraphSlam | None = None
+        self._sync: ApproximateTimeSynchronizer | None = None
+        self._settings: dict = {}
+        self._outputs: dict = {}
+        self._entities: list = []
+        self._timer = None
+        self._warned_at: dict[str, float] = {}
+        self._map_dirty = False
+        self._last_map_ns: int | None = None
+        self._last_map_wall = -math.inf
+        self._last_stamp: TimeMessage | None = None
+        self.maps_published = 0
+        self.pairs = 0
+        self.configure_error = ""
+
+    # -- lifecycle ------------------------------------------------------------------------------
+
+    def on_configure(self, state: State) -> TransitionCallbackReturn:
+        problems = self.parameter_problems()
+        values = self.parameter_values()
+        if not problems:
+            try:
+                self.slam = GraphSlam(config_of(values))
+            except ValueError as error:  # ConfigError, MappingError name the key
+                problems = [str(error)]
+        if problems:
+            self.configure_error = "; ".join(problems)
+            self.slam = None
+            return self.fail_configure(problems)
+        self._settings = {name: values[name] for name in NODE_NAMES}
+        self._sync = ApproximateTimeSynchronizer(2, values["sync_slop"], values["sync_queue_size"], self._on_pair,
+                                                 jump_threshold=values["stamp_jump_threshold"],
+                                                 on_jump=self._on_clock_jump)
+        self._outputs = {
+            "map": self.create_lifecycle_publisher(OccupancyGridMessage, "map", LATCHED),
+            "graph": self.create_lifecycle_publisher(PoseGraph, "~/graph", reliable(2)),
+            "pose": self.create_lifecycle_publisher(LocalizedPose, "pose", reliable()),
+            "status": self.create_lifecycle_publisher(LocalizerStatus, "~/status", reliable()),
+        }
+        if values["tf_broadcast"]:  # relative, as the particle filter's: /tf, or /r1/tf in a robot's namespace
+            self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
+        self._entities = [
+            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(0, m), reliable(values["sync_queue_size"])),
+            self.create_subscription(LaserScan, "scan", lambda m: self._on_message(1, m), SENSOR_DATA),
+            self.create_active_service(SaveMap, "~/save_map", self._on_save_map),
+        ]
+        self.get_logger().info("configured: /odometry + /scan paired into the pose graph; /map in frame "
+                               f"{values['global_frame_id']} (the robot's start), at most every "
+                               f"{values['map_publish_period']} s")
+        return TransitionCallbackReturn.SUCCESS
+
+    def apply_live(self, changes: dict) -> None:
+        """map_publish_period (the node's) while configured; the library's parameters are structural here."""
+        library = [name for name in changes if name not in NODE_NAMES]
+        if library:
+            raise ValueError(f"{', '.join(library)}: the graph is built with it; cleanup, set, configure")
+        self._settings.update(changes)
+
+    def on_activate(self, state: State) -> TransitionCallbackReturn:
+        if self._sync is not None:
+            self._sync.reset()
+        self._timer = self.create_timer(FLUSH_PERIOD, self._flush, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        for entity in self._entities:
+            if hasattr(entity, "srv_name"):
+                self.destroy_service(entity)
+            else:
+                self.destroy_subscription(entity)
+        for publisher in self._outputs.values():
+            self.destroy_lifecycle_publisher(publisher)
+        self._entities, self._outputs = [], {}
+        self.slam = self._sync = self._last_stamp = None
+        self._map_dirty, self._last_map_ns = False, None
+        return TransitionCallbackReturn.SUCCESS
+
+    # -- inputs ---------------------------------------------------------------------------------
+
+    def _on_message(self, index: int, message) -> None:
+        if self.state_label != "active" or self._sync is None:
+            return
+        try:
+            if not 0 <= message.header.stamp.nanosec < NANOSECONDS_PER_SECOND:
+                self._warn(f"a message with a malformed stamp (nanosec {message.header.stamp.nanosec}) was dropped")
+                return
+            stamp = Time.from_msg(message.header.stamp).nanoseconds
+            if stamp < 0:
+                self._warn("a message with a negative stamp was dropped")
+                return
+            self._sync.add(index, stamp, message)
+        except Exception as error:  # the pair callback logs its own; this is the synchronizer's
+            self.get_logger().error(f"input dropped: {type(error).__name__}: {error}",
+                                    throttle_duration_sec=WARNING_PERIOD)
+
+    def _on_clock_jump(self, index: int, jump_ns: int) -> None:
+        self.get_logger().warning(f"/{('odometry', 'scan')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
+                                  "pairing restarted (the map is kept)")
+        self._last_map_ns = None
+
+    def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
+        """One GraphSlam.add per pair, then /pose, map -> odom and ~/status with the scan's stamp; /map and ~/graph
+        when the map changed and map_publish_period has passed."""
+        try:
+            self._process(odometry, scan)
+        except Exception as error:  # a library bug must not take the node down (nor stall a lockstep loop)
+            self.get_logger().error(f"slam update failed: {type(error).__name__}: {error}",
+                                    throttle_duration_sec=WARNING_PERIOD)
+
+    def _process(self, odometry: Odometry, scan: LaserScan) -> None:
+        slam, stamp = self.slam, scan.header.stamp
+        stamp_ns = Time.from_msg(stamp).nanoseconds
+        odom = odometry_pose(odometry)
+        if not all_finite(odom):
+            self._warn("odometry is not finite: the pair was dropped")
+            return
+        status = LocalizerStatus(localized=True, clusters=1, cluster_share=1.0)
+        try:
+            update = slam.add(stamp_ns, odom, scan_data(scan))
+            pose = tuple(float(v) for v in update.pose)
+            status.updated, status.update_time = bool(update.node_added), float(update.time)
+            closures = closure_count(update.loop_closures)
+            if closures:
+                status.event = f"{closures} loop closure{'s' * (closures > 1)}"
+                self.get_logger().info(f"{status.event} at {stamp_ns * 1e-9:.2f} s")
+            self._map_dirty |= bool(update.map_changed)
+        except MappingError as error:
+            self._warn(f"scan refused ({error}): the pose follows odometry")
+            status.event = f"scan refused: {error}"
+            pose = tuple(compose(tuple(slam.map_to_odom), odom))
+        self.pairs += 1
+        self._publish_pose(stamp, odom, pose, status)
+        period = round(self._settings["map_publish_period"] * NANOSECONDS_PER_SECOND)
+        due = self._last_map_ns is None or stamp_ns - self._last_map_ns >= period or stamp_ns < self._last_map_ns
+        if self._map_dirty and due:
+            self._last_map_ns = stamp_ns
+            self._publish_map(stamp)
+
+    def _on_save_map(self, request: SaveMap.Request, response: SaveMap.Response) -> SaveMap.Response:
+        try:
+            if self.slam is None:
+                raise MappingError("no map yet")
+            path = Path(request.path).expanduser() if request.path else None
+            if path is None:
+                raise MappingError("path is empty: give a file path without extension (e.g. my_map)")
+            written = self.slam.save(path)
+            response.success = True
+            response.message = "wrote " + ", ".join(str(p) for p in written)
+            self.get_logger().info(f"map saved: {response.message}")
+        except Exception as error:  # MappingError names the path; anything else must not escape either
+            response.success = False
+            response.message = str(error) if isinstance(error, (MappingError, OSError)) else \
+                f"{type(error).__name__}: {error}"
+            self.get_logger().warning(f"save_map {request.path!r} failed: {response.message} (the map is kept)")
+        return response
+
+    # -- outputs --------------------------------------------------------------------------------
+
+    def _publish_pose(self, stamp: TimeMessage, odom, pose, status: LocalizerStatus) -> None:
+        if not all_finite(pose):
+            self.get_logger().error("the pose is not finite: nothing published", throttle_duration_sec=WARNING_PERIOD)
+            return
+        frame = self._settings["global_frame_id"]
+        self._last_stamp = stamp
+        self._outputs["pose"].publish(localized_pose(stamp, frame, pose))
+        correction = tuple(float(v) for v in self.slam.map_to_odom)
+        if "tf" in self._outputs and all_finite(correction):
+            self._outputs["tf"].publish(transform(stamp, frame, self._settings["odom_frame_id"], correction))
+        status.header.stamp, status.header.frame_id = stamp, frame
+        self._outputs["status"].publish(status)
+
+    def _publish_map(self, stamp: TimeMessage) -> None:
+        frame = self._settings["global_frame_id"]
+        grid = self.slam.occupancy_grid()
+        if grid.frame_id != frame:
+            grid = dataclasses.replace(grid, frame_id=frame)
+        self._outputs["map"].publish(grid_message(grid, stamp))
+        poses, edges, loop = self.slam.graph()
+        stamps = list(self.slam.node_stamps)
+        graph_stamp = stamp_from_nanoseconds(int(stamps[-1])) if stamps else stamp
+        if np.isfinite(np.asarray(poses, dtype=float)).all():
+            self._outputs["graph"].publish(pose_graph_message(graph_stamp, frame, poses, edges, loop))
+        self._map_dirty = False
+        self._last_map_wall = time.monotonic()
+        self.maps_published += 1
+
+    def _flush(self) -> None:
+        """A map change no later scan published (a lockstep simulator holding the robot) goes out after a period."""
+        if self.state_label != "active" or not self._map_dirty or self._last_stamp is None or self.slam is None:
+            return
+        if time.monotonic() - self._last_map_wall < max(self._settings["map_publish_period"], FLUSH_PERIOD):
+            return
+        try:
+            self._publish_map(self._last_stamp)
+        except Exception as error:
+            self.get_logger().error(f"map not published: {type(error).__name__}: {error}",
+                                    throttle_duration_sec=WARNING_PERIOD)
+
+    def _warn(self, text: str) -> None:
+        """Each distinct warning at most once per WARNING_PERIOD of wall time."""
+        now = time.monotonic()
+        if now - self._warned_at.get(text, -math.inf) >= WARNING_PERIOD:
+            self._warned_at[text] = now
+            self.get_logger().warning(text)
+
+
+def main(args=None) -> None:
+    run(SlamNode, args=args)
+
+
+if __name__ == "__main__":
+    main()
