@@ -65,6 +65,8 @@ NODE_CLASSES: dict[tuple[str, str], tuple[str, str]] = {
     ("amr_control", "path_follower"): ("amr_control.path_follower_node", "PathFollowerNode"),
     ("amr_navigation", "navigator"): ("amr_navigation.navigator_node", "NavigatorNode"),
     ("amr_navigation", "fleet_planner"): ("amr_navigation.fleet_planner_node", "FleetPlannerNode"),
+    ("amr_mapping", "slam"): ("amr_mapping.slam_node", "SlamNode"),
+    ("amr_mapping", "explorer"): ("amr_mapping.explorer_node", "ExplorerNode"),
 }
 """(package, executable) -> (module, class) of the nodes --composed can host."""
 

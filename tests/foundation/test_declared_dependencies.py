@@ -78,7 +78,8 @@ def declared(manifest: Path, tags=("depend", "exec_depend", "build_export_depend
 
 def test_every_package_is_checked():
     assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer"} == set(PACKAGES)
+            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer",
+            "amr_mapping", "amr_datasets"} == set(PACKAGES)
 
 
 @pytest.mark.parametrize("package", PACKAGES)
