@@ -36,6 +36,7 @@ from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -58,6 +59,9 @@ WARNING_PERIOD = 5.0
 """Wall s between repeats of the pace timeout warning."""
 TF_DEPTH = 100
 DEFAULT_NOISE = OdometryNoiseModel()
+QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
+"""Publishers without rclpy's default QoS-event handlers: each is a waitable the executor checks at every wait
+(as in the simulator node); a QoS mismatch is still reported by the subscriber's own handler."""
 
 
 def pace_type_problem(name: str) -> str | None:
@@ -216,7 +220,10 @@ class LogPlayerNode(ManagedNode):
 
     def _create_interfaces(self, values: dict, pace_type) -> None:
         qos = reliable()
-        create = self.create_lifecycle_publisher
+
+        def create(kind, topic, profile):
+            return self.create_lifecycle_publisher(kind, topic, profile, event_callbacks=QUIET_PUBLISHER)
+
         self._outputs = {
             "tf": create(TFMessage, "tf", reliable(TF_DEPTH)),
             "tf_static": create(TFMessage, "tf_static", LATCHED),
