@@ -8,8 +8,11 @@
 
 Every episode (controller x configuration x world x seed x noise) is keyed by a hash of its whole spec;
 its record is appended to the results file (JSON lines) when it finishes, and a sweep started again with
-the same file skips every finished episode. At the end: a summary table (also <stem>.summary.txt) and
-plots beside the results (<stem>.success.png, <stem>.time_to_goal.png, <stem>.localization.png).
+the same file skips every finished episode (it says how many). At the end: a summary table (also
+<stem>.summary.txt) and plots beside the results (<stem>.success.png, <stem>.time_to_goal.png,
+<stem>.localization.png). A parameter file is checked against the nodes' own parameter statements before
+anything runs. Ctrl-C stops the sweep with one line (what finished is kept: run the same command to resume).
+Exit status: 0 done, 1 an episode raised, 2 bad input or no scheduler, 130 interrupted.
 """
 
 from __future__ import annotations
@@ -63,6 +66,8 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     where = parser.add_argument_group("where")
     where.add_argument("--workers", type=int, default=None, help="local processes (default 2, or the cores if fewer)")
     where.add_argument("--scheduler", metavar="tcp://HOST:8786", help="run on this Dask cluster instead")
+    where.add_argument("--scheduler-timeout", type=float, default=10.0, metavar="S",
+                       help="s to wait for the scheduler to answer (default 10): then an error, nothing written")
     where.add_argument("--out", default=DEFAULT_OUT, help=f"results file, JSON lines (default {DEFAULT_OUT})")
     where.add_argument("--no-plots", action="store_true")
     where.add_argument("--no-progress", action="store_true")
@@ -76,6 +81,8 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
         parser.error("--seeds must be at least 1 and --first-seed at least 0")
     if options.duration <= 0:
         parser.error("--duration must be positive")
+    if not options.scheduler_timeout > 0:
+        parser.error("--scheduler-timeout must be positive")
     if "all" in options.families:
         options.families = list(FAMILIES)
     unknown = [f for f in options.families if f not in FAMILIES]
@@ -141,8 +148,21 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
     return specs
 
 
+INTERRUPTED = 130
+"""The exit status of a sweep stopped by Ctrl-C (128 + SIGINT, as a shell reports it)."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     options = parse_arguments(argv)
+    try:
+        return _main(options)
+    except KeyboardInterrupt:
+        print(f"amr-evaluate: interrupted; the finished episodes are in {options.out} (the same command resumes)",
+              file=sys.stderr)
+        return INTERRUPTED
+
+
+def _main(options: argparse.Namespace) -> int:
     try:
         specs = build_specs(options)
     except (configs.ConfigurationError, WorldSpecError, ValueError) as error:
@@ -166,9 +186,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     workers = options.workers or default_workers()
     where = f"Dask scheduler {options.scheduler}" if options.scheduler else f"{workers} local worker(s)"
     print(f"amr-evaluate: {len(specs)} episodes on {where}; results in {out}", flush=True)
+
+    def started(skipped: int, to_run: int) -> None:
+        if skipped:
+            print(f"amr-evaluate: resuming {out}: {skipped} finished episode(s) skipped, {to_run} to run", flush=True)
+
     try:
         records = run_sweep(specs, out, workers=workers, scheduler=options.scheduler,
-                            progress=not options.no_progress)
+                            progress=not options.no_progress, on_start=started,
+                            connect_timeout=options.scheduler_timeout)
     except SweepError as error:
         print(f"amr-evaluate: {error}", file=sys.stderr)
         return 2

@@ -18,7 +18,9 @@ Configurations per controller:
 
 A user's file is a ROS 2 parameter file (``<node>: ros__parameters: ...``, what ``--params-file`` takes)
 laid over the controller's default: each of its sections named after one of the controller's nodes
-replaces those parameters; a section for a node the controller does not run is refused. For the wall
+replaces those parameters; a section for a node the controller does not run is refused, and so is a key the node
+does not declare, a value of the wrong type or out of its range (amr_evaluation.parameter_check: the node's own
+parameter statements), naming the file, the key and the value. For the wall
 follower, a file is laid over ``sim`` (``real:my.yaml`` lays it over ``real``).
 """
 
@@ -30,6 +32,7 @@ from typing import Any
 
 import yaml
 
+from amr_evaluation.parameter_check import check_parameters
 from amr_util.parameter_file import node_parameters
 from amr_util.share import share_directory
 
@@ -94,6 +97,8 @@ def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]
                                  f"(its nodes: {', '.join(NODES[controller])})")
     _, parameters = resolve(controller, base)
     for node in data:
-        parameters[node] = {**parameters[node], **node_parameters(file, node, ConfigurationError)}
+        given = node_parameters(file, node, ConfigurationError)
+        check_parameters(file, node, given, ConfigurationError)
+        parameters[node] = {**parameters[node], **given}
     digest = hashlib.sha256(file.read_bytes()).hexdigest()[:8]
     return f"{base}:{file.stem}-{digest}", parameters

@@ -5,18 +5,22 @@ file), runs the others on an executor, appends each record the moment it finishe
 spec's record in the order of ``specs``. Executors:
 
 - ``workers=1``: in this process, one after the other, each record written as it finishes (no pool to start);
-- ``workers=N``: a ``concurrent.futures.ProcessPoolExecutor`` of N processes (fork);
+- ``workers=N``: a ``concurrent.futures.ProcessPoolExecutor`` of N processes (fork; a Ctrl-C ends a worker at
+  once and quietly, its episode left for the resume);
 - ``scheduler="tcp://host:8786"``: ``distributed.Client(address).get_executor()``, a standard
   ``concurrent.futures.Executor`` over an existing Dask cluster. Its workers need this suite installed
   (the same version: a record depends on the code as much as on its spec).
 
 Each episode is a pure function of its spec (amr_evaluation.episode), so the records are the same
-wherever they ran, apart from their wall-clock fields.
+wherever they ran, apart from their wall-clock fields. The results file is opened at the first record, after the
+executor is up: a sweep that runs nothing (a scheduler that does not answer, an interrupt before any episode
+finished) writes nothing.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
@@ -44,8 +48,9 @@ def executor_for(workers: int = 1, scheduler: str | None = None,
                              "(dask[distributed])") from error
         try:
             client = Client(scheduler, timeout=f"{connect_timeout}s")
-        except (OSError, TimeoutError) as error:
-            raise SweepError(f"no Dask scheduler answered at {scheduler}: {error}") from error
+        except (OSError, TimeoutError, ValueError) as error:
+            raise SweepError(f"no Dask scheduler answered at {scheduler} within {connect_timeout:g} s: "
+                             f"{error}") from error
         try:
             with client.get_executor() as executor:
                 yield executor
@@ -59,8 +64,15 @@ def executor_for(workers: int = 1, scheduler: str | None = None,
         return
     import multiprocessing
 
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as executor:
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                             initializer=_quiet_interrupt) as executor:
         yield executor
+
+
+def _quiet_interrupt() -> None:
+    """In a pool worker: Ctrl-C (SIGINT to the terminal's process group) ends it at once, without a traceback;
+    the sweep's process reports the interrupt, and its episode is run again on resume."""
+    signal.signal(signal.SIGINT, lambda number, frame: os._exit(128 + signal.SIGINT))
 
 
 class Progress:
@@ -97,10 +109,13 @@ class Progress:
 
 def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int = 1, scheduler: str | None = None,
               progress: bool = True, on_record: Callable[[dict[str, Any]], None] | None = None,
-              episode: Callable[[dict], dict] = run_episode, connect_timeout: float = 10.0) -> list[dict[str, Any]]:
+              episode: Callable[[dict], dict] = run_episode, connect_timeout: float = 10.0,
+              on_start: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
     """Every spec's record (in the order of ``specs``), running only those without a finished one in ``results``.
 
-    ``on_record`` is called with each new record as it arrives (in completion order).
+    ``on_start(skipped, to_run)`` is called once the finished episodes are known (the distinct episodes with a
+    finished record in ``results``, and those left to run), before any runs; ``on_record`` with each new record
+    as it arrives (in completion order).
     """
     results = Path(results)
     known = read_records(results)
@@ -108,11 +123,15 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
     for spec in specs:
         unique.setdefault(spec.key, spec)
     todo = [spec for key, spec in unique.items() if not finished(known.get(key))]
-    bar = Progress(len(unique), len(unique) - len(todo)) if progress and todo else None
+    if on_start is not None:
+        on_start(len(unique) - len(todo), len(todo))
     if todo:
-        with RecordWriter(results) as writer, executor_for(workers, scheduler, connect_timeout) as executor:
+        with executor_for(workers, scheduler, connect_timeout) as executor:
+            bar = Progress(len(unique), len(unique) - len(todo)) if progress else None
+            writer: RecordWriter | None = None
             try:
                 for record in _run(executor, episode, todo):
+                    writer = writer or RecordWriter(results)  # opened at the first record: none, no file
                     writer.write(record)
                     known[record["key"]] = record
                     if on_record is not None:
@@ -120,6 +139,8 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
                     if bar is not None:
                         bar.update()
             finally:
+                if writer is not None:
+                    writer.close()
                 if bar is not None:
                     bar.close()
     return [known[spec.key] for spec in specs]
