@@ -246,10 +246,10 @@ class CorrelativeMatcher:
         return _bilinear(self.score_map.table, (wx - self.origin[0]) / self.resolution - 0.5,
                          (wy - self.origin[1]) / self.resolution - 0.5, 1.0 / self.resolution)
 
-    def _refine(self, points: np.ndarray, pose: np.ndarray, step: float, iterations: int = 8):
+    def _refine(self, points: np.ndarray, pose: np.ndarray, step: float, iterations: int = 15, reach: float = 2.0):
         """Gauss-Newton on sum (1 - M(T(pose) p))^2 over the bilinear table M (Hector SLAM's scan matching),
-        each step kept only if the mean score grows, the pose kept within one cell and one angular step of
-        the lattice's."""
+        each step kept only if the mean score grows, the pose kept within `reach` cells and angular steps of
+        the lattice's (the lattice's best may sit anywhere on a plateau of thick walls: a cell or two off)."""
         res = self.resolution
         start = pose.copy()
         values, gx, gy = self._bilinear(points, pose)
@@ -265,11 +265,14 @@ class CorrelativeMatcher:
                 delta = np.linalg.solve(hessian, jac.T @ (1.0 - values))
             except np.linalg.LinAlgError:
                 break
-            trial = pose + delta
-            trial[:2] = np.clip(trial[:2], start[:2] - res, start[:2] + res)
-            trial[2] = np.clip(trial[2], start[2] - step, start[2] + step)
-            trial_values, trial_gx, trial_gy = self._bilinear(points, trial)
-            score = float(trial_values.mean())
+            for shrink in (1.0, 0.5, 0.25, 0.125):  # backtracking: the bilinear surface is only piecewise smooth
+                trial = pose + shrink * delta
+                trial[:2] = np.clip(trial[:2], start[:2] - reach * res, start[:2] + reach * res)
+                trial[2] = np.clip(trial[2], start[2] - reach * step, start[2] + reach * step)
+                trial_values, trial_gx, trial_gy = self._bilinear(points, trial)
+                score = float(trial_values.mean())
+                if score > best:
+                    break
             if not score > best:
                 break
             moved = np.abs(trial - pose)
@@ -540,7 +543,8 @@ def _keep_leaf(found, found_totals, state, total, a, x, y, sep2, angle_sep, n_an
     and is dropped if a better one is near."""
     n = state[2]
     for j in range(n):
-        if _near(a, x, y, found[j, 0], found[j, 1], found[j, 2], sep2, angle_sep, n_angles) and found_totals[j] >= total:
+        near = _near(a, x, y, found[j, 0], found[j, 1], found[j, 2], sep2, angle_sep, n_angles)
+        if near and found_totals[j] >= total:
             return
     k = 0
     for j in range(n):

@@ -1,0 +1,219 @@
+"""Occupancy mapping with known poses: log odds per cell (Thrun, Burgard, Fox, Probabilistic Robotics, 9.2).
+
+Each scan adds, once per cell it touches, l_occ to the cell of each beam's end point and l_free to every
+cell the beam crosses before it (an exact grid traversal, Amanatides and Woo, compiled); a reading without
+a return (+inf, or beyond max_range_used) clears its beam up to max_range_used and marks nothing occupied;
+NaN and -inf readings (REP 117: closer than range_min) are skipped. A cell both ended on and crossed in one
+scan counts as occupied. The sums are kept unclamped (and a count of the scans that touched each cell), and
+clamped only when read: inserting a scan with sign=-1 then takes it out exactly, so a SLAM can remove its
+scans and insert them again at their optimized poses.
+
+The grid grows as scans arrive: it is reallocated to hold every cell a scan touches, with a margin, on the
+lattice x = origin_x + k * resolution fixed by the first origin (cells keep their alignment).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numba
+import numpy as np
+
+from amr_maps.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from amr_util.geometry import compose
+from amr_util.scan import ScanData
+
+
+class LogOddsGrid:
+    """A growing log-odds occupancy grid; `origin` (x, y) is cell (0, 0)'s lower-left corner, row 0 the lowest y
+    (amr_maps.occupancy_grid's layout)."""
+
+    def __init__(self, resolution: float, origin: tuple[float, float] | None = None, l_occ: float = 0.85,
+                 l_free: float = -0.4, clamp: tuple[float, float] = (-2.0, 3.5), margin: float = 2.0) -> None:
+        if not math.isfinite(resolution) or resolution <= 0.0:
+            raise ValueError(f"log-odds grid: resolution must be a positive number of m/cell, got {resolution!r}")
+        if not (math.isfinite(l_occ) and l_occ > 0.0 and math.isfinite(l_free) and l_free < 0.0):
+            raise ValueError(f"log-odds grid: l_occ must be > 0 and l_free < 0, got {l_occ!r}, {l_free!r}")
+        if len(clamp) != 2 or not (clamp[0] < 0.0 < clamp[1]):
+            raise ValueError(f"log-odds grid: clamp must be (low < 0, high > 0), got {clamp!r}")
+        if not math.isfinite(margin) or margin < 0.0:
+            raise ValueError(f"log-odds grid: margin must be a number of m >= 0, got {margin!r}")
+        if origin is not None and not all(math.isfinite(float(v)) for v in origin[:2]):
+            raise ValueError(f"log-odds grid: origin must be finite (x, y), got {origin!r}")
+        self.resolution = float(resolution)
+        self.l_occ, self.l_free = float(l_occ), float(l_free)
+        self.clamp = (float(clamp[0]), float(clamp[1]))
+        self.margin = float(margin)
+        self._anchor = (0.0, 0.0) if origin is None else (float(origin[0]), float(origin[1]))
+        self._low = np.zeros(2, dtype=np.int64)  # (col, row) of cell (0, 0) on the anchor's lattice
+        self._sum = np.zeros((0, 0))
+        self._count = np.zeros((0, 0), dtype=np.int32)
+        self._mark = np.zeros((0, 0), dtype=np.int64)
+        self._scans = 0
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """(x, y) of cell (0, 0)'s lower-left corner."""
+        return (self._anchor[0] + self._low[0] * self.resolution, self._anchor[1] + self._low[1] * self.resolution)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return int(self._sum.shape[0]), int(self._sum.shape[1])
+
+    def log_odds(self) -> np.ndarray:
+        """(rows, cols) clamped log odds, 0 where never observed."""
+        return np.clip(self._sum, *self.clamp)
+
+    def observed(self) -> np.ndarray:
+        """(rows, cols) True where a scan touched the cell."""
+        return self._count > 0
+
+    def probability(self, unknown: float = 0.5) -> np.ndarray:
+        """(rows, cols) occupancy probability 1 - 1 / (1 + exp(l)); `unknown` where never observed."""
+        probability = 1.0 - 1.0 / (1.0 + np.exp(self.log_odds()))
+        return np.where(self.observed(), probability, unknown)
+
+    def to_occupancy_grid(self, occupied: float = 0.65, free: float = 0.25, frame_id: str = "map") -> OccupancyGrid:
+        """100 at or above `occupied`, 0 at or below `free`, round(100 p) between, -1 where never observed. An
+        empty grid (no scan yet) is one unknown cell at the origin."""
+        if self._sum.size == 0:
+            return OccupancyGrid(np.full((1, 1), UNKNOWN, dtype=np.int8), self.resolution, (*self.origin, 0.0),
+                                 frame_id)
+        probability = self.probability()
+        data = np.rint(100.0 * probability).astype(np.int8)
+        data[probability >= occupied] = OCCUPIED
+        data[probability <= free] = FREE
+        data[~self.observed()] = UNKNOWN
+        return OccupancyGrid(data, self.resolution, (*self.origin, 0.0), frame_id)
+
+    def insert(self, pose, ranges, angles, max_range_used: float = math.inf, sign: int = 1) -> None:
+        """Add a scan taken by a sensor at pose (x, y, theta) in the map frame: ranges along angles (sensor
+        frame). sign=-1 takes out a scan inserted before with the same arguments (the same cells, exactly)."""
+        if sign not in (1, -1):
+            raise ValueError(f"insert: sign must be 1 or -1, got {sign!r}")
+        pose = np.asarray(pose, dtype=float).reshape(3)
+        if not np.all(np.isfinite(pose)):
+            raise ValueError(f"insert: pose must be a finite (x, y, theta), got {pose!r}")
+        if math.isnan(max_range_used) or max_range_used <= 0.0:
+            raise ValueError(f"insert: max_range_used must be a positive number of m (or inf), got {max_range_used!r}")
+        ranges = np.asarray(ranges, dtype=float).ravel()
+        angles = np.asarray(angles, dtype=float).ravel()
+        if ranges.shape != angles.shape:
+            raise ValueError(f"insert: {ranges.size} ranges for {angles.size} angles")
+        usable = np.isfinite(angles) & ~np.isnan(ranges) & (ranges > 0.0)
+        hit = usable & np.isfinite(ranges) & (ranges <= max_range_used)
+        clear = usable & ~hit & math.isfinite(max_range_used)  # +inf or too far: free up to max_range_used
+        length = np.where(hit, ranges, max_range_used if math.isfinite(max_range_used) else 0.0)
+        keep = hit | clear
+        if not keep.any():
+            return
+        heading = pose[2] + angles[keep]
+        ends = np.column_stack([pose[0] + length[keep] * np.cos(heading), pose[1] + length[keep] * np.sin(heading)])
+        self._cover(np.vstack([ends, pose[None, :2]]))
+        ox, oy = self.origin
+        start = np.array([(pose[0] - ox) / self.resolution, (pose[1] - oy) / self.resolution])
+        ends_cells = (ends - (ox, oy)) / self.resolution
+        self._scans += 1
+        _update(self._sum, self._count, self._mark, 2 * self._scans, start[0], start[1], ends_cells[:, 0],
+                ends_cells[:, 1], hit[keep], sign * self.l_occ, sign * self.l_free, sign)
+
+    def insert_scan(self, pose, scan: ScanData, mount=(0.0, 0.0, 0.0), max_range_used: float | None = None,
+                    sign: int = 1) -> None:
+        """insert for a ScanData taken with the robot at pose and the sensor at mount in the robot frame:
+        readings below range_min are skipped, above range_max are no returns; max_range_used defaults to
+        range_max (no clearing when it is infinite)."""
+        ranges = np.asarray(scan.ranges, dtype=float)
+        angles = scan.angle_min + scan.angle_increment * np.arange(ranges.size)
+        ranges = np.where(ranges < scan.range_min, np.nan, ranges)
+        ranges = np.where(ranges > scan.range_max, np.inf, ranges)
+        limit = scan.range_max if max_range_used is None else max_range_used
+        self.insert(np.asarray(compose(tuple(np.asarray(pose, dtype=float)), tuple(mount))), ranges, angles,
+                    min(limit, scan.range_max), sign)
+
+    def _cover(self, points: np.ndarray) -> None:
+        """Grow the arrays (with the margin) so that every point's cell is inside, keeping the lattice."""
+        res = self.resolution
+        cols = np.floor((points[:, 0] - self._anchor[0]) / res).astype(np.int64)
+        rows = np.floor((points[:, 1] - self._anchor[1]) / res).astype(np.int64)
+        low = np.array([cols.min(), rows.min()])
+        high = np.array([cols.max(), rows.max()]) + 1
+        height, width = self._sum.shape
+        if self._sum.size and np.all(low >= self._low) and np.all(high <= self._low + (width, height)):
+            return
+        margin = int(math.ceil(self.margin / res))
+        if self._sum.size:
+            low = np.minimum(low, self._low)
+            high = np.maximum(high, self._low + (width, height))
+        low -= margin
+        high += margin
+        size = high - low
+        total = np.zeros((size[1], size[0]))
+        count = np.zeros((size[1], size[0]), dtype=np.int32)
+        mark = np.zeros((size[1], size[0]), dtype=np.int64)
+        if self._sum.size:
+            c0, r0 = self._low - low
+            total[r0:r0 + height, c0:c0 + width] = self._sum
+            count[r0:r0 + height, c0:c0 + width] = self._count
+            mark[r0:r0 + height, c0:c0 + width] = self._mark
+        self._sum, self._count, self._mark, self._low = total, count, mark, low
+
+
+def map_from_scans(poses: np.ndarray, scans: Sequence[ScanData], resolution: float = 0.05,
+                   max_range: float | None = None, mount=(0.0, 0.0, 0.0), occupied: float = 0.65,
+                   free: float = 0.25, frame_id: str = "map",
+                   origin: tuple[float, float] | None = None) -> OccupancyGrid:
+    """The occupancy grid of scans taken at poses (N, 3) of the robot (sensor at mount in the robot frame):
+    no returns clear up to max_range (default: each scan's range_max; nothing when that is infinite). origin:
+    a point of the cell lattice (default (0, 0)), to align the map on another grid's cells."""
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    if len(poses) != len(scans):
+        raise ValueError(f"map_from_scans: {len(poses)} poses for {len(scans)} scans")
+    grid = LogOddsGrid(resolution, origin)
+    for pose, scan in zip(poses, scans):
+        grid.insert_scan(pose, scan, mount, max_range)
+    return grid.to_occupancy_grid(occupied, free, frame_id)
+
+
+@numba.njit(cache=True)
+def _update(total, count, mark, tag, x0, y0, xs, ys, hit, l_occ, l_free, sign):  # pragma: no cover - compiled
+    """One scan, in cell units from the grid's origin: end cells of hits first (tag: occupied this scan), then
+    every cell each beam crosses (tag + 1: free this scan), each cell once."""
+    rows, cols = total.shape
+    for k in range(xs.shape[0]):
+        if hit[k]:
+            c = int(math.floor(xs[k]))
+            r = int(math.floor(ys[k]))
+            if mark[r, c] != tag:
+                mark[r, c] = tag
+                total[r, c] += l_occ
+                count[r, c] += sign
+    for k in range(xs.shape[0]):
+        ix = int(math.floor(x0))
+        iy = int(math.floor(y0))
+        ex = int(math.floor(xs[k]))
+        ey = int(math.floor(ys[k]))
+        dx = xs[k] - x0
+        dy = ys[k] - y0
+        step_x = 1 if dx > 0.0 else -1
+        step_y = 1 if dy > 0.0 else -1
+        delta_x = abs(1.0 / dx) if dx != 0.0 else math.inf
+        delta_y = abs(1.0 / dy) if dy != 0.0 else math.inf
+        next_x = ((ix + 1.0 - x0) if dx > 0.0 else (x0 - ix)) * delta_x if dx != 0.0 else math.inf
+        next_y = ((iy + 1.0 - y0) if dy > 0.0 else (y0 - iy)) * delta_y if dy != 0.0 else math.inf
+        steps = abs(ex - ix) + abs(ey - iy)
+        for _ in range(steps + 1):
+            if ix == ex and iy == ey and hit[k]:
+                break  # the end cell of a return is occupied
+            if 0 <= iy < rows and 0 <= ix < cols and mark[iy, ix] != tag and mark[iy, ix] != tag + 1:
+                mark[iy, ix] = tag + 1
+                total[iy, ix] += l_free
+                count[iy, ix] += sign
+            if ix == ex and iy == ey:
+                break
+            if next_x < next_y:
+                ix += step_x
+                next_x += delta_x
+            else:
+                iy += step_y
+                next_y += delta_y

@@ -1,0 +1,195 @@
+"""amr_maps.scan_matcher: offsets recovered, branch and bound = brute force, global search, budget, covariance."""
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_maps.maze_families import generate
+from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.rasterize import rasterize_world
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, _max_pyramid
+from amr_maps.world import world_from_dict
+
+BEAMS = 180
+
+
+def scan_points(world, pose, noise=0.0, seed=0, max_range=3.5):
+    increment = 2.0 * math.pi / BEAMS
+    angles = -math.pi + increment * np.arange(BEAMS)
+    ranges = NumpyRayCaster(world.faces).cast(pose[0], pose[1], pose[2] - math.pi, increment, BEAMS, max_range)
+    ranges = ranges + np.random.default_rng(seed).normal(0.0, noise, BEAMS)
+    keep = np.isfinite(ranges) & (ranges < max_range)
+    return np.column_stack([ranges[keep] * np.cos(angles[keep]), ranges[keep] * np.sin(angles[keep])])
+
+
+@pytest.fixture(scope="module")
+def pillars():
+    world = world_from_dict(generate("pillars", 3, size=6.0))
+    grid = rasterize_world(world, 0.05)
+    return world, grid, CorrelativeMatcher(ScoreMap.from_occupancy(grid))
+
+
+def test_score_map_from_occupancy_is_a_likelihood_field_with_unknown_floor():
+    data = np.zeros((5, 7), dtype=np.int8)
+    data[2, 3] = 100
+    data[:, 0] = -1
+    score = ScoreMap.from_occupancy(OccupancyGrid(data, 0.1, (1.0, 2.0, 0.0)), sigma=0.1, unknown=0.2)
+    assert score.table[2, 3] == 1.0
+    assert score.table[2, 4] == pytest.approx(math.exp(-0.5), rel=1e-6)
+    assert score.table[2, 0] == pytest.approx(0.2)  # unknown, 3 cells from the wall
+    assert score.origin == (1.0, 2.0) and not score.free[2, 3] and not score.free[2, 0] and score.free[1, 1]
+    empty = ScoreMap.from_occupancy(OccupancyGrid(np.zeros((3, 3), np.int8), 0.1))
+    assert empty.table.max() == 0.0
+
+
+def test_pyramid_level_k_is_the_max_over_the_window_starting_at_each_cell():
+    base = np.random.default_rng(3).integers(0, 1000, (13, 11)).astype(np.uint16)
+    pyramid = _max_pyramid(base, 4)
+    for level in range(4):
+        size = 1 << level
+        for r in range(13):
+            for c in range(11):
+                assert pyramid[level, r, c] == base[r:r + size, c:c + size].max()
+
+
+def test_points_off_the_table_score_zero_and_bad_points_are_dropped():
+    matcher = CorrelativeMatcher(ScoreMap.from_probability(np.ones((10, 10)), 0.1, (0.0, 0.0)))
+    points = np.array([[0.5, 0.5], [5.0, 5.0], [np.nan, 0.2], [-0.05, 0.5]])
+    assert matcher.score(points, (0.0, 0.0, 0.0)) == pytest.approx(1.0 / 3.0)
+    found = matcher.match(np.zeros((0, 2)), (0.3, 0.4, 0.5), 0.2, 0.1)
+    assert found.score == 0.0 and np.allclose(found.pose, (0.3, 0.4, 0.5))
+    with pytest.raises(ValueError, match="prior"):
+        matcher.match(points, (0.0, np.nan, 0.0), 0.2, 0.1)
+
+
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (0.3, -0.2, 0.0), (-0.15, 0.35, math.radians(12)),
+                                    (0.42, 0.41, -math.radians(18)), (0.07, -0.03, math.radians(4))])
+def test_match_recovers_known_offsets(pillars, offset):
+    world, _, matcher = pillars
+    truth = np.array([world.start.x, world.start.y, world.start.theta])
+    points = scan_points(world, truth, noise=0.01, seed=1)
+    found = matcher.match(points, truth - offset, 0.5, math.radians(20))
+    assert found.exhaustive
+    # a rasterized wall fills its boundary cells: the surface seen sits up to half a cell from where the map has it
+    assert math.hypot(*(found.pose[:2] - truth[:2])) < 0.03
+    assert abs(math.remainder(found.pose[2] - truth[2], 2 * math.pi)) < math.radians(1.0)
+    assert 0.8 < found.score <= 1.0
+
+
+def test_refinement_goes_below_the_cell(pillars):
+    world, grid, _ = pillars
+    centres = np.column_stack([c.ravel() for c in grid.cell_to_world(*np.indices(grid.data.shape))])
+    distance = np.abs(world.clearance(centres)).reshape(grid.data.shape)  # to the surfaces, exact
+    matcher = CorrelativeMatcher(ScoreMap.from_probability(np.exp(-0.5 * (distance / 0.1) ** 2), 0.05,
+                                                           grid.origin[:2]))
+    truth = np.array([world.start.x + 0.021, world.start.y - 0.013, world.start.theta + 0.004])
+    points = scan_points(world, truth)
+    prior = truth + (0.123, 0.077, 0.05)  # the lattice passes 2.3 cm, 2.7 cm from the truth
+    coarse = matcher.match(points, prior, 0.3, 0.1, refine=False)
+    fine = matcher.match(points, prior, 0.3, 0.1)
+    # bilinear interpolation peaks at cell centres: walls all on one sub-cell offset (an axis-aligned room) keep
+    # a bias of a fraction of a cell
+    error, lattice_error = (math.hypot(*(m.pose[:2] - truth[:2])) for m in (fine, coarse))
+    assert error < 0.012 and error < 0.5 * lattice_error
+    assert fine.score >= matcher.score_interpolated(points, coarse.pose)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_branch_and_bound_equals_brute_force(seed):
+    rng = np.random.default_rng(seed)
+    prob = np.clip(rng.random((40, 36)) ** 3 + (rng.random((40, 36)) < 0.05), 0.0, 1.0)
+    matcher = CorrelativeMatcher(ScoreMap.from_probability(prob, 0.1, (-1.0, -2.0)), levels=3 + seed % 2)
+    points = rng.uniform(-1.0, 1.0, (25, 2))
+    prior = np.array([0.8, 0.1, rng.uniform(-3, 3)])
+    step, window = 0.05, 0.3
+    found = matcher.match(points, prior, window, 0.1, angular_step=step, refine=False)
+    best = max(matcher.score(points, prior + (dx * 0.1, dy * 0.1, da * step))
+               for dx in range(-3, 4) for dy in range(-3, 4) for da in range(-2, 3))
+    assert found.exhaustive and found.score == pytest.approx(best, abs=1e-12)
+    assert matcher.score(points, found.pose) == pytest.approx(found.score, abs=1e-12)
+    brute_nodes = 7 * 7 * 5
+    assert found.nodes < 4 * brute_nodes  # it prunes (a table of noise prunes little)
+
+
+def test_global_search_equals_brute_force_on_a_small_map():
+    rng = np.random.default_rng(7)
+    prob = np.clip(rng.random((24, 20)) ** 4, 0.0, 1.0)
+    matcher = CorrelativeMatcher(ScoreMap.from_probability(prob, 0.1, (0.0, 0.0)), levels=3)
+    points = rng.uniform(-0.6, 0.6, (15, 2))
+    found = matcher.search(points, np.ones(prob.shape, dtype=bool), angular_step=2 * math.pi / 16, count=1,
+                           refine=False, max_nodes=10**7)
+    centres = [(0.05 + 0.1 * c, 0.05 + 0.1 * r) for r in range(24) for c in range(20)]
+    best = max(matcher.score(points, (x, y, a * 2 * math.pi / 16)) for x, y in centres for a in range(16))
+    assert len(found) == 1 and found[0].exhaustive and found[0].score == pytest.approx(best, abs=1e-12)
+
+
+def twin_rooms():
+    """Two 3 m rooms side by side with the same pillars, and one pillar more in the left room."""
+    walls, boxes = [], []
+    for x0 in (0.0, 3.5):
+        walls += [[x0, 0.0, x0 + 3.0, 0.0], [x0 + 3.0, 0.0, x0 + 3.0, 3.0], [x0 + 3.0, 3.0, x0, 3.0],
+                  [x0, 3.0, x0, 0.0]]
+        boxes += [[x0 + 0.6, 0.6, x0 + 0.9, 0.9], [x0 + 2.0, 1.8, x0 + 2.3, 2.4]]
+    boxes.append([2.2, 0.5, 2.5, 0.8])
+    return world_from_dict({"wall_thickness": 0.05, "walls": walls, "boxes": boxes, "start": [1.5, 1.5, 0.3]})
+
+
+def test_global_search_finds_the_true_pose_among_a_look_alike():
+    world = twin_rooms()
+    grid = rasterize_world(world, 0.05)
+    matcher = CorrelativeMatcher(ScoreMap.from_occupancy(grid))
+    truth = np.array([1.47, 1.62, 0.3])
+    points = scan_points(world, truth, noise=0.01, seed=2)
+    found = matcher.search(points, count=3, max_nodes=10**8)
+    assert found[0].exhaustive
+    assert math.hypot(*(found[0].pose[:2] - truth[:2])) < 0.03
+    assert abs(math.remainder(found[0].pose[2] - truth[2], 2 * math.pi)) < math.radians(1.5)
+    twin = [m for m in found[1:] if math.hypot(*(m.pose[:2] - truth[:2] - (3.5, 0.0))) < 0.1]
+    assert twin and twin[0].score < found[0].score - 0.02
+    for a, b in zip(found, found[1:]):
+        assert a.score >= b.score
+
+
+def test_global_search_honours_its_budget_and_resumes_to_the_same_answer(pillars):
+    world, _, matcher = pillars
+    truth = np.array([world.start.x, world.start.y, world.start.theta])
+    points = scan_points(world, truth, noise=0.01, seed=3)
+    whole = matcher.search(points, count=2, max_nodes=10**9, refine=False)
+    search = GlobalSearch(matcher, points, count=2)
+    before, calls = 0, 0
+    while not search.done:
+        partial = search.step(2_000, refine=False)
+        assert search.nodes - before <= 2_000 + 3  # the last expansion may score up to 3 more children
+        assert all(not m.exhaustive for m in partial) or search.done
+        before, calls = search.nodes, calls + 1
+    assert calls > 5 and search.nodes == whole[0].nodes
+    assert [m.score for m in partial] == [m.score for m in whole]
+    assert np.allclose([m.pose for m in partial], [m.pose for m in whole])
+    assert math.hypot(*(whole[0].pose[:2] - truth[:2])) < 0.05
+
+
+def test_global_search_keeps_to_the_candidate_region(pillars):
+    world, grid, matcher = pillars
+    truth = np.array([world.start.x, world.start.y, world.start.theta])
+    points = scan_points(world, truth, seed=4)
+    region = np.zeros(grid.data.shape, dtype=bool)
+    row, col = grid.world_to_cell(truth[0], truth[1])
+    region[row + 10:row + 20, col - 5:col + 5] = True  # 0.5-1 m away from the truth
+    found = matcher.search(points, region, count=3, max_nodes=10**8, refine=False, min_separation=0.1)
+    for m in found:
+        r, c = grid.world_to_cell(m.pose[0], m.pose[1])
+        assert region[int(r), int(c)]
+    assert found[0].score < matcher.score(points, truth)
+
+
+def test_covariance_is_long_along_a_corridor():
+    world = world_from_dict({"wall_thickness": 0.05, "walls": [[0.0, 0.0, 30.0, 0.0], [0.0, 1.0, 30.0, 1.0]],
+                             "start": [15.0, 0.5, 0.0]})
+    matcher = CorrelativeMatcher(ScoreMap.from_occupancy(rasterize_world(world, 0.05)))
+    points = scan_points(world, (15.0, 0.5, 0.0), seed=5, max_range=3.0)
+    found = matcher.match(points, (15.0, 0.5, 0.0), 0.3, 0.1)
+    covariance = found.covariance
+    assert np.all(np.linalg.eigvalsh(covariance) > 0.0) and np.allclose(covariance, covariance.T)
+    assert covariance[0, 0] > 10.0 * covariance[1, 1]
