@@ -1,0 +1,394 @@
+"""Online 2D graph SLAM as a library (no ROS): scans and odometry in, the robot's pose in the map frame, the
+map -> odom transform, an occupancy grid and a pose graph out.
+
+The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbox's graph:
+
+- Nodes: a scan becomes a node when odometry has moved update_min_d (m) or turned update_min_a (rad) since the
+  last node (slam_toolbox's minimum_travel_distance / minimum_travel_heading); between nodes the pose is the last
+  node's composed with the odometry since.
+- Front end: the node's scan is matched (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a
+  sub-cell refinement) against the local submap, a LogOddsGrid of the last local_window nodes' scans turned into
+  a likelihood field, within +-match_linear_window / +-match_angular_window of the odometry prior. The match
+  gives the edge to the previous node, its information the inverse of the matcher's covariance. A score below
+  min_match_score, or fewer than MIN_BEAMS usable beams, is not fatal: the node is added on odometry alone
+  (information from the odometry model ODOMETRY_SIGMA) and the update's events say so.
+- Submaps for loop closure: every local_window consecutive nodes form a submap, built once in the frame of its
+  middle node (the anchor) from the poses at the time (a submap is rigid, as Cartographer's).
+- Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
+  at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
+  (the next updates take the next ones), each by CorrelativeMatcher.match within +-loop_linear_window /
+  +-loop_angular_window of the current estimate. A match scoring loop_min_score or more adds a loop-closure edge
+  (anchor, node) and the graph is optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy
+  kernel on closures, so a false closure bends the map little). An optimization that fails (MappingError) is
+  reported in the events and the poses kept.
+- The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
+  changed, on request.
+
+Bad input: an odometry or stamp that is not finite, or a scan whose ranges do not match its angles, raises
+MappingError and changes nothing. NaN and out-of-range readings are dropped beams. An odometry step longer than
+max_odometry_jump (m) since the last call is taken as unknown motion: MappingError is raised, the pose is held
+where it was and odometry is re-anchored at the new reading (map -> odom changes), so the next call goes on
+from there.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from amr_mapping.errors import MappingError
+from amr_mapping.pose_graph import PoseGraph
+from amr_maps.map_io import save_map
+from amr_maps.occupancy_grid import MapError, OccupancyGrid
+from amr_maps.scan_mapping import LogOddsGrid
+from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
+from amr_util.geometry import compose, inverse, is_finite_number, relative_pose
+from amr_util.scan import ScanData
+
+MIN_BEAMS = 20
+"""Fewer usable beams than this: the scan is not matched (the node is added on odometry alone)."""
+ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
+"""Odometry edge's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled)."""
+LIKELIHOOD_SIGMA_CELLS = 1.5
+"""The submaps' likelihood field: exp(-d^2 / (2 sigma^2)), sigma this many cells."""
+MAX_INFORMATION = (1.0 / 0.01 ** 2, 1.0 / 0.01 ** 2, 1.0 / math.radians(0.25) ** 2)
+"""A scan match's information is capped here (x, y, theta): standard deviations of 1 cm and 0.25 deg at least."""
+
+
+@dataclass(frozen=True)
+class SlamConfig:
+    """Parameters of GraphSlam, each with the range it is meant for."""
+
+    resolution: float = 0.05
+    """m per cell of the submaps and the map (0.02-0.1)."""
+    update_min_d: float = 0.2
+    """m of odometry travel since the last node that makes a scan a node (0-2; 0: every scan)."""
+    update_min_a: float = 0.2
+    """rad of odometry turn since the last node that makes a scan a node (0-pi)."""
+    max_range_used: float = 20.0
+    """m: readings beyond it are not mapped (free space is cleared up to it) nor matched (3-80)."""
+    local_window: int = 10
+    """nodes in the local submap (the front end's reference) and in each loop-closure submap (3-50)."""
+    match_linear_window: float = 0.5
+    """m, +- in x and y around the odometry prior that scan-to-submap matching searches (0.05-2)."""
+    match_angular_window: float = 0.35
+    """rad, +- around the odometry prior's heading (0.05-1)."""
+    min_match_score: float = 0.3
+    """a scan match below this mean likelihood (0-1) is not used: the node is added on odometry alone."""
+    loop_search_radius: float = 5.0
+    """m: submaps whose anchor lies this close to the new node's pose are loop-closure candidates (0.5-20)."""
+    loop_linear_window: float = 3.0
+    """m, +- in x and y around the current estimate that a loop-closure match searches (0.2-10)."""
+    loop_angular_window: float = 0.6
+    """rad, +- around the current heading that a loop-closure match searches (0.1-pi)."""
+    loop_min_score: float = 0.55
+    """a loop-closure match must score this mean likelihood (0-1) to become an edge."""
+    loop_min_travel: float = 8.0
+    """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100)."""
+    loop_max_candidates: int = 2
+    """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
+    max_odometry_jump: float = 5.0
+    """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
+
+    def __post_init__(self) -> None:
+        positive = ("resolution", "max_range_used", "match_linear_window", "match_angular_window",
+                    "loop_search_radius", "loop_linear_window", "loop_angular_window", "max_odometry_jump")
+        for item in fields(self):
+            value = getattr(self, item.name)
+            if item.name in ("local_window", "loop_max_candidates"):
+                if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                    raise MappingError(f"slam config: {item.name}: must be an integer >= 1, got {value!r}")
+                continue
+            if not is_finite_number(value) or value < 0.0 or (item.name in positive and value == 0.0):
+                raise MappingError(f"slam config: {item.name}: must be a finite number "
+                                   f"{'> 0' if item.name in positive else '>= 0'}, got {value!r}")
+        for name in ("min_match_score", "loop_min_score"):
+            if getattr(self, name) > 1.0:
+                raise MappingError(f"slam config: {name}: must be a score in 0..1, got {getattr(self, name)!r}")
+
+
+@dataclass(frozen=True)
+class LoopClosure:
+    """A loop-closure edge added: from the submap anchor node to the new node, with the match's score."""
+
+    anchor: int
+    node: int
+    score: float
+
+
+@dataclass(frozen=True)
+class SlamUpdate:
+    """What one GraphSlam.add did: the pose in the map frame now, whether the scan became a node (its index),
+    the scan match's score (None: not matched), the loop closures added, whether the map changed (a node added
+    or the poses optimized), the wall time (s) and events worth a log line."""
+
+    pose: tuple[float, float, float]
+    node_added: bool
+    node: int | None
+    match_score: float | None
+    loop_closures: tuple[LoopClosure, ...]
+    map_changed: bool
+    seconds: float
+    events: tuple[str, ...] = ()
+
+
+@dataclass
+class _Submap:
+    anchor: int
+    last: int
+    matcher: CorrelativeMatcher
+
+
+@dataclass
+class _Node:
+    stamp_ns: int
+    odometry: np.ndarray
+    ranges: np.ndarray
+    angles: np.ndarray
+    points: np.ndarray
+    travelled: float
+    """m of odometry path from the first node."""
+
+
+class GraphSlam:
+    """Online graph SLAM; see the module docstring."""
+
+    def __init__(self, config: SlamConfig | None = None) -> None:
+        self.config = SlamConfig() if config is None else config
+        self._graph = PoseGraph()
+        self._nodes: list[_Node] = []
+        self._submaps: list[_Submap] = []
+        self._odometry: np.ndarray | None = None  # the last odometry reading
+        self._anchor_odometry: np.ndarray | None = None  # the odometry that the last node's pose stands for
+        self._pose = np.zeros(3)
+        self._travelled = 0.0
+        self._grid: OccupancyGrid | None = None
+        self._pending: list[int] = []  # candidate submaps not yet searched for the last node
+        self._local: tuple[int, CorrelativeMatcher] | None = None
+
+    # -- state -----------------------------------------------------------------------------------------
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """The robot's pose in the map frame now (x, y, theta)."""
+        return tuple(float(v) for v in self._pose)
+
+    @property
+    def map_to_odom(self) -> tuple[float, float, float]:
+        """The odom frame in the map frame (x, y, theta): pose (+) inverse(odometry), identity before any scan."""
+        if self._odometry is None:
+            return 0.0, 0.0, 0.0
+        return tuple(float(v) for v in compose(self._pose, inverse(self._odometry)))
+
+    @property
+    def node_stamps(self) -> list[int]:
+        """Each node's stamp (ns)."""
+        return [node.stamp_ns for node in self._nodes]
+
+    def graph(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(poses (N, 3), edges (M, 2) int, loop (M,) bool)."""
+        return self._graph.poses, self._graph.edges, self._graph.loop
+
+    def occupancy_grid(self) -> OccupancyGrid:
+        """The map from every node's scan at its optimized pose (rebuilt when the poses changed). No node yet:
+        MappingError."""
+        if not self._nodes:
+            raise MappingError("slam: no map yet (no scan has been added)")
+        if self._grid is None:
+            poses = self._graph.poses
+            scans = [(node.ranges, node.angles) for node in self._nodes]
+            self._grid = _grid_from(poses, scans, self.config)
+        return self._grid
+
+    def save(self, path: str | Path) -> list[Path]:
+        """Writes <path>.yaml + <path>.pgm (map_server's format) and <path>.poses.csv (stamp_ns,x,y,theta per
+        node, map frame); returns the paths. A file that cannot be written: MappingError naming it (the map is
+        kept)."""
+        grid = self.occupancy_grid()
+        path = Path(path)
+        stem = path.with_suffix("") if path.suffix in (".yaml", ".yml") else path
+        csv_path = stem.with_name(stem.name + ".poses.csv")
+        try:
+            yaml_path = save_map(grid, stem)
+            lines = ["stamp_ns,x,y,theta"] + [f"{node.stamp_ns},{x:.6f},{y:.6f},{theta:.6f}"
+                                              for node, (x, y, theta) in zip(self._nodes, self._graph.poses)]
+            csv_path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        except (OSError, MapError) as error:
+            raise MappingError(f"slam: cannot save the map to {stem}: {error}") from error
+        return [yaml_path, yaml_path.with_suffix(".pgm"), csv_path]
+
+    # -- the update --------------------------------------------------------------------------------------
+
+    def add(self, stamp_ns: int, odometry, scan: ScanData) -> SlamUpdate:
+        """One scan with the odometry pose (x, y, theta, odom frame) at its stamp; see the module docstring."""
+        start = time.perf_counter()
+        if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
+            raise MappingError(f"slam: stamp_ns must be an integer of nanoseconds, got {stamp_ns!r}")
+        odometry = np.asarray(odometry, dtype=float).reshape(-1)
+        if odometry.shape != (3,) or not np.all(np.isfinite(odometry)):
+            raise MappingError(f"slam: odometry must be 3 finite numbers (x, y, theta), got {odometry!r}")
+        ranges, angles, points = _beams(scan, self.config.max_range_used)
+        events: list[str] = []
+        if self._odometry is not None:
+            jump = math.hypot(*(odometry[:2] - self._odometry[:2]))
+            if jump > self.config.max_odometry_jump:
+                # unknown motion: hold the pose, re-anchor odometry at the new reading
+                self._odometry = odometry.copy()
+                self._anchor_odometry = compose(odometry, relative_pose(self._pose, self._graph.pose(
+                    len(self._nodes) - 1)))
+                raise MappingError(f"slam: odometry jumped {jump:.2f} m in one step (max_odometry_jump "
+                                   f"{self.config.max_odometry_jump} m): taken as unknown motion, pose held at "
+                                   f"({self._pose[0]:.2f}, {self._pose[1]:.2f})")
+            self._travelled += math.hypot(*relative_pose(self._odometry, odometry)[:2])
+        self._odometry = odometry.copy()
+
+        if not self._nodes:
+            node = self._add_node(stamp_ns, odometry, odometry, ranges, angles, points)
+            self._pose = odometry.copy()
+            events.append("first node")
+            return SlamUpdate(self.pose, True, node, None, (), True, time.perf_counter() - start, tuple(events))
+
+        delta = np.array(relative_pose(self._anchor_odometry, odometry))
+        last = len(self._nodes) - 1
+        prior = np.array(compose(self._graph.pose(last), delta))
+        if math.hypot(delta[0], delta[1]) < self.config.update_min_d and abs(delta[2]) < self.config.update_min_a:
+            self._pose = prior
+            return SlamUpdate(self.pose, False, None, None, (), False, time.perf_counter() - start, ())
+
+        pose, information, score = self._match_local(prior, points, delta, events)
+        node = self._add_node(stamp_ns, pose, odometry, ranges, angles, points)
+        self._graph.add_edge(last, node, relative_pose(self._graph.pose(last), pose), information)
+        self._pose = pose.copy()
+        closures = self._close_loops(node, events)
+        return SlamUpdate(self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start,
+                          tuple(events))
+
+    # -- internals ---------------------------------------------------------------------------------------
+
+    def _add_node(self, stamp_ns, pose, odometry, ranges, angles, points) -> int:
+        index = self._graph.add_node(pose)
+        self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled))
+        self._anchor_odometry = odometry.copy()
+        self._grid = None
+        window = self.config.local_window
+        if (index + 1) % window == 0:  # a submap is complete: nodes index - window + 1 .. index
+            anchor = index - window // 2
+            members = range(index - window + 1, index + 1)
+            self._submaps.append(_Submap(anchor, index, self._matcher(anchor, members)))
+        return index
+
+    def _matcher(self, anchor: int, members) -> CorrelativeMatcher:
+        """A matcher on the likelihood field of the members' scans, in the anchor node's frame."""
+        anchor_pose = self._graph.pose(anchor)
+        poses = np.array([relative_pose(anchor_pose, self._graph.pose(k)) for k in members])
+        grid = _grid_from(poses, [(self._nodes[k].ranges, self._nodes[k].angles) for k in members], self.config)
+        return CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=LIKELIHOOD_SIGMA_CELLS * grid.resolution))
+
+    def _match_local(self, prior: np.ndarray, points: np.ndarray, delta: np.ndarray,
+                     events: list[str]) -> tuple[np.ndarray, np.ndarray, float | None]:
+        """(pose, edge information, score): the scan matched against the local submap, or the prior."""
+        cfg = self.config
+        d, a = math.hypot(delta[0], delta[1]), abs(delta[2])
+        s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
+        odometry_information = np.diag([1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_xy + s_xy_d * d) ** 2,
+                                        1.0 / (s_th + s_th_a * (a + d)) ** 2])
+        if len(points) < MIN_BEAMS:
+            events.append(f"scan has {len(points)} usable beams (< {MIN_BEAMS}): node added on odometry alone")
+            return prior, odometry_information, None
+        last = len(self._nodes) - 1
+        if self._local is None or self._local[0] != last:
+            members = range(max(0, last - cfg.local_window + 1), last + 1)
+            self._local = (last, self._matcher(last, members))
+        matcher = self._local[1]
+        anchor = self._graph.pose(last)
+        match = matcher.match(points, relative_pose(anchor, prior), cfg.match_linear_window, cfg.match_angular_window)
+        if match.score < cfg.min_match_score or not np.all(np.isfinite(match.pose)):
+            events.append(f"scan match score {match.score:.2f} < min_match_score {cfg.min_match_score}: "
+                          "node added on odometry alone")
+            return prior, odometry_information, float(match.score)
+        pose = np.array(compose(anchor, match.pose))
+        return pose, _information(match.covariance, pose[2] - anchor[2]), float(match.score)
+
+    def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
+        cfg = self.config
+        pose = self._graph.pose(node)
+        travelled = self._nodes[node].travelled
+        poses = self._graph.poses
+        candidates = [(math.hypot(*(poses[s.anchor, :2] - pose[:2])), i) for i, s in enumerate(self._submaps)
+                      if travelled - self._nodes[s.last].travelled >= cfg.loop_min_travel]
+        candidates = sorted((d, i) for d, i in candidates if d <= cfg.loop_search_radius)
+        # the ones left over from the last updates first (their turn came), then the nearest
+        queue = [i for i in self._pending if any(i == c for _, c in candidates)]
+        queue += [i for _, i in candidates if i not in queue]
+        searched, self._pending = queue[:cfg.loop_max_candidates], queue[cfg.loop_max_candidates:]
+        points = self._nodes[node].points
+        closures: list[LoopClosure] = []
+        if len(points) < MIN_BEAMS:
+            return closures
+        for i in searched:
+            submap = self._submaps[i]
+            anchor = poses[submap.anchor]
+            match = submap.matcher.match(points, relative_pose(anchor, pose), cfg.loop_linear_window,
+                                         cfg.loop_angular_window)
+            if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
+                continue
+            self._graph.add_edge(submap.anchor, node, match.pose, _information(match.covariance, match.pose[2]),
+                                 loop=True)
+            closures.append(LoopClosure(submap.anchor, node, float(match.score)))
+        if closures:
+            before = self._graph.pose(node)
+            try:
+                result = self._graph.optimize(max_iterations=15)
+                events.append(f"{len(closures)} loop closure(s): optimized in {result.iterations} iterations, "
+                              f"moved up to {result.max_change:.2f}")
+            except MappingError as error:
+                events.append(f"loop closure optimization failed, poses kept: {error}")
+            self._pose = self._graph.pose(node)
+            if not np.allclose(before, self._pose):
+                self._local = None  # rebuilt at the optimized poses
+        return closures
+
+
+def _information(covariance: np.ndarray, heading: float) -> np.ndarray:
+    """A match's information as an edge's (the error's frame: the measured node's), capped at MAX_INFORMATION."""
+    covariance = np.asarray(covariance, dtype=float)
+    if covariance.shape != (3, 3) or not np.all(np.isfinite(covariance)):
+        return np.diag(MAX_INFORMATION) * 1e-4
+    c, s = math.cos(heading), math.sin(heading)
+    rotation = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    floor = np.diag(1.0 / np.asarray(MAX_INFORMATION))
+    cov = rotation @ covariance @ rotation.T + floor
+    return np.linalg.inv(0.5 * (cov + cov.T))
+
+
+def _beams(scan: ScanData, max_range_used: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ranges, angles, points (K, 2)): the ranges kept for mapping (NaN dropped, +inf no return) and the
+    matchable points (finite readings in [range_min, min(range_max, max_range_used)])."""
+    ranges = np.asarray(scan.ranges, dtype=float).reshape(-1)
+    if not (is_finite_number(scan.angle_min) and is_finite_number(scan.angle_increment)):
+        raise MappingError(f"slam: scan angle_min and angle_increment must be finite, got {scan.angle_min!r}, "
+                           f"{scan.angle_increment!r}")
+    angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
+    keep = ~np.isnan(ranges)
+    ranges, angles = ranges[keep], angles[keep]
+    ranges = np.where(ranges < scan.range_min, -np.inf, ranges)  # REP 117: closer than range_min
+    ranges = np.where(ranges > scan.range_max, np.inf, ranges)
+    usable = np.isfinite(ranges) & (ranges <= max_range_used)
+    points = np.column_stack([ranges[usable] * np.cos(angles[usable]), ranges[usable] * np.sin(angles[usable])])
+    mapped = ranges > 0.0  # -inf (too close) is neither a hit nor a free ray
+    return ranges[mapped].astype(np.float32), angles[mapped].astype(np.float32), points
+
+
+def _grid_from(poses: np.ndarray, scans, config: SlamConfig) -> OccupancyGrid:
+    """The occupancy grid of the scans (ranges, angles) at the poses."""
+    grid = LogOddsGrid(config.resolution)
+    for pose, (ranges, angles) in zip(poses, scans):
+        grid.insert(pose, ranges, angles, config.max_range_used)
+    return grid.to_occupancy_grid()
+
+
+__all__ = ["GraphSlam", "LoopClosure", "MappingError", "SlamConfig", "SlamUpdate"]

@@ -1,0 +1,121 @@
+"""GraphSlam on real robots' laser logs (docs/amr_mapping.md): the four CARMEN logs of ../shared/data/carmen
+(intel, aces, fhw, orebro; their SLAM-corrected poses are the reference), fed scan by scan with odometry
+synthesized from the corrected poses (amr_datasets.odometry: 5 % noise, 1 % scale error, 0.5 deg/m heading bias,
+seeded).
+
+Printed per log: scans, nodes, loop closures, the relative displacement error of Kümmerle et al. 2009 (pairs
+1..10 m of path apart: mean translational m and rotational deg), the absolute trajectory error after a rigid
+alignment (RMS, m), the odometry's own figures for comparison, the time per scan (mean, p95, max, ms) and the
+total time against the log's duration (speed factor; orebro has no stamps). The estimate compared is the final
+one: each scan's pose is its node's optimized pose composed with the odometry since that node.
+Goals (the issue): relative error <= 5 cm and <= 1 deg, ATE <= 0.2 m, >= 10x faster than recorded, no scan
+above 200 ms.
+
+Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_logs.py [--data DIR] [--logs intel ...]
+[--seed 0] [--save DIR (maps and poses of each log)]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from amr_datasets.carmen import read_carmen  # noqa: E402
+from amr_datasets.odometry import synthesize_odometry  # noqa: E402
+from amr_mapping.errors import MappingError  # noqa: E402
+from amr_mapping.slam import GraphSlam, SlamConfig  # noqa: E402
+from amr_mapping.trajectory_error import absolute_error, relative_error  # noqa: E402
+from amr_util.geometry import compose, relative_pose  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
+
+
+def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dict:
+    log = read_carmen(path)
+    reference = log.poses()
+    odometry = synthesize_odometry(reference, seed=seed)
+    slam = GraphSlam(config)
+    times, node_of, closures, events = [], [], 0, 0
+    node = -1
+    for k, (item, odom) in enumerate(zip(log.scans, odometry)):
+        stamp = int(round(item.stamp * 1e9))
+        try:
+            update = slam.add(stamp, odom, item.scan)
+        except MappingError as error:
+            print(f"  scan {k}: {error}")
+            times.append(0.0)
+            node_of.append(node)
+            continue
+        times.append(update.seconds)
+        if update.node_added:
+            node = update.node
+        node_of.append(node)
+        closures += len(update.loop_closures)
+        events += sum(1 for e in update.events if "odometry alone" in e)
+    poses, _, _ = slam.graph()
+    node_odometry = {}
+    for k, n in enumerate(node_of):
+        node_odometry.setdefault(n, odometry[k])
+    estimate = np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)])
+    rel = relative_error(estimate, reference)
+    ate = absolute_error(estimate, reference)
+    rel_odom = relative_error(odometry, reference)
+    ate_odom = absolute_error(odometry, reference)
+    times_ms = np.array(times) * 1000.0
+    total = float(np.sum(times))
+    duration = float(log.stamps()[-1] - log.stamps()[0]) if log.has_stamps else None
+    if save is not None:
+        save.mkdir(parents=True, exist_ok=True)
+        map_start = time.perf_counter()
+        slam.save(save / path.name.split("-")[0])
+        print(f"  map saved in {time.perf_counter() - map_start:.2f} s")
+    return {"name": path.name.split("-")[0], "scans": len(log), "nodes": len(poses), "closures": closures,
+            "odometry_only": events, "rel_t": rel.translation, "rel_r": rel.rotation_deg, "ate": ate.rmse,
+            "odom_rel_t": rel_odom.translation, "odom_rel_r": rel_odom.rotation_deg, "odom_ate": ate_odom.rmse,
+            "mean": times_ms.mean(), "p95": np.percentile(times_ms, 95), "max": times_ms.max(), "total": total,
+            "duration": duration}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--logs", nargs="*", default=None, help="log names (intel, aces, ...); default all")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--save", type=Path, default=None)
+    args = parser.parse_args()
+    paths = sorted(args.data.glob("*.log*"))
+    if args.logs:
+        paths = [p for p in paths if p.name.split("-")[0].split(".")[0] in args.logs]
+    if not paths:
+        sys.exit(f"no CARMEN logs in {args.data}")
+    config = SlamConfig()
+    print(f"config: {config}")
+    gc.collect()
+    header = (f"{'log':8s} {'scans':>5s} {'nodes':>5s} {'loops':>5s} {'odo':>4s} | {'rel m':>6s} {'rel deg':>7s} "
+              f"{'ATE m':>6s} | odometry: {'rel m':>6s} {'rel deg':>7s} {'ATE m':>6s} | "
+              f"{'mean':>5s} {'p95':>5s} {'max':>5s} ms | speed")
+    rows = []
+    for path in paths:
+        result = run_log(path, args.seed, config, args.save)
+        rows.append(result)
+        speed = f"{result['duration'] / result['total']:.0f}x" if result["duration"] else "n/a (no stamps)"
+        print(f"{result['name']:8s} {result['scans']:5d} {result['nodes']:5d} {result['closures']:5d} "
+              f"{result['odometry_only']:4d} | {result['rel_t']:6.3f} {result['rel_r']:7.2f} {result['ate']:6.3f} | "
+              f"          {result['odom_rel_t']:6.3f} {result['odom_rel_r']:7.2f} {result['odom_ate']:6.3f} | "
+              f"{result['mean']:5.1f} {result['p95']:5.1f} {result['max']:5.1f}    | {speed}"
+              f" ({result['total']:.1f} s)", flush=True)
+    print(header)
+    print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
+
+
+if __name__ == "__main__":
+    main()
