@@ -23,6 +23,7 @@ exactly, and a pyramid of a 2000 x 2000 map with 8 levels takes 64 MB.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numba
@@ -208,12 +209,12 @@ class CorrelativeMatcher:
     def search(self, points: np.ndarray, candidates_region: np.ndarray | None = None,
                angular_step: float | None = None, count: int = 5, min_score: float = 0.0,
                max_nodes: int = 200_000, min_separation: float = 0.5, min_angle_separation: float = 0.5,
-               refine: bool = True) -> list[Match]:
+               refine: bool = True, max_seconds: float | None = None) -> list[Match]:
         """The `count` best well-separated poses over the map (robot in a cell of candidates_region; None:
         the score map's free cells), best first: one GlobalSearch step of max_nodes scored nodes."""
         searcher = GlobalSearch(self, points, candidates_region, angular_step, count, min_score, min_separation,
                                 min_angle_separation)
-        return searcher.step(max_nodes, refine=refine)
+        return searcher.step(max_nodes, refine=refine, max_seconds=max_seconds)
 
     # -- internals ---------------------------------------------------------------------------------------
 
@@ -362,11 +363,20 @@ class GlobalSearch:
     def nodes(self) -> int:
         return self._search.nodes
 
-    def step(self, max_nodes: int = 200_000, refine: bool = True) -> list[Match]:
-        """Score up to max_nodes more nodes, then the best matches so far, best first."""
+    def step(self, max_nodes: int = 200_000, refine: bool = True, max_seconds: float | None = None) -> list[Match]:
+        """Score up to max_nodes more nodes (and stop after max_seconds, checked every 20,000 nodes), then the
+        best matches so far, best first."""
         if max_nodes < 0:
             raise ValueError(f"global search: max_nodes must be >= 0, got {max_nodes!r}")
-        self._search.run(int(max_nodes))
+        if max_seconds is None:
+            self._search.run(int(max_nodes))
+        else:
+            deadline = time.perf_counter() + max_seconds
+            left = int(max_nodes)
+            while left > 0 and not self.done and time.perf_counter() < deadline:
+                before = self._search.nodes
+                self._search.run(min(left, 20_000))
+                left -= self._search.nodes - before
         return self.matches(refine)
 
     def matches(self, refine: bool = True) -> list[Match]:

@@ -158,6 +158,7 @@ def test_global_search_honours_its_budget_and_resumes_to_the_same_answer(pillars
     points = scan_points(world, truth, noise=0.01, seed=3)
     whole = matcher.search(points, count=2, max_nodes=10**9, refine=False)
     search = GlobalSearch(matcher, points, count=2)
+    assert search.step(10**9, max_seconds=0.0) == [] and search.nodes == 0 and not search.done
     before, calls = 0, 0
     while not search.done:
         partial = search.step(2_000, refine=False)
