@@ -1,0 +1,172 @@
+"""GraphSlam: a loop closes in a drawn ring corridor (scans ray cast, drifting odometry), the map saved is read
+back cell for cell, bad input is refused with the map kept."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_mapping.errors import MappingError
+from amr_mapping.slam import GraphSlam, SlamConfig
+from amr_mapping.trajectory_error import absolute_error
+from amr_maps.map_io import load_map
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import world_from_dict
+from amr_util.geometry import compose, relative_pose
+from amr_util.scan import ScanData
+
+BEAMS = 180
+INCREMENT = 2.0 * math.pi / BEAMS
+MAX_RANGE = 8.0
+
+
+@pytest.fixture(scope="module")
+def ring():
+    """An 8 x 6 m room around a 4 x 2 m block (a ring corridor 2 m wide) with a few boxes on the walls, and
+    1.35 laps of its centre line in 0.3 m steps."""
+    world = world_from_dict({
+        "walls": [[0, 0, 8, 0], [8, 0, 8, 6], [8, 6, 0, 6], [0, 6, 0, 0]], "wall_thickness": 0.1, "start": [1, 1, 0],
+        "boxes": [[2, 2, 6, 4], [3, 0, 3.3, 0.4], [7.6, 2.5, 8, 2.8], [5, 5.5, 5.6, 6], [0, 4, 0.3, 4.5],
+                  [4.5, 3.9, 4.9, 4.1]]})
+    corners = np.array([[1, 1], [7, 1], [7, 5], [1, 5], [1, 1]], dtype=float)
+    truth = []
+    for _ in range(2):
+        for a, b in zip(corners[:-1], corners[1:]):
+            heading = math.atan2(b[1] - a[1], b[0] - a[0])
+            steps = int(round(np.hypot(*(b - a)) / 0.3))
+            truth += [(*(a + (b - a) * k / steps), heading) for k in range(steps)]
+    truth = np.array(truth[:int(len(truth) * 0.68)])
+    return NumpyRayCaster(world.faces), truth
+
+
+def _odometry(truth: np.ndarray, seed: int = 0) -> np.ndarray:
+    """2 % scale error, 3 deg of heading bias a metre, a little noise."""
+    rng = np.random.default_rng(seed)
+    odometry = [np.zeros(3)]
+    for k in range(1, len(truth)):
+        step = np.array(relative_pose(truth[k - 1], truth[k]))
+        step[:2] *= 1.02
+        step[2] += math.radians(3.0) * math.hypot(step[0], step[1]) + rng.normal(0.0, 0.01)
+        odometry.append(np.array(compose(odometry[-1], step)))
+    return np.array(odometry)
+
+
+def _scan(caster: NumpyRayCaster, pose, rng) -> ScanData:
+    ranges = caster.cast(pose[0], pose[1], pose[2] - math.pi, INCREMENT, BEAMS, MAX_RANGE)
+    return ScanData(ranges + rng.normal(0.0, 0.01, BEAMS), -math.pi, INCREMENT, 0.1, MAX_RANGE)
+
+
+def _run(ring, config: SlamConfig | None = None) -> tuple[GraphSlam, np.ndarray, np.ndarray, int]:
+    caster, truth = ring
+    odometry = _odometry(truth)
+    slam = GraphSlam(config or SlamConfig(max_range_used=MAX_RANGE))
+    rng = np.random.default_rng(1)
+    closures = 0
+    for k, (pose, odom) in enumerate(zip(truth, odometry)):
+        update = slam.add(k * 100_000_000, odom, _scan(caster, pose, rng))
+        closures += len(update.loop_closures)
+    return slam, truth, odometry, closures
+
+
+@pytest.fixture(scope="module")
+def mapped(ring):
+    return _run(ring)
+
+
+def test_the_loop_closes_and_the_end_error_is_far_below_the_drift(mapped):
+    slam, truth, odometry, closures = mapped
+    assert closures > 0
+    poses, edges, loop = slam.graph()
+    assert len(poses) == len(truth) and loop.sum() == closures and edges.shape == (len(loop), 2)
+    start = truth[0]  # the map frame is the odom frame, which starts at the first true pose
+    drift = math.hypot(*(np.array(compose(start, odometry[-1]))[:2] - truth[-1, :2]))
+    end = math.hypot(*(np.array(compose(start, slam.pose))[:2] - truth[-1, :2]))
+    assert drift > 1.0
+    assert end < 0.1 * drift and end < 0.1
+    aligned = np.array([compose(start, p) for p in poses])
+    assert absolute_error(aligned, truth).rmse < 0.05
+    assert slam.node_stamps == [k * 100_000_000 for k in range(len(truth))]
+
+
+def test_map_to_odom_maps_the_odometry_onto_the_pose(mapped):
+    slam, _, odometry, _ = mapped
+    assert np.allclose(compose(slam.map_to_odom, odometry[-1]), slam.pose, atol=1e-9)
+
+
+def test_save_writes_what_load_map_reads_back_cell_for_cell(mapped, tmp_path):
+    slam, truth, _, _ = mapped
+    paths = slam.save(tmp_path / "ring")
+    assert [p.name for p in paths] == ["ring.yaml", "ring.pgm", "ring.poses.csv"]
+    grid = slam.occupancy_grid()
+    loaded = load_map(paths[0])
+    assert loaded.origin == pytest.approx(grid.origin) and loaded.resolution == grid.resolution
+    trinary = np.where(grid.data < 0, -1, np.where(grid.data >= 65, 100, np.where(grid.data <= 19, 0, -1)))
+    assert np.array_equal(loaded.data, trinary)
+    assert (grid.data == 100).sum() > 100
+    rows = np.loadtxt(paths[2], delimiter=",", skiprows=1)
+    assert rows.shape == (len(truth), 4)
+    assert np.allclose(rows[:, 1:], slam.graph()[0], atol=1e-5)
+
+
+def test_save_to_an_unwritable_place_names_it_and_keeps_the_map(mapped, tmp_path):
+    slam, _, _, _ = mapped
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    before = slam.occupancy_grid()
+    with pytest.raises(MappingError, match="file"):
+        slam.save(blocker / "ring")
+    assert slam.occupancy_grid() is before
+
+
+FEW_BEAMS = ScanData(np.full(10, 2.0), -math.pi, 2 * math.pi / 10, 0.1, 5.0)
+"""Too few beams to match: nodes on odometry alone."""
+
+
+def test_nodes_are_added_by_travel_only():
+    slam = GraphSlam(SlamConfig(update_min_d=0.5, update_min_a=0.5))
+    scan = FEW_BEAMS
+    added = [slam.add(k, (0.1 * k, 0.0, 0.0), scan).node_added for k in range(12)]
+    assert added == [True, False, False, False, False, True, False, False, False, False, True, False]
+    assert slam.pose == pytest.approx((1.1, 0.0, 0.0))
+
+
+def test_bad_input_is_refused_and_the_map_kept():
+    slam = GraphSlam()
+    good = FEW_BEAMS
+    with pytest.raises(MappingError, match="no map yet"):
+        slam.occupancy_grid()
+    slam.add(0, (0.0, 0.0, 0.0), good)
+    grid = slam.occupancy_grid()
+    with pytest.raises(MappingError, match="odometry"):
+        slam.add(1, (np.nan, 0.0, 0.0), good)
+    with pytest.raises(MappingError, match="stamp_ns"):
+        slam.add(1.5, (0.0, 0.0, 0.0), good)
+    with pytest.raises(MappingError, match="angle"):
+        slam.add(2, (0.0, 0.0, 0.0), ScanData(np.full(90, 2.0), math.nan, 0.1))
+    assert slam.occupancy_grid() is grid and len(slam.node_stamps) == 1
+    # an odometry jump: refused, pose held, odometry re-anchored so the next step goes on from there
+    with pytest.raises(MappingError, match="jumped"):
+        slam.add(3, (50.0, 0.0, 0.0), good)
+    assert slam.pose == pytest.approx((0.0, 0.0, 0.0))
+    update = slam.add(4, (50.3, 0.0, 0.0), good)
+    assert update.node_added and update.pose == pytest.approx((0.3, 0.0, 0.0))
+
+
+def test_a_scan_with_too_few_beams_or_nan_ranges_is_added_on_odometry_alone():
+    slam = GraphSlam()
+    ranges = np.full(90, 2.0)
+    slam.add(0, (0.0, 0.0, 0.0), ScanData(ranges, -math.pi, 2 * math.pi / 90, 0.1, 5.0))
+    empty = ScanData(np.full(90, np.nan), -math.pi, 2 * math.pi / 90, 0.1, 5.0)
+    update = slam.add(1, (0.5, 0.0, 0.0), empty)
+    assert update.node_added and update.match_score is None
+    assert any("odometry alone" in event for event in update.events)
+    assert update.pose == pytest.approx((0.5, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("name, value", [("resolution", 0.0), ("update_min_d", -1.0), ("local_window", 0),
+                                         ("loop_min_score", 1.5), ("max_range_used", math.inf)])
+def test_bad_config_is_refused(name, value):
+    with pytest.raises(MappingError, match=name):
+        SlamConfig(**{name: value})
