@@ -35,7 +35,12 @@ class PoseEstimate:
 
 
 def weighted_pose(particles: np.ndarray, weights: np.ndarray) -> PoseEstimate:
-    w = weights / weights.sum()
+    """The weighted mean pose and covariance; equal weights where they sum to nothing (every particle weighed 0, as
+    those the motion update moved into a wall are): the estimate is always finite for finite particles."""
+    if len(particles) == 0:
+        raise ValueError("weighted_pose: no particles")
+    total = float(np.sum(weights))
+    w = weights / total if total > 0.0 and math.isfinite(total) else np.full(len(particles), 1.0 / len(particles))
     x, y = w @ particles[:, 0], w @ particles[:, 1]
     theta = math.atan2(w @ np.sin(particles[:, 2]), w @ np.cos(particles[:, 2]))
     deviation = np.column_stack([particles[:, 0] - x, particles[:, 1] - y, wrap_angle(particles[:, 2] - theta)])
