@@ -30,8 +30,8 @@ it (at least MAX_RANGE_SPIKE times the most frequent value there); readings at o
 one, the largest reading of the log).
 
 Timestamps: `has_stamps` is True when every scan has one, they are not all equal and at most 10 % of them fail to
-increase (intel: 4 of 910 go back by up to 0.86 s); those are set 1 ms after the one before, so the stamps
-strictly increase. Otherwise (orebro: all 0) the stamps are synthesized 1 s apart from 0. `stamp_problem` says
+increase (intel: 4 of 910 go back by up to 0.86 s); those are spread evenly between their neighbours, so the
+stamps strictly increase. Otherwise (orebro: all 0) the stamps are synthesized 1 s apart from 0. `stamp_problem` says
 what was done.
 """
 
@@ -55,8 +55,6 @@ MESSAGE_TYPE = re.compile(r"^[A-Z][A-Z0-9_]*$")
 """What a CARMEN message type looks like: a line starting with one is read or ignored, never an error."""
 SYNTHETIC_PERIOD = 1.0
 """s between synthesized stamps when the log has none."""
-STAMP_REPAIR_STEP = 1e-3
-"""s: a stamp that does not increase (intel has 4 a little back in time) is set this long after the one before."""
 MAX_STAMP_REPAIRS = 0.1
 """More stamps than this fraction not increasing: the stamps are not used, but synthesized."""
 MAX_RANGE_REPEATS = 1e-4
@@ -354,15 +352,33 @@ def _stamps(scans: list[_Raw], path: Path) -> tuple[list[float], bool, str]:
         elif len(back) > MAX_STAMP_REPAIRS * len(scans):
             problem = f"{len(back)} timestamps do not increase (the first on line {back[0]})"
         else:
-            for i in range(1, len(stamps)):
-                stamps[i] = max(stamps[i], stamps[i - 1] + STAMP_REPAIR_STEP)
             if not back:
                 return stamps, True, ""
             lines = ", ".join(map(str, back[:5])) + (", ..." if len(back) > 5 else "")
-            return stamps, True, (f"{len(back)} timestamps did not increase (lines {lines}): each set "
-                                  f"{STAMP_REPAIR_STEP * 1e3:g} ms after the one before")
+            return _spread(stamps), True, (f"{len(back)} timestamps did not increase (lines {lines}): spread "
+                                           "evenly between their neighbours")
     return [SYNTHETIC_PERIOD * i for i in range(len(scans))], False, problem + ": stamps synthesized " \
         f"{SYNTHETIC_PERIOD:g} s apart"
+
+
+def _spread(stamps: list[float]) -> list[float]:
+    """The stamps with each run that does not increase past the stamp before it spread evenly between that stamp
+    and the next one that does (after the last: the median period apart), so that they strictly increase."""
+    stamps = list(stamps)
+    steps = np.diff(stamps)
+    period = float(np.median(steps[steps > 0.0])) if (steps > 0.0).any() else SYNTHETIC_PERIOD
+    i = 1
+    while i < len(stamps):
+        if stamps[i] > stamps[i - 1]:
+            i += 1
+            continue
+        j = next((k for k in range(i + 1, len(stamps)) if stamps[k] > stamps[i - 1]), None)
+        end = stamps[j] if j is not None else stamps[i - 1] + period * (len(stamps) - i + 1)
+        last = j if j is not None else len(stamps)
+        for k in range(i, last):
+            stamps[k] = stamps[i - 1] + (end - stamps[i - 1]) * (k - i + 1) / (last - i + 1)
+        i = last
+    return stamps
 
 
 def _largest_reading(scans: list[_Raw]) -> float:
