@@ -98,7 +98,8 @@ def noisy_increments(steps: np.ndarray, noise: OdometryNoiseModel, rng: np.rando
     e = rng.standard_normal((steps.shape[0], 3))
     bias = 0.5 * noise.heading_bias * trans
     noisy_rot1 = rot1 + (noise.alpha1 * turn1 + noise.alpha2 * trans) * e[:, 0] + bias
-    noisy_trans = (trans + (noise.alpha3 * trans + noise.alpha4 * (turn1 + turn2)) * e[:, 1]) * (1.0 + noise.scale_error)
+    trans_sigma = noise.alpha3 * trans + noise.alpha4 * (turn1 + turn2)
+    noisy_trans = (trans + trans_sigma * e[:, 1]) * (1.0 + noise.scale_error)
     noisy_rot2 = rot2 + (noise.alpha1 * turn2 + noise.alpha2 * trans) * e[:, 2] + bias
     return np.column_stack([noisy_rot1, noisy_trans, noisy_rot2])
 

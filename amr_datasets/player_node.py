@@ -31,6 +31,7 @@ import importlib
 import math
 import time
 
+from amr_interfaces.msg import LocalizedPose
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
@@ -59,6 +60,8 @@ WARNING_PERIOD = 5.0
 """Wall s between repeats of the pace timeout warning."""
 TF_DEPTH = 100
 DEFAULT_NOISE = OdometryNoiseModel()
+DEFAULT_PACE_TYPE = "amr_interfaces/msg/LocalizedPose"
+"""What the particle filter answers each scan with."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
 """Publishers without rclpy's default QoS-event handlers: each is a waitable the executor checks at every wait
 (as in the simulator node); a QoS mismatch is still reported by the subscriber's own handler."""
@@ -75,6 +78,8 @@ def pace_type_problem(name: str) -> str | None:
 
 def pace_message_type(name: str):
     """The message class named `name` (package/msg/Type or package/Type), which must have a header."""
+    if name in (DEFAULT_PACE_TYPE, "amr_interfaces/LocalizedPose"):
+        return LocalizedPose
     parts = name.split("/")
     if len(parts) == 3 and parts[1] == "msg":
         parts = [parts[0], parts[2]]
@@ -96,7 +101,7 @@ PARAMETERS = (
     ParameterSpec("rate", 1.0, "realtime: log seconds per wall second", minimum=0.0, exclusive_minimum=True,
                   maximum=1e6, live=True),
     ParameterSpec("pace_topic", "pose", "lockstep: the consumer's answer to each scan", check=topic_name_problem),
-    ParameterSpec("pace_type", "amr_interfaces/msg/LocalizedPose", "lockstep: its type (with a header stamped with "
+    ParameterSpec("pace_type", DEFAULT_PACE_TYPE, "lockstep: its type (with a header stamped with "
                   "the scan's stamp), e.g. amr_interfaces/msg/PoseGraph", check=pace_type_problem),
     ParameterSpec("pace_timeout", 5.0, "lockstep: wall s to wait for the answer, then warn and go on",
                   minimum=0.0, exclusive_minimum=True, maximum=3600.0, live=True),
@@ -305,8 +310,9 @@ class LogPlayerNode(ManagedNode):
         if now - self._last_warning >= WARNING_PERIOD:
             self._last_warning = now
             self.get_logger().warning(
-                f"no {self._values['pace_type']} on {self._pace.topic_name} stamped at least {self._awaiting * 1e-9:.3f} "
-                f"s within {self._values['pace_timeout']:g} s: going on ({self.timeouts} timeouts so far)")
+                f"no {self._values['pace_type']} on {self._pace.topic_name} stamped at least "
+                f"{self._awaiting * 1e-9:.3f} s within {self._values['pace_timeout']:g} s: going on "
+                f"({self.timeouts} timeouts so far)")
         self._advance()
 
     def _advance(self) -> None:

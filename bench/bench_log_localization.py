@@ -90,7 +90,8 @@ def main() -> None:
         assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.get_name()
     assert localizer.try_transition(Transition.TRANSITION_ACTIVATE)
     deadline = time.monotonic() + 5.0
-    while time.monotonic() < deadline and (player.count_subscribers("scan") < 2 or not initial.get_subscription_count()):
+    while time.monotonic() < deadline and (
+            player.count_subscribers("scan") < 2 or not initial.get_subscription_count()):
         executor.spin_once(timeout_sec=0.05)
     x0, y0, theta0 = log.scans[0].pose
     start = PoseWithCovarianceStamped()
