@@ -55,6 +55,10 @@ ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
 """Odometry edge's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled)."""
 LIKELIHOOD_SIGMA_CELLS = 1.5
 """The submaps' likelihood field: exp(-d^2 / (2 sigma^2)), sigma this many cells."""
+OPTIMIZE_CHI = 3.0
+"""A new closure this many standard deviations off the current poses makes the graph be optimized at once ..."""
+OPTIMIZE_EVERY = 10
+"""... else it is optimized once this many closures that agree with the poses have been added."""
 MAX_INFORMATION = (1.0 / 0.01 ** 2, 1.0 / 0.01 ** 2, 1.0 / math.radians(0.25) ** 2)
 """A scan match's information is capped here (x, y, theta): standard deviations of 1 cm and 0.25 deg at least."""
 
@@ -169,6 +173,7 @@ class GraphSlam:
         self._grid: OccupancyGrid | None = None
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, CorrelativeMatcher] | None = None
+        self._unoptimized = 0  # closures added since the last optimization
 
     # -- state -----------------------------------------------------------------------------------------
 
@@ -220,6 +225,22 @@ class GraphSlam:
         except (OSError, MapError) as error:
             raise MappingError(f"slam: cannot save the map to {stem}: {error}") from error
         return [yaml_path, yaml_path.with_suffix(".pgm"), csv_path]
+
+    def optimize(self) -> bool:
+        """Optimizes the graph now (the closures whose optimization was deferred, see OPTIMIZE_EVERY): before a
+        save, at the end of a run. True when the poses moved; a failed optimization raises MappingError (poses
+        kept)."""
+        self._unoptimized = 0
+        if not self._graph.loop.any():
+            return False
+        result = self._graph.optimize(max_iterations=30)
+        if result.max_change > 0.0:
+            self._grid = None
+            self._local = None
+            last = len(self._nodes) - 1
+            self._pose = np.array(compose(self._graph.pose(last), relative_pose(self._anchor_odometry,
+                                                                                 self._odometry)))
+        return result.max_change > 0.0
 
     # -- the update --------------------------------------------------------------------------------------
 
@@ -340,9 +361,13 @@ class GraphSlam:
                                  loop=True)
             closures.append(LoopClosure(submap.anchor, node, float(match.score)))
         if closures:
+            self._unoptimized += len(closures)
+            chi = np.sqrt(self._graph.chi2()[-len(closures):].max())
+        if closures and (chi > OPTIMIZE_CHI or self._unoptimized >= OPTIMIZE_EVERY):
+            self._unoptimized = 0
             before = self._graph.pose(node)
             try:
-                result = self._graph.optimize(max_iterations=15)
+                result = self._graph.optimize(max_iterations=10)
                 events.append(f"{len(closures)} loop closure(s): optimized in {result.iterations} iterations, "
                               f"moved up to {result.max_change:.2f}")
             except MappingError as error:

@@ -40,6 +40,7 @@ DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
 
 
 def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dict:
+    """One log through GraphSlam: the figures of the module docstring."""
     log = read_carmen(path)
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
@@ -61,6 +62,7 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
         node_of.append(node)
         closures += len(update.loop_closures)
         events += sum(1 for e in update.events if "odometry alone" in e)
+    slam.optimize()  # the closures whose optimization was deferred
     poses, _, _ = slam.graph()
     node_odometry = {}
     for k, n in enumerate(node_of):
