@@ -43,7 +43,8 @@ def test_expected_nodes_are_all_there():
 
 def test_every_package_is_installed():
     assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer"} == set(PACKAGES)
+            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer",
+            "amr_mapping", "amr_datasets"} == set(PACKAGES)
 
 
 def test_ros_wheels_are_pinned_to_jazzy():
