@@ -124,7 +124,8 @@ def absolute_error(estimate, reference) -> AbsoluteError:
         raise MappingError("absolute error: no poses")
     x, y, theta = rigid_alignment(estimate, reference)
     c, s = math.cos(theta), math.sin(theta)
-    aligned = np.column_stack([c * estimate[:, 0] - s * estimate[:, 1] + x, s * estimate[:, 0] + c * estimate[:, 1] + y])
+    ex, ey = estimate[:, 0], estimate[:, 1]
+    aligned = np.column_stack([c * ex - s * ey + x, s * ex + c * ey + y])
     distance = np.hypot(*(aligned - reference[:, :2]).T)
     return AbsoluteError(float(np.sqrt(np.mean(distance ** 2))), float(distance.mean()), float(distance.max()),
                          (x, y, theta))

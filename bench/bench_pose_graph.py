@@ -24,8 +24,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from amr_mapping.pose_graph import PoseGraph  # noqa: E402
-from amr_util.geometry import compose, relative_pose  # noqa: E402
+from amr_mapping.pose_graph import PoseGraph
+from amr_util.geometry import compose, relative_pose
 
 SIGMA = np.array([0.05, 0.05, np.radians(1.0)])
 

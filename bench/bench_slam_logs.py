@@ -29,12 +29,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from amr_datasets.carmen import read_carmen  # noqa: E402
-from amr_datasets.odometry import synthesize_odometry  # noqa: E402
-from amr_mapping.errors import MappingError  # noqa: E402
-from amr_mapping.slam import GraphSlam, SlamConfig  # noqa: E402
-from amr_mapping.trajectory_error import absolute_error, relative_error  # noqa: E402
-from amr_util.geometry import compose, relative_pose  # noqa: E402
+from amr_datasets.carmen import read_carmen
+from amr_datasets.odometry import synthesize_odometry
+from amr_mapping.errors import MappingError
+from amr_mapping.slam import GraphSlam, SlamConfig
+from amr_mapping.trajectory_error import absolute_error, relative_error
+from amr_util.geometry import compose, relative_pose
 
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
 
@@ -67,7 +67,8 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
     node_odometry = {}
     for k, n in enumerate(node_of):
         node_odometry.setdefault(n, odometry[k])
-    estimate = np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)])
+    estimate = np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k]))
+                         for k, n in enumerate(node_of)])
     rel = relative_error(estimate, reference)
     ate = absolute_error(estimate, reference)
     rel_odom = relative_error(odometry, reference)
