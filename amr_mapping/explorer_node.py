@@ -165,7 +165,8 @@ class ExplorerNode(ManagedNode):
             self._decide()
         elif self._map_new and self._now - self._last_decision >= self._settings["decision_period"]:
             self._decide()
-        elif self.explorer.goal is not None and self._now - self.explorer.goal_since > self.explorer.config.goal_timeout:
+        elif self.explorer.goal is not None and \
+                self._now - self.explorer.goal_since > self.explorer.config.goal_timeout:
             self._decide()
 
     def _on_navigator(self, message: NavigatorStatus) -> None:

@@ -1,7 +1,7 @@
 """Frontiers on an occupancy grid, how far the robot has to drive to each, and which one to explore next.
 Plain numpy and scipy, no ROS (amr_mapping.explorer keeps the state between maps; explorer_node is the ROS shell).
 
-Frontier cells are known free cells (occupancy >= 0 and below `free_threshold`) with an unknown (-1) cell among
+Frontier cells are known free cells (occupancy >= 0 and below `free_threshold`, 50 %) with an unknown (-1) cell among
 their 4 neighbours; they are grouped 8-connected into frontiers, and frontiers shorter than `min_frontier_size`
 (cells x resolution, m) are dropped (gaps between beams, not openings).
 
@@ -61,8 +61,9 @@ class FrontierConfig(Config):
     from a mount 0.032 m behind the centre, leaves them unseen)."""
     blacklist_radius: float = parameter(0.3, minimum=0.0, maximum=10.0, live=True)
     """m, a frontier whose goal lies this close to a blacklisted point is not chosen."""
-    free_threshold: int = parameter(25, minimum=1, maximum=100, live=True)
-    """occupancy (percent) below which a known cell is free (SaveMap's free_thresh 0.25)."""
+    free_threshold: int = parameter(50, minimum=1, maximum=100, live=True)
+    """occupancy (percent) below which a known cell is free: seen free more than occupied (one free observation
+    of amr_maps.scan_mapping's log-odds grid makes 40; the planner's obstacles start at 65)."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +93,7 @@ class Frontier:
         return self.goal is not None
 
 
-def frontier_mask(grid: OccupancyGrid, free_threshold: int = 25) -> np.ndarray:
+def frontier_mask(grid: OccupancyGrid, free_threshold: int = 50) -> np.ndarray:
     """Free cells with an unknown 4-neighbour."""
     data = grid.data
     free = (data >= 0) & (data < free_threshold)
@@ -101,7 +102,7 @@ def frontier_mask(grid: OccupancyGrid, free_threshold: int = 25) -> np.ndarray:
     return free & beside
 
 
-def detect_frontiers(grid: OccupancyGrid, min_frontier_size: float = 0.2, free_threshold: int = 25) -> list[Frontier]:
+def detect_frontiers(grid: OccupancyGrid, min_frontier_size: float = 0.2, free_threshold: int = 50) -> list[Frontier]:
     """The frontiers of `grid` (8-connected groups of frontier cells at least min_frontier_size m long), largest first;
     not yet reached (goal None)."""
     labels, count = label(frontier_mask(grid, free_threshold), structure=EIGHT)
@@ -138,7 +139,7 @@ def with_robot_free(grid: OccupancyGrid, robot: tuple[float, float], radius: flo
     return OccupancyGrid(data, grid.resolution, grid.origin, grid.frame_id)
 
 
-def safe_cells(grid: OccupancyGrid, robot_radius: float, free_threshold: int = 25) -> np.ndarray:
+def safe_cells(grid: OccupancyGrid, robot_radius: float, free_threshold: int = 50) -> np.ndarray:
     """Free cells where the robot's disc fits among free cells (the grid's border counts as not free)."""
     data = grid.data
     free = (data >= 0) & (data < free_threshold)

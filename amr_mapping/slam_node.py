@@ -7,15 +7,16 @@ active     /odometry + /scan are paired by stamp (amr_util.sync, the approximate
            filter pairs them); each pair is one GraphSlam.add and gets, stamped with the scan's stamp:
            /pose (amr_interfaces/LocalizedPose in the map frame, localized true, confidence 1.0: the navigator
            and the lockstep simulator take it as they take the filter's), map -> odom on /tf, ~/status
-           (amr_interfaces/LocalizerStatus: updated = a node was added, update_time, event = loop closures).
+           (amr_interfaces/LocalizerStatus: updated = a node was added, scan_fit = its scan match's score,
+           update_time, event = loop closures or the library's events).
            /map (nav_msgs/OccupancyGrid, transient local) and ~/graph (amr_interfaces/PoseGraph) go out when the
            map changed, at most every map_publish_period s of scan time (a steady timer sends a change left over
            when no scan comes: a lockstep simulator holding the robot).
            ~/save_map (amr_interfaces/SaveMap) writes <path>.yaml, <path>.pgm and <path>.poses.csv; a path that
            cannot be written is answered success false with the reason, and the map is kept.
 
-One /pose answers every pair, so a lockstep loop that waits for it never stalls: a scan the library refuses
-(MappingError) is logged and the pose follows odometry from the last correction (map -> odom kept). Nothing
+One /pose answers every pair, so a lockstep loop that waits for it never stalls: an input the library refuses
+(MappingError), or a failure of the library, is logged and the pose follows odometry from the last correction. Nothing
 non-finite is published; no exception leaves a callback. Stamps going back (a simulator reset) restart the
 pairing with a log line; the map is kept (the world did not change).
 """
@@ -47,7 +48,7 @@ from amr_mapping.slam import GraphSlam, SlamConfig
 from amr_util.geometry import all_finite, compose, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import quaternion, scan_data
-from amr_util.parameter_spec import ParameterSpec
+from amr_util.parameter_spec import ParameterSpec, field_docs
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
 from amr_util.sync import ApproximateTimeSynchronizer
@@ -74,16 +75,25 @@ NODE_SPECS = (
 NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS)
 
 
+def library_specs() -> tuple[ParameterSpec, ...]:
+    """SlamConfig's fields as parameters: each field's default (its type) and docstring; the library's own
+    construction checks the values (MappingError naming the key) when the node configures."""
+    if hasattr(SlamConfig, "parameter_specs"):  # an amr_util.parameter_spec.Config
+        return tuple(SlamConfig.parameter_specs())
+    docs = field_docs(SlamConfig)
+    return tuple(ParameterSpec(f.name, f.default, docs.get(f.name, "")) for f in dataclasses.fields(SlamConfig)
+                 if f.default is not dataclasses.MISSING)
+
+
 def parameter_specs() -> tuple[ParameterSpec, ...]:
     """SlamConfig's parameters (the library's own) and the node's."""
-    return SlamConfig.parameter_specs() + NODE_SPECS
+    return library_specs() + NODE_SPECS
 
 
 def config_of(values: dict) -> SlamConfig:
     """The library's configuration from the node's parameter values (the node's own keys left out)."""
     names = {field.name for field in dataclasses.fields(SlamConfig)}
-    return SlamConfig.from_params({name: value for name, value in values.items()
-                                   if name.partition(".")[0] in names})
+    return SlamConfig(**{name: value for name, value in values.items() if name in names})
 
 
 def odometry_pose(message: Odometry) -> tuple[float, float, float]:
@@ -119,18 +129,6 @@ def pose_graph_message(stamp: TimeMessage, frame: str, poses, edges, loop) -> Po
     message.edge_to = [int(v) for v in edges[:, 1]]
     message.loop_closure = [bool(v) for v in np.asarray(loop, dtype=bool).reshape(-1)]
     return message
-
-
-def closure_count(value) -> int:
-    """SlamUpdate.loop_closures as a count (an int, or a sequence of the closures made)."""
-    if isinstance(value, (bool, np.bool_)):
-        return int(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    try:
-        return len(value)
-    except TypeError:
-        return 0
 
 
 class SlamNode(ManagedNode):
@@ -181,7 +179,8 @@ class SlamNode(ManagedNode):
         if values["tf_broadcast"]:  # relative, as the particle filter's: /tf, or /r1/tf in a robot's namespace
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
         self._entities = [
-            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(0, m), reliable(values["sync_queue_size"])),
+            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(0, m),
+                                     reliable(values["sync_queue_size"])),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(1, m), SENSOR_DATA),
             self.create_active_service(SaveMap, "~/save_map", self._on_save_map),
         ]
@@ -261,22 +260,26 @@ class SlamNode(ManagedNode):
         if not all_finite(odom):
             self._warn("odometry is not finite: the pair was dropped")
             return
-        status = LocalizerStatus(localized=True, clusters=1, cluster_share=1.0)
+        status = LocalizerStatus(localized=True)
         try:
             update = slam.add(stamp_ns, odom, scan_data(scan))
             pose = tuple(float(v) for v in update.pose)
-            status.updated, status.update_time = bool(update.node_added), float(update.time)
-            closures = closure_count(update.loop_closures)
-            if closures:
-                status.event = f"{closures} loop closure{'s' * (closures > 1)}"
-                self.get_logger().info(f"{status.event} at {stamp_ns * 1e-9:.2f} s")
+            status.updated, status.update_time = bool(update.node_added), float(update.seconds)
+            for event in update.events:
+                self.get_logger().info(event, throttle_duration_sec=WARNING_PERIOD)
+            status.event = "; ".join(update.events)
             self._map_dirty |= bool(update.map_changed)
-        except MappingError as error:
-            self._warn(f"scan refused ({error}): the pose follows odometry")
-            status.event = f"scan refused: {error}"
+        except Exception as error:  # MappingError: refused input; anything else a library bug. Either way a /pose
+            # answers the pair (a lockstep loop waits for it): odometry from the last correction
+            if isinstance(error, MappingError):
+                self._warn(f"scan refused ({error}): the pose follows odometry")
+            else:
+                self.get_logger().error(f"slam update failed: {type(error).__name__}: {error}",
+                                        throttle_duration_sec=WARNING_PERIOD)
+            status.event = f"update refused: {error}"
             pose = tuple(compose(tuple(slam.map_to_odom), odom))
         self.pairs += 1
-        self._publish_pose(stamp, odom, pose, status)
+        self._publish_pose(stamp, pose, status)
         period = round(self._settings["map_publish_period"] * NANOSECONDS_PER_SECOND)
         due = self._last_map_ns is None or stamp_ns - self._last_map_ns >= period or stamp_ns < self._last_map_ns
         if self._map_dirty and due:
@@ -303,7 +306,7 @@ class SlamNode(ManagedNode):
 
     # -- outputs --------------------------------------------------------------------------------
 
-    def _publish_pose(self, stamp: TimeMessage, odom, pose, status: LocalizerStatus) -> None:
+    def _publish_pose(self, stamp: TimeMessage, pose, status: LocalizerStatus) -> None:
         if not all_finite(pose):
             self.get_logger().error("the pose is not finite: nothing published", throttle_duration_sec=WARNING_PERIOD)
             return
