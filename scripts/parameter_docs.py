@@ -134,6 +134,16 @@ def _log_player():
     return PARAMETERS
 
 
+def _slam():
+    from amr_mapping.slam_node import parameter_specs
+    return parameter_specs()
+
+
+def _explorer():
+    from amr_mapping.explorer_node import parameter_specs
+    return parameter_specs()
+
+
 NODES = (
     Node("amr_simulation", "simulator", _simulator, ("simulator.yaml",)),
     Node("amr_control", "wall_follower", _wall_follower, ("wall_follower_sim.yaml", "wall_follower_real.yaml")),
@@ -152,6 +162,8 @@ NODES = (
     Node("amr_kinematics", "ik_service.chain_keys", _ik_chain_keys),
     Node("amr_viewer", "viewer", _viewer),
     Node("amr_datasets", "log_player", _log_player),
+    Node("amr_mapping", "slam", _slam, ("slam.yaml",)),
+    Node("amr_mapping", "explorer", _explorer, ("explorer.yaml",)),
 )
 
 
