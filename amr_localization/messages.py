@@ -12,16 +12,15 @@ import math
 import numpy as np
 from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance, TransformStamped
+from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance
 from nav_msgs.msg import Odometry
-from tf2_msgs.msg import TFMessage
 
 from amr_localization.beacons import BeaconReading, same_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import FilterStatus
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.geometry import yaw_from_quaternion
-from amr_util.messages import quaternion
+from amr_util.messages import quaternion, transform  # transform: localizer_node broadcasts map -> odom with it
 
 PLANAR_AXES = (0, 1, 5)
 """x, y, yaw in the row-major 6x6 covariance of PoseWithCovariance."""
@@ -96,16 +95,6 @@ def particle_cloud(stamp: Time, frame: str, particles: np.ndarray) -> PoseArray:
         pose.position.x, pose.position.y = float(x), float(y)
         pose.orientation.w, pose.orientation.z = float(w), float(z)
     return message
-
-
-def transform(stamp: Time, parent: str, child: str, pose) -> TFMessage:
-    """One planar transform parent -> child (child's pose in parent) on /tf."""
-    message = TransformStamped()
-    message.header.stamp, message.header.frame_id = stamp, parent
-    message.child_frame_id = child
-    message.transform.translation.x, message.transform.translation.y = float(pose[0]), float(pose[1])
-    message.transform.rotation = quaternion(float(pose[2]))
-    return TFMessage(transforms=[message])
 
 
 def localizer_status(status: FilterStatus, localized: bool) -> LocalizerStatus:

@@ -33,7 +33,6 @@ from amr_interfaces.msg import LocalizedPose, LocalizerStatus, PoseGraph
 from amr_interfaces.srv import SaveMap
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import Pose2D as Pose2DMessage
-from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
@@ -47,7 +46,7 @@ from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
 from amr_util.geometry import all_finite, compose, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
-from amr_util.messages import quaternion, scan_data
+from amr_util.messages import quaternion, scan_data, transform
 from amr_util.parameter_spec import ParameterSpec, field_docs
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
@@ -108,15 +107,6 @@ def localized_pose(stamp: TimeMessage, frame: str, pose) -> LocalizedPose:
     message.pose.pose.position.x, message.pose.pose.position.y = float(pose[0]), float(pose[1])
     message.pose.pose.orientation = quaternion(float(pose[2]))
     return message
-
-
-def transform(stamp: TimeMessage, parent: str, child: str, pose) -> TFMessage:
-    message = TransformStamped()
-    message.header.stamp, message.header.frame_id = stamp, parent
-    message.child_frame_id = child
-    message.transform.translation.x, message.transform.translation.y = float(pose[0]), float(pose[1])
-    message.transform.rotation = quaternion(float(pose[2]))
-    return TFMessage(transforms=[message])
 
 
 def pose_graph_message(stamp: TimeMessage, frame: str, poses, edges, loop) -> PoseGraph:

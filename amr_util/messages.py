@@ -1,4 +1,5 @@
-"""Message helpers the nodes share: a LaserScan as the scan readers take it, /cmd_vel, yaw quaternions.
+"""Message helpers the nodes share: a LaserScan as the scan readers take it, /cmd_vel, yaw quaternions, a planar
+transform on /tf.
 
 Plain functions of message types (no rclpy), so that nodes stay thin shells and tests need no node.
 """
@@ -9,8 +10,9 @@ import math
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Quaternion, Twist, TwistStamped
+from geometry_msgs.msg import Quaternion, TransformStamped, Twist, TwistStamped
 from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
 
 from amr_util.geometry import quaternion_from_yaw
 from amr_util.scan import ScanData
@@ -26,6 +28,17 @@ def quaternion(theta: float) -> Quaternion:
     """geometry_msgs/Quaternion of the rotation theta about z (amr_util.geometry.yaw_from_quaternion's inverse)."""
     x, y, z, w = quaternion_from_yaw(theta)
     return Quaternion(x=x, y=y, z=z, w=w)
+
+
+def transform(stamp: Time, parent: str, child: str, pose) -> TFMessage:
+    """One planar transform parent -> child (the child's pose (x, y, theta) in the parent) on /tf: what a
+    localizer or SLAM broadcasts as map -> odom."""
+    message = TransformStamped()
+    message.header.stamp, message.header.frame_id = stamp, parent
+    message.child_frame_id = child
+    message.transform.translation.x, message.transform.translation.y = float(pose[0]), float(pose[1])
+    message.transform.rotation = quaternion(float(pose[2]))
+    return TFMessage(transforms=[message])
 
 
 def velocity_command(v: float, w: float, *, stamped: bool, flip_angular_sign: bool, stamp: Time,
