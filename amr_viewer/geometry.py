@@ -85,18 +85,34 @@ TOP_DOWN_TILT = 1e-4
 +z; this keeps +y up on the screen (an angle of 1e-4 / height rad, far below a pixel)."""
 
 
+PANEL_PIXELS = 350
+"""px of the canvas's right edge under the control panel: viser 1.1's floating panel, 20 em of 16 px
+(control_width "medium") 15 px from the edge, and 15 px of air on its left."""
+
+
+def free_share(canvas_width: float, panel: float = PANEL_PIXELS) -> float:
+    """The share of a canvas `canvas_width` px wide left of the control panel (at least a third; 1 when the width is
+    not known yet)."""
+    if not (canvas_width > 0.0 and math.isfinite(canvas_width)):
+        return 1.0
+    return min(1.0, max(1.0 / 3.0, 1.0 - panel / canvas_width))
+
+
 def top_down_camera(bounds: tuple[float, float, float, float], aspect: float, margin: float = 0.1,
-                    fov: float = TOP_DOWN_FOV) -> Camera:
+                    fov: float = TOP_DOWN_FOV, free: float = 1.0) -> Camera:
     """A camera looking straight down at the box (xmin, ymin, xmax, ymax), high enough that the box plus `margin`
-    (a fraction of each side) fills a canvas of width / height = `aspect`; +x right, +y up on the screen."""
+    (a fraction of each side) fills the left `free` share of a canvas of width / height = `aspect` (the rest is under
+    the control panel, free_share), centred there; +x right, +y up on the screen."""
     xmin, ymin, xmax, ymax = bounds
-    if not (finite(xmin, ymin, xmax, ymax) and xmax >= xmin and ymax >= ymin and aspect > 0.0):
-        raise ValueError(f"top_down_camera: bad bounds {bounds} or aspect {aspect}")
+    if not (finite(xmin, ymin, xmax, ymax, free) and xmax >= xmin and ymax >= ymin and aspect > 0.0
+            and 0.0 < free <= 1.0):
+        raise ValueError(f"top_down_camera: bad bounds {bounds}, aspect {aspect} or free share {free}")
     width = max(xmax - xmin, 0.1) * (1.0 + 2.0 * margin)
     height = max(ymax - ymin, 0.1) * (1.0 + 2.0 * margin)
-    half_height = max(0.5 * height, 0.5 * width / aspect)
+    half_height = max(0.5 * height, 0.5 * width / (aspect * free))
     distance = half_height / math.tan(0.5 * fov)
     cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+    cx += (1.0 - free) * aspect * half_height  # the box's centre at the centre of the free share
     return Camera((cx, cy - TOP_DOWN_TILT, distance), (cx, cy, 0.0), fov)
 
 

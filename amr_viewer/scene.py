@@ -1,5 +1,8 @@
 """The 3D scene in viser: each robot's layers and the arms, redrawn only where their version changed.
 
+Each robot has a colour of its own (ROBOT_COLORS, in the order the robots are first drawn): its disc, its trail and
+the name label above it; the other layers keep one colour per kind (scan red, path blue, ...).
+
 Everything lies on the floor (z = 0, the map) a few millimetres apart so nothing flickers: map, world goal, trail,
 path, particles, scan, estimate, goal, robot. Point clouds and line sets keep one colour each, so a new set of any
 size replaces the old in one message; the trail's full chunks are drawn once and never sent again. Without a GPU
@@ -15,15 +18,20 @@ import viser
 
 from amr_viewer.arms import ArmSet
 from amr_util.geometry import Pose2D
+from amr_util.robot_description import default_robot
 from amr_viewer.geometry import wxyz_of
 from amr_viewer.state import RobotState
 
 COLORS = {
-    "robot": (40, 90, 200), "heading": (250, 250, 250), "truth": (20, 20, 20), "scan": (230, 40, 40),
+    "heading": (250, 250, 250), "truth": (20, 20, 20), "scan": (230, 40, 40),
     "particles": (255, 140, 0), "estimate": (0, 160, 80), "searching": (230, 120, 0), "path": (30, 110, 255),
-    "goal": (200, 0, 200), "world_goal": (0, 170, 60), "beacons": (250, 200, 0), "trail": (120, 120, 220),
+    "goal": (200, 0, 200), "world_goal": (0, 170, 60), "beacons": (250, 200, 0),
     "arm": (60, 60, 60), "joint": (236, 180, 0),
 }
+ROBOT_COLORS = ((40, 90, 200), (225, 120, 0), (0, 150, 110), (190, 60, 170), (130, 85, 40), (0, 165, 215),
+                (120, 120, 120), (150, 150, 0))
+"""A robot's disc, trail and label, in the order the robots are first drawn (then again from the first)."""
+ROBOT_COLOR_NAMES = ("blue", "orange", "green", "purple", "brown", "cyan", "grey", "olive")
 HEIGHTS = {"world_goal": 0.002, "trail": 0.004, "path": 0.006, "particles": 0.008, "scan": 0.01, "estimate": 0.012,
            "goal": 0.014, "beacons": 0.02, "robot": 0.0}
 CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * math.pi, 41)), np.sin(np.linspace(0, 2 * math.pi, 41))])
@@ -71,7 +79,7 @@ def points3(points: np.ndarray, z: float) -> np.ndarray:
 class Scene:
     """Draws RobotStates and an ArmSet into a viser server's scene."""
 
-    def __init__(self, server: viser.ViserServer, robot_radius: float = 0.105) -> None:
+    def __init__(self, server: viser.ViserServer, robot_radius: float = default_robot().radius) -> None:
         self.scene = server.scene
         self.robot_radius = robot_radius
         self.hidden: set[str] = set()
@@ -80,7 +88,22 @@ class Scene:
         self._trail_chunks: dict[str, set[int]] = {}
         self._arm_versions: dict[str, int] = {}
         self._colors: dict[str, tuple] = {}
+        self._robot_colors: dict[str, tuple[int, int, int]] = {}
         self.scene.set_up_direction("+z")
+
+    def color_of(self, namespace: str) -> tuple[int, int, int]:
+        """The robot's own colour (ROBOT_COLORS in the order robots are first drawn; kept while it is drawn)."""
+        if namespace not in self._robot_colors:
+            self._robot_colors[namespace] = ROBOT_COLORS[len(self._robot_colors) % len(ROBOT_COLORS)]
+        return self._robot_colors[namespace]
+
+    def color_name_of(self, namespace: str) -> str:
+        return ROBOT_COLOR_NAMES[ROBOT_COLORS.index(self.color_of(namespace))]
+
+    @staticmethod
+    def label_of(namespace: str) -> str:
+        """The name drawn above a robot: its namespace without the slash ("robot" in the root namespace)."""
+        return namespace.strip("/") or "robot"
 
     # -- robots ------------------------------------------------------------------------------------------------
 
@@ -110,11 +133,15 @@ class Scene:
 
     def forget(self, namespace: str) -> None:
         """Remove everything drawn for a robot that is gone."""
-        root = self._root_of(namespace)
-        for name in [n for n in self._handles if n.startswith(root + "/")]:
-            self._handles.pop(name).remove()
+        root, removed = self._root_of(namespace), []
+        for name in sorted(n for n in self._handles if n.startswith(root + "/")):
+            handle = self._handles.pop(name)
+            if not any(name.startswith(parent + "/") for parent in removed):  # gone with its parent
+                handle.remove()
+                removed.append(name)
         self._drawn = {key: v for key, v in self._drawn.items() if key[0] != namespace}
         self._trail_chunks.pop(namespace, None)
+        self._robot_colors.pop(namespace, None)
 
     @staticmethod
     def _root_of(namespace: str) -> str:
@@ -204,7 +231,8 @@ class Scene:
                 continue
             points = np.asarray(trail.chunks[index - first], dtype=float).reshape(-1, 2)
             points = points[np.isfinite(points).all(axis=1)]
-            self._cloud(f"{root}/trail/chunk{index}", points3(points, HEIGHTS["trail"]), COLORS["trail"], 0.015)
+            self._cloud(f"{root}/trail/chunk{index}", points3(points, HEIGHTS["trail"]), self.color_of(namespace),
+                        0.015)
             drawn.add(index)
 
     def _draw_particles(self, state: RobotState, root: str) -> None:
@@ -231,28 +259,32 @@ class Scene:
         self._segments(name, segments_at(np.concatenate(marks), HEIGHTS["estimate"]), color)
 
     def _draw_truth(self, state: RobotState, root: str) -> None:
-        if state.truth is None:
+        """The true pose as a ring, at the instant of the robot's transform (RobotState.truth_at_robot_instant)."""
+        truth = state.truth_at_robot_instant()
+        if truth is None:
             self._drop(f"{root}/truth")
             return
-        truth = state.truth
         outline = np.concatenate([np.stack([circle(truth.x, truth.y, self.robot_radius)[:-1],
                                             circle(truth.x, truth.y, self.robot_radius)[1:]], axis=1),
                                   arrow(truth, self.robot_radius)[:1]])
         self._segments(f"{root}/truth", segments_at(outline, HEIGHTS["goal"] + 0.04), COLORS["truth"], 0.6 * LINE)
 
     def _draw_robot(self, state: RobotState, root: str) -> None:
+        """The disc where TF puts the robot, in its colour, its name above it."""
         pose = state.robot_pose()
-        name = f"{root}/robot"
+        name, label = f"{root}/robot", f"{root}/label"
         if pose is None:
-            if name in self._handles:
-                self._handles[name].visible = False
+            for hidden in (name, label):
+                if hidden in self._handles:
+                    self._handles[hidden].visible = False
             return
         handle = self._handles.get(name)
         if handle is None:
             handle = self.scene.add_frame(name, show_axes=False)
             self._put(name, handle)
             body = self.scene.add_cylinder(f"{name}/body", radius=self.robot_radius, height=0.04,
-                                           color=COLORS["robot"], position=(0.0, 0.0, 0.02), cast_shadow=False)
+                                           color=self.color_of(state.namespace), position=(0.0, 0.0, 0.02),
+                                           cast_shadow=False)
             self._handles[f"{name}/body"] = body
             nose = segments_at(np.array([[[0.0, 0.0], [self.robot_radius, 0.0]]]), 0.045)
             self._handles[f"{name}/heading"] = self.scene.add_line_segments(
@@ -260,6 +292,13 @@ class Scene:
         handle.position = (pose.x, pose.y, HEIGHTS["robot"])
         handle.wxyz = wxyz_of(pose.theta)
         handle.visible = True
+        position = (pose.x, pose.y + 1.4 * self.robot_radius, 0.06)  # above the disc on the screen, not turning
+        if label not in self._handles:
+            self._put(label, self.scene.add_label(label, self.label_of(state.namespace), position=position,
+                                                  anchor="bottom-center", font_screen_scale=1.2))
+        else:
+            self._handles[label].position = position
+            self._handles[label].visible = True
 
     # -- arms -------------------------------------------------------------------------------------------------
 

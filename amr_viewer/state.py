@@ -8,8 +8,9 @@ the simulator starts it), else at its ground truth; the scan through TF at the s
 
 from __future__ import annotations
 
+import bisect
 import math
-from collections import Counter
+from collections import Counter, deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,8 @@ from amr_viewer.geometry import covariance_ellipse, finite, scan_points, transfo
 LAYERS = ("map", "robot", "truth", "scan", "particles", "estimate", "path", "goal", "world", "beacons", "trail")
 TRAIL_BREAK = 0.5
 """m: a jump longer than this between two trail points (a reset, a teleport) is not drawn as a line."""
+TRUTH_HISTORY = 400
+"""Ground-truth poses kept by stamp, so the true-pose ring is drawn at the instant of the robot's transform."""
 
 
 @dataclass(frozen=True)
@@ -168,6 +171,9 @@ class RobotState:
         self.versions: Counter[str] = Counter()
         self.map: MapImage | None = None
         self.truth: Pose2D | None = None
+        self._truths: deque[tuple[float, Pose2D]] = deque(maxlen=TRUTH_HISTORY)
+        self.base_stamp: float | None = None
+        """s, the stamp of the latest transform to the robot's base frame (the instant the disc is drawn at)"""
         self.scan: Scan | None = None
         self.particles: np.ndarray = np.zeros((0, 3))
         self.particle_count = 0
@@ -201,9 +207,12 @@ class RobotState:
     def on_transforms(self, transforms: list[StampedTransform]) -> None:
         changed = False
         for transform in transforms:
-            changed |= self.tree.set(transform.parent, transform.child, transform.pose)
+            if self.tree.set(transform.parent, transform.child, transform.pose):
+                changed = True
+                if transform.child.lstrip("/") in (self.plain_frames.base, self.prefixed_frames.base):
+                    self.base_stamp = transform.stamp
         if changed:
-            self._changed("robot", "scan")
+            self._changed("robot", "scan", "truth")
             if self.truth is None:  # no ground truth: the trail follows the robot as TF places it
                 pose = self.robot_pose()
                 if pose is not None and self.trail.add(pose.x, pose.y):
@@ -213,6 +222,9 @@ class RobotState:
         if not finite(*transform.pose):
             return
         self.truth = transform.pose
+        if self._truths and transform.stamp < self._truths[-1][0]:  # time went back (a restart): a new history
+            self._truths.clear()
+        self._truths.append((transform.stamp, transform.pose))
         self._changed("truth")
         if self.tree.lookup(self.frames.map, self.frames.base) is None and \
                 self.tree.lookup(self.frames.odom, self.frames.base) is None:
@@ -273,6 +285,25 @@ class RobotState:
         frames = self.frames
         pose = self.tree.lookup_or_assume(frames.map, frames.base, (frames.map, frames.odom))
         return pose if pose is not None else self.truth
+
+    def truth_at_robot_instant(self) -> Pose2D | None:
+        """The ground truth at the stamp of the robot's latest base transform (the latest truth at or before it;
+        the latest of all without TF, or when the history does not reach back that far): the ring and the disc
+        then show the same instant, and their distance is the localization error alone."""
+        if not self._truths:
+            return None
+        if self.base_stamp is None or self.tree.lookup_or_assume(
+                self.frames.map, self.frames.base, (self.frames.map, self.frames.odom)) is None:
+            return self._truths[-1][1]
+        index = bisect.bisect_right([stamp for stamp, _ in self._truths], self.base_stamp) - 1
+        return self._truths[index][1] if index >= 0 else self._truths[-1][1]
+
+    def drawn_offset(self) -> float | None:
+        """m between the disc (TF) and the ring (truth at the same instant); None without both or without TF."""
+        pose, truth = self.robot_pose(), self.truth_at_robot_instant()
+        if pose is None or truth is None or pose is self.truth:
+            return None
+        return math.hypot(pose.x - truth.x, pose.y - truth.y)
 
     def scan_in_map(self) -> np.ndarray:
         """(N, 2) scan end points in the map frame; empty when the scan's frame is not placed yet."""

@@ -41,11 +41,12 @@ from amr_maps.world import load_world, resolve_world_path
 from amr_util.managed_node import ManagedNode, run
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
-from amr_viewer import cdr, messages, topics
+from amr_util.robot_description import default_robot
+from amr_viewer import cdr, messages, status, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool
 from amr_util.geometry import Pose2D
-from amr_viewer.geometry import floor_point, oblique_camera, top_down_camera
+from amr_viewer.geometry import floor_point, free_share, oblique_camera, top_down_camera
 from amr_viewer.parameters import entry_from, value_of, visible
 from amr_viewer.state import Frames, RobotState, WorldGoal
 
@@ -73,8 +74,8 @@ def specs() -> tuple[ParameterSpec, ...]:
                       maximum=100000, live=True),
         ParameterSpec("trail_spacing", 0.02, "m between two points of the trajectory trail", minimum=0.001,
                       maximum=10.0),
-        ParameterSpec("robot_radius", 0.105, "m, the robot's drawn radius (the simulator's robot.radius when it has "
-                                             "one)", minimum=0.01, maximum=10.0),
+        ParameterSpec("robot_radius", default_robot().radius, "m, the robot's drawn radius (the simulator's robot.radius "
+                      "when it has one; default: the robot description's)", minimum=0.01, maximum=10.0),
         ParameterSpec("namespaces", [], "robot namespaces to draw ([]: every one found)", kind="str_array"),
         ParameterSpec("map_frame", "map", "REP 105 map frame"),
         ParameterSpec("odom_frame", "odom", "REP 105 odometry frame"),
@@ -507,7 +508,8 @@ class ViewerNode(ManagedNode):
             if extents:
                 bounds = (min(e[0] for e in extents), min(e[1] for e in extents), max(e[2] for e in extents),
                           max(e[3] for e in extents))
-                camera = top_down_camera(bounds, client.camera.aspect)
+                camera = top_down_camera(bounds, client.camera.aspect,
+                                         free=free_share(client.camera.image_width))
         if camera is None:
             return
         client.camera.fov = camera.fov
@@ -524,19 +526,22 @@ class ViewerNode(ManagedNode):
                                  lambda answer, node=node: self._set_node_state(node, answer),
                                  lambda node=node: self._set_node_state(node, None))
         lines = []
-        if self.node_states:
-            lines.append("**nodes** " + ", ".join(f"{topics.split(node)[1]} {state}"
-                                                  for node, state in sorted(self.node_states.items())))
+        table = status.node_state_table(self.node_states)
+        if table:
+            lines.append(table)
         if self.paused is not None:
             lines.append("**simulator paused**" if self.paused else "simulator running")
         for link in self.robots.values():
             state = link.state
-            title = f"**robot {state.namespace or '/'}**"
+            title = f"**robot {state.namespace or '/'}** ({self.scene.color_name_of(state.namespace)})"
             details = messages.format_status(state.status)
             if state.localized is not None and not state.status.get("localization_enabled"):
                 details.append("localized" if state.localized else "not localized")
             if state.particle_count:
                 details.append(f"{state.particle_count} particles ({len(state.particles)} drawn)")
+            offset = status.offset_text(state.drawn_offset())
+            if offset is not None:
+                details.append(offset)
             lines.append(title + (": " + "; ".join(details) if details else ""))
         for node, arms in self.arms.items():
             lines.append(f"**arms of {node}**: {', '.join(arms.arms)}")

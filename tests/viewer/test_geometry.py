@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from amr_util.geometry import Pose2D, quaternion_from_yaw
-from amr_viewer.geometry import (covariance_ellipse, floor_point, oblique_camera, scan_points, top_down_camera,
-                                 transform_points, wxyz_of)
+from amr_viewer.geometry import (PANEL_PIXELS, covariance_ellipse, floor_point, free_share, oblique_camera,
+                                 scan_points, top_down_camera, transform_points, wxyz_of)
 
 RNG = np.random.default_rng(21)
 
@@ -84,3 +84,28 @@ def test_the_oblique_camera_looks_down_at_the_box():
     camera = oblique_camera((0.0, -0.5, 7.0, 0.5))
     direction = np.subtract(camera.look_at, camera.position)
     assert direction[2] < 0 and 3.0 < camera.look_at[0] < 4.0
+
+
+@pytest.mark.parametrize("width", [800.0, 1024.0, 1400.0])
+def test_the_top_down_camera_keeps_the_box_left_of_the_panel(width):
+    aspect = width / 640.0
+    free = free_share(width)
+    assert free == pytest.approx(1.0 - PANEL_PIXELS / width)
+    for _ in range(10):
+        x0, y0 = RNG.uniform(-10, 10, 2)
+        w, h = RNG.uniform(0.5, 20, 2)
+        camera = top_down_camera((x0, y0, x0 + w, y0 + h), aspect, free=free)
+        corners = [project(camera, (x, y, 0.0), aspect) for x in (x0, x0 + w) for y in (y0, y0 + h)]
+        us, vs = [c[0] for c in corners], [c[1] for c in corners]
+        assert min(us) > 0.0 and max(us) * width < width - PANEL_PIXELS, "the box left of the panel"
+        assert min(vs) > 0.0 and max(vs) < 1.0
+        assert 0.5 * (min(us) + max(us)) == pytest.approx(free / 2), "centred in the free share"
+        spread = max((max(us) - min(us)) / free, max(vs) - min(vs))
+        assert spread == pytest.approx(1 / 1.2, rel=1e-6), "the box fills the free share but for its margins"
+
+
+def test_the_free_share_is_the_whole_canvas_until_its_width_is_known():
+    assert free_share(0.0) == 1.0 and free_share(math.nan) == 1.0
+    assert free_share(400.0) == pytest.approx(1 / 3), "at least a third, however narrow the canvas"
+    with pytest.raises(ValueError, match="free share"):
+        top_down_camera((0, 0, 1, 1), 1.0, free=0.0)

@@ -160,3 +160,31 @@ def test_a_simulator_reset_starts_a_new_trail():
     assert len(state.trail.chunks[-1]) == 5
     state.on_status({"steps": 0})
     assert state.trail.chunks == [[]]
+
+
+def test_the_true_ring_is_taken_at_the_instant_of_the_robots_transform():
+    state = RobotState("")
+    for k in range(10):  # the truth runs ahead of TF: steps 0..9 known, the transform still at step 4
+        state.on_ground_truth(tf("map", "base_footprint", 0.1 * k, 0.0, 0.0, stamp=0.05 * k))
+    assert state.truth_at_robot_instant() == pytest.approx((0.9, 0.0, 0.0)), "no TF: the latest truth"
+    assert state.drawn_offset() is None, "no TF: the disc is the truth"
+    state.on_transforms([tf("map", "odom", 0.02, 0.0, 0.0, stamp=0.1), tf("odom", "base_footprint", 0.4, 0.0, 0.0,
+                                                                         stamp=0.2)])
+    assert state.base_stamp == pytest.approx(0.2)
+    assert state.truth_at_robot_instant() == pytest.approx((0.4, 0.0, 0.0))
+    assert state.drawn_offset() == pytest.approx(0.02), "the filter's 2 cm, not the 50 cm the truth ran ahead"
+    versions = state.versions["truth"]
+    state.on_transforms([tf("odom", "base_footprint", 0.5, 0.0, 0.0, stamp=0.25)])
+    assert state.versions["truth"] > versions, "a new transform redraws the ring"
+    assert state.truth_at_robot_instant() == pytest.approx((0.5, 0.0, 0.0))
+    state.on_ground_truth(tf("map", "base_footprint", 0.0, 0.0, 0.0, stamp=0.0))  # time went back: a restart
+    assert state.truth_at_robot_instant() == pytest.approx((0.0, 0.0, 0.0))
+
+
+def test_a_fleet_robot_on_the_shared_tree_takes_its_prefixed_base_stamp():
+    state = RobotState("/r2")
+    state.on_ground_truth(tf("map", "r2/base_footprint", 1.0, 0.0, 0.0, stamp=1.0))
+    state.on_ground_truth(tf("map", "r2/base_footprint", 2.0, 0.0, 0.0, stamp=2.0))
+    state.on_transforms([tf("r2/odom", "r2/base_footprint", 1.0, 0.0, 0.0, stamp=1.0),
+                         tf("r1/odom", "r1/base_footprint", 5.0, 0.0, 0.0, stamp=2.0)])
+    assert state.base_stamp == 1.0 and state.truth_at_robot_instant() == pytest.approx((1.0, 0.0, 0.0))

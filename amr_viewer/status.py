@@ -1,0 +1,45 @@
+"""The status panel's text: node states grouped by namespace in one compact table, one line per robot. No rclpy.
+
+A fleet of four robots has some 25 lifecycle nodes; a table row per namespace, naming its nodes once per state
+(`active: navigator, planner, ...`), keeps them readable in the panel's width.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Mapping
+
+ACTIVE = "active"
+
+
+def split_node(node: str) -> tuple[str, str]:
+    """'/r1/navigator' -> ('/r1', 'navigator'); '/simulator' -> ('/', 'simulator')."""
+    namespace, _, name = node.rpartition("/")
+    return namespace or "/", name
+
+
+def node_state_table(states: Mapping[str, str]) -> str:
+    """Markdown: a row per namespace (sorted, the root first) with its nodes grouped by state, active first; the
+    other states in bold. Empty for no node."""
+    if not states:
+        return ""
+    grouped: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
+    for node, state in states.items():
+        namespace, name = split_node(node)
+        grouped[namespace][state].append(name)
+    rows = ["| namespace | nodes |", "|---|---|"]
+    for namespace in sorted(grouped, key=lambda ns: (ns != "/", ns)):
+        by_state = grouped[namespace]
+        order = sorted(by_state, key=lambda state: (state != ACTIVE, state))
+        cells = [f"{state if state == ACTIVE else f'**{state}**'}: {', '.join(sorted(by_state[state]))}"
+                 for state in order]
+        rows.append(f"| {namespace} | {'; '.join(cells)} |")
+    return "\n".join(rows)
+
+
+def offset_text(offset: float | None) -> str | None:
+    """The distance between the robot's disc (TF: the localizer's belief) and its true-pose ring at the same
+    instant, as the status panel says it; None when there is nothing to compare."""
+    if offset is None:
+        return None
+    return f"disc {100.0 * offset:.0f} cm from the true ring (localization error)"
