@@ -37,10 +37,10 @@ HEIGHTS = {"world_goal": 0.002, "trail": 0.004, "path": 0.006, "particles": 0.00
 CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * math.pi, 41)), np.sin(np.linspace(0, 2 * math.pi, 41))])
 LINE = 0.012
 """m, the thickness of drawn lines."""
-TOGGLED = ("particles", "scan", "trail", "truth", "path")
+TOGGLED = ("particles", "scan", "trail", "truth", "path", "labels")
+"""Layers a user can hide."""
 MAP_PIXELS, MAP_UPSCALE = 1024, 8
 """A map image is repeated (nearest cell) up to about MAP_PIXELS on its long side, at most MAP_UPSCALE times."""
-"""Layers a user can hide."""
 
 
 def polyline(points: np.ndarray, z: float) -> np.ndarray:
@@ -272,7 +272,7 @@ class Scene:
     def _draw_robot(self, state: RobotState, root: str) -> None:
         """The disc where TF puts the robot, in its colour, its name above it."""
         pose = state.robot_pose()
-        name, label = f"{root}/robot", f"{root}/label"
+        name, label = f"{root}/robot", f"{root}/labels"
         if pose is None:
             for hidden in (name, label):
                 if hidden in self._handles:

@@ -1,10 +1,12 @@
 """The viewer in a real browser: Playwright drives Debian's chromium (headless, offline) against running stacks.
 
-`amr-bringup maze_navigation --composed --view` (one stack for the module) and `amr-bringup ik_service --view`;
-a probe node in this process watches /clock, /ground_truth, /goal_pose and the nodes' parameters. Without
-/usr/bin/chromium (AMR_CHROMIUM names another) or playwright the whole module is skipped with one line saying how to
-install it.
-AMR_VIEWER_SCREENSHOT=docs/viewer.png keeps the screenshot of the last test there.
+`amr-bringup maze_navigation --composed --view` (one stack for the module), `amr-bringup fleet_navigation
+--composed --view` (four robots) and `amr-bringup ik_service --view`; a probe node in this process watches /clock,
+the ground truths, /goal_pose and the nodes' parameters. Every wait polls for what it waits for (a drawing waits
+until two screenshots agree). Without /usr/bin/chromium (AMR_CHROMIUM names another) or playwright the whole module
+is skipped with one line saying how to install it.
+AMR_VIEWER_SCREENSHOT=docs/viewer.png and AMR_VIEWER_FLEET_SCREENSHOT=docs/viewer_fleet.png keep the screenshots
+of the one-robot and the fleet views there.
 """
 
 from __future__ import annotations
@@ -44,13 +46,16 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 
 from amr_util.environment import child_environment  # noqa: E402
 from amr_util.qos import LATCHED, reliable  # noqa: E402
-from amr_viewer.geometry import top_down_camera  # noqa: E402
+from amr_viewer.geometry import free_share, top_down_camera  # noqa: E402
+from amr_viewer.scene import ROBOT_COLORS  # noqa: E402
 from amr_viewer.messages import occupancy_grid  # noqa: E402
 from amr_viewer.parameters import value_of  # noqa: E402
 
 ARGS = ["--enable-unsafe-swiftshader", "--no-sandbox", "--disable-background-networking", "--disable-dev-shm-usage",
         "--disable-gpu-sandbox", "--mute-audio", "--no-first-run"]
 VIEWPORT = {"width": 1024, "height": 640}
+FLEET_VIEWPORT = {"width": 1400, "height": 900}
+FLEET = ("r1", "r2", "r3", "r4")
 STARTUP = 90.0
 """s for a stack and its viewer to come up (a loaded 2-core machine)."""
 WAIT = 60.0
@@ -78,8 +83,13 @@ def wait_for(condition, timeout: float = WAIT, what: str = "condition") -> None:
 
 
 class Probe(Node):
-    def __init__(self, context) -> None:
+    def __init__(self, context, robots: tuple[str, ...] = ()) -> None:
         super().__init__("viewer_test_probe", context=context)
+        self.fleet: dict[str, list[tuple[float, float]]] = {robot: [] for robot in robots}
+        for robot in robots:
+            poses = self.fleet[robot]
+            self.create_subscription(Odometry, f"/{robot}/ground_truth", lambda m, poses=poses: poses.append(
+                (m.pose.pose.position.x, m.pose.pose.position.y)), reliable(100))
         self.clocks: list[float] = []
         self.truth: list[tuple[float, float]] = []
         self.goals: list[PoseStamped] = []
@@ -103,26 +113,56 @@ class Probe(Node):
 
 
 class Stack:
-    """amr-bringup <stack> --composed --view in a domain of its own, and a probe spinning on a thread."""
+    """amr-bringup <stack> --view in a domain of its own, and a probe spinning on a thread.
 
-    def __init__(self, name: str, tmp: Path, *extra: str) -> None:
-        self.domain, self.port = fresh_domain(), free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
+    Up means every node active and the stack's own viewer serving its port (its log says it bound it: a free port
+    picked here can be taken by another process before the viewer binds it, and then the page would be another
+    server's). A stack that does not come up is stopped, never left running (it would load the machine and share
+    its domain with a later test).
+    """
+
+    ATTEMPTS = 3
+    """startups tried when the viewer lost its port to another process"""
+
+    def __init__(self, name: str, tmp: Path, *extra: str, robots: tuple[str, ...] = ()) -> None:
+        self.domain = fresh_domain()
         self.log = tmp / f"{name}.log"
-        env = child_environment(ROS_DOMAIN_ID=str(self.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-        self.process = subprocess.Popen(
-            [sys.executable, "-m", "amr_bringup.bringup", name, "--view", "--view-port", str(self.port), *extra],
-            env=env, stdout=self.log.open("w"), stderr=subprocess.STDOUT, start_new_session=True)
+        self.process = None
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=self.domain)
-        self.probe = Probe(self.context)
+        self.probe = Probe(self.context, robots)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.probe)
         self._spinner = threading.Thread(target=self._spin, daemon=True)
         self._spinner.start()
-        wait_for(lambda: ("all nodes active" in self.output() and serving(self.port)) or
-                 self.process.poll() is not None, STARTUP, f"{name} and its viewer to come up")
-        assert self.process.poll() is None, self.output()
+        try:
+            for attempt in range(self.ATTEMPTS):
+                self._start(name, extra)
+                wait_for(lambda: self.up() or self.process.poll() is not None or self.viewer_failed(), STARTUP,
+                         f"{name} and its viewer to come up")
+                if self.up() or not self.viewer_failed() or attempt == self.ATTEMPTS - 1:
+                    break
+                self._stop_process()  # the port was taken before the viewer bound it: another one
+            assert self.up(), self.output()
+        except BaseException:
+            self.stop()
+            raise
+
+    def _start(self, name: str, extra: tuple[str, ...]) -> None:
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        env = child_environment(ROS_DOMAIN_ID=str(self.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "amr_bringup.bringup", name, "--view", "--view-port", str(self.port), *extra],
+            env=env, stdout=self.log.open("w"), stderr=subprocess.STDOUT, start_new_session=True)
+
+    def up(self) -> bool:
+        output = self.output()
+        return self.process.poll() is None and "all nodes active" in output and \
+            f": viewer at {self.url} (no authentication" in output and serving(self.port)
+
+    def viewer_failed(self) -> bool:
+        return "the viewer (pid" in self.output()
 
     def _spin(self) -> None:
         try:
@@ -133,13 +173,17 @@ class Stack:
     def output(self) -> str:
         return self.log.read_text(errors="replace")
 
-    def stop(self) -> None:
-        if self.process.poll() is None:
+    def _stop_process(self) -> None:
+        if self.process is not None and self.process.poll() is None:
             self.process.send_signal(signal.SIGINT)
             try:
                 self.process.wait(20.0)
             except subprocess.TimeoutExpired:
                 os.killpg(self.process.pid, signal.SIGKILL)
+                self.process.wait()
+
+    def stop(self) -> None:
+        self._stop_process()
         self.executor.shutdown()
         self.probe.destroy_node()
         self.context.try_shutdown()
@@ -148,17 +192,21 @@ class Stack:
 class Browser:
     """One headless chromium page on the viewer, with every failed request and console error kept."""
 
-    def __init__(self, playwright, url: str) -> None:
+    def __init__(self, playwright, url: str, viewport: dict = VIEWPORT) -> None:
         self.browser = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=ARGS)
-        self.page = self.browser.new_page(viewport=VIEWPORT)
+        self.page = self.browser.new_page(viewport=viewport)
         self.page.set_default_timeout(WAIT * 1000)
         self.failed: list[str] = []
         self.errors: list[str] = []
         self.page.on("requestfailed", lambda request: self.failed.append(f"{request.url}: {request.failure}"))
         self.page.on("console", lambda message: message.type == "error" and self.errors.append(message.text))
         self.page.on("pageerror", lambda error: self.errors.append(str(error)))
-        self.page.goto(url, timeout=STARTUP * 1000)
-        self.button("Pause").wait_for(timeout=STARTUP * 1000)
+        try:
+            self.page.goto(url, timeout=STARTUP * 1000)
+            self.button("Pause").wait_for(timeout=STARTUP * 1000)
+        except BaseException:
+            self.browser.close()
+            raise
         self.canvas = self.page.locator("canvas").first
 
     def button(self, label: str):
@@ -179,6 +227,25 @@ class Browser:
         from PIL import Image
 
         return np.asarray(Image.open(io.BytesIO(self.canvas.screenshot(timeout=120000))).convert("RGB"))
+
+    def settled(self, timeout: float = WAIT, region=None) -> np.ndarray:
+        """The canvas once two screenshots in a row agree (in `region`, by default the scene left of the panel, but
+        for a few pixels): what is drawn has reached the page."""
+        last = self.screenshot()
+        if region is None:
+            region = (slice(None), slice(0, int(free_share(last.shape[1]) * last.shape[1])))
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            time.sleep(0.2)
+            shot = self.screenshot()
+            if (np.abs(shot[region].astype(int) - last[region].astype(int)).sum(axis=2) > 60).sum() < 5:
+                return shot
+            last = shot
+        raise AssertionError(f"the drawing did not settle in {timeout} s")
+
+    def hide_notifications(self) -> None:
+        """The "software WebGL" notice off the scene."""
+        self.page.add_style_tag(content=".mantine-Notification-root { display: none; }")
 
     def pixel(self, x: float, y: float, camera) -> tuple[float, float]:
         """Where the floor point (x, y) appears on the page, for a camera looking straight down (+y up)."""
@@ -215,10 +282,12 @@ def page(playwright, navigation):
 
 
 def camera_of(stack: Stack, page: Browser):
-    """The camera the viewer sets (amr_viewer.geometry.top_down_camera over the map, the canvas's aspect)."""
+    """The camera the viewer sets (amr_viewer.geometry.top_down_camera over the map, the canvas's aspect, the share
+    of the canvas left of the control panel)."""
     wait_for(lambda: stack.probe.map is not None, what="/map")
     box = page.canvas.bounding_box()
-    return top_down_camera(occupancy_grid(stack.probe.map).bounds, box["width"] / box["height"])
+    return top_down_camera(occupancy_grid(stack.probe.map).bounds, box["width"] / box["height"],
+                           free=free_share(box["width"]))
 
 
 def test_the_page_loads_offline_with_no_failed_request_and_no_console_error(page, navigation):
@@ -232,21 +301,34 @@ def test_the_pace_control_sets_the_simulators_pace(page, navigation):
     assert navigation.probe.parameter("/simulator", "pace") == 1.0
 
 
+def pause(page: Browser, probe: Probe) -> None:
+    """Pause the simulator and wait until its last messages are in: nothing moves until resume()."""
+    page.button("Pause").click()
+    page.reply("/simulator: paused at")
+    quiet(probe.clocks, 0.5, what="/clock to stop after Pause")
+
+
+def resume(page: Browser) -> None:
+    page.button("Resume").click()
+    page.reply("/simulator: running from")
+
+
 def test_the_scene_is_drawn_and_follows_the_robot(page, navigation):
     probe = navigation.probe
     page.button("Reset").click()
     page.reply("/simulator: reset")
     camera = camera_of(navigation, page)
     wait_for(lambda: len(probe.truth) > 2, what="/ground_truth")
-    time.sleep(1.5)  # the reset drawn: the viewer redraws at 10 Hz, a software-rendered page a few times a second
-    before = page.screenshot()
-    start = probe.truth[-1]  # 1x real time: within a few cm of where it was drawn
+    pause(page, probe)
+    before, start = page.settled(), probe.truth[-1]
     assert len(np.unique(before.reshape(-1, 3), axis=0)) > 20, "not a blank canvas"
+    resume(page)
     wait_for(lambda: math.dist(probe.truth[-1], start) > 0.3, what="the robot to move 0.3 m")
-    time.sleep(0.5)
-    after = page.screenshot()
+    pause(page, probe)
+    after, end = page.settled(), probe.truth[-1]
+    resume(page)
     box = page.canvas.bounding_box()
-    for x, y in (start, probe.truth[-1]):
+    for x, y in (start, end):
         u, v = page.pixel(x, y, camera)
         u, v = int(u - box["x"]), int(v - box["y"])
         window = (slice(max(v - 25, 0), v + 25), slice(max(u - 25, 0), u + 25))
@@ -258,36 +340,31 @@ def test_pause_stops_the_clock_and_resume_restarts_it(page, navigation):
     clocks = navigation.probe.clocks
     page.button("Pause").click()
     page.reply("/simulator: paused at")
-    time.sleep(0.5)  # what was in flight
+    quiet(clocks, 1.5, what="no /clock for 1.5 s after Pause")
     count = len(clocks)
-    time.sleep(1.5)
-    assert len(clocks) == count, "no /clock while paused"
-    page.button("Resume").click()
-    page.reply("/simulator: running from")
+    resume(page)
     wait_for(lambda: len(clocks) > count + 5, what="/clock to run again")
 
 
 def test_step_advances_exactly_one_step(page, navigation):
     clocks = navigation.probe.clocks
-    page.button("Pause").click()
-    page.reply("/simulator: paused at")
-    time.sleep(0.5)
+    pause(page, navigation.probe)
     for expected in (1, 2):
         count, last = len(clocks), clocks[-1]
         page.button("Step").click()
         wait_for(lambda: len(clocks) > count, what="one /clock after Step")
-        time.sleep(1.0)
+        quiet(clocks, 1.0, what="/clock to stop after one step")
         assert len(clocks) == count + 1, f"step {expected}: exactly one /clock, got {clocks[count:]}"
         assert clocks[-1] == pytest.approx(last + DT, abs=1e-9)
-    page.button("Resume").click()
-    page.reply("/simulator: running from")
+    resume(page)
 
 
 def test_a_click_on_the_floor_sends_that_point_as_the_goal(page, navigation):
     probe = navigation.probe
+    pause(page, probe)  # a still scene: the camera's move has settled when two screenshots agree
     page.toggle_folder("View")
     page.button("Top view").click()
-    time.sleep(0.5)
+    page.settled()
     camera = camera_of(navigation, page)
     grid = probe.map
     info = grid.info
@@ -304,6 +381,7 @@ def test_a_click_on_the_floor_sends_that_point_as_the_goal(page, navigation):
     count = len(probe.goals)
     page.page.mouse.click(u, v)
     wait_for(lambda: len(probe.goals) > count, what="/goal_pose")
+    resume(page)
     goal = probe.goals[-1]
     assert goal.header.frame_id == "map"
     error = math.hypot(goal.pose.position.x - x, goal.pose.position.y - y)
@@ -335,14 +413,15 @@ def test_the_view_after_the_robot_localized_shows_the_path(page, navigation, tmp
     wait_for(lambda: probe.paths, 60.0, "a /path (the robot localized)")
     page.toggle_folder("View")  # folded again, and the parameters: the scene free of the panel
     page.toggle_folder("Parameters")
-    page.page.add_style_tag(content=".mantine-Notification-root { display: none; }")  # "software WebGL" notice
-    time.sleep(1.0)
+    page.hide_notifications()
+    pause(page, probe)
+    image = page.settled()
     shot = tmp_path / "viewer.png"
     page.page.screenshot(path=str(shot), timeout=120000)
+    resume(page)
     wanted = os.environ.get("AMR_VIEWER_SCREENSHOT")
     if wanted:
         shutil.copy(shot, wanted)
-    image = page.screenshot()
     blue = (np.abs(image.astype(int) - (30, 110, 255)).sum(axis=2) < 60).sum()
     assert blue > 30, "the path is drawn"
     assert page.failed == [] and page.errors == [], "no failed request and no console error all along"
@@ -359,28 +438,92 @@ def test_the_arm_view_moves_after_an_ik_request(playwright, tmp_path):
         client = stack.probe.create_client(SolveIK, "/solve_ik")
         wait_for(client.service_is_ready, what="/solve_ik")
         wait_for(lambda: stack.probe.count_subscribers("/ik_service/joint_states") > 0, what="the viewer's arms")
-        time.sleep(1.5)  # the subscription matched, the arms view drawn
-        before = browser.screenshot()
-        width = before.shape[1]
+        width = browser.screenshot().shape[1]
         scene = (slice(None), slice(0, int(0.6 * width)))  # left of the panel, whose status text changes too
+        before = browser.settled(region=scene)  # the arms view drawn, still before a solution
 
-        def changed_pixels(image) -> int:
+        def changed_pixels() -> int:
+            image = browser.screenshot()
             return int((np.abs(before[scene].astype(int) - image[scene].astype(int)).sum(axis=2) > 60).sum())
 
-        time.sleep(1.0)
-        assert changed_pixels(browser.screenshot()) < 5, "the scene is still before a solution"
-        changed = 0
         for x, y in ((0.05, 0.35), (3.0, 1.0), (-1.0, 3.0)):  # again if a solution went out before the match
             request = SolveIK.Request(chain="rr2")
             request.target.position.x, request.target.position.y = x, y
             future = client.call_async(request)
             wait_for(future.done, what="the IK answer")
             assert future.result().success, future.result().message
-            time.sleep(1.5)
-            changed = changed_pixels(browser.screenshot())
-            if changed > 30:
+            try:
+                wait_for(lambda: changed_pixels() > 30, 10.0, "the arm drawing to move")
                 break
-        assert changed > 30, "the arm drawing did not move"
+            except AssertionError:
+                continue
+        assert changed_pixels() > 30, "the arm drawing did not move"
+        assert browser.failed == [] and browser.errors == []
+    finally:
+        if browser is not None:
+            browser.close()
+        stack.stop()
+
+
+def robot_pixels(image: np.ndarray, center: tuple[float, float], radius: float) -> list[int]:
+    """How many pixels within `radius` px of `center` are in each robot colour (flat-shaded trail dots and disc)."""
+    height, width = image.shape[:2]
+    rows, cols = np.ogrid[:height, :width]
+    near = (rows - center[1]) ** 2 + (cols - center[0]) ** 2 <= radius ** 2
+    return [int(((np.abs(image.astype(int) - color).sum(axis=2) < 50) & near).sum()) for color in ROBOT_COLORS]
+
+
+def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(playwright, tmp_path):
+    """fleet_navigation on fleets/crossing.yaml (four robots, each with its particle filter) at 1400 x 900."""
+    stack = Stack("fleet_navigation", tmp_path, "--composed", "-p", "simulator.pace:=1.0", robots=FLEET)
+    browser = None
+    try:
+        probe, truth = stack.probe, stack.probe.fleet
+        browser = Browser(playwright, stack.url, FLEET_VIEWPORT)
+        wait_for(lambda: all(truth[robot] for robot in FLEET), what="every robot's ground truth")
+        starts = {robot: truth[robot][0] for robot in FLEET}
+        wait_for(lambda: all(math.dist(truth[robot][-1], starts[robot]) > 0.2 for robot in FLEET), STARTUP,
+                 "every robot to move 0.2 m")
+        for robot in FLEET:  # the node table: a row per namespace
+            browser.page.get_by_role("cell", name=f"/{robot}", exact=True).wait_for()
+        browser.reply("from the true ring")  # the disc's distance from the ring, said
+        browser.hide_notifications()
+        pause(browser, probe)
+        for robot in FLEET:
+            quiet(truth[robot], 0.3, what=f"{robot} to stop")
+        camera = camera_of(stack, browser)
+        shown = browser.settled()
+        shot = tmp_path / "viewer_fleet.png"
+        browser.page.screenshot(path=str(shot), timeout=120000)
+        wanted = os.environ.get("AMR_VIEWER_FLEET_SCREENSHOT")
+        if wanted:
+            shutil.copy(shot, wanted)
+
+        box = browser.canvas.bounding_box()
+        panel = browser.page.locator('[data-testid="floating-panel"]').bounding_box()
+        xmin, ymin, xmax, ymax = occupancy_grid(probe.map).bounds
+        right = browser.pixel(xmax, ymax, camera)[0]
+        left = browser.pixel(xmin, ymin, camera)[0]
+        assert box["x"] < left and right < panel["x"], f"the map ({left:.0f}-{right:.0f} px) left of the panel " \
+                                                        f"({panel['x']:.0f} px)"
+        scale = browser.pixel(1.0, 0.0, camera)[0] - browser.pixel(0.0, 0.0, camera)[0]  # px per m
+        labels = {}
+        for index, robot in enumerate(FLEET):
+            u, v = browser.pixel(*truth[robot][-1], camera)
+            counts = robot_pixels(shown, (u - box["x"], v - box["y"]), 0.15 * scale)
+            own = counts[index]
+            assert own > 30 and own > 3 * max(c for k, c in enumerate(counts) if k != index), \
+                f"{robot} in its colour {ROBOT_COLORS[index]}: {counts} pixels of each robot colour around it"
+            labels[robot] = (u - box["x"], v - box["y"] - 0.25 * scale)
+        browser.toggle_folder("View")
+        browser.page.get_by_label("Show labels").uncheck()
+        unlabelled = browser.settled()
+        for robot, (u, v) in labels.items():  # the label above each robot went with the checkbox
+            window = (slice(max(int(v - 0.2 * scale), 0), int(v + 0.2 * scale)),
+                      slice(max(int(u - 0.3 * scale), 0), int(u + 0.3 * scale)))
+            changed = (np.abs(shown[window].astype(int) - unlabelled[window].astype(int)).sum(axis=2) > 60).sum()
+            assert changed > 20, f"{robot}'s name label above it ({changed} pixels changed when hidden)"
+        resume(browser)
         assert browser.failed == [] and browser.errors == []
     finally:
         if browser is not None:

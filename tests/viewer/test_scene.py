@@ -37,7 +37,7 @@ def test_each_robot_of_a_fleet_has_its_colour_and_its_name(server):
     assert colors == list(ROBOT_COLORS[:4]) and len(set(colors)) == 4
     for k, state in enumerate(fleet):
         root = f"/robots/r{k + 1}"
-        label = scene._handles[f"{root}/label"]
+        label = scene._handles[f"{root}/labels"]
         assert label.text == f"r{k + 1}" and label.visible
         assert label.position[1] > 1.0, "above the disc"
         assert tuple(scene._handles[f"{root}/robot/body"].color) == colors[k]
@@ -45,4 +45,6 @@ def test_each_robot_of_a_fleet_has_its_colour_and_its_name(server):
         assert np.all(trail.colors == np.array(colors[k], dtype=np.uint8)), "the trail in the robot's colour"
     assert scene.color_name_of("/r2") == "orange" and Scene.label_of("") == "robot"
     scene.forget("/r2")
-    assert "/robots/r2/label" not in scene._handles
+    assert "/robots/r2/labels" not in scene._handles
+    scene.set_hidden("labels", True)
+    assert not scene._handles["/robots/r1/labels"].visible and scene._handles["/robots/r1/robot"].visible
