@@ -22,13 +22,14 @@ from amr_maps.world import World
 from amr_simulation.config import LidarConfig
 from amr_simulation.lidar import Lidar
 from amr_simulation.render import draw_robot, draw_scan, draw_trajectory, draw_world
+from amr_util.robot_description import default_robot
 
 COLOURS = 64
 
 
 def animate_bag(path: str | Path, gif: str | Path, world: World, frames: int = 150, fps: float = 15.0,
-                pose_topic: str | None = None, lidar: LidarConfig = LidarConfig(), robot_radius: float = 0.105,
-                max_speed: float = 0.22, size: tuple[float, float] = (4.8, 4.4), dpi: int = 80) -> Path:
+                pose_topic: str | None = None, lidar: LidarConfig = LidarConfig(), robot_radius: float = default_robot().radius,
+                max_speed: float = default_robot().max_linear_speed, size: tuple[float, float] = (4.8, 4.4), dpi: int = 80) -> Path:
     """Write `gif` from the bag at `path`; returns its path. BagError when the bag has no odometry."""
     if frames < 1 or not fps > 0:
         raise ValueError(f"animate_bag: frames must be >= 1 and fps > 0, got {frames}, {fps}")

@@ -24,6 +24,7 @@ from amr_simulation.config import LidarConfig
 from amr_simulation.lidar import Lidar
 from amr_simulation.render import draw_robot, draw_scan, draw_trajectory, draw_world
 from amr_util.geometry import Pose2D, yaw_from_quaternion
+from amr_util.robot_description import default_robot
 
 POSE_TOPICS = ("/ground_truth", "/odom", "/odometry")
 SCAN_TOPIC = "/scan"
@@ -76,7 +77,8 @@ def trajectory(recording: Recording, pose_topic: str | None = None) -> tuple[np.
 
 
 def render_bag(path: str | Path, png: str | Path, world: World, pose_topic: str | None = None,
-               lidar: LidarConfig = LidarConfig(), robot_radius: float = 0.105, max_speed: float = 0.22,
+               lidar: LidarConfig = LidarConfig(), robot_radius: float = default_robot().radius,
+               max_speed: float = default_robot().max_linear_speed,
                dpi: int = 120) -> Path:
     """The demo's maze figure of a recorded run: `world` under the bag's path, robot and last scan."""
     recording = read_bag(path)

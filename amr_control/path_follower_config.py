@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from amr_util.parameter_spec import Config, ConfigError, parameter
+from amr_util.robot_description import default_robot
 
 NODE_NAME = "path_follower"
 
@@ -66,10 +67,10 @@ class PathFollowerConfig(Config):
     heading_tolerance_deg: float = parameter(10.0, minimum=0.1, maximum=179.0, live=True)
     """when the goal has a heading: the final in-place turn ends within this."""
     # -- safety ------------------------------------------------------------------------
-    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0, live=True)
-    """m, the disc the scan check keeps clear (TurtleBot3 Burger)."""
-    lidar_x: float = parameter(-0.032, minimum=-1.0, maximum=1.0, live=True)
-    """m, LiDAR position ahead of the rotation centre (Burger: 3.2 cm behind the axle)."""
+    robot_radius: float = parameter(default_robot().radius, minimum=0.01, maximum=2.0, live=True)
+    """m, the disc the scan check keeps clear (default: the robot description's footprint)."""
+    lidar_x: float = parameter(default_robot().lidar_x, minimum=-1.0, maximum=1.0, live=True)
+    """m, LiDAR position ahead of the rotation centre (default: the robot description's mount)."""
     safety_margin: float = parameter(0.01, minimum=0.0, maximum=1.0, live=True)
     """m: the robot stops rather than move its disc closer to a return that is (or would get) within
     this (0.35 m corridors leave the robot 5-6 cm a side: 0.02 m already stalls in their bends)."""

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from amr_util.parameter_spec import Config, ConfigError, parameter
+from amr_util.robot_description import default_robot
 
 NODE_NAME = "wall_follower"
 WALLS = ("right", "left", "random")
@@ -108,10 +109,10 @@ class WallFollowerConfig(Config):
     """a fitted wall further than this from parallel is not used as a heading reference."""
     align_gain: float = parameter(1.5, minimum=0.0, maximum=20.0, live=True)
     """1/s, heading correction towards a fitted side wall on straight runs (w = gain * wall angle)."""
-    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0, live=True)
-    """m, the disc the safety check keeps clear (TurtleBot3 Burger)."""
-    lidar_x: float = parameter(-0.032, minimum=-1.0, maximum=1.0, live=True)
-    """m, LiDAR position ahead of the rotation centre (Burger: 3.2 cm behind the axle)."""
+    robot_radius: float = parameter(default_robot().radius, minimum=0.01, maximum=2.0, live=True)
+    """m, the disc the safety check keeps clear (default: the robot description's footprint)."""
+    lidar_x: float = parameter(default_robot().lidar_x, minimum=-1.0, maximum=1.0, live=True)
+    """m, LiDAR position ahead of the rotation centre (default: the robot description's mount)."""
     safety_margin: float = parameter(0.02, minimum=0.0, maximum=1.0, live=True)
     """m: with less straight-ahead travel before the disc touches a return, the robot turns away in place."""
     max_stamp_gap: float = parameter(0.5, minimum=0.01, maximum=60.0, live=True)

@@ -29,11 +29,12 @@ from amr_maps.world import World, world_from_dict
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
 from amr_util.geometry import wrap_angle
+from amr_util.robot_description import default_robot
 from amr_util.scan import ScanData
 
 EGO = "ego"
 """the name of the localizing robot in a crowded world."""
-ROBOT_RADIUS = 0.105
+ROBOT_RADIUS = default_robot().radius
 PLACEMENT_CLEARANCE = 0.05
 """m of free space kept around each placed robot's footprint (from solids and from the other robots)."""
 OCCLUDED_MARGIN = 0.1

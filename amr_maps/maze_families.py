@@ -50,13 +50,14 @@ import numpy as np
 
 from amr_maps.boundary_walk import BoundaryWalk
 from amr_maps.world import world_from_dict
+from amr_util.robot_description import default_robot
 
 FAMILIES = (
     "perfect", "loops", "rotated", "bends", "curved", "pillars", "narrowing", "dead_ends", "thin_walls", "open_room",
 )
 HANDS = ("right", "left")
-ROBOT_RADIUS = 0.105
-"""m, TurtleBot3 Burger: the disc every start keeps clear (plus START_CLEARANCE)."""
+ROBOT_RADIUS = default_robot().radius
+"""m, the robot description's footprint: the disc every start keeps clear (plus START_CLEARANCE)."""
 START_CLEARANCE = 0.04
 """m of free space around the footprint at the start."""
 TARGET_WALL_DISTANCE = 0.2

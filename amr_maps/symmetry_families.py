@@ -52,7 +52,7 @@ _OPTIONS = {
     "pillar_grid": ("size", "feature", "thickness"),
 }
 START_CLEARANCE = 0.2
-"""m from the start to every solid at least (the robot's radius is 0.105)."""
+"""m from the start to every solid at least (about twice the robot description's radius)."""
 
 
 class SymmetryFamilyError(ValueError):

@@ -134,6 +134,7 @@ from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner
 from amr_util.parameter_spec import Config, ConfigError, parameter
+from amr_util.robot_description import default_robot
 from amr_util.scan import ScanData
 
 PROGRESS = 0.05
@@ -148,10 +149,10 @@ NODE_NAME = "traffic"
 
 @dataclass(frozen=True)
 class TrafficConfig(Config):
-    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0, live=True)
-    """m, every robot's disc (TurtleBot3 Burger)."""
-    lidar_x: float = parameter(-0.032, minimum=-1.0, maximum=1.0, live=True)
-    """m, LiDAR position ahead of the rotation centre (Burger: 3.2 cm behind the axle)."""
+    robot_radius: float = parameter(default_robot().radius, minimum=0.01, maximum=2.0, live=True)
+    """m, every robot's disc (default: the robot description's footprint)."""
+    lidar_x: float = parameter(default_robot().lidar_x, minimum=-1.0, maximum=1.0, live=True)
+    """m, LiDAR position ahead of the rotation centre (default: the robot description's mount)."""
     map_tolerance: float = parameter(0.08, minimum=0.0, maximum=1.0, live=True)
     """m: a scan return farther than this from every obstacle of the map is unmapped (estimate error and
     range noise stay within it)."""

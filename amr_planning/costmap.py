@@ -36,6 +36,7 @@ from scipy.ndimage import distance_transform_edt
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_planning.errors import PlanningError, Reason
 from amr_util.parameter_spec import Config, parameter
+from amr_util.robot_description import default_robot
 
 MIN_COST = 1.0
 """The cost of a cell far from every wall: the factor that keeps the octile heuristic admissible."""
@@ -43,8 +44,8 @@ MIN_COST = 1.0
 
 @dataclass(frozen=True)
 class CostmapConfig(Config):
-    robot_radius: float = parameter(0.105, minimum=0.01, maximum=2.0)
-    """m, the disc footprint (TurtleBot3 Burger)."""
+    robot_radius: float = parameter(default_robot().radius, minimum=0.01, maximum=2.0)
+    """m, the disc footprint (default: the robot description's)."""
     safety_margin: float = parameter(0.02, minimum=0.0, maximum=1.0)
     """m kept between the footprint and any obstacle by every planned point."""
     cost_weight: float = parameter(3.0, minimum=0.0, maximum=1000.0)

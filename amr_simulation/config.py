@@ -17,9 +17,11 @@ from typing import Any
 
 from amr_util.parameter_file import dotted, node_parameters
 from amr_util.parameter_spec import Config, ConfigError, parameter
+from amr_util.robot_description import default_robot
 
 MODES = ("lockstep", "realtime")
 RAY_CAST_METHODS = ("numpy", "pymunk")
+_ROBOT = default_robot()
 
 
 def _start_problem(value: Sequence[float]) -> str | None:
@@ -28,19 +30,19 @@ def _start_problem(value: Sequence[float]) -> str | None:
 
 @dataclass(frozen=True)
 class RobotConfig(Config):
-    """TurtleBot3 Burger by default (ROBOTIS e-Manual figures)."""
+    """The robot description's by default (amr_util.robot_description: the TurtleBot3 Burger)."""
 
-    radius: float = parameter(0.105, minimum=0.01, maximum=2.0)
+    radius: float = parameter(_ROBOT.radius, minimum=0.01, maximum=2.0)
     """m, the circular collision footprint."""
-    wheel_radius: float = parameter(0.033, minimum=0.005, maximum=1.0)
+    wheel_radius: float = parameter(_ROBOT.wheel_radius, minimum=0.005, maximum=1.0)
     """m."""
-    track: float = parameter(0.160, minimum=0.01, maximum=2.0)
+    track: float = parameter(_ROBOT.wheel_separation, minimum=0.01, maximum=2.0)
     """m between the wheels."""
-    max_wheel_speed: float = parameter(0.22 / 0.033, minimum=0.01, maximum=1000.0)
-    """rad/s, so that both wheels at the limit drive 0.22 m/s."""
-    max_linear: float = parameter(0.22, minimum=0.01, maximum=10.0)
+    max_wheel_speed: float = parameter(_ROBOT.max_wheel_speed, minimum=0.01, maximum=1000.0)
+    """rad/s, so that both wheels at the limit drive max_linear (the description's)."""
+    max_linear: float = parameter(_ROBOT.max_linear_speed, minimum=0.01, maximum=10.0)
     """m/s, the body speed limit (curvature-preserving saturation)."""
-    max_angular: float = parameter(2.84, minimum=0.01, maximum=20.0)
+    max_angular: float = parameter(_ROBOT.max_angular_speed, minimum=0.01, maximum=20.0)
     """rad/s, the body turn-rate limit."""
 
 @dataclass(frozen=True)
@@ -58,15 +60,15 @@ class LidarConfig(Config):
     """rad, the first beam's angle in the sensor frame."""
     fov: float = parameter(2.0 * math.pi, minimum=0.001, maximum=2 * math.pi)
     """rad, the field of view the beams span."""
-    range_min: float = parameter(0.12, minimum=0.0, maximum=100.0)
+    range_min: float = parameter(_ROBOT.lidar_range_min, minimum=0.0, maximum=100.0)
     """m; closer returns read -inf (REP 117)."""
-    range_max: float = parameter(3.5, minimum=0.01, maximum=1000.0)
+    range_max: float = parameter(_ROBOT.lidar_range_max, minimum=0.01, maximum=1000.0)
     """m; no return within it reads +inf (REP 117)."""
     noise_std: float = parameter(0.01, minimum=0.0, maximum=1.0, live=True)
     """m, standard deviation of the Gaussian range noise."""
-    x: float = parameter(-0.032, minimum=-2.0, maximum=2.0)
+    x: float = parameter(_ROBOT.lidar_x, minimum=-2.0, maximum=2.0)
     """m, sensor position ahead of the robot centre (base_scan in base_footprint)."""
-    y: float = parameter(0.0, minimum=-2.0, maximum=2.0)
+    y: float = parameter(_ROBOT.lidar_y, minimum=-2.0, maximum=2.0)
     """m, sensor position to the left of the robot centre."""
     method: str = parameter("numpy", choices=RAY_CAST_METHODS)
     """ray casting: numpy (vectorised faces) or pymunk (one query per beam)."""

@@ -40,6 +40,8 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from amr_util.parameter_spec import ParameterSpec
+from amr_util.robot_description import (DEFAULT_FILE, RobotDescriptionError, default_robot, load_robot_description,
+                                        robot_parameters)
 from amr_util.stop_signals import StopSignals
 
 PARAMETER_TYPES = {
@@ -51,6 +53,8 @@ PARAMETER_TYPES = {
 CONFIGURED_STATES = ("inactive", "active")
 ALWAYS_KNOWN = ("use_sim_time", "autostart", "start_type_description_service")
 """Parameters every rclpy node declares itself (plus ours), never reported as unknown."""
+ROBOT_DESCRIPTION = "robot_description"
+"""The parameter a node with robot facts among its parameters (robot_radius, lidar_x, robot.radius, ...) declares."""
 REFUSAL_LOG_PERIOD = 2.0
 """s between two warnings about requests refused because the node is not active."""
 
@@ -97,6 +101,7 @@ class SpecifiedParameters:
         self._specs: dict[str, ParameterSpec] = {}
         self._parameter_problems: dict[str, str] = {}
         self._declaring = False
+        self._set_names: set[str] = set()
         self.add_pre_set_parameters_callback(self._widen_parameters)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
@@ -107,6 +112,12 @@ class SpecifiedParameters:
         declared, and the problem is kept for configure to report with all the others.
         """
         overrides = self._parameter_overrides  # -p / --params-file values (rclpy has no public accessor)
+        robot_keys = robot_parameters(default_robot()).keys()
+        if ROBOT_DESCRIPTION not in self._specs and any(spec.name in robot_keys for spec in specs):
+            specs = [*specs, ParameterSpec(
+                ROBOT_DESCRIPTION, DEFAULT_FILE, "the robot description (a file in share/amr_util/config/robot, or a "
+                "path): the robot's facts (robot_radius, lidar_x, robot.*, lidar mount) not given to this node",
+                check=_robot_description_problem, nonempty=True)]
         self._declaring = True
         try:
             self._declare_each(specs, overrides)
@@ -134,8 +145,17 @@ class SpecifiedParameters:
                 self._parameter_problems[spec.name] = problem
 
     def parameter_values(self) -> dict:
-        """{name: value} of every declared spec."""
-        return {name: self.get_parameter(name).value for name in self._specs}
+        """{name: value} of every declared spec but `robot_description`, whose robot facts stand for those of
+        the node's parameters never given (neither in its files, on its command line, nor set since)."""
+        values = {name: self.get_parameter(name).value for name in self._specs if name != ROBOT_DESCRIPTION}
+        if ROBOT_DESCRIPTION in self._specs:
+            given = set(self._parameter_overrides) | self._set_names
+            try:
+                robot = robot_parameters(load_robot_description(self.get_parameter(ROBOT_DESCRIPTION).value))
+            except RobotDescriptionError:
+                return values  # reported by parameter_problems
+            values.update({name: value for name, value in robot.items() if name in values and name not in given})
+        return values
 
     def parameter_problems(self) -> list[str]:
         """Every bad value and unknown key given to this node, one line each (empty when all is well)."""
@@ -199,6 +219,8 @@ class SpecifiedParameters:
                     f"{spec.name} is read-only while configured; cleanup, set, configure"))
             changes[spec.name] = value
             self._parameter_problems.pop(spec.name, None)
+            if not self._declaring:
+                self._set_names.add(spec.name)
         if configured and changes:
             try:
                 self.apply_live(changes)
@@ -206,6 +228,14 @@ class SpecifiedParameters:
                 return SetParametersResult(successful=False, reason=str(problem))
             self.get_logger().info("applied " + ", ".join(f"{k} = {v!r}" for k, v in changes.items()))
         return SetParametersResult(successful=True)
+
+
+def _robot_description_problem(name: str) -> str | None:
+    try:
+        load_robot_description(name)
+    except RobotDescriptionError as error:
+        return str(error)
+    return None
 
 
 class ManagedNode(SpecifiedParameters, LifecycleNode):

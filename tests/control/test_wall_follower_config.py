@@ -25,7 +25,8 @@ FILES = ("wall_follower_sim.yaml", "wall_follower_real.yaml")
 def test_shipped_files_set_every_key_with_its_ros_type(name):
     raw = yaml.safe_load((CONFIG / name).read_text())["wall_follower"]["ros__parameters"]
     defaults = parameter_defaults()
-    assert set(raw) == set(defaults)  # nothing left to a default the reader cannot see
+    # nothing left to a default the reader cannot see, but the robot's facts: the robot description's
+    assert set(raw) == set(defaults) - {"robot_radius", "lidar_x"}
     for key, value in raw.items():
         # rclpy types parameters from YAML: 1 is an integer, 1.0 a double.
         assert type(value) is type(defaults[key]), f"{name}: {key} is {type(value).__name__}"
