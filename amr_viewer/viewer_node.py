@@ -96,21 +96,55 @@ class RobotLink:
     }
 
     def __init__(self, node: "ViewerNode", namespace: str, graph: set[str]) -> None:
+        self.node, self.namespace = node, namespace
         self.state = RobotState(namespace, node.frames, node.get_parameter("max_particles").value,
                                 node.get_parameter("trail_spacing").value)
-        self.raw: dict[str, deque[bytes]] = {}
-        self.subscriptions = []
-        for leaf, (kind, qos, ring) in self.RAW_TOPICS.items():
-            topic = topics.join(namespace, leaf)
-            if leaf in ("map", "tf", "tf_static") and namespace and topic not in graph:
-                topic = "/" + leaf  # a fleet sharing the root's map and tree
-            if leaf == "simulator/status" and namespace and topics.join(namespace, "status") in graph:
-                topic = topics.join(namespace, "status")  # a fleet robot's status, in its namespace (docs/fleet.md)
-            buffer = self.raw[leaf] = deque(maxlen=RAW_KEEP if ring else 1)
-            self.subscriptions.append(node.create_subscription(
-                kind, topic, lambda data, buffer=buffer: buffer.append(data), qos, raw=True))
-        self.subscriptions.append(node.create_subscription(
-            PoseStamped, topics.join(namespace, "goal_pose"), self._on_goal, reliable(10)))
+        self.raw: dict[str, deque[bytes]] = {leaf: deque(maxlen=RAW_KEEP if ring else 1)
+                                             for leaf, (_, _, ring) in self.RAW_TOPICS.items()}
+        self.topics: dict[str, str] = {}
+        """leaf -> the topic subscribed"""
+        self._raw_subscriptions: dict[str, object] = {}
+        self.refresh(graph)
+        self._goal_subscription = node.create_subscription(
+            PoseStamped, topics.join(namespace, "goal_pose"), self._on_goal, reliable(10))
+
+    @property
+    def subscriptions(self) -> list:
+        return [*self._raw_subscriptions.values(), self._goal_subscription]
+
+    def topic_of(self, leaf: str, graph: set[str]) -> str:
+        """The topic of `leaf` for this robot: in its namespace; a fleet robot's map and tree are the root's until
+        its own appear (then kept), its simulator status is `<ns>/status` once that appears (docs/fleet.md)."""
+        own, current = topics.join(self.namespace, leaf), self.topics.get(leaf)
+        if not self.namespace:
+            return own
+        if leaf in ("map", "tf", "tf_static"):
+            return own if own in graph or current == own else "/" + leaf
+        if leaf == "simulator/status":
+            status = topics.join(self.namespace, "status")
+            return status if status in graph or current == status else own
+        return own
+
+    def refresh(self, graph: set[str]) -> list[str]:
+        """Subscribe each topic to what the graph now names (a fleet robot is often found by its filter's topics
+        before its simulator publishes its own tf and status); returns the leaves resubscribed."""
+        changed = []
+        for leaf, (kind, qos, _) in self.RAW_TOPICS.items():
+            topic = self.topic_of(leaf, graph)
+            if self.topics.get(leaf) == topic:
+                continue
+            old = self._raw_subscriptions.pop(leaf, None)
+            if old is not None:
+                self.node.destroy_subscription(old)
+                changed.append(leaf)
+            buffer = self.raw[leaf]
+            buffer.clear()
+            self._raw_subscriptions[leaf] = self.node.create_subscription(
+                kind, topic, lambda data, buffer=buffer: buffer.append(data), qos, raw=True)
+            self.topics[leaf] = topic
+        if {"tf", "tf_static"} & set(changed):
+            self.state.tree.clear()  # the root's transforms are not this robot's
+        return changed
 
     def _on_goal(self, message: PoseStamped) -> None:
         self.state.on_goal(messages.pose_of(message.pose))
@@ -370,6 +404,9 @@ class ViewerNode(ManagedNode):
         services = self.get_service_names_and_types()
         self._graph = {name for name, _ in graph_topics}
         wanted = set(self.get_parameter("namespaces").value)
+        for link in self.robots.values():
+            for leaf in link.refresh(self._graph):
+                self.get_logger().info(f"robot {link.namespace or '/'}: {leaf} from {link.topics[leaf]}")
         for namespace in topics.robot_namespaces(graph_topics):
             if namespace not in self.robots and (not wanted or (namespace or "/") in wanted):
                 self.robots[namespace] = RobotLink(self, namespace, self._graph)

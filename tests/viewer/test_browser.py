@@ -97,8 +97,9 @@ class Probe(Node):
         self.map: OccupancyGrid | None = None
         self.create_subscription(Clock, "/clock", lambda m: self.clocks.append(m.clock.sec + m.clock.nanosec * 1e-9),
                                  reliable(1000))
-        self.create_subscription(Odometry, "/ground_truth", lambda m: self.truth.append(
-            (m.pose.pose.position.x, m.pose.pose.position.y)), reliable(100))
+        if not robots:  # a fleet's root has no ground truth (a subscription would make it a robot for the viewer)
+            self.create_subscription(Odometry, "/ground_truth", lambda m: self.truth.append(
+                (m.pose.pose.position.x, m.pose.pose.position.y)), reliable(100))
         self.create_subscription(PoseStamped, "/goal_pose", self.goals.append, reliable(10))
         self.create_subscription(PathMessage, "/path", self.paths.append, LATCHED)
         self.create_subscription(OccupancyGrid, "/map", lambda m: setattr(self, "map", m), LATCHED)

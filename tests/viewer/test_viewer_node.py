@@ -22,8 +22,9 @@ from tf2_msgs.msg import TFMessage
 from amr_control.wall_follower_node import WallFollowerNode
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_viewer.clicks import INITIAL_POSE
+from amr_util.geometry import Pose2D
 from amr_util.geometry import quaternion_from_yaw as quaternion_of
-from amr_viewer.viewer_node import TF_STATIC, ViewerNode
+from amr_viewer.viewer_node import TF_STATIC, RobotLink, ViewerNode
 
 TIMEOUT = 15.0
 RNG = np.random.default_rng(5)
@@ -297,3 +298,18 @@ def test_it_draws_every_robot_of_a_fleet_in_its_namespace(ros_context, executor,
         assert spin_until(executor, drawn, TIMEOUT)
         executor.remove_node(node)
     assert states["/r1"].robot_pose().x < 0.0 < states["/r2"].robot_pose().x, "each robot where its tree puts it"
+
+
+def test_a_fleet_robot_found_before_its_own_tree_takes_it_when_it_appears(ros_context, viewer):
+    node = viewer()
+    link = RobotLink(node, "/r1", {"/r1/particle_cloud", "/tf"})  # its filter up, its simulator not yet
+    assert (link.topics["tf"], link.topics["map"], link.topics["simulator/status"]) == \
+        ("/tf", "/map", "/r1/simulator/status")
+    assert link.topics["particle_cloud"] == "/r1/particle_cloud"
+    link.state.tree.set("odom", "base_footprint", Pose2D(1.0, 0.0, 0.0))  # the root's tree: not this robot's
+    assert sorted(link.refresh({"/r1/particle_cloud", "/r1/tf", "/r1/status", "/tf"})) == ["simulator/status", "tf"]
+    assert (link.topics["tf"], link.topics["simulator/status"]) == ("/r1/tf", "/r1/status")
+    assert not link.state.tree.has("base_footprint"), "the root's transforms forgotten"
+    assert link.refresh(set()) == [] and link.topics["tf"] == "/r1/tf", "kept once found"
+    assert len(link.subscriptions) == len(RobotLink.RAW_TOPICS) + 1
+    assert RobotLink(node, "", set()).topics["tf"] == "/tf"
