@@ -16,7 +16,7 @@ from amr_bringup.composed import composed_stack
 from amr_bringup.recorder import BackgroundSpin, Recorder
 from amr_bringup import render_bag
 from amr_bringup.bag_reader import read_bag
-from test_bringup_run import Bringup
+from support.bringup_run import Bringup
 
 SPAN = 60.0
 DT = 0.05

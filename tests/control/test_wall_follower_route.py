@@ -26,7 +26,7 @@ from amr_simulation.simulator import Simulator
 from amr_util.scan import ScanData
 from amr_maps.world import world_from_dict
 from control_helpers import cast, corridor
-from test_closed_loop import REAL_CONFIG, SIM_CONFIG
+from support.closed_loop import REAL_CONFIG, SIM_CONFIG
 
 DT = 0.05
 READER = SectorReader(

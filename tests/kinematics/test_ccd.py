@@ -13,7 +13,7 @@ from amr_kinematics.ull_json import load_ull_json
 
 from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
 
-from test_ull_json import FIGURE_3_4, FIGURE_3_5
+from support.ull_figures import FIGURE_3_4, FIGURE_3_5
 
 EPSILON = 0.01  # the report's convergence threshold, in its length units
 

@@ -11,21 +11,7 @@ from amr_kinematics.errors import ChainConfigError
 from amr_kinematics.ull_json import load_ull_json
 
 from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
-
-FIGURE_3_4 = [
-    {"type": "rotacion", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 0.4},
-    {"type": "prismatica", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 2},
-    {"type": "rotacion", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 2},
-]
-FIGURE_3_5 = [
-    {"type": "rotacion", "th": 0, "a": 5, "limit_inf": -5, "limit_sup": 5},
-    {"type": "prismatica", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 1000},
-    {"type": "rotacion", "th": 0, "a": 5, "limit_inf": -5, "limit_sup": 5},
-    [
-        {"type": "rotacion", "th": 0, "a": 5, "limit_inf": -5, "limit_sup": 5},
-        {"type": "prismatica", "th": 0, "a": 5, "limit_inf": 0, "limit_sup": 1000},
-    ],
-]
+from support.ull_figures import FIGURE_3_4, FIGURE_3_5
 
 
 def test_nested_lists_flatten_in_order(tmp_path):
