@@ -46,6 +46,9 @@ NODE_SPECS = (
                   "also waits for the localizer's /pose answering the last observation (a filter outside the loop "
                   "starves when the loop runs faster than it); 0 = the localizer is not waited for",
                   minimum=0.0, maximum=60.0),
+    ParameterSpec("scan_period", 0.0, "realtime mode: s between two published scans, the nearest whole number of "
+                  "steps (0.2: a 5 Hz LDS-01 while odometry goes out every step); 0 = every step, as lockstep always "
+                  "does (a lockstep observation is odometry and scan together)", minimum=0.0, maximum=60.0),
     ParameterSpec("render_path", str(Path(tempfile.gettempdir()) / "amr_simulator.png"), "PNG file ~/render writes",
                   live=True),
     ParameterSpec("pace", 0.0, "simulated seconds per wall-clock second at most: lockstep 0 = each /cmd_vel steps at "

@@ -190,6 +190,7 @@ class SimulatorNode(ManagedNode):
         """Steps ~/step asked for while paused, not taken yet."""
         self._pace_timer = None
         self._pace_ready = True
+        self._scan_every = 1
         self._pose_wait = 0.0
         self._pose_wait_timer = None
         self._steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # timers immune to use_sim_time on this node
@@ -241,6 +242,8 @@ class SimulatorNode(ManagedNode):
         if config.mode == "lockstep" and resend > 0.0:
             self._resend_timer = self.create_timer(resend, self._on_resend_timer, clock=self._steady)
         self._set_pace(self.get_parameter("pace").value)
+        scan_period = self.get_parameter("scan_period").value
+        self._scan_every = max(1, round(scan_period / config.dt)) if config.mode == "realtime" else 1
         self._pose_wait = self.get_parameter("lockstep_pose_wait").value if config.mode == "lockstep" and \
             self.get_parameter("enable_localization").value else 0.0
         if self._pose_wait > 0.0:
@@ -635,7 +638,7 @@ class SimulatorNode(ManagedNode):
                 stamp, frames["world"], frames["base"], pose, (vx, vy, w)))
             outputs["ground_truth"].publish(wire.fill(sec, nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta),
                                                       vx, vy, w))
-        if "scan" in outputs:
+        if "scan" in outputs and fleet.steps % self._scan_every == 0:
             ranges = robot.ranges
             wire = channel.wire(("scan", len(ranges)), SCAN_FIELDS, lambda: messages.laser_scan(
                 stamp, frames["scan"], ranges, fleet.lidar, fleet.config.dt))
