@@ -82,6 +82,19 @@ def wait_for(condition, timeout: float = WAIT, what: str = "condition") -> None:
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
+def quiet(values: list, period: float, timeout: float = WAIT, what: str = "quiet") -> None:
+    """Wait until `values` (a list a subscription appends to) has not grown for `period` s."""
+    deadline = time.monotonic() + timeout
+    count, since = len(values), time.monotonic()
+    while time.monotonic() < deadline:
+        if len(values) != count:
+            count, since = len(values), time.monotonic()
+        elif time.monotonic() - since >= period:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}: {len(values)} messages")
+
+
 class Probe(Node):
     def __init__(self, context, robots: tuple[str, ...] = ()) -> None:
         super().__init__("viewer_test_probe", context=context)
