@@ -16,7 +16,7 @@ SHIPPED = sorted(path.stem for path in (ROOT / "config" / "bringup").glob("*.yam
 
 
 def test_the_stacks_are_shipped():
-    assert SHIPPED == ["fleet_navigation", "fleet_sim", "ik_service", "maze_localization", "maze_mapping", "maze_navigation", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_mapping", "real_robot_sim"]
+    assert SHIPPED == ["fleet_navigation", "fleet_sim", "ik_service", "maze_localization", "maze_mapping", "maze_navigation", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_mapping", "real_robot_navigation", "real_robot_navigation_sim", "real_robot_sim"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -83,7 +83,9 @@ def test_every_stack_loads_its_world_once_per_node_that_needs_geometry(name):
             values.update(dotted(node_parameters(path, spec.name)))
         values.update(spec.parameters)
         loaded = {key for key in MAP_SOURCES if values.get(key)}
-        if spec.executable in GEOMETRY_LOADERS | ROBOT_LIST_READERS:
+        if spec.executable == "map_server" and "map" in bringup.arguments:  # a robot's map: the `map` argument's
+            assert not loaded and ("map_server", "yaml_filename") in bringup.arguments["map"].sets, name
+        elif spec.executable in GEOMETRY_LOADERS | ROBOT_LIST_READERS:
             assert loaded == {"world"}, (name, spec.name, loaded)
         else:
             assert not loaded, f"{name}: {spec.name} loads {loaded} itself instead of taking /map"
