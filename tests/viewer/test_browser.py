@@ -12,6 +12,7 @@ of the one-robot and the fleet views there.
 from __future__ import annotations
 
 import io
+import itertools
 import math
 import os
 import re
@@ -479,12 +480,11 @@ def test_the_arm_view_moves_after_an_ik_request(playwright, tmp_path):
         stack.stop()
 
 
-def robot_pixels(image: np.ndarray, center: tuple[float, float], radius: float) -> list[int]:
-    """How many pixels within `radius` px of `center` are in each robot colour (flat-shaded trail dots and disc)."""
+def near(image: np.ndarray, center: tuple[float, float], radius: float) -> np.ndarray:
+    """The (N, 3) pixels of `image` within `radius` px of `center`."""
     height, width = image.shape[:2]
     rows, cols = np.ogrid[:height, :width]
-    near = (rows - center[1]) ** 2 + (cols - center[0]) ** 2 <= radius ** 2
-    return [int(((np.abs(image.astype(int) - color).sum(axis=2) < 50) & near).sum()) for color in ROBOT_COLORS]
+    return image[(rows - center[1]) ** 2 + (cols - center[0]) ** 2 <= radius ** 2].astype(int)
 
 
 def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(playwright, tmp_path):
@@ -521,14 +521,17 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
         assert box["x"] < left and right < panel["x"], f"the map ({left:.0f}-{right:.0f} px) left of the panel " \
                                                         f"({panel['x']:.0f} px)"
         scale = browser.pixel(1.0, 0.0, camera)[0] - browser.pixel(0.0, 0.0, camera)[0]  # px per m
-        labels = {}
+        labels, discs = {}, {}
         for index, robot in enumerate(FLEET):
             u, v = browser.pixel(*truth[robot][-1], camera)
-            counts = robot_pixels(shown, (u - box["x"], v - box["y"]), 0.15 * scale)
-            own = counts[index]
-            assert own > 30 and own > 3 * max(c for k, c in enumerate(counts) if k != index), \
-                f"{robot} in its colour {ROBOT_COLORS[index]}: {counts} pixels of each robot colour around it"
-            labels[robot] = (u - box["x"], v - box["y"] - 0.25 * scale)
+            center = (u - box["x"], v - box["y"])
+            discs[robot] = np.median(near(shown, center, 0.06 * scale), axis=0)  # the lit disc, its heading aside
+            trail = (np.abs(near(shown, center, 0.4 * scale) - ROBOT_COLORS[index]).sum(axis=1) < 40).sum()
+            assert trail > 20, f"{robot}'s trail in its colour {ROBOT_COLORS[index]} leads to it ({trail} pixels)"
+            labels[robot] = (center[0], center[1] - 0.25 * scale)
+        for first, second in itertools.combinations(FLEET, 2):
+            difference = np.abs(discs[first] - discs[second]).sum()
+            assert difference > 60, f"{first} {discs[first]} and {second} {discs[second]}: not told apart"
         browser.toggle_folder("View")
         browser.page.get_by_label("Show labels").uncheck()
         unlabelled = browser.settled()
