@@ -22,10 +22,11 @@ import itertools
 import os
 import sys
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 from amr_evaluation import configs
 from amr_evaluation.episode import MODES, EpisodeSpec
+from amr_evaluation.interrupt import INTERRUPTED, Interrupt
 from amr_evaluation.worlds import WorldSpecError, world_spec_of_file
 
 DEFAULT_OUT = "out/evaluation/results.jsonl"
@@ -148,21 +149,24 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
     return specs
 
 
-INTERRUPTED = 130
-"""The exit status of a sweep stopped by Ctrl-C (128 + SIGINT, as a shell reports it)."""
-
-
 def main(argv: Sequence[str] | None = None) -> int:
+    """The command; Ctrl-C at any moment after the arguments are read ends it with one line and INTERRUPTED (130):
+    amr_evaluation.interrupt says how, whatever the interrupt lands in (a pool starting, a __del__, ...)."""
     options = parse_arguments(argv)
-    try:
-        return _main(options)
-    except KeyboardInterrupt:
-        print(f"amr-evaluate: interrupted; the finished episodes are in {options.out} (the same command resumes)",
-              file=sys.stderr)
-        return INTERRUPTED
+    with Interrupt(f"amr-evaluate: interrupted; the finished episodes are in {options.out} "
+                   "(the same command resumes)") as interrupt:
+        try:
+            code = _main(options, interrupt.is_set)
+        except KeyboardInterrupt:
+            return interrupt.report()
+        except Exception:
+            if interrupt.is_set():  # what the interrupt broke (a pool whose workers it ended) is the interrupt
+                return interrupt.report()
+            raise
+        return interrupt.report() if interrupt.is_set() else code  # it landed where it was swallowed
 
 
-def _main(options: argparse.Namespace) -> int:
+def _main(options: argparse.Namespace, stop: Callable[[], bool] | None = None) -> int:
     try:
         specs = build_specs(options)
     except (configs.ConfigurationError, WorldSpecError, ValueError) as error:
@@ -194,7 +198,7 @@ def _main(options: argparse.Namespace) -> int:
     try:
         records = run_sweep(specs, out, workers=workers, scheduler=options.scheduler,
                             progress=not options.no_progress, on_start=started,
-                            connect_timeout=options.scheduler_timeout)
+                            connect_timeout=options.scheduler_timeout, stop=stop)
     except SweepError as error:
         print(f"amr-evaluate: {error}", file=sys.stderr)
         return 2

@@ -6,7 +6,7 @@ spec's record in the order of ``specs``. Executors:
 
 - ``workers=1``: in this process, one after the other, each record written as it finishes (no pool to start);
 - ``workers=N``: a ``concurrent.futures.ProcessPoolExecutor`` of N processes (fork; a Ctrl-C ends a worker at
-  once and quietly, its episode left for the resume);
+  once and quietly, its episode left for the resume; a sweep stopped early ends its workers rather than wait);
 - ``scheduler="tcp://host:8786"``: ``distributed.Client(address).get_executor()``, a standard
   ``concurrent.futures.Executor`` over an existing Dask cluster. Its workers need this suite installed
   (the same version: a record depends on the code as much as on its spec).
@@ -23,7 +23,7 @@ import os
 import signal
 import sys
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
@@ -66,13 +66,31 @@ def executor_for(workers: int = 1, scheduler: str | None = None,
 
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
                              initializer=_quiet_interrupt) as executor:
-        yield executor
+        try:
+            yield executor
+        except BaseException:  # Ctrl-C or an error: the episodes in flight are not waited for
+            _terminate_workers(executor)
+            raise
 
 
 def _quiet_interrupt() -> None:
     """In a pool worker: Ctrl-C (SIGINT to the terminal's process group) ends it at once, without a traceback;
-    the sweep's process reports the interrupt, and its episode is run again on resume."""
-    signal.signal(signal.SIGINT, lambda number, frame: os._exit(128 + signal.SIGINT))
+    the sweep's process reports the interrupt, and its episode is run again on resume. (Before this runs, the
+    worker has the handler it was forked with: amr_evaluation.interrupt ends a forked process quietly too.)"""
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, lambda number, frame: os._exit(128 + signal.SIGINT))
+
+
+def _terminate_workers(executor: ProcessPoolExecutor) -> None:
+    """End the pool's worker processes now (SIGTERM): the pool breaks, its futures fail, nothing more starts, and
+    its shutdown does not wait for the episodes in flight (a SIGINT sent to the sweep's process alone)."""
+    terminate = getattr(executor, "terminate_workers", None)  # Python 3.14
+    if terminate is not None:
+        terminate()
+        return
+    for process in list((getattr(executor, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
 
 
 class Progress:
@@ -110,12 +128,14 @@ class Progress:
 def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int = 1, scheduler: str | None = None,
               progress: bool = True, on_record: Callable[[dict[str, Any]], None] | None = None,
               episode: Callable[[dict], dict] = run_episode, connect_timeout: float = 10.0,
-              on_start: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
+              on_start: Callable[[int, int], None] | None = None,
+              stop: Callable[[], bool] | None = None) -> list[dict[str, Any]]:
     """Every spec's record (in the order of ``specs``), running only those without a finished one in ``results``.
 
     ``on_start(skipped, to_run)`` is called once the finished episodes are known (the distinct episodes with a
     finished record in ``results``, and those left to run), before any runs; ``on_record`` with each new record
-    as it arrives (in completion order).
+    as it arrives (in completion order). ``stop()`` true (e.g. amr_evaluation.interrupt's flag) ends the sweep
+    with KeyboardInterrupt: looked at before each episode run here, every 0.1 s while waiting for an executor.
     """
     results = Path(results)
     known = read_records(results)
@@ -130,7 +150,7 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
             bar = Progress(len(unique), len(unique) - len(todo)) if progress else None
             writer: RecordWriter | None = None
             try:
-                for record in _run(executor, episode, todo):
+                for record in _run(executor, episode, todo, stop):
                     writer = writer or RecordWriter(results)  # opened at the first record: none, no file
                     writer.write(record)
                     known[record["key"]] = record
@@ -146,19 +166,39 @@ def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int
     return [known[spec.key] for spec in specs]
 
 
-def _run(executor: Executor | None, episode: Callable[[dict], dict], todo: Sequence[EpisodeSpec]) -> Iterator[dict]:
-    """The records of ``todo`` as they finish: one after the other here, or as the executor completes them."""
+STOP_POLL_PERIOD = 0.1
+"""s between looks at ``run_sweep``'s ``stop`` while waiting for the executor."""
+
+
+def _run(executor: Executor | None, episode: Callable[[dict], dict], todo: Sequence[EpisodeSpec],
+         stop: Callable[[], bool] | None = None) -> Iterator[dict]:
+    """The records of ``todo`` as they finish: one after the other here, or as the executor completes them.
+    KeyboardInterrupt as soon as ``stop()`` is seen true (before each episode here, or within STOP_POLL_PERIOD)."""
+    def check() -> None:
+        if stop is not None and stop():
+            raise KeyboardInterrupt
+
     if executor is None:
         for spec in todo:
+            check()
             yield episode(spec.to_dict())
         return
-    futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
+    futures: list[Future] = []
     try:
-        for future in as_completed(futures):
-            yield future.result()
+        check()
+        futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=None if stop is None else STOP_POLL_PERIOD,
+                                 return_when=FIRST_COMPLETED)
+            check()
+            for future in done:
+                yield future.result()
+                check()
     finally:  # stopped early (an exception, Ctrl-C): what has not started is not started
-        for future in futures:
-            future.cancel()
+        if not isinstance(executor, ProcessPoolExecutor):  # a pool's workers are ended instead (executor_for):
+            for future in futures:  # a cancel racing the pool's own breakage is an InvalidStateError (3.11)
+                future.cancel()
 
 
 def default_workers() -> int:
