@@ -367,7 +367,8 @@ def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
 def _fleet_navigation(spec: EpisodeSpec) -> dict[str, Any]:
     """Every robot of the world to its goal (amr_evaluation.fleet_navigation); options: robots (place that many
     on the world, each sent to the next one's start: with_robots), localization ('filter' or 'truth')."""
-    from amr_evaluation.fleet_navigation import run_fleet, with_robots
+    from amr_evaluation.fleet_navigation import run_fleet
+    from amr_planning.fleet_starts import with_robots
     from amr_evaluation.worlds import build_world, world_dict
     from amr_maps.world import world_from_dict
     from amr_navigation.traffic import TrafficConfig

@@ -46,7 +46,8 @@ from amr_evaluation import configs  # noqa: E402
 from amr_evaluation.cases import maze_variant  # noqa: E402
 from amr_evaluation.episode import EpisodeSpec  # noqa: E402
 from amr_evaluation.runner import run_sweep  # noqa: E402
-from amr_evaluation.worlds import build_world, rotationally_symmetric  # noqa: E402
+from amr_evaluation.worlds import build_world  # noqa: E402
+from amr_maps.world_symmetry import rotationally_symmetric  # noqa: E402
 from amr_maps.maze_families import FAMILIES  # noqa: E402
 from amr_maps.world import load_world  # noqa: E402
 

@@ -15,8 +15,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup
-from amr_evaluation.worlds import rotationally_symmetric
 from amr_maps.world import load_world
+from amr_maps.world_symmetry import rotationally_symmetric
 from amr_util.stamps import stamp_nanoseconds
 
 RELIABLE = QoSProfile(depth=500, reliability=ReliabilityPolicy.RELIABLE)

@@ -102,7 +102,8 @@ def test_the_root_manifest_colcon_builds_covers_every_package():
 
 
 def test_the_root_manifest_covers_what_the_tests_import():
-    test_helpers = TEST_HELPERS | {path.stem for path in (ROOT / "tests").rglob("*.py")}
+    test_helpers = TEST_HELPERS | {path.stem for path in (ROOT / "tests").rglob("*.py")} | \
+        {path.name for path in (ROOT / "tests").rglob("*") if (path / "__init__.py").is_file()}  # tests/support
     needed = keys_of(imports_of((ROOT / "tests").rglob("*.py")) - test_helpers) - OUR_PACKAGES
     available = declared(ROOT / "package.xml", ("depend", "exec_depend", "build_export_depend", "test_depend"))
     assert not needed - available, f"package.xml misses test dependencies {sorted(needed - available)}"

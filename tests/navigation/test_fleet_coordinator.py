@@ -282,7 +282,7 @@ def test_the_plan_kept_is_the_one_of_several_lacam_searches_that_would_end_first
     """LaCAM's plans are not of least cost and differ by seed (`perfect 9`: one seed's plan brought r3 home 35 s
     later than another's). The coordinator runs PLAN_SEEDS searches and keeps the plan whose robots, driven by its
     action dependencies, would all arrive first (fleet_plan.execution_time), not the least makespan."""
-    from amr_evaluation.fleet_navigation import with_robots
+    from amr_planning.fleet_starts import with_robots
     from amr_navigation.fleet_coordinator import PLAN_SEEDS
     from amr_planning.fleet_plan import execution_time, improve, plan_lacam
 

@@ -10,12 +10,12 @@ import math
 import numpy as np
 import pytest
 
-from amr_evaluation.fleet_navigation import with_robots
 from amr_maps.maze_families import generate, grid_pitch
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
+from amr_planning.fleet_starts import with_robots
 from amr_planning.fleet_plan import (FleetPlan, Lattice, assign, dependencies, execution_time, follows_free_space,
                                      grid_lattice, improve, lattice, plan_lacam, plan_together)
 
