@@ -5,6 +5,7 @@
     amr-evaluate --run navigation --worlds hard_maze pillar_goal --seeds 3 --workers 2
     amr-evaluate --run wall_follower=my_follower.yaml --families perfect bends --seeds 20 \\
         --scheduler tcp://10.0.0.5:8786
+    amr-evaluate --run 'command=python3 student.py' --mode ros --families perfect --seeds 100
 
 Every episode (controller x configuration x world x seed x noise) is keyed by a hash of its whole spec;
 its record is appended to the results file (JSON lines) when it finishes, and a sweep started again with
@@ -41,7 +42,8 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     what.add_argument("--run", action="append", metavar="CONTROLLER[=CONFIG]",
                       help="a controller and its configuration, repeatable: wall_follower=sim (default), "
                            "wall_follower=real, wall_follower=my.yaml (laid over sim; real:my.yaml over real), "
-                           "navigation (=default or a file), localization, plan_follow")
+                           "navigation (=default or a file), localization, plan_follow, "
+                           "'command=python3 student.py' (your own node, --mode ros)")
     what.add_argument("--worlds", nargs="+", default=[], metavar="WORLD",
                       help="world files: shipped names (hard_maze, pillar_goal.yaml) or paths")
     what.add_argument("--families", nargs="+", default=[], metavar="FAMILY",
@@ -61,6 +63,13 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     what.add_argument("--outliers", type=float, default=0.0, help="wall_follower: per-beam spurious return rate")
     what.add_argument("--mode", choices=MODES, default="library",
                       help="library (no DDS, default) or ros (the amr-bringup stack per episode)")
+    what.add_argument("--clock", choices=("lockstep", "realtime"), default="lockstep",
+                      help="command: the simulator steps once per /cmd_vel (lockstep, default) or on its timer")
+    what.add_argument("--pace", type=float, default=1.0, help="command, --clock realtime: x real time (default 1)")
+    what.add_argument("--answer-timeout", type=float, default=10.0, metavar="S",
+                      help="command: wall-clock s without a /cmd_vel before the node is given up (default 10)")
+    what.add_argument("--cmd-vel-stamped", action="store_true",
+                      help="command: the node publishes TwistStamped on /cmd_vel (default: plain Twist)")
     what.add_argument("--ros-domains", metavar="FIRST-LAST",
                       help="--mode ros: the ROS domains episodes take one each of (default: $AMR_EVALUATE_ROS_DOMAINS "
                            "or 120-199; Dask workers read their own environment)")
@@ -140,6 +149,13 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
                 maze_options["size"] = options.size
             worlds += [({"family": family, "seed": seed, "options": maze_options}, seed) for seed in seeds]
         extra = dict(wall_options) if controller == "wall_follower" else {}
+        if controller == "command":
+            if options.mode != "ros":
+                raise ValueError("--run command=...: a node of your own runs through ROS only: add --mode ros")
+            extra = {"clock": options.clock, "answer_timeout": options.answer_timeout,
+                     "cmd_vel_stamped": options.cmd_vel_stamped, **({"beams": options.beams} if options.beams else {})}
+            if options.clock == "realtime":
+                extra["pace"] = options.pace
         if controller == "wall_follower" and options.beams is None and parameters["wall_follower"].get("simulation") is False:
             extra["beams"] = 360  # the real robot's LDS-01
         for (world, seed), lidar, encoder, slip in itertools.product(worlds, options.lidar_noise,

@@ -15,6 +15,10 @@ Configurations per controller:
   path_follower_sim.yaml and planner.yaml;
 - ``fleet_navigation`` (every robot of a world navigating to its goal, with the traffic rules among robots):
   ``default`` = navigation's files and traffic.yaml.
+- ``command`` (through ROS only): a user's own node, any executable that speaks ``/scan``, ``/odometry`` and
+  ``/cmd_vel`` (seed 002's wall follower lab), run in place of the shipped controller: the configuration is the
+  command line (``command=python3 student.py``), kept with the directory it was given in and the hash of every
+  file it names, so a changed file is a new configuration (amr_evaluation.ros_episode runs it).
 
 A user's file is a ROS 2 parameter file (``<node>: ros__parameters: ...``, what ``--params-file`` takes)
 laid over the controller's default: each of its sections named after one of the controller's nodes
@@ -27,6 +31,7 @@ follower, a file is laid over ``sim`` (``real:my.yaml`` lays it over ``real``).
 from __future__ import annotations
 
 import hashlib
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +41,7 @@ from amr_evaluation.parameter_check import check_parameters
 from amr_util.parameter_file import node_parameters
 from amr_util.share import share_directory
 
-CONTROLLERS = ("wall_follower", "navigation", "localization", "plan_follow", "fleet_navigation")
+CONTROLLERS = ("wall_follower", "navigation", "localization", "plan_follow", "fleet_navigation", "command")
 _FILES = {
     "wall_follower": ("amr_control", {"sim": "wall_follower_sim.yaml", "real": "wall_follower_real.yaml"}),
     "path_follower": ("amr_control", {"default": "path_follower_sim.yaml"}),
@@ -74,6 +79,8 @@ def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]
     """
     if controller not in CONTROLLERS:
         raise ConfigurationError(f"unknown controller {controller!r} (known: {', '.join(CONTROLLERS)})")
+    if controller == "command":
+        return command_configuration(config)
     shipped = ("sim", "real") if controller == "wall_follower" else ("default",)
     if config in shipped:
         variant = config if controller == "wall_follower" else "sim"
@@ -102,3 +109,22 @@ def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]
         parameters[node] = {**parameters[node], **given}
     digest = hashlib.sha256(file.read_bytes()).hexdigest()[:8]
     return f"{base}:{file.stem}-{digest}", parameters
+
+
+def command_configuration(text: str, directory: str | Path | None = None) -> tuple[str, dict[str, dict[str, Any]]]:
+    """(label, parameters) of a user's controller command (``python3 student.py``): its words, the directory it
+    runs in (default: this one) and the sha256 of every word naming a file there. The label is the last such
+    file's stem (else the program's name) and 8 hex digits of the command and the files' hashes."""
+    if text in ("", "default"):
+        raise ConfigurationError("command: give the command that starts your node, e.g. "
+                                 "--run 'command=python3 student.py'")
+    try:
+        words = shlex.split(text)
+    except ValueError as problem:
+        raise ConfigurationError(f"command {text!r}: {problem}") from problem
+    cwd = Path(directory or Path.cwd()).resolve()
+    files = {word: hashlib.sha256((cwd / word).read_bytes()).hexdigest() for word in words[1:]
+             if (cwd / word).is_file()}
+    digest = hashlib.sha256("\n".join([text, *(f"{k} {v}" for k, v in sorted(files.items()))]).encode()).hexdigest()
+    name = Path(list(files)[-1]).stem if files else Path(words[0]).name
+    return f"command:{name}-{digest[:8]}", {"command": {"argv": words, "cwd": str(cwd), "files": files}}

@@ -16,14 +16,24 @@ Each episode takes a ROS domain of its own for its lifetime: the first free one 
 directory, so parallel workers of one machine never share a DDS graph. The child's environment is this
 one without the ROS wheels' bootstrap markers (amr_util.environment), plus its ROS_DOMAIN_ID and
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST.
+
+The ``command`` controller is a user's own node (``--run 'command=python3 student.py'``): ``maze_sim`` without
+the wall follower, the command started in the episode's domain (its directory, this environment) before the
+stack, its output kept. Lockstep by default (the simulator steps once per /cmd_vel: the node must answer every
+observation, as a node publishing from its scan callback does), or ``clock: realtime`` (the simulator's timer
+at ``pace`` x real time, the node's own timers free); plain Twist on /cmd_vel unless ``cmd_vel_stamped``. A node
+that sends no /cmd_vel for ``answer_timeout`` wall-clock s (default 10), or exits, ends the episode with a record
+saying so (``reason``; goal not reached), never a hang.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import fcntl
 import math
 import os
+import shlex
 import signal
 import subprocess
 import sys
@@ -37,7 +47,12 @@ import yaml
 
 from amr_util.environment import child_environment
 
-STACKS = {"wall_follower": "maze_sim", "localization": "maze_localization", "navigation": "maze_navigation"}
+STACKS = {"wall_follower": "maze_sim", "localization": "maze_localization", "navigation": "maze_navigation",
+          "command": "maze_sim"}
+CLOCKS = ("lockstep", "realtime")
+"""command: the simulator's modes a user's node may be run in."""
+ANSWER_TIMEOUT = 10.0
+"""command: wall-clock s without a /cmd_vel after which the node is given up (the record says so)."""
 DOMAINS_VARIABLE = "AMR_EVALUATE_ROS_DOMAINS"
 DEFAULT_DOMAINS = "120-199"
 STARTUP_TIMEOUT = 60.0
@@ -110,7 +125,7 @@ def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
     if stack is None:
         raise RosEpisodeError(f"mode ros: controller {spec.controller!r} has no stack (ros mode runs "
                               f"{', '.join(STACKS)}); run it at library level")
-    parameters = {node: dict(values) for node, values in spec.parameters.items()}
+    parameters = {node: dict(values) for node, values in spec.parameters.items() if node != "command"}
     wall = parameters.get("wall_follower", {})
     if wall.get("simulation") is False:
         raise RosEpisodeError("mode ros: this wall follower configuration has simulation: false (a timer on real "
@@ -125,6 +140,15 @@ def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
     simulator["seed"] = spec.seed
     simulator["lidar"] = {**simulator.get("lidar", {}), "noise_std": spec.lidar_noise}
     simulator["encoders"] = {**simulator.get("encoders", {}), "noise": spec.encoder_noise, "slip": spec.slip}
+    if spec.controller == "command":
+        clock = spec.options.get("clock", "lockstep")
+        if clock not in CLOCKS:
+            raise RosEpisodeError(f"option clock: expected one of {', '.join(CLOCKS)}, got {clock!r}")
+        simulator.update(mode=clock, cmd_vel_stamped=bool(spec.options.get("cmd_vel_stamped", False)))
+        if clock == "realtime":
+            simulator["pace"] = float(spec.options.get("pace", 1.0))
+        if "beams" in spec.options:
+            simulator["lidar"]["beams"] = int(spec.options["beams"])
     parameters["simulator"] = simulator
     if "particle_filter" in parameters:
         parameters["particle_filter"]["seed"] = spec.seed
@@ -188,10 +212,21 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
 
     name, arguments = stack_of(spec, directory)
     bringup = load_bringup(name).with_overrides(arguments, {})
+    command = spec.parameters.get("command") if spec.controller == "command" else None
+    if command is not None:  # the user's node drives instead of the shipped wall follower
+        bringup = dataclasses.replace(
+            bringup, nodes=tuple(node for node in bringup.nodes if node.name != "wall_follower"),
+            node_startup_order=tuple(node for node in bringup.node_startup_order if node != "wall_follower"))
     check_composable(bringup)
     max_collisions = int(spec.options.get("max_collisions", 5)) if spec.controller == "navigation" else None
     lock = threading.Lock()
-    state: dict[str, Any] = {"status": None, "reason": "", "first_error": None, "max_error": 0.0}
+    state: dict[str, Any] = {"status": None, "reason": "", "first_error": None, "max_error": 0.0, "commands": 0,
+                             "last_command": None}
+
+    def on_command(message) -> None:
+        with lock:
+            state["commands"] += 1
+            state["last_command"] = time.monotonic()
 
     def on_status(message: SimulatorStatus) -> None:
         # lockstep runs ahead of this thread: the record is the first status that ends the episode
@@ -212,10 +247,17 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
 
     rclpy.init(args=[])
     spinners = NodeSpinners()
-    stack = None
+    stack = controller = None
+    controller_log = directory / "controller.log"
     try:
         observer = rclpy.create_node("amr_evaluate_observer")
         observer.create_subscription(SimulatorStatus, "simulator/status", on_status, 1000)
+        if command is not None:
+            from geometry_msgs.msg import Twist, TwistStamped
+
+            stamped = bool(spec.options.get("cmd_vel_stamped", False))
+            observer.create_subscription(TwistStamped if stamped else Twist, "cmd_vel", on_command, 100)
+            controller = _start_controller(command, controller_log)
         spinners.add_node(observer)
         stack = ComposedStack(bringup, Console(live=False))
         for node in stack.nodes:
@@ -230,10 +272,15 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
             raise RosEpisodeError(f"startup failed at {failed.transition} of {failed.node}: {failed.detail}"
                                   if failed else "startup failed")
         deadline, last_time = time.monotonic() + STARTUP_TIMEOUT, -1.0
+        began = time.monotonic()
+        answer_timeout = float(spec.options.get("answer_timeout", ANSWER_TIMEOUT))
         while True:
             time.sleep(0.02)
             with lock:
                 status, reason = state["status"], state["reason"]
+                if not reason and controller is not None:
+                    reason = state["reason"] = _controller_problem(
+                        controller, observer, state, began, answer_timeout, spec.options)
             if reason:
                 break
             if stack.failure():
@@ -246,19 +293,56 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
             last_time, deadline = status.sim_time, time.monotonic() + STALL_TIMEOUT
         manager.shutdown()
     finally:
+        if controller is not None:
+            stop_process(controller, timeout=5.0)
         spinners.shutdown()
         if stack is not None:
             stack.stop(Flag())
         rclpy.shutdown()
+    if status is None:  # a user's node gave up before the first observation
+        status = SimulatorStatus()
     figures: dict[str, Any] = {"time": status.sim_time, "reason": reason, "collisions": int(status.collisions),
                                "distance": float(status.distance_travelled)}
     if spec.goal is not None or _world_has_goal(spec):
         figures.update(goal_reached=bool(status.goal_reached),
                        time_to_goal=status.sim_time if status.goal_reached else None)
+    if command is not None:
+        output = controller_log.read_text(encoding="utf-8", errors="replace") if controller_log.exists() else ""
+        figures["extra"] = {"commands": state["commands"], "clock": spec.options.get("clock", "lockstep"),
+                            "controller_output": output[-1000:]}
     if status.localization_enabled and status.first_localized_time >= 0.0:
         figures.update(time_to_localized=status.first_localized_time, localization_error=state["first_error"],
                        localization_error_max=state["max_error"])
     return figures
+
+
+def _start_controller(command: dict, log: Path) -> subprocess.Popen:
+    """The user's command, in its directory, in this process's ROS domain, its output into `log`."""
+    try:
+        with log.open("w") as stream:
+            return subprocess.Popen(command["argv"], cwd=command["cwd"], stdout=stream, stderr=subprocess.STDOUT,
+                                    env=child_environment(), start_new_session=True)
+    except OSError as error:
+        raise RosEpisodeError(f"the controller's command {shlex.join(command['argv'])!r} (in {command['cwd']}) "
+                              f"could not start: {error}") from error
+
+
+def _controller_problem(controller: subprocess.Popen, observer, state: dict, began: float, answer_timeout: float,
+                        options: dict) -> str:
+    """Why a user's node ends the episode now ('' while it drives): it exited, or it sent no /cmd_vel for
+    answer_timeout wall-clock s (naming the type the simulator takes when the node publishes another)."""
+    code = controller.poll()
+    if code is not None:
+        return f"the controller exited with code {code} after {state['commands']} commands"
+    since = state["last_command"] if state["last_command"] is not None else began
+    if time.monotonic() - since <= answer_timeout:
+        return ""
+    wanted = "geometry_msgs/msg/TwistStamped" if options.get("cmd_vel_stamped", False) else "geometry_msgs/msg/Twist"
+    others = sorted({info.topic_type for info in observer.get_publishers_info_by_topic("/cmd_vel")} - {wanted})
+    wrong = f" (it publishes {', '.join(others)} on /cmd_vel; the simulator takes {wanted})" if others else ""
+    if state["commands"] == 0:
+        return f"the controller never answered: no /cmd_vel within {answer_timeout:g} s{wrong}"
+    return f"the controller stopped answering: no /cmd_vel for {answer_timeout:g} s after {state['commands']} commands"
 
 
 def _world_has_goal(spec) -> bool:
