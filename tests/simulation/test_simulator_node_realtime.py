@@ -71,3 +71,14 @@ def test_deactivation_stops_the_clock_and_drops_the_command(simulator, probe, ex
     assert node.try_transition(Transition.TRANSITION_ACTIVATE)
     assert spin_until(executor, lambda: len(driver.clocks) > count + 5, TIMEOUT)
     assert driver.ground_truth[-1].twist.twist.linear.x == 0.0, "the held command was zeroed"
+
+
+def test_scan_period_publishes_the_lidar_at_its_own_rate(simulator, probe, executor):
+    """A TurtleBot3's LDS-01 at 5 Hz beside 20 Hz odometry: a scan every fourth step, stamped on it."""
+    node, driver = simulator(scan_period=0.2, **REALTIME), probe()
+    start(executor, node, driver)
+    assert spin_until(executor, lambda: len(driver.odometry) >= 41, TIMEOUT)
+    odometry, scans = len(driver.odometry), len(driver.scans)
+    assert odometry / 4 - 2 <= scans <= odometry / 4 + 2
+    stamps = [seconds(m.header.stamp) for m in driver.scans]
+    assert [b - a for a, b in zip(stamps, stamps[1:])] == pytest.approx([0.2] * (len(stamps) - 1))
