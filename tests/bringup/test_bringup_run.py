@@ -11,6 +11,7 @@ from lifecycle_msgs.srv import GetState
 from rclpy.node import Node
 
 from support.bringup_run import Bringup
+from support.waiting import poll_until
 
 STARTUP_TIMEOUT = 30.0
 
@@ -72,13 +73,13 @@ def test_processes_reach_active_show_status_and_leave_nothing_behind_on_ctrl_c(r
     wait_until_active(executor, probe, run)
     pids = run.child_pids()
     assert set(pids) == {"odometry_node", "wall_follower"} and os.getpid() not in pids.values()
-    time.sleep(2.5)  # a status table or two with both nodes active
+    status = (r"^odometry_node\s+active$", r"^/cmd_vel\s+geometry_msgs/msg/Twist\s+\d+\.\d\s+wall_follower$")
+    assert poll_until(lambda: all(re.search(line, run.output, re.MULTILINE) for line in status), STARTUP_TIMEOUT), \
+        f"no status table with both nodes active and /cmd_vel flowing within {STARTUP_TIMEOUT} s:\n{run.output}"
     run.process.send_signal(signal.SIGINT)
     assert run.finish() == 0, run.output
     assert_gone(pids)
     output = run.output
-    assert re.search(r"^odometry_node\s+active$", output, re.MULTILINE), output
-    assert re.search(r"^/cmd_vel\s+geometry_msgs/msg/Twist\s+\d+\.\d\s+wall_follower$", output, re.MULTILINE), output
     assert "deactivate wall_follower: wall_follower is inactive" in output  # the manager took it down first
     assert "[wall_follower] " in output  # child lines carry their node's name
 

@@ -8,7 +8,6 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -18,6 +17,7 @@ from amr_evaluation.records import RecordWriter, read_records, without_timing
 from amr_evaluation.runner import SweepError, run_sweep
 from amr_util.environment import child_environment
 from eval_helpers import tiny_specs
+from support.waiting import poll_until
 
 HERE = Path(__file__).resolve().parent
 VENV_BIN = Path(sys.executable).parent
@@ -72,11 +72,8 @@ def test_a_killed_sweep_resumes_without_redoing_finished_episodes(tmp_path):
     env = child_environment(PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
     process = subprocess.Popen([sys.executable, "-c", script, str(results)], env=env)
     try:
-        deadline = time.monotonic() + 60.0
-        while time.monotonic() < deadline and process.poll() is None:
-            if results.exists() and len(results.read_text().splitlines()) >= 2:
-                break
-            time.sleep(0.02)
+        poll_until(lambda: process.poll() is not None or (results.exists()
+                                                           and len(results.read_text().splitlines()) >= 2), 60.0)
         assert process.poll() is None, "the sweep ended before it could be killed"
         process.send_signal(signal.SIGKILL)
     finally:
