@@ -21,6 +21,7 @@ files in launch/, so the node lists and parameters have one source. The format:
       preferred_wall:                        # `amr-bringup <stack> preferred_wall:=left`,
         sets: [wall_follower.preferred_wall] # `ros2 launch ... preferred_wall:=left`
         description: right, left or random
+        clears: []                           # optional: <node>.<parameter>s set to '' when it is given
 
 A node with `per_robot: true` is a description of every robot's copy: when the stack is made (`with_overrides`,
 which amr-bringup, `ros2 launch` and `composed_stack` all call), `robot_nodes` maps the robots of the world that
@@ -63,7 +64,7 @@ NODE_KEYS = {"name", "package", "executable", "namespace", "parameter_files", "p
 REQUIRED_NODE_KEYS = ("name", "package", "executable")
 MANAGER_KEYS = {"node_startup_order", "wait_timeout", "transition_timeout"}
 TOP_KEYS = {"nodes", "lifecycle_manager", "arguments", "robots_from"}
-ARGUMENT_KEYS = {"sets", "description"}
+ARGUMENT_KEYS = {"sets", "description", "clears"}
 NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 """A ROS node name, package name or namespace token (rcl's rules, kept to the common subset)."""
 TOPIC = re.compile(r"(~/|/)?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*\Z")
@@ -136,6 +137,9 @@ class StackArgument:
     sets: tuple[tuple[str, str], ...] = ()
     """(node name, parameter name) pairs."""
     params_file_of: str = ""
+    clears: tuple[tuple[str, str], ...] = ()
+    """(node name, parameter name) pairs set to '' when the argument is given, after every argument's sets (a
+    map file given: the map server's world, which another argument sets, is no longer its map)."""
 
 
 @dataclass(frozen=True)
@@ -206,6 +210,9 @@ class Bringup:
                 continue
             for node_name, parameter in argument.sets:
                 nodes[node_name] = _with_parameter(nodes[node_name], parameter, text)
+        for name in arguments or {}:
+            for node_name, parameter in known[name].clears:
+                nodes[node_name] = _with_parameter(nodes[node_name], parameter, "")
         for dotted_name, text in (parameters or {}).items():
             node_name, dot, parameter = dotted_name.partition(".")
             if not dot or node_name not in nodes or not parameter:
@@ -582,13 +589,19 @@ def _parse_arguments(where: _Where, arguments: object, nodes: tuple[NodeSpec, ..
         sets = entry.get("sets")
         if not isinstance(sets, list) or not sets:
             raise where.error(f"{key}.sets", f"must be a non-empty list of <node>.<parameter>, got {sets!r}")
-        targets = []
-        for target in sets:
-            node, dot, parameter = str(target).partition(".")
-            if not dot or node not in names or not parameter:
-                raise where.error(f"{key}.sets", f"{target!r} is not <node>.<parameter> of a node in {sorted(names)}")
-            targets.append((node, parameter))
-        parsed.append(StackArgument(name, str(entry.get("description", "")), tuple(targets)))
+        clears = entry.get("clears", [])
+        if not isinstance(clears, list):
+            raise where.error(f"{key}.clears", f"must be a list of <node>.<parameter>, got {clears!r}")
+        targets: dict[str, list[tuple[str, str]]] = {"sets": [], "clears": []}
+        for field_name, listed in (("sets", sets), ("clears", clears)):
+            for target in listed:
+                node, dot, parameter = str(target).partition(".")
+                if not dot or node not in names or not parameter:
+                    raise where.error(f"{key}.{field_name}",
+                                      f"{target!r} is not <node>.<parameter> of a node in {sorted(names)}")
+                targets[field_name].append((node, parameter))
+        parsed.append(StackArgument(name, str(entry.get("description", "")), tuple(targets["sets"]),
+                                    clears=tuple(targets["clears"])))
     return tuple(parsed)
 
 

@@ -46,7 +46,7 @@ from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
-from amr_util.geometry import compose, inverse, is_finite_number, relative_pose
+from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, wrap_angle
 from amr_util.scan import ScanData
 
 MIN_BEAMS = 20
@@ -59,6 +59,25 @@ OPTIMIZE_CHI = 3.0
 """A new closure this many standard deviations off the current poses makes the graph be optimized at once ..."""
 OPTIMIZE_EVERY = 10
 """... else it is optimized once this many closures that agree with the poses have been added."""
+LIKELIHOOD_PAD = 1.0
+"""m of field around a submap's points beyond the search windows (points off the table score 0)."""
+WINDOW_SIGMAS = 3.0
+"""The front end searches this many standard deviations of the odometry model since the last node (at most
+match_linear_window / match_angular_window)."""
+MATCH_INFORMATION_SCALE = 200.0
+"""A match's information per unit of negative curvature of the mean score (the points' effective count over
+the score's noise variance: neighbouring beams are not independent)."""
+MIN_MATCH_INFORMATION = 0.01
+"""A match's information is at least this in every direction (a flat score: a standard deviation of 10 m, or
+10 rad: little enough that the odometry decides, not so little that a direction mixing x, y and theta leaks
+kilometres into the others)."""
+LOOP_CHI2 = 16.27
+"""A loop-closure match is accepted when its offset from the poses now, against its covariance plus the
+chain's since the anchor, is within this chi-square (3 dof, 99.9 %)."""
+AMBIGUITY_DISTANCE = 0.5
+"""m: a loop-closure match with a rival this far or further along an axis ..."""
+AMBIGUITY_RATIO = 0.9
+"""... scoring this share of its score or more is ambiguous and not used."""
 MAX_INFORMATION = (1.0 / 0.01 ** 2, 1.0 / 0.01 ** 2, 1.0 / math.radians(0.25) ** 2)
 """A scan match's information is capped here (x, y, theta): standard deviations of 1 cm and 0.25 deg at least."""
 
@@ -77,10 +96,11 @@ class SlamConfig:
     """m: readings beyond it are not mapped (free space is cleared up to it) nor matched (3-80)."""
     local_window: int = 10
     """nodes in the local submap (the front end's reference) and in each loop-closure submap (3-50)."""
-    match_linear_window: float = 0.5
-    """m, +- in x and y around the odometry prior that scan-to-submap matching searches (0.05-2)."""
-    match_angular_window: float = 0.35
-    """rad, +- around the odometry prior's heading (0.05-1)."""
+    match_linear_window: float = 1.5
+    """m, +- in x and y around the odometry prior that scan-to-submap matching searches at most: it searches 3
+    standard deviations of the odometry model since the last node (0.05-2)."""
+    match_angular_window: float = 1.0
+    """rad, +- around the odometry prior's heading at most, as match_linear_window (0.05-1)."""
     min_match_score: float = 0.3
     """a scan match below this mean likelihood (0-1) is not used: the node is added on odometry alone."""
     loop_search_radius: float = 5.0
@@ -156,6 +176,8 @@ class _Node:
     points: np.ndarray
     travelled: float
     """m of odometry path from the first node."""
+    clear_range: float
+    """m a beam without a return clears: the sensor's range_max, at most max_range_used."""
 
 
 class GraphSlam:
@@ -174,6 +196,10 @@ class GraphSlam:
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, CorrelativeMatcher] | None = None
         self._unoptimized = 0  # closures added since the last optimization
+        self.rejected_closures = 0
+        self.ambiguous_closures = 0
+        """loop-closure matches that scored but disagreed with the poses (LOOP_CHI2)"""
+        self._chain: list[np.ndarray] = [np.zeros((3, 3))]  # covariance of the edge (k - 1, k), node k's frame
 
     # -- state -----------------------------------------------------------------------------------------
 
@@ -205,7 +231,7 @@ class GraphSlam:
             raise MappingError("slam: no map yet (no scan has been added)")
         if self._grid is None:
             poses = self._graph.poses
-            scans = [(node.ranges, node.angles) for node in self._nodes]
+            scans = [(node.ranges, node.angles, node.clear_range) for node in self._nodes]
             self._grid = _grid_from(poses, scans, self.config)
         return self._grid
 
@@ -253,6 +279,7 @@ class GraphSlam:
         if odometry.shape != (3,) or not np.all(np.isfinite(odometry)):
             raise MappingError(f"slam: odometry must be 3 finite numbers (x, y, theta), got {odometry!r}")
         ranges, angles, points = _beams(scan, self.config.max_range_used)
+        clear_range = min(self.config.max_range_used, float(scan.range_max))
         events: list[str] = []
         if self._odometry is not None:
             jump = math.hypot(*(odometry[:2] - self._odometry[:2]))
@@ -268,7 +295,7 @@ class GraphSlam:
         self._odometry = odometry.copy()
 
         if not self._nodes:
-            node = self._add_node(stamp_ns, odometry, odometry, ranges, angles, points)
+            node = self._add_node(stamp_ns, odometry, odometry, ranges, angles, points, clear_range)
             self._pose = odometry.copy()
             events.append("first node")
             return SlamUpdate(self.pose, True, node, None, (), True, time.perf_counter() - start, tuple(events))
@@ -281,8 +308,9 @@ class GraphSlam:
             return SlamUpdate(self.pose, False, None, None, (), False, time.perf_counter() - start, ())
 
         pose, information, score = self._match_local(prior, points, delta, events)
-        node = self._add_node(stamp_ns, pose, odometry, ranges, angles, points)
+        node = self._add_node(stamp_ns, pose, odometry, ranges, angles, points, clear_range)
         self._graph.add_edge(last, node, relative_pose(self._graph.pose(last), pose), information)
+        self._chain.append(np.linalg.inv(information))
         self._pose = pose.copy()
         closures = self._close_loops(node, events)
         return SlamUpdate(self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start,
@@ -290,49 +318,78 @@ class GraphSlam:
 
     # -- internals ---------------------------------------------------------------------------------------
 
-    def _add_node(self, stamp_ns, pose, odometry, ranges, angles, points) -> int:
+    def _add_node(self, stamp_ns, pose, odometry, ranges, angles, points, clear_range) -> int:
         index = self._graph.add_node(pose)
-        self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled))
+        self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled,
+                                 clear_range))
         self._anchor_odometry = odometry.copy()
         self._grid = None
         window = self.config.local_window
         if (index + 1) % window == 0:  # a submap is complete: nodes index - window + 1 .. index
             anchor = index - window // 2
             members = range(index - window + 1, index + 1)
-            self._submaps.append(_Submap(anchor, index, self._matcher(anchor, members)))
+            self._submaps.append(_Submap(anchor, index, self._matcher(anchor, members, self.config.loop_linear_window)))
         return index
 
-    def _matcher(self, anchor: int, members) -> CorrelativeMatcher:
-        """A matcher on the likelihood field of the members' scans, in the anchor node's frame."""
+    def _matcher(self, anchor: int, members, window: float) -> CorrelativeMatcher:
+        """A matcher on the likelihood field of the members' scan points (their endpoints, Olson's rasterized
+        scans), in the anchor node's frame, window + LIKELIHOOD_PAD m around them. Not the log-odds map's
+        occupied cells: its rays, passing a wall at a grazing angle, clear the cells the wall's far end was
+        seen in, so the field is thin far down a corridor and a new scan, seeing further ahead, matched 20-40 cm
+        short per metre on aces."""
         anchor_pose = self._graph.pose(anchor)
         poses = np.array([relative_pose(anchor_pose, self._graph.pose(k)) for k in members])
-        grid = _grid_from(poses, [(self._nodes[k].ranges, self._nodes[k].angles) for k in members], self.config)
-        return CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=LIKELIHOOD_SIGMA_CELLS * grid.resolution))
+        clouds = []
+        for (x, y, theta), k in zip(poses, members):
+            points = self._nodes[k].points
+            c, s = math.cos(theta), math.sin(theta)
+            clouds.append(np.column_stack([x + c * points[:, 0] - s * points[:, 1],
+                                           y + s * points[:, 0] + c * points[:, 1]]))
+        cloud = np.vstack(clouds + [np.zeros((1, 2))])
+        resolution = self.config.resolution
+        pad = window + LIKELIHOOD_PAD
+        low = np.floor((cloud.min(axis=0) - pad) / resolution) * resolution
+        shape = np.ceil((cloud.max(axis=0) + pad - low) / resolution).astype(int) + 1
+        data = np.zeros((shape[1], shape[0]), dtype=np.int8)
+        cells = np.floor((cloud[:-1] - low) / resolution).astype(int)
+        data[cells[:, 1], cells[:, 0]] = 100
+        grid = OccupancyGrid(data, resolution, (float(low[0]), float(low[1]), 0.0))
+        return CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=LIKELIHOOD_SIGMA_CELLS * resolution))
 
     def _match_local(self, prior: np.ndarray, points: np.ndarray, delta: np.ndarray,
                      events: list[str]) -> tuple[np.ndarray, np.ndarray, float | None]:
-        """(pose, edge information, score): the scan matched against the local submap, or the prior."""
+        """(pose, edge information, score): the scan matched against the local submap within 3 sigma of the
+        odometry model since the last node, fused with the odometry prior; or the prior alone."""
         cfg = self.config
-        d, a = math.hypot(delta[0], delta[1]), abs(delta[2])
-        s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
-        odometry_information = np.diag([1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_xy + s_xy_d * d) ** 2,
-                                        1.0 / (s_th + s_th_a * (a + d)) ** 2])
+        odometry_information = _odometry_information(delta)
         if len(points) < MIN_BEAMS:
             events.append(f"scan has {len(points)} usable beams (< {MIN_BEAMS}): node added on odometry alone")
             return prior, odometry_information, None
         last = len(self._nodes) - 1
         if self._local is None or self._local[0] != last:
             members = range(max(0, last - cfg.local_window + 1), last + 1)
-            self._local = (last, self._matcher(last, members))
+            self._local = (last, self._matcher(last, members, cfg.match_linear_window))
         matcher = self._local[1]
         anchor = self._graph.pose(last)
-        match = matcher.match(points, relative_pose(anchor, prior), cfg.match_linear_window, cfg.match_angular_window)
+        sigma = 1.0 / np.sqrt(np.diag(odometry_information))
+        linear = min(cfg.match_linear_window, max(2.0 * cfg.resolution, WINDOW_SIGMAS * sigma[0]))
+        angular = min(cfg.match_angular_window, WINDOW_SIGMAS * sigma[2])
+        relative_prior = np.array(relative_pose(anchor, prior))
+        match = matcher.match(points, relative_prior, linear, angular)
         if match.score < cfg.min_match_score or not np.all(np.isfinite(match.pose)):
             events.append(f"scan match score {match.score:.2f} < min_match_score {cfg.min_match_score}: "
                           "node added on odometry alone")
             return prior, odometry_information, float(match.score)
-        pose = np.array(compose(anchor, match.pose))
-        return pose, _information(match.covariance, pose[2] - anchor[2]), float(match.score)
+        # the match and the odometry as two Gaussians on the pose in the anchor's frame (the odometry's
+        # information is isotropic in x, y: the same in either frame)
+        match_information = _match_information(matcher, points, match.pose, cfg.resolution)
+        information = match_information + odometry_information
+        offset = relative_prior - match.pose
+        offset[2] = wrap_angle(offset[2])
+        fused = match.pose + np.linalg.solve(information, odometry_information @ offset)
+        pose = np.array(compose(anchor, fused))
+        covariance = np.linalg.inv(information)
+        return pose, _information(covariance, fused[2]), float(match.score)
 
     def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
         cfg = self.config
@@ -357,8 +414,21 @@ class GraphSlam:
                                          cfg.loop_angular_window)
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
                 continue
-            self._graph.add_edge(submap.anchor, node, match.pose, _information(match.covariance, match.pose[2]),
-                                 loop=True)
+            information = _match_information(submap.matcher, points, match.pose, cfg.resolution)
+            rival = _rival_score(submap.matcher, points, match.pose, information, cfg)
+            if rival >= AMBIGUITY_RATIO * match.score:
+                self.ambiguous_closures += 1
+                continue
+            # the closure against the poses now: its covariance plus the chain's since the anchor
+            innovation = match.pose - np.array(relative_pose(anchor, pose))
+            innovation[2] = wrap_angle(innovation[2])
+            spread = np.linalg.inv(information) + self._chain_covariance(submap.anchor, node)
+            chi2 = float(innovation @ np.linalg.solve(spread, innovation))
+            if not chi2 <= LOOP_CHI2:
+                self.rejected_closures += 1
+                continue
+            self._graph.add_edge(submap.anchor, node, match.pose, _information(np.linalg.inv(information),
+                                                                               match.pose[2]), loop=True)
             closures.append(LoopClosure(submap.anchor, node, float(match.score)))
         if closures:
             self._unoptimized += len(closures)
@@ -378,6 +448,22 @@ class GraphSlam:
         return closures
 
 
+    def _chain_covariance(self, first: int, last: int) -> np.ndarray:
+        """Covariance (first's frame) of node last's pose relative to node first's, compounded along the
+        sequential edges between them (the scan matches and odometry; no loop closure: an upper bound)."""
+        poses = self._graph.poses
+        covariance = np.zeros((3, 3))
+        origin = poses[first]
+        for k in range(first + 1, last + 1):
+            x, y, theta = relative_pose(origin, poses[k])
+            px, py, _ = relative_pose(origin, poses[k - 1])
+            move = np.array([[1.0, 0.0, -(y - py)], [0.0, 1.0, x - px], [0.0, 0.0, 1.0]])
+            c, s = math.cos(theta), math.sin(theta)
+            rotate = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            covariance = move @ covariance @ move.T + rotate @ self._chain[k] @ rotate.T
+        return covariance
+
+
 def _information(covariance: np.ndarray, heading: float) -> np.ndarray:
     """A match's information as an edge's (the error's frame: the measured node's), capped at MAX_INFORMATION."""
     covariance = np.asarray(covariance, dtype=float)
@@ -387,7 +473,61 @@ def _information(covariance: np.ndarray, heading: float) -> np.ndarray:
     rotation = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
     floor = np.diag(1.0 / np.asarray(MAX_INFORMATION))
     cov = rotation @ covariance @ rotation.T + floor
-    return np.linalg.inv(0.5 * (cov + cov.T))
+    information = np.linalg.inv(0.5 * (cov + cov.T))
+    return 0.5 * (information + information.T)
+
+
+def _rival_score(matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, information: np.ndarray,
+                 config: SlamConfig) -> float:
+    """The best score of the scan shifted AMBIGUITY_DISTANCE to loop_linear_window from pose along the two
+    principal axes of the match's information (x, y): a corridor or a row of equal rooms matches as well
+    a few metres along, and a closure there says little about where along."""
+    _, vectors = np.linalg.eigh(information[:2, :2])
+    offsets = np.arange(AMBIGUITY_DISTANCE, config.loop_linear_window + 1e-9, config.resolution)
+    offsets = np.concatenate([offsets, -offsets])
+    best = 0.0
+    for axis in vectors.T:
+        for offset in offsets:
+            shifted = np.array([pose[0] + offset * axis[0], pose[1] + offset * axis[1], pose[2]])
+            best = max(best, matcher.score_interpolated(points, shifted))
+    return best
+
+
+def _odometry_information(delta) -> np.ndarray:
+    """The odometry model's information (ODOMETRY_SIGMA) for a motion delta (dx, dy, dtheta)."""
+    d, a = math.hypot(delta[0], delta[1]), abs(delta[2])
+    s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
+    return np.diag([1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_xy + s_xy_d * d) ** 2,
+                    1.0 / (s_th + s_th_a * (a + d)) ** 2])
+
+
+def _match_information(matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray,
+                       resolution: float) -> np.ndarray:
+    """The information of a match at pose: MATCH_INFORMATION_SCALE times the negative Hessian of the mean
+    interpolated score (central differences of the likelihood field's sigma, and the angle that moves the mean
+    point that far),
+    its eigenvalues clamped at MIN_MATCH_INFORMATION: along a corridor the scan says little, and the
+    odometry it is fused with decides there."""
+    radius = float(np.mean(np.hypot(points[:, 0], points[:, 1])))
+    step = LIKELIHOOD_SIGMA_CELLS * resolution  # the field's own scale: not the bumps between rasterized points
+    steps = np.array([step, step, step / max(radius, step)])
+    base = np.asarray(pose, dtype=float)
+
+    def score(offset) -> float:
+        return matcher.score_interpolated(points, base + offset * steps)
+
+    centre = score(np.zeros(3))
+    hessian = np.empty((3, 3))
+    unit = np.eye(3)
+    for i in range(3):
+        hessian[i, i] = (score(unit[i]) - 2.0 * centre + score(-unit[i]))
+        for j in range(i + 1, 3):
+            hessian[i, j] = hessian[j, i] = (score(unit[i] + unit[j]) - score(unit[i] - unit[j])
+                                             - score(unit[j] - unit[i]) + score(-unit[i] - unit[j])) / 4.0
+    hessian /= np.outer(steps, steps)
+    values, vectors = np.linalg.eigh(-0.5 * (hessian + hessian.T))
+    values = np.maximum(values * MATCH_INFORMATION_SCALE, MIN_MATCH_INFORMATION)
+    return (vectors * values) @ vectors.T
 
 
 def _beams(scan: ScanData, max_range_used: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -409,10 +549,11 @@ def _beams(scan: ScanData, max_range_used: float) -> tuple[np.ndarray, np.ndarra
 
 
 def _grid_from(poses: np.ndarray, scans, config: SlamConfig) -> OccupancyGrid:
-    """The occupancy grid of the scans (ranges, angles) at the poses."""
+    """The occupancy grid of the scans (ranges, angles, clear_range) at the poses: a beam without a return
+    clears free space up to clear_range (the sensor's range_max, at most max_range_used), not further."""
     grid = LogOddsGrid(config.resolution)
-    for pose, (ranges, angles) in zip(poses, scans):
-        grid.insert(pose, ranges, angles, config.max_range_used)
+    for pose, (ranges, angles, clear_range) in zip(poses, scans):
+        grid.insert(pose, ranges, angles, clear_range)
     return grid.to_occupancy_grid()
 
 

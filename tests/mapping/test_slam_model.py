@@ -1,0 +1,87 @@
+"""GraphSlam's model terms found on the CARMEN logs: along a featureless corridor the scan match says nothing
+about the position along it (its information, fused with the odometry's); a beam without a return clears free
+space only up to the sensor's range_max; a SLAM map put in the world's frame (amr_mapping.map_frame)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_mapping.errors import MappingError
+from amr_mapping.map_frame import map_in_world
+from amr_mapping.slam import GraphSlam, SlamConfig, _match_information
+from amr_maps.occupancy_grid import OCCUPIED, UNKNOWN, OccupancyGrid
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
+from amr_maps.world import world_from_dict
+from amr_util.scan import ScanData
+
+BEAMS = 180
+INCREMENT = 2.0 * math.pi / BEAMS
+
+
+def test_a_corridor_match_is_informative_across_it_and_not_along_it():
+    """The match information (the score's curvature): a 40 m corridor 1.6 m wide seen by a 6 m LiDAR tells the
+    lateral position and the heading, not the position along it, where the odometry it is fused with decides."""
+    world = world_from_dict({"walls": [[-20, -0.8, 20, -0.8], [-20, 0.8, 20, 0.8]], "wall_thickness": 0.1,
+                             "start": [0, 0, 0]})
+    caster = NumpyRayCaster(world.faces)
+    rng = np.random.default_rng(5)
+    angles = -math.pi + INCREMENT * np.arange(BEAMS)
+
+    def scan_points(x: float) -> np.ndarray:  # the scan at (x, 0, 0), in the robot's frame
+        ranges = caster.cast(x, 0.0, -math.pi, INCREMENT, BEAMS, 6.0) + rng.normal(0.0, 0.01, BEAMS)
+        keep = ranges < 6.0
+        return np.column_stack([ranges[keep] * np.cos(angles[keep]), ranges[keep] * np.sin(angles[keep])])
+
+    data = np.zeros((60, 600), dtype=np.int8)  # the submap: the scans of three poses behind, rasterized
+    for x in (-0.9, -0.6, -0.3):
+        cloud = scan_points(x) + (x, 0.0)
+        data[np.floor((cloud[:, 1] + 1.5) / 0.05).astype(int), np.floor((cloud[:, 0] + 15.0) / 0.05).astype(int)] = \
+            OCCUPIED
+    grid = OccupancyGrid(data, 0.05, (-15.0, -1.5, 0.0))
+    points = scan_points(0.0)
+    matcher = CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=0.075))
+    information = _match_information(matcher, points, np.zeros(3), 0.05)
+    sigma = np.sqrt(np.diag(np.linalg.inv(information)))
+    assert sigma[1] < 0.05 and sigma[2] < math.radians(2.0)  # across, heading: a few cm, a degree
+    assert sigma[0] > 20 * sigma[1]  # along: no better than the odometry it is fused with
+
+
+def test_a_beam_without_a_return_clears_up_to_the_sensors_range_only():
+    """No return at all from a 3.5 m LiDAR: the map is free space within 3.5 m, not max_range_used's 20."""
+    slam = GraphSlam(SlamConfig(max_range_used=20.0))
+    slam.add(0, (0.0, 0.0, 0.0), ScanData(np.full(360, np.inf), -math.pi, 2 * math.pi / 360, 0.12, 3.5))
+    grid = slam.occupancy_grid()
+    x0, y0, x1, y1 = grid.bounds
+    assert max(abs(x0), x1, abs(y0), y1) < 3.5 + 2.5  # the log-odds grid's growth margin (2 m) at most
+    free = (grid.data >= 0) & (grid.data < 50)
+    assert free.sum() * grid.resolution ** 2 == pytest.approx(math.pi * 3.5 ** 2, rel=0.1)
+
+
+def _one_cell_grid() -> OccupancyGrid:
+    data = np.full((40, 60), 0, dtype=np.int8)
+    data[10, 50] = OCCUPIED  # the cell whose centre is (2.525, 0.525) in the SLAM frame (origin (-0.0, 0.0))
+    return OccupancyGrid(data, 0.05, (0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("start", [(1.0, -2.0, 0.0), (1.0, -2.0, math.pi / 2), (-0.3, 0.4, 2.5)])
+def test_map_in_world_puts_each_cell_at_start_compose_its_slam_position(start):
+    slam_grid = _one_cell_grid()
+    world = map_in_world(slam_grid, start)
+    assert world.resolution == slam_grid.resolution and world.origin[2] == 0.0
+    c, s = math.cos(start[2]), math.sin(start[2])
+    x, y = 2.525, 0.525
+    wx, wy = start[0] + c * x - s * y, start[1] + s * x + c * y
+    row, col = world.world_to_cell(wx, wy)
+    assert world.data[int(row), int(col)] == OCCUPIED
+    assert (world.data == OCCUPIED).sum() <= 2  # nearest-cell resampling: one cell, two at most
+    assert (world.data == UNKNOWN).any() == (abs(math.sin(2 * start[2])) > 1e-9)  # rotated: corners unknown
+    assert (world.data == 0).sum() == pytest.approx((slam_grid.data == 0).sum(), rel=0.03)
+
+
+def test_map_in_world_refuses_a_start_that_is_not_a_pose():
+    with pytest.raises(MappingError, match="start"):
+        map_in_world(_one_cell_grid(), (0.0, math.nan, 0.0))
