@@ -450,18 +450,24 @@ class GraphSlam:
 
     def _chain_covariance(self, first: int, last: int) -> np.ndarray:
         """Covariance (first's frame) of node last's pose relative to node first's, compounded along the
-        sequential edges between them (the scan matches and odometry; no loop closure: an upper bound)."""
-        poses = self._graph.poses
-        covariance = np.zeros((3, 3))
-        origin = poses[first]
-        for k in range(first + 1, last + 1):
-            x, y, theta = relative_pose(origin, poses[k])
-            px, py, _ = relative_pose(origin, poses[k - 1])
-            move = np.array([[1.0, 0.0, -(y - py)], [0.0, 1.0, x - px], [0.0, 0.0, 1.0]])
-            c, s = math.cos(theta), math.sin(theta)
-            rotate = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-            covariance = move @ covariance @ move.T + rotate @ self._chain[k] @ rotate.T
-        return covariance
+        sequential edges between them (the scan matches and odometry; no loop closure: an upper bound). An error
+        of node k's edge (in node k's frame) moves node last by J_k = [[R(theta_k), perp(p_last - p_k)], [0, 1]]."""
+        if last <= first:
+            return np.zeros((3, 3))
+        poses = self._graph.poses[first:last + 1]
+        origin = poses[0]
+        c, s = math.cos(origin[2]), math.sin(origin[2])
+        dx, dy = poses[:, 0] - origin[0], poses[:, 1] - origin[1]
+        x, y, theta = c * dx + s * dy, -s * dx + c * dy, poses[:, 2] - origin[2]
+        jacobians = np.zeros((last - first, 3, 3))
+        jacobians[:, 0, 0] = jacobians[:, 1, 1] = np.cos(theta[1:])
+        jacobians[:, 1, 0] = np.sin(theta[1:])
+        jacobians[:, 0, 1] = -jacobians[:, 1, 0]
+        jacobians[:, 0, 2] = -(y[-1] - y[1:])
+        jacobians[:, 1, 2] = x[-1] - x[1:]
+        jacobians[:, 2, 2] = 1.0
+        covariances = np.asarray(self._chain[first + 1:last + 1])
+        return np.einsum("kij,kjl,kml->im", jacobians, covariances, jacobians)
 
 
 def _information(covariance: np.ndarray, heading: float) -> np.ndarray:
