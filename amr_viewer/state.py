@@ -165,7 +165,8 @@ class RobotState:
         prefix = namespace.strip("/")
         self.prefixed_frames = Frames(frames.map, f"{prefix}/{frames.odom}", f"{prefix}/{frames.base}") \
             if prefix else frames
-        """a fleet on one shared tree (the simulator's `one_tf_tree`, as Stage's): `<name>/odom`, `<name>/base_footprint`"""
+        """a fleet on one shared tree (the simulator's `one_tf_tree`, as Stage's): `<name>/odom`,
+        `<name>/base_footprint`"""
         self.max_particles = max_particles
         self.tree = TransformTree()
         self.versions: Counter[str] = Counter()

@@ -44,7 +44,8 @@ class LoopResult:
 
 
 def run_loop(world: Path | World, config: WallFollowerConfig, seconds: float = SECONDS, **simulation) -> LoopResult:
-    sim = Simulator(world if isinstance(world, World) else load_world(world), SimulationConfig(dt=config.dt, **simulation))
+    world = world if isinstance(world, World) else load_world(world)
+    sim = Simulator(world, SimulationConfig(dt=config.dt, **simulation))
     follower = WallFollower(config)
     lidar = sim.lidar
     commands = []
@@ -61,7 +62,8 @@ def run_loop(world: Path | World, config: WallFollowerConfig, seconds: float = S
     while sim.time < seconds and not sim.goal_reached:
         stamp = round(sim.time * NANOSECONDS_PER_SECOND)
         sync.add(0, stamp, sim.odom_twist)
-        sync.add(1, stamp, ScanData(sim.ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max))
+        scan = ScanData(sim.ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
+        sync.add(1, stamp, scan)
         assert sim.steps + 1 == len(commands), "lockstep broken: the pair of this step was not synchronized"
         sim.step(commands[-1].v, commands[-1].w)
 
