@@ -177,7 +177,9 @@ class Stack:
             f": viewer at {self.url} (no authentication" in output and serving(self.port)
 
     def viewer_failed(self) -> bool:
-        return "the viewer (pid" in self.output()
+        """The port was taken: before amr-bringup started (it refuses the port) or before the viewer bound it."""
+        output = self.output()
+        return "the viewer (pid" in output or "--view: cannot serve on" in output
 
     def _spin(self) -> None:
         try:
