@@ -117,12 +117,23 @@ class SlamConfig:
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
+    lidar_x: float = 0.0
+    """m, the scan's origin ahead of the robot's (base_scan in base_footprint; TurtleBot3 Burger: -0.032)."""
+    lidar_y: float = 0.0
+    """m, the scan's origin left of the robot's."""
+    lidar_yaw: float = 0.0
+    """rad, the scan's angle 0 from the robot's heading."""
 
     def __post_init__(self) -> None:
         positive = ("resolution", "max_range_used", "match_linear_window", "match_angular_window",
                     "loop_search_radius", "loop_linear_window", "loop_angular_window", "max_odometry_jump")
+        signed = ("lidar_x", "lidar_y", "lidar_yaw")
         for item in fields(self):
             value = getattr(self, item.name)
+            if item.name in signed:
+                if not is_finite_number(value) or abs(value) > 10.0:
+                    raise MappingError(f"slam config: {item.name}: must be a finite number within 10, got {value!r}")
+                continue
             if item.name in ("local_window", "loop_max_candidates"):
                 if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                     raise MappingError(f"slam config: {item.name}: must be an integer >= 1, got {value!r}")
@@ -196,6 +207,7 @@ class GraphSlam:
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, CorrelativeMatcher] | None = None
         self._unoptimized = 0  # closures added since the last optimization
+        self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
         self.rejected_closures = 0
         self.ambiguous_closures = 0
         """loop-closure matches that scored but disagreed with the poses (LOOP_CHI2)"""
@@ -232,7 +244,7 @@ class GraphSlam:
         if self._grid is None:
             poses = self._graph.poses
             scans = [(node.ranges, node.angles, node.clear_range) for node in self._nodes]
-            self._grid = _grid_from(poses, scans, self.config)
+            self._grid = _grid_from(poses, scans, self.config, self._mount)
         return self._grid
 
     def save(self, path: str | Path) -> list[Path]:
@@ -278,7 +290,7 @@ class GraphSlam:
         odometry = np.asarray(odometry, dtype=float).reshape(-1)
         if odometry.shape != (3,) or not np.all(np.isfinite(odometry)):
             raise MappingError(f"slam: odometry must be 3 finite numbers (x, y, theta), got {odometry!r}")
-        ranges, angles, points = _beams(scan, self.config.max_range_used)
+        ranges, angles, points = _beams(scan, self.config.max_range_used, self._mount)
         clear_range = min(self.config.max_range_used, float(scan.range_max))
         events: list[str] = []
         if self._odometry is not None:
@@ -536,9 +548,11 @@ def _match_information(matcher: CorrelativeMatcher, points: np.ndarray, pose: np
     return (vectors * values) @ vectors.T
 
 
-def _beams(scan: ScanData, max_range_used: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ranges, angles, points (K, 2)): the ranges kept for mapping (NaN dropped, +inf no return) and the
-    matchable points (finite readings in [range_min, min(range_max, max_range_used)])."""
+def _beams(scan: ScanData, max_range_used: float, mount=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray,
+                                                                                  np.ndarray]:
+    """(ranges, angles, points (K, 2)): the ranges kept for mapping (NaN dropped, +inf no return; in the
+    sensor's frame) and the matchable points (finite readings in [range_min, min(range_max, max_range_used)]) in
+    the robot's frame (the sensor at `mount` (x, y, yaw) of the robot)."""
     ranges = np.asarray(scan.ranges, dtype=float).reshape(-1)
     if not (is_finite_number(scan.angle_min) and is_finite_number(scan.angle_increment)):
         raise MappingError(f"slam: scan angle_min and angle_increment must be finite, got {scan.angle_min!r}, "
@@ -549,17 +563,18 @@ def _beams(scan: ScanData, max_range_used: float) -> tuple[np.ndarray, np.ndarra
     ranges = np.where(ranges < scan.range_min, -np.inf, ranges)  # REP 117: closer than range_min
     ranges = np.where(ranges > scan.range_max, np.inf, ranges)
     usable = np.isfinite(ranges) & (ranges <= max_range_used)
-    points = np.column_stack([ranges[usable] * np.cos(angles[usable]), ranges[usable] * np.sin(angles[usable])])
+    heading = angles[usable] + mount[2]
+    points = np.column_stack([mount[0] + ranges[usable] * np.cos(heading), mount[1] + ranges[usable] * np.sin(heading)])
     mapped = ranges > 0.0  # -inf (too close) is neither a hit nor a free ray
     return ranges[mapped].astype(np.float32), angles[mapped].astype(np.float32), points
 
 
-def _grid_from(poses: np.ndarray, scans, config: SlamConfig) -> OccupancyGrid:
+def _grid_from(poses: np.ndarray, scans, config: SlamConfig, mount=(0.0, 0.0, 0.0)) -> OccupancyGrid:
     """The occupancy grid of the scans (ranges, angles, clear_range) at the poses: a beam without a return
     clears free space up to clear_range (the sensor's range_max, at most max_range_used), not further."""
     grid = LogOddsGrid(config.resolution)
     for pose, (ranges, angles, clear_range) in zip(poses, scans):
-        grid.insert(pose, ranges, angles, clear_range)
+        grid.insert(compose(pose, mount), ranges, angles, clear_range)
     return grid.to_occupancy_grid()
 
 

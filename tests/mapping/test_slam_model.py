@@ -85,3 +85,20 @@ def test_map_in_world_puts_each_cell_at_start_compose_its_slam_position(start):
 def test_map_in_world_refuses_a_start_that_is_not_a_pose():
     with pytest.raises(MappingError, match="start"):
         map_in_world(_one_cell_grid(), (0.0, math.nan, 0.0))
+
+
+def test_the_scan_is_placed_at_the_lidar_mount():
+    """A LiDAR 0.5 m behind the robot's origin (lidar_x -0.5) sees a wall 1 m ahead of the robot at 1.5 m: the
+    map has the wall at x = 1 (without the mount it would be at 1.5), and the points matched are the robot's."""
+    angles = np.linspace(-0.3, 0.3, 61)
+    ranges = 1.5 / np.cos(angles)
+    scan = ScanData(ranges, -0.3, 0.01, 0.1, 5.0)
+    for lidar_x, wall in ((-0.5, 1.0), (0.0, 1.5)):
+        slam = GraphSlam(SlamConfig(lidar_x=lidar_x))
+        slam.add(0, (0.0, 0.0, 0.0), scan)
+        grid = slam.occupancy_grid()
+        rows, cols = np.nonzero(grid.occupied())
+        x, _ = grid.cell_to_world(rows, cols)
+        assert np.median(x) == pytest.approx(wall, abs=0.05)
+    with pytest.raises(MappingError, match="lidar_yaw"):
+        SlamConfig(lidar_yaw=math.inf)
