@@ -18,7 +18,7 @@ world's start pose, so it is the world's frame (what `maze_navigation world:=<wo
 it is). Prints; asserts nothing.
 
     .venv/bin/python bench/bench_mapping.py [--families perfect loops rotated pillars open_room] [--seeds 0 1 2]
-        [--lidar-noise 0.01 0.03] [--encoder-noise 0.02] [--slip 0.05] [--budget 900] [--out DIR]
+        [--lidar-noise 0.01 0.03] [--encoder-noise 0.02] [--slip 0.05] [--budget 900] [--resolution 0.025] [--out DIR]
 """
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ def judge(saved, world) -> dict:
 
 
 def run(context, family: str, seed: int, lidar_noise: float, encoder_noise: float, slip: float, budget: float,
-        out: Path) -> dict:
+        out: Path, resolution: float | None = None) -> dict:
     """One maze_mapping run; the figures of the module docstring."""
     data = generate(family, seed)
     world = world_from_dict(data, source=f"{family} seed {seed}")
@@ -100,6 +100,8 @@ def run(context, family: str, seed: int, lidar_noise: float, encoder_noise: floa
         Path(f"{save_to}{suffix}").unlink(missing_ok=True)
     parameters = {"simulator.lidar.noise_std": str(lidar_noise), "simulator.encoders.noise": str(encoder_noise),
                   "simulator.encoders.slip": str(slip), "simulator.seed": str(seed)}
+    if resolution is not None:
+        parameters["slam.resolution"] = str(resolution)
     started = time.monotonic()
     done_at, state, statuses, blacklisted = None, "", [], 0
     with composed_stack(context, "maze_mapping", arguments={"world": str(world_path), "save_to": str(save_to)},
@@ -156,6 +158,7 @@ def main() -> None:
     parser.add_argument("--slip", type=float, default=0.05)
     parser.add_argument("--budget", type=float, default=900.0, help="s simulated")
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--resolution", type=float, default=None, help="slam's cells (m); default slam.yaml's")
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_mapping_"))
     out.mkdir(parents=True, exist_ok=True)
@@ -170,7 +173,7 @@ def main() -> None:
         for family in args.families:
             for k, seed in enumerate(args.seeds):
                 noise = low + (high - low) * (k / max(1, len(args.seeds) - 1))
-                r = run(context, family, seed, noise, args.encoder_noise, args.slip, args.budget, out)
+                r = run(context, family, seed, noise, args.encoder_noise, args.slip, args.budget, out, args.resolution)
                 if "error" in r:
                     print(f"{r['name']:14s} {r['error']}", flush=True)
                     continue
