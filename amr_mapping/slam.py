@@ -6,19 +6,23 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
 - Nodes: a scan becomes a node when odometry has moved update_min_d (m) or turned update_min_a (rad) since the
   last node (slam_toolbox's minimum_travel_distance / minimum_travel_heading); between nodes the pose is the last
   node's composed with the odometry since.
-- Front end: the node's scan is matched (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a
-  sub-cell refinement) against the local submap, a LogOddsGrid of the last local_window nodes' scans turned into
-  a likelihood field, within +-match_linear_window / +-match_angular_window of the odometry prior. The match
-  gives the edge to the previous node, its information the inverse of the matcher's covariance. A score below
-  min_match_score, or fewer than MIN_BEAMS usable beams, is not fatal: the node is added on odometry alone
-  (information from the odometry model ODOMETRY_SIGMA) and the update's events say so.
-- Submaps for loop closure: every local_window consecutive nodes form a submap, built once in the frame of its
-  middle node (the anchor) from the poses at the time (a submap is rigid, as Cartographer's).
+- Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
+  (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local
+  submap, the likelihood field of the last local_window nodes' scan points, within WINDOW_SIGMAS standard
+  deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most +-match_linear_window /
+  +-match_angular_window. The match's information is the curvature of its score (_match_information); it is
+  fused with the odometry prior as two Gaussians (along a corridor the odometry decides) and the edge to the
+  previous node carries both. A score below min_match_score, or fewer than MIN_BEAMS usable beams, is not fatal:
+  the node is added on odometry alone and the update's events say so.
+- Submaps for loop closure: every local_window consecutive nodes form a submap (scan points, as above), built
+  once in the frame of its middle node (the anchor) from the poses at the time (rigid, as Cartographer's).
 - Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
   (the next updates take the next ones), each by CorrelativeMatcher.match within +-loop_linear_window /
   +-loop_angular_window of the current estimate. A match scoring loop_min_score or more adds a loop-closure edge
-  (anchor, node) and the graph is optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy
+  (anchor, node) unless a rival pose along one of its axes scores nearly as well (ambiguous) or it disagrees
+  with the poses beyond LOOP_CHI2 against its covariance plus the one chained since the anchor; the graph is
+  optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy
   kernel on closures, so a false closure bends the map little). An optimization that fails (MappingError) is
   reported in the events and the poses kept.
 - The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
@@ -208,9 +212,8 @@ class GraphSlam:
         self._local: tuple[int, CorrelativeMatcher] | None = None
         self._unoptimized = 0  # closures added since the last optimization
         self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
-        self.rejected_closures = 0
-        self.ambiguous_closures = 0
-        """loop-closure matches that scored but disagreed with the poses (LOOP_CHI2)"""
+        self.rejected_closures = 0  # closure matches that scored but disagreed with the poses (LOOP_CHI2)
+        self.ambiguous_closures = 0  # closure matches with a rival along an axis (AMBIGUITY_RATIO)
         self._chain: list[np.ndarray] = [np.zeros((3, 3))]  # covariance of the edge (k - 1, k), node k's frame
 
     # -- state -----------------------------------------------------------------------------------------
