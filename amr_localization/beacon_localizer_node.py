@@ -132,6 +132,7 @@ class BeaconLocalizerNode(LocalizerNode):
                 status.event = (f"relocalized: mismatch {update.mismatch:.3f} -> {update.search.cost:.3f}, "
                                 f"{update.search.evaluations} evaluations")
         status.localized = localized
+        status.confidence = 1.0 if localized else 0.0  # the pyramid search's verdict: no probability of its own
         x, y, theta = localizer.pose
         sigma_xy = self._config.resolution
         sigma_theta = reading.compass_noise_std if reading.compass_noise_std > 0.0 else math.radians(1.0)

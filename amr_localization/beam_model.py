@@ -93,7 +93,9 @@ class BeamModel:
         """Predicted range per selected beam from one sensor pose (MapRays)."""
         return self._rays.expected_ranges(sensor, beams)
 
-    def log_likelihood(self, particles: np.ndarray, beams: Beams) -> np.ndarray:
+    def log_likelihood(self, particles: np.ndarray, beams: Beams, weights: np.ndarray | None = None) -> np.ndarray:
+        """(N,) sum over the beams of w_k log p(z_k | particle) (w_k = 1 without `weights`; a beam without a
+        return, which the beam model scores by its max term, weighs as much as the mean returned beam)."""
         p = self.params
         if beams.ranges.size == 0:
             return np.zeros(len(particles))
@@ -104,4 +106,8 @@ class BeamModel:
         short = np.where(z < expected, p.z_short * p.lambda_short * np.exp(-p.lambda_short * z), 0.0)
         maximum = np.where(beams.returned, 0.0, p.z_max)[None, :]
         density = hit + short + maximum + p.z_rand / beams.range_max
-        return np.log(density).sum(axis=1)
+        if weights is None:
+            return np.log(density).sum(axis=1)
+        weights = np.asarray(weights, float)
+        mean = float(weights[beams.returned].mean()) if beams.returned.any() else 1.0
+        return np.log(density) @ np.where(beams.returned, weights, mean)

@@ -103,7 +103,8 @@ class LocalizerNode(ManagedNode):
             self.get_logger().error("the estimate is not finite: nothing published", throttle_duration_sec=WARNING_PERIOD)
             return False
         frame = self._settings["global_frame_id"]
-        self._outputs["pose"].publish(messages.localized_pose(stamp, frame, pose, localized))
+        self._outputs["pose"].publish(messages.localized_pose(stamp, frame, pose, localized, status.confidence,
+                                                              status.runner_up_confidence))
         odom = messages.odometry_pose(odometry)
         if "tf" in self._outputs and all(map(math.isfinite, odom)):
             correction = map_to_odom((pose.x, pose.y, pose.theta), odom)

@@ -78,8 +78,11 @@ def is_finite(estimate: PoseEstimate) -> bool:
         np.isfinite(estimate.covariance).all())
 
 
-def localized_pose(stamp: Time, frame: str, estimate: PoseEstimate, localized: bool) -> LocalizedPose:
-    message = LocalizedPose(localized=bool(localized))
+def localized_pose(stamp: Time, frame: str, estimate: PoseEstimate, localized: bool, confidence: float = 0.0,
+                   runner_up: float = 0.0) -> LocalizedPose:
+    """/pose: the estimate, its covariance, localized, and the best and second best places' probabilities."""
+    message = LocalizedPose(localized=bool(localized), confidence=_probability(confidence),
+                            runner_up_confidence=_probability(runner_up))
     message.header.stamp, message.header.frame_id = stamp, frame
     message.pose = pose_with_covariance(estimate.x, estimate.y, estimate.theta, estimate.covariance)
     return message
@@ -101,5 +104,12 @@ def localizer_status(status: FilterStatus, localized: bool) -> LocalizerStatus:
     """The filter's status (header left for the publisher to stamp)."""
     return LocalizerStatus(
         particles=status.particles, clusters=status.clusters, effective_sample_size=float(status.effective_sample_size),
-        cluster_share=float(status.cluster_share), scan_fit=float(status.fit), injected=status.injected,
+        confidence=_probability(status.confidence), runner_up_confidence=_probability(status.runner_up),
+        beams=float(status.beams), scan_weight=_probability(status.scan_weight), injected=status.injected,
         updated=status.updated, update_time=float(status.update_time), localized=bool(localized), event=status.event)
+
+
+def _probability(value: float) -> float:
+    """A probability for a message: in [0, 1], 0 for anything non-finite (nothing non-finite is published)."""
+    value = float(value)
+    return min(max(value, 0.0), 1.0) if math.isfinite(value) else 0.0

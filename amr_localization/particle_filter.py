@@ -1,48 +1,30 @@
-"""Monte Carlo localization on an occupancy grid: global localization, tracking and recovery.
+"""Monte Carlo localization on an occupancy grid: global localization, tracking and recovery, one model.
 
-Each call to update(odometry, scan=..., beacons=...) does, in this order:
+Each call to update(odometry, scan=..., beacons=..., stamp=...) does, in this order:
 
-1. motion: once odometry has moved update_min_d / update_min_a since the last
-   filter update, every particle samples the accumulated increment
-   (motion_model.py); particles whose move leaves free space are killed;
-2. measurement: weights *= p(z | x)^beta, by the likelihood field
-   (default) or the beam model for a scan (its log-likelihood scaled by
-   likelihood_exponent: 60 beams on one map are far from independent), by the
-   beacon model for ranges, with beta <= 1 tempered so that one update cannot
-   wipe out most hypotheses (tempering.py); until localized is declared, the
-   places the evidence ledger follows (evidence_ledger.py: those the rival
-   search finds from the first scan on and the estimate's, moved by the
-   odometry, re-fitted to each scan) add the scan's log-likelihood, untempered
-   and with the beams' free paths checked, to their accumulated evidence, and
-   particles at a place it has ruled out die;
-3. resampling, when N_eff < resample_threshold N: systematic, to
-   max_particles while the particles form several clusters (the course's
-   rule: every candidate place keeps thousands of particles, so that chance
-   alone does not erase one of two places that look the same) and, once a
-   single cluster holds the weight, to as many as KLD-sampling asks for; a
-   share of them drawn at random over free space when the likelihood collapsed
-   (augmented MCL);
-4. clusters and estimate: the heaviest cluster's weighted mean pose and
-   covariance; `localized` is declared after localized_confirmations updates
-   in a row with one cluster holding localized_min_cluster_share of the weight,
-   its spread under the position and heading limits and the scan fitting its
-   pose (scan_fit.py), no more than see_through_max_share of the scan's beams
-   reading through the map's walls there (other robots hiding the walls that
-   tell a look-alike place apart: unexpected_obstacles.seen_through), and no
-   other place explains the recent scans as well (the rival search) unless
-   the ledger's evidence since it began following that place rules it out;
-   withdrawn as soon as the cluster's share, spread or
-   fit goes beyond the withdrawal margins (hysteresis, see WITHDRAW_*), or when,
-   searched again every recheck_updates updates, another place explains the
-   recent scans clearly better (a kidnapping into a look-alike place); when one
-   cluster holds the weight but the scan keeps not fitting it for lost_updates
-   updates, the robot is lost (kidnapped): global localization restarts.
+1. motion: once odometry has moved update_min_d / update_min_a since the last filter update, every
+   particle samples the accumulated increment (motion_model.py) and every place hypothesis moves by it;
+   a particle or hypothesis whose end pose is not in free space has probability 0 (the map prior).
+   Odometry moving faster than max_odometry_speed is a reset of odometry, not motion;
+2. measurement: log w_i += g sum_k w_k log p(z_k | x_i), the likelihood field (or beam model) mixture
+   with its hit and random terms, each beam weighted by how many others share its stretch of wall and the
+   scan by how far the robot moved since the last one (beam_correlation.py); beacon ranges count fully.
+   A measurement sharper than the particles can follow is applied in stages with resampling between them
+   (progressive_correction.py), all of it in the end;
+3. resampling, when N_eff < resample_threshold N: systematic, to max_particles while the belief holds
+   several places and to what KLD-sampling asks for once one place holds it, each particle moved by the
+   regularized filter's kernel; a share drawn at random over free space when the likelihood collapsed
+   (augmented MCL, recovery_alpha_slow / _fast);
+4. place hypotheses (hypotheses.py): born from the particles' clusters and from the place search
+   (amr_maps.scan_matcher: a budgeted branch-and-bound correlative search of the whole map), each fitted to
+   the scan and scored by the same measurement model, with their posterior probabilities; the particles are
+   made to agree with them (a likely place without particles gets a cloud);
+5. the estimate: the best hypothesis's particles' weighted mean, fitted to the scan by the matcher, and their
+   covariance. Its confidence is the best hypothesis's probability times the share of the belief the
+   hypotheses hold, and 0 until a place search has covered the map (or a pose was given, or beacons were
+   read): localized is declared at localized_probability and withdrawn under release_probability.
 
-Between filter updates the estimate follows odometry, so every call returns a
-pose. A particle filter in a world with symmetric places keeps one cluster per
-place, so it does not declare itself localized until the symmetry is broken;
-where one feature seen for a few seconds per lap breaks it, the ledger keeps
-what was seen (docs/localization_symmetry.md).
+Between filter updates the estimate follows odometry, so every call returns a finite pose.
 """
 
 from __future__ import annotations
@@ -50,54 +32,70 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import dataclass, field, replace
-from typing import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
 from amr_localization.augmented_mcl import RecoveryRate
 from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons, same_beacons
+from amr_localization.beam_correlation import beam_weights, beams_in_view, scan_weight
 from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
 from amr_localization.errors import BeaconError, LocalizationError, OdometryError
-from amr_localization.evidence_ledger import EvidenceLedger, LedgerParams
 from amr_localization.free_space import FreeSpace
+from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
-from amr_localization.motion_model import OdometryNoise, odometry_increment, sample_motion_model_odometry
+from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
+from amr_localization.progressive_correction import MAX_STAGES, stage_exponent
 from amr_localization.resampling import effective_sample_size, systematic_resample
-from amr_localization.rival_check import (PlaceSearch, RivalCheckParams, Snapshot, find_rivals, history_score,
-                                          search_places)
 from amr_localization.scan_beams import Beams, select_beams
-from amr_localization.scan_fit import scan_fit
 from amr_localization.sensor_mount import SensorMount
-from amr_localization.tempering import tempered_exponent
-from amr_localization.unexpected_obstacles import MapRanges, seen_through, unexpected, without_unexpected
 from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
 from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
 
-WITHDRAW_SPREAD_FACTOR = 2.0
-"""localized is withdrawn when the spread exceeds this many times the declaration limit ..."""
-WITHDRAW_MARGIN = 0.15
-"""... or the cluster's share or the fit falls this far below their declaration limits."""
-LEDGER_MARGIN = 0.5
-"""per-beam log-likelihood: places the rival search finds within this of the estimate enter the evidence ledger."""
-LEDGER_BEAMS = 180
-"""beams of each scan the evidence ledger weighs its few places on."""
-LEDGER_SEED_SHARE = 0.5
-"""the ledger, when it begins (it follows nothing), follows the heaviest cluster's place too if it holds this share."""
-SEE_THROUGH_BEAMS = 360
-"""beams of the scan the see-through check counts (every one of a 1-degree LiDAR's)."""
-MAX_LOG_ODDS = 50.0
-"""a rival's cloud is at most e^50 times as heavy as the estimate's cluster (numbers stay finite)."""
-LEDGER_WALL_TOLERANCE = 0.1
-"""m: a ledger entry is ruled out for leaving free space only this far past the particles' border (free cells
-free_space_clearance minus this from a wall): its pose is fitted to the scans to a few cm, and the true place's
-entry, 5.5 cm off a robot turning 0.10 m from a wall, was ruled out for good and a look-alike declared (issue 22)."""
+KLD_BIN_SIZE = 0.1
+"""m, x and y side of a KLD histogram bin (AMCL's 0.5 m is for 10 cm maps; the maze worlds are 2 cm)."""
+KLD_BIN_ANGLE = math.radians(10.0)
+"""rad, heading side of a KLD histogram bin (AMCL's)."""
+CLUSTER_MIN_SIZE = 10
+"""particles a cell needs to be part of a cluster (a place hypothesis's birth)."""
+CLOUD_SPREAD = (0.05, 0.05, math.radians(3.0))
+"""m, m, rad: std of the cloud a likely place without particles gets."""
+MIN_CLOUD = 50
+"""particles at least in such a cloud."""
+WINDOW = 5.0
+"""scans' worth of evidence (the sum of their scan weights: 5 scans a metre apart, or 1 m of a dense stream) kept
+with their odometry and weights, that a new hypothesis is scored on against the strongest ..."""
+WINDOW_SCANS = 200
+"""... in at most this many scans."""
+PLACE_SEARCH_CELLS = 1_000_000
+"""the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
+proposals are then fitted on the map itself) ..."""
+PLACE_SEARCH_RANGE = 10.0
+"""m: ... with the beams ending within this of the LiDAR (the far ones set the angular step, not the place)."""
+SEARCH_PROPOSALS = 4
+"""places a completed place search proposes, and the heaviest particle clusters proposed each update."""
+FIT_WINDOW = 0.06
+"""m: a place hypothesis is fitted to each scan within this of its pose (odometry's drift between two updates) ..."""
+FIT_ANGLE = math.radians(4.0)
+"""rad: ... and this of its heading."""
+FREE_PATH_MARGIN = 0.1
+"""m: a beam of a place hypothesis that goes through a wall of the map this far short of its end point reads as a
+random reading (LikelihoodField.log_likelihood_free_path)."""
+NUDGES = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=float)
+"""offsets (in cells and half degrees) within which each beam of a place hypothesis is scored at its best."""
+ANYWHERE = 256
+"""poses spread over free space (fixed per filter) on which the data's marginal likelihood over the map is estimated
+(the `elsewhere` hypothesis: hypotheses.py)."""
+DEFAULT_PERIOD = 0.05
+"""s between two observations when no stamps are given (the simulator's 20 Hz)."""
 
 
 @dataclass
@@ -106,21 +104,24 @@ class FilterStatus:
 
     particles: int = 0
     clusters: int = 0
+    """place hypotheses followed."""
     effective_sample_size: float = 0.0
-    cluster_share: float = 0.0
-    fit: float = 0.0
+    confidence: float = 0.0
+    """the best place's probability, discounted by the belief outside every place (0..1)."""
+    runner_up: float = 0.0
+    """the second best place's probability."""
+    beams: float = 0.0
+    """independent beams the last scan counted as (beam_correlation.beams_in_view) ..."""
+    scan_weight: float = 0.0
+    """... and the share of it that counted (the scan correlation)."""
     injected: int = 0
     killed: int = 0
-    beta: float = 0.0
-    """the tempering exponent of the last measurement update."""
     updated: bool = False
     """whether this call ran a filter update (False: odometry had not moved enough, or no data)."""
     update_time: float = 0.0
     """s of CPU for this call."""
-    unexpected: int = 0
-    """beams of the last scan dropped as unexpected obstacles (reading short of the map at the estimate)."""
     event: str = ""
-    """the last notable event (global re-initialization, skipped scan and why)."""
+    """the last notable event (global re-initialization, skipped scan and why, odometry reset)."""
 
 
 @dataclass(frozen=True)
@@ -128,6 +129,19 @@ class Estimate:
     pose: PoseEstimate
     localized: bool
     status: FilterStatus = field(default_factory=FilterStatus)
+
+    @property
+    def confidence(self) -> float:
+        return self.status.confidence
+
+
+class _Seen(NamedTuple):
+    """A scan used, for scoring hypotheses born later: the odometry then, its beams, their weights, its gain."""
+
+    odometry: tuple[float, float, float]
+    beams: Beams
+    weights: np.ndarray
+    gain: float
 
 
 class ParticleFilter:
@@ -143,6 +157,7 @@ class ParticleFilter:
         self.config = config = config or ParticleFilterConfig()
         self.field = DistanceField(grid)
         self.free_space = FreeSpace(self.field, config.free_space_clearance)
+        self._open_space = FreeSpace(self.field, 0.0)  # free cells: where a place hypothesis may be
         self.mount = SensorMount(config.lidar_x, config.lidar_y, config.lidar_yaw)
         self.noise = OdometryNoise(config.alpha1, config.alpha2, config.alpha3, config.alpha4)
         if config.laser_model_type == "beam":
@@ -150,21 +165,17 @@ class ParticleFilter:
         else:
             params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
             self._laser = LikelihoodField(self.field, params, self.mount, range_max)
-        self._scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.sigma_hit), self.mount, range_max)
-        self._map_ranges = MapRanges(self.field, self.mount)
-        self._coarse_scorer = LikelihoodField(self.field, LikelihoodFieldParams(config.rival_coarse_sigma), self.mount,
-                                              range_max)
-        self._rival_params = RivalCheckParams(margin=config.rival_margin)
-        ledger_space = FreeSpace(self.field, max(0.0, config.free_space_clearance - LEDGER_WALL_TOLERANCE))
-        self._ledger = EvidenceLedger(self._scorer, ledger_space,
-                                      LedgerParams(threshold=config.evidence_threshold,
-                                                   dead_zone=config.evidence_dead_zone))
-        self._history: deque[Snapshot] = deque(maxlen=config.history_length)  # scans history_spacing apart
-        self._newest: Snapshot | None = None  # ... and the newest since the last of them
+        self._grid = grid
+        self._matcher: CorrelativeMatcher | None = None  # built at first use
+        self._coarse: tuple[CorrelativeMatcher, np.ndarray] | None = None  # the place search's, built at first use
         self.beacons = checked_beacons(beacons) if beacons is not None else None
         self._recovery = RecoveryRate(config.recovery_alpha_slow, config.recovery_alpha_fast)
         self._rng = np.random.default_rng(config.seed)
         self._odometry: tuple[float, float, float] | None = None  # odometry at the last filter update
+        self._stamp: float | None = None
+        self.hypotheses = PlaceHypotheses()
+        self._anywhere = self.free_space.sample(ANYWHERE, np.random.default_rng(config.seed))
+        self._window: deque[_Seen] = deque(maxlen=WINDOW_SCANS)
         self.reinitialize_global()
 
     def retune(self, config: ParticleFilterConfig) -> None:
@@ -192,7 +203,8 @@ class ParticleFilter:
         self._reset_belief()
 
     def initialize_pose(self, x: float, y: float, theta: float, covariance: np.ndarray | None = None) -> None:
-        """Particles around a given pose (RViz's 2D Pose Estimate); covariance 3x3 over x, y, theta."""
+        """Particles around a given pose (RViz's 2D Pose Estimate); covariance 3x3 over x, y, theta. The pose is
+        the one place hypothesis until the scans propose others."""
         if not all(map(math.isfinite, (x, y, theta))):
             raise LocalizationError(f"initial pose: must be finite, got ({x}, {y}, {theta})")
         covariance = np.diag([0.25**2, 0.25**2, (math.pi / 12) ** 2]) if covariance is None else np.asarray(covariance, float)
@@ -209,28 +221,28 @@ class ParticleFilter:
         self.particles = inside[:count] if len(inside) >= count else inside[self._rng.integers(0, len(inside), count)]
         self.particles[:, 2] = wrap_angle(self.particles[:, 2])
         self._reset_belief()
+        self.hypotheses.add(np.array([[x, y, float(wrap_angle(theta))]]), np.zeros(1))
+        self._covered = True  # the given pose is the prior: no place elsewhere needs searching first
 
     def _reset_belief(self) -> None:
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
         self._recovery.reset()
         self._localized = False
-        self._contested = False
-        self._withdrawn_from: np.ndarray | None = None  # while contested: the place localized was withdrawn from
-        self._confirmations = 0
-        self._misfits = 0
-        self._since_recheck = 0
-        self._moved_since_resample = False
+        self._declared: np.ndarray | None = None  # the place localized was declared at, moved by odometry
         self._pending_measurement = True
+        self._moved = (0.0, 0.0)  # m and rad since the last scan used
         self._estimate_odometry = self._odometry
-        self._history.clear()
-        self._newest = None
-        self._ledger.clear()
-        self.rivals = np.zeros((0, 3))
-        self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
-                                           self.config.cluster_min_size)
-        self._estimate = self._cluster_estimate()
-        self.status = FilterStatus(particles=len(self.particles), clusters=self._clusters.count,
-                                   effective_sample_size=float(len(self.particles)))
+        self._search: tuple[GlobalSearch, tuple[float, float, float]] | None = None
+        self.hypotheses.clear()
+        self._window.clear()
+        self._shares = np.zeros(0)
+        self._covered = self.config.place_search_budget == 0
+        """whether the hypotheses cover the map: a place search finished since the belief was spread (or a pose
+        was given, or there is no place search). Until then no hypothesis's probability is a probability over
+        the whole map: the confidence is 0."""
+        self._outside = 1.0
+        self._estimate = weighted_pose(self.particles, self.weights)
+        self.status = FilterStatus(particles=len(self.particles), effective_sample_size=float(len(self.particles)))
 
     # -- the update ----------------------------------------------------------------------
 
@@ -243,402 +255,420 @@ class ParticleFilter:
         odometry: tuple[float, float, float],
         scan: ScanData | None = None,
         beacons: BeaconReading | None = None,
+        stamp: float | None = None,
     ) -> Estimate:
-        """One observation: odometry pose (x, y, theta in the odom frame) and optionally a scan and/or beacon
-        ranges. Returns the estimate (map frame). Raises LocalizationError on malformed input; the filter's
-        state is unchanged then."""
+        """One observation: odometry pose (x, y, theta in the odom frame), optionally a scan and/or beacon ranges,
+        and the observation's stamp (s; without one, observations are taken DEFAULT_PERIOD apart). Returns the
+        estimate (map frame). Raises LocalizationError on malformed input; the filter's state is unchanged then."""
         started = time.process_time()
         odometry = tuple(float(v) for v in odometry)
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):
             raise OdometryError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
+        if stamp is not None and not math.isfinite(float(stamp)):
+            raise OdometryError(f"stamp: must be a finite number of s, got {stamp!r}")
         selected = select_beams(scan, self.config.max_beams, self.config.laser_model_type == "beam") if scan is not None else None
         if beacons is not None and self.beacons is None:
             raise BeaconError("beacon ranges: this filter was built without beacon positions")
         if beacons is not None and len(beacons.ranges) != len(self.beacons):
             raise BeaconError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
-        self.status = FilterStatus(particles=len(self.particles), clusters=self._clusters.count,
-                                   effective_sample_size=self.status.effective_sample_size,
-                                   cluster_share=self.status.cluster_share, fit=self.status.fit)
+        previous = self.status
+        self.status = FilterStatus(particles=len(self.particles), clusters=len(self.hypotheses),
+                                   effective_sample_size=previous.effective_sample_size,
+                                   confidence=previous.confidence, runner_up=previous.runner_up)
+        elapsed = DEFAULT_PERIOD if stamp is None or self._stamp is None else max(float(stamp) - self._stamp, 0.0)
+        if stamp is not None:
+            self._stamp = float(stamp)
         if self._odometry is None:
             self._odometry = self._estimate_odometry = odometry
         else:
-            self._predict(odometry)
+            self._predict(odometry, elapsed)
         if selected is not None and not selected.returned.any():
             self.status.event = "scan skipped: no valid return (NaN, inf or out of range everywhere)"
+            selected = None
         if self._pending_measurement and (selected is not None or beacons is not None):
-            self._measure(selected, beacons, scan)
+            self._measure(selected, beacons)
         self.status.update_time = time.process_time() - started
         return Estimate(self._current_pose(odometry), self._localized, self.status)
 
-    def _predict(self, odometry: tuple[float, float, float]) -> None:
-        _, d_trans, _ = odometry_increment(self._odometry, odometry)
-        d_theta = abs(float(wrap_angle(odometry[2] - self._odometry[2])))
-        if d_trans > self.config.max_odometry_jump:
-            # a robot does not move this far between two observations: odometry was reset or is corrupt
-            # re-anchor so that the pose reported stays where it was: est_odom' = new (+) old^-1 (+) est_odom
+    def _predict(self, odometry: tuple[float, float, float], elapsed: float) -> None:
+        increment = relative_pose(self._odometry, odometry)
+        d_trans = math.hypot(increment[0], increment[1])
+        d_theta = abs(float(increment[2]))
+        if d_trans > self.config.max_odometry_speed * max(elapsed, DEFAULT_PERIOD):
+            # a robot does not move this fast: odometry was reset or is corrupt. Re-anchor so that the pose reported
+            # stays where it was: est_odom' = new (+) old^-1 (+) est_odom
             if self._estimate_odometry is not None:
                 since_estimate = relative_pose(self._odometry, self._estimate_odometry)
                 self._estimate_odometry = tuple(compose(np.array([odometry]), since_estimate)[0])
             self._odometry = odometry
-            self.status.event = f"odometry jumped {d_trans:.2f} m: ignored as motion, the filter carries on from here"
+            self.status.event = (f"odometry jumped {d_trans:.2f} m in {elapsed:.2f} s: taken as a reset, not as motion; "
+                                 "the filter carries on from here")
             return
         if d_trans < self.config.update_min_d and d_theta < self.config.update_min_a:
             return
         moved = sample_motion_model_odometry(self.particles, self._odometry, odometry, self.noise, self._rng)
-        self._ledger.move(relative_pose(self._odometry, odometry))
-        if self._withdrawn_from is not None:
-            self._withdrawn_from = compose(self._withdrawn_from[None, :], relative_pose(self._odometry, odometry))[0]
-        alive = self.free_space.segments_free(self.particles[:, :2], moved[:, :2])
+        alive = self.free_space.contains(moved[:, 0], moved[:, 1])
         self.particles = moved
-        self.status.killed = int(np.count_nonzero(~alive))
+        self.status.killed = int(np.count_nonzero(~alive & (self.weights > 0.0)))
         self.weights = np.where(alive, self.weights, 0.0)
+        self.hypotheses.move(increment)
+        if self._declared is not None:
+            self._declared = np.asarray(compose(self._declared, increment), dtype=float)
+        if len(self.hypotheses):  # a place is impossible where its pose is in a wall (not merely near one)
+            self.hypotheses.keep(self._open_space.contains(self.hypotheses.poses[:, 0], self.hypotheses.poses[:, 1]))
+        self._moved = (self._moved[0] + d_trans, self._moved[1] + d_theta)
         self._odometry = odometry
         self._pending_measurement = True
         if not self.weights.any():
             self.reinitialize_global()
-            self.status.event = "every particle moved into a wall: global localization restarted"
+            self.status.event = "every particle moved out of free space: global localization restarted"
 
-    def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
-        scanned = beams is not None and bool(beams.returned.any())
-        if scanned:
-            whole, beams = beams, self._expected(beams, count=True)
-            self._remember(beams, whole)
-            if len(self._ledger):  # first: it may kill particles at ruled-out places, or add clouds
-                self._observe_evidence(scan, int(np.count_nonzero(beams.returned)))
-        log_likelihood = np.zeros(len(self.particles))
-        used = 0
-        if scanned:
-            # scan beams are not independent: their log-likelihood counts likelihood_exponent times
-            log_likelihood += self.config.likelihood_exponent * self._laser.log_likelihood(self.particles, beams)
-            used += int(np.count_nonzero(beams.returned))
+    def _measure(self, beams: Beams | None, beacons: BeaconReading | None) -> None:
+        config = self.config
+        seen = None
+        used = 0.0
+        if beams is not None:
+            weights = beam_weights(beams, config.beam_correlation_length)
+            gain = scan_weight(*self._moved, config.scan_correlation_distance) if self._window or len(self.hypotheses) \
+                else 1.0
+            seen = _Seen(self._odometry, beams, weights, gain)
+            used += gain * beams_in_view(weights)
+            self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
-            log_likelihood += beacon_log_likelihood(self.particles, self.beacons, beacons,
-                                                    self.config.beacon_sigma_range, self.config.beacon_sigma_compass)
             used += len(self.beacons) + 1
-        if used == 0:
+            self._covered = True  # ranges to landmarks score every place of the map smoothly: no search needed
+        if used <= 0.0:
             return
-        alive = self.weights > 0.0
-        log_prior = np.full(len(self.particles), -np.inf)
-        log_prior[alive] = np.log(self.weights[alive])
-        beta = tempered_exponent(log_prior, log_likelihood, 1.0, self.config.tempering_min_ess_ratio)
-        self.status.beta = beta
-        log_weight = log_prior + beta * log_likelihood
-        peak = log_weight.max()
-        weights = np.exp(log_weight - peak)
-        total = weights.sum()
-        if not (math.isfinite(peak) and total > 0.0):
-            self.reinitialize_global()
-            self.status.event = "no particle could explain the data: global localization restarted"
-            return
-        # augmented MCL: the average per-measurement likelihood (a geometric mean over the beams, so that
-        # it neither underflows nor depends on the beam count), prior-weighted over the particles
-        per_beam = np.exp(np.clip(log_likelihood / used, -700.0, 700.0))
-        self._recovery.update(float(self.weights[alive] @ per_beam[alive] / self.weights[alive].sum()))
-        self.weights = weights / total
+        remaining = 1.0
+        for stage in range(MAX_STAGES):
+            log_likelihood = self._log_likelihood(self.particles, seen, beacons)
+            alive = self.weights > 0.0
+            log_prior = np.full(len(self.particles), -np.inf)
+            log_prior[alive] = np.log(self.weights[alive])
+            if stage == 0:
+                # augmented MCL: the average per-beam likelihood (a geometric mean over the counted beams, so that it
+                # neither underflows nor depends on the beam count), prior-weighted over the particles
+                per_beam = np.exp(np.clip(log_likelihood / used, -700.0, 700.0))
+                self._recovery.update(float(self.weights[alive] @ per_beam[alive] / self.weights[alive].sum()))
+            step = remaining if stage == MAX_STAGES - 1 else \
+                stage_exponent(log_prior, log_likelihood, remaining, config.resample_threshold)
+            log_weight = log_prior + step * log_likelihood
+            peak = log_weight.max()
+            if not math.isfinite(peak):
+                self.reinitialize_global()
+                self.status.event = "no particle could explain the data: global localization restarted"
+                return
+            weights = np.exp(log_weight - peak)
+            self.weights = weights / weights.sum()
+            remaining -= step
+            if remaining <= 1e-9:
+                break
+            self._resample()  # between stages: the particles follow the part applied so far
+        self._moved = (0.0, 0.0)
         self._pending_measurement = False
         neff = effective_sample_size(self.weights)
         self.status.effective_sample_size = neff
-        if neff < self.config.resample_threshold * len(self.particles):
-            self._resample()
-        self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
-                                           self.config.cluster_min_size)
-        self._estimate = self._cluster_estimate()
+        if neff < config.resample_threshold * len(self.particles):
+            self._resample(self._sample_count())
+        self._weigh_places(seen, beacons)
+        count = self._sample_count()
+        if count < len(self.particles):  # KLD-sampling, on the places as they are now, asks for fewer particles
+            self._resample(count)
+        if seen is not None:
+            self._window.append(seen)
+            while sum(past.gain for past in self._window) - self._window[0].gain >= WINDOW:
+                self._window.popleft()
         self._estimate_odometry = self._odometry
-        self._decide_localized(beams, scan)
         self.status.updated = True
         self.status.particles = len(self.particles)
-        self.status.clusters = self._clusters.count
+        self.status.clusters = len(self.hypotheses)
 
-    def _observe_evidence(self, scan: ScanData, used: int) -> None:
-        """The ledger weighs its places on LEDGER_BEAMS beams (a doorway a few degrees wide falls between the
-        filter's max_beams), each scan counting as much as it does for the particles."""
-        beams = self._expected(select_beams(scan, LEDGER_BEAMS, keep_no_return=True))  # no return: a free path too
-        short_of = None
-        if self._contested and self.config.unexpected_obstacles:  # a beam short at any place it follows: no evidence
-            margin = self._ledger.params.free_path_margin
-            short_of = lambda poses: np.array([unexpected(self._map_ranges, pose, beams, margin) for pose in poses])
-        self._ledger.observe(beams, self.config.likelihood_exponent * used / max(len(beams.ranges), 1), short_of)
-        self._prune_ruled_out()
+    # -- places -------------------------------------------------------------------------
 
-    def _prune_ruled_out(self) -> None:
-        """Particles at a place the evidence ledger has ruled out die, as those that cross a wall do; if that
-        leaves none (the particles all sit at ruled-out places), the places the ledger still follows get
-        clouds first, as heavy as their odds."""
-        ledger = self._ledger
-        out = ledger.ruled_out()
-        if out.all():  # every place it followed left free space: it knows nothing any more
-            ledger.clear()
-        if not out.any() or out.all():
+    def _weigh_places(self, seen: _Seen | None, beacons: BeaconReading | None) -> None:
+        """Step 4: the hypotheses observe the data, new ones are born from the clusters and the place search, the
+        particles are made to agree with their probabilities, and the estimate and localized follow."""
+        hypotheses = self.hypotheses
+        if len(hypotheses) and seen is not None:
+            hypotheses.poses = self._fitted(hypotheses.poses, seen)
+        if len(hypotheses):
+            anywhere = self._log_likelihood(self._anywhere, seen, beacons)
+            marginal = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
+            hypotheses.observe(self._log_likelihood(hypotheses.poses, seen, beacons, places=True), marginal)
+        clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius, CLUSTER_MIN_SIZE,
+                                     self.particles[:, 2])
+        candidates = [weighted_pose(self.particles[clusters.labels == label], self.weights[clusters.labels == label])
+                      for label in range(min(clusters.count, MAX_HYPOTHESES))]
+        poses = np.array([[c.x, c.y, c.theta] for c in candidates]).reshape(-1, 3)
+        if seen is not None:
+            poses = np.vstack([self._fitted(poses, seen), self._search_places(seen)])
+        self._admit(poses, seen, beacons)
+        hypotheses.merge()
+        self._agree()
+        self._decide(seen)
+
+    def _admit(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> None:
+        """Each candidate pose re-anchors the hypothesis it is where the data fit it better there (the best such
+        candidate wins), or is born."""
+        hypotheses = self.hypotheses
+        index = hypotheses.find(poses)
+        fit = self._log_likelihood(poses, seen, beacons, places=True)
+        held = self._log_likelihood(hypotheses.poses, seen, beacons, places=True) if len(hypotheses) else fit[:0]
+        born = []
+        for pose, which, score in zip(poses, index, fit):
+            if which >= 0:
+                if score > held[which]:
+                    hypotheses.reanchor(int(which), pose)
+                    held[which] = score
+            elif not born or not (np.hypot(*(np.array(born)[:, :2] - pose[:2]).T) <= MERGE_DISTANCE).any():
+                born.append(pose)
+        if not born:
             return
-        doomed = np.zeros(len(self.particles), dtype=bool)
-        for index in np.flatnonzero(out):
-            doomed |= ledger.near(self.particles, index)
-        for index in np.flatnonzero(~out):
-            doomed &= ~ledger.near(self.particles, index)
-        alive = self.weights > 0.0
-        if not (alive & ~doomed).any():
-            count = len(self.particles)
-            self._adopt_rivals(ledger.poses[~out], np.exp(ledger.evidence[~out]))
-            doomed = np.concatenate([doomed, np.zeros(len(self.particles) - count, dtype=bool)])
-            alive = self.weights > 0.0
-        self.status.killed += int(np.count_nonzero(doomed & alive))
-        self.weights = np.where(doomed, 0.0, self.weights)
-        self.weights /= self.weights.sum()
+        born = np.array(born)
+        if len(hypotheses):
+            # at most as likely as the strongest: a place overtakes it only by the scans it is followed through
+            reference = hypotheses.poses[:1]
+            gain = np.minimum(self._window_score(born, seen, beacons) - self._window_score(reference, seen, beacons)[0],
+                              0.0)
+        else:
+            gain = self._window_score(born, seen, beacons)
+            gain = gain - gain.max()
+        hypotheses.add(born, gain)
 
-    def _expected(self, beams: Beams, count: bool = False) -> Beams:
-        """The beams without those ending on something not on the map (another robot): reading short of the
-        map's range at the estimate, once one cluster holds the weight (unexpected_obstacles.py). While contested
-        (a recheck withdrew localized for a place elsewhere): short at any cluster heavy enough to stand in the way
-        of a declaration, so that the places are weighed on the beams that none of them reads as ending on
-        something unmapped (a beam on another robot where a look-alike place has a wall must not decide)."""
+    def _agree(self) -> None:
+        """The particles near each hypothesis (within MERGE_DISTANCE and MERGE_ANGLE) hold its probability's share
+        of the belief the hypotheses hold; a likely place with no particle gets a cloud (sensor resetting)."""
+        hypotheses = self.hypotheses
+        probabilities = hypotheses.probabilities()
+        owner = hypotheses.find(self.particles)
+        outside = float(self.weights[owner < 0].sum())
+        clouds, cloud_weights = [], []
+        for index, probability in enumerate(probabilities):
+            member = owner == index
+            target = probability * (1.0 - outside)
+            mass = float(self.weights[member].sum())
+            if mass > 0.0:
+                self.weights[member] *= target / mass
+            elif target * len(self.particles) >= 1.0:
+                count = max(MIN_CLOUD, int(round(target * len(self.particles))))
+                cloud = hypotheses.poses[index] + self._rng.standard_normal((count, 3)) * CLOUD_SPREAD
+                cloud[:, 2] = wrap_angle(cloud[:, 2])
+                inside = self.free_space.contains(cloud[:, 0], cloud[:, 1])
+                if inside.any():
+                    clouds.append(cloud[inside])
+                    cloud_weights.append(np.full(int(inside.sum()), target / inside.sum()))
+        if clouds:
+            self.particles = np.concatenate([self.particles, *clouds])
+            self.weights = np.concatenate([self.weights, *cloud_weights])
+            self.status.injected += sum(len(c) for c in clouds)
+        total = self.weights.sum()
+        self.weights = self.weights / total if total > 0.0 else np.full(len(self.weights), 1.0 / len(self.weights))
+        self._shares = probabilities
+        self._outside = outside
+
+    def _decide(self, seen: _Seen | None) -> None:
+        """The estimate is the best hypothesis's particles' mean; localized follows its confidence with hysteresis."""
         config = self.config
-        if not config.unexpected_obstacles or not self._clusters.count or \
-                self._clusters.weights[0] < config.unexpected_min_cluster_share:
-            return beams
-        estimate = self._current_pose(self._odometry)
-        poses = [np.array([estimate.x, estimate.y, estimate.theta])]
-        if self._contested:
-            poses += self._cluster_poses(1.0 - config.localized_min_cluster_share)[1:]
-        kept, dropped = without_unexpected(self._map_ranges, np.array(poses), beams, config.unexpected_obstacle_margin,
-                                           config.unexpected_obstacle_max_share)
-        if count:
-            self.status.unexpected = dropped
-        return kept
+        hypotheses = self.hypotheses
+        if not len(hypotheses):
+            self._estimate = weighted_pose(self.particles, self.weights)
+            confidence = runner_up = 0.0
+        else:
+            member = hypotheses.find(self.particles) == 0
+            self._estimate = weighted_pose(self.particles[member], self.weights[member]) if member.any() else \
+                PoseEstimate(*map(float, hypotheses.poses[0]), np.diag([MERGE_DISTANCE**2] * 2 + [MERGE_ANGLE**2]))
+            if seen is not None:
+                self._estimate = self._refined(self._estimate, seen)
+            hypotheses.reanchor(0, np.array([self._estimate.x, self._estimate.y, self._estimate.theta]))
+            held = (1.0 - self._outside) if self._covered else 0.0  # the belief the hypotheses hold
+            confidence = float(self._shares[0]) * held
+            runner_up = float(self._shares[1]) * held if len(self._shares) > 1 else 0.0
+        threshold = config.release_probability if self._localized else config.localized_probability
+        moved_on = self._localized and not hypotheses.same_place(self._declared)
+        self._localized = confidence >= threshold and not moved_on
+        if moved_on:  # the place declared is no longer the best: withdrawn; the new best must earn its own declaration
+            self.status.event = "localized withdrawn: another place explains the scans better than the one declared"
+        self._declared = hypotheses.poses[0].copy() if self._localized else None
+        self.status.confidence, self.status.runner_up = confidence, runner_up
 
-    def _remember(self, beams: Beams, whole: Beams) -> None:
-        """Keep scans history_spacing apart for the rival check, and the newest one: the beams the particles were
-        weighed on (without those reading short at the estimate) and, for the recheck while localized, the whole
-        scan (a robot carried to a look-alike place: the beams reading short at the old estimate are the ones that
-        tell the places apart)."""
-        snapshot = Snapshot(self._odometry, beams, None if whole is beams else whole)
-        if self._history:
-            last = self._history[-1].odometry
-            moved = math.hypot(self._odometry[0] - last[0], self._odometry[1] - last[1])
-            turned = abs(float(wrap_angle(self._odometry[2] - last[2])))
-            if moved < self.config.history_spacing and turned < 2.0 * self.config.history_spacing:
-                self._newest = snapshot
-                return
-        self._history.append(snapshot)
-        self._newest = None
+    def _log_likelihood(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None,
+                        places: bool = False) -> np.ndarray:
+        """(H,) the data's log-likelihood at each pose, weighted as the particles' is. places: the likelihood field
+        with the beam model's free path (LikelihoodField.log_likelihood_free_path: a beam through a wall of the map
+        there scores as a random reading), for the few poses of place hypotheses; the particles' field alone scores
+        a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway."""
+        total = np.zeros(len(poses))
+        if seen is not None and places and isinstance(self._laser, LikelihoodField):
+            # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
+            # beam reads as going through a wall only where it does so from every one of these poses
+            step = np.array([self._grid.resolution, self._grid.resolution, math.radians(0.5)])
+            nudged = (poses[:, None, :] + NUDGES[None, :, :] * step).reshape(-1, 3)
+            terms = self._laser.log_likelihood_free_path(nudged, seen.beams, FREE_PATH_MARGIN, per_beam=True)
+            best = terms.reshape(len(poses), len(NUDGES), -1).max(axis=1)
+            total += seen.gain * (best @ seen.weights)
+        elif seen is not None:
+            total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)
+        if beacons is not None:
+            total += beacon_log_likelihood(poses, self.beacons, beacons, self.config.beacon_sigma_range,
+                                           self.config.beacon_sigma_compass)
+        return total
 
-    def recent_scans(self, whole: bool = False) -> list[Snapshot]:
-        """At most history_length scans: history_spacing apart over the recent path, then the newest; whole: with
-        every beam of each scan, those that read short of the map at the estimate too."""
-        recent = list(self._history)
-        if self._newest is not None:
-            full = len(self._history) == self.config.history_length
-            recent = recent[1 if full else 0:] + [self._newest]
-        if whole:
-            recent = [Snapshot(s.odometry, s.whole) if s.whole is not None else s for s in recent]
-        return recent
+    def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
+        """(H,) the log-likelihood of the scans in the window and of the current data at each pose, the poses of
+        the past scans reached back by odometry (a pose in a wall then scores as if it had seen nothing)."""
+        total = self._log_likelihood(poses, seen, beacons, places=True)
+        for past in self._window:
+            back = np.atleast_2d(compose(poses, relative_pose(self._odometry, past.odometry)))
+            total += self._log_likelihood(back, past, None, places=True)
+        return total
 
-    def _resample(self) -> None:
+    @property
+    def matcher(self) -> CorrelativeMatcher:
+        """The scan-to-map matcher of the place search and the estimate's refinement (built at first use)."""
+        if self._matcher is None:
+            sigma = max(self.config.sigma_hit, self._grid.resolution)
+            self._matcher = CorrelativeMatcher(ScoreMap.from_occupancy(self._grid, sigma=sigma))
+        return self._matcher
+
+    def _points(self, beams: Beams) -> np.ndarray:
+        """(K, 2) the returned beams' end points in the robot's frame."""
+        sensor = self.mount.sensor_poses(np.zeros((1, 3)))[0]  # the LiDAR in the robot's frame
+        angles = sensor[2] + beams.angles[beams.returned]
+        ranges = beams.ranges[beams.returned]
+        return np.column_stack([sensor[0] + ranges * np.cos(angles), sensor[1] + ranges * np.sin(angles)])
+
+    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0) -> np.ndarray:
+        """Each pose moved to where the scan fits best within FIT_WINDOW and FIT_ANGLE (the matcher, below the cell):
+        a place is scored at its best pose, so that two places the scans cannot tell apart score alike however their
+        particles happen to spread."""
+        points = self._points(seen.beams)
+        poses = np.array(poses, dtype=float).reshape(-1, 3)
+        fitted = poses.copy()
+        for row, pose in enumerate(poses):
+            match = self.matcher.match(points, pose, max(FIT_WINDOW, window), FIT_ANGLE, refine=True, covariance_cells=0)
+            if np.isfinite(match.pose).all():
+                fitted[row] = match.pose[0], match.pose[1], float(wrap_angle(match.pose[2]))
+        # the matcher's table is flat a wall thick: its fit is kept where the places' model scores it no lower
+        better = self._log_likelihood(fitted, seen, None, places=True) >= self._log_likelihood(poses, seen, None,
+                                                                                               places=True)
+        return np.where(better[:, None], fitted, poses)
+
+    def _refined(self, estimate: PoseEstimate, seen: _Seen) -> PoseEstimate:
+        """The estimate fitted to the scan: the matcher's best pose within the estimate's spread (at most the
+        merge window), below the cell; the particles' estimate where the scan fits no better there."""
+        spread = min(3.0 * estimate.position_std + self._grid.resolution, MERGE_DISTANCE)
+        turn = min(3.0 * estimate.heading_std + math.radians(1.0), MERGE_ANGLE)
+        points = self._points(seen.beams)
+        pose = np.array([estimate.x, estimate.y, estimate.theta])
+        match = self.matcher.match(points, pose, spread, turn, refine=True)
+        if not np.isfinite(match.pose).all() or match.score <= self.matcher.score_interpolated(points, pose):
+            return estimate
+        covariance = np.where(np.isfinite(match.covariance), match.covariance, estimate.covariance)
+        return PoseEstimate(float(match.pose[0]), float(match.pose[1]), float(wrap_angle(match.pose[2])), covariance)
+
+    def _search_places(self, seen: _Seen) -> np.ndarray:
+        """Proposals of the place search: a branch and bound over the whole map for the scan, place_search_budget
+        nodes per update, resumed over updates (a scan's search finishes on later updates; its poses are moved by
+        the odometry since). Nothing when the budget is 0."""
+        budget = self.config.place_search_budget
+        if budget <= 0:
+            return np.zeros((0, 3))
+        if self._search is None:
+            matcher, region = self._place_search_map()
+            points = self._points(seen.beams)
+            points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
+            search = GlobalSearch(matcher, points, region, count=SEARCH_PROPOSALS,
+                                  min_separation=2.0 * MERGE_DISTANCE, min_angle_separation=2.0 * MERGE_ANGLE)
+            self._search = (search, self._odometry)
+        search, odometry = self._search
+        search.step(budget, refine=False)
+        if not search.done:
+            return np.zeros((0, 3))
+        self._search = None
+        self._covered = True
+        poses = np.array([match.pose for match in search.matches(refine=False)]).reshape(-1, 3)
+        poses = np.atleast_2d(compose(poses, relative_pose(odometry, self._odometry))).reshape(-1, 3)
+        return self._fitted(poses, seen, self._place_search_resolution)  # from the coarse lattice to the map's
+
+    def _place_search_map(self) -> tuple[CorrelativeMatcher, np.ndarray]:
+        """The place search's matcher and candidate cells: the map max-pooled to at most PLACE_SEARCH_CELLS cells (a
+        cell is occupied where any of its cells is, a candidate where any of its cells is free space), built at first
+        use. A coarse lattice has fewer cells and, with the points within PLACE_SEARCH_RANGE, fewer headings: a global
+        search of a 60 m building in about a million nodes instead of tens of millions; a maze of a few metres keeps
+        its own cells (its corridors would close)."""
+        if self._coarse is None:
+            grid = self._grid
+            factor = max(1, math.ceil(math.sqrt(grid.height * grid.width / PLACE_SEARCH_CELLS)))
+            rows, cols = -(-grid.height // factor), -(-grid.width // factor)
+
+            def pooled(mask: np.ndarray) -> np.ndarray:
+                padded = np.zeros((rows * factor, cols * factor), dtype=bool)
+                padded[:grid.height, :grid.width] = mask
+                return padded.reshape(rows, factor, cols, factor).any(axis=(1, 3))
+
+            occupied, known = pooled(grid.occupied()), pooled(grid.data >= 0)
+            data = np.where(occupied, 100, np.where(known, 0, -1)).astype(np.int8)
+            coarse = OccupancyGrid(data, grid.resolution * factor, grid.origin, grid.frame_id)
+            sigma = max(self.config.sigma_hit, coarse.resolution)
+            self._coarse = (CorrelativeMatcher(ScoreMap.from_occupancy(coarse, sigma=sigma)),
+                            pooled(self.free_space.mask) & ~occupied)
+        return self._coarse
+
+    @property
+    def _place_search_resolution(self) -> float:
+        return self._place_search_map()[0].resolution
+
+    def _sample_count(self) -> int:
+        """max_particles while the belief is spread over several places (or not yet known to cover the map), else
+        what KLD-sampling asks for the particles that would survive resampling."""
         config = self.config
-        count = config.max_particles
-        if self._clusters.count == 1 and self._clusters.weights[0] >= config.localized_min_cluster_share:
-            bins = occupied_bins(self.particles[self.weights * config.max_particles >= 1.0], config.kld_bin_size,
-                                 config.kld_bin_angle)
-            count = min(max(kld_sample_count(bins, config.kld_epsilon, config.kld_delta), config.min_particles),
-                        config.max_particles)
-        injected = int(round(self._recovery.injection_share() * count))
+        if not (self._covered and (len(self.hypotheses) == 1 or
+                                   (len(self._shares) and self._shares[0] >= config.localized_probability))):
+            return config.max_particles
+        bins = occupied_bins(self.particles[self.weights * len(self.particles) >= 1.0], KLD_BIN_SIZE, KLD_BIN_ANGLE)
+        return min(max(kld_sample_count(bins, config.kld_epsilon, config.kld_delta), config.min_particles),
+                   config.max_particles)
+
+    def _resample(self, count: int | None = None) -> None:
+        """Systematic resampling to `count` particles with augmented MCL's random ones; without a count (between the
+        stages of a progressive correction) to as many as there are, none random."""
+        inject = count is not None
+        count = count if inject else len(self.particles)
+        injected = int(round(self._recovery.injection_share() * count)) if inject else 0
         keep = systematic_resample(self.weights, count - injected, self._rng)
-        self.particles = np.concatenate([self.particles[keep], self.free_space.sample(injected, self._rng)])
+        self.particles = np.concatenate([self._regularized(keep), self.free_space.sample(injected, self._rng)])
         self.weights = np.full(count, 1.0 / count)
         self.status.injected = injected
         if injected:  # the injected guesses must be judged by the next measurement, not averaged away
             self._recovery.reset()
 
-    def _cluster_estimate(self) -> PoseEstimate:
-        clusters = self._clusters
-        if clusters.count == 0:
-            return weighted_pose(self.particles, self.weights)
-        member = clusters.labels == 0
-        return weighted_pose(self.particles[member], self.weights[member])
-
-    def _cluster_poses(self, min_share: float) -> list[np.ndarray]:
-        """The weighted mean pose (x, y, theta) of every cluster holding at least `min_share` of the weight,
-        heaviest first (the particles as they are now: moved by the last motion update)."""
-        clusters, poses = self._clusters, []
-        for label, weight in enumerate(clusters.weights):
-            member = clusters.labels == label
-            if weight < min_share or not member.any() or not self.weights[member].sum() > 0.0:
+    def _regularized(self, keep: np.ndarray) -> np.ndarray:
+        """The resampled particles, each moved by a draw of the regularized particle filter's kernel (Musso, Oudjane
+        and Le Gland 2001): Gaussian, with the covariance of its place's weighted particles times h^2,
+        h = (4 / (N (d + 2)))^(1 / (d + 4)), d = 3. Copies of one particle otherwise stay on one pose, and a narrow
+        likelihood met by sparse particles (a first update over a whole map) would freeze the cloud a particle's
+        spacing from the truth. Particles at no place hypothesis (the spread of global localization) stay as
+        drawn; with no hypothesis yet, the whole cloud is one group. The kernel draws stay in free space (a draw outside keeps the particle where it was)."""
+        chosen = self.particles[keep]
+        # each particle's place; with no place yet (a global start), the whole cloud is one group
+        owner = self.hypotheses.find(self.particles) if len(self.hypotheses) else np.zeros(len(self.particles), int)
+        chosen_owner = owner[keep]
+        bandwidth = (4.0 / (len(keep) * 5.0)) ** (1.0 / 7.0)
+        for index in np.unique(chosen_owner[chosen_owner >= 0]):
+            member = owner == index
+            if np.count_nonzero(member) < 2:
                 continue
-            mean = weighted_pose(self.particles[member], self.weights[member])
-            poses.append(np.array([mean.x, mean.y, mean.theta]))
-        return poses
-
-    def _decide_localized(self, beams: Beams | None, scan: ScanData | None) -> None:
-        config = self.config
-        share = float(self._clusters.weights[0]) if self._clusters.count else 0.0
-        pose = np.array([self._estimate.x, self._estimate.y, self._estimate.theta])
-        fit = scan_fit(self.field, self.mount, pose, beams, config.fit_distance) if beams is not None else 1.0
-        self.status.cluster_share, self.status.fit = share, fit
-        position_std, heading_std = self._estimate.position_std, self._estimate.heading_std
-        if self._localized:
-            self._localized = (
-                share >= config.localized_min_cluster_share - WITHDRAW_MARGIN
-                and fit >= config.localized_min_fit - WITHDRAW_MARGIN
-                and position_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_position_std
-                and heading_std <= WITHDRAW_SPREAD_FACTOR * config.localized_max_heading_std
-            )
-            self._confirmations = 0
-            self._since_recheck += 1
-            if self._localized and config.rival_check and config.recheck_updates and \
-                    self._since_recheck >= config.recheck_updates:
-                self._recheck(pose)
-            return
-        dominant = share >= config.localized_min_cluster_share - WITHDRAW_MARGIN
-        self._misfits = self._misfits + 1 if dominant and fit < config.localized_min_fit else 0
-        if config.lost_updates and self._misfits >= config.lost_updates:
-            self.reinitialize_global()
-            self.status.event = (f"lost: the scan has not fitted the only cluster for {config.lost_updates} updates "
-                                 f"(fit {fit:.2f}): global localization restarted")
-            return
-        recent = self.recent_scans()
-        if config.rival_check and recent and not len(self._ledger):
-            # from the first scan on (and again after the ledger was cleared), follow the places that explain
-            # the scans best, so that a feature seen before the first declaration attempt is not lost (a robot
-            # starting beside it); the estimate's place too once the particles begin to agree on it
-            self._follow(search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
-                                       self._rival_params), with_estimate=share >= LEDGER_SEED_SHARE)
-        confident = (
-            share >= config.localized_min_cluster_share
-            and fit >= config.localized_min_fit
-            and position_std <= config.localized_max_position_std
-            and heading_std <= config.localized_max_heading_std
-        )
-        self._confirmations = self._confirmations + 1 if confident else 0
-        if self._confirmations >= config.localized_confirmations and config.rival_check and recent:
-            search = search_places(self.free_space, self._scorer, self._coarse_scorer, recent, pose, self._rival_params)
-            self.rivals, odds = self._weigh_rivals(search)
-            self.rivals, odds = self._with_withdrawn_place(pose, self.rivals, odds)
-            if len(self.rivals):
-                self._adopt_rivals(self.rivals, odds)
-                self._confirmations = 0
-                self.status.event = (f"ambiguous: {len(self.rivals)} other place(s) explain the recent scans as well "
-                                     "and the evidence so far does not rule them out")
-        # last (the rival search gives the other places their particles, so it goes first): no place the scan reads
-        # through the walls of
-        if self._confirmations >= config.localized_confirmations and config.see_through_check and scan is not None:
-            self._refuse_seen_through(pose, scan)
-        self._localized = self._confirmations >= config.localized_confirmations
-        if self._localized:  # the ledger has done its work: while localized the recheck watches for rivals, and
-            self._ledger.clear()  # a withdrawal starts it afresh from the scans then
-            self._contested, self._withdrawn_from = False, None
-
-    def _refuse_seen_through(self, pose: np.ndarray, scan: ScanData) -> None:
-        """No declaration at a place where more than see_through_max_share of the returned beams read through
-        its walls (unexpected_obstacles.seen_through, within the declaration limits of the estimate): other robots
-        hid what tells it from the robot's place."""
-        config = self.config
-        beams = select_beams(scan, SEE_THROUGH_BEAMS)
-        through = int(np.count_nonzero(seen_through(
-            self._map_ranges, pose, beams, config.see_through_margin,
-            (config.localized_max_position_std, config.localized_max_heading_std))))
-        returned = int(np.count_nonzero(beams.returned))
-        if through > config.see_through_max_share * returned:
-            self._confirmations = 0
-            self.status.event = (f"not localized at ({pose[0]:.2f}, {pose[1]:.2f}): {through} of {returned} beams "
-                                 f"read {config.see_through_margin:g} m or more beyond the map's walls there")
-
-    def _follow(self, search: PlaceSearch, with_estimate: bool = True) -> int:
-        """Enter the estimate's place and every place the search found explaining the recent scans within
-        LEDGER_MARGIN of it into the ledger, those it does not follow yet as likely as the estimate (the
-        search's own scores are no evidence: a refinement caught in a local optimum scored the true place 0.27
-        per beam below its rotated copy), so that the scans from now on weigh them. Without the estimate (the
-        particles do not agree on a place yet): every place the search found, as likely as each other. Returns
-        the estimate's entry (-1 without it)."""
-        ledger = self._ledger
-        if not with_estimate:
-            for place in search.poses:
-                ledger.add(place, float(ledger.evidence.max()) if len(ledger) else 0.0)
-            return -1
-        if ledger.find(search.own_pose) < 0:  # not followed yet: as good as the best until the scans say otherwise
-            ledger.add(search.own_pose, float(ledger.evidence.max()) if len(ledger) else 0.0)
-        own_evidence = float(ledger.evidence[ledger.find(search.own_pose)])
-        for place, score in zip(search.poses, search.scores):
-            if score >= search.own_score - LEDGER_MARGIN:
-                ledger.add(place, own_evidence)
-        return ledger.find(search.own_pose)
-
-    def _weigh_rivals(self, search: PlaceSearch) -> tuple[np.ndarray, np.ndarray]:
-        """The places explaining the recent scans as well as the estimate that the ledger's evidence does not rule
-        out, and each one's odds against the estimate."""
-        ledger = self._ledger
-        own = self._follow(search)
-        rivals = search.within(self._rival_params.margin)
-        # a rival the ledger dropped (it holds max_entries places) counts as likely as the estimate
-        evidence = np.array([ledger.evidence[i] if i >= 0 else ledger.evidence[own] for i in map(ledger.find, rivals)])
-        best = max(float(ledger.evidence[own]), float(evidence.max(initial=-np.inf)))
-        viable = evidence > best - ledger.params.threshold
-        odds = np.exp(np.minimum(evidence[viable] - ledger.evidence[own], MAX_LOG_ODDS))
-        return rivals[viable].reshape(-1, 3), odds
-
-    def _with_withdrawn_place(self, pose: np.ndarray, rivals: np.ndarray,
-                              odds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """While contested, the place localized was withdrawn from stays a rival of any other place until the
-        ledger rules it out (its evidence there leaves out the beams reading short of the map, which another robot
-        explains): the rival search alone weighs the recent scans, those on the other robots included, and a
-        look-alike place with walls where they stand scored better than the true place, which was then given up
-        in 1.6 s (issue 22's fleet)."""
-        ledger = self._ledger
-        if not self._contested or self._withdrawn_from is None or not len(ledger):
-            return rivals, odds
-        index, own = ledger.find(self._withdrawn_from), ledger.find(pose)
-        if index < 0 or index == own or ledger.ruled_out()[index] or \
-                ledger.near(pose[None, :], index)[0] or \
-                (len(rivals) and ledger.near(np.asarray(rivals).reshape(-1, 3), index).any()):
-            return rivals, odds
-        own_evidence = float(ledger.evidence[own]) if own >= 0 else float(ledger.evidence.max())
-        place_odds = math.exp(min(float(ledger.evidence[index]) - own_evidence, MAX_LOG_ODDS))
-        return (np.vstack([np.asarray(rivals).reshape(-1, 3), ledger.poses[index][None, :]]),
-                np.append(odds, place_odds))
-
-    def _recheck(self, pose: np.ndarray) -> None:
-        """While localized: does a place elsewhere explain the recent scans clearly better than the estimate?"""
-        self._since_recheck = 0
-        # every beam, those reading short at the estimate too: a robot kidnapped into a look-alike place shows it
-        # in them (the hard_maze kidnapping was not withdrawn in 10 s without them)
-        recent = self.recent_scans(whole=True)
-        if not recent:  # beacons only: no scans to search with
-            return
-        better = find_rivals(self.free_space, self._scorer, self._coarse_scorer, recent, pose,
-                             replace(self._rival_params, margin=-self.config.recheck_margin))
-        if len(better) and len(recent) and any(snapshot.whole is not None for snapshot in self.recent_scans()):
-            # ... but a place that wins only by explaining the beams on something not on the map (another robot
-            # standing where it has a wall) is no rival: it must explain the other beams as well as the estimate
-            kept = self.recent_scans()
-            now = kept[-1].odometry
-            own = float(history_score(self._scorer, pose[None, :], kept, now)[0])
-            scores = history_score(self._scorer, better, kept, now)
-            better = better[scores >= own].reshape(-1, 3)
-        if len(better):
-            self._localized = False
-            self._contested, self._withdrawn_from = True, pose.copy()
-            self.rivals = better
-            self._adopt_rivals(better)
-            self.status.event = (f"{len(better)} place(s) elsewhere explain the recent scans better than the "
-                                 "estimate: localized withdrawn")
-
-    def _adopt_rivals(self, rivals: np.ndarray, odds: np.ndarray | None = None) -> None:
-        """Give every rival a cloud of particles as heavy as the current cluster times its odds against it
-        (1: as likely, as far as we know)."""
-        count = len(self.particles)
-        spread = np.array([self.config.cluster_radius / 2.0, self.config.cluster_radius / 2.0, math.radians(3.0)])
-        clouds = [self.particles]
-        mass = float(self._clusters.weights[0]) if self._clusters.count else 1.0
-        weights = [self.weights]
-        odds = np.ones(len(rivals)) if odds is None else odds
-        for rival, rival_odds in zip(rivals, odds):
-            cloud = rival + self._rng.standard_normal((count, 3)) * spread
-            cloud[:, 2] = wrap_angle(cloud[:, 2])
-            clouds.append(cloud)
-            weights.append(np.where(self.free_space.contains(cloud[:, 0], cloud[:, 1]), rival_odds * mass / count, 0.0))
-        self.particles = np.concatenate(clouds)
-        weights = np.concatenate(weights)
-        self.weights = weights / weights.sum()
-        self._clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius,
-                                           self.config.cluster_min_size)
+            covariance = weighted_pose(self.particles[member], self.weights[member]).covariance
+            try:
+                factor = np.linalg.cholesky(covariance + 1e-12 * np.eye(3))
+            except np.linalg.LinAlgError:
+                continue
+            rows = np.flatnonzero(chosen_owner == index)
+            moved = chosen[rows] + bandwidth * self._rng.standard_normal((len(rows), 3)) @ factor.T
+            inside = self.free_space.contains(moved[:, 0], moved[:, 1])
+            moved[:, 2] = wrap_angle(moved[:, 2])
+            chosen[rows[inside]] = moved[inside]
+        return chosen
 
     def _current_pose(self, odometry: tuple[float, float, float]) -> PoseEstimate:
         """The last filter estimate moved by the odometry since that update."""

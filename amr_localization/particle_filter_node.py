@@ -197,7 +197,8 @@ class ParticleFilterNode(LocalizerNode):
             self._warn(f"no map yet (waiting on {self._settings['map_topic']}): the observation waits for it")
             return
         try:
-            estimate = self._update(odometry, scan, beacons)
+            stamp = (scan if scan is not None else beacons).header.stamp
+            estimate = self._update(odometry, scan, beacons, stamp.sec + stamp.nanosec * 1e-9)
         except Exception as error:  # a filter bug must not take the node down: repeat the last pose
             self.get_logger().error(f"filter update failed: {type(error).__name__}: {error}",
                                     throttle_duration_sec=WARNING_PERIOD)
@@ -208,23 +209,24 @@ class ParticleFilterNode(LocalizerNode):
             self._warn(estimate.status.event)
         self._publish((scan if scan is not None else beacons).header.stamp, odometry, estimate)
 
-    def _update(self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None) -> Estimate | None:
+    def _update(self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None,
+                stamp: float) -> Estimate | None:
         pose = messages.odometry_pose(odometry)
         reading = self._beacon_reading(beacons) if beacons is not None else None
         scan_reading = scan_data(scan) if scan is not None else None
         try:
-            return self.filter.update(pose, scan_reading, beacons=reading)
+            return self.filter.update(pose, scan_reading, beacons=reading, stamp=stamp)
         except OdometryError as error:
             self._warn(f"{error}: the last pose is repeated")
             return self._last_estimate
         except ScanError as error:
             alone = "the beacons and odometry" if reading is not None else "odometry alone"
             self._warn(f"scan refused ({error}): the pose follows {alone}")
-            return self.filter.update(pose, beacons=reading)
+            return self.filter.update(pose, beacons=reading, stamp=stamp)
         except BeaconError as error:
             self._warn(f"/beacons reading refused ({error}): the pose follows "
                        + ("the scan and odometry" if scan_reading is not None else "odometry alone"))
-            return self.filter.update(pose, scan_reading)
+            return self.filter.update(pose, scan_reading, stamp=stamp)
 
     def _beacon_reading(self, message: BeaconRanges) -> BeaconReading | None:
         """The reading, checked against the filter's beacons (the first good reading's positions when the

@@ -7,8 +7,8 @@ active     /odometry + /scan are paired by stamp (amr_util.sync, the approximate
            filter pairs them); each pair is one GraphSlam.add and gets, stamped with the scan's stamp:
            /pose (amr_interfaces/LocalizedPose in the map frame, localized true, confidence 1.0: the navigator
            and the lockstep simulator take it as they take the filter's), map -> odom on /tf, ~/status
-           (amr_interfaces/LocalizerStatus: updated = a node was added, scan_fit = its scan match's score,
-           update_time, event = loop closures or the library's events).
+           (amr_interfaces/LocalizerStatus: updated = a node was added, confidence 1, update_time,
+           event = loop closures or the library's events).
            /map (nav_msgs/OccupancyGrid, transient local) and ~/graph (amr_interfaces/PoseGraph) go out when the
            map changed, at most every map_publish_period s of scan time (a steady timer sends a change left over
            when no scan comes: a lockstep simulator holding the robot).
@@ -250,7 +250,7 @@ class SlamNode(ManagedNode):
         if not all_finite(odom):
             self._warn("odometry is not finite: the pair was dropped")
             return
-        status = LocalizerStatus(localized=True)
+        status = LocalizerStatus(localized=True, clusters=1, confidence=1.0)
         try:
             update = slam.add(stamp_ns, odom, scan_data(scan))
             pose = tuple(float(v) for v in update.pose)

@@ -172,7 +172,8 @@ class CorrelativeMatcher:
               covariance_cells: int = 4) -> Match:
         """The best pose of the lattice (whole cells, angular steps) within +-linear_window (m, in x and in
         y) and +-angular_window (rad) of prior, by branch and bound (exact unless max_nodes runs out: then
-        exhaustive is False), refined below the cell when `refine`. No finite point: the prior, score 0."""
+        exhaustive is False), refined below the cell when `refine`; its covariance from +-covariance_cells around the
+        peak (0: the lattice's quantization only, not computed). No finite point: the prior, score 0."""
         points = _finite_points(points)
         prior = np.asarray(prior, dtype=float).reshape(3)
         if not np.all(np.isfinite(prior)):
@@ -234,7 +235,9 @@ class CorrelativeMatcher:
     def _finish(self, points: np.ndarray, pose: np.ndarray, total: int, step: float, exhaustive: bool, nodes: int,
                 refine: bool, covariance_cells: int) -> Match:
         score = total / (len(points) * QUANTUM)
-        covariance = self._covariance(points, pose, step, covariance_cells)
+        # covariance_cells 0: no covariance wanted (the lattice's quantization stands in for it)
+        covariance = self._covariance(points, pose, step, covariance_cells) if covariance_cells > 0 else \
+            _floor_covariance(self.resolution, step)
         if refine:
             pose, score = self._refine(points, pose, step)
         return Match(pose, float(score), bool(exhaustive), int(nodes), covariance)

@@ -3,7 +3,7 @@ symmetric worlds, the beacon localizer's pyramidal search against the exhaustive
 world (open_room), the beacon localizer against the particle filter with beacons, scan + beacons and scan.
 --symmetry (issue 20): generated square rooms whose four-fold symmetry one feature breaks (a doorway, a
 notch, a missing or an extra pillar; amr_maps.symmetry_families) and truly symmetric controls
-(docs/localization_symmetry.md).
+(docs/decisions/2026-11-27-symmetry-evidence-ledger.md).
 --crowded (issue 22): a robot localizing while 1-5 other robots, not on the map, stand or drive near it and fill
 part of its scan (amr_evaluation.crowded_localization; docs/fleet.md).
 
@@ -118,9 +118,10 @@ def bench_update_cost(repeats: int) -> None:
                 times.append(time.perf_counter() - started)
             cells.append(f"{1e3 * np.median(times):16.2f}")
         print(f"{count:>10}" + "".join(cells))
-    print("== whole filter update (motion + likelihood field + tempering + resampling + clusters), 5000 particles, 60 beams")
-    pf = ParticleFilter(rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, min_particles=5000, max_particles=5000,
-                                                             rival_check=False))
+    print("== whole filter update (motion + likelihood field + resampling + place hypotheses + place search), 5000 particles, "
+          "60 beams")
+    pf = ParticleFilter(rasterize_world(world, RESOLUTION),
+                        ParticleFilterConfig(lidar_x=-0.032, min_particles=5000, max_particles=5000))
     times = []
     for step in range(repeats):
         started = time.perf_counter()

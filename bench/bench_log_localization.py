@@ -1,122 +1,73 @@
-"""A CARMEN log played by the log_player into the particle filter in lockstep, tracking from the first pose.
+"""Localization on real robots' logs: tracking from the first corrected pose and global localization from none.
 
-    .venv/bin/python bench/bench_log_localization.py [--log FILE] [--count N] [--particles N]
+    .venv/bin/python bench/bench_log_localization.py [--data DIR] [--logs intel aces] [--modes tracking global]
+                                                    [--seeds 0 1] [--ros]
 
-The map is the log's own scans drawn at their corrected poses (5 cm cells, endpoints occupied): optimistic, a
-check that the player, the synthesized odometry (defaults, seed 0) and the filter work together, not a score.
-Prints the scans played, wall time, pace timeouts and the position error of /pose against ground_truth.
+For each CARMEN log in DIR (default: ../shared/data/carmen beside the repository), the map is the log's own scans
+at their corrected poses (known-pose log-odds mapping, 5 cm cells), the odometry is synthesized from the corrected
+poses (amr_datasets.odometry defaults: 5 % noise, +1 % scale, 0.5 deg/m heading bias, seeded), and the shipped
+filter configuration runs one update per scan (amr_evaluation.log_localization). Prints per run: travel before
+`localized`, scans localized, declarations more than 0.5 m or 10 deg off, median error while localized, and the
+filter update's time (median, p95, max).
+
+--ros plays each log through the ROS nodes instead (log_player in lockstep into particle_filter on a map_server
+file): the same figures from /pose against /ground_truth, plus the round trip (scan out, /pose in).
+Run it with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own.
 """
+
+from __future__ import annotations
+
 import argparse
-import math
 import os
 import sys
-import tempfile
-import time
 from pathlib import Path
 
+import yaml
+
+from amr_datasets.carmen import read_carmen
+from amr_evaluation.log_localization import log_map, run_log
+from amr_localization.particle_filter_config import ParticleFilterConfig
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-os.environ.setdefault("ROS_DOMAIN_ID", "78")
-
-import numpy as np  # noqa: E402
-import rclpy  # noqa: E402
-from amr_interfaces.msg import LocalizedPose  # noqa: E402
-from geometry_msgs.msg import PoseWithCovarianceStamped  # noqa: E402
-from lifecycle_msgs.msg import Transition  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-
-from amr_datasets.carmen import read_carmen  # noqa: E402
-from amr_datasets.player_node import LogPlayerNode  # noqa: E402
-from amr_localization.particle_filter_node import ParticleFilterNode  # noqa: E402
-from amr_maps.map_io import save_map  # noqa: E402
-from amr_maps.occupancy_grid import OccupancyGrid  # noqa: E402
-from amr_util.stamps import stamp_nanoseconds  # noqa: E402
-
-RESOLUTION = 0.05
+DATA = ROOT.parent / "shared" / "data" / "carmen"
 
 
-def log_map(log, path: Path) -> None:
-    """The scans' endpoints at their corrected poses, as an occupancy grid saved for map_server."""
-    points = []
-    for item in log.scans:
-        ranges = np.asarray(item.scan.ranges)
-        angles = item.scan.angle_min + item.scan.angle_increment * np.arange(ranges.size)
-        hit = np.isfinite(ranges)
-        x, y, theta = item.pose
-        points.append(np.column_stack([x + ranges[hit] * np.cos(theta + angles[hit]),
-                                       y + ranges[hit] * np.sin(theta + angles[hit])]))
-    points = np.concatenate(points)
-    low, high = points.min(0) - 1.0, points.max(0) + 1.0
-    width, height = np.ceil((high - low) / RESOLUTION).astype(int)
-    cells = np.zeros((height, width), np.int8)
-    index = ((points - low) / RESOLUTION).astype(int)
-    cells[index[:, 1], index[:, 0]] = 100
-    save_map(OccupancyGrid(cells, RESOLUTION, (float(low[0]), float(low[1]), 0.0)), path)
+def shipped_filter_parameters() -> dict:
+    """config/particle_filter.yaml's values of the filter's own parameters."""
+    values = yaml.safe_load((ROOT / "config" / "particle_filter.yaml").read_text())["particle_filter"]["ros__parameters"]
+    names = {spec.name for spec in ParticleFilterConfig.parameter_specs()}
+    return {name: value for name, value in values.items() if name in names}
 
 
-def main() -> None:
+def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--log", default="/work/shared/data/carmen/intel-corrected.log.gz")
-    parser.add_argument("--count", type=int, default=0, help="scans to play (0: all)")
-    parser.add_argument("--particles", type=int, default=2000)
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--logs", nargs="*", help="log names (the file name's first word); default: every log")
+    parser.add_argument("--modes", nargs="*", default=["tracking", "global"], choices=["tracking", "global"])
+    parser.add_argument("--seeds", nargs="*", type=int, default=[0])
+    parser.add_argument("--ros", action="store_true", help="through the ROS nodes (bench_log_localization_ros)")
     args = parser.parse_args()
-    log = read_carmen(args.log)
-    directory = Path(tempfile.mkdtemp())
-    log_map(log, directory / "map.yaml")
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    executor = SingleThreadedExecutor(context=context)
-    speed = 2.0 * float(np.max(np.hypot(*np.diff(log.poses()[:, :2], axis=0).T) / np.diff(log.stamps())))
-    localizer = ParticleFilterNode(context=context, parameter_overrides=[
-        Parameter("map_yaml", value=str(directory / "map.yaml")),
-        Parameter("laser_max_range", value=float(log.scans[0].scan.range_max)),
-        Parameter("max_particles", value=args.particles), Parameter("max_odometry_speed", value=min(speed, 100.0))])
-    player = LogPlayerNode(context=context, parameter_overrides=[Parameter("log", value=args.log),
-                                                                 Parameter("count", value=args.count)])
-    watcher = Node("watcher", context=context)
-    truth, estimates = {}, {}
-    watcher.create_subscription(Odometry, "ground_truth",
-                                lambda m: truth.__setitem__(stamp_nanoseconds(m.header.stamp), m), 1000)
-    watcher.create_subscription(LocalizedPose, "pose",
-                                lambda m: estimates.__setitem__(stamp_nanoseconds(m.header.stamp), m), 1000)
-    initial = watcher.create_publisher(PoseWithCovarianceStamped, "initialpose", 10)
-    for node in (localizer, player, watcher):
-        executor.add_node(node)
-    for node in (localizer, player):
-        assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.get_name()
-    assert localizer.try_transition(Transition.TRANSITION_ACTIVATE)
-    deadline = time.monotonic() + 5.0
-    while time.monotonic() < deadline and (
-            player.count_subscribers("scan") < 2 or not initial.get_subscription_count()):
-        executor.spin_once(timeout_sec=0.05)
-    x0, y0, theta0 = log.scans[0].pose
-    start = PoseWithCovarianceStamped()
-    start.header.frame_id = "map"
-    start.pose.pose.position.x, start.pose.pose.position.y = x0, y0
-    start.pose.pose.orientation.z, start.pose.pose.orientation.w = math.sin(theta0 / 2), math.cos(theta0 / 2)
-    start.pose.covariance[0] = start.pose.covariance[7] = start.pose.covariance[35] = 0.01
-    initial.publish(start)
-    for _ in range(10):
-        executor.spin_once(timeout_sec=0.05)
-    began = time.monotonic()
-    assert player.try_transition(Transition.TRANSITION_ACTIVATE)
-    while not player.done:
-        executor.spin_once(timeout_sec=0.1)
-    wall = time.monotonic() - began
-    errors = [math.hypot(truth[k].pose.pose.position.x - m.pose.pose.position.x,
-                         truth[k].pose.pose.position.y - m.pose.pose.position.y)
-              for k, m in estimates.items() if k in truth]
-    print(f"{Path(args.log).name}: {player.published} scans in {wall:.1f} s ({player.published / wall:.0f}/s), "
-          f"{player.timeouts} pace timeouts, {len(estimates)} poses; position error median {np.median(errors):.3f} m, "
-          f"90 % {np.percentile(errors, 90):.3f} m, max {np.max(errors):.3f} m; {args.particles} particles, load "
-          f"average {os.getloadavg()[0]:.1f}")
-    executor.shutdown()
-    context.try_shutdown()
+    files = sorted(args.data.glob("*.log*"))
+    if args.logs:
+        files = [f for f in files if f.name.split("-")[0].split(".")[0] in args.logs]
+    if not files:
+        print(f"no CARMEN log in {args.data}", file=sys.stderr)
+        return 2
+    parameters = shipped_filter_parameters()
+    for path in files:
+        log = read_carmen(path)
+        grid = log_map(log)
+        name = path.name.split("-")[0].split(".")[0]
+        for mode in args.modes:
+            for seed in args.seeds:
+                if args.ros:
+                    from bench_log_localization_ros import run_through_ros
+                    print(run_through_ros(path, log, grid, name, parameters, mode, seed), flush=True)
+                else:
+                    print(run_log(log, name, parameters, mode, seed, grid=grid).summary() + f", seed {seed}", flush=True)
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -41,14 +41,6 @@ def test_tracking_stays_declared_and_right_with_robots_standing_close_around():
     assert run.localized_share > 0.95 and run.withdrawals == 0, run
 
 
-def test_without_dropping_the_short_beams_the_same_run_is_never_declared():
-    """The failure the unexpected-obstacle beams fix: the scan fit counts the beams on other robots as misfits."""
-    world = crowded_world(ROOM, 4, seed=1, near=(0.3, 0.8))
-    trace = run_crowded(world, filter_config(unexpected_obstacles=False), follower(), 12.0, mode="stand",
-                        lidar_noise=0.02, seed=1, known_start=True)
-    assert figures(trace).first_localized is None
-
-
 @pytest.mark.parametrize("family, seed", [("perfect", 0)])
 def test_global_localization_among_robots_following_walls_converges_without_a_false_declaration(family, seed):
     world = crowded_world(generate(family, seed, width=0.7), 3, seed=seed)

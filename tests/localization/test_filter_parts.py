@@ -20,7 +20,6 @@ from amr_util.geometry import compose, relative_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.scan_beams import select_beams
 from amr_localization.sensor_mount import SensorMount
-from amr_localization.tempering import tempered_exponent
 from amr_maps.occupancy_grid import OCCUPIED, OccupancyGrid
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
@@ -121,17 +120,6 @@ def test_estimate_heading_is_the_circular_mean_across_pi():
     assert abs(abs(estimate.theta) - math.pi) < 1e-9
     assert (estimate.x, estimate.y) == pytest.approx((0.5, 1.0))
     assert estimate.heading_std == pytest.approx(0.1)
-
-
-def test_tempering_keeps_the_effective_sample_size_from_collapsing():
-    log_prior = np.zeros(1000)
-    log_likelihood = np.random.default_rng(0).normal(0, 50, 1000)  # one scan that would pick a single winner
-    beta = tempered_exponent(log_prior, log_likelihood, 1.0, 0.5)
-    weights = np.exp(beta * (log_likelihood - log_likelihood.max()))
-    weights /= weights.sum()
-    assert 0 < beta < 0.1
-    assert effective_sample_size(weights) >= 0.5 * 1000 * 0.99
-    assert tempered_exponent(log_prior, np.zeros(1000), 1.0, 0.5) == 1.0
 
 
 def test_a_map_without_free_space_or_occupied_cells_is_refused_by_name():

@@ -72,21 +72,6 @@ def test_two_identical_rooms_are_never_taken_for_one():
     assert trace.first_localized() is None
 
 
-def test_the_evidence_ledger_rules_out_a_place_in_a_wall_but_not_one_a_few_cm_nearer_it_than_the_particles_may():
-    # issue 22: the true place's entry, fitted 5.5 cm off a robot turning 0.10 m from a wall, was ruled out for
-    # leaving the particles' free space, and a look-alike place was declared
-    rows = ["##########"] + ["#........#"] * 8 + ["##########"]
-    world = world_from_dict({"grid": {"cell_size": 0.2, "origin": [0.0, 0.0], "rows": rows}, "start": [1.0, 1.0, 0.0]})
-    pf = ParticleFilter(grid_of(world, 0.02), CONFIG)
-    near = np.array([0.25, 1.0, 0.0])  # 5 cm from the wall at x = 0.2, under free_space_clearance (8 cm)
-    assert not pf.free_space.contains(near[:1], near[1:2])[0]
-    ledger = pf._ledger
-    for pose in (near, np.array([0.1, 1.0, math.pi]), np.array([1.0, 1.0, 0.0])):  # the middle one in the wall
-        ledger.add(pose, 0.0)
-    ledger.move(np.zeros(3))
-    assert ledger.ruled_out().tolist() == [False, True, False]
-
-
 def test_a_kidnapped_robot_is_withdrawn_at_once_and_found_again():
     trace = loop(load_world(WORLDS_DIR / "inner_maze.yaml"), 80.0, kidnap=(20.0, (-1.0, 1.0, 0.0)))
     t, localized, position, heading = trace.arrays()
@@ -99,59 +84,32 @@ def test_a_kidnapped_robot_is_withdrawn_at_once_and_found_again():
     assert position[regained] <= 0.10 and heading[regained] <= math.radians(10)
 
 
-@pytest.mark.parametrize("recheck_updates", [0, 5])
-def test_a_robot_kidnapped_into_a_look_alike_place_is_withdrawn_by_the_recheck(recheck_updates):
-    """hard_maze: the place it is carried to fits the scan at the old estimate nearly as well (fit ~0.9)."""
+def test_a_robot_kidnapped_into_a_look_alike_place_is_withdrawn_within_10_s():
+    """hard_maze: the place it is carried to fits the scan at the old estimate nearly as well."""
     world = load_world(WORLDS_DIR / "hard_maze.yaml")
     sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=0, lidar=LidarConfig(noise_std=0.02),
                                             encoders=EncoderConfig(noise=0.02, slip=0.03)))
-    config = ParticleFilterConfig(lidar_x=-0.032, recheck_updates=recheck_updates)
-    pf = ParticleFilter(grid_of(world, 0.02), config, range_max=sim.lidar.range_max)
+    pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(lidar_x=-0.032), range_max=sim.lidar.range_max)
     trace = run(sim, pf, FOLLOWER, 45.0, kidnap=(30.0, (-1.3, 1.25, 0.0)))
     t, localized, _, _ = trace.arrays()
     assert localized[np.flatnonzero(t < trace.kidnapped_at)[-1]], "it was localized before the kidnapping"
     withdrawn = np.flatnonzero((t >= trace.kidnapped_at) & ~localized)
-    late = not withdrawn.size or t[withdrawn[0]] - trace.kidnapped_at > 10.0
-    assert late == (recheck_updates == 0), "withdrawn within 10 s only by the recheck"
+    assert withdrawn.size and t[withdrawn[0]] - trace.kidnapped_at <= 10.0
 
 
-@pytest.mark.parametrize("lost_updates", [0, 15])
-def test_a_confident_cluster_the_scan_does_not_fit_is_given_up_after_lost_updates(lost_updates):
+def test_a_confident_wrong_pose_the_scans_do_not_fit_is_given_up_for_the_true_place():
     world = load_world(WORLDS_DIR / "open_room.yaml")
     sim = Simulator(world, SimulationConfig(**NOISY))
-    config = ParticleFilterConfig(lidar_x=-0.032, max_particles=2000, lost_updates=lost_updates)
+    config = ParticleFilterConfig(lidar_x=-0.032, max_particles=2000)
     pf = ParticleFilter(grid_of(world, 0.02), config)
     pf.initialize_pose(sim.pose.x + 0.8, sim.pose.y + 0.5, sim.pose.theta + 1.5, np.diag([0.02**2, 0.02**2, 0.02**2]))
-    events, updates = [], 0
-    for _ in range(300):
+    errors = []
+    for _ in range(400):
         estimate = pf.update(odometry_of(sim), scan_of(sim))
-        updates += estimate.status.updated
-        events.append(estimate.status.event)
-        if any(event.startswith("lost") for event in events):
-            break
+        errors.append((math.hypot(estimate.pose.x - sim.pose.x, estimate.pose.y - sim.pose.y), estimate.localized))
         sim.step(0.12, 0.25)
-    lost = [event for event in events if event.startswith("lost")]
-    if lost_updates:
-        assert lost, f"still tracking the wrong place after {updates} updates"
-        assert updates >= lost_updates
-        assert len(pf.particles) == config.max_particles and not estimate.localized
-    else:
-        assert not lost
-
-
-def test_the_rival_check_keeps_scans_history_spacing_apart_over_the_recent_path():
-    world = load_world(WORLDS_DIR / "open_room.yaml")
-    sim = Simulator(world, SimulationConfig(**NOISY))
-    config = ParticleFilterConfig(lidar_x=-0.032, max_particles=500, history_length=5, history_spacing=0.1)
-    pf = ParticleFilter(grid_of(world, 0.05), config)
-    for _ in range(200):  # about 1 m straight on
-        pf.update(odometry_of(sim), scan_of(sim))
-        sim.step(0.1, 0.0)
-    kept = [snapshot.odometry for snapshot in pf.recent_scans()]
-    assert len(kept) == config.history_length, "the history fills as the robot moves (it had stayed at one scan)"
-    gaps = [math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(kept, kept[1:])]
-    assert all(gap >= config.history_spacing - 1e-9 for gap in gaps[:-1]) and gaps[-1] > 0.0
-    assert sum(gaps) <= config.history_length * (config.history_spacing + 0.05)
+    assert not any(localized for error, localized in errors[:5] if error > 0.5) or errors[-1][0] <= 0.1
+    assert errors[-1][0] <= 0.1 and errors[-1][1], f"not found again: {errors[-1]}"
 
 
 def _first_steps(seed: int, steps: int = 60):

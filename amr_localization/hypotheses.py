@@ -1,0 +1,159 @@
+"""Place hypotheses and their posterior probabilities: the one place where "localized" is decided.
+
+A particle filter's clusters are its places, but a cluster is not a probability one can trust: the
+particles of a place that looks like another one can die out by chance at resampling, a place no
+particle is near has no say at all, and a cloud's weight forgets everything older than its last
+resampling. Here each place the robot may be at is a hypothesis h_i with a pose and a log-evidence
+L_i, and (mixture MCL, Thrun, Fox, Burgard and Dellaert 2001; multi-hypothesis localization, Jensfelt
+and Kristensen 2001):
+
+- hypotheses are born from the particles' clusters and from the place search's proposals (a
+  correlative scan matcher over the whole map, amr_maps.scan_matcher), and move with odometry;
+- every scan adds the measurement model's log-likelihood at each hypothesis's pose (the same model,
+  the same beam and scan weights as the particles: beam_correlation.py) to its L_i;
+- a hypothesis born now was not there for the scans before: it is given the evidence of the
+  strongest one, corrected by what the recent scans (those kept in the window) say against it,
+
+      L_new = L_ref + min(0, sum_{j in window} g_j (log p(z_j | x_new,j) - log p(z_j | x_ref,j))),
+
+  so that a place that explains every scan as well as the estimate is as likely as the estimate, one
+  ruled out by a scan still in the window stays ruled out, and none starts above the strongest: a place
+  overtakes it only by the scans it is followed through (after a kidnapping the belief passes through
+  doubt before it settles on the new place);
+- one more hypothesis, `elsewhere`, is the robot at none of the places followed (Jensfelt and Kristensen's
+  null hypothesis); its evidence grows by the data's marginal likelihood over the whole map, estimated on a
+  fixed sample of poses spread over free space,
+
+      L_elsewhere += log (1/M sum_m p(z | x_m)),
+
+  which a place the robot is at beats by far, and a place it is not at (a kidnapped robot's old place) does not;
+- the posterior is P(h_i) = exp(L_i) / (exp(L_elsewhere) + sum_j exp(L_j)), each L kept within
+  MAX_LOG_ODDS of the best (a robot may be carried anywhere: a kidnapping's prior, which also keeps the
+  numbers finite);
+- a hypothesis driven into a wall is impossible and dies, its belief going to `elsewhere` (not to the places
+  left); at most MAX_HYPOTHESES are kept, the least likely forgotten first.
+
+The filter then makes its particles agree (sensor resetting, Lenser and Veloso 2000): each place holds
+as much particle weight as its probability, a likely place without particles gets a cloud. `localized`
+is the best hypothesis's probability, times the share of the belief the hypotheses hold, against
+localized_probability, with hysteresis down to release_probability. Until a place search has covered the
+map the hypotheses are not a partition of it, and the confidence is 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from amr_util.geometry import compose, wrap_angle
+
+MAX_HYPOTHESES = 16
+"""places followed at once; the least likely is forgotten when a new one is born beyond this."""
+MAX_LOG_ODDS = 30.0
+"""log-evidence: no hypothesis falls further than this below the best (a kidnapping's prior, e^-30 per place)."""
+MERGE_DISTANCE = 0.3
+"""m: a proposal or cluster this close to a hypothesis (and within MERGE_ANGLE of its heading) is that place."""
+MERGE_ANGLE = math.radians(20.0)
+"""rad: see MERGE_DISTANCE."""
+
+
+class PlaceHypotheses:
+    """Poses (H, 3) with log-evidence (H,), heaviest first after every change, and the log-evidence of `elsewhere`:
+    the robot at none of them (Jensfelt and Kristensen's null hypothesis). Evidence is kept relative to the best
+    place (its evidence is 0)."""
+
+    def __init__(self) -> None:
+        self.clear()
+
+    def __len__(self) -> int:
+        return len(self.evidence)
+
+    def clear(self) -> None:
+        self.poses, self.evidence = np.zeros((0, 3)), np.zeros(0)
+        self.elsewhere = 0.0
+
+    def move(self, increment) -> None:
+        """Every hypothesis moved by the odometry increment (x, y, theta in the robot's frame)."""
+        if len(self):
+            self.poses = np.atleast_2d(compose(self.poses, increment))
+
+    def keep(self, alive: np.ndarray) -> None:
+        """Only the hypotheses where `alive` (a place in a wall is impossible): the belief in the others goes to
+        `elsewhere` (the robot is somewhere, but not at a place followed), not to the places left."""
+        if (~alive).any():
+            self.elsewhere = float(np.logaddexp(self.elsewhere, np.logaddexp.reduce(self.evidence[~alive])))
+        self.poses, self.evidence = self.poses[alive], self.evidence[alive]
+        self._rank()
+
+    def find(self, poses: np.ndarray) -> np.ndarray:
+        """(C,) the hypothesis each pose is (within MERGE_DISTANCE and MERGE_ANGLE), -1 where none."""
+        poses = np.atleast_2d(poses)
+        if not len(self) or not len(poses):
+            return np.full(len(poses), -1)
+        near = np.hypot(poses[:, None, 0] - self.poses[None, :, 0], poses[:, None, 1] - self.poses[None, :, 1])
+        turn = np.abs(wrap_angle(poses[:, None, 2] - self.poses[None, :, 2]))
+        distance = np.where(turn <= MERGE_ANGLE, near, np.inf)
+        best = np.argmin(distance, axis=1)
+        return np.where(distance[np.arange(len(poses)), best] <= MERGE_DISTANCE, best, -1)
+
+    def merge(self) -> None:
+        """Hypotheses that have come within MERGE_DISTANCE and MERGE_ANGLE of a stronger one (both fitted to the
+        same scan) are that place: the stronger is kept, with its own evidence (one place's evidence is not two)."""
+        keep = np.ones(len(self), dtype=bool)
+        for i in range(len(self)):
+            if not keep[i]:
+                continue
+            later = np.arange(i + 1, len(self))
+            near = (np.hypot(*(self.poses[later, :2] - self.poses[i, :2]).T) <= MERGE_DISTANCE) & \
+                (np.abs(wrap_angle(self.poses[later, 2] - self.poses[i, 2])) <= MERGE_ANGLE)
+            keep[later[near]] = False
+        self.poses, self.evidence = self.poses[keep], self.evidence[keep]
+
+    def same_place(self, pose: np.ndarray, index: int = 0) -> bool:
+        """Whether `pose` is hypothesis `index`'s place (within MERGE_DISTANCE and MERGE_ANGLE)."""
+        if index >= len(self):
+            return False
+        other = self.poses[index]
+        return bool(math.hypot(pose[0] - other[0], pose[1] - other[1]) <= MERGE_DISTANCE
+                    and abs(float(wrap_angle(pose[2] - other[2]))) <= MERGE_ANGLE)
+
+    def reanchor(self, index: int, pose: np.ndarray) -> None:
+        """Hypothesis `index` is at `pose` now (its cluster's mean, fitted by the latest scan)."""
+        self.poses[index] = pose
+
+    def add(self, poses: np.ndarray, window_gain: np.ndarray) -> None:
+        """New hypotheses at `poses`, each with the evidence of the strongest one plus window_gain[i]: what the
+        recent scans say of the new place against the strongest (window_gain[i] alone when there is none)."""
+        poses = np.atleast_2d(poses).reshape(-1, 3)
+        if not len(poses):
+            return
+        base = float(self.evidence.max()) if len(self) else 0.0
+        self.poses = np.vstack([self.poses, poses])
+        self.evidence = np.concatenate([self.evidence, base + np.asarray(window_gain, float)])
+        self._rank()
+
+    def observe(self, log_likelihood: np.ndarray, elsewhere: float) -> None:
+        """Each hypothesis's evidence grows by the data's (weighted) log-likelihood at its pose, `elsewhere`'s by
+        the data's marginal log-likelihood over the map."""
+        if len(self):
+            self.evidence = self.evidence + np.nan_to_num(np.asarray(log_likelihood, float), nan=-np.inf,
+                                                          neginf=-1e9)
+            self.elsewhere += float(elsewhere) if np.isfinite(elsewhere) else 0.0
+            self._rank()
+
+    def probabilities(self) -> np.ndarray:
+        """(H,) the posterior of each hypothesis, heaviest first (they sum to 1 - P(elsewhere))."""
+        if not len(self):
+            return np.zeros(0)
+        p = np.exp(np.append(self.evidence, self.elsewhere) - max(self.evidence.max(), self.elsewhere))
+        return p[:-1] / p.sum()
+
+    def _rank(self) -> None:
+        """Heaviest first, the evidence (elsewhere's too) within MAX_LOG_ODDS of the best, at most MAX_HYPOTHESES."""
+        order = np.argsort(-self.evidence, kind="stable")[:MAX_HYPOTHESES]
+        self.poses, self.evidence = self.poses[order], self.evidence[order]
+        if len(self):
+            best = self.evidence[0]
+            self.evidence = np.maximum(self.evidence - best, -MAX_LOG_ODDS)
+            self.elsewhere = max(self.elsewhere - best, -MAX_LOG_ODDS)
