@@ -50,7 +50,9 @@ def test_a_student_node_is_run_and_recorded(tmp_path, ros_domain, monkeypatch, c
     record = run_episode(spec_of(tmp_path, STUDENT, **clock))
     assert record["error"] is None, record["error"]
     assert record["goal_reached"] is True and record["reason"] == "goal region reached"
-    assert 3.9 < record["time_to_goal"] < 8.0 and record["collisions"] == 0  # 0.8 m at 0.2 m/s: 4 s
+    # 0.8 m at 0.2 m/s: 4 s; in real time a node on a loaded machine misses scans and drives less of each second
+    latest = 8.0 if clock["clock"] == "lockstep" else 12.0
+    assert 3.9 < record["time_to_goal"] < latest and record["collisions"] == 0
     steps = record["time"] / 0.05
     # lockstep: one command per step; realtime: one per scan the node kept up with
     assert record["extra"]["commands"] >= (steps - 2 if clock["clock"] == "lockstep" else steps / 3)
