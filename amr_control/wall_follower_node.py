@@ -32,8 +32,7 @@ from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.parameter_spec import ConfigError
 from amr_util.qos import SENSOR_DATA, reliable
-from amr_util.stamps import NANOSECONDS_PER_SECOND
-from amr_util.sync import ApproximateTimeSynchronizer
+from amr_util.sync import ApproximateTimeSynchronizer, SyncError
 
 WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
 ODOMETRY, SCAN, STATUS = 0, 1, 2
@@ -129,14 +128,10 @@ class WallFollowerNode(ManagedNode):
     def _on_message(self, index: int, message) -> None:
         if self.state_label != "active":
             return
-        if not 0 <= message.header.stamp.nanosec < NANOSECONDS_PER_SECOND:
-            self._warn(f"a message with a malformed stamp (nanosec {message.header.stamp.nanosec}) was dropped")
-            return
-        stamp = Time.from_msg(message.header.stamp).nanoseconds
-        if stamp < 0:
-            self._warn("a message with a negative stamp was dropped")
-            return
-        self._sync.add(index, stamp, message)
+        try:
+            self._sync.add_stamped(index, message)
+        except SyncError as error:  # a malformed or negative stamp
+            self._warn(str(error))
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         """Stamps went back (a simulator reset, or normal stamps after a bad one): start afresh from here."""

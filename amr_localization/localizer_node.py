@@ -15,7 +15,6 @@ import math
 from amr_interfaces.msg import LocalizedPose, LocalizerStatus
 from builtin_interfaces.msg import Time as TimeMessage
 from nav_msgs.msg import Odometry
-from rclpy.time import Time
 from tf2_msgs.msg import TFMessage
 
 from amr_localization import messages
@@ -24,8 +23,7 @@ from amr_util.geometry import map_to_odom
 from amr_util.managed_node import ManagedNode
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
-from amr_util.stamps import NANOSECONDS_PER_SECOND
-from amr_util.sync import ApproximateTimeSynchronizer
+from amr_util.sync import ApproximateTimeSynchronizer, SyncError
 
 WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
@@ -79,14 +77,9 @@ class LocalizerNode(ManagedNode):
         if self.state_label != "active" or self._sync is None:
             return
         try:
-            if not 0 <= message.header.stamp.nanosec < NANOSECONDS_PER_SECOND:
-                self._warn(f"a message with a malformed stamp (nanosec {message.header.stamp.nanosec}) was dropped")
-                return
-            stamp = Time.from_msg(message.header.stamp).nanoseconds
-            if stamp < 0:
-                self._warn("a message with a negative stamp was dropped")
-                return
-            self._sync.add(index, stamp, message)
+            self._sync.add_stamped(index, message)
+        except SyncError as error:  # a malformed or negative stamp
+            self._warn(str(error))
         except Exception as error:  # the pair callbacks log their own; this is the synchronizer's
             self.get_logger().error(f"input dropped: {type(error).__name__}: {error}",
                                     throttle_duration_sec=WARNING_PERIOD)

@@ -77,8 +77,8 @@ WINDOW_SCANS = 200
 """... in at most this many scans."""
 KIDNAP_LOG_PRIOR = -10.0
 """log-probability that the robot was carried, unseen, to a place no hypothesis followed: the prior of a place born
-after a place search covered the map (its proposals then are born without it)."""
-PLACE_SEARCH_CELLS = 1_000_000
+while the filter is localized."""
+PLACE_SEARCH_CELLS = 4_000_000
 """the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
 proposals are then fitted on the map itself) ..."""
 PLACE_SEARCH_RANGE = 10.0
@@ -403,15 +403,15 @@ class ParticleFilter:
         candidates = [weighted_pose(self.particles[clusters.labels == label], self.weights[clusters.labels == label])
                       for label in range(min(clusters.count, MAX_HYPOTHESES))]
         poses = np.array([[c.x, c.y, c.theta] for c in candidates]).reshape(-1, 3)
-        covered = self._covered  # before this update's place search: its proposals are the covering ones
+        settled = self._localized  # a place born while localized elsewhere is one the robot was carried to
         if seen is not None:
             poses = np.vstack([self._fitted(poses, seen), self._search_places(seen)])
-        self._admit(poses, seen, beacons, covered)
+        self._admit(poses, seen, beacons, settled)
         hypotheses.merge()
         self._agree()
         self._decide(seen)
 
-    def _admit(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, covered: bool) -> None:
+    def _admit(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, settled: bool) -> None:
         """Each candidate pose re-anchors the hypothesis it is where the data fit it better there (the best such
         candidate wins), or is born."""
         hypotheses = self.hypotheses
@@ -430,11 +430,11 @@ class ParticleFilter:
             return
         born = np.array(born)
         if len(hypotheses):
-            # at most as likely as the strongest: a place overtakes it only by the scans it is followed through; once a
-            # place search has covered the map, a place it did not propose then is one the robot was carried to
+            # at most as likely as the strongest: a place overtakes it only by the scans it is followed through; while
+            # localized, a new place is one the robot was carried to (the kidnap prior)
             reference = hypotheses.poses[:1]
             gain = np.minimum(self._window_score(born, seen, beacons) - self._window_score(reference, seen, beacons)[0],
-                              0.0) + (KIDNAP_LOG_PRIOR if covered else 0.0)
+                              0.0) + (KIDNAP_LOG_PRIOR if settled else 0.0)
         else:
             gain = self._window_score(born, seen, beacons)
             gain = gain - gain.max()
@@ -599,7 +599,7 @@ class ParticleFilter:
         """The place search's matcher and candidate cells: the map max-pooled to at most PLACE_SEARCH_CELLS cells (a
         cell is occupied where any of its cells is, a candidate where any of its cells is free space), built at first
         use. A coarse lattice has fewer cells and, with the points within PLACE_SEARCH_RANGE, fewer headings: a global
-        search of a 60 m building in about a million nodes instead of tens of millions; a maze of a few metres keeps
+        search of a 60 m building in one or two million nodes instead of tens of millions; a maze of a few metres keeps
         its own cells (its corridors would close)."""
         if self._coarse is None:
             grid = self._grid

@@ -50,7 +50,7 @@ from amr_util.messages import quaternion, scan_data, transform
 from amr_util.parameter_spec import ParameterSpec, field_docs
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
-from amr_util.sync import ApproximateTimeSynchronizer
+from amr_util.sync import ApproximateTimeSynchronizer, SyncError
 
 NODE_NAME = "slam"
 WARNING_PERIOD = 2.0
@@ -217,14 +217,9 @@ class SlamNode(ManagedNode):
         if self.state_label != "active" or self._sync is None:
             return
         try:
-            if not 0 <= message.header.stamp.nanosec < NANOSECONDS_PER_SECOND:
-                self._warn(f"a message with a malformed stamp (nanosec {message.header.stamp.nanosec}) was dropped")
-                return
-            stamp = Time.from_msg(message.header.stamp).nanoseconds
-            if stamp < 0:
-                self._warn("a message with a negative stamp was dropped")
-                return
-            self._sync.add(index, stamp, message)
+            self._sync.add_stamped(index, message)
+        except SyncError as error:  # a malformed or negative stamp
+            self._warn(str(error))
         except Exception as error:  # the pair callback logs its own; this is the synchronizer's
             self.get_logger().error(f"input dropped: {type(error).__name__}: {error}",
                                     throttle_duration_sec=WARNING_PERIOD)

@@ -183,6 +183,17 @@ class ApproximateTimeSynchronizer:
         self._last_published: list[int | None] = [None] * self._n
         self._overflowed = [False] * self._n
 
+    def add_stamped(self, index: int, message: Any) -> int:
+        """add() with the stamp of ``message.header`` (a ROS message): the one input stamp check of the suite's nodes.
+        Raises SyncError saying what is wrong with a malformed (nanosec out of range) or negative stamp."""
+        stamp = message.header.stamp
+        if not 0 <= stamp.nanosec < NANOSECONDS_PER_SECOND:
+            raise SyncError(f"a message with a malformed stamp (nanosec {stamp.nanosec}) was dropped")
+        stamp_ns = stamp.sec * NANOSECONDS_PER_SECOND + stamp.nanosec
+        if stamp_ns < 0:
+            raise SyncError("a message with a negative stamp was dropped")
+        return self.add(index, stamp_ns, message)
+
     def add(self, index: int, stamp_ns: int, message: Any) -> int:
         """Queue ``message`` of input ``index`` stamped ``stamp_ns``; returns the number of sets published."""
         if isinstance(index, bool) or not isinstance(index, Integral) or not 0 <= index < self._n:
