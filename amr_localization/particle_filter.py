@@ -78,7 +78,7 @@ WINDOW_SCANS = 200
 KIDNAP_LOG_PRIOR = -10.0
 """log-probability that the robot was carried, unseen, to a place no hypothesis followed: the prior of a place born
 while the filter is localized."""
-PLACE_SEARCH_CELLS = 4_000_000
+PLACE_SEARCH_CELLS = 1_000_000
 """the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
 proposals are then fitted on the map itself) ..."""
 PLACE_SEARCH_RANGE = 10.0
@@ -599,7 +599,7 @@ class ParticleFilter:
         """The place search's matcher and candidate cells: the map max-pooled to at most PLACE_SEARCH_CELLS cells (a
         cell is occupied where any of its cells is, a candidate where any of its cells is free space), built at first
         use. A coarse lattice has fewer cells and, with the points within PLACE_SEARCH_RANGE, fewer headings: a global
-        search of a 60 m building in one or two million nodes instead of tens of millions; a maze of a few metres keeps
+        search of a 60 m building in about a million nodes instead of tens of millions; a maze of a few metres keeps
         its own cells (its corridors would close)."""
         if self._coarse is None:
             grid = self._grid
