@@ -490,7 +490,14 @@ class ParticleFilter:
             runner_up = float(self._shares[1]) * held if len(self._shares) > 1 else 0.0
         threshold = config.release_probability if self._localized else config.localized_probability
         moved_on = self._localized and not hypotheses.same_place(self._declared)
+        was_localized = self._localized
         self._localized = confidence >= threshold and not moved_on
+        if was_localized and not self._localized:
+            # a withdrawal doubts what the robot did before it (a kidnapping reads as odometry): places born from now
+            # on are scored on the scans that come after, not on scans reached back through a move that never was;
+            # and the places followed may no longer cover the map: a new declaration waits for a new place search
+            self._window.clear()
+            self._covered, self._search = self.config.place_search_budget == 0, None
         if moved_on:  # the place declared is no longer the best: withdrawn; the new best must earn its own declaration
             self.status.event = "localized withdrawn: another place explains the scans better than the one declared"
         self._declared = hypotheses.poses[0].copy() if self._localized else None
