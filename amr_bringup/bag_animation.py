@@ -27,9 +27,19 @@ from amr_util.robot_description import default_robot
 COLOURS = 64
 
 
-def animate_bag(path: str | Path, gif: str | Path, world: World, frames: int = 150, fps: float = 15.0,
-                pose_topic: str | None = None, lidar: LidarConfig = LidarConfig(), robot_radius: float = default_robot().radius,
-                max_speed: float = default_robot().max_linear_speed, size: tuple[float, float] = (4.8, 4.4), dpi: int = 80) -> Path:
+def animate_bag(
+    path: str | Path,
+    gif: str | Path,
+    world: World,
+    frames: int = 150,
+    fps: float = 15.0,
+    pose_topic: str | None = None,
+    lidar: LidarConfig = LidarConfig(),
+    robot_radius: float = default_robot().radius,
+    max_speed: float = default_robot().max_linear_speed,
+    size: tuple[float, float] = (4.8, 4.4),
+    dpi: int = 80,
+) -> Path:
     """Write `gif` from the bag at `path`; returns its path. BagError when the bag has no odometry."""
     if frames < 1 or not fps > 0:
         raise ValueError(f"animate_bag: frames must be >= 1 and fps > 0, got {frames}, {fps}")
@@ -53,7 +63,7 @@ def animate_bag(path: str | Path, gif: str | Path, world: World, frames: int = 1
     images, drawn = [], 0
     for index in np.unique(np.linspace(1, len(rows) - 1, frames).round().astype(int)):
         canvas.restore_region(background)
-        ax.draw_artist(draw_trajectory(ax, rows[drawn:index + 1], max_speed))
+        ax.draw_artist(draw_trajectory(ax, rows[drawn : index + 1], max_speed))
         background, drawn = canvas.copy_from_bbox(figure.bbox), index
         kept = (len(ax.patches), len(ax.lines), len(ax.collections), len(ax.texts))
         draw_robot(ax, poses[index], robot_radius)
@@ -61,14 +71,30 @@ def animate_bag(path: str | Path, gif: str | Path, world: World, frames: int = 1
         if at >= 0:
             _, scan = scans[at]
             ranges = np.asarray(scan.ranges, dtype=float)
-            fan = LidarConfig(beams=ranges.size, angle_min=scan.angle_min, fov=min(scan.angle_increment * ranges.size, 2 * math.pi),  # float32 steps overshoot 2 pi
-                              range_min=scan.range_min, range_max=scan.range_max, x=lidar.x, y=lidar.y)
+            fan = LidarConfig(
+                beams=ranges.size,
+                angle_min=scan.angle_min,
+                fov=min(scan.angle_increment * ranges.size, 2 * math.pi),  # float32 steps overshoot 2 pi
+                range_min=scan.range_min,
+                range_max=scan.range_max,
+                x=lidar.x,
+                y=lidar.y,
+            )
             sensor = Lidar(fan, caster=None, rng=None).sensor_pose(poses[index])
             draw_scan(ax, sensor, np.where(ranges > scan.range_max, np.inf, ranges), fan)
-        ax.text(0.02, 0.98, f"t = {(pose_stamps[index] - pose_stamps[0]) * 1e-9:5.1f} s", transform=ax.transAxes,
-                va="top", fontsize=9)
-        moving = [artist for artists, keep in zip((ax.patches, ax.lines, ax.collections, ax.texts), kept)
-                  for artist in list(artists)[keep:]]
+        ax.text(
+            0.02,
+            0.98,
+            f"t = {(pose_stamps[index] - pose_stamps[0]) * 1e-9:5.1f} s",
+            transform=ax.transAxes,
+            va="top",
+            fontsize=9,
+        )
+        moving = [
+            artist
+            for artists, keep in zip((ax.patches, ax.lines, ax.collections, ax.texts), kept)
+            for artist in list(artists)[keep:]
+        ]
         for artist in moving:  # robot, scan and time: drawn on this frame only
             ax.draw_artist(artist)
             artist.remove()
@@ -76,6 +102,5 @@ def animate_bag(path: str | Path, gif: str | Path, world: World, frames: int = 1
         images.append(frame.convert("RGB").quantize(COLOURS))
     gif = Path(gif)
     gif.parent.mkdir(parents=True, exist_ok=True)
-    images[0].save(gif, save_all=True, append_images=images[1:], duration=round(1000.0 / fps), loop=0,
-                   optimize=True)
+    images[0].save(gif, save_all=True, append_images=images[1:], duration=round(1000.0 / fps), loop=0, optimize=True)
     return gif

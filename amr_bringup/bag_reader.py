@@ -65,8 +65,10 @@ def trajectory(recording: Recording, pose_topic: str | None = None) -> tuple[np.
     """Rows [x, y, speed] and the poses of a nav_msgs/Odometry topic (the first of POSE_TOPICS present)."""
     topic = pose_topic or next((t for t in POSE_TOPICS if recording.count(t)), None)
     if topic is None or not recording.count(topic):
-        raise BagError(f"no odometry to draw: none of {', '.join((pose_topic,) if pose_topic else POSE_TOPICS)} "
-                       "has messages in the bag")
+        raise BagError(
+            f"no odometry to draw: none of {', '.join((pose_topic,) if pose_topic else POSE_TOPICS)} "
+            "has messages in the bag"
+        )
     poses, rows = [], []
     for _, message in recording.topics[topic]:
         p, q = message.pose.pose.position, message.pose.pose.orientation
@@ -76,10 +78,16 @@ def trajectory(recording: Recording, pose_topic: str | None = None) -> tuple[np.
     return np.array(rows, dtype=float), poses
 
 
-def render_bag(path: str | Path, png: str | Path, world: World, pose_topic: str | None = None,
-               lidar: LidarConfig = LidarConfig(), robot_radius: float = default_robot().radius,
-               max_speed: float = default_robot().max_linear_speed,
-               dpi: int = 120) -> Path:
+def render_bag(
+    path: str | Path,
+    png: str | Path,
+    world: World,
+    pose_topic: str | None = None,
+    lidar: LidarConfig = LidarConfig(),
+    robot_radius: float = default_robot().radius,
+    max_speed: float = default_robot().max_linear_speed,
+    dpi: int = 120,
+) -> Path:
     """The demo's maze figure of a recorded run: `world` under the bag's path, robot and last scan."""
     recording = read_bag(path)
     rows, poses = trajectory(recording, pose_topic)
@@ -92,12 +100,21 @@ def render_bag(path: str | Path, png: str | Path, world: World, pose_topic: str 
     if recording.count(SCAN_TOPIC):
         _, scan = recording.topics[SCAN_TOPIC][-1]
         ranges = np.asarray(scan.ranges, dtype=float)
-        fan = LidarConfig(beams=ranges.size, angle_min=scan.angle_min, fov=min(scan.angle_increment * ranges.size, 2 * math.pi),  # float32 steps overshoot 2 pi
-                          range_min=scan.range_min, range_max=scan.range_max, x=lidar.x, y=lidar.y)
+        fan = LidarConfig(
+            beams=ranges.size,
+            angle_min=scan.angle_min,
+            fov=min(scan.angle_increment * ranges.size, 2 * math.pi),  # float32 steps overshoot 2 pi
+            range_min=scan.range_min,
+            range_max=scan.range_max,
+            x=lidar.x,
+            y=lidar.y,
+        )
         sensor = Lidar(fan, caster=None, rng=None).sensor_pose(poses[-1])  # the mounting only: no casting
         draw_scan(ax, sensor, np.where(ranges > scan.range_max, np.inf, ranges), fan)
-    seconds = (max(s for m in recording.topics.values() for s, _ in m)
-               - min(s for m in recording.topics.values() for s, _ in m)) * 1e-9
+    seconds = (
+        max(s for m in recording.topics.values() for s, _ in m)
+        - min(s for m in recording.topics.values() for s, _ in m)
+    ) * 1e-9
     ax.set_title(f"{world.name}   recorded {seconds:.1f} s   {sum(map(len, recording.topics.values()))} messages")
     figure.colorbar(lines, ax=ax, label="speed [m/s]", shrink=0.8)
     png = Path(png)

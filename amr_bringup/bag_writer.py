@@ -49,11 +49,16 @@ class TopicQos:
 
     def rosbags_qos(self) -> Qos:
         return Qos(
-            history=QosHistory.UNKNOWN if self.depth is None else QosHistory.KEEP_LAST, depth=self.depth or 0,
+            history=QosHistory.UNKNOWN if self.depth is None else QosHistory.KEEP_LAST,
+            depth=self.depth or 0,
             reliability=QosReliability.RELIABLE if self.reliable else QosReliability.BEST_EFFORT,
             durability=QosDurability.TRANSIENT_LOCAL if self.transient_local else QosDurability.VOLATILE,
-            deadline=UNSET_TIME, lifespan=UNSET_TIME, liveliness=QosLiveliness.AUTOMATIC,
-            liveliness_lease_duration=UNSET_TIME, avoid_ros_namespace_conventions=False)
+            deadline=UNSET_TIME,
+            lifespan=UNSET_TIME,
+            liveliness=QosLiveliness.AUTOMATIC,
+            liveliness_lease_duration=UNSET_TIME,
+            avoid_ros_namespace_conventions=False,
+        )
 
 
 def bag_directory(path: str | Path) -> Path:
@@ -106,7 +111,8 @@ class BagWriter:
             raise BagError(f"{self.path}: topic {topic} added twice")
         ensure_type(self._store, msgtype)
         self._connections[topic] = self._writer.add_connection(
-            topic, msgtype, typestore=self._store, offered_qos_profiles=[qos.rosbags_qos()])
+            topic, msgtype, typestore=self._store, offered_qos_profiles=[qos.rosbags_qos()]
+        )
 
     def write(self, topic: str, stamp_ns: int, data: bytes | memoryview) -> None:
         """One serialized (CDR) message received at `stamp_ns` (ns since the epoch of the recorder clock)."""
@@ -121,7 +127,9 @@ class BagWriter:
         self._writer.close()
         metadata = self.path / "metadata.yaml"
         text = metadata.read_text(encoding="utf-8")
-        metadata.write_text(text.replace("\n  ros_distro: rosbags\n", f"\n  ros_distro: {ROS_DISTRO}\n"), encoding="utf-8")
+        metadata.write_text(
+            text.replace("\n  ros_distro: rosbags\n", f"\n  ros_distro: {ROS_DISTRO}\n"), encoding="utf-8"
+        )
 
     def __enter__(self) -> "BagWriter":
         return self

@@ -40,8 +40,15 @@ from amr_bringup.bag_writer import bag_directory
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_bringup.processes import NodeProcess, executable_path, stop_processes
 from amr_bringup.recording import CATCH_UP_TIMEOUT, RecorderProcess, wait_until_matched
-from amr_bringup.stack_config import (Bringup, BringupError, NodeSpec, check_installed, load_bringup,
-                                      parse_assignments, shipped_stacks)
+from amr_bringup.stack_config import (
+    Bringup,
+    BringupError,
+    NodeSpec,
+    check_installed,
+    load_bringup,
+    parse_assignments,
+    shipped_stacks,
+)
 from amr_bringup.status import StatusMonitor, format_table
 from amr_bringup.viewing import DEFAULT_HOST, DEFAULT_PORT, ViewerProcess, port_problem
 from amr_util.executors import NodeSpinners
@@ -143,9 +150,12 @@ class ComposedStack:
                 self.nodes.append(node_class(node)(cli_args=node.ros_arguments()))
             except Exception as error:
                 self.stop(Flag())
-                raise StackError(f"node {node.managed_name} failed to start: {type(error).__name__}: {error}") \
-                    from error
-            console.note(f"created {node.managed_name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}")
+                raise StackError(
+                    f"node {node.managed_name} failed to start: {type(error).__name__}: {error}"
+                ) from error
+            console.note(
+                f"created {node.managed_name} ({type(self.nodes[-1]).__name__}) with {' '.join(node.ros_arguments())}"
+            )
 
     def failure(self) -> str | None:
         return self.crash
@@ -176,8 +186,10 @@ def check_composable(bringup: Bringup) -> None:
     for i, node in enumerate(bringup.nodes):
         if (node.package, node.executable) not in NODE_CLASSES:
             known = ", ".join(f"{p}/{e}" for p, e in NODE_CLASSES)
-            raise BringupError(f"{bringup.source}: nodes[{i}].executable: {node.package}/{node.executable} "
-                               f"has no node class for --composed (known: {known})")
+            raise BringupError(
+                f"{bringup.source}: nodes[{i}].executable: {node.package}/{node.executable} "
+                f"has no node class for --composed (known: {known})"
+            )
 
 
 class Supervisor:
@@ -196,8 +208,7 @@ class Supervisor:
         self.active = False
         self.active_since = self.started_at
         self._startup_steps: list = []
-        self._startup = threading.Thread(target=lambda: self._startup_steps.extend(self.manager.startup()),
-                                         daemon=True)
+        self._startup = threading.Thread(target=lambda: self._startup_steps.extend(self.manager.startup()), daemon=True)
 
     def run(self, make_stack: Callable[[Bringup, Console], ProcessStack | ComposedStack]) -> int:
         """Start, watch, take down; whatever happens, nothing this started is left running."""
@@ -234,13 +245,15 @@ class Supervisor:
         self.manager = LifecycleManager(
             before_activate=self._before_activate,
             cli_args=["--ros-args", "-r", f"__node:={self.bringup.manager_name}"],
-            parameter_overrides=[Parameter(k, value=v) for k, v in self.bringup.manager_parameters().items()])
+            parameter_overrides=[Parameter(k, value=v) for k, v in self.bringup.manager_parameters().items()],
+        )
         if self.console.live:
             self.manager.get_logger().set_level(LoggingSeverity.WARN)
         self.spinners.add_node(self.manager)
         if self.options.status:
-            self.monitor = StatusMonitor(self.bringup.node_startup_order,
-                                         [(node.name, node.namespace) for node in self.bringup.nodes])
+            self.monitor = StatusMonitor(
+                self.bringup.node_startup_order, [(node.name, node.namespace) for node in self.bringup.nodes]
+            )
             self.spinners.add_node(self.monitor)
 
     def _before_activate(self, name: str) -> None:
@@ -251,8 +264,10 @@ class Supervisor:
             if node.get_fully_qualified_name().lstrip("/") == name.lstrip("/"):
                 unmatched = wait_until_matched(node, self.options.topics or [])
                 if unmatched:
-                    self.console.note(f"{name}: {' '.join(unmatched)} not matched with every subscriber within "
-                                      f"{CATCH_UP_TIMEOUT} s; the bag may miss their first messages")
+                    self.console.note(
+                        f"{name}: {' '.join(unmatched)} not matched with every subscriber within "
+                        f"{CATCH_UP_TIMEOUT} s; the bag may miss their first messages"
+                    )
 
     def _add_recorder(self) -> None:
         """The recorder runs as a process of its own (amr_bringup.recording); each node is activated once it
@@ -261,25 +276,40 @@ class Supervisor:
         self.recorder_client = Node(f"{self.bringup.manager_name}_recorder_client")
         self.spinners.add_node(self.recorder_client)
         try:
-            self.recorder = RecorderProcess(f"recorder_{self.bringup.name}",
-                                            str(self.options.record), self.options.topics or [], simulated,
-                                            self.recorder_client, self.console.line)
+            self.recorder = RecorderProcess(
+                f"recorder_{self.bringup.name}",
+                str(self.options.record),
+                self.options.topics or [],
+                simulated,
+                self.recorder_client,
+                self.console.line,
+            )
         except OSError as error:
             raise StackError(f"--record: the recorder failed to start: {error}") from error
-        self.console.note(f"recording {' '.join(self.options.topics) if self.options.topics else 'every topic'} "
-                          f"to {bag_directory(self.options.record)}" + (" (stamps on /clock)" if simulated else "") +
-                          f": {' '.join(self.recorder.command)}")
+        self.console.note(
+            f"recording {' '.join(self.options.topics) if self.options.topics else 'every topic'} "
+            f"to {bag_directory(self.options.record)}"
+            + (" (stamps on /clock)" if simulated else "")
+            + f": {' '.join(self.recorder.command)}"
+        )
 
     def _add_viewer(self) -> None:
         """The viewer (amr_viewer) as a process of its own, on simulated time with a simulated stack."""
         simulated = any(node.parameters.get("use_sim_time") is True for node in self.bringup.nodes)
         try:
-            self.viewer = ViewerProcess(f"viewer_{self.bringup.name}", self.options.view_host, self.options.view_port,
-                                        simulated, self.console.line)
+            self.viewer = ViewerProcess(
+                f"viewer_{self.bringup.name}",
+                self.options.view_host,
+                self.options.view_port,
+                simulated,
+                self.console.line,
+            )
         except OSError as error:
             raise StackError(f"--view: the viewer failed to start: {error}") from error
-        self.console.note(f"viewer at {self.viewer.url} (no authentication: anyone who can reach it can drive the "
-                          f"robot): {' '.join(self.viewer.command)}")
+        self.console.note(
+            f"viewer at {self.viewer.url} (no authentication: anyone who can reach it can drive the "
+            f"robot): {' '.join(self.viewer.command)}"
+        )
 
     def _on_callback_error(self, error: BaseException) -> None:
         if isinstance(self.stack, ComposedStack):  # a callback raised: the composed stack is broken
@@ -293,25 +323,35 @@ class Supervisor:
             if failure:
                 return failure
             if self.recorder is not None and self.recorder.process.exit_code() is not None:
-                return f"the recorder (pid {self.recorder.process.pid}) exited with code " \
-                       f"{self.recorder.process.exit_code()}"
+                return (
+                    f"the recorder (pid {self.recorder.process.pid}) exited with code "
+                    f"{self.recorder.process.exit_code()}"
+                )
             if self.viewer is not None and not self.viewer.reported and self.viewer.process.exit_code() is not None:
                 self.viewer.reported = True  # the stack goes on without its view
-                self.console.note(f"the viewer (pid {self.viewer.process.pid}) exited with code "
-                                  f"{self.viewer.process.exit_code()}; the stack goes on")
+                self.console.note(
+                    f"the viewer (pid {self.viewer.process.pid}) exited with code "
+                    f"{self.viewer.process.exit_code()}; the stack goes on"
+                )
             if not self._startup.is_alive() and not self.active:
                 if not self.manager.started:
                     last = self._startup_steps[-1] if self._startup_steps else None
-                    return f"startup failed at {last.transition} of {last.node}: {last.detail}" if last else \
-                        "startup failed"
+                    return (
+                        f"startup failed at {last.transition} of {last.node}: {last.detail}"
+                        if last
+                        else "startup failed"
+                    )
                 self.active = True
                 self.active_since = time.monotonic()
                 self.console.note(f"all nodes active: {', '.join(self.bringup.node_startup_order)}")
             if self.monitor is not None and time.monotonic() >= next_table:
                 next_table += STATUS_PERIOD
                 self._print_status()
-            if self.active and self.options.duration is not None and \
-                    time.monotonic() - self.active_since >= self.options.duration:
+            if (
+                self.active
+                and self.options.duration is not None
+                and time.monotonic() - self.active_since >= self.options.duration
+            ):
                 return None
         return None
 
@@ -350,10 +390,15 @@ def format_arguments(bringup: Bringup) -> str:
     """The stack's arguments as `ros2 launch --show-args` lists them, with what they are now."""
     lines = ["Arguments (pass arguments as '<name>:=<value>'):"]
     for name, argument in bringup.arguments.items():
-        targets = ", ".join(f"{node}.{parameter}" for node, parameter in argument.sets) or \
-            f"the parameter files of {argument.params_file_of}"
-        lines += [f"    '{name}':", f"        {argument.description} (sets {targets})",
-                  f"        (now: {bringup.current_value(name)!r})"]
+        targets = (
+            ", ".join(f"{node}.{parameter}" for node, parameter in argument.sets)
+            or f"the parameter files of {argument.params_file_of}"
+        )
+        lines += [
+            f"    '{name}':",
+            f"        {argument.description} (sets {targets})",
+            f"        (now: {bringup.current_value(name)!r})",
+        ]
     return "\n".join(lines)
 
 
@@ -361,35 +406,72 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     stacks = shipped_stacks()
     width = max(map(len, stacks), default=0)
     parser = argparse.ArgumentParser(
-        prog="amr-bringup", description="Start a stack of lifecycle nodes from a bringup file and keep it up.",
+        prog="amr-bringup",
+        description="Start a stack of lifecycle nodes from a bringup file and keep it up.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="shipped stacks (config/bringup/<name>.yaml):\n" + "\n".join(
-            f"  {name:<{width}}  {summary}" for name, summary in stacks.items()) if stacks else None)
+        epilog="shipped stacks (config/bringup/<name>.yaml):\n"
+        + "\n".join(f"  {name:<{width}}  {summary}" for name, summary in stacks.items())
+        if stacks
+        else None,
+    )
     parser.add_argument("bringup", help="a bringup YAML file, or the name of a shipped stack (listed below)")
-    parser.add_argument("arguments", nargs="*", metavar="name:=value",
-                        help="the stack's arguments (see --show-args), e.g. world:=hard_maze.yaml")
-    parser.add_argument("-p", dest="parameters", action="append", default=[], metavar="NODE.PARAMETER:=VALUE",
-                        help="a parameter of one node, after its files, e.g. -p wall_follower.kp:=3.0")
+    parser.add_argument(
+        "arguments",
+        nargs="*",
+        metavar="name:=value",
+        help="the stack's arguments (see --show-args), e.g. world:=hard_maze.yaml",
+    )
+    parser.add_argument(
+        "-p",
+        dest="parameters",
+        action="append",
+        default=[],
+        metavar="NODE.PARAMETER:=VALUE",
+        help="a parameter of one node, after its files, e.g. -p wall_follower.kp:=3.0",
+    )
     parser.add_argument("--show-args", action="store_true", help="list the stack's arguments and exit")
-    parser.add_argument("--composed", action="store_true",
-                        help="all nodes in this process (a thread each) instead of one process each")
-    parser.add_argument("--status", action="store_true",
-                        help="print a table of the nodes' lifecycle states and the topic rates every second")
-    parser.add_argument("--duration", type=float, metavar="S",
-                        help="stop cleanly after S seconds with every node active (a startup is bounded by the "
-                             "manager's wait_timeout and transition_timeout, not by S)")
-    parser.add_argument("--record", metavar="BAG", help="record a rosbag2 MCAP bag: out/run.mcap writes the "
-                                                          "directory out/run (every topic, or --topics)")
+    parser.add_argument(
+        "--composed", action="store_true", help="all nodes in this process (a thread each) instead of one process each"
+    )
+    parser.add_argument(
+        "--status",
+        action="store_true",
+        help="print a table of the nodes' lifecycle states and the topic rates every second",
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="stop cleanly after S seconds with every node active (a startup is bounded by the "
+        "manager's wait_timeout and transition_timeout, not by S)",
+    )
+    parser.add_argument(
+        "--record",
+        metavar="BAG",
+        help="record a rosbag2 MCAP bag: out/run.mcap writes the directory out/run (every topic, or --topics)",
+    )
     parser.add_argument("--topics", nargs="+", metavar="TOPIC", help="with --record: only these topics")
-    parser.add_argument("--view", action="store_true",
-                        help="watch and steer the stack in a browser (amr_viewer, a process of its own); prints its "
-                             "address. There is no authentication: keep --view-host on localhost unless you trust "
-                             "your network")
-    parser.add_argument("--view-port", type=int, default=DEFAULT_PORT, metavar="PORT",
-                        help=f"with --view: the port of the viewer's web server (default {DEFAULT_PORT})")
-    parser.add_argument("--view-host", default=DEFAULT_HOST, metavar="ADDRESS",
-                        help=f"with --view: the address it binds (default {DEFAULT_HOST}, this machine only; "
-                             "0.0.0.0 for every interface)")
+    parser.add_argument(
+        "--view",
+        action="store_true",
+        help="watch and steer the stack in a browser (amr_viewer, a process of its own); prints its "
+        "address. There is no authentication: keep --view-host on localhost unless you trust "
+        "your network",
+    )
+    parser.add_argument(
+        "--view-port",
+        type=int,
+        default=DEFAULT_PORT,
+        metavar="PORT",
+        help=f"with --view: the port of the viewer's web server (default {DEFAULT_PORT})",
+    )
+    parser.add_argument(
+        "--view-host",
+        default=DEFAULT_HOST,
+        metavar="ADDRESS",
+        help=f"with --view: the address it binds (default {DEFAULT_HOST}, this machine only; "
+        "0.0.0.0 for every interface)",
+    )
     options = parser.parse_args(argv)
     if options.duration is not None and not options.duration > 0:
         parser.error("--duration must be positive")
@@ -416,8 +498,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if options.show_args:
             print(format_arguments(bringup))
             return 0
-        bringup = bringup.with_overrides(parse_assignments(options.arguments, "argument"),
-                                         parse_assignments(options.parameters, "-p"))
+        bringup = bringup.with_overrides(
+            parse_assignments(options.arguments, "argument"), parse_assignments(options.parameters, "-p")
+        )
         check_installed(bringup, executables=not options.composed)
         if options.composed:
             check_composable(bringup)

@@ -15,18 +15,31 @@ from amr_util.executors import NodeSpinners
 
 
 @contextmanager
-def composed_stack(context, stack: str, arguments=None, parameters=None, remappings=None, extra_nodes=(),
-                   before_activate=lambda node: None, adjust=lambda bringup: bringup):
+def composed_stack(
+    context,
+    stack: str,
+    arguments=None,
+    parameters=None,
+    remappings=None,
+    extra_nodes=(),
+    before_activate=lambda node: None,
+    adjust=lambda bringup: bringup,
+):
     """Yields (nodes by managed name: `simulator`, `/r1/wall_follower`, manager, spinners); the stack is built but
     not started (call manager.startup()). `remappings` by node name apply to every robot's copy of a per_robot node.
     `adjust` takes the stack as made and returns the one to start (a test's change the arguments cannot make)."""
     bringup = adjust(load_bringup(stack).with_overrides(arguments or {}, parameters or {}))
-    specs = [replace(spec, remappings=spec.remappings + tuple((remappings or {}).get(spec.name, ())))
-             for spec in bringup.nodes]
+    specs = [
+        replace(spec, remappings=spec.remappings + tuple((remappings or {}).get(spec.name, ())))
+        for spec in bringup.nodes
+    ]
     nodes = {spec.managed_name: node_class(spec)(context=context, cli_args=spec.ros_arguments()) for spec in specs}
-    manager = LifecycleManager(before_activate=before_activate, context=context, cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
-                               parameter_overrides=[Parameter(k, value=v)
-                                                    for k, v in bringup.manager_parameters().items()])
+    manager = LifecycleManager(
+        before_activate=before_activate,
+        context=context,
+        cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
+        parameter_overrides=[Parameter(k, value=v) for k, v in bringup.manager_parameters().items()],
+    )
     spinners = NodeSpinners(context)
     everything = [*nodes.values(), manager, *extra_nodes]
     for node in everything:

@@ -91,8 +91,7 @@ class Observer(Node):
     def _on_follower(self, message: WallFollowerStatus) -> None:
         t = stamp_seconds(message.header.stamp)
         with self.lock:
-            self.follower.append((t, message.wall_distance, message.target_wall_distance,
-                                  message.state == FOLLOWING))
+            self.follower.append((t, message.wall_distance, message.target_wall_distance, message.state == FOLLOWING))
 
 
 def call(node: Node, service_type, name: str, request):
@@ -127,10 +126,19 @@ def spinning(context, nodes: Sequence[Node]) -> Iterator[SingleThreadedExecutor]
             node.destroy_node()
 
 
-def run_maze(context, world: str, duration: float, *, odometry_node: bool = False,
-             follower_config: str = "wall_follower_sim.yaml", render_path: Path | None = None,
-             simulator_overrides: Sequence[str] = (), follower_overrides: Sequence[str] = (),
-             progress: bool = True, record_path: Path | None = None) -> tuple[dict, np.ndarray]:
+def run_maze(
+    context,
+    world: str,
+    duration: float,
+    *,
+    odometry_node: bool = False,
+    follower_config: str = "wall_follower_sim.yaml",
+    render_path: Path | None = None,
+    simulator_overrides: Sequence[str] = (),
+    follower_overrides: Sequence[str] = (),
+    progress: bool = True,
+    record_path: Path | None = None,
+) -> tuple[dict, np.ndarray]:
     """The maze stack for `duration` simulated seconds (or to the goal), lockstep unless overridden.
 
     With odometry_node, the simulator publishes only /odom, as a real TurtleBot3 does, and
@@ -139,31 +147,53 @@ def run_maze(context, world: str, duration: float, *, odometry_node: bool = Fals
     recorder writes RECORDED_TOPICS there (each node activates once the recorder listens).
     """
     # one time base: the simulator publishes /clock, every node of the stack runs on it
-    simulator = SimulatorNode(context=context, cli_args=params_file_args(
-        config_file("amr_simulation", "simulator.yaml"), f"world:={world}", SIM_TIME,
-        f"publish_odometry:={'false' if odometry_node else 'true'}",
-        *([f"render_path:={render_path}"] if render_path else []), *simulator_overrides))
-    follower = WallFollowerNode(context=context, cli_args=params_file_args(
-        config_file("amr_control", follower_config), SIM_TIME, *follower_overrides))
+    simulator = SimulatorNode(
+        context=context,
+        cli_args=params_file_args(
+            config_file("amr_simulation", "simulator.yaml"),
+            f"world:={world}",
+            SIM_TIME,
+            f"publish_odometry:={'false' if odometry_node else 'true'}",
+            *([f"render_path:={render_path}"] if render_path else []),
+            *simulator_overrides,
+        ),
+    )
+    follower = WallFollowerNode(
+        context=context,
+        cli_args=params_file_args(config_file("amr_control", follower_config), SIM_TIME, *follower_overrides),
+    )
     odometry = [OdometryNode(context=context, cli_args=["--ros-args", "-p", SIM_TIME])] if odometry_node else []
     map_server = MapServerNode(context=context, cli_args=["--ros-args", "-p", f"world:={world}", "-p", SIM_TIME])
     stack = [map_server, follower] + odometry + [simulator]
-    recorder = Recorder(context=context, parameter_overrides=[
-        Parameter("path", value=str(record_path)), Parameter("topics", value=RECORDED_TOPICS),
-        Parameter("use_sim_time", value=True)]) if record_path else None
+    recorder = (
+        Recorder(
+            context=context,
+            parameter_overrides=[
+                Parameter("path", value=str(record_path)),
+                Parameter("topics", value=RECORDED_TOPICS),
+                Parameter("use_sim_time", value=True),
+            ],
+        )
+        if record_path
+        else None
+    )
     recording = BackgroundSpin(recorder) if recorder else None
     # listeners first: the simulator publishes its first observation when it activates
-    manager = LifecycleManager(before_activate=lambda node: recorder and recorder.wait_until_caught_up(),
-                               context=context, parameter_overrides=[
-        Parameter("node_startup_order", value=[node.get_name() for node in stack])])
+    manager = LifecycleManager(
+        before_activate=lambda node: recorder and recorder.wait_until_caught_up(),
+        context=context,
+        parameter_overrides=[Parameter("node_startup_order", value=[node.get_name() for node in stack])],
+    )
     observer = Observer(context=context)
     with spinning(context, stack + [manager, observer]):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the maze stack did not come up (see the log above)")
         started = time.monotonic()
         if progress:
-            print(f"maze: {world}, lockstep, {' -> '.join(n.get_name() for n in stack)}, "
-                  f"{duration:.0f} s of simulated time or until the goal")
+            print(
+                f"maze: {world}, lockstep, {' -> '.join(n.get_name() for n in stack)}, "
+                f"{duration:.0f} s of simulated time or until the goal"
+            )
         status = wait_for_run(observer, duration, started, progress)
         elapsed = time.monotonic() - started
         rendered = call(observer, Trigger, "simulator/render", Trigger.Request()) if render_path else None
@@ -185,7 +215,9 @@ def run_maze(context, world: str, duration: float, *, odometry_node: bool = Fals
         "collisions": int(status.collisions),
         "goal_reached": bool(status.goal_reached),
         "target_wall_distance_m": target,
-        "mean_abs_wall_error_following_m": round(float(np.mean(np.abs(following[:, 1] - target))), 4) if len(following) else None,
+        "mean_abs_wall_error_following_m": round(float(np.mean(np.abs(following[:, 1] - target))), 4)
+        if len(following)
+        else None,
     }
     if rendered is not None:
         summary["render"] = rendered.message if rendered.success else f"failed: {rendered.message}"
@@ -210,9 +242,12 @@ def wait_for_run(observer: Observer, duration: float, started: float, progress: 
         done = status.sim_time >= duration or status.goal_reached
         if progress and (now - last_print >= PROGRESS_PERIOD or done):
             last_print = now
-            print(f"  t = {status.sim_time:6.1f} s sim | {status.distance_travelled:6.2f} m | "
-                  f"collisions {status.collisions} | {status.sim_time / (now - started):5.1f}x real time | "
-                  f"{state} commands" + (" | goal reached" if status.goal_reached else ""), flush=True)
+            print(
+                f"  t = {status.sim_time:6.1f} s sim | {status.distance_travelled:6.2f} m | "
+                f"collisions {status.collisions} | {status.sim_time / (now - started):5.1f}x real time | "
+                f"{state} commands" + (" | goal reached" if status.goal_reached else ""),
+                flush=True,
+            )
         if done:
             return status
 
@@ -256,14 +291,20 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
     """The maze_localization stack on `world` (map server, simulator, wall follower, particle filter: the filter
     takes the map server's /map): global localization from an unknown start while the wall follower explores."""
     observer = LocalizationObserver(context=context)
-    with composed_stack(context, "maze_localization", arguments={"world": world},
-                        parameters={"particle_filter.particle_cloud_period": str(LOCALIZATION_CLOUD_PERIOD)},
-                        extra_nodes=[observer]) as (_, manager, _):
+    with composed_stack(
+        context,
+        "maze_localization",
+        arguments={"world": world},
+        parameters={"particle_filter.particle_cloud_period": str(LOCALIZATION_CLOUD_PERIOD)},
+        extra_nodes=[observer],
+    ) as (_, manager, _):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the localization stack did not come up (see the log above)")
         started = time.monotonic()
-        print(f"localization: {world}, maze_localization (map server, particle filter, wall follower, simulator), "
-              f"{duration:.0f} s simulated")
+        print(
+            f"localization: {world}, maze_localization (map server, particle filter, wall follower, simulator), "
+            f"{duration:.0f} s simulated"
+        )
         status = wait_for_run(observer, duration, started, progress=True)
         elapsed = time.monotonic() - started
     with observer.lock:
@@ -274,10 +315,15 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
     heading_error = np.degrees([abs(math.remainder(r[1][2] - r[3][2], 2 * math.pi)) for r in rows])
     localized = np.array([r[2] for r in rows], dtype=bool)
     first = int(np.argmax(localized)) if localized.any() else None
-    demo_figures.localization_error_figure(out / "localization_error.png", times, position_error, heading_error, localized)
+    demo_figures.localization_error_figure(
+        out / "localization_error.png", times, position_error, heading_error, localized
+    )
     t_first = times[first] if first is not None else times[-1]
-    wanted = [("spread: global localization", clouds[0][0]), ("clustering", 0.3 * t_first),
-              ("localized" if first is not None else "not localized", t_first)]
+    wanted = [
+        ("spread: global localization", clouds[0][0]),
+        ("clustering", 0.3 * t_first),
+        ("localized" if first is not None else "not localized", t_first),
+    ]
     snapshots = []
     for title, when in wanted:
         t, particles = min(clouds, key=lambda cloud: abs(cloud[0] - when))
@@ -287,17 +333,24 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
     polygons = load_world(resolve_world_path(world)).polygons
     demo_figures.localization_figure(out / "localization.png", polygons, snapshots)
     after = localized & (times >= t_first)
-    summary = {"world": world, "simulated_time_s": round(status.sim_time, 3), "wall_time_s": round(elapsed, 3),
-               "collisions": int(status.collisions), "localized": first is not None}
+    summary = {
+        "world": world,
+        "simulated_time_s": round(status.sim_time, 3),
+        "wall_time_s": round(elapsed, 3),
+        "collisions": int(status.collisions),
+        "localized": first is not None,
+    }
     if first is not None:
-        summary.update({
-            "first_localized_s": round(float(t_first), 3),
-            "error_at_first_localized_cm": round(100 * float(position_error[first]), 2),
-            "heading_error_at_first_localized_deg": round(float(heading_error[first]), 2),
-            "rms_error_while_localized_cm": round(100 * float(np.sqrt(np.mean(position_error[after] ** 2))), 2),
-            "rms_heading_error_while_localized_deg": round(float(np.sqrt(np.mean(heading_error[after] ** 2))), 2),
-            "share_of_time_localized_after_first": round(float(after.sum() / max((times >= t_first).sum(), 1)), 3),
-        })
+        summary.update(
+            {
+                "first_localized_s": round(float(t_first), 3),
+                "error_at_first_localized_cm": round(100 * float(position_error[first]), 2),
+                "heading_error_at_first_localized_deg": round(float(heading_error[first]), 2),
+                "rms_error_while_localized_cm": round(100 * float(np.sqrt(np.mean(position_error[after] ** 2))), 2),
+                "rms_heading_error_while_localized_deg": round(float(np.sqrt(np.mean(heading_error[after] ** 2))), 2),
+                "share_of_time_localized_after_first": round(float(after.sum() / max((times >= t_first).sum(), 1)), 3),
+            }
+        )
     return summary
 
 
@@ -319,7 +372,11 @@ def run_navigation(context, out: Path, world: str, duration: float) -> dict:
     """The maze_navigation stack on `world`: explore until localized, plan, go (issues 13, 19); the navigator
     decides who drives, the world's goal is its goal."""
     observer = NavigationObserver(context=context)
-    with composed_stack(context, "maze_navigation", arguments={"world": world}, extra_nodes=[observer]) as (_, manager, _):
+    with composed_stack(context, "maze_navigation", arguments={"world": world}, extra_nodes=[observer]) as (
+        _,
+        manager,
+        _,
+    ):
         if not all(step.ok for step in manager.startup()):
             raise RuntimeError("the navigation stack did not come up (see the log above)")
         started = time.monotonic()
@@ -335,16 +392,30 @@ def run_navigation(context, out: Path, world: str, duration: float) -> dict:
     localized_at = {t: flag for t, _, flag in poses}
     explored = np.array([not localized_at.get(t, False) for t in stamps])  # the wall follower's steps
     loaded = load_world(resolve_world_path(world))
-    demo_figures.navigation_figure(out / "navigation.png", loaded.polygons, loaded.goal, trajectory, explored,
-                                   [points for _, points in paths], title=(
-                                       f"{world}: localized at t = {first:.1f} s, " if first is not None else
-                                       f"{world}: not localized, ") + (
-                                       f"goal at t = {status.sim_time:.1f} s" if status.goal_reached else
-                                       f"goal not reached in {status.sim_time:.0f} s"))
-    return {"world": world, "simulated_time_s": round(status.sim_time, 3), "wall_time_s": round(elapsed, 3),
-            "collisions": int(status.collisions), "goal_reached": bool(status.goal_reached),
-            "first_localized_s": None if first is None else round(first, 3), "plans": len(paths),
-            "distance_m": round(float(status.distance_travelled), 3)}
+    demo_figures.navigation_figure(
+        out / "navigation.png",
+        loaded.polygons,
+        loaded.goal,
+        trajectory,
+        explored,
+        [points for _, points in paths],
+        title=(f"{world}: localized at t = {first:.1f} s, " if first is not None else f"{world}: not localized, ")
+        + (
+            f"goal at t = {status.sim_time:.1f} s"
+            if status.goal_reached
+            else f"goal not reached in {status.sim_time:.0f} s"
+        ),
+    )
+    return {
+        "world": world,
+        "simulated_time_s": round(status.sim_time, 3),
+        "wall_time_s": round(elapsed, 3),
+        "collisions": int(status.collisions),
+        "goal_reached": bool(status.goal_reached),
+        "first_localized_s": None if first is None else round(first, 3),
+        "plans": len(paths),
+        "distance_m": round(float(status.distance_travelled), 3),
+    }
 
 
 def joint_origins(node: Node, chain: str, positions) -> np.ndarray:
@@ -371,8 +442,11 @@ def iteration_history(node: Node, chain: str, target, seed, iterations: int, sol
 
 def run_ik(context, out: Path) -> dict:
     ik = IKServiceNode(context=context, cli_args=params_file_args(config_file("amr_kinematics", "ik_chains.yaml")))
-    manager = LifecycleManager(context=context, cli_args=["--ros-args", "-r", "__node:=ik_manager"],
-                               parameter_overrides=[Parameter("node_startup_order", value=["ik_service"])])
+    manager = LifecycleManager(
+        context=context,
+        cli_args=["--ros-args", "-r", "__node:=ik_manager"],
+        parameter_overrides=[Parameter("node_startup_order", value=["ik_service"])],
+    )
     client = Node("demo_ik_client", context=context)
     with spinning(context, [ik, manager, client]):
         if not all(step.ok for step in manager.startup()):
@@ -384,8 +458,12 @@ def run_ik(context, out: Path) -> dict:
         target = (0.053, 0.0478, 0.0)
         arm5 = solve(client, "arm5", *target, seed=start, solver="dls")
         history = iteration_history(client, "arm5", target, start, arm5.iterations, "dls")
-        demo_figures.arm_iterations_figure(out / "ik_dls.png", history, target,
-                                           f"DLS, 5-DOF arm: {arm5.iterations} iterations, error {arm5.position_error * 100:.4f} cm")
+        demo_figures.arm_iterations_figure(
+            out / "ik_dls.png",
+            history,
+            target,
+            f"DLS, 5-DOF arm: {arm5.iterations} iterations, error {arm5.position_error * 100:.4f} cm",
+        )
         results["arm5_dls"] = summary_of(arm5, scale=100.0, unit="cm")
 
         # ULL report: the 5-joint planar robot (rotation, prismatic, rotation, rotation, prismatic) by CCD
@@ -393,8 +471,9 @@ def run_ik(context, out: Path) -> dict:
         ccd_target = (0.10, 0.10, 0.0)
         ull5 = solve(client, "ull5", *ccd_target, seed=home, solver="ccd")
         history = iteration_history(client, "ull5", ccd_target, home, ull5.iterations, "ccd")
-        demo_figures.planar_iterations_figure(out / "ik_ccd.png", history, ccd_target,
-                                              f"CCD, ULL 5-joint planar robot: {ull5.iterations} iterations")
+        demo_figures.planar_iterations_figure(
+            out / "ik_ccd.png", history, ccd_target, f"CCD, ULL 5-joint planar robot: {ull5.iterations} iterations"
+        )
         results["ull5_ccd"] = summary_of(ull5, scale=100.0, unit="cm")
 
         # seed 001: the 2R arm (l1 = l2 = 2) along a straight line, each solve seeded with the last
@@ -408,10 +487,18 @@ def run_ik(context, out: Path) -> dict:
             origins.append(joint_origins(client, "rr2", seed))
         joints = np.array(joints)
         largest_step = float(np.max(np.abs(np.diff(joints, axis=0)))) if len(joints) > 1 else 0.0
-        demo_figures.path_tracking_figure(out / "ik_2r_path.png", waypoints, origins, joints,
-                                          f"2R closed form along a line: largest joint step {math.degrees(largest_step):.1f} deg")
-        results["rr2_path"] = {"waypoints": len(waypoints), "successes": successes,
-                               "largest_joint_step_deg": round(math.degrees(largest_step), 3)}
+        demo_figures.path_tracking_figure(
+            out / "ik_2r_path.png",
+            waypoints,
+            origins,
+            joints,
+            f"2R closed form along a line: largest joint step {math.degrees(largest_step):.1f} deg",
+        )
+        results["rr2_path"] = {
+            "waypoints": len(waypoints),
+            "successes": successes,
+            "largest_joint_step_deg": round(math.degrees(largest_step), 3),
+        }
 
         # the industrial arms: position-only and full pose to a reachable target
         for chain in ("ur5", "panda"):
@@ -422,17 +509,25 @@ def run_ik(context, out: Path) -> dict:
 
 
 def summary_of(response: SolveIK.Response, scale: float = 1.0, unit: str = "m") -> dict:
-    return {"success": bool(response.success), "iterations": int(response.iterations),
-            f"position_error_{unit}": round(response.position_error * scale, 6),
-            "positions": [round(q, 6) for q in response.positions], "message": response.message}
+    return {
+        "success": bool(response.success),
+        "iterations": int(response.iterations),
+        f"position_error_{unit}": round(response.position_error * scale, 6),
+        "positions": [round(q, 6) for q in response.positions],
+        "message": response.message,
+    }
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=180.0, help="simulated seconds (default 180)")
     parser.add_argument("--world", default="inner_maze.yaml", help="a world in share/amr_maps/config/worlds")
-    parser.add_argument("--localization-duration", type=float, default=40.0,
-                        help="simulated seconds of the localization run (default 40)")
+    parser.add_argument(
+        "--localization-duration",
+        type=float,
+        default=40.0,
+        help="simulated seconds of the localization run (default 40)",
+    )
     parser.add_argument("--out", type=Path, default=Path("out"))
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -449,8 +544,9 @@ def main(argv: list[str] | None = None) -> None:
         world = load_world(resolve_world_path(args.world))
         animate_bag(bag, out / "maze.gif", world, frames=180)
         maze["animation"] = {"gif": "maze.gif", "bag": "maze_run", "seconds": round(time.monotonic() - gif_started, 2)}
-        demo_figures.wall_distance_figure(out / "wall_distance.png", samples[:, 0], samples[:, 1],
-                                          maze["target_wall_distance_m"], samples[:, 3] == 0)
+        demo_figures.wall_distance_figure(
+            out / "wall_distance.png", samples[:, 0], samples[:, 1], maze["target_wall_distance_m"], samples[:, 3] == 0
+        )
         summary = {"maze": maze}
         print(f"maze done: {json.dumps(summary['maze'])}")
         summary["localization"] = run_localization(context, out, args.world, args.localization_duration)

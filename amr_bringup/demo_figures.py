@@ -24,8 +24,9 @@ def _iteration_colours(count: int) -> np.ndarray:
     return colormaps["viridis"](np.linspace(0.0, 1.0, max(count, 2)))
 
 
-def wall_distance_figure(path: Path, times: Sequence[float], distances: Sequence[float], target: float,
-                         not_following: Sequence[bool]) -> Path:
+def wall_distance_figure(
+    path: Path, times: Sequence[float], distances: Sequence[float], target: float, not_following: Sequence[bool]
+) -> Path:
     """Distance to the followed wall over time against its target; shaded where the controller is not
     holding it (turning at a corner, searching, stabilizing)."""
     figure = _figure((9.0, 4.0))
@@ -36,8 +37,9 @@ def wall_distance_figure(path: Path, times: Sequence[float], distances: Sequence
     ax.axhline(target, color="tab:red", linestyle="--", label=f"target {target:.2f} m")
     shade = np.asarray(not_following, dtype=bool)
     if shade.any():
-        ax.fill_between(t, 0, 1, where=shade, transform=ax.get_xaxis_transform(), color="0.85", label="not following",
-                        step="mid")
+        ax.fill_between(
+            t, 0, 1, where=shade, transform=ax.get_xaxis_transform(), color="0.85", label="not following", step="mid"
+        )
     ax.set_ylim(0.0, max(0.6, 2.5 * target))
     ax.set_xlabel("simulated time [s]")
     ax.set_ylabel("distance [m]")
@@ -52,8 +54,17 @@ def arm_iterations_figure(path: Path, origins: Sequence[np.ndarray], target: Seq
     ax = figure.add_subplot(projection="3d")
     for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)))):
         p = np.asarray(points)
-        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=colour, markersize=3, linewidth=1.5,
-                alpha=0.35 + 0.65 * k / max(len(origins) - 1, 1), label=f"iteration {k}" if k in (0, len(origins) - 1) else None)
+        ax.plot(
+            p[:, 0],
+            p[:, 1],
+            p[:, 2],
+            "-o",
+            color=colour,
+            markersize=3,
+            linewidth=1.5,
+            alpha=0.35 + 0.65 * k / max(len(origins) - 1, 1),
+            label=f"iteration {k}" if k in (0, len(origins) - 1) else None,
+        )
     ax.scatter(*target, **TARGET_STYLE, label="target")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -70,8 +81,15 @@ def planar_iterations_figure(path: Path, origins: Sequence[np.ndarray], target: 
     ax = figure.add_subplot()
     for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)))):
         p = np.asarray(points)
-        ax.plot(p[:, 0], p[:, 1], "-o", color=colour, markersize=3, linewidth=1.5,
-                label=f"iteration {k}" if k in (0, len(origins) - 1) else None)
+        ax.plot(
+            p[:, 0],
+            p[:, 1],
+            "-o",
+            color=colour,
+            markersize=3,
+            linewidth=1.5,
+            label=f"iteration {k}" if k in (0, len(origins) - 1) else None,
+        )
     ax.scatter(target[0], target[1], **TARGET_STYLE, label="target")
     ax.set_aspect("equal")
     ax.grid(True, alpha=0.3)
@@ -83,8 +101,9 @@ def planar_iterations_figure(path: Path, origins: Sequence[np.ndarray], target: 
     return path
 
 
-def path_tracking_figure(path: Path, waypoints: np.ndarray, origins: Sequence[np.ndarray],
-                         joints: np.ndarray, title: str) -> Path:
+def path_tracking_figure(
+    path: Path, waypoints: np.ndarray, origins: Sequence[np.ndarray], joints: np.ndarray, title: str
+) -> Path:
     """Left: the arm along a straight-line path. Right: the joint angles, which must not jump."""
     figure = _figure((11.0, 4.8))
     arm_ax, joint_ax = figure.subplots(1, 2)
@@ -118,8 +137,15 @@ def localization_figure(path: Path, polygons: Sequence[np.ndarray], snapshots: S
     for ax, (title, particles, truth, estimate) in zip(axes, snapshots):
         for polygon in polygons:
             ax.fill(polygon[:, 0], polygon[:, 1], color="0.25", linewidth=0)
-        ax.scatter(particles[:, 0], particles[:, 1], s=1.5, color="tab:blue", alpha=0.35, linewidths=0,
-                   label=f"{len(particles)} particles")
+        ax.scatter(
+            particles[:, 0],
+            particles[:, 1],
+            s=1.5,
+            color="tab:blue",
+            alpha=0.35,
+            linewidths=0,
+            label=f"{len(particles)} particles",
+        )
         ax.plot(truth[0], truth[1], "o", color="tab:green", markersize=7, label="true pose")
         ax.arrow(truth[0], truth[1], 0.15 * np.cos(truth[2]), 0.15 * np.sin(truth[2]), color="tab:green", width=0.01)
         if estimate is not None:
@@ -133,30 +159,53 @@ def localization_figure(path: Path, polygons: Sequence[np.ndarray], snapshots: S
     return path
 
 
-def localization_error_figure(path: Path, times: Sequence[float], position_error: Sequence[float],
-                              heading_error_deg: Sequence[float], localized: Sequence[bool]) -> Path:
+def localization_error_figure(
+    path: Path,
+    times: Sequence[float],
+    position_error: Sequence[float],
+    heading_error_deg: Sequence[float],
+    localized: Sequence[bool],
+) -> Path:
     """The estimate's position and heading error over time; shaded while the filter says localized."""
     figure = _figure((9.0, 4.5))
     position_ax, heading_ax = figure.subplots(2, 1, sharex=True)
     t = np.asarray(times)
     shade = np.asarray(localized, dtype=bool)
-    for ax, values, label in ((position_ax, 100.0 * np.asarray(position_error), "position error [cm]"),
-                              (heading_ax, np.asarray(heading_error_deg), "heading error [deg]")):
+    for ax, values, label in (
+        (position_ax, 100.0 * np.asarray(position_error), "position error [cm]"),
+        (heading_ax, np.asarray(heading_error_deg), "heading error [deg]"),
+    ):
         ax.plot(t, values, linewidth=1.0)
         ax.set_yscale("log")
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3, which="both")
         if shade.any():
-            ax.fill_between(t, 0, 1, where=shade, transform=ax.get_xaxis_transform(), color="tab:green", alpha=0.12,
-                            label="localized", step="mid")
+            ax.fill_between(
+                t,
+                0,
+                1,
+                where=shade,
+                transform=ax.get_xaxis_transform(),
+                color="tab:green",
+                alpha=0.12,
+                label="localized",
+                step="mid",
+            )
     position_ax.legend(loc="upper right")
     heading_ax.set_xlabel("simulated time [s]")
     figure.savefig(path, dpi=110)
     return path
 
 
-def navigation_figure(path: Path, polygons: Sequence[np.ndarray], goal, trajectory: np.ndarray, explored: np.ndarray,
-                      plans: Sequence[np.ndarray], title: str) -> Path:
+def navigation_figure(
+    path: Path,
+    polygons: Sequence[np.ndarray],
+    goal,
+    trajectory: np.ndarray,
+    explored: np.ndarray,
+    plans: Sequence[np.ndarray],
+    title: str,
+) -> Path:
     """Explore, localize, plan, go: the true path while exploring and after localizing, every plan, the goal."""
     figure = _figure((6.4, 5.2))
     ax = figure.subplots()

@@ -18,8 +18,9 @@ def launch_description(bringup_name: str) -> LaunchDescription:
     """The stack's arguments, then every node as a LifecycleNode and our lifecycle manager over them."""
     bringup = load_bringup(bringup_name)
     arguments = [
-        DeclareLaunchArgument(name, default_value="",
-                              description=f"{argument.description} (unset: {bringup.current_value(name)!r})")
+        DeclareLaunchArgument(
+            name, default_value="", description=f"{argument.description} (unset: {bringup.current_value(name)!r})"
+        )
         for name, argument in bringup.arguments.items()
     ]
     return LaunchDescription([*arguments, OpaqueFunction(function=_actions, args=[bringup_name])])
@@ -28,16 +29,30 @@ def launch_description(bringup_name: str) -> LaunchDescription:
 def _actions(context, bringup_name: str) -> list:
     """The nodes, with the arguments given to this launch applied."""
     bringup = load_bringup(bringup_name)
-    given = {name: value for name, value in context.launch_configurations.items()
-             if name in bringup.arguments and value != ""}
+    given = {
+        name: value
+        for name, value in context.launch_configurations.items()
+        if name in bringup.arguments and value != ""
+    }
     bringup = bringup.with_overrides(given)
     nodes = [
         LifecycleNode(
-            package=node.package, executable=node.executable, name=node.name, namespace=node.namespace,
-            parameters=node.launch_parameters(), remappings=list(node.remappings), output="screen")
+            package=node.package,
+            executable=node.executable,
+            name=node.name,
+            namespace=node.namespace,
+            parameters=node.launch_parameters(),
+            remappings=list(node.remappings),
+            output="screen",
+        )
         for node in bringup.nodes
     ]
     manager = Node(
-        package="amr_bringup", executable="lifecycle_manager", name=bringup.manager_name, namespace="",
-        parameters=[bringup.manager_parameters()], output="screen")
+        package="amr_bringup",
+        executable="lifecycle_manager",
+        name=bringup.manager_name,
+        namespace="",
+        parameters=[bringup.manager_parameters()],
+        output="screen",
+    )
     return [*nodes, manager]

@@ -53,17 +53,23 @@ class ServiceLifecycleClient:
         return client.call(request, self._timeout)
 
     def wait_until_available(self, node: str, timeout: float) -> bool:
-        return all(self._client(node, service, kind).wait_for_service(timeout_sec=timeout)
-                   for service, kind in (("get_state", GetState), ("change_state", ChangeState),
-                                         ("get_available_transitions", GetAvailableTransitions)))
+        return all(
+            self._client(node, service, kind).wait_for_service(timeout_sec=timeout)
+            for service, kind in (
+                ("get_state", GetState),
+                ("change_state", ChangeState),
+                ("get_available_transitions", GetAvailableTransitions),
+            )
+        )
 
     def state(self, node: str) -> str | None:
         response = self._call(node, "get_state", GetState, GetState.Request())
         return None if response is None else response.current_state.label
 
     def available_transitions(self, node: str) -> list[str] | None:
-        response = self._call(node, "get_available_transitions", GetAvailableTransitions,
-                              GetAvailableTransitions.Request())
+        response = self._call(
+            node, "get_available_transitions", GetAvailableTransitions, GetAvailableTransitions.Request()
+        )
         return None if response is None else [t.transition.label for t in response.available_transitions]
 
     def change_state(self, node: str, transition: str) -> bool | None:
@@ -90,8 +96,12 @@ class LifecycleManager(SpecifiedParameters, Node):
             raise ValueError("; ".join(problems))
         nodes = [n for n in self.get_parameter("node_startup_order").value if n]
         self.sequencer = LifecycleSequencer(
-            ServiceLifecycleClient(self, self.get_parameter("transition_timeout").value), nodes,
-            wait_timeout=self.get_parameter("wait_timeout").value, report=self._report, before_activate=before_activate)
+            ServiceLifecycleClient(self, self.get_parameter("transition_timeout").value),
+            nodes,
+            wait_timeout=self.get_parameter("wait_timeout").value,
+            report=self._report,
+            before_activate=before_activate,
+        )
         self._busy = threading.Lock()
         self.startup_result: list[Step] | None = None
         group = ReentrantCallbackGroup()

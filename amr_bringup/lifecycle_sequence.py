@@ -17,12 +17,19 @@ from typing import Protocol
 from amr_util.parameter_spec import ParameterSpec
 
 MANAGER_PARAMETERS = (
-    ParameterSpec("node_startup_order", [""], "lifecycle nodes to configure and activate, in this order "
-                  "(taken down in reverse)", kind="str_array", read_only=True),
-    ParameterSpec("wait_timeout", 30.0, "s to wait for a node's lifecycle services", minimum=0.1,
-                  maximum=3600.0, read_only=True),
-    ParameterSpec("transition_timeout", 15.0, "s for one lifecycle service call", minimum=0.1, maximum=3600.0,
-                  read_only=True),
+    ParameterSpec(
+        "node_startup_order",
+        [""],
+        "lifecycle nodes to configure and activate, in this order (taken down in reverse)",
+        kind="str_array",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "wait_timeout", 30.0, "s to wait for a node's lifecycle services", minimum=0.1, maximum=3600.0, read_only=True
+    ),
+    ParameterSpec(
+        "transition_timeout", 15.0, "s for one lifecycle service call", minimum=0.1, maximum=3600.0, read_only=True
+    ),
     ParameterSpec("autostart", True, "bring the nodes up at start (else wait for ~/startup)", read_only=True),
 )
 """The lifecycle manager's parameters (read-only: the sequence is built from them at start); a stack file's
@@ -54,9 +61,15 @@ class Step:
 class LifecycleSequencer:
     """Drives a list of nodes through configure/activate and back."""
 
-    def __init__(self, client: LifecycleClient, nodes: Sequence[str], *, wait_timeout: float,
-                 report: Callable[[Step], None] = lambda step: None,
-                 before_activate: Callable[[str], None] = lambda node: None) -> None:
+    def __init__(
+        self,
+        client: LifecycleClient,
+        nodes: Sequence[str],
+        *,
+        wait_timeout: float,
+        report: Callable[[Step], None] = lambda step: None,
+        before_activate: Callable[[str], None] = lambda node: None,
+    ) -> None:
         """before_activate(node) runs just before a node is activated (a recorder catching up with its topics)."""
         if not nodes:
             raise ValueError("node_startup_order is empty: name the nodes to manage")
@@ -76,8 +89,11 @@ class LifecycleSequencer:
         steps: list[Step] = []
         for node in self.nodes:
             if not self._wait_until_available(node):
-                detail = ("startup cancelled" if self._cancelled.is_set()
-                          else f"lifecycle services of {node} not available after {self.wait_timeout} s")
+                detail = (
+                    "startup cancelled"
+                    if self._cancelled.is_set()
+                    else f"lifecycle services of {node} not available after {self.wait_timeout} s"
+                )
                 return self._record(steps, Step(node, "wait", False, detail))
             remaining = {"inactive": UP[1:], "active": ()}.get(self.client.state(node), UP)
             for transition in remaining:
@@ -120,7 +136,9 @@ class LifecycleSequencer:
         if available is None:
             return Step(node, transition, False, f"{node} did not answer get_available_transitions")
         if transition not in available:
-            return Step(node, transition, False, f"{node} is {state!r}, which offers {sorted(available)}, not {transition!r}")
+            return Step(
+                node, transition, False, f"{node} is {state!r}, which offers {sorted(available)}, not {transition!r}"
+            )
         result = self.client.change_state(node, transition)
         if result is None:
             return Step(node, transition, False, f"{node} did not answer change_state({transition})")

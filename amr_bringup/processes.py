@@ -36,8 +36,15 @@ class NodeProcess:
         if sys.stdout.isatty():
             extra["RCUTILS_COLORIZED_OUTPUT"] = "1"
         self.process = subprocess.Popen(
-            list(command), env=child_environment(**extra), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, errors="replace", start_new_session=True)
+            list(command),
+            env=child_environment(**extra),
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            errors="replace",
+            start_new_session=True,
+        )
         self._reader = threading.Thread(target=self._forward, args=(write,), daemon=True)
         self._reader.start()
 

@@ -34,15 +34,31 @@ from amr_util.managed_node import SpecifiedParameters, spin_nodes
 from amr_util.parameter_spec import ParameterSpec
 
 PARAMETERS = (
-    ParameterSpec("path", "", "the bag to write: out/run.mcap (or out/run) makes the rosbag2 directory out/run; "
-                  "it must not exist yet", read_only=True),
-    ParameterSpec("topics", [""], "topics to record; [] or [''] = every topic (but /rosout, /parameter_events and "
-                  "lifecycle transition events)", kind="str_array", read_only=True),
-    ParameterSpec("discovery_period", 0.1, "wall-clock s between looks for new topics", minimum=0.01, maximum=60.0,
-                  read_only=True),
-    ParameterSpec("queue_depth", 1000, "messages a subscription holds while the bag writer is busy (reliable "
-                  "publishers with a shallow history lose nothing while the recorder keeps within it)",
-                  minimum=1, maximum=100000, read_only=True),
+    ParameterSpec(
+        "path",
+        "",
+        "the bag to write: out/run.mcap (or out/run) makes the rosbag2 directory out/run; it must not exist yet",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "topics",
+        [""],
+        "topics to record; [] or [''] = every topic (but /rosout, /parameter_events and lifecycle transition events)",
+        kind="str_array",
+        read_only=True,
+    ),
+    ParameterSpec(
+        "discovery_period", 0.1, "wall-clock s between looks for new topics", minimum=0.01, maximum=60.0, read_only=True
+    ),
+    ParameterSpec(
+        "queue_depth",
+        1000,
+        "messages a subscription holds while the bag writer is busy (reliable "
+        "publishers with a shallow history lose nothing while the recorder keeps within it)",
+        minimum=1,
+        maximum=100000,
+        read_only=True,
+    ),
 )
 
 CATCH_UP_TIMEOUT = 3.0
@@ -89,8 +105,12 @@ class Recorder(SpecifiedParameters, Node):
         self.path = self._writer.path
         self.discover()
         self.create_service(Trigger, "~/caught_up", self._on_caught_up, callback_group=self._group)
-        self._timer = self.create_timer(self.get_parameter("discovery_period").value, self.discover,
-                                        callback_group=self._group, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._timer = self.create_timer(
+            self.get_parameter("discovery_period").value,
+            self.discover,
+            callback_group=self._group,
+            clock=Clock(clock_type=ClockType.STEADY_TIME),
+        )
         self.get_logger().info(f"recording {'every topic' if not self.wanted else sorted(self.wanted)} to {self.path}")
 
     def eligible(self, topic: str) -> bool:
@@ -148,13 +168,15 @@ class Recorder(SpecifiedParameters, Node):
             self._skipped.add(topic)
             self.get_logger().warning(f"not recording {topic} ({type_name}): {error}")
             return
-        qos = QoSProfile(depth=self._depth,
-                         reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+        qos = QoSProfile(
+            depth=self._depth,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        )
         self.counts[topic] = 0
         self._subscriptions_by_topic[topic] = self.create_subscription(
-            kind, topic, lambda data, topic=topic: self._write(topic, data), qos, raw=True,
-            callback_group=self._group)
+            kind, topic, lambda data, topic=topic: self._write(topic, data), qos, raw=True, callback_group=self._group
+        )
 
     def _write(self, topic: str, data: bytes) -> None:
         with self._lock:
@@ -164,8 +186,9 @@ class Recorder(SpecifiedParameters, Node):
                 self._writer.write(topic, self.get_clock().now().nanoseconds, data)
                 self.counts[topic] += 1
             except Exception as error:  # a full disk: say so, keep the node alive
-                self.get_logger().error(f"{topic}: write failed: {type(error).__name__}: {error}",
-                                        throttle_duration_sec=5.0)
+                self.get_logger().error(
+                    f"{topic}: write failed: {type(error).__name__}: {error}", throttle_duration_sec=5.0
+                )
 
     def close(self) -> None:
         """Stop recording and finish the bag (metadata.yaml); safe to call twice."""

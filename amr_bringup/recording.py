@@ -27,9 +27,16 @@ MATCH_SETTLE = 0.05
 
 
 def recorder_command(name: str, path: str, topics: Sequence[str], simulated: bool) -> list[str]:
-    command = [str(executable_path("amr_bringup", "recorder")), "--ros-args", "-r", f"__node:={name}",
-               "-p", f"path:={path}",
-               "-p", f"use_sim_time:={'true' if simulated else 'false'}"]
+    command = [
+        str(executable_path("amr_bringup", "recorder")),
+        "--ros-args",
+        "-r",
+        f"__node:={name}",
+        "-p",
+        f"path:={path}",
+        "-p",
+        f"use_sim_time:={'true' if simulated else 'false'}",
+    ]
     if topics:
         command += ["-p", f"topics:=[{', '.join(topics)}]"]
     return command
@@ -39,8 +46,15 @@ class RecorderProcess:
     """The recorder process (node `name`) and a client of its ~/caught_up on `client_node` (which the caller
     spins)."""
 
-    def __init__(self, name: str, path: str, topics: Sequence[str], simulated: bool, client_node: Node,
-                 write: Callable[[str], None]) -> None:
+    def __init__(
+        self,
+        name: str,
+        path: str,
+        topics: Sequence[str],
+        simulated: bool,
+        client_node: Node,
+        write: Callable[[str], None],
+    ) -> None:
         self.command = recorder_command(name, path, topics, simulated)
         self.process = NodeProcess(name, self.command, write)
         self._client = client_node.create_client(Trigger, f"/{name}/caught_up")
@@ -76,9 +90,14 @@ def wait_until_matched(node: Node, topics: Collection[str], timeout: float = CAT
     publishes before that: a lockstep run lost its first observations that way under load."""
     deadline = time.monotonic() + timeout
     while True:
-        pending = sorted({publisher.topic_name for publisher in node.publishers
-                          if (publisher.topic_name in topics if topics else recorded_by_default(publisher.topic_name))
-                          and publisher.get_subscription_count() < node.count_subscribers(publisher.topic_name)})
+        pending = sorted(
+            {
+                publisher.topic_name
+                for publisher in node.publishers
+                if (publisher.topic_name in topics if topics else recorded_by_default(publisher.topic_name))
+                and publisher.get_subscription_count() < node.count_subscribers(publisher.topic_name)
+            }
+        )
         if not pending or time.monotonic() > deadline:
             return pending
         time.sleep(0.01)

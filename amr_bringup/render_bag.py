@@ -56,8 +56,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("bag", help="the bag directory (out/run) or its name with .mcap")
     parser.add_argument("png", help="the figure to write")
     parser.add_argument("--world", help="walls: a world file or map_server YAML (default: the bag's /map)")
-    parser.add_argument("--pose-topic", help="the nav_msgs/Odometry topic of the path (default: /ground_truth, "
-                                             "else /odom, else /odometry)")
+    parser.add_argument(
+        "--pose-topic",
+        help="the nav_msgs/Odometry topic of the path (default: /ground_truth, else /odom, else /odometry)",
+    )
     options = parser.parse_args(argv)
     try:
         world = bag_world(options.bag, options.world)

@@ -158,9 +158,14 @@ class Bringup:
     def arguments(self) -> dict[str, StackArgument]:
         """The declared arguments, then use_sim_time and one <node>_params_file per node."""
         every = {argument.name: argument for argument in self.declared_arguments}
-        every.setdefault("use_sim_time", StackArgument(
-            "use_sim_time", "every node on /clock time (true in simulation)",
-            tuple((node.name, "use_sim_time") for node in self.nodes)))
+        every.setdefault(
+            "use_sim_time",
+            StackArgument(
+                "use_sim_time",
+                "every node on /clock time (true in simulation)",
+                tuple((node.name, "use_sim_time") for node in self.nodes),
+            ),
+        )
         for node in self.nodes:
             name = f"{node.name}_params_file"
             every.setdefault(name, StackArgument(name, f"a parameter file replacing {node.name}'s", (), node.name))
@@ -188,8 +193,9 @@ class Bringup:
                 return values[parameter]
         return None
 
-    def with_overrides(self, arguments: Mapping[str, str] | None = None,
-                       parameters: Mapping[str, str] | None = None) -> "Bringup":
+    def with_overrides(
+        self, arguments: Mapping[str, str] | None = None, parameters: Mapping[str, str] | None = None
+    ) -> "Bringup":
         """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied, then its
         per_robot nodes copied for the robots of its world (for_robots): the stack as it is started.
 
@@ -216,14 +222,17 @@ class Bringup:
         for dotted_name, text in (parameters or {}).items():
             node_name, dot, parameter = dotted_name.partition(".")
             if not dot or node_name not in nodes or not parameter:
-                raise BringupError(f"{self.source}: -p {dotted_name}: expected <node>.<parameter>:=<value> with a "
-                                   f"node of the stack ({', '.join(nodes)})")
+                raise BringupError(
+                    f"{self.source}: -p {dotted_name}: expected <node>.<parameter>:=<value> with a "
+                    f"node of the stack ({', '.join(nodes)})"
+                )
             tied = self.tying_argument(node_name, parameter)
             if tied is not None:
                 raise BringupError(
                     f"{self.source}: -p {dotted_name}:={text}: {dotted_name} is tied to "
                     f"{', '.join(f'{n}.{q}' for n, q in tied.sets if (n, q) != (node_name, parameter))} by the stack "
-                    f"argument {tied.name}:= (they must agree); give {tied.name}:={text} instead")
+                    f"argument {tied.name}:= (they must agree); give {tied.name}:={text} instead"
+                )
             nodes[node_name] = _with_parameter(nodes[node_name], parameter, text)
         return replace(self, nodes=tuple(nodes[node.name] for node in self.nodes)).for_robots()
 
@@ -246,11 +255,15 @@ class Bringup:
             robots = load_world(resolve_world_path(world_name)).fleet
         except (OSError, ValueError) as error:
             raise BringupError(
-                f"{self.source}: {key}: {'.'.join(self.robots_from)} = {world_name!r}: {error}") from None
+                f"{self.source}: {key}: {'.'.join(self.robots_from)} = {world_name!r}: {error}"
+            ) from None
         copies = {node.name: robot_nodes(node, robots) for node in self.nodes if node.per_robot}
         nodes = tuple(copy for node in self.nodes for copy in copies.get(node.name, [node]))
-        order = tuple(name for entry in self.node_startup_order
-                      for name in ([copy.managed_name for copy in copies[entry]] if entry in copies else [entry]))
+        order = tuple(
+            name
+            for entry in self.node_startup_order
+            for name in ([copy.managed_name for copy in copies[entry]] if entry in copies else [entry])
+        )
         return replace(self, nodes=nodes, node_startup_order=order)
 
     def tying_argument(self, node: str, parameter: str) -> StackArgument | None:
@@ -295,8 +308,15 @@ def robot_nodes(template: NodeSpec, robots: Sequence) -> list[NodeSpec]:
         for path in template.parameter_file_paths():
             inlined.update(dotted(node_parameters(path, template.name, BringupError)))
         inlined.update(template.parameters)
-        copies.append(replace(template, per_robot=False, namespace=f"{template.namespace}/{robot.name}",
-                              parameter_files=(), parameters=_indexed(inlined, index)))
+        copies.append(
+            replace(
+                template,
+                per_robot=False,
+                namespace=f"{template.namespace}/{robot.name}",
+                parameter_files=(),
+                parameters=_indexed(inlined, index),
+            )
+        )
     return copies
 
 
@@ -348,8 +368,9 @@ def find_bringup(name_or_path: str) -> Path:
         try:
             shipped = shipped_bringup_dir()
         except PackageNotFoundError:
-            raise BringupError(f"{name_or_path}: no such file, and package {BRINGUP_PACKAGE} is not installed "
-                               "(run `make setup`)") from None
+            raise BringupError(
+                f"{name_or_path}: no such file, and package {BRINGUP_PACKAGE} is not installed (run `make setup`)"
+            ) from None
         candidate = shipped / (name_or_path if name_or_path.endswith(".yaml") else f"{name_or_path}.yaml")
         if candidate.is_file():
             return candidate
@@ -419,8 +440,10 @@ def check_installed(bringup: Bringup, *, executables: bool = True) -> None:
         try:
             prefix = package_prefix(node.package)
         except PackageNotFoundError:
-            raise where.error(f"{key}.package", f"{node.name}: package {node.package!r} is not installed "
-                                                "(not in the ament index; run `make setup`)") from None
+            raise where.error(
+                f"{key}.package",
+                f"{node.name}: package {node.package!r} is not installed (not in the ament index; run `make setup`)",
+            ) from None
         if executables:
             path = prefix / "lib" / node.package / node.executable
             if not (path.is_file() and os.access(path, os.X_OK)):
@@ -461,8 +484,9 @@ def launch_inline_value(value: object) -> bool:
     return kind in (bool, int, float, str) and all(type(item) is kind and launch_inline_value(item) for item in value)
 
 
-def write_parameter_file(parameters: Mapping[str, object], directory: str | Path | None = None, *,
-                         prefix: str = "amr_params_") -> Path:
+def write_parameter_file(
+    parameters: Mapping[str, object], directory: str | Path | None = None, *, prefix: str = "amr_params_"
+) -> Path:
     """`parameters` (flat, dotted names) in a new ROS 2 parameter file for any node (`/**: ros__parameters:`),
     nested as ROS reads dotted names; lists mixing ints and floats as floats (rcl refuses a mixed list)."""
     nested: dict[str, object] = {}
@@ -471,8 +495,11 @@ def write_parameter_file(parameters: Mapping[str, object], directory: str | Path
         level = nested
         for group in groups:
             level = level.setdefault(group, {})
-        if isinstance(value, (list, tuple)) and value and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        if (
+            isinstance(value, (list, tuple))
+            and value
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+        ):
             value = [float(v) for v in value] if any(isinstance(v, float) for v in value) else list(value)
         level[last] = list(value) if isinstance(value, tuple) else value
     handle, name = tempfile.mkstemp(prefix=prefix, suffix=".yaml", dir=directory)
@@ -510,8 +537,9 @@ def _parse_node(where: _Where, key: str, entry: object) -> NodeSpec:
     namespace = entry.get("namespace") or ""
     tokens = namespace.strip("/").split("/") if isinstance(namespace, str) and namespace.strip("/") else []
     if not isinstance(namespace, str) or not all(NAME.match(token) for token in tokens):
-        raise where.error(f"{key}.namespace",
-                          f"must be a ROS namespace such as robot1 or /fleet/robot1, got {namespace!r}")
+        raise where.error(
+            f"{key}.namespace", f"must be a ROS namespace such as robot1 or /fleet/robot1, got {namespace!r}"
+        )
     files = entry.get("parameter_files", [])
     if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
         raise where.error(f"{key}.parameter_files", f"must be a list of file names, got {files!r}")
@@ -529,10 +557,15 @@ def _parse_node(where: _Where, key: str, entry: object) -> NodeSpec:
     if not isinstance(per_robot, bool):
         raise where.error(f"{key}.per_robot", f"must be true or false, got {per_robot!r}")
     return NodeSpec(
-        name=entry["name"], package=entry["package"], executable=entry["executable"],
+        name=entry["name"],
+        package=entry["package"],
+        executable=entry["executable"],
         namespace="/" + "/".join(tokens) if tokens else "",
-        parameter_files=tuple(files), parameters=_flat_parameters(where, f"{key}.parameters", parameters),
-        remappings=tuple(remappings.items()), per_robot=per_robot)
+        parameter_files=tuple(files),
+        parameters=_flat_parameters(where, f"{key}.parameters", parameters),
+        remappings=tuple(remappings.items()),
+        per_robot=per_robot,
+    )
 
 
 def _parse_robots_from(where: _Where, document: dict, nodes: tuple[NodeSpec, ...]) -> tuple[str, str] | None:
@@ -541,8 +574,11 @@ def _parse_robots_from(where: _Where, document: dict, nodes: tuple[NodeSpec, ...
     templates = [node.name for node in nodes if node.per_robot]
     if value is None:
         if templates:
-            raise where.error("robots_from", f"required with per_robot nodes ({', '.join(templates)}): the "
-                                             "<node>.<parameter> naming the world whose robots they serve")
+            raise where.error(
+                "robots_from",
+                f"required with per_robot nodes ({', '.join(templates)}): the "
+                "<node>.<parameter> naming the world whose robots they serve",
+            )
         return None
     if not templates:
         raise where.error("robots_from", "no node has per_robot: true")
@@ -566,8 +602,11 @@ def _flat_parameters(where: _Where, key: str, parameters: Mapping, prefix: str =
         elif isinstance(value, list):
             kinds = {type(item) for item in value}
             if not value or len(kinds) != 1 or not kinds <= set(SCALARS):
-                raise where.error(f"{key}.{full}", f"a list parameter needs items of one type (bool, int, float "
-                                                   f"or string; write 1.0 for a float), got {value!r}")
+                raise where.error(
+                    f"{key}.{full}",
+                    f"a list parameter needs items of one type (bool, int, float "
+                    f"or string; write 1.0 for a float), got {value!r}",
+                )
             flat[full] = list(value)
         else:
             raise where.error(f"{key}.{full}", f"unsupported value {value!r}")
@@ -597,11 +636,15 @@ def _parse_arguments(where: _Where, arguments: object, nodes: tuple[NodeSpec, ..
             for target in listed:
                 node, dot, parameter = str(target).partition(".")
                 if not dot or node not in names or not parameter:
-                    raise where.error(f"{key}.{field_name}",
-                                      f"{target!r} is not <node>.<parameter> of a node in {sorted(names)}")
+                    raise where.error(
+                        f"{key}.{field_name}", f"{target!r} is not <node>.<parameter> of a node in {sorted(names)}"
+                    )
                 targets[field_name].append((node, parameter))
-        parsed.append(StackArgument(name, str(entry.get("description", "")), tuple(targets["sets"]),
-                                    clears=tuple(targets["clears"])))
+        parsed.append(
+            StackArgument(
+                name, str(entry.get("description", "")), tuple(targets["sets"]), clears=tuple(targets["clears"])
+            )
+        )
     return tuple(parsed)
 
 

@@ -77,7 +77,8 @@ class StatusMonitor(Node):
         for name, client in self._state_clients.items():
             if client.service_is_ready():
                 client.call_async(GetState.Request()).add_done_callback(
-                    lambda future, name=name: self._set_state(name, future))
+                    lambda future, name=name: self._set_state(name, future)
+                )
             else:
                 self._set_state(name, None)
         for node_name, namespace in self._stack:
@@ -114,8 +115,9 @@ class StatusMonitor(Node):
         with self._lock:
             self._arrivals[topic] = deque()
             self._subscribed_at[topic] = time.monotonic()
-        self.create_subscription(kind, topic, lambda _, topic=topic: self._count(topic), qos_profile_sensor_data,
-                                 raw=True)
+        self.create_subscription(
+            kind, topic, lambda _, topic=topic: self._count(topic), qos_profile_sensor_data, raw=True
+        )
 
     def _count(self, topic: str) -> None:
         with self._lock:

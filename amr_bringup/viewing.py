@@ -16,9 +16,20 @@ DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8080
 
 
 def viewer_command(name: str, host: str, port: int, simulated: bool) -> list[str]:
-    return [str(executable_path("amr_viewer", "viewer")), "--ros-args", "-r", f"__node:={name}",
-            "-p", "autostart:=true", "-p", f"host:={host}", "-p", f"port:={port}",
-            "-p", f"use_sim_time:={'true' if simulated else 'false'}"]
+    return [
+        str(executable_path("amr_viewer", "viewer")),
+        "--ros-args",
+        "-r",
+        f"__node:={name}",
+        "-p",
+        "autostart:=true",
+        "-p",
+        f"host:={host}",
+        "-p",
+        f"port:={port}",
+        "-p",
+        f"use_sim_time:={'true' if simulated else 'false'}",
+    ]
 
 
 def port_problem(host: str, port: int) -> str | None:

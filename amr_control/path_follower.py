@@ -188,8 +188,9 @@ class PathFollower:
 
     # -- control -----------------------------------------------------------------------
 
-    def compute(self, x: float, y: float, theta: float, scan: ScanData | None = None,
-                speed_limit: float | None = None) -> FollowCommand:
+    def compute(
+        self, x: float, y: float, theta: float, scan: ScanData | None = None, speed_limit: float | None = None
+    ) -> FollowCommand:
         """The command for the localized pose (x, y, theta) and the latest scan (None: no safety check).
 
         speed_limit (m/s, None: none) caps the forward speed while tracking, as nav2's speed limits do (the
@@ -198,7 +199,9 @@ class PathFollower:
         if self._points is None:
             return FollowCommand(0.0, 0.0, State.IDLE, message="no path")
         if not all(is_finite_number(v) for v in (x, y, theta)):
-            return self._halt(State(self._state), math.nan, math.nan, False, f"non-finite pose ({x}, {y}, {theta}): stopping")
+            return self._halt(
+                State(self._state), math.nan, math.nan, False, f"non-finite pose ({x}, {y}, {theta}): stopping"
+            )
         if self._state is State.REACHED:
             return FollowCommand(0.0, 0.0, State.REACHED, message="goal reached")
 
@@ -207,7 +210,10 @@ class PathFollower:
         if cross_track > self.config.stray_distance and self._arc[-1] > 0.0:
             self._state = State.STRAYED
             return self._halt(
-                State.STRAYED, cross_track, remaining, True,
+                State.STRAYED,
+                cross_track,
+                remaining,
+                True,
                 f"{cross_track:.3f} m from the path (more than {self.config.stray_distance} m): stopping, replan needed",
             )
         self._progress = progress
@@ -255,8 +261,12 @@ class PathFollower:
             bearing = math.atan2(point[1], point[0])
             if abs(alpha) <= self._blocked_turn and abs(bearing) >= self._graze_bearing:
                 c, s = math.cos(theta), math.sin(theta)  # the grazed return in the path's frame
-                self._escape = _Escape(-math.copysign(1.0, bearing), theta, x + c * point[0] - s * point[1],
-                                       y + s * point[0] + c * point[1])
+                self._escape = _Escape(
+                    -math.copysign(1.0, bearing),
+                    theta,
+                    x + c * point[0] - s * point[1],
+                    y + s * point[0] + c * point[1],
+                )
                 command = self._escaping(x, y, theta, returns, cross_track, remaining)
                 if command is not None:
                     return command
@@ -267,7 +277,10 @@ class PathFollower:
             # Turning in place approaches nothing: face the lookahead point, from where the arc may be clear.
             turn = self._turn(alpha) if abs(alpha) > self._blocked_turn else 0.0
             return self._emit(
-                0.0, turn, cross_track, remaining,
+                0.0,
+                turn,
+                cross_track,
+                remaining,
                 f"driving on would bring the footprint within {gap:.3f} m of a return (margin "
                 f"{self.config.safety_margin} m): stopped" + (", replan needed" if replan else ""),
                 replan=replan,
@@ -337,8 +350,9 @@ class PathFollower:
         index = approached[np.argsort(after[approached])[CONFIRMING_RETURNS - 1]]
         return float(after[index]), (float(returns[index, 0]), float(returns[index, 1]))
 
-    def _escaping(self, x: float, y: float, theta: float, returns: np.ndarray, cross_track: float,
-                  remaining: float) -> FollowCommand | None:
+    def _escaping(
+        self, x: float, y: float, theta: float, returns: np.ndarray, cross_track: float, remaining: float
+    ) -> FollowCommand | None:
         """The escape's command (see the module's item 7), or None once it is over or has given up."""
         escape = self._escape
         speed = self.config.min_linear_speed
@@ -358,8 +372,13 @@ class PathFollower:
             self._escape = None  # turned as far as it may: the block stands
             return None
         self._state = State.ESCAPE
-        return self._emit(0.0, escape.sign * self.config.turn_speed, cross_track, remaining,
-                          "grazing a return beside the path: turning away from it")
+        return self._emit(
+            0.0,
+            escape.sign * self.config.turn_speed,
+            cross_track,
+            remaining,
+            "grazing a return beside the path: turning away from it",
+        )
 
     # -- commands --------------------------------------------------------------------------
 
@@ -375,8 +394,9 @@ class PathFollower:
     def _turn(self, error: float) -> float:
         return math.copysign(min(self.config.turn_speed, self.config.turn_gain * abs(error)), error)
 
-    def _emit(self, v: float, w: float, cross_track: float, remaining: float, message: str,
-              replan: bool = False) -> FollowCommand:
+    def _emit(
+        self, v: float, w: float, cross_track: float, remaining: float, message: str, replan: bool = False
+    ) -> FollowCommand:
         v, w = self._drive.saturate(v, w)
         return FollowCommand(v, w, self._state, cross_track, remaining, replan, message)
 

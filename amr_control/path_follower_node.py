@@ -120,8 +120,9 @@ class PathFollowerNode(ManagedNode):
             self.create_subscription(SpeedLimit, "speed_limit", self._on_speed_limit, reliable()),
         ]
         if config.navigated:
-            self._entities.append(self.create_subscription(
-                NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable()))
+            self._entities.append(
+                self.create_subscription(NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable())
+            )
         else:
             self._entities.append(self.create_subscription(Path, "path", self._on_path, LATCHED))
         return TransitionCallbackReturn.SUCCESS
@@ -231,8 +232,11 @@ class PathFollowerNode(ManagedNode):
         if self.state_label != "active":
             return
         self._navigator_goal = (message.goal.x, message.goal.y) if message.has_goal else None
-        self._gate.route(message, lambda pose, scan: self._answer(driven_pose(pose, message), scan),
-                         lambda status: self._on_message(STATUS, status))
+        self._gate.route(
+            message,
+            lambda pose, scan: self._answer(driven_pose(pose, message), scan),
+            lambda status: self._on_message(STATUS, status),
+        )
 
     def _on_navigated_triple(self, pose: LocalizedPose, scan: LaserScan, status: NavigatorStatus) -> None:
         mine, changed = self._gate.admit(status, (pose, scan))
@@ -273,8 +277,9 @@ class PathFollowerNode(ManagedNode):
         try:
             p = pose.pose.pose
             limit = self.speed_limit_for(Time.from_msg(pose.header.stamp).nanoseconds)
-            command = self.follower.compute(p.position.x, p.position.y, yaw_from_quaternion(p.orientation),
-                                            scan_data(scan), speed_limit=limit)
+            command = self.follower.compute(
+                p.position.x, p.position.y, yaw_from_quaternion(p.orientation), scan_data(scan), speed_limit=limit
+            )
         except Exception as error:  # a controller bug must not take the robot's node down
             self.get_logger().error(f"path follower failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
             command = None
@@ -297,16 +302,28 @@ class PathFollowerNode(ManagedNode):
     def _publish(self, v: float, w: float) -> None:
         if self._publisher is None:
             return
-        self._publisher.publish(velocity_command(
-            v, w, stamped=self.config.simulation, flip_angular_sign=self.config.flip_angular_sign,
-            stamp=self.get_clock().now().to_msg()))
+        self._publisher.publish(
+            velocity_command(
+                v,
+                w,
+                stamped=self.config.simulation,
+                flip_angular_sign=self.config.flip_angular_sign,
+                stamp=self.get_clock().now().to_msg(),
+            )
+        )
         self.commands_sent += 1
 
     def _publish_status(self, scan: LaserScan, command: FollowCommand) -> None:
         status = PathFollowerStatus(
-            state=command.state.value, reached=command.reached, replan=command.replan,
-            cross_track=float(command.cross_track), remaining=float(command.remaining),
-            linear=float(command.v), angular=float(command.w), message=command.message)
+            state=command.state.value,
+            reached=command.reached,
+            replan=command.replan,
+            cross_track=float(command.cross_track),
+            remaining=float(command.remaining),
+            linear=float(command.v),
+            angular=float(command.w),
+            message=command.message,
+        )
         status.header.stamp = scan.header.stamp
         status.header.frame_id = "map"
         self._status_publisher.publish(status)

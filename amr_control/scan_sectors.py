@@ -136,7 +136,9 @@ class _Geometry:
         # Beams averaged for the window minima: MINIMUM_MEAN_ANGLE either side (none on a coarse scan).
         # (At most MAX_MEAN_BEAMS and never more than the scan holds: a scan of absurdly fine
         # increment must not make the average a window of millions of beams.)
-        half = min(int(MINIMUM_MEAN_ANGLE / max(abs(increment), 1e-9) + 1e-9), MAX_MEAN_BEAMS // 2, max(count - 1, 0) // 2)
+        half = min(
+            int(MINIMUM_MEAN_ANGLE / max(abs(increment), 1e-9) + 1e-9), MAX_MEAN_BEAMS // 2, max(count - 1, 0) // 2
+        )
         self.mean_beams = 2 * half + 1
         wide = sectors.side_half_width if sectors.direction_half_width is None else sectors.direction_half_width
         self.directions = [window(center, wide) for center in (sectors.left_center, sectors.right_center)]
@@ -215,8 +217,20 @@ class SectorReader:
         sizes = (geometry.sizes[0], geometry.sizes[4], geometry.sizes[5])
         self._ranges, self._smoothed = ranges, averaged
         return Readings(
-            front, ahead, left, right, left_abeam, right_abeam, left_fit, right_fit, clearance, side, usable, sizes,
-            left_wide, right_wide,
+            front,
+            ahead,
+            left,
+            right,
+            left_abeam,
+            right_abeam,
+            left_fit,
+            right_fit,
+            clearance,
+            side,
+            usable,
+            sizes,
+            left_wide,
+            right_wide,
         )
 
     def min_around(self, center: float, half_width: float) -> float:

@@ -359,8 +359,10 @@ class WallFollower:
         odometry when it is sane."""
         v, w = _as_float(v), _as_float(w)
         sane = (
-            math.isfinite(v) and math.isfinite(w)
-            and abs(v) <= PLAUSIBLE_FACTOR * self._max_v and abs(w) <= PLAUSIBLE_FACTOR * self._max_w
+            math.isfinite(v)
+            and math.isfinite(w)
+            and abs(v) <= PLAUSIBLE_FACTOR * self._max_v
+            and abs(w) <= PLAUSIBLE_FACTOR * self._max_w
         )
         if not sane:
             issues.append(Issue.BAD_ODOMETRY)
@@ -767,8 +769,12 @@ class WallFollower:
 
     def _record(self, r: Readings) -> None:
         self._measurements = Measurements(
-            front=r.front, left=r.left, right=r.right, wall_distance=self._wall_distance(r),
-            followed_wall=self._followed, clearance=r.clearance,
+            front=r.front,
+            left=r.left,
+            right=r.right,
+            wall_distance=self._wall_distance(r),
+            followed_wall=self._followed,
+            clearance=r.clearance,
         )
 
     def _stop(self, issues: list[Issue]) -> Command:

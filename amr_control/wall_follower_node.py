@@ -72,24 +72,34 @@ class WallFollowerNode(ManagedNode):
             return self.fail_configure(problems)
         self.config, self.controller = config, controller
         inputs, callback = (3, self._on_navigated_triple) if config.navigated else (2, self._on_pair)
-        self._sync = ApproximateTimeSynchronizer(inputs, config.sync_slop, config.sync_queue_size, callback,
-                                                 jump_threshold=config.stamp_jump_threshold,
-                                                 on_jump=self._on_clock_jump)
+        self._sync = ApproximateTimeSynchronizer(
+            inputs,
+            config.sync_slop,
+            config.sync_queue_size,
+            callback,
+            jump_threshold=config.stamp_jump_threshold,
+            on_jump=self._on_clock_jump,
+        )
         message_type = TwistStamped if config.simulation else Twist
         self._publisher = self.create_lifecycle_publisher(message_type, "cmd_vel", 10)
         self._status_publisher = self.create_lifecycle_publisher(WallFollowerStatus, "~/status", 10)
         self._inputs = [
-            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m),
-                                     reliable(config.sync_queue_size)),
+            self.create_subscription(
+                Odometry, "odometry", lambda m: self._on_message(ODOMETRY, m), reliable(config.sync_queue_size)
+            ),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(SCAN, m), SENSOR_DATA),
         ]
         if config.navigated:
-            self._inputs.append(self.create_subscription(
-                NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable(config.sync_queue_size)))
+            self._inputs.append(
+                self.create_subscription(
+                    NavigatorStatus, NAVIGATOR_STATUS_TOPIC, self._on_navigator_status, reliable(config.sync_queue_size)
+                )
+            )
         self.get_logger().info(
             f"configured: {'simulation (lockstep, TwistStamped)' if config.simulation else 'real robot (timer, Twist)'}"
             f", following the {config.preferred_wall} wall at {config.target_wall_distance} m"
-            + (", when the navigator says so" if config.navigated else ""))
+            + (", when the navigator says so" if config.navigated else "")
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def apply_live(self, changes: dict) -> None:
@@ -137,7 +147,8 @@ class WallFollowerNode(ManagedNode):
         """Stamps went back (a simulator reset, or normal stamps after a bad one): start afresh from here."""
         self.get_logger().warning(
             f"{('/odometry', '/scan', '/navigator/status')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
-            "synchronizer and controller restarted")
+            "synchronizer and controller restarted"
+        )
         self.controller.reset()
         self._latest_pair = None
 
@@ -162,8 +173,10 @@ class WallFollowerNode(ManagedNode):
         """Answer the observation if the navigator gave it to this node; on losing the charge, stop once (timer)."""
         mine, changed = self._gate.admit(status, (odometry, scan))
         if changed:
-            self.get_logger().info(f"navigator: {status.mode}: " + (
-                "driving" if mine else f"handing over to {status.controller or 'nobody'} ({status.reason})"))
+            self.get_logger().info(
+                f"navigator: {status.mode}: "
+                + ("driving" if mine else f"handing over to {status.controller or 'nobody'} ({status.reason})")
+            )
             if not mine:
                 self._latest_pair = None
                 if not self.config.simulation:
@@ -208,10 +221,17 @@ class WallFollowerNode(ManagedNode):
     def _publish_status(self, scan: LaserScan, command: Command) -> None:
         seen = self.controller.measurements
         status = WallFollowerStatus(
-            state=self.controller.state, followed_wall=seen.followed_wall, front=seen.front, left=seen.left,
-            right=seen.right, wall_distance=seen.wall_distance,
-            target_wall_distance=self.config.target_wall_distance, linear=command.v, angular=command.w,
-            issues=[issue.value for issue in command.issues])
+            state=self.controller.state,
+            followed_wall=seen.followed_wall,
+            front=seen.front,
+            left=seen.left,
+            right=seen.right,
+            wall_distance=seen.wall_distance,
+            target_wall_distance=self.config.target_wall_distance,
+            linear=command.v,
+            angular=command.w,
+            issues=[issue.value for issue in command.issues],
+        )
         status.header.stamp = self.get_clock().now().to_msg()
         status.header.frame_id = "base_footprint"
         self._status_publisher.publish(status)
@@ -219,9 +239,15 @@ class WallFollowerNode(ManagedNode):
     def _publish(self, v: float, w: float) -> None:
         if self._publisher is None:
             return
-        self._publisher.publish(velocity_command(
-            v, w, stamped=self.config.simulation, flip_angular_sign=self.config.flip_angular_sign,
-            stamp=self.get_clock().now().to_msg()))
+        self._publisher.publish(
+            velocity_command(
+                v,
+                w,
+                stamped=self.config.simulation,
+                flip_angular_sign=self.config.flip_angular_sign,
+                stamp=self.get_clock().now().to_msg(),
+            )
+        )
 
     def _warn(self, text: str) -> None:
         """Each distinct warning at most once per WARNING_PERIOD (rclpy throttles per call site)."""

@@ -137,8 +137,9 @@ def open_text(path: Path):
     return open(path, encoding="utf-8", errors="replace")
 
 
-def read_carmen(path: str | Path, *, message: str | None = None, max_range: float | None = None,
-                fov: float | None = None) -> CarmenLog:
+def read_carmen(
+    path: str | Path, *, message: str | None = None, max_range: float | None = None, fov: float | None = None
+) -> CarmenLog:
     """Every scan of a CARMEN log (plain or gzip).
 
     message: the scan type to read (one of SCAN_TYPES; None: the first of them the log has).
@@ -167,8 +168,10 @@ def read_carmen(path: str | Path, *, message: str | None = None, max_range: floa
                     if kind == "PARAM" and len(parts) >= 3:
                         params[parts[1]] = parts[2]
                 else:
-                    raise DatasetError(f"{path}:{number}: {_show(kind)}: not a CARMEN message type "
-                                       f"(a line starts with one, such as FLASER, ODOM or PARAM)")
+                    raise DatasetError(
+                        f"{path}:{number}: {_show(kind)}: not a CARMEN message type "
+                        f"(a line starts with one, such as FLASER, ODOM or PARAM)"
+                    )
     except OSError as error:
         raise DatasetError(f"{path}: cannot read ({error})") from error
     except EOFError as error:
@@ -193,9 +196,15 @@ def read_carmen(path: str | Path, *, message: str | None = None, max_range: floa
         max_range = None
     stamps, has_stamps, problem = _stamps(scans, path)
     bound = max_range if max_range is not None else _largest_reading(scans)
-    return CarmenLog(path, [_log_scan(raw, stamp, max_range, bound) for raw, stamp in zip(scans, stamps)],
-                     has_stamps=has_stamps, max_range=max_range, message=chosen, stamp_problem=problem,
-                     ignored=dict(sorted(ignored.items())))
+    return CarmenLog(
+        path,
+        [_log_scan(raw, stamp, max_range, bound) for raw, stamp in zip(scans, stamps)],
+        has_stamps=has_stamps,
+        max_range=max_range,
+        message=chosen,
+        stamp_problem=problem,
+        ignored=dict(sorted(ignored.items())),
+    )
 
 
 def detect_max_range(ranges: np.ndarray) -> float | None:
@@ -227,10 +236,9 @@ def _show(text: str) -> str:
 
 
 def _numbers(parts: list[str], first: int, count: int, path: Path, number: int, what: str) -> np.ndarray:
-    chunk = parts[first:first + count]
+    chunk = parts[first : first + count]
     if len(chunk) < count:
-        raise DatasetError(f"{path}:{number}: {parts[0]}: {what}: expected {count} values, the line has "
-                           f"{len(chunk)}")
+        raise DatasetError(f"{path}:{number}: {parts[0]}: {what}: expected {count} values, the line has {len(chunk)}")
     try:
         values = np.array(chunk, dtype=float)
     except ValueError:
@@ -304,8 +312,10 @@ def _parse_scan(parts: list[str], path: Path, number: int, fov: float | None, pa
     ranges = _ranges(_numbers(parts, 2, n, path, number, f"{n} ranges"), path, number, kind)
     rest = len(parts) - 2 - n
     if rest < 3:
-        raise DatasetError(f"{path}:{number}: {kind}: expected x y theta after the {n} ranges, the line has {rest} "
-                           f"values there (is the beam count {n} right?)")
+        raise DatasetError(
+            f"{path}:{number}: {kind}: expected x y theta after the {n} ranges, the line has {rest} "
+            f"values there (is the beam count {n} right?)"
+        )
     pose = _pose(_numbers(parts, 2 + n, 3, path, number, "pose"), path, number, kind, "the pose")
     odom, stamp_index = None, 2 + n + 3
     if rest >= 6:
@@ -318,8 +328,9 @@ def _parse_scan(parts: list[str], path: Path, number: int, fov: float | None, pa
 
 def _parse_robot_laser(parts: list[str], path: Path, number: int) -> _Raw:
     kind = parts[0]
-    head = _numbers(parts, 1, 7, path, number, "laser_type start_angle fov resolution max_range accuracy "
-                                                  "remission_mode")
+    head = _numbers(
+        parts, 1, 7, path, number, "laser_type start_angle fov resolution max_range accuracy remission_mode"
+    )
     _, start, fov, resolution, stated_max = head[:5]
     n = _count(parts, 8, path, number, "beam count")
     ranges = _ranges(_numbers(parts, 9, n, path, number, f"{n} ranges"), path, number, kind)
@@ -335,8 +346,9 @@ def _parse_robot_laser(parts: list[str], path: Path, number: int) -> _Raw:
     if not (math.isfinite(resolution) and resolution > 0.0):
         resolution = fov / (n - 1) if n > 1 else fov
     max_range = float(stated_max) if math.isfinite(stated_max) and stated_max > 0.0 else None
-    return _Raw(number, ranges, float(start), float(resolution), pose, odom, _stamp(parts, at + 11, path, number),
-                max_range)
+    return _Raw(
+        number, ranges, float(start), float(resolution), pose, odom, _stamp(parts, at + 11, path, number), max_range
+    )
 
 
 def _stamps(scans: list[_Raw], path: Path) -> tuple[list[float], bool, str]:
@@ -355,10 +367,16 @@ def _stamps(scans: list[_Raw], path: Path) -> tuple[list[float], bool, str]:
             if not back:
                 return stamps, True, ""
             lines = ", ".join(map(str, back[:5])) + (", ..." if len(back) > 5 else "")
-            return _spread(stamps), True, (f"{len(back)} timestamps did not increase (lines {lines}): spread "
-                                           "evenly between their neighbours")
-    return [SYNTHETIC_PERIOD * i for i in range(len(scans))], False, problem + ": stamps synthesized " \
-        f"{SYNTHETIC_PERIOD:g} s apart"
+            return (
+                _spread(stamps),
+                True,
+                (f"{len(back)} timestamps did not increase (lines {lines}): spread evenly between their neighbours"),
+            )
+    return (
+        [SYNTHETIC_PERIOD * i for i in range(len(scans))],
+        False,
+        problem + f": stamps synthesized {SYNTHETIC_PERIOD:g} s apart",
+    )
 
 
 def _spread(stamps: list[float]) -> list[float]:

@@ -52,8 +52,15 @@ class PlayerStep:
 class LogPlayer:
     """The steps of a log slice, lap after lap when looping."""
 
-    def __init__(self, log: CarmenLog, noise: OdometryNoiseModel | None = None, seed: int = 0, start: int = 0,
-                 count: int = 0, loop: bool = False) -> None:
+    def __init__(
+        self,
+        log: CarmenLog,
+        noise: OdometryNoiseModel | None = None,
+        seed: int = 0,
+        start: int = 0,
+        count: int = 0,
+        loop: bool = False,
+    ) -> None:
         """count 0: to the end of the log. ValueError when the slice is empty."""
         if start < 0 or count < 0:
             raise ValueError(f"start and count must be >= 0, got start {start}, count {count}")
@@ -64,7 +71,7 @@ class LogPlayer:
         self.seed = int(seed)
         self.loop = bool(loop)
         self.first = start
-        self.scans = log.scans[start:start + count] if count else log.scans[start:]
+        self.scans = log.scans[start : start + count] if count else log.scans[start:]
         self.poses = np.array([scan.pose for scan in self.scans], dtype=float).reshape(-1, 3)
         stamps = np.array([scan.stamp for scan in self.scans], dtype=float)
         offset = FIRST_STAMP - stamps[0] if stamps[0] <= 0.0 else 0.0

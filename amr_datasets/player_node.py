@@ -96,34 +96,91 @@ def pace_message_type(name: str):
 
 PARAMETERS = (
     ParameterSpec("log", "", "path of the CARMEN log to play (plain text or gzip)"),
-    ParameterSpec("mode", "lockstep", "lockstep: each scan once the consumer answered the last; realtime: at the "
-                  "log's stamps", choices=("lockstep", "realtime")),
-    ParameterSpec("rate", 1.0, "realtime: log seconds per wall second", minimum=0.0, exclusive_minimum=True,
-                  maximum=1e6, live=True),
+    ParameterSpec(
+        "mode",
+        "lockstep",
+        "lockstep: each scan once the consumer answered the last; realtime: at the log's stamps",
+        choices=("lockstep", "realtime"),
+    ),
+    ParameterSpec(
+        "rate",
+        1.0,
+        "realtime: log seconds per wall second",
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=1e6,
+        live=True,
+    ),
     ParameterSpec("pace_topic", "pose", "lockstep: the consumer's answer to each scan", check=topic_name_problem),
-    ParameterSpec("pace_type", DEFAULT_PACE_TYPE, "lockstep: its type (with a header stamped with "
-                  "the scan's stamp), e.g. amr_interfaces/msg/PoseGraph", check=pace_type_problem),
-    ParameterSpec("pace_timeout", 5.0, "lockstep: wall s to wait for the answer, then warn and go on",
-                  minimum=0.0, exclusive_minimum=True, maximum=3600.0, live=True),
+    ParameterSpec(
+        "pace_type",
+        DEFAULT_PACE_TYPE,
+        "lockstep: its type (with a header stamped with the scan's stamp), e.g. amr_interfaces/msg/PoseGraph",
+        check=pace_type_problem,
+    ),
+    ParameterSpec(
+        "pace_timeout",
+        5.0,
+        "lockstep: wall s to wait for the answer, then warn and go on",
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=3600.0,
+        live=True,
+    ),
     ParameterSpec("start", 0, "index of the first scan played", minimum=0),
     ParameterSpec("count", 0, "scans played (0: to the end of the log)", minimum=0),
-    ParameterSpec("loop", False, "start again after the last scan (the robot carried back to the first pose; "
-                  "stamps go on)"),
+    ParameterSpec(
+        "loop", False, "start again after the last scan (the robot carried back to the first pose; stamps go on)"
+    ),
     ParameterSpec("seed", 0, "of the synthesized odometry's noise", minimum=0),
-    ParameterSpec("noise_alpha1", DEFAULT_NOISE.alpha1, "odometry rotation noise per rotation (rad/rad, a "
-                  "standard deviation)", minimum=0.0, maximum=10.0),
-    ParameterSpec("noise_alpha2", DEFAULT_NOISE.alpha2, "odometry rotation noise per translation (rad/m)",
-                  minimum=0.0, maximum=10.0),
-    ParameterSpec("noise_alpha3", DEFAULT_NOISE.alpha3, "odometry translation noise per translation (m/m)",
-                  minimum=0.0, maximum=10.0),
-    ParameterSpec("noise_alpha4", DEFAULT_NOISE.alpha4, "odometry translation noise per rotation (m/rad)",
-                  minimum=0.0, maximum=10.0),
-    ParameterSpec("noise_scale_error", DEFAULT_NOISE.scale_error, "odometry distances are (1 + this) times the "
-                  "true ones", minimum=-0.5, maximum=0.5),
-    ParameterSpec("noise_heading_bias", DEFAULT_NOISE.heading_bias, "odometry heading drift, rad per metre "
-                  "driven (0.5 deg/m)", minimum=-1.0, maximum=1.0),
-    ParameterSpec("message", "", "the scan lines to read (empty: the first of FLASER, ROBOTLASER1, RLASER, "
-                  "ROBOTLASER2 the log has)", choices=("", *SCAN_TYPES)),
+    ParameterSpec(
+        "noise_alpha1",
+        DEFAULT_NOISE.alpha1,
+        "odometry rotation noise per rotation (rad/rad, a standard deviation)",
+        minimum=0.0,
+        maximum=10.0,
+    ),
+    ParameterSpec(
+        "noise_alpha2",
+        DEFAULT_NOISE.alpha2,
+        "odometry rotation noise per translation (rad/m)",
+        minimum=0.0,
+        maximum=10.0,
+    ),
+    ParameterSpec(
+        "noise_alpha3",
+        DEFAULT_NOISE.alpha3,
+        "odometry translation noise per translation (m/m)",
+        minimum=0.0,
+        maximum=10.0,
+    ),
+    ParameterSpec(
+        "noise_alpha4",
+        DEFAULT_NOISE.alpha4,
+        "odometry translation noise per rotation (m/rad)",
+        minimum=0.0,
+        maximum=10.0,
+    ),
+    ParameterSpec(
+        "noise_scale_error",
+        DEFAULT_NOISE.scale_error,
+        "odometry distances are (1 + this) times the true ones",
+        minimum=-0.5,
+        maximum=0.5,
+    ),
+    ParameterSpec(
+        "noise_heading_bias",
+        DEFAULT_NOISE.heading_bias,
+        "odometry heading drift, rad per metre driven (0.5 deg/m)",
+        minimum=-1.0,
+        maximum=1.0,
+    ),
+    ParameterSpec(
+        "message",
+        "",
+        "the scan lines to read (empty: the first of FLASER, ROBOTLASER1, RLASER, ROBOTLASER2 the log has)",
+        choices=("", *SCAN_TYPES),
+    ),
     ParameterSpec("max_range", 0.0, "m: readings at or above it are no return (0: found in the log)", minimum=0.0),
     ParameterSpec("map_frame", "map", "frame of ground_truth"),
     ParameterSpec("odom_frame", "odom", "frame of the odometry"),
@@ -132,12 +189,28 @@ PARAMETERS = (
     ParameterSpec("publish_clock", True, "publish the log's time on /clock"),
 )
 
-ODOMETRY_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "pose.pose.position.x", "pose.pose.position.y",
-                   "pose.pose.orientation.z", "pose.pose.orientation.w", "twist.twist.linear.x",
-                   "twist.twist.linear.y", "twist.twist.angular.z")
-TF_FIELDS = tuple(f"transforms.0.{name}" for name in (
-    "header.stamp.sec", "header.stamp.nanosec", "transform.translation.x", "transform.translation.y",
-    "transform.rotation.z", "transform.rotation.w"))
+ODOMETRY_FIELDS = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "pose.pose.position.x",
+    "pose.pose.position.y",
+    "pose.pose.orientation.z",
+    "pose.pose.orientation.w",
+    "twist.twist.linear.x",
+    "twist.twist.linear.y",
+    "twist.twist.angular.z",
+)
+TF_FIELDS = tuple(
+    f"transforms.0.{name}"
+    for name in (
+        "header.stamp.sec",
+        "header.stamp.nanosec",
+        "transform.translation.x",
+        "transform.translation.y",
+        "transform.rotation.z",
+        "transform.rotation.w",
+    )
+)
 SCAN_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "ranges")
 CLOCK_FIELDS = ("clock.sec", "clock.nanosec")
 
@@ -205,10 +278,12 @@ class LogPlayerNode(ManagedNode):
         if not values["log"]:
             return self.fail_configure(["log: give the path of a CARMEN log (-p log:=<file>)"])
         try:
-            log = read_carmen(values["log"], message=values["message"] or None,
-                              max_range=values["max_range"] or None)
-            noise = OdometryNoiseModel(*(values[f"noise_alpha{i}"] for i in range(1, 5)),
-                                       values["noise_scale_error"], values["noise_heading_bias"])
+            log = read_carmen(values["log"], message=values["message"] or None, max_range=values["max_range"] or None)
+            noise = OdometryNoiseModel(
+                *(values[f"noise_alpha{i}"] for i in range(1, 5)),
+                values["noise_scale_error"],
+                values["noise_heading_bias"],
+            )
             self.player = LogPlayer(log, noise, values["seed"], values["start"], values["count"], values["loop"])
             pace_type = pace_message_type(values["pace_type"])
         except (DatasetError, ValueError) as error:
@@ -218,9 +293,12 @@ class LogPlayerNode(ManagedNode):
         scan = log.scans[0].scan
         self.get_logger().info(
             f"{log.path}: {len(self.player)} of {len(log)} {log.message} scans ({len(scan.ranges)} beams, max range "
-            + (f"{log.max_range:g} m" if log.max_range is not None else "none found") + "), "
+            + (f"{log.max_range:g} m" if log.max_range is not None else "none found")
+            + "), "
             + ("stamps from the log" if log.has_stamps else "no stamps")
-            + (f" ({log.stamp_problem})" if log.stamp_problem else "") + f"; {values['mode']}")
+            + (f" ({log.stamp_problem})" if log.stamp_problem else "")
+            + f"; {values['mode']}"
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def _create_interfaces(self, values: dict, pace_type) -> None:
@@ -247,8 +325,9 @@ class LogPlayerNode(ManagedNode):
         values = self._values
         if self._next == 0 and not self.done:
             stamp = stamp_from_seconds(self.player.stamp(0))
-            self._outputs["tf_static"].publish(TFMessage(transforms=[
-                transform(stamp, values["base_frame"], values["laser_frame"])]))
+            self._outputs["tf_static"].publish(
+                TFMessage(transforms=[transform(stamp, values["base_frame"], values["laser_frame"])])
+            )
             self._started = time.monotonic()
         self._outputs["status"].publish(String(data="done" if self.done else "playing"))
         if self.done:
@@ -312,7 +391,8 @@ class LogPlayerNode(ManagedNode):
             self.get_logger().warning(
                 f"no {self._values['pace_type']} on {self._pace.topic_name} stamped at least "
                 f"{self._awaiting * 1e-9:.3f} s within {self._values['pace_timeout']:g} s: going on "
-                f"({self.timeouts} timeouts so far)")
+                f"({self.timeouts} timeouts so far)"
+            )
         self._advance()
 
     def _advance(self) -> None:
@@ -343,7 +423,8 @@ class LogPlayerNode(ManagedNode):
         wall = time.monotonic() - self._started
         self.get_logger().info(
             f"done: {self.published} scans in {wall:.2f} s wall ({self.published / max(wall, 1e-9):.0f} scans/s)"
-            + (f", {self.timeouts} pace timeouts" if self.timeouts else ""))
+            + (f", {self.timeouts} pace timeouts" if self.timeouts else "")
+        )
 
     # -- publishing -----------------------------------------------------------------------------
 
@@ -371,14 +452,19 @@ class LogPlayerNode(ManagedNode):
         odom, pose = step.odom, step.pose
         _, _, odom_z, odom_w = quaternion_from_yaw(odom.theta)
         _, _, pose_z, pose_w = quaternion_from_yaw(pose.theta)
-        wire = self._wire("tf", TF_FIELDS, lambda: TFMessage(transforms=[
-            transform(stamp, values["odom_frame"], values["base_frame"])]))
+        wire = self._wire(
+            "tf",
+            TF_FIELDS,
+            lambda: TFMessage(transforms=[transform(stamp, values["odom_frame"], values["base_frame"])]),
+        )
         outputs["tf"].publish(wire.fill(sec, nanosec, odom.x, odom.y, odom_z, odom_w))
-        wire = self._wire("odometry", ODOMETRY_FIELDS, lambda: odometry_message(
-            stamp, values["odom_frame"], values["base_frame"]))
+        wire = self._wire(
+            "odometry", ODOMETRY_FIELDS, lambda: odometry_message(stamp, values["odom_frame"], values["base_frame"])
+        )
         outputs["odometry"].publish(wire.fill(sec, nanosec, odom.x, odom.y, odom_z, odom_w, *step.odom_twist))
-        wire = self._wire("ground_truth", ODOMETRY_FIELDS, lambda: odometry_message(
-            stamp, values["map_frame"], values["base_frame"]))
+        wire = self._wire(
+            "ground_truth", ODOMETRY_FIELDS, lambda: odometry_message(stamp, values["map_frame"], values["base_frame"])
+        )
         outputs["ground_truth"].publish(wire.fill(sec, nanosec, pose.x, pose.y, pose_z, pose_w, *step.pose_twist))
         scan = step.scan
         key = ("scan", len(scan.ranges), scan.angle_min, scan.angle_increment, scan.range_max)

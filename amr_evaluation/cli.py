@@ -36,18 +36,36 @@ DEFAULT_OUT = "out/evaluation/results.jsonl"
 def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     from amr_maps.maze_families import FAMILIES
 
-    parser = argparse.ArgumentParser(prog="amr-evaluate", description=__doc__.split("\n\n")[0],
-                                     epilog=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="amr-evaluate",
+        description=__doc__.split("\n\n")[0],
+        epilog=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     what = parser.add_argument_group("what to run")
-    what.add_argument("--run", action="append", metavar="CONTROLLER[=CONFIG]",
-                      help="a controller and its configuration, repeatable: wall_follower=sim (default), "
-                           "wall_follower=real, wall_follower=my.yaml (laid over sim; real:my.yaml over real), "
-                           "navigation (=default or a file), localization, plan_follow, "
-                           "'command=python3 student.py' (your own node, --mode ros)")
-    what.add_argument("--worlds", nargs="+", default=[], metavar="WORLD",
-                      help="world files: shipped names (hard_maze, pillar_goal.yaml) or paths")
-    what.add_argument("--families", nargs="+", default=[], metavar="FAMILY",
-                      help=f"generated maze families, or 'all' ({', '.join(FAMILIES)})")
+    what.add_argument(
+        "--run",
+        action="append",
+        metavar="CONTROLLER[=CONFIG]",
+        help="a controller and its configuration, repeatable: wall_follower=sim (default), "
+        "wall_follower=real, wall_follower=my.yaml (laid over sim; real:my.yaml over real), "
+        "navigation (=default or a file), localization, plan_follow, "
+        "'command=python3 student.py' (your own node, --mode ros)",
+    )
+    what.add_argument(
+        "--worlds",
+        nargs="+",
+        default=[],
+        metavar="WORLD",
+        help="world files: shipped names (hard_maze, pillar_goal.yaml) or paths",
+    )
+    what.add_argument(
+        "--families",
+        nargs="+",
+        default=[],
+        metavar="FAMILY",
+        help=f"generated maze families, or 'all' ({', '.join(FAMILIES)})",
+    )
     what.add_argument("--seeds", type=int, default=1, help="seeds 0..N-1 (mazes per family; runs per world file)")
     what.add_argument("--first-seed", type=int, default=0)
     what.add_argument("--width", type=float, help="corridor width of the generated mazes (m; default: drawn)")
@@ -57,27 +75,55 @@ def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     what.add_argument("--encoder-noise", type=float, nargs="+", default=[0.0])
     what.add_argument("--slip", type=float, nargs="+", default=[0.0])
     what.add_argument("--duration", type=float, default=600.0, help="s simulated at most (default 600)")
-    what.add_argument("--beams", type=int, help="wall_follower: LiDAR beams (default 240, or 360 as the LDS-01 has for "
-                                                "a configuration with simulation: false, e.g. real)")
+    what.add_argument(
+        "--beams",
+        type=int,
+        help="wall_follower: LiDAR beams (default 240, or 360 as the LDS-01 has for "
+        "a configuration with simulation: false, e.g. real)",
+    )
     what.add_argument("--scan-period", type=float, help="wall_follower: s between scans, the command held between")
     what.add_argument("--outliers", type=float, default=0.0, help="wall_follower: per-beam spurious return rate")
-    what.add_argument("--mode", choices=MODES, default="library",
-                      help="library (no DDS, default) or ros (the amr-bringup stack per episode)")
-    what.add_argument("--clock", choices=("lockstep", "realtime"), default="lockstep",
-                      help="command: the simulator steps once per /cmd_vel (lockstep, default) or on its timer")
+    what.add_argument(
+        "--mode",
+        choices=MODES,
+        default="library",
+        help="library (no DDS, default) or ros (the amr-bringup stack per episode)",
+    )
+    what.add_argument(
+        "--clock",
+        choices=("lockstep", "realtime"),
+        default="lockstep",
+        help="command: the simulator steps once per /cmd_vel (lockstep, default) or on its timer",
+    )
     what.add_argument("--pace", type=float, default=1.0, help="command, --clock realtime: x real time (default 1)")
-    what.add_argument("--answer-timeout", type=float, default=10.0, metavar="S",
-                      help="command: wall-clock s without a /cmd_vel before the node is given up (default 10)")
-    what.add_argument("--cmd-vel-stamped", action="store_true",
-                      help="command: the node publishes TwistStamped on /cmd_vel (default: plain Twist)")
-    what.add_argument("--ros-domains", metavar="FIRST-LAST",
-                      help="--mode ros: the ROS domains episodes take one each of (default: $AMR_EVALUATE_ROS_DOMAINS "
-                           "or 120-199; Dask workers read their own environment)")
+    what.add_argument(
+        "--answer-timeout",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help="command: wall-clock s without a /cmd_vel before the node is given up (default 10)",
+    )
+    what.add_argument(
+        "--cmd-vel-stamped",
+        action="store_true",
+        help="command: the node publishes TwistStamped on /cmd_vel (default: plain Twist)",
+    )
+    what.add_argument(
+        "--ros-domains",
+        metavar="FIRST-LAST",
+        help="--mode ros: the ROS domains episodes take one each of (default: $AMR_EVALUATE_ROS_DOMAINS "
+        "or 120-199; Dask workers read their own environment)",
+    )
     where = parser.add_argument_group("where")
     where.add_argument("--workers", type=int, default=None, help="local processes (default 2, or the cores if fewer)")
     where.add_argument("--scheduler", metavar="tcp://HOST:8786", help="run on this Dask cluster instead")
-    where.add_argument("--scheduler-timeout", type=float, default=10.0, metavar="S",
-                       help="s to wait for the scheduler to answer (default 10): then an error, nothing written")
+    where.add_argument(
+        "--scheduler-timeout",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help="s to wait for the scheduler to answer (default 10): then an error, nothing written",
+    )
     where.add_argument("--out", default=DEFAULT_OUT, help=f"results file, JSON lines (default {DEFAULT_OUT})")
     where.add_argument("--no-plots", action="store_true")
     where.add_argument("--no-progress", action="store_true")
@@ -133,8 +179,15 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
     """The sweep's episodes: every run x world x seed x noise level, in that order."""
     seeds = range(options.first_seed, options.first_seed + options.seeds)
     specs = []
-    wall_options = {k: v for k, v in (("beams", options.beams), ("scan_period", options.scan_period),
-                                      ("outlier_rate", options.outliers or None)) if v is not None}
+    wall_options = {
+        k: v
+        for k, v in (
+            ("beams", options.beams),
+            ("scan_period", options.scan_period),
+            ("outlier_rate", options.outliers or None),
+        )
+        if v is not None
+    }
     for controller, label, parameters in runs_of(options):
         hand = parameters.get("wall_follower", {}).get("preferred_wall", "right")
         hand = hand if hand in ("right", "left") else "right"
@@ -152,16 +205,39 @@ def build_specs(options: argparse.Namespace) -> list[EpisodeSpec]:
         if controller == "command":
             if options.mode != "ros":
                 raise ValueError("--run command=...: a node of your own runs through ROS only: add --mode ros")
-            extra = {"clock": options.clock, "answer_timeout": options.answer_timeout,
-                     "cmd_vel_stamped": options.cmd_vel_stamped, **({"beams": options.beams} if options.beams else {})}
+            extra = {
+                "clock": options.clock,
+                "answer_timeout": options.answer_timeout,
+                "cmd_vel_stamped": options.cmd_vel_stamped,
+                **({"beams": options.beams} if options.beams else {}),
+            }
             if options.clock == "realtime":
                 extra["pace"] = options.pace
-        if controller == "wall_follower" and options.beams is None and parameters["wall_follower"].get("simulation") is False:
+        if (
+            controller == "wall_follower"
+            and options.beams is None
+            and parameters["wall_follower"].get("simulation") is False
+        ):
             extra["beams"] = 360  # the real robot's LDS-01
-        for (world, seed), lidar, encoder, slip in itertools.product(worlds, options.lidar_noise,
-                                                                     options.encoder_noise, options.slip):
-            specs.append(EpisodeSpec(controller, label, parameters, world, options.goal, seed, lidar, encoder, slip,
-                                     options.duration, dict(extra), options.mode))
+        for (world, seed), lidar, encoder, slip in itertools.product(
+            worlds, options.lidar_noise, options.encoder_noise, options.slip
+        ):
+            specs.append(
+                EpisodeSpec(
+                    controller,
+                    label,
+                    parameters,
+                    world,
+                    options.goal,
+                    seed,
+                    lidar,
+                    encoder,
+                    slip,
+                    options.duration,
+                    dict(extra),
+                    options.mode,
+                )
+            )
     return specs
 
 
@@ -169,8 +245,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """The command; Ctrl-C at any moment after the arguments are read ends it with one line and INTERRUPTED (130):
     amr_evaluation.interrupt says how, whatever the interrupt lands in (a pool starting, a __del__, ...)."""
     options = parse_arguments(argv)
-    with Interrupt(f"amr-evaluate: interrupted; the finished episodes are in {options.out} "
-                   "(the same command resumes)") as interrupt:
+    with Interrupt(
+        f"amr-evaluate: interrupted; the finished episodes are in {options.out} (the same command resumes)"
+    ) as interrupt:
         try:
             code = _main(options, interrupt.is_set)
         except KeyboardInterrupt:
@@ -190,9 +267,16 @@ def _main(options: argparse.Namespace, stop: Callable[[], bool] | None = None) -
         return 2
     if options.list:
         for spec in specs:
-            print(spec.key, spec.controller, spec.config, spec.world.get("family") or spec.world.get("file")
-                  or spec.world.get("name"), f"seed {spec.seed}", f"lidar {spec.lidar_noise}",
-                  f"encoders {spec.encoder_noise}", f"slip {spec.slip}")
+            print(
+                spec.key,
+                spec.controller,
+                spec.config,
+                spec.world.get("family") or spec.world.get("file") or spec.world.get("name"),
+                f"seed {spec.seed}",
+                f"lidar {spec.lidar_noise}",
+                f"encoders {spec.encoder_noise}",
+                f"slip {spec.slip}",
+            )
         return 0
     from amr_evaluation.plots import write_plots
     from amr_evaluation.records import format_summary, summarize
@@ -212,9 +296,16 @@ def _main(options: argparse.Namespace, stop: Callable[[], bool] | None = None) -
             print(f"amr-evaluate: resuming {out}: {skipped} finished episode(s) skipped, {to_run} to run", flush=True)
 
     try:
-        records = run_sweep(specs, out, workers=workers, scheduler=options.scheduler,
-                            progress=not options.no_progress, on_start=started,
-                            connect_timeout=options.scheduler_timeout, stop=stop)
+        records = run_sweep(
+            specs,
+            out,
+            workers=workers,
+            scheduler=options.scheduler,
+            progress=not options.no_progress,
+            on_start=started,
+            connect_timeout=options.scheduler_timeout,
+            stop=stop,
+        )
     except SweepError as error:
         print(f"amr-evaluate: {error}", file=sys.stderr)
         return 2
@@ -226,8 +317,11 @@ def _main(options: argparse.Namespace, stop: Callable[[], bool] | None = None) -
     print(f"summary: {summary_path}" + (f"; plots: {', '.join(str(p) for p in written)}" if written else ""))
     failed = [r for r in records if r.get("error")]
     for record in failed[:5]:
-        print(f"episode {record['key']} ({record['controller']} {record['world']} seed {record['seed']}) failed: "
-              f"{record['error']}", file=sys.stderr)
+        print(
+            f"episode {record['key']} ({record['controller']} {record['world']} seed {record['seed']}) failed: "
+            f"{record['error']}",
+            file=sys.stderr,
+        )
     return 1 if failed else 0
 
 

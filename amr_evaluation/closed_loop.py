@@ -38,8 +38,12 @@ class Trace:
     kidnapped_at: float | None = None
 
     def arrays(self):
-        return (np.array(self.time), np.array(self.localized, dtype=bool), np.array(self.position_error),
-                np.array(self.heading_error))
+        return (
+            np.array(self.time),
+            np.array(self.localized, dtype=bool),
+            np.array(self.position_error),
+            np.array(self.heading_error),
+        )
 
     def first_localized(self, after: float = -1.0) -> int | None:
         """Index of the first localized step after time `after` (None if never)."""
@@ -48,9 +52,15 @@ class Trace:
         return int(index[0]) if index.size else None
 
 
-def run(sim: Simulator, pf: ParticleFilter, follower_config: WallFollowerConfig, seconds: float,
-        kidnap: tuple[float, tuple[float, float, float]] | None = None, stop_when_localized: bool = False,
-        until: Callable[[Simulator, Estimate], bool] | None = None) -> Trace:
+def run(
+    sim: Simulator,
+    pf: ParticleFilter,
+    follower_config: WallFollowerConfig,
+    seconds: float,
+    kidnap: tuple[float, tuple[float, float, float]] | None = None,
+    stop_when_localized: bool = False,
+    until: Callable[[Simulator, Estimate], bool] | None = None,
+) -> Trace:
     """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once; `until`, called
     after each step's estimate, ends the run early when it returns True."""
     follower = WallFollower(follower_config)
@@ -83,5 +93,6 @@ def _frame_mapping(before: np.ndarray, restarted: np.ndarray) -> np.ndarray:
     """The frame F with F (+) restarted = before: maps the restarted odometry onto the old one."""
     c, s = math.cos(before[2] - restarted[2]), math.sin(before[2] - restarted[2])
     theta = float(wrap_angle(before[2] - restarted[2]))
-    return np.array([before[0] - (c * restarted[0] - s * restarted[1]),
-                     before[1] - (s * restarted[0] + c * restarted[1]), theta])
+    return np.array(
+        [before[0] - (c * restarted[0] - s * restarted[1]), before[1] - (s * restarted[0] + c * restarted[1]), theta]
+    )

@@ -90,8 +90,9 @@ def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]
         base, path = shipped[0], config
     file = Path(path)
     if not file.is_file():
-        raise ConfigurationError(f"{controller}: configuration {config!r} is neither a shipped one "
-                                 f"({', '.join(shipped)}) nor a file")
+        raise ConfigurationError(
+            f"{controller}: configuration {config!r} is neither a shipped one ({', '.join(shipped)}) nor a file"
+        )
     try:
         data = yaml.safe_load(file.read_text(encoding="utf-8"))
     except (OSError, yaml.YAMLError) as problem:
@@ -100,8 +101,10 @@ def resolve(controller: str, config: str) -> tuple[str, dict[str, dict[str, Any]
         raise ConfigurationError(f"{file}: expected '<node>: ros__parameters: ...' sections")
     unknown = sorted(set(data) - set(NODES[controller]))
     if unknown:
-        raise ConfigurationError(f"{file}: section {unknown[0]!r} is not a node of the {controller} controller "
-                                 f"(its nodes: {', '.join(NODES[controller])})")
+        raise ConfigurationError(
+            f"{file}: section {unknown[0]!r} is not a node of the {controller} controller "
+            f"(its nodes: {', '.join(NODES[controller])})"
+        )
     _, parameters = resolve(controller, base)
     for node in data:
         given = node_parameters(file, node, ConfigurationError)
@@ -116,15 +119,17 @@ def command_configuration(text: str, directory: str | Path | None = None) -> tup
     runs in (default: this one) and the sha256 of every word naming a file there. The label is the last such
     file's stem (else the program's name) and 8 hex digits of the command and the files' hashes."""
     if text in ("", "default"):
-        raise ConfigurationError("command: give the command that starts your node, e.g. "
-                                 "--run 'command=python3 student.py'")
+        raise ConfigurationError(
+            "command: give the command that starts your node, e.g. --run 'command=python3 student.py'"
+        )
     try:
         words = shlex.split(text)
     except ValueError as problem:
         raise ConfigurationError(f"command {text!r}: {problem}") from problem
     cwd = Path(directory or Path.cwd()).resolve()
-    files = {word: hashlib.sha256((cwd / word).read_bytes()).hexdigest() for word in words[1:]
-             if (cwd / word).is_file()}
+    files = {
+        word: hashlib.sha256((cwd / word).read_bytes()).hexdigest() for word in words[1:] if (cwd / word).is_file()
+    }
     digest = hashlib.sha256("\n".join([text, *(f"{k} {v}" for k, v in sorted(files.items()))]).encode()).hexdigest()
     name = Path(list(files)[-1]).stem if files else Path(words[0]).name
     return f"command:{name}-{digest[:8]}", {"command": {"argv": words, "cwd": str(cwd), "files": files}}

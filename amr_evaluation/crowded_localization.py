@@ -66,12 +66,18 @@ def crowded_world(base: dict, others: int, seed: int, near: tuple[float, float] 
             if not _in_sight(world, start, point):  # behind a wall it is not in the ego's scan
                 continue
             placed.append(point)
-            robots.append({"name": f"r{index + 1}", "start": [float(point[0]), float(point[1]),
-                                                            float(rng.uniform(-math.pi, math.pi))]})
+            robots.append(
+                {
+                    "name": f"r{index + 1}",
+                    "start": [float(point[0]), float(point[1]), float(rng.uniform(-math.pi, math.pi))],
+                }
+            )
             break
         else:
-            raise ValueError(f"{base.get('name', 'world')}: no free point for robot {index + 1} of {others} within "
-                             f"{near[0]}-{near[1]} m of the start")
+            raise ValueError(
+                f"{base.get('name', 'world')}: no free point for robot {index + 1} of {others} within "
+                f"{near[0]}-{near[1]} m of the start"
+            )
     data = {key: value for key, value in base.items() if key not in ("start", "goal")}
     data["robots"] = robots
     return data
@@ -96,8 +102,13 @@ class CrowdedTrace:
     """times the ego began touching another robot."""
 
     def arrays(self):
-        return (np.array(self.time), np.array(self.localized, dtype=bool), np.array(self.position_error),
-                np.array(self.heading_error), np.array(self.occluded))
+        return (
+            np.array(self.time),
+            np.array(self.localized, dtype=bool),
+            np.array(self.position_error),
+            np.array(self.heading_error),
+            np.array(self.occluded),
+        )
 
 
 @dataclass(frozen=True)
@@ -124,9 +135,18 @@ class CrowdedRun:
     """every localized step within 10 cm and 10 deg."""
 
 
-def run_crowded(world_data: dict, filter_config: ParticleFilterConfig, follower_config: WallFollowerConfig,
-                seconds: float, mode: str = "stand", lidar_noise: float = 0.01, seed: int = 0,
-                known_start: bool = False, range_max: float = 3.5, resolution: float = 0.02) -> CrowdedTrace:
+def run_crowded(
+    world_data: dict,
+    filter_config: ParticleFilterConfig,
+    follower_config: WallFollowerConfig,
+    seconds: float,
+    mode: str = "stand",
+    lidar_noise: float = 0.01,
+    seed: int = 0,
+    known_start: bool = False,
+    range_max: float = 3.5,
+    resolution: float = 0.02,
+) -> CrowdedTrace:
     """Run the ego's filter in a crowded world (`crowded_world`). known_start: the filter starts around the
     true pose (tracking from the first step) instead of spread over the map (global localization)."""
     from amr_maps.rasterize import rasterize_world
@@ -134,24 +154,41 @@ def run_crowded(world_data: dict, filter_config: ParticleFilterConfig, follower_
     if mode not in MODES:
         raise ValueError(f"mode {mode!r}: expected one of {MODES}")
     world = world_from_dict(world_data)
-    fleet = Fleet(world, SimulationConfig(dt=follower_config.dt, seed=seed,
-                                          lidar=LidarConfig(noise_std=lidar_noise),
-                                          encoders=EncoderConfig(noise=0.01, slip=0.02)))
-    empty = world_from_dict({key: value for key, value in world_data.items() if key != "robots"}
-                            | {"start": world_data["robots"][0]["start"]})
+    fleet = Fleet(
+        world,
+        SimulationConfig(
+            dt=follower_config.dt,
+            seed=seed,
+            lidar=LidarConfig(noise_std=lidar_noise),
+            encoders=EncoderConfig(noise=0.01, slip=0.02),
+        ),
+    )
+    empty = world_from_dict(
+        {key: value for key, value in world_data.items() if key != "robots"}
+        | {"start": world_data["robots"][0]["start"]}
+    )
     caster = NumpyRayCaster(empty.faces)
     lidar = fleet.lidar
     ego = fleet.robot(EGO)
     pf = ParticleFilter(rasterize_world(empty, resolution), filter_config, range_max=range_max)
     if known_start:
         pf.initialize_pose(*ego.pose, covariance=np.diag([0.05**2, 0.05**2, math.radians(3.0) ** 2]))
-    drivers = {robot.name: WallFollower(follower_config if mode == "stand" or robot.name == EGO else
-                                        _random_hand(follower_config, seed, robot.index))
-               for robot in fleet.robots}
+    drivers = {
+        robot.name: WallFollower(
+            follower_config
+            if mode == "stand" or robot.name == EGO
+            else _random_hand(follower_config, seed, robot.index)
+        )
+        for robot in fleet.robots
+    }
     trace = CrowdedTrace()
     while fleet.time < seconds:
-        scans = {robot.name: ScanData(np.array(robot.ranges), lidar.angle_min, lidar.angle_increment,
-                                      lidar.range_min, lidar.range_max) for robot in fleet.robots}
+        scans = {
+            robot.name: ScanData(
+                np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max
+            )
+            for robot in fleet.robots
+        }
         ego = fleet.robot(EGO)
         estimate = pf.update(tuple(ego.odom_pose), scans[EGO])
         truth = ego.pose
@@ -160,8 +197,9 @@ def run_crowded(world_data: dict, filter_config: ParticleFilterConfig, follower_
         trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
         trace.heading_error.append(abs(float(wrap_angle(estimate.pose.theta - truth.theta))))
         sensor = ego.sensor_pose
-        expected = caster.cast(sensor.x, sensor.y, sensor.theta + lidar.angle_min, lidar.angle_increment,
-                               lidar.beams, lidar.range_max)
+        expected = caster.cast(
+            sensor.x, sensor.y, sensor.theta + lidar.angle_min, lidar.angle_increment, lidar.beams, lidar.range_max
+        )
         ranges = scans[EGO].ranges
         returned = np.isfinite(ranges)
         shadowed = returned & (ranges < expected - OCCLUDED_MARGIN)
@@ -192,17 +230,21 @@ def figures(trace: CrowdedTrace, position_limit: float = 0.1, heading_limit: flo
     wrong = localized & ((position > position_limit) | (heading > heading_limit))
     index = np.flatnonzero(localized)
     if not index.size:
-        return CrowdedRun(None, None, int(wrong.sum()), None, None, 0.0, 0, float(occluded.mean()),
-                          float(occluded.max()), True)
+        return CrowdedRun(
+            None, None, int(wrong.sum()), None, None, 0.0, 0, float(occluded.mean()), float(occluded.max()), True
+        )
     first = int(index[0])
     after = localized[first:]
     on = localized & (t >= t[first])
     return CrowdedRun(
-        first_localized=float(t[first]), error_at_first=(float(position[first]), float(heading[first])),
+        first_localized=float(t[first]),
+        error_at_first=(float(position[first]), float(heading[first])),
         false_localized=int(wrong.sum()),
         max_error=(float(position[on].max()), float(heading[on].max())),
         rms=(float(np.sqrt(np.mean(position[on] ** 2))), float(np.sqrt(np.mean(heading[on] ** 2)))),
         localized_share=float(after.mean()),
         withdrawals=int(np.count_nonzero(np.diff(after.astype(int)) < 0)),
-        occluded_mean=float(occluded.mean()), occluded_max=float(occluded.max()),
-        tracking_within=not bool(wrong.any()))
+        occluded_mean=float(occluded.mean()),
+        occluded_max=float(occluded.max()),
+        tracking_within=not bool(wrong.any()),
+    )

@@ -40,12 +40,42 @@ SCHEMA = 1
 MODES = ("library", "ros")
 
 RECORD_FIELDS = (
-    "key", "controller", "config", "world", "family", "world_seed", "goal", "seed", "lidar_noise", "encoder_noise",
-    "slip", "duration", "mode",
-    "goal_reached", "time_to_goal", "time", "reason", "collisions", "distance", "mean_speed", "stalls",
-    "wall_error_run", "wall_error_following", "time_to_localized", "localization_error", "localization_error_max",
-    "localization_rms", "localization_losses", "plans", "planning_failures", "cross_track",
-    "planning_time", "wall_time", "error", "extra", "spec",
+    "key",
+    "controller",
+    "config",
+    "world",
+    "family",
+    "world_seed",
+    "goal",
+    "seed",
+    "lidar_noise",
+    "encoder_noise",
+    "slip",
+    "duration",
+    "mode",
+    "goal_reached",
+    "time_to_goal",
+    "time",
+    "reason",
+    "collisions",
+    "distance",
+    "mean_speed",
+    "stalls",
+    "wall_error_run",
+    "wall_error_following",
+    "time_to_localized",
+    "localization_error",
+    "localization_error_max",
+    "localization_rms",
+    "localization_losses",
+    "plans",
+    "planning_failures",
+    "cross_track",
+    "planning_time",
+    "wall_time",
+    "error",
+    "extra",
+    "spec",
 )
 """every record has these keys (None where a controller has no such figure)."""
 TIMING_FIELDS = ("planning_time", "wall_time")
@@ -126,10 +156,21 @@ def _blank(spec: EpisodeSpec) -> dict[str, Any]:
 
     record = dict.fromkeys(RECORD_FIELDS)
     record.update(
-        key=spec.key, controller=spec.controller, config=spec.config, world=world_label(spec.world),
-        family=world_family(spec.world), world_seed=spec.world.get("seed"), goal=spec.goal, seed=spec.seed,
-        lidar_noise=spec.lidar_noise, encoder_noise=spec.encoder_noise, slip=spec.slip, duration=spec.duration,
-        mode=spec.mode, extra={}, spec=spec.to_dict(),
+        key=spec.key,
+        controller=spec.controller,
+        config=spec.config,
+        world=world_label(spec.world),
+        family=world_family(spec.world),
+        world_seed=spec.world.get("seed"),
+        goal=spec.goal,
+        seed=spec.seed,
+        lidar_noise=spec.lidar_noise,
+        encoder_noise=spec.encoder_noise,
+        slip=spec.slip,
+        duration=spec.duration,
+        mode=spec.mode,
+        extra={},
+        spec=spec.to_dict(),
     )
     return record
 
@@ -156,9 +197,15 @@ def simulator_for(spec: EpisodeSpec, world, dt: float = 0.05, beams: int = 240):
     from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
     from amr_simulation.simulator import Simulator
 
-    return Simulator(world, SimulationConfig(
-        dt=dt, seed=spec.seed, lidar=LidarConfig(beams=beams, noise_std=spec.lidar_noise),
-        encoders=EncoderConfig(noise=spec.encoder_noise, slip=spec.slip)))
+    return Simulator(
+        world,
+        SimulationConfig(
+            dt=dt,
+            seed=spec.seed,
+            lidar=LidarConfig(beams=beams, noise_std=spec.lidar_noise),
+            encoders=EncoderConfig(noise=spec.encoder_noise, slip=spec.slip),
+        ),
+    )
 
 
 def wall_follower_config(spec: EpisodeSpec):
@@ -194,19 +241,36 @@ def _wall_follower(spec: EpisodeSpec) -> dict[str, Any]:
         if data is None:
             raise ValueError(f"option route: world {spec.world} is not a generated or inline grid maze")
         grid = MazeGrid.from_world(data)
-    result = run(world, config, spec.duration, lidar_noise=spec.lidar_noise, encoder_noise=spec.encoder_noise,
-                 slip=spec.slip, seed=spec.seed, beams=int(options.get("beams", 240)),
-                 scan_period=options.get("scan_period"), outlier_rate=float(options.get("outlier_rate", 0.0)),
-                 grid=grid)
+    result = run(
+        world,
+        config,
+        spec.duration,
+        lidar_noise=spec.lidar_noise,
+        encoder_noise=spec.encoder_noise,
+        slip=spec.slip,
+        seed=spec.seed,
+        beams=int(options.get("beams", 240)),
+        scan_period=options.get("scan_period"),
+        outlier_rate=float(options.get("outlier_rate", 0.0)),
+        grid=grid,
+    )
     reason = "goal region reached" if result.goal else f"time limit {spec.duration:g} s"
     return {
-        **_goal_figures(result.goal, result.time), "time": result.time, "reason": reason,
-        "collisions": result.collisions, "distance": result.distance, "mean_speed": result.mean_speed,
-        "stalls": result.stalls, "wall_error_run": result.wall_error_run,
+        **_goal_figures(result.goal, result.time),
+        "time": result.time,
+        "reason": reason,
+        "collisions": result.collisions,
+        "distance": result.distance,
+        "mean_speed": result.mean_speed,
+        "stalls": result.stalls,
+        "wall_error_run": result.wall_error_run,
         "wall_error_following": result.wall_error_following,
-        "extra": {"state_time": result.state_time, "commands_with_issues": result.commands_with_issues,
-                  "preferred_wall": config.preferred_wall,
-                  **({} if result.route is None else {"route": [list(cell) for cell in result.route]})},
+        "extra": {
+            "state_time": result.state_time,
+            "commands_with_issues": result.commands_with_issues,
+            "preferred_wall": config.preferred_wall,
+            **({} if result.route is None else {"route": [list(cell) for cell in result.route]}),
+        },
     }
 
 
@@ -234,8 +298,9 @@ def _particle_filter(spec: EpisodeSpec, world):
     from amr_maps.rasterize import rasterize_world
 
     params = {**spec.parameters["particle_filter"], "seed": spec.seed}
-    return ParticleFilter(rasterize_world(world, params["map_resolution"]), config_of(params),
-                          range_max=params["laser_max_range"])
+    return ParticleFilter(
+        rasterize_world(world, params["map_resolution"]), config_of(params), range_max=params["laser_max_range"]
+    )
 
 
 def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
@@ -254,28 +319,42 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
     if world.goal is None:
         raise ValueError(f"{world.name}: has no goal; give one (goal: far, random or [x, y, radius])")
     wall = wall_follower_config(spec)
-    navigator = NavigationLoop(planner, WallFollower(wall), PathFollower(PathFollowerConfig.from_params(
-        spec.parameters["path_follower"])), (world.goal.x, world.goal.y),
-        replan_distance=float(spec.parameters["navigator"]["replan_distance"]))
+    navigator = NavigationLoop(
+        planner,
+        WallFollower(wall),
+        PathFollower(PathFollowerConfig.from_params(spec.parameters["path_follower"])),
+        (world.goal.x, world.goal.y),
+        replan_distance=float(spec.parameters["navigator"]["replan_distance"]),
+    )
     particle_filter = _particle_filter(spec, world)
     sim = simulator_for(spec, world, dt=wall.dt)
-    run = run_navigation(sim, particle_filter, navigator, limit=spec.duration,
-                         max_collisions=int(spec.options.get("max_collisions", 5)))
+    run = run_navigation(
+        sim, particle_filter, navigator, limit=spec.duration, max_collisions=int(spec.options.get("max_collisions", 5))
+    )
     # reached: the true pose in the goal region (run.reached checks it when the follower says REACHED)
     reached = bool(run.reached and run.goal_distance <= world.goal.radius + 1e-9)
     return {
-        **_goal_figures(reached, run.time), "time": run.time, "reason": run.reason, "collisions": run.collisions,
+        **_goal_figures(reached, run.time),
+        "time": run.time,
+        "reason": run.reason,
+        "collisions": run.collisions,
         **path_figures(sim.trajectory, wall.dt),
         "time_to_localized": run.first_localized,
         "localization_error_max": run.max_localized_error if run.first_localized is not None else None,
-        "localization_losses": run.localization_losses, "plans": run.plans,
-        "planning_failures": len(run.planning_failures), "cross_track": run.mean_cross_track,
+        "localization_losses": run.localization_losses,
+        "plans": run.plans,
+        "planning_failures": len(run.planning_failures),
+        "cross_track": run.mean_cross_track,
         "planning_time": planner.seconds,
-        "extra": {"follower_reached": run.follower_reached, "goal_distance": run.goal_distance,
-                  "estimate_error": run.estimate_error, "steps": run.steps, "goal_xy": [world.goal.x, world.goal.y],
-                  "last_planning_failure": run.planning_failures[-1] if run.planning_failures else None,
-                  "estimated_cross_track": float(np.mean(run.estimated_cross_track))
-                  if run.estimated_cross_track else None},
+        "extra": {
+            "follower_reached": run.follower_reached,
+            "goal_distance": run.goal_distance,
+            "estimate_error": run.estimate_error,
+            "steps": run.steps,
+            "goal_xy": [world.goal.x, world.goal.y],
+            "last_planning_failure": run.planning_failures[-1] if run.planning_failures else None,
+            "estimated_cross_track": float(np.mean(run.estimated_cross_track)) if run.estimated_cross_track else None,
+        },
     }
 
 
@@ -299,31 +378,48 @@ def _localization(spec: EpisodeSpec) -> dict[str, Any]:
     until = None
     if stop_after is not None:
         until = watch.stop_after(float(stop_after)) if watch is not None else _localized_for(float(stop_after))
-    trace = run(sim, particle_filter, follower, spec.duration,
-                kidnap=(float(kidnap[0]), tuple(float(v) for v in kidnap[1:4])) if kidnap else None, until=until)
+    trace = run(
+        sim,
+        particle_filter,
+        follower,
+        spec.duration,
+        kidnap=(float(kidnap[0]), tuple(float(v) for v in kidnap[1:4])) if kidnap else None,
+        until=until,
+    )
     t, localized, position, heading = trace.arrays()
     first = trace.first_localized()
-    figures: dict[str, Any] = {"time": sim.time, "reason": f"time limit {spec.duration:g} s",
-                               "collisions": sim.collisions, **path_figures(sim.trajectory, follower.dt)}
+    figures: dict[str, Any] = {
+        "time": sim.time,
+        "reason": f"time limit {spec.duration:g} s",
+        "collisions": sim.collisions,
+        **path_figures(sim.trajectory, follower.dt),
+    }
     extra: dict[str, Any] = {"update_time_mean": float(np.mean(trace.update_time)) if trace.update_time else None}
     if first is not None:
         after = localized & (t >= t[first])
         figures.update(
-            time_to_localized=t[first], localization_error=position[first],
+            time_to_localized=t[first],
+            localization_error=position[first],
             localization_error_max=float(position[after].max()),
             localization_rms=float(np.sqrt(np.mean(position[after] ** 2))),
-            localization_losses=int(np.count_nonzero(np.diff(localized[first:].astype(int)) < 0)))
-        extra.update(heading_error=math.degrees(heading[first]),
-                     heading_rms=math.degrees(float(np.sqrt(np.mean(heading[after] ** 2)))))
+            localization_losses=int(np.count_nonzero(np.diff(localized[first:].astype(int)) < 0)),
+        )
+        extra.update(
+            heading_error=math.degrees(heading[first]),
+            heading_rms=math.degrees(float(np.sqrt(np.mean(heading[after] ** 2)))),
+        )
     if trace.kidnapped_at is not None:
         before = t < trace.kidnapped_at
         lost = np.flatnonzero((t >= trace.kidnapped_at) & ~localized)
         again = trace.first_localized(after=t[lost[0]]) if lost.size else None
-        extra.update(kidnapped_at=trace.kidnapped_at, localized_before=bool(localized[np.flatnonzero(before)[-1]]),
-                     withdrawn_after=float(t[lost[0]] - trace.kidnapped_at) if lost.size else None,
-                     regained_after=float(t[again] - trace.kidnapped_at) if again is not None else None,
-                     regained_error=float(position[again]) if again is not None else None,
-                     regained_heading_error=math.degrees(heading[again]) if again is not None else None)
+        extra.update(
+            kidnapped_at=trace.kidnapped_at,
+            localized_before=bool(localized[np.flatnonzero(before)[-1]]),
+            withdrawn_after=float(t[lost[0]] - trace.kidnapped_at) if lost.size else None,
+            regained_after=float(t[again] - trace.kidnapped_at) if again is not None else None,
+            regained_error=float(position[again]) if again is not None else None,
+            regained_heading_error=math.degrees(heading[again]) if again is not None else None,
+        )
     if watch is not None:
         extra.update(feature_seen=watch.seen, feature_glimpsed=watch.glimpsed, turns_apart=watch.apart)
     if world.goal is not None:
@@ -340,6 +436,7 @@ def _localized_for(seconds: float):
         if estimate.localized and not first:
             first.append(sim.time)
         return bool(first) and sim.time >= first[0] + seconds
+
     return until
 
 
@@ -357,9 +454,15 @@ def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
     run = plan_and_follow(sim, (world.goal.x, world.goal.y), follower, resolution=resolution, limit=spec.duration)
     reason = "goal region reached" if run.reached else (run.message or f"time limit {spec.duration:g} s")
     return {
-        **_goal_figures(run.reached, run.time), "time": run.time, "reason": reason, "collisions": run.collisions,
-        **path_figures(sim.trajectory, follower.dt), "cross_track": run.cross_track, "plans": 1 + run.replans
-        if run.planned else 0, "planning_failures": 0 if run.planned else 1, "planning_time": run.planning_time,
+        **_goal_figures(run.reached, run.time),
+        "time": run.time,
+        "reason": reason,
+        "collisions": run.collisions,
+        **path_figures(sim.trajectory, follower.dt),
+        "cross_track": run.cross_track,
+        "plans": 1 + run.replans if run.planned else 0,
+        "planning_failures": 0 if run.planned else 1,
+        "planning_time": run.planning_time,
         "extra": {"planned": run.planned, "message": run.message, "resolution": resolution},
     }
 
@@ -384,21 +487,46 @@ def _fleet_navigation(spec: EpisodeSpec) -> dict[str, Any]:
         world = world_from_dict(with_robots(data, int(robots), spec.seed), default_name=spec.world.get("name", "world"))
     else:
         world = build_world(spec.world)
-    run = run_fleet(world, spec.parameters, seed=spec.seed, lidar_noise=spec.lidar_noise,
-                    encoder_noise=spec.encoder_noise, slip=spec.slip, duration=spec.duration,
-                    localization=spec.options.get("localization", "filter"),
-                    traffic=TrafficConfig.from_params(spec.parameters["traffic"]))
+    run = run_fleet(
+        world,
+        spec.parameters,
+        seed=spec.seed,
+        lidar_noise=spec.lidar_noise,
+        encoder_noise=spec.encoder_noise,
+        slip=spec.slip,
+        duration=spec.duration,
+        localization=spec.options.get("localization", "filter"),
+        traffic=TrafficConfig.from_params(spec.parameters["traffic"]),
+    )
     every = run.reached == len(run.robots)
     summary = run.as_dict()
     return {
-        **_goal_figures(every, run.time), "time": run.time, "reason": run.reason,
-        "collisions": run.wall_contacts + run.robot_contacts, "distance": sum(r.distance for r in run.robots),
+        **_goal_figures(every, run.time),
+        "time": run.time,
+        "reason": run.reason,
+        "collisions": run.wall_contacts + run.robot_contacts,
+        "distance": sum(r.distance for r in run.robots),
         "plans": sum(r.plans for r in run.robots),
-        "extra": {key: summary[key] for key in ("reached", "robots", "robot_contacts", "wall_contacts",
-                                                "false_localized", "withdrawals", "unsure_time",
-                                                "per_robot")},
+        "extra": {
+            key: summary[key]
+            for key in (
+                "reached",
+                "robots",
+                "robot_contacts",
+                "wall_contacts",
+                "false_localized",
+                "withdrawals",
+                "unsure_time",
+                "per_robot",
+            )
+        },
     }
 
 
-_CONTROLLERS = {"wall_follower": _wall_follower, "navigation": _navigation, "localization": _localization,
-                "plan_follow": _plan_follow, "fleet_navigation": _fleet_navigation}
+_CONTROLLERS = {
+    "wall_follower": _wall_follower,
+    "navigation": _navigation,
+    "localization": _localization,
+    "plan_follow": _plan_follow,
+    "fleet_navigation": _fleet_navigation,
+}

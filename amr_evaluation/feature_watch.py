@@ -36,9 +36,14 @@ class FeatureWatch:
         if self.seen is not None and self.apart is not None:
             return
         lidar, (x, y, theta) = self.lidar, pose
-        scan = (x + lidar.x * math.cos(theta) - lidar.y * math.sin(theta),
-                y + lidar.x * math.sin(theta) + lidar.y * math.cos(theta),
-                theta + lidar.angle_min, lidar.angle_increment, lidar.beams, lidar.range_max)
+        scan = (
+            x + lidar.x * math.cos(theta) - lidar.y * math.sin(theta),
+            y + lidar.x * math.sin(theta) + lidar.y * math.cos(theta),
+            theta + lidar.angle_min,
+            lidar.angle_increment,
+            lidar.beams,
+            lidar.range_max,
+        )
         if self.seen is None:
             seeing = self.view.differing_beams(*scan)
             if self.glimpsed is None and seeing >= 1:
@@ -46,8 +51,9 @@ class FeatureWatch:
             if seeing >= self.beams:
                 self.seen = t
         if self.apart is None:
-            self._apart = [a if a is not None or n < self.beams else t
-                           for a, n in zip(self._apart, self.view.told_apart(*scan))]
+            self._apart = [
+                a if a is not None or n < self.beams else t for a, n in zip(self._apart, self.view.told_apart(*scan))
+            ]
 
     def stop_after(self, seconds: float):
         """A closed_loop.run `until`: watches each step; True once localized `seconds` ago with the feature seen."""
@@ -59,4 +65,5 @@ class FeatureWatch:
             if estimate.localized and not first:
                 first.append(sim.time)
             return bool(first) and self.seen is not None and sim.time >= first[0] + seconds
+
         return until

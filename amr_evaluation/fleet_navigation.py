@@ -128,12 +128,21 @@ class FleetRun:
         return sum(robot.false_localized_steps > 0 for robot in self.robots)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"reached": self.reached, "robots": len(self.robots), "robot_contacts": self.robot_contacts,
-                "wall_contacts": self.wall_contacts, "false_localized": self.false_localized, "time": self.time,
-                "wall_time": self.wall_time, "reason": self.reason,
-                "withdrawals": self.withdrawals, "unsure_time": self.unsure_time,
-                "per_robot": [{k: v for k, v in vars(r).items() if k != "events" and not k.startswith("_")}
-                              for r in self.robots]}
+        return {
+            "reached": self.reached,
+            "robots": len(self.robots),
+            "robot_contacts": self.robot_contacts,
+            "wall_contacts": self.wall_contacts,
+            "false_localized": self.false_localized,
+            "time": self.time,
+            "wall_time": self.wall_time,
+            "reason": self.reason,
+            "withdrawals": self.withdrawals,
+            "unsure_time": self.unsure_time,
+            "per_robot": [
+                {k: v for k, v in vars(r).items() if k != "events" and not k.startswith("_")} for r in self.robots
+            ],
+        }
 
 
 GRID_MAZES = ("perfect", "loops")
@@ -155,15 +164,28 @@ def _particle_filter(parameters: dict, world: World, seed: int):
     from amr_localization.particle_filter_parameters import config_of
 
     params = {**parameters["particle_filter"], "seed": seed}
-    return ParticleFilter(rasterize_world(world, params["map_resolution"]), config_of(params),
-                          range_max=params["laser_max_range"])
+    return ParticleFilter(
+        rasterize_world(world, params["map_resolution"]), config_of(params), range_max=params["laser_max_range"]
+    )
 
 
-def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, lidar_noise: float = 0.01,
-              encoder_noise: float = 0.0, slip: float = 0.0, duration: float = 300.0,
-              localization: str = "filter", traffic: TrafficConfig | None = None, use_traffic: bool = True,
-              map_world: World | None = None, log: bool = False, coordination: str = "rules",
-              lattice_spacing: float = 0.4) -> FleetRun:
+def run_fleet(
+    world: World,
+    parameters: dict | None = None,
+    *,
+    seed: int = 0,
+    lidar_noise: float = 0.01,
+    encoder_noise: float = 0.0,
+    slip: float = 0.0,
+    duration: float = 300.0,
+    localization: str = "filter",
+    traffic: TrafficConfig | None = None,
+    use_traffic: bool = True,
+    map_world: World | None = None,
+    log: bool = False,
+    coordination: str = "rules",
+    lattice_spacing: float = 0.4,
+) -> FleetRun:
     """Run every robot of `world` (its `robots` list, each with a goal) to its goal; see the module docstring.
 
     parameters: node name -> {parameter: value} for wall_follower, path_follower, planner, navigator and
@@ -196,21 +218,39 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
     planner_config = PlannerConfig.from_params({**parameters["planner"], "world": ""})
     known = map_world if map_world is not None else world
     planner = Planner(rasterize_world(known, planner_config.resolution), planner_config)
-    fleet = Fleet(world, SimulationConfig(
-        dt=follower.dt, seed=seed, stop_at_goal=False, lidar=LidarConfig(noise_std=lidar_noise),
-        encoders=EncoderConfig(noise=encoder_noise, slip=slip)))
+    fleet = Fleet(
+        world,
+        SimulationConfig(
+            dt=follower.dt,
+            seed=seed,
+            stop_at_goal=False,
+            lidar=LidarConfig(noise_std=lidar_noise),
+            encoders=EncoderConfig(noise=encoder_noise, slip=slip),
+        ),
+    )
     board = TrafficBoard()
     loops, filters, runs = [], [], []
     replan_distance = float(parameters["navigator"]["replan_distance"])
     for index, robot in enumerate(fleet.robots):
         rules = Traffic(robot.name, index, board, traffic) if use_traffic else None
-        loops.append(NavigationLoop(planner, WallFollower(wall), PathFollower(follower),
-                                    (robot.goal.x, robot.goal.y), replan_distance, traffic=rules))
+        loops.append(
+            NavigationLoop(
+                planner,
+                WallFollower(wall),
+                PathFollower(follower),
+                (robot.goal.x, robot.goal.y),
+                replan_distance,
+                traffic=rules,
+            )
+        )
         filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
         runs.append(RobotRun(robot.name))
     planned = coordination == "plan"
-    coordinator = FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing,
-                                   follower_speed=follower.linear_speed) if planned else None
+    coordinator = (
+        FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing, follower_speed=follower.linear_speed)
+        if planned
+        else None
+    )
     """with "plan": the fleet_planner node's logic (when to plan, what each robot is told)."""
     if planned:
         coordinator.set_costmap(planner.costmap)
@@ -232,8 +272,9 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
             break
         commands = []
         for robot, loop, pf, run in zip(fleet.robots, loops, filters, runs):
-            scan = ScanData(np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min,
-                            lidar.range_max)
+            scan = ScanData(
+                np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max
+            )
             truth = robot.pose
             if pf is None:
                 pose, localized = (truth.x, truth.y, truth.theta), True
@@ -251,14 +292,18 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
             index = len(commands)
             if planned:  # the navigator node's coordination "plan", the fleet_planner node's coordinator
                 driving = reckoning[index].pose(pose, localized, robot.odom_pose)
-                told.update(coordinator.observe(robot.name, fleet.time, driving[0], driving[1], localized,
-                                                (robot.goal.x, robot.goal.y)))
+                told.update(
+                    coordinator.observe(
+                        robot.name, fleet.time, driving[0], driving[1], localized, (robot.goal.x, robot.goal.y)
+                    )
+                )
                 run.events.extend(f"{fleet.time:.2f} {event}" for event in coordinator.take_events())
                 if coordinator.plan_due():
                     told.update(coordinator.hold())
                     told.update(coordinator.plan())
-                    run.events.append(f"{fleet.time:.2f} fleet plan {coordinator.plans}: "
-                                      + (told[robot.name].reason or "made"))
+                    run.events.append(
+                        f"{fleet.time:.2f} fleet plan {coordinator.plans}: " + (told[robot.name].reason or "made")
+                    )
             route = told.get(robot.name)
             if route is not None and route.state != NONE:
                 pose = driving  # unsure: on by odometry from the last sure estimate
@@ -268,8 +313,12 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
                 command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
             if false != run.falsely_localized:  # the episode's own events: when a false localized begins and ends
                 run.falsely_localized = false
-                event = (f"falsely localized: estimate ({pose[0]:.2f}, {pose[1]:.2f}) is {error:.2f} m from the "
-                         f"true pose ({truth.x:.2f}, {truth.y:.2f})" if false else "no longer falsely localized")
+                event = (
+                    f"falsely localized: estimate ({pose[0]:.2f}, {pose[1]:.2f}) is {error:.2f} m from the "
+                    f"true pose ({truth.x:.2f}, {truth.y:.2f})"
+                    if false
+                    else "no longer falsely localized"
+                )
                 command = replace(command, events=command.events + (event,))
             if log:
                 for event in command.events:
@@ -287,5 +336,9 @@ def run_fleet(world: World, parameters: dict | None = None, *, seed: int = 0, li
         if loop.traffic is not None:
             counters = loop.traffic.counters
             run.stops, run.replans_around, run.yields, run.cannot_yield = (
-                counters.stops, counters.replans_around, counters.yields, counters.cannot_yield)
+                counters.stops,
+                counters.replans_around,
+                counters.yields,
+                counters.cannot_yield,
+            )
     return FleetRun(runs, fleet.time, time.perf_counter() - began, reason)

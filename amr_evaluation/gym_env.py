@@ -111,26 +111,45 @@ def reach(world: World, travel: float) -> float:
 class MazeEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
 
-    def __init__(self, world: str | dict | None = None, families: Sequence[str] | None = None,
-                 maze_options: dict | None = None, max_steps: int = 2000, scan_stride: int = 1,
-                 lidar_noise: float = 0.01, encoder_noise: float = 0.0, slip: float = 0.0,
-                 progress_weight: float = 10.0, time_penalty: float = 0.01, goal_reward: float = 10.0,
-                 collision_penalty: float = 10.0, terminate_on_collision: bool = True, goal_scale: float = 10.0,
-                 random_start_goal: bool = False, render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        world: str | dict | None = None,
+        families: Sequence[str] | None = None,
+        maze_options: dict | None = None,
+        max_steps: int = 2000,
+        scan_stride: int = 1,
+        lidar_noise: float = 0.01,
+        encoder_noise: float = 0.0,
+        slip: float = 0.0,
+        progress_weight: float = 10.0,
+        time_penalty: float = 0.01,
+        goal_reward: float = 10.0,
+        collision_penalty: float = 10.0,
+        terminate_on_collision: bool = True,
+        goal_scale: float = 10.0,
+        random_start_goal: bool = False,
+        render_mode: str | None = None,
+    ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode {render_mode!r}: expected one of {self.metadata['render_modes']}")
         if world is not None and families is not None:
             raise ValueError("give a fixed world or families to draw from, not both")
         if random_start_goal and world is None:
             raise ValueError("random_start_goal draws starts and goals on a fixed world: give world=")
-        weights = {"progress_weight": progress_weight, "time_penalty": time_penalty, "goal_reward": goal_reward,
-                   "collision_penalty": collision_penalty}
+        weights = {
+            "progress_weight": progress_weight,
+            "time_penalty": time_penalty,
+            "goal_reward": goal_reward,
+            "collision_penalty": collision_penalty,
+        }
         bad = {name: value for name, value in weights.items() if not (math.isfinite(value) and value >= 0.0)}
         if bad or collision_penalty <= 0.0:
             raise ValueError(f"reward weights must be finite and >= 0 (collision_penalty > 0), got {bad or weights}")
         if max_steps < 1 or scan_stride < 1 or goal_scale <= 0:
-            raise ValueError(f"max_steps and scan_stride must be >= 1 and goal_scale > 0, got {max_steps}, "
-                             f"{scan_stride}, {goal_scale}")
+            raise ValueError(
+                f"max_steps and scan_stride must be >= 1 and goal_scale > 0, got {max_steps}, "
+                f"{scan_stride}, {goal_scale}"
+            )
         self.world_spec = world_spec_of_file(world) if isinstance(world, str) else world
         self.families = None if world is not None else tuple(families or FAMILIES)
         unknown = [f for f in self.families or () if f not in FAMILIES]
@@ -138,8 +157,9 @@ class MazeEnv(gymnasium.Env):
             raise ValueError(f"families: unknown {unknown[0]!r} (known: {', '.join(FAMILIES)})")
         self.maze_options = dict(maze_options or {})
         self.max_steps = int(max_steps)
-        self.config = SimulationConfig(lidar=LidarConfig(noise_std=lidar_noise),
-                                       encoders=EncoderConfig(noise=encoder_noise, slip=slip))
+        self.config = SimulationConfig(
+            lidar=LidarConfig(noise_std=lidar_noise), encoders=EncoderConfig(noise=encoder_noise, slip=slip)
+        )
         self.robot = self.config.robot
         self.lidar = self.config.lidar
         self.scan_stride = int(scan_stride)
@@ -182,10 +202,18 @@ class MazeEnv(gymnasium.Env):
             world = with_goal(world, "far", self.sim_seed)
         self.world = world
         travel = self.robot.max_linear * self.config.dt * self.max_steps
-        self.collision_cost = (self.collision_penalty + self.progress_weight * reach(world, travel)
-                               + self.time_penalty * self.max_steps + self.goal_reward)
-        self.sim = Simulator(world, SimulationConfig(dt=self.config.dt, seed=self.sim_seed, robot=self.robot,
-                                                     lidar=self.lidar, encoders=self.config.encoders))
+        self.collision_cost = (
+            self.collision_penalty
+            + self.progress_weight * reach(world, travel)
+            + self.time_penalty * self.max_steps
+            + self.goal_reward
+        )
+        self.sim = Simulator(
+            world,
+            SimulationConfig(
+                dt=self.config.dt, seed=self.sim_seed, robot=self.robot, lidar=self.lidar, encoders=self.config.encoders
+            ),
+        )
         self.world_name = world.name
         self._steps = 0
         self._distance = self._goal_distance()
@@ -205,9 +233,12 @@ class MazeEnv(gymnasium.Env):
         distance = self._goal_distance()
         collided = self.sim.collisions > collisions
         reached = self.sim.goal_reached
-        self._terms = {"progress": self.progress_weight * (self._distance - distance), "step": -self.time_penalty,
-                       "goal": self.goal_reward if reached else 0.0,
-                       "collision": -self.collision_cost if collided else 0.0}
+        self._terms = {
+            "progress": self.progress_weight * (self._distance - distance),
+            "step": -self.time_penalty,
+            "goal": self.goal_reward if reached else 0.0,
+            "collision": -self.collision_cost if collided else 0.0,
+        }
         self._distance = distance
         reward = sum(self._terms.values())
         terminated = bool(reached or (collided and self.terminate_on_collision))
@@ -236,11 +267,16 @@ class MazeEnv(gymnasium.Env):
         ranges = normalized * self.lidar.range_max
         ranges[normalized >= 1.0] = math.inf
         ranges[normalized <= 0.0] = -math.inf
-        return ScanData(ranges, self.lidar.angle_min, self.lidar.angle_increment * self.scan_stride,
-                        self.lidar.range_min, self.lidar.range_max)
+        return ScanData(
+            ranges,
+            self.lidar.angle_min,
+            self.lidar.angle_increment * self.scan_stride,
+            self.lidar.range_min,
+            self.lidar.range_max,
+        )
 
     def twist_of_observation(self, observation: np.ndarray) -> tuple[float, float]:
-        v, w = observation[len(self.beam_indices): len(self.beam_indices) + 2]
+        v, w = observation[len(self.beam_indices) : len(self.beam_indices) + 2]
         return float(v) * self.robot.max_linear, float(w) * self.robot.max_angular
 
     def action_of_command(self, v: float, w: float) -> np.ndarray:
@@ -261,8 +297,9 @@ class MazeEnv(gymnasium.Env):
         rows, cols = np.nonzero((costmap.clearance >= START_CLEARANCE) & (regions == largest))
         points = costmap.centre(rows, cols)
         if len(points) < 2 or np.ptp(points, axis=0).max() <= MIN_GOAL_DISTANCE:
-            raise ValueError(f"{world.name}: too little free space for random starts and goals "
-                             f"{MIN_GOAL_DISTANCE} m apart")
+            raise ValueError(
+                f"{world.name}: too little free space for random starts and goals {MIN_GOAL_DISTANCE} m apart"
+            )
         return points
 
     def _random_start_goal(self, world: World, rng: np.random.Generator) -> World:
@@ -277,8 +314,12 @@ class MazeEnv(gymnasium.Env):
         else:
             raise ValueError(f"{world.name}: no goal {MIN_GOAL_DISTANCE} m from the starts drawn")
         heading = float(rng.uniform(-math.pi, math.pi))
-        return dataclasses.replace(world, start=Pose2D(float(start[0]), float(start[1]), heading),
-                                   goal=Goal(float(goal[0]), float(goal[1]), GOAL_RADIUS), robots=())
+        return dataclasses.replace(
+            world,
+            start=Pose2D(float(start[0]), float(start[1]), heading),
+            goal=Goal(float(goal[0]), float(goal[1]), GOAL_RADIUS),
+            robots=(),
+        )
 
     def _goal_distance(self) -> float:
         pose, goal = self.sim.pose, self.sim.goal
@@ -296,19 +337,34 @@ class MazeEnv(gymnasium.Env):
         pose, goal = sim.pose, sim.goal
         dx, dy = goal.x - pose.x, goal.y - pose.y
         c, s = math.cos(pose.theta), math.sin(pose.theta)
-        for index, value in enumerate((v / self.robot.max_linear, w / self.robot.max_angular,
-                                       (c * dx + s * dy) / self.goal_scale, (-s * dx + c * dy) / self.goal_scale)):
+        for index, value in enumerate(
+            (
+                v / self.robot.max_linear,
+                w / self.robot.max_angular,
+                (c * dx + s * dy) / self.goal_scale,
+                (-s * dx + c * dy) / self.goal_scale,
+            )
+        ):
             observation[beams + index] = min(1.0, max(-1.0, value)) if math.isfinite(value) else 0.0
         return observation
 
     def _info(self, collided: bool = False) -> dict[str, Any]:
         sim = self.sim
         start, goal = self.world.start, sim.goal
-        return {"world": self.world_name, "time": sim.time, "goal_distance": self._distance,
-                "collisions": sim.collisions, "collided": collided, "goal_reached": sim.goal_reached,
-                "is_success": bool(sim.goal_reached), "sim_seed": self.sim_seed,
-                "start": [start.x, start.y, start.theta], "goal": [goal.x, goal.y, goal.radius],
-                "collision_cost": self.collision_cost, "reward_terms": dict(self._terms)}
+        return {
+            "world": self.world_name,
+            "time": sim.time,
+            "goal_distance": self._distance,
+            "collisions": sim.collisions,
+            "collided": collided,
+            "goal_reached": sim.goal_reached,
+            "is_success": bool(sim.goal_reached),
+            "sim_seed": self.sim_seed,
+            "start": [start.x, start.y, start.theta],
+            "goal": [goal.x, goal.y, goal.radius],
+            "collision_cost": self.collision_cost,
+            "reward_terms": dict(self._terms),
+        }
 
 
 def register_envs() -> None:

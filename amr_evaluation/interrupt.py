@@ -135,4 +135,3 @@ class Interrupt:
             stream.flush()
         except (OSError, ValueError, RuntimeError):  # a closed stream, or one a handler interrupted mid-write
             os.write(2, (self.message + "\n").encode())
-

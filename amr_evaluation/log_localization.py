@@ -61,25 +61,32 @@ class LogRun:
     @property
     def wrong(self) -> int:
         """scans localized more than WRONG_POSITION or WRONG_HEADING off."""
-        return sum(1 for e, h, on in zip(self.position_error, self.heading_error, self.localized)
-                   if on and (e > WRONG_POSITION or h > WRONG_HEADING))
+        return sum(
+            1
+            for e, h, on in zip(self.position_error, self.heading_error, self.localized)
+            if on and (e > WRONG_POSITION or h > WRONG_HEADING)
+        )
 
     def median_error(self) -> tuple[float, float]:
         """(m, deg) median error while localized (nan when never)."""
         on = np.array(self.localized, bool)
         if not on.any():
             return math.nan, math.nan
-        return (float(np.median(np.array(self.position_error)[on])),
-                math.degrees(float(np.median(np.array(self.heading_error)[on]))))
+        return (
+            float(np.median(np.array(self.position_error)[on])),
+            math.degrees(float(np.median(np.array(self.heading_error)[on]))),
+        )
 
     def summary(self) -> str:
         ms = np.array(self.update_time) * 1e3
         position, heading = self.median_error()
         declared = "never" if self.declared_after is None else f"{self.declared_after:.1f} m"
-        return (f"{self.name:8s} {self.mode:8s} declared after {declared:>7s}, localized {sum(self.localized)}/"
-                f"{len(self.localized)}, wrong {self.wrong}, median error {position * 100:.1f} cm {heading:.2f} deg, "
-                f"update p50 {np.median(ms):.0f} ms p95 {np.percentile(ms, 95):.0f} ms max {ms.max():.0f} ms"
-                + ("" if self.finite else ", NON-FINITE estimate"))
+        return (
+            f"{self.name:8s} {self.mode:8s} declared after {declared:>7s}, localized {sum(self.localized)}/"
+            f"{len(self.localized)}, wrong {self.wrong}, median error {position * 100:.1f} cm {heading:.2f} deg, "
+            f"update p50 {np.median(ms):.0f} ms p95 {np.percentile(ms, 95):.0f} ms max {ms.max():.0f} ms"
+            + ("" if self.finite else ", NON-FINITE estimate")
+        )
 
 
 def range_max(log: CarmenLog) -> float:
@@ -89,24 +96,34 @@ def range_max(log: CarmenLog) -> float:
 
 def log_map(log: CarmenLog, resolution: float = MAP_RESOLUTION) -> OccupancyGrid:
     """The log's map: its scans at their corrected poses (known-pose log-odds mapping)."""
-    return map_from_scans(log.poses(), [item.scan for item in log.scans], resolution=resolution,
-                          max_range=min(MAP_RANGE, range_max(log)))
+    return map_from_scans(
+        log.poses(), [item.scan for item in log.scans], resolution=resolution, max_range=min(MAP_RANGE, range_max(log))
+    )
 
 
-def filter_for(log: CarmenLog, grid: OccupancyGrid, parameters: dict, seed: int,
-               noise: OdometryNoiseModel) -> ParticleFilter:
+def filter_for(
+    log: CarmenLog, grid: OccupancyGrid, parameters: dict, seed: int, noise: OdometryNoiseModel
+) -> ParticleFilter:
     """The particle filter for a log: the given node parameters, the LiDAR at the log's pose, the motion noise of
     the synthesized odometry (its alphas are standard deviations; AMCL's are variances: twice the std, squared)."""
     alphas = {f"alpha{k}": (2.0 * getattr(noise, f"alpha{k}")) ** 2 for k in range(1, 5)}
     values = {**parameters, **alphas, "lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0, "seed": seed}
     if not log.has_stamps:  # stamps made up 1 s apart: no speed to judge an odometry reset by
-        values["max_odometry_speed"] = next(spec.maximum for spec in ParticleFilterConfig.parameter_specs()
-                                            if spec.name == "max_odometry_speed")
+        values["max_odometry_speed"] = next(
+            spec.maximum for spec in ParticleFilterConfig.parameter_specs() if spec.name == "max_odometry_speed"
+        )
     return ParticleFilter(grid, config_of(values), range_max=range_max(log))
 
 
-def run_log(log: CarmenLog, name: str, parameters: dict, mode: str = "global", seed: int = 0,
-            grid: OccupancyGrid | None = None, noise: OdometryNoiseModel | None = None) -> LogRun:
+def run_log(
+    log: CarmenLog,
+    name: str,
+    parameters: dict,
+    mode: str = "global",
+    seed: int = 0,
+    grid: OccupancyGrid | None = None,
+    noise: OdometryNoiseModel | None = None,
+) -> LogRun:
     """The log through the filter, `mode` "tracking" (particles around the first corrected pose) or "global"."""
     if mode not in ("tracking", "global"):
         raise ValueError(f"mode: 'tracking' or 'global', got {mode!r}")

@@ -42,8 +42,14 @@ class PlanFollowRun:
     """s of wall-clock time in A* and smoothing."""
 
 
-def plan_and_follow(sim: Simulator, goal: tuple[float, float], follower_config: PathFollowerConfig | None = None,
-                    resolution: float = 0.025, limit: float = 600.0, max_replans: int = MAX_REPLANS) -> PlanFollowRun:
+def plan_and_follow(
+    sim: Simulator,
+    goal: tuple[float, float],
+    follower_config: PathFollowerConfig | None = None,
+    resolution: float = 0.025,
+    limit: float = 600.0,
+    max_replans: int = MAX_REPLANS,
+) -> PlanFollowRun:
     """Run ``sim`` (its world, start and noise) to ``goal``; see the module docstring."""
     world = sim.world
     costmap = Costmap(rasterize_world(world, resolution))
@@ -81,12 +87,14 @@ def plan_and_follow(sim: Simulator, goal: tuple[float, float], follower_config: 
             try:
                 follower.set_path(plan((pose.x, pose.y)))
             except PlanningError as error:
-                return PlanFollowRun(True, False, sim.collisions, sim.time, math.nan, f"replan failed: {error}",
-                                     replans, planning[0])
+                return PlanFollowRun(
+                    True, False, sim.collisions, sim.time, math.nan, f"replan failed: {error}", replans, planning[0]
+                )
         sim.step(command.v, command.w)
     message = "" if sim.goal_reached else f"stopped in {follower.state.value} at t={sim.time:.1f} s"
     if replans:
         message += f" ({replans} replans)"
     mean_error = float(np.mean(errors)) if errors else math.nan
-    return PlanFollowRun(True, sim.goal_reached, sim.collisions, sim.time, mean_error, message.strip(), replans,
-                         planning[0])
+    return PlanFollowRun(
+        True, sim.goal_reached, sim.collisions, sim.time, mean_error, message.strip(), replans, planning[0]
+    )

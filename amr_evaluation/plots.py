@@ -48,8 +48,13 @@ def success_plot(records: Iterable[dict[str, Any]], path: Path) -> Path | None:
         bars = axes.bar(x + (index - (len(configs) - 1) / 2) * width, rates, width, label=config)
         for bar, count, rate in zip(bars, counts, rates):
             if count:
-                axes.annotate(f"{int(round(rate * count / 100))}/{count}", (bar.get_x() + bar.get_width() / 2,
-                              bar.get_height()), ha="center", va="bottom", fontsize=7)
+                axes.annotate(
+                    f"{int(round(rate * count / 100))}/{count}",
+                    (bar.get_x() + bar.get_width() / 2, bar.get_height()),
+                    ha="center",
+                    va="bottom",
+                    fontsize=7,
+                )
     axes.set_xticks(x, families, rotation=30, ha="right")
     axes.set_ylabel("goal reached (%)")
     axes.set_ylim(0, 110)
@@ -75,12 +80,25 @@ def time_to_goal_plot(records: Iterable[dict[str, Any]], path: Path) -> Path | N
         if not data:
             continue
         colour = colours[index % len(colours)]
-        axes.boxplot([d for _, d in data], positions=[p for p, _ in data], widths=width * 0.8, showfliers=False,
-                     patch_artist=True, boxprops={"facecolor": colour, "alpha": 0.35}, medianprops={"color": colour})
+        axes.boxplot(
+            [d for _, d in data],
+            positions=[p for p, _ in data],
+            widths=width * 0.8,
+            showfliers=False,
+            patch_artist=True,
+            boxprops={"facecolor": colour, "alpha": 0.35},
+            medianprops={"color": colour},
+        )
         for position, values in data:
             jitter = np.linspace(-width * 0.25, width * 0.25, len(values)) if len(values) > 1 else [0.0]
-            axes.scatter(position + np.asarray(jitter), values, s=8, color=colour, zorder=3,
-                         label=config if position == data[0][0] else None)
+            axes.scatter(
+                position + np.asarray(jitter),
+                values,
+                s=8,
+                color=colour,
+                zorder=3,
+                label=config if position == data[0][0] else None,
+            )
     axes.set_xticks(np.arange(len(families)), families, rotation=30, ha="right")
     axes.set_xlim(-0.6, len(families) - 0.4)
     axes.set_ylabel("time to goal (s, simulated)")
@@ -103,8 +121,18 @@ def localization_plot(records: Iterable[dict[str, Any]], path: Path) -> Path | N
     left.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
     left.set_ylabel("time to localized (s)")
     left.set_title("First localized declaration")
-    at_first = [[100 * (r.get("localization_error") if r.get("localization_error") is not None
-                        else r.get("localization_error_max") or 0.0) for r in groups[k]] for k in labels]
+    at_first = [
+        [
+            100
+            * (
+                r.get("localization_error")
+                if r.get("localization_error") is not None
+                else r.get("localization_error_max") or 0.0
+            )
+            for r in groups[k]
+        ]
+        for k in labels
+    ]
     right.boxplot(at_first, showfliers=True)
     right.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
     right.set_ylabel("position error (cm)")
@@ -116,8 +144,11 @@ def write_plots(records: list[dict[str, Any]], results: str | Path) -> list[Path
     """Every figure that has data, as <results stem>.<figure>.png beside the results file."""
     results = Path(results)
     written = []
-    for name, plot in (("success", success_plot), ("time_to_goal", time_to_goal_plot),
-                       ("localization", localization_plot)):
+    for name, plot in (
+        ("success", success_plot),
+        ("time_to_goal", time_to_goal_plot),
+        ("localization", localization_plot),
+    ):
         path = plot(records, results.with_name(f"{results.stem}.{name}.png"))
         if path is not None:
             written.append(path)

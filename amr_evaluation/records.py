@@ -109,35 +109,47 @@ def summarize(records: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
         with_goal = [r for r in ok if r.get("goal_reached") is not None]
         reached = [r for r in with_goal if r["goal_reached"]]
         localized = [r for r in ok if r.get("time_to_localized") is not None]
-        rows.append({
-            "controller": controller, "config": config, "family": family, "episodes": len(items),
-            "errors": len(items) - len(ok), "with_goal": len(with_goal), "reached": len(reached),
-            "success": len(reached) / len(with_goal) if with_goal else None,
-            "time_to_goal": _median(r["time_to_goal"] for r in reached),
-            "collisions": sum(r.get("collisions") or 0 for r in ok),
-            "collision_free": sum((r.get("collisions") or 0) == 0 for r in ok),
-            "stalls": sum(r.get("stalls") or 0 for r in ok),
-            "wall_error_run": _median(r.get("wall_error_run") for r in ok),
-            "localized": len(localized),
-            "time_to_localized": _median(r["time_to_localized"] for r in localized),
-            "localization_error": _median(r.get("localization_error") for r in localized),
-            "localization_error_max": _median(r.get("localization_error_max") for r in localized),
-            "cross_track": _median(r.get("cross_track") for r in ok),
-            "wall_time": sum(r.get("wall_time") or 0.0 for r in items),
-        })
+        rows.append(
+            {
+                "controller": controller,
+                "config": config,
+                "family": family,
+                "episodes": len(items),
+                "errors": len(items) - len(ok),
+                "with_goal": len(with_goal),
+                "reached": len(reached),
+                "success": len(reached) / len(with_goal) if with_goal else None,
+                "time_to_goal": _median(r["time_to_goal"] for r in reached),
+                "collisions": sum(r.get("collisions") or 0 for r in ok),
+                "collision_free": sum((r.get("collisions") or 0) == 0 for r in ok),
+                "stalls": sum(r.get("stalls") or 0 for r in ok),
+                "wall_error_run": _median(r.get("wall_error_run") for r in ok),
+                "localized": len(localized),
+                "time_to_localized": _median(r["time_to_localized"] for r in localized),
+                "localization_error": _median(r.get("localization_error") for r in localized),
+                "localization_error_max": _median(r.get("localization_error_max") for r in localized),
+                "cross_track": _median(r.get("cross_track") for r in ok),
+                "wall_time": sum(r.get("wall_time") or 0.0 for r in items),
+            }
+        )
     return rows
 
 
 def format_summary(rows: list[dict[str, Any]]) -> str:
     """A plain-text table of summarize()'s rows, and a total line per controller and config."""
+
     def number(value, scale=1.0, digits=1):
         return "-" if value is None else f"{scale * value:.{digits}f}"
 
-    header = (f"{'controller':13s} {'config':14s} {'family':16s} {'runs':>5s} {'goal':>9s} {'t goal':>7s} "
-              f"{'coll-free':>9s} {'stalls':>6s} {'wall err':>8s} {'loc':>5s} {'t loc':>6s} {'loc err':>7s} "
-              f"{'xte':>5s} {'err':>4s}")
-    units = f"{'':13s} {'':14s} {'':16s} {'':>5s} {'':>9s} {'s':>7s} {'':>9s} {'':>6s} {'cm':>8s} {'':>5s} {'s':>6s} " \
-            f"{'cm':>7s} {'cm':>5s}"
+    header = (
+        f"{'controller':13s} {'config':14s} {'family':16s} {'runs':>5s} {'goal':>9s} {'t goal':>7s} "
+        f"{'coll-free':>9s} {'stalls':>6s} {'wall err':>8s} {'loc':>5s} {'t loc':>6s} {'loc err':>7s} "
+        f"{'xte':>5s} {'err':>4s}"
+    )
+    units = (
+        f"{'':13s} {'':14s} {'':16s} {'':>5s} {'':>9s} {'s':>7s} {'':>9s} {'':>6s} {'cm':>8s} {'':>5s} {'s':>6s} "
+        f"{'cm':>7s} {'cm':>5s}"
+    )
     lines = [header, units.rstrip(), "-" * len(header)]
     totals: dict[tuple, list[dict]] = defaultdict(list)
     for row in rows:
@@ -148,16 +160,21 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
             f"{goal:>9s} {number(row['time_to_goal']):>7s} {row['collision_free']:4d}/{row['episodes'] - row['errors']:<4d} "
             f"{row['stalls']:6d} {number(row['wall_error_run'], 100, 1):>8s} {row['localized']:5d} "
             f"{number(row['time_to_localized']):>6s} {number(row['localization_error'], 100, 1):>7s} "
-            f"{number(row['cross_track'], 100, 2):>5s} {row['errors']:4d}")
+            f"{number(row['cross_track'], 100, 2):>5s} {row['errors']:4d}"
+        )
     for (controller, config), items in totals.items():
         with_goal = sum(r["with_goal"] for r in items)
         reached = sum(r["reached"] for r in items)
         runs = sum(r["episodes"] for r in items)
         rate = f" ({100 * reached / with_goal:.1f} %)" if with_goal else ""
-        lines.append(f"TOTAL {controller} {config}: {runs} episodes, goal {reached}/{with_goal}{rate}, "
-                     f"collision-free {sum(r['collision_free'] for r in items)}, stalls {sum(r['stalls'] for r in items)}, "
-                     f"errors {sum(r['errors'] for r in items)}, {sum(r['wall_time'] for r in items):.0f} s of episode time")
-    lines.append("goal: reached / episodes with a goal; t goal, t loc: median s; wall err: median of the mean |wall "
-                 "distance - target| over a run; loc err: median error at the first declaration; xte: median of the "
-                 "mean cross-track error")
+        lines.append(
+            f"TOTAL {controller} {config}: {runs} episodes, goal {reached}/{with_goal}{rate}, "
+            f"collision-free {sum(r['collision_free'] for r in items)}, stalls {sum(r['stalls'] for r in items)}, "
+            f"errors {sum(r['errors'] for r in items)}, {sum(r['wall_time'] for r in items):.0f} s of episode time"
+        )
+    lines.append(
+        "goal: reached / episodes with a goal; t goal, t loc: median s; wall err: median of the mean |wall "
+        "distance - target| over a run; loc err: median error at the first declaration; xte: median of the "
+        "mean cross-track error"
+    )
     return "\n".join(lines)

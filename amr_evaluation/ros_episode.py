@@ -47,8 +47,12 @@ import yaml
 
 from amr_util.environment import child_environment
 
-STACKS = {"wall_follower": "maze_sim", "localization": "maze_localization", "navigation": "maze_navigation",
-          "command": "maze_sim"}
+STACKS = {
+    "wall_follower": "maze_sim",
+    "localization": "maze_localization",
+    "navigation": "maze_navigation",
+    "command": "maze_sim",
+}
 CLOCKS = ("lockstep", "realtime")
 """command: the simulator's modes a user's node may be run in."""
 ANSWER_TIMEOUT = 10.0
@@ -93,8 +97,10 @@ def claimed_domain() -> Iterator[int]:
             fcntl.flock(stream, fcntl.LOCK_UN)
             stream.close()
         return
-    raise RosEpisodeError(f"every ROS domain of {DOMAINS_VARIABLE} ({os.environ.get(DOMAINS_VARIABLE, DEFAULT_DOMAINS)}) "
-                          "is held by another episode: widen the range or run fewer workers")
+    raise RosEpisodeError(
+        f"every ROS domain of {DOMAINS_VARIABLE} ({os.environ.get(DOMAINS_VARIABLE, DEFAULT_DOMAINS)}) "
+        "is held by another episode: widen the range or run fewer workers"
+    )
 
 
 def _world_file(spec, directory: Path) -> str:
@@ -123,14 +129,18 @@ def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
 
     stack = STACKS.get(spec.controller)
     if stack is None:
-        raise RosEpisodeError(f"mode ros: controller {spec.controller!r} has no stack (ros mode runs "
-                              f"{', '.join(STACKS)}); run it at library level")
+        raise RosEpisodeError(
+            f"mode ros: controller {spec.controller!r} has no stack (ros mode runs "
+            f"{', '.join(STACKS)}); run it at library level"
+        )
     parameters = {node: dict(values) for node, values in spec.parameters.items() if node != "command"}
     wall = parameters.get("wall_follower", {})
     if wall.get("simulation") is False:
-        raise RosEpisodeError("mode ros: this wall follower configuration has simulation: false (a timer on real "
-                              "time, plain Twist); the lockstep stacks take simulation: true configurations "
-                              "(rehearse the real one with amr-bringup real_robot_sim)")
+        raise RosEpisodeError(
+            "mode ros: this wall follower configuration has simulation: false (a timer on real "
+            "time, plain Twist); the lockstep stacks take simulation: true configurations "
+            "(rehearse the real one with amr-bringup real_robot_sim)"
+        )
     hand = world_hand(spec.world)
     if hand is not None and "wall_follower" in parameters:
         parameters["wall_follower"]["preferred_wall"] = hand
@@ -153,8 +163,9 @@ def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
     if "particle_filter" in parameters:
         parameters["particle_filter"]["seed"] = spec.seed
     params_file = directory / "parameters.yaml"
-    params_file.write_text(yaml.safe_dump({node: {"ros__parameters": values} for node, values in parameters.items()}),
-                           encoding="utf-8")
+    params_file.write_text(
+        yaml.safe_dump({node: {"ros__parameters": values} for node, values in parameters.items()}), encoding="utf-8"
+    )
     arguments = {"world": _world_file(spec, directory)}
     arguments.update({f"{node}_params_file": str(params_file) for node in parameters})
     return stack, arguments
@@ -171,9 +182,13 @@ def run_ros(spec) -> dict[str, Any]:
         result = directory / "record.json"
         env = child_environment(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
         with (directory / "stack.log").open("w+") as log:
-            process = subprocess.Popen([sys.executable, "-m", "amr_evaluation.ros_episode", str(directory / "spec.json"),
-                                        str(result)], stdout=log, stderr=subprocess.STDOUT, env=env,
-                                       start_new_session=True)
+            process = subprocess.Popen(
+                [sys.executable, "-m", "amr_evaluation.ros_episode", str(directory / "spec.json"), str(result)],
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env=env,
+                start_new_session=True,
+            )
             try:
                 process.wait(timeout=STARTUP_TIMEOUT + spec.duration * 2.0 + 60.0)
             except subprocess.TimeoutExpired:
@@ -215,13 +230,21 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
     command = spec.parameters.get("command") if spec.controller == "command" else None
     if command is not None:  # the user's node drives instead of the shipped wall follower
         bringup = dataclasses.replace(
-            bringup, nodes=tuple(node for node in bringup.nodes if node.name != "wall_follower"),
-            node_startup_order=tuple(node for node in bringup.node_startup_order if node != "wall_follower"))
+            bringup,
+            nodes=tuple(node for node in bringup.nodes if node.name != "wall_follower"),
+            node_startup_order=tuple(node for node in bringup.node_startup_order if node != "wall_follower"),
+        )
     check_composable(bringup)
     max_collisions = int(spec.options.get("max_collisions", 5)) if spec.controller == "navigation" else None
     lock = threading.Lock()
-    state: dict[str, Any] = {"status": None, "reason": "", "first_error": None, "max_error": 0.0, "commands": 0,
-                             "last_command": None}
+    state: dict[str, Any] = {
+        "status": None,
+        "reason": "",
+        "first_error": None,
+        "max_error": 0.0,
+        "commands": 0,
+        "last_command": None,
+    }
 
     def on_command(message) -> None:
         with lock:
@@ -262,15 +285,19 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
         stack = ComposedStack(bringup, Console(live=False))
         for node in stack.nodes:
             spinners.add_node(node)
-        manager = LifecycleManager(cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
-                                   parameter_overrides=[Parameter(k, value=v)
-                                                        for k, v in bringup.manager_parameters().items()])
+        manager = LifecycleManager(
+            cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
+            parameter_overrides=[Parameter(k, value=v) for k, v in bringup.manager_parameters().items()],
+        )
         spinners.add_node(manager)
         steps = manager.startup()
         if not manager.started:
             failed = next((step for step in steps if not step.ok), None)
-            raise RosEpisodeError(f"startup failed at {failed.transition} of {failed.node}: {failed.detail}"
-                                  if failed else "startup failed")
+            raise RosEpisodeError(
+                f"startup failed at {failed.transition} of {failed.node}: {failed.detail}"
+                if failed
+                else "startup failed"
+            )
         deadline, last_time = time.monotonic() + STARTUP_TIMEOUT, -1.0
         began = time.monotonic()
         answer_timeout = float(spec.options.get("answer_timeout", ANSWER_TIMEOUT))
@@ -280,15 +307,19 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
                 status, reason = state["status"], state["reason"]
                 if not reason and controller is not None:
                     reason = state["reason"] = _controller_problem(
-                        controller, observer, state, began, answer_timeout, spec.options)
+                        controller, observer, state, began, answer_timeout, spec.options
+                    )
             if reason:
                 break
             if stack.failure():
                 raise RosEpisodeError(stack.failure())
             if status is None or status.sim_time <= last_time:
                 if time.monotonic() > deadline:
-                    raise RosEpisodeError("no progress on /simulator/status" if status else
-                                          f"no /simulator/status within {STARTUP_TIMEOUT:.0f} s")
+                    raise RosEpisodeError(
+                        "no progress on /simulator/status"
+                        if status
+                        else f"no /simulator/status within {STARTUP_TIMEOUT:.0f} s"
+                    )
                 continue
             last_time, deadline = status.sim_time, time.monotonic() + STALL_TIMEOUT
         manager.shutdown()
@@ -301,18 +332,29 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
         rclpy.shutdown()
     if status is None:  # a user's node gave up before the first observation
         status = SimulatorStatus()
-    figures: dict[str, Any] = {"time": status.sim_time, "reason": reason, "collisions": int(status.collisions),
-                               "distance": float(status.distance_travelled)}
+    figures: dict[str, Any] = {
+        "time": status.sim_time,
+        "reason": reason,
+        "collisions": int(status.collisions),
+        "distance": float(status.distance_travelled),
+    }
     if spec.goal is not None or _world_has_goal(spec):
-        figures.update(goal_reached=bool(status.goal_reached),
-                       time_to_goal=status.sim_time if status.goal_reached else None)
+        figures.update(
+            goal_reached=bool(status.goal_reached), time_to_goal=status.sim_time if status.goal_reached else None
+        )
     if command is not None:
         output = controller_log.read_text(encoding="utf-8", errors="replace") if controller_log.exists() else ""
-        figures["extra"] = {"commands": state["commands"], "clock": spec.options.get("clock", "lockstep"),
-                            "controller_output": output[-1000:]}
+        figures["extra"] = {
+            "commands": state["commands"],
+            "clock": spec.options.get("clock", "lockstep"),
+            "controller_output": output[-1000:],
+        }
     if status.localization_enabled and status.first_localized_time >= 0.0:
-        figures.update(time_to_localized=status.first_localized_time, localization_error=state["first_error"],
-                       localization_error_max=state["max_error"])
+        figures.update(
+            time_to_localized=status.first_localized_time,
+            localization_error=state["first_error"],
+            localization_error_max=state["max_error"],
+        )
     return figures
 
 
@@ -320,15 +362,23 @@ def _start_controller(command: dict, log: Path) -> subprocess.Popen:
     """The user's command, in its directory, in this process's ROS domain, its output into `log`."""
     try:
         with log.open("w") as stream:
-            return subprocess.Popen(command["argv"], cwd=command["cwd"], stdout=stream, stderr=subprocess.STDOUT,
-                                    env=child_environment(), start_new_session=True)
+            return subprocess.Popen(
+                command["argv"],
+                cwd=command["cwd"],
+                stdout=stream,
+                stderr=subprocess.STDOUT,
+                env=child_environment(),
+                start_new_session=True,
+            )
     except OSError as error:
-        raise RosEpisodeError(f"the controller's command {shlex.join(command['argv'])!r} (in {command['cwd']}) "
-                              f"could not start: {error}") from error
+        raise RosEpisodeError(
+            f"the controller's command {shlex.join(command['argv'])!r} (in {command['cwd']}) could not start: {error}"
+        ) from error
 
 
-def _controller_problem(controller: subprocess.Popen, observer, state: dict, began: float, answer_timeout: float,
-                        options: dict) -> str:
+def _controller_problem(
+    controller: subprocess.Popen, observer, state: dict, began: float, answer_timeout: float, options: dict
+) -> str:
     """Why a user's node ends the episode now ('' while it drives): it exited, or it sent no /cmd_vel for
     answer_timeout wall-clock s (naming the type the simulator takes when the node publishes another)."""
     code = controller.poll()

@@ -37,20 +37,23 @@ class SweepError(RuntimeError):
 
 
 @contextmanager
-def executor_for(workers: int = 1, scheduler: str | None = None,
-                 connect_timeout: float = 10.0) -> Iterator[Executor | None]:
+def executor_for(
+    workers: int = 1, scheduler: str | None = None, connect_timeout: float = 10.0
+) -> Iterator[Executor | None]:
     """The executor a sweep runs on (see the module docstring; None: this process); closed on exit."""
     if scheduler:
         try:
             from distributed import Client
         except ImportError as error:
-            raise SweepError("--scheduler needs Dask: pip install 'amr_suite[evaluation]' "
-                             "(dask[distributed])") from error
+            raise SweepError(
+                "--scheduler needs Dask: pip install 'amr_suite[evaluation]' (dask[distributed])"
+            ) from error
         try:
             client = Client(scheduler, timeout=f"{connect_timeout}s")
         except (OSError, TimeoutError, ValueError) as error:
-            raise SweepError(f"no Dask scheduler answered at {scheduler} within {connect_timeout:g} s: "
-                             f"{error}") from error
+            raise SweepError(
+                f"no Dask scheduler answered at {scheduler} within {connect_timeout:g} s: {error}"
+            ) from error
         try:
             with client.get_executor() as executor:
                 yield executor
@@ -64,8 +67,9 @@ def executor_for(workers: int = 1, scheduler: str | None = None,
         return
     import multiprocessing
 
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
-                             initializer=_quiet_interrupt) as executor:
+    with ProcessPoolExecutor(
+        workers, mp_context=multiprocessing.get_context("fork"), initializer=_quiet_interrupt
+    ) as executor:
         try:
             yield executor
         except BaseException:  # Ctrl-C or an error: the episodes in flight are not waited for
@@ -107,8 +111,9 @@ class Progress:
         except ImportError:
             tqdm = None
         if tqdm is not None and self.stream.isatty():
-            self._bar = tqdm(total=total, initial=done, desc=description, unit="ep", file=self.stream,
-                             dynamic_ncols=True)
+            self._bar = tqdm(
+                total=total, initial=done, desc=description, unit="ep", file=self.stream, dynamic_ncols=True
+            )
 
     def update(self) -> None:
         self.count += 1
@@ -125,11 +130,19 @@ class Progress:
             self._bar.close()
 
 
-def run_sweep(specs: Sequence[EpisodeSpec], results: str | Path, *, workers: int = 1, scheduler: str | None = None,
-              progress: bool = True, on_record: Callable[[dict[str, Any]], None] | None = None,
-              episode: Callable[[dict], dict] = run_episode, connect_timeout: float = 10.0,
-              on_start: Callable[[int, int], None] | None = None,
-              stop: Callable[[], bool] | None = None) -> list[dict[str, Any]]:
+def run_sweep(
+    specs: Sequence[EpisodeSpec],
+    results: str | Path,
+    *,
+    workers: int = 1,
+    scheduler: str | None = None,
+    progress: bool = True,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+    episode: Callable[[dict], dict] = run_episode,
+    connect_timeout: float = 10.0,
+    on_start: Callable[[int, int], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+) -> list[dict[str, Any]]:
     """Every spec's record (in the order of ``specs``), running only those without a finished one in ``results``.
 
     ``on_start(skipped, to_run)`` is called once the finished episodes are known (the distinct episodes with a
@@ -170,10 +183,15 @@ STOP_POLL_PERIOD = 0.1
 """s between looks at ``run_sweep``'s ``stop`` while waiting for the executor."""
 
 
-def _run(executor: Executor | None, episode: Callable[[dict], dict], todo: Sequence[EpisodeSpec],
-         stop: Callable[[], bool] | None = None) -> Iterator[dict]:
+def _run(
+    executor: Executor | None,
+    episode: Callable[[dict], dict],
+    todo: Sequence[EpisodeSpec],
+    stop: Callable[[], bool] | None = None,
+) -> Iterator[dict]:
     """The records of ``todo`` as they finish: one after the other here, or as the executor completes them.
     KeyboardInterrupt as soon as ``stop()`` is seen true (before each episode here, or within STOP_POLL_PERIOD)."""
+
     def check() -> None:
         if stop is not None and stop():
             raise KeyboardInterrupt
@@ -189,8 +207,9 @@ def _run(executor: Executor | None, episode: Callable[[dict], dict], todo: Seque
         futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
         pending = set(futures)
         while pending:
-            done, pending = wait(pending, timeout=None if stop is None else STOP_POLL_PERIOD,
-                                 return_when=FIRST_COMPLETED)
+            done, pending = wait(
+                pending, timeout=None if stop is None else STOP_POLL_PERIOD, return_when=FIRST_COMPLETED
+            )
             check()
             for future in done:
                 yield future.result()

@@ -74,10 +74,15 @@ def run(
     render_path: str | None = None,
     grid: MazeGrid | None = None,
 ) -> RunResult:
-    sim = Simulator(world, SimulationConfig(
-        dt=config.dt, seed=seed, lidar=LidarConfig(beams=beams, noise_std=lidar_noise),
-        encoders=EncoderConfig(noise=encoder_noise, slip=slip),
-    ))
+    sim = Simulator(
+        world,
+        SimulationConfig(
+            dt=config.dt,
+            seed=seed,
+            lidar=LidarConfig(beams=beams, noise_std=lidar_noise),
+            encoders=EncoderConfig(noise=encoder_noise, slip=slip),
+        ),
+    )
     follower = WallFollower(config)
     lidar = sim.lidar
     outliers = np.random.default_rng([seed, 14])
@@ -99,8 +104,12 @@ def run(
             if follower.state == "FOLLOW":
                 following_errors.append(abs(follower.measurements.wall_distance - config.target_wall_distance))
         states[follower.state] += 1
-        run_errors.append(abs(_side_wall_distance(faces, sim.pose, config.lidar_x, follower.followed_wall)
-                              - config.target_wall_distance))
+        run_errors.append(
+            abs(
+                _side_wall_distance(faces, sim.pose, config.lidar_x, follower.followed_wall)
+                - config.target_wall_distance
+            )
+        )
         sim.step(command.v, command.w)
 
     if render_path is not None:

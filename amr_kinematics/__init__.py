@@ -15,7 +15,21 @@ from .solvers import SOLVERS, IKResult, applicable_solvers, follow_path, get_sol
 from .ull_json import load_ull_json
 
 __all__ = [
-    "SOLVERS", "Chain", "ChainConfig", "ChainConfigError", "Coupling", "FKResult", "IKResult",
-    "InvalidRequestError", "KinematicsError", "SolverNotApplicableError", "UnknownSolverError",
-    "applicable_solvers", "follow_path", "get_solver", "load_chain_set", "load_ull_json", "solve",
+    "SOLVERS",
+    "Chain",
+    "ChainConfig",
+    "ChainConfigError",
+    "Coupling",
+    "FKResult",
+    "IKResult",
+    "InvalidRequestError",
+    "KinematicsError",
+    "SolverNotApplicableError",
+    "UnknownSolverError",
+    "applicable_solvers",
+    "follow_path",
+    "get_solver",
+    "load_chain_set",
+    "load_ull_json",
+    "solve",
 ]

@@ -131,7 +131,9 @@ class Chain:
         elif joint_origins is not None:
             raise ChainConfigError(name, "joint_origins", "joint origins belong to urdf chains only")
         elif convention not in CONVENTIONS:
-            raise ChainConfigError(name, "convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}")
+            raise ChainConfigError(
+                name, "convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}"
+            )
         n = len(types)
         if n == 0:
             raise ChainConfigError(name, "types", "a chain needs at least one joint")
@@ -162,7 +164,9 @@ class Chain:
         bad = np.nonzero(self.lower > self.upper)[0]
         if bad.size:
             i = int(bad[0])
-            raise ChainConfigError(name, "lower", f"joint '{joint_names[i]}' has lower {self.lower[i]} > upper {self.upper[i]}")
+            raise ChainConfigError(
+                name, "lower", f"joint '{joint_names[i]}' has lower {self.lower[i]} > upper {self.upper[i]}"
+            )
         self.base = _check_transform(name, "base", np.eye(4) if base is None else base, planar)
         self.tool = _check_transform(name, "tool", np.eye(4) if tool is None else tool, planar)
         self._lower, self._upper = self.lower.tolist(), self.upper.tolist()
@@ -172,8 +176,18 @@ class Chain:
         self.free = np.array([i for i in range(n) if i not in coupled], dtype=int)
         if self.free.size == 0:
             raise ChainConfigError(name, "coupled_joint", "every joint is coupled: nothing left to move")
-        for array in (self.theta, self.a, self.d, self.alpha, self.lower, self.upper, self.base, self.tool,
-                      self.prismatic, self.free):
+        for array in (
+            self.theta,
+            self.a,
+            self.d,
+            self.alpha,
+            self.lower,
+            self.upper,
+            self.base,
+            self.tool,
+            self.prismatic,
+            self.free,
+        ):
             array.setflags(write=False)
         from .kernel import build_kernel  # here, not at a first solve's expense
 
@@ -191,8 +205,9 @@ class Chain:
             if not math.isfinite(c.offset):
                 raise ChainConfigError(self.name, "coupling_offset", "offset must be finite")
             if any(coefficients[j] != 0.0 for j in coupled):
-                raise ChainConfigError(self.name, "coupling_coefficients",
-                                       "a coupled joint may only depend on independent joints")
+                raise ChainConfigError(
+                    self.name, "coupling_coefficients", "a coupled joint may only depend on independent joints"
+                )
             coefficients.setflags(write=False)
             yield Coupling(c.joint, float(c.offset), coefficients)
 
@@ -244,7 +259,8 @@ class Chain:
     def within_limits(self, q, tolerance: float = 0.0) -> bool:
         values = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
         return len(values) == self.n and all(
-            low - tolerance <= v <= high + tolerance for v, low, high in zip(values, self._lower, self._upper))
+            low - tolerance <= v <= high + tolerance for v, low, high in zip(values, self._lower, self._upper)
+        )
 
     def couplings_hold(self, q, tolerance: float = 1e-9) -> bool:
         """Whether every coupled joint equals its formula (not clipped by its limits)."""

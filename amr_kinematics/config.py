@@ -52,15 +52,23 @@ PARTIAL_POSE_WEIGHTS = (1.0, 1.0, 1.0, 0.0, 0.0, 1.0)
 
 NODE_NAME = "ik_service"
 
+
 def _key(kind: str, description: str, live: bool = False, default=None, **limits) -> ParameterSpec:
     """One chain key: its kind, meaning, default (what a chain without the key gets) and limits (named
     `<chain>.<key>` where used)."""
     neutral = {"str": "", "bool": False, "int": 1, "float": 0.0}
     if default is None:
         default = [] if kind.endswith("_array") else neutral[kind]
-    return ParameterSpec("", default, description, kind=kind, live=live,
-                         nonempty=kind.startswith("str") or kind.endswith("_array"), integers_as_floats=False,
-                         **limits)
+    return ParameterSpec(
+        "",
+        default,
+        description,
+        kind=kind,
+        live=live,
+        nonempty=kind.startswith("str") or kind.endswith("_array"),
+        integers_as_floats=False,
+        **limits,
+    )
 
 
 CHAIN_KEYS: dict[str, ParameterSpec] = {
@@ -85,14 +93,42 @@ CHAIN_KEYS: dict[str, ParameterSpec] = {
     "tip_link": _key("str", "URDF link the chain ends at (the tool)"),
     # solve defaults (live: the chain set is validated again and used from the next request)
     "solver": _key("str", "default solver: ccd | dls | pinv | analytic", live=True, default="dls"),
-    "tolerance": _key("float", "m (and rad), default position tolerance", live=True, default=DEFAULT_TOLERANCE,
-                      minimum=0.0, exclusive_minimum=True, maximum=MAX_TOLERANCE),
-    "orientation_tolerance": _key("float", "rad, default orientation tolerance (unset: the tolerance)", live=True,
-                                  default=DEFAULT_TOLERANCE, minimum=0.0, exclusive_minimum=True, maximum=math.pi),
-    "max_iterations": _key("int", "default iteration cap of one descent", live=True, default=DEFAULT_MAX_ITERATIONS,
-                           minimum=0, exclusive_minimum=True, maximum=10_000_000),
-    "timeout": _key("float", "s, default solve budget", live=True, default=DEFAULT_TIMEOUT,
-                    minimum=0.0, exclusive_minimum=True, maximum=MAX_TIMEOUT),
+    "tolerance": _key(
+        "float",
+        "m (and rad), default position tolerance",
+        live=True,
+        default=DEFAULT_TOLERANCE,
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=MAX_TOLERANCE,
+    ),
+    "orientation_tolerance": _key(
+        "float",
+        "rad, default orientation tolerance (unset: the tolerance)",
+        live=True,
+        default=DEFAULT_TOLERANCE,
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=math.pi,
+    ),
+    "max_iterations": _key(
+        "int",
+        "default iteration cap of one descent",
+        live=True,
+        default=DEFAULT_MAX_ITERATIONS,
+        minimum=0,
+        exclusive_minimum=True,
+        maximum=10_000_000,
+    ),
+    "timeout": _key(
+        "float",
+        "s, default solve budget",
+        live=True,
+        default=DEFAULT_TIMEOUT,
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=MAX_TIMEOUT,
+    ),
     "damping": _key("float", "DLS damping factor", live=True, minimum=0.0, maximum=100.0),
     "adaptive_damping": _key("float", "DLS adaptive damping", live=True),
     "angular_weight": _key("float", "weight of orientation error against position error", live=True),
@@ -107,10 +143,30 @@ CHAIN_KEYS: dict[str, ParameterSpec] = {
 
 _REQUIRED = ("convention", "joint_names", "types", "theta", "a", "lower", "upper")
 _URDF_KEYS = ("urdf", "base_link", "tip_link")
-_FROM_URDF = ("convention", "joint_names", "types", "theta", "a", "d", "alpha", "lower", "upper", "coupled_joint",
-              "coupling_offset", "coupling_coefficients")
-_SOLVER_OPTIONS = ("damping", "adaptive_damping", "angular_weight", "coupling_update", "axis_tolerance", "restarts",
-                   "samples", "gain")
+_FROM_URDF = (
+    "convention",
+    "joint_names",
+    "types",
+    "theta",
+    "a",
+    "d",
+    "alpha",
+    "lower",
+    "upper",
+    "coupled_joint",
+    "coupling_offset",
+    "coupling_coefficients",
+)
+_SOLVER_OPTIONS = (
+    "damping",
+    "adaptive_damping",
+    "angular_weight",
+    "coupling_update",
+    "axis_tolerance",
+    "restarts",
+    "samples",
+    "gain",
+)
 
 
 @dataclass(frozen=True)
@@ -140,8 +196,19 @@ class ChainConfig:
         accepted = get_solver(solver).options
         return {k: v for k, v in self.solver_options.items() if k in accepted}
 
-    def solve(self, target, *, solver: str = "", seed=None, with_orientation: bool = False, tolerance: float = 0.0,
-              max_iterations: int = 0, timeout: float = 0.0, record_history: bool = False, task=None) -> IKResult:
+    def solve(
+        self,
+        target,
+        *,
+        solver: str = "",
+        seed=None,
+        with_orientation: bool = False,
+        tolerance: float = 0.0,
+        max_iterations: int = 0,
+        timeout: float = 0.0,
+        record_history: bool = False,
+        task=None,
+    ) -> IKResult:
         """IK with this chain's defaults for every empty/zero argument.
 
         An explicit ``tolerance`` replaces both the default tolerance and any
@@ -154,7 +221,8 @@ class ChainConfig:
         if tolerance:
             options.pop("axis_tolerance", None)
         return get_solver(name).solve(
-            self.chain, target,
+            self.chain,
+            target,
             seed=self.home if seed is None or len(seed) == 0 else seed,
             with_orientation=with_orientation,
             tolerance=tolerance or self.tolerance,
@@ -165,7 +233,6 @@ class ChainConfig:
             task=task,
             **options,
         )
-
 
     def warm_up(self) -> None:
         """Run every code path a request may take once (each applicable solver, position and,
@@ -182,10 +249,10 @@ class ChainConfig:
         goal = chain.fk(self.home).tool
         start = chain.apply_coupling(chain.clamp(self.home + 0.1))
         for with_orientation in (False, True) if chain.can_orient else (False,):
-            target = goal if with_orientation else goal[:2 if chain.planar else 3, 3]
+            target = goal if with_orientation else goal[: 2 if chain.planar else 3, 3]
             for name in applicable_solvers(chain, with_orientation):
                 self.solve(target, solver=name, seed=start, with_orientation=with_orientation, timeout=0.05)
-        far = goal[:2 if chain.planar else 3, 3] + 1e3
+        far = goal[: 2 if chain.planar else 3, 3] + 1e3
         for name in applicable_solvers(chain, False):
             self.solve(far, solver=name, seed=start, timeout=0.002)
         if not chain.planar:  # a weighted (partial-pose) request compiles kernels of its own on a cold cache
@@ -225,7 +292,7 @@ def load_chain_set(params: Mapping) -> dict[str, ChainConfig]:
     configs = {}
     for name in names:
         prefix = name + "."
-        keys = {k[len(prefix):]: v for k, v in flat.items() if k.startswith(prefix)}
+        keys = {k[len(prefix) :]: v for k, v in flat.items() if k.startswith(prefix)}
         configs[name] = _chain_config(name, keys)
     return configs
 
@@ -262,7 +329,8 @@ def _chain_config(name: str, raw: dict) -> ChainConfig:
             raise ChainConfigError(name, f"{name}.home", f"{home.tolist()} is outside the joint limits")
     home.setflags(write=False)
     config = ChainConfig(
-        chain=chain, home=home,
+        chain=chain,
+        home=home,
         solver=values.get("solver", CHAIN_KEYS["solver"].default),
         tolerance=values.get("tolerance", CHAIN_KEYS["tolerance"].default),
         orientation_tolerance=values.get("orientation_tolerance"),
@@ -282,18 +350,32 @@ def _dh_chain(name: str, values: dict) -> Chain:
         if key not in values:
             raise ChainConfigError(name, f"{name}.{key}", "is required")
     if convention not in CONVENTIONS:
-        raise ChainConfigError(name, f"{name}.convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}")
+        raise ChainConfigError(
+            name, f"{name}.convention", f"unknown convention {convention!r}, expected one of {CONVENTIONS}"
+        )
     for joint_type in values["types"]:
         if joint_type not in JOINT_TYPES:
-            raise ChainConfigError(name, f"{name}.types", f"unknown joint type {joint_type!r}, expected 'revolute' or 'prismatic'")
+            raise ChainConfigError(
+                name, f"{name}.types", f"unknown joint type {joint_type!r}, expected 'revolute' or 'prismatic'"
+            )
     n = len(values["types"])
     base, tool = _base_and_tool(name, values)
     couplings = _couplings(name, values, n)
     try:
         return Chain(
-            name, convention, values["joint_names"], values["types"],
-            theta=values["theta"], a=values["a"], d=values.get("d"), alpha=values.get("alpha"),
-            lower=values["lower"], upper=values["upper"], base=base, tool=tool, couplings=couplings,
+            name,
+            convention,
+            values["joint_names"],
+            values["types"],
+            theta=values["theta"],
+            a=values["a"],
+            d=values.get("d"),
+            alpha=values.get("alpha"),
+            lower=values["lower"],
+            upper=values["upper"],
+            base=base,
+            tool=tool,
+            couplings=couplings,
         )
     except ChainConfigError as exc:
         key = {"base": "base_xyz_rpy", "tool": "tool_xyz_rpy"}.get(exc.key, exc.key)
@@ -304,7 +386,9 @@ def _base_and_tool(name: str, values: dict):
     """The optional base and tool transforms (4x4 or None)."""
     for key in ("base_xyz_rpy", "tool_xyz_rpy"):
         if key in values and len(values[key]) != 6:
-            raise ChainConfigError(name, f"{name}.{key}", f"needs 6 values [x, y, z, roll, pitch, yaw], got {len(values[key])}")
+            raise ChainConfigError(
+                name, f"{name}.{key}", f"needs 6 values [x, y, z, roll, pitch, yaw], got {len(values[key])}"
+            )
     return tuple(xyz_rpy_matrix(values[key]) if key in values else None for key in ("base_xyz_rpy", "tool_xyz_rpy"))
 
 
@@ -330,19 +414,26 @@ def _couplings(name: str, values: dict, n: int) -> list[Coupling]:
         return []
     if len(present) != 3:
         missing = next(k for k in keys if k not in values)
-        raise ChainConfigError(name, f"{name}.{missing}", "coupling needs coupled_joint, coupling_offset and coupling_coefficients")
+        raise ChainConfigError(
+            name, f"{name}.{missing}", "coupling needs coupled_joint, coupling_offset and coupling_coefficients"
+        )
     joints, offsets, coefficients = (values[k] for k in keys)
     if len(offsets) != len(joints):
-        raise ChainConfigError(name, f"{name}.coupling_offset", f"needs one offset per coupled joint ({len(joints)}), got {len(offsets)}")
+        raise ChainConfigError(
+            name, f"{name}.coupling_offset", f"needs one offset per coupled joint ({len(joints)}), got {len(offsets)}"
+        )
     if len(coefficients) != n * len(joints):
-        raise ChainConfigError(name, f"{name}.coupling_coefficients",
-                               f"needs {n} coefficients per coupled joint ({n * len(joints)} in all), got {len(coefficients)}")
+        raise ChainConfigError(
+            name,
+            f"{name}.coupling_coefficients",
+            f"needs {n} coefficients per coupled joint ({n * len(joints)} in all), got {len(coefficients)}",
+        )
     names = values["joint_names"]
     out = []
     for k, joint in enumerate(joints):
         if joint not in names:
             raise ChainConfigError(name, f"{name}.coupled_joint", f"{joint!r} is not one of the joint names {names}")
-        out.append(Coupling(names.index(joint), offsets[k], np.array(coefficients[k * n:(k + 1) * n])))
+        out.append(Coupling(names.index(joint), offsets[k], np.array(coefficients[k * n : (k + 1) * n])))
     return out
 
 

@@ -64,7 +64,7 @@ SERVICE_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, dura
 
 
 def _bounded(text: str, limit: int = MAX_MESSAGE) -> str:
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def pose_from_matrix(matrix: np.ndarray) -> Pose:
@@ -160,10 +160,12 @@ class IKServiceNode(ManagedNode):
             self._last = {}
         self._joint_states = self.create_lifecycle_publisher(JointState, "~/joint_states", 10)
         self._node_services = [
-            self.create_service(SolveIK, "/solve_ik", self._on_solve_ik, qos_profile=SERVICE_QOS,
-                                callback_group=self._group),
-            self.create_service(ComputeFK, "/compute_fk", self._on_compute_fk, qos_profile=SERVICE_QOS,
-                                callback_group=self._group),
+            self.create_service(
+                SolveIK, "/solve_ik", self._on_solve_ik, qos_profile=SERVICE_QOS, callback_group=self._group
+            ),
+            self.create_service(
+                ComputeFK, "/compute_fk", self._on_compute_fk, qos_profile=SERVICE_QOS, callback_group=self._group
+            ),
         ]
         summary = ", ".join(f"{name} ({c.chain.n} joints, {c.solver})" for name, c in chains.items())
         self.get_logger().info(f"chains: {summary}")
@@ -258,9 +260,16 @@ class IKServiceNode(ManagedNode):
                 return
         try:
             seed = list(request.seed) if request.seed else self._last_solution(chain.name)
-            result = config.solve(target, solver=request.solver, seed=seed, with_orientation=request.with_orientation,
-                                  tolerance=request.tolerance, max_iterations=max_iterations, timeout=timeout,
-                                  task=task)
+            result = config.solve(
+                target,
+                solver=request.solver,
+                seed=seed,
+                with_orientation=request.with_orientation,
+                tolerance=request.tolerance,
+                max_iterations=max_iterations,
+                timeout=timeout,
+                task=task,
+            )
             if result.success:
                 with self._last_lock:
                     self._last[chain.name] = result.q
@@ -322,8 +331,9 @@ class IKServiceNode(ManagedNode):
             return
         chain = config.chain
         if len(request.positions) != chain.n:
-            response.message = (f"positions has {len(request.positions)} values; "
-                                f"chain '{chain.name}' has {chain.n} joints")
+            response.message = (
+                f"positions has {len(request.positions)} values; chain '{chain.name}' has {chain.n} joints"
+            )
             return
         try:
             fk = chain.fk(list(request.positions))
@@ -334,8 +344,11 @@ class IKServiceNode(ManagedNode):
         response.joint_origins = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in fk.frames[:, :3, 3]]
         response.success = True
         q = np.asarray(request.positions)
-        outside = [name for name, value, low, high in zip(chain.joint_names, q, chain.lower, chain.upper)
-                   if not low <= value <= high]
+        outside = [
+            name
+            for name, value, low, high in zip(chain.joint_names, q, chain.lower, chain.upper)
+            if not low <= value <= high
+        ]
         response.message = "ok" + (f" (outside the joint limits: {', '.join(outside)})" if outside else "")
 
     def _serving_chain(self, name: str, response) -> ChainConfig | None:

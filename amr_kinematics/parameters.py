@@ -16,11 +16,22 @@ from amr_kinematics.config import CHAIN_KEYS
 from amr_util.parameter_spec import ParameterSpec
 
 SERVICE_PARAMETERS = (
-    ParameterSpec("max_timeout", 1.0, "s; a request's (or a chain's default) timeout above this is capped to it",
-                  minimum=1e-4, maximum=600.0, live=True),
-    ParameterSpec("max_iterations_limit", 100_000,
-                  "a request's (or a chain's default) max_iterations above this is capped to it",
-                  minimum=1, maximum=100_000_000, live=True),
+    ParameterSpec(
+        "max_timeout",
+        1.0,
+        "s; a request's (or a chain's default) timeout above this is capped to it",
+        minimum=1e-4,
+        maximum=600.0,
+        live=True,
+    ),
+    ParameterSpec(
+        "max_iterations_limit",
+        100_000,
+        "a request's (or a chain's default) max_iterations above this is capped to it",
+        minimum=1,
+        maximum=100_000_000,
+        live=True,
+    ),
 )
 CHAINS = ParameterSpec("chains", [""], "names of the chains served", kind="str_array")
 
@@ -39,8 +50,14 @@ def chain_specs(given: dict) -> tuple[ParameterSpec, ...]:
         chain, _, key = name.partition(".")
         if key in CHAIN_KEYS:
             key_spec = CHAIN_KEYS[key]
-            spec = dataclasses.replace(key_spec, name=name, description=f"{chain}: {key_spec.description}",
-                                       integers_as_floats=True, nonempty=False, default=_neutral(key_spec))
+            spec = dataclasses.replace(
+                key_spec,
+                name=name,
+                description=f"{chain}: {key_spec.description}",
+                integers_as_floats=True,
+                nonempty=False,
+                default=_neutral(key_spec),
+            )
             try:  # a valid given value is the default; a bad one is reported by the node, by name
                 spec = dataclasses.replace(spec, default=spec.coerce(given[name]))
             except ValueError:

@@ -107,8 +107,9 @@ def pose_matrix(position, quaternion=(0.0, 0.0, 0.0, 1.0)) -> np.ndarray:
     return t
 
 
-def rotation_error(r00, r01, r02, r10, r11, r12, r20, r21, r22,
-                   d00, d01, d02, d10, d11, d12, d20, d21, d22) -> tuple[float, float, float]:
+def rotation_error(
+    r00, r01, r02, r10, r11, r12, r20, r21, r22, d00, d01, d02, d10, d11, d12, d20, d21, d22
+) -> tuple[float, float, float]:
     """World-frame rotation vector (axis * angle) taking R to Rd, scalar math.
 
     Re = Rd R^T;  angle = atan2(|v|, (trace(Re) - 1) / 2), v = vee(Re - Re^T) / 2.

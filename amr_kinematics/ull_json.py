@@ -57,7 +57,9 @@ def load_ull_json(source, *, name: str = "ull", length_scale: float = 1.0) -> tu
         if missing:
             raise ChainConfigError(name, f"{where}.{missing[0]}", "is missing")
         if joint["type"] not in _TYPES:
-            raise ChainConfigError(name, f"{where}.type", f"unknown type {joint['type']!r}, expected 'rotacion' or 'prismatica'")
+            raise ChainConfigError(
+                name, f"{where}.type", f"unknown type {joint['type']!r}, expected 'rotacion' or 'prismatica'"
+            )
         for key in _KEYS[1:]:
             value = joint[key]
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -76,6 +78,7 @@ def load_ull_json(source, *, name: str = "ull", length_scale: float = 1.0) -> tu
             lower.append(float(joint["limit_inf"]) * length_scale)
             upper.append(float(joint["limit_sup"]) * length_scale)
             q0.append(float(joint["a"]) * length_scale)
-    chain = Chain(name, PLANAR, [f"joint{i}" for i in range(1, len(types) + 1)], types,
-                  theta=theta, a=a, lower=lower, upper=upper)
+    chain = Chain(
+        name, PLANAR, [f"joint{i}" for i in range(1, len(types) + 1)], types, theta=theta, a=a, lower=lower, upper=upper
+    )
     return chain, np.array(q0)

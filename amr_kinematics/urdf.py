@@ -43,7 +43,7 @@ def urdf_text(source: str, key: str, chain: str) -> str:
     if source.startswith(PACKAGE_SCHEME):
         from amr_util.share import share_directory
 
-        package, _, relative = source[len(PACKAGE_SCHEME):].partition("/")
+        package, _, relative = source[len(PACKAGE_SCHEME) :].partition("/")
         if not package or not relative:
             raise ChainConfigError(chain, key, f"{source!r}: expected package://<package>/<path>")
         path = share_directory(package) / relative
@@ -120,8 +120,11 @@ def urdf_chain(name: str, source: str, base_link: str, tip_link: str, *, base=No
         if kind == "fixed":
             continue
         if kind not in _MOVING:
-            raise ChainConfigError(name, "urdf", f"{where} is {kind!r}: a serial chain takes revolute, continuous, "
-                                                 f"prismatic and fixed joints")
+            raise ChainConfigError(
+                name,
+                "urdf",
+                f"{where} is {kind!r}: a serial chain takes revolute, continuous, prismatic and fixed joints",
+            )
         axis = _vector(joint.find("axis"), "xyz", "1 0 0", name, where)
         if np.linalg.norm(axis) < 1e-9:
             raise ChainConfigError(name, "urdf", f"{where} has a zero axis")
@@ -147,8 +150,9 @@ def urdf_chain(name: str, source: str, base_link: str, tip_link: str, *, base=No
         if mimic is not None:
             mimics.append((len(names) - 1, mimic, where))
     if not names:
-        raise ChainConfigError(name, "urdf", f"no moving joint between {base_link!r} and {tip_link!r}: "
-                                             "a chain needs at least one joint")
+        raise ChainConfigError(
+            name, "urdf", f"no moving joint between {base_link!r} and {tip_link!r}: a chain needs at least one joint"
+        )
     tip = pending if tool is None else pending @ tool
     couplings = []
     for index, mimic, where in mimics:
@@ -163,5 +167,17 @@ def urdf_chain(name: str, source: str, base_link: str, tip_link: str, *, base=No
         coefficients[names.index(leader)] = multiplier
         couplings.append(Coupling(index, offset, coefficients))
     zeros = [0.0] * len(names)
-    return Chain(name, URDF, names, types, theta=zeros, a=zeros, lower=lower, upper=upper, base=base, tool=tip,
-                 couplings=couplings, joint_origins=origins)
+    return Chain(
+        name,
+        URDF,
+        names,
+        types,
+        theta=zeros,
+        a=zeros,
+        lower=lower,
+        upper=upper,
+        base=base,
+        tool=tip,
+        couplings=couplings,
+        joint_origins=origins,
+    )

@@ -59,8 +59,12 @@ class BeaconUpdate:
 
 
 class BeaconLocalizer:
-    def __init__(self, beacons, config: BeaconLocalizerConfig | None = None,
-                 initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+    def __init__(
+        self,
+        beacons,
+        config: BeaconLocalizerConfig | None = None,
+        initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> None:
         self.beacons = checked_beacons(beacons)
         self.config = config or BeaconLocalizerConfig()
         if not all(map(math.isfinite, initial_pose)):
@@ -72,8 +76,9 @@ class BeaconLocalizer:
         """Half side of a square centred on `centre` covering the beacons' bounding box plus the margin."""
         low = self.beacons.min(axis=0) - self.config.margin
         high = self.beacons.max(axis=0) + self.config.margin
-        return float(max(abs(centre[0] - low[0]), abs(centre[0] - high[0]),
-                         abs(centre[1] - low[1]), abs(centre[1] - high[1])))
+        return float(
+            max(abs(centre[0] - low[0]), abs(centre[0] - high[0]), abs(centre[1] - low[1]), abs(centre[1] - high[1]))
+        )
 
     def update(self, odometry: tuple[float, float, float], ranges, compass: float) -> BeaconUpdate:
         if len(odometry) != 3 or not all(map(math.isfinite, odometry)):

@@ -29,9 +29,13 @@ from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 
 BEACONS, ODOMETRY = 0, 1
-INITIAL_POSE = ParameterSpec("initial_pose", [0.0, 0.0, 0.0], "[x, y, theta] the pose is tracked from until the first "
-                             "relocalization", kind="float_array",
-                             check=lambda v: None if len(v) == 3 else "must be [x, y, theta]")
+INITIAL_POSE = ParameterSpec(
+    "initial_pose",
+    [0.0, 0.0, 0.0],
+    "[x, y, theta] the pose is tracked from until the first relocalization",
+    kind="float_array",
+    check=lambda v: None if len(v) == 3 else "must be [x, y, theta]",
+)
 
 
 def parameter_specs() -> tuple[ParameterSpec, ...]:
@@ -100,8 +104,9 @@ class BeaconLocalizerNode(LocalizerNode):
         try:
             self._localize(reading, odometry)
         except Exception as error:  # a localizer bug must not take the node down
-            self.get_logger().error(f"beacon update failed: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                f"beacon update failed: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _localize(self, reading: BeaconRanges, odometry: Odometry) -> None:
         positions = messages.beacon_positions(reading)
@@ -129,8 +134,10 @@ class BeaconLocalizerNode(LocalizerNode):
             status.updated = True
             status.update_time = update.search_time
             if update.relocalized:
-                status.event = (f"relocalized: mismatch {update.mismatch:.3f} -> {update.search.cost:.3f}, "
-                                f"{update.search.evaluations} evaluations")
+                status.event = (
+                    f"relocalized: mismatch {update.mismatch:.3f} -> {update.search.cost:.3f}, "
+                    f"{update.search.evaluations} evaluations"
+                )
         status.localized = localized
         status.confidence = 1.0 if localized else 0.0  # the pyramid search's verdict: no probability of its own
         x, y, theta = localizer.pose

@@ -41,8 +41,10 @@ def same_beacons(expected: np.ndarray, positions, tolerance: float = 1e-6) -> No
     moved = np.flatnonzero(np.hypot(*(array - expected).T) > tolerance)
     if moved.size:
         i = int(moved[0])
-        raise BeaconError(f"beacons: beacon {i} at ({array[i, 0]:.3f}, {array[i, 1]:.3f}), expected "
-                                f"({expected[i, 0]:.3f}, {expected[i, 1]:.3f}) (positions changed)")
+        raise BeaconError(
+            f"beacons: beacon {i} at ({array[i, 0]:.3f}, {array[i, 1]:.3f}), expected "
+            f"({expected[i, 0]:.3f}, {expected[i, 1]:.3f}) (positions changed)"
+        )
 
 
 @dataclass(frozen=True)
@@ -59,8 +61,9 @@ class BeaconReading:
             raise BeaconError(f"beacon ranges: expected {beacon_count} values (one per beacon), got {values.size}")
         bad = np.flatnonzero(~np.isfinite(values) | (values < 0.0))
         if bad.size:
-            raise BeaconError(f"beacon ranges: range {bad[0]} is {values[bad[0]]}: every range must be a "
-                                    "finite number >= 0")
+            raise BeaconError(
+                f"beacon ranges: range {bad[0]} is {values[bad[0]]}: every range must be a finite number >= 0"
+            )
         if not math.isfinite(compass):
             raise BeaconError(f"beacon ranges: compass heading must be finite, got {compass}")
         return cls(values, float(compass))

@@ -46,8 +46,9 @@ def beam_weights(beams: Beams, length: float) -> np.ndarray:
     if length <= 0.0 or not returned.any():
         return weights
     ends = np.column_stack([beams.ranges * np.cos(beams.angles), beams.ranges * np.sin(beams.angles)])[returned]
-    _, cell, counts = np.unique(np.floor(ends / length).astype(np.int64), axis=0, return_inverse=True,
-                                return_counts=True)
+    _, cell, counts = np.unique(
+        np.floor(ends / length).astype(np.int64), axis=0, return_inverse=True, return_counts=True
+    )
     weights[returned] = 1.0 / counts[cell.ravel()]
     return weights
 
@@ -63,6 +64,3 @@ def scan_weight(moved: float, turned: float, distance: float) -> float:
 def beams_in_view(weights: np.ndarray) -> float:
     """The number of independent beams a scan counts as (the sum of its beam weights)."""
     return float(np.sum(weights)) if len(weights) else 0.0
-
-
-

@@ -54,7 +54,12 @@ def map_faces(field: DistanceField) -> np.ndarray:
     grid = field.grid
     occupied = field.distances == 0.0
     rows = ["".join("#" if cell else "." for cell in row) for row in occupied[::-1]]
-    world = world_from_dict({"grid": {"cell_size": grid.resolution, "origin": list(grid.origin[:2]), "rows": rows}, "start": [0.0, 0.0, 0.0]})
+    world = world_from_dict(
+        {
+            "grid": {"cell_size": grid.resolution, "origin": list(grid.origin[:2]), "rows": rows},
+            "start": [0.0, 0.0, 0.0],
+        }
+    )
     return world.faces
 
 

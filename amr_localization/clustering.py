@@ -34,8 +34,14 @@ class Clusters:
         return len(self.weights)
 
 
-def cluster_particles(xy: np.ndarray, weights: np.ndarray, radius: float, min_size: int,
-                      headings: np.ndarray | None = None, heading_bin: float = math.pi / 12) -> Clusters:
+def cluster_particles(
+    xy: np.ndarray,
+    weights: np.ndarray,
+    radius: float,
+    min_size: int,
+    headings: np.ndarray | None = None,
+    heading_bin: float = math.pi / 12,
+) -> Clusters:
     """Clusters of the (N, 2) positions (and headings, if given), ranked by weight."""
     cells = np.floor(xy / radius).astype(np.int64)
     if headings is not None:

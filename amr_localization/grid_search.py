@@ -43,7 +43,7 @@ def exhaustive_search(cost: Cost, centre, radius: float, step: float, batch: int
     best, best_cost, evaluations = centre, math.inf, 0
     rows = max(1, batch // offsets.size)
     for start in range(0, offsets.size, rows):  # in strips, so a fine grid over a big square fits in memory
-        gx, gy = np.meshgrid(centre[0] + offsets[start:start + rows], centre[1] + offsets, indexing="ij")
+        gx, gy = np.meshgrid(centre[0] + offsets[start : start + rows], centre[1] + offsets, indexing="ij")
         points = np.column_stack([gx.ravel(), gy.ravel()])
         costs = cost(points)
         evaluations += len(points)

@@ -105,8 +105,9 @@ class PlaceHypotheses:
             if not keep[i]:
                 continue
             later = np.arange(i + 1, len(self))
-            near = (np.hypot(*(self.poses[later, :2] - self.poses[i, :2]).T) <= MERGE_DISTANCE) & \
-                (np.abs(wrap_angle(self.poses[later, 2] - self.poses[i, 2])) <= MERGE_ANGLE)
+            near = (np.hypot(*(self.poses[later, :2] - self.poses[i, :2]).T) <= MERGE_DISTANCE) & (
+                np.abs(wrap_angle(self.poses[later, 2] - self.poses[i, 2])) <= MERGE_ANGLE
+            )
             keep[later[near]] = False
         self.poses, self.evidence = self.poses[keep], self.evidence[keep]
 
@@ -115,8 +116,10 @@ class PlaceHypotheses:
         if index >= len(self):
             return False
         other = self.poses[index]
-        return bool(math.hypot(pose[0] - other[0], pose[1] - other[1]) <= MERGE_DISTANCE
-                    and abs(float(wrap_angle(pose[2] - other[2]))) <= MERGE_ANGLE)
+        return bool(
+            math.hypot(pose[0] - other[0], pose[1] - other[1]) <= MERGE_DISTANCE
+            and abs(float(wrap_angle(pose[2] - other[2]))) <= MERGE_ANGLE
+        )
 
     def reanchor(self, index: int, pose: np.ndarray) -> None:
         """Hypothesis `index` is at `pose` now (its cluster's mean, fitted by the latest scan)."""
@@ -137,8 +140,7 @@ class PlaceHypotheses:
         """Each hypothesis's evidence grows by the data's (weighted) log-likelihood at its pose, `elsewhere`'s by
         the data's marginal log-likelihood over the map."""
         if len(self):
-            self.evidence = self.evidence + np.nan_to_num(np.asarray(log_likelihood, float), nan=-np.inf,
-                                                          neginf=-1e9)
+            self.evidence = self.evidence + np.nan_to_num(np.asarray(log_likelihood, float), nan=-np.inf, neginf=-1e9)
             self.elsewhere += float(elsewhere) if np.isfinite(elsewhere) else 0.0
             self._rank()
 

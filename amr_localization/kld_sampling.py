@@ -31,5 +31,7 @@ def kld_sample_count(occupied_bins: int, epsilon: float, delta: float) -> int:
 
 def occupied_bins(particles: np.ndarray, bin_size: float, bin_angle: float) -> int:
     """How many (x, y, theta) bins of the given sizes hold at least one particle."""
-    keys = np.floor(np.column_stack([particles[:, 0] / bin_size, particles[:, 1] / bin_size, particles[:, 2] / bin_angle]))
+    keys = np.floor(
+        np.column_stack([particles[:, 0] / bin_size, particles[:, 1] / bin_size, particles[:, 2] / bin_angle])
+    )
     return len(np.unique(keys.astype(np.int64), axis=0))

@@ -56,7 +56,9 @@ class LikelihoodFieldParams:
 class LikelihoodField:
     """log p(scan | pose) for many poses at once."""
 
-    def __init__(self, field: DistanceField, params: LikelihoodFieldParams, mount: SensorMount, range_max: float) -> None:
+    def __init__(
+        self, field: DistanceField, params: LikelihoodFieldParams, mount: SensorMount, range_max: float
+    ) -> None:
         if not math.isfinite(range_max) or range_max <= 0.0:
             raise LocalizationError(f"range_max: must be a positive number, got {range_max!r}")
         self.params = params
@@ -90,12 +92,24 @@ class LikelihoodField:
         row0 = (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0
         out = np.empty(len(particles))
         rows, cols = self._shape
-        _sum_log_likelihood(self._table, rows, cols, col0, row0, np.cos(sensor[:, 2]), np.sin(sensor[:, 2]),
-                            along, across, beam_weights, out)
+        _sum_log_likelihood(
+            self._table,
+            rows,
+            cols,
+            col0,
+            row0,
+            np.cos(sensor[:, 2]),
+            np.sin(sensor[:, 2]),
+            along,
+            across,
+            beam_weights,
+            out,
+        )
         return out
 
-    def log_likelihood_free_path(self, particles: np.ndarray, beams: Beams, margin: float,
-                                 per_beam: bool = False) -> np.ndarray:
+    def log_likelihood_free_path(
+        self, particles: np.ndarray, beams: Beams, margin: float, per_beam: bool = False
+    ) -> np.ndarray:
         """(N,) log_likelihood, except that a beam whose path from the sensor to `margin` m short of its end
         point goes through a wall scores as a random reading (log z_rand / range_max) at best. A beam without
         a return (beams selected with keep_no_return) scores 0, as in log_likelihood, unless a wall stands
@@ -116,8 +130,21 @@ class LikelihoodField:
         row0 = (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0
         out = np.empty((len(particles), len(ranges)))
         rows, cols = self._shape
-        _free_path_terms(self._table, self._cells, rows, cols, col0, row0, sensor[:, 2], beams.angles, ranges,
-                         beams.returned, margin / self._resolution, self._see_through, out)
+        _free_path_terms(
+            self._table,
+            self._cells,
+            rows,
+            cols,
+            col0,
+            row0,
+            sensor[:, 2],
+            beams.angles,
+            ranges,
+            beams.returned,
+            margin / self._resolution,
+            self._see_through,
+            out,
+        )
         return out if per_beam else out.sum(axis=1)
 
 

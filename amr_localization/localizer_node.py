@@ -29,16 +29,28 @@ WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
 
 SHELL_SPECS = (
-    ParameterSpec("global_frame_id", "map", "frame of /pose (and /particle_cloud): the parent of the published "
-                  "transform (AMCL global_frame_id)"),
-    ParameterSpec("odom_frame_id", "odom", "frame of the odometry: the child of the published transform "
-                  "(AMCL odom_frame_id)"),
-    ParameterSpec("tf_broadcast", True, "publish map -> odom on /tf after every observation processed "
-                  "(AMCL tf_broadcast)"),
-    ParameterSpec("sync_slop", 0.05, "s, the stamps of paired inputs differ by at most this", minimum=0.0, maximum=100.0),
+    ParameterSpec(
+        "global_frame_id",
+        "map",
+        "frame of /pose (and /particle_cloud): the parent of the published transform (AMCL global_frame_id)",
+    ),
+    ParameterSpec(
+        "odom_frame_id", "odom", "frame of the odometry: the child of the published transform (AMCL odom_frame_id)"
+    ),
+    ParameterSpec(
+        "tf_broadcast", True, "publish map -> odom on /tf after every observation processed (AMCL tf_broadcast)"
+    ),
+    ParameterSpec(
+        "sync_slop", 0.05, "s, the stamps of paired inputs differ by at most this", minimum=0.0, maximum=100.0
+    ),
     ParameterSpec("sync_queue_size", 10, "messages kept per input while pairing", minimum=1, maximum=1000),
-    ParameterSpec("stamp_jump_threshold", 0.5, "s: stamps this much older than the last pair mean the clock "
-                  "jumped (a simulator reset): pairing starts afresh", minimum=0.01, maximum=3600.0),
+    ParameterSpec(
+        "stamp_jump_threshold",
+        0.5,
+        "s: stamps this much older than the last pair mean the clock jumped (a simulator reset): pairing starts afresh",
+        minimum=0.01,
+        maximum=3600.0,
+    ),
 )
 
 
@@ -55,15 +67,22 @@ class LocalizerNode(ManagedNode):
         self._warned_at: dict[str, float] = {}
 
     def _start_pairing(self, values: dict, callback) -> None:
-        self._sync = ApproximateTimeSynchronizer(len(self.INPUTS), values["sync_slop"], values["sync_queue_size"],
-                                                 callback, jump_threshold=values["stamp_jump_threshold"],
-                                                 on_jump=self._on_clock_jump)
+        self._sync = ApproximateTimeSynchronizer(
+            len(self.INPUTS),
+            values["sync_slop"],
+            values["sync_queue_size"],
+            callback,
+            jump_threshold=values["stamp_jump_threshold"],
+            on_jump=self._on_clock_jump,
+        )
 
     def _create_estimate_outputs(self, values: dict) -> None:
-        self._outputs.update({
-            "pose": self.create_lifecycle_publisher(LocalizedPose, "pose", reliable()),
-            "status": self.create_lifecycle_publisher(LocalizerStatus, "~/status", reliable()),
-        })
+        self._outputs.update(
+            {
+                "pose": self.create_lifecycle_publisher(LocalizedPose, "pose", reliable()),
+                "status": self.create_lifecycle_publisher(LocalizerStatus, "~/status", reliable()),
+            }
+        )
         if values["tf_broadcast"]:  # relative: /tf in the root namespace, /r1/tf for a robot of a fleet (as the
             # simulator publishes each robot's odom -> base_footprint, nav2's multi-robot layout)
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
@@ -81,23 +100,29 @@ class LocalizerNode(ManagedNode):
         except SyncError as error:  # a malformed or negative stamp
             self._warn(str(error))
         except Exception as error:  # the pair callbacks log their own; this is the synchronizer's
-            self.get_logger().error(f"input dropped: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                f"input dropped: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         self.get_logger().warning(
             f"/{self.INPUTS[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: pairing restarted "
-            "(the estimate is kept; an odometry reset is detected by its jump)")
+            "(the estimate is kept; an odometry reset is detected by its jump)"
+        )
 
-    def _publish_estimate(self, stamp: TimeMessage, odometry: Odometry, pose: PoseEstimate, localized: bool,
-                          status: LocalizerStatus) -> bool:
+    def _publish_estimate(
+        self, stamp: TimeMessage, odometry: Odometry, pose: PoseEstimate, localized: bool, status: LocalizerStatus
+    ) -> bool:
         """/pose, map -> odom and ~/status for one observation; False (and nothing sent) if not finite."""
         if not messages.is_finite(pose):
-            self.get_logger().error("the estimate is not finite: nothing published", throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                "the estimate is not finite: nothing published", throttle_duration_sec=WARNING_PERIOD
+            )
             return False
         frame = self._settings["global_frame_id"]
-        self._outputs["pose"].publish(messages.localized_pose(stamp, frame, pose, localized, status.confidence,
-                                                              status.runner_up_confidence))
+        self._outputs["pose"].publish(
+            messages.localized_pose(stamp, frame, pose, localized, status.confidence, status.runner_up_confidence)
+        )
         odom = messages.odometry_pose(odometry)
         if "tf" in self._outputs and all(map(math.isfinite, odom)):
             correction = map_to_odom((pose.x, pose.y, pose.theta), odom)

@@ -69,20 +69,27 @@ def initial_pose(message: PoseWithCovariance) -> tuple[float, float, float, np.n
     if abs(math.sqrt(q.w**2 + q.x**2 + q.y**2 + q.z**2) - 1.0) > 1e-3:
         raise LocalizationError("initial pose: the orientation is not a unit quaternion")
     covariance = planar_covariance(message)
-    return (float(message.pose.position.x), float(message.pose.position.y), yaw_from_quaternion(q),
-            None if not covariance.any() else covariance)
+    return (
+        float(message.pose.position.x),
+        float(message.pose.position.y),
+        yaw_from_quaternion(q),
+        None if not covariance.any() else covariance,
+    )
 
 
 def is_finite(estimate: PoseEstimate) -> bool:
     return all(map(math.isfinite, (estimate.x, estimate.y, estimate.theta))) and bool(
-        np.isfinite(estimate.covariance).all())
+        np.isfinite(estimate.covariance).all()
+    )
 
 
-def localized_pose(stamp: Time, frame: str, estimate: PoseEstimate, localized: bool, confidence: float = 0.0,
-                   runner_up: float = 0.0) -> LocalizedPose:
+def localized_pose(
+    stamp: Time, frame: str, estimate: PoseEstimate, localized: bool, confidence: float = 0.0, runner_up: float = 0.0
+) -> LocalizedPose:
     """/pose: the estimate, its covariance, localized, and the best and second best places' probabilities."""
-    message = LocalizedPose(localized=bool(localized), confidence=_probability(confidence),
-                            runner_up_confidence=_probability(runner_up))
+    message = LocalizedPose(
+        localized=bool(localized), confidence=_probability(confidence), runner_up_confidence=_probability(runner_up)
+    )
     message.header.stamp, message.header.frame_id = stamp, frame
     message.pose = pose_with_covariance(estimate.x, estimate.y, estimate.theta, estimate.covariance)
     return message
@@ -103,10 +110,19 @@ def particle_cloud(stamp: Time, frame: str, particles: np.ndarray) -> PoseArray:
 def localizer_status(status: FilterStatus, localized: bool) -> LocalizerStatus:
     """The filter's status (header left for the publisher to stamp)."""
     return LocalizerStatus(
-        particles=status.particles, clusters=status.clusters, effective_sample_size=float(status.effective_sample_size),
-        confidence=_probability(status.confidence), runner_up_confidence=_probability(status.runner_up),
-        beams=float(status.beams), scan_weight=_probability(status.scan_weight), injected=status.injected,
-        updated=status.updated, update_time=float(status.update_time), localized=bool(localized), event=status.event)
+        particles=status.particles,
+        clusters=status.clusters,
+        effective_sample_size=float(status.effective_sample_size),
+        confidence=_probability(status.confidence),
+        runner_up_confidence=_probability(status.runner_up),
+        beams=float(status.beams),
+        scan_weight=_probability(status.scan_weight),
+        injected=status.injected,
+        updated=status.updated,
+        update_time=float(status.update_time),
+        localized=bool(localized),
+        event=status.event,
+    )
 
 
 def _probability(value: float) -> float:

@@ -73,7 +73,9 @@ def sample_motion_model_odometry(
     count = len(particles)
     draws = rng.standard_normal((count, 3))
     rot1 = d_rot1 - draws[:, 0] * math.sqrt(noise.alpha1 * rot1_noise**2 + noise.alpha2 * d_trans**2)
-    trans = d_trans - draws[:, 1] * math.sqrt(noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1_noise**2 + rot2_noise**2))
+    trans = d_trans - draws[:, 1] * math.sqrt(
+        noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1_noise**2 + rot2_noise**2)
+    )
     rot2 = d_rot2 - draws[:, 2] * math.sqrt(noise.alpha1 * rot2_noise**2 + noise.alpha2 * d_trans**2)
     moved = np.empty_like(particles)
     heading = particles[:, 2] + rot1

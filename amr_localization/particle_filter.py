@@ -166,7 +166,9 @@ class ParticleFilter:
         if config.laser_model_type == "beam":
             self._laser = BeamModel(self.field, BeamModelParams(sigma_hit=config.sigma_hit), self.mount)
         else:
-            params = LikelihoodFieldParams(config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist)
+            params = LikelihoodFieldParams(
+                config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist
+            )
             self._laser = LikelihoodField(self.field, params, self.mount, range_max)
         self._grid = grid
         self._matcher: CorrelativeMatcher | None = None  # built at first use
@@ -210,7 +212,9 @@ class ParticleFilter:
         the one place hypothesis until the scans propose others."""
         if not all(map(math.isfinite, (x, y, theta))):
             raise LocalizationError(f"initial pose: must be finite, got ({x}, {y}, {theta})")
-        covariance = np.diag([0.25**2, 0.25**2, (math.pi / 12) ** 2]) if covariance is None else np.asarray(covariance, float)
+        covariance = (
+            np.diag([0.25**2, 0.25**2, (math.pi / 12) ** 2]) if covariance is None else np.asarray(covariance, float)
+        )
         if covariance.shape != (3, 3) or not np.isfinite(covariance).all():
             raise LocalizationError("initial pose: covariance must be a finite 3x3 matrix over x, y, theta")
         covariance = 0.5 * (covariance + covariance.T) + 1e-12 * np.eye(3)
@@ -269,15 +273,23 @@ class ParticleFilter:
             raise OdometryError(f"odometry: pose must be 3 finite numbers (x, y, theta), got {odometry}")
         if stamp is not None and not math.isfinite(float(stamp)):
             raise OdometryError(f"stamp: must be a finite number of s, got {stamp!r}")
-        selected = select_beams(scan, self.config.max_beams, self.config.laser_model_type == "beam") if scan is not None else None
+        selected = (
+            select_beams(scan, self.config.max_beams, self.config.laser_model_type == "beam")
+            if scan is not None
+            else None
+        )
         if beacons is not None and self.beacons is None:
             raise BeaconError("beacon ranges: this filter was built without beacon positions")
         if beacons is not None and len(beacons.ranges) != len(self.beacons):
             raise BeaconError(f"beacon ranges: expected {len(self.beacons)} values, got {len(beacons.ranges)}")
         previous = self.status
-        self.status = FilterStatus(particles=len(self.particles), clusters=len(self.hypotheses),
-                                   effective_sample_size=previous.effective_sample_size,
-                                   confidence=previous.confidence, runner_up=previous.runner_up)
+        self.status = FilterStatus(
+            particles=len(self.particles),
+            clusters=len(self.hypotheses),
+            effective_sample_size=previous.effective_sample_size,
+            confidence=previous.confidence,
+            runner_up=previous.runner_up,
+        )
         elapsed = DEFAULT_PERIOD if stamp is None or self._stamp is None else max(float(stamp) - self._stamp, 0.0)
         if stamp is not None:
             self._stamp = float(stamp)
@@ -304,8 +316,10 @@ class ParticleFilter:
                 since_estimate = relative_pose(self._odometry, self._estimate_odometry)
                 self._estimate_odometry = tuple(compose(np.array([odometry]), since_estimate)[0])
             self._odometry = odometry
-            self.status.event = (f"odometry jumped {d_trans:.2f} m in {elapsed:.2f} s: taken as a reset, not as motion; "
-                                 "the filter carries on from here")
+            self.status.event = (
+                f"odometry jumped {d_trans:.2f} m in {elapsed:.2f} s: taken as a reset, not as motion; "
+                "the filter carries on from here"
+            )
             return
         if d_trans < self.config.update_min_d and d_theta < self.config.update_min_a:
             return
@@ -332,8 +346,11 @@ class ParticleFilter:
         used = 0.0
         if beams is not None:
             weights = beam_weights(beams, config.beam_correlation_length)
-            gain = scan_weight(*self._moved, config.scan_correlation_distance) if self._window or len(self.hypotheses) \
+            gain = (
+                scan_weight(*self._moved, config.scan_correlation_distance)
+                if self._window or len(self.hypotheses)
                 else 1.0
+            )
             seen = _Seen(self._odometry, beams, weights, gain)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
@@ -353,8 +370,11 @@ class ParticleFilter:
                 # neither underflows nor depends on the beam count), prior-weighted over the particles
                 per_beam = np.exp(np.clip(log_likelihood / used, -700.0, 700.0))
                 self._recovery.update(float(self.weights[alive] @ per_beam[alive] / self.weights[alive].sum()))
-            step = remaining if stage == MAX_STAGES - 1 else \
-                stage_exponent(log_prior, log_likelihood, remaining, config.resample_threshold)
+            step = (
+                remaining
+                if stage == MAX_STAGES - 1
+                else stage_exponent(log_prior, log_likelihood, remaining, config.resample_threshold)
+            )
             log_weight = log_prior + step * log_likelihood
             peak = log_weight.max()
             if not math.isfinite(peak):
@@ -398,10 +418,13 @@ class ParticleFilter:
             anywhere = self._log_likelihood(self._anywhere, seen, beacons)
             marginal = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
             hypotheses.observe(self._log_likelihood(hypotheses.poses, seen, beacons, places=True), marginal)
-        clusters = cluster_particles(self.particles[:, :2], self.weights, self.config.cluster_radius, CLUSTER_MIN_SIZE,
-                                     self.particles[:, 2])
-        candidates = [weighted_pose(self.particles[clusters.labels == label], self.weights[clusters.labels == label])
-                      for label in range(min(clusters.count, MAX_HYPOTHESES))]
+        clusters = cluster_particles(
+            self.particles[:, :2], self.weights, self.config.cluster_radius, CLUSTER_MIN_SIZE, self.particles[:, 2]
+        )
+        candidates = [
+            weighted_pose(self.particles[clusters.labels == label], self.weights[clusters.labels == label])
+            for label in range(min(clusters.count, MAX_HYPOTHESES))
+        ]
         poses = np.array([[c.x, c.y, c.theta] for c in candidates]).reshape(-1, 3)
         settled = self._localized  # a place born while localized elsewhere is one the robot was carried to
         if seen is not None:
@@ -433,8 +456,9 @@ class ParticleFilter:
             # at most as likely as the strongest: a place overtakes it only by the scans it is followed through; while
             # localized, a new place is one the robot was carried to (the kidnap prior)
             reference = hypotheses.poses[:1]
-            gain = np.minimum(self._window_score(born, seen, beacons) - self._window_score(reference, seen, beacons)[0],
-                              0.0) + (KIDNAP_LOG_PRIOR if settled else 0.0)
+            gain = np.minimum(
+                self._window_score(born, seen, beacons) - self._window_score(reference, seen, beacons)[0], 0.0
+            ) + (KIDNAP_LOG_PRIOR if settled else 0.0)
         else:
             gain = self._window_score(born, seen, beacons)
             gain = gain - gain.max()
@@ -480,8 +504,11 @@ class ParticleFilter:
             confidence = runner_up = 0.0
         else:
             member = hypotheses.find(self.particles) == 0
-            self._estimate = weighted_pose(self.particles[member], self.weights[member]) if member.any() else \
-                PoseEstimate(*map(float, hypotheses.poses[0]), np.diag([MERGE_DISTANCE**2] * 2 + [MERGE_ANGLE**2]))
+            self._estimate = (
+                weighted_pose(self.particles[member], self.weights[member])
+                if member.any()
+                else PoseEstimate(*map(float, hypotheses.poses[0]), np.diag([MERGE_DISTANCE**2] * 2 + [MERGE_ANGLE**2]))
+            )
             if seen is not None:
                 self._estimate = self._refined(self._estimate, seen)
             hypotheses.reanchor(0, np.array([self._estimate.x, self._estimate.y, self._estimate.theta]))
@@ -503,8 +530,9 @@ class ParticleFilter:
         self._declared = hypotheses.poses[0].copy() if self._localized else None
         self.status.confidence, self.status.runner_up = confidence, runner_up
 
-    def _log_likelihood(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None,
-                        places: bool = False) -> np.ndarray:
+    def _log_likelihood(
+        self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, places: bool = False
+    ) -> np.ndarray:
         """(H,) the data's log-likelihood at each pose, weighted as the particles' is. places: the likelihood field
         with the beam model's free path (LikelihoodField.log_likelihood_free_path: a beam through a wall of the map
         there scores as a random reading), for the few poses of place hypotheses; the particles' field alone scores
@@ -521,8 +549,9 @@ class ParticleFilter:
         elif seen is not None:
             total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)
         if beacons is not None:
-            total += beacon_log_likelihood(poses, self.beacons, beacons, self.config.beacon_sigma_range,
-                                           self.config.beacon_sigma_compass)
+            total += beacon_log_likelihood(
+                poses, self.beacons, beacons, self.config.beacon_sigma_range, self.config.beacon_sigma_compass
+            )
         return total
 
     def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
@@ -557,12 +586,15 @@ class ParticleFilter:
         poses = np.array(poses, dtype=float).reshape(-1, 3)
         fitted = poses.copy()
         for row, pose in enumerate(poses):
-            match = self.matcher.match(points, pose, max(FIT_WINDOW, window), FIT_ANGLE, refine=True, covariance_cells=0)
+            match = self.matcher.match(
+                points, pose, max(FIT_WINDOW, window), FIT_ANGLE, refine=True, covariance_cells=0
+            )
             if np.isfinite(match.pose).all():
                 fitted[row] = match.pose[0], match.pose[1], float(wrap_angle(match.pose[2]))
         # the matcher's table is flat a wall thick: its fit is kept where the places' model scores it no lower
-        better = self._log_likelihood(fitted, seen, None, places=True) >= self._log_likelihood(poses, seen, None,
-                                                                                               places=True)
+        better = self._log_likelihood(fitted, seen, None, places=True) >= self._log_likelihood(
+            poses, seen, None, places=True
+        )
         return np.where(better[:, None], fitted, poses)
 
     def _refined(self, estimate: PoseEstimate, seen: _Seen) -> PoseEstimate:
@@ -589,8 +621,14 @@ class ParticleFilter:
             matcher, region = self._place_search_map()
             points = self._points(seen.beams)
             points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
-            search = GlobalSearch(matcher, points, region, count=SEARCH_PROPOSALS,
-                                  min_separation=2.0 * MERGE_DISTANCE, min_angle_separation=2.0 * MERGE_ANGLE)
+            search = GlobalSearch(
+                matcher,
+                points,
+                region,
+                count=SEARCH_PROPOSALS,
+                min_separation=2.0 * MERGE_DISTANCE,
+                min_angle_separation=2.0 * MERGE_ANGLE,
+            )
             self._search = (search, self._odometry)
         search, odometry = self._search
         search.step(budget, refine=False)
@@ -615,15 +653,17 @@ class ParticleFilter:
 
             def pooled(mask: np.ndarray) -> np.ndarray:
                 padded = np.zeros((rows * factor, cols * factor), dtype=bool)
-                padded[:grid.height, :grid.width] = mask
+                padded[: grid.height, : grid.width] = mask
                 return padded.reshape(rows, factor, cols, factor).any(axis=(1, 3))
 
             occupied, known = pooled(grid.occupied()), pooled(grid.data >= 0)
             data = np.where(occupied, 100, np.where(known, 0, -1)).astype(np.int8)
             coarse = OccupancyGrid(data, grid.resolution * factor, grid.origin, grid.frame_id)
             sigma = max(self.config.sigma_hit, coarse.resolution)
-            self._coarse = (CorrelativeMatcher(ScoreMap.from_occupancy(coarse, sigma=sigma)),
-                            pooled(self.free_space.mask) & ~occupied)
+            self._coarse = (
+                CorrelativeMatcher(ScoreMap.from_occupancy(coarse, sigma=sigma)),
+                pooled(self.free_space.mask) & ~occupied,
+            )
         return self._coarse
 
     @property
@@ -634,12 +674,16 @@ class ParticleFilter:
         """max_particles while the belief is spread over several places (or not yet known to cover the map), else
         what KLD-sampling asks for the particles that would survive resampling."""
         config = self.config
-        if not (self._covered and (len(self.hypotheses) == 1 or
-                                   (len(self._shares) and self._shares[0] >= config.localized_probability))):
+        if not (
+            self._covered
+            and (len(self.hypotheses) == 1 or (len(self._shares) and self._shares[0] >= config.localized_probability))
+        ):
             return config.max_particles
         bins = occupied_bins(self.particles[self.weights * len(self.particles) >= 1.0], KLD_BIN_SIZE, KLD_BIN_ANGLE)
-        return min(max(kld_sample_count(bins, config.kld_epsilon, config.kld_delta), config.min_particles),
-                   config.max_particles)
+        return min(
+            max(kld_sample_count(bins, config.kld_epsilon, config.kld_delta), config.min_particles),
+            config.max_particles,
+        )
 
     def _resample(self, count: int | None = None) -> None:
         """Systematic resampling to `count` particles with augmented MCL's random ones; without a count (between the

@@ -105,10 +105,16 @@ class ParticleFilterConfig(Config):
 
     def validate(self) -> None:
         if self.max_particles < self.min_particles:
-            raise ConfigError(f"max_particles: must be >= min_particles ({self.min_particles}), got {self.max_particles}")
+            raise ConfigError(
+                f"max_particles: must be >= min_particles ({self.min_particles}), got {self.max_particles}"
+            )
         if self.recovery_alpha_slow > self.recovery_alpha_fast:
-            raise ConfigError(f"recovery_alpha_slow: needs 0 <= recovery_alpha_slow <= recovery_alpha_fast <= 1, "
-                              f"got {self.recovery_alpha_slow} > {self.recovery_alpha_fast}")
+            raise ConfigError(
+                f"recovery_alpha_slow: needs 0 <= recovery_alpha_slow <= recovery_alpha_fast <= 1, "
+                f"got {self.recovery_alpha_slow} > {self.recovery_alpha_fast}"
+            )
         if self.release_probability > self.localized_probability:
-            raise ConfigError(f"release_probability: must be <= localized_probability ({self.localized_probability}), "
-                              f"got {self.release_probability}")
+            raise ConfigError(
+                f"release_probability: must be <= localized_probability ({self.localized_probability}), "
+                f"got {self.release_probability}"
+            )

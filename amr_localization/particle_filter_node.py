@@ -84,8 +84,9 @@ class ParticleFilterNode(LocalizerNode):
         if not problems:
             try:
                 if not (values["use_scan"] or values["use_beacons"]):
-                    raise LocalizationError("use_scan and use_beacons are both false: the filter has nothing to "
-                                            "measure (set at least one)")
+                    raise LocalizationError(
+                        "use_scan and use_beacons are both false: the filter has nothing to measure (set at least one)"
+                    )
                 self._config = config_of(values)
                 grid = self._static_map(values)
                 self.filter = self._build_filter(grid) if grid is not None else None
@@ -102,11 +103,16 @@ class ParticleFilterNode(LocalizerNode):
         source = values["world"] or values["map_yaml"] or f"topic {values['map_topic']} (waiting)"
         beacons = ""
         if values["use_beacons"]:
-            beacons = (f"; {len(self._beacon_positions)} beacons from the world" if self._beacon_positions is not None
-                       else "; beacon positions from the first /beacons reading")
-        self.get_logger().info(f"configured: map from {source}, "
-                               f"{self.filter.config.max_particles if self.filter else 0} particles spread over free space; "
-                               f"paired: {' + '.join('/' + name for name in self.INPUTS)}{beacons}")
+            beacons = (
+                f"; {len(self._beacon_positions)} beacons from the world"
+                if self._beacon_positions is not None
+                else "; beacon positions from the first /beacons reading"
+            )
+        self.get_logger().info(
+            f"configured: map from {source}, "
+            f"{self.filter.config.max_particles if self.filter else 0} particles spread over free space; "
+            f"paired: {' + '.join('/' + name for name in self.INPUTS)}{beacons}"
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def _static_map(self, values: dict) -> OccupancyGrid | None:
@@ -122,22 +128,29 @@ class ParticleFilterNode(LocalizerNode):
         return None
 
     def _build_filter(self, grid: OccupancyGrid) -> ParticleFilter:
-        return ParticleFilter(grid, self._config, range_max=self.get_parameter("laser_max_range").value,
-                              beacons=self._beacon_positions)
+        return ParticleFilter(
+            grid, self._config, range_max=self.get_parameter("laser_max_range").value, beacons=self._beacon_positions
+        )
 
     def _create_interfaces(self, values: dict) -> None:
         qos = reliable(values["sync_queue_size"])
         self._create_estimate_outputs(values)
         self._outputs["cloud"] = self.create_lifecycle_publisher(PoseArray, "particle_cloud", reliable(2))
         kinds = {"odometry": (Odometry, qos), "scan": (LaserScan, SENSOR_DATA), "beacons": (BeaconRanges, qos)}
-        self._inputs = [self.create_subscription(kinds[name][0], name, self._input_callback(index), kinds[name][1])
-                        for index, name in enumerate(self.INPUTS)]
+        self._inputs = [
+            self.create_subscription(kinds[name][0], name, self._input_callback(index), kinds[name][1])
+            for index, name in enumerate(self.INPUTS)
+        ]
         self._inputs.append(
-            self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, reliable()))
+            self.create_subscription(PoseWithCovarianceStamped, "initialpose", self._on_initial_pose, reliable())
+        )
         if self.filter is None:
             self._inputs.append(
-                self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, LATCHED))
-        self._node_services = [self.create_active_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)]
+                self.create_subscription(OccupancyGridMessage, values["map_topic"], self._on_map, LATCHED)
+            )
+        self._node_services = [
+            self.create_active_service(Empty, "~/reinitialize_global_localization", self._on_reinitialize)
+        ]
 
     def _input_callback(self, index: int):
         return lambda message: self._on_message(index, message)
@@ -174,8 +187,10 @@ class ParticleFilterNode(LocalizerNode):
         try:
             self.filter = self._build_filter(grid_from_message(message))
             self._last_estimate = None
-            self.get_logger().info(f"map received ({message.info.width} x {message.info.height} cells at "
-                                   f"{message.info.resolution} m): global localization starts")
+            self.get_logger().info(
+                f"map received ({message.info.width} x {message.info.height} cells at "
+                f"{message.info.resolution} m): global localization starts"
+            )
         except Exception as error:  # a malformed map or one without free space: keep the previous filter
             self.get_logger().error(f"map refused: {error}")
             return
@@ -200,8 +215,9 @@ class ParticleFilterNode(LocalizerNode):
             stamp = (scan if scan is not None else beacons).header.stamp
             estimate = self._update(odometry, scan, beacons, stamp.sec + stamp.nanosec * 1e-9)
         except Exception as error:  # a filter bug must not take the node down: repeat the last pose
-            self.get_logger().error(f"filter update failed: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                f"filter update failed: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
             estimate = self._last_estimate
         if estimate is None:
             return
@@ -209,8 +225,9 @@ class ParticleFilterNode(LocalizerNode):
             self._warn(estimate.status.event)
         self._publish((scan if scan is not None else beacons).header.stamp, odometry, estimate)
 
-    def _update(self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None,
-                stamp: float) -> Estimate | None:
+    def _update(
+        self, odometry: Odometry, scan: LaserScan | None, beacons: BeaconRanges | None, stamp: float
+    ) -> Estimate | None:
         pose = messages.odometry_pose(odometry)
         reading = self._beacon_reading(beacons) if beacons is not None else None
         scan_reading = scan_data(scan) if scan is not None else None
@@ -224,8 +241,10 @@ class ParticleFilterNode(LocalizerNode):
             self._warn(f"scan refused ({error}): the pose follows {alone}")
             return self.filter.update(pose, beacons=reading, stamp=stamp)
         except BeaconError as error:
-            self._warn(f"/beacons reading refused ({error}): the pose follows "
-                       + ("the scan and odometry" if scan_reading is not None else "odometry alone"))
+            self._warn(
+                f"/beacons reading refused ({error}): the pose follows "
+                + ("the scan and odometry" if scan_reading is not None else "odometry alone")
+            )
             return self.filter.update(pose, scan_reading, stamp=stamp)
 
     def _beacon_reading(self, message: BeaconRanges) -> BeaconReading | None:
@@ -235,8 +254,9 @@ class ParticleFilterNode(LocalizerNode):
             if self._beacon_positions is None:
                 self.filter.set_beacons(messages.beacon_positions(message))  # checked there
                 self._beacon_positions = self.filter.beacons
-                self.get_logger().info(f"beacon positions from the first /beacons reading: "
-                                       f"{np.round(self._beacon_positions, 3).tolist()}")
+                self.get_logger().info(
+                    f"beacon positions from the first /beacons reading: {np.round(self._beacon_positions, 3).tolist()}"
+                )
             return messages.beacon_reading(message, self._beacon_positions)
         except LocalizationError as error:
             without = "the scan and odometry" if self._settings["use_scan"] else "odometry alone"
@@ -253,8 +273,10 @@ class ParticleFilterNode(LocalizerNode):
             x, y, theta, covariance = messages.initial_pose(message.pose)
             self.filter.initialize_pose(x, y, theta, covariance)
             self._last_cloud_ns = None
-            self.get_logger().info(f"initial pose ({x:.3f}, {y:.3f}, {math.degrees(theta):.1f} deg): "
-                                   f"{len(self.filter.particles)} particles around it")
+            self.get_logger().info(
+                f"initial pose ({x:.3f}, {y:.3f}, {math.degrees(theta):.1f} deg): "
+                f"{len(self.filter.particles)} particles around it"
+            )
         except Exception as error:
             self.get_logger().warning(f"/initialpose refused: {error}")
 
@@ -281,7 +303,8 @@ class ParticleFilterNode(LocalizerNode):
         if self._last_cloud_ns is None or now - self._last_cloud_ns >= period or now < self._last_cloud_ns:
             self._last_cloud_ns = now
             self._outputs["cloud"].publish(
-                messages.particle_cloud(stamp, self._settings["global_frame_id"], self.filter.particles))
+                messages.particle_cloud(stamp, self._settings["global_frame_id"], self.filter.particles)
+            )
 
 
 def main(args=None) -> None:

@@ -17,8 +17,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from amr_maps.occupancy_grid import OccupancyGrid
-from amr_mapping.frontiers import (Frontier, FrontierConfig, best_frontier, detect_frontiers, reach_frontiers,
-                                   with_robot_free)
+from amr_mapping.frontiers import (
+    Frontier,
+    FrontierConfig,
+    best_frontier,
+    detect_frontiers,
+    reach_frontiers,
+    with_robot_free,
+)
 from amr_util.geometry import all_finite
 from amr_util.parameter_spec import parameter
 
@@ -69,8 +75,9 @@ class Explorer:
         if self.goal is not None and now - self.goal_since > config.goal_timeout:
             self.failed(f"not reached within goal_timeout ({config.goal_timeout:g} s)")
         seen = with_robot_free(grid, robot, config.footprint_radius)
-        frontiers = reach_frontiers(seen, detect_frontiers(seen, config.min_frontier_size, config.free_threshold),
-                                    robot, config, self.blacklist)
+        frontiers = reach_frontiers(
+            seen, detect_frontiers(seen, config.min_frontier_size, config.free_threshold), robot, config, self.blacklist
+        )
         if self.goal is not None:
             kept = self._frontier_at_goal(seen, frontiers)
             if kept >= 0:
@@ -82,15 +89,19 @@ class Explorer:
         if chosen < 0:
             self.state = DONE
             unreachable = sum(1 for f in frontiers if not f.reachable)
-            reason = (f"no reachable frontier left ({len(frontiers)} frontiers: {unreachable} unreachable, "
-                      f"{sum(1 for f in frontiers if f.blacklisted)} blacklisted; {len(self.blacklist)} points "
-                      "given up)")
+            reason = (
+                f"no reachable frontier left ({len(frontiers)} frontiers: {unreachable} unreachable, "
+                f"{sum(1 for f in frontiers if f.blacklisted)} blacklisted; {len(self.blacklist)} points "
+                "given up)"
+            )
             return Step(DONE, None, False, reason, tuple(frontiers), -1)
         frontier = frontiers[chosen]
         self.goal, self.goal_since, self.state = frontier.goal, now, EXPLORING
         self.goals_sent += 1
-        reason = (f"frontier of {frontier.length:.2f} m at ({frontier.centroid[0]:.2f}, {frontier.centroid[1]:.2f}), "
-                  f"{frontier.distance:.2f} m away: goal ({frontier.goal[0]:.2f}, {frontier.goal[1]:.2f})")
+        reason = (
+            f"frontier of {frontier.length:.2f} m at ({frontier.centroid[0]:.2f}, {frontier.centroid[1]:.2f}), "
+            f"{frontier.distance:.2f} m away: goal ({frontier.goal[0]:.2f}, {frontier.goal[1]:.2f})"
+        )
         self._say(reason)
         return Step(EXPLORING, self.goal, True, reason, tuple(frontiers), chosen)
 
@@ -121,10 +132,9 @@ class Explorer:
             if frontier.blacklisted:
                 continue
             x, y = grid.cell_to_world(frontier.cells[:, 0], frontier.cells[:, 1])
-            if float(((x - gx) ** 2 + (y - gy) ** 2).min()) <= reach ** 2:
+            if float(((x - gx) ** 2 + (y - gy) ** 2).min()) <= reach**2:
                 return index
         return -1
 
     def _say(self, event: str) -> None:
         self.events.append(event)
-

@@ -45,12 +45,27 @@ NODE_SPECS = (
     ParameterSpec("map_topic", "map", "nav_msgs/OccupancyGrid (transient local): the map being built"),
     ParameterSpec("pose_topic", "pose", "amr_interfaces/LocalizedPose: the robot in the map"),
     ParameterSpec("goal_topic", "goal_pose", "geometry_msgs/PoseStamped: where the navigator takes goals"),
-    ParameterSpec("navigator_status", "navigator/status", "amr_interfaces/NavigatorStatus: REACHED and NO_PATH of "
-                  "the explorer's goal"),
-    ParameterSpec("decision_period", 1.0, "s of pose time at least between two decisions on new maps while a goal is "
-                  "driven to (explore_lite planner_frequency's inverse)", minimum=0.0, maximum=3600.0, live=True),
-    ParameterSpec("save_to", "", "when exploration is done, the slam node's ~/save_map is called with this path "
-                  "(<path>.yaml, .pgm, .poses.csv); '' = the map is not saved", live=True),
+    ParameterSpec(
+        "navigator_status",
+        "navigator/status",
+        "amr_interfaces/NavigatorStatus: REACHED and NO_PATH of the explorer's goal",
+    ),
+    ParameterSpec(
+        "decision_period",
+        1.0,
+        "s of pose time at least between two decisions on new maps while a goal is "
+        "driven to (explore_lite planner_frequency's inverse)",
+        minimum=0.0,
+        maximum=3600.0,
+        live=True,
+    ),
+    ParameterSpec(
+        "save_to",
+        "",
+        "when exploration is done, the slam node's ~/save_map is called with this path "
+        "(<path>.yaml, .pgm, .poses.csv); '' = the map is not saved",
+        live=True,
+    ),
     ParameterSpec("save_map_service", "slam/save_map", "amr_interfaces/SaveMap service called with save_to"),
 )
 NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS)
@@ -112,8 +127,10 @@ class ExplorerNode(ManagedNode):
             self.create_subscription(NavigatorStatus, values["navigator_status"], self._on_navigator, reliable()),
         ]
         self._save_client = self.create_client(SaveMap, values["save_map_service"])
-        self.get_logger().info(f"configured: frontiers of {values['map_topic']}, goals on {values['goal_topic']}"
-                               + (f"; saves to {values['save_to']} when done" if values["save_to"] else ""))
+        self.get_logger().info(
+            f"configured: frontiers of {values['map_topic']}, goals on {values['goal_topic']}"
+            + (f"; saves to {values['save_to']} when done" if values["save_to"] else "")
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def apply_live(self, changes: dict) -> None:
@@ -165,8 +182,9 @@ class ExplorerNode(ManagedNode):
             self._decide()
         elif self._map_new and self._now - self._last_decision >= self._settings["decision_period"]:
             self._decide()
-        elif self.explorer.goal is not None and \
-                self._now - self.explorer.goal_since > self.explorer.config.goal_timeout:
+        elif (
+            self.explorer.goal is not None and self._now - self.explorer.goal_since > self.explorer.config.goal_timeout
+        ):
             self._decide()
 
     def _on_navigator(self, message: NavigatorStatus) -> None:
@@ -190,8 +208,9 @@ class ExplorerNode(ManagedNode):
         try:
             step = self.explorer.update(self._grid, self._pose, self._now)
         except Exception as error:  # an explorer bug must not take the node down
-            self.get_logger().error(f"exploration step failed: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=2.0)
+            self.get_logger().error(
+                f"exploration step failed: {type(error).__name__}: {error}", throttle_duration_sec=2.0
+            )
             return
         self._map_new, self._last_decision, self.last_step = False, self._now, step
         for event in self.explorer.take_events():
@@ -228,8 +247,9 @@ class ExplorerNode(ManagedNode):
         if not path:
             return
         if not self._save_client.service_is_ready():
-            self.get_logger().error(f"exploration done, but {self._save_client.srv_name} is not available: the map "
-                                    f"was not saved to {path}")
+            self.get_logger().error(
+                f"exploration done, but {self._save_client.srv_name} is not available: the map was not saved to {path}"
+            )
             return
         self._save_client.call_async(SaveMap.Request(path=path)).add_done_callback(self._saved)
 

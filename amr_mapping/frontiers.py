@@ -160,8 +160,9 @@ def grid_graph(mask: np.ndarray, resolution: float) -> sp.csr_matrix:
         heads.append(index[first][both])
         tails.append(index[second][both])
         weights.append(np.full(int(both.sum()), length * resolution))
-    return sp.csr_matrix((np.concatenate(weights), (np.concatenate(heads), np.concatenate(tails))),
-                         shape=(mask.size, mask.size))
+    return sp.csr_matrix(
+        (np.concatenate(weights), (np.concatenate(heads), np.concatenate(tails))), shape=(mask.size, mask.size)
+    )
 
 
 def path_distances(safe: np.ndarray, start: tuple[int, int], resolution: float) -> np.ndarray:
@@ -170,20 +171,28 @@ def path_distances(safe: np.ndarray, start: tuple[int, int], resolution: float) 
     return dijkstra(grid_graph(safe, resolution), directed=False, indices=index).reshape(safe.shape)
 
 
-def approaches(free: np.ndarray, reachable: np.ndarray, resolution: float,
-               limit: float) -> tuple[np.ndarray, np.ndarray]:
+def approaches(
+    free: np.ndarray, reachable: np.ndarray, resolution: float, limit: float
+) -> tuple[np.ndarray, np.ndarray]:
     """For every cell: (m of the shortest 8-connected path over free cells from the nearest reachable cell, inf beyond
     `limit`; that reachable cell's flat index, -1 if none). Paths go round walls, never through them."""
     sources = np.flatnonzero(reachable)
     if len(sources) == 0:
         return np.full(free.shape, np.inf), np.full(free.shape, -1)
-    gaps, _, nearest = dijkstra(grid_graph(free | reachable, resolution), directed=False, indices=sources,
-                                min_only=True, limit=limit + 1e-9, return_predecessors=True)
+    gaps, _, nearest = dijkstra(
+        grid_graph(free | reachable, resolution),
+        directed=False,
+        indices=sources,
+        min_only=True,
+        limit=limit + 1e-9,
+        return_predecessors=True,
+    )
     return gaps.reshape(free.shape), nearest.reshape(free.shape)
 
 
-def reach_frontiers(grid: OccupancyGrid, frontiers: list[Frontier], robot: tuple[float, float],
-                    config: FrontierConfig, blacklist=()) -> list[Frontier]:
+def reach_frontiers(
+    grid: OccupancyGrid, frontiers: list[Frontier], robot: tuple[float, float], config: FrontierConfig, blacklist=()
+) -> list[Frontier]:
     """Each frontier with its goal, distance and cost from the robot at `robot` (x, y); blacklisted ones marked."""
     if not frontiers:
         return []
@@ -191,8 +200,9 @@ def reach_frontiers(grid: OccupancyGrid, frontiers: list[Frontier], robot: tuple
     res = grid.resolution
     start = _start_cell(grid, safe, robot, config.approach_distance)
     if start is None:
-        return [Frontier(f.cells, f.centroid, f.length, blacklisted=_near(f.centroid, blacklist, config))
-                for f in frontiers]
+        return [
+            Frontier(f.cells, f.centroid, f.length, blacklisted=_near(f.centroid, blacklist, config)) for f in frontiers
+        ]
     distances = path_distances(safe, start, res)
     free = (grid.data >= 0) & (grid.data < config.free_threshold)
     gaps, nearest = approaches(free, np.isfinite(distances), res, config.approach_distance)
@@ -201,8 +211,14 @@ def reach_frontiers(grid: OccupancyGrid, frontiers: list[Frontier], robot: tuple
         rows, cols = frontier.cells[:, 0], frontier.cells[:, 1]
         close = np.isfinite(gaps[rows, cols])
         if not close.any():
-            result.append(Frontier(frontier.cells, frontier.centroid, frontier.length,
-                                   blacklisted=_near(frontier.centroid, blacklist, config)))
+            result.append(
+                Frontier(
+                    frontier.cells,
+                    frontier.centroid,
+                    frontier.length,
+                    blacklisted=_near(frontier.centroid, blacklist, config),
+                )
+            )
             continue
         x, y = grid.cell_to_world(rows, cols)
         to_middle = np.hypot(x - frontier.centroid[0], y - frontier.centroid[1])

@@ -83,7 +83,7 @@ class PoseGraph:
     @property
     def poses(self) -> np.ndarray:
         """(N, 3) node poses (a copy)."""
-        return self._poses[:self._count].copy()
+        return self._poses[: self._count].copy()
 
     def pose(self, index: int) -> np.ndarray:
         return self._poses[index].copy()
@@ -91,12 +91,12 @@ class PoseGraph:
     @property
     def edges(self) -> np.ndarray:
         """(M, 2) int node pairs (i, j)."""
-        return self._ij[:self._edges].copy()
+        return self._ij[: self._edges].copy()
 
     @property
     def loop(self) -> np.ndarray:
         """(M,) bool: which edges are loop closures."""
-        return self._loop[:self._edges].copy()
+        return self._loop[: self._edges].copy()
 
     def add_node(self, pose) -> int:
         """Adds a node at `pose` (x, y, theta); returns its index."""
@@ -118,8 +118,11 @@ class PoseGraph:
         info = np.asarray(information, dtype=float)
         if z.shape != (3,) or not np.all(np.isfinite(z)):
             raise MappingError(f"pose graph: edge ({i}, {j}): measurement must be 3 finite numbers, got {z!r}")
-        if info.shape != (3, 3) or not np.isfinite(info).all() or np.abs(info - info.T).max() > 1e-9 * (
-                1.0 + np.abs(info).max()):
+        if (
+            info.shape != (3, 3)
+            or not np.isfinite(info).all()
+            or np.abs(info - info.T).max() > 1e-9 * (1.0 + np.abs(info).max())
+        ):
             raise MappingError(f"pose graph: edge ({i}, {j}): information must be a finite symmetric 3x3 matrix")
         try:
             np.linalg.cholesky(info)
@@ -144,15 +147,15 @@ class PoseGraph:
         poses = np.asarray(poses, dtype=float)
         if poses.shape != (self._count, 3) or not np.all(np.isfinite(poses)):
             raise MappingError(f"pose graph: set_poses needs ({self._count}, 3) finite poses, got {poses.shape}")
-        self._poses[:self._count] = poses
-        self._poses[:self._count, 2] = wrap_angle(poses[:, 2])
+        self._poses[: self._count] = poses
+        self._poses[: self._count, 2] = wrap_angle(poses[:, 2])
 
     def move_after(self, index: int, correction) -> None:
         """Composes the rigid correction (x, y, theta), a map-frame transform, onto nodes index.. (the
         nodes not yet optimized follow the ones that were)."""
         x, y, theta = correction
         c, s = math.cos(theta), math.sin(theta)
-        p = self._poses[index:self._count]
+        p = self._poses[index : self._count]
         px, py = p[:, 0].copy(), p[:, 1].copy()
         p[:, 0] = c * px - s * py + x
         p[:, 1] = s * px + c * py + y
@@ -162,13 +165,13 @@ class PoseGraph:
 
     def errors(self, poses: np.ndarray | None = None) -> np.ndarray:
         """(M, 3) edge errors at `poses` (the current ones by default)."""
-        poses = self._poses[:self._count] if poses is None else poses
-        return _errors(poses, self._ij[:self._edges], self._z[:self._edges])
+        poses = self._poses[: self._count] if poses is None else poses
+        return _errors(poses, self._ij[: self._edges], self._z[: self._edges])
 
     def chi2(self, poses: np.ndarray | None = None) -> np.ndarray:
         """(M,) e^T Omega e per edge."""
         e = self.errors(poses)
-        return np.einsum("mi,mij,mj->m", e, self._info[:self._edges], e)
+        return np.einsum("mi,mij,mj->m", e, self._info[: self._edges], e)
 
     def cost(self, poses: np.ndarray | None = None) -> float:
         """The robust cost sum rho(e^T Omega e) / 2 at `poses`."""
@@ -245,23 +248,31 @@ class PoseGraph:
                     break
                 lam *= 10.0
             if not accepted:
-                raise MappingError(f"pose graph: the optimization stalled (no step lowers the cost {cost:.6g}, "
-                                   f"gradient {np.abs(g).max():.3g}); poses kept")
+                raise MappingError(
+                    f"pose graph: the optimization stalled (no step lowers the cost {cost:.6g}, "
+                    f"gradient {np.abs(g).max():.3g}); poses kept"
+                )
             if converged:
                 break
             width = max(self.kernel_width, 0.5 * width)
         change = np.abs(poses - self._poses[:n])
         change[:, 2] = np.abs(wrap_angle(poses[:, 2] - self._poses[:n, 2]))
         self._poses[:n] = poses
-        return OptimizeResult(iterations, initial, self.cost(poses), converged, float(change.max(initial=0.0)),
-                              time.perf_counter() - start)
+        return OptimizeResult(
+            iterations,
+            initial,
+            self.cost(poses),
+            converged,
+            float(change.max(initial=0.0)),
+            time.perf_counter() - start,
+        )
 
     def _kernel(self, s: np.ndarray, width: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(rho(s), rho'(s)) per edge: s for odometry edges, the robust kernel's (of width c, kernel_width by
         default) for loop closures."""
         rho = s.copy()
         weight = np.ones_like(s)
-        loop = self._loop[:self._edges]
+        loop = self._loop[: self._edges]
         if self.loop_kernel == "none" or not loop.any():
             return rho, weight
         c = self.kernel_width if width is None else width
@@ -316,8 +327,9 @@ def _jacobians(poses: np.ndarray, ij: np.ndarray, z: np.ndarray) -> tuple[np.nda
 _BLOCK_ROWS, _BLOCK_COLS = np.divmod(np.arange(9), 3)
 
 
-def _normal_equations(n: int, ij: np.ndarray, a: np.ndarray, b: np.ndarray, info: np.ndarray,
-                      e: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+def _normal_equations(
+    n: int, ij: np.ndarray, a: np.ndarray, b: np.ndarray, info: np.ndarray, e: np.ndarray
+) -> tuple[sp.csr_matrix, np.ndarray]:
     """H = sum J^T Omega J and g = sum J^T Omega e over the edges, as a (3n, 3n) sparse matrix and a vector."""
     at_o = np.einsum("mki,mkl->mil", a, info)  # A^T Omega
     bt_o = np.einsum("mki,mkl->mil", b, info)

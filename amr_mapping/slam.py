@@ -82,7 +82,7 @@ AMBIGUITY_DISTANCE = 0.5
 """m: a loop-closure match with a rival this far or further along an axis ..."""
 AMBIGUITY_RATIO = 0.9
 """... scoring this share of its score or more is ambiguous and not used."""
-MAX_INFORMATION = (1.0 / 0.01 ** 2, 1.0 / 0.01 ** 2, 1.0 / math.radians(0.25) ** 2)
+MAX_INFORMATION = (1.0 / 0.01**2, 1.0 / 0.01**2, 1.0 / math.radians(0.25) ** 2)
 """A scan match's information is capped here (x, y, theta): standard deviations of 1 cm and 0.25 deg at least."""
 
 
@@ -129,8 +129,16 @@ class SlamConfig:
     """rad, the scan's angle 0 from the robot's heading."""
 
     def __post_init__(self) -> None:
-        positive = ("resolution", "max_range_used", "match_linear_window", "match_angular_window",
-                    "loop_search_radius", "loop_linear_window", "loop_angular_window", "max_odometry_jump")
+        positive = (
+            "resolution",
+            "max_range_used",
+            "match_linear_window",
+            "match_angular_window",
+            "loop_search_radius",
+            "loop_linear_window",
+            "loop_angular_window",
+            "max_odometry_jump",
+        )
         signed = ("lidar_x", "lidar_y", "lidar_yaw")
         for item in fields(self):
             value = getattr(self, item.name)
@@ -143,8 +151,10 @@ class SlamConfig:
                     raise MappingError(f"slam config: {item.name}: must be an integer >= 1, got {value!r}")
                 continue
             if not is_finite_number(value) or value < 0.0 or (item.name in positive and value == 0.0):
-                raise MappingError(f"slam config: {item.name}: must be a finite number "
-                                   f"{'> 0' if item.name in positive else '>= 0'}, got {value!r}")
+                raise MappingError(
+                    f"slam config: {item.name}: must be a finite number "
+                    f"{'> 0' if item.name in positive else '>= 0'}, got {value!r}"
+                )
         for name in ("min_match_score", "loop_min_score"):
             if getattr(self, name) > 1.0:
                 raise MappingError(f"slam config: {name}: must be a score in 0..1, got {getattr(self, name)!r}")
@@ -260,8 +270,10 @@ class GraphSlam:
         csv_path = stem.with_name(stem.name + ".poses.csv")
         try:
             yaml_path = save_map(grid, stem)
-            lines = ["stamp_ns,x,y,theta"] + [f"{node.stamp_ns},{x:.6f},{y:.6f},{theta:.6f}"
-                                              for node, (x, y, theta) in zip(self._nodes, self._graph.poses)]
+            lines = ["stamp_ns,x,y,theta"] + [
+                f"{node.stamp_ns},{x:.6f},{y:.6f},{theta:.6f}"
+                for node, (x, y, theta) in zip(self._nodes, self._graph.poses)
+            ]
             csv_path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         except (OSError, MapError) as error:
             raise MappingError(f"slam: cannot save the map to {stem}: {error}") from error
@@ -279,8 +291,7 @@ class GraphSlam:
             self._grid = None
             self._local = None
             last = len(self._nodes) - 1
-            self._pose = np.array(compose(self._graph.pose(last), relative_pose(self._anchor_odometry,
-                                                                                 self._odometry)))
+            self._pose = np.array(compose(self._graph.pose(last), relative_pose(self._anchor_odometry, self._odometry)))
         return result.max_change > 0.0
 
     # -- the update --------------------------------------------------------------------------------------
@@ -301,11 +312,14 @@ class GraphSlam:
             if jump > self.config.max_odometry_jump:
                 # unknown motion: hold the pose, re-anchor odometry at the new reading
                 self._odometry = odometry.copy()
-                self._anchor_odometry = compose(odometry, relative_pose(self._pose, self._graph.pose(
-                    len(self._nodes) - 1)))
-                raise MappingError(f"slam: odometry jumped {jump:.2f} m in one step (max_odometry_jump "
-                                   f"{self.config.max_odometry_jump} m): taken as unknown motion, pose held at "
-                                   f"({self._pose[0]:.2f}, {self._pose[1]:.2f})")
+                self._anchor_odometry = compose(
+                    odometry, relative_pose(self._pose, self._graph.pose(len(self._nodes) - 1))
+                )
+                raise MappingError(
+                    f"slam: odometry jumped {jump:.2f} m in one step (max_odometry_jump "
+                    f"{self.config.max_odometry_jump} m): taken as unknown motion, pose held at "
+                    f"({self._pose[0]:.2f}, {self._pose[1]:.2f})"
+                )
             self._travelled += math.hypot(*relative_pose(self._odometry, odometry)[:2])
         self._odometry = odometry.copy()
 
@@ -328,15 +342,15 @@ class GraphSlam:
         self._chain.append(np.linalg.inv(information))
         self._pose = pose.copy()
         closures = self._close_loops(node, events)
-        return SlamUpdate(self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start,
-                          tuple(events))
+        return SlamUpdate(
+            self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start, tuple(events)
+        )
 
     # -- internals ---------------------------------------------------------------------------------------
 
     def _add_node(self, stamp_ns, pose, odometry, ranges, angles, points, clear_range) -> int:
         index = self._graph.add_node(pose)
-        self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled,
-                                 clear_range))
+        self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled, clear_range))
         self._anchor_odometry = odometry.copy()
         self._grid = None
         window = self.config.local_window
@@ -358,8 +372,9 @@ class GraphSlam:
         for (x, y, theta), k in zip(poses, members):
             points = self._nodes[k].points
             c, s = math.cos(theta), math.sin(theta)
-            clouds.append(np.column_stack([x + c * points[:, 0] - s * points[:, 1],
-                                           y + s * points[:, 0] + c * points[:, 1]]))
+            clouds.append(
+                np.column_stack([x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]])
+            )
         cloud = np.vstack(clouds + [np.zeros((1, 2))])
         resolution = self.config.resolution
         pad = window + LIKELIHOOD_PAD
@@ -371,8 +386,9 @@ class GraphSlam:
         grid = OccupancyGrid(data, resolution, (float(low[0]), float(low[1]), 0.0))
         return CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=LIKELIHOOD_SIGMA_CELLS * resolution))
 
-    def _match_local(self, prior: np.ndarray, points: np.ndarray, delta: np.ndarray,
-                     events: list[str]) -> tuple[np.ndarray, np.ndarray, float | None]:
+    def _match_local(
+        self, prior: np.ndarray, points: np.ndarray, delta: np.ndarray, events: list[str]
+    ) -> tuple[np.ndarray, np.ndarray, float | None]:
         """(pose, edge information, score): the scan matched against the local submap within 3 sigma of the
         odometry model since the last node, fused with the odometry prior; or the prior alone."""
         cfg = self.config
@@ -392,8 +408,10 @@ class GraphSlam:
         relative_prior = np.array(relative_pose(anchor, prior))
         match = matcher.match(points, relative_prior, linear, angular)
         if match.score < cfg.min_match_score or not np.all(np.isfinite(match.pose)):
-            events.append(f"scan match score {match.score:.2f} < min_match_score {cfg.min_match_score}: "
-                          "node added on odometry alone")
+            events.append(
+                f"scan match score {match.score:.2f} < min_match_score {cfg.min_match_score}: "
+                "node added on odometry alone"
+            )
             return prior, odometry_information, float(match.score)
         # the match and the odometry as two Gaussians on the pose in the anchor's frame (the odometry's
         # information is isotropic in x, y: the same in either frame)
@@ -411,13 +429,16 @@ class GraphSlam:
         pose = self._graph.pose(node)
         travelled = self._nodes[node].travelled
         poses = self._graph.poses
-        candidates = [(math.hypot(*(poses[s.anchor, :2] - pose[:2])), i) for i, s in enumerate(self._submaps)
-                      if travelled - self._nodes[s.last].travelled >= cfg.loop_min_travel]
+        candidates = [
+            (math.hypot(*(poses[s.anchor, :2] - pose[:2])), i)
+            for i, s in enumerate(self._submaps)
+            if travelled - self._nodes[s.last].travelled >= cfg.loop_min_travel
+        ]
         candidates = sorted((d, i) for d, i in candidates if d <= cfg.loop_search_radius)
         # the ones left over from the last updates first (their turn came), then the nearest
         queue = [i for i in self._pending if any(i == c for _, c in candidates)]
         queue += [i for _, i in candidates if i not in queue]
-        searched, self._pending = queue[:cfg.loop_max_candidates], queue[cfg.loop_max_candidates:]
+        searched, self._pending = queue[: cfg.loop_max_candidates], queue[cfg.loop_max_candidates :]
         points = self._nodes[node].points
         closures: list[LoopClosure] = []
         if len(points) < MIN_BEAMS:
@@ -425,8 +446,9 @@ class GraphSlam:
         for i in searched:
             submap = self._submaps[i]
             anchor = poses[submap.anchor]
-            match = submap.matcher.match(points, relative_pose(anchor, pose), cfg.loop_linear_window,
-                                         cfg.loop_angular_window)
+            match = submap.matcher.match(
+                points, relative_pose(anchor, pose), cfg.loop_linear_window, cfg.loop_angular_window
+            )
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
                 continue
             information = _match_information(submap.matcher, points, match.pose, cfg.resolution)
@@ -442,19 +464,22 @@ class GraphSlam:
             if not chi2 <= LOOP_CHI2:
                 self.rejected_closures += 1
                 continue
-            self._graph.add_edge(submap.anchor, node, match.pose, _information(np.linalg.inv(information),
-                                                                               match.pose[2]), loop=True)
+            self._graph.add_edge(
+                submap.anchor, node, match.pose, _information(np.linalg.inv(information), match.pose[2]), loop=True
+            )
             closures.append(LoopClosure(submap.anchor, node, float(match.score)))
         if closures:
             self._unoptimized += len(closures)
-            chi = np.sqrt(self._graph.chi2()[-len(closures):].max())
+            chi = np.sqrt(self._graph.chi2()[-len(closures) :].max())
         if closures and (chi > OPTIMIZE_CHI or self._unoptimized >= OPTIMIZE_EVERY):
             self._unoptimized = 0
             before = self._graph.pose(node)
             try:
                 result = self._graph.optimize(max_iterations=10)
-                events.append(f"{len(closures)} loop closure(s): optimized in {result.iterations} iterations, "
-                              f"moved up to {result.max_change:.2f}")
+                events.append(
+                    f"{len(closures)} loop closure(s): optimized in {result.iterations} iterations, "
+                    f"moved up to {result.max_change:.2f}"
+                )
             except MappingError as error:
                 events.append(f"loop closure optimization failed, poses kept: {error}")
             self._pose = self._graph.pose(node)
@@ -462,14 +487,13 @@ class GraphSlam:
                 self._local = None  # rebuilt at the optimized poses
         return closures
 
-
     def _chain_covariance(self, first: int, last: int) -> np.ndarray:
         """Covariance (first's frame) of node last's pose relative to node first's, compounded along the
         sequential edges between them (the scan matches and odometry; no loop closure: an upper bound). An error
         of node k's edge (in node k's frame) moves node last by J_k = [[R(theta_k), perp(p_last - p_k)], [0, 1]]."""
         if last <= first:
             return np.zeros((3, 3))
-        poses = self._graph.poses[first:last + 1]
+        poses = self._graph.poses[first : last + 1]
         origin = poses[0]
         c, s = math.cos(origin[2]), math.sin(origin[2])
         dx, dy = poses[:, 0] - origin[0], poses[:, 1] - origin[1]
@@ -481,7 +505,7 @@ class GraphSlam:
         jacobians[:, 0, 2] = -(y[-1] - y[1:])
         jacobians[:, 1, 2] = x[-1] - x[1:]
         jacobians[:, 2, 2] = 1.0
-        covariances = np.asarray(self._chain[first + 1:last + 1])
+        covariances = np.asarray(self._chain[first + 1 : last + 1])
         return np.einsum("kij,kjl,kml->im", jacobians, covariances, jacobians)
 
 
@@ -498,8 +522,9 @@ def _information(covariance: np.ndarray, heading: float) -> np.ndarray:
     return 0.5 * (information + information.T)
 
 
-def _rival_score(matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, information: np.ndarray,
-                 config: SlamConfig) -> float:
+def _rival_score(
+    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, information: np.ndarray, config: SlamConfig
+) -> float:
     """The best score of the scan shifted AMBIGUITY_DISTANCE to loop_linear_window from pose along the two
     principal axes of the match's information (x, y): a corridor or a row of equal rooms matches as well
     a few metres along, and a closure there says little about where along."""
@@ -518,12 +543,14 @@ def _odometry_information(delta) -> np.ndarray:
     """The odometry model's information (ODOMETRY_SIGMA) for a motion delta (dx, dy, dtheta)."""
     d, a = math.hypot(delta[0], delta[1]), abs(delta[2])
     s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
-    return np.diag([1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_xy + s_xy_d * d) ** 2,
-                    1.0 / (s_th + s_th_a * (a + d)) ** 2])
+    return np.diag(
+        [1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_th + s_th_a * (a + d)) ** 2]
+    )
 
 
-def _match_information(matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray,
-                       resolution: float) -> np.ndarray:
+def _match_information(
+    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, resolution: float
+) -> np.ndarray:
     """The information of a match at pose: MATCH_INFORMATION_SCALE times the negative Hessian of the mean
     interpolated score (central differences of the likelihood field's sigma, and the angle that moves the mean
     point that far),
@@ -541,25 +568,29 @@ def _match_information(matcher: CorrelativeMatcher, points: np.ndarray, pose: np
     hessian = np.empty((3, 3))
     unit = np.eye(3)
     for i in range(3):
-        hessian[i, i] = (score(unit[i]) - 2.0 * centre + score(-unit[i]))
+        hessian[i, i] = score(unit[i]) - 2.0 * centre + score(-unit[i])
         for j in range(i + 1, 3):
-            hessian[i, j] = hessian[j, i] = (score(unit[i] + unit[j]) - score(unit[i] - unit[j])
-                                             - score(unit[j] - unit[i]) + score(-unit[i] - unit[j])) / 4.0
+            hessian[i, j] = hessian[j, i] = (
+                score(unit[i] + unit[j])
+                - score(unit[i] - unit[j])
+                - score(unit[j] - unit[i])
+                + score(-unit[i] - unit[j])
+            ) / 4.0
     hessian /= np.outer(steps, steps)
     values, vectors = np.linalg.eigh(-0.5 * (hessian + hessian.T))
     values = np.maximum(values * MATCH_INFORMATION_SCALE, MIN_MATCH_INFORMATION)
     return (vectors * values) @ vectors.T
 
 
-def _beams(scan: ScanData, max_range_used: float, mount=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray,
-                                                                                  np.ndarray]:
+def _beams(scan: ScanData, max_range_used: float, mount=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(ranges, angles, points (K, 2)): the ranges kept for mapping (NaN dropped, +inf no return; in the
     sensor's frame) and the matchable points (finite readings in [range_min, min(range_max, max_range_used)]) in
     the robot's frame (the sensor at `mount` (x, y, yaw) of the robot)."""
     ranges = np.asarray(scan.ranges, dtype=float).reshape(-1)
     if not (is_finite_number(scan.angle_min) and is_finite_number(scan.angle_increment)):
-        raise MappingError(f"slam: scan angle_min and angle_increment must be finite, got {scan.angle_min!r}, "
-                           f"{scan.angle_increment!r}")
+        raise MappingError(
+            f"slam: scan angle_min and angle_increment must be finite, got {scan.angle_min!r}, {scan.angle_increment!r}"
+        )
     angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
     keep = ~np.isnan(ranges)
     ranges, angles = ranges[keep], angles[keep]

@@ -59,17 +59,37 @@ FLUSH_PERIOD = 0.5
 """s (wall clock) between checks for a map change left unpublished."""
 
 NODE_SPECS = (
-    ParameterSpec("global_frame_id", "map", "frame of /map, /pose and ~/graph: the parent of the published "
-                  "transform; its origin is the robot's pose at the first scan"),
+    ParameterSpec(
+        "global_frame_id",
+        "map",
+        "frame of /map, /pose and ~/graph: the parent of the published "
+        "transform; its origin is the robot's pose at the first scan",
+    ),
     ParameterSpec("odom_frame_id", "odom", "frame of the odometry: the child of the published transform"),
     ParameterSpec("tf_broadcast", True, "publish map -> odom on /tf after every pair processed"),
-    ParameterSpec("map_publish_period", 1.0, "s of scan time at least between two /map (and ~/graph) messages; "
-                  "each goes out once the map changed", minimum=0.0, maximum=3600.0, live=True),
-    ParameterSpec("sync_slop", 0.05, "s, the stamps of a paired /odometry and /scan differ by at most this",
-                  minimum=0.0, maximum=100.0),
+    ParameterSpec(
+        "map_publish_period",
+        1.0,
+        "s of scan time at least between two /map (and ~/graph) messages; each goes out once the map changed",
+        minimum=0.0,
+        maximum=3600.0,
+        live=True,
+    ),
+    ParameterSpec(
+        "sync_slop",
+        0.05,
+        "s, the stamps of a paired /odometry and /scan differ by at most this",
+        minimum=0.0,
+        maximum=100.0,
+    ),
     ParameterSpec("sync_queue_size", 10, "messages kept per input while pairing", minimum=1, maximum=1000),
-    ParameterSpec("stamp_jump_threshold", 0.5, "s: stamps this much older than the last pair mean the clock "
-                  "jumped (a simulator reset): pairing starts afresh", minimum=0.01, maximum=3600.0),
+    ParameterSpec(
+        "stamp_jump_threshold",
+        0.5,
+        "s: stamps this much older than the last pair mean the clock jumped (a simulator reset): pairing starts afresh",
+        minimum=0.01,
+        maximum=3600.0,
+    ),
 )
 NODE_NAMES = frozenset(spec.name for spec in NODE_SPECS)
 
@@ -80,8 +100,11 @@ def library_specs() -> tuple[ParameterSpec, ...]:
     if hasattr(SlamConfig, "parameter_specs"):  # an amr_util.parameter_spec.Config
         return tuple(SlamConfig.parameter_specs())
     docs = field_docs(SlamConfig)
-    return tuple(ParameterSpec(f.name, f.default, docs.get(f.name, "")) for f in dataclasses.fields(SlamConfig)
-                 if f.default is not dataclasses.MISSING)
+    return tuple(
+        ParameterSpec(f.name, f.default, docs.get(f.name, ""))
+        for f in dataclasses.fields(SlamConfig)
+        if f.default is not dataclasses.MISSING
+    )
 
 
 def parameter_specs() -> tuple[ParameterSpec, ...]:
@@ -157,9 +180,14 @@ class SlamNode(ManagedNode):
             self.slam = None
             return self.fail_configure(problems)
         self._settings = {name: values[name] for name in NODE_NAMES}
-        self._sync = ApproximateTimeSynchronizer(2, values["sync_slop"], values["sync_queue_size"], self._on_pair,
-                                                 jump_threshold=values["stamp_jump_threshold"],
-                                                 on_jump=self._on_clock_jump)
+        self._sync = ApproximateTimeSynchronizer(
+            2,
+            values["sync_slop"],
+            values["sync_queue_size"],
+            self._on_pair,
+            jump_threshold=values["stamp_jump_threshold"],
+            on_jump=self._on_clock_jump,
+        )
         self._outputs = {
             "map": self.create_lifecycle_publisher(OccupancyGridMessage, "map", LATCHED),
             "graph": self.create_lifecycle_publisher(PoseGraph, "~/graph", reliable(2)),
@@ -169,14 +197,17 @@ class SlamNode(ManagedNode):
         if values["tf_broadcast"]:  # relative, as the particle filter's: /tf, or /r1/tf in a robot's namespace
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
         self._entities = [
-            self.create_subscription(Odometry, "odometry", lambda m: self._on_message(0, m),
-                                     reliable(values["sync_queue_size"])),
+            self.create_subscription(
+                Odometry, "odometry", lambda m: self._on_message(0, m), reliable(values["sync_queue_size"])
+            ),
             self.create_subscription(LaserScan, "scan", lambda m: self._on_message(1, m), SENSOR_DATA),
             self.create_active_service(SaveMap, "~/save_map", self._on_save_map),
         ]
-        self.get_logger().info("configured: /odometry + /scan paired into the pose graph; /map in frame "
-                               f"{values['global_frame_id']} (the robot's start), at most every "
-                               f"{values['map_publish_period']} s")
+        self.get_logger().info(
+            "configured: /odometry + /scan paired into the pose graph; /map in frame "
+            f"{values['global_frame_id']} (the robot's start), at most every "
+            f"{values['map_publish_period']} s"
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def apply_live(self, changes: dict) -> None:
@@ -221,12 +252,15 @@ class SlamNode(ManagedNode):
         except SyncError as error:  # a malformed or negative stamp
             self._warn(str(error))
         except Exception as error:  # the pair callback logs its own; this is the synchronizer's
-            self.get_logger().error(f"input dropped: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                f"input dropped: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
-        self.get_logger().warning(f"/{('odometry', 'scan')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
-                                  "pairing restarted (the map is kept)")
+        self.get_logger().warning(
+            f"/{('odometry', 'scan')[index]} stamps jumped by {jump_ns * 1e-9:+.3f} s: "
+            "pairing restarted (the map is kept)"
+        )
         self._last_map_ns = None
 
     def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
@@ -235,8 +269,9 @@ class SlamNode(ManagedNode):
         try:
             self._process(odometry, scan)
         except Exception as error:  # a library bug must not take the node down (nor stall a lockstep loop)
-            self.get_logger().error(f"slam update failed: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                f"slam update failed: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _process(self, odometry: Odometry, scan: LaserScan) -> None:
         slam, stamp = self.slam, scan.header.stamp
@@ -259,8 +294,9 @@ class SlamNode(ManagedNode):
             if isinstance(error, MappingError):
                 self._warn(f"scan refused ({error}): the pose follows odometry")
             else:
-                self.get_logger().error(f"slam update failed: {type(error).__name__}: {error}",
-                                        throttle_duration_sec=WARNING_PERIOD)
+                self.get_logger().error(
+                    f"slam update failed: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+                )
             status.event = f"update refused: {error}"
             pose = tuple(compose(tuple(slam.map_to_odom), odom))
         self.pairs += 1
@@ -284,8 +320,9 @@ class SlamNode(ManagedNode):
             self.get_logger().info(f"map saved: {response.message}")
         except Exception as error:  # MappingError names the path; anything else must not escape either
             response.success = False
-            response.message = str(error) if isinstance(error, (MappingError, OSError)) else \
-                f"{type(error).__name__}: {error}"
+            response.message = (
+                str(error) if isinstance(error, (MappingError, OSError)) else f"{type(error).__name__}: {error}"
+            )
             self.get_logger().warning(f"save_map {request.path!r} failed: {response.message} (the map is kept)")
         return response
 
@@ -328,8 +365,9 @@ class SlamNode(ManagedNode):
         try:
             self._publish_map(self._last_stamp)
         except Exception as error:
-            self.get_logger().error(f"map not published: {type(error).__name__}: {error}",
-                                    throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().error(
+                f"map not published: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _warn(self, text: str) -> None:
         """Each distinct warning at most once per WARNING_PERIOD of wall time."""

@@ -52,8 +52,9 @@ def _checked(estimate, reference) -> tuple[np.ndarray, np.ndarray]:
     estimate = np.asarray(estimate, dtype=float)
     reference = np.asarray(reference, dtype=float)
     if estimate.ndim != 2 or estimate.shape[1] != 3 or estimate.shape != reference.shape:
-        raise MappingError(f"trajectory error: need two (N, 3) pose arrays of one shape, got {estimate.shape} "
-                           f"and {reference.shape}")
+        raise MappingError(
+            f"trajectory error: need two (N, 3) pose arrays of one shape, got {estimate.shape} and {reference.shape}"
+        )
     if not (np.all(np.isfinite(estimate)) and np.all(np.isfinite(reference))):
         raise MappingError("trajectory error: poses must be finite")
     return estimate, reference
@@ -87,20 +88,23 @@ def relative_error(estimate, reference, min_distance: float = 1.0, max_distance:
     docstring). No such pair: MappingError."""
     estimate, reference = _checked(estimate, reference)
     if not 0.0 <= min_distance <= max_distance:
-        raise MappingError(f"relative error: need 0 <= min_distance <= max_distance, got {min_distance}, "
-                           f"{max_distance}")
+        raise MappingError(
+            f"relative error: need 0 <= min_distance <= max_distance, got {min_distance}, {max_distance}"
+        )
     i, j = relative_pairs(reference, min_distance, max_distance)
     if len(i) == 0:
-        raise MappingError(f"relative error: no pose pair {min_distance}..{max_distance} m of path apart "
-                           f"among {len(reference)} poses")
+        raise MappingError(
+            f"relative error: no pose pair {min_distance}..{max_distance} m of path apart among {len(reference)} poses"
+        )
     d_est = relative_motions(estimate, i, j)
     d_ref = relative_motions(reference, i, j)
     c, s = np.cos(d_ref[:, 2]), np.sin(d_ref[:, 2])
     dx, dy = d_est[:, 0] - d_ref[:, 0], d_est[:, 1] - d_ref[:, 1]
     translation = np.hypot(c * dx + s * dy, -s * dx + c * dy)
     rotation = np.degrees(np.abs(wrap_angle(d_est[:, 2] - d_ref[:, 2])))
-    return RelativeError(float(translation.mean()), float(rotation.mean()), float(translation.max()),
-                         float(rotation.max()), int(len(i)))
+    return RelativeError(
+        float(translation.mean()), float(rotation.mean()), float(translation.max()), float(rotation.max()), int(len(i))
+    )
 
 
 def rigid_alignment(source: np.ndarray, target: np.ndarray) -> tuple[float, float, float]:
@@ -127,5 +131,6 @@ def absolute_error(estimate, reference) -> AbsoluteError:
     ex, ey = estimate[:, 0], estimate[:, 1]
     aligned = np.column_stack([c * ex - s * ey + x, s * ex + c * ey + y])
     distance = np.hypot(*(aligned - reference[:, :2]).T)
-    return AbsoluteError(float(np.sqrt(np.mean(distance ** 2))), float(distance.mean()), float(distance.max()),
-                         (x, y, theta))
+    return AbsoluteError(
+        float(np.sqrt(np.mean(distance**2))), float(distance.mean()), float(distance.max()), (x, y, theta)
+    )

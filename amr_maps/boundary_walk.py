@@ -33,8 +33,14 @@ from amr_util.robot_description import default_robot
 class BoundaryWalk:
     """The followed solid's offset curve, ordered in the walking direction from the start's entry point."""
 
-    def __init__(self, quads: np.ndarray, start: tuple[float, float], hand: str,
-                 offset: float = default_robot().radius, resolution: float = 0.02) -> None:
+    def __init__(
+        self,
+        quads: np.ndarray,
+        start: tuple[float, float],
+        hand: str,
+        offset: float = default_robot().radius,
+        resolution: float = 0.02,
+    ) -> None:
         if hand not in ("right", "left"):
             raise ValueError(f"hand must be 'right' or 'left', got {hand!r}")
         quads = np.asarray(quads, dtype=float)

@@ -75,8 +75,15 @@ def map_yaml_keys(path: str | Path) -> dict:
     mode = data.get("mode", "trinary")
     if mode not in MODES:
         raise MapError(f"{path}: mode: must be one of {', '.join(MODES)}, got {mode!r}")
-    return {"image": image_path, "resolution": resolution, "origin": tuple(float(v) for v in origin),
-            "occupied_thresh": occupied, "free_thresh": free, "negate": bool(negate), "mode": mode}
+    return {
+        "image": image_path,
+        "resolution": resolution,
+        "origin": tuple(float(v) for v in origin),
+        "occupied_thresh": occupied,
+        "free_thresh": free,
+        "negate": bool(negate),
+        "mode": mode,
+    }
 
 
 def load_map(path: str | Path, frame_id: str = "map") -> OccupancyGrid:
@@ -84,16 +91,18 @@ def load_map(path: str | Path, frame_id: str = "map") -> OccupancyGrid:
     path = Path(path)
     keys = map_yaml_keys(path)
     shade, alpha = _read_image(keys["image"], path)
-    values = occupancy_from_pixels(shade, alpha, keys["mode"], keys["negate"], keys["occupied_thresh"],
-                                   keys["free_thresh"])
+    values = occupancy_from_pixels(
+        shade, alpha, keys["mode"], keys["negate"], keys["occupied_thresh"], keys["free_thresh"]
+    )
     try:
         return OccupancyGrid(values[::-1], keys["resolution"], keys["origin"], frame_id)
     except MapError as error:
         raise MapError(f"{path}: origin: {error}") from error
 
 
-def occupancy_from_pixels(shade: np.ndarray, alpha: np.ndarray | None, mode: str, negate: bool,
-                          occupied_thresh: float, free_thresh: float) -> np.ndarray:
+def occupancy_from_pixels(
+    shade: np.ndarray, alpha: np.ndarray | None, mode: str, negate: bool, occupied_thresh: float, free_thresh: float
+) -> np.ndarray:
     """Cell values (image rows, top first) from channel-mean brightness and alpha in [0, 1]."""
     if mode == "raw":
         raw = np.rint(shade * 255.0)
@@ -135,8 +144,14 @@ def _brightness(image: Image.Image) -> tuple[np.ndarray, np.ndarray | None]:
     return pixels[..., :3].mean(axis=2), (pixels[..., 3] if has_alpha else None)
 
 
-def save_map(grid: OccupancyGrid, path: str | Path, mode: str = "trinary", image_format: str = "pgm",
-             occupied_thresh: float = DEFAULT_OCCUPIED_THRESH, free_thresh: float = DEFAULT_FREE_THRESH) -> Path:
+def save_map(
+    grid: OccupancyGrid,
+    path: str | Path,
+    mode: str = "trinary",
+    image_format: str = "pgm",
+    occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
+    free_thresh: float = DEFAULT_FREE_THRESH,
+) -> Path:
     """Write `path` (name.yaml, or a stem) and its image beside it; returns the YAML path."""
     if mode not in MODES:
         raise MapError(f"save_map: mode must be one of {', '.join(MODES)}, got {mode!r}")

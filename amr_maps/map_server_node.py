@@ -46,11 +46,13 @@ class MapServerNode(ManagedNode):
         now = self.get_clock().now().to_msg()
         self._message = grid_message(grid, now, now)
         self._publisher = self.create_lifecycle_publisher(
-            OccupancyGridMessage, self.get_parameter("topic_name").value, LATCHED)
+            OccupancyGridMessage, self.get_parameter("topic_name").value, LATCHED
+        )
         self._service = self.create_active_service(GetMap, "~/map", self._on_get_map)
         self.get_logger().info(
             f"map {grid.width} x {grid.height} cells at {grid.resolution} m, origin {grid.origin[:2]}, "
-            f"frame {grid.frame_id}, on {self._publisher.topic_name}")
+            f"frame {grid.frame_id}, on {self._publisher.topic_name}"
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:

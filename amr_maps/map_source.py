@@ -20,13 +20,25 @@ from amr_util.parameter_spec import ParameterSpec
 def parameter_specs(world_problem: Callable[[str], str | None] | None = None) -> tuple[ParameterSpec, ...]:
     """Every parameter of the map_server node (all structural: the map is loaded at configure)."""
     return (
-        ParameterSpec("yaml_filename", "", "a map_server map file (name.yaml + its image), as nav2's map_server "
-                      "takes it; '' = use `world`"),
-        ParameterSpec("world", "", "a world file (name in share/amr_maps/config/worlds, or a path), "
-                      "rasterized at `resolution`; '' = use `yaml_filename`",
-                      check=(lambda name: world_problem(name) if name and world_problem else None)),
-        ParameterSpec("resolution", DEFAULT_RESOLUTION, "m per cell when the map is rasterized from `world`",
-                      minimum=0.001, maximum=10.0),
+        ParameterSpec(
+            "yaml_filename",
+            "",
+            "a map_server map file (name.yaml + its image), as nav2's map_server takes it; '' = use `world`",
+        ),
+        ParameterSpec(
+            "world",
+            "",
+            "a world file (name in share/amr_maps/config/worlds, or a path), "
+            "rasterized at `resolution`; '' = use `yaml_filename`",
+            check=(lambda name: world_problem(name) if name and world_problem else None),
+        ),
+        ParameterSpec(
+            "resolution",
+            DEFAULT_RESOLUTION,
+            "m per cell when the map is rasterized from `world`",
+            minimum=0.001,
+            maximum=10.0,
+        ),
         ParameterSpec("frame_id", "map", "frame of the map (REP 105: map)"),
         ParameterSpec("topic_name", "map", "topic of the nav_msgs/OccupancyGrid (transient local)"),
     )
@@ -38,8 +50,10 @@ def load_grid(values: dict, world_dirs: Sequence[Path] = ()) -> OccupancyGrid:
     yaml_filename, world = values.get("yaml_filename", ""), values.get("world", "")
     frame_id = values.get("frame_id", "map")
     if bool(yaml_filename) == bool(world):
-        raise MapError("yaml_filename, world: give exactly one of them (a map file, or a world to rasterize), got "
-                       f"yaml_filename={yaml_filename!r}, world={world!r}")
+        raise MapError(
+            "yaml_filename, world: give exactly one of them (a map file, or a world to rasterize), got "
+            f"yaml_filename={yaml_filename!r}, world={world!r}"
+        )
     if yaml_filename:
         try:
             return load_map(Path(yaml_filename).expanduser(), frame_id)

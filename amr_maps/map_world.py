@@ -23,17 +23,23 @@ OCCUPIED_PERCENT = 65
 """Cells at or above this value are solid: map_server's default occupied_thresh 0.65."""
 
 
-def world_from_grid(grid: OccupancyGrid, start: tuple[float, float, float] | None = None,
-                    goal: Goal | None = None, name: str = "map", source: str = "<grid>",
-                    occupied_percent: int = OCCUPIED_PERCENT) -> World:
+def world_from_grid(
+    grid: OccupancyGrid,
+    start: tuple[float, float, float] | None = None,
+    goal: Goal | None = None,
+    name: str = "map",
+    source: str = "<grid>",
+    occupied_percent: int = OCCUPIED_PERCENT,
+) -> World:
     """The world whose solids are the grid's occupied cells; start defaults to the most open free cell."""
     solid = grid.occupied(occupied_percent)
     if not solid.any():
         raise MapError(f"{source}: the map has no occupied cell (>= {occupied_percent}) to make walls of")
     boxes, faces = solid_cells(solid, grid.resolution, grid.origin[0], grid.origin[1])
     x, y, theta = start if start is not None else most_open_pose(grid, occupied_percent)
-    return World(name=name, polygons=tuple(boxes), faces=faces, start=Pose2D(x, y, wrap_angle(theta)),
-                 goal=goal, source=source)
+    return World(
+        name=name, polygons=tuple(boxes), faces=faces, start=Pose2D(x, y, wrap_angle(theta)), goal=goal, source=source
+    )
 
 
 def load_map_world(path: str | Path, start: tuple[float, float, float] | None = None) -> World:

@@ -33,11 +33,13 @@ def maze_file(family: str, seed: int, out: Path, options: dict) -> Path:
     world_from_dict(world, source=f"{family}_{seed}")  # the file written is a world the suite loads
     path = out / f"{world['name']}.yaml"
     given = " ".join(f"{key}={value}" for key, value in sorted(options.items()))
-    header = (f"# {family} maze, seed {seed}{', ' + given if given else ''}: written by `{PROG}` "
-              "(amr_maps.maze_families)\n")
+    header = (
+        f"# {family} maze, seed {seed}{', ' + given if given else ''}: written by `{PROG}` (amr_maps.maze_families)\n"
+    )
     out.mkdir(parents=True, exist_ok=True)
-    path.write_text(header + yaml.safe_dump(world, sort_keys=False, default_flow_style=None, width=120),
-                    encoding="utf-8")
+    path.write_text(
+        header + yaml.safe_dump(world, sort_keys=False, default_flow_style=None, width=120), encoding="utf-8"
+    )
     return path
 
 
@@ -55,9 +57,12 @@ def _parse_set(items: Sequence[str]) -> dict[str, float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     epilog="families: " + ", ".join(FAMILIES))
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="families: " + ", ".join(FAMILIES),
+    )
     parser.add_argument("family", nargs="?", help="a maze family, or 'all' for one of each")
     parser.add_argument("--seed", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--count", type=int, default=1, help="mazes per family, seeds seed .. seed + count - 1")
@@ -66,8 +71,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--width", type=float, help="m, corridor width (0.35-0.6; default: drawn)")
     parser.add_argument("--thickness", type=float, help="m, wall thickness (default: drawn)")
     parser.add_argument("--hand", choices=HANDS, help="the wall follower's side the goal is placed for (default right)")
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="a family option, e.g. loop_fraction=0.3, bend_deg=120, bends=4 (see --list)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a family option, e.g. loop_fraction=0.3, bend_deg=120, bends=4 (see --list)",
+    )
     parser.add_argument("--list", action="store_true", help="print the families and their options, then exit")
     args = parser.parse_args(argv)
     if args.list:
@@ -82,8 +92,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.count < 1:
             raise MazeError(f"--count must be at least 1, got {args.count}")
-        options = {name: getattr(args, name) for name in ("size", "width", "thickness", "hand")
-                   if getattr(args, name) is not None}
+        options = {
+            name: getattr(args, name)
+            for name in ("size", "width", "thickness", "hand")
+            if getattr(args, name) is not None
+        }
         options.update(_parse_set(args.set))
         for family in families:
             for seed in range(args.seed, args.seed + args.count):

@@ -53,7 +53,16 @@ from amr_maps.world import world_from_dict
 from amr_util.robot_description import default_robot
 
 FAMILIES = (
-    "perfect", "loops", "rotated", "bends", "curved", "pillars", "narrowing", "dead_ends", "thin_walls", "open_room",
+    "perfect",
+    "loops",
+    "rotated",
+    "bends",
+    "curved",
+    "pillars",
+    "narrowing",
+    "dead_ends",
+    "thin_walls",
+    "open_room",
 )
 HANDS = ("right", "left")
 ROBOT_RADIUS = default_robot().radius
@@ -64,9 +73,16 @@ TARGET_WALL_DISTANCE = 0.2
 WALL_LOST_DISTANCE = 0.4
 _COMMON = ("size", "width", "thickness", "hand")
 _FAMILY_OPTIONS = {
-    "perfect": (), "loops": ("loop_fraction",), "rotated": ("angle", "loop_fraction"),
-    "bends": ("bend_deg", "bends"), "curved": (), "pillars": (), "narrowing": ("min_width", "max_width"),
-    "dead_ends": (), "thin_walls": ("loop_fraction",), "open_room": (),
+    "perfect": (),
+    "loops": ("loop_fraction",),
+    "rotated": ("angle", "loop_fraction"),
+    "bends": ("bend_deg", "bends"),
+    "curved": (),
+    "pillars": (),
+    "narrowing": ("min_width", "max_width"),
+    "dead_ends": (),
+    "thin_walls": ("loop_fraction",),
+    "open_room": (),
 }
 _DECISION_MARGIN = 0.05
 """m: a goal closer than this to the reachability boundary is neither placed nor judged."""
@@ -88,7 +104,9 @@ def generate(family: str, seed: int, **options: Any) -> dict:
         raise MazeError(f"unknown maze family {family!r} (known: {', '.join(FAMILIES)})")
     unknown = sorted(set(options) - set(_COMMON) - set(_FAMILY_OPTIONS[family]))
     if unknown:
-        raise MazeError(f"{family}: unknown option {unknown[0]!r} (known: {', '.join(_COMMON + _FAMILY_OPTIONS[family])})")
+        raise MazeError(
+            f"{family}: unknown option {unknown[0]!r} (known: {', '.join(_COMMON + _FAMILY_OPTIONS[family])})"
+        )
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
         raise MazeError(f"seed must be a non-negative integer, got {seed!r}")
     hand = options.pop("hand", "right")
@@ -136,8 +154,9 @@ def goal_reachable(
     return geometry.goal_on_contour(solid, built.goal.x, built.goal.y, built.goal.radius, target_wall_distance)
 
 
-def walk_length(world: dict, hand: str = "right", robot_radius: float = ROBOT_RADIUS,
-                wall_lost_distance: float = WALL_LOST_DISTANCE) -> float:
+def walk_length(
+    world: dict, hand: str = "right", robot_radius: float = ROBOT_RADIUS, wall_lost_distance: float = WALL_LOST_DISTANCE
+) -> float:
     """Metres an ideal ``hand`` wall follower walks from the world's start to its goal (inf: never).
 
     Measured on the followed solid's offset curve (amr_maps.boundary_walk); generated
@@ -174,8 +193,11 @@ class _Options:
 
     def get(self, name: str, draw: Callable[[], float], low: float, high: float) -> float:
         value = self.values[name] if name in self.values else draw()
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-                or not (low <= float(value) <= high):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float, np.floating, np.integer))
+            or not (low <= float(value) <= high)
+        ):
             raise MazeError(f"{self.family}: option {name} must be a number in [{low}, {high}], got {value!r}")
         return float(value)
 
@@ -193,7 +215,9 @@ class _GridMaze:
 
     def neighbours(self, cell: tuple[int, int]) -> list[tuple[int, int]]:
         i, j = cell
-        return [(a, b) for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)) if 0 <= a < self.n and 0 <= b < self.m]
+        return [
+            (a, b) for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)) if 0 <= a < self.n and 0 <= b < self.m
+        ]
 
     def connected(self, a: tuple[int, int], b: tuple[int, int]) -> bool:
         return frozenset((a, b)) in self.open
@@ -259,8 +283,8 @@ def _perfect(rng: np.random.Generator, n: int, m: int) -> _GridMaze:
 def _knock_out(rng: np.random.Generator, maze: _GridMaze, fraction: float) -> None:
     """Open that fraction of the remaining inner walls: loops, and islands where a wall piece is cut free."""
     closed = sorted(
-        {frozenset((c, d)) for c in ((i, j) for i in range(maze.n) for j in range(maze.m))
-         for d in maze.neighbours(c)} - maze.open,
+        {frozenset((c, d)) for c in ((i, j) for i in range(maze.n) for j in range(maze.m)) for d in maze.neighbours(c)}
+        - maze.open,
         key=lambda pair: sorted(pair),
     )
     count = int(round(fraction * len(closed)))
@@ -268,8 +292,9 @@ def _knock_out(rng: np.random.Generator, maze: _GridMaze, fraction: float) -> No
         maze.open.add(closed[int(index)])
 
 
-def _grid_world(rng: np.random.Generator, opts: _Options, hand: str, loops: float, thin: bool = False,
-                angle: float = 0.0) -> dict:
+def _grid_world(
+    rng: np.random.Generator, opts: _Options, hand: str, loops: float, thin: bool = False, angle: float = 0.0
+) -> dict:
     size = opts.get("size", lambda: rng.uniform(3.0, 8.0), 1.5, 20.0)
     width = opts.get("width", lambda: rng.uniform(0.35, 0.6), 0.3, 1.5)
     low, high = (0.004, 0.01) if thin else (0.02, 0.08)
@@ -288,7 +313,7 @@ def _grid_world(rng: np.random.Generator, opts: _Options, hand: str, loops: floa
     distances = maze.distances(start_cell)
     far = sorted(distances, key=lambda c: (-distances[c], c))
     candidates = [maze.centre(c, pitch) for c in far[: max(1, len(far) // 3)]]
-    candidates += [maze.centre(c, pitch) for c in far[len(far) // 3:]]
+    candidates += [maze.centre(c, pitch) for c in far[len(far) // 3 :]]
     world = {"wall_thickness": thickness, "walls": walls, "start": [sx, sy, heading]}
     world = _place_goal(world, candidates, 0.4 * width, hand, rng, shuffle_first=max(1, len(far) // 3))
     return _rotate(world, angle) if angle else world
@@ -392,8 +417,9 @@ def _polyline_distance(p: np.ndarray, q: np.ndarray) -> float:
     return float(_segment_segment_distance(a0, a1, b0, b1).min())
 
 
-def _corridor_world(points: np.ndarray, half: np.ndarray, thickness: float, hand: str,
-                    rng: np.random.Generator) -> dict:
+def _corridor_world(
+    points: np.ndarray, half: np.ndarray, thickness: float, hand: str, rng: np.random.Generator
+) -> dict:
     """A capped corridor: start just inside the first end, goal at the last end."""
     heading = points[1] - points[0]
     start = points[0] + heading / np.linalg.norm(heading) * max(0.35, half[0] + 0.15)
@@ -407,8 +433,9 @@ def _corridor_world(points: np.ndarray, half: np.ndarray, thickness: float, hand
     return _place_goal(world, [tuple(goal)], 0.8 * float(half[-1]), hand, rng)
 
 
-def _draw_corridor(rng: np.random.Generator, draw_pieces: Callable[[], list[np.ndarray]],
-                   clearance: float, family: str) -> list[np.ndarray]:
+def _draw_corridor(
+    rng: np.random.Generator, draw_pieces: Callable[[], list[np.ndarray]], clearance: float, family: str
+) -> list[np.ndarray]:
     for _ in range(200):
         pieces = draw_pieces()
         if _pieces_clear(pieces, clearance):
@@ -430,8 +457,10 @@ def _bends_family(rng, opts, hand):
     half = 0.5 * width
 
     def draw() -> list[np.ndarray]:
-        turns = [math.radians(fixed if fixed is not None else rng.uniform(15.0, 165.0)) * rng.choice([-1.0, 1.0])
-                 for _ in range(count)]
+        turns = [
+            math.radians(fixed if fixed is not None else rng.uniform(15.0, 165.0)) * rng.choice([-1.0, 1.0])
+            for _ in range(count)
+        ]
         heading, point, pieces = rng.uniform(0.0, 2.0 * math.pi), np.zeros(2), []
         for k in range(count + 1):
             # each leg leaves room for the mitres at both its ends, plus a straight stretch
@@ -585,8 +614,9 @@ def _inside_polygon(x: float, y: float, corners: np.ndarray) -> bool:
     return inside
 
 
-def _room_start_and_goal(world: dict, rng: np.random.Generator, hand: str, half_extent: np.ndarray,
-                         corners: np.ndarray) -> dict:
+def _room_start_and_goal(
+    world: dict, rng: np.random.Generator, hand: str, half_extent: np.ndarray, corners: np.ndarray
+) -> dict:
     """A random free start with a random heading whose followed solid is unambiguous, a far goal on it."""
     world = dict(world, start=[0.0, 0.0, 0.0])
     geometry = _Geometry(world_from_dict(world).polygons, ROBOT_RADIUS)
@@ -605,7 +635,9 @@ def _room_start_and_goal(world: dict, rng: np.random.Generator, hand: str, half_
         break
     else:
         raise MazeError("no unambiguous free start found in 500 draws")
-    candidates = [tuple(p) for p in rng.uniform(-half_extent, half_extent, size=(300, 2)) if _inside_polygon(*p, corners)]
+    candidates = [
+        tuple(p) for p in rng.uniform(-half_extent, half_extent, size=(300, 2)) if _inside_polygon(*p, corners)
+    ]
     candidates.sort(key=lambda c: -math.hypot(c[0] - world["start"][0], c[1] - world["start"][1]))
     return _place_goal(world, candidates, 0.2, hand, rng)
 
@@ -613,13 +645,19 @@ def _room_start_and_goal(world: dict, rng: np.random.Generator, hand: str, half_
 # -- shared placement and transforms -------------------------------------------------------
 
 
-def _place_goal(world: dict, candidates: list[tuple[float, float]], radius: float, hand: str,
-                rng: np.random.Generator, shuffle_first: int = 0) -> dict:
+def _place_goal(
+    world: dict,
+    candidates: list[tuple[float, float]],
+    radius: float,
+    hand: str,
+    rng: np.random.Generator,
+    shuffle_first: int = 0,
+) -> dict:
     """The first candidate the ``hand`` follower surely reaches (the first ``shuffle_first`` tried in random order)."""
     order = list(range(len(candidates)))
     if shuffle_first:
         head = [order[int(i)] for i in rng.permutation(min(shuffle_first, len(order)))]
-        order = head + order[len(head):]
+        order = head + order[len(head) :]
     built = world_from_dict(dict(world, goal=[0.0, 0.0, 1.0]))
     geometry = _Geometry(built.polygons, ROBOT_RADIUS)
     solid = geometry.followed_component(built.start.x, built.start.y, built.start.theta, hand, WALL_LOST_DISTANCE)
@@ -801,8 +839,9 @@ class _Geometry:
         if len(near) > 1 and near[1] - near[0] < 0.3:
             return False
         side = -0.5 * math.pi if hand == "right" else 0.5 * math.pi
-        hits = self._ray_hits(np.array([x, y]), np.array([math.cos(theta + side), math.sin(theta + side)]),
-                              self.a, self.b)
+        hits = self._ray_hits(
+            np.array([x, y]), np.array([math.cos(theta + side), math.sin(theta + side)]), self.a, self.b
+        )
         return not (len(hits) and abs(hits.min() - lost_distance) < 0.15)
 
     def goal_on_contour(self, component: int, gx: float, gy: float, radius: float, target: float) -> bool | None:

@@ -31,8 +31,9 @@ RELATIVE_TOLERANCE = 1e-6
 FOUR_NEIGHBOURS = ndimage.generate_binary_structure(2, 1)
 
 
-def rasterize_world(world: World, resolution: float = DEFAULT_RESOLUTION, margin: float = DEFAULT_MARGIN,
-                    frame_id: str = "map") -> OccupancyGrid:
+def rasterize_world(
+    world: World, resolution: float = DEFAULT_RESOLUTION, margin: float = DEFAULT_MARGIN, frame_id: str = "map"
+) -> OccupancyGrid:
     """The occupancy grid of `world` at `resolution` m/cell with `margin` m (rounded up to cells) around."""
     if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0.0):
         raise MapError(f"rasterize: resolution must be a positive number of m/cell, got {resolution!r}")
@@ -57,7 +58,7 @@ def rasterize_world(world: World, resolution: float = DEFAULT_RESOLUTION, margin
     start_inside = 0 <= start_row < height and 0 <= start_col < width
     if not start_inside or outside[start_row, start_col]:  # not closed: only what lies beyond the solids is unknown
         outside = np.ones_like(occupied)
-        outside[margin_cells:height - margin_cells, margin_cells:width - margin_cells] = False
+        outside[margin_cells : height - margin_cells, margin_cells : width - margin_cells] = False
         outside &= ~occupied
     data[outside] = UNKNOWN
     return OccupancyGrid(data, resolution, (origin_x, origin_y, 0.0), frame_id)
@@ -68,8 +69,9 @@ def _cells(length: float, resolution: float) -> int:
     return max(0, math.ceil(length / resolution - RELATIVE_TOLERANCE))
 
 
-def _mark_polygon(occupied: np.ndarray, polygon: np.ndarray, origin_x: float, origin_y: float,
-                  resolution: float, tolerance: float) -> None:
+def _mark_polygon(
+    occupied: np.ndarray, polygon: np.ndarray, origin_x: float, origin_y: float, resolution: float, tolerance: float
+) -> None:
     """Set the cells whose interior overlaps the convex counter-clockwise `polygon`.
 
     Separating axes of a box and a convex polygon: the box's x and y axes (the candidate window below)

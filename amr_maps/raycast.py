@@ -92,8 +92,9 @@ class NumpyRayCaster:
         """Distances per beam, +inf for no hit; hits beyond max_range may be returned as they are."""
         return self.cast_many(np.array([x]), np.array([y]), np.array([phi0]), increment, count, max_range)[0]
 
-    def cast_many(self, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, increment: float, count: int,
-                  max_range: float) -> np.ndarray:
+    def cast_many(
+        self, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, increment: float, count: int, max_range: float
+    ) -> np.ndarray:
         """(N, count) distances for N fans from origins (x[n], y[n]) starting at angles phi0[n]: row n is
         cast(x[n], y[n], phi0[n], ...) bit for bit, for the cost of a few more pairs rather than N casts."""
         ranges = self._no_hits(len(x), count)
@@ -103,13 +104,17 @@ class NumpyRayCaster:
             distance[row] = self._line @ (px, py, 1.0)
         keep = distance > 0.0  # faces turned towards the origin ...
         (xmin, ymin), (xmax, ymax) = self._lower, self._upper
-        outgrown = [xmin < px - max_range or ymin < py - max_range or xmax > px + max_range or ymax > py + max_range
-                    for px, py in origins]
+        outgrown = [
+            xmin < px - max_range or ymin < py - max_range or xmax > px + max_range or ymax > py + max_range
+            for px, py in origins
+        ]
         if any(outgrown):  # ... and, when the world outgrows the range, within a square of half side max_range
             box = self._box
             near = (
-                (box[0] < x[:, None] + max_range) & (box[1] < y[:, None] + max_range)
-                & (box[2] > x[:, None] - max_range) & (box[3] > y[:, None] - max_range)
+                (box[0] < x[:, None] + max_range)
+                & (box[1] < y[:, None] + max_range)
+                & (box[2] > x[:, None] - max_range)
+                & (box[3] > y[:, None] - max_range)
             )
             keep &= near | ~np.array(outgrown)[:, None]
         origin, index = keep.nonzero()  # the (origin, face) items, origin by origin
@@ -123,9 +128,15 @@ class NumpyRayCaster:
         turns = self._period_offsets(increment, count)
         k_a = k_b + np.mod(k_a - k_b, turns[1, 0])
         first, counts = fan_spans(k_b, k_a, turns, count)
-        _sweep_faces(ranges, np.concatenate([origin] * 2), first, counts,
-                     np.concatenate([start - self._inward[index]] * 2),
-                     np.concatenate([distance[origin, index]] * 2), increment)
+        _sweep_faces(
+            ranges,
+            np.concatenate([origin] * 2),
+            first,
+            counts,
+            np.concatenate([start - self._inward[index]] * 2),
+            np.concatenate([distance[origin, index]] * 2),
+            increment,
+        )
         return ranges
 
     def _no_hits(self, origins: int, count: int) -> np.ndarray:

@@ -29,8 +29,15 @@ class LogOddsGrid:
     """A growing log-odds occupancy grid; `origin` (x, y) is cell (0, 0)'s lower-left corner, row 0 the lowest y
     (amr_maps.occupancy_grid's layout)."""
 
-    def __init__(self, resolution: float, origin: tuple[float, float] | None = None, l_occ: float = 0.85,
-                 l_free: float = -0.4, clamp: tuple[float, float] = (-2.0, 3.5), margin: float = 2.0) -> None:
+    def __init__(
+        self,
+        resolution: float,
+        origin: tuple[float, float] | None = None,
+        l_occ: float = 0.85,
+        l_free: float = -0.4,
+        clamp: tuple[float, float] = (-2.0, 3.5),
+        margin: float = 2.0,
+    ) -> None:
         if not math.isfinite(resolution) or resolution <= 0.0:
             raise ValueError(f"log-odds grid: resolution must be a positive number of m/cell, got {resolution!r}")
         if not (math.isfinite(l_occ) and l_occ > 0.0 and math.isfinite(l_free) and l_free < 0.0):
@@ -78,8 +85,9 @@ class LogOddsGrid:
         """100 at or above `occupied`, 0 at or below `free`, round(100 p) between, -1 where never observed. An
         empty grid (no scan yet) is one unknown cell at the origin."""
         if self._sum.size == 0:
-            return OccupancyGrid(np.full((1, 1), UNKNOWN, dtype=np.int8), self.resolution, (*self.origin, 0.0),
-                                 frame_id)
+            return OccupancyGrid(
+                np.full((1, 1), UNKNOWN, dtype=np.int8), self.resolution, (*self.origin, 0.0), frame_id
+            )
         probability = self.probability()
         data = np.rint(100.0 * probability).astype(np.int8)
         data[probability >= occupied] = OCCUPIED
@@ -115,11 +123,24 @@ class LogOddsGrid:
         start = np.array([(pose[0] - ox) / self.resolution, (pose[1] - oy) / self.resolution])
         ends_cells = (ends - (ox, oy)) / self.resolution
         self._scans += 1
-        _update(self._sum, self._count, self._mark, 2 * self._scans, start[0], start[1], ends_cells[:, 0],
-                ends_cells[:, 1], hit[keep], sign * self.l_occ, sign * self.l_free, sign)
+        _update(
+            self._sum,
+            self._count,
+            self._mark,
+            2 * self._scans,
+            start[0],
+            start[1],
+            ends_cells[:, 0],
+            ends_cells[:, 1],
+            hit[keep],
+            sign * self.l_occ,
+            sign * self.l_free,
+            sign,
+        )
 
-    def insert_scan(self, pose, scan: ScanData, mount=(0.0, 0.0, 0.0), max_range_used: float | None = None,
-                    sign: int = 1) -> None:
+    def insert_scan(
+        self, pose, scan: ScanData, mount=(0.0, 0.0, 0.0), max_range_used: float | None = None, sign: int = 1
+    ) -> None:
         """insert for a ScanData taken with the robot at pose and the sensor at mount in the robot frame:
         readings below range_min are skipped, above range_max are no returns; max_range_used defaults to
         range_max (no clearing when it is infinite)."""
@@ -128,8 +149,13 @@ class LogOddsGrid:
         ranges = np.where(ranges < scan.range_min, np.nan, ranges)
         ranges = np.where(ranges > scan.range_max, np.inf, ranges)
         limit = scan.range_max if max_range_used is None else max_range_used
-        self.insert(np.asarray(compose(tuple(np.asarray(pose, dtype=float)), tuple(mount))), ranges, angles,
-                    min(limit, scan.range_max), sign)
+        self.insert(
+            np.asarray(compose(tuple(np.asarray(pose, dtype=float)), tuple(mount))),
+            ranges,
+            angles,
+            min(limit, scan.range_max),
+            sign,
+        )
 
     def _cover(self, points: np.ndarray) -> None:
         """Grow the arrays (with the margin) so that every point's cell is inside, keeping the lattice."""
@@ -153,16 +179,23 @@ class LogOddsGrid:
         mark = np.zeros((size[1], size[0]), dtype=np.int64)
         if self._sum.size:
             c0, r0 = self._low - low
-            total[r0:r0 + height, c0:c0 + width] = self._sum
-            count[r0:r0 + height, c0:c0 + width] = self._count
-            mark[r0:r0 + height, c0:c0 + width] = self._mark
+            total[r0 : r0 + height, c0 : c0 + width] = self._sum
+            count[r0 : r0 + height, c0 : c0 + width] = self._count
+            mark[r0 : r0 + height, c0 : c0 + width] = self._mark
         self._sum, self._count, self._mark, self._low = total, count, mark, low
 
 
-def map_from_scans(poses: np.ndarray, scans: Sequence[ScanData], resolution: float = 0.05,
-                   max_range: float | None = None, mount=(0.0, 0.0, 0.0), occupied: float = 0.65,
-                   free: float = 0.25, frame_id: str = "map",
-                   origin: tuple[float, float] | None = None) -> OccupancyGrid:
+def map_from_scans(
+    poses: np.ndarray,
+    scans: Sequence[ScanData],
+    resolution: float = 0.05,
+    max_range: float | None = None,
+    mount=(0.0, 0.0, 0.0),
+    occupied: float = 0.65,
+    free: float = 0.25,
+    frame_id: str = "map",
+    origin: tuple[float, float] | None = None,
+) -> OccupancyGrid:
     """The occupancy grid of scans taken at poses (N, 3) of the robot (sensor at mount in the robot frame):
     no returns clear up to max_range (default: each scan's range_max; nothing when that is infinite). origin:
     a point of the cell lattice (default (0, 0)), to align the map on another grid's cells."""

@@ -77,8 +77,9 @@ class ScoreMap:
         return cls(prob, resolution, (float(origin[0]), float(origin[1])), prob < free_below)
 
     @classmethod
-    def from_occupancy(cls, grid: OccupancyGrid, sigma: float = 0.05, unknown: float = 0.05,
-                       occupied_threshold: int = 65) -> "ScoreMap":
+    def from_occupancy(
+        cls, grid: OccupancyGrid, sigma: float = 0.05, unknown: float = 0.05, occupied_threshold: int = 65
+    ) -> "ScoreMap":
         """exp(-d^2 / (2 sigma^2)) with d the distance (m) from a cell's centre to the nearest occupied cell's
         (a likelihood field); unknown cells score at least `unknown` (a small constant: they may hide a wall).
         No occupied cell at all: every cell scores 0 (unknown ones `unknown`)."""
@@ -141,7 +142,7 @@ class CorrelativeMatcher:
         self.origin = score_map.origin
         self.pad = (1 << (self.levels - 1)) - 1
         base = np.zeros((rows + self.pad, cols + self.pad), dtype=np.uint16)
-        base[self.pad:, self.pad:] = np.rint(score_map.table * QUANTUM).astype(np.uint16)
+        base[self.pad :, self.pad :] = np.rint(score_map.table * QUANTUM).astype(np.uint16)
         self.pyramid = _max_pyramid(base, self.levels)
         self._free_pyramid: np.ndarray | None = None
 
@@ -152,8 +153,9 @@ class CorrelativeMatcher:
         points = _finite_points(points)
         if len(points) == 0:
             return 0.0
-        rows, cols = _cells(points, float(pose[0]), float(pose[1]), np.array([float(pose[2])]), self.origin,
-                            self.resolution)
+        rows, cols = _cells(
+            points, float(pose[0]), float(pose[1]), np.array([float(pose[2])]), self.origin, self.resolution
+        )
         total = _node_total(self.pyramid, 0, self.pad, rows, cols, 0, 0, 0)
         return total / (len(points) * QUANTUM)
 
@@ -167,9 +169,17 @@ class CorrelativeMatcher:
 
     # -- local matching ------------------------------------------------------------------------------------
 
-    def match(self, points: np.ndarray, prior, linear_window: float, angular_window: float,
-              angular_step: float | None = None, refine: bool = True, max_nodes: int | None = None,
-              covariance_cells: int = 4) -> Match:
+    def match(
+        self,
+        points: np.ndarray,
+        prior,
+        linear_window: float,
+        angular_window: float,
+        angular_step: float | None = None,
+        refine: bool = True,
+        max_nodes: int | None = None,
+        covariance_cells: int = 4,
+    ) -> Match:
         """The best pose of the lattice (whole cells, angular steps) within +-linear_window (m, in x and in
         y) and +-angular_window (rad) of prior, by branch and bound (exact unless max_nodes runs out: then
         exhaustive is False), refined below the cell when `refine`; its covariance from +-covariance_cells around the
@@ -207,14 +217,24 @@ class CorrelativeMatcher:
 
     # -- global search ---------------------------------------------------------------------------------------
 
-    def search(self, points: np.ndarray, candidates_region: np.ndarray | None = None,
-               angular_step: float | None = None, count: int = 5, min_score: float = 0.0,
-               max_nodes: int = 200_000, min_separation: float = 0.5, min_angle_separation: float = 0.5,
-               refine: bool = True, max_seconds: float | None = None) -> list[Match]:
+    def search(
+        self,
+        points: np.ndarray,
+        candidates_region: np.ndarray | None = None,
+        angular_step: float | None = None,
+        count: int = 5,
+        min_score: float = 0.0,
+        max_nodes: int = 200_000,
+        min_separation: float = 0.5,
+        min_angle_separation: float = 0.5,
+        refine: bool = True,
+        max_seconds: float | None = None,
+    ) -> list[Match]:
         """The `count` best well-separated poses over the map (robot in a cell of candidates_region; None:
         the score map's free cells), best first: one GlobalSearch step of max_nodes scored nodes."""
-        searcher = GlobalSearch(self, points, candidates_region, angular_step, count, min_score, min_separation,
-                                min_angle_separation)
+        searcher = GlobalSearch(
+            self, points, candidates_region, angular_step, count, min_score, min_separation, min_angle_separation
+        )
         return searcher.step(max_nodes, refine=refine, max_seconds=max_seconds)
 
     # -- internals ---------------------------------------------------------------------------------------
@@ -232,12 +252,24 @@ class CorrelativeMatcher:
             self._free_pyramid = _max_pyramid(self.score_map.free.astype(np.uint8), self.levels)
         return self._free_pyramid
 
-    def _finish(self, points: np.ndarray, pose: np.ndarray, total: int, step: float, exhaustive: bool, nodes: int,
-                refine: bool, covariance_cells: int) -> Match:
+    def _finish(
+        self,
+        points: np.ndarray,
+        pose: np.ndarray,
+        total: int,
+        step: float,
+        exhaustive: bool,
+        nodes: int,
+        refine: bool,
+        covariance_cells: int,
+    ) -> Match:
         score = total / (len(points) * QUANTUM)
         # covariance_cells 0: no covariance wanted (the lattice's quantization stands in for it)
-        covariance = self._covariance(points, pose, step, covariance_cells) if covariance_cells > 0 else \
-            _floor_covariance(self.resolution, step)
+        covariance = (
+            self._covariance(points, pose, step, covariance_cells)
+            if covariance_cells > 0
+            else _floor_covariance(self.resolution, step)
+        )
         if refine:
             pose, score = self._refine(points, pose, step)
         return Match(pose, float(score), bool(exhaustive), int(nodes), covariance)
@@ -247,8 +279,12 @@ class CorrelativeMatcher:
         c, s = math.cos(pose[2]), math.sin(pose[2])
         wx = pose[0] + c * points[:, 0] - s * points[:, 1]
         wy = pose[1] + s * points[:, 0] + c * points[:, 1]
-        return _bilinear(self.score_map.table, (wx - self.origin[0]) / self.resolution - 0.5,
-                         (wy - self.origin[1]) / self.resolution - 0.5, 1.0 / self.resolution)
+        return _bilinear(
+            self.score_map.table,
+            (wx - self.origin[0]) / self.resolution - 0.5,
+            (wy - self.origin[1]) / self.resolution - 0.5,
+            1.0 / self.resolution,
+        )
 
     def _refine(self, points: np.ndarray, pose: np.ndarray, step: float, iterations: int = 15, reach: float = 2.0):
         """Gauss-Newton on sum (1 - M(T(pose) p))^2 over the bilinear table M (Hector SLAM's scan matching),
@@ -319,9 +355,17 @@ class GlobalSearch:
     far; `done` once the search is complete (then the matches are exhaustive: the exact best of the
     lattice). The lattice: robot at the centre of each cell of candidates_region, headings k * step."""
 
-    def __init__(self, matcher: CorrelativeMatcher, points: np.ndarray, candidates_region: np.ndarray | None = None,
-                 angular_step: float | None = None, count: int = 5, min_score: float = 0.0,
-                 min_separation: float = 0.5, min_angle_separation: float = 0.5) -> None:
+    def __init__(
+        self,
+        matcher: CorrelativeMatcher,
+        points: np.ndarray,
+        candidates_region: np.ndarray | None = None,
+        angular_step: float | None = None,
+        count: int = 5,
+        min_score: float = 0.0,
+        min_separation: float = 0.5,
+        min_angle_separation: float = 0.5,
+    ) -> None:
         if not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f"global search: count must be an integer >= 1, got {count!r}")
         if not math.isfinite(min_score) or not 0.0 <= min_score <= 1.0:
@@ -339,8 +383,9 @@ class GlobalSearch:
         else:
             mask = np.asarray(candidates_region, dtype=bool)
             if mask.shape != (rows_map, cols_map):
-                raise ValueError(f"global search: candidates_region shape {mask.shape} differs from the map's "
-                                 f"{(rows_map, cols_map)}")
+                raise ValueError(
+                    f"global search: candidates_region shape {mask.shape} differs from the map's {(rows_map, cols_map)}"
+                )
             region = _max_pyramid(mask.astype(np.uint8), matcher.levels)
         self._x_ref = matcher.origin[0] + 0.5 * res
         self._y_ref = matcher.origin[1] + 0.5 * res
@@ -355,8 +400,21 @@ class GlobalSearch:
         min_total = int(math.ceil(min_score * len(self.points) * QUANTUM - 1e-6))
         sep2 = (min_separation / res) ** 2
         angle_sep = min_angle_separation / self.angular_step
-        self._search = _BranchAndBound(matcher, rows, cols, cols_map, rows_map, tops, top, region, count,
-                                       max(min_total, 1), sep2, angle_sep, n_angles)
+        self._search = _BranchAndBound(
+            matcher,
+            rows,
+            cols,
+            cols_map,
+            rows_map,
+            tops,
+            top,
+            region,
+            count,
+            max(min_total, 1),
+            sep2,
+            angle_sep,
+            n_angles,
+        )
 
     @property
     def done(self) -> bool:
@@ -388,17 +446,33 @@ class GlobalSearch:
         out = []
         for a, x, y, total in self._search.results():
             pose = np.array([self._x_ref + x * res, self._y_ref + y * res, float(_wrap(self.thetas[a]))])
-            out.append(self.matcher._finish(self.points, pose, total, self.angular_step, self.done,
-                                            self._search.nodes, refine, 4))
+            out.append(
+                self.matcher._finish(
+                    self.points, pose, total, self.angular_step, self.done, self._search.nodes, refine, 4
+                )
+            )
         return out
 
 
 class _BranchAndBound:
     """The resumable depth-first branch and bound over (angle, x, y) blocks shared by match and GlobalSearch."""
 
-    def __init__(self, matcher: CorrelativeMatcher, rows: np.ndarray, cols: np.ndarray, nx: int, ny: int,
-                 tops: np.ndarray, top: int, region: np.ndarray | None, count: int, min_total: int, sep2: float,
-                 angle_sep: float, n_angles: int) -> None:
+    def __init__(
+        self,
+        matcher: CorrelativeMatcher,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        nx: int,
+        ny: int,
+        tops: np.ndarray,
+        top: int,
+        region: np.ndarray | None,
+        count: int,
+        min_total: int,
+        sep2: float,
+        angle_sep: float,
+        n_angles: int,
+    ) -> None:
         self.matcher = matcher
         self.rows, self.cols = rows, cols
         self.nx, self.ny = nx, ny
@@ -427,8 +501,17 @@ class _BranchAndBound:
         budget = max_nodes
         if self.scored < len(self.tops):
             stop = min(len(self.tops), self.scored + budget)
-            _score_nodes(self.matcher.pyramid, self.top, self.matcher.pad, self.rows, self.cols, self.tops,
-                         self.top_totals, self.scored, stop)
+            _score_nodes(
+                self.matcher.pyramid,
+                self.top,
+                self.matcher.pad,
+                self.rows,
+                self.cols,
+                self.tops,
+                self.top_totals,
+                self.scored,
+                stop,
+            )
             budget -= stop - self.scored
             self.nodes += stop - self.scored
             self.scored = stop
@@ -440,14 +523,35 @@ class _BranchAndBound:
             self.sorted = True
         if budget > 0 and not self.done:
             self.nodes += _branch_and_bound(
-                self.matcher.pyramid, self.matcher.pad, self.rows, self.cols, self.region, self.use_region, self.nx,
-                self.ny, self.top, self.tops, self.top_totals, self.state, self.stack, self.stack_totals,
-                self.found, self.found_totals, self.min_total, self.sep2, self.angle_sep, self.n_angles, budget)
+                self.matcher.pyramid,
+                self.matcher.pad,
+                self.rows,
+                self.cols,
+                self.region,
+                self.use_region,
+                self.nx,
+                self.ny,
+                self.top,
+                self.tops,
+                self.top_totals,
+                self.state,
+                self.stack,
+                self.stack_totals,
+                self.found,
+                self.found_totals,
+                self.min_total,
+                self.sep2,
+                self.angle_sep,
+                self.n_angles,
+                budget,
+            )
 
     def results(self) -> list[tuple[int, int, int, int]]:
         """(angle index, x, y, total) of the best leaves so far, best first."""
-        return [(int(a), int(x), int(y), int(t))
-                for (a, x, y), t in zip(self.found[:self.state[2]], self.found_totals[:self.state[2]])]
+        return [
+            (int(a), int(x), int(y), int(t))
+            for (a, x, y), t in zip(self.found[: self.state[2]], self.found_totals[: self.state[2]])
+        ]
 
 
 # -- helpers ----------------------------------------------------------------------------------------------
@@ -463,7 +567,7 @@ def _wrap(angle: float) -> float:
 
 
 def _floor_covariance(resolution: float, step: float) -> np.ndarray:
-    return np.diag([resolution ** 2 / 12.0, resolution ** 2 / 12.0, step ** 2 / 12.0])
+    return np.diag([resolution**2 / 12.0, resolution**2 / 12.0, step**2 / 12.0])
 
 
 def _cells(points: np.ndarray, x_ref: float, y_ref: float, thetas: np.ndarray, origin, resolution: float):
@@ -597,9 +701,29 @@ def _threshold(found_totals, state, min_total):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _branch_and_bound(pyramid, pad, rows, cols, region, use_region, nx, ny, top, tops, top_totals, state, stack,
-                      stack_totals, found, found_totals, min_total, sep2, angle_sep, n_angles,
-                      max_nodes):  # pragma: no cover - compiled
+def _branch_and_bound(
+    pyramid,
+    pad,
+    rows,
+    cols,
+    region,
+    use_region,
+    nx,
+    ny,
+    top,
+    tops,
+    top_totals,
+    state,
+    stack,
+    stack_totals,
+    found,
+    found_totals,
+    min_total,
+    sep2,
+    angle_sep,
+    n_angles,
+    max_nodes,
+):  # pragma: no cover - compiled
     """Depth-first branch and bound from the top nodes (sorted best first) until done or max_nodes nodes
     scored; all progress lives in state, stack and found, so a next call continues. Returns nodes scored."""
     nodes = 0

@@ -46,9 +46,12 @@ KINDS = BROKEN + SYMMETRIC
 LATTICE = 0.02
 """m: every coordinate is a multiple of this (thicknesses of twice this)."""
 _OPTIONS = {
-    "doorway": ("size", "feature", "thickness"), "notch": ("size", "feature", "depth", "thickness"),
-    "missing_pillar": ("size", "feature", "thickness"), "extra_pillar": ("size", "feature", "thickness"),
-    "ring": ("size", "width", "thickness"), "island": ("size", "thickness"),
+    "doorway": ("size", "feature", "thickness"),
+    "notch": ("size", "feature", "depth", "thickness"),
+    "missing_pillar": ("size", "feature", "thickness"),
+    "extra_pillar": ("size", "feature", "thickness"),
+    "ring": ("size", "width", "thickness"),
+    "island": ("size", "thickness"),
     "pillar_grid": ("size", "feature", "thickness"),
 }
 START_CLEARANCE = 0.2
@@ -108,13 +111,15 @@ class FeatureView:
 
     def __init__(self, world: World, symmetric: World, tolerance: float = 0.05) -> None:
         from amr_maps.raycast import NumpyRayCaster  # noqa: PLC0415 (only the benchmarks and tests need it)
+
         self._casters = NumpyRayCaster(world.faces), NumpyRayCaster(symmetric.faces)
         self.tolerance = tolerance
 
     def differing_beams(self, x: float, y: float, phi0: float, increment: float, count: int, range_max: float) -> int:
         """Beams from sensor pose (x, y), first beam at phi0, whose ranges (clipped at range_max) differ."""
-        ranges = [np.minimum(caster.cast(x, y, phi0, increment, count, range_max), range_max)
-                  for caster in self._casters]
+        ranges = [
+            np.minimum(caster.cast(x, y, phi0, increment, count, range_max), range_max) for caster in self._casters
+        ]
         return int(np.count_nonzero(np.abs(ranges[0] - ranges[1]) > self.tolerance))
 
     def told_apart(self, x: float, y: float, phi0: float, increment: float, count: int, range_max: float) -> list[int]:
@@ -125,8 +130,10 @@ class FeatureView:
         out = []
         for k in (1, 2, 3):
             c, s = math.cos(k * math.pi / 2), math.sin(k * math.pi / 2)
-            turned = np.minimum(caster.cast(c * x - s * y, s * x + c * y, phi0 + k * math.pi / 2, increment, count,
-                                            range_max), range_max)
+            turned = np.minimum(
+                caster.cast(c * x - s * y, s * x + c * y, phi0 + k * math.pi / 2, increment, count, range_max),
+                range_max,
+            )
             out.append(int(np.count_nonzero(np.abs(turned - here) > self.tolerance)))
         return out
 
@@ -189,8 +196,13 @@ def _notch(draw: _Draw, size: float, thickness: float):
     s = size / 2
     x0 = draw.lat(draw.rng.uniform(-s + 0.3, s - 0.3 - width - thickness))  # the notch's left wall's centre line
     x1 = draw.lat(x0 + width + thickness)
-    bottom = [[-s, -s, x0, -s], [x0, -s, x0, -s - depth], [x0, -s - depth, x1, -s - depth], [x1, -s - depth, x1, -s],
-              [x1, -s, s, -s]]
+    bottom = [
+        [-s, -s, x0, -s],
+        [x0, -s, x0, -s - depth],
+        [x0, -s - depth, x1, -s - depth],
+        [x1, -s - depth, x1, -s],
+        [x1, -s, s, -s],
+    ]
     outer = _square(s)
     island = [[-half, -half, half, half]]
     broken = _turned({"walls": _rounded(bottom + outer[1:]), "boxes": island}, int(draw.rng.integers(4)))
@@ -202,8 +214,11 @@ def _pillar_grid(draw: _Draw, size: float):
     spacing = size / (count + 1)
     side = max(2 * LATTICE, draw.even(draw.length("feature", 0.2, max(0.2, min(0.6, spacing - 0.6)), 0.1, 1.0)))
     centres = [(i - (count - 1) / 2) * spacing for i in range(count)]
-    pillars = [[draw.lat(x) - side / 2, draw.lat(y) - side / 2, draw.lat(x) + side / 2, draw.lat(y) + side / 2]
-               for y in centres for x in centres]
+    pillars = [
+        [draw.lat(x) - side / 2, draw.lat(y) - side / 2, draw.lat(x) + side / 2, draw.lat(y) + side / 2]
+        for y in centres
+        for x in centres
+    ]
     return count, _rounded(pillars)
 
 
@@ -212,8 +227,10 @@ def _missing_pillar(draw: _Draw, size: float, thickness: float):
     candidates = [k for k in range(len(pillars)) if not (count == 3 and k == 4)]
     missing = candidates[int(draw.rng.integers(len(candidates)))]
     outer = _rounded(_square(size / 2))
-    return ({"walls": outer, "boxes": [p for k, p in enumerate(pillars) if k != missing]},
-            {"walls": outer, "boxes": pillars})
+    return (
+        {"walls": outer, "boxes": [p for k, p in enumerate(pillars) if k != missing]},
+        {"walls": outer, "boxes": pillars},
+    )
 
 
 def _extra_pillar(draw: _Draw, size: float, thickness: float):
@@ -251,12 +268,20 @@ def _full_grid(draw: _Draw, size: float, thickness: float):
     return world, world
 
 
-_BUILDERS = {"doorway": _doorway, "notch": _notch, "missing_pillar": _missing_pillar, "extra_pillar": _extra_pillar,
-             "ring": _ring, "island": _island, "pillar_grid": _full_grid}
+_BUILDERS = {
+    "doorway": _doorway,
+    "notch": _notch,
+    "missing_pillar": _missing_pillar,
+    "extra_pillar": _extra_pillar,
+    "ring": _ring,
+    "island": _island,
+    "pillar_grid": _full_grid,
+}
 
 
 def _turned(world: dict, quarter_turns: int) -> dict:
     """The world turned by quarter_turns x 90 deg about the origin (exact on the lattice)."""
+
     def turn(x: float, y: float) -> tuple[float, float]:
         for _ in range(quarter_turns % 4):
             x, y = -y, x

@@ -138,15 +138,20 @@ class World:
         starts = np.array([[robot.start.x, robot.start.y] for robot in self.robots]).reshape(-1, 2)
         for index, (robot, clear) in enumerate(zip(self.robots, self.clearance(starts))):
             if clear < radius:
-                raise where.error(f"robots[{index}].start", f"{_pose_text(robot.start)}: {robot.name} (radius "
-                                  f"{radius} m) overlaps a solid (clearance {clear:.3f} m)")
+                raise where.error(
+                    f"robots[{index}].start",
+                    f"{_pose_text(robot.start)}: {robot.name} (radius "
+                    f"{radius} m) overlaps a solid (clearance {clear:.3f} m)",
+                )
             for other_index, other in enumerate(self.robots[:index]):
                 gap = math.hypot(robot.start.x - other.start.x, robot.start.y - other.start.y)
                 if gap < 2.0 * radius:
                     raise where.error(
-                        f"robots[{index}].start", f"{_pose_text(robot.start)}: {robot.name} overlaps {other.name} "
+                        f"robots[{index}].start",
+                        f"{_pose_text(robot.start)}: {robot.name} overlaps {other.name} "
                         f"(robots[{other_index}]): centres {gap:.3f} m apart, robots of radius {radius} m need "
-                        f"{2.0 * radius:.3f} m")
+                        f"{2.0 * radius:.3f} m",
+                    )
 
 
 def world_search_path() -> tuple[Path, ...]:
@@ -192,13 +197,16 @@ def load_world(path: str | Path) -> World:
     except yaml.YAMLError as error:
         raise WorldError(f"{path}: not valid YAML ({error})") from error
     if isinstance(data, dict) and "image" in data and "start" not in data:
-        raise WorldError(f"{path}: looks like a map_server map, not a world: name it in a world file "
-                         "(map: <this file>, start: [x, y, theta])")
+        raise WorldError(
+            f"{path}: looks like a map_server map, not a world: name it in a world file "
+            "(map: <this file>, start: [x, y, theta])"
+        )
     return world_from_dict(data, source=str(path), default_name=path.stem, base_dir=path.parent)
 
 
-def world_from_dict(data: Any, source: str = "<dict>", default_name: str = "world",
-                    base_dir: str | Path = ".") -> World:
+def world_from_dict(
+    data: Any, source: str = "<dict>", default_name: str = "world", base_dir: str | Path = "."
+) -> World:
     """Validate a world description (the parsed YAML) and build its geometry.
 
     A `map` path is taken relative to base_dir (the world file's directory).
@@ -288,8 +296,10 @@ def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where
     within the solids' extent; the footprints are checked by World.check_footprints(radius)."""
     for key in ("start", "goal"):
         if key in data:
-            raise where.error(key, "a world with `robots` gives each robot its own start and goal: "
-                                   f"move {key} into the robots' entries")
+            raise where.error(
+                key,
+                f"a world with `robots` gives each robot its own start and goal: move {key} into the robots' entries",
+            )
     value = data["robots"]
     if not isinstance(value, list) or not value:
         raise where.error("robots", f"must be a non-empty list of robots (omit the key for one robot), got {value!r}")
@@ -307,8 +317,9 @@ def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where
                 raise where.error(f"{key}.{required}", "is required")
         name = item["name"]
         if not isinstance(name, str) or not ROBOT_NAME.match(name):
-            raise where.error(f"{key}.name", f"must be a ROS name token (a letter or '_', then letters, digits "
-                                             f"or '_'), got {name!r}")
+            raise where.error(
+                f"{key}.name", f"must be a ROS name token (a letter or '_', then letters, digits or '_'), got {name!r}"
+            )
         if name in names:
             raise where.error(f"{key}.name", f"{name!r} is already the name of robots[{names[name]}]")
         names[name] = index
@@ -321,8 +332,10 @@ def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where
     clearance = solid_clearance(polygons, faces, np.array([point for _, point in points]))
     for (key, (x, y)), clear in zip(points, clearance):
         if not (xmin <= x <= xmax and ymin <= y <= ymax):
-            raise where.error(key, f"({x:g}, {y:g}) lies outside the solids' extent: x in [{xmin:g}, {xmax:g}], "
-                                   f"y in [{ymin:g}, {ymax:g}]")
+            raise where.error(
+                key,
+                f"({x:g}, {y:g}) lies outside the solids' extent: x in [{xmin:g}, {xmax:g}], y in [{ymin:g}, {ymax:g}]",
+            )
         if clear < 0.0:
             raise where.error(key, f"({x:g}, {y:g}) lies inside a solid")
     return tuple(robots)

@@ -89,9 +89,18 @@ class RobotStatus:
 class FleetCoordinator:
     """See the module docstring."""
 
-    def __init__(self, names: list[str], spacing: float, *, window: float = 0.5, retry_period: float = 10.0,
-                 stuck_time: float = 15.0, settle_time: float = 3.0, follower_speed: float = 0.2,
-                 turn_rate: float = 1.0) -> None:
+    def __init__(
+        self,
+        names: list[str],
+        spacing: float,
+        *,
+        window: float = 0.5,
+        retry_period: float = 10.0,
+        stuck_time: float = 15.0,
+        settle_time: float = 3.0,
+        follower_speed: float = 0.2,
+        turn_rate: float = 1.0,
+    ) -> None:
         if not names:
             raise ValueError("robots: the fleet has no robot")
         if len(set(names)) != len(names):
@@ -149,8 +158,9 @@ class FleetCoordinator:
         self._costmap, self._lattice, self.cut, self._restart = costmap, None, [], {}
         return self.drop("a new map") if self.schedule is not None else {}
 
-    def observe(self, name: str, stamp: float, x: float, y: float, localized: bool,
-                goal: tuple[float, float] | None) -> dict[str, Route]:
+    def observe(
+        self, name: str, stamp: float, x: float, y: float, localized: bool, goal: tuple[float, float] | None
+    ) -> dict[str, Route]:
         """One robot's status (s, m, its goal or None): the routes that change, by robot name (ValueError for a
         robot not in the fleet or a pose that is not finite)."""
         if name not in self.names:
@@ -164,8 +174,13 @@ class FleetCoordinator:
             self._localized_since.pop(name, None)
         elif stamp < self._localized_since.get(name, math.inf):  # the first, or the clock went back
             self._localized_since[name] = float(stamp)
-        self.statuses[name] = RobotStatus(float(stamp), float(x), float(y), bool(localized),
-                                          None if goal is None else (float(goal[0]), float(goal[1])))
+        self.statuses[name] = RobotStatus(
+            float(stamp),
+            float(x),
+            float(y),
+            bool(localized),
+            None if goal is None else (float(goal[0]), float(goal[1])),
+        )
         if self.schedule is None:
             return {}
         robot = self.names.index(name)
@@ -173,9 +188,11 @@ class FleetCoordinator:
         if goal is None or math.hypot(goal[0] - planned[0], goal[1] - planned[1]) > GOAL_TOLERANCE:
             return self.drop(f"{name}'s goal changed")
         if before is not None and self._jumped(before, self.statuses[name]):
-            self.events.append(f"{name}'s pose jumped {math.hypot(x - before.x, y - before.y):.2f} m in "
-                               f"{stamp - before.stamp:.2f} s (its localizer moved its estimate): the fleet planned "
-                               "again from where the robots stand")
+            self.events.append(
+                f"{name}'s pose jumped {math.hypot(x - before.x, y - before.y):.2f} m in "
+                f"{stamp - before.stamp:.2f} s (its localizer moved its estimate): the fleet planned "
+                "again from where the robots stand"
+            )
             self.schedule, self._replan = None, True
             return {}
         if self.schedule.report(robot, x, y):
@@ -200,14 +217,16 @@ class FleetCoordinator:
         if not all(status.localized and status.goal is not None for status in statuses):
             return False
         stamps = [status.stamp for status in statuses]
-        settled = all(status.stamp - self._localized_since[name] >= self.settle_time
-                      for name, status in zip(self.names, statuses))
+        settled = all(
+            status.stamp - self._localized_since[name] >= self.settle_time for name, status in zip(self.names, statuses)
+        )
         return settled and max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
 
     def hold(self) -> dict[str, Route]:
         """HOLD to every robot (while the plan is made)."""
-        return self._tell({name: Route(HOLD, plan=self.plans + 1, reason="the fleet is being planned")
-                           for name in self.names})
+        return self._tell(
+            {name: Route(HOLD, plan=self.plans + 1, reason="the fleet is being planned") for name in self.names}
+        )
 
     def plan(self) -> dict[str, Route]:
         """Plan the fleet from where the robots said they stand to their goals: every robot's route (FOLLOW), or
@@ -227,15 +246,25 @@ class FleetCoordinator:
                     raise
                 # in a tree maze a vertex cut off may be the only way to a goal: the cuts were guesses at something
                 # the map does not hold, and no plan at all is worse than meeting it again (the stuck rule stays)
-                self.events.append(f"no fleet plan with {len(self.cut)} lattice edges cut off ({error}): they are "
-                                   "restored, the fleet planned on the whole lattice")
+                self.events.append(
+                    f"no fleet plan with {len(self.cut)} lattice edges cut off ({error}): they are "
+                    "restored, the fleet planned on the whole lattice"
+                )
                 self.cut = []
                 plan = self._plan_on(self._lattice, statuses, restart)
         except (PlanningError, ValueError) as error:
             self.failures.append(str(error))
             self._retry_at = max(status.stamp for status in statuses) + self.retry_period
-            return self._tell({name: Route(NONE, reason=f"no fleet plan: {error}; by the traffic rules, planning "
-                                                        f"again in {self.retry_period:g} s") for name in self.names})
+            return self._tell(
+                {
+                    name: Route(
+                        NONE,
+                        reason=f"no fleet plan: {error}; by the traffic rules, planning "
+                        f"again in {self.retry_period:g} s",
+                    )
+                    for name in self.names
+                }
+            )
         finally:
             self.planning_time = time.perf_counter() - began
         self.plans += 1
@@ -249,16 +278,23 @@ class FleetCoordinator:
         none is found."""
         moving = [robot for robot in range(len(statuses)) if robot not in restart]
         # a vertex whose every edge is cut is where a robot was stuck: no robot is planned from it
-        blocked = [vertex for vertex in range(len(graph)) if not graph.neighbours[vertex]
-                   and self._lattice.neighbours[vertex]]
-        chosen = assign(graph, self._costmap, [(statuses[robot].x, statuses[robot].y) for robot in moving],
-                        taken=list(restart.values()) + blocked)
+        blocked = [
+            vertex for vertex in range(len(graph)) if not graph.neighbours[vertex] and self._lattice.neighbours[vertex]
+        ]
+        chosen = assign(
+            graph,
+            self._costmap,
+            [(statuses[robot].x, statuses[robot].y) for robot in moving],
+            taken=list(restart.values()) + blocked,
+        )
         vertex_of = {**restart, **dict(zip(moving, chosen))}
         starts = [vertex_of[robot] for robot in range(len(statuses))]
         goals = [graph.nearest(*goal) for goal in self._goals]  # two goals on one vertex: too close, refused
         plans = [improve(plan_lacam(graph, starts, goals, seed=1000 * k)) for k in range(PLAN_SEEDS)]
-        return min(plans, key=lambda plan: (execution_time(plan, self.follower_speed, self.turn_rate),
-                                            plan.makespan, plan.cost))
+        return min(
+            plans,
+            key=lambda plan: (execution_time(plan, self.follower_speed, self.turn_rate), plan.makespan, plan.cost),
+        )
 
     def route(self, name: str) -> Route:
         """What `name` is told now by the plan in force (FOLLOW), NONE without one."""
@@ -268,10 +304,16 @@ class FleetCoordinator:
         status = self.statuses[name]
         waypoints = schedule.route(robot, status.x, status.y)[1:]
         last = len(schedule.waypoints[robot]) - 1
-        final = schedule.allowed(robot) == last and bool(
-            np.allclose(waypoints[-1], schedule.waypoints[robot][last]))
-        return Route(FOLLOW, waypoints, final, self.plans, schedule.progress[robot], last,
-                     f"{len(self.names)} robots, planned in {self.planning_time:.2f} s")
+        final = schedule.allowed(robot) == last and bool(np.allclose(waypoints[-1], schedule.waypoints[robot][last]))
+        return Route(
+            FOLLOW,
+            waypoints,
+            final,
+            self.plans,
+            schedule.progress[robot],
+            last,
+            f"{len(self.names)} robots, planned in {self.planning_time:.2f} s",
+        )
 
     # -- helpers ----------------------------------------------------------------------------------------
 
@@ -307,9 +349,11 @@ class FleetCoordinator:
         if math.hypot(status.x - x, status.y - y) <= self.spacing:
             self._restart[robot] = came_from
         x, y = self._lattice.points[blocked]
-        self.events.append(f"{self.names[robot]} has not reached its next waypoint ({x:.2f}, {y:.2f}) for "
-                           f"{self.stuck_time:g} s: that lattice vertex cut off ({len(self.cut)} edges cut), the fleet "
-                           "planned again from where the robots stand")
+        self.events.append(
+            f"{self.names[robot]} has not reached its next waypoint ({x:.2f}, {y:.2f}) for "
+            f"{self.stuck_time:g} s: that lattice vertex cut off ({len(self.cut)} edges cut), the fleet "
+            "planned again from where the robots stand"
+        )
         self.schedule, self._replan = None, True
 
     def take_events(self) -> list[str]:
@@ -324,8 +368,16 @@ class FleetCoordinator:
     def drop(self, why: str) -> dict[str, Route]:
         """Drop the plan in force (if any): NONE to every robot, with `why`."""
         self.schedule = None
-        return self._tell({name: Route(NONE, reason=f"the fleet plan was dropped: {why}; by the traffic rules "
-                                                    "until every robot is localized again") for name in self.names})
+        return self._tell(
+            {
+                name: Route(
+                    NONE,
+                    reason=f"the fleet plan was dropped: {why}; by the traffic rules "
+                    "until every robot is localized again",
+                )
+                for name in self.names
+            }
+        )
 
 
 class RouteDriver:
@@ -338,8 +390,9 @@ class RouteDriver:
         self.follower, self.planner = follower, planner
         self._hand_over = HandOver()
 
-    def command(self, pose: tuple[float, float, float], scan: ScanData | None, stamp: float,
-                route: Route) -> FollowCommand:
+    def command(
+        self, pose: tuple[float, float, float], scan: ScanData | None, stamp: float, route: Route
+    ) -> FollowCommand:
         x, y, theta = pose
         if route.state == HOLD:
             return self.follower.compute(x, y, theta, scan, speed_limit=0.0)

@@ -68,10 +68,16 @@ class FleetPlannerNode(ManagedNode):
         if not problems:
             try:
                 config = FleetPlannerConfig.from_params(self.parameter_values())
-                coordinator = FleetCoordinator(fleet_names(config), config.lattice_spacing, window=config.window,
-                                               retry_period=config.retry_period, stuck_time=config.stuck_time,
-                                               settle_time=config.settle_time, follower_speed=config.follower_speed,
-                                               turn_rate=config.turn_rate)
+                coordinator = FleetCoordinator(
+                    fleet_names(config),
+                    config.lattice_spacing,
+                    window=config.window,
+                    retry_period=config.retry_period,
+                    stuck_time=config.stuck_time,
+                    settle_time=config.settle_time,
+                    follower_speed=config.follower_speed,
+                    turn_rate=config.turn_rate,
+                )
             except (ValueError, OSError) as error:  # ConfigError names the key; a world names its file
                 problems = [str(error)]
         if problems:
@@ -80,17 +86,26 @@ class FleetPlannerNode(ManagedNode):
         self.config, self.coordinator = config, coordinator
         for name in coordinator.names:
             self._routes[name] = self.create_lifecycle_publisher(FleetRoute, f"/{name}/{config.route_topic}", LATCHED)
-            self._entities.append(self.create_subscription(
-                NavigatorStatus, f"/{name}/{config.status_topic}", self._status_callback(name), reliable(depth=50)))
+            self._entities.append(
+                self.create_subscription(
+                    NavigatorStatus, f"/{name}/{config.status_topic}", self._status_callback(name), reliable(depth=50)
+                )
+            )
         self._entities.append(self.create_subscription(OccupancyGridMessage, config.map_topic, self._on_map, LATCHED))
-        self.get_logger().info(f"configured: {len(coordinator.names)} robots ({', '.join(coordinator.names)}), "
-                               f"lattice {config.lattice_spacing} m, routes on /<robot>/{config.route_topic}")
+        self.get_logger().info(
+            f"configured: {len(coordinator.names)} robots ({', '.join(coordinator.names)}), "
+            f"lattice {config.lattice_spacing} m, routes on /<robot>/{config.route_topic}"
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         result = super().on_activate(state)
-        self._publish({name: Route(NONE, reason="no fleet plan yet: by the traffic rules until every robot is "
-                                                "localized") for name in self.coordinator.names})
+        self._publish(
+            {
+                name: Route(NONE, reason="no fleet plan yet: by the traffic rules until every robot is localized")
+                for name in self.coordinator.names
+            }
+        )
         return result
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
@@ -130,14 +145,21 @@ class FleetPlannerNode(ManagedNode):
             if not self.active:
                 return
             if message.header.frame_id not in ("", self.config.global_frame):
-                self._refuse(f"{name}: status in frame {message.header.frame_id!r}, expected "
-                             f"{self.config.global_frame!r}")
+                self._refuse(
+                    f"{name}: status in frame {message.header.frame_id!r}, expected {self.config.global_frame!r}"
+                )
                 return
             position = message.pose.position
             goal = (message.goal.x, message.goal.y) if message.has_goal else None
             try:
-                routes = self.coordinator.observe(name, stamp_nanoseconds(message.header.stamp) * 1e-9, position.x,
-                                                  position.y, message.localized, goal)
+                routes = self.coordinator.observe(
+                    name,
+                    stamp_nanoseconds(message.header.stamp) * 1e-9,
+                    position.x,
+                    position.y,
+                    message.localized,
+                    goal,
+                )
             except ValueError as error:
                 self._refuse(str(error))
                 return
@@ -145,6 +167,7 @@ class FleetPlannerNode(ManagedNode):
                 self.get_logger().warning(event)
             self._publish(routes)
             self._plan_if_due()
+
         return on_status
 
     def _refuse(self, problem: str) -> None:
@@ -159,8 +182,10 @@ class FleetPlannerNode(ManagedNode):
             return
         deaf = [name for name, publisher in self._routes.items() if publisher.get_subscription_count() == 0]
         if deaf:  # a navigator of coordination rules: a plan it would not follow would lead the others astray
-            self.get_logger().info(f"not planning: no navigator listens to the route of {', '.join(deaf)} "
-                                   "(coordination: rules)", throttle_duration_sec=30.0)
+            self.get_logger().info(
+                f"not planning: no navigator listens to the route of {', '.join(deaf)} (coordination: rules)",
+                throttle_duration_sec=30.0,
+            )
             return
         self._publish(coordinator.hold())
         routes = coordinator.plan()
@@ -170,7 +195,8 @@ class FleetPlannerNode(ManagedNode):
             self.get_logger().info(
                 f"fleet plan {coordinator.plans}: {len(coordinator.names)} robots on a lattice of "
                 f"{coordinator.lattice_size} points, planned in {coordinator.planning_time:.2f} s; the longest "
-                f"{max(len(w) for w in coordinator.schedule.waypoints) - 1} waypoints")
+                f"{max(len(w) for w in coordinator.schedule.waypoints) - 1} waypoints"
+            )
         self._publish(routes)
 
     def _publish(self, routes: dict[str, Route]) -> None:

@@ -27,8 +27,14 @@ class RouteError(ValueError):
 
 def route_message(route: Route, stamp: TimeMessage, frame_id: str) -> FleetRoute:
     """The message of `route`, stamped `stamp` (the node clock)."""
-    message = FleetRoute(state=route.state, final=route.final, plan=route.plan, progress=route.progress,
-                         total=route.total, reason=route.reason)
+    message = FleetRoute(
+        state=route.state,
+        final=route.final,
+        plan=route.plan,
+        progress=route.progress,
+        total=route.total,
+        reason=route.reason,
+    )
     message.header.stamp, message.header.frame_id = stamp, frame_id
     message.waypoints = [Point(x=float(x), y=float(y)) for x, y in route.waypoints]
     return message
@@ -48,5 +54,12 @@ def route_from_message(message: FleetRoute, frame: str) -> Route:
         if not all(math.isfinite(p.x) and math.isfinite(p.y) for p in message.waypoints):
             raise RouteError("a waypoint is not finite")
     waypoints = np.array([(p.x, p.y) for p in message.waypoints], dtype=float).reshape(-1, 2)
-    return Route(message.state, waypoints, bool(message.final), int(message.plan), int(message.progress),
-                 int(message.total), message.reason)
+    return Route(
+        message.state,
+        waypoints,
+        bool(message.final),
+        int(message.plan),
+        int(message.progress),
+        int(message.total),
+        message.reason,
+    )

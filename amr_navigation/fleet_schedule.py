@@ -26,8 +26,9 @@ from amr_util.geometry import compose, relative_pose
 class Schedule:
     """Every robot's progress along a fleet plan, and how far each may go."""
 
-    def __init__(self, plan: FleetPlan, goals: list[tuple[float, float]] | None = None,
-                 reach: float | None = None) -> None:
+    def __init__(
+        self, plan: FleetPlan, goals: list[tuple[float, float]] | None = None, reach: float | None = None
+    ) -> None:
         self.reach = 0.45 * plan.graph.spacing if reach is None else float(reach)
         """m: a robot this close to its next waypoint has reached it (under half the spacing: a robot that has
         reached its next vertex has left the one before, which a robot waiting for it may then enter)."""
@@ -46,7 +47,8 @@ class Schedule:
         dependencies are all done."""
         last = self.progress[robot]
         while last + 1 < len(self.waypoints[robot]) and all(
-                self.progress[other] >= action for other, action in self.needs[robot][last + 1]):
+            self.progress[other] >= action for other, action in self.needs[robot][last + 1]
+        ):
             last += 1
         return last
 

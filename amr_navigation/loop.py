@@ -46,9 +46,15 @@ class NavigationCommand:
 class NavigationLoop:
     """A Navigator with its planner and controllers in process."""
 
-    def __init__(self, planner: Planner, wall_follower: WallFollower, path_follower: PathFollower,
-                 goal: tuple[float, float] | None, replan_distance: float = DEFAULT_REPLAN_DISTANCE,
-                 traffic: Traffic | None = None) -> None:
+    def __init__(
+        self,
+        planner: Planner,
+        wall_follower: WallFollower,
+        path_follower: PathFollower,
+        goal: tuple[float, float] | None,
+        replan_distance: float = DEFAULT_REPLAN_DISTANCE,
+        traffic: Traffic | None = None,
+    ) -> None:
         self.planner = planner
         self.wall_follower = wall_follower
         self.path_follower = path_follower
@@ -85,8 +91,15 @@ class NavigationLoop:
         """A new goal (/goal_pose): planned for at the next localized observation."""
         self.navigator.set_goal(goal)
 
-    def step(self, pose: tuple[float, float, float], localized: bool, scan: ScanData,
-             odometry_v: float, odometry_w: float, stamp: float) -> NavigationCommand:
+    def step(
+        self,
+        pose: tuple[float, float, float],
+        localized: bool,
+        scan: ScanData,
+        odometry_v: float,
+        odometry_w: float,
+        stamp: float,
+    ) -> NavigationCommand:
         decision = self._carry_out(self.navigator.decide(pose, localized))
         events = list(decision.events)
         traffic = self.traffic
@@ -103,8 +116,14 @@ class NavigationLoop:
             events += self._carry_out(self.navigator.detour(advice.detour, "going aside")).events
         limit = None
         if traffic is not None:
-            advice = traffic.advise(pose, scan, self.navigator.followed_path, self.planner.costmap,
-                                    self.path_follower.config.linear_speed, stamp)
+            advice = traffic.advise(
+                pose,
+                scan,
+                self.navigator.followed_path,
+                self.planner.costmap,
+                self.path_follower.config.linear_speed,
+                stamp,
+            )
             events += advice.events
             if advice.hold:
                 return NavigationCommand(0.0, 0.0, Mode.FOLLOW, None, tuple(events))
@@ -202,8 +221,9 @@ class NavigationRun:
         return float(np.mean(self.cross_track)) if self.cross_track else math.nan
 
 
-def run_navigation(sim, particle_filter, loop: NavigationLoop, limit: float = 600.0,
-                   max_collisions: int = 5) -> NavigationRun:
+def run_navigation(
+    sim, particle_filter, loop: NavigationLoop, limit: float = 600.0, max_collisions: int = 5
+) -> NavigationRun:
     """Lockstep: each period the filter gets the odometry pose and the scan, the loop the estimate, the scan
     and the odometry twist, and its command advances the simulator by dt. Stops when the true pose enters the
     world's goal region, when the path follower says REACHED, at max_collisions, or at `limit` s."""

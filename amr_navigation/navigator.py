@@ -117,8 +117,9 @@ class NavigatorCounters:
 class Navigator:
     """The mode of one robot and the decisions around it; see the module docstring."""
 
-    def __init__(self, goal: tuple[float, float] | None = None,
-                 replan_distance: float = DEFAULT_REPLAN_DISTANCE) -> None:
+    def __init__(
+        self, goal: tuple[float, float] | None = None, replan_distance: float = DEFAULT_REPLAN_DISTANCE
+    ) -> None:
         if not (math.isfinite(replan_distance) and replan_distance > 0.0):
             raise ValueError(f"replan_distance: must be a positive number of metres, got {replan_distance!r}")
         self.replan_distance = float(replan_distance)
@@ -181,8 +182,9 @@ class Navigator:
             return self._decision(Mode.PLANNING, f"planning ({why})", plan=request)
         return self._drive()
 
-    def planned(self, request: PlanRequest, path: np.ndarray | None, error: str = "",
-                goal_refused: bool = False) -> Decision:
+    def planned(
+        self, request: PlanRequest, path: np.ndarray | None, error: str = "", goal_refused: bool = False
+    ) -> Decision:
         """The answer to a PlanRequest: a path (N, 2), or None with the planner's reason (and whether the
         planner refused the goal itself). Returns the decision for the observation that asked."""
         if path is not None:
@@ -237,8 +239,12 @@ class Navigator:
             return None
         if replan and self.followed_path is not None and self.pose is not None:
             end = self.followed_path[-1]
-            return PlanRequest((self.pose[0], self.pose[1]), (float(end[0]), float(end[1])), Purpose.FOLLOWER,
-                               f"the follower asked: {why}" if why else "the follower asked")
+            return PlanRequest(
+                (self.pose[0], self.pose[1]),
+                (float(end[0]), float(end[1])),
+                Purpose.FOLLOWER,
+                f"the follower asked: {why}" if why else "the follower asked",
+            )
         return None
 
     # -- traffic (amr_navigation.traffic): unused by a robot alone ---------------------------------
@@ -308,8 +314,10 @@ class Navigator:
             return ""
         distance = distance_to_path(self.planned_path, x, y)
         if distance > self.replan_distance:
-            self._say(f"strayed {distance:.2f} m from the planned path (more than {self.replan_distance} m): "
-                      "planning again", once=False)
+            self._say(
+                f"strayed {distance:.2f} m from the planned path (more than {self.replan_distance} m): planning again",
+                once=False,
+            )
             return f"strayed {distance:.2f} m"
         return ""
 
@@ -319,8 +327,9 @@ class Navigator:
         self.reason = ""
         return self._decision(Mode.FOLLOW, f"following {len(self.followed_path)} points", path=path)
 
-    def _decision(self, mode: Mode, reason: str, *, plan: PlanRequest | None = None,
-                  path: np.ndarray | None = None) -> Decision:
+    def _decision(
+        self, mode: Mode, reason: str, *, plan: PlanRequest | None = None, path: np.ndarray | None = None
+    ) -> Decision:
         self.mode = mode
         return Decision(mode, DRIVER.get(mode, Controller.NONE), plan, path, reason, self.take_events())
 

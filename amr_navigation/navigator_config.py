@@ -75,5 +75,7 @@ class NavigatorConfig(Config):
 
     def validate(self) -> None:
         if self.coordination == "plan" and not self.traffic:
-            raise ConfigError("coordination: 'plan' needs traffic: true (the robots go by the traffic rules until "
-                              "the fleet is planned)")
+            raise ConfigError(
+                "coordination: 'plan' needs traffic: true (the robots go by the traffic rules until "
+                "the fleet is planned)"
+            )

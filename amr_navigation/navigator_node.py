@@ -65,7 +65,13 @@ from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.navigator_config import NODE_NAME, NavigatorConfig
 from amr_navigation.traffic import Traffic, TrafficPost
-from amr_navigation.traffic_messages import TRAFFIC_TOPIC, PostError, post_from_message, post_message, speed_limit_message
+from amr_navigation.traffic_messages import (
+    TRAFFIC_TOPIC,
+    PostError,
+    post_from_message,
+    post_message,
+    speed_limit_message,
+)
 from amr_navigation.traffic_steps import FleetBoard, detour_done, idle_advice
 from amr_maps.messages import grid_from_message
 from amr_planning.costmap import Costmap, CostmapConfig
@@ -164,20 +170,26 @@ class NavigatorNode(ManagedNode):
         self._entities = [
             self.create_subscription(LocalizedPose, "pose", self._on_pose, reliable()),
             self.create_subscription(PoseStamped, "goal_pose", self._on_goal, reliable()),
-            self.create_subscription(PathFollowerStatus, f"{values['path_follower']}/status", self._on_follower,
-                                     reliable()),
+            self.create_subscription(
+                PathFollowerStatus, f"{values['path_follower']}/status", self._on_follower, reliable()
+            ),
         ]
         if values["world_goal_topic"]:
-            self._entities.append(self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, LATCHED))
+            self._entities.append(
+                self.create_subscription(PoseStamped, values["world_goal_topic"], self._on_goal, LATCHED)
+            )
         if values["traffic"]:
             self._configure_traffic(NavigatorConfig.from_params(values))
-        self._service_clients = {"plan": self.create_client(PlanPath, values["planner_service"]),
-                                 "follow": self.create_client(FollowPath, values["follow_path_service"])}
+        self._service_clients = {
+            "plan": self.create_client(PlanPath, values["planner_service"]),
+            "follow": self.create_client(FollowPath, values["follow_path_service"]),
+        }
         self.get_logger().info(
             f"configured: plans with {values['planner_service']}, drives with {values['wall_follower']} (exploring) "
-            f"and {values['path_follower']} (following); goal " + (f"({goal[0]:.2f}, {goal[1]:.2f})" if goal else
-                                                                      "from /goal_pose") +
-            (f" or {values['world_goal_topic']}" if values["world_goal_topic"] else ""))
+            f"and {values['path_follower']} (following); goal "
+            + (f"({goal[0]:.2f}, {goal[1]:.2f})" if goal else "from /goal_pose")
+            + (f" or {values['world_goal_topic']}" if values["world_goal_topic"] else "")
+        )
         return TransitionCallbackReturn.SUCCESS
 
     def _configure_traffic(self, config: NavigatorConfig) -> None:
@@ -198,8 +210,9 @@ class NavigatorNode(ManagedNode):
                 self.create_subscription(FleetRoute, config.route_topic, self._on_route, LATCHED),
                 self.create_subscription(Odometry, config.odometry_topic, self._on_odometry, reliable(depth=50)),
             ]
-            self.get_logger().info(f"coordination by the fleet plan: routes on {config.route_topic}; the traffic "
-                                   "rules until the first one")
+            self.get_logger().info(
+                f"coordination by the fleet plan: routes on {config.route_topic}; the traffic rules until the first one"
+            )
 
     def apply_live(self, changes: dict) -> None:
         """goal, replan_distance and plan_timeout while configured: used from the next observation."""
@@ -219,7 +232,9 @@ class NavigatorNode(ManagedNode):
         self._route, self._route_handed_at, self._follower_blocked = None, -1, False
         self._hand_over_due.reset()
         self._reckoning, self._odometry = DeadReckoning(), OrderedDict()
-        self._timer = self.create_timer(CHECK_PERIOD, self._check_inflight, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._timer = self.create_timer(
+            CHECK_PERIOD, self._check_inflight, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
         return super().on_activate(state)
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
@@ -292,8 +307,9 @@ class NavigatorNode(ManagedNode):
             self._hand_over_due.reset()
             return
         if before is None or before.plan != route.plan:
-            self.get_logger().info(f"fleet plan {route.plan}: {route.state}"
-                                   + (f" ({route.reason})" if route.reason else ""))
+            self.get_logger().info(
+                f"fleet plan {route.plan}: {route.state}" + (f" ({route.reason})" if route.reason else "")
+            )
         if self._last is not None and self._last[1].controller is Controller.NONE and self._inflight is None:
             self._decide(self._last[0])  # the robot is held on this observation: decide it again
 
@@ -505,7 +521,9 @@ class NavigatorNode(ManagedNode):
             return
         call = next(self._ids)
         self._inflight = (call, "follow", time.monotonic(), (decision, path), observation)
-        client.call_async(FollowPath.Request(path=path)).add_done_callback(lambda future: self._on_handed_over(call, future))
+        client.call_async(FollowPath.Request(path=path)).add_done_callback(
+            lambda future: self._on_handed_over(call, future)
+        )
 
     def _on_handed_over(self, call: int, future) -> None:
         if self._inflight is None or self._inflight[0] != call:
@@ -575,8 +593,9 @@ class NavigatorNode(ManagedNode):
             self._log(advice.events)
             self._carry_out(observation, navigator.detour(advice.detour, "going aside"))
             return None
-        advice = traffic.advise(observation.pose, scan, navigator.followed_path, costmap,
-                                self._values["follower_speed"], stamp)
+        advice = traffic.advise(
+            observation.pose, scan, navigator.followed_path, costmap, self._values["follower_speed"], stamp
+        )
         self._log(advice.events)
         self._posted(decision)
         if advice.hold:
@@ -599,8 +618,18 @@ class NavigatorNode(ManagedNode):
         """An observation on the fleet route: posted on /traffic (the pose driven by and the path), the path follower
         named for it, with a speed limit of 0 while holding or at the goal, none otherwise."""
         path = self.navigator.followed_path
-        self.board.post(TrafficPost(self.traffic.name, self.traffic.priority, observation.pose, path, "", (),
-                                    decision.mode is Mode.REACHED, False))
+        self.board.post(
+            TrafficPost(
+                self.traffic.name,
+                self.traffic.priority,
+                observation.pose,
+                path,
+                "",
+                (),
+                decision.mode is Mode.REACHED,
+                False,
+            )
+        )
         self._posted(decision)
         hold = decision.mode is Mode.REACHED or self._route is None or self._route.state == HOLD
         return self._limited(observation, replace(decision, controller=Controller.PATH_FOLLOWER), 0.0 if hold else None)
@@ -609,7 +638,9 @@ class NavigatorNode(ManagedNode):
         """The decision with the path follower named and `limit` sent for its observation (a robot at its goal
         is held by the path follower with 0)."""
         self._advised = (stamp_nanoseconds(observation.stamp), limit)
-        self._outputs["speed_limit"].publish(speed_limit_message(limit, observation.stamp, self._values["global_frame"]))
+        self._outputs["speed_limit"].publish(
+            speed_limit_message(limit, observation.stamp, self._values["global_frame"])
+        )
         if decision.controller is Controller.NONE and self.path_follower_has_path():
             return Decision(decision.mode, Controller.PATH_FOLLOWER, None, None, decision.reason, ())
         return decision
@@ -622,8 +653,9 @@ class NavigatorNode(ManagedNode):
         post = self.board.get(self.traffic.name)
         if post is not None:
             try:
-                self._outputs["traffic"].publish(post_message(post, self.get_clock().now().to_msg(),
-                                                              self._values["global_frame"]))
+                self._outputs["traffic"].publish(
+                    post_message(post, self.get_clock().now().to_msg(), self._values["global_frame"])
+                )
             except PostError as error:  # never a NaN on /traffic
                 self.get_logger().error(f"own traffic post not sent: {error}", throttle_duration_sec=2.0)
         return decision
@@ -647,20 +679,29 @@ class NavigatorNode(ManagedNode):
         elif kind == "around":
             self._planned_around(observation, payload[0], payload[1], None, problem)
         else:
-            self._handed_over(observation, payload[0], payload[1], f"{self._service_clients['follow'].srv_name}: {problem}")
+            self._handed_over(
+                observation, payload[0], payload[1], f"{self._service_clients['follow'].srv_name}: {problem}"
+            )
 
     # -- outputs ----------------------------------------------------------------------------------
 
     def _controller_name(self, controller: Controller) -> str:
-        return {Controller.WALL_FOLLOWER: self._values["wall_follower"],
-                Controller.PATH_FOLLOWER: self._values["path_follower"]}.get(controller, "")
+        return {
+            Controller.WALL_FOLLOWER: self._values["wall_follower"],
+            Controller.PATH_FOLLOWER: self._values["path_follower"],
+        }.get(controller, "")
 
     def _publish_status(self, observation: Observation, decision: Decision) -> None:
         navigator = self.navigator
-        status = NavigatorStatus(mode=decision.mode.value, controller=self._controller_name(decision.controller),
-                                 reason=decision.reason, localized=observation.localized,
-                                 has_goal=navigator.goal is not None, plans=navigator.counters.plans,
-                                 planning_failures=len(navigator.counters.planning_failures))
+        status = NavigatorStatus(
+            mode=decision.mode.value,
+            controller=self._controller_name(decision.controller),
+            reason=decision.reason,
+            localized=observation.localized,
+            has_goal=navigator.goal is not None,
+            plans=navigator.counters.plans,
+            planning_failures=len(navigator.counters.planning_failures),
+        )
         status.header.stamp, status.header.frame_id = observation.stamp, self._values["global_frame"]
         status.pose = self._pose_message(observation.pose)
         if navigator.goal is not None:

@@ -187,8 +187,10 @@ class TrafficConfig(Config):
         if self.slow_distance <= self.stop_distance:
             raise ConfigError(f"slow_distance ({self.slow_distance}) must exceed stop_distance ({self.stop_distance})")
         if self.yield_clearance <= self.path_clearance:
-            raise ConfigError(f"yield_clearance ({self.yield_clearance}) must exceed path_clearance "
-                              f"({self.path_clearance}): a robot waiting aside must not block the path it cleared")
+            raise ConfigError(
+                f"yield_clearance ({self.yield_clearance}) must exceed path_clearance "
+                f"({self.path_clearance}): a robot waiting aside must not block the path it cleared"
+            )
 
 
 # -- pure functions ----------------------------------------------------------------------------
@@ -238,8 +240,9 @@ def path_ahead(path: np.ndarray, x: float, y: float, length: float, spacing: flo
     starts, vectors = path[:-1], np.diff(path, axis=0)
     lengths = np.hypot(*vectors.T)
     rel = np.array([x, y]) - starts
-    t = np.clip(np.divide((rel * vectors).sum(axis=1), lengths ** 2, out=np.zeros_like(lengths),
-                          where=lengths > 0), 0.0, 1.0)
+    t = np.clip(
+        np.divide((rel * vectors).sum(axis=1), lengths**2, out=np.zeros_like(lengths), where=lengths > 0), 0.0, 1.0
+    )
     distances = np.hypot(*(starts + t[:, None] * vectors - (x, y)).T)
     best = int(np.argmin(distances))
     arc = np.concatenate([[0.0], np.cumsum(lengths)])
@@ -270,15 +273,17 @@ def min_distance(points: np.ndarray, x: float, y: float) -> float:
     return float(np.hypot(points[:, 0] - x, points[:, 1] - y).min()) if len(points) else math.inf
 
 
-def place_aside(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray, distance: float,
-                search: float) -> tuple[float, float] | None:
+def place_aside(
+    costmap: Costmap, start: tuple[float, float], avoid: np.ndarray, distance: float, search: float
+) -> tuple[float, float] | None:
     """The nearest cell (breadth-first, 8-connected, over the cells where the robot fits) at least `distance`
     from every point of `avoid` (N, 2) (others' paths and centres), within `search` m of steps; None if none.
     Cells clear of the safety margin are preferred (searched first); else any non-lethal cell."""
     avoid = np.asarray(avoid, dtype=float).reshape(-1, 2)
     # points farther than that from every cell the search can reach change nothing: left out (the cost is per point)
-    avoid = avoid[np.abs(avoid - np.asarray(start, dtype=float)).max(axis=1)
-                  <= search + distance + 2.0 * costmap.grid.resolution]
+    avoid = avoid[
+        np.abs(avoid - np.asarray(start, dtype=float)).max(axis=1) <= search + distance + 2.0 * costmap.grid.resolution
+    ]
     for passable in (~costmap.inflated, ~costmap.lethal):
         found = _breadth_first(costmap, passable, start, avoid, distance, search)
         if found is not None:
@@ -286,7 +291,9 @@ def place_aside(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray,
     return None
 
 
-def farthest_place(costmap: Costmap, start: tuple[float, float], avoid: np.ndarray) -> tuple[tuple[float, float], float] | None:
+def farthest_place(
+    costmap: Costmap, start: tuple[float, float], avoid: np.ndarray
+) -> tuple[tuple[float, float], float] | None:
     """The cell reachable from `start` (4-connected over the cells where the robot fits; those clear of the safety
     margin if the start has any such neighbour) farthest from every point of `avoid` (N, 2), and that distance (m);
     None if `avoid` is empty or the start is off the map. Where no place lies a given distance away (a dead end
@@ -488,8 +495,15 @@ class Traffic:
             return None
         return self._go_aside(pose, costmap, blocked, stamp, passive=True)
 
-    def advise(self, pose: tuple[float, float, float], scan: ScanData, path: np.ndarray, costmap: Costmap,
-               speed: float, stamp: float) -> Advice:
+    def advise(
+        self,
+        pose: tuple[float, float, float],
+        scan: ScanData,
+        path: np.ndarray,
+        costmap: Costmap,
+        speed: float,
+        stamp: float,
+    ) -> Advice:
         """The advice for one observation driven with the path follower along `path` (the followed one)."""
         config = self.config
         x, y, theta = pose
@@ -530,16 +544,25 @@ class Traffic:
             # the one with the right of way searches farther too once its own search has failed for wait_time
             # (the other has had its turn at the farther search)
             failing = self._failing_since is not None and stamp - self._failing_since >= config.wait_time
-            far = any((failing or not self._outranks(post))
-                      and stamp - self._said_cannot.get(post.name, -math.inf) <= config.wait_time for post in yield_to)
+            far = any(
+                (failing or not self._outranks(post))
+                and stamp - self._said_cannot.get(post.name, -math.inf) <= config.wait_time
+                for post in yield_to
+            )
             far = far or bool(knot and failing)  # rule 7: no place nearby for wait_time, the knot's last looks farther
-            advice = self._go_aside(pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker,
-                                    far=far)
+            advice = self._go_aside(
+                pose, costmap, yield_to, stamp, passive=False, stretch=stretch, blocker=blocker, far=far
+            )
             if advice is not None:
                 if knot:
-                    advice = replace(advice, events=advice.events + (
-                        f"the last of a knot of {len(knot) + 1} ({', '.join([self.name] + [p.name for p in knot])}, "
-                        f"each blocked by the next)",))
+                    advice = replace(
+                        advice,
+                        events=advice.events
+                        + (
+                            f"the last of a knot of {len(knot) + 1} ({', '.join([self.name] + [p.name for p in knot])}, "
+                            f"each blocked by the next)",
+                        ),
+                    )
                 return advice
         elif stamp >= self._retry_at:
             self._cannot_yield = False
@@ -574,8 +597,10 @@ class Traffic:
         if self._stopped_since is None:
             self._stopped_since = self._last_attempt = stamp
             self.counters.stops += 1
-            events.append(f"stopped: an obstacle not on the map {travel:.2f} m ahead"
-                          + (f" ({blocker.name})" if blocker is not None else ""))
+            events.append(
+                f"stopped: an obstacle not on the map {travel:.2f} m ahead"
+                + (f" ({blocker.name})" if blocker is not None else "")
+            )
         near = np.hypot(world[:, 0] - x, world[:, 1] - y) <= config.mark_range
         if blocker is None and stamp - self._stopped_since >= config.yield_timeout and stamp >= self._retry_at:
             # rule 2b: stopped for yield_timeout by something no robot on the board explains (and no way around it)
@@ -603,9 +628,18 @@ class Traffic:
     # -- helpers ---------------------------------------------------------------------------------
 
     def _post(self, pose, blocker, passive: bool = False) -> None:
-        self.board.post(TrafficPost(self.name, self.priority, tuple(pose), self._remaining,
-                                    blocker.name if blocker is not None else "", self._yield_to, passive,
-                                    self._cannot_yield))
+        self.board.post(
+            TrafficPost(
+                self.name,
+                self.priority,
+                tuple(pose),
+                self._remaining,
+                blocker.name if blocker is not None else "",
+                self._yield_to,
+                passive,
+                self._cannot_yield,
+            )
+        )
 
     def _blocker(self, pose, stretch: np.ndarray, others: list[TrafficPost]) -> TrafficPost | None:
         """The other robot nearest along the stretch whose centre lies on it (within 2 r + path_clearance), in
@@ -654,9 +688,17 @@ class Traffic:
             return False
         return not self._outranks(post) or post.cannot_yield
 
-    def _go_aside(self, pose, costmap: Costmap, yield_to: list[TrafficPost], stamp: float, passive: bool,
-                  stretch: np.ndarray | None = None, blocker: TrafficPost | None = None,
-                  far: bool = False) -> Advice | None:
+    def _go_aside(
+        self,
+        pose,
+        costmap: Costmap,
+        yield_to: list[TrafficPost],
+        stamp: float,
+        passive: bool,
+        stretch: np.ndarray | None = None,
+        blocker: TrafficPost | None = None,
+        far: bool = False,
+    ) -> Advice | None:
         config = self.config
         search = config.yield_search
         if far:  # rule 5: no bound but the map (every cell reachable without passing another robot)
@@ -667,8 +709,15 @@ class Traffic:
         names = tuple(post.name for post in yield_to)
         others = {post.name: post.pose[:2] for post in self.board.others(self.name) if post.pose is not None}
         if far:  # rule 5: robots parked at their goals make way (rule 3) for one driving past them: not walls here
-            parked = [post for post in self.board.others(self.name) if post.pose is not None and post.passive
-                      and post.path is None and not post.yielding_to and post.name not in names]
+            parked = [
+                post
+                for post in self.board.others(self.name)
+                if post.pose is not None
+                and post.passive
+                and post.path is None
+                and not post.yielding_to
+                and post.name not in names
+            ]
             for post in parked:
                 del others[post.name]
             avoid += [np.array([post.pose[:2]]) for post in parked]  # the place is not where one is parked
@@ -696,8 +745,13 @@ class Traffic:
             except PlanningError:
                 continue
             self._through = tuple(sorted(set(self._through) | set(passing)))
-            way = (f" past {', '.join(passing)} (they make way first)" if passing and passing == bystanders else
-                   f" past {', '.join(passing)} (boxed in: they make way first)" if passing else "")
+            way = (
+                f" past {', '.join(passing)} (they make way first)"
+                if passing and passing == bystanders
+                else f" past {', '.join(passing)} (boxed in: they make way first)"
+                if passing
+                else ""
+            )
             if far:
                 way += f" (neither could give way within {config.yield_search:g} m: searched farther)"
             break
@@ -715,11 +769,26 @@ class Traffic:
             return None
         self._cannot_yield = False
         self._failing_since = None
-        return self._set_off(pose, spot, detour, names, stretch, stamp,
-                             f"giving way to {', '.join(names)}: going aside to ({spot[0]:.2f}, {spot[1]:.2f}){way}")
+        return self._set_off(
+            pose,
+            spot,
+            detour,
+            names,
+            stretch,
+            stamp,
+            f"giving way to {', '.join(names)}: going aside to ({spot[0]:.2f}, {spot[1]:.2f}){way}",
+        )
 
-    def _set_off(self, pose, spot: tuple[float, float], detour: np.ndarray, names: tuple[str, ...],
-                 stretch: np.ndarray | None, stamp: float, event: str) -> Advice:
+    def _set_off(
+        self,
+        pose,
+        spot: tuple[float, float],
+        detour: np.ndarray,
+        names: tuple[str, ...],
+        stretch: np.ndarray | None,
+        stamp: float,
+        event: str,
+    ) -> Advice:
         """Drive to `spot` along `detour` and wait there (phase YIELD, then ASIDE), giving way to `names` (none: rule
         2b); the route back is the detour reversed and the stretch of path it leaves (or, already aside, the route
         it had)."""
@@ -746,8 +815,7 @@ class Traffic:
         # a return is a point on a surface, marked as the cell it lies in (the costmap keeps the robot's centre a
         # radius from it, as from a wall); a posted robot is its disc. Returns marked as discs would put the
         # robot's own cell inside them when what it backs off from stands closer than two radii: no way out.
-        marked = costmap.with_obstacles(points, 0.0).with_obstacles(np.array(discs).reshape(-1, 2),
-                                                                     config.robot_radius)
+        marked = costmap.with_obstacles(points, 0.0).with_obstacles(np.array(discs).reshape(-1, 2), config.robot_radius)
         spot = place_aside(marked, pose[:2], points, config.mark_range, _whole_map(costmap))
         if spot is None and len(points):  # a dead end shorter than mark_range: back off as far as it goes
             farthest = farthest_place(marked, pose[:2], points)
@@ -763,9 +831,18 @@ class Traffic:
         if detour is None:
             self._retry_at = stamp + config.wait_time  # look again after wait_time, as a failed search aside does
             return None
-        return self._set_off(pose, spot, detour, (), stretch, stamp, (
-            f"stopped {config.yield_timeout:g} s by something not on the map and not on the board (a robot not sure "
-            f"where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move"))
+        return self._set_off(
+            pose,
+            spot,
+            detour,
+            (),
+            stretch,
+            stamp,
+            (
+                f"stopped {config.yield_timeout:g} s by something not on the map and not on the board (a robot not sure "
+                f"where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move"
+            ),
+        )
 
     def _yielding(self, pose, stretch, costmap, others, stamp) -> Advice | None:
         """The advice while going or waiting aside; None once the wait is over: every robot it gives way to
@@ -788,10 +865,14 @@ class Traffic:
             return None
         # someone newly blocked by this robot (or, waiting aside, one it gives way to that now finds it in its
         # way): go aside for them too
-        fresh = [post for post in others if post.blocked_by == self.name and (
-            post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))
+        fresh = [
+            post
+            for post in others
+            if post.blocked_by == self.name
+            and (post.name not in self._yield_to or (self.phase is Phase.ASIDE and not post.passive))
             # rule 6: a robot this one drives past makes way for it, not the other way round
-            and not (driving and post.name in self._through and post.name not in self._yield_to)]
+            and not (driving and post.name in self._through and post.name not in self._yield_to)
+        ]
         if fresh and stamp >= self._retry_at:
             renewed = {post.name for post in fresh}
             keep = [post for post in others if post.name in self._yield_to and post.name not in renewed]
@@ -800,8 +881,7 @@ class Traffic:
                 return advice
         if driving:
             # a robot standing on the way aside: hold, and tell it this one cannot give way (it makes way)
-            blocker = self._blocker(pose, path_ahead(self._detour, pose[0], pose[1], config.conflict_distance),
-                                    others)
+            blocker = self._blocker(pose, path_ahead(self._detour, pose[0], pose[1], config.conflict_distance), others)
             if blocker is not None:
                 self.board.post(TrafficPost(self.name, self.priority, tuple(pose), way, blocker.name, (), False, True))
                 return Advice(hold=True)

@@ -32,9 +32,14 @@ class PostError(ValueError):
 def post_message(post: TrafficPost, stamp: TimeMessage, frame_id: str = "map") -> TrafficPostMessage:
     """The message of `post`, stamped `stamp` (the node clock); PostError for a post that is not finite."""
     _check_name(post.name, "name")
-    message = TrafficPostMessage(name=post.name, priority=int(post.priority), blocked_by=post.blocked_by,
-                                 yielding_to=list(post.yielding_to), passive=bool(post.passive),
-                                 cannot_yield=bool(post.cannot_yield))
+    message = TrafficPostMessage(
+        name=post.name,
+        priority=int(post.priority),
+        blocked_by=post.blocked_by,
+        yielding_to=list(post.yielding_to),
+        passive=bool(post.passive),
+        cannot_yield=bool(post.cannot_yield),
+    )
     message.header.stamp, message.header.frame_id = stamp, frame_id
     if post.pose is not None:
         if len(post.pose) != 3 or not all(math.isfinite(float(v)) for v in post.pose):
@@ -68,8 +73,16 @@ def post_from_message(message: TrafficPostMessage) -> TrafficPost:
         if len(message.path) > MAX_PATH_POINTS:
             raise PostError(f"{name}: path of {len(message.path)} points (at most {MAX_PATH_POINTS})")
         path = _points(np.array([(p.x, p.y) for p in message.path], dtype=float).reshape(-1, 2), name)
-    return TrafficPost(name, int(message.priority), pose, path, message.blocked_by, tuple(message.yielding_to),
-                       bool(message.passive), bool(message.cannot_yield))
+    return TrafficPost(
+        name,
+        int(message.priority),
+        pose,
+        path,
+        message.blocked_by,
+        tuple(message.yielding_to),
+        bool(message.passive),
+        bool(message.cannot_yield),
+    )
 
 
 def speed_limit_message(limit: float | None, stamp: TimeMessage, frame_id: str = "map") -> SpeedLimit:

@@ -11,8 +11,9 @@ from amr_navigation.traffic import Advice, Traffic, TrafficBoard, TrafficPost
 from amr_planning.costmap import Costmap
 
 
-def idle_advice(traffic: Traffic, decision: Decision, pose: tuple[float, float, float], costmap: Costmap,
-                stamp: float) -> Advice | None:
+def idle_advice(
+    traffic: Traffic, decision: Decision, pose: tuple[float, float, float], costmap: Costmap, stamp: float
+) -> Advice | None:
     """For an observation the path follower does not drive: post it (exploring: no pose; at the goal: passive),
     and at the goal the advice to make way for a robot this one blocks (an Advice with a detour), else None."""
     if decision.controller is Controller.WALL_FOLLOWER:

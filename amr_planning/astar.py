@@ -66,9 +66,14 @@ class GridAStar:
         diagonal = half * SQRT2
         # (offset, half step length, the two orthogonal cells a diagonal squeezes between or 0)
         self._moves = (
-            (1, half, 0, 0), (-1, half, 0, 0), (w, half, 0, 0), (-w, half, 0, 0),
-            (w + 1, diagonal, w, 1), (w - 1, diagonal, w, -1),
-            (-w + 1, diagonal, -w, 1), (-w - 1, diagonal, -w, -1),
+            (1, half, 0, 0),
+            (-1, half, 0, 0),
+            (w, half, 0, 0),
+            (-w, half, 0, 0),
+            (w + 1, diagonal, w, 1),
+            (w - 1, diagonal, w, -1),
+            (-w + 1, diagonal, -w, 1),
+            (-w - 1, diagonal, -w, -1),
         )
 
     def plan(self, start, goal) -> GridPath:

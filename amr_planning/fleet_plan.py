@@ -80,8 +80,11 @@ class Lattice:
     def without(self, edges) -> "Lattice":
         """This lattice without the edges (u, v) given (each both ways): an edge found blocked."""
         cut = {(int(u), int(v)) for u, v in edges} | {(int(v), int(u)) for u, v in edges}
-        return Lattice(self.points, tuple(tuple(n for n in neighbours if (k, n) not in cut)
-                                          for k, neighbours in enumerate(self.neighbours)), self.spacing)
+        return Lattice(
+            self.points,
+            tuple(tuple(n for n in neighbours if (k, n) not in cut) for k, neighbours in enumerate(self.neighbours)),
+            self.spacing,
+        )
 
     def components(self) -> np.ndarray:
         """The connected component of each vertex (labels 0, 1, ...)."""
@@ -129,8 +132,10 @@ def lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
 
 def _check_spacing(costmap: Costmap, spacing: float) -> None:
     if not (math.isfinite(spacing) and spacing > costmap.resolution):
-        raise PlanningError(Reason.INVALID, f"lattice spacing {spacing!r} must be finite and exceed the map's "
-                                            f"resolution ({costmap.resolution} m)")
+        raise PlanningError(
+            Reason.INVALID,
+            f"lattice spacing {spacing!r} must be finite and exceed the map's resolution ({costmap.resolution} m)",
+        )
 
 
 def grid_lattice(costmap: Costmap, spacing: float, steps: int = 16) -> Lattice:
@@ -225,10 +230,17 @@ def sampled_lattice(costmap: Costmap, spacing: float) -> Lattice:
     for row, col in zip(rows[order], cols[order]):
         point = costmap.centre(row, col)
         key = (int(point[0] // spacing), int(point[1] // spacing))
-        near = [other for dx in (-1, 0, 1) for dy in (-1, 0, 1) for other in buckets.get((key[0] + dx, key[1] + dy), ())
-                if float((point - other) @ (point - other)) < limit]
-        if near and costmap.segments_free(np.repeat(point[None], len(near), axis=0), np.array(near),
-                                          costmap.lethal).any():
+        near = [
+            other
+            for dx in (-1, 0, 1)
+            for dy in (-1, 0, 1)
+            for other in buckets.get((key[0] + dx, key[1] + dy), ())
+            if float((point - other) @ (point - other)) < limit
+        ]
+        if (
+            near
+            and costmap.segments_free(np.repeat(point[None], len(near), axis=0), np.array(near), costmap.lethal).any()
+        ):
             continue
         kept.append(point)
         kept_cells.append((int(row), int(col)))
@@ -241,8 +253,8 @@ def sampled_lattice(costmap: Costmap, spacing: float) -> Lattice:
     heads, tails, weights = [], [], []
     height, width = free.shape
     for d_row, d_col in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        a = index[max(0, -d_row):height - max(0, d_row), max(0, -d_col):width - max(0, d_col)]
-        b = index[max(0, d_row):height - max(0, -d_row) or None, max(0, d_col):width - max(0, -d_col) or None]
+        a = index[max(0, -d_row) : height - max(0, d_row), max(0, -d_col) : width - max(0, d_col)]
+        b = index[max(0, d_row) : height - max(0, -d_row) or None, max(0, d_col) : width - max(0, -d_col) or None]
         both = (a >= 0) & (b >= 0)
         heads.append(a[both])
         tails.append(b[both])
@@ -287,8 +299,9 @@ def assign(graph: Lattice, costmap: Costmap, points, taken=(), reach: float = 1.
         raise PlanningError(Reason.INVALID, f"points {points.tolist()} must be finite")
     free = np.setdiff1d(np.arange(len(graph)), np.asarray(list(taken), dtype=int))
     if len(points) > len(free):
-        raise PlanningError(Reason.INVALID, f"no vertex left: {len(points)} points, {len(free)} of the "
-                                            f"{len(graph)} vertices free")
+        raise PlanningError(
+            Reason.INVALID, f"no vertex left: {len(points)} points, {len(free)} of the {len(graph)} vertices free"
+        )
     if len(points) == 0:
         return []
     cost = np.empty((len(points), len(free)))
@@ -306,7 +319,7 @@ def assign(graph: Lattice, costmap: Costmap, points, taken=(), reach: float = 1.
                 steps[home][steps[home] < 0] = np.inf
             best = np.minimum(best, gaps[home] + graph.spacing * steps[home])
         cost[row] = np.minimum(best[free], UNREACHABLE)
-    rows, columns = linear_sum_assignment(cost ** 2)
+    rows, columns = linear_sum_assignment(cost**2)
     chosen = np.empty(len(points), dtype=int)
     chosen[rows] = free[columns]
     return chosen.tolist()
@@ -329,8 +342,12 @@ class _Constraints:
         return max((step for v, step in self.vertices if v == vertex), default=-1)
 
     def horizon(self) -> int:
-        return max([step for _, step in self.vertices] + [step for _, _, step in self.edges]
-                   + [step for _, step in self.held] + [0])
+        return max(
+            [step for _, step in self.vertices]
+            + [step for _, _, step in self.edges]
+            + [step for _, step in self.held]
+            + [0]
+        )
 
 
 def _path(graph: Lattice, start: int, goal: int, to_goal: np.ndarray, constraints: _Constraints) -> list[int] | None:
@@ -461,8 +478,10 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
     for i in range(count):
         path = _path(graph, starts[i], goals[i], to_goal[i], constraints[i])
         if path is None:
-            raise PlanningError(Reason.UNREACHABLE, f"robot {i}: goal vertex {goals[i]} cannot be reached "
-                                                         f"from start vertex {starts[i]} on the lattice")
+            raise PlanningError(
+                Reason.UNREACHABLE,
+                f"robot {i}: goal vertex {goals[i]} cannot be reached from start vertex {starts[i]} on the lattice",
+            )
         paths.append(path)
     counter = itertools.count()
     open_list = [(_cost(paths), 0, next(counter), constraints, paths)]
@@ -474,8 +493,9 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
             return FleetPlan(graph, tuple(tuple(path) for path in paths), expanded)
         expanded += 1
         if expanded > max_nodes:
-            raise PlanningError(Reason.UNREACHABLE, f"no conflict-free plan for {count} robots within "
-                                                         f"{max_nodes} search nodes")
+            raise PlanningError(
+                Reason.UNREACHABLE, f"no conflict-free plan for {count} robots within {max_nodes} search nodes"
+            )
         i, j, kind, step, where = conflict
         for robot in (i, j):
             mine = constraints[robot]
@@ -491,10 +511,10 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
             child_constraints[robot] = mine
             child_paths = list(paths)
             child_paths[robot] = path
-            heapq.heappush(open_list, (_cost(child_paths), _conflicts(child_paths), next(counter),
-                                       child_constraints, child_paths))
-    raise PlanningError(Reason.UNREACHABLE, f"no conflict-free plan exists for these {count} robots on the "
-                                                 f"lattice")
+            heapq.heappush(
+                open_list, (_cost(child_paths), _conflicts(child_paths), next(counter), child_constraints, child_paths)
+            )
+    raise PlanningError(Reason.UNREACHABLE, f"no conflict-free plan exists for these {count} robots on the lattice")
 
 
 def _cost(paths: list[list[int]]) -> int:
@@ -524,8 +544,9 @@ def dependencies(plan: FleetPlan) -> list[list[list[tuple[int, int]]]]:
     PlanningError if the dependencies form a cycle (robots following one another round a cycle of the lattice
     in one step): the plan could then stall."""
     needs, _ = _action_graph(plan)
-    return [[sorted({dep for dep in action if dep[0] != robot}) for action in moves]
-            for robot, moves in enumerate(needs)]
+    return [
+        [sorted({dep for dep in action if dep[0] != robot}) for action in moves] for robot, moves in enumerate(needs)
+    ]
 
 
 def _action_graph(plan: FleetPlan):
@@ -543,8 +564,9 @@ def _action_graph(plan: FleetPlan):
                 if other == robot or other_step >= step:
                     continue
                 if other_index + 1 >= len(actions[other]):
-                    raise PlanningError(Reason.INVALID, f"robot {robot} is planned onto vertex {vertex} where robot "
-                                                        f"{other} ends")
+                    raise PlanningError(
+                        Reason.INVALID, f"robot {robot} is planned onto vertex {vertex} where robot {other} ends"
+                    )
                 needs[robot][index].append((other, other_index + 1))
             if index > 0:
                 needs[robot][index].append((robot, index - 1))
@@ -569,8 +591,11 @@ def _topological_order(needs) -> list[tuple[int, int]]:
             if waiting[user] == 0:
                 ready.append(user)
     if len(order) != len(nodes):
-        raise PlanningError(Reason.INVALID, "the plan's action dependencies form a cycle (robots following one "
-                                            "another round a cycle of the lattice): it could stall")
+        raise PlanningError(
+            Reason.INVALID,
+            "the plan's action dependencies form a cycle (robots following one "
+            "another round a cycle of the lattice): it could stall",
+        )
     return order
 
 
@@ -633,8 +658,14 @@ MAX_NODES = 200000
 """configurations plan_lacam searches at most by default (over all its restarts)."""
 
 
-def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: int = MAX_NODES,
-               seed: int = 0, first_budget: int = 250) -> FleetPlan:
+def plan_lacam(
+    graph: Lattice,
+    starts: list[int],
+    goals: list[int],
+    max_nodes: int = MAX_NODES,
+    seed: int = 0,
+    first_budget: int = 250,
+) -> FleetPlan:
     """Paths for every robot, starts[i] to goals[i] (lattice vertices), in which no two are ever at one vertex and
     none swap along an edge (LaCAM, Okumura 2023, "LaCAM: search-based algorithm for quick multi-agent
     pathfinding"): a depth-first search over configurations (where every robot is), each next one made by PIBT
@@ -654,19 +685,22 @@ def plan_lacam(graph: Lattice, starts: list[int], goals: list[int], max_nodes: i
     to_goal = [graph.distances(goal) for goal in goals]
     for i in range(count):
         if to_goal[i][starts[i]] < 0:
-            raise PlanningError(Reason.UNREACHABLE, f"robot {i}: goal vertex {goals[i]} cannot be reached from start "
-                                                    f"vertex {starts[i]} on the lattice")
+            raise PlanningError(
+                Reason.UNREACHABLE,
+                f"robot {i}: goal vertex {goals[i]} cannot be reached from start vertex {starts[i]} on the lattice",
+            )
     _check_order_in_corridors(graph, starts, goals)
     spent, attempt = 0, 0
     while True:
-        budget = max(1, min(first_budget * 2 ** attempt, max_nodes - spent))
+        budget = max(1, min(first_budget * 2**attempt, max_nodes - spent))
         plan = _lacam(graph, starts, goals, to_goal, budget, seed + attempt)
         if plan is not None:
             return FleetPlan(graph, plan.paths, spent + plan.nodes)
         spent, attempt = spent + budget, attempt + 1
         if spent >= max_nodes:
-            raise PlanningError(Reason.UNREACHABLE, f"no plan for {count} robots within {max_nodes} configurations "
-                                                    f"({attempt} searches)")
+            raise PlanningError(
+                Reason.UNREACHABLE, f"no plan for {count} robots within {max_nodes} configurations ({attempt} searches)"
+            )
 
 
 def _check_order_in_corridors(graph: Lattice, starts: list[int], goals: list[int]) -> None:
@@ -691,9 +725,12 @@ def _check_order_in_corridors(graph: Lattice, starts: list[int], goals: list[int
         by_goal = sorted(robots, key=lambda robot: position[goals[robot]])
         if by_start != by_goal:
             first = next(i for i, (a, b) in enumerate(zip(by_start, by_goal)) if a != b)
-            raise PlanningError(Reason.UNREACHABLE, f"no plan exists: robots {by_start} stand in a corridor without a "
-                                                    f"branch in that order and their goals are in the order {by_goal} "
-                                                    f"(robot {by_start[first]} would have to pass another)")
+            raise PlanningError(
+                Reason.UNREACHABLE,
+                f"no plan exists: robots {by_start} stand in a corridor without a "
+                f"branch in that order and their goals are in the order {by_goal} "
+                f"(robot {by_start[first]} would have to pass another)",
+            )
 
 
 def _lacam(graph: Lattice, starts, goals, to_goal, max_nodes: int, seed: int) -> FleetPlan | None:
@@ -742,8 +779,10 @@ def _lacam(graph: Lattice, starts, goals, to_goal, max_nodes: int, seed: int) ->
         child = _Node(following, node, _priorities(following, to_goal, node.priorities), deque([_Constraint()]))
         explored[following] = child
         stack.append(child)
-    raise PlanningError(Reason.UNREACHABLE, f"no plan exists for these {count} robots on the lattice (every "
-                                            f"configuration reachable was searched)")
+    raise PlanningError(
+        Reason.UNREACHABLE,
+        f"no plan exists for these {count} robots on the lattice (every configuration reachable was searched)",
+    )
 
 
 def _check(graph: Lattice, starts: list[int], goals: list[int]) -> int:
@@ -764,8 +803,7 @@ def _priorities(config, to_goal, previous) -> list[float]:
     (at first: its distance to the goal / 10000, a tie-break)."""
     if previous is None:
         return [float(to_goal[i][config[i]]) / 10000.0 for i in range(len(config))]
-    return [previous[i] + 1.0 if to_goal[i][config[i]] else previous[i] - int(previous[i])
-            for i in range(len(config))]
+    return [previous[i] + 1.0 if to_goal[i][config[i]] else previous[i] - int(previous[i]) for i in range(len(config))]
 
 
 class _Pibt:
@@ -827,14 +865,23 @@ class _Pibt:
         is_swap_required_and_possible)."""
         here, best = self.config[i], options[0]
         j = self.now.get(best)
-        if (j is not None and j != i and self.to[j] < 0 and self._required(i, j, here, self.config[j])
-                and self._possible(self.config[j], here)):
+        if (
+            j is not None
+            and j != i
+            and self.to[j] < 0
+            and self._required(i, j, here, self.config[j])
+            and self._possible(self.config[j], here)
+        ):
             return j
         if best != here:  # clearing the way, as in push and swap
             for u in self.graph.neighbours[here]:
                 k = self.now.get(u)
-                if (k is not None and best != self.config[k] and self._required(k, i, here, best)
-                        and self._possible(best, here)):
+                if (
+                    k is not None
+                    and best != self.config[k]
+                    and self._required(k, i, here, best)
+                    and self._possible(best, here)
+                ):
                     return k
         return None
 
@@ -844,8 +891,9 @@ class _Pibt:
         n, other = 0, -1
         for u in self.graph.neighbours[puller]:
             occupant = self.now.get(u)
-            if u == pusher or (len(self.graph.neighbours[u]) == 1 and occupant is not None
-                               and self.goals[occupant] == u):
+            if u == pusher or (
+                len(self.graph.neighbours[u]) == 1 and occupant is not None and self.goals[occupant] == u
+            ):
                 continue
             n += 1
             other = u
@@ -862,8 +910,9 @@ class _Pibt:
                 break
             v_pusher, v_puller = v_puller, other
         mine = self.to_goal[puller]
-        return bool(mine[v_pusher] < mine[v_puller]
-                    and (distance[v_pusher] == 0 or distance[v_puller] < distance[v_pusher]))
+        return bool(
+            mine[v_pusher] < mine[v_puller] and (distance[v_pusher] == 0 or distance[v_puller] < distance[v_pusher])
+        )
 
     def _possible(self, v_pusher: int, v_puller: int) -> bool:
         """Pulling back along the corridor reaches a junction where the two can swap."""
@@ -902,7 +951,7 @@ def _rotation(before, after) -> bool:
 
 def _trim(path: tuple[int, ...]) -> tuple[int, ...]:
     """The path without the steps it waits at its goal at the end."""
-    return path[:_arrival(path) + 1]
+    return path[: _arrival(path) + 1]
 
 
 # -- improving a plan: each robot planned again around the others -------------------------------------------
@@ -936,8 +985,10 @@ def improve(plan: FleetPlan, rounds: int = 4) -> FleetPlan:
 def _rotates(paths) -> bool:
     """Some step of the paths is a rotation (see _rotation)."""
     length = max(len(path) for path in paths)
-    return any(_rotation([_at(path, step - 1) for path in paths], [_at(path, step) for path in paths])
-               for step in range(1, length))
+    return any(
+        _rotation([_at(path, step - 1) for path in paths], [_at(path, step) for path in paths])
+        for step in range(1, length)
+    )
 
 
 def _moves(path) -> int:

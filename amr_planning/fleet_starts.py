@@ -50,7 +50,12 @@ def with_robots(data: dict, robots: int, seed: int, resolution: float = 0.025) -
         chosen.append(points[index])
         distance = np.minimum(distance, np.hypot(*(points - points[index]).T))
     starts = [chosen[i] for i in rng.permutation(robots)]
-    data["robots"] = [{"name": f"r{i + 1}", "start": [float(s[0]), float(s[1]), float(rng.uniform(-math.pi, math.pi))],
-                       "goal": [float(starts[(i + 1) % robots][0]), float(starts[(i + 1) % robots][1]), GOAL_RADIUS]}
-                      for i, s in enumerate(starts)]
+    data["robots"] = [
+        {
+            "name": f"r{i + 1}",
+            "start": [float(s[0]), float(s[1]), float(rng.uniform(-math.pi, math.pi))],
+            "goal": [float(starts[(i + 1) % robots][0]), float(starts[(i + 1) % robots][1]), GOAL_RADIUS],
+        }
+        for i, s in enumerate(starts)
+    ]
     return data

@@ -24,5 +24,3 @@ def path_message(points: np.ndarray, frame_id: str, stamp) -> Path:
         pose.pose.orientation = quaternion(float(heading))
         message.poses.append(pose)
     return message
-
-

@@ -67,8 +67,9 @@ class PlannerConfig(Config):
 
     @property
     def costmap(self) -> CostmapConfig:
-        return CostmapConfig(self.robot_radius, self.safety_margin, self.cost_weight, self.cost_distance,
-                             self.margin_cost)
+        return CostmapConfig(
+            self.robot_radius, self.safety_margin, self.cost_weight, self.cost_distance, self.margin_cost
+        )
 
     @property
     def roadmap(self) -> RoadmapConfig:
@@ -82,8 +83,9 @@ class PlannerConfig(Config):
 class Planner:
     """The costmap of one map and the configured search; plan() gives smoothed paths."""
 
-    def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None,
-                 costmap: Costmap | None = None) -> None:
+    def __init__(
+        self, grid: OccupancyGrid, config: PlannerConfig | None = None, costmap: Costmap | None = None
+    ) -> None:
         self.config = config or PlannerConfig()
         self.costmap = costmap if costmap is not None else Costmap(grid, self.config.costmap)
         if self.config.planner == "prm":

@@ -77,7 +77,9 @@ def smooth_path(points: np.ndarray, costmap: Costmap, config: SmoothingConfig | 
             if index.size == 0:
                 continue
             previous = path[index]
-            proposal = previous + a * (original[index] - previous) + b * (path[index - 1] + path[index + 1] - 2 * previous)
+            proposal = (
+                previous + a * (original[index] - previous) + b * (path[index - 1] + path[index + 1] - 2 * previous)
+            )
             path[index] = proposal
             _revert_collisions(path, index, previous, costmap, keep_out)
             largest = max(largest, float(np.abs(path[index] - previous).max()))

@@ -45,6 +45,7 @@ class RobotConfig(Config):
     max_angular: float = parameter(_ROBOT.max_angular_speed, minimum=0.01, maximum=20.0)
     """rad/s, the body turn-rate limit."""
 
+
 @dataclass(frozen=True)
 class LidarConfig(Config):
     """A 2D LiDAR; defaults are seed 002's simulated sensor with TurtleBot3 LDS-01 figures.
@@ -101,6 +102,7 @@ class EncoderConfig(Config):
     slip: float = parameter(0.0, minimum=0.0, maximum=1.0, live=True)
     """standard deviation of the fraction of wheel travel lost to the floor each step."""
 
+
 @dataclass(frozen=True)
 class BeaconConfig(Config):
     """The range beacons and compass of a world that declares `beacons` (seed 000)."""
@@ -109,6 +111,7 @@ class BeaconConfig(Config):
     """m, standard deviation of the Gaussian noise on each beacon range."""
     compass_noise_std: float = parameter(0.01, minimum=0.0, maximum=3.2, live=True)
     """rad, standard deviation of the Gaussian noise on the compass heading."""
+
 
 @dataclass(frozen=True)
 class SimulationConfig(Config):

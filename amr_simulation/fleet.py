@@ -62,12 +62,20 @@ class SimulatedRobot:
         self.goal: Goal | None = spec.goal
         streams = np.random.SeedSequence(config.seed, spawn_key=tuple(self.name.encode()))
         lidar_seed, encoder_seed, beacon_seed = streams.spawn(3)
-        caster = _Sighted(fleet, index) if config.lidar.method == "numpy" else PymunkRayCaster(
-            fleet._physics.space, pymunk.ShapeFilter(group=index + 1, mask=WALL_CATEGORY | ROBOT_CATEGORY))
+        caster = (
+            _Sighted(fleet, index)
+            if config.lidar.method == "numpy"
+            else PymunkRayCaster(
+                fleet._physics.space, pymunk.ShapeFilter(group=index + 1, mask=WALL_CATEGORY | ROBOT_CATEGORY)
+            )
+        )
         self._lidar = Lidar(config.lidar, caster, np.random.default_rng(lidar_seed))
         self._encoders = Encoders(config.encoders, np.random.default_rng(encoder_seed))
-        self._beacons = (BeaconSensor(fleet.world.beacons, config.beacons, np.random.default_rng(beacon_seed))
-                         if fleet.world.beacons else None)
+        self._beacons = (
+            BeaconSensor(fleet.world.beacons, config.beacons, np.random.default_rng(beacon_seed))
+            if fleet.world.beacons
+            else None
+        )
         self._contacts = fleet._physics.contacts[index]
         self._names = fleet.names
         self._trajectory: list[tuple[float, float, float]] = []
@@ -179,8 +187,10 @@ class Fleet:
         self.config = config or SimulationConfig()
         specs = world.fleet
         if self.config.start is not None and world.robots:
-            raise ConfigError(f"start: overrides the start of a world of one unnamed robot; {world.source} "
-                              f"lists its robots ({', '.join(s.name for s in specs)}) with their starts")
+            raise ConfigError(
+                f"start: overrides the start of a world of one unnamed robot; {world.source} "
+                f"lists its robots ({', '.join(s.name for s in specs)}) with their starts"
+            )
         world.check_footprints(self.config.robot.radius)
         robot = self.config.robot
         self.drive = DiffDrive(
@@ -211,9 +221,10 @@ class Fleet:
         self._physics = Physics(self.world.polygons, self.config.robot.radius, len(self.names))
         self._steps = 0
         self.robots: tuple[SimulatedRobot, ...] = tuple(
-            SimulatedRobot(self, index, spec) for index, spec in enumerate(self.world.fleet))
+            SimulatedRobot(self, index, spec) for index, spec in enumerate(self.world.fleet)
+        )
         for robot in self.robots:
-            self._place(robot, robot.start, others=self.robots[:robot.index])
+            self._place(robot, robot.start, others=self.robots[: robot.index])
         self._scan(self.robots)
 
     def reset_robot(self, robot: int | str) -> None:
@@ -223,7 +234,7 @@ class Fleet:
         new = SimulatedRobot(self, old.index, RobotSpec(old.name, old.start, old.goal))
         self._place(new, new.start, others=[r for r in self.robots if r is not old])
         self._physics.contacts[old.index].clear_counts()
-        self.robots = self.robots[:old.index] + (new,) + self.robots[old.index + 1:]
+        self.robots = self.robots[: old.index] + (new,) + self.robots[old.index + 1 :]
         self._scan([new])
 
     def set_pose(self, x: float, y: float, theta: float, robot: int | str = 0) -> None:
@@ -258,8 +269,10 @@ class Fleet:
 
         count = substeps(fastest * dt, self.config.max_substep_distance)
         h = dt / count
-        turns = [(ground_v * chord_factor(ground_w * h), ground_w)  # straight-line speed that ends on the arc
-                 for _, _, ground_v, ground_w in plans]
+        turns = [
+            (ground_v * chord_factor(ground_w * h), ground_w)  # straight-line speed that ends on the arc
+            for _, _, ground_v, ground_w in plans
+        ]
         physics = self._physics
         bodies = physics.bodies
         for _ in range(count):
@@ -305,12 +318,14 @@ class Fleet:
         """A robot by index or name; raises SimulationError for neither."""
         if isinstance(robot, str):
             if robot not in self._index:
-                raise SimulationError(f"no robot named {robot!r} in {self.world.source} "
-                                      f"(robots: {', '.join(map(repr, self.names))})")
+                raise SimulationError(
+                    f"no robot named {robot!r} in {self.world.source} (robots: {', '.join(map(repr, self.names))})"
+                )
             return self.robots[self._index[robot]]
         if isinstance(robot, bool) or not isinstance(robot, int) or not 0 <= robot < len(self.robots):
-            raise SimulationError(f"no robot {robot!r}: {self.world.source} has {len(self.robots)} "
-                                  f"(indices 0 .. {len(self.robots) - 1})")
+            raise SimulationError(
+                f"no robot {robot!r}: {self.world.source} has {len(self.robots)} (indices 0 .. {len(self.robots) - 1})"
+            )
         return self.robots[robot]
 
     def __len__(self) -> int:
@@ -358,8 +373,10 @@ class Fleet:
             missing = [name for name in self.names if name not in commands]
             extra = [name for name in commands if name not in self._index]
             if missing or extra:
-                raise SimulationError(f"step: commands must name every robot ({', '.join(map(repr, self.names))}); "
-                                      f"missing {missing}, unknown {extra}")
+                raise SimulationError(
+                    f"step: commands must name every robot ({', '.join(map(repr, self.names))}); "
+                    f"missing {missing}, unknown {extra}"
+                )
             commands = [commands[name] for name in self.names]
         elif len(commands) != len(self.robots):
             raise SimulationError(f"step: {len(commands)} commands for {len(self.robots)} robots")
@@ -387,7 +404,8 @@ class Fleet:
             raise SimulationError(
                 f"set_pose: ({x:.3f}, {y:.3f}) lies outside the bounds of {self.world.source}: "
                 f"x in [{xmin:.3f}, {xmax:.3f}], y in [{ymin:.3f}, {ymax:.3f}] (its walls plus the "
-                f"LiDAR range, {self.config.lidar.range_max} m)")
+                f"LiDAR range, {self.config.lidar.range_max} m)"
+            )
         radius = self.config.robot.radius
         clearance = self._physics.clearance(x, y)
         if clearance < radius:
@@ -401,7 +419,8 @@ class Fleet:
                 raise SimulationError(
                     f"set_pose: {who} at ({x:.3f}, {y:.3f}) overlaps robot {other.name!r} at "
                     f"({other._pose.x:.3f}, {other._pose.y:.3f}): centres {gap:.3f} m apart, {2.0 * radius:.3f} m "
-                    "needed")
+                    "needed"
+                )
         self._physics.place(x, y, theta, robot.index)
         robot._pose = robot._odom = Pose2D(x, y, wrap_angle(theta))
         robot._twist = (0.0, 0.0, 0.0)
@@ -421,8 +440,9 @@ class Fleet:
                 robot._ranges = robot._lidar.scan(robot._pose)
             return
         sensors = np.array([robot._lidar.sensor_pose(robot._pose) for robot in robots])
-        true = self._cast(sensors[:, 0], sensors[:, 1], sensors[:, 2] + c.angle_min,
-                          np.array([robot.index for robot in robots]))
+        true = self._cast(
+            sensors[:, 0], sensors[:, 1], sensors[:, 2] + c.angle_min, np.array([robot.index for robot in robots])
+        )
         noise = None
         if c.noise_std > 0.0:
             noise = np.empty_like(true)
@@ -438,8 +458,7 @@ class Fleet:
         ranges = self._numpy_caster.cast_many(x, y, phi0, c.angle_increment, c.beams, c.range_max)
         if len(self.robots) > 1:
             centres = np.array([(robot._pose.x, robot._pose.y) for robot in self.robots])
-            cast_discs(ranges, x, y, phi0, c.angle_increment, c.range_max, centres, self.config.robot.radius,
-                       observers)
+            cast_discs(ranges, x, y, phi0, c.angle_increment, c.range_max, centres, self.config.robot.radius, observers)
         return ranges
 
 

@@ -59,6 +59,8 @@ class LocalizationCheck:
         state.localized = bool(localized)
         if localized and state.first_localized_time < 0.0:
             state.first_localized_time = sim_time
-            return (f"localized at t = {sim_time:.2f} s, error {state.position_error:.3f} m, "
-                    f"{math.degrees(state.heading_error):.1f} deg")
+            return (
+                f"localized at t = {sim_time:.2f} s, error {state.position_error:.3f} m, "
+                f"{math.degrees(state.heading_error):.1f} deg"
+            )
         return None

@@ -25,6 +25,7 @@ from amr_util.geometry import Pose2D, quaternion_from_yaw
 if TYPE_CHECKING:
     from amr_simulation.fleet import Fleet, SimulatedRobot
 
+
 def clock(time: Time) -> Clock:
     return Clock(clock=time)
 
@@ -78,45 +79,77 @@ def laser_scan(time: Time, frame: str, ranges: np.ndarray, lidar: LidarConfig, s
     return message
 
 
-STATUS_FIELDS = ("sim_time", "steps", "collisions", "wall_collisions", "robot_collisions", "in_contact", "goal_reached",
-                 "distance_travelled", "real_time_factor", "localization_enabled", "localized", "first_localized_time",
-                 "position_error", "heading_error")
+STATUS_FIELDS = (
+    "sim_time",
+    "steps",
+    "collisions",
+    "wall_collisions",
+    "robot_collisions",
+    "in_contact",
+    "goal_reached",
+    "distance_travelled",
+    "real_time_factor",
+    "localization_enabled",
+    "localized",
+    "first_localized_time",
+    "position_error",
+    "heading_error",
+)
 """The SimulatorStatus fields that change from step to step (all but the header and the robot's name)."""
 
 
-def status_fields(fleet: "Fleet", robot: "SimulatedRobot", distance: float, real_time_factor: float,
-                  localization=None) -> dict:
+def status_fields(
+    fleet: "Fleet", robot: "SimulatedRobot", distance: float, real_time_factor: float, localization=None
+) -> dict:
     """SimulatorStatus's changing fields (STATUS_FIELDS) of one robot of a fleet; `localization` is the robot's
     LocalizationCheck state (None: the check is off, or no /pose yet)."""
     return dict(
-        sim_time=float(fleet.time), steps=fleet.steps, collisions=robot.collisions,
-        wall_collisions=robot.wall_collisions, robot_collisions=sum(robot.robot_collisions.values()),
-        in_contact=bool(robot.in_contact), goal_reached=bool(robot.goal_reached), distance_travelled=float(distance),
-        real_time_factor=float(real_time_factor), localization_enabled=localization is not False,
+        sim_time=float(fleet.time),
+        steps=fleet.steps,
+        collisions=robot.collisions,
+        wall_collisions=robot.wall_collisions,
+        robot_collisions=sum(robot.robot_collisions.values()),
+        in_contact=bool(robot.in_contact),
+        goal_reached=bool(robot.goal_reached),
+        distance_travelled=float(distance),
+        real_time_factor=float(real_time_factor),
+        localization_enabled=localization is not False,
         localized=bool(localization and localization.localized),
         first_localized_time=localization.first_localized_time if localization else -1.0,
         position_error=localization.position_error if localization else math.nan,
-        heading_error=localization.heading_error if localization else math.nan)
+        heading_error=localization.heading_error if localization else math.nan,
+    )
 
 
-def status(time: Time, frame: str, fleet: "Fleet", robot: "SimulatedRobot", distance: float,
-           real_time_factor: float, localization=False) -> SimulatorStatus:
+def status(
+    time: Time,
+    frame: str,
+    fleet: "Fleet",
+    robot: "SimulatedRobot",
+    distance: float,
+    real_time_factor: float,
+    localization=False,
+) -> SimulatorStatus:
     """amr_interfaces/SimulatorStatus of one robot of a fleet (the one robot of a Simulator's fleet: robot "");
     distance and real-time factor are the node's; `localization`: False without the localization check, else the
     check's state (None before the first /pose)."""
-    message = SimulatorStatus(robot=robot.name, **status_fields(fleet, robot, distance, real_time_factor,
-                                                                localization))
+    message = SimulatorStatus(robot=robot.name, **status_fields(fleet, robot, distance, real_time_factor, localization))
     message.header.stamp = time
     message.header.frame_id = frame
     return message
 
 
-def beacon_ranges(time: Time, frame: str, positions: np.ndarray, ranges: np.ndarray, compass: float,
-                  noise: BeaconConfig) -> BeaconRanges:
+def beacon_ranges(
+    time: Time, frame: str, positions: np.ndarray, ranges: np.ndarray, compass: float, noise: BeaconConfig
+) -> BeaconRanges:
     """amr_interfaces/BeaconRanges: beacon i at positions[i] measured at ranges[i] (the world's order)."""
     message = BeaconRanges(
-        beacons=[Point(x=float(x), y=float(y)) for x, y in positions], ranges=[float(r) for r in ranges],
-        compass=float(compass), range_noise_std=noise.range_noise_std, compass_noise_std=noise.compass_noise_std)
+        beacons=[Point(x=float(x), y=float(y)) for x, y in positions],
+        ranges=[float(r) for r in ranges],
+        compass=float(compass),
+        range_noise_std=noise.range_noise_std,
+        compass_noise_std=noise.compass_noise_std,
+    )
     message.header.stamp = time
     message.header.frame_id = frame
     return message

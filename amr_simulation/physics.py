@@ -114,8 +114,11 @@ class Physics:
         for index, contacts in enumerate(self.contacts):
             self.space.on_collision(ROBOT_TYPE + index, WALL_TYPE, **_wall_handlers(contacts))
             for other in range(index + 1, robots):
-                self.space.on_collision(ROBOT_TYPE + index, ROBOT_TYPE + other,
-                                        **_robot_handlers(contacts, index, self.contacts[other], other))
+                self.space.on_collision(
+                    ROBOT_TYPE + index,
+                    ROBOT_TYPE + other,
+                    **_robot_handlers(contacts, index, self.contacts[other], other),
+                )
 
     @property
     def collisions(self) -> int:

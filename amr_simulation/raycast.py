@@ -35,8 +35,17 @@ class PymunkRayCaster:
         return ranges
 
 
-def cast_discs(ranges: np.ndarray, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, increment: float,
-               max_range: float, centres: np.ndarray, radius: float, skip: np.ndarray) -> None:
+def cast_discs(
+    ranges: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    phi0: np.ndarray,
+    increment: float,
+    max_range: float,
+    centres: np.ndarray,
+    radius: float,
+    skip: np.ndarray,
+) -> None:
     """Lower ranges (N, count) in place where the fans of NumpyRayCaster.cast_many meet discs.
 
     Origin n sees every disc (centres (M, 2), all of `radius`) but disc skip[n] (-1: none), the way a
@@ -50,7 +59,15 @@ def cast_discs(ranges: np.ndarray, x: np.ndarray, y: np.ndarray, phi0: np.ndarra
     """
     from amr_simulation.disc_sweep import sweep_discs
 
-    sweep_discs(ranges, np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float),
-                 np.ascontiguousarray(phi0, dtype=float), float(increment), beams_per_turn(increment, ranges.shape[1]),
-                 float(max_range), np.ascontiguousarray(centres, dtype=float).reshape(-1, 2), float(radius),
-                 np.ascontiguousarray(skip, dtype=np.intp))
+    sweep_discs(
+        ranges,
+        np.ascontiguousarray(x, dtype=float),
+        np.ascontiguousarray(y, dtype=float),
+        np.ascontiguousarray(phi0, dtype=float),
+        float(increment),
+        beams_per_turn(increment, ranges.shape[1]),
+        float(max_range),
+        np.ascontiguousarray(centres, dtype=float).reshape(-1, 2),
+        float(radius),
+        np.ascontiguousarray(skip, dtype=np.intp),
+    )

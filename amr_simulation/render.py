@@ -75,7 +75,9 @@ def draw_robot(ax: Axes, pose: Pose2D, radius: float, colour: str = ROBOT_COLOUR
     ax.plot(
         [pose.x, pose.x + radius * math.cos(pose.theta)],
         [pose.y, pose.y + radius * math.sin(pose.theta)],
-        color=colour, linewidth=1.5, zorder=4,
+        color=colour,
+        linewidth=1.5,
+        zorder=4,
     )
 
 
@@ -86,7 +88,10 @@ def draw_scan(ax: Axes, sensor: Pose2D, ranges: np.ndarray, lidar: LidarConfig, 
     ax.scatter(
         sensor.x + ranges[valid] * np.cos(angles[valid]),
         sensor.y + ranges[valid] * np.sin(angles[valid]),
-        s=4, color=colour, zorder=5, linewidths=0,
+        s=4,
+        color=colour,
+        zorder=5,
+        linewidths=0,
     )
 
 
@@ -113,17 +118,24 @@ def draw_fleet(ax: Axes, fleet: "Fleet") -> LineCollection:
         draw_robot(ax, robot.pose, radius, colour)
         draw_scan(ax, robot.sensor_pose, np.asarray(robot.ranges), fleet.lidar, colour)
         if robot.name:
-            ax.annotate(robot.name, (robot.pose.x, robot.pose.y + 1.6 * radius), ha="center", fontsize=7,
-                        color=colour, zorder=6)
+            ax.annotate(
+                robot.name, (robot.pose.x, robot.pose.y + 1.6 * radius), ha="center", fontsize=7, color=colour, zorder=6
+            )
     hits = sum(robot.collisions for robot in fleet.robots)
     reached = sum(robot.goal_reached for robot in fleet.robots)
-    ax.set_title(f"{fleet.world.name}   t = {fleet.time:.2f} s   {len(fleet)} robots   collisions: {hits}   "
-                 f"goals reached: {reached}")
+    ax.set_title(
+        f"{fleet.world.name}   t = {fleet.time:.2f} s   {len(fleet)} robots   collisions: {hits}   "
+        f"goals reached: {reached}"
+    )
     return lines[0]
 
 
-def save_png(sim: "Simulator | Fleet", path: str | Path, dpi: int = 120,
-             draw: Callable[[Axes, Any], LineCollection] = draw_simulation) -> Path:
+def save_png(
+    sim: "Simulator | Fleet",
+    path: str | Path,
+    dpi: int = 120,
+    draw: Callable[[Axes, Any], LineCollection] = draw_simulation,
+) -> Path:
     """A PNG of the simulator (or, with draw=draw_fleet, of a fleet) with a speed colour bar."""
     path = Path(path)
     figure = Figure(figsize=(7.0, 6.0), layout="constrained")

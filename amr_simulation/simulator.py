@@ -41,8 +41,10 @@ class Simulator:
     def __init__(self, world: World, config: SimulationConfig | None = None) -> None:
         if len(world.fleet) != 1:
             names = ", ".join(spec.name for spec in world.fleet)
-            raise SimulationError(f"{world.source} lists {len(world.fleet)} robots ({names}): the one-robot "
-                                  "Simulator cannot run it, amr_simulation.fleet.Fleet does")
+            raise SimulationError(
+                f"{world.source} lists {len(world.fleet)} robots ({names}): the one-robot "
+                "Simulator cannot run it, amr_simulation.fleet.Fleet does"
+            )
         self._fleet = Fleet(world, config)
 
     @classmethod

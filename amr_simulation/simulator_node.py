@@ -91,13 +91,31 @@ WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
 RATE_WINDOW = 20
 """Steps over which the status real-time factor is measured."""
-ODOMETRY_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "pose.pose.position.x", "pose.pose.position.y",
-                   "pose.pose.orientation.x", "pose.pose.orientation.y", "pose.pose.orientation.z",
-                   "pose.pose.orientation.w", "twist.twist.linear.x", "twist.twist.linear.y", "twist.twist.angular.z")
+ODOMETRY_FIELDS = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "pose.pose.position.x",
+    "pose.pose.position.y",
+    "pose.pose.orientation.x",
+    "pose.pose.orientation.y",
+    "pose.pose.orientation.z",
+    "pose.pose.orientation.w",
+    "twist.twist.linear.x",
+    "twist.twist.linear.y",
+    "twist.twist.angular.z",
+)
 SCAN_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "ranges")
 STATUS_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", *messages.STATUS_FIELDS)
-TRANSFORM_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "transform.translation.x", "transform.translation.y",
-                    "transform.rotation.x", "transform.rotation.y", "transform.rotation.z", "transform.rotation.w")
+TRANSFORM_FIELDS = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "transform.translation.x",
+    "transform.translation.y",
+    "transform.rotation.x",
+    "transform.rotation.y",
+    "transform.rotation.z",
+    "transform.rotation.w",
+)
 """What changes from one observation to the next in each message (the rest: frames, names, geometry, stays)."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
 """Event callbacks of the node's publishers: none (see SimulatorNode._publisher)."""
@@ -220,7 +238,8 @@ class SimulatorNode(ManagedNode):
         robots = f", robots {', '.join(self.robot_names)}" if self._fleet.world.robots else ""
         self.get_logger().info(
             f"world {self._fleet.world.name} ({self._fleet.world.source}){robots}, mode {config.mode}, dt {config.dt} s"
-            + (f", rate {config.rate}" if config.mode == "realtime" else ""))
+            + (f", rate {config.rate}" if config.mode == "realtime" else "")
+        )
         return TransitionCallbackReturn.SUCCESS
 
     @staticmethod
@@ -244,8 +263,11 @@ class SimulatorNode(ManagedNode):
         self._set_pace(self.get_parameter("pace").value)
         scan_period = self.get_parameter("scan_period").value
         self._scan_every = max(1, round(scan_period / config.dt)) if config.mode == "realtime" else 1
-        self._pose_wait = self.get_parameter("lockstep_pose_wait").value if config.mode == "lockstep" and \
-            self.get_parameter("enable_localization").value else 0.0
+        self._pose_wait = (
+            self.get_parameter("lockstep_pose_wait").value
+            if config.mode == "lockstep" and self.get_parameter("enable_localization").value
+            else 0.0
+        )
         if self._pose_wait > 0.0:
             self._pose_wait_timer = self.create_timer(self._pose_wait / 2, self._release_late, clock=self._steady)
         self._active = True
@@ -302,8 +324,10 @@ class SimulatorNode(ManagedNode):
         if shared_tf:
             self._create_tf_publishers(self._outputs, "/tf", "/tf_static")
         topics = {
-            "odometry": (Odometry, qos), "odom": (Odometry, qos),
-            "ground_truth": (Odometry, qos), "scan": (LaserScan, SENSOR_DATA),
+            "odometry": (Odometry, qos),
+            "odom": (Odometry, qos),
+            "ground_truth": (Odometry, qos),
+            "scan": (LaserScan, SENSOR_DATA),
             "status": (SimulatorStatus, qos),
         }
         plain = {name: get(f"{name}_frame") for name in ("odom", "world", "base", "scan")}
@@ -323,14 +347,23 @@ class SimulatorNode(ManagedNode):
             if robot.goal is not None:
                 channel.outputs["goal"] = self._publisher(PoseStamped, channel.topic("~/goal"), LATCHED)
             channel.cmd_vel_subscription = self.create_subscription(
-                TwistStamped if self._stamped else Twist, channel.topic("cmd_vel"),
-                lambda message, channel=channel: self._on_cmd_vel(channel, message), qos)
+                TwistStamped if self._stamped else Twist,
+                channel.topic("cmd_vel"),
+                lambda message, channel=channel: self._on_cmd_vel(channel, message),
+                qos,
+            )
             if named:
                 channel.services = [
-                    self.create_active_service(Trigger, channel.topic("reset"),
-                                               lambda q, a, channel=channel: self._on_reset_robot(channel, q, a)),
-                    self.create_active_service(SetPose, channel.topic("set_pose"),
-                                               lambda q, a, channel=channel: self._on_set_pose(channel, q, a)),
+                    self.create_active_service(
+                        Trigger,
+                        channel.topic("reset"),
+                        lambda q, a, channel=channel: self._on_reset_robot(channel, q, a),
+                    ),
+                    self.create_active_service(
+                        SetPose,
+                        channel.topic("set_pose"),
+                        lambda q, a, channel=channel: self._on_set_pose(channel, q, a),
+                    ),
                 ]
             self._create_localization_interfaces(channel, qos)
         self._node_services = [
@@ -341,8 +374,9 @@ class SimulatorNode(ManagedNode):
             self.create_active_service(Trigger, "~/step", self._on_step),
         ]
         if not named:
-            self._node_services.append(self.create_active_service(
-                SetPose, "~/set_pose", lambda q, a: self._on_set_pose(self._robots[0], q, a)))
+            self._node_services.append(
+                self.create_active_service(SetPose, "~/set_pose", lambda q, a: self._on_set_pose(self._robots[0], q, a))
+            )
 
     def _publisher(self, kind, topic: str, qos):
         """A lifecycle publisher without rclpy's default QoS-event handlers (incompatible QoS, incompatible type).
@@ -420,12 +454,14 @@ class SimulatorNode(ManagedNode):
             drive = self._fleet.drive
             if not finite:
                 self.get_logger().warning(
-                    f"refused a non-finite {topic} (v={v}, w={w})", throttle_duration_sec=WARNING_PERIOD)
+                    f"refused a non-finite {topic} (v={v}, w={w})", throttle_duration_sec=WARNING_PERIOD
+                )
             elif drive.saturation_scale(v, w) < 1.0:
                 sv, sw = drive.saturate(v, w)
                 self.get_logger().warning(
-                    f"{topic} (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, "
-                    f"w={sw:.4g})", throttle_duration_sec=WARNING_PERIOD)
+                    f"{topic} (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, w={sw:.4g})",
+                    throttle_duration_sec=WARNING_PERIOD,
+                )
             if self._fleet.config.mode == "lockstep":
                 channel.held.append((v, w) if finite else (0.0, 0.0))
                 self._release()
@@ -434,13 +470,13 @@ class SimulatorNode(ManagedNode):
         except Exception as error:
             self.get_logger().error(
                 f"{channel.label}cmd_vel callback: {type(error).__name__}: {error}",
-                throttle_duration_sec=WARNING_PERIOD)
+                throttle_duration_sec=WARNING_PERIOD,
+            )
 
     def _release(self) -> None:
         """Lockstep: step the held commands, in order, while every robot has one (and, with lockstep_pose_wait, its
         /pose for the last observation) and pausing and the pace allow."""
-        while self._active and self._robots and all(channel.held for channel in self._robots) and \
-                not self._poses_due():
+        while self._active and self._robots and all(channel.held for channel in self._robots) and not self._poses_due():
             if self._paused:
                 if self._owed <= 0:
                     return
@@ -468,7 +504,8 @@ class SimulatorNode(ManagedNode):
                 self.get_logger().info(
                     f"{channel.label}no /{channel.prefix}pose for the observation of step {self._fleet.steps} "
                     f"within lockstep_pose_wait ({self._pose_wait} s): stepping without it",
-                    throttle_duration_sec=WARNING_PERIOD)
+                    throttle_duration_sec=WARNING_PERIOD,
+                )
         return due
 
     def _release_late(self) -> None:
@@ -478,7 +515,8 @@ class SimulatorNode(ManagedNode):
                 self._release()
         except Exception as error:
             self.get_logger().error(
-                f"pose wait timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+                f"pose wait timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _on_pace_timer(self) -> None:
         try:
@@ -486,7 +524,8 @@ class SimulatorNode(ManagedNode):
             self._release()
         except Exception as error:
             self.get_logger().error(
-                f"pace timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+                f"pace timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _on_timer(self) -> None:
         try:
@@ -496,14 +535,14 @@ class SimulatorNode(ManagedNode):
                 self._owed -= 1
             timeout = self._fleet.config.command_timeout
             for channel in self._robots:
-                if timeout > 0.0 and channel.command != (0.0, 0.0) and \
-                        self._now() - channel.command_stamp > timeout:
+                if timeout > 0.0 and channel.command != (0.0, 0.0) and self._now() - channel.command_stamp > timeout:
                     channel.command = (0.0, 0.0)
                     self.get_logger().info(f"{channel.label}no /{channel.prefix}cmd_vel for {timeout} s: stopping")
             self._advance([channel.command for channel in self._robots])
         except Exception as error:
             self.get_logger().error(
-                f"step timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+                f"step timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _on_resend_timer(self) -> None:
         """Lockstep waits for every robot's command; a robot whose command has not come may not have heard its
@@ -517,18 +556,23 @@ class SimulatorNode(ManagedNode):
             if not self._paused:
                 if self._fleet.world.robots:
                     waiting = ", ".join(f"/{channel.prefix}cmd_vel" for channel in silent)
-                    self.get_logger().info(f"step {self._fleet.steps} waits for {waiting}: publishing their "
-                                           "observation again", throttle_duration_sec=WARNING_PERIOD)
+                    self.get_logger().info(
+                        f"step {self._fleet.steps} waits for {waiting}: publishing their observation again",
+                        throttle_duration_sec=WARNING_PERIOD,
+                    )
                 else:
-                    self.get_logger().info("no /cmd_vel since the last observation: publishing it again",
-                                           throttle_duration_sec=WARNING_PERIOD)
+                    self.get_logger().info(
+                        "no /cmd_vel since the last observation: publishing it again",
+                        throttle_duration_sec=WARNING_PERIOD,
+                    )
                 self._publish_observation(silent)
             elif self._owed > 0 and self._stalled(silent):
                 self._owed -= 1
                 self._advance_holding_the_silent()
         except Exception as error:
             self.get_logger().error(
-                f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD)
+                f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
 
     def _unanswered(self) -> list[RobotChannel]:
         """Lockstep: the robots whose /cmd_vel has not come for their last observation in lockstep_resend_period
@@ -558,15 +602,18 @@ class SimulatorNode(ManagedNode):
             channel.distance += math.hypot(vx, vy) * dt
             x, y, _ = robot.pose
             if robot.collisions > collisions:
-                self.get_logger().warning(f"{channel.label}collision {robot.collisions} at ({x:.3f}, {y:.3f}), "
-                                          f"t = {fleet.time:.2f} s{self._contact_detail(robot)}")
+                self.get_logger().warning(
+                    f"{channel.label}collision {robot.collisions} at ({x:.3f}, {y:.3f}), "
+                    f"t = {fleet.time:.2f} s{self._contact_detail(robot)}"
+                )
             if robot.goal_reached and not reached:
                 stopping = fleet.config.stop_at_goal
                 if stopping:
                     channel.command = (0.0, 0.0)
                 self.get_logger().info(
                     f"{channel.label}goal reached at ({x:.3f}, {y:.3f}), t = {fleet.time:.2f} s, "
-                    f"{channel.distance:.2f} m, {robot.collisions} collisions" + (": stopping" if stopping else ""))
+                    f"{channel.distance:.2f} m, {robot.collisions} collisions" + (": stopping" if stopping else "")
+                )
         self._publish_observation(self._robots)
 
     def _contact_detail(self, robot) -> str:
@@ -607,8 +654,10 @@ class SimulatorNode(ManagedNode):
                 poses.append(map_to_odom(robot.pose, robot.odom_pose))
         key = ("tf", tuple(channel.index for channel in group))
         wire = group[0].wires.get(key) or group[0].wire(
-            key, tuple(f"transforms.{i}.{field}" for i in range(len(poses)) for field in TRANSFORM_FIELDS),
-            lambda: messages.tf_message(self._transforms(group, stamp)))
+            key,
+            tuple(f"transforms.{i}.{field}" for i in range(len(poses)) for field in TRANSFORM_FIELDS),
+            lambda: messages.tf_message(self._transforms(group, stamp)),
+        )
         values = []
         for pose in poses:
             values += (stamp.sec, stamp.nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta))
@@ -625,30 +674,46 @@ class SimulatorNode(ManagedNode):
         odom_rotation = quaternion_from_yaw(odom.theta)
         if "odometry" in outputs:
             v, w = robot.odom_twist
-            wire = channel.wire("odometry", ODOMETRY_FIELDS, lambda: messages.odometry(
-                stamp, frames["odom"], frames["base"], odom, (v, 0.0, w)))
+            wire = channel.wire(
+                "odometry",
+                ODOMETRY_FIELDS,
+                lambda: messages.odometry(stamp, frames["odom"], frames["base"], odom, (v, 0.0, w)),
+            )
             outputs["odometry"].publish(wire.fill(sec, nanosec, odom.x, odom.y, *odom_rotation, v, 0.0, w))
         if "odom" in outputs:
-            wire = channel.wire("odom", ODOMETRY_FIELDS, lambda: messages.odometry(
-                stamp, frames["odom"], frames["base"], odom, (0.0, 0.0, 0.0)))
+            wire = channel.wire(
+                "odom",
+                ODOMETRY_FIELDS,
+                lambda: messages.odometry(stamp, frames["odom"], frames["base"], odom, (0.0, 0.0, 0.0)),
+            )
             outputs["odom"].publish(wire.fill(sec, nanosec, odom.x, odom.y, *odom_rotation, 0.0, 0.0, 0.0))
         if "ground_truth" in outputs:
             pose, (vx, vy, w) = robot.pose, robot.twist
-            wire = channel.wire("ground_truth", ODOMETRY_FIELDS, lambda: messages.odometry(
-                stamp, frames["world"], frames["base"], pose, (vx, vy, w)))
-            outputs["ground_truth"].publish(wire.fill(sec, nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta),
-                                                      vx, vy, w))
+            wire = channel.wire(
+                "ground_truth",
+                ODOMETRY_FIELDS,
+                lambda: messages.odometry(stamp, frames["world"], frames["base"], pose, (vx, vy, w)),
+            )
+            outputs["ground_truth"].publish(
+                wire.fill(sec, nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta), vx, vy, w)
+            )
         if "scan" in outputs and fleet.steps % self._scan_every == 0:
             ranges = robot.ranges
-            wire = channel.wire(("scan", len(ranges)), SCAN_FIELDS, lambda: messages.laser_scan(
-                stamp, frames["scan"], ranges, fleet.lidar, fleet.config.dt))
+            wire = channel.wire(
+                ("scan", len(ranges)),
+                SCAN_FIELDS,
+                lambda: messages.laser_scan(stamp, frames["scan"], ranges, fleet.lidar, fleet.config.dt),
+            )
             outputs["scan"].publish(wire.fill(sec, nanosec, ranges))
         self._publish_localization_inputs(channel, robot, stamp)
         if "status" in outputs:
             check = channel.localization_check
             localization = check.state if check is not None else False
-            wire = channel.wire("status", STATUS_FIELDS, lambda: messages.status(
-                stamp, frames["world"], fleet, robot, channel.distance, rate, localization))
+            wire = channel.wire(
+                "status",
+                STATUS_FIELDS,
+                lambda: messages.status(stamp, frames["world"], fleet, robot, channel.distance, rate, localization),
+            )
             fields = messages.status_fields(fleet, robot, channel.distance, rate, localization)
             outputs["status"].publish(wire.fill(sec, nanosec, *(fields[name] for name in messages.STATUS_FIELDS)))
 
@@ -659,8 +724,11 @@ class SimulatorNode(ManagedNode):
             channel.outputs["beacons"] = self._publisher(BeaconRanges, channel.topic("beacons"), qos)
         if self.get_parameter("enable_localization").value:
             channel.localization_check = LocalizationCheck()
-            channel.localization_inputs = [self.create_subscription(
-                LocalizedPose, channel.topic("pose"), lambda message: self._on_pose(channel, message), qos)]
+            channel.localization_inputs = [
+                self.create_subscription(
+                    LocalizedPose, channel.topic("pose"), lambda message: self._on_pose(channel, message), qos
+                )
+            ]
 
     def _publish_localization_inputs(self, channel: RobotChannel, robot, stamp) -> None:
         """Per observation: the beacon reading, and the true pose the next pose will be judged against."""
@@ -668,8 +736,9 @@ class SimulatorNode(ManagedNode):
             channel.localization_check.observed(stamp_nanoseconds(stamp), robot.pose, self._fleet.time)
         reading = robot.beacon_reading() if "beacons" in channel.outputs else None
         if reading is not None:
-            channel.outputs["beacons"].publish(messages.beacon_ranges(stamp, channel.frames["world"], *reading,
-                                                                      self._fleet.config.beacons))
+            channel.outputs["beacons"].publish(
+                messages.beacon_ranges(stamp, channel.frames["world"], *reading, self._fleet.config.beacons)
+            )
 
     def _on_pose(self, channel: RobotChannel, message: LocalizedPose) -> None:
         answered = False
@@ -680,18 +749,22 @@ class SimulatorNode(ManagedNode):
             if channel.pose_due is not None and stamp >= channel.pose_due:
                 channel.pose_due, answered = None, True
             line = channel.localization_check.estimate(
-                stamp, pose.position.x, pose.position.y, theta, message.localized)
+                stamp, pose.position.x, pose.position.y, theta, message.localized
+            )
             if line:
                 self.get_logger().info(channel.label + line)
         except Exception as error:  # a NaN or stale estimate: say so, keep simulating
-            self.get_logger().warning(f"/{channel.prefix}pose not judged: {error}",
-                                      throttle_duration_sec=WARNING_PERIOD)
+            self.get_logger().warning(
+                f"/{channel.prefix}pose not judged: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
         if answered:
             try:
                 self._release()
             except Exception as error:
-                self.get_logger().error(f"{channel.label}step after /pose: {type(error).__name__}: {error}",
-                                        throttle_duration_sec=WARNING_PERIOD)
+                self.get_logger().error(
+                    f"{channel.label}step after /pose: {type(error).__name__}: {error}",
+                    throttle_duration_sec=WARNING_PERIOD,
+                )
 
     def _transforms(self, channels: list[RobotChannel], stamp) -> list:
         """Of each robot: odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom."""
@@ -702,8 +775,9 @@ class SimulatorNode(ManagedNode):
             if odom_to_base:
                 transforms.append(messages.transform(stamp, frames["odom"], frames["base"], robot.odom_pose))
             if map_to_odom_wanted:
-                transforms.append(messages.transform(stamp, frames["world"], frames["odom"],
-                                                     map_to_odom(robot.pose, robot.odom_pose)))
+                transforms.append(
+                    messages.transform(stamp, frames["world"], frames["odom"], map_to_odom(robot.pose, robot.odom_pose))
+                )
         return transforms
 
     def _publish_goals(self) -> None:
@@ -725,8 +799,12 @@ class SimulatorNode(ManagedNode):
         mountings: dict[int, tuple[object, list]] = {}
         for channel in self._robots:
             if channel.tf_static is not None:
-                mounting = messages.transform(stamp_from_seconds(self._now()), channel.frames["base"],
-                                              channel.frames["scan"], Pose2D(lidar.x, lidar.y, 0.0))
+                mounting = messages.transform(
+                    stamp_from_seconds(self._now()),
+                    channel.frames["base"],
+                    channel.frames["scan"],
+                    Pose2D(lidar.x, lidar.y, 0.0),
+                )
                 mountings.setdefault(id(channel.tf_static), (channel.tf_static, []))[1].append(mounting)
         for publisher, parts in mountings.values():
             publisher.publish(messages.tf_message(parts))
@@ -762,8 +840,9 @@ class SimulatorNode(ManagedNode):
             self.get_logger().error(response.message)
         return response
 
-    def _on_reset_robot(self, channel: RobotChannel, request: Trigger.Request,
-                        response: Trigger.Response) -> Trigger.Response:
+    def _on_reset_robot(
+        self, channel: RobotChannel, request: Trigger.Request, response: Trigger.Response
+    ) -> Trigger.Response:
         """A fleet robot back to its start; the world's time and the other robots go on (its new observation is
         stamped one dt on, so stamps never repeat)."""
         try:
@@ -776,11 +855,13 @@ class SimulatorNode(ManagedNode):
             self.get_logger().warning(response.message)
         return response
 
-    def _on_set_pose(self, channel: RobotChannel, request: SetPose.Request,
-                     response: SetPose.Response) -> SetPose.Response:
+    def _on_set_pose(
+        self, channel: RobotChannel, request: SetPose.Request, response: SetPose.Response
+    ) -> SetPose.Response:
         try:
-            self._fleet.set_pose(request.x, request.y, request.theta, robot=channel.index) \
-                if self._fleet.world.robots else self._sim.set_pose(request.x, request.y, request.theta)
+            self._fleet.set_pose(
+                request.x, request.y, request.theta, robot=channel.index
+            ) if self._fleet.world.robots else self._sim.set_pose(request.x, request.y, request.theta)
             self._stamp_offset += self._fleet.config.dt
             response.success, response.message = True, self._restarted("set_pose", [channel])
         except Exception as error:  # SimulationError: inside a wall or another robot, or not finite
@@ -816,8 +897,7 @@ class SimulatorNode(ManagedNode):
         was = self._paused
         self._paused, self._owed = False, 0
         self._release()
-        return (f"{'running' if was else 'already running'} from t = {self._fleet.time:.2f} s "
-                f"(step {self._fleet.steps})")
+        return f"{'running' if was else 'already running'} from t = {self._fleet.time:.2f} s (step {self._fleet.steps})"
 
     def _step_once(self) -> str:
         note = "" if self._paused else "paused; "
@@ -832,8 +912,14 @@ class SimulatorNode(ManagedNode):
                 self._advance_holding_the_silent()
         if fleet.steps > steps:
             return f"{note}stepped to t = {fleet.time:.2f} s (step {fleet.steps})"
-        waiting = (("the next /cmd_vel" if not fleet.world.robots else "every robot's next cmd_vel") +
-                   " (or at zero velocity if none comes)") if fleet.config.mode == "lockstep" else "the next tick"
+        waiting = (
+            (
+                ("the next /cmd_vel" if not fleet.world.robots else "every robot's next cmd_vel")
+                + " (or at zero velocity if none comes)"
+            )
+            if fleet.config.mode == "lockstep"
+            else "the next tick"
+        )
         return f"{note}{self._owed} step(s) owed at t = {fleet.time:.2f} s: taken on {waiting}"
 
     def _on_render(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

@@ -13,10 +13,15 @@ from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 
 PARAMETERS = (
-    ParameterSpec("input_topic", "odom", "nav_msgs/Odometry with pose only (a real TurtleBot3's /odom)",
-                  check=topic_name_problem),
-    ParameterSpec("output_topic", "odometry", "the same messages with the twist derived from consecutive poses",
-                  check=topic_name_problem),
+    ParameterSpec(
+        "input_topic", "odom", "nav_msgs/Odometry with pose only (a real TurtleBot3's /odom)", check=topic_name_problem
+    ),
+    ParameterSpec(
+        "output_topic",
+        "odometry",
+        "the same messages with the twist derived from consecutive poses",
+        check=topic_name_problem,
+    ),
     ParameterSpec("qos_depth", 10, "queue depth of both topics (reliable)", minimum=1, maximum=1000),
 )
 

@@ -80,4 +80,3 @@ class DiffDrive:
     def command(self, linear: float, angular: float) -> tuple[float, float]:
         """(left, right) wheel speeds for a twist after curvature-preserving saturation."""
         return self.wheel_speeds(*self.saturate(linear, angular))
-

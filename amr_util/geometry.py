@@ -95,11 +95,13 @@ def compose(a, b):
     """
     if isinstance(a, np.ndarray) and a.ndim == 2:
         c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-        return np.column_stack([
-            a[:, 0] + c * b[0] - s * b[1],
-            a[:, 1] + s * b[0] + c * b[1],
-            wrap_angle(a[:, 2] + b[2]),
-        ])
+        return np.column_stack(
+            [
+                a[:, 0] + c * b[0] - s * b[1],
+                a[:, 1] + s * b[0] + c * b[1],
+                wrap_angle(a[:, 2] + b[2]),
+            ]
+        )
     ax, ay, atheta = a
     bx, by, btheta = b
     c, s = math.cos(atheta), math.sin(atheta)

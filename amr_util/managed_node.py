@@ -40,14 +40,23 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from amr_util.parameter_spec import ParameterSpec
-from amr_util.robot_description import (DEFAULT_FILE, RobotDescriptionError, default_robot, load_robot_description,
-                                        robot_parameters)
+from amr_util.robot_description import (
+    DEFAULT_FILE,
+    RobotDescriptionError,
+    default_robot,
+    load_robot_description,
+    robot_parameters,
+)
 from amr_util.stop_signals import StopSignals
 
 PARAMETER_TYPES = {
-    "bool": Parameter.Type.BOOL, "int": Parameter.Type.INTEGER, "float": Parameter.Type.DOUBLE,
-    "str": Parameter.Type.STRING, "bool_array": Parameter.Type.BOOL_ARRAY,
-    "int_array": Parameter.Type.INTEGER_ARRAY, "float_array": Parameter.Type.DOUBLE_ARRAY,
+    "bool": Parameter.Type.BOOL,
+    "int": Parameter.Type.INTEGER,
+    "float": Parameter.Type.DOUBLE,
+    "str": Parameter.Type.STRING,
+    "bool_array": Parameter.Type.BOOL_ARRAY,
+    "int_array": Parameter.Type.INTEGER_ARRAY,
+    "float_array": Parameter.Type.DOUBLE_ARRAY,
     "str_array": Parameter.Type.STRING_ARRAY,
 }
 CONFIGURED_STATES = ("inactive", "active")
@@ -71,19 +80,30 @@ def topic_name_problem(name: str) -> str | None:
 def descriptor_of(spec: ParameterSpec) -> ParameterDescriptor:
     """A new descriptor for one parameter (rclpy writes the name into it: never share one)."""
     descriptor = ParameterDescriptor(
-        name=spec.name, type=PARAMETER_TYPES[spec.kind].value, read_only=spec.read_only,
-        description=spec.description + ("" if spec.live or spec.read_only
-                                          else " (structural: set it while unconfigured)"),
-        additional_constraints=spec.constraint)
+        name=spec.name,
+        type=PARAMETER_TYPES[spec.kind].value,
+        read_only=spec.read_only,
+        description=spec.description
+        + ("" if spec.live or spec.read_only else " (structural: set it while unconfigured)"),
+        additional_constraints=spec.constraint,
+    )
     numeric = spec.kind.removesuffix("_array")
     if numeric == "float" and (spec.minimum is not None or spec.maximum is not None):
-        descriptor.floating_point_range = [FloatingPointRange(
-            from_value=float(-1e308 if spec.minimum is None else spec.minimum),
-            to_value=float(1e308 if spec.maximum is None else spec.maximum), step=0.0)]
+        descriptor.floating_point_range = [
+            FloatingPointRange(
+                from_value=float(-1e308 if spec.minimum is None else spec.minimum),
+                to_value=float(1e308 if spec.maximum is None else spec.maximum),
+                step=0.0,
+            )
+        ]
     elif numeric == "int" and (spec.minimum is not None or spec.maximum is not None):
-        descriptor.integer_range = [IntegerRange(
-            from_value=int(-(2**63) if spec.minimum is None else spec.minimum),
-            to_value=int(2**63 - 1 if spec.maximum is None else spec.maximum), step=0)]
+        descriptor.integer_range = [
+            IntegerRange(
+                from_value=int(-(2**63) if spec.minimum is None else spec.minimum),
+                to_value=int(2**63 - 1 if spec.maximum is None else spec.maximum),
+                step=0,
+            )
+        ]
     return descriptor
 
 
@@ -114,10 +134,17 @@ class SpecifiedParameters:
         overrides = self._parameter_overrides  # -p / --params-file values (rclpy has no public accessor)
         robot_keys = robot_parameters(default_robot()).keys()
         if ROBOT_DESCRIPTION not in self._specs and any(spec.name in robot_keys for spec in specs):
-            specs = [*specs, ParameterSpec(
-                ROBOT_DESCRIPTION, DEFAULT_FILE, "the robot description (a file in share/amr_util/config/robot, or a "
-                "path): the robot's facts (robot_radius, lidar_x, robot.*, lidar mount) not given to this node",
-                check=_robot_description_problem, nonempty=True)]
+            specs = [
+                *specs,
+                ParameterSpec(
+                    ROBOT_DESCRIPTION,
+                    DEFAULT_FILE,
+                    "the robot description (a file in share/amr_util/config/robot, or a "
+                    "path): the robot's facts (robot_radius, lidar_x, robot.*, lidar mount) not given to this node",
+                    check=_robot_description_problem,
+                    nonempty=True,
+                ),
+            ]
         self._declaring = True
         try:
             self._declare_each(specs, overrides)
@@ -161,8 +188,9 @@ class SpecifiedParameters:
         """Every bad value and unknown key given to this node, one line each (empty when all is well)."""
         problems = list(self._parameter_problems.values())
         known = set(self._specs) | set(ALWAYS_KNOWN) | set(self._parameters)
-        unknown = sorted(name for name in self._parameter_overrides if name not in known
-                         and not name.startswith("qos_overrides."))
+        unknown = sorted(
+            name for name in self._parameter_overrides if name not in known and not name.startswith("qos_overrides.")
+        )
         for name in unknown:
             problems.append(f"{name}: unknown parameter (known: {', '.join(self.known_parameters(name))})")
         return problems
@@ -196,8 +224,15 @@ class SpecifiedParameters:
             value = parameter.value
             if kind == Parameter.Type.DOUBLE and parameter.type_ == Parameter.Type.INTEGER:
                 parameter = Parameter(parameter.name, kind, float(value))
-            elif kind is not None and kind.name.endswith("ARRAY") and isinstance(value, (list, tuple)) and (
-                    not value or (kind == Parameter.Type.DOUBLE_ARRAY and parameter.type_ == Parameter.Type.INTEGER_ARRAY)):
+            elif (
+                kind is not None
+                and kind.name.endswith("ARRAY")
+                and isinstance(value, (list, tuple))
+                and (
+                    not value
+                    or (kind == Parameter.Type.DOUBLE_ARRAY and parameter.type_ == Parameter.Type.INTEGER_ARRAY)
+                )
+            ):
                 parameter = Parameter(parameter.name, kind, [float(v) for v in value] if value else [])
             widened.append(parameter)
         return widened
@@ -215,8 +250,9 @@ class SpecifiedParameters:
             except ValueError as problem:
                 return SetParametersResult(successful=False, reason=str(problem))
             if configured and not spec.live:
-                return SetParametersResult(successful=False, reason=(
-                    f"{spec.name} is read-only while configured; cleanup, set, configure"))
+                return SetParametersResult(
+                    successful=False, reason=(f"{spec.name} is read-only while configured; cleanup, set, configure")
+                )
             changes[spec.name] = value
             self._parameter_problems.pop(spec.name, None)
             if not self._declaring:
@@ -243,8 +279,11 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
 
     def __init__(self, node_name: str, **kwargs) -> None:
         super().__init__(node_name, **kwargs)
-        self.declare_parameter("autostart", False, ParameterDescriptor(
-            description="configure and activate at start, without a lifecycle manager"))
+        self.declare_parameter(
+            "autostart",
+            False,
+            ParameterDescriptor(description="configure and activate at start, without a lifecycle manager"),
+        )
         self._forward_change_state = self._service_change_state.callback
         self._service_change_state.callback = self._on_change_state_request
         self.use_parameter_specs()
@@ -269,8 +308,8 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         if not allowed:
             asked = label or f"id {request.transition.id}"
             self.get_logger().warning(
-                f"refused transition {asked!r} from state {self.state_label!r}; "
-                f"available: {sorted(available.values())}")
+                f"refused transition {asked!r} from state {self.state_label!r}; available: {sorted(available.values())}"
+            )
             response.success = False
             return response
         return self._forward_change_state(request, response)
@@ -334,6 +373,7 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         """A service that answers only while the node is active (as nav2's map_server does). Otherwise the request
         is refused: `success` false and the reason in `message` where the response has them, else the empty
         response; either way a warning names the state."""
+
         def answer_when_active(request, response):
             if self.state_label == "active":
                 return callback(request, response)
@@ -388,4 +428,3 @@ def run(node_factory: Callable[[], LifecycleNode], *, args: Sequence[str] | None
     node = node_factory()
     executor = MultiThreadedExecutor() if getattr(node, "multithreaded_executor", False) else SingleThreadedExecutor()
     spin_nodes([node], executor)
-

@@ -20,8 +20,13 @@ from amr_util.scan import ScanData
 
 def scan_data(message: LaserScan) -> ScanData:
     """The ranges and geometry of a LaserScan as the scan readers (controllers, localizers) take them."""
-    return ScanData(np.asarray(message.ranges, dtype=float), message.angle_min, message.angle_increment,
-                    message.range_min, message.range_max)
+    return ScanData(
+        np.asarray(message.ranges, dtype=float),
+        message.angle_min,
+        message.angle_increment,
+        message.range_min,
+        message.range_max,
+    )
 
 
 def quaternion(theta: float) -> Quaternion:
@@ -41,8 +46,9 @@ def transform(stamp: Time, parent: str, child: str, pose) -> TFMessage:
     return TFMessage(transforms=[message])
 
 
-def velocity_command(v: float, w: float, *, stamped: bool, flip_angular_sign: bool, stamp: Time,
-                     frame_id: str = "base_footprint") -> Twist | TwistStamped:
+def velocity_command(
+    v: float, w: float, *, stamped: bool, flip_angular_sign: bool, stamp: Time, frame_id: str = "base_footprint"
+) -> Twist | TwistStamped:
     """TwistStamped (Jazzy's /cmd_vel) or plain Twist (a real TurtleBot3's bringup); a non-finite command
     becomes a stop, never a NaN on the wire; `flip_angular_sign` is seed 002's real robot (5.2.1)."""
     if not (math.isfinite(v) and math.isfinite(w)):

@@ -23,8 +23,16 @@ from amr_util.parameter_spec import ParameterSpec
 BEGIN = "<!-- parameters: {key} -->"
 END = "<!-- end parameters -->"
 BLOCK = re.compile(r"<!-- parameters: (?P<key>[\w./-]+) -->\n(?P<body>.*?)<!-- end parameters -->", re.S)
-KIND_NAMES = {"bool": "bool", "int": "int", "float": "float", "str": "string", "bool_array": "bool[]",
-              "int_array": "int[]", "float_array": "float[]", "str_array": "string[]"}
+KIND_NAMES = {
+    "bool": "bool",
+    "int": "int",
+    "float": "float",
+    "str": "string",
+    "bool_array": "bool[]",
+    "int_array": "int[]",
+    "float_array": "float[]",
+    "str_array": "string[]",
+}
 
 
 def value_text(value: Any) -> str:
@@ -70,8 +78,15 @@ def parameter_table(specs: Sequence[ParameterSpec], files: Mapping[str, Mapping[
     rows = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for spec in specs:
         in_files = [_code(values[spec.name]) if spec.name in values else "" for values in files.values()]
-        cells = [f"`{spec.name}`", KIND_NAMES[spec.kind], _code(spec.default), *in_files, _limits(spec),
-                 _when(spec), spec.description]
+        cells = [
+            f"`{spec.name}`",
+            KIND_NAMES[spec.kind],
+            _code(spec.default),
+            *in_files,
+            _limits(spec),
+            _when(spec),
+            spec.description,
+        ]
         rows.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
     return "\n".join(rows) + "\n"
 
@@ -99,5 +114,3 @@ def drift(text: str, tables: Mapping[str, str]) -> list[str]:
     """The keys whose block in `text` differs from the table the specs give (and blocks without a table)."""
     found = blocks(text)
     return sorted(key for key, body in found.items() if tables.get(key) != body)
-
-

@@ -109,8 +109,10 @@ class ParameterSpec:
         """The numeric limits in words: 'in [0, 100]', 'in (0, 60]', '>= 0', '> 0', '<= 5', or ''."""
         low, high = self.minimum, self.maximum
         if low is not None and high is not None:
-            return (f"in {'(' if self.exclusive_minimum else '['}{_number(low)}, "
-                    f"{_number(high)}{')' if self.exclusive_maximum else ']'}")
+            return (
+                f"in {'(' if self.exclusive_minimum else '['}{_number(low)}, "
+                f"{_number(high)}{')' if self.exclusive_maximum else ']'}"
+            )
         if low is not None:
             return f"{'>' if self.exclusive_minimum else '>='} {_number(low)}"
         if high is not None:
@@ -130,9 +132,11 @@ class ParameterSpec:
         base = self.kind.removesuffix("_array")
         if self.kind.endswith("_array"):
             if not isinstance(value, (list, tuple, array.array)) or (self.nonempty and not len(value)):
-                raise ConfigError(f"{self.name}: must be {'a non-empty' if self.nonempty else 'a'} list of "
-                                  f"{_PLURAL[base] if not self.nonempty or base != 'str' else 'non-empty strings'}, "
-                                  f"got {value!r}")
+                raise ConfigError(
+                    f"{self.name}: must be {'a non-empty' if self.nonempty else 'a'} list of "
+                    f"{_PLURAL[base] if not self.nonempty or base != 'str' else 'non-empty strings'}, "
+                    f"got {value!r}"
+                )
             value = [self._scalar(base, item) for item in value]
         else:
             value = self._scalar(base, value)
@@ -149,7 +153,8 @@ class ParameterSpec:
                 if not self.integers_as_floats:
                     raise ConfigError(
                         f"{self.name}: {value!r} is an integer where a float is required: write {value}.0 (rclpy "
-                        f"reads [1, 2] as an integer array and refuses a list mixing 1 and 2.5)")
+                        f"reads [1, 2] as an integer array and refuses a list mixing 1 and 2.5)"
+                    )
                 value = float(value)
             ok = isinstance(value, float)
         else:
@@ -200,10 +205,22 @@ _PLURAL = {"bool": "true/false values", "int": "integers", "float": "numbers", "
 
 # -- parameters as dataclass fields ------------------------------------------------------------
 
-def parameter(default: Any = dataclasses.MISSING, *, minimum: float | None = None, maximum: float | None = None,
-              above: float | None = None, below: float | None = None, choices: Sequence[str] = (),
-              live: bool = False, read_only: bool = False, kind: str = "", nonempty: bool = False,
-              integers_as_floats: bool = True, check: Callable[[Any], str | None] | None = None):
+
+def parameter(
+    default: Any = dataclasses.MISSING,
+    *,
+    minimum: float | None = None,
+    maximum: float | None = None,
+    above: float | None = None,
+    below: float | None = None,
+    choices: Sequence[str] = (),
+    live: bool = False,
+    read_only: bool = False,
+    kind: str = "",
+    nonempty: bool = False,
+    integers_as_floats: bool = True,
+    check: Callable[[Any], str | None] | None = None,
+):
     """A dataclass field that is a parameter: its default, limits, and whether it is live.
 
     `minimum`/`maximum` are inclusive bounds, `above`/`below` exclusive ones (`above=0.0`: positive).
@@ -216,9 +233,20 @@ def parameter(default: Any = dataclasses.MISSING, *, minimum: float | None = Non
         raise TypeError("a parameter defaulting to None needs `kind`")
     ros_default = [] if default is None else list(default) if isinstance(default, tuple) else default
     spec = ParameterSpec(
-        "", ros_default, minimum=minimum if above is None else above, maximum=maximum if below is None else below,
-        exclusive_minimum=above is not None, exclusive_maximum=below is not None, choices=tuple(choices), live=live,
-        read_only=read_only, kind=kind, nonempty=nonempty, integers_as_floats=integers_as_floats, check=check)
+        "",
+        ros_default,
+        minimum=minimum if above is None else above,
+        maximum=maximum if below is None else below,
+        exclusive_minimum=above is not None,
+        exclusive_maximum=below is not None,
+        choices=tuple(choices),
+        live=live,
+        read_only=read_only,
+        kind=kind,
+        nonempty=nonempty,
+        integers_as_floats=integers_as_floats,
+        check=check,
+    )
     if isinstance(default, list):
         return field(default_factory=functools.partial(list, default), metadata={SPEC: spec})
     return field(default=default, metadata={SPEC: spec})
@@ -253,9 +281,13 @@ def _field_docs(cls: type) -> tuple[tuple[str, str], ...]:
             continue
         body = tree.body[0].body
         for statement, following in zip(body, body[1:]):
-            if (isinstance(statement, ast.AnnAssign) and isinstance(statement.target, ast.Name)
-                    and isinstance(following, ast.Expr) and isinstance(following.value, ast.Constant)
-                    and isinstance(following.value.value, str)):
+            if (
+                isinstance(statement, ast.AnnAssign)
+                and isinstance(statement.target, ast.Name)
+                and isinstance(following, ast.Expr)
+                and isinstance(following.value, ast.Constant)
+                and isinstance(following.value.value, str)
+            ):
                 docs[statement.target.id] = " ".join(following.value.value.split())
     return tuple(docs.items())
 
@@ -263,8 +295,11 @@ def _field_docs(cls: type) -> tuple[tuple[str, str], ...]:
 def _sections(cls: type) -> dict[str, type]:
     """{field: Config class} of the fields that are nested configurations (dotted names: 'lidar.beams')."""
     hints = typing.get_type_hints(cls)
-    return {f.name: hints[f.name] for f in dataclasses.fields(cls)
-            if isinstance(hints.get(f.name), type) and issubclass(hints[f.name], Config)}
+    return {
+        f.name: hints[f.name]
+        for f in dataclasses.fields(cls)
+        if isinstance(hints.get(f.name), type) and issubclass(hints[f.name], Config)
+    }
 
 
 _ANNOTATED_KINDS = {bool: "bool", int: "int", float: "float", str: "str"}
@@ -286,8 +321,9 @@ def _own_specs(cls: type) -> tuple[ParameterSpec, ...]:
             continue
         annotated = _ANNOTATED_KINDS.get(hints.get(f.name))
         if annotated and annotated != spec.kind:
-            raise TypeError(f"{cls.__name__}.{f.name}: annotated {annotated}, but its default {spec.default!r} "
-                            f"is {spec.kind}")
+            raise TypeError(
+                f"{cls.__name__}.{f.name}: annotated {annotated}, but its default {spec.default!r} is {spec.kind}"
+            )
         specs.append(dataclasses.replace(spec, name=f.name, description=docs.get(f.name) or spec.description))
     return tuple(specs)
 
@@ -379,8 +415,11 @@ class Config:
         """The structural (not live) parameters whose values differ in `other`: what a running user of
         this config (a built filter, a stepping simulator) cannot take without being built anew."""
         mine, theirs = self.as_params(), other.as_params()
-        return [spec.name for spec in self.parameter_specs()
-                if not spec.live and mine.get(spec.name) != theirs.get(spec.name)]
+        return [
+            spec.name
+            for spec in self.parameter_specs()
+            if not spec.live and mine.get(spec.name) != theirs.get(spec.name)
+        ]
 
     def as_params(self) -> dict[str, Any]:
         """The flat parameter dict (what a node declares): dotted names, None ("not given") left out."""

@@ -116,8 +116,9 @@ def resolve_robot_path(name: str | Path) -> Path:
     for directory in robot_search_path():
         if (directory / str(name)).is_file():
             return directory / str(name)
-    raise RobotDescriptionError(f"robot description {str(name)!r} not found as a path nor in "
-                                f"{', '.join(map(str, robot_search_path()))}")
+    raise RobotDescriptionError(
+        f"robot description {str(name)!r} not found as a path nor in {', '.join(map(str, robot_search_path()))}"
+    )
 
 
 def load_robot_description(name: str | Path = DEFAULT_FILE) -> RobotDescription:
@@ -142,21 +143,31 @@ def load_robot_description(name: str | Path = DEFAULT_FILE) -> RobotDescription:
         allowed = {key for s, key, _, _ in _KEYS.values() if s == section}
         for key in entries:
             if key not in allowed:
-                raise RobotDescriptionError(f"{path}: unknown key {section}.{key} (known: "
-                                            f"{', '.join(f'{section}.{k}' for k in sorted(allowed))})")
+                raise RobotDescriptionError(
+                    f"{path}: unknown key {section}.{key} (known: "
+                    f"{', '.join(f'{section}.{k}' for k in sorted(allowed))})"
+                )
     for field_name, (section, key, low, high) in _KEYS.items():
         if key not in data[section]:
             raise RobotDescriptionError(f"{path}: {section}.{key}: missing")
         value = data[section][key]
         integer = isinstance(low, int) and isinstance(high, int)
-        if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)) or \
-                not math.isfinite(value) or not low <= value <= high:
-            raise RobotDescriptionError(f"{path}: {section}.{key}: must be {'an integer' if integer else 'a number'} "
-                                        f"in [{low:g}, {high:g}], got {value!r}")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int if integer else (int, float))
+            or not math.isfinite(value)
+            or not low <= value <= high
+        ):
+            raise RobotDescriptionError(
+                f"{path}: {section}.{key}: must be {'an integer' if integer else 'a number'} "
+                f"in [{low:g}, {high:g}], got {value!r}"
+            )
         values[field_name] = int(value) if integer else float(value)
     if values["lidar_range_min"] >= values["lidar_range_max"]:
-        raise RobotDescriptionError(f"{path}: lidar.range_min ({values['lidar_range_min']}) must be below "
-                                    f"lidar.range_max ({values['lidar_range_max']})")
+        raise RobotDescriptionError(
+            f"{path}: lidar.range_min ({values['lidar_range_min']}) must be below "
+            f"lidar.range_max ({values['lidar_range_max']})"
+        )
     return RobotDescription(**values)
 
 

@@ -139,17 +139,13 @@ class ApproximateTimeSynchronizer:
             raise SyncError(f"age_penalty must be a finite number >= 0, got {age_penalty!r}")
         bounds = [0.0] * n_inputs if inter_message_lower_bounds is None else list(inter_message_lower_bounds)
         if len(bounds) != n_inputs:
-            raise SyncError(
-                f"inter_message_lower_bounds needs {n_inputs} values (one per input), got {len(bounds)}"
-            )
+            raise SyncError(f"inter_message_lower_bounds needs {n_inputs} values (one per input), got {len(bounds)}")
         self._n = int(n_inputs)
         self._slop = _positive_seconds_to_ns("slop", slop)
         self._queue_size = int(queue_size)
         self._callback = callback
         self._age_factor = 1.0 + float(age_penalty)
-        self._bounds = [
-            _positive_seconds_to_ns(f"inter_message_lower_bounds[{i}]", b) for i, b in enumerate(bounds)
-        ]
+        self._bounds = [_positive_seconds_to_ns(f"inter_message_lower_bounds[{i}]", b) for i, b in enumerate(bounds)]
         self._jump = _positive_seconds_to_ns("jump_threshold", jump_threshold)
         self._on_jump = on_jump
         self._lock = threading.RLock()
@@ -263,9 +259,7 @@ class ApproximateTimeSynchronizer:
             if pos[start_index] == len(queues[start_index]):
                 return 1 if self._virtual_search(pos, pivot_time, cand_start, cand_end, cand) else None
 
-    def _virtual_search(
-        self, pos: list[int], pivot_time: int, cand_start: int, cand_end: int, cand: list[int]
-    ) -> bool:
+    def _virtual_search(self, pos: list[int], pivot_time: int, cand_start: int, cand_end: int, cand: list[int]) -> bool:
         """Try to prove the candidate optimal with optimistic stamps for the inputs that ran dry."""
         queues = self._queues
         vpos = list(pos)

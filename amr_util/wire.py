@@ -23,8 +23,21 @@ from collections.abc import Sequence
 import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
 
-FORMATS = {"boolean": "?", "octet": "B", "uint8": "B", "int8": "b", "char": "B", "int16": "h", "uint16": "H",
-           "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q", "float": "f", "double": "d"}
+FORMATS = {
+    "boolean": "?",
+    "octet": "B",
+    "uint8": "B",
+    "int8": "b",
+    "char": "B",
+    "int16": "h",
+    "uint16": "H",
+    "int32": "i",
+    "uint32": "I",
+    "int64": "q",
+    "uint64": "Q",
+    "float": "f",
+    "double": "d",
+}
 """struct formats of the ROS 2 IDL number types (as get_fields_and_field_types names them)."""
 
 
@@ -44,13 +57,14 @@ def _kind(message, path: Sequence[str]) -> tuple[str, bool]:
         raise ValueError(f"{type(parent).__name__} has no field {name!r}")
     declared = fields[name]
     if declared.startswith("sequence<") and declared.endswith(">"):
-        element = declared[len("sequence<"):-1]
+        element = declared[len("sequence<") : -1]
         if element in FORMATS:
             return FORMATS[element], True
     if declared in FORMATS:
         return FORMATS[declared], False
-    raise ValueError(f"{'.'.join(path)} is a {declared}: only numbers, booleans and sequences of numbers can be "
-                     "rewritten in place")
+    raise ValueError(
+        f"{'.'.join(path)} is a {declared}: only numbers, booleans and sequences of numbers can be rewritten in place"
+    )
 
 
 def _probes(fmt: str) -> tuple[object, object]:
@@ -100,9 +114,12 @@ class WireMessage:
                 raise ValueError(f"{field}: the serialized size changes with its value")
             size = struct.calcsize(fmt)
             patterns = [struct.pack(endian + fmt, value) for value in (first, second)]
-            offsets = [offset for offset in range(len(data) - size + 1)
-                       if serialized[0][offset:offset + size] == patterns[0]
-                       and serialized[1][offset:offset + size] == patterns[1]]
+            offsets = [
+                offset
+                for offset in range(len(data) - size + 1)
+                if serialized[0][offset : offset + size] == patterns[0]
+                and serialized[1][offset : offset + size] == patterns[1]
+            ]
             if len(offsets) != 1:  # (padding bytes are not part of the message: they may differ between runs)
                 raise ValueError(f"{field}: not found in the serialized {self.message_type.__name__}")
             offset = offsets[0]
@@ -119,15 +136,20 @@ class WireMessage:
         for offset, fmt, count, sequence in slots:
             if sequence:
                 writers.append((offset, np.dtype(endian + fmt), index, count))
-            elif writers and isinstance(writers[-1][1], str) and writers[-1][0] + struct.calcsize(
-                    endian + writers[-1][1]) == offset:
+            elif (
+                writers
+                and isinstance(writers[-1][1], str)
+                and writers[-1][0] + struct.calcsize(endian + writers[-1][1]) == offset
+            ):
                 start, fmts, first, number = writers[-1]
                 writers[-1] = (start, fmts + fmt, first, number + 1)
             else:
                 writers.append((offset, fmt, index, 1))
             index += 1
-        return [(offset, struct.Struct(endian + kind) if isinstance(kind, str) else kind, first, number)
-                for offset, kind, first, number in writers]
+        return [
+            (offset, struct.Struct(endian + kind) if isinstance(kind, str) else kind, first, number)
+            for offset, kind, first, number in writers
+        ]
 
     def _check(self, template) -> None:
         """Every field rewritten at once must give the serialization of the message with those values."""
@@ -144,8 +166,9 @@ class WireMessage:
                 _set(probe, path, value, False)
                 values.append(value)
         saved = bytes(self._buffer)
-        if deserialize_message(self.fill(*values), self.message_type) != \
-                deserialize_message(serialize_message(probe), self.message_type):
+        if deserialize_message(self.fill(*values), self.message_type) != deserialize_message(
+            serialize_message(probe), self.message_type
+        ):
             raise ValueError(f"{self.message_type.__name__}: the fields {self.fields} do not rewrite in place")
         self._buffer[:] = saved
 
@@ -154,10 +177,10 @@ class WireMessage:
         buffer = self._buffer
         for offset, writer, first, number in self._writers:
             if isinstance(writer, struct.Struct):
-                writer.pack_into(buffer, offset, *values[first:first + number])
+                writer.pack_into(buffer, offset, *values[first : first + number])
             else:
                 array = np.asarray(values[first], dtype=writer)
                 if array.shape != (number,):
                     raise ValueError(f"{self.fields[first]}: {array.size} values for a sequence of {number}")
-                buffer[offset:offset + array.nbytes] = array.tobytes()
+                buffer[offset : offset + array.nbytes] = array.tobytes()
         return bytes(buffer)

@@ -31,7 +31,8 @@ def reach_of(config: ChainConfig, seed: int = 0) -> float:
     upper = np.where(np.isfinite(chain.upper), chain.upper, math.pi)
     rng = np.random.default_rng(seed)
     samples = [np.asarray(config.home, dtype=float)] + [
-        chain.apply_coupling(rng.uniform(lower, upper)) for _ in range(REACH_SAMPLES)]
+        chain.apply_coupling(rng.uniform(lower, upper)) for _ in range(REACH_SAMPLES)
+    ]
     base = chain.base[:3, 3]
     reach = max(float(np.linalg.norm(chain.fk(q).origins - base, axis=1).max()) for q in samples)
     return reach if reach > 1e-9 else 1.0
@@ -86,13 +87,19 @@ def rotation_wxyz(rotation: np.ndarray) -> tuple[float, float, float, float]:
 class ArmSet:
     """Every chain of one IK service, laid out from `origin` along +x."""
 
-    def __init__(self, configs: Mapping[str, ChainConfig], origin=(0.0, 0.0, 0.0), cell: float = CELL,
-                 drawn_reach: float = DRAWN_REACH) -> None:
+    def __init__(
+        self,
+        configs: Mapping[str, ChainConfig],
+        origin=(0.0, 0.0, 0.0),
+        cell: float = CELL,
+        drawn_reach: float = DRAWN_REACH,
+    ) -> None:
         self.arms: dict[str, ArmView] = {}
         for index, (name, config) in enumerate(configs.items()):
             base = np.array(origin, dtype=float) + np.array([index * cell, 0.0, 0.0])
-            self.arms[name] = ArmView(name, config, base, drawn_reach / reach_of(config),
-                                      np.array(config.home, dtype=float))
+            self.arms[name] = ArmView(
+                name, config, base, drawn_reach / reach_of(config), np.array(config.home, dtype=float)
+            )
         self.cell = cell
 
     @classmethod
@@ -126,5 +133,9 @@ class ArmSet:
         """(xmin, ymin, xmax, ymax) of the cells on the floor."""
         origins = np.array([arm.origin for arm in self.arms.values()]) if self.arms else np.zeros((1, 3))
         half = 0.5 * self.cell
-        return (float(origins[:, 0].min() - half), float(origins[:, 1].min() - half),
-                float(origins[:, 0].max() + half), float(origins[:, 1].max() + half))
+        return (
+            float(origins[:, 0].min() - half),
+            float(origins[:, 1].min() - half),
+            float(origins[:, 0].max() + half),
+            float(origins[:, 1].max() + half),
+        )

@@ -74,7 +74,7 @@ class Reader:
     def string(self) -> str:
         length = self.uint32()
         start = self._take(1, length)
-        return bytes(self._data[start:start + max(length - 1, 0)]).decode("utf-8", errors="replace")
+        return bytes(self._data[start : start + max(length - 1, 0)]).decode("utf-8", errors="replace")
 
     def header(self) -> Stamped:
         sec, nanosec = self.int32(), self.uint32()

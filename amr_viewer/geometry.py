@@ -34,8 +34,9 @@ def transform_points(pose: Pose2D, points: np.ndarray) -> np.ndarray:
     return points @ rotation.T + np.array([pose.x, pose.y])
 
 
-def scan_points(ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float,
-                range_max: float) -> np.ndarray:
+def scan_points(
+    ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float, range_max: float
+) -> np.ndarray:
     """(N, 2) end points of a LaserScan's valid returns in the scan frame (NaN, inf and out-of-range dropped)."""
     ranges = np.asarray(ranges, dtype=float)
     angles = angle_min + angle_increment * np.arange(len(ranges))
@@ -44,8 +45,9 @@ def scan_points(ranges: np.ndarray, angle_min: float, angle_increment: float, ra
     return np.column_stack([r * np.cos(a), r * np.sin(a)])
 
 
-def covariance_ellipse(x: float, y: float, cov_xx: float, cov_xy: float, cov_yy: float, sigmas: float = 2.0,
-                       segments: int = 48) -> np.ndarray | None:
+def covariance_ellipse(
+    x: float, y: float, cov_xx: float, cov_xy: float, cov_yy: float, sigmas: float = 2.0, segments: int = 48
+) -> np.ndarray | None:
     """(segments + 1, 2) points of the `sigmas`-sigma ellipse of a 2D Gaussian, closed; None when the covariance is
     not finite or not positive semi-definite (nothing sensible to draw)."""
     if not finite(x, y, cov_xx, cov_xy, cov_yy):
@@ -98,14 +100,20 @@ def free_share(canvas_width: float, panel: float = PANEL_PIXELS) -> float:
     return min(1.0, max(1.0 / 3.0, 1.0 - panel / canvas_width))
 
 
-def top_down_camera(bounds: tuple[float, float, float, float], aspect: float, margin: float = 0.1,
-                    fov: float = TOP_DOWN_FOV, free: float = 1.0) -> Camera:
+def top_down_camera(
+    bounds: tuple[float, float, float, float],
+    aspect: float,
+    margin: float = 0.1,
+    fov: float = TOP_DOWN_FOV,
+    free: float = 1.0,
+) -> Camera:
     """A camera looking straight down at the box (xmin, ymin, xmax, ymax), high enough that the box plus `margin`
     (a fraction of each side) fills the left `free` share of a canvas of width / height = `aspect` (the rest is under
     the control panel, free_share), centred there; +x right, +y up on the screen."""
     xmin, ymin, xmax, ymax = bounds
-    if not (finite(xmin, ymin, xmax, ymax, free) and xmax >= xmin and ymax >= ymin and aspect > 0.0
-            and 0.0 < free <= 1.0):
+    if not (
+        finite(xmin, ymin, xmax, ymax, free) and xmax >= xmin and ymax >= ymin and aspect > 0.0 and 0.0 < free <= 1.0
+    ):
         raise ValueError(f"top_down_camera: bad bounds {bounds}, aspect {aspect} or free share {free}")
     width = max(xmax - xmin, 0.1) * (1.0 + 2.0 * margin)
     height = max(ymax - ymin, 0.1) * (1.0 + 2.0 * margin)

@@ -44,9 +44,20 @@ def beacon_positions(message) -> np.ndarray:
     return np.array([(p.x, p.y) for p in message.beacons], dtype=float).reshape(-1, 2)
 
 
-STATUS_FIELDS = ("sim_time", "steps", "collisions", "in_contact", "goal_reached", "distance_travelled",
-                 "real_time_factor", "localization_enabled", "localized", "first_localized_time", "position_error",
-                 "heading_error")
+STATUS_FIELDS = (
+    "sim_time",
+    "steps",
+    "collisions",
+    "in_contact",
+    "goal_reached",
+    "distance_travelled",
+    "real_time_factor",
+    "localization_enabled",
+    "localized",
+    "first_localized_time",
+    "position_error",
+    "heading_error",
+)
 
 
 def simulator_status(message) -> dict:
@@ -85,10 +96,13 @@ def format_status(status: dict) -> list[str]:
     """A simulator status as short lines for the status panel."""
     if not status:
         return []
-    lines = [f"sim time {status['sim_time']:.2f} s (step {status['steps']}), "
-             f"{status['real_time_factor']:.1f}x real time",
-             f"collisions {status['collisions']}" + (" (in contact)" if status["in_contact"] else "") +
-             f", {status['distance_travelled']:.2f} m travelled" + (", goal reached" if status["goal_reached"] else "")]
+    lines = [
+        f"sim time {status['sim_time']:.2f} s (step {status['steps']}), {status['real_time_factor']:.1f}x real time",
+        f"collisions {status['collisions']}"
+        + (" (in contact)" if status["in_contact"] else "")
+        + f", {status['distance_travelled']:.2f} m travelled"
+        + (", goal reached" if status["goal_reached"] else ""),
+    ]
     if status["localization_enabled"]:
         error = status["position_error"]
         judged = f", error {100 * error:.1f} cm" if math.isfinite(error) else ""

@@ -16,8 +16,15 @@ from amr_viewer.clicks import GOAL, INITIAL_POSE, OFF
 from amr_viewer.parameters import ParameterEntry, format_value
 from amr_viewer.scene import TOGGLED
 
-PACES = {"as fast as possible": 0.0, "0.5x real time": 0.5, "1x real time": 1.0, "2x real time": 2.0,
-         "5x real time": 5.0, "10x real time": 10.0, "20x real time": 20.0}
+PACES = {
+    "as fast as possible": 0.0,
+    "0.5x real time": 0.5,
+    "1x real time": 1.0,
+    "2x real time": 2.0,
+    "5x real time": 5.0,
+    "10x real time": 10.0,
+    "20x real time": 20.0,
+}
 CLICK_MODES = {"goal (/goal_pose)": GOAL, "pose estimate (/initialpose)": INITIAL_POSE, "nothing": OFF}
 NO_NODE = "(choose a node)"
 NO_ROBOT = "(none yet)"
@@ -41,17 +48,22 @@ class Panels:
         with gui.add_folder("Simulation"):
             for label, service in (("Pause", "pause"), ("Resume", "resume"), ("Step", "step"), ("Reset", "reset")):
                 gui.add_button(label, hint=f"the simulator's ~/{service}").on_click(
-                    lambda event, service=service: self.actions.control(service))
-            self.pace = gui.add_dropdown("Pace", tuple(PACES), initial_value="as fast as possible",
-                                         hint="the simulator's pace parameter")
+                    lambda event, service=service: self.actions.control(service)
+                )
+            self.pace = gui.add_dropdown(
+                "Pace", tuple(PACES), initial_value="as fast as possible", hint="the simulator's pace parameter"
+            )
             self.pace.on_update(
-                lambda event: event.client is not None and self.actions.set_pace(PACES[self.pace.value]))
+                lambda event: event.client is not None and self.actions.set_pace(PACES[self.pace.value])
+            )
             self.simulation_reply = gui.add_markdown("")
         with gui.add_folder("Click on the floor"):
             self.click_mode = gui.add_dropdown("Sends", tuple(CLICK_MODES), initial_value="goal (/goal_pose)")
-            self.two_clicks = gui.add_checkbox("Heading by 2nd click", False,
-                                               hint="off: a goal faces away from the robot, an estimate keeps its "
-                                                    "heading")
+            self.two_clicks = gui.add_checkbox(
+                "Heading by 2nd click",
+                False,
+                hint="off: a goal faces away from the robot, an estimate keeps its heading",
+            )
             self.robot = gui.add_dropdown("Robot", (NO_ROBOT,))
             for handle in (self.click_mode, self.two_clicks, self.robot):
                 handle.on_update(lambda event: self._click_mode_changed())
@@ -67,10 +79,16 @@ class Panels:
         self._parameters_folder = gui.add_folder("Parameters", expand_by_default=False)
         with self._parameters_folder:
             self.node = gui.add_dropdown("Node", (NO_NODE,))
-            self.node.on_update(lambda event: event.client is not None and self.node.value != NO_NODE and
-                                self.actions.select_node(self.node.value))
+            self.node.on_update(
+                lambda event: (
+                    event.client is not None
+                    and self.node.value != NO_NODE
+                    and self.actions.select_node(self.node.value)
+                )
+            )
             gui.add_button("Reload").on_click(
-                lambda event: self.node.value != NO_NODE and self.actions.select_node(self.node.value))
+                lambda event: self.node.value != NO_NODE and self.actions.select_node(self.node.value)
+            )
             self.parameter_reply = gui.add_markdown("")
         self._entries_folder = None
         self._widgets: dict[str, object] = {}
@@ -111,8 +129,14 @@ class Panels:
         gui, hint = self.gui, entry.description or None
         if entry.widget == "slider":
             cast = int if entry.is_integer else float
-            handle = gui.add_slider(entry.name, min=cast(entry.minimum), max=cast(entry.maximum),
-                                    step=cast(entry.step), initial_value=cast(entry.value), hint=hint)
+            handle = gui.add_slider(
+                entry.name,
+                min=cast(entry.minimum),
+                max=cast(entry.maximum),
+                step=cast(entry.step),
+                initial_value=cast(entry.value),
+                hint=hint,
+            )
         elif entry.widget == "number":
             handle = gui.add_number(entry.name, initial_value=entry.value, hint=hint)
         elif entry.widget == "checkbox":

@@ -22,16 +22,21 @@ STRUCTURAL_MARK = "(structural"
 HIDDEN_PREFIXES = ("qos_overrides.",)
 
 VALUE_FIELDS = {
-    ParameterType.PARAMETER_BOOL: "bool_value", ParameterType.PARAMETER_INTEGER: "integer_value",
-    ParameterType.PARAMETER_DOUBLE: "double_value", ParameterType.PARAMETER_STRING: "string_value",
-    ParameterType.PARAMETER_BYTE_ARRAY: "byte_array_value", ParameterType.PARAMETER_BOOL_ARRAY: "bool_array_value",
+    ParameterType.PARAMETER_BOOL: "bool_value",
+    ParameterType.PARAMETER_INTEGER: "integer_value",
+    ParameterType.PARAMETER_DOUBLE: "double_value",
+    ParameterType.PARAMETER_STRING: "string_value",
+    ParameterType.PARAMETER_BYTE_ARRAY: "byte_array_value",
+    ParameterType.PARAMETER_BOOL_ARRAY: "bool_array_value",
     ParameterType.PARAMETER_INTEGER_ARRAY: "integer_array_value",
     ParameterType.PARAMETER_DOUBLE_ARRAY: "double_array_value",
     ParameterType.PARAMETER_STRING_ARRAY: "string_array_value",
 }
 ARRAY_ITEMS = {
-    ParameterType.PARAMETER_BOOL_ARRAY: bool, ParameterType.PARAMETER_INTEGER_ARRAY: int,
-    ParameterType.PARAMETER_DOUBLE_ARRAY: float, ParameterType.PARAMETER_STRING_ARRAY: str,
+    ParameterType.PARAMETER_BOOL_ARRAY: bool,
+    ParameterType.PARAMETER_INTEGER_ARRAY: int,
+    ParameterType.PARAMETER_DOUBLE_ARRAY: float,
+    ParameterType.PARAMETER_STRING_ARRAY: str,
 }
 
 
@@ -92,10 +97,13 @@ class ParameterEntry:
 
 
 TYPE_WORDS = {
-    ParameterType.PARAMETER_BOOL: "true or false", ParameterType.PARAMETER_INTEGER: "an integer",
-    ParameterType.PARAMETER_DOUBLE: "a number", ParameterType.PARAMETER_STRING: "a string",
-    ParameterType.PARAMETER_BOOL_ARRAY: "a list of true/false", ParameterType.PARAMETER_INTEGER_ARRAY:
-    "a list of integers", ParameterType.PARAMETER_DOUBLE_ARRAY: "a list of numbers",
+    ParameterType.PARAMETER_BOOL: "true or false",
+    ParameterType.PARAMETER_INTEGER: "an integer",
+    ParameterType.PARAMETER_DOUBLE: "a number",
+    ParameterType.PARAMETER_STRING: "a string",
+    ParameterType.PARAMETER_BOOL_ARRAY: "a list of true/false",
+    ParameterType.PARAMETER_INTEGER_ARRAY: "a list of integers",
+    ParameterType.PARAMETER_DOUBLE_ARRAY: "a list of numbers",
     ParameterType.PARAMETER_STRING_ARRAY: "a list of strings",
 }
 
@@ -143,8 +151,7 @@ def value_of(message: ParameterValue) -> object:
     if field is None:
         return None
     value = getattr(message, field)
-    return list(value) if message.type in ARRAY_ITEMS or message.type == ParameterType.PARAMETER_BYTE_ARRAY \
-        else value
+    return list(value) if message.type in ARRAY_ITEMS or message.type == ParameterType.PARAMETER_BYTE_ARRAY else value
 
 
 def parameter_value(kind: int, value: object) -> ParameterValue:
@@ -175,16 +182,21 @@ def entry_from(name: str, descriptor, value: ParameterValue) -> ParameterEntry:
         entry.widget = "checkbox"
     elif kind in (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER):
         entry.widget = "number"
-        ranges = descriptor.floating_point_range if kind == ParameterType.PARAMETER_DOUBLE else \
-            descriptor.integer_range
+        ranges = descriptor.floating_point_range if kind == ParameterType.PARAMETER_DOUBLE else descriptor.integer_range
         if ranges:
             low, high, step = ranges[0].from_value, ranges[0].to_value, ranges[0].step
             entry.minimum, entry.maximum = low, high
-            if math.isfinite(low) and math.isfinite(high) and 0 < high - low <= SLIDER_MAX_SPAN and \
-                    isinstance(entry.value, (int, float)) and low <= entry.value <= high:
+            if (
+                math.isfinite(low)
+                and math.isfinite(high)
+                and 0 < high - low <= SLIDER_MAX_SPAN
+                and isinstance(entry.value, (int, float))
+                and low <= entry.value <= high
+            ):
                 entry.widget = "slider"
-                entry.step = step if step > 0 else (1 if kind == ParameterType.PARAMETER_INTEGER else
-                                                    nice_step(high - low))
+                entry.step = (
+                    step if step > 0 else (1 if kind == ParameterType.PARAMETER_INTEGER else nice_step(high - low))
+                )
     return entry
 
 

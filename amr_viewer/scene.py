@@ -23,17 +23,42 @@ from amr_viewer.geometry import wxyz_of
 from amr_viewer.state import RobotState
 
 COLORS = {
-    "heading": (250, 250, 250), "truth": (20, 20, 20), "scan": (230, 40, 40),
-    "particles": (255, 140, 0), "estimate": (0, 160, 80), "searching": (230, 120, 0), "path": (30, 110, 255),
-    "goal": (200, 0, 200), "world_goal": (0, 170, 60), "beacons": (250, 200, 0),
-    "arm": (60, 60, 60), "joint": (236, 180, 0),
+    "heading": (250, 250, 250),
+    "truth": (20, 20, 20),
+    "scan": (230, 40, 40),
+    "particles": (255, 140, 0),
+    "estimate": (0, 160, 80),
+    "searching": (230, 120, 0),
+    "path": (30, 110, 255),
+    "goal": (200, 0, 200),
+    "world_goal": (0, 170, 60),
+    "beacons": (250, 200, 0),
+    "arm": (60, 60, 60),
+    "joint": (236, 180, 0),
 }
-ROBOT_COLORS = ((40, 90, 200), (225, 120, 0), (0, 150, 110), (190, 60, 170), (130, 85, 40), (0, 165, 215),
-                (120, 120, 120), (150, 150, 0))
+ROBOT_COLORS = (
+    (40, 90, 200),
+    (225, 120, 0),
+    (0, 150, 110),
+    (190, 60, 170),
+    (130, 85, 40),
+    (0, 165, 215),
+    (120, 120, 120),
+    (150, 150, 0),
+)
 """A robot's disc, trail and label, in the order the robots are first drawn (then again from the first)."""
 ROBOT_COLOR_NAMES = ("blue", "orange", "green", "purple", "brown", "cyan", "grey", "olive")
-HEIGHTS = {"world_goal": 0.002, "trail": 0.004, "path": 0.006, "particles": 0.008, "scan": 0.01, "estimate": 0.012,
-           "goal": 0.014, "beacons": 0.02, "robot": 0.0}
+HEIGHTS = {
+    "world_goal": 0.002,
+    "trail": 0.004,
+    "path": 0.006,
+    "particles": 0.008,
+    "scan": 0.01,
+    "estimate": 0.012,
+    "goal": 0.014,
+    "beacons": 0.02,
+    "robot": 0.0,
+}
 CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * math.pi, 41)), np.sin(np.linspace(0, 2 * math.pi, 41))])
 LINE = 0.012
 """m, the thickness of drawn lines."""
@@ -110,8 +135,19 @@ class Scene:
     def draw(self, state: RobotState) -> int:
         """Redraw the layers of `state` whose version changed; returns how many were redrawn."""
         redrawn = 0
-        for layer in ("map", "world", "beacons", "path", "goal", "trail", "particles", "scan", "estimate", "truth",
-                      "robot"):
+        for layer in (
+            "map",
+            "world",
+            "beacons",
+            "path",
+            "goal",
+            "trail",
+            "particles",
+            "scan",
+            "estimate",
+            "truth",
+            "robot",
+        ):
             key = (state.namespace, layer)
             version = state.versions[layer]
             if self._drawn.get(key) == version:
@@ -180,8 +216,13 @@ class Scene:
         self._points(name, segments, lambda: self.scene.add_line_segments(name, segments, color, thickness=thickness))
 
     def _cloud(self, name: str, points: np.ndarray, color, size: float, shape: str = "circle") -> None:
-        self._points(name, points, lambda: self.scene.add_point_cloud(
-            name, points, color, point_size=size, point_shape=shape, precision="float32", point_shading="flat"))
+        self._points(
+            name,
+            points,
+            lambda: self.scene.add_point_cloud(
+                name, points, color, point_size=size, point_shape=shape, precision="float32", point_shading="flat"
+            ),
+        )
 
     def _draw_map(self, state: RobotState, root: str) -> None:
         image = state.map
@@ -189,10 +230,21 @@ class Scene:
             self._drop(f"{root}/map")
             return
         factor = max(1, min(MAP_UPSCALE, MAP_PIXELS // max(image.rgb.shape[:2])))  # sharp cells: the browser
-        rgb = np.repeat(np.repeat(image.rgb, factor, axis=0), factor, axis=1)      # interpolates the texture
-        self._put(f"{root}/map", self.scene.add_image(
-            f"{root}/map", rgb, image.width, image.height, format="png", cast_shadow=False,
-            receive_shadow=False, position=(image.center.x, image.center.y, -0.001), wxyz=wxyz_of(image.center.theta)))
+        rgb = np.repeat(np.repeat(image.rgb, factor, axis=0), factor, axis=1)  # interpolates the texture
+        self._put(
+            f"{root}/map",
+            self.scene.add_image(
+                f"{root}/map",
+                rgb,
+                image.width,
+                image.height,
+                format="png",
+                cast_shadow=False,
+                receive_shadow=False,
+                position=(image.center.x, image.center.y, -0.001),
+                wxyz=wxyz_of(image.center.theta),
+            ),
+        )
 
     def _draw_world(self, state: RobotState, root: str) -> None:
         goal = state.world_goal
@@ -213,8 +265,9 @@ class Scene:
             self._drop(f"{root}/goal")
             return
         goal = state.goal
-        marks = np.concatenate([arrow(goal, 0.3), np.stack([circle(goal.x, goal.y, 0.08)[:-1],
-                                                            circle(goal.x, goal.y, 0.08)[1:]], axis=1)])
+        marks = np.concatenate(
+            [arrow(goal, 0.3), np.stack([circle(goal.x, goal.y, 0.08)[:-1], circle(goal.x, goal.y, 0.08)[1:]], axis=1)]
+        )
         self._segments(f"{root}/goal", segments_at(marks, HEIGHTS["goal"]), COLORS["goal"], 1.5 * LINE)
 
     def _draw_trail(self, state: RobotState, root: str) -> None:
@@ -231,13 +284,15 @@ class Scene:
                 continue
             points = np.asarray(trail.chunks[index - first], dtype=float).reshape(-1, 2)
             points = points[np.isfinite(points).all(axis=1)]
-            self._cloud(f"{root}/trail/chunk{index}", points3(points, HEIGHTS["trail"]), self.color_of(namespace),
-                        0.015)
+            self._cloud(
+                f"{root}/trail/chunk{index}", points3(points, HEIGHTS["trail"]), self.color_of(namespace), 0.015
+            )
             drawn.add(index)
 
     def _draw_particles(self, state: RobotState, root: str) -> None:
-        self._cloud(f"{root}/particles", points3(state.particles[:, :2], HEIGHTS["particles"]), COLORS["particles"],
-                    0.025)
+        self._cloud(
+            f"{root}/particles", points3(state.particles[:, :2], HEIGHTS["particles"]), COLORS["particles"], 0.025
+        )
 
     def _draw_scan(self, state: RobotState, root: str) -> None:
         self._cloud(f"{root}/scan", points3(state.scan_in_map(), HEIGHTS["scan"]), COLORS["scan"], 0.02)
@@ -264,9 +319,15 @@ class Scene:
         if truth is None:
             self._drop(f"{root}/truth")
             return
-        outline = np.concatenate([np.stack([circle(truth.x, truth.y, self.robot_radius)[:-1],
-                                            circle(truth.x, truth.y, self.robot_radius)[1:]], axis=1),
-                                  arrow(truth, self.robot_radius)[:1]])
+        outline = np.concatenate(
+            [
+                np.stack(
+                    [circle(truth.x, truth.y, self.robot_radius)[:-1], circle(truth.x, truth.y, self.robot_radius)[1:]],
+                    axis=1,
+                ),
+                arrow(truth, self.robot_radius)[:1],
+            ]
+        )
         self._segments(f"{root}/truth", segments_at(outline, HEIGHTS["goal"] + 0.04), COLORS["truth"], 0.6 * LINE)
 
     def _draw_robot(self, state: RobotState, root: str) -> None:
@@ -282,20 +343,34 @@ class Scene:
         if handle is None:
             handle = self.scene.add_frame(name, show_axes=False)
             self._put(name, handle)
-            body = self.scene.add_cylinder(f"{name}/body", radius=self.robot_radius, height=0.04,
-                                           color=self.color_of(state.namespace), position=(0.0, 0.0, 0.02),
-                                           cast_shadow=False)
+            body = self.scene.add_cylinder(
+                f"{name}/body",
+                radius=self.robot_radius,
+                height=0.04,
+                color=self.color_of(state.namespace),
+                position=(0.0, 0.0, 0.02),
+                cast_shadow=False,
+            )
             self._handles[f"{name}/body"] = body
             nose = segments_at(np.array([[[0.0, 0.0], [self.robot_radius, 0.0]]]), 0.045)
             self._handles[f"{name}/heading"] = self.scene.add_line_segments(
-                f"{name}/heading", nose, COLORS["heading"], thickness=2 * LINE)
+                f"{name}/heading", nose, COLORS["heading"], thickness=2 * LINE
+            )
         handle.position = (pose.x, pose.y, HEIGHTS["robot"])
         handle.wxyz = wxyz_of(pose.theta)
         handle.visible = True
         position = (pose.x, pose.y + 1.4 * self.robot_radius, 0.06)  # above the disc on the screen, not turning
         if label not in self._handles:
-            self._put(label, self.scene.add_label(label, self.label_of(state.namespace), position=position,
-                                                  anchor="bottom-center", font_screen_scale=1.2))
+            self._put(
+                label,
+                self.scene.add_label(
+                    label,
+                    self.label_of(state.namespace),
+                    position=position,
+                    anchor="bottom-center",
+                    font_screen_scale=1.2,
+                ),
+            )
         else:
             self._handles[label].position = position
             self._handles[label].visible = True
@@ -317,10 +392,16 @@ class Scene:
             wxyz, positions = arm.frames()
             handle = self._handles.get(f"{base}/frames")
             if handle is None:
-                self._put(f"{base}/frames", self.scene.add_batched_axes(
-                    f"{base}/frames", wxyz, positions, axes_length=0.06, axes_radius=0.004))
-                self._put(f"{base}/label", self.scene.add_label(
-                    f"{base}/label", f"{name} (x{arm.scale:.2g})", position=tuple(arm.origin + (0.0, -0.3, 0.0))))
+                self._put(
+                    f"{base}/frames",
+                    self.scene.add_batched_axes(f"{base}/frames", wxyz, positions, axes_length=0.06, axes_radius=0.004),
+                )
+                self._put(
+                    f"{base}/label",
+                    self.scene.add_label(
+                        f"{base}/label", f"{name} (x{arm.scale:.2g})", position=tuple(arm.origin + (0.0, -0.3, 0.0))
+                    ),
+                )
             else:
                 handle.batched_wxyzs, handle.batched_positions = wxyz, positions
             self._arm_versions[f"{key}/{name}"] = arm.version

@@ -158,13 +158,15 @@ class Trail:
 class RobotState:
     """Everything drawn for one robot namespace; inputs from the node, reads by the scene."""
 
-    def __init__(self, namespace: str, frames: Frames = Frames(), max_particles: int = 1000,
-                 trail_spacing: float = 0.02) -> None:
+    def __init__(
+        self, namespace: str, frames: Frames = Frames(), max_particles: int = 1000, trail_spacing: float = 0.02
+    ) -> None:
         self.namespace = namespace
         self.plain_frames = frames
         prefix = namespace.strip("/")
-        self.prefixed_frames = Frames(frames.map, f"{prefix}/{frames.odom}", f"{prefix}/{frames.base}") \
-            if prefix else frames
+        self.prefixed_frames = (
+            Frames(frames.map, f"{prefix}/{frames.odom}", f"{prefix}/{frames.base}") if prefix else frames
+        )
         """a fleet on one shared tree (the simulator's `one_tf_tree`, as Stage's): `<name>/odom`,
         `<name>/base_footprint`"""
         self.max_particles = max_particles
@@ -194,8 +196,11 @@ class RobotState:
     def frames(self) -> Frames:
         """The plain REP 105 frames, or the ones prefixed by the namespace once the tree holds the robot under those
         (a fleet's one shared tree: every robot's transforms arrive on /tf, each drawn from its own frames)."""
-        if self.prefixed_frames is not self.plain_frames and self.tree.has(self.prefixed_frames.base) \
-                and not self.tree.has(self.plain_frames.base):
+        if (
+            self.prefixed_frames is not self.plain_frames
+            and self.tree.has(self.prefixed_frames.base)
+            and not self.tree.has(self.plain_frames.base)
+        ):
             return self.prefixed_frames
         return self.plain_frames
 
@@ -227,8 +232,10 @@ class RobotState:
             self._truths.clear()
         self._truths.append((transform.stamp, transform.pose))
         self._changed("truth")
-        if self.tree.lookup(self.frames.map, self.frames.base) is None and \
-                self.tree.lookup(self.frames.odom, self.frames.base) is None:
+        if (
+            self.tree.lookup(self.frames.map, self.frames.base) is None
+            and self.tree.lookup(self.frames.odom, self.frames.base) is None
+        ):
             self._changed("robot", "scan")  # no TF: the robot is drawn at its ground truth
         if self.trail.add(transform.pose.x, transform.pose.y):
             self._changed("trail")
@@ -293,8 +300,11 @@ class RobotState:
         then show the same instant, and their distance is the localization error alone."""
         if not self._truths:
             return None
-        if self.base_stamp is None or self.tree.lookup_or_assume(
-                self.frames.map, self.frames.base, (self.frames.map, self.frames.odom)) is None:
+        if (
+            self.base_stamp is None
+            or self.tree.lookup_or_assume(self.frames.map, self.frames.base, (self.frames.map, self.frames.odom))
+            is None
+        ):
             return self._truths[-1][1]
         index = bisect.bisect_right([stamp for stamp, _ in self._truths], self.base_stamp) - 1
         return self._truths[index][1] if index >= 0 else self._truths[-1][1]
@@ -317,8 +327,9 @@ class RobotState:
         if pose is None:
             return np.zeros((0, 2))
         data = self.scan.data
-        return transform_points(pose, scan_points(data.ranges, data.angle_min, data.angle_increment,
-                                                  data.range_min, data.range_max))
+        return transform_points(
+            pose, scan_points(data.ranges, data.angle_min, data.angle_increment, data.range_min, data.range_max)
+        )
 
     def estimate_ellipse(self, sigmas: float = 2.0) -> np.ndarray | None:
         if self.estimate is None:

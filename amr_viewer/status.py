@@ -31,8 +31,9 @@ def node_state_table(states: Mapping[str, str]) -> str:
     for namespace in sorted(grouped, key=lambda ns: (ns != "/", ns)):
         by_state = grouped[namespace]
         order = sorted(by_state, key=lambda state: (state != ACTIVE, state))
-        cells = [f"{state if state == ACTIVE else f'**{state}**'}: {', '.join(sorted(by_state[state]))}"
-                 for state in order]
+        cells = [
+            f"{state if state == ACTIVE else f'**{state}**'}: {', '.join(sorted(by_state[state]))}" for state in order
+        ]
         rows.append(f"| {namespace} | {'; '.join(cells)} |")
     return "\n".join(rows)
 

@@ -71,8 +71,11 @@ def simulator_status_topics(topics: Iterable[tuple[str, Iterable[str]]]) -> list
 
 def joint_state_nodes(topics: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
     """Nodes publishing `<node>/joint_states` (an IK service's private topic): their full names."""
-    return sorted(split(name)[0] for name, types in topics
-                  if split(name)[1] == "joint_states" and split(name)[0] and JOINT_STATES in set(types))
+    return sorted(
+        split(name)[0]
+        for name, types in topics
+        if split(name)[1] == "joint_states" and split(name)[0] and JOINT_STATES in set(types)
+    )
 
 
 def simulators(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
@@ -87,14 +90,16 @@ def simulators(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
 
 def localizers(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
     """Nodes serving `<node>/reinitialize_global_localization` (std_srvs/Empty): their full names."""
-    return sorted(split(name)[0] for name, types in services
-                  if split(name)[1] == GLOBAL_LOCALIZATION and EMPTY in set(types))
+    return sorted(
+        split(name)[0] for name, types in services if split(name)[1] == GLOBAL_LOCALIZATION and EMPTY in set(types)
+    )
 
 
 def lifecycle_nodes(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
     """Nodes with a `get_state` lifecycle service."""
-    return sorted(split(name)[0] for name, types in services if split(name)[1] == "get_state" and
-                  GET_STATE in set(types))
+    return sorted(
+        split(name)[0] for name, types in services if split(name)[1] == "get_state" and GET_STATE in set(types)
+    )
 
 
 def full_name(name: str, namespace: str) -> str:

@@ -63,19 +63,42 @@ WARNING_PERIOD = 5.0
 
 def specs() -> tuple[ParameterSpec, ...]:
     return (
-        ParameterSpec("host", "127.0.0.1", "address the web server binds: 127.0.0.1 (this machine only), or 0.0.0.0 "
-                                           "for every interface (there is no authentication)"),
-        ParameterSpec("port", 8080, "port of the web server (0: any free port; a port in use fails configure)",
-                      minimum=0, maximum=65535),
+        ParameterSpec(
+            "host",
+            "127.0.0.1",
+            "address the web server binds: 127.0.0.1 (this machine only), or 0.0.0.0 "
+            "for every interface (there is no authentication)",
+        ),
+        ParameterSpec(
+            "port",
+            8080,
+            "port of the web server (0: any free port; a port in use fails configure)",
+            minimum=0,
+            maximum=65535,
+        ),
         ParameterSpec("draw_period", 0.1, "wall-clock s between two redraws", minimum=0.02, maximum=10.0, live=True),
-        ParameterSpec("discovery_period", 1.0, "wall-clock s between two looks at the graph", minimum=0.1,
-                      maximum=60.0, live=True),
-        ParameterSpec("max_particles", 1000, "particles drawn at most (evenly picked from the cloud)", minimum=0,
-                      maximum=100000, live=True),
-        ParameterSpec("trail_spacing", 0.02, "m between two points of the trajectory trail", minimum=0.001,
-                      maximum=10.0),
-        ParameterSpec("robot_radius", default_robot().radius, "m, the robot's drawn radius (the simulator's robot.radius "
-                      "when it has one; default: the robot description's)", minimum=0.01, maximum=10.0),
+        ParameterSpec(
+            "discovery_period", 1.0, "wall-clock s between two looks at the graph", minimum=0.1, maximum=60.0, live=True
+        ),
+        ParameterSpec(
+            "max_particles",
+            1000,
+            "particles drawn at most (evenly picked from the cloud)",
+            minimum=0,
+            maximum=100000,
+            live=True,
+        ),
+        ParameterSpec(
+            "trail_spacing", 0.02, "m between two points of the trajectory trail", minimum=0.001, maximum=10.0
+        ),
+        ParameterSpec(
+            "robot_radius",
+            default_robot().radius,
+            "m, the robot's drawn radius (the simulator's robot.radius "
+            "when it has one; default: the robot description's)",
+            minimum=0.01,
+            maximum=10.0,
+        ),
         ParameterSpec("namespaces", [], "robot namespaces to draw ([]: every one found)", kind="str_array"),
         ParameterSpec("map_frame", "map", "REP 105 map frame"),
         ParameterSpec("odom_frame", "odom", "REP 105 odometry frame"),
@@ -87,26 +110,33 @@ class RobotLink:
     """The subscriptions of one robot namespace feeding its RobotState; busy topics kept raw until drawn."""
 
     RAW_TOPICS = {  # leaf: (type, QoS, keep every message (a ring) or the latest only)
-        "tf": (TFMessage, reliable(100), True), "tf_static": (TFMessage, TF_STATIC, True),
-        "ground_truth": (Odometry, reliable(10), True), "scan": (LaserScan, SENSOR_DATA, False),
-        "particle_cloud": (PoseArray, reliable(2), False), "pose": (LocalizedPose, reliable(10), False),
-        "path": (Path, LATCHED, False), "beacons": (BeaconRanges, reliable(10), False),
+        "tf": (TFMessage, reliable(100), True),
+        "tf_static": (TFMessage, TF_STATIC, True),
+        "ground_truth": (Odometry, reliable(10), True),
+        "scan": (LaserScan, SENSOR_DATA, False),
+        "particle_cloud": (PoseArray, reliable(2), False),
+        "pose": (LocalizedPose, reliable(10), False),
+        "path": (Path, LATCHED, False),
+        "beacons": (BeaconRanges, reliable(10), False),
         "map": (OccupancyGrid, LATCHED, False),
         "simulator/status": (SimulatorStatus, reliable(10), False),
     }
 
     def __init__(self, node: "ViewerNode", namespace: str, graph: set[str]) -> None:
         self.node, self.namespace = node, namespace
-        self.state = RobotState(namespace, node.frames, node.get_parameter("max_particles").value,
-                                node.get_parameter("trail_spacing").value)
-        self.raw: dict[str, deque[bytes]] = {leaf: deque(maxlen=RAW_KEEP if ring else 1)
-                                             for leaf, (_, _, ring) in self.RAW_TOPICS.items()}
+        self.state = RobotState(
+            namespace, node.frames, node.get_parameter("max_particles").value, node.get_parameter("trail_spacing").value
+        )
+        self.raw: dict[str, deque[bytes]] = {
+            leaf: deque(maxlen=RAW_KEEP if ring else 1) for leaf, (_, _, ring) in self.RAW_TOPICS.items()
+        }
         self.topics: dict[str, str] = {}
         """leaf -> the topic subscribed"""
         self._raw_subscriptions: dict[str, object] = {}
         self.refresh(graph)
         self._goal_subscription = node.create_subscription(
-            PoseStamped, topics.join(namespace, "goal_pose"), self._on_goal, reliable(10))
+            PoseStamped, topics.join(namespace, "goal_pose"), self._on_goal, reliable(10)
+        )
 
     @property
     def subscriptions(self) -> list:
@@ -140,7 +170,8 @@ class RobotLink:
             buffer = self.raw[leaf]
             buffer.clear()
             self._raw_subscriptions[leaf] = self.node.create_subscription(
-                kind, topic, lambda data, buffer=buffer: buffer.append(data), qos, raw=True)
+                kind, topic, lambda data, buffer=buffer: buffer.append(data), qos, raw=True
+            )
             self.topics[leaf] = topic
         if {"tf", "tf_static"} & set(changed):
             self.state.tree.clear()  # the root's transforms are not this robot's
@@ -275,8 +306,9 @@ class ViewerNode(ManagedNode):
         self.panels = Panels(server, self)
         server.scene.on_click()(lambda event: self.request(lambda: self._on_floor_click(event)))
         server.on_client_connect(lambda client: self.request(lambda: self._frame_new_client(client)))
-        self.get_logger().info(f"viewer at {self.url} (no authentication: anyone who reaches this address can "
-                               "drive the robot)")
+        self.get_logger().info(
+            f"viewer at {self.url} (no authentication: anyone who reaches this address can drive the robot)"
+        )
 
     @property
     def url(self) -> str:
@@ -306,8 +338,10 @@ class ViewerNode(ManagedNode):
 
     def _start_timers(self, discovery_period: float, draw_period: float) -> None:
         self._stop_timers()
-        self._timers = [self.create_timer(discovery_period, self._guarded(self._discover), clock=self._steady),
-                        self.create_timer(draw_period, self._guarded(self._draw), clock=self._steady)]
+        self._timers = [
+            self.create_timer(discovery_period, self._guarded(self._discover), clock=self._steady),
+            self.create_timer(draw_period, self._guarded(self._draw), clock=self._steady),
+        ]
 
     def _stop_timers(self) -> None:
         for timer in self._timers:
@@ -341,8 +375,11 @@ class ViewerNode(ManagedNode):
             for link in self.robots.values():
                 link.state.max_particles = changes["max_particles"]
         if {"draw_period", "discovery_period"} & set(changes) and self._timers:
-            periods = {"discovery_period": self.get_parameter("discovery_period").value,
-                       "draw_period": self.get_parameter("draw_period").value, **changes}
+            periods = {
+                "discovery_period": self.get_parameter("discovery_period").value,
+                "draw_period": self.get_parameter("draw_period").value,
+                **changes,
+            }
             self._start_timers(periods["discovery_period"], periods["draw_period"])
 
     # -- requests from the page (viser threads) -> this node's executor -----------------------------------------
@@ -366,8 +403,11 @@ class ViewerNode(ManagedNode):
             try:
                 work()
             except Exception as error:  # nothing escapes a callback
-                self.get_logger().error(f"{getattr(work, '__name__', 'request')}: {type(error).__name__}: {error}",
-                                        throttle_duration_sec=WARNING_PERIOD)
+                self.get_logger().error(
+                    f"{getattr(work, '__name__', 'request')}: {type(error).__name__}: {error}",
+                    throttle_duration_sec=WARNING_PERIOD,
+                )
+
         return call
 
     # Actions (amr_viewer.panels): each queued for the executor.
@@ -383,6 +423,7 @@ class ViewerNode(ManagedNode):
             self.clicks.set_mode(mode)
             self.clicks.set_two_clicks(two_clicks)
             self.click_namespace = "" if robot in ("/", "(none yet)") else robot
+
         self.request(apply)
 
     def frame(self, client, view: str) -> None:
@@ -414,8 +455,9 @@ class ViewerNode(ManagedNode):
         self.panels.set_robots([link.state.namespace or "/" for link in self.robots.values()])
         for simulator in topics.simulators(services):
             if simulator not in self.simulators:
-                self.simulators[simulator] = {name: self.create_client(Trigger, f"{simulator}/{name}")
-                                              for name in topics.CONTROL_SERVICES}
+                self.simulators[simulator] = {
+                    name: self.create_client(Trigger, f"{simulator}/{name}") for name in topics.CONTROL_SERVICES
+                }
             self._ask_world(simulator)
         for localizer in topics.localizers(services):
             if localizer not in self.localizers:
@@ -426,8 +468,11 @@ class ViewerNode(ManagedNode):
             if node not in self._state_clients and node != self.get_fully_qualified_name():
                 self._state_clients[node] = self.create_client(GetState, f"{node}/get_state")
         own = self.get_fully_qualified_name()
-        nodes = sorted(topics.full_name(name, namespace) for name, namespace in self.get_node_names_and_namespaces()
-                       if not name.startswith("_"))
+        nodes = sorted(
+            topics.full_name(name, namespace)
+            for name, namespace in self.get_node_names_and_namespaces()
+            if not name.startswith("_")
+        )
         self.panels.set_nodes([node for node in nodes if node != own])
 
     def _parameters_client(self, node: str) -> AsyncParameterClient:
@@ -457,8 +502,9 @@ class ViewerNode(ManagedNode):
             goal = WorldGoal(world.goal.x, world.goal.y, world.goal.radius) if world.goal is not None else None
             link.state.on_world(goal, world.beacons)
 
-        self.pending.add(client.get_parameters(["world", "robot.radius"]), answered,
-                         lambda: self._worlds_asked.discard(simulator))
+        self.pending.add(
+            client.get_parameters(["world", "robot.radius"]), answered, lambda: self._worlds_asked.discard(simulator)
+        )
 
     def _ask_arms(self, node: str) -> None:
         """An IK service's chains from its parameters, then its joint states (once)."""
@@ -474,8 +520,9 @@ class ViewerNode(ManagedNode):
             names = list(response.result.names)
             if "chains" not in names:
                 return  # not an IK service
-            self.pending.add(client.get_parameters(names), lambda answer: got(names, answer),
-                             lambda: self._arms_asked.discard(node))
+            self.pending.add(
+                client.get_parameters(names), lambda answer: got(names, answer), lambda: self._arms_asked.discard(node)
+            )
 
         def got(names, response) -> None:
             if isinstance(response, Exception):
@@ -484,12 +531,21 @@ class ViewerNode(ManagedNode):
             values = {name: value_of(value) for name, value in zip(names, response.values)}
             extents = [link.state.extent() for link in self.robots.values()]
             extents = [e for e in extents if e is not None]
-            origin = (max(e[2] for e in extents) + 1.0, 0.5 * (extents[0][1] + extents[0][3]), 0.0) if extents \
+            origin = (
+                (max(e[2] for e in extents) + 1.0, 0.5 * (extents[0][1] + extents[0][3]), 0.0)
+                if extents
                 else (0.0, 0.0, 0.0)
+            )
             arms = ArmSet.from_parameters(values, origin)
             self.arms[node] = arms
-            self._arm_subscriptions.append(self.create_subscription(
-                JointState, f"{node}/joint_states", lambda message: self._on_joint_state(node, message), reliable(10)))
+            self._arm_subscriptions.append(
+                self.create_subscription(
+                    JointState,
+                    f"{node}/joint_states",
+                    lambda message: self._on_joint_state(node, message),
+                    reliable(10),
+                )
+            )
             self.get_logger().info(f"drawing the arms of {node}: {', '.join(arms.arms)}")
             self._frame_all("arms" if not self.robots else "top")
 
@@ -538,15 +594,24 @@ class ViewerNode(ManagedNode):
         camera = None
         if view == "arms" and self.arms:
             bounds = [arms.bounds() for arms in self.arms.values()]
-            camera = oblique_camera((min(b[0] for b in bounds), min(b[1] for b in bounds),
-                                     max(b[2] for b in bounds), max(b[3] for b in bounds)))
+            camera = oblique_camera(
+                (
+                    min(b[0] for b in bounds),
+                    min(b[1] for b in bounds),
+                    max(b[2] for b in bounds),
+                    max(b[3] for b in bounds),
+                )
+            )
         else:
             extents = [e for e in (link.state.extent() for link in self.robots.values()) if e is not None]
             if extents:
-                bounds = (min(e[0] for e in extents), min(e[1] for e in extents), max(e[2] for e in extents),
-                          max(e[3] for e in extents))
-                camera = top_down_camera(bounds, client.camera.aspect,
-                                         free=free_share(client.camera.image_width))
+                bounds = (
+                    min(e[0] for e in extents),
+                    min(e[1] for e in extents),
+                    max(e[2] for e in extents),
+                    max(e[3] for e in extents),
+                )
+                camera = top_down_camera(bounds, client.camera.aspect, free=free_share(client.camera.image_width))
         if camera is None:
             return
         client.camera.fov = camera.fov
@@ -559,9 +624,11 @@ class ViewerNode(ManagedNode):
     def _refresh_status(self) -> None:
         for node, client in self._state_clients.items():
             if client.service_is_ready():
-                self.pending.add(client.call_async(GetState.Request()),
-                                 lambda answer, node=node: self._set_node_state(node, answer),
-                                 lambda node=node: self._set_node_state(node, None))
+                self.pending.add(
+                    client.call_async(GetState.Request()),
+                    lambda answer, node=node: self._set_node_state(node, answer),
+                    lambda node=node: self._set_node_state(node, None),
+                )
         lines = []
         table = status.node_state_table(self.node_states)
         if table:
@@ -585,8 +652,9 @@ class ViewerNode(ManagedNode):
         self.panels.status.content = "\n\n".join(lines) or "nothing found yet"
 
     def _set_node_state(self, node: str, answer) -> None:
-        self.node_states[node] = "no answer" if answer is None or isinstance(answer, Exception) else \
-            answer.current_state.label
+        self.node_states[node] = (
+            "no answer" if answer is None or isinstance(answer, Exception) else answer.current_state.label
+        )
 
     # -- simulator controls -----------------------------------------------------------------------------------
 
@@ -609,8 +677,11 @@ class ViewerNode(ManagedNode):
                 self._call_simulators(service, note)
 
         for node in localizers:
-            self.pending.add(self.localizers[node].call_async(Empty.Request()),
-                             lambda answer, node=node: done(node), lambda node=node: done(node))
+            self.pending.add(
+                self.localizers[node].call_async(Empty.Request()),
+                lambda answer, node=node: done(node),
+                lambda node=node: done(node),
+            )
 
     def _call_simulators(self, service: str, note: str = "") -> None:
         """Each simulator's ~/<service>; its answer (and `note` after a success) under the buttons."""
@@ -629,20 +700,30 @@ class ViewerNode(ManagedNode):
                         self.paused = service != "resume"
                 self.panels.simulation_reply.content = text
 
-            self.pending.add(client.call_async(Trigger.Request()), answered,
-                             lambda simulator=simulator: setattr(self.panels.simulation_reply, "content",
-                                                                 f"{simulator}/{service}: no answer"))
+            self.pending.add(
+                client.call_async(Trigger.Request()),
+                answered,
+                lambda simulator=simulator: setattr(
+                    self.panels.simulation_reply, "content", f"{simulator}/{service}: no answer"
+                ),
+            )
 
     def _set_simulator_parameter(self, name: str, value) -> None:
         for simulator in self.simulators:
+
             def answered(response, simulator=simulator) -> None:
                 result = response.results[0] if not isinstance(response, Exception) and response.results else None
                 self.panels.simulation_reply.content = (
-                    f"{simulator}: {name} = {value}" if result is not None and result.successful else
-                    f"{simulator} refused {name} = {value}: {result.reason if result is not None else response}")
+                    f"{simulator}: {name} = {value}"
+                    if result is not None and result.successful
+                    else f"{simulator} refused {name} = {value}: {result.reason if result is not None else response}"
+                )
 
-            self.pending.add(self._parameters_client(simulator).set_parameters([Parameter(name, value=value)]),
-                             answered, lambda: None)
+            self.pending.add(
+                self._parameters_client(simulator).set_parameters([Parameter(name, value=value)]),
+                answered,
+                lambda: None,
+            )
 
     # -- clicks on the floor ----------------------------------------------------------------------------------
 
@@ -671,8 +752,9 @@ class ViewerNode(ManagedNode):
         if topic not in self._pose_publishers:
             self._pose_publishers[topic] = self.create_publisher(type(message), topic, reliable(10))
         self._pose_publishers[topic].publish(message)
-        self.panels.click_reply.content = f"sent {topic}: ({pose.x:.2f}, {pose.y:.2f}), " \
-                                          f"{math.degrees(pose.theta):.0f} deg"
+        self.panels.click_reply.content = (
+            f"sent {topic}: ({pose.x:.2f}, {pose.y:.2f}), {math.degrees(pose.theta):.0f} deg"
+        )
 
     # -- the parameters panel ---------------------------------------------------------------------------------
 
@@ -689,23 +771,30 @@ class ViewerNode(ManagedNode):
                 reply.content = f"{node}: {response}"
                 return
             names = sorted(name for name in response.result.names if visible(name))
-            self.pending.add(client.describe_parameters(names), lambda described: got_descriptors(names, described),
-                             lambda: setattr(reply, "content", f"{node}: no answer"))
+            self.pending.add(
+                client.describe_parameters(names),
+                lambda described: got_descriptors(names, described),
+                lambda: setattr(reply, "content", f"{node}: no answer"),
+            )
 
         def got_descriptors(names, described) -> None:
             if isinstance(described, Exception):
                 reply.content = f"{node}: {described}"
                 return
-            self.pending.add(client.get_parameters(names),
-                             lambda values: got_values(names, described.descriptors, values),
-                             lambda: setattr(reply, "content", f"{node}: no answer"))
+            self.pending.add(
+                client.get_parameters(names),
+                lambda values: got_values(names, described.descriptors, values),
+                lambda: setattr(reply, "content", f"{node}: no answer"),
+            )
 
         def got_values(names, descriptors, values) -> None:
             if isinstance(values, Exception):
                 reply.content = f"{node}: {values}"
                 return
-            entries = [entry_from(name, descriptor, value)
-                       for name, descriptor, value in zip(names, descriptors, values.values)]
+            entries = [
+                entry_from(name, descriptor, value)
+                for name, descriptor, value in zip(names, descriptors, values.values)
+            ]
             self._parameter_entries[node] = {entry.name: entry for entry in entries}
             self.panels.show_parameters(node, entries)
             reply.content = f"{node}: {len(entries)} parameters"
@@ -732,8 +821,11 @@ class ViewerNode(ManagedNode):
                 reply.content = f"{node} refused {entry.name} = {value!r}: {reason or '(no reason given)'}"
                 self.panels.show_value(node, entry, entry.value)
 
-        self.pending.add(client.set_parameters([entry.message(value)]), answered,
-                         lambda: setattr(reply, "content", f"{node}: no answer to setting {entry.name}"))
+        self.pending.add(
+            client.set_parameters([entry.message(value)]),
+            answered,
+            lambda: setattr(reply, "content", f"{node}: no answer to setting {entry.name}"),
+        )
 
 
 def refuse_share_url(*args, **kwargs) -> None:

@@ -43,13 +43,17 @@ def across_processes(bringup: str, world: str, span: float) -> float:
     rclpy.init(context=context)
     node = rclpy.create_node("bench_observer", context=context)
     samples: list[tuple[float, float]] = []
-    node.create_subscription(SimulatorStatus, "simulator/status",
-                             lambda m: samples.append((time.monotonic(), m.sim_time)), 100)
+    node.create_subscription(
+        SimulatorStatus, "simulator/status", lambda m: samples.append((time.monotonic(), m.sim_time)), 100
+    )
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     bringup_process = subprocess.Popen(
         [sys.executable, "-m", "amr_bringup.bringup", bringup, "--duration", str(span / 5 + 30)],
-        env=child_environment(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        env=child_environment(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.monotonic() + span / 5 + 30
         while time.monotonic() < deadline and (not samples or samples[-1][1] < span):

@@ -80,8 +80,10 @@ def main() -> None:
     args = parser.parse_args()
     world = ROOT / "config" / "worlds" / args.world
 
-    print(f"WallFollower.compute per scan, {args.scans} recorded scans from {args.world}, "
-          f"best of {args.repeat} replays (Python {sys.version.split()[0]}, numpy {np.__version__})")
+    print(
+        f"WallFollower.compute per scan, {args.scans} recorded scans from {args.world}, "
+        f"best of {args.repeat} replays (Python {sys.version.split()[0]}, numpy {np.__version__})"
+    )
     header = f"{'beams':>5}  {'ranges as':<16} {'median us':>9} {'mean us':>8} {'p99 us':>7} {'max us':>7}  target"
     print(header)
     print("-" * len(header))
@@ -94,7 +96,9 @@ def main() -> None:
             median = statistics.median(us)
             p99 = us[math.ceil(0.99 * len(us)) - 1]
             verdict = "ok" if median <= TARGET_US else "MISSED"
-            print(f"{beams:>5}  {kind:<16} {median:9.1f} {statistics.fmean(us):8.1f} {p99:7.1f} {us[-1]:7.1f}  {verdict}")
+            print(
+                f"{beams:>5}  {kind:<16} {median:9.1f} {statistics.fmean(us):8.1f} {p99:7.1f} {us[-1]:7.1f}  {verdict}"
+            )
 
 
 if __name__ == "__main__":

@@ -43,9 +43,21 @@ from amr_util.environment import child_environment  # noqa: E402
 
 def specs_of(count: int, seconds: float, first_seed: int = 0) -> list[EpisodeSpec]:
     label, parameters = configs.resolve("wall_follower", "sim")
-    return [EpisodeSpec("wall_follower", label, parameters,
-                        {"family": FAMILIES[i % len(FAMILIES)], "seed": first_seed + i, "options": {"hand": "right"}},
-                        None, first_seed + i, 0.01, 0.02, 0.05, seconds) for i in range(count)]
+    return [
+        EpisodeSpec(
+            "wall_follower",
+            label,
+            parameters,
+            {"family": FAMILIES[i % len(FAMILIES)], "seed": first_seed + i, "options": {"hand": "right"}},
+            None,
+            first_seed + i,
+            0.01,
+            0.02,
+            0.05,
+            seconds,
+        )
+        for i in range(count)
+    ]
 
 
 def timed_sweep(specs, directory: Path, name: str, **where) -> tuple[float, list[dict]]:
@@ -69,11 +81,33 @@ def loopback_cluster(directory: Path):
     log = (directory / "dask.log").open("w")
     began = time.perf_counter()
     processes = [
-        subprocess.Popen([str(binary), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard",
-                          "--no-show"], env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True),
-        subprocess.Popen([str(binary), "worker", address, "--nworkers", "2", "--nthreads", "1", "--host", "127.0.0.1",
-                          "--no-dashboard", "--local-directory", str(directory)], env=env, stdout=log,
-                         stderr=subprocess.STDOUT, start_new_session=True),
+        subprocess.Popen(
+            [str(binary), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard", "--no-show"],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        ),
+        subprocess.Popen(
+            [
+                str(binary),
+                "worker",
+                address,
+                "--nworkers",
+                "2",
+                "--nthreads",
+                "1",
+                "--host",
+                "127.0.0.1",
+                "--no-dashboard",
+                "--local-directory",
+                str(directory),
+            ],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        ),
     ]
     from distributed import Client
 
@@ -94,8 +128,10 @@ def stop(processes) -> None:
 
 
 def throughput(episodes: int, seconds: float, dask: bool) -> None:
-    print(f"== sweep throughput: {episodes} wall-follower episodes of {seconds:g} s simulated (generated mazes, "
-          f"LiDAR 0.01 m, encoders 0.02, slip 0.05); load {os.getloadavg()[0]:.1f}")
+    print(
+        f"== sweep throughput: {episodes} wall-follower episodes of {seconds:g} s simulated (generated mazes, "
+        f"LiDAR 0.01 m, encoders 0.02, slip 0.05); load {os.getloadavg()[0]:.1f}"
+    )
     specs = specs_of(episodes, seconds)
     run_episode(specs_of(1, 1.0, 10_000)[0])  # imports and compiled kernels warm in this process
     with tempfile.TemporaryDirectory() as scratch:
@@ -104,8 +140,10 @@ def throughput(episodes: int, seconds: float, dask: bool) -> None:
         print(f"1 worker (in process): {one_time:6.1f} s, {episodes / one_time:5.2f} episodes/s")
         two_time, two = timed_sweep(specs, directory, "two", workers=2)
         same = [without_timing(r) for r in one] == [without_timing(r) for r in two]
-        print(f"2 local workers:       {two_time:6.1f} s, {episodes / two_time:5.2f} episodes/s "
-              f"({one_time / two_time:.2f}x; records {'identical' if same else 'DIFFER'}; {_overhead(two_time, 2, two)})")
+        print(
+            f"2 local workers:       {two_time:6.1f} s, {episodes / two_time:5.2f} episodes/s "
+            f"({one_time / two_time:.2f}x; records {'identical' if same else 'DIFFER'}; {_overhead(two_time, 2, two)})"
+        )
         if dask:
             address, processes, start = loopback_cluster(directory)
             try:
@@ -114,15 +152,19 @@ def throughput(episodes: int, seconds: float, dask: bool) -> None:
             finally:
                 stop(processes)
             same = [without_timing(r) for r in one] == [without_timing(r) for r in remote]
-            print(f"loopback Dask, 2 worker processes: {dask_time:6.1f} s, {episodes / dask_time:5.2f} episodes/s "
-                  f"({one_time / dask_time:.2f}x; records {'identical' if same else 'DIFFER'}; "
-                  f"{_overhead(dask_time, 2, remote)}; the cluster took {start:.1f} s to start)")
+            print(
+                f"loopback Dask, 2 worker processes: {dask_time:6.1f} s, {episodes / dask_time:5.2f} episodes/s "
+                f"({one_time / dask_time:.2f}x; records {'identical' if same else 'DIFFER'}; "
+                f"{_overhead(dask_time, 2, remote)}; the cluster took {start:.1f} s to start)"
+            )
         own = [r["wall_time"] for r in one]
         per_episode = one_time / episodes
         overhead = per_episode - statistics.mean(own)
-        print(f"== runner overhead, 1 worker: {1e3 * per_episode:.1f} ms per episode, of which the episode itself "
-              f"{1e3 * statistics.mean(own):.1f} ms: {1e3 * overhead:.2f} ms ({100 * overhead / per_episode:.2f} % "
-              "of the episode; goal < 5 %)")
+        print(
+            f"== runner overhead, 1 worker: {1e3 * per_episode:.1f} ms per episode, of which the episode itself "
+            f"{1e3 * statistics.mean(own):.1f} ms: {1e3 * overhead:.2f} ms ({100 * overhead / per_episode:.2f} % "
+            "of the episode; goal < 5 %)"
+        )
         runner_only(directory, one[0], statistics.mean(own))
     set_up(specs)
 
@@ -140,11 +182,17 @@ def runner_only(directory: Path, record: dict, episode_seconds: float, count: in
     specs = specs_of(count, 10.0, 30_000)
     ready = {spec.key: {**record, "key": spec.key} for spec in specs}
     began = time.perf_counter()
-    run_sweep(specs, directory / "runner_only.jsonl", progress=False,
-              episode=lambda spec: ready[EpisodeSpec.from_dict(spec).key])
+    run_sweep(
+        specs,
+        directory / "runner_only.jsonl",
+        progress=False,
+        episode=lambda spec: ready[EpisodeSpec.from_dict(spec).key],
+    )
     cost = (time.perf_counter() - began) / count
-    print(f"   the runner alone (an episode that returns at once, {count} of them): {1e3 * cost:.3f} ms per episode, "
-          f"{100 * cost / episode_seconds:.2f} % of a 10-second episode here ({1e3 * episode_seconds:.0f} ms)")
+    print(
+        f"   the runner alone (an episode that returns at once, {count} of them): {1e3 * cost:.3f} ms per episode, "
+        f"{100 * cost / episode_seconds:.2f} % of a 10-second episode here ({1e3 * episode_seconds:.0f} ms)"
+    )
 
 
 def set_up(specs) -> None:
@@ -154,16 +202,25 @@ def set_up(specs) -> None:
         world = build_world(spec.world)
         config = wall_follower_config(spec)
         began = time.perf_counter()
-        run(world, config, spec.duration, lidar_noise=spec.lidar_noise, encoder_noise=spec.encoder_noise,
-            slip=spec.slip, seed=spec.seed)
+        run(
+            world,
+            config,
+            spec.duration,
+            lidar_noise=spec.lidar_noise,
+            encoder_noise=spec.encoder_noise,
+            slip=spec.slip,
+            seed=spec.seed,
+        )
         bare.append(time.perf_counter() - began)
         began = time.perf_counter()
         run_episode(spec)
         whole.append(time.perf_counter() - began)
     extra = statistics.mean(whole) - statistics.mean(bare)
-    print(f"== an episode against its bare closed loop: {1e3 * statistics.mean(whole):.1f} ms vs "
-          f"{1e3 * statistics.mean(bare):.1f} ms: {1e3 * extra:.1f} ms ({100 * extra / statistics.mean(whole):.1f} %) "
-          "to generate the maze, read the config and make the record")
+    print(
+        f"== an episode against its bare closed loop: {1e3 * statistics.mean(whole):.1f} ms vs "
+        f"{1e3 * statistics.mean(bare):.1f} ms: {1e3 * extra:.1f} ms ({100 * extra / statistics.mean(whole):.1f} %) "
+        "to generate the maze, read the config and make the record"
+    )
 
 
 def gym_steps(steps: int) -> None:
@@ -171,8 +228,10 @@ def gym_steps(steps: int) -> None:
 
     import amr_evaluation.gym_env  # noqa: F401 - registers amr/Maze-v0
 
-    print(f"== amr/Maze-v0 steps per second ({steps} steps, random actions, 240 beams, generated mazes, "
-          f"resets included); load {os.getloadavg()[0]:.1f}")
+    print(
+        f"== amr/Maze-v0 steps per second ({steps} steps, random actions, 240 beams, generated mazes, "
+        f"resets included); load {os.getloadavg()[0]:.1f}"
+    )
     env = gymnasium.make("amr/Maze-v0", max_steps=500)
     env.reset(seed=0)
     rng = np.random.default_rng(0)

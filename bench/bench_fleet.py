@@ -71,19 +71,40 @@ def scene(counts: tuple[int, ...], steps: int, repeats: int) -> dict:
     """The room, its robots' starts and the sensor and drive figures both simulators get."""
     config = SimulationConfig()
     xmin, ymin, xmax, ymax = EXTENT
-    walls = [[xmin, ymin, xmax, ymin + WALL], [xmin, ymax - WALL, xmax, ymax],
-             [xmin, ymin + WALL, xmin + WALL, ymax - WALL], [xmax - WALL, ymin + WALL, xmax, ymax - WALL]]
+    walls = [
+        [xmin, ymin, xmax, ymin + WALL],
+        [xmin, ymax - WALL, xmax, ymax],
+        [xmin, ymin + WALL, xmin + WALL, ymax - WALL],
+        [xmax - WALL, ymin + WALL, xmax, ymax - WALL],
+    ]
     boxes = walls + [list(b) for b in OBSTACLES]
     rng = np.random.default_rng(0)
-    free = [(x, y) for x in np.arange(xmin + 0.6, xmax - 0.5, 0.8) for y in np.arange(ymin + 0.6, ymax - 0.5, 0.8)
-            if all(not (b[0] - 0.35 < x < b[2] + 0.35 and b[1] - 0.35 < y < b[3] + 0.35) for b in OBSTACLES)]
+    free = [
+        (x, y)
+        for x in np.arange(xmin + 0.6, xmax - 0.5, 0.8)
+        for y in np.arange(ymin + 0.6, ymax - 0.5, 0.8)
+        if all(not (b[0] - 0.35 < x < b[2] + 0.35 and b[1] - 0.35 < y < b[3] + 0.35) for b in OBSTACLES)
+    ]
     order = rng.permutation(len(free))[: max(counts)]
-    starts = [[round(float(free[i][0]), 3), round(float(free[i][1]), 3), round(float(rng.uniform(-math.pi, math.pi)), 3)]
-              for i in order]
-    return {"extent": list(EXTENT), "boxes": boxes, "starts": starts, "radius": config.robot.radius,
-            "max_linear": config.robot.max_linear, "max_angular": config.robot.max_angular,
-            "beams": config.lidar.beams, "range_min": config.lidar.range_min, "range_max": config.lidar.range_max,
-            "dt": config.dt, "steps": steps, "repeats": repeats, "counts": list(counts)}
+    starts = [
+        [round(float(free[i][0]), 3), round(float(free[i][1]), 3), round(float(rng.uniform(-math.pi, math.pi)), 3)]
+        for i in order
+    ]
+    return {
+        "extent": list(EXTENT),
+        "boxes": boxes,
+        "starts": starts,
+        "radius": config.robot.radius,
+        "max_linear": config.robot.max_linear,
+        "max_angular": config.robot.max_angular,
+        "beams": config.lidar.beams,
+        "range_min": config.lidar.range_min,
+        "range_max": config.lidar.range_max,
+        "dt": config.dt,
+        "steps": steps,
+        "repeats": repeats,
+        "counts": list(counts),
+    }
 
 
 def world(description: dict, count: int) -> World:
@@ -94,7 +115,7 @@ def world(description: dict, count: int) -> World:
 def bump_and_turn(ranges: np.ndarray) -> tuple[float, float]:
     """Ahead at 0.2 m/s; on the spot at 1.5 rad/s while a return within 0.3 m lies in the front 45 deg."""
     n = ranges.size
-    front = np.concatenate([ranges[: n // 16 + 1], ranges[-(n // 16):]])
+    front = np.concatenate([ranges[: n // 16 + 1], ranges[-(n // 16) :]])
     return (0.0, 1.5) if np.any(np.abs(front) < 0.3) else (0.2, 0.0)
 
 
@@ -111,10 +132,17 @@ def run(description: dict, count: int) -> dict:
             cpu += time.process_time() - start
             wall += time.perf_counter() - start_wall
         best, best_wall = min(best, cpu), min(best_wall, wall)
-        collisions = (sum(r.wall_collisions for r in fleet.robots),
-                      sum(sum(r.robot_collisions.values()) for r in fleet.robots) // 2)
-    return {"robots": count, "seconds": best, "wall": best_wall, "steps": description["steps"],
-            "collisions": collisions}
+        collisions = (
+            sum(r.wall_collisions for r in fleet.robots),
+            sum(sum(r.robot_collisions.values()) for r in fleet.robots) // 2,
+        )
+    return {
+        "robots": count,
+        "seconds": best,
+        "wall": best_wall,
+        "steps": description["steps"],
+        "collisions": collisions,
+    }
 
 
 def world_file(description: dict, count: int, directory: Path) -> Path:
@@ -125,13 +153,19 @@ def world_file(description: dict, count: int, directory: Path) -> Path:
     return path
 
 
-LEAN = {"publish_odom": False, "publish_ground_truth": False, "publish_status": False, "publish_tf": False,
-        "publish_clock": True}
+LEAN = {
+    "publish_odom": False,
+    "publish_ground_truth": False,
+    "publish_status": False,
+    "publish_tf": False,
+    "publish_clock": True,
+}
 """--ros-lean: the simulator publishes /clock and each robot's odometry and scan only (what its driver reads)."""
 
 
-def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool = False,
-            executor_kind: str = "single") -> dict:
+def ros_run(
+    description: dict, count: int, steps: int, warmup: int, lean: bool = False, executor_kind: str = "single"
+) -> dict:
     """The simulator node and `count` drivers composed on one executor (rclpy's SingleThreadedExecutor, or with
     "events" rclpy's experimental EventsExecutor); wall and CPU seconds for `steps` steps."""
     import rclpy
@@ -180,21 +214,30 @@ def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool =
             self.cmd_vel.publish(message)
 
         def connected(self) -> bool:
-            return (self.cmd_vel.get_subscription_count() > 0 and self.odometry.get_publisher_count() > 0
-                    and self.scan.get_publisher_count() > 0)
+            return (
+                self.cmd_vel.get_subscription_count() > 0
+                and self.odometry.get_publisher_count() > 0
+                and self.scan.get_publisher_count() > 0
+            )
 
     context = rclpy.Context()
     rclpy.init(context=context)
     if executor_kind == "events":
         from rclpy.experimental import EventsExecutor
+
         executor = EventsExecutor(context=context)
     else:
         executor = SingleThreadedExecutor(context=context)
     with tempfile.TemporaryDirectory() as directory:
         path = world_file(description, count, Path(directory))
-        node = SimulatorNode(context=context, parameter_overrides=[
-            Parameter("world", value=str(path)), Parameter("lockstep_resend_period", value=0.0),
-            *(Parameter(name, value=value) for name, value in (LEAN if lean else {}).items())])
+        node = SimulatorNode(
+            context=context,
+            parameter_overrides=[
+                Parameter("world", value=str(path)),
+                Parameter("lockstep_resend_period", value=0.0),
+                *(Parameter(name, value=value) for name, value in (LEAN if lean else {}).items()),
+            ],
+        )
         drivers = [Driver(context, f"r{i}") for i in range(count)]
         try:
             for each in (node, *drivers):
@@ -218,16 +261,23 @@ def ros_run(description: dict, count: int, steps: int, warmup: int, lean: bool =
                 elif time.monotonic() - last_progress > 10.0:
                     raise RuntimeError(f"{count} robots: the loop stalled after {done} steps")
                 executor.spin_once(timeout_sec=0.1)
-            collisions = (sum(r.wall_collisions for r in node._fleet.robots),
-                          sum(sum(r.robot_collisions.values()) for r in node._fleet.robots) // 2)
+            collisions = (
+                sum(r.wall_collisions for r in node._fleet.robots),
+                sum(sum(r.robot_collisions.values()) for r in node._fleet.robots) // 2,
+            )
         finally:
             executor.shutdown()
             for each in (node, *drivers):
                 each.destroy_node()
             context.try_shutdown()
     (first, wall0, cpu0), (last_step, wall1, cpu1) = marks["start"], marks["end"]
-    return {"robots": count, "seconds": cpu1 - cpu0, "wall": wall1 - wall0, "steps": last_step - first,
-            "collisions": collisions}
+    return {
+        "robots": count,
+        "seconds": cpu1 - cpu0,
+        "wall": wall1 - wall0,
+        "steps": last_step - first,
+        "collisions": collisions,
+    }
 
 
 def crossing_figure(path: Path, steps: int = 130) -> Path:
@@ -249,8 +299,13 @@ def irsim_runs(description: dict, python: str | None) -> tuple[dict | None, str]
         python = sys.executable
     if python is None:
         return None, "IR-SIM skipped: ir-sim does not import here and no --irsim-python was given"
-    result = subprocess.run([python, str(HERE / "fleet_peer_irsim.py")], input=json.dumps(description),
-                            capture_output=True, text=True, env=child_environment())
+    result = subprocess.run(
+        [python, str(HERE / "fleet_peer_irsim.py")],
+        input=json.dumps(description),
+        capture_output=True,
+        text=True,
+        env=child_environment(),
+    )
     if result.returncode != 0:
         return None, f"IR-SIM skipped: {python} failed: {result.stderr.strip().splitlines()[-1:]}"
     return json.loads(result.stdout.strip().splitlines()[-1]), ""  # IR-SIM prints its own lines first
@@ -261,8 +316,10 @@ def row(name: str, run_: dict, dt: float, first: dict | None) -> str:
     per_robot = per_step / run_["robots"]
     growth = "" if first is None else f"{per_robot / (first['seconds'] / first['steps']):9.2f}"
     wall = run_["wall"] / run_["steps"]
-    return (f"{name:13} {run_['robots']:6d} | {1.0 / per_step:9.0f} {dt / per_step:8.1f}x {per_step * 1e6:9.0f} "
-            f"{per_robot * 1e6:9.0f} {growth:>9} | {dt / wall:8.1f}x | {run_['collisions']}")
+    return (
+        f"{name:13} {run_['robots']:6d} | {1.0 / per_step:9.0f} {dt / per_step:8.1f}x {per_step * 1e6:9.0f} "
+        f"{per_robot * 1e6:9.0f} {growth:>9} | {dt / wall:8.1f}x | {run_['collisions']}"
+    )
 
 
 def main() -> None:
@@ -274,14 +331,22 @@ def main() -> None:
     parser.add_argument("--no-irsim", action="store_true", help="skip IR-SIM")
     parser.add_argument("--profile", type=int, metavar="N", help="print a cProfile of our run with N robots")
     parser.add_argument("--figure", type=Path, help="only draw docs/fleet.md's picture of fleets/crossing.yaml here")
-    parser.add_argument("--ros", action="store_true", help="also through ROS: the simulator node and a driver "
-                                                           "node per robot, composed, lockstep")
+    parser.add_argument(
+        "--ros",
+        action="store_true",
+        help="also through ROS: the simulator node and a driver node per robot, composed, lockstep",
+    )
     parser.add_argument("--ros-only", action="store_true", help="through ROS and the library only (no IR-SIM)")
-    parser.add_argument("--ros-lean", action="store_true", help="also through ROS with only /clock, odometry and "
-                                                                "scan published")
-    parser.add_argument("--ros-executor", choices=("single", "events"), default="single",
-                        help="the executor of the ROS runs: rclpy's SingleThreadedExecutor (default, what the suite's "
-                             "nodes spin on) or its experimental EventsExecutor (rclpy.experimental, for comparison)")
+    parser.add_argument(
+        "--ros-lean", action="store_true", help="also through ROS with only /clock, odometry and scan published"
+    )
+    parser.add_argument(
+        "--ros-executor",
+        choices=("single", "events"),
+        default="single",
+        help="the executor of the ROS runs: rclpy's SingleThreadedExecutor (default, what the suite's "
+        "nodes spin on) or its experimental EventsExecutor (rclpy.experimental, for comparison)",
+    )
     parser.add_argument("--ros-steps", type=int, default=400, help="timed steps per ROS run")
     parser.add_argument("--ros-warmup", type=int, default=40, help="steps before the ROS timing starts")
     args = parser.parse_args()
@@ -290,27 +355,42 @@ def main() -> None:
         return
     description = scene(tuple(args.counts), args.steps, args.repeats)
     dt = description["dt"]
-    print(f"Fleet steps, 8 x 6 m room with 4 boxes, {description['beams']} beams per robot, dt = {dt} s, "
-          f"{args.steps} steps, best of {args.repeats}; only the simulator's step is timed")
-    print(f"{'simulator':13} {'robots':>6} | {'steps/s':>9} {'realtime':>9} {'us/step':>9} {'us/robot':>9} "
-          f"{'per robot':>9} | {'realtime':>9} | collisions")
-    print(f"{'':13} {'':6} | {'(CPU time)':>9} {'':9} {'':9} {'':9} {'vs 1':>9} | {'wall clock':>9} | "
-          "ours: wall, robot pairs; IR-SIM: robots stopped")
+    print(
+        f"Fleet steps, 8 x 6 m room with 4 boxes, {description['beams']} beams per robot, dt = {dt} s, "
+        f"{args.steps} steps, best of {args.repeats}; only the simulator's step is timed"
+    )
+    print(
+        f"{'simulator':13} {'robots':>6} | {'steps/s':>9} {'realtime':>9} {'us/step':>9} {'us/robot':>9} "
+        f"{'per robot':>9} | {'realtime':>9} | collisions"
+    )
+    print(
+        f"{'':13} {'':6} | {'(CPU time)':>9} {'':9} {'':9} {'':9} {'vs 1':>9} | {'wall clock':>9} | "
+        "ours: wall, robot pairs; IR-SIM: robots stopped"
+    )
     ours = [run(description, count) for count in args.counts]
     for result in ours:
         print(row("amr", result, dt, ours[0]))
     if args.ros or args.ros_only:
         library = {result["robots"]: result for result in ours}
-        print(f"through ROS ({args.ros_executor} executor): {args.ros_steps} steps after {args.ros_warmup}, best of "
-              f"{args.repeats}; 'per robot vs 1' "
-              "against the library's one robot; last column: the library's share of a ROS step (CPU)")
+        print(
+            f"through ROS ({args.ros_executor} executor): {args.ros_steps} steps after {args.ros_warmup}, best of "
+            f"{args.repeats}; 'per robot vs 1' "
+            "against the library's one robot; last column: the library's share of a ROS step (CPU)"
+        )
         for lean in (False, True) if args.ros_lean else (False,):
             for count in args.counts:
-                result = min((ros_run(description, count, args.ros_steps, args.ros_warmup, lean, args.ros_executor)
-                              for _ in range(args.repeats)), key=lambda r: r["seconds"] / r["steps"])
+                result = min(
+                    (
+                        ros_run(description, count, args.ros_steps, args.ros_warmup, lean, args.ros_executor)
+                        for _ in range(args.repeats)
+                    ),
+                    key=lambda r: r["seconds"] / r["steps"],
+                )
                 share = (library[count]["seconds"] / library[count]["steps"]) / (result["seconds"] / result["steps"])
-                print(row("amr ROS lean" if lean else "amr ROS", result, dt, library.get(1)) +
-                      f" | library {100 * share:.0f} %")
+                print(
+                    row("amr ROS lean" if lean else "amr ROS", result, dt, library.get(1))
+                    + f" | library {100 * share:.0f} %"
+                )
     if not args.no_irsim and not args.ros_only:
         peer, why = irsim_runs(description, args.irsim_python)
         if peer is None:

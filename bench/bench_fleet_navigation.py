@@ -54,6 +54,7 @@ from amr_evaluation.fleet_navigation import lattice_spacing  # noqa: E402
 from amr_planning.fleet_starts import with_robots  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 
+
 def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:
     """A generated world with `robots` robots, each sent to the next one's start."""
     data = with_robots(generate(family, seed, size=size), robots, seed)
@@ -66,13 +67,25 @@ def one(args: tuple) -> dict:
     from amr_evaluation.fleet_navigation import run_fleet
 
     data = fleet_world(family, seed, robots, size)
-    run = run_fleet(world_from_dict(data), seed=seed, duration=duration, localization=localization,
-                    coordination=coordination, lattice_spacing=lattice_spacing(data, family))
+    run = run_fleet(
+        world_from_dict(data),
+        seed=seed,
+        duration=duration,
+        localization=localization,
+        coordination=coordination,
+        lattice_spacing=lattice_spacing(data, family),
+    )
     result = run.as_dict()
-    result.update(family=family, seed=seed, size=size, localization=localization,
-                  yields=sum(r.yields for r in run.robots), stops=sum(r.stops for r in run.robots),
-                  replans_around=sum(r.replans_around for r in run.robots),
-                  unreached=[r.name for r in run.robots if not r.reached])
+    result.update(
+        family=family,
+        seed=seed,
+        size=size,
+        localization=localization,
+        yields=sum(r.yields for r in run.robots),
+        stops=sum(r.stops for r in run.robots),
+        replans_around=sum(r.replans_around for r in run.robots),
+        unreached=[r.name for r in run.robots if not r.reached],
+    )
     return result
 
 
@@ -91,7 +104,8 @@ def through_ros(args: tuple, keep: Path | None = None) -> dict:
     family, seed, robots, size, duration, _, coordination = args
     data = fleet_world(family, seed, robots, size)
     planned = [f"coordination:={coordination}"] + (
-        [f"lattice_spacing:={lattice_spacing(data, family)}"] if coordination == "plan" else [])
+        [f"lattice_spacing:={lattice_spacing(data, family)}"] if coordination == "plan" else []
+    )
     names = [robot["name"] for robot in data["robots"]]
     last: dict = {}
     runs = {name: RobotRun(name) for name in names}  # counted as the library level's run_fleet does
@@ -103,8 +117,11 @@ def through_ros(args: tuple, keep: Path | None = None) -> dict:
             before = last.get(name)
             last[name] = message
             run = runs[name]
-            run.note_localized(message.sim_time, message.localized,
-                               max(0.0, message.sim_time - before.sim_time) if before is not None else 0.0)
+            run.note_localized(
+                message.sim_time,
+                message.localized,
+                max(0.0, message.sim_time - before.sim_time) if before is not None else 0.0,
+            )
             false = bool(message.localized and message.position_error > FALSE_LOCALIZED_ERROR)
             run.false_localized_steps += int(false)
             spell = spells[name][-1] if spells[name] and spells[name][-1][1] is None else None
@@ -115,7 +132,11 @@ def through_ros(args: tuple, keep: Path | None = None) -> dict:
             elif spell is not None:
                 spell[1] = message.sim_time
             run.reached, run.wall_collisions, run.robot_collisions = (
-                message.goal_reached, message.wall_collisions, message.robot_collisions)
+                message.goal_reached,
+                message.wall_collisions,
+                message.robot_collisions,
+            )
+
         return on_status
 
     began = time.perf_counter()
@@ -131,9 +152,12 @@ def through_ros(args: tuple, keep: Path | None = None) -> dict:
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         log = open(Path(folder) / "bringup.log", "w+")
-        process = subprocess.Popen([sys.executable, "-m", "amr_bringup.bringup", "fleet_navigation",
-                                    f"world:={path}", *planned, "--composed"], env=child_environment(),
-                                   stdout=log, stderr=subprocess.STDOUT)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "amr_bringup.bringup", "fleet_navigation", f"world:={path}", *planned, "--composed"],
+            env=child_environment(),
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
         try:
             while True:
                 executor.spin_once(timeout_sec=0.2)
@@ -162,14 +186,28 @@ def through_ros(args: tuple, keep: Path | None = None) -> dict:
             context.try_shutdown()
     if reason != "every robot at its goal" and reason != "time limit":
         print(f"{data['name']}: {reason}\n{errors[-3000:]}", file=sys.stderr)
-    result = FleetRun(list(runs.values()), max((m.sim_time for m in last.values()), default=math.nan),
-                      time.perf_counter() - began, reason).as_dict()
-    result.update(family=family, seed=seed, size=size, localization="filter (ROS)", yields="-", stops="-",
-                  replans_around="-", unreached=[name for name in names if not runs[name].reached],
-                  false_spells=[f"{name} {begin:.1f}-{'end' if end is None else f'{end:.1f}'} s "
-                                f"({largest:.2f} m off)" for name in names for begin, end, largest in spells[name]])
+    result = FleetRun(
+        list(runs.values()),
+        max((m.sim_time for m in last.values()), default=math.nan),
+        time.perf_counter() - began,
+        reason,
+    ).as_dict()
+    result.update(
+        family=family,
+        seed=seed,
+        size=size,
+        localization="filter (ROS)",
+        yields="-",
+        stops="-",
+        replans_around="-",
+        unreached=[name for name in names if not runs[name].reached],
+        false_spells=[
+            f"{name} {begin:.1f}-{'end' if end is None else f'{end:.1f}'} s ({largest:.2f} m off)"
+            for name in names
+            for begin, end, largest in spells[name]
+        ],
+    )
     return result
-
 
 
 def _first_localized(result: dict) -> str:
@@ -192,18 +230,29 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=300.0, help="s simulated at most per run")
     parser.add_argument("--localization", choices=("filter", "truth"), default="filter")
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--coordination", choices=("rules", "plan"), default="rules",
-                        help="rules: each robot's traffic rules; plan: the fleet planned together once every robot is localized")
-    parser.add_argument("--ros", action="store_true",
-                        help="through ROS: amr-bringup fleet_navigation --composed per world, one at a time")
-    parser.add_argument("--keep", type=Path, metavar="DIR",
-                        help="with --ros: keep each run's world YAML and amr-bringup log in DIR")
+    parser.add_argument(
+        "--coordination",
+        choices=("rules", "plan"),
+        default="rules",
+        help="rules: each robot's traffic rules; plan: the fleet planned together once every robot is localized",
+    )
+    parser.add_argument(
+        "--ros",
+        action="store_true",
+        help="through ROS: amr-bringup fleet_navigation --composed per world, one at a time",
+    )
+    parser.add_argument(
+        "--keep", type=Path, metavar="DIR", help="with --ros: keep each run's world YAML and amr-bringup log in DIR"
+    )
     args = parser.parse_args(argv)
     if args.ros:
         args.jobs, args.localization = 1, "filter"
-    cases = [(family, seed, robots, args.size, args.duration, args.localization, args.coordination)
-             for family in args.families
-             for robots in args.robots for seed in range(args.first_seed, args.first_seed + args.seeds)]
+    cases = [
+        (family, seed, robots, args.size, args.duration, args.localization, args.coordination)
+        for family in args.families
+        for robots in args.robots
+        for seed in range(args.first_seed, args.first_seed + args.seeds)
+    ]
     fitting = []
     for case in cases:  # a world too small for the robots (a short corridor) is named and left out
         try:
@@ -212,43 +261,53 @@ def main(argv=None) -> int:
         except ValueError as error:
             print(f"left out: {error}")
     cases = fitting
-    print(f"{len(cases)} runs: families {', '.join(args.families)}, {args.size:g} m, robots {args.robots}, "
-          f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, "
-          f"coordination {args.coordination}, "
-          f"limit {args.duration:g} s simulated, "
-          f"{args.jobs} processes, load {os.getloadavg()[0]:.1f}")
-    print("world                      robots  at goal  robot-robot  wall  false loc.  yields  stops  around  "
-          "sim s  wall s  withdrawn  unsure s  first loc. s")
+    print(
+        f"{len(cases)} runs: families {', '.join(args.families)}, {args.size:g} m, robots {args.robots}, "
+        f"{args.seeds} seeds, localization {args.localization}{' through ROS' if args.ros else ''}, "
+        f"coordination {args.coordination}, "
+        f"limit {args.duration:g} s simulated, "
+        f"{args.jobs} processes, load {os.getloadavg()[0]:.1f}"
+    )
+    print(
+        "world                      robots  at goal  robot-robot  wall  false loc.  yields  stops  around  "
+        "sim s  wall s  withdrawn  unsure s  first loc. s"
+    )
     began = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        for result in ((through_ros(case, args.keep) for case in cases) if args.ros else pool.map(one, cases)):
+        for result in (through_ros(case, args.keep) for case in cases) if args.ros else pool.map(one, cases):
             results.append(result)
             name = f"{result['family']} {result['seed']}"
-            print(f"{name:26s} {result['robots']:6d} {result['reached']:8d} {result['robot_contacts']:12d} "
-                  f"{result['wall_contacts']:5d} {result['false_localized']:11d} {result['yields']:>7} "
-                  f"{result['stops']:>6} {result['replans_around']:>7} {result['time']:6.1f} "
-                  f"{result['wall_time']:7.1f} {result['withdrawals']:10d} {result['unsure_time']:9.1f}  "
-                  f"{_first_localized(result)}" + (f"  not at goal: {', '.join(result['unreached'])}"
-                                                   if result['unreached'] else "")
-                  + (f"  falsely localized: {'; '.join(result['false_spells'])}" if result.get('false_spells')
-                     else ""), flush=True)
+            print(
+                f"{name:26s} {result['robots']:6d} {result['reached']:8d} {result['robot_contacts']:12d} "
+                f"{result['wall_contacts']:5d} {result['false_localized']:11d} {result['yields']:>7} "
+                f"{result['stops']:>6} {result['replans_around']:>7} {result['time']:6.1f} "
+                f"{result['wall_time']:7.1f} {result['withdrawals']:10d} {result['unsure_time']:9.1f}  "
+                f"{_first_localized(result)}"
+                + (f"  not at goal: {', '.join(result['unreached'])}" if result["unreached"] else "")
+                + (f"  falsely localized: {'; '.join(result['false_spells'])}" if result.get("false_spells") else ""),
+                flush=True,
+            )
     robots = sum(r["robots"] for r in results)
     longest = max((p["longest_unsure"] for r in results for p in r["per_robot"]), default=0.0)
-    print(f"\ntotal: {sum(r['reached'] for r in results)}/{robots} robots at their goal; "
-          f"{sum(r['reached'] == r['robots'] for r in results)}/{len(results)} runs with every robot there; "
-          f"robot-robot contacts {sum(r['robot_contacts'] for r in results)}, wall contacts "
-          f"{sum(r['wall_contacts'] for r in results)}, robots falsely localized "
-          f"{sum(r['false_localized'] for r in results)}, localized withdrawn {sum(r['withdrawals'] for r in results)} "
-          f"times, {sum(r['unsure_time'] for r in results):.1f} robot-s unsure after a first declaration (longest "
-          f"{longest:.1f} s); {time.perf_counter() - began:.0f} s wall clock, "
-          f"load {os.getloadavg()[0]:.1f}")
+    print(
+        f"\ntotal: {sum(r['reached'] for r in results)}/{robots} robots at their goal; "
+        f"{sum(r['reached'] == r['robots'] for r in results)}/{len(results)} runs with every robot there; "
+        f"robot-robot contacts {sum(r['robot_contacts'] for r in results)}, wall contacts "
+        f"{sum(r['wall_contacts'] for r in results)}, robots falsely localized "
+        f"{sum(r['false_localized'] for r in results)}, localized withdrawn {sum(r['withdrawals'] for r in results)} "
+        f"times, {sum(r['unsure_time'] for r in results):.1f} robot-s unsure after a first declaration (longest "
+        f"{longest:.1f} s); {time.perf_counter() - began:.0f} s wall clock, "
+        f"load {os.getloadavg()[0]:.1f}"
+    )
     for family in args.families:
         rows = [r for r in results if r["family"] == family]
-        print(f"  {family}: {sum(r['reached'] for r in rows)}/{sum(r['robots'] for r in rows)} at goal, "
-              f"robot-robot {sum(r['robot_contacts'] for r in rows)}, wall {sum(r['wall_contacts'] for r in rows)}, "
-              f"false localized {sum(r['false_localized'] for r in rows)}, median time "
-              f"{np.median([r['time'] for r in rows]):.1f} s")
+        print(
+            f"  {family}: {sum(r['reached'] for r in rows)}/{sum(r['robots'] for r in rows)} at goal, "
+            f"robot-robot {sum(r['robot_contacts'] for r in rows)}, wall {sum(r['wall_contacts'] for r in rows)}, "
+            f"false localized {sum(r['false_localized'] for r in rows)}, median time "
+            f"{np.median([r['time'] for r in rows]):.1f} s"
+        )
     return 0
 
 

@@ -50,8 +50,10 @@ def timed(graph, starts, goals, first_budget: int) -> tuple[float, str]:
 
 def summary(name: str, times: list[float]) -> str:
     values = np.array(times)
-    return (f"{name}: median {np.median(values):.3f} s, 90th percentile {np.percentile(values, 90):.3f} s, "
-            f"slowest {values.max():.2f} s, total {values.sum():.1f} s")
+    return (
+        f"{name}: median {np.median(values):.3f} s, 90th percentile {np.percentile(values, 90):.3f} s, "
+        f"slowest {values.max():.2f} s, total {values.sum():.1f} s"
+    )
 
 
 def draw(costmap, graph, data, path: Path, title: str) -> None:
@@ -63,8 +65,14 @@ def draw(costmap, graph, data, path: Path, title: str) -> None:
 
     fig, ax = plt.subplots(figsize=(6, 6))
     x0, y0, x1, y1 = costmap.grid.bounds
-    ax.imshow(costmap.lethal.astype(int) + costmap.inflated.astype(int), origin="lower", extent=(x0, x1, y0, y1),
-              cmap="Greys", vmin=0, vmax=3)
+    ax.imshow(
+        costmap.lethal.astype(int) + costmap.inflated.astype(int),
+        origin="lower",
+        extent=(x0, x1, y0, y1),
+        cmap="Greys",
+        vmin=0,
+        vmax=3,
+    )
     for vertex, neighbours in enumerate(graph.neighbours):
         for other in neighbours:
             if other > vertex:
@@ -95,15 +103,18 @@ def main(argv=None) -> int:
     parser.add_argument("--single", action="store_true", help="also one search of up to 200,000 configurations")
     args = parser.parse_args(argv)
     data = with_robots(generate(args.family, args.maze, size=4.0), args.robots, args.maze)
-    costmap = Costmap(rasterize_world(world_from_dict(data), 0.025), CostmapConfig(robot_radius=0.105,
-                                                                                   safety_margin=0.02))
+    costmap = Costmap(
+        rasterize_world(world_from_dict(data), 0.025), CostmapConfig(robot_radius=0.105, safety_margin=0.02)
+    )
     graph = lattice(costmap, lattice_spacing(data, args.family))
     if args.figure:
         draw(costmap, graph, data, args.figure, f"{args.family} {args.maze}")
     goals = [graph.nearest(*robot["goal"][:2]) for robot in data["robots"]]
     rng = np.random.default_rng(args.seed)
-    print(f"{args.family} {args.maze}: lattice of {len(graph)} vertices, {args.robots} robots, {args.trials} random "
-          f"starts (default_rng({args.seed})), load {os.getloadavg()[0]:.1f}")
+    print(
+        f"{args.family} {args.maze}: lattice of {len(graph)} vertices, {args.robots} robots, {args.trials} random "
+        f"starts (default_rng({args.seed})), load {os.getloadavg()[0]:.1f}"
+    )
     restarts, single = [], []
     for trial in range(args.trials):
         starts = [int(v) for v in rng.choice(len(graph), args.robots, replace=False)]

@@ -78,8 +78,9 @@ def run_ours(config, solver: str, targets, with_orientation: bool, timeout: floa
     for target in targets:
         goal = target if with_orientation else target[:3, 3].copy()
         started, started_cpu = time.perf_counter(), time.thread_time()
-        result = solve(chain, goal, seed=config.home, with_orientation=with_orientation, tolerance=TOLERANCE,
-                       timeout=timeout)
+        result = solve(
+            chain, goal, seed=config.home, with_orientation=with_orientation, tolerance=TOLERANCE, timeout=timeout
+        )
         times.append(time.perf_counter() - started)
         cpu.append(time.thread_time() - started_cpu)
         iterations.append(result.iterations)
@@ -94,8 +95,14 @@ def warm_up(config, solve, target: np.ndarray, with_orientation: bool, timeout: 
     far = target.copy()
     far[:3, 3] += 1e3
     for goal in (target, far):
-        solve(config.chain, goal if with_orientation else goal[:3, 3].copy(), seed=config.home,
-              with_orientation=with_orientation, tolerance=TOLERANCE, timeout=timeout)
+        solve(
+            config.chain,
+            goal if with_orientation else goal[:3, 3].copy(),
+            seed=config.home,
+            with_orientation=with_orientation,
+            tolerance=TOLERANCE,
+            timeout=timeout,
+        )
 
 
 def run_peer(peer, config, targets, with_orientation: bool):
@@ -115,15 +122,26 @@ def run_peer(peer, config, targets, with_orientation: bool):
 
 def row(chain: str, solver: str, mode: str, ok: int, times: np.ndarray, cpu: np.ndarray, iterations) -> dict:
     us = times * 1e6
-    return {"chain": chain, "solver": solver, "mode": mode, "n": len(times), "success": 100.0 * ok / len(times),
-            "median": float(np.median(us)), "p99": float(np.percentile(us, 99)), "mean": float(us.mean()),
-            "cpu": float(cpu.mean() * 1e6), "iterations": float(np.mean(iterations))}
+    return {
+        "chain": chain,
+        "solver": solver,
+        "mode": mode,
+        "n": len(times),
+        "success": 100.0 * ok / len(times),
+        "median": float(np.median(us)),
+        "p99": float(np.percentile(us, 99)),
+        "mean": float(us.mean()),
+        "cpu": float(cpu.mean() * 1e6),
+        "iterations": float(np.mean(iterations)),
+    }
 
 
 def print_row(r: dict) -> None:
-    print(f"{r['chain']:<13} {r['solver']:<9} {r['mode']:<9} {r['n']:>6} {r['success']:>8.2f} "
-          f"{r['median']:>10.1f} {r['p99']:>10.1f} {r['mean']:>10.1f} {r['cpu']:>11.1f} {r['iterations']:>7.1f}",
-          flush=True)
+    print(
+        f"{r['chain']:<13} {r['solver']:<9} {r['mode']:<9} {r['n']:>6} {r['success']:>8.2f} "
+        f"{r['median']:>10.1f} {r['p99']:>10.1f} {r['mean']:>10.1f} {r['cpu']:>11.1f} {r['iterations']:>7.1f}",
+        flush=True,
+    )
 
 
 def load() -> str:
@@ -160,8 +178,10 @@ def main() -> None:
     available, missing = ({}, {}) if args.no_peers else peers()
     if args.peers:
         available = {name: factory for name, factory in available.items() if name in args.peers}
-    print(f"# Python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}, "
-          f"tolerance {TOLERANCE:g} m / rad, our timeout {args.timeout * 1e3:g} ms, seed = chain home")
+    print(
+        f"# Python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}, "
+        f"tolerance {TOLERANCE:g} m / rad, our timeout {args.timeout * 1e3:g} ms, seed = chain home"
+    )
     print(f"# {load()} (start)")
     for name, reason in missing.items():
         print(f"# {name} not available: {reason}")
@@ -169,8 +189,10 @@ def main() -> None:
     # 40-50 ms, landing on whichever solve, ours or a peer's, triggers it: keep them out of collections
     gc.collect()
     gc.freeze()
-    print(f"{'chain':<13} {'solver':<9} {'mode':<9} {'n':>6} {'success%':>8} {'median_us':>10} {'p99_us':>10} "
-          f"{'mean_us':>10} {'cpu_mean_us':>11} {'iters':>7}")
+    print(
+        f"{'chain':<13} {'solver':<9} {'mode':<9} {'n':>6} {'success%':>8} {'median_us':>10} {'p99_us':>10} "
+        f"{'mean_us':>10} {'cpu_mean_us':>11} {'iters':>7}"
+    )
     rows = []
     for name in names:
         config = configs[name]
@@ -180,8 +202,9 @@ def main() -> None:
             for solver in applicable_solvers(config.chain, with_orientation):
                 if args.solvers and solver not in args.solvers:
                     continue
-                rows.append(row(name, solver, mode, *run_ours(config, solver, targets[name], with_orientation,
-                                                              args.timeout)))
+                rows.append(
+                    row(name, solver, mode, *run_ours(config, solver, targets[name], with_orientation, args.timeout))
+                )
                 print_row(rows[-1])
             subset = targets[name][: args.peer_targets]
             for peer_name, factory in available.items():
@@ -205,9 +228,11 @@ def print_speedups(rows: list[dict]) -> None:
     for r in rows:
         if r["solver"] in ("ikpy", "rtb_LM", "rtb_NR", "tracik") and (r["chain"], r["mode"]) in ours:
             mine = ours[(r["chain"], r["mode"])]
-            lines.append(f"#   {r['chain']:<12} {r['mode']:<9} {r['solver']:<7} median ratio "
-                         f"{r['median'] / mine['median']:6.2f}x, mean ratio {r['mean'] / mine['mean']:6.2f}x, "
-                         f"success {r['success']:.2f} % vs ours {mine['success']:.2f} %")
+            lines.append(
+                f"#   {r['chain']:<12} {r['mode']:<9} {r['solver']:<7} median ratio "
+                f"{r['median'] / mine['median']:6.2f}x, mean ratio {r['mean'] / mine['mean']:6.2f}x, "
+                f"success {r['success']:.2f} % vs ours {mine['success']:.2f} %"
+            )
     if lines:
         print("# peer time over our dls time (> 1: ours faster)")
         print("\n".join(lines))

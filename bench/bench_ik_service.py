@@ -61,8 +61,11 @@ else:
     from rclpy.experimental import EventsExecutor as Executor
 spin_nodes([IKServiceNode()], Executor())
 """
-EXECUTORS = {"multi": "MultiThreadedExecutor (the ik_service executable)", "single": "SingleThreadedExecutor",
-             "events": "rclpy.experimental.EventsExecutor"}
+EXECUTORS = {
+    "multi": "MultiThreadedExecutor (the ik_service executable)",
+    "single": "SingleThreadedExecutor",
+    "events": "rclpy.experimental.EventsExecutor",
+}
 
 
 def child_environment() -> dict[str, str]:
@@ -147,8 +150,17 @@ def start_clients(count: int, workdir: Path, *, start_in: float, **options) -> l
     clients = []
     for i in range(count):
         out = workdir / f"client_{i}.json"
-        command = [sys.executable, str(Path(__file__).resolve()), "--client", "--client-id", str(i),
-                   "--start", str(start), "--out", str(out)]
+        command = [
+            sys.executable,
+            str(Path(__file__).resolve()),
+            "--client",
+            "--client-id",
+            str(i),
+            "--start",
+            str(start),
+            "--out",
+            str(out),
+        ]
         for key, value in options.items():
             if value is True:
                 command.append(f"--{key}")
@@ -196,14 +208,15 @@ def phase(node: subprocess.Popen, clients) -> tuple[list[dict], float]:
 def cpu_line(results: list[dict], node_cpu: float) -> str:
     count = sum(len(r["latencies"]) for r in results)
     client_cpu = sum(r["cpu"] for r in results)
-    return (f"  {'':<44} CPU per request: node {1e3 * node_cpu / count:.3f} ms, "
-            f"client {1e3 * client_cpu / count:.3f} ms")
+    return f"  {'':<44} CPU per request: node {1e3 * node_cpu / count:.3f} ms, client {1e3 * client_cpu / count:.3f} ms"
 
 
 def report(label: str, latencies: list[float]) -> None:
     ms = [1e3 * v for v in latencies]
-    print(f"  {label:<44} median {statistics.median(ms):6.3f} ms   p99 {percentile(ms, 99):6.3f} ms   "
-          f"mean {statistics.fmean(ms):6.3f} ms   ({len(ms)} requests)")
+    print(
+        f"  {label:<44} median {statistics.median(ms):6.3f} ms   p99 {percentile(ms, 99):6.3f} ms   "
+        f"mean {statistics.fmean(ms):6.3f} ms   ({len(ms)} requests)"
+    )
 
 
 def main() -> None:
@@ -211,8 +224,12 @@ def main() -> None:
     parser.add_argument("--requests", type=int, default=2000, help="sequential requests of the latency runs")
     parser.add_argument("--seconds", type=float, default=5.0, help="length of the throughput run")
     parser.add_argument("--clients", type=int, default=4, help="concurrent client processes")
-    parser.add_argument("--executor", choices=sorted(EXECUTORS), default="multi",
-                        help="the node's executor: multi is the shipped node; single and events for comparison")
+    parser.add_argument(
+        "--executor",
+        choices=sorted(EXECUTORS),
+        default="multi",
+        help="the node's executor: multi is the shipped node; single and events for comparison",
+    )
     parser.add_argument("--client", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--client-id", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--start", type=float, default=0.0, help=argparse.SUPPRESS)
@@ -226,19 +243,24 @@ def main() -> None:
     if not os.access(EXECUTABLE, os.X_OK):
         raise SystemExit(f"{EXECUTABLE} is missing: run `make setup`")
 
-    print(f"/solve_ik round trip, {CHAIN} position-only from home; ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, "
-          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}; node: {EXECUTORS[args.executor]}")
+    print(
+        f"/solve_ik round trip, {CHAIN} position-only from home; ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}, "
+        f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}; node: {EXECUTORS[args.executor]}"
+    )
     times, rate = library_times(args.requests)
-    print(f"  {'library solve, same targets, no ROS':<44} median {1e3 * statistics.median(times):6.3f} ms   "
-          f"p99 {1e3 * percentile(times, 99):6.3f} ms   success {100 * rate:.1f} %")
+    print(
+        f"  {'library solve, same targets, no ROS':<44} median {1e3 * statistics.median(times):6.3f} ms   "
+        f"p99 {1e3 * percentile(times, 99):6.3f} ms   success {100 * rate:.1f} %"
+    )
     ros_args = ["--ros-args", "--params-file", str(CONFIG), "-p", "autostart:=true", "--log-level", "warn"]
     command = [str(EXECUTABLE)] if args.executor == "multi" else [sys.executable, "-c", OTHER_EXECUTOR, args.executor]
     node = subprocess.Popen(command + ros_args, env=child_environment(), start_new_session=True, cwd=ROOT)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             workdir = Path(tmp)
-            refused, node_cpu = phase(node, start_clients(1, workdir, start_in=0.0, requests=args.requests,
-                                                          seconds=0, refused=True))
+            refused, node_cpu = phase(
+                node, start_clients(1, workdir, start_in=0.0, requests=args.requests, seconds=0, refused=True)
+            )
             report("refused request (transport + executors)", refused[0]["latencies"])
             print(cpu_line(refused, node_cpu))
             single, node_cpu = phase(node, start_clients(1, workdir, start_in=0.0, requests=args.requests, seconds=0))
@@ -253,9 +275,11 @@ def main() -> None:
             # Fast DDS loses a reply now and then when several clients hammer one service
             # (ros2/rcl#1163, ros2/rmw#372): counted, and left out of the throughput
             lost = sum(r["lost"] for r in loaded)
-            print(f"  throughput with {args.clients} clients: {(total - lost) / args.seconds:7.0f} replies/s "
-                  f"(success {100 * sum(r['successes'] for r in loaded) / total:.1f} %, "
-                  f"{lost} requests never answered within {REPLY_TIMEOUT} s)")
+            print(
+                f"  throughput with {args.clients} clients: {(total - lost) / args.seconds:7.0f} replies/s "
+                f"(success {100 * sum(r['successes'] for r in loaded) / total:.1f} %, "
+                f"{lost} requests never answered within {REPLY_TIMEOUT} s)"
+            )
     finally:
         node.send_signal(2)  # SIGINT: the node deactivates, cleans up and exits
         try:

@@ -34,7 +34,9 @@ DATA = ROOT.parent / "shared" / "data" / "carmen"
 
 def shipped_filter_parameters() -> dict:
     """config/particle_filter.yaml's values of the filter's own parameters."""
-    values = yaml.safe_load((ROOT / "config" / "particle_filter.yaml").read_text())["particle_filter"]["ros__parameters"]
+    values = yaml.safe_load((ROOT / "config" / "particle_filter.yaml").read_text())["particle_filter"][
+        "ros__parameters"
+    ]
     names = {spec.name for spec in ParticleFilterConfig.parameter_specs()}
     return {name: value for name, value in values.items() if name in names}
 
@@ -62,9 +64,12 @@ def main() -> int:
             for seed in args.seeds:
                 if args.ros:
                     from bench_log_localization_ros import run_through_ros
+
                     print(run_through_ros(path, log, grid, name, parameters, mode, seed), flush=True)
                 else:
-                    print(run_log(log, name, parameters, mode, seed, grid=grid).summary() + f", seed {seed}", flush=True)
+                    print(
+                        run_log(log, name, parameters, mode, seed, grid=grid).summary() + f", seed {seed}", flush=True
+                    )
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     return 0
 

@@ -41,19 +41,28 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
     rclpy.init(context=context)
     executor = SingleThreadedExecutor(context=context)
     overrides = [Parameter(key, value=value) for key, value in parameters.items()]
-    overrides += [Parameter("map_yaml", value=str(directory / "map.yaml")), Parameter("seed", value=seed),
-                  Parameter("laser_max_range", value=range_max(log)), Parameter("lidar_x", value=0.0),
-                  Parameter("particle_cloud_period", value=3600.0)]
+    overrides += [
+        Parameter("map_yaml", value=str(directory / "map.yaml")),
+        Parameter("seed", value=seed),
+        Parameter("laser_max_range", value=range_max(log)),
+        Parameter("lidar_x", value=0.0),
+        Parameter("particle_cloud_period", value=3600.0),
+    ]
     localizer = ParticleFilterNode(context=context, parameter_overrides=overrides)
-    player = LogPlayerNode(context=context, parameter_overrides=[Parameter("log", value=str(path)),
-                                                                 Parameter("seed", value=seed)])
+    player = LogPlayerNode(
+        context=context, parameter_overrides=[Parameter("log", value=str(path)), Parameter("seed", value=seed)]
+    )
     watcher = Node("watcher", context=context)
     truth, estimates, scan_seen, pose_seen = {}, {}, {}, {}
-    watcher.create_subscription(Odometry, "ground_truth",
-                                lambda m: truth.__setitem__(stamp_nanoseconds(m.header.stamp), m), KEEP)
-    watcher.create_subscription(LaserScan, "scan",
-                                lambda m: scan_seen.__setitem__(stamp_nanoseconds(m.header.stamp), time.monotonic()),
-                                SENSOR_DATA)
+    watcher.create_subscription(
+        Odometry, "ground_truth", lambda m: truth.__setitem__(stamp_nanoseconds(m.header.stamp), m), KEEP
+    )
+    watcher.create_subscription(
+        LaserScan,
+        "scan",
+        lambda m: scan_seen.__setitem__(stamp_nanoseconds(m.header.stamp), time.monotonic()),
+        SENSOR_DATA,
+    )
 
     def on_pose(message: LocalizedPose) -> None:
         stamp = stamp_nanoseconds(message.header.stamp)
@@ -69,8 +78,9 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
                 return f"{name}: {node.get_name()} did not configure"
         localizer.try_transition(Transition.TRANSITION_ACTIVATE)
         deadline = time.monotonic() + 10.0
-        while time.monotonic() < deadline and (player.count_subscribers("scan") < 2 or
-                                               not initial.get_subscription_count()):
+        while time.monotonic() < deadline and (
+            player.count_subscribers("scan") < 2 or not initial.get_subscription_count()
+        ):
             executor.spin_once(timeout_sec=0.05)
         if mode == "tracking":
             x0, y0, theta0 = log.scans[0].pose
@@ -103,8 +113,9 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
         p, q = message.pose.pose, reference.pose.pose
         run.travel.append(float(travel[min(index, len(travel) - 1)]))
         run.position_error.append(math.hypot(p.position.x - q.position.x, p.position.y - q.position.y))
-        run.heading_error.append(abs(float(wrap_angle(yaw_from_quaternion(p.orientation)
-                                                      - yaw_from_quaternion(q.orientation)))))
+        run.heading_error.append(
+            abs(float(wrap_angle(yaw_from_quaternion(p.orientation) - yaw_from_quaternion(q.orientation))))
+        )
         run.localized.append(bool(message.localized))
         run.confidence.append(float(message.confidence))
         run.update_time.append(pose_seen[stamp] - scan_seen[stamp] if stamp in scan_seen else math.nan)
@@ -112,7 +123,9 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
     run.update_time = [0.0]
     position, heading = run.median_error()
     declared = "never" if run.declared_after is None else f"{run.declared_after:.1f} m"
-    return (f"{name:8s} {run.mode:12s} {len(estimates)}/{len(log.scans)} scans answered, {player.timeouts} pace "
-            f"timeouts, declared after {declared}, wrong {run.wrong}, median error {position * 100:.1f} cm "
-            f"{heading:.2f} deg, round trip p50 {np.median(round_trip):.0f} ms p95 {np.percentile(round_trip, 95):.0f} "
-            f"ms max {round_trip.max():.0f} ms, seed {seed}")
+    return (
+        f"{name:8s} {run.mode:12s} {len(estimates)}/{len(log.scans)} scans answered, {player.timeouts} pace "
+        f"timeouts, declared after {declared}, wrong {run.wrong}, median error {position * 100:.1f} cm "
+        f"{heading:.2f} deg, round trip p50 {np.median(round_trip):.0f} ms p95 {np.percentile(round_trip, 95):.0f} "
+        f"ms max {round_trip.max():.0f} ms, seed {seed}"
+    )

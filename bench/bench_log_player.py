@@ -68,8 +68,10 @@ def main() -> None:
         began = time.perf_counter()
         synthesize_odometry(log.poses(), seed=0)
         synthesis = time.perf_counter() - began
-        print(f"{path.name}: {len(log)} scans of {len(log.scans[0].scan.ranges)} beams read in {read:.2f} s, "
-              f"odometry synthesized in {synthesis * 1e3:.1f} ms")
+        print(
+            f"{path.name}: {len(log)} scans of {len(log.scans[0].scan.ranges)} beams read in {read:.2f} s, "
+            f"odometry synthesized in {synthesis * 1e3:.1f} ms"
+        )
         context = rclpy.Context()
         rclpy.init(context=context)
         executor = SingleThreadedExecutor(context=context)
@@ -86,9 +88,11 @@ def main() -> None:
         while not player.done:
             executor.spin_once(timeout_sec=0.1)
         wall = time.perf_counter() - began
-        print(f"lockstep: {player.published} scans in {wall:.2f} s: {player.published / wall:.0f} scans/s, "
-              f"{player.timeouts} pace timeouts, {answerer.count} answered; load average "
-              f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+        print(
+            f"lockstep: {player.published} scans in {wall:.2f} s: {player.published / wall:.0f} scans/s, "
+            f"{player.timeouts} pace timeouts, {answerer.count} answered; load average "
+            f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
+        )
         executor.shutdown()
         player.destroy_node()
         answerer.destroy_node()

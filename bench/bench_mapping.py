@@ -63,7 +63,7 @@ def judge(saved, world) -> dict:
     row, col = truth.world_to_cell(world.start.x, world.start.y)
     reachable = labels == labels[int(row), int(col)]
     # the saved map's cells looked up at the truth's cell centres
-    rows, cols = np.mgrid[0:truth.height, 0:truth.width]
+    rows, cols = np.mgrid[0 : truth.height, 0 : truth.width]
     x, y = truth.cell_to_world(rows, cols)
     srow, scol = saved.world_to_cell(x, y)
     inside = (srow >= 0) & (srow < saved.height) & (scol >= 0) & (scol < saved.width)
@@ -83,12 +83,24 @@ def judge(saved, world) -> dict:
     occupied_here = np.zeros(truth.data.shape, dtype=bool)
     occupied_here[inside] = marked[srow[inside], scol[inside]]
     seen_wall = ndimage.binary_dilation(occupied_here, structure=np.ones((3, 3)))
-    return {"known": float(known[reachable].mean()), "precise": float(precise.mean()) if len(precise) else 0.0,
-            "walls": float(seen_wall[bordering].mean()) if bordering.any() else 0.0}
+    return {
+        "known": float(known[reachable].mean()),
+        "precise": float(precise.mean()) if len(precise) else 0.0,
+        "walls": float(seen_wall[bordering].mean()) if bordering.any() else 0.0,
+    }
 
 
-def run(context, family: str, seed: int, lidar_noise: float, encoder_noise: float, slip: float, budget: float,
-        out: Path, resolution: float | None = None) -> dict:
+def run(
+    context,
+    family: str,
+    seed: int,
+    lidar_noise: float,
+    encoder_noise: float,
+    slip: float,
+    budget: float,
+    out: Path,
+    resolution: float | None = None,
+) -> dict:
     """One maze_mapping run; the figures of the module docstring."""
     data = generate(family, seed)
     world = world_from_dict(data, source=f"{family} seed {seed}")
@@ -98,14 +110,19 @@ def run(context, family: str, seed: int, lidar_noise: float, encoder_noise: floa
     save_to = out / name
     for suffix in (".yaml", ".pgm", ".poses.csv"):
         Path(f"{save_to}{suffix}").unlink(missing_ok=True)
-    parameters = {"simulator.lidar.noise_std": str(lidar_noise), "simulator.encoders.noise": str(encoder_noise),
-                  "simulator.encoders.slip": str(slip), "simulator.seed": str(seed)}
+    parameters = {
+        "simulator.lidar.noise_std": str(lidar_noise),
+        "simulator.encoders.noise": str(encoder_noise),
+        "simulator.encoders.slip": str(slip),
+        "simulator.seed": str(seed),
+    }
     if resolution is not None:
         parameters["slam.resolution"] = str(resolution)
     started = time.monotonic()
     done_at, state, statuses, blacklisted = None, "", [], 0
-    with composed_stack(context, "maze_mapping", arguments={"world": str(world_path), "save_to": str(save_to)},
-                        parameters=parameters) as (_, manager, _):
+    with composed_stack(
+        context, "maze_mapping", arguments={"world": str(world_path), "save_to": str(save_to)}, parameters=parameters
+    ) as (_, manager, _):
         if not all(step.ok for step in manager.startup()):
             return {"name": name, "error": "the stack did not come up"}
         probe = Node("mapping_bench", context=context)
@@ -140,9 +157,15 @@ def run(context, family: str, seed: int, lidar_noise: float, encoder_noise: floa
             executor.shutdown()
     wall = time.monotonic() - started
     last = statuses[-1] if statuses else None
-    result = {"name": name, "done": done_at, "sim_time": last.sim_time if last else math.nan,
-              "collisions": int(last.wall_collisions) if last else -1, "wall": wall, "state": state,
-              "given_up": blacklisted}
+    result = {
+        "name": name,
+        "done": done_at,
+        "sim_time": last.sim_time if last else math.nan,
+        "collisions": int(last.wall_collisions) if last else -1,
+        "wall": wall,
+        "state": state,
+        "given_up": blacklisted,
+    }
     if Path(f"{save_to}.yaml").exists():
         result.update(judge(load_map(f"{save_to}.yaml"), world))
     return result
@@ -152,8 +175,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
     parser.add_argument("--seeds", nargs="*", type=int, default=[0, 1, 2])
-    parser.add_argument("--lidar-noise", nargs=2, type=float, default=[0.01, 0.03],
-                        help="LiDAR noise range: run k of a family takes the k-th step of it")
+    parser.add_argument(
+        "--lidar-noise",
+        nargs=2,
+        type=float,
+        default=[0.01, 0.03],
+        help="LiDAR noise range: run k of a family takes the k-th step of it",
+    )
     parser.add_argument("--encoder-noise", type=float, default=0.02)
     parser.add_argument("--slip", type=float, default=0.05)
     parser.add_argument("--budget", type=float, default=900.0, help="s simulated")
@@ -167,8 +195,10 @@ def main() -> None:
     rclpy.init(context=context)
     low, high = args.lidar_noise
     print(f"maps and worlds in {out}; encoder noise {args.encoder_noise}, slip {args.slip}, budget {args.budget} s")
-    print(f"{'run':14s} {'noise':>5s} {'done s':>7s} {'known':>6s} {'precise':>7s} {'walls':>6s} {'coll':>4s} "
-          f"{'gave up':>7s} {'wall s':>6s}")
+    print(
+        f"{'run':14s} {'noise':>5s} {'done s':>7s} {'known':>6s} {'precise':>7s} {'walls':>6s} {'coll':>4s} "
+        f"{'gave up':>7s} {'wall s':>6s}"
+    )
     try:
         for family in args.families:
             for k, seed in enumerate(args.seeds):
@@ -178,9 +208,12 @@ def main() -> None:
                     print(f"{r['name']:14s} {r['error']}", flush=True)
                     continue
                 done = f"{r['done']:7.1f}" if r["done"] is not None else f"{'-':>7s}"
-                print(f"{r['name']:14s} {noise:5.3f} {done} {r.get('known', math.nan):6.3f} "
-                      f"{r.get('precise', math.nan):7.3f} {r.get('walls', math.nan):6.3f} {r['collisions']:4d} "
-                      f"{r['given_up']:7d} {r['wall']:6.0f}", flush=True)
+                print(
+                    f"{r['name']:14s} {noise:5.3f} {done} {r.get('known', math.nan):6.3f} "
+                    f"{r.get('precise', math.nan):7.3f} {r.get('walls', math.nan):6.3f} {r['collisions']:4d} "
+                    f"{r['given_up']:7d} {r['wall']:6.0f}",
+                    flush=True,
+                )
     finally:
         context.try_shutdown()
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")

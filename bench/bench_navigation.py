@@ -66,12 +66,36 @@ class Case:
     wall: EpisodeSpec | None  # the wall follower alone on the same world, seed, noise and hand
 
 
-def case(label: str, kind: str, world: dict, seed: int, noise: float, goal, encoder_noise: float, slip: float,
-         compare: bool, limit: float = LIMIT) -> Case:
-    navigation = EpisodeSpec("navigation", NAV_LABEL, NAV_PARAMS, world, goal, seed, noise, encoder_noise, slip, limit,
-                             {"max_collisions": MAX_COLLISIONS})
-    wall = EpisodeSpec("wall_follower", WALL_LABEL, WALL_PARAMS, world, goal, seed, noise, encoder_noise, slip,
-                       LIMIT) if compare else None
+def case(
+    label: str,
+    kind: str,
+    world: dict,
+    seed: int,
+    noise: float,
+    goal,
+    encoder_noise: float,
+    slip: float,
+    compare: bool,
+    limit: float = LIMIT,
+) -> Case:
+    navigation = EpisodeSpec(
+        "navigation",
+        NAV_LABEL,
+        NAV_PARAMS,
+        world,
+        goal,
+        seed,
+        noise,
+        encoder_noise,
+        slip,
+        limit,
+        {"max_collisions": MAX_COLLISIONS},
+    )
+    wall = (
+        EpisodeSpec("wall_follower", WALL_LABEL, WALL_PARAMS, world, goal, seed, noise, encoder_noise, slip, LIMIT)
+        if compare
+        else None
+    )
     return Case(label, kind, navigation, wall)
 
 
@@ -82,13 +106,36 @@ def shipped_cases(seeds: int, twin_limit: float, encoder_noise: float, slip: flo
         for seed in range(seeds):
             spec = {"file": path.name}
             if path.stem == "twin_rooms":
-                cases.append(case(f"twin_rooms s{seed}", "symmetric", spec, seed, 0.01, "far", encoder_noise, slip,
-                                  compare=False, limit=twin_limit))
+                cases.append(
+                    case(
+                        f"twin_rooms s{seed}",
+                        "symmetric",
+                        spec,
+                        seed,
+                        0.01,
+                        "far",
+                        encoder_noise,
+                        slip,
+                        compare=False,
+                        limit=twin_limit,
+                    )
+                )
             elif world.goal is not None:
                 cases.append(case(f"{path.stem} s{seed}", "shipped", spec, seed, 0.01, None, encoder_noise, slip, True))
             else:
-                cases.append(case(f"{path.stem} s{seed}", "shipped, far free goal", spec, seed, 0.01, "far",
-                                  encoder_noise, slip, False))
+                cases.append(
+                    case(
+                        f"{path.stem} s{seed}",
+                        "shipped, far free goal",
+                        spec,
+                        seed,
+                        0.01,
+                        "far",
+                        encoder_noise,
+                        slip,
+                        False,
+                    )
+                )
     return cases
 
 
@@ -102,13 +149,35 @@ def maze_cases(families: list[str], seeds: int, random_goals: bool, encoder_nois
             label = f"{family} s{seed} {width_label} n{noise}"
             symmetry = rotationally_symmetric(build_world(spec))
             if symmetry:  # no pose can be told from its rotated image: like twin_rooms, no goal is expected
-                cases.append(case(f"{label} (symmetric {symmetry})", "symmetric", spec, seed, noise, None,
-                                  encoder_noise, slip, compare=False))
+                cases.append(
+                    case(
+                        f"{label} (symmetric {symmetry})",
+                        "symmetric",
+                        spec,
+                        seed,
+                        noise,
+                        None,
+                        encoder_noise,
+                        slip,
+                        compare=False,
+                    )
+                )
                 continue
             cases.append(case(label + " family", "family goal", spec, seed, noise, None, encoder_noise, slip, True))
             if random_goals:  # a random free cell over 1 m from the start, on the planner's costmap
-                cases.append(case(label + " random", "random goal", spec, seed, noise, "random", encoder_noise, slip,
-                                  compare=False))
+                cases.append(
+                    case(
+                        label + " random",
+                        "random goal",
+                        spec,
+                        seed,
+                        noise,
+                        "random",
+                        encoder_noise,
+                        slip,
+                        compare=False,
+                    )
+                )
     return cases
 
 
@@ -135,9 +204,11 @@ def line(c: Case, run: dict, wall: dict | None) -> str:
     if run["goal_reached"]:
         extra.append(f"true dist to goal {100 * run['extra']['goal_distance']:.1f} cm")
     error_max = run["localization_error_max"] or 0.0
-    return (f"{c.label:38s} loc {localized} s  {outcome:28s} coll {run['collisions']}  xte {cross} cm  "
-            f"est.err max {100 * error_max:4.1f} cm  wall alone {alone:>10s}  "
-            f"[{run['wall_time']:.0f} s] {'; '.join(extra)}")
+    return (
+        f"{c.label:38s} loc {localized} s  {outcome:28s} coll {run['collisions']}  xte {cross} cm  "
+        f"est.err max {100 * error_max:4.1f} cm  wall alone {alone:>10s}  "
+        f"[{run['wall_time']:.0f} s] {'; '.join(extra)}"
+    )
 
 
 def summary(title: str, rows: list[tuple[Case, dict, dict | None]]) -> None:
@@ -152,21 +223,29 @@ def summary(title: str, rows: list[tuple[Case, dict, dict | None]]) -> None:
     crosses = [r["cross_track"] for _, r, _ in rows if r["cross_track"] is not None]
     localized = [r["time_to_localized"] for _, r, _ in rows if r["time_to_localized"] is not None]
     print(f"\n-- {title}: {total} runs")
-    print(f"reached: {len(reached)}/{total} = {100 * len(reached) / total:.1f} % (target >= 98 %)"
-          + (f"; the follower said reached in {claimed}" if claimed > len(reached) else ""))
+    print(
+        f"reached: {len(reached)}/{total} = {100 * len(reached) / total:.1f} % (target >= 98 %)"
+        + (f"; the follower said reached in {claimed}" if claimed > len(reached) else "")
+    )
     print(f"collision-free: {clean}/{total} = {100 * clean / total:.1f} % (target 100 %)")
     wall_only = sum(1 for _, _, w in rows if w is not None and w["goal_reached"])
     if wall_only and both:
         ratios = [w["time"] / r["time"] for r, w in both]
-        print(f"faster than the wall follower alone: {faster}/{len(both)} of the cases both solve "
-              f"({100 * faster / len(both):.0f} %, target >= 90 %; the wall follower alone solves {wall_only}); "
-              f"median wall-follower time / loop time {statistics.median(ratios):.2f}")
+        print(
+            f"faster than the wall follower alone: {faster}/{len(both)} of the cases both solve "
+            f"({100 * faster / len(both):.0f} %, target >= 90 %; the wall follower alone solves {wall_only}); "
+            f"median wall-follower time / loop time {statistics.median(ratios):.2f}"
+        )
     if localized:
-        print(f"first localized: median {statistics.median(localized):.1f} s, max {max(localized):.1f} s "
-              f"({len(localized)}/{total} localized)")
+        print(
+            f"first localized: median {statistics.median(localized):.1f} s, max {max(localized):.1f} s "
+            f"({len(localized)}/{total} localized)"
+        )
     if crosses:
-        print(f"mean cross-track error per run (true pose): median {100 * statistics.median(crosses):.2f} cm, "
-              f"max {100 * max(crosses):.2f} cm (target <= 3 cm on the shipped worlds)")
+        print(
+            f"mean cross-track error per run (true pose): median {100 * statistics.median(crosses):.2f} cm, "
+            f"max {100 * max(crosses):.2f} cm (target <= 3 cm on the shipped worlds)"
+        )
     losses = [r["localization_losses"] for _, r, _ in rows if r["localization_losses"]]
     print(f"runs where the filter withdrew `localized` on the way: {len(losses)} ({sum(losses)} withdrawals)")
     for c, r, w in rows:
@@ -176,7 +255,12 @@ def summary(title: str, rows: list[tuple[Case, dict, dict | None]]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seeds", type=int, default=9, help="generated mazes per family (default 9: every width x noise pair per family)")
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        default=9,
+        help="generated mazes per family (default 9: every width x noise pair per family)",
+    )
     parser.add_argument("--shipped-seeds", type=int, default=3, help="seeds per shipped world (default 3)")
     parser.add_argument("--families", default=",".join(FAMILIES), help="comma-separated maze families (default all)")
     parser.add_argument("--no-random-goals", action="store_true", help="only the families' goals")
@@ -195,16 +279,24 @@ def main() -> None:
     unknown = [f for f in families if f not in FAMILIES]
     if unknown:
         parser.error(f"unknown families {unknown} (known: {', '.join(FAMILIES)})")
-    cases = ([] if args.no_shipped else shipped_cases(args.shipped_seeds, args.twin_limit, args.encoder_noise, args.slip))
+    cases = [] if args.no_shipped else shipped_cases(args.shipped_seeds, args.twin_limit, args.encoder_noise, args.slip)
     cases += maze_cases(families, args.seeds, not args.no_random_goals, args.encoder_noise, args.slip)
     specs = [c.navigation for c in cases] + [c.wall for c in cases if c.wall is not None]
-    results = Path(args.results) if args.results else Path(tempfile.mkdtemp(prefix="navigation_", dir=_out())) / "records.jsonl"
+    results = (
+        Path(args.results)
+        if args.results
+        else Path(tempfile.mkdtemp(prefix="navigation_", dir=_out())) / "records.jsonl"
+    )
     where = f"Dask at {args.scheduler}" if args.scheduler else f"{args.jobs} processes"
-    print(f"{len(cases)} runs ({len(specs)} episodes with the wall follower alone), {where}, encoder noise "
-          f"{args.encoder_noise}, slip {args.slip}, limit {LIMIT:.0f} s simulated, stop at {MAX_COLLISIONS} collisions; "
-          f"load {os.getloadavg()[0]:.1f}; records in {results}")
-    print("columns: first localized (s), goal time or failure, collisions, mean cross-track error (true pose), "
-          "largest estimate error while localized, wall follower alone's time [wall-clock s]")
+    print(
+        f"{len(cases)} runs ({len(specs)} episodes with the wall follower alone), {where}, encoder noise "
+        f"{args.encoder_noise}, slip {args.slip}, limit {LIMIT:.0f} s simulated, stop at {MAX_COLLISIONS} collisions; "
+        f"load {os.getloadavg()[0]:.1f}; records in {results}"
+    )
+    print(
+        "columns: first localized (s), goal time or failure, collisions, mean cross-track error (true pose), "
+        "largest estimate error while localized, wall follower alone's time [wall-clock s]"
+    )
     began = time.perf_counter()
     records = dict(zip((s.key for s in specs), run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler)))
     rows = [(c, records[c.navigation.key], records[c.wall.key] if c.wall else None) for c in cases]
@@ -213,11 +305,19 @@ def main() -> None:
     print(f"\n{time.perf_counter() - began:.0f} s wall clock, load {os.getloadavg()[0]:.1f} at the end")
     for c, run, _ in rows:
         if c.kind == "symmetric":
-            print(f"symmetric {c.label}, {c.navigation.duration:.0f} s: "
-                  + ("never localized (as expected)" if run["time_to_localized"] is None else
-                     f"FALSE localization at {run['time_to_localized']:.1f} s")
-                  + (f"; the wall follower passed the goal region while exploring at {run['time']:.1f} s"
-                     if run["goal_reached"] else ""))
+            print(
+                f"symmetric {c.label}, {c.navigation.duration:.0f} s: "
+                + (
+                    "never localized (as expected)"
+                    if run["time_to_localized"] is None
+                    else f"FALSE localization at {run['time_to_localized']:.1f} s"
+                )
+                + (
+                    f"; the wall follower passed the goal region while exploring at {run['time']:.1f} s"
+                    if run["goal_reached"]
+                    else ""
+                )
+            )
     summary("shipped worlds with a goal", [r for r in rows if r[0].kind == "shipped"])
     summary("shipped worlds without one (far free goal)", [r for r in rows if r[0].kind == "shipped, far free goal"])
     mazes = [r for r in rows if r[0].kind in ("family goal", "random goal")]

@@ -76,15 +76,17 @@ def block_map(size: float, seed: int) -> OccupancyGrid:
     for _ in range(int(size * size / 1.5)):
         r, c = rng.integers(0, n, 2)
         h, w = rng.integers(4, 24, 2)
-        data[r:r + h, c:c + w] = 100
+        data[r : r + h, c : c + w] = 100
     data[1:20, 1:20] = data[-20:-1, -20:-1] = 0
     return OccupancyGrid(data, RESOLUTION)
 
 
 def planning_times(repeat: int) -> None:
     print("== A* and PRM planning time (median of runs; costmap build apart)")
-    print(f"{'map':28s} {'cells':>8s} {'costmap':>9s} {'A*':>9s} {'expanded':>9s} {'PRM build':>10s} "
-          f"{'PRM query':>10s} {'nodes':>6s}")
+    print(
+        f"{'map':28s} {'cells':>8s} {'costmap':>9s} {'A*':>9s} {'expanded':>9s} {'PRM build':>10s} "
+        f"{'PRM query':>10s} {'nodes':>6s}"
+    )
     cases = []
     for path in WORLDS:
         world = load_world(path)
@@ -95,8 +97,9 @@ def planning_times(repeat: int) -> None:
         cases.append((f"blocks {size} x {size} m", grid, (0.5, 0.5), (size - 0.5, size - 0.5)))
     for size in (10, 20):
         world = world_from_dict(generate("loops", 1, size=float(size), width=0.5))
-        cases.append((f"loop maze {size} x {size} m", rasterize_world(world, RESOLUTION),
-                      (world.start.x, world.start.y), None))
+        cases.append(
+            (f"loop maze {size} x {size} m", rasterize_world(world, RESOLUTION), (world.start.x, world.start.y), None)
+        )
     for name, grid, start, goal in cases:
         build = median_ms(lambda: Costmap(grid), max(3, repeat // 4))
         costmap = Costmap(grid)
@@ -116,16 +119,29 @@ def planning_times(repeat: int) -> None:
             prm_query = f"{median_ms(lambda: roadmap.plan(start, goal), repeat):9.1f}"
         except PlanningError:
             prm_query = "  no path"
-        print(f"{name:28s} {grid.width * grid.height:8d} {build:7.1f}ms {astar:7.1f}ms {expanded:9d} "
-              f"{prm_build:8.1f}ms {prm_query}ms {config.node_count:6d}")
+        print(
+            f"{name:28s} {grid.width * grid.height:8d} {build:7.1f}ms {astar:7.1f}ms {expanded:9d} "
+            f"{prm_build:8.1f}ms {prm_query}ms {config.node_count:6d}"
+        )
 
 
 # -- 3 and 4: closed loops, as amr_evaluation episodes -----------------------------------------------------
 
 
 def plan_follow_spec(world: dict, goal, noise: float, seed: int, resolution: float = LOOP_RESOLUTION) -> EpisodeSpec:
-    return EpisodeSpec("plan_follow", PLAN_LABEL, PLAN_PARAMS, world, goal, seed, noise, 0.0, 0.0, FOLLOW_LIMIT,
-                       {"resolution": resolution})
+    return EpisodeSpec(
+        "plan_follow",
+        PLAN_LABEL,
+        PLAN_PARAMS,
+        world,
+        goal,
+        seed,
+        noise,
+        0.0,
+        0.0,
+        FOLLOW_LIMIT,
+        {"resolution": resolution},
+    )
 
 
 def wall_follow_spec(world: dict, noise: float, seed: int) -> EpisodeSpec:
@@ -165,8 +181,10 @@ def shipped_worlds(rows, records) -> None:
         r = records[spec.key]
         cross = "-" if r["cross_track"] is None else f"{100 * r['cross_track']:.2f}"
         message = r["extra"].get("message", "") if not r["error"] else r["error"]
-        print(f"{name:16s} map {resolution} m: reached={r['goal_reached']} t={r['time'] or math.nan:6.1f} s "
-              f"collisions={r['collisions']} mean cross-track={cross} cm {message}")
+        print(
+            f"{name:16s} map {resolution} m: reached={r['goal_reached']} t={r['time'] or math.nan:6.1f} s "
+            f"collisions={r['collisions']} mean cross-track={cross} cm {message}"
+        )
 
 
 def generated_mazes(rows, records, seeds: int, elapsed: float) -> None:
@@ -179,8 +197,10 @@ def generated_mazes(rows, records, seeds: int, elapsed: float) -> None:
             cross_tracks.append(run["cross_track"])
         if not run["goal_reached"] or run["collisions"]:
             message = run["error"] or run["extra"].get("message", "")
-            failures.append(f"{family} seed {seed} width {options.get('width', '-')} noise {noise} {kind} goal: "
-                            f"reached={run['goal_reached']} collisions={run['collisions']} {message}")
+            failures.append(
+                f"{family} seed {seed} width {options.get('width', '-')} noise {noise} {kind} goal: "
+                f"reached={run['goal_reached']} collisions={run['collisions']} {message}"
+            )
         if kind == "family":
             wall = records[wall_follow_spec(spec.world, noise, seed).key]
             if run["goal_reached"] and wall["goal_reached"]:
@@ -189,20 +209,26 @@ def generated_mazes(rows, records, seeds: int, elapsed: float) -> None:
     reached = sum(bool(r["goal_reached"]) for _, _, r in runs)
     clean = sum(r["collisions"] == 0 for _, _, r in runs)
     faster = sum(p < w for _, p, w in comparisons)
-    print(f"{total} runs over {len(FAMILIES)} families x {seeds} seeds x 2 goals ({elapsed:.0f} s wall clock for "
-          "every closed-loop episode, the wall follower alone's included)")
+    print(
+        f"{total} runs over {len(FAMILIES)} families x {seeds} seeds x 2 goals ({elapsed:.0f} s wall clock for "
+        "every closed-loop episode, the wall follower alone's included)"
+    )
     for family in FAMILIES:
         mine = [r for f, _, r in runs if f == family]
         times = [(p, w) for f, p, w in comparisons if f == family]
         ratio = statistics.median([w / p for p, w in times]) if times else math.nan
-        print(f"  {family:11s} reached {sum(bool(r['goal_reached']) for r in mine)}/{len(mine)}, collision-free "
-              f"{sum(r['collisions'] == 0 for r in mine)}/{len(mine)}, both solve {len(times)}, "
-              f"median wall-follower time / plan+follow time {ratio:.2f}")
+        print(
+            f"  {family:11s} reached {sum(bool(r['goal_reached']) for r in mine)}/{len(mine)}, collision-free "
+            f"{sum(r['collisions'] == 0 for r in mine)}/{len(mine)}, both solve {len(times)}, "
+            f"median wall-follower time / plan+follow time {ratio:.2f}"
+        )
     print(f"reached: {reached}/{total} = {100 * reached / total:.1f} % (target >= 98 %)")
     print(f"collision-free: {clean}/{total} = {100 * clean / total:.1f} % (target 100 %)")
     if comparisons:
-        print(f"faster than the wall follower: {faster}/{len(comparisons)} = {100 * faster / len(comparisons):.1f} % "
-              f"of the worlds both solve (target >= 90 %)")
+        print(
+            f"faster than the wall follower: {faster}/{len(comparisons)} = {100 * faster / len(comparisons):.1f} % "
+            f"of the worlds both solve (target >= 90 %)"
+        )
     if cross_tracks:
         print(f"mean cross-track error over the runs: {100 * statistics.mean(cross_tracks):.2f} cm")
     replanned = [r["plans"] - 1 for _, _, r in runs if (r["plans"] or 0) > 1]
@@ -220,8 +246,10 @@ def closed_loops(seeds: int, jobs: int, scheduler: str | None, results: str | No
         out = ROOT / "out" / "bench"
         out.mkdir(parents=True, exist_ok=True)
         results = Path(tempfile.mkdtemp(prefix="planning_", dir=out)) / "records.jsonl"
-    print(f"\n{len(specs)} closed-loop episodes on {f'Dask at {scheduler}' if scheduler else f'{jobs} process(es)'}; "
-          f"records in {results}")
+    print(
+        f"\n{len(specs)} closed-loop episodes on {f'Dask at {scheduler}' if scheduler else f'{jobs} process(es)'}; "
+        f"records in {results}"
+    )
     began = time.perf_counter()
     records = dict(zip((s.key for s in specs), run_sweep(specs, results, workers=jobs, scheduler=scheduler)))
     elapsed = time.perf_counter() - began

@@ -75,7 +75,7 @@ def ours(truth, edges, init):
     graph = PoseGraph(loop_kernel="none")
     for pose in init:
         graph.add_node(pose)
-    info = np.diag(1.0 / SIGMA ** 2)
+    info = np.diag(1.0 / SIGMA**2)
     for i, j, z, loop in edges:
         graph.add_edge(i, j, z, info, loop)
     start = time.perf_counter()
@@ -100,8 +100,9 @@ def gtsam_batch(gtsam, truth, edges, init):
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
     result = optimizer.optimize()
     seconds = time.perf_counter() - start
-    poses = np.array([[result.atPose2(k).x(), result.atPose2(k).y(), result.atPose2(k).theta()]
-                      for k in range(len(init))])
+    poses = np.array(
+        [[result.atPose2(k).x(), result.atPose2(k).y(), result.atPose2(k).theta()] for k in range(len(init))]
+    )
     return seconds, optimizer.iterations(), 2 * graph.error(result), rms(poses, truth)
 
 
@@ -131,8 +132,9 @@ def gtsam_isam2(gtsam, truth, edges, init):
         times.append(time.perf_counter() - start)
         p = result.atPose2(k)
         estimate = np.array([p.x(), p.y(), p.theta()])
-    poses = np.array([[result.atPose2(k).x(), result.atPose2(k).y(), result.atPose2(k).theta()]
-                      for k in range(len(init))])
+    poses = np.array(
+        [[result.atPose2(k).x(), result.atPose2(k).y(), result.atPose2(k).theta()] for k in range(len(init))]
+    )
     return sum(times), max(times), rms(poses, truth)
 
 
@@ -161,8 +163,10 @@ def main() -> None:
             print(f"  {name:16s} {seconds * 1000:8.1f} ms  {iters:3d} iterations  chi2 {chi2:10.1f}  RMS {error:.3f} m")
         if gtsam is not None:
             total, worst, error = gtsam_isam2(gtsam, truth, edges, init)
-            print(f"  {'gtsam iSAM2':16s} {total * 1000:8.1f} ms in all, largest update {worst * 1000:.1f} ms, "
-                  f"RMS {error:.3f} m")
+            print(
+                f"  {'gtsam iSAM2':16s} {total * 1000:8.1f} ms in all, largest update {worst * 1000:.1f} ms, "
+                f"RMS {error:.3f} m"
+            )
     print(f"load average {os.getloadavg()[0]:.2f}")
 
 

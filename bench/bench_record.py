@@ -56,8 +56,10 @@ def samples():
     scan.header.frame_id = "base_scan"
     odom = Odometry(child_frame_id="base_footprint")
     odom.header.frame_id = "odom"
-    return {"/scan": ("sensor_msgs/msg/LaserScan", serialize_message(scan)),
-            "/odom": ("nav_msgs/msg/Odometry", serialize_message(odom))}
+    return {
+        "/scan": ("sensor_msgs/msg/LaserScan", serialize_message(scan)),
+        "/odom": ("nav_msgs/msg/Odometry", serialize_message(odom)),
+    }
 
 
 def with_rosbags(directory: Path, steps: int, messages) -> float:
@@ -125,13 +127,20 @@ def lockstep_loop(seconds: float, record_to: Path | None, in_process: bool = Fal
             process = RecorderProcess("bench_recorder", str(record_to), [], True, counter, lambda line: None)
             hook = lambda node: process.wait_until_caught_up()  # noqa: E731
         elif record_to is not None:
-            recorder = Recorder(context=context, parameter_overrides=[
-                Parameter("path", value=str(record_to)), Parameter("use_sim_time", value=True)])
+            recorder = Recorder(
+                context=context,
+                parameter_overrides=[Parameter("path", value=str(record_to)), Parameter("use_sim_time", value=True)],
+            )
             recording = BackgroundSpin(recorder)  # as amr-bringup does: the recorder has an executor of its own
             hook = lambda node: recorder.wait_until_caught_up()  # noqa: E731
         wanted = round(seconds / 0.05) + 1
-        with composed_stack(context, "maze_sim", parameters={"simulator.lockstep_resend_period": "0.0"},
-                            extra_nodes=extra, before_activate=hook) as (_, manager, _):
+        with composed_stack(
+            context,
+            "maze_sim",
+            parameters={"simulator.lockstep_resend_period": "0.0"},
+            extra_nodes=extra,
+            before_activate=hook,
+        ) as (_, manager, _):
             if not all(step.ok for step in manager.startup()):
                 raise RuntimeError("maze_sim did not come up")
             started = time.perf_counter()
@@ -158,16 +167,20 @@ def main() -> None:
     results = {"rosbags (rosbag2 MCAP + metadata.yaml)": [], "mcap (.mcap only)": []}
     for _ in range(5):
         with tempfile.TemporaryDirectory() as directory:
-            results["rosbags (rosbag2 MCAP + metadata.yaml)"].append(with_rosbags(Path(directory), args.steps, messages))
+            results["rosbags (rosbag2 MCAP + metadata.yaml)"].append(
+                with_rosbags(Path(directory), args.steps, messages)
+            )
             results["mcap (.mcap only)"].append(with_mcap(Path(directory), args.steps, messages))
     print(f"write cost per message ({args.steps * len(messages)} messages: LaserScan 240 beams + Odometry)")
     for name, values in results.items():
         print(f"  {name:40s} {statistics.median(values) * 1e6:6.1f} us")
     step = sim_step_cost(args.steps)
     rosbags = statistics.median(results["rosbags (rosbag2 MCAP + metadata.yaml)"])
-    print(f"Simulator.step (inner_maze, numpy LiDAR, no ROS): {step * 1e6:.0f} us;"
-          f" {MESSAGES_PER_STEP} messages recorded with rosbags: {MESSAGES_PER_STEP * rosbags * 1e6:.0f} us"
-          f" ({100 * MESSAGES_PER_STEP * rosbags / step:.0f} % of a bare step)")
+    print(
+        f"Simulator.step (inner_maze, numpy LiDAR, no ROS): {step * 1e6:.0f} us;"
+        f" {MESSAGES_PER_STEP} messages recorded with rosbags: {MESSAGES_PER_STEP * rosbags * 1e6:.0f} us"
+        f" ({100 * MESSAGES_PER_STEP * rosbags / step:.0f} % of a bare step)"
+    )
     plain, separate, inside = [], [], []
     with tempfile.TemporaryDirectory() as directory:
         for run in range(args.runs):
@@ -179,8 +192,10 @@ def main() -> None:
     print(f"  without recording                  {base:6.2f} s wall ({args.loop_seconds / base:5.1f}x real time)")
     for name, runs in (("recorder process (amr-bringup)", separate), ("recorder node in the process", inside)):
         rec = statistics.median(runs)
-        print(f"  {name:34s} {rec:6.2f} s wall ({args.loop_seconds / rec:5.1f}x real time), "
-              f"{100 * (rec / base - 1):+.1f} % (goal <= +20 %)")
+        print(
+            f"  {name:34s} {rec:6.2f} s wall ({args.loop_seconds / rec:5.1f}x real time), "
+            f"{100 * (rec / base - 1):+.1f} % (goal <= +20 %)"
+        )
 
 
 if __name__ == "__main__":

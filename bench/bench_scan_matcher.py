@@ -32,11 +32,14 @@ def tiled_world(tiles: int = 10, tile: float = 10.0):
     for i in range(tiles):
         for j in range(tiles):
             maze = generate("loops", i * tiles + j, size=tile - 0.2, width=0.8, thickness=0.05, loop_fraction=0.2)
-            walls += [[x1 + (i + 0.5) * tile, y1 + (j + 0.5) * tile, x2 + (i + 0.5) * tile, y2 + (j + 0.5) * tile]
-                      for x1, y1, x2, y2 in maze["walls"]]
+            walls += [
+                [x1 + (i + 0.5) * tile, y1 + (j + 0.5) * tile, x2 + (i + 0.5) * tile, y2 + (j + 0.5) * tile]
+                for x1, y1, x2, y2 in maze["walls"]
+            ]
     start = generate("loops", 0, size=tile - 0.2, width=0.8, thickness=0.05, loop_fraction=0.2)["start"]
-    return world_from_dict({"wall_thickness": 0.05, "walls": walls,
-                            "start": [start[0] + 0.5 * tile, start[1] + 0.5 * tile, start[2]]})
+    return world_from_dict(
+        {"wall_thickness": 0.05, "walls": walls, "start": [start[0] + 0.5 * tile, start[1] + 0.5 * tile, start[2]]}
+    )
 
 
 def scan_points(caster: NumpyRayCaster, pose: np.ndarray, rng: np.random.Generator, noise: float) -> np.ndarray:
@@ -81,8 +84,10 @@ def main() -> None:
     score_map = ScoreMap.from_occupancy(grid)
     matcher = CorrelativeMatcher(score_map)
     t_matcher = time.perf_counter() - t
-    print(f"map {grid.width} x {grid.height} cells at {grid.resolution} m ({t_map:.1f} s to build); score map and "
-          f"pyramid of {matcher.levels} levels {t_matcher:.2f} s, {matcher.pyramid.nbytes / 1e6:.0f} MB")
+    print(
+        f"map {grid.width} x {grid.height} cells at {grid.resolution} m ({t_map:.1f} s to build); score map and "
+        f"pyramid of {matcher.levels} levels {t_matcher:.2f} s, {matcher.pyramid.nbytes / 1e6:.0f} MB"
+    )
     caster = NumpyRayCaster(world.faces)
     poses = free_poses(grid, world, rng, args.poses)
     scans = [scan_points(caster, pose, rng, args.noise) for pose in poses]
@@ -90,8 +95,13 @@ def main() -> None:
 
     times, errors, turns, nodes = [], [], [], []
     for pose, points in zip(poses, scans):
-        prior = pose + np.array([rng.uniform(-args.offset, args.offset), rng.uniform(-args.offset, args.offset),
-                                 rng.uniform(-args.turn, args.turn)])
+        prior = pose + np.array(
+            [
+                rng.uniform(-args.offset, args.offset),
+                rng.uniform(-args.offset, args.offset),
+                rng.uniform(-args.turn, args.turn),
+            ]
+        )
         t = time.perf_counter()
         found = matcher.match(points, prior, 0.5, math.radians(20))
         times.append(time.perf_counter() - t)
@@ -100,13 +110,15 @@ def main() -> None:
         nodes.append(found.nodes)
     times_ms = 1e3 * np.array(times)
     errors_cm = 100.0 * np.array(errors)
-    print(f"local match ({args.poses} scans, {np.mean([len(s) for s in scans]):.0f} points, noise {args.noise} m, "
-          f"prior off by <= {args.offset} m / {math.degrees(args.turn):.0f} deg, window 0.5 m / 20 deg): "
-          f"{np.median(times_ms):.2f} ms median, {times_ms.max():.2f} ms max, {np.median(nodes):.0f} nodes; "
-          f"position error {np.median(errors_cm):.2f} cm median, {errors_cm.max():.2f} cm max; heading error "
-          f"{np.degrees(np.median(turns)):.2f} deg median, {np.degrees(np.max(turns)):.2f} deg max")
+    print(
+        f"local match ({args.poses} scans, {np.mean([len(s) for s in scans]):.0f} points, noise {args.noise} m, "
+        f"prior off by <= {args.offset} m / {math.degrees(args.turn):.0f} deg, window 0.5 m / 20 deg): "
+        f"{np.median(times_ms):.2f} ms median, {times_ms.max():.2f} ms max, {np.median(nodes):.0f} nodes; "
+        f"position error {np.median(errors_cm):.2f} cm median, {errors_cm.max():.2f} cm max; heading error "
+        f"{np.degrees(np.median(turns)):.2f} deg median, {np.degrees(np.max(turns)):.2f} deg max"
+    )
 
-    for pose, points in zip(poses[:args.global_poses], scans[:args.global_poses]):
+    for pose, points in zip(poses[: args.global_poses], scans[: args.global_poses]):
         t = time.perf_counter()
         search = GlobalSearch(matcher, points)
         t_setup = time.perf_counter() - t
@@ -120,10 +132,13 @@ def main() -> None:
         distances = [math.hypot(*(m.pose[:2] - pose[:2])) for m in matches]
         rank = next((k for k, d in enumerate(distances) if d < 0.3), None)
         call_ms = 1e3 * np.array(call_times)
-        print(f"global search: setup {1e3 * t_setup:.0f} ms, {len(call_ms)} calls of {args.nodes} nodes "
-              f"({'done' if search.done else 'not done'}), {np.median(call_ms):.0f} ms median {call_ms.max():.0f} "
-              f"ms max per call; true pose rank {rank} (score {matches[0].score:.3f} best"
-              + (f", {matches[rank].score:.3f} true" if rank is not None else "") + ")")
+        print(
+            f"global search: setup {1e3 * t_setup:.0f} ms, {len(call_ms)} calls of {args.nodes} nodes "
+            f"({'done' if search.done else 'not done'}), {np.median(call_ms):.0f} ms median {call_ms.max():.0f} "
+            f"ms max per call; true pose rank {rank} (score {matches[0].score:.3f} best"
+            + (f", {matches[rank].score:.3f} true" if rank is not None else "")
+            + ")"
+        )
 
 
 if __name__ == "__main__":

@@ -49,7 +49,7 @@ def config(method: str, beams: int = 240) -> SimulationConfig:
 def bump_and_turn(ranges: np.ndarray) -> tuple[float, float]:
     """Drive ahead; turn left on the spot while something is within 0.3 m in the front 90 deg."""
     n = ranges.size
-    front = np.concatenate([ranges[: n // 8], ranges[-n // 8:]])
+    front = np.concatenate([ranges[: n // 8], ranges[-n // 8 :]])
     blocked = np.any(np.abs(front) < 0.3)
     return (0.0, 1.5) if blocked else (0.2, 0.0)
 
@@ -131,8 +131,9 @@ def main() -> None:
     worlds = {path.stem: load_world(path) for path in sorted(WORLDS.glob("*.yaml"))}
 
     print(f"1. Real-time factor, dt = {DT} s, 240-beam scan every step, {args.steps} steps, best of {args.repeats}")
-    print(f"{'world':16} {'faces':>5} | {'numpy RTF':>9} {'us/step':>8} | {'pymunk RTF':>10} {'us/step':>8} "
-          "| collisions")
+    print(
+        f"{'world':16} {'faces':>5} | {'numpy RTF':>9} {'us/step':>8} | {'pymunk RTF':>10} {'us/step':>8} | collisions"
+    )
     for name, world in worlds.items():
         fast, fast_us, hits = real_time_factor(world, "numpy", args.steps, args.repeats)
         slow, slow_us, _ = real_time_factor(world, "pymunk", max(args.steps // 10, 50), args.repeats)

@@ -96,8 +96,11 @@ class Driver(Node):
         self.sent += 1
 
     def connected(self) -> bool:
-        return (self.cmd_vel.get_subscription_count() > 0 and self.odometry.get_publisher_count() > 0
-                and self.scan.get_publisher_count() > 0)
+        return (
+            self.cmd_vel.get_subscription_count() > 0
+            and self.odometry.get_publisher_count() > 0
+            and self.scan.get_publisher_count() > 0
+        )
 
 
 def run_loop(executor, driver: Driver) -> tuple[int, float]:
@@ -117,8 +120,10 @@ def run_loop(executor, driver: Driver) -> tuple[int, float]:
 
 def report(label: str, steps: int, seconds: float) -> None:
     rate = steps / seconds
-    print(f"{label:<44} {steps:6d} steps {seconds:7.2f} s {rate:8.0f} steps/s "
-          f"RTF {rate * DT:6.1f}x  round trip {1e3 / rate:6.2f} ms")
+    print(
+        f"{label:<44} {steps:6d} steps {seconds:7.2f} s {rate:8.0f} steps/s "
+        f"RTF {rate * DT:6.1f}x  round trip {1e3 / rate:6.2f} ms"
+    )
 
 
 def bench_library(world: str, steps: int) -> None:
@@ -158,8 +163,18 @@ def bench_in_process(world: str, steps: int, label: str, **extra) -> None:
 def bench_processes(world: str, steps: int) -> None:
     bootstrap = ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")  # the child sets up its own library path
     environment = {k: v for k, v in os.environ.items() if k not in bootstrap}
-    command = [str(EXECUTABLE), "--ros-args", "-p", "autostart:=true", "-p", f"world:={world}",
-               "-p", f"dt:={DT}", "--log-level", "warn"]
+    command = [
+        str(EXECUTABLE),
+        "--ros-args",
+        "-p",
+        "autostart:=true",
+        "-p",
+        f"world:={world}",
+        "-p",
+        f"dt:={DT}",
+        "--log-level",
+        "warn",
+    ]
     process = subprocess.Popen(command, env=environment, start_new_session=True)
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -192,8 +207,14 @@ def main() -> None:
     print(f"world {args.world}, dt {DT} s, 240-beam LiDAR every step, {os.cpu_count()} CPUs")
     bench_library(args.world, args.steps)
     bench_in_process(args.world, args.steps, "node + driver, one process, all topics")
-    bench_in_process(args.world, args.steps, "node + driver, one process, /odometry + /scan",
-                     publish_odom=False, publish_ground_truth=False, publish_status=False)
+    bench_in_process(
+        args.world,
+        args.steps,
+        "node + driver, one process, /odometry + /scan",
+        publish_odom=False,
+        publish_ground_truth=False,
+        publish_status=False,
+    )
     if args.processes:
         bench_processes(args.world, args.steps)
 

@@ -67,8 +67,9 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
     node_odometry = {}
     for k, n in enumerate(node_of):
         node_odometry.setdefault(n, odometry[k])
-    estimate = np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k]))
-                         for k, n in enumerate(node_of)])
+    estimate = np.array(
+        [compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)]
+    )
     rel = relative_error(estimate, reference)
     ate = absolute_error(estimate, reference)
     rel_odom = relative_error(odometry, reference)
@@ -81,11 +82,24 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
         map_start = time.perf_counter()
         slam.save(save / path.name.split("-")[0])
         print(f"  map saved in {time.perf_counter() - map_start:.2f} s")
-    return {"name": path.name.split("-")[0], "scans": len(log), "nodes": len(poses), "closures": closures,
-            "odometry_only": events, "rel_t": rel.translation, "rel_r": rel.rotation_deg, "ate": ate.rmse,
-            "odom_rel_t": rel_odom.translation, "odom_rel_r": rel_odom.rotation_deg, "odom_ate": ate_odom.rmse,
-            "mean": times_ms.mean(), "p95": np.percentile(times_ms, 95), "max": times_ms.max(), "total": total,
-            "duration": duration}
+    return {
+        "name": path.name.split("-")[0],
+        "scans": len(log),
+        "nodes": len(poses),
+        "closures": closures,
+        "odometry_only": events,
+        "rel_t": rel.translation,
+        "rel_r": rel.rotation_deg,
+        "ate": ate.rmse,
+        "odom_rel_t": rel_odom.translation,
+        "odom_rel_r": rel_odom.rotation_deg,
+        "odom_ate": ate_odom.rmse,
+        "mean": times_ms.mean(),
+        "p95": np.percentile(times_ms, 95),
+        "max": times_ms.max(),
+        "total": total,
+        "duration": duration,
+    }
 
 
 def main() -> None:
@@ -103,19 +117,24 @@ def main() -> None:
     config = SlamConfig()
     print(f"config: {config}")
     gc.collect()
-    header = (f"{'log':8s} {'scans':>5s} {'nodes':>5s} {'loops':>5s} {'odo':>4s} | {'rel m':>6s} {'rel deg':>7s} "
-              f"{'ATE m':>6s} | odometry: {'rel m':>6s} {'rel deg':>7s} {'ATE m':>6s} | "
-              f"{'mean':>5s} {'p95':>5s} {'max':>5s} ms | speed")
+    header = (
+        f"{'log':8s} {'scans':>5s} {'nodes':>5s} {'loops':>5s} {'odo':>4s} | {'rel m':>6s} {'rel deg':>7s} "
+        f"{'ATE m':>6s} | odometry: {'rel m':>6s} {'rel deg':>7s} {'ATE m':>6s} | "
+        f"{'mean':>5s} {'p95':>5s} {'max':>5s} ms | speed"
+    )
     rows = []
     for path in paths:
         result = run_log(path, args.seed, config, args.save)
         rows.append(result)
         speed = f"{result['duration'] / result['total']:.0f}x" if result["duration"] else "n/a (no stamps)"
-        print(f"{result['name']:8s} {result['scans']:5d} {result['nodes']:5d} {result['closures']:5d} "
-              f"{result['odometry_only']:4d} | {result['rel_t']:6.3f} {result['rel_r']:7.2f} {result['ate']:6.3f} | "
-              f"          {result['odom_rel_t']:6.3f} {result['odom_rel_r']:7.2f} {result['odom_ate']:6.3f} | "
-              f"{result['mean']:5.1f} {result['p95']:5.1f} {result['max']:5.1f}    | {speed}"
-              f" ({result['total']:.1f} s)", flush=True)
+        print(
+            f"{result['name']:8s} {result['scans']:5d} {result['nodes']:5d} {result['closures']:5d} "
+            f"{result['odometry_only']:4d} | {result['rel_t']:6.3f} {result['rel_r']:7.2f} {result['ate']:6.3f} | "
+            f"          {result['odom_rel_t']:6.3f} {result['odom_rel_r']:7.2f} {result['odom_ate']:6.3f} | "
+            f"{result['mean']:5.1f} {result['p95']:5.1f} {result['max']:5.1f}    | {speed}"
+            f" ({result['total']:.1f} s)",
+            flush=True,
+        )
     print(header)
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
 

@@ -53,8 +53,12 @@ from amr_util.environment import child_environment  # noqa: E402
 from amr_util.qos import reliable  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
-PARAMETERS = {"particle_filter.min_particles": "5000", "particle_filter.max_particles": "5000",
-              "particle_filter.localized_confirmations": "10000", "simulator.lockstep_resend_period": "0.0"}
+PARAMETERS = {
+    "particle_filter.min_particles": "5000",
+    "particle_filter.max_particles": "5000",
+    "particle_filter.localized_confirmations": "10000",
+    "simulator.lockstep_resend_period": "0.0",
+}
 """5,000 particles all along, in the loop: the wall follower answers each observation once the filter's /pose for
 it has come, and keeps exploring (the filter never declares itself localized)."""
 LISTENER = """
@@ -123,8 +127,12 @@ def timed_run(steps: int, condition: str) -> tuple[float, float]:
     viewer = driver = browser = listener = None
     pids: list[int] = []
     if condition == "listener":
-        listener = subprocess.Popen([sys.executable, "-c", LISTENER], env=child_environment(),
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        listener = subprocess.Popen(
+            [sys.executable, "-c", LISTENER],
+            env=child_environment(),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         pids.append(listener.pid)
         time.sleep(SETTLE)
     elif condition != "none":
@@ -140,7 +148,10 @@ def timed_run(steps: int, condition: str) -> tuple[float, float]:
     try:
         counter = StepCounter(context=context)
         with composed_stack(context, "maze_localization", parameters=PARAMETERS, extra_nodes=[counter]) as (
-                _, manager, _):
+            _,
+            manager,
+            _,
+        ):
             if not all(step.ok for step in manager.startup()):
                 raise SystemExit("maze_localization did not come up")
             while counter.steps < 1:
@@ -167,8 +178,16 @@ def open_browser(url: str):
     from playwright.sync_api import sync_playwright
 
     driver = sync_playwright().start()
-    browser = driver.chromium.launch(executable_path=CHROMIUM, headless=True, args=[
-        "--enable-unsafe-swiftshader", "--no-sandbox", "--disable-background-networking", "--disable-dev-shm-usage"])
+    browser = driver.chromium.launch(
+        executable_path=CHROMIUM,
+        headless=True,
+        args=[
+            "--enable-unsafe-swiftshader",
+            "--no-sandbox",
+            "--disable-background-networking",
+            "--disable-dev-shm-usage",
+        ],
+    )
     page = browser.new_page(viewport={"width": 1024, "height": 640})
     page.goto(url, timeout=120000)
     page.get_by_role("button", name="Pause", exact=True).wait_for(timeout=120000)
@@ -215,21 +234,30 @@ def main() -> None:
     results: dict[str, list[tuple[float, float]]] = {name: [] for name in conditions}
     timed_run(args.steps // 4, "none")  # warm-up: the filter's compiled kernels loaded, caches filled
     for run in range(args.runs):
-        for name in conditions[run % len(conditions):] + conditions[:run % len(conditions)]:
+        for name in conditions[run % len(conditions) :] + conditions[: run % len(conditions)]:
             results[name].append(timed_run(args.steps, name))
-        print(f"run {run + 1}: " + ", ".join(f"{name} {values[-1][0]:.0f} steps/s" for name, values in results.items()),
-              flush=True)
+        print(
+            f"run {run + 1}: " + ", ".join(f"{name} {values[-1][0]:.0f} steps/s" for name, values in results.items()),
+            flush=True,
+        )
     base = statistics.median(rate for rate, _ in results["none"])
-    print(f"maze_localization composed, 5,000 particles in the loop, lockstep, first {args.steps} steps of a fresh "
-          f"stack, median of {args.runs}, {os.cpu_count()} cores (load average {os.getloadavg()[0]:.1f}):")
+    print(
+        f"maze_localization composed, 5,000 particles in the loop, lockstep, first {args.steps} steps of a fresh "
+        f"stack, median of {args.runs}, {os.cpu_count()} cores (load average {os.getloadavg()[0]:.1f}):"
+    )
     print(f"  {'no viewer':30s} {base:7.1f} steps/s ({base * 0.05:5.1f}x real time)")
-    labels = {"listener": "control: a /clock listener", "viewer": "viewer, no browser",
-              "browser": "viewer + headless chromium"}
+    labels = {
+        "listener": "control: a /clock listener",
+        "viewer": "viewer, no browser",
+        "browser": "viewer + headless chromium",
+    }
     for name in conditions[1:]:
         rate = statistics.median(r for r, _ in results[name])
         cpu = statistics.median(c for _, c in results[name])
-        print(f"  {labels[name]:30s} {rate:7.1f} steps/s ({rate * 0.05:5.1f}x real time), "
-              f"{100 * (rate / base - 1):+5.1f} %; its CPU {cpu:.2f} s/s")
+        print(
+            f"  {labels[name]:30s} {rate:7.1f} steps/s ({rate * 0.05:5.1f}x real time), "
+            f"{100 * (rate / base - 1):+5.1f} %; its CPU {cpu:.2f} s/s"
+        )
 
 
 if __name__ == "__main__":

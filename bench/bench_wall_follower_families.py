@@ -51,8 +51,9 @@ SHIPPED = ("hard_maze", "inner_maze", "open_room", "outer_corridor")
 STATES = ("SEARCH", "FOLLOW", "CORNER", "APPROACH", "TURN_LEFT", "TURN_RIGHT", "TURN_AROUND", "STABILIZE", "AVOID")
 
 
-def spec_of(family: str, seed: int, config_name: str, noise: float, seconds: float, lds_rate: bool,
-            outliers: float) -> EpisodeSpec:
+def spec_of(
+    family: str, seed: int, config_name: str, noise: float, seconds: float, lds_rate: bool, outliers: float
+) -> EpisodeSpec:
     label, parameters = configs.resolve("wall_follower", config_name)
     real = config_name == "real"
     options = {"beams": 360 if real else 240}
@@ -67,10 +68,19 @@ def spec_of(family: str, seed: int, config_name: str, noise: float, seconds: flo
 def draw(spec: EpisodeSpec, directory: Path) -> None:
     """The episode again, in this process, with its picture (the runner's episodes draw nothing)."""
     path = directory / f"{spec.world['family']}_{spec.seed}_{spec.config}_{spec.lidar_noise}.png"
-    run(build_world(spec.world), wall_follower_config(spec), spec.duration, lidar_noise=spec.lidar_noise,
-        encoder_noise=spec.encoder_noise, slip=spec.slip, seed=spec.seed, beams=spec.options.get("beams", 240),
-        scan_period=spec.options.get("scan_period"), outlier_rate=spec.options.get("outlier_rate", 0.0),
-        render_path=str(path))
+    run(
+        build_world(spec.world),
+        wall_follower_config(spec),
+        spec.duration,
+        lidar_noise=spec.lidar_noise,
+        encoder_noise=spec.encoder_noise,
+        slip=spec.slip,
+        seed=spec.seed,
+        beams=spec.options.get("beams", 240),
+        scan_period=spec.options.get("scan_period"),
+        outlier_rate=spec.options.get("outlier_rate", 0.0),
+        render_path=str(path),
+    )
 
 
 def main() -> None:
@@ -88,10 +98,16 @@ def main() -> None:
     parser.add_argument("--results", help="records file (JSON lines): kept, and a run resumes from it")
     parser.add_argument("--failures", action="store_true", help="list every run that missed its goal")
     parser.add_argument("--png", help="directory: save every run's trajectory there as a PNG")
-    parser.add_argument("--shipped", action="store_true",
-                        help="instead: the shipped worlds, sim config, LiDAR noise 0.01, no encoder noise")
-    parser.add_argument("--route", action="store_true",
-                        help="instead: routes through tree mazes compared with the noise-free run's (issue 20)")
+    parser.add_argument(
+        "--shipped",
+        action="store_true",
+        help="instead: the shipped worlds, sim config, LiDAR noise 0.01, no encoder noise",
+    )
+    parser.add_argument(
+        "--route",
+        action="store_true",
+        help="instead: routes through tree mazes compared with the noise-free run's (issue 20)",
+    )
     parser.add_argument("--mazes", type=int, default=6, help="--route: mazes per family (seeds first-seed..)")
     parser.add_argument("--route-families", nargs="+", default=list(ROUTE_FAMILIES), choices=ROUTE_FAMILIES)
     parser.add_argument("--run-seeds", type=int, default=3, help="--route: noisy sim runs per maze")
@@ -104,9 +120,13 @@ def main() -> None:
         routes(args, results)
         return
 
-    jobs = [(family, seed, config_name, noise)
-            for family in args.families for seed in range(args.first_seed, args.first_seed + args.seeds)
-            for config_name in args.configs for noise in args.noise]
+    jobs = [
+        (family, seed, config_name, noise)
+        for family in args.families
+        for seed in range(args.first_seed, args.first_seed + args.seeds)
+        for config_name in args.configs
+        for noise in args.noise
+    ]
     specs = [spec_of(*job, args.seconds, args.lds_rate, args.outliers) for job in jobs]
     started = time.monotonic()
     records = run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler)
@@ -124,58 +144,75 @@ def main() -> None:
     failed = [r for r in records if r["error"]]
     for record in failed:
         print(f"episode {record['world']} {record['config']} noise {record['lidar_noise']} raised: {record['error']}")
-    rows_of = [(job, r, walks[(r["family"], r["world_seed"], r["extra"].get("preferred_wall", "right"))])
-               for job, r in zip(jobs, records) if not r["error"]]
+    rows_of = [
+        (job, r, walks[(r["family"], r["world_seed"], r["extra"].get("preferred_wall", "right"))])
+        for job, r in zip(jobs, records)
+        if not r["error"]
+    ]
 
     groups: dict[tuple, list[tuple]] = defaultdict(list)
     for job, r, walk in rows_of:
         groups[(job[0], job[2])].append((job, r, walk))
     where = f"Dask at {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)"
-    print(f"{len(records)} runs, {elapsed:.0f} s wall clock, {where}; noise {args.noise} m, encoder noise 0.02, "
-          f"slip 0.05, outliers {args.outliers}/beam, {args.seconds:.0f} s max, real config at "
-          f"{'5 Hz scans, 360 beams' if args.lds_rate else '20 Hz, 360 beams'}; records in {results}")
-    print(f"{'family':11s} {'config':6s} {'goal':>7s} {'t mean':>7s} {'t max':>6s} {'coll':>4s} {'stall':>5s} "
-          f"{'v m/s':>6s} {'walk':>5s} {'v walk':>6s} {'err run':>7s} {'err fol':>7s}  time in state (%: search follow corner approach "
-          f"turnL turnR around stab avoid)")
+    print(
+        f"{len(records)} runs, {elapsed:.0f} s wall clock, {where}; noise {args.noise} m, encoder noise 0.02, "
+        f"slip 0.05, outliers {args.outliers}/beam, {args.seconds:.0f} s max, real config at "
+        f"{'5 Hz scans, 360 beams' if args.lds_rate else '20 Hz, 360 beams'}; records in {results}"
+    )
+    print(
+        f"{'family':11s} {'config':6s} {'goal':>7s} {'t mean':>7s} {'t max':>6s} {'coll':>4s} {'stall':>5s} "
+        f"{'v m/s':>6s} {'walk':>5s} {'v walk':>6s} {'err run':>7s} {'err fol':>7s}  time in state (%: search follow corner approach "
+        f"turnL turnR around stab avoid)"
+    )
     totals: dict[str, list] = defaultdict(list)
     for (family, config_name), rows in groups.items():
         reached = [r for _, r, _ in rows if r["goal_reached"]]
         times = [r["time"] for r in reached]
         walk_speeds = [w / r["time"] for _, r, w in rows if r["goal_reached"]]
         share = {s: statistics.mean(r["extra"]["state_time"].get(s, 0.0) for _, r, _ in rows) * 100 for s in STATES}
-        print(f"{family:11s} {config_name:6s} {len(reached):3d}/{len(rows):<3d} "
-              f"{statistics.mean(times) if times else math.nan:7.1f} {max(times) if times else math.nan:6.1f} "
-              f"{sum(r['collisions'] for _, r, _ in rows):4d} {sum(r['stalls'] for _, r, _ in rows):5d} "
-              f"{statistics.mean(r['mean_speed'] for _, r, _ in rows):6.3f} "
-              f"{statistics.mean(w for _, _, w in rows):5.1f} {_nanmean(walk_speeds):6.3f} "
-              f"{_nanmean([r['wall_error_run'] for _, r, _ in rows]):7.3f} "
-              f"{_nanmean([r['wall_error_following'] for _, r, _ in rows]):7.3f}  "
-              + " ".join(f"{share[s]:4.0f}" for s in STATES))
+        print(
+            f"{family:11s} {config_name:6s} {len(reached):3d}/{len(rows):<3d} "
+            f"{statistics.mean(times) if times else math.nan:7.1f} {max(times) if times else math.nan:6.1f} "
+            f"{sum(r['collisions'] for _, r, _ in rows):4d} {sum(r['stalls'] for _, r, _ in rows):5d} "
+            f"{statistics.mean(r['mean_speed'] for _, r, _ in rows):6.3f} "
+            f"{statistics.mean(w for _, _, w in rows):5.1f} {_nanmean(walk_speeds):6.3f} "
+            f"{_nanmean([r['wall_error_run'] for _, r, _ in rows]):7.3f} "
+            f"{_nanmean([r['wall_error_following'] for _, r, _ in rows]):7.3f}  "
+            + " ".join(f"{share[s]:4.0f}" for s in STATES)
+        )
         totals[config_name] += [r for _, r, _ in rows]
         if args.failures:
             for job, r, walk in rows:
                 if not r["goal_reached"] or r["collisions"]:
-                    print(f"    miss: {job[0]} seed {job[1]} noise {job[3]}: walk {walk:.1f} m, t={r['time']:.0f} s "
-                          f"collisions={r['collisions']} stalls={r['stalls']} states "
-                          + " ".join(f"{k}={v*100:.0f}" for k, v in r["extra"]["state_time"].items()))
+                    print(
+                        f"    miss: {job[0]} seed {job[1]} noise {job[3]}: walk {walk:.1f} m, t={r['time']:.0f} s "
+                        f"collisions={r['collisions']} stalls={r['stalls']} states "
+                        + " ".join(f"{k}={v * 100:.0f}" for k, v in r["extra"]["state_time"].items())
+                    )
     for config_name, rows in totals.items():
         goals = sum(bool(r["goal_reached"]) for r in rows)
-        print(f"TOTAL {config_name}: goal {goals}/{len(rows)} ({100 * goals / len(rows):.1f} %), "
-              f"collisions {sum(r['collisions'] for r in rows)}, stalls {sum(r['stalls'] for r in rows)}, "
-              f"wall error run {_nanmean([r['wall_error_run'] for r in rows]):.3f} m, "
-              f"following {_nanmean([r['wall_error_following'] for r in rows]):.3f} m")
+        print(
+            f"TOTAL {config_name}: goal {goals}/{len(rows)} ({100 * goals / len(rows):.1f} %), "
+            f"collisions {sum(r['collisions'] for r in rows)}, stalls {sum(r['stalls'] for r in rows)}, "
+            f"wall error run {_nanmean([r['wall_error_run'] for r in rows]):.3f} m, "
+            f"following {_nanmean([r['wall_error_following'] for r in rows]):.3f} m"
+        )
 
 
 def shipped(seconds: float, results: Path, jobs: int, scheduler: str | None) -> None:
     """README's closed-loop table: goal, time, collisions, mean speed, wall error per shipped world."""
     label, parameters = configs.resolve("wall_follower", "sim")
-    specs = [EpisodeSpec("wall_follower", label, parameters, {"file": f"{name}.yaml"}, None, 0, 0.01, 0.0, 0.0, seconds)
-             for name in SHIPPED]
+    specs = [
+        EpisodeSpec("wall_follower", label, parameters, {"file": f"{name}.yaml"}, None, 0, 0.01, 0.0, 0.0, seconds)
+        for name in SHIPPED
+    ]
     print(f"shipped worlds, sim config, LiDAR noise 0.01 m, {seconds:.0f} s max")
     for name, r in zip(SHIPPED, run_sweep(specs, results, workers=jobs, scheduler=scheduler, progress=False)):
         goal = "no goal" if r["goal_reached"] is None else f"goal {'reached' if r['goal_reached'] else 'missed'}"
-        print(f"{name:15s} {goal:13s} t={r['time']:6.1f} s  collisions {r['collisions']}  speed {r['mean_speed']:.3f} m/s  "
-              f"wall error following {r['wall_error_following'] * 1000:.1f} mm, whole run {r['wall_error_run'] * 1000:.1f} mm")
+        print(
+            f"{name:15s} {goal:13s} t={r['time']:6.1f} s  collisions {r['collisions']}  speed {r['mean_speed']:.3f} m/s  "
+            f"wall error following {r['wall_error_following'] * 1000:.1f} mm, whole run {r['wall_error_run'] * 1000:.1f} mm"
+        )
 
 
 ROUTE_FAMILIES = ("perfect", "rotated", "thin_walls", "dead_ends")
@@ -186,8 +223,11 @@ ROUTE_NOISE = 0.03
 
 def tree_maze(family: str, seed: int, hand: str) -> dict:
     """The world spec of a tree maze: 6, 7 or 8 m across and 0.35, 0.4 or 0.45 m corridors, by seed."""
-    options = {"size": ROUTE_SIZES[(seed // len(ROUTE_WIDTHS)) % len(ROUTE_SIZES)],
-               "width": ROUTE_WIDTHS[seed % len(ROUTE_WIDTHS)], "hand": hand}
+    options = {
+        "size": ROUTE_SIZES[(seed // len(ROUTE_WIDTHS)) % len(ROUTE_SIZES)],
+        "width": ROUTE_WIDTHS[seed % len(ROUTE_WIDTHS)],
+        "hand": hand,
+    }
     if family in ("rotated", "thin_walls"):
         options["loop_fraction"] = 0.0
     return {"family": family, "seed": seed, "options": options}
@@ -209,20 +249,29 @@ def routes(args: argparse.Namespace, results: Path) -> None:
                 options["scan_period"] = 0.2
             world = tree_maze(family, maze, parameters["wall_follower"]["preferred_wall"])
             motion = (0.02, 0.05) if noise > 0.0 else (0.0, 0.0)
-            specs.append(EpisodeSpec("wall_follower", label, parameters, world, None, seed, noise, *motion,
-                                     args.seconds, options))
+            specs.append(
+                EpisodeSpec(
+                    "wall_follower", label, parameters, world, None, seed, noise, *motion, args.seconds, options
+                )
+            )
             keys.append((family, maze, config_name, noise, seed))
     started = time.monotonic()
     records = dict(zip(keys, run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler)))
     elapsed = time.monotonic() - started
     where = f"Dask at {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)"
-    print(f"routes: {len(mazes)} tree mazes ({', '.join(args.route_families)}; 6-8 m, corridors 0.35-0.45 m), "
-          f"{len(specs)} runs, {elapsed:.0f} s wall clock, {where}; noisy = LiDAR {ROUTE_NOISE} m, encoder noise "
-          f"0.02, slip 0.05; real config 360 beams at {'5 Hz' if args.lds_rate else '20 Hz'}; {args.seconds:.0f} s "
-          f"max; records in {results}")
-    print("same: the run's cells = the noise-free sim run's (up to where the shorter ends at its goal); tour: the "
-          "run's cells follow the maze's ideal hand tour; goal: reached within the time; coll: collisions")
-    print(f"{'config':6s} {'noise':>5s} {'runs':>4s} {'same':>7s} {'tour':>7s} {'goal':>7s} {'coll':>4s} {'t goal':>6s}")
+    print(
+        f"routes: {len(mazes)} tree mazes ({', '.join(args.route_families)}; 6-8 m, corridors 0.35-0.45 m), "
+        f"{len(specs)} runs, {elapsed:.0f} s wall clock, {where}; noisy = LiDAR {ROUTE_NOISE} m, encoder noise "
+        f"0.02, slip 0.05; real config 360 beams at {'5 Hz' if args.lds_rate else '20 Hz'}; {args.seconds:.0f} s "
+        f"max; records in {results}"
+    )
+    print(
+        "same: the run's cells = the noise-free sim run's (up to where the shorter ends at its goal); tour: the "
+        "run's cells follow the maze's ideal hand tour; goal: reached within the time; coll: collisions"
+    )
+    print(
+        f"{'config':6s} {'noise':>5s} {'runs':>4s} {'same':>7s} {'tour':>7s} {'goal':>7s} {'coll':>4s} {'t goal':>6s}"
+    )
     tours = {}
     for family, maze in mazes:
         spec = next(s for s, k in zip(specs, keys) if k[:2] == (family, maze))
@@ -251,18 +300,27 @@ def routes(args: argparse.Namespace, results: Path) -> None:
                 times.append(r["time"])
             if at is not None or off is not None or not r["goal_reached"] or r["collisions"]:
                 tour = tours[key[:2]]
-                leaves = "" if off is None else (
-                    f"; leaves the tour after cell {off - 1}: {route[off - 1]} -> "
-                    f"{route[off] if off < len(route) else '(end)'} where the tour goes to "
-                    f"{tour[off] if off < len(tour) else '(end)'}")
-                notes.append(f"    {key[0]} {key[1]} {config_name} noise {noise} seed {key[4]}: goal "
-                             f"{'reached' if r['goal_reached'] else 'missed'} at {r['time']:.0f} s, {len(route)} cells, "
-                             f"collisions {r['collisions']}, "
-                             f"{'same cells as noise-free' if at is None else f'differs from noise-free at cell {at}'}"
-                             f"{leaves}")
+                leaves = (
+                    ""
+                    if off is None
+                    else (
+                        f"; leaves the tour after cell {off - 1}: {route[off - 1]} -> "
+                        f"{route[off] if off < len(route) else '(end)'} where the tour goes to "
+                        f"{tour[off] if off < len(tour) else '(end)'}"
+                    )
+                )
+                notes.append(
+                    f"    {key[0]} {key[1]} {config_name} noise {noise} seed {key[4]}: goal "
+                    f"{'reached' if r['goal_reached'] else 'missed'} at {r['time']:.0f} s, {len(route)} cells, "
+                    f"collisions {r['collisions']}, "
+                    f"{'same cells as noise-free' if at is None else f'differs from noise-free at cell {at}'}"
+                    f"{leaves}"
+                )
         n = len(rows)
-        print(f"{config_name:6s} {noise:5.2f} {n:4d} {same:3d}/{n:<3d} {on_tour:3d}/{n:<3d} {reached:3d}/{n:<3d} "
-              f"{collisions:4d} {statistics.mean(times) if times else math.nan:6.1f}")
+        print(
+            f"{config_name:6s} {noise:5.2f} {n:4d} {same:3d}/{n:<3d} {on_tour:3d}/{n:<3d} {reached:3d}/{n:<3d} "
+            f"{collisions:4d} {statistics.mean(times) if times else math.nan:6.1f}"
+        )
     for note in notes:
         print(note)
 

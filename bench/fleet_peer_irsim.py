@@ -26,20 +26,44 @@ def world_yaml(scene: dict, count: int) -> dict:
     xmin, ymin, xmax, ymax = scene["extent"]
     robots = scene["starts"][:count]
     return {
-        "world": {"height": ymax - ymin, "width": xmax - xmin, "offset": [xmin, ymin], "step_time": scene["dt"],
-                  "sample_time": scene["dt"], "collision_mode": "stop"},
-        "robot": [{
-            "number": count, "distribution": {"name": "manual"}, "kinematics": {"name": "diff"},
-            "shape": {"name": "circle", "radius": scene["radius"]},
-            "state": [list(start) for start in robots], "goal": [[x, y, 0.0] for x, y, _ in robots],
-            "vel_min": [-scene["max_linear"], -scene["max_angular"]],
-            "vel_max": [scene["max_linear"], scene["max_angular"]],
-            "sensors": [{"name": "lidar2d", "range_min": scene["range_min"], "range_max": scene["range_max"],
-                         "angle_range": 2.0 * math.pi, "number": scene["beams"], "noise": False}],
-        }],
-        "obstacle": [{"shape": {"name": "rectangle", "length": x1 - x0, "width": y1 - y0},
-                      "state": [0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0], "static": True}
-                     for x0, y0, x1, y1 in scene["boxes"]],
+        "world": {
+            "height": ymax - ymin,
+            "width": xmax - xmin,
+            "offset": [xmin, ymin],
+            "step_time": scene["dt"],
+            "sample_time": scene["dt"],
+            "collision_mode": "stop",
+        },
+        "robot": [
+            {
+                "number": count,
+                "distribution": {"name": "manual"},
+                "kinematics": {"name": "diff"},
+                "shape": {"name": "circle", "radius": scene["radius"]},
+                "state": [list(start) for start in robots],
+                "goal": [[x, y, 0.0] for x, y, _ in robots],
+                "vel_min": [-scene["max_linear"], -scene["max_angular"]],
+                "vel_max": [scene["max_linear"], scene["max_angular"]],
+                "sensors": [
+                    {
+                        "name": "lidar2d",
+                        "range_min": scene["range_min"],
+                        "range_max": scene["range_max"],
+                        "angle_range": 2.0 * math.pi,
+                        "number": scene["beams"],
+                        "noise": False,
+                    }
+                ],
+            }
+        ],
+        "obstacle": [
+            {
+                "shape": {"name": "rectangle", "length": x1 - x0, "width": y1 - y0},
+                "state": [0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0],
+                "static": True,
+            }
+            for x0, y0, x1, y1 in scene["boxes"]
+        ],
     }
 
 

@@ -21,6 +21,7 @@ def peers() -> tuple[dict, dict]:
     available, missing = {}, {}
     try:
         import ikpy  # noqa: F401
+
         available["ikpy"] = IkpyPeer
     except Exception as exc:  # noqa: BLE001 - report any import failure as is
         missing["ikpy"] = f"{type(exc).__name__}: {exc}"
@@ -34,6 +35,7 @@ def peers() -> tuple[dict, dict]:
         missing["rtb"] = f"{type(exc).__name__}: {exc}"
     try:
         import pytracik  # noqa: F401
+
         available["tracik"] = TracIkPeer
     except Exception as exc:  # noqa: BLE001
         missing["tracik"] = f"{type(exc).__name__}: {exc}"
@@ -54,11 +56,23 @@ class IkpyPeer:
                 raise NotImplementedError("planar prismatic joints are not modelled for ikpy")
             axis = [0.0, 0.0, 1.0]
             kwargs = {"rotation": axis} if motion == MOTION_ROT_Z else {"translation": axis, "joint_type": "prismatic"}
-            links.append(URDFLink(name=chain.joint_names[i], origin_translation=frame[:3, 3],
-                                  origin_orientation=matrix_rpy(frame[:3, :3]),
-                                  bounds=(chain.lower[i], chain.upper[i]), **kwargs))
-        links.append(URDFLink(name="tool", origin_translation=fixed[-1][:3, 3],
-                              origin_orientation=matrix_rpy(fixed[-1][:3, :3]), joint_type="fixed"))
+            links.append(
+                URDFLink(
+                    name=chain.joint_names[i],
+                    origin_translation=frame[:3, 3],
+                    origin_orientation=matrix_rpy(frame[:3, :3]),
+                    bounds=(chain.lower[i], chain.upper[i]),
+                    **kwargs,
+                )
+            )
+        links.append(
+            URDFLink(
+                name="tool",
+                origin_translation=fixed[-1][:3, 3],
+                origin_orientation=matrix_rpy(fixed[-1][:3, :3]),
+                joint_type="fixed",
+            )
+        )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             self.model = IkChain(links, active_links_mask=[False] + [True] * chain.n + [False])
@@ -72,8 +86,9 @@ class IkpyPeer:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if with_orientation:
-                q = self.model.inverse_kinematics(target[:3, 3], target[:3, :3], orientation_mode="all",
-                                                  initial_position=self._full(seed))
+                q = self.model.inverse_kinematics(
+                    target[:3, 3], target[:3, :3], orientation_mode="all", initial_position=self._full(seed)
+                )
             else:
                 q = self.model.inverse_kinematics(target[:3, 3], initial_position=self._full(seed))
         return np.asarray(q)[1:-1], math.nan  # ikpy (scipy) does not report its iterations
@@ -114,8 +129,9 @@ class RtbPeer:
             mask = None if with_orientation else np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
         # tol bounds E = 0.5 e^T W e: 1e-12 keeps |e| below 1.5e-6, inside our 1e-5 check;
         # rtb 1.5.0 binding: joint_limits must be an int and q0 a writable array
-        solution = getattr(self.model, self.method)(target, q0=np.array(seed, dtype=float), tol=1e-12, mask=mask,
-                                                    joint_limits=1)
+        solution = getattr(self.model, self.method)(
+            target, q0=np.array(seed, dtype=float), tol=1e-12, mask=mask, joint_limits=1
+        )
         return np.asarray(solution.q), float(solution.iterations)
 
 
@@ -161,21 +177,31 @@ def chain_urdf(chain: Chain) -> str:
         if motion == MOTION_TRANS_X:
             raise NotImplementedError("planar prismatic joints are not modelled for TRAC-IK")
         kind = "revolute" if motion == MOTION_ROT_Z else "prismatic"
-        parts.append(f'<link name="l{i}"/><joint name="{chain.joint_names[i]}" type="{kind}">'
-                     f'<parent link="{parent}"/><child link="l{i}"/>{origin(fixed[i])}<axis xyz="0 0 1"/>'
-                     f'<limit lower="{float(chain.lower[i])!r}" upper="{float(chain.upper[i])!r}" effort="1" '
-                     f'velocity="1"/></joint>')
+        parts.append(
+            f'<link name="l{i}"/><joint name="{chain.joint_names[i]}" type="{kind}">'
+            f'<parent link="{parent}"/><child link="l{i}"/>{origin(fixed[i])}<axis xyz="0 0 1"/>'
+            f'<limit lower="{float(chain.lower[i])!r}" upper="{float(chain.upper[i])!r}" effort="1" '
+            f'velocity="1"/></joint>'
+        )
         parent = f"l{i}"
-    parts.append(f'<link name="tip"/><joint name="tool" type="fixed"><parent link="{parent}"/>'
-                 f'<child link="tip"/>{origin(fixed[-1])}</joint></robot>')
+    parts.append(
+        f'<link name="tip"/><joint name="tool" type="fixed"><parent link="{parent}"/>'
+        f'<child link="tip"/>{origin(fixed[-1])}</joint></robot>'
+    )
     return "".join(parts)
 
 
 def _fixed_elements(ET, frame: np.ndarray) -> list:
     """Constant ETs for a 4x4: translation then Rz(yaw) Ry(pitch) Rx(roll), zeros dropped."""
     roll, pitch, yaw = matrix_rpy(frame[:3, :3])
-    candidates = [(ET.tx, frame[0, 3]), (ET.ty, frame[1, 3]), (ET.tz, frame[2, 3]),
-                  (ET.Rz, yaw), (ET.Ry, pitch), (ET.Rx, roll)]
+    candidates = [
+        (ET.tx, frame[0, 3]),
+        (ET.ty, frame[1, 3]),
+        (ET.tz, frame[2, 3]),
+        (ET.Rz, yaw),
+        (ET.Ry, pitch),
+        (ET.Rx, roll),
+    ]
     return [make(value) for make, value in candidates if abs(value) > 1e-15]
 
 
@@ -186,8 +212,7 @@ def _check_model(chain: Chain, fk) -> None:
         q = rng.uniform(chain.lower, chain.upper)
         ours, theirs = chain.fk(q).tool, np.asarray(fk(q))
         if not np.allclose(ours, theirs, atol=1e-9):
-            raise RuntimeError(f"peer model of {chain.name} disagrees with our FK by "
-                               f"{np.abs(ours - theirs).max():.3g}")
+            raise RuntimeError(f"peer model of {chain.name} disagrees with our FK by {np.abs(ours - theirs).max():.3g}")
 
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:

@@ -96,7 +96,11 @@ def build(source: Path, build_dir: Path) -> None:
     build_dir.mkdir(parents=True, exist_ok=True)
     run(
         [
-            "cmake", "-S", str(source), "-B", str(build_dir),
+            "cmake",
+            "-S",
+            str(source),
+            "-B",
+            str(build_dir),
             f"-DCMAKE_INSTALL_PREFIX={PREFIX}",
             f"-DCMAKE_PREFIX_PATH={PREFIX}",
             f"-DPython3_EXECUTABLE={sys.executable}",
@@ -129,8 +133,10 @@ def main() -> None:
         fixed = True
         build(source, (args.build_dir / package).resolve())
         stamp(package).write_text(wanted + "\n")
-        print(f"{package}: built and installed into {PREFIX} in {time.monotonic() - started:.1f} s"
-              f" ({changed} exported CMake files fixed)")
+        print(
+            f"{package}: built and installed into {PREFIX} in {time.monotonic() - started:.1f} s"
+            f" ({changed} exported CMake files fixed)"
+        )
 
 
 if __name__ == "__main__":

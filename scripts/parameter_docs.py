@@ -48,72 +48,86 @@ class Node:
 
 def _simulator():
     from amr_simulation.parameters import parameter_specs
+
     return parameter_specs()
 
 
 def _wall_follower():
     from amr_control.wall_follower_config import WallFollowerConfig
+
     return WallFollowerConfig.parameter_specs()
 
 
 def _path_follower():
     from amr_control.path_follower_config import PathFollowerConfig
+
     return PathFollowerConfig.parameter_specs()
 
 
 def _particle_filter():
     from amr_localization.localizer_node import SHELL_SPECS
     from amr_localization.particle_filter_parameters import parameter_specs
+
     return parameter_specs() + SHELL_SPECS
 
 
 def _beacon_localizer():
     from amr_localization.beacon_localizer_node import parameter_specs
+
     return parameter_specs()
 
 
 def _planner():
     from amr_planning.planner import PlannerConfig
+
     return PlannerConfig.parameter_specs()
 
 
 def _navigator():
     from amr_navigation.navigator_config import NavigatorConfig
+
     return NavigatorConfig.parameter_specs()
 
 
 def _fleet_planner():
     from amr_navigation.fleet_planner_config import FleetPlannerConfig
+
     return FleetPlannerConfig.parameter_specs()
 
 
 def _traffic():
     from amr_navigation.traffic import TrafficConfig
+
     return TrafficConfig.parameter_specs()
 
 
 def _map_server():
     from amr_maps.map_source import parameter_specs
+
     return parameter_specs()
 
 
 def _odometry_node():
     from amr_turtlebot3.odometry_node import PARAMETERS
+
     return PARAMETERS
 
 
 def _lifecycle_manager():
     from amr_bringup.lifecycle_manager import PARAMETERS
+
     return PARAMETERS
 
 
 def _recorder():
     from amr_bringup.recorder import PARAMETERS
+
     return PARAMETERS
 
 
 def _ik_service():
     from amr_kinematics.parameters import CHAINS, SERVICE_PARAMETERS
+
     return (*SERVICE_PARAMETERS, CHAINS)
 
 
@@ -121,26 +135,31 @@ def _ik_chain_keys():
     """Every `<chain>.<key>` a chain may have (named here by the key alone)."""
     from amr_kinematics.config import CHAIN_KEYS
     from dataclasses import replace
+
     return tuple(replace(spec, name=f"<chain>.{key}") for key, spec in CHAIN_KEYS.items())
 
 
 def _viewer():
     from amr_viewer.viewer_node import specs
+
     return specs()
 
 
 def _log_player():
     from amr_datasets.player_node import PARAMETERS
+
     return PARAMETERS
 
 
 def _slam():
     from amr_mapping.slam_node import parameter_specs
+
     return parameter_specs()
 
 
 def _explorer():
     from amr_mapping.explorer_node import parameter_specs
+
     return parameter_specs()
 
 
@@ -176,8 +195,10 @@ def file_values(node: Node, name: str) -> dict:
 
 def tables() -> dict[str, str]:
     """{block key: table} of every node, from the specs and the shipped files."""
-    return {node.key: parameter_table(node.specs(), {name: file_values(node, name) for name in node.files})
-            for node in NODES}
+    return {
+        node.key: parameter_table(node.specs(), {name: file_values(node, name) for name in node.files})
+        for node in NODES
+    }
 
 
 def pages() -> dict[Path, list[str]]:
@@ -198,10 +219,14 @@ def problems() -> list[str]:
             continue
         text = page.read_text(encoding="utf-8")
         present = blocks(text)
-        lines += [f"{page.relative_to(ROOT)}: no block `<!-- parameters: {key} -->`" for key in keys
-                  if key not in present]
-        lines += [f"{page.relative_to(ROOT)}: the table of {key} differs from its specs"
-                  for key in drift(text, made) if key in present]
+        lines += [
+            f"{page.relative_to(ROOT)}: no block `<!-- parameters: {key} -->`" for key in keys if key not in present
+        ]
+        lines += [
+            f"{page.relative_to(ROOT)}: the table of {key} differs from its specs"
+            for key in drift(text, made)
+            if key in present
+        ]
     return lines
 
 

@@ -124,8 +124,13 @@ class NodeProcess:
             raise FileNotFoundError(f"{path} is missing or not executable: run `make setup`")
         command = [str(path)] + (["--ros-args", *ros_args] if ros_args else [])
         self.process = subprocess.Popen(
-            command, env=child_environment(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-            start_new_session=True)
+            command,
+            env=child_environment(),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            start_new_session=True,
+        )
 
     def stop(self, timeout: float = 10.0) -> tuple[int, str]:
         """SIGINT, then SIGKILL if it lingers; returns (exit code, output)."""

@@ -1,7 +1,7 @@
 """IK solvers by name: one interface (``Solver.solve``), one registry.
 
-    from amr_kinematics.solvers import get_solver
-    result = get_solver("dls").solve(chain, target, seed=q, with_orientation=True)
+from amr_kinematics.solvers import get_solver
+result = get_solver("dls").solve(chain, target, seed=q, with_orientation=True)
 """
 
 from __future__ import annotations
@@ -43,6 +43,19 @@ def solve(chain, target, solver: str = "dls", **kwargs) -> IKResult:
 
 
 __all__ = [
-    "SOLVERS", "AnalyticSolver", "CCDSolver", "DLSSolver", "IKResult", "IterationRecord", "PinvSolver", "Solver",
-    "SpreadStarts", "applicable_solvers", "follow_path", "get_solver", "latin_hypercube", "solve", "two_link_branches",
+    "SOLVERS",
+    "AnalyticSolver",
+    "CCDSolver",
+    "DLSSolver",
+    "IKResult",
+    "IterationRecord",
+    "PinvSolver",
+    "Solver",
+    "SpreadStarts",
+    "applicable_solvers",
+    "follow_path",
+    "get_solver",
+    "latin_hypercube",
+    "solve",
+    "two_link_branches",
 ]

@@ -26,7 +26,12 @@ def _geometry(chain: Chain) -> tuple[float, float, float, float]:
     """(l1, l2, offset1, offset2) with q1 = A - offset1, q2 = B - offset2 for the 2R angles A, B."""
     tool_x, tool_y = float(chain.tool[0, 3]), float(chain.tool[1, 3])
     far_x, far_y = float(chain.a[1]) + tool_x, tool_y  # tip in the frame before link 2's length
-    return float(chain.a[0]), math.hypot(far_x, far_y), float(chain.theta[0]), float(chain.theta[1]) + math.atan2(far_y, far_x)
+    return (
+        float(chain.a[0]),
+        math.hypot(far_x, far_y),
+        float(chain.theta[0]),
+        float(chain.theta[1]) + math.atan2(far_y, far_x),
+    )
 
 
 def _local(chain: Chain, point) -> tuple[float, float]:
@@ -112,19 +117,36 @@ class AnalyticSolver(Solver):
         if not (chain.planar and chain.n == 2 and not chain.prismatic.any() and not chain.couplings):
             raise SolverNotApplicableError(
                 f"analytic solves planar 2R chains only; chain '{chain.name}' is {chain.convention} with "
-                f"{chain.n} joints ({', '.join(chain.types)})")
+                f"{chain.n} joints ({', '.join(chain.types)})"
+            )
         if with_orientation:
             raise SolverNotApplicableError("a 2R arm cannot choose its orientation: analytic takes a position only")
 
     def _solve(self, chain, goal, q0, request, configuration) -> IKResult:
         candidates, reachable = _branches(chain, goal.position)
         if not candidates:
-            return finish(chain, goal, q0, request, solver=self.name, iterations=1, converged=False,
-                          message="reachable, but neither elbow branch fits the joint limits: seed returned")
+            return finish(
+                chain,
+                goal,
+                q0,
+                request,
+                solver=self.name,
+                iterations=1,
+                converged=False,
+                message="reachable, but neither elbow branch fits the joint limits: seed returned",
+            )
         q = np.array(_nearest(chain, candidates, q0.tolist()))
         message = "solved: branch nearest the seed" if reachable else "unreachable: closest configuration returned"
-        return finish(chain, goal, q, request, solver=self.name, iterations=1, message=message,
-                      converged=None if reachable else False)
+        return finish(
+            chain,
+            goal,
+            q,
+            request,
+            solver=self.name,
+            iterations=1,
+            message=message,
+            converged=None if reachable else False,
+        )
 
 
 def follow_path(chain: Chain, points, q_start=None) -> tuple[np.ndarray, np.ndarray]:

@@ -105,8 +105,13 @@ def parse_goal(chain: Chain, target, with_orientation: bool, task: Task | None =
         # the common case in one compiled call: the same checks and the same goal as below
         position = np.empty(3)
         rotation = np.empty((3, 3)) if with_orientation else None
-        problem = compiled.pose_goal(target, MAX_TARGET_DISTANCE, (2 if chain.planar else 1) if with_orientation else 0,
-                                     position, _NO_ROTATION if rotation is None else rotation)
+        problem = compiled.pose_goal(
+            target,
+            MAX_TARGET_DISTANCE,
+            (2 if chain.planar else 1) if with_orientation else 0,
+            position,
+            _NO_ROTATION if rotation is None else rotation,
+        )
         if problem != compiled.POSE_OK:
             _refuse(target[:3, 3].tolist() if problem == compiled.POSE_ABSURD else [], problem)
         return Goal(position, rotation)
@@ -136,7 +141,9 @@ def parse_goal(chain: Chain, target, with_orientation: bool, task: Task | None =
         return Goal(array, None)
     if array.shape == (2,) and chain.planar:
         return Goal(np.array([array[0], array[1], 0.0]), None)
-    raise InvalidRequestError(f"target must be a position (x, y, z), a planar (x, y) or a 4x4 pose, got shape {array.shape}")
+    raise InvalidRequestError(
+        f"target must be a position (x, y, z), a planar (x, y) or a 4x4 pose, got shape {array.shape}"
+    )
 
 
 def _refuse(position: list, problem: int) -> None:
@@ -145,16 +152,18 @@ def _refuse(position: list, problem: int) -> None:
     if problem == compiled.POSE_NOT_FINITE:
         raise InvalidRequestError("target must be finite (no NaN or inf)")
     if problem == compiled.POSE_ABSURD:
-        raise InvalidRequestError(f"target position {position} is absurd: "
-                                  f"coordinates beyond {MAX_TARGET_DISTANCE:g} m are refused")
+        raise InvalidRequestError(
+            f"target position {position} is absurd: coordinates beyond {MAX_TARGET_DISTANCE:g} m are refused"
+        )
     raise InvalidRequestError("target pose is not a rigid transform (rotation not orthonormal)")
 
 
 def _task_goal(chain: Chain, target, task: Task) -> Goal:
     """Goal of a partial-pose task: a position, or a 4x4 pose when rotation rows need one."""
     if chain.planar:
-        raise InvalidRequestError("partial-pose tasks are for spatial chains (a planar chain takes x, y and yaw "
-                                  "with with_orientation)")
+        raise InvalidRequestError(
+            "partial-pose tasks are for spatial chains (a planar chain takes x, y and yaw with with_orientation)"
+        )
     pose = np.asarray(target, dtype=float) if np.shape(target) == (4, 4) else None
     goal = parse_goal(chain, target, pose is not None)
     if task.uses_rotation_target and goal.rotation is None:
@@ -251,16 +260,29 @@ class Solver:
         settings = self._configured(options, chain.planar)
         goal = parse_goal(chain, target, bool(with_orientation), task)
         tolerance = _positive("tolerance", tolerance, MAX_TOLERANCE)
-        orientation_tolerance = tolerance if orientation_tolerance is None else _positive(
-            "orientation_tolerance", orientation_tolerance, math.pi)
+        orientation_tolerance = (
+            tolerance
+            if orientation_tolerance is None
+            else _positive("orientation_tolerance", orientation_tolerance, math.pi)
+        )
         max_iterations = _iterations(max_iterations)
         timeout = _positive("timeout", timeout, MAX_TIMEOUT)
-        q0 = chain.clamp(np.zeros(chain.n)) if seed is None else (
-            _seed(chain, seed) if self.runs_compiled else chain.checked_clamp(seed, "seed"))
+        q0 = (
+            chain.clamp(np.zeros(chain.n))
+            if seed is None
+            else (_seed(chain, seed) if self.runs_compiled else chain.checked_clamp(seed, "seed"))
+        )
         if chain.couplings:
             q0 = chain.apply_coupling(q0)
-        request = Request(bool(with_orientation), tolerance, orientation_tolerance, max_iterations,
-                          started + timeout, bool(record_history), started)
+        request = Request(
+            bool(with_orientation),
+            tolerance,
+            orientation_tolerance,
+            max_iterations,
+            started + timeout,
+            bool(record_history),
+            started,
+        )
         result = self._solve(chain, goal, q0, request, settings)
         result.elapsed = time.perf_counter() - started
         return result
@@ -280,7 +302,9 @@ class Solver:
             return cache[key]
         unknown = set(options) - set(self.options)
         if unknown:
-            raise InvalidRequestError(f"solver '{self.name}' has no option(s) {sorted(unknown)}; it takes {sorted(self.options)}")
+            raise InvalidRequestError(
+                f"solver '{self.name}' has no option(s) {sorted(unknown)}; it takes {sorted(self.options)}"
+            )
         configuration = self.configure({**self.options, **options}, planar)
         if key is not None and len(cache) < 256:
             cache[key] = configuration
@@ -296,17 +320,38 @@ class Solver:
         raise NotImplementedError
 
 
-def finish(chain: Chain, goal: Goal, q: np.ndarray, request: Request, *, solver: str, iterations: int,
-           message: str, attempts: int = 1, history=None, converged: bool | None = None) -> IKResult:
+def finish(
+    chain: Chain,
+    goal: Goal,
+    q: np.ndarray,
+    request: Request,
+    *,
+    solver: str,
+    iterations: int,
+    message: str,
+    attempts: int = 1,
+    history=None,
+    converged: bool | None = None,
+) -> IKResult:
     """Build the result at q: reached pose, errors, and success against the tolerances."""
     q = np.asarray(q, dtype=float)
     reached = chain_pose(chain, q)
     position_error, orientation_error, error = measure(chain, goal, reached)
     if converged is None:
         converged = position_error <= request.tolerance and orientation_error <= request.orientation_tolerance
-    return IKResult(q=q, success=bool(converged), position_error=position_error, orientation_error=orientation_error,
-                    iterations=iterations, message=message, reached=reached, error=error, solver=solver,
-                    attempts=attempts, history=history)
+    return IKResult(
+        q=q,
+        success=bool(converged),
+        position_error=position_error,
+        orientation_error=orientation_error,
+        iterations=iterations,
+        message=message,
+        reached=reached,
+        error=error,
+        solver=solver,
+        attempts=attempts,
+        history=history,
+    )
 
 
 def chain_pose(chain: Chain, q) -> np.ndarray:
@@ -318,8 +363,9 @@ def chain_pose(chain: Chain, q) -> np.ndarray:
 def measure(chain: Chain, goal: Goal, reached: np.ndarray) -> tuple[float, float, np.ndarray]:
     """(position error, orientation error, error vector) of a reached pose."""
     if goal.task is not None:
-        error, _, position_error, orientation_error = task_rows(goal.task, goal.position, goal.rotation,
-                                                                reached[:3, 3], reached[:3, :3], None)
+        error, _, position_error, orientation_error = task_rows(
+            goal.task, goal.position, goal.rotation, reached[:3, 3], reached[:3, :3], None
+        )
         return position_error, orientation_error, error
     (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
     tx, ty, tz = goal.position.tolist()

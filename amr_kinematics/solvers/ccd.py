@@ -41,8 +41,11 @@ class CCDSolver(Solver):
     }
 
     def configure(self, settings: dict, planar: bool):
-        return (bool(settings["restarts"]), opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1),
-                opt.number("min_progress", settings["min_progress"], high=1.0))
+        return (
+            bool(settings["restarts"]),
+            opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1),
+            opt.number("min_progress", settings["min_progress"], high=1.0),
+        )
 
     def check(self, chain, with_orientation=False) -> None:
         if not chain.planar:
@@ -81,8 +84,16 @@ class CCDSolver(Solver):
         start, iterations, attempts = q0.tolist(), 0, 0
         best_q, best_distance = start, math.inf
         while True:
-            q, distance, steps, message = self._descend(frames, (lower, upper, prismatic), start, (tx, ty), request,
-                                                   history, iterations, min_progress if restarts else 0.0)
+            q, distance, steps, message = self._descend(
+                frames,
+                (lower, upper, prismatic),
+                start,
+                (tx, ty),
+                request,
+                history,
+                iterations,
+                min_progress if restarts else 0.0,
+            )
             iterations += steps
             attempts += 1
             if distance < best_distance:
@@ -92,8 +103,17 @@ class CCDSolver(Solver):
             start = starts.take(1)[0].tolist()
         if restarts and message != "converged" and attempts > 1:
             message = f"timeout: closest configuration of {attempts} descents returned"
-        return finish(chain, goal, np.array(best_q), request, solver=self.name, iterations=iterations,
-                      message=message, attempts=attempts, history=history)
+        return finish(
+            chain,
+            goal,
+            np.array(best_q),
+            request,
+            solver=self.name,
+            iterations=iterations,
+            message=message,
+            attempts=attempts,
+            history=history,
+        )
 
     @staticmethod
     def _descend(frames, bounds, q, target, request, history, first_iteration, min_progress):
@@ -138,8 +158,9 @@ class CCDSolver(Solver):
             distance = math.hypot(tx - tip[0], ty - tip[1])
             if distance < best_distance:
                 best_q, best_distance = list(q), distance
-            if distance > request.tolerance and abs(previous - distance) <= max(request.tolerance / 100.0,
-                                                                                min_progress * previous):
+            if distance > request.tolerance and abs(previous - distance) <= max(
+                request.tolerance / 100.0, min_progress * previous
+            ):
                 iteration += 1
                 if history is not None:
                     history.append(IterationRecord(first_iteration + iteration, np.array(q), distance, 0.0))

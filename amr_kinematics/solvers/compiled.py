@@ -50,8 +50,10 @@ AVAILABLE = numba is not None
 def chain_arrays(chain) -> tuple[np.ndarray, np.ndarray]:
     """(fixed (n + 1, 4, 4), motion codes (n,)) of a chain, for the compiled loop."""
     fixed, motions = chain.segments()
-    return (np.ascontiguousarray(np.array(fixed, dtype=float)),
-            np.array([_MOTION_CODES.get(m, 1) for m in motions], dtype=np.int64))
+    return (
+        np.ascontiguousarray(np.array(fixed, dtype=float)),
+        np.array([_MOTION_CODES.get(m, 1) for m in motions], dtype=np.int64),
+    )
 
 
 def _jit(function):
@@ -67,16 +69,22 @@ def _pose_jacobian(fixed, motion, q, R, p, axes, points, jac):
     p0 = p1 = p2 = 0.0
     for i in range(n + 1):
         f = fixed[i]  # T <- T F: p' = R f_p + p, R' = R f_R
-        p0, p1, p2 = (r00 * f[0, 3] + r01 * f[1, 3] + r02 * f[2, 3] + p0,
-                      r10 * f[0, 3] + r11 * f[1, 3] + r12 * f[2, 3] + p1,
-                      r20 * f[0, 3] + r21 * f[1, 3] + r22 * f[2, 3] + p2)
+        p0, p1, p2 = (
+            r00 * f[0, 3] + r01 * f[1, 3] + r02 * f[2, 3] + p0,
+            r10 * f[0, 3] + r11 * f[1, 3] + r12 * f[2, 3] + p1,
+            r20 * f[0, 3] + r21 * f[1, 3] + r22 * f[2, 3] + p2,
+        )
         r00, r01, r02, r10, r11, r12, r20, r21, r22 = (
-            r00 * f[0, 0] + r01 * f[1, 0] + r02 * f[2, 0], r00 * f[0, 1] + r01 * f[1, 1] + r02 * f[2, 1],
+            r00 * f[0, 0] + r01 * f[1, 0] + r02 * f[2, 0],
+            r00 * f[0, 1] + r01 * f[1, 1] + r02 * f[2, 1],
             r00 * f[0, 2] + r01 * f[1, 2] + r02 * f[2, 2],
-            r10 * f[0, 0] + r11 * f[1, 0] + r12 * f[2, 0], r10 * f[0, 1] + r11 * f[1, 1] + r12 * f[2, 1],
+            r10 * f[0, 0] + r11 * f[1, 0] + r12 * f[2, 0],
+            r10 * f[0, 1] + r11 * f[1, 1] + r12 * f[2, 1],
             r10 * f[0, 2] + r11 * f[1, 2] + r12 * f[2, 2],
-            r20 * f[0, 0] + r21 * f[1, 0] + r22 * f[2, 0], r20 * f[0, 1] + r21 * f[1, 1] + r22 * f[2, 1],
-            r20 * f[0, 2] + r21 * f[1, 2] + r22 * f[2, 2])
+            r20 * f[0, 0] + r21 * f[1, 0] + r22 * f[2, 0],
+            r20 * f[0, 1] + r21 * f[1, 1] + r22 * f[2, 1],
+            r20 * f[0, 2] + r21 * f[1, 2] + r22 * f[2, 2],
+        )
         if i == n:
             break
         if motion[i] == 2:  # slides along x
@@ -92,7 +100,16 @@ def _pose_jacobian(fixed, motion, q, R, p, axes, points, jac):
         else:  # T <- T Tz(q) or T Tx(q)
             p0, p1, p2 = p0 + q[i] * axes[i, 0], p1 + q[i] * axes[i, 1], p2 + q[i] * axes[i, 2]
     R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2] = (
-        r00, r01, r02, r10, r11, r12, r20, r21, r22)
+        r00,
+        r01,
+        r02,
+        r10,
+        r11,
+        r12,
+        r20,
+        r21,
+        r22,
+    )
     p[0], p[1], p[2] = p0, p1, p2
     for i in range(n):
         a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
@@ -213,7 +230,6 @@ def _expand(x, var, n, couplings, offsets, coefficients, coupled_lower, coupled_
     return q
 
 
-
 POSE_OK, POSE_NOT_FINITE, POSE_ABSURD, POSE_NOT_RIGID = 0, 1, 2, 3
 
 
@@ -237,6 +253,7 @@ def check_pose(pose, max_distance):
     if pose[3, 0] != 0.0 or pose[3, 1] != 0.0 or pose[3, 2] != 0.0 or pose[3, 3] != 1.0:
         return POSE_NOT_RIGID
     return POSE_OK
+
 
 @_jit
 def pose_goal(pose, max_distance, rotation_mode, position, rotation):
@@ -278,13 +295,26 @@ def clamp_finite(values, lower, upper, out):
     return True
 
 
-def pack_chain(fixed, motion, var, reduction, couplings, offsets, coefficients, coupled_lower, coupled_upper,
-               lower, upper, revolute) -> tuple[np.ndarray, np.ndarray]:
+def pack_chain(
+    fixed,
+    motion,
+    var,
+    reduction,
+    couplings,
+    offsets,
+    coefficients,
+    coupled_lower,
+    coupled_upper,
+    lower,
+    upper,
+    revolute,
+) -> tuple[np.ndarray, np.ndarray]:
     """A chain's arrays as one float and one int array: numba checks the type of every
     argument at every call (about 1 us each), so a call takes few arguments."""
     n, nv, k = motion.size, var.size, couplings.size
-    floats = np.concatenate([fixed.ravel(), reduction.ravel(), offsets, coefficients.ravel(), coupled_lower,
-                             coupled_upper, lower, upper]).astype(float)
+    floats = np.concatenate(
+        [fixed.ravel(), reduction.ravel(), offsets, coefficients.ravel(), coupled_lower, coupled_upper, lower, upper]
+    ).astype(float)
     ints = np.concatenate([[n, nv, k], motion, var, couplings, revolute.astype(np.int64)]).astype(np.int64)
     return floats, ints
 
@@ -302,36 +332,72 @@ def attempt_packed(chain_floats, chain_ints, goal_floats, goal_ints, settings, q
     """``attempt`` on packed arrays; settings = (lam2, adaptive, gain, tolerance2, orientation_tolerance)."""
     n, nv, k = chain_ints[0], chain_ints[1], chain_ints[2]
     at = 3
-    motion = chain_ints[at:at + n]
-    var = chain_ints[at + n:at + n + nv]
-    couplings = chain_ints[at + n + nv:at + n + nv + k]
-    revolute = chain_ints[at + n + nv + k:at + n + 2 * nv + k] != 0
+    motion = chain_ints[at : at + n]
+    var = chain_ints[at + n : at + n + nv]
+    couplings = chain_ints[at + n + nv : at + n + nv + k]
+    revolute = chain_ints[at + n + nv + k : at + n + 2 * nv + k] != 0
     at = 0
-    fixed = chain_floats[at:at + 16 * (n + 1)].reshape((n + 1, 4, 4))
+    fixed = chain_floats[at : at + 16 * (n + 1)].reshape((n + 1, 4, 4))
     at += 16 * (n + 1)
-    reduction = chain_floats[at:at + n * nv].reshape((n, nv))
+    reduction = chain_floats[at : at + n * nv].reshape((n, nv))
     at += n * nv
-    offsets = chain_floats[at:at + k]
+    offsets = chain_floats[at : at + k]
     at += k
-    coefficients = chain_floats[at:at + k * n].reshape((k, n))
+    coefficients = chain_floats[at : at + k * n].reshape((k, n))
     at += k * n
-    coupled_lower, coupled_upper = chain_floats[at:at + k], chain_floats[at + k:at + 2 * k]
+    coupled_lower, coupled_upper = chain_floats[at : at + k], chain_floats[at + k : at + 2 * k]
     at += 2 * k
-    lower, upper = chain_floats[at:at + nv], chain_floats[at + nv:at + 2 * nv]
+    lower, upper = chain_floats[at : at + nv], chain_floats[at + nv : at + 2 * nv]
     m = goal_ints[0]
-    rows = goal_ints[3:3 + m]
+    rows = goal_ints[3 : 3 + m]
     target = goal_floats[0:3]
     rotation = goal_floats[3:12].reshape((3, 3))
-    weights = goal_floats[12:12 + m]
-    return attempt(fixed, motion, var, reduction, couplings, offsets, coefficients, coupled_lower, coupled_upper,
-                   lower, upper, revolute, rows, weights, target, rotation, goal_ints[1] != 0, goal_ints[2] != 0,
-                   q0, max_steps, settings[0], settings[1], settings[2], settings[3], settings[4], patience)
-
+    weights = goal_floats[12 : 12 + m]
+    return attempt(
+        fixed,
+        motion,
+        var,
+        reduction,
+        couplings,
+        offsets,
+        coefficients,
+        coupled_lower,
+        coupled_upper,
+        lower,
+        upper,
+        revolute,
+        rows,
+        weights,
+        target,
+        rotation,
+        goal_ints[1] != 0,
+        goal_ints[2] != 0,
+        q0,
+        max_steps,
+        settings[0],
+        settings[1],
+        settings[2],
+        settings[3],
+        settings[4],
+        patience,
+    )
 
 
 @_jit
-def attempt_measured(chain_floats, chain_ints, template, goal_ints, position, rotation, tolerance2,
-                     orientation_tolerance, q0, max_steps, patience, out):
+def attempt_measured(
+    chain_floats,
+    chain_ints,
+    template,
+    goal_ints,
+    position,
+    rotation,
+    tolerance2,
+    orientation_tolerance,
+    q0,
+    max_steps,
+    patience,
+    out,
+):
     """``attempt_packed``, then what a result reports of its best q, in the same call (a solve that
     needs no restart makes one compiled call).  template: ``pack_goal``'s floats, then the settings
     of ``attempt_packed``, of which the goal's position (3,), rotation (3, 3) and the two tolerances
@@ -346,11 +412,12 @@ def attempt_measured(chain_floats, chain_ints, template, goal_ints, position, ro
             goal_floats[3 + 3 * i + j] = rotation[i, j]
     goal_floats[-2] = tolerance2
     goal_floats[-1] = orientation_tolerance
-    q, converged, iterations, score = attempt_packed(chain_floats, chain_ints, goal_floats[:-5], goal_ints,
-                                                     goal_floats[-5:], q0, max_steps, patience)
+    q, converged, iterations, score = attempt_packed(
+        chain_floats, chain_ints, goal_floats[:-5], goal_ints, goal_floats[-5:], q0, max_steps, patience
+    )
     n = chain_ints[0]
-    motion = chain_ints[3:3 + n]
-    fixed = chain_floats[:16 * (n + 1)].reshape((n + 1, 4, 4))
+    motion = chain_ints[3 : 3 + n]
+    fixed = chain_floats[: 16 * (n + 1)].reshape((n + 1, 4, 4))
     has_rotation, planar = goal_ints[1] != 0, goal_ints[2] != 0
     R, p = np.empty((3, 3)), np.empty(3)
     jacobian, axes, points = np.empty((6, n)), np.empty((n, 3)), np.empty((n, 3))
@@ -380,10 +447,36 @@ def attempt_measured(chain_floats, chain_ints, template, goal_ints, position, ro
             out[n + 17] = math.sqrt(wx * wx + wy * wy + wz * wz)
     return converged, iterations, score
 
+
 @_jit
-def attempt(fixed, motion, var, reduction, couplings, offsets, coefficients, coupled_lower, coupled_upper,
-            lower, upper, revolute, rows, weights, target, rotation, use_rotation, planar,
-            q0, max_steps, lam2, adaptive, gain, tolerance2, orientation_tolerance, patience):
+def attempt(
+    fixed,
+    motion,
+    var,
+    reduction,
+    couplings,
+    offsets,
+    coefficients,
+    coupled_lower,
+    coupled_upper,
+    lower,
+    upper,
+    revolute,
+    rows,
+    weights,
+    target,
+    rotation,
+    use_rotation,
+    planar,
+    q0,
+    max_steps,
+    lam2,
+    adaptive,
+    gain,
+    tolerance2,
+    orientation_tolerance,
+    patience,
+):
     """One DLS descent from q0: (best q, converged, iterations, best score)."""
     n = motion.shape[0]
     m = rows.shape[0]
@@ -482,13 +575,13 @@ def best_start(chain_floats, chain_ints, goal_floats, goal_ints, candidates):
     """Index of the candidate (rows of full joint vectors) with the least weighted task error:
     the restart choice of ``dls`` in one call instead of one Python FK per candidate."""
     n = chain_ints[0]
-    motion = chain_ints[3:3 + n]
-    fixed = chain_floats[:16 * (n + 1)].reshape((n + 1, 4, 4))
+    motion = chain_ints[3 : 3 + n]
+    fixed = chain_floats[: 16 * (n + 1)].reshape((n + 1, 4, 4))
     m = goal_ints[0]
-    rows = goal_ints[3:3 + m]
+    rows = goal_ints[3 : 3 + m]
     target = goal_floats[0:3]
     rotation = goal_floats[3:12].reshape((3, 3))
-    weights = goal_floats[12:12 + m]
+    weights = goal_floats[12 : 12 + m]
     use_rotation, planar = goal_ints[1] != 0, goal_ints[2] != 0
     jacobian = np.empty((6, n))
     R, p = np.empty((3, 3)), np.empty(3)

@@ -26,16 +26,16 @@ class DLSSolver(Solver):
     name = "dls"
     runs_compiled = True  # the compiled attempts (compiled.py), when numba is there
     options = {
-        "damping": 1e-3,             # lambda-bar, m
-        "adaptive_damping": 0.1,     # lambda^2 = damping^2 + adaptive_damping |e|^2 (0: constant)
-        "angular_weight": None,      # m/rad of rotation rows; see iterative.StepSettings
+        "damping": 1e-3,  # lambda-bar, m
+        "adaptive_damping": 0.1,  # lambda^2 = damping^2 + adaptive_damping |e|^2 (0: constant)
+        "angular_weight": None,  # m/rad of rotation rows; see iterative.StepSettings
         "coupling_update": "reduced",
-        "axis_tolerance": None,      # per-axis position bounds (m) instead of the norm
+        "axis_tolerance": None,  # per-axis position bounds (m) instead of the norm
         "restarts": True,
-        "attempt_iterations": 30,    # steps per attempt before a restart
-        "patience": 5,               # steps without 0.1 % progress before a restart
-        "restart_candidates": 8,     # spread configurations per restart; the closest to the goal is used
-        "random_seed": 0,            # restarts are reproducible
+        "attempt_iterations": 30,  # steps per attempt before a restart
+        "patience": 5,  # steps without 0.1 % progress before a restart
+        "restart_candidates": 8,  # spread configurations per restart; the closest to the goal is used
+        "random_seed": 0,  # restarts are reproducible
     }
 
     def check_task(self, chain) -> None:
@@ -46,16 +46,22 @@ class DLSSolver(Solver):
         step = StepSettings(
             damping=opt.number("damping", settings["damping"]),
             adaptive_damping=opt.number("adaptive_damping", settings["adaptive_damping"]),
-            angular_weight=None if settings["angular_weight"] is None else opt.number("angular_weight", settings["angular_weight"]),
+            angular_weight=None
+            if settings["angular_weight"] is None
+            else opt.number("angular_weight", settings["angular_weight"]),
             coupling_update=opt.choice("coupling_update", settings["coupling_update"], COUPLING_UPDATES),
             axis_tolerance=opt.axis_tolerance(settings["axis_tolerance"], 2 if planar else 3),
             patience=opt.integer("patience", settings["patience"], low=0) if restarts else 0,
         )
         if step.damping == 0.0 and step.adaptive_damping == 0.0:
             raise opt.InvalidRequestError("dls needs damping > 0 or adaptive_damping > 0 (else it is 'pinv')")
-        return (step, restarts, opt.integer("attempt_iterations", settings["attempt_iterations"]),
-                opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1),
-                opt.integer("restart_candidates", settings["restart_candidates"], high=1000))
+        return (
+            step,
+            restarts,
+            opt.integer("attempt_iterations", settings["attempt_iterations"]),
+            opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1),
+            opt.integer("restart_candidates", settings["restart_candidates"], high=1000),
+        )
 
     def _solve(self, chain, goal, q0, request, configuration) -> IKResult:
         step, restarts, attempt_iterations, random_seed, restart_candidates = configuration
@@ -66,8 +72,9 @@ class DLSSolver(Solver):
             best, out = first
             used, attempts = best.iterations, 1
             if best.converged or not restarts or time.perf_counter() > request.deadline:
-                return measured_result(chain, out, best, solver=self.name,
-                                       message=_message(best, best, 1, used, restarts, request))
+                return measured_result(
+                    chain, out, best, solver=self.name, message=_message(best, best, 1, used, restarts, request)
+                )
         refiner = Refiner(chain, goal, request, step)
         starts = SpreadStarts(chain, q0, restart_candidates * BATCHES_PER_HYPERCUBE, random_seed)
         if first is not None:
@@ -81,9 +88,18 @@ class DLSSolver(Solver):
             if attempt.converged or attempt.timed_out or not restarts or time.perf_counter() > request.deadline:
                 break
             q = refiner.closest(starts.take(restart_candidates))
-        return finish(chain, goal, best.q, request, solver=self.name, iterations=used,
-                      message=_message(best, attempt, attempts, used, restarts, request),
-                      attempts=attempts, history=refiner.history, converged=best.converged)
+        return finish(
+            chain,
+            goal,
+            best.q,
+            request,
+            solver=self.name,
+            iterations=used,
+            message=_message(best, attempt, attempts, used, restarts, request),
+            attempts=attempts,
+            history=refiner.history,
+            converged=best.converged,
+        )
 
 
 def _message(best, last, attempts: int, used: int, restarts: bool, request) -> str:

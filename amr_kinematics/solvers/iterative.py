@@ -70,7 +70,7 @@ class StepSettings:
 class _Layout:
     """What a chain's joints look like to the solver: computed once per chain."""
 
-    var: np.ndarray                  # indices of the solver's variables
+    var: np.ndarray  # indices of the solver's variables
     coupling_matrix: np.ndarray | None  # dq_full = C dx for the reduced coupling update
     lower: np.ndarray
     upper: np.ndarray
@@ -95,32 +95,56 @@ def _layout(chain: Chain, project: bool) -> _Layout:
             for coupling in chain.couplings:
                 matrix[coupling.joint] = coupling.coefficients[var]
         lower, upper, revolute = chain.lower[var], chain.upper[var], ~chain.prismatic[var]
-        terms = () if matrix is None else tuple(
-            (c.joint, c.offset, float(chain.lower[c.joint]), float(chain.upper[c.joint]),
-             tuple((j, float(c.coefficients[v])) for j, v in enumerate(var) if c.coefficients[v] != 0.0))
-            for c in chain.couplings)
+        terms = (
+            ()
+            if matrix is None
+            else tuple(
+                (
+                    c.joint,
+                    c.offset,
+                    float(chain.lower[c.joint]),
+                    float(chain.upper[c.joint]),
+                    tuple((j, float(c.coefficients[v])) for j, v in enumerate(var) if c.coefficients[v] != 0.0),
+                )
+                for c in chain.couplings
+            )
+        )
         fixed, motion = compiled.chain_arrays(chain)
         joints = [c.joint for c in chain.couplings]  # project: var is every joint (compiled.attempt tells so)
         arrays = compiled.pack_chain(
-            fixed, motion, var.astype(np.int64), np.eye(chain.n) if matrix is None else matrix,
-            np.array(joints, dtype=np.int64), np.array([c.offset for c in chain.couplings], dtype=float),
+            fixed,
+            motion,
+            var.astype(np.int64),
+            np.eye(chain.n) if matrix is None else matrix,
+            np.array(joints, dtype=np.int64),
+            np.array([c.offset for c in chain.couplings], dtype=float),
             np.array([c.coefficients for c in chain.couplings], dtype=float).reshape(len(joints), chain.n),
-            chain.lower[joints].astype(float), chain.upper[joints].astype(float),
-            lower.astype(float), upper.astype(float), revolute.astype(np.bool_))
-        cached[project] = _Layout(var, matrix, lower, upper, revolute,
-                                  (lower.tolist(), upper.tolist(), revolute.tolist()), terms, arrays, {})
+            chain.lower[joints].astype(float),
+            chain.upper[joints].astype(float),
+            lower.astype(float),
+            upper.astype(float),
+            revolute.astype(np.bool_),
+        )
+        cached[project] = _Layout(
+            var, matrix, lower, upper, revolute, (lower.tolist(), upper.tolist(), revolute.tolist()), terms, arrays, {}
+        )
     return cached[project]
 
 
-
-def measured_attempt(chain: Chain, goal: Goal, request: Request, step: StepSettings, q0: np.ndarray,
-                     max_steps: int) -> "tuple[Attempt, np.ndarray] | None":
+def measured_attempt(
+    chain: Chain, goal: Goal, request: Request, step: StepSettings, q0: np.ndarray, max_steps: int
+) -> "tuple[Attempt, np.ndarray] | None":
     """The first attempt of a solve and the measures of its end in one compiled call
     (``compiled.attempt_measured``: same steps as ``Refiner.run``), or None where the compiled
     attempt does not apply.  Why: at 2-4 joints the Python around one compiled attempt (building
     a Refiner, then FK and errors again for the result) cost more than the attempt itself."""
-    if not (compiled.AVAILABLE and goal.task is None and step.axis_tolerance is None and not request.record_history
-            and max_steps <= compiled.MAX_COMPILED_STEPS):
+    if not (
+        compiled.AVAILABLE
+        and goal.task is None
+        and step.axis_tolerance is None
+        and not request.record_history
+        and max_steps <= compiled.MAX_COMPILED_STEPS
+    ):
         return None
     layout = _layout(chain, step.coupling_update == "project")
     has_rotation = goal.rotation is not None
@@ -134,39 +158,68 @@ def measured_attempt(chain: Chain, goal: Goal, request: Request, step: StepSetti
         rotation_rows = ([5] if chain.planar else [3, 4, 5]) if has_rotation or weight > 0.0 else []
         floats, ints = compiled.pack_goal(
             np.array(position_rows + rotation_rows, dtype=np.int64),
-            np.array([1.0] * len(position_rows) + [weight] * len(rotation_rows)), np.zeros(3), _EYE3,
-            has_rotation, chain.planar)
+            np.array([1.0] * len(position_rows) + [weight] * len(rotation_rows)),
+            np.zeros(3),
+            _EYE3,
+            has_rotation,
+            chain.planar,
+        )
         # the step settings follow the goal (compiled.attempt_measured): one array less to pass
-        plan = (np.concatenate([floats, [step.damping ** 2, step.adaptive_damping, step.gain, 0.0, 0.0]]), ints,
-                chain.n + 18 + (2 if chain.planar else 3) + ((1 if chain.planar else 3) if has_rotation else 0))
+        plan = (
+            np.concatenate([floats, [step.damping**2, step.adaptive_damping, step.gain, 0.0, 0.0]]),
+            ints,
+            chain.n + 18 + (2 if chain.planar else 3) + ((1 if chain.planar else 3) if has_rotation else 0),
+        )
         if len(layout.packed_goals) < 64:
             layout.packed_goals[key] = plan
     template, ints, size = plan
     out = np.empty(size)
     chain_floats, chain_ints = layout.arrays
     converged, iterations, score = compiled.attempt_measured(
-        chain_floats, chain_ints, template, ints, goal.position, goal.rotation if has_rotation else _EYE3,
-        request.tolerance ** 2, request.orientation_tolerance, q0, max_steps, step.patience, out)
+        chain_floats,
+        chain_ints,
+        template,
+        ints,
+        goal.position,
+        goal.rotation if has_rotation else _EYE3,
+        request.tolerance**2,
+        request.orientation_tolerance,
+        q0,
+        max_steps,
+        step.patience,
+        out,
+    )
     n = chain.n
     return Attempt(out[:n], converged, iterations, score), out
 
 
-def measured_result(chain: Chain, out: np.ndarray, attempt: "Attempt", *, solver: str, message: str,
-                    attempts: int = 1) -> IKResult:
+def measured_result(
+    chain: Chain, out: np.ndarray, attempt: "Attempt", *, solver: str, message: str, attempts: int = 1
+) -> IKResult:
     """The IKResult of ``measured_attempt``'s output (what ``base.finish`` computes, already done)."""
     n = chain.n
-    return IKResult(q=out[:n], success=attempt.converged, position_error=float(out[n + 16]),
-                    orientation_error=float(out[n + 17]), iterations=attempt.iterations, message=message,
-                    reached=out[n:n + 16].reshape(4, 4), error=out[n + 18:], solver=solver, attempts=attempts)
+    return IKResult(
+        q=out[:n],
+        success=attempt.converged,
+        position_error=float(out[n + 16]),
+        orientation_error=float(out[n + 17]),
+        iterations=attempt.iterations,
+        message=message,
+        reached=out[n : n + 16].reshape(4, 4),
+        error=out[n + 18 :],
+        solver=solver,
+        attempts=attempts,
+    )
+
 
 @dataclass
 class Attempt:
     """Outcome of refining from one start."""
 
-    q: np.ndarray          # best joint vector of the attempt (full, within limits)
+    q: np.ndarray  # best joint vector of the attempt (full, within limits)
     converged: bool
     iterations: int
-    score: float           # weighted squared task error at q
+    score: float  # weighted squared task error at q
     timed_out: bool = False
 
 
@@ -190,7 +243,7 @@ class Refiner:
         self.position_rows = [0, 1] if chain.planar else [0, 1, 2]
         self.rotation_rows = ([5] if chain.planar else [3, 4, 5]) if self.use_rotation_rows else []
         self.m = len(self.position_rows) + len(self.rotation_rows)
-        self.tolerance2 = request.tolerance ** 2
+        self.tolerance2 = request.tolerance**2
         self.orientation_tolerance = request.orientation_tolerance
         self.axis_tolerance = step.axis_tolerance
         layout = _layout(chain, step.coupling_update == "project")
@@ -198,17 +251,19 @@ class Refiner:
         self.lower, self.upper, self.revolute = layout.lower, layout.upper, layout.revolute
         self.bounds = layout.bounds
         self.terms = layout.terms
-        self.lam2 = step.damping ** 2
+        self.lam2 = step.damping**2
         reduced = not chain.couplings or step.coupling_update == "reduced"
         self.arrays = layout.arrays
         # the compiled attempt (compiled.py) covers what the scalar and pose loops do, weighted rows and both
         # coupling updates
-        self.compiled = compiled.AVAILABLE and self.task is None and self.axis_tolerance is None \
-            and self.history is None
+        self.compiled = (
+            compiled.AVAILABLE and self.task is None and self.axis_tolerance is None and self.history is None
+        )
         if self.compiled:
             self.compiled_goal = self._packed_goal(layout, goal)
-            self.compiled_settings = np.array((self.lam2, step.adaptive_damping, step.gain, self.tolerance2,
-                                               self.orientation_tolerance))
+            self.compiled_settings = np.array(
+                (self.lam2, step.adaptive_damping, step.gain, self.tolerance2, self.orientation_tolerance)
+            )
         self.fast = None
         if self.task is not None:
             pass  # partial poses take the generic loop
@@ -228,7 +283,11 @@ class Refiner:
             template = compiled.pack_goal(
                 np.array(rows, dtype=np.int64),
                 np.array([1.0] * len(self.position_rows) + [self.angular_weight] * len(self.rotation_rows)),
-                np.zeros(3), _EYE3, goal.rotation is not None, self.chain.planar)
+                np.zeros(3),
+                _EYE3,
+                goal.rotation is not None,
+                self.chain.planar,
+            )
             if len(layout.packed_goals) < 64:
                 layout.packed_goals[key] = template
         floats = template[0].copy()
@@ -245,8 +304,9 @@ class Refiner:
         q[self.var] = x
         return self.chain.apply_coupling(q)
 
-    def keep_in_limits(self, x: np.ndarray, values: list, jac: np.ndarray, error: np.ndarray,
-                       damping: float) -> np.ndarray | None:
+    def keep_in_limits(
+        self, x: np.ndarray, values: list, jac: np.ndarray, error: np.ndarray, damping: float
+    ) -> np.ndarray | None:
         """The stepped variables ``values`` (a list, modified) brought into the limits:
         2 pi wraps first, then saturated variables on their limit and the others
         solved again for the error left.  None if the step is not finite."""
@@ -283,8 +343,14 @@ class Refiner:
         """Weighted squared task error at q (what the steps reduce)."""
         out = self.chain.kernel.pose(q.tolist())
         if self.task is not None:
-            error = task_rows(self.task, self.goal.position, self.goal.rotation, np.array(out[:3]),
-                              np.array(out[3:12]).reshape(3, 3), None)[0]
+            error = task_rows(
+                self.task,
+                self.goal.position,
+                self.goal.rotation,
+                np.array(out[:3]),
+                np.array(out[3:12]).reshape(3, 3),
+                None,
+            )[0]
             return float(error @ error)
         tx, ty, tz = self.target
         ex, ey, ez = tx - out[0], ty - out[1], tz - out[2]
@@ -292,12 +358,13 @@ class Refiner:
         if self.rotation is not None:
             wx, wy, wz = rotation_error(*out[3:12], *self.rotation)
             w2 = wz * wz if self.chain.planar else wx * wx + wy * wy + wz * wz
-            score += self.angular_weight ** 2 * w2
+            score += self.angular_weight**2 * w2
         return score
 
     def _record(self, iteration: int, q, position_error2: float, orientation_error: float, attempt: int) -> None:
-        self.history.append(IterationRecord(iteration, np.array(q, dtype=float), math.sqrt(position_error2),
-                                            orientation_error, attempt))
+        self.history.append(
+            IterationRecord(iteration, np.array(q, dtype=float), math.sqrt(position_error2), orientation_error, attempt)
+        )
 
     # --- the loop ------------------------------------------------------------------------
     def run(self, q0: np.ndarray, max_steps: int, attempt: int = 0) -> Attempt:
@@ -309,8 +376,13 @@ class Refiner:
     def _run_compiled(self, q0: np.ndarray, max_steps: int) -> Attempt:
         """``compiled.attempt``: the steps of ``_run_numpy``, compiled (no deadline inside: short runs only)."""
         q, converged, iterations, score = compiled.attempt_packed(
-            *self.arrays, *self.compiled_goal, self.compiled_settings, np.asarray(q0, dtype=float), max_steps,
-            self.step.patience)
+            *self.arrays,
+            *self.compiled_goal,
+            self.compiled_settings,
+            np.asarray(q0, dtype=float),
+            max_steps,
+            self.step.patience,
+        )
         return Attempt(q, converged, iterations, score)
 
     def _run_numpy(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
@@ -350,8 +422,13 @@ class Refiner:
                 position_ok = abs(ex) <= axis[0] and abs(ey) <= axis[1] and (planar or abs(ez) <= axis[2])
             if self.task is not None:  # partial pose: the task's rows (solvers/task.py)
                 error, task_jacobian, position_error, ori = task_rows(
-                    self.task, self.goal.position, self.goal.rotation, np.array(out[:3]),
-                    np.array(out[3:12]).reshape(3, 3), jacobian.reshape(6, n))
+                    self.task,
+                    self.goal.position,
+                    self.goal.rotation,
+                    np.array(out[:3]),
+                    np.array(out[3:12]).reshape(3, 3),
+                    jacobian.reshape(6, n),
+                )
                 pos2 = position_error * position_error
                 position_ok = pos2 <= self.tolerance2
             else:
@@ -396,7 +473,7 @@ class Refiner:
         weight = self.angular_weight
         lam2, adaptive, gain = self.lam2, self.step.adaptive_damping, self.step.gain
         tolerance2 = self.tolerance2
-        orientation_tolerance2 = self.orientation_tolerance ** 2
+        orientation_tolerance2 = self.orientation_tolerance**2
         lower_list, upper_list, _ = self.bounds
         eye = np.eye(6)
         deadline = self.request.deadline
@@ -407,8 +484,9 @@ class Refiner:
         for iteration in range(max_steps + 1):
             x, y, z, r00, r01, r02, r10, r11, r12, r20, r21, r22, flat = kernel(q.tolist())
             ex, ey, ez = tx - x, ty - y, tz - z
-            wx, wy, wz = rotation_error(r00, r01, r02, r10, r11, r12, r20, r21, r22,
-                                        d00, d01, d02, d10, d11, d12, d20, d21, d22)
+            wx, wy, wz = rotation_error(
+                r00, r01, r02, r10, r11, r12, r20, r21, r22, d00, d01, d02, d10, d11, d12, d20, d21, d22
+            )
             pos2 = ex * ex + ey * ey + ez * ez
             ori2 = wx * wx + wy * wy + wz * wz
             if history is not None:

@@ -32,11 +32,11 @@ class PinvSolver(Solver):
     name = "pinv"
     runs_compiled = True  # the compiled attempts (compiled.py), when numba is there
     options = {
-        "samples": 8,                  # Latin-hypercube candidates (besides the seed)
-        "gain": 0.7,                   # alpha of dq = alpha J^+ e; 1.0 (the seed's) overshoots: 92-95 % full pose on unseen arms
-        "candidate_iterations": 20,    # refinement steps per candidate
-        "patience": 4,                 # steps without 0.1 % progress before the next candidate
-        "singular_guard": 1e-6,        # sqrt(eps), m: keeps J J^T + eps I invertible at singularities
+        "samples": 8,  # Latin-hypercube candidates (besides the seed)
+        "gain": 0.7,  # alpha of dq = alpha J^+ e; 1.0 (the seed's) overshoots: 92-95 % full pose on unseen arms
+        "candidate_iterations": 20,  # refinement steps per candidate
+        "patience": 4,  # steps without 0.1 % progress before the next candidate
+        "singular_guard": 1e-6,  # sqrt(eps), m: keeps J J^T + eps I invertible at singularities
         "angular_weight": None,
         "coupling_update": "reduced",
         "axis_tolerance": None,
@@ -50,14 +50,19 @@ class PinvSolver(Solver):
         step = StepSettings(
             damping=opt.number("singular_guard", settings["singular_guard"]),
             gain=opt.number("gain", settings["gain"], high=2.0, allow_low=False),
-            angular_weight=None if settings["angular_weight"] is None else opt.number("angular_weight", settings["angular_weight"]),
+            angular_weight=None
+            if settings["angular_weight"] is None
+            else opt.number("angular_weight", settings["angular_weight"]),
             coupling_update=opt.choice("coupling_update", settings["coupling_update"], COUPLING_UPDATES),
             axis_tolerance=opt.axis_tolerance(settings["axis_tolerance"], 2 if planar else 3),
             patience=opt.integer("patience", settings["patience"], low=0),
         )
-        return (step, opt.integer("samples", settings["samples"], low=0, high=MAX_SAMPLES),
-                opt.integer("candidate_iterations", settings["candidate_iterations"]),
-                opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1))
+        return (
+            step,
+            opt.integer("samples", settings["samples"], low=0, high=MAX_SAMPLES),
+            opt.integer("candidate_iterations", settings["candidate_iterations"]),
+            opt.integer("random_seed", settings["random_seed"], low=0, high=2**63 - 1),
+        )
 
     def _solve(self, chain, goal, q0, request, configuration) -> IKResult:
         step, samples, per_candidate, random_seed = configuration
@@ -83,8 +88,18 @@ class PinvSolver(Solver):
             message = f"timeout: best of {tried} candidates returned"
         else:
             message = "the seed alone did not meet the tolerance (samples=0): best returned"
-        return finish(chain, goal, best.q, request, solver=self.name, iterations=used, message=message,
-                      attempts=tried, history=refiner.history, converged=best.converged)
+        return finish(
+            chain,
+            goal,
+            best.q,
+            request,
+            solver=self.name,
+            iterations=used,
+            message=message,
+            attempts=tried,
+            history=refiner.history,
+            converged=best.converged,
+        )
 
     def _best_first(self, chain, goal, refiner, candidates, deadline) -> list:
         """Candidates sorted by initial task error (scoring many takes time: keep to the deadline)."""

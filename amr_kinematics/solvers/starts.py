@@ -56,7 +56,7 @@ class SpreadStarts:
                         self.rng.bit_generator.state = self.sequence.state_after()
                     self.pending = _draw(self.chain, self.template, self.rng, self.batch)
                 self.next = 0
-            used = self.pending[self.next:self.next + count]
+            used = self.pending[self.next : self.next + count]
             self.next += len(used)
             count -= len(used)
             out.append(used)

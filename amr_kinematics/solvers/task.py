@@ -51,8 +51,9 @@ def parse_task(weights=None, pointing=None) -> Task | None:
         return None
     if weights:
         if len(weights) != 6 or not all(isinstance(w, (int, float)) and math.isfinite(w) and w >= 0.0 for w in weights):
-            raise InvalidRequestError(f"task weights need 6 finite values >= 0 (x, y, z, rot x, rot y, rot z), "
-                                      f"got {weights!r}")
+            raise InvalidRequestError(
+                f"task weights need 6 finite values >= 0 (x, y, z, rot x, rot y, rot z), got {weights!r}"
+            )
         if not any(weights):
             raise InvalidRequestError("task weights are all zero: nothing to solve")
     else:
@@ -60,7 +61,9 @@ def parse_task(weights=None, pointing=None) -> Task | None:
     if not pointing:
         return Task(tuple(float(w) for w in weights))
     if len(pointing) != 6 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pointing):
-        raise InvalidRequestError(f"pointing needs 6 finite values (tool axis x, y, z, direction x, y, z), got {pointing!r}")
+        raise InvalidRequestError(
+            f"pointing needs 6 finite values (tool axis x, y, z, direction x, y, z), got {pointing!r}"
+        )
     units = []
     for name, vector in (("tool axis", pointing[:3]), ("direction", pointing[3:])):
         vector = np.array(vector, dtype=float)
@@ -79,8 +82,14 @@ def _normal_basis(a: np.ndarray) -> np.ndarray:
     return np.array([b1, np.cross(a, b1)])
 
 
-def task_rows(task: Task, target: np.ndarray, rotation: np.ndarray | None, position: np.ndarray,
-              tool_rotation: np.ndarray, jacobian: np.ndarray | None):
+def task_rows(
+    task: Task,
+    target: np.ndarray,
+    rotation: np.ndarray | None,
+    position: np.ndarray,
+    tool_rotation: np.ndarray,
+    jacobian: np.ndarray | None,
+):
     """(error rows, Jacobian rows or None, position error, orientation error) at one pose.
 
     ``jacobian`` is the 6 x n geometric Jacobian (v rows, then omega rows)."""

@@ -21,21 +21,31 @@ from amr_simulation.simulator import Simulator
 from amr_maps.world import load_world, resolve_world_path
 
 STEPS = 1200  # 60 s at dt = 0.05
-TOPICS = {"/scan": ("sensor_msgs/msg/LaserScan", TopicQos(reliable=False, depth=5)),
-          "/ground_truth": ("nav_msgs/msg/Odometry", TopicQos(depth=None)),  # history as discovery reports it
-          "/tf": ("tf2_msgs/msg/TFMessage", TopicQos(depth=100)),
-          "/simulator/status": ("amr_interfaces/msg/SimulatorStatus", TopicQos(transient_local=True, depth=1))}
+TOPICS = {
+    "/scan": ("sensor_msgs/msg/LaserScan", TopicQos(reliable=False, depth=5)),
+    "/ground_truth": ("nav_msgs/msg/Odometry", TopicQos(depth=None)),  # history as discovery reports it
+    "/tf": ("tf2_msgs/msg/TFMessage", TopicQos(depth=100)),
+    "/simulator/status": ("amr_interfaces/msg/SimulatorStatus", TopicQos(transient_local=True, depth=1)),
+}
 
 
 def observation(sim):
     stamp_ns = round(sim.time * 1e9)
-    scan = LaserScan(angle_min=sim.lidar.angle_min, angle_increment=sim.lidar.angle_increment,
-                     range_min=sim.lidar.range_min, range_max=sim.lidar.range_max, ranges=sim.ranges.tolist())
+    scan = LaserScan(
+        angle_min=sim.lidar.angle_min,
+        angle_increment=sim.lidar.angle_increment,
+        range_min=sim.lidar.range_min,
+        range_max=sim.lidar.range_max,
+        ranges=sim.ranges.tolist(),
+    )
     scan.header.frame_id = "base_scan"
     odom = Odometry(child_frame_id="base_footprint")
     odom.header.frame_id = "odom"
     odom.pose.pose.position.x, odom.pose.pose.position.y = sim.pose.x, sim.pose.y
-    odom.pose.pose.orientation.z, odom.pose.pose.orientation.w = math.sin(sim.pose.theta / 2), math.cos(sim.pose.theta / 2)
+    odom.pose.pose.orientation.z, odom.pose.pose.orientation.w = (
+        math.sin(sim.pose.theta / 2),
+        math.cos(sim.pose.theta / 2),
+    )
     odom.twist.twist.linear.x = sim.twist[0]
     transform = TransformStamped(child_frame_id="base_footprint")
     transform.header.frame_id = "odom"
@@ -43,8 +53,12 @@ def observation(sim):
     for message in (scan, odom, transform):
         message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
     status = SimulatorStatus(collisions=sim.collisions, goal_reached=sim.goal_reached)
-    return stamp_ns, {"/scan": scan, "/ground_truth": odom, "/tf": TFMessage(transforms=[transform]),
-                      "/simulator/status": status}
+    return stamp_ns, {
+        "/scan": scan,
+        "/ground_truth": odom,
+        "/tf": TFMessage(transforms=[transform]),
+        "/simulator/status": status,
+    }
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +85,8 @@ def test_every_message_reads_back(recorded):
     assert {t: recording.count(t) for t in TOPICS} == {t: STEPS for t in TOPICS}
     assert recording.types == {t: msgtype for t, (msgtype, _) in TOPICS.items()}
     for (stamp, messages), (scan_stamp, scan), (_, odom), (_, tf), (_, status) in zip(
-            sent, *(recording.topics[t] for t in TOPICS)):
+        sent, *(recording.topics[t] for t in TOPICS)
+    ):
         assert scan_stamp == stamp
         assert np.array_equal(np.asarray(scan.ranges), np.asarray(messages["/scan"].ranges, dtype=np.float32))
         assert odom.pose.pose.position.x == messages["/ground_truth"].pose.pose.position.x

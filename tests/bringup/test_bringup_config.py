@@ -7,8 +7,15 @@ import pytest
 import yaml
 
 from amr_bringup.bringup import NODE_CLASSES, check_composable
-from amr_bringup.stack_config import (BringupError, NodeSpec, check_installed, find_bringup, load_bringup,
-                                        parse_bringup, yaml_scalar)
+from amr_bringup.stack_config import (
+    BringupError,
+    NodeSpec,
+    check_installed,
+    find_bringup,
+    load_bringup,
+    parse_bringup,
+    yaml_scalar,
+)
 from amr_util.managed_node import ManagedNode
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -16,7 +23,21 @@ SHIPPED = sorted(path.stem for path in (ROOT / "config" / "bringup").glob("*.yam
 
 
 def test_the_stacks_are_shipped():
-    assert SHIPPED == ["fleet_navigation", "fleet_sim", "ik_service", "maze_localization", "maze_mapping", "maze_navigation", "maze_sim", "maze_sim_odometry", "real_robot", "real_robot_mapping", "real_robot_navigation", "real_robot_navigation_sim", "real_robot_sim"]
+    assert SHIPPED == [
+        "fleet_navigation",
+        "fleet_sim",
+        "ik_service",
+        "maze_localization",
+        "maze_mapping",
+        "maze_navigation",
+        "maze_sim",
+        "maze_sim_odometry",
+        "real_robot",
+        "real_robot_mapping",
+        "real_robot_navigation",
+        "real_robot_navigation_sim",
+        "real_robot_sim",
+    ]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -99,8 +120,11 @@ def test_every_stack_loads_its_world_once_per_node_that_needs_geometry(name):
 def test_a_per_node_world_is_refused_naming_the_world_argument(name):
     bringup = load_bringup(name)
     for target in ("simulator.world", "map_server.world"):
-        with pytest.raises(BringupError, match=rf"-p {target}:=hard_maze.yaml: {target} is tied to .* by the stack "
-                                               r"argument world:= \(they must agree\); give world:=hard_maze.yaml instead"):
+        with pytest.raises(
+            BringupError,
+            match=rf"-p {target}:=hard_maze.yaml: {target} is tied to .* by the stack "
+            r"argument world:= \(they must agree\); give world:=hard_maze.yaml instead",
+        ):
             bringup.with_overrides({}, {target: "hard_maze.yaml"})
     assert bringup.with_overrides({}, {"simulator.seed": "3"}).current_value("world") == bringup.current_value("world")
     if name != "maze_sim":  # one map for the stack: the resolution is the stack's too
@@ -141,37 +165,79 @@ def test_node_classes_are_the_managed_nodes_the_executables_run():
 
 def test_ros_arguments_give_name_namespace_files_parameters_and_remappings(tmp_path):
     params = tmp_path / "p.yaml"
-    spec = NodeSpec(name="follower", package="amr_control", executable="wall_follower", namespace="/robot1",
-                    parameter_files=(str(params),),
-                    parameters={"kp": 4.0, "simulation": True, "preferred_wall": "left", "lidar.beams": 240,
-                                "window": [1.0, 2.5]},
-                    remappings=(("cmd_vel", "/robot1/cmd"),))
+    spec = NodeSpec(
+        name="follower",
+        package="amr_control",
+        executable="wall_follower",
+        namespace="/robot1",
+        parameter_files=(str(params),),
+        parameters={"kp": 4.0, "simulation": True, "preferred_wall": "left", "lidar.beams": 240, "window": [1.0, 2.5]},
+        remappings=(("cmd_vel", "/robot1/cmd"),),
+    )
     assert spec.ros_arguments() == [
-        "--ros-args", "-r", "__node:=follower", "-r", "__ns:=/robot1", "--params-file", str(params),
-        "-p", "kp:=4.0", "-p", "simulation:=true", "-p", 'preferred_wall:="left"', "-p", "lidar.beams:=240",
-        "-p", "window:=[1.0, 2.5]", "-r", "cmd_vel:=/robot1/cmd"]
+        "--ros-args",
+        "-r",
+        "__node:=follower",
+        "-r",
+        "__ns:=/robot1",
+        "--params-file",
+        str(params),
+        "-p",
+        "kp:=4.0",
+        "-p",
+        "simulation:=true",
+        "-p",
+        'preferred_wall:="left"',
+        "-p",
+        "lidar.beams:=240",
+        "-p",
+        "window:=[1.0, 2.5]",
+        "-r",
+        "cmd_vel:=/robot1/cmd",
+    ]
     assert spec.managed_name == "/robot1/follower"
     assert spec.launch_parameters() == [str(params), dict(spec.parameters)]
 
 
-@pytest.mark.parametrize(("value", "text"), [
-    (1.0, "1.0"), (2, "2"), (False, "false"), ("true", '"true"'), ("a b", '"a b"'),
-    (float("inf"), ".inf"), (["x", "y"], '["x", "y"]'), ([True, False], "[true, false]")])
+@pytest.mark.parametrize(
+    ("value", "text"),
+    [
+        (1.0, "1.0"),
+        (2, "2"),
+        (False, "false"),
+        ("true", '"true"'),
+        ("a b", '"a b"'),
+        (float("inf"), ".inf"),
+        (["x", "y"], '["x", "y"]'),
+        ([True, False], "[true, false]"),
+    ],
+)
 def test_inline_values_keep_their_type_through_the_command_line(value, text):
     assert yaml_scalar(value) == text
     assert yaml.safe_load(text) == value  # rcl reads -p values as YAML
 
 
 def test_nested_inline_parameters_become_dotted_names(tmp_path):
-    bringup = parse_bringup({"nodes": [{"name": "simulator", "package": "amr_simulation", "executable": "simulator",
-                                        "parameters": {"lidar": {"beams": 90, "noise_std": 0.0}}}]},
-                            tmp_path / "b.yaml")
+    bringup = parse_bringup(
+        {
+            "nodes": [
+                {
+                    "name": "simulator",
+                    "package": "amr_simulation",
+                    "executable": "simulator",
+                    "parameters": {"lidar": {"beams": 90, "noise_std": 0.0}},
+                }
+            ]
+        },
+        tmp_path / "b.yaml",
+    )
     assert bringup.nodes[0].parameters == {"lidar.beams": 90, "lidar.noise_std": 0.0}
 
 
 def test_namespaces_are_made_absolute(tmp_path):
-    bringup = parse_bringup({"nodes": [{"name": "a", "package": "p", "executable": "e", "namespace": "fleet/r1/"}]},
-                            tmp_path / "b.yaml")
+    bringup = parse_bringup(
+        {"nodes": [{"name": "a", "package": "p", "executable": "e", "namespace": "fleet/r1/"}]}, tmp_path / "b.yaml"
+    )
     assert bringup.nodes[0].namespace == "/fleet/r1"
     assert bringup.node_startup_order == ("/fleet/r1/a",)
 
@@ -179,31 +245,43 @@ def test_namespaces_are_made_absolute(tmp_path):
 GOOD = {"name": "a", "package": "amr_control", "executable": "wall_follower"}
 
 
-@pytest.mark.parametrize(("document", "key"), [
-    ([1, 2], "must be a mapping"),
-    ({"nodes": []}, "nodes: must be a non-empty list"),
-    ({"nodes": [GOOD], "launch": 1}, "unknown key(s) ['launch']"),
-    ({"nodes": [{**GOOD, "params": {}}]}, "nodes[0]: unknown key(s) ['params']"),
-    ({"nodes": ["a"]}, "nodes[0]: must be a mapping"),
-    ({"nodes": [{"name": "a", "executable": "e"}]}, "nodes[0].package: must be a name"),
-    ({"nodes": [{**GOOD, "name": "wall follower"}]}, "nodes[0].name: must be a name"),
-    ({"nodes": [{**GOOD, "namespace": "/9robots"}]}, "nodes[0].namespace:"),
-    ({"nodes": [GOOD, GOOD]}, "nodes[1].name: 'a' is also nodes[0]"),
-    ({"nodes": [{**GOOD, "parameter_files": "x.yaml"}]}, "nodes[0].parameter_files: must be a list"),
-    ({"nodes": [{**GOOD, "parameters": [1]}]}, "nodes[0].parameters: must be a mapping"),
-    ({"nodes": [{**GOOD, "parameters": {"gains": [1, 2.5]}}]}, "nodes[0].parameters.gains: a list parameter"),
-    ({"nodes": [{**GOOD, "parameters": {"gains": []}}]}, "nodes[0].parameters.gains: a list parameter"),
-    ({"nodes": [{**GOOD, "parameters": {"x": None}}]}, "nodes[0].parameters.x: unsupported value"),
-    ({"nodes": [{**GOOD, "remappings": {"cmd vel": "x"}}]}, "nodes[0].remappings: 'cmd vel'"),
-    ({"nodes": [GOOD], "lifecycle_manager": [1]}, "lifecycle_manager: must be a mapping"),
-    ({"nodes": [GOOD], "lifecycle_manager": {"autostart": True}}, "lifecycle_manager: unknown key(s) ['autostart']"),
-    ({"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["b"]}},
-     "lifecycle_manager.node_startup_order: 'b' is not one of the nodes ['a']"),
-    ({"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["a", "a"]}},
-     "lifecycle_manager.node_startup_order: names a node twice"),
-    ({"nodes": [GOOD], "lifecycle_manager": {"wait_timeout": -1}},
-     "lifecycle_manager.wait_timeout: must be in [0.1, 3600], got -1.0"),
-])
+@pytest.mark.parametrize(
+    ("document", "key"),
+    [
+        ([1, 2], "must be a mapping"),
+        ({"nodes": []}, "nodes: must be a non-empty list"),
+        ({"nodes": [GOOD], "launch": 1}, "unknown key(s) ['launch']"),
+        ({"nodes": [{**GOOD, "params": {}}]}, "nodes[0]: unknown key(s) ['params']"),
+        ({"nodes": ["a"]}, "nodes[0]: must be a mapping"),
+        ({"nodes": [{"name": "a", "executable": "e"}]}, "nodes[0].package: must be a name"),
+        ({"nodes": [{**GOOD, "name": "wall follower"}]}, "nodes[0].name: must be a name"),
+        ({"nodes": [{**GOOD, "namespace": "/9robots"}]}, "nodes[0].namespace:"),
+        ({"nodes": [GOOD, GOOD]}, "nodes[1].name: 'a' is also nodes[0]"),
+        ({"nodes": [{**GOOD, "parameter_files": "x.yaml"}]}, "nodes[0].parameter_files: must be a list"),
+        ({"nodes": [{**GOOD, "parameters": [1]}]}, "nodes[0].parameters: must be a mapping"),
+        ({"nodes": [{**GOOD, "parameters": {"gains": [1, 2.5]}}]}, "nodes[0].parameters.gains: a list parameter"),
+        ({"nodes": [{**GOOD, "parameters": {"gains": []}}]}, "nodes[0].parameters.gains: a list parameter"),
+        ({"nodes": [{**GOOD, "parameters": {"x": None}}]}, "nodes[0].parameters.x: unsupported value"),
+        ({"nodes": [{**GOOD, "remappings": {"cmd vel": "x"}}]}, "nodes[0].remappings: 'cmd vel'"),
+        ({"nodes": [GOOD], "lifecycle_manager": [1]}, "lifecycle_manager: must be a mapping"),
+        (
+            {"nodes": [GOOD], "lifecycle_manager": {"autostart": True}},
+            "lifecycle_manager: unknown key(s) ['autostart']",
+        ),
+        (
+            {"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["b"]}},
+            "lifecycle_manager.node_startup_order: 'b' is not one of the nodes ['a']",
+        ),
+        (
+            {"nodes": [GOOD], "lifecycle_manager": {"node_startup_order": ["a", "a"]}},
+            "lifecycle_manager.node_startup_order: names a node twice",
+        ),
+        (
+            {"nodes": [GOOD], "lifecycle_manager": {"wait_timeout": -1}},
+            "lifecycle_manager.wait_timeout: must be in [0.1, 3600], got -1.0",
+        ),
+    ],
+)
 def test_errors_name_the_file_and_the_key(document, key, tmp_path):
     source = tmp_path / "stack.yaml"
     with pytest.raises(BringupError) as caught:
@@ -213,9 +291,13 @@ def test_errors_name_the_file_and_the_key(document, key, tmp_path):
 
 
 def test_manager_timeouts_and_order_reach_the_manager_parameters(tmp_path):
-    bringup = parse_bringup({"nodes": [GOOD, {**GOOD, "name": "b"}],
-                             "lifecycle_manager": {"node_startup_order": ["b", "a"], "wait_timeout": 5}},
-                            tmp_path / "b.yaml")
+    bringup = parse_bringup(
+        {
+            "nodes": [GOOD, {**GOOD, "name": "b"}],
+            "lifecycle_manager": {"node_startup_order": ["b", "a"], "wait_timeout": 5},
+        },
+        tmp_path / "b.yaml",
+    )
     assert bringup.manager_parameters() == {"node_startup_order": ["b", "a"], "wait_timeout": 5.0}
 
 
@@ -228,7 +310,10 @@ def test_invalid_yaml_names_the_file(tmp_path):
 
 def test_a_bare_name_finds_the_shipped_file_and_an_unknown_one_lists_them(tmp_path):
     assert find_bringup("real_robot") == find_bringup("real_robot.yaml")
-    with pytest.raises(BringupError, match="shipped: fleet_navigation, fleet_sim, ik_service, maze_localization, maze_mapping, maze_navigation, maze_sim, maze_sim_odometry, real_robot"):
+    with pytest.raises(
+        BringupError,
+        match="shipped: fleet_navigation, fleet_sim, ik_service, maze_localization, maze_mapping, maze_navigation, maze_sim, maze_sim_odometry, real_robot",
+    ):
         find_bringup("maze")
     own = tmp_path / "mine.yaml"
     own.write_text(yaml.safe_dump({"nodes": [GOOD]}))
@@ -237,12 +322,17 @@ def test_a_bare_name_finds_the_shipped_file_and_an_unknown_one_lists_them(tmp_pa
         find_bringup(str(tmp_path / "absent.yaml"))
 
 
-@pytest.mark.parametrize(("entry", "key"), [
-    ({"package": "no_such_package", "executable": "x"}, "nodes[0].package: a: package 'no_such_package'"),
-    ({"package": "amr_control", "executable": "no_such_node"}, "nodes[0].executable: a: "),
-    ({"package": "amr_control", "executable": "wall_follower", "parameter_files": ["absent.yaml"]},
-     "nodes[0].parameter_files[0]: a: "),
-])
+@pytest.mark.parametrize(
+    ("entry", "key"),
+    [
+        ({"package": "no_such_package", "executable": "x"}, "nodes[0].package: a: package 'no_such_package'"),
+        ({"package": "amr_control", "executable": "no_such_node"}, "nodes[0].executable: a: "),
+        (
+            {"package": "amr_control", "executable": "wall_follower", "parameter_files": ["absent.yaml"]},
+            "nodes[0].parameter_files[0]: a: ",
+        ),
+    ],
+)
 def test_check_installed_names_what_is_missing(entry, key, tmp_path):
     bringup = parse_bringup({"nodes": [{"name": "a", **entry}]}, tmp_path / "b.yaml")
     with pytest.raises(BringupError) as caught:
@@ -259,19 +349,28 @@ def test_absolute_parameter_files_are_taken_as_they_are(tmp_path):
 
 
 def test_composed_mode_refuses_a_node_it_has_no_class_for(tmp_path):
-    bringup = parse_bringup({"nodes": [{"name": "a", "package": "amr_bringup", "executable": "lifecycle_manager"}]},
-                            tmp_path / "b.yaml")
+    bringup = parse_bringup(
+        {"nodes": [{"name": "a", "package": "amr_bringup", "executable": "lifecycle_manager"}]}, tmp_path / "b.yaml"
+    )
     with pytest.raises(BringupError, match=r"nodes\[0\].executable: amr_bringup/lifecycle_manager has no node class"):
         check_composable(bringup)
 
 
 def test_arguments_and_parameters_override_the_stack_and_unknown_names_are_refused():
     bringup = load_bringup("maze_sim")
-    assert {"world", "start", "preferred_wall", "mode", "use_sim_time", "simulator_params_file",
-            "wall_follower_params_file"} <= set(bringup.arguments)
+    assert {
+        "world",
+        "start",
+        "preferred_wall",
+        "mode",
+        "use_sim_time",
+        "simulator_params_file",
+        "wall_follower_params_file",
+    } <= set(bringup.arguments)
     assert bringup.current_value("world") == "outer_corridor.yaml"
-    changed = bringup.with_overrides({"world": "hard_maze.yaml", "start": "[0.5, -1.0, 1.57]", "use_sim_time": "true"},
-                                     {"wall_follower.kp": "3.0"})
+    changed = bringup.with_overrides(
+        {"world": "hard_maze.yaml", "start": "[0.5, -1.0, 1.57]", "use_sim_time": "true"}, {"wall_follower.kp": "3.0"}
+    )
     _, simulator, follower = changed.nodes
     assert simulator.parameters == {"world": "hard_maze.yaml", "start": [0.5, -1.0, 1.57], "use_sim_time": True}
     assert follower.parameters == {"use_sim_time": True, "kp": 3.0}
@@ -279,7 +378,9 @@ def test_arguments_and_parameters_override_the_stack_and_unknown_names_are_refus
     replaced = bringup.with_overrides({"wall_follower_params_file": "/tmp/mine.yaml"})
     assert replaced.nodes[2].parameter_files == ("/tmp/mine.yaml",)
     assert "start" not in bringup.with_overrides({"start": "[]"}).nodes[1].parameters, "[] keeps the world's start"
-    with pytest.raises(BringupError, match=r"unknown argument 'wrld' \(known: map_server_params_file, mode, preferred_wall"):
+    with pytest.raises(
+        BringupError, match=r"unknown argument 'wrld' \(known: map_server_params_file, mode, preferred_wall"
+    ):
         bringup.with_overrides({"wrld": "x"})
     with pytest.raises(BringupError, match=r"-p simulatr.world: expected <node>.<parameter>:=<value> with a node"):
         bringup.with_overrides({}, {"simulatr.world": "x"})

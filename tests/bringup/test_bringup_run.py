@@ -47,7 +47,8 @@ class StateProbe(Node):
             if client.service_is_ready():
                 future = client.call_async(GetState.Request())
                 future.add_done_callback(
-                    lambda f, name=name: self.states.update({name: f.result().current_state.label}))
+                    lambda f, name=name: self.states.update({name: f.result().current_state.label})
+                )
 
 
 def wait_until_active(executor, probe: StateProbe, run: Bringup) -> None:
@@ -74,8 +75,9 @@ def test_processes_reach_active_show_status_and_leave_nothing_behind_on_ctrl_c(r
     pids = run.child_pids()
     assert set(pids) == {"odometry_node", "wall_follower"} and os.getpid() not in pids.values()
     status = (r"^odometry_node\s+active$", r"^/cmd_vel\s+geometry_msgs/msg/Twist\s+\d+\.\d\s+wall_follower$")
-    assert poll_until(lambda: all(re.search(line, run.output, re.MULTILINE) for line in status), STARTUP_TIMEOUT), \
+    assert poll_until(lambda: all(re.search(line, run.output, re.MULTILINE) for line in status), STARTUP_TIMEOUT), (
         f"no status table with both nodes active and /cmd_vel flowing within {STARTUP_TIMEOUT} s:\n{run.output}"
+    )
     run.process.send_signal(signal.SIGINT)
     assert run.finish() == 0, run.output
     assert_gone(pids)
@@ -129,12 +131,15 @@ def unparsable_parameter_file(tmp_path) -> str:
 
 
 def test_a_node_that_dies_stops_everything_and_is_named(tmp_path, bringups):
-    stack = write(tmp_path, f"""
+    stack = write(
+        tmp_path,
+        f"""
 nodes:
   - {{name: wall_follower, package: amr_control, executable: wall_follower, parameter_files: [wall_follower_real.yaml]}}
   - {{name: odometry_node, package: amr_turtlebot3, executable: odometry_node,
      parameter_files: [{unparsable_parameter_file(tmp_path)}]}}
-""")
+""",
+    )
     run = bringups(stack)
     assert run.finish(timeout=30.0) == 1
     assert re.search(r"amr-bringup: node odometry_node \(pid \d+\) exited with code 1", run.output), run.output
@@ -142,11 +147,14 @@ nodes:
 
 
 def test_a_failed_configure_stops_the_startup_and_names_the_node(tmp_path, bringups):
-    stack = write(tmp_path, """
+    stack = write(
+        tmp_path,
+        """
 nodes:
   - {name: wall_follower, package: amr_control, executable: wall_follower, parameter_files: [wall_follower_real.yaml],
      parameters: {preferred_wall: middle}}
-""")
+""",
+    )
     run = bringups(stack, "--composed")
     assert run.finish(timeout=30.0) == 1
     assert "amr-bringup: startup failed at configure of wall_follower" in run.output, run.output
@@ -161,33 +169,39 @@ def test_a_missing_executable_is_refused_before_anything_starts(tmp_path, bringu
 
 
 def test_a_node_that_cannot_be_built_in_composed_mode_is_named(tmp_path, bringups):
-    stack = write(tmp_path, f"""
+    stack = write(
+        tmp_path,
+        f"""
 nodes:
   - {{name: odometry_node, package: amr_turtlebot3, executable: odometry_node,
      parameter_files: [{unparsable_parameter_file(tmp_path)}]}}
-""")
+""",
+    )
     run = bringups(stack, "--composed")
     assert run.finish(timeout=30.0) == 1
     assert "amr-bringup: node odometry_node failed to start: RCLInvalidROSArgsError" in run.output, run.output
 
 
 def test_a_bad_parameter_fails_configure_naming_node_and_key(tmp_path, bringups):
-    stack = write(tmp_path, """
+    stack = write(
+        tmp_path,
+        """
 nodes:
   - {name: odometry_node, package: amr_turtlebot3, executable: odometry_node,
      parameters: {qos_depth: -4, input_topik: odom}}
-""")
+""",
+    )
     run = bringups(stack)
     assert run.finish(timeout=30.0) == 1
     assert "[odometry_node]: configure failed: qos_depth: must be in [1, 1000], got -4" in run.output, run.output
-    assert "configure failed: input_topik: unknown parameter (known: input_topic, output_topic, qos_depth)" \
-        in run.output, run.output
+    assert (
+        "configure failed: input_topik: unknown parameter (known: input_topic, output_topic, qos_depth)" in run.output
+    ), run.output
     assert "startup failed at configure of odometry_node" in run.output, run.output
 
 
 def test_arguments_and_parameters_on_the_command_line_reach_the_nodes(bringups):
-    run = bringups("maze_sim", "world:=hard_maze.yaml", "-p", "wall_follower.kp:=3.0", "--composed",
-                   "--duration", "4")
+    run = bringups("maze_sim", "world:=hard_maze.yaml", "-p", "wall_follower.kp:=3.0", "--composed", "--duration", "4")
     assert run.finish(timeout=30.0) == 0, run.output
     assert "world hard_maze (" in run.output, run.output
     typo = bringups("maze_sim", "-p", "wall_follower.kpp:=10.0", "--composed")

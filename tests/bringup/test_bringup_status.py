@@ -16,9 +16,14 @@ def test_message_classes_come_from_the_graph_type_names():
 
 
 def test_table_lists_states_and_rates_in_aligned_columns():
-    text = format_table("amr-bringup maze_sim  3 s", [("wall_follower", "active"), ("simulator", "inactive")],
-                        [TopicRow("/cmd_vel", "geometry_msgs/msg/TwistStamped", 19.96, ("wall_follower",)),
-                         TopicRow("/weird", "x_msgs/msg/Y", None, ("simulator", "other"))])
+    text = format_table(
+        "amr-bringup maze_sim  3 s",
+        [("wall_follower", "active"), ("simulator", "inactive")],
+        [
+            TopicRow("/cmd_vel", "geometry_msgs/msg/TwistStamped", 19.96, ("wall_follower",)),
+            TopicRow("/weird", "x_msgs/msg/Y", None, ("simulator", "other")),
+        ],
+    )
     assert text.splitlines() == [
         "amr-bringup maze_sim  3 s",
         "NODE           STATE",

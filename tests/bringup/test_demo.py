@@ -6,15 +6,38 @@ import sys
 
 from conftest import ROOT, child_environment
 
-FIGURES = ["maze.png", "wall_distance.png", "localization.png", "localization_error.png", "navigation.png",
-           "ik_dls.png", "ik_ccd.png", "ik_2r_path.png"]
+FIGURES = [
+    "maze.png",
+    "wall_distance.png",
+    "localization.png",
+    "localization_error.png",
+    "navigation.png",
+    "ik_dls.png",
+    "ik_ccd.png",
+    "ik_2r_path.png",
+]
 
 
 def test_demo_writes_figures_and_a_sound_summary(tmp_path, ros_domain):  # a domain of its own: no ghost /map
     out = tmp_path / "out"
-    result = subprocess.run([sys.executable, "-m", "amr_bringup.demo", "--duration", "40", "--localization-duration", "25",
-                             "--out", str(out)],
-                            cwd=ROOT, env=child_environment(), capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "amr_bringup.demo",
+            "--duration",
+            "40",
+            "--localization-duration",
+            "25",
+            "--out",
+            str(out),
+        ],
+        cwd=ROOT,
+        env=child_environment(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "collisions" in result.stdout and "x real time" in result.stdout, "no progress line"
     summary = json.loads((out / "summary.json").read_text())
@@ -24,7 +47,10 @@ def test_demo_writes_figures_and_a_sound_summary(tmp_path, ros_domain):  # a dom
     assert maze["distance_m"] > 0.05 * 40.0, "the robot stalled"
     localization = summary["localization"]  # the seed maze localizes in 7-13 s through ROS (bench_localization.py)
     assert localization["localized"] and localization["collisions"] == 0, localization
-    assert localization["error_at_first_localized_cm"] <= 10.0 and localization["heading_error_at_first_localized_deg"] <= 10.0
+    assert (
+        localization["error_at_first_localized_cm"] <= 10.0
+        and localization["heading_error_at_first_localized_deg"] <= 10.0
+    )
     navigation = summary["navigation"]  # explore, localize, plan, go: a goal the wall follower never reaches
     assert navigation["goal_reached"] and navigation["collisions"] == 0, navigation
     assert navigation["first_localized_s"] is not None and navigation["plans"] >= 1, navigation
@@ -39,6 +65,7 @@ def test_demo_writes_figures_and_a_sound_summary(tmp_path, ros_domain):  # a dom
         assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
         assert picture.stat().st_size > 20_000, f"{name} looks empty"
     from PIL import Image  # the animation of the run, drawn from the bag the demo recorded
+
     with Image.open(out / "maze.gif") as gif:
         assert gif.format == "GIF" and gif.n_frames >= 100
     assert (out / "maze.gif").stat().st_size < 4_000_000

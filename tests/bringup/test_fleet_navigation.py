@@ -82,8 +82,9 @@ def test_the_stack_is_maze_navigation_per_robot_in_its_namespace():
     bringup = load_bringup("fleet_navigation").with_overrides({"world": "fleets/crossing.yaml"})
     names = [node.managed_name for node in bringup.nodes]
     robots = ("r1", "r2", "r3", "r4")
-    assert sorted(names) == sorted(["map_server", "simulator", "fleet_planner"]
-                                   + [f"/{r}/{n}" for r in robots for n in PER_ROBOT])
+    assert sorted(names) == sorted(
+        ["map_server", "simulator", "fleet_planner"] + [f"/{r}/{n}" for r in robots for n in PER_ROBOT]
+    )
     assert bringup.node_startup_order[0] == "map_server" and bringup.node_startup_order[-1] == "simulator"
     maze = {node.name: node for node in load_bringup("maze_navigation").nodes}
     for node in bringup.nodes:
@@ -117,18 +118,24 @@ def test_every_shipped_fleet_world_can_be_localized():
 def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp_path):
     world = tmp_path / "two_in_the_pillar_room.yaml"
     world.write_text(TWO)
-    with composed_stack(ros_context, "fleet_navigation", arguments={"world": str(world)},
-                        parameters={"simulator.lockstep_resend_period": "0.5"}) as (nodes, manager, _):
-        assert set(nodes) == {"map_server", "simulator", "fleet_planner"} | {f"/{r}/{n}" for r in ROBOTS
-                                                                              for n in PER_ROBOT}
+    with composed_stack(
+        ros_context,
+        "fleet_navigation",
+        arguments={"world": str(world)},
+        parameters={"simulator.lockstep_resend_period": "0.5"},
+    ) as (nodes, manager, _):
+        assert set(nodes) == {"map_server", "simulator", "fleet_planner"} | {
+            f"/{r}/{n}" for r in ROBOTS for n in PER_ROBOT
+        }
         observer = Observer(ros_context)
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(observer)
         try:
             assert all(step.ok for step in manager.startup()), "fleet_navigation did not come up"
             assert {name: node.state_label for name, node in nodes.items()} == dict.fromkeys(nodes, "active")
-            assert spin_until(executor, lambda: all(len(observer.localized_errors(r)) >= 5 for r in ROBOTS),
-                              TIMEOUT), {r: (len(observer.poses[r]), len(observer.localized_errors(r))) for r in ROBOTS}
+            assert spin_until(executor, lambda: all(len(observer.localized_errors(r)) >= 5 for r in ROBOTS), TIMEOUT), {
+                r: (len(observer.poses[r]), len(observer.localized_errors(r))) for r in ROBOTS
+            }
             topics = {name for name, _ in observer.get_topic_names_and_types()}
         finally:
             executor.remove_node(observer)
@@ -138,10 +145,21 @@ def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp
     for r in ROBOTS:
         errors = observer.localized_errors(r)
         assert max(errors) <= 0.10, f"{r}: localized {max(errors):.3f} m off the ground truth"
-        assert any(abs(c.twist.linear.x) > 0.01 or abs(c.twist.angular.z) > 0.01 for c in observer.commands[r]), \
+        assert any(abs(c.twist.linear.x) > 0.01 or abs(c.twist.angular.z) > 0.01 for c in observer.commands[r]), (
             f"{r}'s /cmd_vel was driven"
-        for topic in ("pose", "tf", "navigator/status", "particle_filter/status", "wall_follower/status",
-                      "path_follower/status", "cmd_vel", "scan", "odometry", "goal"):
+        )
+        for topic in (
+            "pose",
+            "tf",
+            "navigator/status",
+            "particle_filter/status",
+            "wall_follower/status",
+            "path_follower/status",
+            "cmd_vel",
+            "scan",
+            "odometry",
+            "goal",
+        ):
             assert f"/{r}/{topic}" in topics, (r, topic)
     for plain in ("/pose", "/tf", "/cmd_vel", "/scan", "/navigator/status", "/r1/map", "/r2/map"):
         assert plain not in topics, f"{plain}: nothing of a robot outside its namespace, one /map"
@@ -164,14 +182,18 @@ def test_every_navigator_builds_its_traffic_costmap_as_its_planner_does():
         nodes = {node.managed_name: node for node in bringup.nodes}
         for robot in ("r1", "r2", "r3", "r4"):
             planner = nodes[f"/{robot}/planner"].parameters
-            navigator = {key: value for key, value in nodes[f"/{robot}/navigator"].parameters.items()
-                         if key != "use_sim_time"}
-            planner_costmap = PlannerConfig.from_params({k: v for k, v in planner.items() if k != "use_sim_time"}).costmap
+            navigator = {
+                key: value for key, value in nodes[f"/{robot}/navigator"].parameters.items() if key != "use_sim_time"
+            }
+            planner_costmap = PlannerConfig.from_params(
+                {k: v for k, v in planner.items() if k != "use_sim_time"}
+            ).costmap
             navigator_costmap = NavigatorConfig.from_params(navigator).costmap
             for key in shared:
                 assert getattr(navigator_costmap, key) == getattr(planner_costmap, key), (robot, key, arguments)
         if arguments:
             assert nodes["/r2/navigator"].parameters["costmap.robot_radius"] == 0.12
     with pytest.raises(BringupError, match="robot_radius"):
-        load_bringup("fleet_navigation").with_overrides({"world": "fleets/crossing.yaml"},
-                                                        {"planner.robot_radius": "0.2"})
+        load_bringup("fleet_navigation").with_overrides(
+            {"world": "fleets/crossing.yaml"}, {"planner.robot_radius": "0.2"}
+        )

@@ -68,7 +68,10 @@ class Observer(Node):
     def _truth(self, robot: str, message: Odometry) -> None:
         pose = message.pose.pose
         self.truth[robot][stamp_nanoseconds(message.header.stamp)] = (
-            pose.position.x, pose.position.y, 2.0 * math.atan2(pose.orientation.z, pose.orientation.w))
+            pose.position.x,
+            pose.position.y,
+            2.0 * math.atan2(pose.orientation.z, pose.orientation.w),
+        )
 
     def moved(self, robot: str) -> float:
         poses = list(self.truth[robot].values())
@@ -91,18 +94,27 @@ def expected_range_to(observer_pose, other_pose, scan: LaserScan) -> tuple[int, 
 def test_two_robots_each_under_its_namespace_drive_and_see_each_other(ros_context, tmp_path):
     world = tmp_path / "two_in_a_room.yaml"
     world.write_text(TWO)
-    with composed_stack(ros_context, "fleet_sim", arguments={"world": str(world)},
-                        parameters={"simulator.lockstep_resend_period": "0.5"}) as (nodes, manager, _):
+    with composed_stack(
+        ros_context,
+        "fleet_sim",
+        arguments={"world": str(world)},
+        parameters={"simulator.lockstep_resend_period": "0.5"},
+    ) as (nodes, manager, _):
         assert set(nodes) == {"map_server", "simulator", "/r1/wall_follower", "/r2/wall_follower"}
         assert manager.get_parameter("node_startup_order").value == [
-            "map_server", "/r1/wall_follower", "/r2/wall_follower", "simulator"]
+            "map_server",
+            "/r1/wall_follower",
+            "/r2/wall_follower",
+            "simulator",
+        ]
         observer = Observer(ros_context)
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(observer)
         try:
             assert all(step.ok for step in manager.startup()), "fleet_sim did not come up"
-            assert spin_until(executor, lambda: all(observer.moved(r) > MOVED for r in ROBOTS), TIMEOUT), \
+            assert spin_until(executor, lambda: all(observer.moved(r) > MOVED for r in ROBOTS), TIMEOUT), (
                 f"moved {[observer.moved(r) for r in ROBOTS]} m"
+            )
             assert spin_until(executor, lambda: all(observer.tf[f"/{r}/tf_static"] for r in ROBOTS), 10.0)
             topics = {name for name, _ in observer.get_topic_names_and_types()}
         finally:
@@ -111,11 +123,29 @@ def test_two_robots_each_under_its_namespace_drive_and_see_each_other(ros_contex
         observer.destroy_node()
 
     for r in ROBOTS:
-        for topic in ("cmd_vel", "scan", "odom", "odometry", "ground_truth", "status", "tf", "tf_static",
-                      "wall_follower/status"):
+        for topic in (
+            "cmd_vel",
+            "scan",
+            "odom",
+            "odometry",
+            "ground_truth",
+            "status",
+            "tf",
+            "tf_static",
+            "wall_follower/status",
+        ):
             assert f"/{r}/{topic}" in topics, (r, topic)
-    for plain in ("/cmd_vel", "/scan", "/odom", "/odometry", "/ground_truth", "/tf", "/tf_static",
-                  "/simulator/status", "/wall_follower/status"):
+    for plain in (
+        "/cmd_vel",
+        "/scan",
+        "/odom",
+        "/odometry",
+        "/ground_truth",
+        "/tf",
+        "/tf_static",
+        "/simulator/status",
+        "/wall_follower/status",
+    ):
         assert plain not in topics, f"{plain}: nothing of a robot outside its namespace"
     assert {"/clock", "/map"} <= topics
 
@@ -141,8 +171,11 @@ def test_two_robots_each_under_its_namespace_drive_and_see_each_other(ros_contex
 def test_a_one_robot_world_runs_the_wall_follower_as_maze_sim_does():
     fleet = load_bringup("fleet_sim").with_overrides({"world": "open_room.yaml"})
     maze = load_bringup("maze_sim").with_overrides({"world": "open_room.yaml"})
-    assert [n.managed_name for n in fleet.nodes] == [n.managed_name for n in maze.nodes] == \
-        ["map_server", "simulator", "wall_follower"]
+    assert (
+        [n.managed_name for n in fleet.nodes]
+        == [n.managed_name for n in maze.nodes]
+        == ["map_server", "simulator", "wall_follower"]
+    )
     assert fleet.node_startup_order == maze.node_startup_order
     follower = {n.name: n for n in fleet.nodes}["wall_follower"]
     assert replace(follower, per_robot=False) == {n.name: n for n in maze.nodes}["wall_follower"]
@@ -152,8 +185,10 @@ def test_a_one_robot_world_runs_the_wall_follower_as_maze_sim_does():
 def test_robot_copies_are_namespaced_and_carry_the_file_values_inline():
     template = {n.name: n for n in load_bringup("fleet_sim").nodes}["wall_follower"]
     assert template.per_robot
-    copies = robot_nodes(replace(template, parameters={"use_sim_time": True, "preferred_wall": "left"}),
-                         [RobotSpec("a", (0, 0, 0), None), RobotSpec("b", (1, 0, 0), None)])
+    copies = robot_nodes(
+        replace(template, parameters={"use_sim_time": True, "preferred_wall": "left"}),
+        [RobotSpec("a", (0, 0, 0), None), RobotSpec("b", (1, 0, 0), None)],
+    )
     assert [c.managed_name for c in copies] == ["/a/wall_follower", "/b/wall_follower"]
     for copy in copies:
         assert not copy.per_robot and copy.parameter_files == ()
@@ -162,16 +197,30 @@ def test_robot_copies_are_namespaced_and_carry_the_file_values_inline():
         assert "-r" in copy.ros_arguments() and "__ns:=" + copy.namespace in copy.ros_arguments()
 
 
-@pytest.mark.parametrize("document, message", [
-    ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": True}]}, "robots_from: required"),
-    ({"nodes": [{"name": "a", "package": "p", "executable": "e"}], "robots_from": "a.world"},
-     "robots_from: no node has per_robot"),
-    ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": True},
-                {"name": "s", "package": "p", "executable": "e"}], "robots_from": "a.world"},
-     r"robots_from: 'a.world' is not <node>.<parameter> of a node in \['s'\]"),
-    ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": "yes"}]},
-     r"nodes\[0\].per_robot: must be true or false"),
-])
+@pytest.mark.parametrize(
+    "document, message",
+    [
+        ({"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": True}]}, "robots_from: required"),
+        (
+            {"nodes": [{"name": "a", "package": "p", "executable": "e"}], "robots_from": "a.world"},
+            "robots_from: no node has per_robot",
+        ),
+        (
+            {
+                "nodes": [
+                    {"name": "a", "package": "p", "executable": "e", "per_robot": True},
+                    {"name": "s", "package": "p", "executable": "e"},
+                ],
+                "robots_from": "a.world",
+            },
+            r"robots_from: 'a.world' is not <node>.<parameter> of a node in \['s'\]",
+        ),
+        (
+            {"nodes": [{"name": "a", "package": "p", "executable": "e", "per_robot": "yes"}]},
+            r"nodes\[0\].per_robot: must be true or false",
+        ),
+    ],
+)
 def test_bad_per_robot_sections_are_refused_naming_the_key(document, message, tmp_path):
     with pytest.raises(BringupError, match=message):
         parse_bringup(document, tmp_path / "s.yaml")

@@ -36,15 +36,27 @@ def corridor_yaml(pocket_x: float = 0.8, length: float = 2.0) -> str:
     """tests/navigation/test_traffic.py's corridor(pocket_x): 0.35 m free, a pocket 0.35 m wide at pocket_x on
     the +y side; r1 from the -x end to the +x end, r2 the other way."""
     side = 0.7
-    walls = [[-length, -0.2, length, -0.2], [-length, 0.2, pocket_x - 0.2, 0.2], [pocket_x + 0.2, 0.2, length, 0.2],
-             [pocket_x - 0.2, 0.2, pocket_x - 0.2, side], [pocket_x + 0.2, 0.2, pocket_x + 0.2, side],
-             [-length, -0.2, -length, 0.2], [length, -0.2, length, 0.2], [pocket_x - 0.2, side, pocket_x + 0.2, side]]
+    walls = [
+        [-length, -0.2, length, -0.2],
+        [-length, 0.2, pocket_x - 0.2, 0.2],
+        [pocket_x + 0.2, 0.2, length, 0.2],
+        [pocket_x - 0.2, 0.2, pocket_x - 0.2, side],
+        [pocket_x + 0.2, 0.2, pocket_x + 0.2, side],
+        [-length, -0.2, -length, 0.2],
+        [length, -0.2, length, 0.2],
+        [pocket_x - 0.2, side, pocket_x + 0.2, side],
+    ]
     lines = ["name: corridor_with_a_pocket", "wall_thickness: 0.05", "walls:"]
     lines += [f"  - [{', '.join(f'{v:g}' for v in wall)}]" for wall in walls]
-    lines += ["robots:",
-              "  - name: r1", f"    start: [{-length + 0.3:g}, 0.0, 0.0]", f"    goal: [{length - 0.3:g}, 0.0, 0.1]",
-              "  - name: r2", f"    start: [{length - 0.3:g}, 0.0, 3.14159265358979]",
-              f"    goal: [{-length + 0.3:g}, 0.0, 0.1]"]
+    lines += [
+        "robots:",
+        "  - name: r1",
+        f"    start: [{-length + 0.3:g}, 0.0, 0.0]",
+        f"    goal: [{length - 0.3:g}, 0.0, 0.1]",
+        "  - name: r2",
+        f"    start: [{length - 0.3:g}, 0.0, 3.14159265358979]",
+        f"    goal: [{-length + 0.3:g}, 0.0, 0.1]",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -75,8 +87,9 @@ class Truth(Node):
         for r in robots:
             self.keep += [
                 self.create_subscription(Odometry, f"/{r}/ground_truth", lambda m, r=r: self._relay(r, m), RELIABLE),
-                self.create_subscription(SimulatorStatus, f"/{r}/status", lambda m, r=r: self.status.__setitem__(r, m),
-                                         RELIABLE),
+                self.create_subscription(
+                    SimulatorStatus, f"/{r}/status", lambda m, r=r: self.status.__setitem__(r, m), RELIABLE
+                ),
             ]
 
     def _relay(self, robot: str, truth: Odometry) -> None:
@@ -103,24 +116,38 @@ def run_corridor(ros_context, tmp_path, traffic: bool) -> tuple[int, int, float,
     return reached, contacts, sim_time, detail
 
 
-def run_stack(ros_context, world, map_world, robots, traffic: bool,
-              coordination: str = "rules") -> tuple[int, int, int, float, dict]:
+def run_stack(
+    ros_context, world, map_world, robots, traffic: bool, coordination: str = "rules"
+) -> tuple[int, int, int, float, dict]:
     """(robots at their goals, robot-robot contacts, wall contacts, simulated s, {wall: s, robot: its traffic
     counters, plans: the fleet planner's}) of one run of fleet_navigation on `world` (the map made of `map_world`
     when given)."""
     away = (("pose", "particle_filter_unused/pose"), ("scan", "particle_filter_unused/scan"))
-    parameters = {"simulator.lockstep_resend_period": "0.5", "navigator.traffic": str(traffic).lower(),
-                  "navigator.coordination": coordination}
+    parameters = {
+        "simulator.lockstep_resend_period": "0.5",
+        "navigator.traffic": str(traffic).lower(),
+        "navigator.coordination": coordination,
+    }
 
     def the_map(bringup):  # the map of another world than the simulator's (one without a box)
         if map_world is None:
             return bringup
-        nodes = tuple(replace(node, parameters={**node.parameters, "world": str(map_world)})
-                      if node.name == "map_server" else node for node in bringup.nodes)
+        nodes = tuple(
+            replace(node, parameters={**node.parameters, "world": str(map_world)})
+            if node.name == "map_server"
+            else node
+            for node in bringup.nodes
+        )
         return replace(bringup, nodes=nodes)
 
-    with composed_stack(ros_context, "fleet_navigation", arguments={"world": str(world)}, parameters=parameters,
-                        remappings={"particle_filter": away}, adjust=the_map) as (nodes, manager, _):
+    with composed_stack(
+        ros_context,
+        "fleet_navigation",
+        arguments={"world": str(world)},
+        parameters=parameters,
+        remappings={"particle_filter": away},
+        adjust=the_map,
+    ) as (nodes, manager, _):
         truth = Truth(ros_context, robots)
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(truth)
@@ -133,8 +160,12 @@ def run_stack(ros_context, world, map_world, robots, traffic: bool,
                 now, sim = time.monotonic(), truth.sim_time()
                 if sim > progress[0]:
                     progress[:] = [sim, now]
-                return (truth.reached() == len(robots) or truth.robot_contacts() > 0 or sim >= SIM_LIMIT
-                        or now - progress[1] > STALLED)
+                return (
+                    truth.reached() == len(robots)
+                    or truth.robot_contacts() > 0
+                    or sim >= SIM_LIMIT
+                    or now - progress[1] > STALLED
+                )
 
             spin_until(executor, over, WALL_LIMIT)
             wall = time.monotonic() - started
@@ -198,4 +229,3 @@ def test_planned_together_a_box_not_on_the_map_gets_its_edge_cut_and_the_robot_p
     print(f"box, planned: {reached} reached, {walls} wall contacts, {sim_time:.1f} s simulated, {detail}")
     assert reached == 1 and walls == 0, (sim_time, detail)
     assert detail["plans"] >= 2 and detail["cut"], detail
-

@@ -21,17 +21,45 @@ LAUNCH_FILES = sorted((ROOT / "launch").glob("*.launch.py"))
 BUILDER = ROOT / "amr_bringup" / "launch_builder.py"
 
 EXECUTE_PROCESS_KEYWORDS = {"prefix", "cwd", "env", "additional_env"}  # launch 3.4.3 ExecuteProcess
-EXECUTE_LOCAL_KEYWORDS = {"shell", "sigterm_timeout", "sigkill_timeout", "emulate_tty", "output", "output_format",
-                          "cached_output", "log_cmd", "on_exit", "respawn", "respawn_delay", "respawn_max_retries"}
-NODE_KEYWORDS = {"executable", "package", "name", "namespace", "exec_name", "parameters", "remappings",
-                 "ros_arguments", "arguments"} | EXECUTE_PROCESS_KEYWORDS | EXECUTE_LOCAL_KEYWORDS
+EXECUTE_LOCAL_KEYWORDS = {
+    "shell",
+    "sigterm_timeout",
+    "sigkill_timeout",
+    "emulate_tty",
+    "output",
+    "output_format",
+    "cached_output",
+    "log_cmd",
+    "on_exit",
+    "respawn",
+    "respawn_delay",
+    "respawn_max_retries",
+}
+NODE_KEYWORDS = (
+    {
+        "executable",
+        "package",
+        "name",
+        "namespace",
+        "exec_name",
+        "parameters",
+        "remappings",
+        "ros_arguments",
+        "arguments",
+    }
+    | EXECUTE_PROCESS_KEYWORDS
+    | EXECUTE_LOCAL_KEYWORDS
+)
 REQUIRED = {"LifecycleNode": {"name", "namespace", "executable"}, "Node": {"executable"}}
 ARGUMENT_KEYWORDS = {"default_value", "description", "choices"}  # launch 3.4.3 DeclareLaunchArgument
 OPAQUE_KEYWORDS = {"function", "args", "kwargs"}  # launch 3.4.3 OpaqueFunction
-KNOWN_IMPORTS = {"launch": {"LaunchDescription"}, "launch.actions": {"DeclareLaunchArgument", "OpaqueFunction"},
-                 "launch_ros.actions": {"LifecycleNode", "Node"},
-                 "amr_bringup.stack_config": {"load_bringup"},
-                 "amr_bringup.launch_builder": {"launch_description"}}
+KNOWN_IMPORTS = {
+    "launch": {"LaunchDescription"},
+    "launch.actions": {"DeclareLaunchArgument", "OpaqueFunction"},
+    "launch_ros.actions": {"LifecycleNode", "Node"},
+    "amr_bringup.stack_config": {"load_bringup"},
+    "amr_bringup.launch_builder": {"launch_description"},
+}
 
 
 def parsed(path: Path) -> ast.Module:
@@ -39,13 +67,19 @@ def parsed(path: Path) -> ast.Module:
 
 
 def calls(tree: ast.Module, name: str) -> list[ast.Call]:
-    return [node for node in ast.walk(tree)
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == name]
+    return [
+        node
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == name
+    ]
 
 
 def bringup_name(tree: ast.Module) -> str:
-    (value,) = [node.value.value for node in tree.body if isinstance(node, ast.Assign)
-                and [t.id for t in node.targets if isinstance(t, ast.Name)] == ["BRINGUP"]]
+    (value,) = [
+        node.value.value
+        for node in tree.body
+        if isinstance(node, ast.Assign) and [t.id for t in node.targets if isinstance(t, ast.Name)] == ["BRINGUP"]
+    ]
     return value
 
 
@@ -125,8 +159,12 @@ def launch_ros_value(value) -> bool:
     """A value launch_ros's normalize_parameter_dict takes and writes back with its type."""
     if isinstance(value, (bool, int, str)) or (isinstance(value, float) and math.isfinite(value)):
         return True
-    return isinstance(value, list) and len(value) > 0 and len({type(v) for v in value}) == 1 and all(
-        launch_ros_value(v) for v in value)
+    return (
+        isinstance(value, list)
+        and len(value) > 0
+        and len({type(v) for v in value}) == 1
+        and all(launch_ros_value(v) for v in value)
+    )
 
 
 @pytest.mark.parametrize("path", LAUNCH_FILES, ids=lambda p: p.name)

@@ -47,8 +47,12 @@ class Recorded:
 def builder(monkeypatch, tmp_path):
     """amr_bringup.launch_builder imported over stand-in launch/launch_ros modules; temp files in tmp_path."""
     modules = {}
-    for module, names in {"launch": ["LaunchDescription"], "launch.actions": ["DeclareLaunchArgument", "OpaqueFunction"],
-                          "launch_ros": [], "launch_ros.actions": ["LifecycleNode", "Node"]}.items():
+    for module, names in {
+        "launch": ["LaunchDescription"],
+        "launch.actions": ["DeclareLaunchArgument", "OpaqueFunction"],
+        "launch_ros": [],
+        "launch_ros.actions": ["LifecycleNode", "Node"],
+    }.items():
         modules[module] = types.ModuleType(module)
         for name in names:
             setattr(modules[module], name, type(name, (Recorded,), {}))
@@ -83,7 +87,9 @@ def test_every_launch_file_has_its_stack_here():
     assert [path.name.removesuffix(".launch.py") for path in LAUNCH_FILES] == STACKS
 
 
-@pytest.mark.parametrize(("stack", "given"), cases(), ids=lambda c: c if isinstance(c, str) else str(c.get("world", "")))
+@pytest.mark.parametrize(
+    ("stack", "given"), cases(), ids=lambda c: c if isinstance(c, str) else str(c.get("world", ""))
+)
 def test_every_value_handed_to_launch_ros_is_one_it_accepts(builder, stack, given):
     actions = launched_actions(builder, stack, given)
     nodes = [action for action in actions if type(action).__name__ == "LifecycleNode"]
@@ -101,8 +107,10 @@ def test_every_value_handed_to_launch_ros_is_one_it_accepts(builder, stack, give
                 assert isinstance(document, dict) and all("ros__parameters" in v for v in document.values()), entry
             else:
                 refused = {name: value for name, value in entry.items() if not accepted_by_launch_ros(value)}
-                assert not refused, f"{stack} {given}: {action.kwargs.get('namespace')}/{action.kwargs['name']}: " \
-                                    f"launch_ros refuses {refused}"
+                assert not refused, (
+                    f"{stack} {given}: {action.kwargs.get('namespace')}/{action.kwargs['name']}: "
+                    f"launch_ros refuses {refused}"
+                )
 
 
 def test_the_fleet_navigators_goal_reaches_them_through_a_file(builder):
@@ -112,25 +120,45 @@ def test_the_fleet_navigators_goal_reaches_them_through_a_file(builder):
     for navigator in navigators:
         files = [Path(entry) for entry in navigator.kwargs["parameters"] if isinstance(entry, str)]
         inline = [entry for entry in navigator.kwargs["parameters"] if isinstance(entry, dict)]
-        (written,) = [yaml.safe_load(path.read_text()) for path in files if path.parent == Path(sys.modules[
-            "tempfile"].gettempdir())]
+        (written,) = [
+            yaml.safe_load(path.read_text())
+            for path in files
+            if path.parent == Path(sys.modules["tempfile"].gettempdir())
+        ]
         assert written == {"/**": {"ros__parameters": {"goal": []}}}
         assert inline and "goal" not in inline[0] and inline[0]["traffic"] is True
 
 
-@pytest.mark.parametrize(("value", "accepted"), [
-    (1, True), (1.5, True), (True, True), ("", True), (b"x", True), ([1, 2], True), (["a"], True), ([True], True),
-    ([], False), ([1, 2.5], False), (["a", 1], False), ([[1.0, 2.0]], False), ({"a": 1}, False), (None, False),
-    (math.nan, False), ([True, 1], False)])
+@pytest.mark.parametrize(
+    ("value", "accepted"),
+    [
+        (1, True),
+        (1.5, True),
+        (True, True),
+        ("", True),
+        (b"x", True),
+        ([1, 2], True),
+        (["a"], True),
+        ([True], True),
+        ([], False),
+        ([1, 2.5], False),
+        (["a", 1], False),
+        ([[1.0, 2.0]], False),
+        ({"a": 1}, False),
+        (None, False),
+        (math.nan, False),
+        ([True, 1], False),
+    ],
+)
 def test_the_suite_s_rule_is_launch_ros_s(value, accepted):
     assert launch_inline_value(value) is accepted
     assert accepted_by_launch_ros(value) is accepted
 
 
 def test_the_parameter_file_nests_dotted_names_and_keeps_types(tmp_path):
-    path = write_parameter_file({"goal": [], "costmap.robot_radius": 0.1, "window": [1, 2.5], "ids": [1, 2]},
-                                tmp_path)
+    path = write_parameter_file({"goal": [], "costmap.robot_radius": 0.1, "window": [1, 2.5], "ids": [1, 2]}, tmp_path)
     assert path.parent == tmp_path
-    assert yaml.safe_load(path.read_text()) == {"/**": {"ros__parameters": {
-        "goal": [], "costmap": {"robot_radius": 0.1}, "window": [1.0, 2.5], "ids": [1, 2]}}}
+    assert yaml.safe_load(path.read_text()) == {
+        "/**": {"ros__parameters": {"goal": [], "costmap": {"robot_radius": 0.1}, "window": [1.0, 2.5], "ids": [1, 2]}}
+    }
     assert isinstance(yaml.safe_load(path.read_text())["/**"]["ros__parameters"]["window"][0], float)

@@ -40,8 +40,9 @@ class FakeNodes:
 
 
 def make(nodes, fake, reported=None, wait_timeout=0.6):
-    return LifecycleSequencer(fake, nodes, wait_timeout=wait_timeout,
-                              report=(reported.append if reported is not None else lambda s: None))
+    return LifecycleSequencer(
+        fake, nodes, wait_timeout=wait_timeout, report=(reported.append if reported is not None else lambda s: None)
+    )
 
 
 def test_startup_in_order_and_shutdown_in_reverse():
@@ -49,12 +50,24 @@ def test_startup_in_order_and_shutdown_in_reverse():
     sequencer = make(["sim", "odom", "follower"], fake)
     steps = sequencer.startup()
     assert all(step.ok for step in steps)
-    assert fake.requests == [("sim", "configure"), ("sim", "activate"), ("odom", "configure"),
-                             ("odom", "activate"), ("follower", "configure"), ("follower", "activate")]
+    assert fake.requests == [
+        ("sim", "configure"),
+        ("sim", "activate"),
+        ("odom", "configure"),
+        ("odom", "activate"),
+        ("follower", "configure"),
+        ("follower", "activate"),
+    ]
     fake.requests.clear()
     sequencer.shutdown()
-    assert fake.requests == [("follower", "deactivate"), ("follower", "cleanup"), ("odom", "deactivate"),
-                             ("odom", "cleanup"), ("sim", "deactivate"), ("sim", "cleanup")]
+    assert fake.requests == [
+        ("follower", "deactivate"),
+        ("follower", "cleanup"),
+        ("odom", "deactivate"),
+        ("odom", "cleanup"),
+        ("sim", "deactivate"),
+        ("sim", "cleanup"),
+    ]
     assert set(fake.states.values()) == {"unconfigured"}
 
 
@@ -66,19 +79,23 @@ def test_nodes_already_up_are_not_asked_again():
 
 def test_a_failing_configure_stops_the_sequence_and_names_the_node():
     reported = []
-    fake = FakeNodes({"sim": "unconfigured", "follower": "unconfigured", "last": "unconfigured"},
-                     failing={("follower", "configure")})
+    fake = FakeNodes(
+        {"sim": "unconfigured", "follower": "unconfigured", "last": "unconfigured"}, failing={("follower", "configure")}
+    )
     steps = make(["sim", "follower", "last"], fake, reported).startup()
     assert not steps[-1].ok and steps[-1].node == "follower" and steps[-1].transition == "configure"
     assert "follower" in steps[-1].detail
     assert ("last", "configure") not in fake.requests and reported == steps
 
 
-@pytest.mark.parametrize(("fake", "words"), [
-    (FakeNodes({"x": "unconfigured"}, absent={"x"}), "not available"),
-    (FakeNodes({"x": "unconfigured"}, silent={"x"}), "did not answer"),
-    (FakeNodes({"x": "finalized"}), "offers"),
-])
+@pytest.mark.parametrize(
+    ("fake", "words"),
+    [
+        (FakeNodes({"x": "unconfigured"}, absent={"x"}), "not available"),
+        (FakeNodes({"x": "unconfigured"}, silent={"x"}), "did not answer"),
+        (FakeNodes({"x": "finalized"}), "offers"),
+    ],
+)
 def test_unreachable_or_finalized_nodes_fail_clearly(fake, words):
     steps = make(["x"], fake).startup()
     assert not steps[-1].ok and words in steps[-1].detail

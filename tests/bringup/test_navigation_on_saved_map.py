@@ -24,7 +24,9 @@ def test_without_map_the_world_is_the_map():
 
 
 def test_clears_must_name_parameters_of_the_stacks_nodes(tmp_path):
-    document = {"nodes": [{"name": "a", "package": "amr_maps", "executable": "map_server"}],
-                "arguments": {"map": {"sets": ["a.yaml_filename"], "clears": ["b.world"]}}}
+    document = {
+        "nodes": [{"name": "a", "package": "amr_maps", "executable": "map_server"}],
+        "arguments": {"map": {"sets": ["a.yaml_filename"], "clears": ["b.world"]}},
+    }
     with pytest.raises(BringupError, match="arguments.map.clears"):
         parse_bringup(document, tmp_path / "stack.yaml")

@@ -18,8 +18,15 @@ GOAL_TIMEOUT = 90.0
 def test_the_real_stack_is_the_robot_bringup_and_our_nodes():
     bringup = load_bringup("real_robot_navigation").with_overrides({"map": "/maps/lab.yaml"}, {})
     nodes = {node.name: node for node in bringup.nodes}
-    assert set(nodes) == {"map_server", "odometry_node", "wall_follower", "particle_filter", "planner",
-                          "path_follower", "navigator"}  # no simulator: the robot's bringup publishes /scan, /odom
+    assert set(nodes) == {
+        "map_server",
+        "odometry_node",
+        "wall_follower",
+        "particle_filter",
+        "planner",
+        "path_follower",
+        "navigator",
+    }  # no simulator: the robot's bringup publishes /scan, /odom
     assert nodes["map_server"].parameters["yaml_filename"] == "/maps/lab.yaml"
     for name in ("wall_follower", "path_follower"):
         assert nodes[name].parameter_files == (f"{name}_real.yaml",)
@@ -29,7 +36,11 @@ def test_the_real_stack_is_the_robot_bringup_and_our_nodes():
 def test_the_twin_is_the_robot_on_the_simulator():
     nodes = {node.name: node for node in load_bringup("real_robot_navigation_sim").nodes}
     simulator = nodes["simulator"].parameters
-    assert (simulator["mode"], simulator["cmd_vel_stamped"], simulator["publish_odometry"]) == ("realtime", False, False)
+    assert (simulator["mode"], simulator["cmd_vel_stamped"], simulator["publish_odometry"]) == (
+        "realtime",
+        False,
+        False,
+    )
     assert (simulator["lidar.beams"], simulator["scan_period"], simulator["dt"]) == (360, 0.2, 0.05)
     assert simulator["encoders.noise"] > 0 and simulator["lidar.noise_std"] > 0
     real = {node.name for node in load_bringup("real_robot_navigation").nodes}

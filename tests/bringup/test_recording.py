@@ -41,7 +41,9 @@ def assert_recorded_in_order(recording, observation_topics) -> int:
     The last step is the latest that either the status or /clock names."""
     steps = [message.steps for _, message in recording.topics["/simulator/status"]]
     assert steps == sorted(set(steps)), steps[:10]
-    clock = [round((message.clock.sec + message.clock.nanosec * 1e-9) / DT) for _, message in recording.topics["/clock"]]
+    clock = [
+        round((message.clock.sec + message.clock.nanosec * 1e-9) / DT) for _, message in recording.topics["/clock"]
+    ]
     assert clock == sorted(set(clock)), clock[:10]
     last = max(steps[-1], clock[-1])
     for topic in observation_topics:
@@ -50,15 +52,26 @@ def assert_recorded_in_order(recording, observation_topics) -> int:
 
 
 def test_a_60_s_maze_run_is_recorded_complete_with_rosbag2_metadata_and_renders(ros_context, tmp_path):
-    recorder = Recorder(context=ros_context, parameter_overrides=[
-        Parameter("path", value=str(tmp_path / "run.mcap")), Parameter("use_sim_time", value=True)])
+    recorder = Recorder(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("path", value=str(tmp_path / "run.mcap")),
+            Parameter("use_sim_time", value=True),
+        ],
+    )
     wanted = round(SPAN / DT) + 1
     recording = BackgroundSpin(recorder)  # as amr-bringup --record runs it
-    with composed_stack(ros_context, "maze_sim", parameters={"simulator.lockstep_resend_period": "0.0"},
-                        before_activate=lambda node: recorder.wait_until_caught_up()) as (_, manager, _):
+    with composed_stack(
+        ros_context,
+        "maze_sim",
+        parameters={"simulator.lockstep_resend_period": "0.0"},
+        before_activate=lambda node: recorder.wait_until_caught_up(),
+    ) as (_, manager, _):
         assert all(step.ok for step in manager.startup())
         started = time.monotonic()
-        while recorder.counts.get("/clock", 0) < wanted and time.monotonic() - started < 300.0:  # 8x real time on a quiet 2-core machine
+        while (
+            recorder.counts.get("/clock", 0) < wanted and time.monotonic() - started < 300.0
+        ):  # 8x real time on a quiet 2-core machine
             time.sleep(0.05)
         manager.shutdown()
     recording.stop()  # the bag is finished
@@ -94,10 +107,13 @@ def test_a_60_s_maze_run_is_recorded_complete_with_rosbag2_metadata_and_renders(
 
 
 def test_amr_bringup_records_the_named_topics_and_a_standalone_recorder_records_alongside(tmp_path, node_process):
-    standalone = node_process("amr_bringup", "recorder", "-p", f"path:={tmp_path / 'map.mcap'}", "-p",
-                              "topics:=[/map, /tf_static]")
+    standalone = node_process(
+        "amr_bringup", "recorder", "-p", f"path:={tmp_path / 'map.mcap'}", "-p", "topics:=[/map, /tf_static]"
+    )
     topics = ["/clock", "/scan", "/tf", "/simulator/status"]
-    run = Bringup("maze_sim", "--composed", "--duration", "5", "--record", str(tmp_path / "run.mcap"), "--topics", *topics)
+    run = Bringup(
+        "maze_sim", "--composed", "--duration", "5", "--record", str(tmp_path / "run.mcap"), "--topics", *topics
+    )
     assert run.finish(timeout=60.0) == 0, run.output
     assert "recorder --ros-args -r __node:=recorder_maze_sim" in run.output, "--record runs the recorder as a process"
     code, output = standalone.stop()

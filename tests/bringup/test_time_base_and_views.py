@@ -59,13 +59,21 @@ class GateProbe(Node):
             if topic in self.subscribed or topic == GATED:
                 continue
             publishers = self.get_publishers_info_by_topic(topic)
-            reliable_only = publishers and all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE
-                                               for p in publishers)  # best effort would drop some under load
-            qos = LATCHED_QOS if topic in LATCHED else QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE
-                                                          if reliable_only else ReliabilityPolicy.BEST_EFFORT)
+            reliable_only = publishers and all(
+                p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers
+            )  # best effort would drop some under load
+            qos = (
+                LATCHED_QOS
+                if topic in LATCHED
+                else QoSProfile(
+                    depth=200,
+                    reliability=ReliabilityPolicy.RELIABLE if reliable_only else ReliabilityPolicy.BEST_EFFORT,
+                )
+            )
             self.received[topic] = []
             self.subscribed[topic] = self.create_subscription(
-                message_class(types[0]), topic, lambda message, topic=topic: self._on(topic, message), qos)
+                message_class(types[0]), topic, lambda message, topic=topic: self._on(topic, message), qos
+            )
 
     def _on(self, topic: str, message) -> None:
         if topic == "/clock":
@@ -78,17 +86,27 @@ class GateProbe(Node):
 
 
 def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_context):
-    with composed_stack(ros_context, "maze_sim", arguments={"world": WORLD},
-                        parameters={"simulator.lockstep_resend_period": "0.0", "simulator.publish_map_to_odom": "true"},
-                        remappings={"wall_follower": (("cmd_vel", GATED),)}) as (_, manager, _):
+    with composed_stack(
+        ros_context,
+        "maze_sim",
+        arguments={"world": WORLD},
+        parameters={"simulator.lockstep_resend_period": "0.0", "simulator.publish_map_to_odom": "true"},
+        remappings={"wall_follower": (("cmd_vel", GATED),)},
+    ) as (_, manager, _):
         assert all(step.ok for step in manager.startup()), "maze_sim did not come up"
         probe = GateProbe(ros_context)  # a late joiner: /map and /tf_static went out at activation
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(probe)
         try:
             probe.subscribe_all()
-            assert spin_until(executor, lambda: probe.cmd_vel.get_subscription_count() > 0 and all(
-                s.get_publisher_count() > 0 for s in probe.subscribed.values()), TIMEOUT)
+            assert spin_until(
+                executor,
+                lambda: (
+                    probe.cmd_vel.get_subscription_count() > 0
+                    and all(s.get_publisher_count() > 0 for s in probe.subscribed.values())
+                ),
+                TIMEOUT,
+            )
             spin_until(executor, lambda: False, 0.3)  # matching settles
             kick = TwistStamped()  # the follower's answer to the first observation went out before we listened
             periodic: set[str] = set()
@@ -96,8 +114,9 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
             for step in range(STEPS):
                 before = {topic: probe.count(topic) for topic in periodic}
                 probe.cmd_vel.publish(probe.held.pop(0) if probe.held else kick)
-                assert spin_until(executor, lambda: probe.held and all(
-                    probe.count(t) > before[t] for t in periodic), TIMEOUT), f"step {step}: the loop stalled"
+                assert spin_until(
+                    executor, lambda: probe.held and all(probe.count(t) > before[t] for t in periodic), TIMEOUT
+                ), f"step {step}: the loop stalled"
                 if step == 0:  # the loop waits for the next command: what arrives now is the first step's
                     assert spin_until(executor, lambda: probe.clock is not None, TIMEOUT), "no /clock"
                     spin_until(executor, lambda: False, 0.3)
@@ -117,8 +136,19 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
             probe.destroy_node()
             executor.shutdown()
 
-    expected = {"/scan", "/odometry", "/odom", "/ground_truth", "/tf", "/tf_static", "/map", "/simulator/status",
-                "/wall_follower/status", "/cmd_vel", GATED}
+    expected = {
+        "/scan",
+        "/odometry",
+        "/odom",
+        "/ground_truth",
+        "/tf",
+        "/tf_static",
+        "/map",
+        "/simulator/status",
+        "/wall_follower/status",
+        "/cmd_vel",
+        GATED,
+    }
     assert expected <= set(checked), f"no stamp checked on {sorted(expected - set(checked))}"
     assert checked["/scan"] >= STEPS
 
@@ -147,14 +177,19 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
         at = seconds(odom_base.header.stamp)
         if at not in odometry or at not in truth:
             continue
-        pose = Pose2D(odom_base.transform.translation.x, odom_base.transform.translation.y,
-                      yaw(odom_base.transform.rotation))
+        pose = Pose2D(
+            odom_base.transform.translation.x, odom_base.transform.translation.y, yaw(odom_base.transform.rotation)
+        )
         p = odometry[at]
-        assert (pose.x, pose.y, pose.theta) == pytest.approx((p.position.x, p.position.y, yaw(p.orientation)), abs=1e-12)
+        assert (pose.x, pose.y, pose.theta) == pytest.approx(
+            (p.position.x, p.position.y, yaw(p.orientation)), abs=1e-12
+        )
         m = map_odom.transform
         composed = compose(Pose2D(m.translation.x, m.translation.y, yaw(m.rotation)), pose)
         g = truth[at]
-        assert composed.x == pytest.approx(g.position.x, abs=1e-6) and composed.y == pytest.approx(g.position.y, abs=1e-6)
+        assert composed.x == pytest.approx(g.position.x, abs=1e-6) and composed.y == pytest.approx(
+            g.position.y, abs=1e-6
+        )
         assert math.remainder(composed.theta - yaw(g.orientation), 2 * math.pi) == pytest.approx(0.0, abs=1e-6)
         compared += 1
     assert compared >= STEPS - 5

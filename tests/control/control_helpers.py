@@ -38,9 +38,15 @@ def cast(
     return ScanData(best, angle_min, increment, 0.12, range_max)
 
 
-def corridor(left: float = 0.2, right: float = 0.2, front: float | None = None,
-             right_from: float = -BIG, left_from: float = -BIG,
-             right_to: float = BIG, left_to: float = BIG) -> list[tuple[float, float, float, float]]:
+def corridor(
+    left: float = 0.2,
+    right: float = 0.2,
+    front: float | None = None,
+    right_from: float = -BIG,
+    left_from: float = -BIG,
+    right_to: float = BIG,
+    left_to: float = BIG,
+) -> list[tuple[float, float, float, float]]:
     """Walls along x at y = +left and y = -right (spanning [from, to] in x), optionally a wall across at x = front."""
     walls = [(left_from, left, left_to, left), (right_from, -right, right_to, -right)]
     if front is not None:

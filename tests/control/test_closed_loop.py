@@ -28,8 +28,9 @@ def test_simulation_config_explores_without_touching_a_wall(world):
     assert result.collisions == 0
     assert result.mean_speed > MIN_MEAN_SPEED
     if result.goal is False:  # only a goal a right-hand follower can reach must be reached (pillar_goal's cannot)
-        assert goal_reachable(yaml.safe_load(world.read_text()), SIM_CONFIG.preferred_wall) is False, \
+        assert goal_reachable(yaml.safe_load(world.read_text()), SIM_CONFIG.preferred_wall) is False, (
             "the world's goal was not reached"
+        )
     assert result.goal or result.time == SECONDS
     assert math.isnan(result.wall_error) or result.wall_error < MAX_WALL_ERROR
     assert result.commands_with_issues == 0

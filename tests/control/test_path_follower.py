@@ -97,7 +97,7 @@ def test_tracking_a_curved_path_converges_and_stops_at_the_goal_heading():
     assert math.hypot(final_pose[0] - path[-1, 0], final_pose[1] - path[-1, 1]) <= follower.config.goal_tolerance
     assert abs(math.remainder(final_pose[2] - math.pi / 2, 2 * math.pi)) <= math.radians(10.0) + 1e-9
     assert any(c.state is State.HEADING for _, c in history)
-    late = [c.cross_track for _, c in history[len(history) // 3:] if c.state is State.TRACK]
+    late = [c.cross_track for _, c in history[len(history) // 3 :] if c.state is State.TRACK]
     assert max(late) < 0.03
     assert follower.compute(*final_pose).reached  # stays reached
 
@@ -120,9 +120,17 @@ def test_a_blocked_robot_turns_in_place_towards_the_path_never_forwards():
     follower.set_path(straight())
     heading = 0.4  # turned left of the path, a wall 1.5 cm ahead of its disc along that heading
     wall = 0.105 + 0.015
-    scan = cast([(wall * math.cos(heading) - math.sin(heading), wall * math.sin(heading) + math.cos(heading),
-                  wall * math.cos(heading) + math.sin(heading), wall * math.sin(heading) - math.cos(heading))],
-                heading=heading)
+    scan = cast(
+        [
+            (
+                wall * math.cos(heading) - math.sin(heading),
+                wall * math.sin(heading) + math.cos(heading),
+                wall * math.cos(heading) + math.sin(heading),
+                wall * math.sin(heading) - math.cos(heading),
+            )
+        ],
+        heading=heading,
+    )
     command = follower.compute(0.0, 0.0, heading, scan)
     assert command.state is State.BLOCKED and command.v == 0.0 and command.w < 0.0
 
@@ -141,8 +149,9 @@ def test_grazing_a_wall_with_the_path_straight_ahead_turns_away_and_drives_clear
     for _ in range(200):
         moved = [(x0 - x, y0 - y, x1 - x, y1 - y) for x0, y0, x1, y1 in wall]
         scan = cast(moved, heading=theta)  # range_min 0.05: the TurtleBot's LiDAR sits 3.2 cm behind the centre
-        command = follower.compute(x, y, theta, ScanData(scan.ranges, scan.angle_min, scan.angle_increment, 0.05,
-                                                         scan.range_max))
+        command = follower.compute(
+            x, y, theta, ScanData(scan.ranges, scan.angle_min, scan.angle_increment, 0.05, scan.range_max)
+        )
         states.append((command.state, command.v, command.w))
         if command.state is State.TRACK and any(s is State.ESCAPE and v > 0 for s, v, _ in states):
             break
@@ -199,10 +208,15 @@ def test_progress_is_not_short_cut_where_a_path_passes_close_to_itself():
         assert command.remaining > 2.0
 
 
-@pytest.mark.parametrize("path, words", [
-    ([], "non-empty"), ([[0.0, 0.0, 0.0]], "non-empty"), ([[0.0, math.nan], [1.0, 0.0]], "finite"),
-    ("ab", "numbers|non-empty"),
-])
+@pytest.mark.parametrize(
+    "path, words",
+    [
+        ([], "non-empty"),
+        ([[0.0, 0.0, 0.0]], "non-empty"),
+        ([[0.0, math.nan], [1.0, 0.0]], "finite"),
+        ("ab", "numbers|non-empty"),
+    ],
+)
 def test_bad_paths_are_refused(path, words):
     follower = PathFollower()
     with pytest.raises(PathError, match=words):
@@ -216,11 +230,16 @@ def test_a_one_point_path_is_a_goal_to_drive_to():
     assert drive(follower, (0.0, 0.0, 0.0), 200)[-1][1].reached
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"lookahead_distance": 0.0}, "lookahead_distance"), ({"safety_margin": -0.1}, "safety_margin"),
-    ({"min_linear_speed": 0.5}, "min_linear_speed"), ({"aligned_angle_deg": 90.0}, "aligned_angle_deg"),
-    ({"goal_tolerance": math.nan}, "goal_tolerance"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"lookahead_distance": 0.0}, "lookahead_distance"),
+        ({"safety_margin": -0.1}, "safety_margin"),
+        ({"min_linear_speed": 0.5}, "min_linear_speed"),
+        ({"aligned_angle_deg": 90.0}, "aligned_angle_deg"),
+        ({"goal_tolerance": math.nan}, "goal_tolerance"),
+    ],
+)
 def test_bad_configs_are_refused_by_name(kwargs, name):
     with pytest.raises(ConfigError, match=name):
         PathFollowerConfig(**kwargs)

@@ -113,7 +113,9 @@ def test_wall_end_is_where_the_passed_wall_ends_not_where_it_resumes(skew_deg, n
     if noise:
         ranges = np.asarray(scan.ranges) + np.random.default_rng(3).normal(0.0, noise, len(scan.ranges))
         scan = ScanData(ranges, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max)
-    reader = SectorReader(Sectors(math.radians(15), math.radians(20), math.radians(5)), Footprint(0.105, -0.032, 0.01), 3)
+    reader = SectorReader(
+        Sectors(math.radians(15), math.radians(20), math.radians(5)), Footprint(0.105, -0.032, 0.01), 3
+    )
     reader.read(scan)
     found = reader.wall_end(-1.0, 0.2, skew)
     assert found == pytest.approx(-0.032 + end, abs=0.01 + noise)  # rotation-centre frame, along the walls

@@ -286,7 +286,12 @@ def test_measurements_are_exposed_for_logs():
     drive = Drive()
     drive.step(cast(corridor(left=0.3, right=0.25, front=0.5)))
     m = drive.follower.measurements
-    assert (m.front, m.left, m.right, m.followed_wall) == (pytest.approx(0.5), pytest.approx(0.3), pytest.approx(0.25), "right")
+    assert (m.front, m.left, m.right, m.followed_wall) == (
+        pytest.approx(0.5),
+        pytest.approx(0.3),
+        pytest.approx(0.25),
+        "right",
+    )
     assert m.wall_distance == pytest.approx(0.25)
     assert m.clearance == pytest.approx(0.5 - 0.032 - (0.105 + 0.01), abs=1e-3)  # the disc widened by half the margin
 

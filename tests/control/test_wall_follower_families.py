@@ -63,9 +63,15 @@ def test_a_narrow_corridor_is_followed_down_its_middle():
     assert follower.state == "FOLLOW" and command.w == pytest.approx(0.0, abs=1e-3)  # not pushed to 0.2 m
 
 
-@pytest.mark.parametrize("bend_deg", [
-    45.0, 60.0, 120.0, 160.0,
-])
+@pytest.mark.parametrize(
+    "bend_deg",
+    [
+        45.0,
+        60.0,
+        120.0,
+        160.0,
+    ],
+)
 def test_bends_of_any_angle_are_followed_never_turned_back(bend_deg):
     world = world_from_dict(generate("bends", 1, bend_deg=bend_deg, bends=2, width=0.4))
     result = run_loop(world, SIM_CONFIG, seconds=200.0)
@@ -77,8 +83,14 @@ def test_bends_of_any_angle_are_followed_never_turned_back(bend_deg):
 @pytest.mark.parametrize("config", [SIM_CONFIG, REAL_CONFIG], ids=["sim", "real"])
 def test_a_narrowing_corridor_is_driven_through_at_lidar_noise_3_cm(config):
     world = world_from_dict(generate("narrowing", 2, max_width=0.6, min_width=0.35))
-    result = run_loop(world, config, seconds=300.0, seed=3, lidar=LidarConfig(noise_std=0.03),
-                      encoders=EncoderConfig(noise=0.02, slip=0.05))
+    result = run_loop(
+        world,
+        config,
+        seconds=300.0,
+        seed=3,
+        lidar=LidarConfig(noise_std=0.03),
+        encoders=EncoderConfig(noise=0.02, slip=0.05),
+    )
     assert result.collisions == 0
     assert result.goal, f"missed after {result.time:.0f} s, states {dict(result.states)}"
 

@@ -38,8 +38,13 @@ READER = SectorReader(
 
 def noisy(scan: ScanData, rng: np.random.Generator, sigma: float = 0.03) -> ScanData:
     ranges = np.asarray(scan.ranges, dtype=float)
-    return ScanData(ranges + rng.normal(0.0, sigma, len(ranges)), scan.angle_min, scan.angle_increment,
-                    scan.range_min, scan.range_max)
+    return ScanData(
+        ranges + rng.normal(0.0, sigma, len(ranges)),
+        scan.angle_min,
+        scan.angle_increment,
+        scan.range_min,
+        scan.range_max,
+    )
 
 
 def fit(angle_deg: float, std_deg: float = 3.0) -> LineFit:
@@ -298,8 +303,9 @@ def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(name
     reference, reached = route_of(world, 600.0, lidar=LidarConfig(noise_std=0.0))
     tour = hand_tour(MazeGrid.from_world(world), world["start"])
     assert reached and first_difference(reference, tour) is None  # noise-free: the ideal hand tour
-    route, reached = route_of(world, 600.0, seed=seed, lidar=LidarConfig(noise_std=0.03),
-                              encoders=EncoderConfig(noise=0.02, slip=0.05))
+    route, reached = route_of(
+        world, 600.0, seed=seed, lidar=LidarConfig(noise_std=0.03), encoders=EncoderConfig(noise=0.02, slip=0.05)
+    )
     assert reached, f"goal missed; route {route}"
     # The same cells up to where the shorter ends at the goal (which may be reached a cell early or late).
     shorter = min(len(route), len(reference))
@@ -310,8 +316,17 @@ def test_a_noisy_tight_maze_is_walked_along_the_same_cells_as_without_noise(name
 # -- square turns where the way ahead is short (the real configuration) -----------------------------
 
 SIDE_PASSAGE_MAZE = (
-    ((0, 0), (0, 1)), ((0, 1), (1, 1)), ((1, 1), (1, 0)), ((1, 1), (2, 1)), ((2, 1), (2, 2)), ((2, 2), (3, 2)),
-    ((3, 2), (3, 1)), ((3, 1), (3, 0)), ((3, 0), (2, 0)), ((0, 1), (0, 2)), ((0, 2), (1, 2)),
+    ((0, 0), (0, 1)),
+    ((0, 1), (1, 1)),
+    ((1, 1), (1, 0)),
+    ((1, 1), (2, 1)),
+    ((2, 1), (2, 2)),
+    ((2, 2), (3, 2)),
+    ((3, 2), (3, 1)),
+    ((3, 1), (3, 0)),
+    ((3, 0), (2, 0)),
+    ((0, 1), (0, 2)),
+    ((0, 2), (1, 2)),
 )
 """The passages of a 4 x 3 tree maze (cells (i, j), i east, j north). The right hand from (0, 0), facing
 north, turns into the junction (1, 1), turns around in the dead end (1, 0) below it, and out of the
@@ -326,15 +341,26 @@ def grid_maze(passages, columns: int, rows: int, width: float = 0.35, thickness:
     opened = {frozenset(p) for p in passages}
     walls = []
     for i in range(columns + 1):  # vertical lines x = i pitch: between (i - 1, j) and (i, j)
-        walls += [[i * pitch, j * pitch, i * pitch, (j + 1) * pitch] for j in range(rows)
-                  if frozenset(((i - 1, j), (i, j))) not in opened]
+        walls += [
+            [i * pitch, j * pitch, i * pitch, (j + 1) * pitch]
+            for j in range(rows)
+            if frozenset(((i - 1, j), (i, j))) not in opened
+        ]
     for j in range(rows + 1):
-        walls += [[i * pitch, j * pitch, (i + 1) * pitch, j * pitch] for i in range(columns)
-                  if frozenset(((i, j - 1), (i, j))) not in opened]
+        walls += [
+            [i * pitch, j * pitch, (i + 1) * pitch, j * pitch]
+            for i in range(columns)
+            if frozenset(((i, j - 1), (i, j))) not in opened
+        ]
     goal = passages[-3][1]  # (2, 0)
     centre = lambda cell: [(cell[0] + 0.5) * pitch, (cell[1] + 0.5) * pitch]  # noqa: E731
-    return {"name": "side_passage", "wall_thickness": thickness, "walls": walls,
-            "start": centre((0, 0)) + [0.5 * math.pi], "goal": centre(goal) + [0.1]}
+    return {
+        "name": "side_passage",
+        "wall_thickness": thickness,
+        "walls": walls,
+        "start": centre((0, 0)) + [0.5 * math.pi],
+        "goal": centre(goal) + [0.1],
+    }
 
 
 def test_square_turns_facing_a_short_open_way_end_square_and_keep_the_hand_tour():
@@ -345,8 +371,12 @@ def test_square_turns_facing_a_short_open_way_end_square_and_keep_the_hand_tour(
     # bench: the robot left the tour there and missed the goal).
     world = grid_maze(SIDE_PASSAGE_MAZE, 4, 3)
     grid = MazeGrid.from_world(world)
-    sim = Simulator(world_from_dict(world), SimulationConfig(dt=REAL_CONFIG.dt, lidar=LidarConfig(beams=360, noise_std=0.0),
-                                                             encoders=EncoderConfig(noise=0.0, slip=0.0)))
+    sim = Simulator(
+        world_from_dict(world),
+        SimulationConfig(
+            dt=REAL_CONFIG.dt, lidar=LidarConfig(beams=360, noise_std=0.0), encoders=EncoderConfig(noise=0.0, slip=0.0)
+        ),
+    )
     follower = WallFollower(REAL_CONFIG)
     lidar = sim.lidar
     turn_ends = []  # heading off square (deg) where a square turn ended

@@ -22,8 +22,11 @@ def test_every_shipped_world_is_tested():
     assert len(WORLDS) >= 4
 
 
-@pytest.mark.parametrize(("world", "odometry_node"), [(world, False) for world in WORLDS] + [("hard_maze.yaml", True)],
-                         ids=[f"{world}-sim_odometry" for world in WORLDS] + ["hard_maze.yaml-odometry_node"])
+@pytest.mark.parametrize(
+    ("world", "odometry_node"),
+    [(world, False) for world in WORLDS] + [("hard_maze.yaml", True)],
+    ids=[f"{world}-sim_odometry" for world in WORLDS] + ["hard_maze.yaml-odometry_node"],
+)
 def test_explores_without_touching_a_wall(ros_context, world, odometry_node):
     summary, samples = run_maze(ros_context, world, SPAN, odometry_node=odometry_node, progress=False)
     print(summary)  # mean |wall distance - target| is reported here (pytest -s), not judged
@@ -41,9 +44,14 @@ def test_real_robot_config_drives_the_simulator_on_sim_time(ros_context, world):
     The simulator follows REP 103, so the real robot's sign flip (seed 5.2.1) is switched off here.
     """
     summary, samples = run_maze(
-        ros_context, world, 45.0, follower_config="wall_follower_real.yaml",
+        ros_context,
+        world,
+        45.0,
+        follower_config="wall_follower_real.yaml",
         simulator_overrides=["mode:=realtime", "rate:=4.0", "cmd_vel_stamped:=false"],
-        follower_overrides=["use_sim_time:=true", "flip_angular_sign:=false"], progress=False)
+        follower_overrides=["use_sim_time:=true", "flip_angular_sign:=false"],
+        progress=False,
+    )
     print(summary)
     assert summary["collisions"] == 0, summary
     assert summary["distance_m"] > 0.05 * summary["simulated_time_s"], f"stalled: {summary}"

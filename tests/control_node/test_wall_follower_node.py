@@ -33,9 +33,11 @@ def corridor_scan(stamp_ns: int, right: float = 0.2, left: float = 0.2, front: f
     for k in range(BEAMS):
         angle = k * scan.angle_increment
         s, c = math.sin(angle), math.cos(angle)
-        candidates = [front / c if c > 1e-6 else math.inf,
-                      left / s if s > 1e-6 else math.inf,
-                      right / -s if s < -1e-6 else math.inf]
+        candidates = [
+            front / c if c > 1e-6 else math.inf,
+            left / s if s > 1e-6 else math.inf,
+            right / -s if s < -1e-6 else math.inf,
+        ]
         distance = min(candidates)
         ranges.append(distance if distance <= scan.range_max else math.inf)
     scan.ranges = ranges
@@ -113,7 +115,9 @@ def test_bad_scans_never_make_nan_commands(ros_context, executor):
 
 
 def test_real_robot_mode_uses_twist_a_timer_and_stops_on_stale_data(ros_context, executor):
-    node, rig = active_follower(ros_context, executor, Twist, simulation=False, sync_slop=0.15, flip_angular_sign=True, stale_timeout=0.1)
+    node, rig = active_follower(
+        ros_context, executor, Twist, simulation=False, sync_slop=0.15, flip_angular_sign=True, stale_timeout=0.1
+    )
     now = node.get_clock().now().nanoseconds
     for k in range(6):  # the real robot: odometry and scan stamps differ a little
         rig.odometry.publish(odometry(now + k * 50_000_000 + 7_000_000))
@@ -134,11 +138,14 @@ def navigator_status(stamp_ns: int, controller: str) -> NavigatorStatus:
 
 
 def test_navigated_answers_only_what_the_navigator_gives_it_and_a_held_observation_on_a_new_decision(
-        ros_context, executor):
+    ros_context, executor
+):
     node, rig = active_follower(ros_context, executor, navigated=True)
     status = rig.create_publisher(NavigatorStatus, "navigator/status", 10)
     assert spin_until(executor, lambda: status.get_subscription_count() > 0, 5)
-    assert not any(topic == "/cmd_vel" for topic, _ in node.get_subscriber_names_and_types_by_node("wall_follower", "/"))
+    assert not any(
+        topic == "/cmd_vel" for topic, _ in node.get_subscriber_names_and_types_by_node("wall_follower", "/")
+    )
     for k, controller in enumerate(["wall_follower", "wall_follower", "path_follower", ""]):
         stamp = 10**9 + k * 50_000_000
         rig.send(stamp)
@@ -189,8 +196,9 @@ def test_deactivation_publishes_a_zero_command(ros_context, executor):
     assert len(rig.commands) == 2, "an inactive follower must stay quiet"
 
 
-@pytest.mark.parametrize(("override", "key"), [({"kp": "fast"}, "kp"), ({"preferred_wall": "up"}, "preferred_wall"),
-                                               ({"dt": -0.05}, "dt")])
+@pytest.mark.parametrize(
+    ("override", "key"), [({"kp": "fast"}, "kp"), ({"preferred_wall": "up"}, "preferred_wall"), ({"dt": -0.05}, "dt")]
+)
 def test_bad_parameters_fail_configure_naming_the_key(ros_context, executor, override, key):
     node = follower(ros_context, **override)
     executor.add_node(node)
@@ -201,17 +209,25 @@ def test_bad_parameters_fail_configure_naming_the_key(ros_context, executor, ove
 
 def test_manager_brings_the_stack_up_in_order_and_down_in_reverse(ros_context, multi_executor):
     odometry_node, follower_node = OdometryNode(context=ros_context), follower(ros_context)
-    manager = LifecycleManager(context=ros_context, parameter_overrides=[
-        Parameter("node_startup_order", value=["odometry_node", "wall_follower"]),
-        Parameter("wait_timeout", value=5.0)])
+    manager = LifecycleManager(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("node_startup_order", value=["odometry_node", "wall_follower"]),
+            Parameter("wait_timeout", value=5.0),
+        ],
+    )
     for node in (odometry_node, follower_node, manager):
         multi_executor.add_node(node)
     spinner = threading.Thread(target=multi_executor.spin, daemon=True)
     spinner.start()
     steps = manager.startup()
     assert manager.started, steps
-    assert [(s.node, s.transition) for s in steps] == [("odometry_node", "configure"), ("odometry_node", "activate"),
-                                                       ("wall_follower", "configure"), ("wall_follower", "activate")]
+    assert [(s.node, s.transition) for s in steps] == [
+        ("odometry_node", "configure"),
+        ("odometry_node", "activate"),
+        ("wall_follower", "configure"),
+        ("wall_follower", "activate"),
+    ]
     assert odometry_node.state_label == follower_node.state_label == "active"
     steps = manager.shutdown()
     assert [s.node for s in steps] == ["wall_follower", "wall_follower", "odometry_node", "odometry_node"]
@@ -221,9 +237,13 @@ def test_manager_brings_the_stack_up_in_order_and_down_in_reverse(ros_context, m
 def test_manager_stops_at_a_node_that_fails_configure(ros_context, multi_executor):
     bad = follower(ros_context, kp="fast")
     odometry_node = OdometryNode(context=ros_context)
-    manager = LifecycleManager(context=ros_context, parameter_overrides=[
-        Parameter("node_startup_order", value=["wall_follower", "odometry_node"]),
-        Parameter("wait_timeout", value=5.0)])
+    manager = LifecycleManager(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("node_startup_order", value=["wall_follower", "odometry_node"]),
+            Parameter("wait_timeout", value=5.0),
+        ],
+    )
     for node in (bad, odometry_node, manager):
         multi_executor.add_node(node)
     threading.Thread(target=multi_executor.spin, daemon=True).start()

@@ -38,17 +38,32 @@ def flaser_line(ranges, pose, stamp: float | None, odom=None) -> str:
     x, y, theta = pose
     odom = pose if odom is None else odom
     tail = "" if stamp is None else f" {stamp:.6f} testhost {stamp:.6f}"
-    return (f"FLASER {len(ranges)} " + " ".join(f"{r:g}" for r in ranges)
-            + f" {x:.6f} {y:.6f} {theta:.6f} {odom[0]:.6f} {odom[1]:.6f} {odom[2]:.6f}" + tail)
+    return (
+        f"FLASER {len(ranges)} "
+        + " ".join(f"{r:g}" for r in ranges)
+        + f" {x:.6f} {y:.6f} {theta:.6f} {odom[0]:.6f} {odom[1]:.6f} {odom[2]:.6f}"
+        + tail
+    )
 
 
-def write_log(path: Path, count: int = 20, beams: int = 181, stamps: bool = True, period: float = 0.2,
-              extra: tuple[str, ...] = (), gzipped: bool = False) -> np.ndarray:
+def write_log(
+    path: Path,
+    count: int = 20,
+    beams: int = 181,
+    stamps: bool = True,
+    period: float = 0.2,
+    extra: tuple[str, ...] = (),
+    gzipped: bool = False,
+) -> np.ndarray:
     """A log of `count` FLASER scans on square_path with ODOM/NEFF/PARAM lines, comments and blank lines between;
     returns the poses."""
     poses = square_path(count)
-    lines = ["# message formats defined: PARAM SYNC ODOM FLASER RLASER TRUEPOS", "# a comment",
-             "PARAM robot_frontlaser_offset 0.0 nohost 0", ""]
+    lines = [
+        "# message formats defined: PARAM SYNC ODOM FLASER RLASER TRUEPOS",
+        "# a comment",
+        "PARAM robot_frontlaser_offset 0.0 nohost 0",
+        "",
+    ]
     for i, pose in enumerate(poses):
         stamp = 10.0 + period * i if stamps else None
         lines.append(f"ODOM {pose[0]:.6f} {pose[1]:.6f} {pose[2]:.6f} 0 0 0 {10.0 + period * i:.6f} pippo 0")

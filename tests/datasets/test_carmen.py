@@ -52,7 +52,8 @@ def test_361_beams_are_half_a_degree_apart_and_a_fov_param_is_read(tmp_path):
     wide.write_text(text)
     scan = read_carmen(wide).scans[0].scan
     assert scan.angle_min == pytest.approx(-math.radians(135)) and scan.angle_increment == pytest.approx(
-        math.radians(1.0))
+        math.radians(1.0)
+    )
 
 
 def test_missing_stamps_are_synthesized_one_second_apart(tmp_path):
@@ -84,8 +85,11 @@ def test_robotlaser1_lines_carry_their_own_angles_and_max_range(tmp_path):
     lines = []
     for i in range(5):
         ranges = [2.0 + 0.1 * k for k in range(9)] + [30.0]
-        lines.append("ROBOTLASER1 0 -2.0 4.0 0.4 30.0 0.01 0 10 " + " ".join(f"{r:g}" for r in ranges)
-                     + f" 0 {0.5 * i} 0.1 0.2 {0.5 * i - 0.1} 0.1 0.2 0.3 0.0 0.5 0.5 0.0 {100 + i} host {100 + i}")
+        lines.append(
+            "ROBOTLASER1 0 -2.0 4.0 0.4 30.0 0.01 0 10 "
+            + " ".join(f"{r:g}" for r in ranges)
+            + f" 0 {0.5 * i} 0.1 0.2 {0.5 * i - 0.1} 0.1 0.2 0.3 0.0 0.5 0.5 0.0 {100 + i} host {100 + i}"
+        )
         lines.append(f"RAWLASER1 0 -2.0 4.0 0.4 30.0 0.01 0 2 1 1 0 {100 + i} host {100 + i}")
     path.write_text("\n".join(lines) + "\n")
     log = read_carmen(path)
@@ -97,18 +101,21 @@ def test_robotlaser1_lines_carry_their_own_angles_and_max_range(tmp_path):
     assert log.max_range == 30.0 and math.isinf(scan.scan.ranges[-1])
 
 
-@pytest.mark.parametrize("line, words", [
-    ("FLASER 181 1 2 3", "181 ranges: expected 181 values, the line has 3"),
-    ("FLASER 3 1.0 2.0 3.0 0.0 0.0", "expected x y theta after the 3 ranges"),
-    ("FLASER 3 1.0 abc 3.0 0.0 0.0 0.0", "'abc' is not a number"),
-    ("FLASER 3 1.0 nan 3.0 0.0 0.0 0.0", "NaN"),
-    ("FLASER 3 1.0 -2 3.0 0.0 0.0 0.0", "negative range -2"),
-    ("FLASER x 1.0", "beam count: expected a positive integer, got 'x'"),
-    ("FLASER 3 1.0 2.0 3.0 0.0 0.0 inf", "the pose is not finite"),
-    ("FLASER 3 1.0 2.0 3.0 0.0 0.0 0.0 0 0 0 notastamp host 1", "timestamp 'notastamp' is not a number"),
-    ("flaser 3 1.0 2.0 3.0 0.0 0.0 0.0", "'flaser': not a CARMEN message type"),
-    ("12.5 3.0", "'12.5': not a CARMEN message type"),
-])
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        ("FLASER 181 1 2 3", "181 ranges: expected 181 values, the line has 3"),
+        ("FLASER 3 1.0 2.0 3.0 0.0 0.0", "expected x y theta after the 3 ranges"),
+        ("FLASER 3 1.0 abc 3.0 0.0 0.0 0.0", "'abc' is not a number"),
+        ("FLASER 3 1.0 nan 3.0 0.0 0.0 0.0", "NaN"),
+        ("FLASER 3 1.0 -2 3.0 0.0 0.0 0.0", "negative range -2"),
+        ("FLASER x 1.0", "beam count: expected a positive integer, got 'x'"),
+        ("FLASER 3 1.0 2.0 3.0 0.0 0.0 inf", "the pose is not finite"),
+        ("FLASER 3 1.0 2.0 3.0 0.0 0.0 0.0 0 0 0 notastamp host 1", "timestamp 'notastamp' is not a number"),
+        ("flaser 3 1.0 2.0 3.0 0.0 0.0 0.0", "'flaser': not a CARMEN message type"),
+        ("12.5 3.0", "'12.5': not a CARMEN message type"),
+    ],
+)
 def test_a_malformed_line_names_file_line_and_problem(tmp_path, line, words):
     path = tmp_path / "bad.log"
     good = flaser_line(ranges_of(0, 181), (0.0, 0.0, 0.0), 1.0)
@@ -121,8 +128,11 @@ def test_a_malformed_line_names_file_line_and_problem(tmp_path, line, words):
 def test_unknown_message_types_are_counted_and_a_log_without_scans_is_refused(tmp_path):
     path = tmp_path / "other.log"
     path.write_text("GPSNMEAGGA 1 2 3\nODOM 0 0 0 0 0 0 1 h 1\n")
-    with pytest.raises(DatasetError, match=r"no FLASER or ROBOTLASER1 or RLASER or ROBOTLASER2 line \(found: "
-                                           r"GPSNMEAGGA 1, ODOM 1\)"):
+    with pytest.raises(
+        DatasetError,
+        match=r"no FLASER or ROBOTLASER1 or RLASER or ROBOTLASER2 line \(found: "
+        r"GPSNMEAGGA 1, ODOM 1\)",
+    ):
         read_carmen(path)
     with pytest.raises(DatasetError, match="no such file"):
         read_carmen(tmp_path / "missing.log.gz")
@@ -131,8 +141,10 @@ def test_unknown_message_types_are_counted_and_a_log_without_scans_is_refused(tm
 def test_max_range_detection_takes_the_repeated_top_cluster_and_nothing_else():
     rng = np.random.default_rng(0)
     real = np.round(rng.uniform(0.3, 30.0, 50_000), 3)
-    assert detect_max_range(np.concatenate([real, np.full(400, 32.767), np.full(300, 32.763),
-                                            np.full(20, 32.759)])) == 32.759
+    assert (
+        detect_max_range(np.concatenate([real, np.full(400, 32.767), np.full(300, 32.763), np.full(20, 32.759)]))
+        == 32.759
+    )
     assert detect_max_range(np.concatenate([real, np.full(400, 51.05), np.full(40, 51.1), [49.9, 49.95]])) == 51.05
     assert detect_max_range(real) is None  # no value stands out
     quantized = np.round(rng.uniform(0.3, 8.0, 50_000), 1)  # every value repeats: none is a spike
@@ -149,9 +161,15 @@ def test_max_range_can_be_given_or_switched_off(tmp_path):
 
 
 @pytest.mark.skipif(SHARED is None, reason="no copy of shared/data/carmen on this machine")
-@pytest.mark.parametrize("name, count, beams, max_range, stamped", [
-    ("intel", 910, 180, 81.83, True), ("aces", 440, 180, 50.0, True), ("fhw", 488, 180, 51.05, True),
-    ("orebro", 237, 181, 32.759, False)])
+@pytest.mark.parametrize(
+    "name, count, beams, max_range, stamped",
+    [
+        ("intel", 910, 180, 81.83, True),
+        ("aces", 440, 180, 50.0, True),
+        ("fhw", 488, 180, 51.05, True),
+        ("orebro", 237, 181, 32.759, False),
+    ],
+)
 def test_the_shipped_logs(name, count, beams, max_range, stamped):
     log = read_carmen(SHARED / f"{name}-corrected.log.gz")
     assert (len(log), log.max_range, log.has_stamps) == (count, max_range, stamped)

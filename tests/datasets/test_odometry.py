@@ -24,8 +24,11 @@ def relative_steps(poses: np.ndarray) -> np.ndarray:
     return np.array([relative_pose(a, b) for a, b in zip(poses, poses[1:])])
 
 
-@pytest.mark.parametrize("poses", [square_path(40), np.array([[1.0, 2.0, 3.0], [1.0, 2.0, -3.0], [0.5, 2.0, -3.0],
-                                                               [0.5, 2.5, 1.0]])], ids=["square", "turns, reverse"])
+@pytest.mark.parametrize(
+    "poses",
+    [square_path(40), np.array([[1.0, 2.0, 3.0], [1.0, 2.0, -3.0], [0.5, 2.0, -3.0], [0.5, 2.5, 1.0]])],
+    ids=["square", "turns, reverse"],
+)
 def test_the_perfect_model_reproduces_every_increment(poses):
     odometry = synthesize_odometry(poses, OdometryNoiseModel.perfect())
     assert odometry.shape == poses.shape and tuple(odometry[0]) == (0.0, 0.0, 0.0)

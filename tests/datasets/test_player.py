@@ -56,8 +56,9 @@ def test_a_loop_goes_on_in_time_and_carries_the_odometry_by_the_jump(log):
     assert relative_pose(steps[3].odom, steps[4].odom) == pytest.approx(jump, abs=1e-9)
     assert steps[4].odom_twist == (0.0, 0.0, 0.0)
     noisy = LogPlayer(log, OdometryNoiseModel(), count=4, loop=True)
-    first, second = ([relative_pose(noisy.step(k).odom, noisy.step(k + 1).odom) for k in (lap, lap + 1)]
-                     for lap in (0, 4))
+    first, second = (
+        [relative_pose(noisy.step(k).odom, noisy.step(k + 1).odom) for k in (lap, lap + 1)] for lap in (0, 4)
+    )
     assert first != second  # each lap its own noise (seed + lap)
 
 

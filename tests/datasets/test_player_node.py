@@ -103,7 +103,9 @@ def test_lockstep_plays_every_scan_once_in_order_as_the_consumer_answers(executo
     consumer = Consumer(executor.context)
     start(executor, node, consumer)
     assert spin_until(executor, lambda: "done" in consumer.status and len(consumer.truth) == 30, 20.0), (
-        len(consumer.scans), consumer.status)
+        len(consumer.scans),
+        consumer.status,
+    )
     assert node.timeouts == 0 and node.state_label == "active" and consumer.status[-1] == "done"
     stamps = [stamp_seconds(m.header.stamp) for m in consumer.scans]
     assert stamps == pytest.approx(log.stamps()) and len(consumer.odometry) == 30
@@ -143,8 +145,14 @@ def test_without_a_consumer_it_warns_naming_the_topic_and_goes_on(executor, tmp_
 def test_a_slam_node_paces_it_with_pose_graphs_and_a_slice_is_played(executor, tmp_path):
     path = tmp_path / "small.log"
     write_log(path, count=20, stamps=False)
-    node = player(executor.context, log=str(path), pace_type="amr_interfaces/msg/PoseGraph", pace_topic="pose_graph",
-                  start=5, count=6)
+    node = player(
+        executor.context,
+        log=str(path),
+        pace_type="amr_interfaces/msg/PoseGraph",
+        pace_topic="pose_graph",
+        start=5,
+        count=6,
+    )
     consumer = Consumer(executor.context, graph=True)
     start(executor, node, consumer)
     assert spin_until(executor, lambda: "done" in consumer.status, 10.0)
@@ -167,13 +175,16 @@ def test_realtime_plays_at_the_logs_stamps_times_rate(executor, tmp_path):
     assert consumer.clock == sorted(consumer.clock) and len(consumer.clock) > 6  # ticks between the scans
 
 
-@pytest.mark.parametrize("given, words", [
-    ({"log": "{tmp}/missing.log"}, "missing.log: no such file"),
-    ({"log": "{tmp}/bad.log"}, "bad.log:2: FLASER"),
-    ({}, "log: give the path of a CARMEN log"),
-    ({"log": "{tmp}/good.log", "start": 99}, "start: 99 is past the log's last scan"),
-    ({"log": "{tmp}/good.log", "pace_type": "amr_interfaces/msg/NoSuchThing"}, "no such message type"),
-])
+@pytest.mark.parametrize(
+    "given, words",
+    [
+        ({"log": "{tmp}/missing.log"}, "missing.log: no such file"),
+        ({"log": "{tmp}/bad.log"}, "bad.log:2: FLASER"),
+        ({}, "log: give the path of a CARMEN log"),
+        ({"log": "{tmp}/good.log", "start": 99}, "start: 99 is past the log's last scan"),
+        ({"log": "{tmp}/good.log", "pace_type": "amr_interfaces/msg/NoSuchThing"}, "no such message type"),
+    ],
+)
 def test_configure_fails_on_bad_input_saying_why(executor, tmp_path, given, words):
     write_log(tmp_path / "good.log", count=3)
     (tmp_path / "bad.log").write_text("# fine\nFLASER 181 1 2 3\n")

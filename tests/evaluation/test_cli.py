@@ -11,9 +11,27 @@ from amr_evaluation.cli import main
 
 def test_a_small_sweep_writes_records_summary_and_plots(tmp_path, capsys):
     out = tmp_path / "sweep.jsonl"
-    arguments = ["--run", "wall_follower=sim", "--run", "wall_follower=real", "--worlds", "open_room",
-                 "--families", "narrowing", "--seeds", "1", "--duration", "40", "--lidar-noise", "0.01",
-                 "--workers", "1", "--out", str(out), "--no-progress"]
+    arguments = [
+        "--run",
+        "wall_follower=sim",
+        "--run",
+        "wall_follower=real",
+        "--worlds",
+        "open_room",
+        "--families",
+        "narrowing",
+        "--seeds",
+        "1",
+        "--duration",
+        "40",
+        "--lidar-noise",
+        "0.01",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+        "--no-progress",
+    ]
     assert main(arguments) == 0
     records = [json.loads(line) for line in out.read_text().splitlines()]
     assert len(records) == 4 and {r["config"] for r in records} == {"sim", "real"}
@@ -34,12 +52,15 @@ def test_list_shows_every_episode_of_the_grid(capsys):
     assert len(lines) == 2 * 3 * 2 and len({line.split()[0] for line in lines}) == 12
 
 
-@pytest.mark.parametrize(("arguments", "message"), [
-    (["--families", "perfect", "mazy"], "--families: unknown 'mazy'"),
-    (["--worlds", "open_room", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "exclude each other"),
-    (["--worlds", "open_room", "--goal", "1,2"], "--goal '1,2'"),
-    (["--worlds", "open_room", "--mode", "ros", "--ros-domains", "60-50"], "--ros-domains '60-50'"),
-])
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["--families", "perfect", "mazy"], "--families: unknown 'mazy'"),
+        (["--worlds", "open_room", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "exclude each other"),
+        (["--worlds", "open_room", "--goal", "1,2"], "--goal '1,2'"),
+        (["--worlds", "open_room", "--mode", "ros", "--ros-domains", "60-50"], "--ros-domains '60-50'"),
+    ],
+)
 def test_bad_arguments_are_refused_naming_them(arguments, message, capsys):
     with pytest.raises(SystemExit):
         main(arguments)

@@ -40,8 +40,17 @@ AHEAD = [-0.5, -1.0, 0.2]
 def spec_of(tmp_path, source: str, **options) -> EpisodeSpec:
     (tmp_path / "student.py").write_text(source, encoding="utf-8")
     label, parameters = configs.command_configuration(f"{sys.executable} student.py", tmp_path)
-    return EpisodeSpec("command", label, parameters, {"file": "open_room.yaml"}, goal=AHEAD, seed=1,
-                       duration=15.0, options={"answer_timeout": 3.0, **options}, mode="ros")
+    return EpisodeSpec(
+        "command",
+        label,
+        parameters,
+        {"file": "open_room.yaml"},
+        goal=AHEAD,
+        seed=1,
+        duration=15.0,
+        options={"answer_timeout": 3.0, **options},
+        mode="ros",
+    )
 
 
 @pytest.mark.parametrize("clock", [{"clock": "lockstep"}, {"clock": "realtime", "pace": 2.0}], ids=lambda c: c["clock"])
@@ -82,8 +91,25 @@ def test_the_command_line_and_its_file_make_the_configuration(tmp_path, monkeypa
     out = tmp_path / "r.jsonl"
     assert cli.main(["--run", "command=python3 student.py", "--worlds", "open_room", "--out", str(out)]) == 2
     assert "--mode ros" in capsys.readouterr().err
-    options = cli.parse_arguments(["--run", "command=python3 student.py", "--worlds", "open_room", "--mode", "ros",
-                                   "--clock", "realtime", "--pace", "3"])
+    options = cli.parse_arguments(
+        [
+            "--run",
+            "command=python3 student.py",
+            "--worlds",
+            "open_room",
+            "--mode",
+            "ros",
+            "--clock",
+            "realtime",
+            "--pace",
+            "3",
+        ]
+    )
     [spec] = cli.build_specs(options)
-    assert (spec.controller, spec.mode, spec.options["clock"], spec.options["pace"]) == ("command", "ros", "realtime", 3.0)
+    assert (spec.controller, spec.mode, spec.options["clock"], spec.options["pace"]) == (
+        "command",
+        "ros",
+        "realtime",
+        3.0,
+    )
     assert json.loads(json.dumps(spec.to_dict()))["parameters"]["command"]["cwd"] == str(tmp_path.resolve())

@@ -15,7 +15,8 @@ from amr_maps.maze_families import generate
 
 _, PARAMETERS = configs.resolve("localization", "default")
 ROOM = {  # 4 x 3 m, a table and a pillar: nothing symmetric
-    "name": "crowded_room", "wall_thickness": 0.05,
+    "name": "crowded_room",
+    "wall_thickness": 0.05,
     "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
     "boxes": [[0.8, 0.5, 1.4, 0.9], [-0.15, -0.15, 0.15, 0.15]],
     "start": [-1.2, -0.6, 0.0],
@@ -32,8 +33,9 @@ def follower():
 
 def test_tracking_stays_declared_and_right_with_robots_standing_close_around():
     world = crowded_world(ROOM, 4, seed=1, near=(0.3, 0.8))
-    trace = run_crowded(world, filter_config(), follower(), 12.0, mode="stand", lidar_noise=0.02, seed=1,
-                        known_start=True)
+    trace = run_crowded(
+        world, filter_config(), follower(), 12.0, mode="stand", lidar_noise=0.02, seed=1, known_start=True
+    )
     run = figures(trace)
     assert run.occluded_mean > 0.15, f"the others fill a fifth of the scan ({run.occluded_mean:.2f})"
     assert run.first_localized is not None and run.first_localized < 3.0, run

@@ -42,8 +42,9 @@ def test_records_are_json_with_no_nan():
 
 def test_navigation_episode_localizes_plans_and_reaches_a_shipped_goal():
     label, parameters = configs.resolve("navigation", "default")
-    record = run_episode(EpisodeSpec("navigation", label, parameters, {"file": "pillar_goal.yaml"}, seed=0,
-                                     duration=40.0))
+    record = run_episode(
+        EpisodeSpec("navigation", label, parameters, {"file": "pillar_goal.yaml"}, seed=0, duration=40.0)
+    )
     assert record["error"] is None
     assert record["goal_reached"] is True and record["time_to_goal"] < 40.0
     assert record["time_to_localized"] is not None and record["time_to_localized"] < record["time_to_goal"]
@@ -82,8 +83,10 @@ def test_bad_configurations_are_named(tmp_path):
 
 def test_user_world_file_travels_inside_the_spec(tmp_path):
     path = tmp_path / "box.yaml"
-    path.write_text("wall_thickness: 0.05\nwalls: [[0, 0, 2, 0], [2, 0, 2, 2], [2, 2, 0, 2], [0, 2, 0, 0]]\n"
-                    "start: [0.5, 0.5, 0.0]\n")
+    path.write_text(
+        "wall_thickness: 0.05\nwalls: [[0, 0, 2, 0], [2, 0, 2, 2], [2, 2, 0, 2], [0, 2, 0, 0]]\n"
+        "start: [0.5, 0.5, 0.0]\n"
+    )
     spec = world_spec_of_file(str(path))
     assert spec["name"] == "box" and spec["data"]["start"] == [0.5, 0.5, 0.0]
     assert world_spec_of_file("hard_maze.yaml") == {"file": "hard_maze.yaml"}
@@ -97,14 +100,16 @@ def test_user_world_file_travels_inside_the_spec(tmp_path):
 
 def test_localization_episode_localizes_and_plan_follow_reaches_the_goal():
     label, parameters = configs.resolve("localization", "default")
-    record = run_episode(EpisodeSpec("localization", label, parameters, {"file": "inner_maze.yaml"}, seed=0,
-                                     duration=8.0))  # localized at about 5 s
+    record = run_episode(
+        EpisodeSpec("localization", label, parameters, {"file": "inner_maze.yaml"}, seed=0, duration=8.0)
+    )  # localized at about 5 s
     assert record["error"] is None and record["goal_reached"] is None  # inner_maze has no goal
     assert 0.0 < record["time_to_localized"] < 8.0 and record["localization_error"] < 0.05
     assert record["localization_rms"] <= record["localization_error_max"]
     label, parameters = configs.resolve("plan_follow", "default")
-    record = run_episode(EpisodeSpec("plan_follow", label, parameters, {"file": "open_room.yaml"}, seed=0,
-                                     duration=30.0))
+    record = run_episode(
+        EpisodeSpec("plan_follow", label, parameters, {"file": "open_room.yaml"}, seed=0, duration=30.0)
+    )
     assert record["error"] is None and record["goal_reached"] is True and record["plans"] >= 1
     assert record["cross_track"] < 0.03 and record["time_to_goal"] < 30.0
 
@@ -114,9 +119,20 @@ def test_a_localization_episode_in_a_room_one_feature_breaks_records_when_the_fe
 
     case = symmetry_case("notch", 1)  # the notch comes into view at about 13 s, the filter declares a few s later
     label, parameters = configs.resolve("localization", "default")
-    record = run_episode(EpisodeSpec("localization", label, parameters, {"data": case.world, "name": "notch_1"},
-                                     seed=1, lidar_noise=0.02, encoder_noise=0.02, slip=0.02, duration=60.0,
-                                     options={"symmetric": case.symmetric, "stop_after": 1.0}))
+    record = run_episode(
+        EpisodeSpec(
+            "localization",
+            label,
+            parameters,
+            {"data": case.world, "name": "notch_1"},
+            seed=1,
+            lidar_noise=0.02,
+            encoder_noise=0.02,
+            slip=0.02,
+            duration=60.0,
+            options={"symmetric": case.symmetric, "stop_after": 1.0},
+        )
+    )
     assert record["error"] is None, record["extra"]
     extra = record["extra"]
     assert 0.0 < extra["feature_glimpsed"] <= extra["feature_seen"] < 60.0

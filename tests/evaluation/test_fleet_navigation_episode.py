@@ -56,8 +56,15 @@ def test_run_fleet_refuses_a_robot_without_a_goal():
 
 def test_fleet_episode_in_a_generated_room_every_robot_reaches_its_goal_without_contact():
     label, parameters = configs.resolve("fleet_navigation", "default")
-    spec = EpisodeSpec("fleet_navigation", label, parameters, {"family": "pillars", "seed": 1, "options": {"size": 3.0}},
-                       seed=1, duration=120.0, options={"robots": 3, "localization": "truth"})
+    spec = EpisodeSpec(
+        "fleet_navigation",
+        label,
+        parameters,
+        {"family": "pillars", "seed": 1, "options": {"size": 3.0}},
+        seed=1,
+        duration=120.0,
+        options={"robots": 3, "localization": "truth"},
+    )
     record = run_episode(spec)
     assert record["error"] is None, record["extra"]
     assert record["goal_reached"] is True and record["collisions"] == 0, record["extra"]

@@ -92,20 +92,24 @@ def _follow_through_env(world: str | dict, steps: int, config: WallFollowerConfi
     observation, info = env.reset(seed=0)
     follower = WallFollower(config)
     for step in range(steps):
-        command = follower.compute(env.scan_of_observation(observation), *env.twist_of_observation(observation),
-                                   env.sim.time)
+        command = follower.compute(
+            env.scan_of_observation(observation), *env.twist_of_observation(observation), env.sim.time
+        )
         observation, _, terminated, truncated, info = env.step(env.action_of_command(command.v, command.w))
         if terminated or truncated:
             break
     return bool(info["goal_reached"]), env.sim_seed
 
 
-@pytest.mark.parametrize(("world", "seconds", "expected"), [
-    ("open_room", 60.0, True),                                                         # reached at 37.6 s
-    ({"family": "narrowing", "seed": 2, "options": {"hand": "right"}}, 70.0, True),  # at about 58 s
-    ({"family": "perfect", "seed": 2, "options": {"hand": "right", "size": 3.0}}, 20.0, False),
-    ("pillar_goal", 20.0, False),                                              # no wall follower reaches it
-])
+@pytest.mark.parametrize(
+    ("world", "seconds", "expected"),
+    [
+        ("open_room", 60.0, True),  # reached at 37.6 s
+        ({"family": "narrowing", "seed": 2, "options": {"hand": "right"}}, 70.0, True),  # at about 58 s
+        ({"family": "perfect", "seed": 2, "options": {"hand": "right", "size": 3.0}}, 20.0, False),
+        ("pillar_goal", 20.0, False),  # no wall follower reaches it
+    ],
+)
 def test_the_wall_follower_as_a_policy_reaches_the_goals_it_reaches_in_the_closed_loop(world, seconds, expected):
     config = WallFollowerConfig.from_params(configs.shipped_parameters("wall_follower", "sim"))
     reached, sim_seed = _follow_through_env(world, int(seconds / 0.05), config)
@@ -167,8 +171,10 @@ def test_a_crash_scores_below_the_worst_run_without_one(world):
         assert end["collided"], "the case is what it claims to be"
         start, goal = first["start"], first["goal"]
         xmin, ymin, xmax, ymax = env.world.bounds
-        farthest = min(max(np.hypot(x - goal[0], y - goal[1]) for x in (xmin, xmax) for y in (ymin, ymax)),
-                       first["goal_distance"] + travel)
+        farthest = min(
+            max(np.hypot(x - goal[0], y - goal[1]) for x in (xmin, xmax) for y in (ymin, ymax)),
+            first["goal_distance"] + travel,
+        )
         worst_without = env.progress_weight * (first["goal_distance"] - farthest) - env.time_penalty * env.max_steps
         assert crash < worst_without
         assert crash < _episode(env, still, seed)[0]
@@ -193,8 +199,20 @@ def test_random_starts_and_goals_come_from_the_reset_seed():
 
 def test_every_info_key_is_there_at_reset_and_step():
     env = MazeEnv(world="open_room", max_steps=5)
-    keys = {"world", "time", "goal_distance", "collisions", "collided", "goal_reached", "is_success", "sim_seed",
-            "start", "goal", "collision_cost", "reward_terms"}
+    keys = {
+        "world",
+        "time",
+        "goal_distance",
+        "collisions",
+        "collided",
+        "goal_reached",
+        "is_success",
+        "sim_seed",
+        "start",
+        "goal",
+        "collision_cost",
+        "reward_terms",
+    }
     _, info = env.reset(seed=0)
     assert set(info) == keys and info["reward_terms"] == {"progress": 0.0, "step": 0.0, "goal": 0.0, "collision": 0.0}
     assert set(env.step(still(None))[4]) == keys
@@ -206,9 +224,12 @@ def test_the_qualified_id_registers_in_a_fresh_process():
     import subprocess
     import sys
 
-    code = (f"import gymnasium; env = gymnasium.make({QUALIFIED_ENV_ID!r}, world='open_room', max_steps=3); "
-            "print(env.reset(seed=0)[1]['world'])")
-    done = subprocess.run([sys.executable, "-c", code], env=child_environment(), capture_output=True, text=True,
-                          timeout=120)
+    code = (
+        f"import gymnasium; env = gymnasium.make({QUALIFIED_ENV_ID!r}, world='open_room', max_steps=3); "
+        "print(env.reset(seed=0)[1]['world'])"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=child_environment(), capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "open_room"

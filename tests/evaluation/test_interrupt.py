@@ -39,8 +39,13 @@ with Interrupt({line!r}, grace={grace}) as interrupt:
 
 
 def _script(then: str, grace: float = 0.3) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", SWALLOWED.format(line=LINE, grace=grace, then=then)],
-                            env=child_environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-c", SWALLOWED.format(line=LINE, grace=grace, then=then)],
+        env=child_environment(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _communicate(process: subprocess.Popen) -> tuple[str, str]:
@@ -99,9 +104,15 @@ def test_a_set_stop_flag_ends_the_sweep_before_the_next_episode(tmp_path, worker
 
     stopped = []
     with pytest.raises(KeyboardInterrupt):
-        run_sweep(specs, tmp_path / "r.jsonl", workers=workers, progress=False,
-                  episode=counting if workers == 1 else run_episode,  # a pool pickles its episode function
-                  on_record=stopped.append, stop=lambda: bool(stopped))
+        run_sweep(
+            specs,
+            tmp_path / "r.jsonl",
+            workers=workers,
+            progress=False,
+            episode=counting if workers == 1 else run_episode,  # a pool pickles its episode function
+            on_record=stopped.append,
+            stop=lambda: bool(stopped),
+        )
     assert len(stopped) == 1
     if workers == 1:
         assert len(ran) == 1
@@ -115,14 +126,21 @@ def _slow_episode(spec: dict) -> dict:
 def test_a_stopped_pool_does_not_wait_for_the_episodes_in_flight(tmp_path):
     began = time.monotonic()
     with pytest.raises(KeyboardInterrupt):
-        run_sweep(tiny_specs(2), tmp_path / "r.jsonl", workers=2, progress=False, episode=_slow_episode,
-                  stop=lambda: time.monotonic() - began > 0.5)
+        run_sweep(
+            tiny_specs(2),
+            tmp_path / "r.jsonl",
+            workers=2,
+            progress=False,
+            episode=_slow_episode,
+            stop=lambda: time.monotonic() - began > 0.5,
+        )
     assert time.monotonic() - began < 20
     assert not (tmp_path / "r.jsonl").exists()
 
 
 def test_the_command_interrupted_where_the_exception_is_swallowed_still_reports_it(tmp_path, monkeypatch, capsys):
     """The KeyboardInterrupt lost (as in a __del__): the flag ends the sweep after the episode, with the one line."""
+
     def episode(spec: dict) -> dict:
         try:
             os.kill(os.getpid(), signal.SIGINT)
@@ -134,10 +152,27 @@ def test_the_command_interrupted_where_the_exception_is_swallowed_still_reports_
     monkeypatch.setattr(interrupt, "GRACE", 600.0)  # the watchdog must not end pytest itself
     monkeypatch.setattr(runner, "run_sweep", functools.partial(run_sweep, episode=episode))
     out = tmp_path / "r.jsonl"
-    code = main(["--families", "open_room", "--size", "3", "--seeds", "3", "--duration", "1", "--workers", "1",
-                 "--out", str(out), "--no-progress", "--no-plots"])
+    code = main(
+        [
+            "--families",
+            "open_room",
+            "--size",
+            "3",
+            "--seeds",
+            "3",
+            "--duration",
+            "1",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--no-plots",
+        ]
+    )
     error = capsys.readouterr().err
     assert code == INTERRUPTED
-    assert error.splitlines() == [f"amr-evaluate: interrupted; the finished episodes are in {out} "
-                                  "(the same command resumes)"]
+    assert error.splitlines() == [
+        f"amr-evaluate: interrupted; the finished episodes are in {out} (the same command resumes)"
+    ]
     assert len(out.read_text().splitlines()) == 1

@@ -15,8 +15,17 @@ from amr_evaluation.ros_episode import RosEpisodeError, stack_of
 def test_the_wall_follower_stack_matches_the_library_episode(ros_domain, monkeypatch):
     monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
     label, parameters = configs.resolve("wall_follower", "sim")
-    library = EpisodeSpec("wall_follower", label, parameters, {"file": "open_room.yaml"}, seed=3, lidar_noise=0.02,
-                          encoder_noise=0.02, slip=0.05, duration=8.0)
+    library = EpisodeSpec(
+        "wall_follower",
+        label,
+        parameters,
+        {"file": "open_room.yaml"},
+        seed=3,
+        lidar_noise=0.02,
+        encoder_noise=0.02,
+        slip=0.05,
+        duration=8.0,
+    )
     ros = run_episode(dataclasses.replace(library, mode="ros"))
     expected = run_episode(library)
     assert ros["error"] is None, ros["error"]

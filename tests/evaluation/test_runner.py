@@ -65,15 +65,19 @@ def test_two_local_workers_give_the_records_of_one(tmp_path):
 def test_a_killed_sweep_resumes_without_redoing_finished_episodes(tmp_path):
     specs = tiny_specs(8, duration=4.0)
     results = tmp_path / "killed.jsonl"
-    script = ("import sys, time; from eval_helpers import tiny_specs; from amr_evaluation.runner import run_sweep; "
-              "from amr_evaluation.episode import run_episode; "
-              "slow = lambda spec: (run_episode(spec), time.sleep(0.3))[0]; "  # a window to kill it in, on any load
-              f"run_sweep(tiny_specs(8, duration=4.0), sys.argv[1], workers=1, progress=False, episode=slow)")
+    script = (
+        "import sys, time; from eval_helpers import tiny_specs; from amr_evaluation.runner import run_sweep; "
+        "from amr_evaluation.episode import run_episode; "
+        "slow = lambda spec: (run_episode(spec), time.sleep(0.3))[0]; "  # a window to kill it in, on any load
+        f"run_sweep(tiny_specs(8, duration=4.0), sys.argv[1], workers=1, progress=False, episode=slow)"
+    )
     env = child_environment(PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
     process = subprocess.Popen([sys.executable, "-c", script, str(results)], env=env)
     try:
-        poll_until(lambda: process.poll() is not None or (results.exists()
-                                                           and len(results.read_text().splitlines()) >= 2), 60.0)
+        poll_until(
+            lambda: process.poll() is not None or (results.exists() and len(results.read_text().splitlines()) >= 2),
+            60.0,
+        )
         assert process.poll() is None, "the sweep ended before it could be killed"
         process.send_signal(signal.SIGKILL)
     finally:
@@ -115,12 +119,44 @@ def dask_cluster(tmp_path):
     address = f"tcp://127.0.0.1:{port}"
     env = child_environment(DASK_DISTRIBUTED__WORKER__DAEMON="False")
     logs = (tmp_path / "dask.log").open("w")
-    scheduler = subprocess.Popen([str(VENV_BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                                  "--no-dashboard", "--no-show"], env=env, stdout=logs, stderr=subprocess.STDOUT,
-                                 cwd=tmp_path, start_new_session=True)
-    workers = subprocess.Popen([str(VENV_BIN / "dask"), "worker", address, "--nworkers", "2", "--nthreads", "1",
-                                "--host", "127.0.0.1", "--no-dashboard", "--local-directory", str(tmp_path)],
-                               env=env, stdout=logs, stderr=subprocess.STDOUT, cwd=tmp_path, start_new_session=True)
+    scheduler = subprocess.Popen(
+        [
+            str(VENV_BIN / "dask"),
+            "scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--no-dashboard",
+            "--no-show",
+        ],
+        env=env,
+        stdout=logs,
+        stderr=subprocess.STDOUT,
+        cwd=tmp_path,
+        start_new_session=True,
+    )
+    workers = subprocess.Popen(
+        [
+            str(VENV_BIN / "dask"),
+            "worker",
+            address,
+            "--nworkers",
+            "2",
+            "--nthreads",
+            "1",
+            "--host",
+            "127.0.0.1",
+            "--no-dashboard",
+            "--local-directory",
+            str(tmp_path),
+        ],
+        env=env,
+        stdout=logs,
+        stderr=subprocess.STDOUT,
+        cwd=tmp_path,
+        start_new_session=True,
+    )
     try:
         from distributed import Client
 
@@ -152,5 +188,10 @@ def test_a_loopback_dask_cluster_gives_the_local_records(tmp_path, dask_cluster)
 def test_no_scheduler_at_the_address_is_a_clear_error(tmp_path):
     pytest.importorskip("distributed")
     with pytest.raises(SweepError, match="no Dask scheduler answered at tcp://127.0.0.1:"):
-        run_sweep(tiny_specs(1), tmp_path / "r.jsonl", scheduler=f"tcp://127.0.0.1:{_free_port()}", progress=False,
-                  connect_timeout=1.0)
+        run_sweep(
+            tiny_specs(1),
+            tmp_path / "r.jsonl",
+            scheduler=f"tcp://127.0.0.1:{_free_port()}",
+            progress=False,
+            connect_timeout=1.0,
+        )

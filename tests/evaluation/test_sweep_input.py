@@ -30,21 +30,43 @@ def params_file(tmp_path: Path, text: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize(("section", "expected"), [
-    ("wall_follower:\n  ros__parameters:\n    target_distanse: 0.3\n",
-     "wall_follower: target_distanse = 0.3: unknown key of wall_follower (did you mean 'target_wall_distance'?)"),
-    ("wall_follower:\n  ros__parameters:\n    kp: fast\n", "wall_follower: kp = 'fast': must be a number"),
-    ("wall_follower:\n  ros__parameters:\n    kp: 500.0\n", "wall_follower: kp = 500.0: must be in [0, 100]"),
-    ("wall_follower:\n  ros__parameters:\n    preferred_wall: up\n",
-     "wall_follower: preferred_wall = 'up': must be one of"),
-    ("wall_follower:\n  ros__parameters:\n    lidar:\n      beams: 0\n", "wall_follower: lidar.beams = 0:"),
-])
+@pytest.mark.parametrize(
+    ("section", "expected"),
+    [
+        (
+            "wall_follower:\n  ros__parameters:\n    target_distanse: 0.3\n",
+            "wall_follower: target_distanse = 0.3: unknown key of wall_follower (did you mean 'target_wall_distance'?)",
+        ),
+        ("wall_follower:\n  ros__parameters:\n    kp: fast\n", "wall_follower: kp = 'fast': must be a number"),
+        ("wall_follower:\n  ros__parameters:\n    kp: 500.0\n", "wall_follower: kp = 500.0: must be in [0, 100]"),
+        (
+            "wall_follower:\n  ros__parameters:\n    preferred_wall: up\n",
+            "wall_follower: preferred_wall = 'up': must be one of",
+        ),
+        ("wall_follower:\n  ros__parameters:\n    lidar:\n      beams: 0\n", "wall_follower: lidar.beams = 0:"),
+    ],
+)
 def test_a_bad_parameter_file_ends_the_sweep_before_any_episode_naming_file_key_and_value(
-        tmp_path, capsys, section, expected):
+    tmp_path, capsys, section, expected
+):
     path = params_file(tmp_path, section)
     out = tmp_path / "r.jsonl"
-    code = main(["--run", f"wall_follower={path}", "--worlds", "open_room", "--duration", "1", "--workers", "1",
-                 "--out", str(out), "--no-progress", "--no-plots"])
+    code = main(
+        [
+            "--run",
+            f"wall_follower={path}",
+            "--worlds",
+            "open_room",
+            "--duration",
+            "1",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--no-plots",
+        ]
+    )
     error = capsys.readouterr().err
     assert code == 2
     assert f"{path}: {expected}" in error, error
@@ -52,8 +74,11 @@ def test_a_bad_parameter_file_ends_the_sweep_before_any_episode_naming_file_key_
 
 
 def test_a_navigation_file_is_checked_node_by_node(tmp_path, capsys):
-    path = params_file(tmp_path, "path_follower:\n  ros__parameters:\n    goal_tolerance: -1.0\n"
-                                 "planner:\n  ros__parameters:\n    no_such_thing: 1\n")
+    path = params_file(
+        tmp_path,
+        "path_follower:\n  ros__parameters:\n    goal_tolerance: -1.0\n"
+        "planner:\n  ros__parameters:\n    no_such_thing: 1\n",
+    )
     assert main(["--run", f"navigation={path}", "--worlds", "open_room", "--list"]) == 2
     error = capsys.readouterr().err
     assert f"{path}: path_follower: goal_tolerance = -1.0: must be" in error
@@ -79,8 +104,20 @@ def test_every_controller_node_has_its_statements():
 
 def test_a_resumed_sweep_says_how_many_episodes_it_skipped(tmp_path, capsys):
     out = tmp_path / "r.jsonl"
-    arguments = ["--families", "open_room", "--size", "3", "--duration", "1", "--workers", "1", "--out", str(out),
-                 "--no-progress", "--no-plots"]
+    arguments = [
+        "--families",
+        "open_room",
+        "--size",
+        "3",
+        "--duration",
+        "1",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+        "--no-progress",
+        "--no-plots",
+    ]
     assert main([*arguments, "--seeds", "2"]) == 0
     assert "skipped" not in capsys.readouterr().out
     assert main([*arguments, "--seeds", "3"]) == 0
@@ -98,8 +135,22 @@ def test_an_unreachable_scheduler_is_a_clear_error_and_writes_nothing(tmp_path, 
     pytest.importorskip("distributed")
     out = tmp_path / "sub" / "r.jsonl"
     address = f"tcp://127.0.0.1:{_free_port()}"
-    code = main(["--worlds", "open_room", "--duration", "1", "--scheduler", address, "--scheduler-timeout", "1",
-                 "--out", str(out), "--no-progress", "--no-plots"])
+    code = main(
+        [
+            "--worlds",
+            "open_room",
+            "--duration",
+            "1",
+            "--scheduler",
+            address,
+            "--scheduler-timeout",
+            "1",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--no-plots",
+        ]
+    )
     captured = capsys.readouterr()
     assert code == 2
     assert f"no Dask scheduler answered at {address} within 1 s" in captured.err
@@ -118,14 +169,33 @@ def test_ctrl_c_ends_the_sweep_with_one_line(tmp_path, workers, moment):
     running: once the first record is written (episodes in flight, others waiting)."""
     out = tmp_path / "r.jsonl"
     process = subprocess.Popen(
-        [str(VENV_BIN / "amr-evaluate"), "--families", "perfect", "--seeds", "8", "--duration", "120", "--workers",
-         workers, "--out", str(out), "--no-progress", "--no-plots"],
-        env=child_environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        [
+            str(VENV_BIN / "amr-evaluate"),
+            "--families",
+            "perfect",
+            "--seeds",
+            "8",
+            "--duration",
+            "120",
+            "--workers",
+            workers,
+            "--out",
+            str(out),
+            "--no-progress",
+            "--no-plots",
+        ],
+        env=child_environment(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     try:
         assert process.stdout.readline().startswith("amr-evaluate: 8 episodes")
         if moment == "running":
-            assert poll_until(lambda: process.poll() is not None or (out.exists() and out.read_text().count("\n")),
-                              STARTUP_TIMEOUT), f"no record within {STARTUP_TIMEOUT} s"
+            assert poll_until(
+                lambda: process.poll() is not None or (out.exists() and out.read_text().count("\n")), STARTUP_TIMEOUT
+            ), f"no record within {STARTUP_TIMEOUT} s"
         assert process.poll() is None, "the sweep ended before Ctrl-C"
         os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C at a terminal does: the whole foreground group
         _, error = process.communicate(timeout=60)
@@ -133,8 +203,10 @@ def test_ctrl_c_ends_the_sweep_with_one_line(tmp_path, workers, moment):
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
-    assert (process.returncode, error.splitlines()) == (INTERRUPTED, [
-        f"amr-evaluate: interrupted; the finished episodes are in {out} (the same command resumes)"])
+    assert (process.returncode, error.splitlines()) == (
+        INTERRUPTED,
+        [f"amr-evaluate: interrupted; the finished episodes are in {out} (the same command resumes)"],
+    )
     if moment == "running":
         assert 1 <= len(out.read_text().splitlines()) < 8
 
@@ -155,8 +227,13 @@ def test_no_cluster_the_code_starts_listens_beyond_loopback():
     for path in sorted((ROOT / "amr_evaluation").glob("*.py")) + sorted((ROOT / "bench").glob("*.py")):
         tree = ast.parse(path.read_text(), filename=str(path))
         for node in ast.walk(tree):
-            if isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", "")) == "LocalCluster":
+            if (
+                isinstance(node, ast.Call)
+                and getattr(node.func, "id", getattr(node.func, "attr", "")) == "LocalCluster"
+            ):
                 given = {k.arg: k.value for k in node.keywords}
-                assert "host" in given and ast.literal_eval(given["host"]) == "127.0.0.1", f"{path}: {ast.unparse(node)}"
+                assert "host" in given and ast.literal_eval(given["host"]) == "127.0.0.1", (
+                    f"{path}: {ast.unparse(node)}"
+                )
                 if "dashboard_address" in given:
                     assert ast.literal_eval(given["dashboard_address"]).startswith("127.0.0.1:")

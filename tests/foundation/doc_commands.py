@@ -44,13 +44,34 @@ parameter_docs = _load_script("parameter_docs")
 
 DOC_FILES = sorted([ROOT / "README.md", ROOT / "bench" / "README.md", *(ROOT / "docs").glob("*.md")])
 SHELL_BLOCKS = {"bash", "sh", "shell", "console"}
-INLINE_STARTS = ("amr-bringup ", ".venv/bin/", ".venv/lib/", "ros2 run ", "ros2 launch ", "ros2 param ",
-                 "make ", "python ", "ros2 service call ", "amr-render-bag ")
+INLINE_STARTS = (
+    "amr-bringup ",
+    ".venv/bin/",
+    ".venv/lib/",
+    "ros2 run ",
+    "ros2 launch ",
+    "ros2 param ",
+    "make ",
+    "python ",
+    "ros2 service call ",
+    "amr-render-bag ",
+)
 ALWAYS_KNOWN = {"use_sim_time", "autostart"}
 PLACEHOLDERS = ("<", "...", "path/to", "my_", "/path/")
 ACCEPTED = {  # commands whose effect needs a ROS graph or another machine: their words are not checked
-    ("ros2", "node"), ("ros2", "topic"), ("ros2", "pkg"), ("ros2", "doctor"), ("ros2", "bag"), ("ros2", "lifecycle"),
-    ("cd",), ("git",), ("source",), ("rviz2",), ("rosdep",), ("pip",), ("dask",),
+    ("ros2", "node"),
+    ("ros2", "topic"),
+    ("ros2", "pkg"),
+    ("ros2", "doctor"),
+    ("ros2", "bag"),
+    ("ros2", "lifecycle"),
+    ("cd",),
+    ("git",),
+    ("source",),
+    ("rviz2",),
+    ("rosdep",),
+    ("pip",),
+    ("dask",),
 }
 
 
@@ -132,6 +153,7 @@ def all_commands() -> list[Command]:
 
 # -- what the commands may name -----------------------------------------------------------------
 
+
 def is_placeholder(text: str) -> bool:
     return any(mark in text for mark in PLACEHOLDERS)
 
@@ -151,6 +173,7 @@ def check_parameter(package: str, executable: str, name: str, value: object) -> 
     specs = node_specs(package, executable)
     if executable == "ik_service" and "." in name:
         from amr_kinematics.config import CHAIN_KEYS
+
         key = name.partition(".")[2]
         assert key in CHAIN_KEYS, f"{name}: not a chain key of ik_service"
         spec = dataclasses.replace(CHAIN_KEYS[key], name=name, integers_as_floats=True)
@@ -225,8 +248,11 @@ def check_bringup(words: list[str]) -> None:
     stack = load_bringup(options.bringup)
     if options.show_args:
         return
-    arguments = {name: value for name, value in parse_assignments(options.arguments, "argument").items()
-                 if not is_placeholder(value)}
+    arguments = {
+        name: value
+        for name, value in parse_assignments(options.arguments, "argument").items()
+        if not is_placeholder(value)
+    }
     bringup = stack.with_overrides(arguments, parse_assignments(options.parameters, "-p"))
     for node in bringup.nodes:
         for name, value in node.parameters.items():
@@ -306,13 +332,20 @@ def check(command: Command) -> None:
         check_node_command(words[2], words[3], words[4:])
     elif head == "ros2" and words[1] == "launch":
         package, launch_file = words[2], words[3]
-        assert package == "amr_bringup" and (ROOT / "launch" / launch_file).is_file(), \
+        assert package == "amr_bringup" and (ROOT / "launch" / launch_file).is_file(), (
             f"{package} {launch_file}: no such launch file"
+        )
         from amr_bringup.stack_config import load_bringup, parse_assignments
+
         arguments = [word for word in words[4:] if word != "--show-args"]
         stack = load_bringup(launch_file.removesuffix(".launch.py"))
-        stack.with_overrides({name: value for name, value in parse_assignments(arguments, "argument").items()
-                              if not is_placeholder(value)})
+        stack.with_overrides(
+            {
+                name: value
+                for name, value in parse_assignments(arguments, "argument").items()
+                if not is_placeholder(value)
+            }
+        )
     elif head == "ros2" and words[1] == "service" and words[2] == "call":
         check_service_call(words[3:])
     elif head == "ros2" and words[1] == "param":

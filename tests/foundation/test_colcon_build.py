@@ -12,8 +12,13 @@ PREFIX = Path(sys.prefix)
 
 
 def tracked_files() -> list[str]:
-    listed = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
-                            capture_output=True, text=True, check=True).stdout.split()
+    listed = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
     return [name for name in listed if (ROOT / name).is_file()]
 
 
@@ -22,16 +27,36 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
     for name in tracked_files():
         (workspace / name).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(ROOT / name, workspace / name)
-    env = child_environment(AMENT_PREFIX_PATH=str(PREFIX), CMAKE_PREFIX_PATH=str(PREFIX),
-                            PATH=f"{PREFIX / 'bin'}{os.pathsep}{os.environ['PATH']}")
+    env = child_environment(
+        AMENT_PREFIX_PATH=str(PREFIX),
+        CMAKE_PREFIX_PATH=str(PREFIX),
+        PATH=f"{PREFIX / 'bin'}{os.pathsep}{os.environ['PATH']}",
+    )
     # the repository is itself a package, so colcon does not descend into it: name both base paths
-    build = subprocess.run([str(PREFIX / "bin" / "colcon"), "build", "--base-paths", ".", "amr_interfaces",
-                            "--cmake-args", "-DBUILD_TESTING=OFF"],
-                           cwd=workspace, env=env, capture_output=True, text=True, timeout=600)
+    build = subprocess.run(
+        [
+            str(PREFIX / "bin" / "colcon"),
+            "build",
+            "--base-paths",
+            ".",
+            "amr_interfaces",
+            "--cmake-args",
+            "-DBUILD_TESTING=OFF",
+        ],
+        cwd=workspace,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert build.returncode == 0, build.stdout[-3000:] + build.stderr[-3000:]
 
     install = workspace / "install"
-    for package, executable in [("amr_turtlebot3", "odometry_node"), ("amr_kinematics", "ik_service"), ("amr_maps", "maze")]:
+    for package, executable in [
+        ("amr_turtlebot3", "odometry_node"),
+        ("amr_kinematics", "ik_service"),
+        ("amr_maps", "maze"),
+    ]:
         assert os.access(install / "amr_suite" / "lib" / package / executable, os.X_OK)
     for package in sorted(p.parent.name for p in (ROOT / "resource").glob("*/package.xml")):
         assert (install / "amr_suite" / "share" / "ament_index" / "resource_index" / "packages" / package).is_file()
@@ -44,9 +69,18 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
     env["LD_LIBRARY_PATH"] = f"{install / 'amr_interfaces' / 'lib'}{os.pathsep}{PREFIX / 'lib'}"
     env["_ROS_WHEELS_BOOTSTRAP_COMPLETE"] = "1"
     probe = subprocess.run(
-        [sys.executable, "-c", "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls, amr_maps.maze_command, "
-         "amr_evaluation.closed_loop; "
-         "print(s.SolveIK.__module__, s.SolveIK.Request().__class__.__name__, o.__file__)"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
+        [
+            sys.executable,
+            "-c",
+            "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls, amr_maps.maze_command, "
+            "amr_evaluation.closed_loop; "
+            "print(s.SolveIK.__module__, s.SolveIK.Request().__class__.__name__, o.__file__)",
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert probe.returncode == 0, probe.stderr
     assert str(install) in probe.stdout and "SolveIK_Request" in probe.stdout

@@ -31,16 +31,37 @@ OUR_PACKAGES = {*PACKAGES, "amr_interfaces"}
 ROSDISTRO_COMMIT = "8468e88ccd523427f9131e39d2af0938f1c298b2"
 """The ros/rosdistro commit (2026-08-22) the two tables below were read from."""
 ROSDEP_KEYS = {
-    "numpy": "python3-numpy", "yaml": "python3-yaml", "scipy": "python3-scipy", "matplotlib": "python3-matplotlib",
-    "PIL": "python3-pil", "rosbags": "python3-rosbags-pip", "numba": "python3-numba", "pytest": "python3-pytest",
-    "hypothesis": "python3-hypothesis", "transforms3d": "python3-transforms3d",
-    "mcap": "mcap-ros2-support", "mcap_ros2": "mcap-ros2-support",  # rosdep has no key for mcap alone
-    "gymnasium": "python3-gymnasium-pip", "tqdm": "python3-tqdm",
+    "numpy": "python3-numpy",
+    "yaml": "python3-yaml",
+    "scipy": "python3-scipy",
+    "matplotlib": "python3-matplotlib",
+    "PIL": "python3-pil",
+    "rosbags": "python3-rosbags-pip",
+    "numba": "python3-numba",
+    "pytest": "python3-pytest",
+    "hypothesis": "python3-hypothesis",
+    "transforms3d": "python3-transforms3d",
+    "mcap": "mcap-ros2-support",
+    "mcap_ros2": "mcap-ros2-support",  # rosdep has no key for mcap alone
+    "gymnasium": "python3-gymnasium-pip",
+    "tqdm": "python3-tqdm",
 }
 """Python import names -> their keys in rosdistro's rosdep/python.yaml."""
 JAZZY_PACKAGES = {
-    "ament_index_python", "builtin_interfaces", "geometry_msgs", "launch", "launch_ros", "lifecycle_msgs", "nav_msgs",
-    "rcl_interfaces", "rclpy", "rosgraph_msgs", "sensor_msgs", "std_msgs", "std_srvs", "tf2_msgs",
+    "ament_index_python",
+    "builtin_interfaces",
+    "geometry_msgs",
+    "launch",
+    "launch_ros",
+    "lifecycle_msgs",
+    "nav_msgs",
+    "rcl_interfaces",
+    "rclpy",
+    "rosgraph_msgs",
+    "sensor_msgs",
+    "std_msgs",
+    "std_srvs",
+    "tf2_msgs",
 }
 """ROS packages of rosdistro's jazzy/distribution.yaml that the suite imports."""
 WITHOUT_ROSDEP_KEY = {"pymunk", "contourpy", "distributed", "viser"}
@@ -77,9 +98,22 @@ def declared(manifest: Path, tags=("depend", "exec_depend", "build_export_depend
 
 
 def test_every_package_is_checked():
-    assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer",
-            "amr_mapping", "amr_datasets"} == set(PACKAGES)
+    assert {
+        "amr_util",
+        "amr_maps",
+        "amr_simulation",
+        "amr_control",
+        "amr_localization",
+        "amr_planning",
+        "amr_kinematics",
+        "amr_turtlebot3",
+        "amr_navigation",
+        "amr_evaluation",
+        "amr_bringup",
+        "amr_viewer",
+        "amr_mapping",
+        "amr_datasets",
+    } == set(PACKAGES)
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -102,8 +136,11 @@ def test_the_root_manifest_colcon_builds_covers_every_package():
 
 
 def test_the_root_manifest_covers_what_the_tests_import():
-    test_helpers = TEST_HELPERS | {path.stem for path in (ROOT / "tests").rglob("*.py")} | \
-        {path.name for path in (ROOT / "tests").rglob("*") if (path / "__init__.py").is_file()}  # tests/support
+    test_helpers = (
+        TEST_HELPERS
+        | {path.stem for path in (ROOT / "tests").rglob("*.py")}
+        | {path.name for path in (ROOT / "tests").rglob("*") if (path / "__init__.py").is_file()}
+    )  # tests/support
     needed = keys_of(imports_of((ROOT / "tests").rglob("*.py")) - test_helpers) - OUR_PACKAGES
     available = declared(ROOT / "package.xml", ("depend", "exec_depend", "build_export_depend", "test_depend"))
     assert not needed - available, f"package.xml misses test dependencies {sorted(needed - available)}"
@@ -123,5 +160,6 @@ def test_dependencies_without_a_rosdep_key_are_named_in_the_readme():
     imported = imports_of(ROOT.glob("amr_*/**/*.py"))
     for module in sorted(WITHOUT_ROSDEP_KEY):
         assert module in imported, f"{module} is no longer imported: drop it from WITHOUT_ROSDEP_KEY"
-        assert re.search(rf"pip install [^`\n]*\b{module}\b", readme), \
+        assert re.search(rf"pip install [^`\n]*\b{module}\b", readme), (
             f"README.md must say `pip install {module}`: it has no rosdep key"
+        )

@@ -14,8 +14,12 @@ import pytest
 from doc_commands import DOC_FILES, ROOT, all_commands, check, code_blocks, is_node, parameter_docs
 
 COMMANDS = all_commands()
-PYTHON_EXAMPLES = [(path, first, body) for path in DOC_FILES
-                   for language, body, first in code_blocks(path.read_text(encoding="utf-8")) if language == "python"]
+PYTHON_EXAMPLES = [
+    (path, first, body)
+    for path in DOC_FILES
+    for language, body, first in code_blocks(path.read_text(encoding="utf-8"))
+    if language == "python"
+]
 
 
 def test_the_readme_is_short_and_its_first_two_commands_are_make_demo_and_make_test():
@@ -37,17 +41,21 @@ def test_every_documented_command_works(command):
 
 @pytest.mark.parametrize("path, line, body", PYTHON_EXAMPLES, ids=lambda v: str(v)[-40:])
 def test_every_python_example_runs(path, line, body, tmp_path):
-    environment = {k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")}
-    run = subprocess.run([sys.executable, "-c", body], cwd=ROOT, env=environment, capture_output=True, text=True,
-                         timeout=120)
+    environment = {
+        k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")
+    }
+    run = subprocess.run(
+        [sys.executable, "-c", body], cwd=ROOT, env=environment, capture_output=True, text=True, timeout=120
+    )
     assert run.returncode == 0, f"{path.relative_to(ROOT)}:{line}:\n{run.stderr}"
 
 
 def anchors(path: Path) -> set[str]:
     """GitHub's heading anchors of a Markdown file."""
     found = set()
-    for heading in re.findall(r"^#+ (.+)$", re.sub(r"^```.*?^```", "", path.read_text(encoding="utf-8"),
-                                                   flags=re.S | re.M), re.M):
+    for heading in re.findall(
+        r"^#+ (.+)$", re.sub(r"^```.*?^```", "", path.read_text(encoding="utf-8"), flags=re.S | re.M), re.M
+    ):
         slug = re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
         found.add(slug)
     return found
@@ -71,8 +79,9 @@ def test_the_parameter_tables_are_the_specs():
 
 
 def test_every_node_has_its_parameter_table():
-    nodes = {f"{p.parent.name}/{p.name}" for p in (ROOT / "resource" / "lib").glob("*/*")
-             if is_node(p.parent.name, p.name)}
+    nodes = {
+        f"{p.parent.name}/{p.name}" for p in (ROOT / "resource" / "lib").glob("*/*") if is_node(p.parent.name, p.name)
+    }
     assert len(nodes) >= 11 and nodes <= {node.key for node in parameter_docs.NODES}
 
 
@@ -101,17 +110,26 @@ def test_the_node_list_names_the_nodes_of_the_stacks_it_was_taken_from():
     assert set(listed) == expected
 
 
-@pytest.mark.parametrize("line, words", [
-    ("ros2 run amr_bringup recorder --ros-args -p path:=out/run.mcap -p topics:=[/scan, /tf]", "quote"),  # the shell splits it
-    (".venv/bin/amr-bringup maze_sim -p wall_follower.kpp:=3.0", "kpp: not a parameter of amr_control/wall_follower"),
-    (".venv/bin/amr-bringup maze_sim -p wall_follower.kp:=-3.0", "kp: must be >= 0"),
-    (".venv/bin/amr-bringup maze_navigatio", "no such file"),
-    ("ros2 run amr_localization particle_filter --ros-args -p global_frame:=map", "global_frame: not a parameter"),
-    ("ros2 service call /solve_ik amr_interfaces/srv/SolveIK \"{chain: ur5, targett: {}}\"", "no field 'targett'"),
-    ("python bench/bench_ik.py --no-such-flag", "no option --no-such-flag"),
-    ("make deploy", "no such target"),
-    ("ros2 launch amr_bringup maze_sim.launch.py wrld:=x.yaml", "unknown argument 'wrld'"),
-])
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        (
+            "ros2 run amr_bringup recorder --ros-args -p path:=out/run.mcap -p topics:=[/scan, /tf]",
+            "quote",
+        ),  # the shell splits it
+        (
+            ".venv/bin/amr-bringup maze_sim -p wall_follower.kpp:=3.0",
+            "kpp: not a parameter of amr_control/wall_follower",
+        ),
+        (".venv/bin/amr-bringup maze_sim -p wall_follower.kp:=-3.0", "kp: must be >= 0"),
+        (".venv/bin/amr-bringup maze_navigatio", "no such file"),
+        ("ros2 run amr_localization particle_filter --ros-args -p global_frame:=map", "global_frame: not a parameter"),
+        ('ros2 service call /solve_ik amr_interfaces/srv/SolveIK "{chain: ur5, targett: {}}"', "no field 'targett'"),
+        ("python bench/bench_ik.py --no-such-flag", "no option --no-such-flag"),
+        ("make deploy", "no such target"),
+        ("ros2 launch amr_bringup maze_sim.launch.py wrld:=x.yaml", "unknown argument 'wrld'"),
+    ],
+)
 def test_the_checker_refuses_broken_commands(line, words):
     from doc_commands import Command, split_commands
 

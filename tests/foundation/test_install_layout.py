@@ -34,17 +34,40 @@ def test_every_node_executable_is_installed_and_names_a_real_module(package, exe
 
 
 def test_expected_nodes_are_all_there():
-    assert {("amr_turtlebot3", "odometry_node"), ("amr_simulation", "simulator"), ("amr_control", "wall_follower"),
-            ("amr_bringup", "lifecycle_manager"), ("amr_kinematics", "ik_service"), ("amr_maps", "map_server"),
-            ("amr_bringup", "recorder"), ("amr_planning", "planner"), ("amr_control", "path_follower"),
-            ("amr_localization", "particle_filter"), ("amr_localization", "beacon_localizer"),
-            ("amr_maps", "maze"), ("amr_viewer", "viewer")} <= set(NODES)
+    assert {
+        ("amr_turtlebot3", "odometry_node"),
+        ("amr_simulation", "simulator"),
+        ("amr_control", "wall_follower"),
+        ("amr_bringup", "lifecycle_manager"),
+        ("amr_kinematics", "ik_service"),
+        ("amr_maps", "map_server"),
+        ("amr_bringup", "recorder"),
+        ("amr_planning", "planner"),
+        ("amr_control", "path_follower"),
+        ("amr_localization", "particle_filter"),
+        ("amr_localization", "beacon_localizer"),
+        ("amr_maps", "maze"),
+        ("amr_viewer", "viewer"),
+    } <= set(NODES)
 
 
 def test_every_package_is_installed():
-    assert {"amr_util", "amr_maps", "amr_simulation", "amr_control", "amr_localization", "amr_planning",
-            "amr_kinematics", "amr_turtlebot3", "amr_navigation", "amr_evaluation", "amr_bringup", "amr_viewer",
-            "amr_mapping", "amr_datasets"} == set(PACKAGES)
+    assert {
+        "amr_util",
+        "amr_maps",
+        "amr_simulation",
+        "amr_control",
+        "amr_localization",
+        "amr_planning",
+        "amr_kinematics",
+        "amr_turtlebot3",
+        "amr_navigation",
+        "amr_evaluation",
+        "amr_bringup",
+        "amr_viewer",
+        "amr_mapping",
+        "amr_datasets",
+    } == set(PACKAGES)
 
 
 def test_ros_wheels_are_pinned_to_jazzy():
@@ -64,8 +87,13 @@ def test_config_files_are_installed_next_to_their_package():
 def activated_environment(**given: str) -> dict[str, str]:
     """The environment a bash that sources the venv's activate script ends up with."""
     script = f'. "{PREFIX}/bin/activate" && . "{PREFIX}/bin/activate" && env'  # twice: idempotent
-    output = subprocess.run(["bash", "-c", script], env={"HOME": os.environ.get("HOME", "/"), **given},
-                            capture_output=True, text=True, check=True).stdout
+    output = subprocess.run(
+        ["bash", "-c", script],
+        env={"HOME": os.environ.get("HOME", "/"), **given},
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     return dict(line.split("=", 1) for line in output.splitlines() if "=" in line)
 
 

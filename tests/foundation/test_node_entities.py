@@ -11,18 +11,25 @@ from amr_simulation.simulator_node import SimulatorNode
 from amr_turtlebot3.odometry_node import OdometryNode
 from amr_viewer.viewer_node import ViewerNode
 
-LIFECYCLE_SERVICES = {"change_state", "get_state", "get_available_states", "get_available_transitions",
-                      "get_transition_graph"}
+LIFECYCLE_SERVICES = {
+    "change_state",
+    "get_state",
+    "get_available_states",
+    "get_available_transitions",
+    "get_transition_graph",
+}
 
 
 REQUIRED = {MapServerNode: {"world": "open_room.yaml"}, ViewerNode: {"port": 0}}
 """Parameters a node cannot configure without."""
 
 
-@pytest.mark.parametrize("node_class", [OdometryNode, SimulatorNode, WallFollowerNode, IKServiceNode, MapServerNode,
-                                        ViewerNode])
+@pytest.mark.parametrize(
+    "node_class", [OdometryNode, SimulatorNode, WallFollowerNode, IKServiceNode, MapServerNode, ViewerNode]
+)
 def test_lifecycle_services_and_clock_survive_configure_and_activate(ros_context, node_class):
     from rclpy.parameter import Parameter
+
     given = {"use_sim_time": True, **REQUIRED.get(node_class, {})}
     node = node_class(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in given.items()])
     try:

@@ -35,17 +35,56 @@ ALLOWED: dict[str, set[str]] = {
     "amr_navigation": MAPS | {"amr_control", "amr_planning"},  # the Navigator and its loop drive their libraries
     "amr_kinematics": BOTTOM,
     "amr_turtlebot3": BOTTOM,
-    "amr_evaluation": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                              "amr_turtlebot3", "amr_navigation", "amr_bringup", "amr_mapping", "amr_datasets"},
-    "amr_bringup": MAPS | {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                           "amr_turtlebot3", "amr_navigation", "amr_mapping", "amr_datasets"},
+    "amr_evaluation": MAPS
+    | {
+        "amr_simulation",
+        "amr_control",
+        "amr_localization",
+        "amr_planning",
+        "amr_kinematics",
+        "amr_turtlebot3",
+        "amr_navigation",
+        "amr_bringup",
+        "amr_mapping",
+        "amr_datasets",
+    },
+    "amr_bringup": MAPS
+    | {
+        "amr_simulation",
+        "amr_control",
+        "amr_localization",
+        "amr_planning",
+        "amr_kinematics",
+        "amr_turtlebot3",
+        "amr_navigation",
+        "amr_mapping",
+        "amr_datasets",
+    },
     "amr_viewer": MAPS | {"amr_kinematics"},  # topics, not imports, for the rest; arms drawn by the chains' own FK
 }
 """package -> the amr_* packages its modules may import (besides itself and amr_interfaces)."""
-SIDE_BY_SIDE = {"amr_simulation", "amr_control", "amr_localization", "amr_planning", "amr_kinematics", "amr_turtlebot3",
-                "amr_mapping", "amr_datasets"}
-NO_SIMULATOR = {"amr_util", "amr_maps", "amr_control", "amr_localization", "amr_planning", "amr_kinematics",
-                "amr_turtlebot3", "amr_navigation", "amr_mapping", "amr_datasets"}
+SIDE_BY_SIDE = {
+    "amr_simulation",
+    "amr_control",
+    "amr_localization",
+    "amr_planning",
+    "amr_kinematics",
+    "amr_turtlebot3",
+    "amr_mapping",
+    "amr_datasets",
+}
+NO_SIMULATOR = {
+    "amr_util",
+    "amr_maps",
+    "amr_control",
+    "amr_localization",
+    "amr_planning",
+    "amr_kinematics",
+    "amr_turtlebot3",
+    "amr_navigation",
+    "amr_mapping",
+    "amr_datasets",
+}
 """Packages that run on a real robot: they import neither amr_simulation nor pymunk."""
 
 
@@ -77,7 +116,7 @@ def imports(path: Path, import_time_only: bool = False) -> set[str]:
         if isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
-            base = package[:len(package) - node.level + 1] if node.level else []
+            base = package[: len(package) - node.level + 1] if node.level else []
             module = ".".join([*base, node.module] if node.module else base)
             names.add(module)
             names.update(f"{module}.{alias.name}" for alias in node.names)  # `from pkg import module`
@@ -89,7 +128,9 @@ def edges() -> dict[str, dict[str, set[str]]]:
     graph: dict[str, dict[str, set[str]]] = defaultdict(dict)
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
-            graph[package][module_name(path)] = {name for name in imports(path) if name.split(".")[0].startswith("amr_")}
+            graph[package][module_name(path)] = {
+                name for name in imports(path) if name.split(".")[0].startswith("amr_")
+            }
     return graph
 
 
@@ -102,8 +143,12 @@ def test_every_package_has_a_place_in_the_layering():
 
 @pytest.mark.parametrize("package", PACKAGES)
 def test_imports_follow_the_layering(package):
-    wrong = sorted(f"{module} imports {name}" for module, names in GRAPH[package].items() for name in names
-                   if name.split(".")[0] not in ALLOWED[package] | {package, MESSAGES})
+    wrong = sorted(
+        f"{module} imports {name}"
+        for module, names in GRAPH[package].items()
+        for name in names
+        if name.split(".")[0] not in ALLOWED[package] | {package, MESSAGES}
+    )
     assert not wrong, f"{package} may import only {sorted(ALLOWED[package])}:\n" + "\n".join(wrong)
 
 
@@ -111,8 +156,12 @@ def test_imports_follow_the_layering(package):
 def test_side_by_side_packages_import_no_other_package_nodes(package):
     """Nor does amr_navigation: its node talks to the controllers and the planner over ROS, its loop uses
     their libraries."""
-    wrong = sorted(f"{module} imports {name}" for module, names in GRAPH[package].items() for name in names
-                   if name.split(".")[0] in SIDE_BY_SIDE - {package} and name.endswith("_node"))
+    wrong = sorted(
+        f"{module} imports {name}"
+        for module, names in GRAPH[package].items()
+        for name in names
+        if name.split(".")[0] in SIDE_BY_SIDE - {package} and name.endswith("_node")
+    )
     assert not wrong, "\n".join(wrong)
 
 
@@ -127,23 +176,32 @@ def test_runtime_packages_import_neither_the_simulator_nor_pymunk(package):
 
 
 def test_the_package_graph_has_no_cycle():
-    graph = {package: {name.split(".")[0] for names in GRAPH[package].values() for name in names} - {package, MESSAGES}
-             for package in PACKAGES}
+    graph = {
+        package: {name.split(".")[0] for names in GRAPH[package].values() for name in names} - {package, MESSAGES}
+        for package in PACKAGES
+    }
     try:
         order = list(TopologicalSorter(graph).static_order())
     except CycleError as error:
         pytest.fail(f"the packages import each other in a cycle: {error.args[1]}")
-    assert order.index("amr_util") < order.index("amr_maps") < order.index("amr_simulation") < order.index("amr_bringup")
+    assert (
+        order.index("amr_util") < order.index("amr_maps") < order.index("amr_simulation") < order.index("amr_bringup")
+    )
 
 
 def test_the_module_graph_has_no_cycle_at_import_time():
     """No module imports itself back through others while loading (a partially initialized module).
     A module's own ancestor packages do not count: Python initializes them first whatever the module
     imports; nor do imports inside functions, which run after loading (amr_kinematics.chain's kernel)."""
-    modules = {module_name(path): {name for name in imports(path, import_time_only=True) if name.startswith("amr_")}
-               for package in PACKAGES for path in (ROOT / package).rglob("*.py")}
-    graph = {module: {name for name in names if name in modules and name != module and not module.startswith(name + ".")}
-             for module, names in modules.items()}
+    modules = {
+        module_name(path): {name for name in imports(path, import_time_only=True) if name.startswith("amr_")}
+        for package in PACKAGES
+        for path in (ROOT / package).rglob("*.py")
+    }
+    graph = {
+        module: {name for name in names if name in modules and name != module and not module.startswith(name + ".")}
+        for module, names in modules.items()
+    }
     try:
         TopologicalSorter(graph).prepare()
     except CycleError as error:

@@ -79,8 +79,9 @@ CHILD = textwrap.dedent("""
 
 
 def test_localizer_and_planner_run_without_pymunk_and_the_simulator():
-    result = subprocess.run([sys.executable, "-c", CHILD], env=child_environment(), capture_output=True, text=True,
-                            timeout=300)
+    result = subprocess.run(
+        [sys.executable, "-c", CHILD], env=child_environment(), capture_output=True, text=True, timeout=300
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["loaded"] == []

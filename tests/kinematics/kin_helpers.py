@@ -46,9 +46,16 @@ def seed004_arm(scale: float = 0.01) -> Chain:
     """Seed 004's arm with 5 (cm) links times ``scale``: 0.01 gives metres, 1.0 centimetres."""
     link = 5.0 * scale
     return Chain(
-        "arm5", "standard_dh", ["q1", "q2", "q3", "q4", "q5"], ["revolute"] * 5,
-        d=[link, 0, 0, 0, 0], theta=[0] * 5, a=[0, link, link, link, link], alpha=[math.pi / 2, 0, 0, 0, 0],
-        lower=[-math.pi] * 5, upper=[math.pi] * 5,
+        "arm5",
+        "standard_dh",
+        ["q1", "q2", "q3", "q4", "q5"],
+        ["revolute"] * 5,
+        d=[link, 0, 0, 0, 0],
+        theta=[0] * 5,
+        a=[0, link, link, link, link],
+        alpha=[math.pi / 2, 0, 0, 0, 0],
+        lower=[-math.pi] * 5,
+        upper=[math.pi] * 5,
         couplings=[Coupling(4, -math.pi / 2, np.array([0.0, -1.0, -1.0, -1.0, 0.0]))],
     )
 
@@ -58,9 +65,16 @@ def prismatic_modified_chain() -> Chain:
     from amr_kinematics.transforms import xyz_rpy_matrix
 
     return Chain(
-        "mixed_mdh", "modified_dh", ["j1", "j2", "j3", "j4"], ["revolute", "prismatic", "revolute", "prismatic"],
-        d=[0.2, 0.1, 0.0, 0.05], theta=[0.0, 0.3, -0.2, 0.0], a=[0.0, 0.15, 0.1, 0.0],
+        "mixed_mdh",
+        "modified_dh",
+        ["j1", "j2", "j3", "j4"],
+        ["revolute", "prismatic", "revolute", "prismatic"],
+        d=[0.2, 0.1, 0.0, 0.05],
+        theta=[0.0, 0.3, -0.2, 0.0],
+        a=[0.0, 0.15, 0.1, 0.0],
         alpha=[0.0, -math.pi / 2, math.pi / 2, 0.4],
-        lower=[-3.0, 0.0, -3.0, -0.1], upper=[3.0, 0.4, 3.0, 0.2],
-        base=xyz_rpy_matrix([0.1, -0.2, 0.3, 0.2, -0.1, 0.5]), tool=xyz_rpy_matrix([0.0, 0.02, 0.05, 0.3, 0.0, -0.2]),
+        lower=[-3.0, 0.0, -3.0, -0.1],
+        upper=[3.0, 0.4, 3.0, 0.2],
+        base=xyz_rpy_matrix([0.1, -0.2, 0.3, 0.2, -0.1, 0.5]),
+        tool=xyz_rpy_matrix([0.0, 0.02, 0.05, 0.3, 0.0, -0.2]),
     )

@@ -20,8 +20,17 @@ EPSILON = 0.01  # the report's convergence threshold, in its length units
 
 def ccd(chain, q0, target, **kwargs):
     """The report's method: a single descent (no restarts)."""
-    return get_solver("ccd").solve(chain, target, seed=q0, tolerance=EPSILON, max_iterations=100, timeout=1.0,
-                                   record_history=True, restarts=False, **kwargs)
+    return get_solver("ccd").solve(
+        chain,
+        target,
+        seed=q0,
+        tolerance=EPSILON,
+        max_iterations=100,
+        timeout=1.0,
+        record_history=True,
+        restarts=False,
+        **kwargs,
+    )
 
 
 @pytest.mark.parametrize("target", [(10.0, 10.0), (-20.0, -20.0)])
@@ -61,8 +70,16 @@ def test_joints_are_visited_from_tip_to_base():
     # one iteration on a 2R arm: the tip joint turns first, so the base joint ends the sweep
     from amr_kinematics.chain import Chain
 
-    chain = Chain("rr", "planar", ["a", "b"], ["revolute", "revolute"], theta=[0, 0], a=[1.0, 1.0],
-                  lower=[-3.0, -3.0], upper=[3.0, 3.0])
+    chain = Chain(
+        "rr",
+        "planar",
+        ["a", "b"],
+        ["revolute", "revolute"],
+        theta=[0, 0],
+        a=[1.0, 1.0],
+        lower=[-3.0, -3.0],
+        upper=[3.0, 3.0],
+    )
     result = get_solver("ccd").solve(chain, (0.0, 1.5), seed=[0.0, 0.0], max_iterations=1, record_history=True)
     q = result.history[1].q
     # tip joint first: from (2, 0) it aims the tip at the target around (1, 0)
@@ -88,11 +105,14 @@ def test_seed_outside_limits_is_clamped():
     assert result.history[0].q[1] == 2.0
 
 
-@pytest.mark.parametrize("name, kwargs, match", [
-    ("ur5", {}, "planar"),
-    ("arm5", {}, "planar"),
-    ("ull5", {"with_orientation": True}, "orientation"),
-])
+@pytest.mark.parametrize(
+    "name, kwargs, match",
+    [
+        ("ur5", {}, "planar"),
+        ("arm5", {}, "planar"),
+        ("ull5", {"with_orientation": True}, "orientation"),
+    ],
+)
 def test_ccd_refuses_what_it_cannot_do(chain_set, name, kwargs, match):
     target = np.eye(4) if kwargs else [0.1, 0.1, 0.1]
     with pytest.raises(SolverNotApplicableError, match=match):

@@ -46,8 +46,9 @@ def _report_matriz_t(d, th_deg, a, al_deg):
     return rot_z(math.radians(th_deg)) @ trans(z=d) @ trans(x=a) @ rot_x(math.radians(al_deg))
 
 
-@given(st.floats(0.0, 10.0), st.floats(-180.0, 180.0), st.floats(0.0, 10.0), st.floats(-180.0, 180.0),
-       st.floats(0.0, 90.0))
+@given(
+    st.floats(0.0, 10.0), st.floats(-180.0, 180.0), st.floats(0.0, 10.0), st.floats(-180.0, 180.0), st.floats(0.0, 90.0)
+)
 @settings(max_examples=30)
 def test_manipulator3_matches_the_report_dh_product(chain_set, p0, p1, p2, p3, p4):
     # seed 000, figure 2.3: the eight-row table, auxiliary frame and tool row included
@@ -79,8 +80,16 @@ def test_panda_zero_pose_at_the_flange(chain_set):
 
 def test_planar_chain_with_prismatic_joint():
     # ULL convention: revolute value is the angle, prismatic value is the length
-    chain = Chain("p", "planar", ["t1", "l2"], ["revolute", "prismatic"], theta=[0.0, 0.5], a=[1.0, 0.0],
-                  lower=[-3.0, 0.0], upper=[3.0, 2.0])
+    chain = Chain(
+        "p",
+        "planar",
+        ["t1", "l2"],
+        ["revolute", "prismatic"],
+        theta=[0.0, 0.5],
+        a=[1.0, 0.0],
+        lower=[-3.0, 0.0],
+        upper=[3.0, 2.0],
+    )
     result = chain.fk([0.3, 1.5])
     expected = [math.cos(0.3) + 1.5 * math.cos(0.8), math.sin(0.3) + 1.5 * math.sin(0.8), 0.0]
     np.testing.assert_allclose(result.position, expected, atol=1e-12)

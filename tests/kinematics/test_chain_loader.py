@@ -20,13 +20,27 @@ def good() -> dict:
     """A valid nested parameter dict with two chains."""
     return {
         "chains": ["two", "arm"],
-        "two": {"convention": "planar", "joint_names": ["a", "b"], "types": ["revolute", "revolute"],
-                "theta": [0.0, 0.0], "a": [1.0, 1.0], "lower": [-3.0, -3.0], "upper": [3.0, 3.0],
-                "solver": "analytic"},
-        "arm": {"convention": "standard_dh", "joint_names": ["j1", "j2", "j3"],
-                "types": ["revolute", "prismatic", "revolute"], "d": [0.1, 0.0, 0.0], "theta": [0.0, 0.0, 0.0],
-                "a": [0.0, 0.2, 0.1], "alpha": [1.5, 0.0, 0.0], "lower": [-3.0, 0.0, -3.0],
-                "upper": [3.0, 0.5, 3.0]},
+        "two": {
+            "convention": "planar",
+            "joint_names": ["a", "b"],
+            "types": ["revolute", "revolute"],
+            "theta": [0.0, 0.0],
+            "a": [1.0, 1.0],
+            "lower": [-3.0, -3.0],
+            "upper": [3.0, 3.0],
+            "solver": "analytic",
+        },
+        "arm": {
+            "convention": "standard_dh",
+            "joint_names": ["j1", "j2", "j3"],
+            "types": ["revolute", "prismatic", "revolute"],
+            "d": [0.1, 0.0, 0.0],
+            "theta": [0.0, 0.0, 0.0],
+            "a": [0.0, 0.2, 0.1],
+            "alpha": [1.5, 0.0, 0.0],
+            "lower": [-3.0, 0.0, -3.0],
+            "upper": [3.0, 0.5, 3.0],
+        },
     }
 
 
@@ -69,8 +83,12 @@ def test_file_loads_through_an_rclpy_node():
     context = rclpy.Context()
     rclpy.init(args=["--ros-args", "--params-file", str(CONFIG)], context=context)
     try:
-        node = Node("ik_service", context=context, allow_undeclared_parameters=True,
-                    automatically_declare_parameters_from_overrides=True)
+        node = Node(
+            "ik_service",
+            context=context,
+            allow_undeclared_parameters=True,
+            automatically_declare_parameters_from_overrides=True,
+        )
         values = {name: p.value for name, p in node.get_parameters_by_prefix("").items()}
         node.destroy_node()
     finally:
@@ -106,6 +124,7 @@ def test_defaults_and_options(chain_set):
 
 
 # --- one test per kind of malformed input -------------------------------------------------
+
 
 def test_missing_chains_list():
     params = good()
@@ -163,10 +182,15 @@ def test_chain_without_joints(empty):
     refused(params, "arm", "arm.types", "a chain needs at least one joint")
 
 
-@pytest.mark.parametrize("key, value, match", [
-    ("tolerance", 1e155, "(0, 1e+06]"), ("tolerance", math.inf, "finite"),
-    ("orientation_tolerance", 4.0, "(0, 3.14159]"), ("timeout", 61.0, "(0, 60]"),
-])
+@pytest.mark.parametrize(
+    "key, value, match",
+    [
+        ("tolerance", 1e155, "(0, 1e+06]"),
+        ("tolerance", math.inf, "finite"),
+        ("orientation_tolerance", 4.0, "(0, 3.14159]"),
+        ("timeout", 61.0, "(0, 60]"),
+    ],
+)
 def test_default_outside_its_range(key, value, match):
     params = good()
     params["arm"][key] = value

@@ -43,10 +43,19 @@ def run(scale: float):
     """The report's run on the arm built with links of 5 * scale (0.01: metres, 1: cm)."""
     chain = seed004_arm(scale)
     return chain, get_solver("dls").solve(
-        chain, TARGET_CM * scale, seed=START, damping=math.sqrt(50.0) * scale, adaptive_damping=0.0,
-        angular_weight=1.0 * scale, coupling_update="project", restarts=False,
-        axis_tolerance=(0.5 * scale, 0.5 * scale, 0.1 * scale), max_iterations=100, timeout=1.0,
-        record_history=True)
+        chain,
+        TARGET_CM * scale,
+        seed=START,
+        damping=math.sqrt(50.0) * scale,
+        adaptive_damping=0.0,
+        angular_weight=1.0 * scale,
+        coupling_update="project",
+        restarts=False,
+        axis_tolerance=(0.5 * scale, 0.5 * scale, 0.1 * scale),
+        max_iterations=100,
+        timeout=1.0,
+        record_history=True,
+    )
 
 
 @pytest.mark.parametrize("scale", [0.01, 1.0], ids=["metres", "centimetres"])

@@ -17,8 +17,9 @@ from amr_kinematics.solvers import get_solver
 
 from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
 
-SOLVE = settings(max_examples=25, deadline=None, derandomize=True,
-                 suppress_health_check=[HealthCheck.function_scoped_fixture])
+SOLVE = settings(
+    max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 
 
 def configuration(chain, data):
@@ -28,18 +29,21 @@ def configuration(chain, data):
     return q
 
 
-@pytest.mark.parametrize("name, solver, with_orientation", [
-    ("ur5", "dls", False),
-    ("ur5", "dls", True),
-    ("panda", "dls", False),
-    ("panda", "dls", True),
-    ("ur5", "pinv", False),
-    ("manipulator3", "dls", False),
-    ("arm5", "dls", False),
-    ("ull5", "ccd", False),
-    ("rr2", "analytic", False),
-    ("ull3", "dls", True),
-])
+@pytest.mark.parametrize(
+    "name, solver, with_orientation",
+    [
+        ("ur5", "dls", False),
+        ("ur5", "dls", True),
+        ("panda", "dls", False),
+        ("panda", "dls", True),
+        ("ur5", "pinv", False),
+        ("manipulator3", "dls", False),
+        ("arm5", "dls", False),
+        ("ull5", "ccd", False),
+        ("rr2", "analytic", False),
+        ("ull3", "dls", True),
+    ],
+)
 @given(data=st.data())
 @SOLVE
 def test_fk_of_ik_meets_the_tolerance(chain_set, name, solver, with_orientation, data):

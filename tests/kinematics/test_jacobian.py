@@ -26,9 +26,18 @@ def finite_difference_jacobian(chain, q, h=1e-6):
 
 
 def planar_with_base_and_tool() -> Chain:
-    return Chain("pl", "planar", ["a", "b", "c"], ["prismatic", "revolute", "prismatic"],
-                 theta=[0.3, 0.0, -0.4], a=[0.1, 0.2, 0.05], lower=[0.0, -3.0, 0.0], upper=[1.0, 3.0, 1.0],
-                 base=xyz_rpy_matrix([0.5, -0.2, 0.1, 0.0, 0.0, 0.7]), tool=xyz_rpy_matrix([0.03, 0.01, 0.0, 0.0, 0.0, 0.2]))
+    return Chain(
+        "pl",
+        "planar",
+        ["a", "b", "c"],
+        ["prismatic", "revolute", "prismatic"],
+        theta=[0.3, 0.0, -0.4],
+        a=[0.1, 0.2, 0.05],
+        lower=[0.0, -3.0, 0.0],
+        upper=[1.0, 3.0, 1.0],
+        base=xyz_rpy_matrix([0.5, -0.2, 0.1, 0.0, 0.0, 0.7]),
+        tool=xyz_rpy_matrix([0.03, 0.01, 0.0, 0.0, 0.0, 0.2]),
+    )
 
 
 CHAIN_NAMES = ["ur5", "panda", "arm5", "manipulator3", "ull5", "ull3", "rr2"]

@@ -22,9 +22,18 @@ TOOL_X_DOWN = [1.0, 0.0, 0.0, 0.0, 0.0, -1.0]  # tool x axis along the base's -z
 
 def uncoupled_arm5() -> Chain:
     """Seed 004's arm without the coupling that keeps its tool pointing down: 5 free joints."""
-    return Chain("arm5_free", "standard_dh", ["q1", "q2", "q3", "q4", "q5"], ["revolute"] * 5,
-                 d=[0.05, 0, 0, 0, 0], theta=[0] * 5, a=[0, 0.05, 0.05, 0.05, 0.05],
-                 alpha=[math.pi / 2, 0, 0, 0, 0], lower=[-math.pi] * 5, upper=[math.pi] * 5)
+    return Chain(
+        "arm5_free",
+        "standard_dh",
+        ["q1", "q2", "q3", "q4", "q5"],
+        ["revolute"] * 5,
+        d=[0.05, 0, 0, 0, 0],
+        theta=[0] * 5,
+        a=[0, 0.05, 0.05, 0.05, 0.05],
+        alpha=[math.pi / 2, 0, 0, 0, 0],
+        lower=[-math.pi] * 5,
+        upper=[math.pi] * 5,
+    )
 
 
 @pytest.mark.parametrize("solver", ["dls", "pinv"])
@@ -49,8 +58,14 @@ def test_five_joint_arm_position_and_pointing_is_seed_004s_tool_constraint(solve
     for _ in range(20):
         q = rng.uniform(-1.2, 1.2, 5)
         q[4] = wrap_angle(-math.pi / 2 - q[1] - q[2] - q[3])
-        result = get_solver(solver).solve(arm, arm.fk(q).position, seed=np.zeros(5), tolerance=1e-6,
-                                          task=parse_task(pointing=TOOL_X_DOWN), timeout=0.1)
+        result = get_solver(solver).solve(
+            arm,
+            arm.fk(q).position,
+            seed=np.zeros(5),
+            tolerance=1e-6,
+            task=parse_task(pointing=TOOL_X_DOWN),
+            timeout=0.1,
+        )
         assert result.success, result.message
         assert result.orientation_error <= 1e-6 and result.position_error <= 1e-6
         assert abs(wrap_angle(result.q[1:].sum() + math.pi / 2)) <= 1e-5
@@ -74,14 +89,17 @@ def test_all_weights_one_is_the_full_pose(chain_set):
         np.testing.assert_allclose(result.reached, target, atol=3e-5)
 
 
-@pytest.mark.parametrize("weights, pointing, match", [
-    ([1.0] * 5, None, "6 finite values"),
-    ([1.0, 1.0, 1.0, -1.0, 0.0, 0.0], None, "6 finite values"),
-    ([math.nan, 1.0, 1.0, 0.0, 0.0, 0.0], None, "6 finite values"),
-    ([0.0] * 6, None, "all zero"),
-    (None, [0.0, 0.0, 0.0, 0.0, 0.0, 1.0], "tool axis is a zero vector"),
-    (None, [1.0, 0.0, 0.0], "6 finite values"),
-])
+@pytest.mark.parametrize(
+    "weights, pointing, match",
+    [
+        ([1.0] * 5, None, "6 finite values"),
+        ([1.0, 1.0, 1.0, -1.0, 0.0, 0.0], None, "6 finite values"),
+        ([math.nan, 1.0, 1.0, 0.0, 0.0, 0.0], None, "6 finite values"),
+        ([0.0] * 6, None, "all zero"),
+        (None, [0.0, 0.0, 0.0, 0.0, 0.0, 1.0], "tool axis is a zero vector"),
+        (None, [1.0, 0.0, 0.0], "6 finite values"),
+    ],
+)
 def test_malformed_tasks_are_refused(weights, pointing, match):
     with pytest.raises(InvalidRequestError, match=match):
         parse_task(weights, pointing)

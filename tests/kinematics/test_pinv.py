@@ -44,8 +44,9 @@ def test_without_samples_only_the_seed_is_refined(chain_set):
 def test_candidates_are_tried_best_first(chain_set):
     config = chain_set["ur5"]
     target = config.chain.fk(np.array([2.0, -2.0, 2.0, 1.0, -1.0, 2.0])).position
-    result = get_solver("pinv").solve(config.chain, target, seed=config.home, samples=16, timeout=1.0,
-                                      record_history=True)
+    result = get_solver("pinv").solve(
+        config.chain, target, seed=config.home, samples=16, timeout=1.0, record_history=True
+    )
     starts = [r for r in result.history if r.iteration == 0]
     errors = [r.position_error for r in starts]
     assert errors == sorted(errors)
@@ -67,17 +68,29 @@ def test_smaller_gain_takes_more_steps(chain_set):
     target = config.chain.fk(config.home + 0.2).position
     solver = get_solver("pinv")
     full = solver.solve(config.chain, target, seed=config.home, samples=0, timeout=1.0, candidate_iterations=200)
-    half = solver.solve(config.chain, target, seed=config.home, samples=0, timeout=1.0, candidate_iterations=200,
-                        gain=0.5, patience=0)
+    half = solver.solve(
+        config.chain, target, seed=config.home, samples=0, timeout=1.0, candidate_iterations=200, gain=0.5, patience=0
+    )
     assert full.success and half.success and half.iterations > full.iterations
 
 
 @pytest.mark.filterwarnings("error")
-@pytest.mark.parametrize(("name", "solver", "with_orientation"), [
-    ("ur5", "pinv", False), ("ur5", "dls", False), ("ur5", "pinv", True), ("ur5", "dls", True),
-    ("rr2", "pinv", False), ("rr2", "dls", False), ("rr2", "ccd", False), ("rr2", "analytic", False)])
-def test_far_targets_are_unreachable_without_overflow_and_absurd_ones_refused(chain_set, name, solver,
-                                                                              with_orientation):
+@pytest.mark.parametrize(
+    ("name", "solver", "with_orientation"),
+    [
+        ("ur5", "pinv", False),
+        ("ur5", "dls", False),
+        ("ur5", "pinv", True),
+        ("ur5", "dls", True),
+        ("rr2", "pinv", False),
+        ("rr2", "dls", False),
+        ("rr2", "ccd", False),
+        ("rr2", "analytic", False),
+    ],
+)
+def test_far_targets_are_unreachable_without_overflow_and_absurd_ones_refused(
+    chain_set, name, solver, with_orientation
+):
     config, solve = chain_set[name], get_solver(solver).solve
 
     def goal(distance):
@@ -85,8 +98,9 @@ def test_far_targets_are_unreachable_without_overflow_and_absurd_ones_refused(ch
         pose[:3, 3] = [distance, -distance, distance]
         return pose if with_orientation else pose[: 2 if config.chain.planar else 3, 3]
 
-    result = solve(config.chain, goal(MAX_TARGET_DISTANCE), seed=config.home, with_orientation=with_orientation,
-                   timeout=0.2)
+    result = solve(
+        config.chain, goal(MAX_TARGET_DISTANCE), seed=config.home, with_orientation=with_orientation, timeout=0.2
+    )
     assert not result.success and config.chain.within_limits(result.q)
     with pytest.raises(InvalidRequestError, match="absurd"):
         solve(config.chain, goal(1e200), seed=config.home, with_orientation=with_orientation)

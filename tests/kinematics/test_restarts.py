@@ -22,16 +22,22 @@ def test_consecutive_starts_share_one_hypercube(chain_set):
 def test_coupled_joints_follow_the_spread_ones(chain_set):
     chain = chain_set["arm5"].chain
     for q in SpreadStarts(chain, np.zeros(chain.n), batch=8, random_seed=0).take(8):
-        assert chain.within_limits(q) and q[4] == pytest.approx(chain.couplings[0].value(q)) or q[4] in (
-            chain.lower[4], chain.upper[4])
+        assert (
+            chain.within_limits(q)
+            and q[4] == pytest.approx(chain.couplings[0].value(q))
+            or q[4] in (chain.lower[4], chain.upper[4])
+        )
 
 
 @pytest.mark.parametrize("solver, steps", [("dls", 6), ("pinv", 15)])  # pinv's gain 0.7 needs more steps
 def test_an_iteration_cap_does_not_end_a_solve_with_time_left(chain_set, solver, steps):
     config = chain_set["panda"]
-    results = [get_solver(solver).solve(config.chain, target, seed=config.home, with_orientation=True,
-                                        max_iterations=steps, timeout=0.5)
-               for target in random_targets(config.chain, 10, seed=5)]
+    results = [
+        get_solver(solver).solve(
+            config.chain, target, seed=config.home, with_orientation=True, max_iterations=steps, timeout=0.5
+        )
+        for target in random_targets(config.chain, 10, seed=5)
+    ]
     assert all(r.success for r in results), [r.message for r in results]
     assert max(r.iterations for r in results) > steps  # several short descents, where a total cap gave up
 
@@ -45,8 +51,10 @@ def test_an_unreachable_target_uses_the_whole_budget(chain_set):
 def test_ccd_solves_a_ten_joint_snake(unseen_set):
     chain = unseen_set["snake10"].chain
     targets = random_targets(chain, 40, seed=7)
-    solved = sum(get_solver("ccd").solve(chain, t[:2, 3], seed=unseen_set["snake10"].home, tolerance=1e-5,
-                                         timeout=0.05).success for t in targets)
+    solved = sum(
+        get_solver("ccd").solve(chain, t[:2, 3], seed=unseen_set["snake10"].home, tolerance=1e-5, timeout=0.05).success
+        for t in targets
+    )
     assert solved == 40  # a single descent (the report's method) solved 75 % of such targets
 
 
@@ -54,6 +62,8 @@ def test_ccd_solves_a_ten_joint_snake(unseen_set):
 def test_pinv_full_pose_on_unseen_arms(unseen_set, name):
     config = unseen_set[name]
     targets = random_targets(config.chain, 25, seed=11)
-    solved = sum(get_solver("pinv").solve(config.chain, t, seed=config.home, with_orientation=True,
-                                          timeout=0.05).success for t in targets)
+    solved = sum(
+        get_solver("pinv").solve(config.chain, t, seed=config.home, with_orientation=True, timeout=0.05).success
+        for t in targets
+    )
     assert solved == 25  # gain 1.0 and one hypercube of candidates: 88-90 %

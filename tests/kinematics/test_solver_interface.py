@@ -36,41 +36,47 @@ def test_applicable_solvers(chain_set):
     assert applicable_solvers(chain_set["arm5"].chain, with_orientation=True) == []
 
 
-@pytest.mark.parametrize("name, solver, with_orientation, match", [
-    ("arm5", "analytic", False, "planar 2R"),
-    ("ull3", "analytic", False, "planar 2R"),
-    ("ur5", "ccd", False, "planar"),
-    ("arm5", "dls", True, "4 independent joints"),
-    ("manipulator3", "pinv", True, "6 independent joints"),
-    ("rr2", "dls", True, "planar"),
-    ("rr2", "analytic", True, "orientation"),
-])
+@pytest.mark.parametrize(
+    "name, solver, with_orientation, match",
+    [
+        ("arm5", "analytic", False, "planar 2R"),
+        ("ull3", "analytic", False, "planar 2R"),
+        ("ur5", "ccd", False, "planar"),
+        ("arm5", "dls", True, "4 independent joints"),
+        ("manipulator3", "pinv", True, "6 independent joints"),
+        ("rr2", "dls", True, "planar"),
+        ("rr2", "analytic", True, "orientation"),
+    ],
+)
 def test_solver_not_valid_for_the_chain(chain_set, name, solver, with_orientation, match):
     with pytest.raises(SolverNotApplicableError, match=match):
         chain_set[name].solve(np.eye(4), solver=solver, with_orientation=with_orientation)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"seed": [0.0] * 5}, "6 joints"),
-    ({"seed": [0.0, math.nan, 0.0, 0.0, 0.0, 0.0]}, "finite"),
-    ({"target": [0.1, math.inf, 0.2]}, "finite"),
-    ({"target": [0.1, 0.2]}, "shape"),
-    ({"target": np.diag([2.0, 1.0, 1.0, 1.0])}, "rigid"),
-    ({"target": [0.1, 0.2, 0.3], "with_orientation": True}, "4x4 pose"),
-    ({"tolerance": 0.0}, "tolerance"),
-    ({"tolerance": math.nan}, "tolerance"),
-    ({"tolerance": 1.4e154}, r"tolerance must be a finite number in \(0, 1e\+06\]"),  # tolerance ** 2 overflows
-    ({"tolerance": math.inf}, "finite"),
-    ({"tolerance": 1e6, "orientation_tolerance": 3.5}, r"orientation_tolerance .* \(0, 3.14159\]"),
-    ({"timeout": -1.0}, "timeout"),
-    ({"timeout": 3600.0}, "timeout"),
-    ({"max_iterations": 0}, "max_iterations"),
-    ({"max_iterations": 10**9}, "max_iterations"),
-    ({"max_iterations": 2.5}, "max_iterations"),
-    ({"dampng": 0.1}, "no option"),
-    ({"damping": -1.0}, "damping"),
-    ({"coupling_update": "both"}, "coupling_update"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"seed": [0.0] * 5}, "6 joints"),
+        ({"seed": [0.0, math.nan, 0.0, 0.0, 0.0, 0.0]}, "finite"),
+        ({"target": [0.1, math.inf, 0.2]}, "finite"),
+        ({"target": [0.1, 0.2]}, "shape"),
+        ({"target": np.diag([2.0, 1.0, 1.0, 1.0])}, "rigid"),
+        ({"target": [0.1, 0.2, 0.3], "with_orientation": True}, "4x4 pose"),
+        ({"tolerance": 0.0}, "tolerance"),
+        ({"tolerance": math.nan}, "tolerance"),
+        ({"tolerance": 1.4e154}, r"tolerance must be a finite number in \(0, 1e\+06\]"),  # tolerance ** 2 overflows
+        ({"tolerance": math.inf}, "finite"),
+        ({"tolerance": 1e6, "orientation_tolerance": 3.5}, r"orientation_tolerance .* \(0, 3.14159\]"),
+        ({"timeout": -1.0}, "timeout"),
+        ({"timeout": 3600.0}, "timeout"),
+        ({"max_iterations": 0}, "max_iterations"),
+        ({"max_iterations": 10**9}, "max_iterations"),
+        ({"max_iterations": 2.5}, "max_iterations"),
+        ({"dampng": 0.1}, "no option"),
+        ({"damping": -1.0}, "damping"),
+        ({"coupling_update": "both"}, "coupling_update"),
+    ],
+)
 def test_malformed_requests_are_refused(chain_set, kwargs, match):
     kwargs = dict(kwargs)
     target = kwargs.pop("target", [0.3, 0.2, 0.4])
@@ -97,16 +103,27 @@ def test_limits_hold_and_seeds_are_clamped(chain_set):
             seed = rng.uniform(-10.0, 10.0, size=7)  # mostly outside the limits
             target = np.eye(4)
             target[:3, 3] = rng.uniform(-1.0, 1.0, size=3)  # often unreachable
-            result = config.solve(target, solver=solver, seed=seed, with_orientation=True, timeout=0.01,
-                                  record_history=True)
+            result = config.solve(
+                target, solver=solver, seed=seed, with_orientation=True, timeout=0.01, record_history=True
+            )
             assert config.chain.within_limits(result.q)
             assert all(config.chain.within_limits(r.q) for r in result.history)
 
 
 def slider() -> Chain:
     """A revolute base and a prismatic joint with a range longer than 2 pi."""
-    return Chain("slider", "standard_dh", ["turn", "slide"], ["revolute", "prismatic"], d=[0.0, 0.0],
-                 theta=[0.0, 0.0], a=[0.0, 0.0], alpha=[0.0, 0.0], lower=[-3.0, 0.0], upper=[3.0, 7.0])
+    return Chain(
+        "slider",
+        "standard_dh",
+        ["turn", "slide"],
+        ["revolute", "prismatic"],
+        d=[0.0, 0.0],
+        theta=[0.0, 0.0],
+        a=[0.0, 0.0],
+        alpha=[0.0, 0.0],
+        lower=[-3.0, 0.0],
+        upper=[3.0, 7.0],
+    )
 
 
 @pytest.mark.parametrize("solver", ["dls", "pinv"])
@@ -163,13 +180,16 @@ def _histories(chain, target, seed, with_orientation):
     return out
 
 
-@pytest.mark.parametrize("name, joints, with_orientation", [
-    ("panda", [1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0], False),
-    ("panda", [1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0], True),
-    ("arm5", [0.5, 0.3, -0.4, 0.9, 0.0], False),       # reduced coupling columns
-    ("ull5", [1.0, 0.1, -2.0, 0.5, 0.3], False),        # planar: zero z row
-    ("manipulator3", [0.02, 1.0, 0.08, -0.5], False),   # prismatic joints
-])
+@pytest.mark.parametrize(
+    "name, joints, with_orientation",
+    [
+        ("panda", [1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0], False),
+        ("panda", [1.0, 0.5, -1.0, -1.5, 0.5, 2.0, 0.0], True),
+        ("arm5", [0.5, 0.3, -0.4, 0.9, 0.0], False),  # reduced coupling columns
+        ("ull5", [1.0, 0.1, -2.0, 0.5, 0.3], False),  # planar: zero z row
+        ("manipulator3", [0.02, 1.0, 0.08, -0.5], False),  # prismatic joints
+    ],
+)
 def test_fast_paths_take_the_same_steps_as_the_numpy_path(chain_set, name, joints, with_orientation):
     config = chain_set[name]
     goal = config.chain.fk(config.chain.apply_coupling(joints)).tool

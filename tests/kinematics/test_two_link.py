@@ -49,8 +49,16 @@ def test_unreachable_is_reported_not_nan(chain_set, target, reached):
 
 
 def test_too_close_folds_back():
-    chain = Chain("short", "planar", ["a", "b"], ["revolute", "revolute"], theta=[0.0, 0.0], a=[2.0, 1.0],
-                  lower=[-4.0, -4.0], upper=[4.0, 4.0])
+    chain = Chain(
+        "short",
+        "planar",
+        ["a", "b"],
+        ["revolute", "revolute"],
+        theta=[0.0, 0.0],
+        a=[2.0, 1.0],
+        lower=[-4.0, -4.0],
+        upper=[4.0, 4.0],
+    )
     result = get_solver("analytic").solve(chain, (0.0, 0.5))
     assert not result.success
     np.testing.assert_allclose(result.reached[:2, 3], [0.0, 1.0], atol=1e-12)
@@ -59,16 +67,33 @@ def test_too_close_folds_back():
 def test_offsets_and_tool_fold_into_the_angles():
     from amr_kinematics.transforms import xyz_rpy_matrix
 
-    chain = Chain("off", "planar", ["a", "b"], ["revolute", "revolute"], theta=[0.3, -0.2], a=[1.0, 0.8],
-                  lower=[-4.0, -4.0], upper=[4.0, 4.0], base=xyz_rpy_matrix([0.5, 0.2, 0.0, 0.0, 0.0, 0.4]),
-                  tool=xyz_rpy_matrix([0.1, 0.2, 0.0, 0.0, 0.0, 0.0]))
+    chain = Chain(
+        "off",
+        "planar",
+        ["a", "b"],
+        ["revolute", "revolute"],
+        theta=[0.3, -0.2],
+        a=[1.0, 0.8],
+        lower=[-4.0, -4.0],
+        upper=[4.0, 4.0],
+        base=xyz_rpy_matrix([0.5, 0.2, 0.0, 0.0, 0.0, 0.4]),
+        tool=xyz_rpy_matrix([0.1, 0.2, 0.0, 0.0, 0.0, 0.0]),
+    )
     for q in two_link_branches(chain, (0.7, 1.6))[0]:
         np.testing.assert_allclose(chain.fk(q).position[:2], (0.7, 1.6), atol=1e-12)
 
 
 def test_branches_outside_limits_are_left_out():
-    chain = Chain("lim", "planar", ["a", "b"], ["revolute", "revolute"], theta=[0.0, 0.0], a=[1.0, 1.0],
-                  lower=[-3.0, 0.0], upper=[3.0, 3.0])
+    chain = Chain(
+        "lim",
+        "planar",
+        ["a", "b"],
+        ["revolute", "revolute"],
+        theta=[0.0, 0.0],
+        a=[1.0, 1.0],
+        lower=[-3.0, 0.0],
+        upper=[3.0, 3.0],
+    )
     branches, reachable = two_link_branches(chain, (1.0, 1.0))
     assert reachable and len(branches) == 1 and branches[0][1] > 0
 

@@ -40,12 +40,15 @@ def test_same_robot_as_the_shipped_yaml(chain_set):
     np.testing.assert_allclose(chain.fk(q).tool, shipped.fk(q).tool, atol=1e-12)
 
 
-@pytest.mark.parametrize("mutate, key", [
-    (lambda j: j[1].update(type="esferica"), "joint 2.type"),
-    (lambda j: j[2].pop("limit_sup"), "joint 3.limit_sup"),
-    (lambda j: j[0].update(a="5"), "joint 1.a"),
-    (lambda j: j[0].update(th=float("nan")), "joint 1.th"),
-])
+@pytest.mark.parametrize(
+    "mutate, key",
+    [
+        (lambda j: j[1].update(type="esferica"), "joint 2.type"),
+        (lambda j: j[2].pop("limit_sup"), "joint 3.limit_sup"),
+        (lambda j: j[0].update(a="5"), "joint 1.a"),
+        (lambda j: j[0].update(th=float("nan")), "joint 1.th"),
+    ],
+)
 def test_malformed_joint_names_the_joint(mutate, key):
     joints = [dict(j) for j in FIGURE_3_4]
     mutate(joints)

@@ -43,18 +43,23 @@ def urdf_from_dh(chain: Chain, axis: str) -> str:
         half = np.eye(4)
         half[:3, 3] = frame[:3, 3] / 2.0
         links += [f'<link name="mid{i}"/>', f'<link name="link{i}"/>']
-        joints.append(f'<joint name="fix{i}" type="fixed"><parent link="{parent}"/><child link="mid{i}"/>'
-                      f'{_origin(half)}</joint>')
+        joints.append(
+            f'<joint name="fix{i}" type="fixed"><parent link="{parent}"/><child link="mid{i}"/>{_origin(half)}</joint>'
+        )
         kind = "prismatic" if motion != "rz" else "revolute"
         vector = {"z": "0 0 1", "-z": "0 0 -1", "x": "1 0 0"}[axis]
         low, high = (-chain.upper[i], -chain.lower[i]) if axis == "-z" else (chain.lower[i], chain.upper[i])
-        joints.append(f'<joint name="{chain.joint_names[i]}" type="{kind}"><parent link="mid{i}"/>'
-                      f'<child link="link{i}"/>{_origin(np.linalg.inv(half) @ frame)}<axis xyz="{vector}"/>'
-                      f'<limit lower="{float(low)!r}" upper="{float(high)!r}"/></joint>')
+        joints.append(
+            f'<joint name="{chain.joint_names[i]}" type="{kind}"><parent link="mid{i}"/>'
+            f'<child link="link{i}"/>{_origin(np.linalg.inv(half) @ frame)}<axis xyz="{vector}"/>'
+            f'<limit lower="{float(low)!r}" upper="{float(high)!r}"/></joint>'
+        )
         parent = f"link{i}"
     links.append('<link name="tip"/>')
-    joints.append(f'<joint name="tool" type="fixed"><parent link="{parent}"/><child link="tip"/>'
-                  f'{_origin(np.linalg.inv(turn) @ fixed[-1])}</joint>')
+    joints.append(
+        f'<joint name="tool" type="fixed"><parent link="{parent}"/><child link="tip"/>'
+        f"{_origin(np.linalg.inv(turn) @ fixed[-1])}</joint>"
+    )
     return f'<robot name="{chain.name}">' + "".join(links + joints) + "</robot>"
 
 
@@ -85,7 +90,9 @@ def test_ur5_real_link_frames_are_the_dh_pose_turned_by_pi(chain_set):
         np.testing.assert_allclose(urdf.fk(q).tool, rot_z(math.pi) @ dh.fk(q).tool, atol=1e-9)  # URDF rounds pi/2
 
 
-@pytest.mark.parametrize("tip, tool", [("panda_link8", None), ("panda_hand_tcp", [0.0, 0.0, 0.2104, 0.0, 0.0, -math.pi / 4])])
+@pytest.mark.parametrize(
+    "tip, tool", [("panda_link8", None), ("panda_hand_tcp", [0.0, 0.0, 0.2104, 0.0, 0.0, -math.pi / 4])]
+)
 def test_panda_urdf_matches_its_dh_table(chain_set, tip, tool):
     from amr_kinematics.transforms import xyz_rpy_matrix
 
@@ -97,25 +104,45 @@ def test_panda_urdf_matches_its_dh_table(chain_set, tip, tool):
         np.testing.assert_allclose(urdf.fk(q).tool, dh.fk(q).tool @ flange_to_tcp, atol=1e-12)
 
 
-@pytest.mark.parametrize("file, base, tip, dh_name", [
-    ("ur5.urdf", "base_link", "tool0", "ur5"), ("panda.urdf", "panda_link0", "panda_link8", "panda")])
+@pytest.mark.parametrize(
+    "file, base, tip, dh_name",
+    [("ur5.urdf", "base_link", "tool0", "ur5"), ("panda.urdf", "panda_link0", "panda_link8", "panda")],
+)
 def test_urdf_arms_solve_as_well_as_their_dh_versions(chain_set, file, base, tip, dh_name):
     urdf = urdf_chain(dh_name, str(URDF_DIR / file), base, tip)
     dh_config = chain_set[dh_name]
     for with_orientation in (False, True):
         for target in random_targets(urdf, 25, seed=4):
             goal = target if with_orientation else target[:3, 3]
-            result = get_solver("dls").solve(urdf, goal, seed=dh_config.home, with_orientation=with_orientation,
-                                             timeout=0.05)
+            result = get_solver("dls").solve(
+                urdf, goal, seed=dh_config.home, with_orientation=with_orientation, timeout=0.05
+            )
             assert result.success, result.message
 
 
 def test_chain_loader_takes_a_urdf_by_path_package_or_inline_xml(tmp_path):
     xml = (URDF_DIR / "panda.urdf").read_text()
     for source in (str(URDF_DIR / "panda.urdf"), "package://amr_kinematics/config/urdf/panda.urdf", xml):
-        configs = load_chain_set({"chains": ["arm"], "arm": {
-            "urdf": source, "base_link": "panda_link0", "tip_link": "panda_hand_tcp", "solver": "dls",
-            "home": [0.0, -0.7853981633974483, 0.0, -2.356194490192345, 0.0, 1.5707963267948966, 0.7853981633974483]}})
+        configs = load_chain_set(
+            {
+                "chains": ["arm"],
+                "arm": {
+                    "urdf": source,
+                    "base_link": "panda_link0",
+                    "tip_link": "panda_hand_tcp",
+                    "solver": "dls",
+                    "home": [
+                        0.0,
+                        -0.7853981633974483,
+                        0.0,
+                        -2.356194490192345,
+                        0.0,
+                        1.5707963267948966,
+                        0.7853981633974483,
+                    ],
+                },
+            }
+        )
         chain = configs["arm"].chain
         assert chain.n == 7 and chain.joint_names[0] == "panda_joint1"
         target = chain.fk(configs["arm"].home + 0.1).tool
@@ -138,27 +165,54 @@ def test_continuous_fixed_and_mimic_joints():
     # lift 0.5 about y then follow -0.9: the last link's direction is pitch 0.5 - 0.9
     tip = chain.fk(q).position
     expected = np.array([0.3 * math.cos(0.5), 0.0, 0.2 - 0.3 * math.sin(0.5)]) + 0.1 * np.array(
-        [math.cos(-0.4), 0.0, -math.sin(-0.4)])
+        [math.cos(-0.4), 0.0, -math.sin(-0.4)]
+    )
     np.testing.assert_allclose(tip, expected, atol=1e-12)
 
 
-@pytest.mark.parametrize("xml, base, tip, key, match", [
-    ("<robot", "b", "t", "arm.urdf", "not valid XML"),
-    ("<model/>", "b", "t", "arm.urdf", "expected <robot>"),
-    ('<robot name="r"><link name="b"/></robot>', "b", "t", "arm.tip_link", "'t' is not in the URDF"),
-    ('<robot name="r"><link name="b"/><link name="t"/></robot>', "b", "t", "arm.base_link", "not an ancestor"),
-    ('<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="fixed"><parent link="b"/>'
-     '<child link="t"/></joint></robot>', "b", "t", "arm.urdf", "at least one joint"),
-    ('<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="floating"><parent link="b"/>'
-     '<child link="t"/></joint></robot>', "b", "t", "arm.urdf", "'floating'"),
-    ('<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="revolute"><parent link="b"/>'
-     '<child link="t"/></joint></robot>', "b", "t", "arm.urdf", "needs <limit"),
-    ('<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="revolute"><parent link="b"/>'
-     '<child link="t"/><origin xyz="0 nan"/><limit lower="0" upper="1"/></joint></robot>', "b", "t", "arm.urdf",
-     "3 finite numbers"),
-    ("/nonexistent/arm.urdf", "b", "t", "arm.urdf", "cannot read URDF"),
-    ("package://amr_kinematics/config/urdf/nothing.urdf", "b", "t", "arm.urdf", "cannot read URDF"),
-])
+@pytest.mark.parametrize(
+    "xml, base, tip, key, match",
+    [
+        ("<robot", "b", "t", "arm.urdf", "not valid XML"),
+        ("<model/>", "b", "t", "arm.urdf", "expected <robot>"),
+        ('<robot name="r"><link name="b"/></robot>', "b", "t", "arm.tip_link", "'t' is not in the URDF"),
+        ('<robot name="r"><link name="b"/><link name="t"/></robot>', "b", "t", "arm.base_link", "not an ancestor"),
+        (
+            '<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="fixed"><parent link="b"/>'
+            '<child link="t"/></joint></robot>',
+            "b",
+            "t",
+            "arm.urdf",
+            "at least one joint",
+        ),
+        (
+            '<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="floating"><parent link="b"/>'
+            '<child link="t"/></joint></robot>',
+            "b",
+            "t",
+            "arm.urdf",
+            "'floating'",
+        ),
+        (
+            '<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="revolute"><parent link="b"/>'
+            '<child link="t"/></joint></robot>',
+            "b",
+            "t",
+            "arm.urdf",
+            "needs <limit",
+        ),
+        (
+            '<robot name="r"><link name="b"/><link name="t"/><joint name="j" type="revolute"><parent link="b"/>'
+            '<child link="t"/><origin xyz="0 nan"/><limit lower="0" upper="1"/></joint></robot>',
+            "b",
+            "t",
+            "arm.urdf",
+            "3 finite numbers",
+        ),
+        ("/nonexistent/arm.urdf", "b", "t", "arm.urdf", "cannot read URDF"),
+        ("package://amr_kinematics/config/urdf/nothing.urdf", "b", "t", "arm.urdf", "cannot read URDF"),
+    ],
+)
 def test_malformed_urdf_chains_are_refused_by_name(xml, base, tip, key, match):
     with pytest.raises(ChainConfigError) as info:
         load_chain_set({"chains": ["arm"], "arm": {"urdf": xml, "base_link": base, "tip_link": tip}})
@@ -167,5 +221,14 @@ def test_malformed_urdf_chains_are_refused_by_name(xml, base, tip, key, match):
 
 def test_dh_keys_beside_a_urdf_are_refused():
     with pytest.raises(ChainConfigError, match="comes from the URDF"):
-        load_chain_set({"chains": ["arm"], "arm": {"urdf": str(URDF_DIR / "ur5.urdf"), "base_link": "base_link",
-                                                   "tip_link": "tool0", "theta": [0.0] * 6}})
+        load_chain_set(
+            {
+                "chains": ["arm"],
+                "arm": {
+                    "urdf": str(URDF_DIR / "ur5.urdf"),
+                    "base_link": "base_link",
+                    "tip_link": "tool0",
+                    "theta": [0.0] * 6,
+                },
+            }
+        )

@@ -31,8 +31,6 @@ def config_overrides(**changes) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in flat.items()]
 
 
-
-
 class Probe(Node):
     """A client of both services, and a listener of ~/joint_states."""
 

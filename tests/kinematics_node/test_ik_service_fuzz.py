@@ -39,9 +39,12 @@ targets = st.one_of(
     st.builds(lambda p, q: pose(*p, q), st.tuples(*[any_float] * 3), st.tuples(*[any_float] * 4)),
 )
 solve_requests = st.builds(
-    solve_request, chains, targets,
+    solve_request,
+    chains,
+    targets,
     solver=st.one_of(st.sampled_from(["", "ccd", "dls", "pinv", "analytic"]), names),
-    with_orientation=st.booleans(), seed=vectors,
+    with_orientation=st.booleans(),
+    seed=vectors,
     # huge tolerances: tolerance ** 2 overflowed inside dls and pinv above ~1.3e154
     tolerance=st.one_of(st.just(0.0), st.floats(1e-9, 1e-2), any_float, st.floats(1e5, 1e308)),
     max_iterations=st.integers(0, 2**32 - 1),
@@ -74,8 +77,10 @@ def check_fk_reply(request: ComputeFK.Request, reply: ComputeFK.Response) -> Non
 
 def test_random_and_malformed_requests_never_break_the_node(launch, multi_executor):
     # short caps keep each request to a few milliseconds
-    overrides = config_overrides() + [Parameter("max_timeout", value=0.002),
-                                      Parameter("max_iterations_limit", value=500)]
+    overrides = config_overrides() + [
+        Parameter("max_timeout", value=0.002),
+        Parameter("max_iterations_limit", value=500),
+    ]
     _, probe = launch(overrides)
     answered = {"solve": 0, "fk": 0}
     quick = settings(deadline=None, database=None, suppress_health_check=list(HealthCheck))
@@ -95,8 +100,7 @@ def test_random_and_malformed_requests_never_break_the_node(launch, multi_execut
     solve_anything()
     forward_anything()
     assert answered["solve"] >= SOLVE_REQUESTS and answered["fk"] >= FK_REQUESTS
-    good = call(multi_executor, probe.solve, solve_request("arm5", pose(0.053, 0.0478, 0.0),
-                                                           seed=PARAMS["arm5.home"]))
+    good = call(multi_executor, probe.solve, solve_request("arm5", pose(0.053, 0.0478, 0.0), seed=PARAMS["arm5.home"]))
     assert good.success and good.iterations == 9
     huge = call(multi_executor, probe.solve, solve_request("ur5", pose(0.3, 0.2, 0.4), tolerance=1.4e154))
     assert not huge.success and "tolerance must be a finite number in (0, 1e+06]" in huge.message

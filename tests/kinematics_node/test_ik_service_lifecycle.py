@@ -9,8 +9,16 @@ from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 
-from ik_node_helpers import (call, config_overrides, connect, launch, pose, reached,  # noqa: F401 (fixture)
-                             solve_request, spin_until)
+from ik_node_helpers import (
+    call,
+    config_overrides,
+    connect,
+    launch,
+    pose,
+    reached,  # noqa: F401 (fixture)
+    solve_request,
+    spin_until,
+)
 
 GOOD = solve_request("rr2", pose(1.0, 1.0))
 
@@ -119,8 +127,7 @@ def test_a_bad_chain_fails_configure_and_loads_nothing(launch, multi_executor, c
 
 
 def test_bad_node_limits_fail_configure(launch, multi_executor):
-    node, _ = launch(config_overrides() + [Parameter("max_timeout", value=-1.0)],
-                    activate=False)
+    node, _ = launch(config_overrides() + [Parameter("max_timeout", value=-1.0)], activate=False)
     assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.state_label == "unconfigured"
 
@@ -130,8 +137,12 @@ def test_a_burst_of_slow_requests_is_queued_not_dropped(launch, multi_executor):
     node, probe = launch()
     client = probe.create_client(SolveIK, "/solve_ik", qos_profile=QoSProfile(depth=100))
     reached(multi_executor, client, SolveIK.Request())
-    burst = [client.call_async(solve_request(chain, pose(2.0, 2.0, 2.0), timeout=0.05, max_iterations=100_000))
-             for chain in ("ur5", "panda", "arm5") for _ in range(10)]
+    burst = [
+        client.call_async(solve_request(chain, pose(2.0, 2.0, 2.0), timeout=0.05, max_iterations=100_000))
+        for chain in ("ur5", "panda", "arm5")
+        for _ in range(10)
+    ]
     assert spin_until(multi_executor, lambda: all(f.done() for f in burst), timeout=10.0), (
-        f"{sum(not f.done() for f in burst)} of {len(burst)} requests never answered")
+        f"{sum(not f.done() for f in burst)} of {len(burst)} requests never answered"
+    )
     assert all(f.result().message for f in burst)

@@ -39,8 +39,9 @@ def test_bad_chain_process_stays_unconfigured_and_says_why(ros_context, executor
     params["ur5.lower"] = params["ur5.lower"][:5]
     bad = tmp_path / "bad_chains.yaml"
     bad.write_text(yaml.safe_dump({"/**": {"ros__parameters": params}}))
-    broken = node_process("amr_kinematics", "ik_service", "-r", "__node:=ik_bad", "--params-file", str(bad),
-                          "-p", "autostart:=true")
+    broken = node_process(
+        "amr_kinematics", "ik_service", "-r", "__node:=ik_bad", "--params-file", str(bad), "-p", "autostart:=true"
+    )
     # without a `chains` parameter the node serves the packaged config/ik_chains.yaml
     packaged = node_process("amr_kinematics", "ik_service", "-p", "autostart:=true")
     probe = Probe(ros_context)
@@ -56,11 +57,20 @@ def test_bad_chain_process_stays_unconfigured_and_says_why(ros_context, executor
     assert "serving the packaged config/ik_chains.yaml" in output and code == 0, output
 
 
-def test_a_long_solve_blocks_neither_other_chains_nor_its_own_past_their_timeouts(ros_context, executor,
-                                                                                    node_process):
+def test_a_long_solve_blocks_neither_other_chains_nor_its_own_past_their_timeouts(ros_context, executor, node_process):
     # a node process of its own, as deployed: the GIL it shares with a long solve is not shared with the client
-    node_process("amr_kinematics", "ik_service", "--params-file", str(CONFIG), "-p", "autostart:=true",
-                 "-p", f"max_timeout:={SLOW}", "-p", "max_iterations_limit:=1000000")
+    node_process(
+        "amr_kinematics",
+        "ik_service",
+        "--params-file",
+        str(CONFIG),
+        "-p",
+        "autostart:=true",
+        "-p",
+        f"max_timeout:={SLOW}",
+        "-p",
+        "max_iterations_limit:=1000000",
+    )
     probe = Probe(ros_context)
     executor.add_node(probe)
     connect(executor, probe, timeout=DISCOVERY)

@@ -15,8 +15,17 @@ from rclpy.parameter import Parameter
 
 from amr_kinematics.config import flatten_parameters
 
-from ik_node_helpers import (CONFIG, call, config_overrides, pose, quaternion_angle, solve_request, spin_until, start,
-                             stop)
+from ik_node_helpers import (
+    CONFIG,
+    call,
+    config_overrides,
+    pose,
+    quaternion_angle,
+    solve_request,
+    spin_until,
+    start,
+    stop,
+)
 
 MAX_TIMEOUT = 1.0  # s, the node's cap in this module: an unbounded solve costs at most this
 PARAMS = flatten_parameters(yaml.safe_load(CONFIG.read_text(encoding="utf-8")))
@@ -113,13 +122,21 @@ def test_industrial_arms_reach_fk_targets(served, chain, with_orientation):
     for q in random_configurations(chain, 5, seed=len(chain) + with_orientation):
         goal = forward(served, chain, q)
         assert goal.success, goal.message
-        reply = solve(served, chain, goal.tool_pose, with_orientation=with_orientation, seed=PARAMS[f"{chain}.home"],
-                      timeout=MAX_TIMEOUT, max_iterations=100_000)
+        reply = solve(
+            served,
+            chain,
+            goal.tool_pose,
+            with_orientation=with_orientation,
+            seed=PARAMS[f"{chain}.home"],
+            timeout=MAX_TIMEOUT,
+            max_iterations=100_000,
+        )
         assert reply.success, reply.message
         assert reply.position_error <= 1e-5 and len(reply.positions) == len(q)
         reached = forward(served, chain, reply.positions).tool_pose  # the reply's pose is the FK of its positions
         assert [reached.position.x, reached.position.y, reached.position.z] == pytest.approx(
-            [goal.tool_pose.position.x, goal.tool_pose.position.y, goal.tool_pose.position.z], abs=1e-5)
+            [goal.tool_pose.position.x, goal.tool_pose.position.y, goal.tool_pose.position.z], abs=1e-5
+        )
         if with_orientation:
             assert reply.orientation_error <= 1e-5
             assert quaternion_angle(quaternion(reached), quaternion(goal.tool_pose)) <= 1e-5
@@ -140,7 +157,8 @@ def test_unreachable_target_returns_the_closest_configuration(served):
     assert 3.0 - 1.0 < reply.position_error < 3.0  # UR5 reaches ~0.95 m: the arm stretches towards the target
     fk = forward(served, "ur5", reply.positions).tool_pose
     assert (fk.position.x, fk.position.y, fk.position.z) == pytest.approx(
-        (reply.reached.position.x, reply.reached.position.y, reply.reached.position.z))
+        (reply.reached.position.x, reply.reached.position.y, reply.reached.position.z)
+    )
 
 
 LONG = "x" * 10_000
@@ -160,12 +178,16 @@ BAD_REQUESTS = {
     "huge solver name": (dict(solver=LONG), "unknown solver"),
     "analytic on a 6-DOF arm": (dict(solver="analytic"), "analytic solves planar 2R chains only"),
     "ccd on a spatial arm": (dict(solver="ccd"), "ccd works on planar chains"),
-    "orientation of a 5-DOF arm": (dict(chain="arm5", seed=[], with_orientation=True),
-                                   "cannot reach a full orientation"),
+    "orientation of a 5-DOF arm": (
+        dict(chain="arm5", seed=[], with_orientation=True),
+        "cannot reach a full orientation",
+    ),
     "orientation by ccd": (dict(chain="ull5", seed=[], with_orientation=True), "ccd places the tip only"),
     "orientation of a 2R arm": (dict(chain="rr2", seed=[], with_orientation=True), "cannot choose its orientation"),
-    "non-unit quaternion": (dict(target=pose(0.3, 0.2, 0.3, (2.0, 0.0, 0.0, 0.0)), with_orientation=True),
-                            "must be a unit quaternion"),
+    "non-unit quaternion": (
+        dict(target=pose(0.3, 0.2, 0.3, (2.0, 0.0, 0.0, 0.0)), with_orientation=True),
+        "must be a unit quaternion",
+    ),
 }
 
 
@@ -193,8 +215,9 @@ def test_absurd_limits_are_capped_and_the_timeout_holds(served):
 def test_a_solve_never_runs_past_its_timeout(served, chain, solver):
     timeout = 0.02
     started = time.monotonic()
-    reply = solve(served, chain, pose(2.0, 2.0, 2.0), solver=solver, timeout=timeout, max_iterations=100_000,
-                  tolerance=1e-12)
+    reply = solve(
+        served, chain, pose(2.0, 2.0, 2.0), solver=solver, timeout=timeout, max_iterations=100_000, tolerance=1e-12
+    )
     assert not reply.success and reply.message and reply.iterations < 100_000
     assert time.monotonic() - started <= timeout + 5.0  # round trip included, slack for a loaded machine
 
@@ -211,12 +234,15 @@ def test_forward_kinematics_gives_tool_pose_and_joint_origins(served):
     assert (planar.tool_pose.position.x, planar.tool_pose.position.y) == pytest.approx((0.0, 4.0))
 
 
-@pytest.mark.parametrize("chain, positions, expected", [
-    ("nope", [0.0], "unknown chain"),
-    ("ur5", [0.0] * 5, "positions has 5 values; chain 'ur5' has 6 joints"),
-    ("ur5", [0.0] * 100_000, "positions has 100000 values"),
-    ("ur5", [0.0, 0.0, math.inf, 0.0, 0.0, 0.0], "must be finite"),
-])
+@pytest.mark.parametrize(
+    "chain, positions, expected",
+    [
+        ("nope", [0.0], "unknown chain"),
+        ("ur5", [0.0] * 5, "positions has 5 values; chain 'ur5' has 6 joints"),
+        ("ur5", [0.0] * 100_000, "positions has 100000 values"),
+        ("ur5", [0.0, 0.0, math.inf, 0.0, 0.0, 0.0], "must be finite"),
+    ],
+)
 def test_forward_kinematics_refuses_bad_positions(served, chain, positions, expected):
     reply = forward(served, chain, positions)
     assert not reply.success and expected in reply.message
@@ -242,12 +268,15 @@ def test_partial_pose_through_the_service(served):
     assert reply.success and abs(reply.reached.position.z - 5.0) > 1.0
 
 
-@pytest.mark.parametrize("fields, match", [
-    ({"task_weights": [1.0, 1.0]}, "6 finite values"),
-    ({"task_weights": [1.0, 1.0, 1.0, 0.0, 0.0, math.inf]}, "6 finite values"),
-    ({"pointing": [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]}, "zero vector"),
-    ({"task_weights": [1.0] * 6, "target": pose(0.3, 0.2, 0.4, (2.0, 0.0, 0.0, 0.0))}, "unit quaternion"),
-])
+@pytest.mark.parametrize(
+    "fields, match",
+    [
+        ({"task_weights": [1.0, 1.0]}, "6 finite values"),
+        ({"task_weights": [1.0, 1.0, 1.0, 0.0, 0.0, math.inf]}, "6 finite values"),
+        ({"pointing": [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]}, "zero vector"),
+        ({"task_weights": [1.0] * 6, "target": pose(0.3, 0.2, 0.4, (2.0, 0.0, 0.0, 0.0))}, "unit quaternion"),
+    ],
+)
 def test_malformed_tasks_are_refused_by_name(served, fields, match):
     fields = dict(fields)
     reply = solve(served, "ur5", fields.pop("target", pose(0.3, 0.2, 0.4)), **fields)

@@ -78,13 +78,20 @@ def test_bad_beacon_input_is_refused_by_name():
 def test_the_particle_filter_localizes_from_beacon_ranges_alone():
     world = load_world(WORLDS_DIR / "open_room.yaml")
     beacons = np.array([[-1.9, -1.4], [1.9, -1.4], [0.0, 1.4]])
-    pf = ParticleFilter(grid_of(world, 0.05), ParticleFilterConfig(max_particles=2000, beacon_sigma_range=0.03,
-                                                                   beacon_sigma_compass=0.03), beacons=beacons)
+    pf = ParticleFilter(
+        grid_of(world, 0.05),
+        ParticleFilterConfig(max_particles=2000, beacon_sigma_range=0.03, beacon_sigma_compass=0.03),
+        beacons=beacons,
+    )
     rng = np.random.default_rng(4)
     x, y, theta = -1.5, -1.0, 0.2
     errors = []
     for step in range(300):
-        x, y, theta = x + 0.005 * math.cos(theta), y + 0.005 * math.sin(theta), theta - 0.001  # driving forward, clear of the pillar
+        x, y, theta = (
+            x + 0.005 * math.cos(theta),
+            y + 0.005 * math.sin(theta),
+            theta - 0.001,
+        )  # driving forward, clear of the pillar
         z = np.hypot(beacons[:, 0] - x, beacons[:, 1] - y) + rng.normal(0, 0.01, 3)
         estimate = pf.update((x, y, theta), beacons=BeaconReading.checked(z, theta + rng.normal(0, 0.01), 3))
         errors.append(math.hypot(estimate.pose.x - x, estimate.pose.y - y))

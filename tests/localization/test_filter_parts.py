@@ -82,8 +82,12 @@ def test_missing_returns_and_invalid_readings_are_skipped_not_read_as_zero():
     with_no_return = select_beams(scan, 60, keep_no_return=True)
     np.testing.assert_array_equal(with_no_return.returned, [True, False, True])
     assert select_beams(ScanData(np.arange(1.0, 241.0) / 100, 0.0, 0.026, 0.0, 3.5), 30).ranges.size == 30
-    for bad, message in [(ScanData([], 0.0, 0.1, 0.1, 3.5), "non-empty"), (ScanData([1.0, 1.0], math.nan, 0.1, 0.1, 3.5), "angle_min"),
-                         (ScanData([1.0], 0.0, 0.1, 2.0, 1.0), "range_min"), (ScanData(["a"], 0.0, 0.1, 0.1, 3.5), "not numbers")]:
+    for bad, message in [
+        (ScanData([], 0.0, 0.1, 0.1, 3.5), "non-empty"),
+        (ScanData([1.0, 1.0], math.nan, 0.1, 0.1, 3.5), "angle_min"),
+        (ScanData([1.0], 0.0, 0.1, 2.0, 1.0), "range_min"),
+        (ScanData(["a"], 0.0, 0.1, 0.1, 3.5), "not numbers"),
+    ]:
         with pytest.raises(LocalizationError, match=message):
             select_beams(bad, 60)
 
@@ -151,6 +155,7 @@ def test_the_compiled_likelihood_sum_equals_the_formula_beam_by_beam():
     ranges = np.append(rng.uniform(0.1, 3.0, 23), np.inf)  # the last beam has no return: skipped
     angles = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
     from amr_localization.scan_beams import Beams
+
     beams = Beams(ranges, angles, np.isfinite(ranges), 3.5, np.arange(24), angles[1])
     sensor = mount.sensor_poses(particles)
     ends_x = sensor[:, :1] + ranges[None, :23] * np.cos(sensor[:, 2:] + angles[None, :23])

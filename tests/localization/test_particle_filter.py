@@ -46,16 +46,18 @@ def test_globally_localizes_in_the_seed_maze_within_a_minute_and_stays_accurate(
 
 
 def test_a_hand_built_grid_map_localizes_the_robot_driving_in_the_same_grid_world():
-    rows = ["####################",
-            "#..................#",
-            "#..................#",
-            "#....####..........#",
-            "#....####.....##...#",
-            "#.............##...#",
-            "#..................#",
-            "#..........#########",
-            "#..........#########",
-            "####################"]
+    rows = [
+        "####################",
+        "#..................#",
+        "#..................#",
+        "#....####..........#",
+        "#....####.....##...#",
+        "#.............##...#",
+        "#..................#",
+        "#..........#########",
+        "#..........#########",
+        "####################",
+    ]
     world = world_from_dict({"grid": {"cell_size": 0.2, "origin": [0.0, 0.0], "rows": rows}, "start": [0.5, 0.5, 0.0]})
     data = np.array([[OCCUPIED if c == "#" else 0 for c in row] for row in reversed(rows)], dtype=np.int8)
     grid = OccupancyGrid(np.kron(data, np.ones((10, 10), dtype=np.int8)), 0.02)  # the same map at 2 cm
@@ -87,8 +89,12 @@ def test_a_kidnapped_robot_is_withdrawn_at_once_and_found_again():
 def test_a_robot_kidnapped_into_a_look_alike_place_is_withdrawn_within_10_s():
     """hard_maze: the place it is carried to fits the scan at the old estimate nearly as well."""
     world = load_world(WORLDS_DIR / "hard_maze.yaml")
-    sim = Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=0, lidar=LidarConfig(noise_std=0.02),
-                                            encoders=EncoderConfig(noise=0.02, slip=0.03)))
+    sim = Simulator(
+        world,
+        SimulationConfig(
+            dt=FOLLOWER.dt, seed=0, lidar=LidarConfig(noise_std=0.02), encoders=EncoderConfig(noise=0.02, slip=0.03)
+        ),
+    )
     pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(lidar_x=-0.032), range_max=sim.lidar.range_max)
     trace = run(sim, pf, FOLLOWER, 45.0, kidnap=(30.0, (-1.3, 1.25, 0.0)))
     t, localized, _, _ = trace.arrays()
@@ -153,8 +159,12 @@ def test_bad_input_is_refused_with_its_name_and_the_filter_carries_on():
     assert (jump.pose.x, jump.pose.y) == pytest.approx((blind.pose.x, blind.pose.y))
     short = pf.update((5.05, 0.0, 0.0), ScanData([1.0, 2.0], 0.0, 0.1, 0.12, 3.5))  # two beams: used, no crash
     assert np.isfinite(short.pose.covariance).all()
-    for params, key in [({"max_particles": 10, "min_particles": 100}, "max_particles"), ({"laser_model_type": "sonar"}, "laser_model_type"),
-                        ({"sigma_hit": -1.0}, "sigma_hit"), ({"nonsense": 1}, "nonsense")]:
+    for params, key in [
+        ({"max_particles": 10, "min_particles": 100}, "max_particles"),
+        ({"laser_model_type": "sonar"}, "laser_model_type"),
+        ({"sigma_hit": -1.0}, "sigma_hit"),
+        ({"nonsense": 1}, "nonsense"),
+    ]:
         with pytest.raises(ConfigError, match=key):
             ParticleFilterConfig.from_params(params)
     with pytest.raises(LocalizationError, match="no free cell"):
@@ -167,8 +177,7 @@ def test_an_initial_pose_tracks_from_there():
     world = load_world(WORLDS_DIR / "open_room.yaml")
     sim = Simulator(world, SimulationConfig(**NOISY))
     pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(lidar_x=-0.032))
-    pf.initialize_pose(sim.pose.x + 0.1, sim.pose.y - 0.1, sim.pose.theta + 0.1,
-                       np.diag([0.1**2, 0.1**2, 0.1**2]))
+    pf.initialize_pose(sim.pose.x + 0.1, sim.pose.y - 0.1, sim.pose.theta + 0.1, np.diag([0.1**2, 0.1**2, 0.1**2]))
     for _ in range(200):
         estimate = pf.update(odometry_of(sim), scan_of(sim))
         sim.step(0.1, 0.2)

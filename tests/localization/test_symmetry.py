@@ -34,14 +34,22 @@ NOISY = dict(lidar=LidarConfig(noise_std=0.02), encoders=EncoderConfig(noise=0.0
 
 def _simulator(world, seed=3):
     from amr_simulation.simulator import Simulator
+
     return Simulator(world, SimulationConfig(dt=FOLLOWER.dt, seed=seed, **NOISY))
 
 
 def _rotations(pose):
     x, y, theta = pose
-    return np.array([[math.cos(k * math.pi / 2) * x - math.sin(k * math.pi / 2) * y,
-                      math.sin(k * math.pi / 2) * x + math.cos(k * math.pi / 2) * y, theta + k * math.pi / 2]
-                     for k in range(4)])
+    return np.array(
+        [
+            [
+                math.cos(k * math.pi / 2) * x - math.sin(k * math.pi / 2) * y,
+                math.sin(k * math.pi / 2) * x + math.cos(k * math.pi / 2) * y,
+                theta + k * math.pi / 2,
+            ]
+            for k in range(4)
+        ]
+    )
 
 
 def _beam(range_, angle, returned=True):
@@ -61,16 +69,21 @@ def test_the_free_path_check_sees_a_beam_go_through_a_wall_where_the_likelihood_
     assert model.log_likelihood_free_path(pose, hit, 0.1)[0] == pytest.approx(model.log_likelihood(pose, hit)[0])
     grazing = np.array([[0.5, 0.6, math.radians(88.0)]])  # nearly along the wall's left face, ends on the top wall
     assert model.log_likelihood_free_path(grazing, _beam(1.36, 0.0), 0.1)[0] == pytest.approx(
-        model.log_likelihood(grazing, _beam(1.36, 0.0))[0], abs=1e-5)
+        model.log_likelihood(grazing, _beam(1.36, 0.0))[0], abs=1e-5
+    )
     assert model.log_likelihood_free_path(pose, _beam(3.5, 0.0, returned=False), 0.1)[0] == pytest.approx(
-        math.log(0.1 / 3.5), abs=1e-5), "no return, though a wall stands 0.5 m ahead"
-    assert model.log_likelihood_free_path(np.array([[0.5, 1.0, math.pi / 2]]), _beam(3.5, 0.0, returned=False),
-                                          0.1)[0] == pytest.approx(math.log(0.1 / 3.5), abs=1e-5)  # the top wall
+        math.log(0.1 / 3.5), abs=1e-5
+    ), "no return, though a wall stands 0.5 m ahead"
+    assert model.log_likelihood_free_path(np.array([[0.5, 1.0, math.pi / 2]]), _beam(3.5, 0.0, returned=False), 0.1)[
+        0
+    ] == pytest.approx(math.log(0.1 / 3.5), abs=1e-5)  # the top wall
     open_room = np.zeros((300, 300), dtype=np.int8)
     open_room[0, :] = OCCUPIED
     far = LikelihoodField(DistanceField(OccupancyGrid(open_room, 0.02)), LikelihoodFieldParams(), SensorMount(), 3.5)
-    assert far.log_likelihood_free_path(np.array([[3.0, 3.0, math.pi / 2]]), _beam(3.5, 0.0, returned=False),
-                                        0.1)[0] == 0.0, "no return and nothing within range: nothing to say"
+    assert (
+        far.log_likelihood_free_path(np.array([[3.0, 3.0, math.pi / 2]]), _beam(3.5, 0.0, returned=False), 0.1)[0]
+        == 0.0
+    ), "no return and nothing within range: nothing to say"
 
 
 def _closed_loop(case_world, seconds, max_particles=5000, seed=3):
@@ -91,9 +104,19 @@ def test_a_room_one_feature_tells_apart_is_localized_soon_after_the_feature_is_s
     assert position[first] <= 0.10 and heading[first] <= math.radians(10)
     view = FeatureView(world_from_dict(case.world), world_from_dict(case.symmetric))
     lidar = sim.lidar
-    apart = np.array([view.told_apart(x + lidar.x * math.cos(th), y + lidar.x * math.sin(th), th,
-                                      lidar.angle_increment, lidar.beams, lidar.range_max)
-                      for x, y, th in trace.truth[:first + 1]])
+    apart = np.array(
+        [
+            view.told_apart(
+                x + lidar.x * math.cos(th),
+                y + lidar.x * math.sin(th),
+                th,
+                lidar.angle_increment,
+                lidar.beams,
+                lidar.range_max,
+            )
+            for x, y, th in trace.truth[: first + 1]
+        ]
+    )
     # a quarter turn is also told apart where the turned pose is no place for the robot (its footprint on the
     # feature): the feature then sits under the LiDAR's range_min, and the ranges alone cannot show it
     field = DistanceField(grid_of(world_from_dict(case.world), 0.02))
@@ -102,9 +125,18 @@ def test_a_room_one_feature_tells_apart_is_localized_soon_after_the_feature_is_s
         row, col = field.grid.world_to_cell(np.array([x]), np.array([y]))
         return float(field.distances[row[0], col[0]])
 
-    clearance = np.array([[distance_at(math.cos(k * math.pi / 2) * x - math.sin(k * math.pi / 2) * y,
-                                       math.sin(k * math.pi / 2) * x + math.cos(k * math.pi / 2) * y)
-                           for k in (1, 2, 3)] for x, y, _ in trace.truth[:first + 1]])
+    clearance = np.array(
+        [
+            [
+                distance_at(
+                    math.cos(k * math.pi / 2) * x - math.sin(k * math.pi / 2) * y,
+                    math.sin(k * math.pi / 2) * x + math.cos(k * math.pi / 2) * y,
+                )
+                for k in (1, 2, 3)
+            ]
+            for x, y, _ in trace.truth[: first + 1]
+        ]
+    )
     impossible = (clearance < default_robot().radius).any(axis=0)
     assert ((apart.max(axis=0) >= 3) | impossible).all(), "declared before the scans had told every quarter turn apart"
 

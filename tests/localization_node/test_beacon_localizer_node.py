@@ -24,9 +24,13 @@ from amr_simulation.simulator_node import SimulatorNode
 from amr_maps.world import load_world
 
 BEACONS = [[-1.9, -1.4], [1.9, -1.4], [1.9, 1.4], [-1.9, 1.4]]
-ROOM = {"name": "beacon_room", "wall_thickness": 0.05,
-        "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
-        "start": [0.7, -0.4, 0.5], "beacons": BEACONS}
+ROOM = {
+    "name": "beacon_room",
+    "wall_thickness": 0.05,
+    "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
+    "start": [0.7, -0.4, 0.5],
+    "beacons": BEACONS,
+}
 STEPS = 40
 
 
@@ -56,8 +60,10 @@ class Driver(Node):
         """(position m, heading rad) of a /pose against the ground truth at its stamp."""
         truth = self.truth[stamp_ns(pose)].pose.pose
         estimate = pose.pose.pose
-        return (math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y),
-                abs(float(wrap_angle(yaw_from_quaternion(estimate.orientation) - yaw_from_quaternion(truth.orientation)))))
+        return (
+            math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y),
+            abs(float(wrap_angle(yaw_from_quaternion(estimate.orientation) - yaw_from_quaternion(truth.orientation)))),
+        )
 
 
 def stamp_ns(message) -> int:
@@ -68,9 +74,15 @@ def test_relocalizes_from_beacons_and_tracks_with_one_pose_per_reading(executor,
     world = tmp_path / "beacon_room.yaml"
     world.write_text(yaml.safe_dump(ROOM))
     context = executor.context
-    simulator = SimulatorNode(context=context, parameter_overrides=[
-        Parameter("world", value=str(world)), Parameter("lockstep_resend_period", value=0.0),
-        Parameter("beacons.range_noise_std", value=0.003), Parameter("beacons.compass_noise_std", value=0.005)])
+    simulator = SimulatorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("world", value=str(world)),
+            Parameter("lockstep_resend_period", value=0.0),
+            Parameter("beacons.range_noise_std", value=0.003),
+            Parameter("beacons.compass_noise_std", value=0.005),
+        ],
+    )
     localizer = BeaconLocalizerNode(context=context)
     driver = Driver(context)
     for node in (simulator, localizer, driver):

@@ -111,8 +111,13 @@ class Recorder(Node):
 
 def assert_finite(poses) -> None:
     for pose in poses:
-        values = [pose.pose.pose.position.x, pose.pose.pose.position.y, pose.pose.pose.orientation.z,
-                  pose.pose.pose.orientation.w, *pose.pose.covariance]
+        values = [
+            pose.pose.pose.position.x,
+            pose.pose.pose.position.y,
+            pose.pose.pose.orientation.z,
+            pose.pose.pose.orientation.w,
+            *pose.pose.covariance,
+        ]
         assert np.isfinite(values).all()
 
 
@@ -125,15 +130,28 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     /cmd_vel per observation (the follower's while the navigator gives it the observations, until localized;
     then the stand-in path follower's)."""
     context = executor.context
-    simulator = SimulatorNode(context=context, parameter_overrides=[
-        Parameter("world", value="inner_maze.yaml"), Parameter("lidar.x", value=-0.032),
-        Parameter("lockstep_resend_period", value=0.0), Parameter("enable_localization", value=True)])
-    follower = WallFollowerNode(context=context, parameter_overrides=[
-        Parameter("navigated", value=True), Parameter("lidar_x", value=-0.032)])
+    simulator = SimulatorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("world", value="inner_maze.yaml"),
+            Parameter("lidar.x", value=-0.032),
+            Parameter("lockstep_resend_period", value=0.0),
+            Parameter("enable_localization", value=True),
+        ],
+    )
+    follower = WallFollowerNode(
+        context=context, parameter_overrides=[Parameter("navigated", value=True), Parameter("lidar_x", value=-0.032)]
+    )
     navigator = NavigatorNode(context=context)  # no goal: explore until localized, then nobody drives
-    localizer = ParticleFilterNode(context=context, parameter_overrides=[
-        Parameter("world", value="inner_maze.yaml"), Parameter("lidar_x", value=-0.032),
-        Parameter("max_particles", value=PARTICLES), Parameter("particle_cloud_period", value=CLOUD_PERIOD)])
+    localizer = ParticleFilterNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("world", value="inner_maze.yaml"),
+            Parameter("lidar_x", value=-0.032),
+            Parameter("max_particles", value=PARTICLES),
+            Parameter("particle_cloud_period", value=CLOUD_PERIOD),
+        ],
+    )
     recorder = Recorder(context)
     for node in (simulator, follower, navigator, localizer, recorder):
         executor.add_node(node)
@@ -141,9 +159,12 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     spin_until(executor, lambda: simulator.count_subscribers("scan") >= 3, 5.0)  # recorder, filter, follower
     configure_and_activate(simulator)
 
-    done = lambda: recorder.path_follower_commands >= STEPS_AFTER_HANDOVER and len(recorder.poses) == len(recorder.scans)  # noqa: E731
+    done = lambda: (
+        recorder.path_follower_commands >= STEPS_AFTER_HANDOVER and len(recorder.poses) == len(recorder.scans)
+    )  # noqa: E731
     assert spin_until(executor, done, 90.0), (
-        f"not localized: {len(recorder.poses)} poses, {len(recorder.scans)} scans, sim status {recorder.sim_status}")
+        f"not localized: {len(recorder.poses)} poses, {len(recorder.scans)} scans, sim status {recorder.sim_status}"
+    )
     spin_until(executor, lambda: False, 0.3)  # a step that would wrongly follow would show up now
 
     poses, scans = recorder.poses, recorder.scans
@@ -155,7 +176,9 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     first = next(i for i, p in enumerate(poses) if p.localized)
     t_first = stamp_ns(poses[first]) * 1e-9
     assert t_first <= 30.0, f"localized only at t = {t_first:.1f} s"
-    print(f"localized at t = {t_first:.2f} s after {first} scans; {len(recorder.clouds)} clouds, status {recorder.sim_status}")
+    print(
+        f"localized at t = {t_first:.2f} s after {first} scans; {len(recorder.clouds)} clouds, status {recorder.sim_status}"
+    )
     exploring = sum(not p.localized for p in poses)
     assert recorder.commands == exploring + recorder.path_follower_commands, "exactly one /cmd_vel per observation"
     assert len(poses) == recorder.commands + 1, "every command was answered by one observation, the last one pending"
@@ -163,7 +186,9 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     truth = recorder.truth[stamp_ns(poses[first])].pose.pose
     estimate = poses[first].pose.pose
     assert math.hypot(estimate.position.x - truth.position.x, estimate.position.y - truth.position.y) <= 0.10
-    assert abs(float(wrap_angle(yaw_from_quaternion(estimate.orientation) - yaw_from_quaternion(truth.orientation)))) <= math.radians(10)
+    assert abs(
+        float(wrap_angle(yaw_from_quaternion(estimate.orientation) - yaw_from_quaternion(truth.orientation)))
+    ) <= math.radians(10)
     # the simulator's check agrees
     status = recorder.sim_status
     assert status.localization_enabled and status.localized
@@ -181,7 +206,9 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     assert len(tf) == len(poses)
     last = tf[-1].transforms[0]
     assert last.child_frame_id == "odom" and stamp_ns(last) == stamp_ns(poses[-1])
-    correction = np.array([last.transform.translation.x, last.transform.translation.y, yaw_from_quaternion(last.transform.rotation)])
+    correction = np.array(
+        [last.transform.translation.x, last.transform.translation.y, yaw_from_quaternion(last.transform.rotation)]
+    )
     robot = compose(correction[None, :], np.array(odometry_pose(recorder.odometry[stamp_ns(last)])))[0]
     published = poses[-1].pose.pose
     assert robot[:2] == pytest.approx([published.position.x, published.position.y], abs=1e-9)
@@ -192,6 +219,7 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
 
 
 # -- the node alone, fed by a rig -------------------------------------------------------------------
+
 
 class Rig(Node):
     """Plays a simulator recorded here (outer_corridor) to the filter, with hand-made faults."""
@@ -218,8 +246,13 @@ class Rig(Node):
 
 def localizer_with_rig(executor, **overrides):
     context = executor.context
-    params = {"world": "outer_corridor.yaml", "lidar_x": -0.032, "max_particles": 1000, "particle_cloud_period": 0.0,
-              **overrides}
+    params = {
+        "world": "outer_corridor.yaml",
+        "lidar_x": -0.032,
+        "max_particles": 1000,
+        "particle_cloud_period": 0.0,
+        **overrides,
+    }
     node = ParticleFilterNode(context=context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
     rig = Rig(context)
     executor.add_node(node)
@@ -303,16 +336,22 @@ def test_a_map_file_and_a_bad_map_source(executor, tmp_path):
     file or both sources at once fail configure naming the problem."""
     from amr_maps.map_io import save_map
     from amr_maps.rasterize import rasterize_world
+
     path = save_map(rasterize_world(load_world(WORLDS / "outer_corridor.yaml"), 0.05), tmp_path / "corridor.yaml")
-    node = ParticleFilterNode(context=executor.context, parameter_overrides=[
-        Parameter("map_yaml", value=str(path)), Parameter("max_particles", value=500)])
+    node = ParticleFilterNode(
+        context=executor.context,
+        parameter_overrides=[Parameter("map_yaml", value=str(path)), Parameter("max_particles", value=500)],
+    )
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.filter is not None and len(node.filter.particles) == 500
     node.destroy_node()
-    for overrides, problem in ((dict(map_yaml=str(tmp_path / "missing.yaml")), "missing.yaml"),
-                               (dict(map_yaml=str(path), world="outer_corridor.yaml"), "one map source")):
-        node = ParticleFilterNode(context=executor.context,
-                                  parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
+    for overrides, problem in (
+        (dict(map_yaml=str(tmp_path / "missing.yaml")), "missing.yaml"),
+        (dict(map_yaml=str(path), world="outer_corridor.yaml"), "one map source"),
+    ):
+        node = ParticleFilterNode(
+            context=executor.context, parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()]
+        )
         assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
         assert problem in node.configure_error
         node.destroy_node()
@@ -327,11 +366,22 @@ def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
     """open_room declares 4 beacons: use_scan false + use_beacons true pairs /odometry with /beacons only
     (no /scan subscription), answers every reading with one /pose and localizes from a uniform start."""
     context = executor.context
-    simulator = SimulatorNode(context=context, parameter_overrides=[
-        Parameter("world", value="open_room.yaml"), Parameter("lockstep_resend_period", value=0.0)])
-    localizer = ParticleFilterNode(context=context, parameter_overrides=[
-        Parameter("world", value="open_room.yaml"), Parameter("use_scan", value=False),
-        Parameter("use_beacons", value=True), Parameter("max_particles", value=PARTICLES)])
+    simulator = SimulatorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("world", value="open_room.yaml"),
+            Parameter("lockstep_resend_period", value=0.0),
+        ],
+    )
+    localizer = ParticleFilterNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("world", value="open_room.yaml"),
+            Parameter("use_scan", value=False),
+            Parameter("use_beacons", value=True),
+            Parameter("max_particles", value=PARTICLES),
+        ],
+    )
     driver = Driver(context, steps=BEACON_STEPS, v=0.2, w=0.6)  # a 0.33 m circle clear of the walls
     for node in (simulator, localizer, driver):
         executor.add_node(node)
@@ -346,13 +396,17 @@ def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
     spin_until(executor, lambda: False, 0.2)
 
     poses = driver.poses
-    assert [stamp_ns(p) for p in poses] == [stamp_ns(r) for r in driver.readings], "one /pose per reading, stamped with it"
+    assert [stamp_ns(p) for p in poses] == [stamp_ns(r) for r in driver.readings], (
+        "one /pose per reading, stamped with it"
+    )
     assert all(np.isfinite([p.pose.pose.position.x, p.pose.pose.position.y, *p.pose.covariance]).all() for p in poses)
     assert not poses[0].localized and poses[0].confidence < 0.95, "it starts spread over the room, not declared"
     first = next((i for i, p in enumerate(poses) if p.localized), None)
     assert first is not None, f"not localized after {len(poses)} readings"
     position, heading = driver.error(poses[first])
-    print(f"beacons only: localized after {first} readings, error {100 * position:.1f} cm, {math.degrees(heading):.1f} deg")
+    print(
+        f"beacons only: localized after {first} readings, error {100 * position:.1f} cm, {math.degrees(heading):.1f} deg"
+    )
     assert position <= 0.05 and heading <= math.radians(5)
     assert all(p.localized for p in poses[first:])
     assert max(driver.error(p)[0] for p in poses[first:]) <= 0.05
@@ -372,10 +426,14 @@ class BeaconRig(Rig):
 
     def send_reading(self, stamp: float, positions=None, ranges=None) -> None:
         real_positions, real_ranges, compass = self.sim.beacon_reading()
-        message = sim_messages.beacon_ranges(stamp_from_seconds(stamp), "map",
-                                             real_positions if positions is None else np.asarray(positions),
-                                             real_ranges if ranges is None else np.asarray(ranges), compass,
-                                             self.sim.config.beacons)
+        message = sim_messages.beacon_ranges(
+            stamp_from_seconds(stamp),
+            "map",
+            real_positions if positions is None else np.asarray(positions),
+            real_ranges if ranges is None else np.asarray(ranges),
+            compass,
+            self.sim.config.beacons,
+        )
         self.beacons.publish(message)
         self.send(stamp)
 
@@ -385,13 +443,20 @@ def test_a_bad_beacon_reading_is_refused_by_name_and_the_filter_keeps_running(ex
     readings with NaN or negative ranges, another count or moved beacons are refused with a log line,
     and every set still gets one finite /pose."""
     import yaml
+
     data = yaml.safe_load((WORLDS / "open_room.yaml").read_text())
     beacons = data.pop("beacons")
     (tmp_path / "room.yaml").write_text(yaml.safe_dump(data))
     context = executor.context
-    node = ParticleFilterNode(context=context, parameter_overrides=[
-        Parameter("world", value=str(tmp_path / "room.yaml")), Parameter("use_beacons", value=True),
-        Parameter("lidar_x", value=-0.032), Parameter("max_particles", value=1000)])
+    node = ParticleFilterNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("world", value=str(tmp_path / "room.yaml")),
+            Parameter("use_beacons", value=True),
+            Parameter("lidar_x", value=-0.032),
+            Parameter("max_particles", value=1000),
+        ],
+    )
     rig = BeaconRig(context, load_world(WORLDS / "open_room.yaml"))
     executor.add_node(node)
     executor.add_node(rig)
@@ -422,8 +487,10 @@ def test_a_bad_beacon_reading_is_refused_by_name_and_the_filter_keeps_running(ex
 
 
 def test_use_beacons_and_use_scan_are_structural_and_one_is_needed(executor):
-    node = ParticleFilterNode(context=executor.context, parameter_overrides=[
-        Parameter("world", value="open_room.yaml"), Parameter("use_scan", value=False)])
+    node = ParticleFilterNode(
+        context=executor.context,
+        parameter_overrides=[Parameter("world", value="open_room.yaml"), Parameter("use_scan", value=False)],
+    )
     assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert "use_scan and use_beacons are both false" in node.configure_error
     assert node.set_parameters([Parameter("use_beacons", value=True)])[0].successful

@@ -11,8 +11,9 @@ def unknown_like(truth: OccupancyGrid) -> np.ndarray:
     return np.full(truth.data.shape, UNKNOWN, dtype=np.int8)
 
 
-def reveal(truth: OccupancyGrid, known: np.ndarray, x: float, y: float, max_range: float = 3.5,
-           beams: int = 360) -> None:
+def reveal(
+    truth: OccupancyGrid, known: np.ndarray, x: float, y: float, max_range: float = 3.5, beams: int = 360
+) -> None:
     """Mark in `known` the cells beams from (x, y) cross (free) and stop at (occupied), up to max_range."""
     step = 0.5 * truth.resolution
     angles = np.linspace(0.0, 2.0 * np.pi, beams, endpoint=False)

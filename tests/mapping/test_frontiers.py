@@ -11,8 +11,15 @@ from amr_maps.occupancy_grid import OCCUPIED, UNKNOWN, OccupancyGrid
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world, resolve_world_path
 from amr_mapping.explorer import DONE, EXPLORING, WAITING, Explorer, ExplorerConfig
-from amr_mapping.frontiers import (FrontierConfig, best_frontier, detect_frontiers, frontier_mask, path_distances,
-                                   reach_frontiers, safe_cells)
+from amr_mapping.frontiers import (
+    FrontierConfig,
+    best_frontier,
+    detect_frontiers,
+    frontier_mask,
+    path_distances,
+    reach_frontiers,
+    safe_cells,
+)
 from amr_util.parameter_spec import ConfigError
 
 from mapping_helpers import reveal, unknown_like
@@ -123,6 +130,7 @@ def test_config_limits_name_the_key():
 
 
 # -- the explorer -------------------------------------------------------------------------------
+
 
 def explore(world_name: str, resolution: float = 0.025, max_goals: int = 60):
     """Teleport the robot to every goal the explorer chooses, revealing the true grid by ray casting there."""

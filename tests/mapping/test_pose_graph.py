@@ -12,7 +12,7 @@ from amr_mapping.pose_graph import PoseGraph
 from amr_util.geometry import compose, relative_pose
 
 SIGMA = np.array([0.02, 0.02, np.radians(0.5)])
-INFO = np.diag(1.0 / SIGMA ** 2)
+INFO = np.diag(1.0 / SIGMA**2)
 ODOMETRY_SIGMA = np.array([0.05, 0.05, np.radians(2.0)])
 """Odometry's stated uncertainty covers its noise (SIGMA) and its heading bias (1 deg a step)."""
 
@@ -39,7 +39,7 @@ def _graph(truth: np.ndarray, seed: int, loop_kernel: str = "cauchy") -> tuple[P
         z = np.array(relative_pose(truth[k - 1], truth[k])) + rng.normal(0.0, SIGMA) + (0.0, 0.0, np.radians(1.0))
         guess = np.array(compose(guess, z))
         graph.add_node(guess)
-        graph.add_edge(k - 1, k, z, np.diag(1.0 / ODOMETRY_SIGMA ** 2))
+        graph.add_edge(k - 1, k, z, np.diag(1.0 / ODOMETRY_SIGMA**2))
     for j in range(len(truth)):
         for i in range(j - 5):
             if np.hypot(*(truth[i, :2] - truth[j, :2])) < 1e-6:
@@ -104,15 +104,18 @@ def test_an_optimized_graph_optimizes_again_without_moving():
     assert again.converged and again.max_change < 1e-3
 
 
-@pytest.mark.parametrize("call, message", [
-    (lambda g: g.add_edge(0, 0, (1, 0, 0), INFO), "two different nodes"),
-    (lambda g: g.add_edge(0, 5, (1, 0, 0), INFO), "two different nodes"),
-    (lambda g: g.add_edge(0, 1, (np.nan, 0, 0), INFO), "finite"),
-    (lambda g: g.add_edge(0, 1, (1, 0, 0), -INFO), "positive definite"),
-    (lambda g: g.add_edge(0, 1, (1, 0, 0), INFO + np.triu(np.ones((3, 3)), 1)), "symmetric"),
-    (lambda g: g.add_node((0, np.inf, 0)), "finite"),
-    (lambda g: PoseGraph(loop_kernel="tukey"), "loop_kernel"),
-])
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda g: g.add_edge(0, 0, (1, 0, 0), INFO), "two different nodes"),
+        (lambda g: g.add_edge(0, 5, (1, 0, 0), INFO), "two different nodes"),
+        (lambda g: g.add_edge(0, 1, (np.nan, 0, 0), INFO), "finite"),
+        (lambda g: g.add_edge(0, 1, (1, 0, 0), -INFO), "positive definite"),
+        (lambda g: g.add_edge(0, 1, (1, 0, 0), INFO + np.triu(np.ones((3, 3)), 1)), "symmetric"),
+        (lambda g: g.add_node((0, np.inf, 0)), "finite"),
+        (lambda g: PoseGraph(loop_kernel="tukey"), "loop_kernel"),
+    ],
+)
 def test_bad_input_is_refused(call, message):
     graph = PoseGraph()
     graph.add_node((0, 0, 0))

@@ -26,10 +26,21 @@ MAX_RANGE = 8.0
 def ring():
     """An 8 x 6 m room around a 4 x 2 m block (a ring corridor 2 m wide) with a few boxes on the walls, and
     1.35 laps of its centre line in 0.3 m steps."""
-    world = world_from_dict({
-        "walls": [[0, 0, 8, 0], [8, 0, 8, 6], [8, 6, 0, 6], [0, 6, 0, 0]], "wall_thickness": 0.1, "start": [1, 1, 0],
-        "boxes": [[2, 2, 6, 4], [3, 0, 3.3, 0.4], [7.6, 2.5, 8, 2.8], [5, 5.5, 5.6, 6], [0, 4, 0.3, 4.5],
-                  [4.5, 3.9, 4.9, 4.1]]})
+    world = world_from_dict(
+        {
+            "walls": [[0, 0, 8, 0], [8, 0, 8, 6], [8, 6, 0, 6], [0, 6, 0, 0]],
+            "wall_thickness": 0.1,
+            "start": [1, 1, 0],
+            "boxes": [
+                [2, 2, 6, 4],
+                [3, 0, 3.3, 0.4],
+                [7.6, 2.5, 8, 2.8],
+                [5, 5.5, 5.6, 6],
+                [0, 4, 0.3, 4.5],
+                [4.5, 3.9, 4.9, 4.1],
+            ],
+        }
+    )
     corners = np.array([[1, 1], [7, 1], [7, 5], [1, 5], [1, 1]], dtype=float)
     truth = []
     for _ in range(2):
@@ -37,7 +48,7 @@ def ring():
             heading = math.atan2(b[1] - a[1], b[0] - a[0])
             steps = int(round(np.hypot(*(b - a)) / 0.3))
             truth += [(*(a + (b - a) * k / steps), heading) for k in range(steps)]
-    truth = np.array(truth[:int(len(truth) * 0.68)])
+    truth = np.array(truth[: int(len(truth) * 0.68)])
     return NumpyRayCaster(world.faces), truth
 
 
@@ -165,8 +176,16 @@ def test_a_scan_with_too_few_beams_or_nan_ranges_is_added_on_odometry_alone():
     assert update.pose == pytest.approx((0.5, 0.0, 0.0))
 
 
-@pytest.mark.parametrize("name, value", [("resolution", 0.0), ("update_min_d", -1.0), ("local_window", 0),
-                                         ("loop_min_score", 1.5), ("max_range_used", math.inf)])
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("resolution", 0.0),
+        ("update_min_d", -1.0),
+        ("local_window", 0),
+        ("loop_min_score", 1.5),
+        ("max_range_used", math.inf),
+    ],
+)
 def test_bad_config_is_refused(name, value):
     with pytest.raises(MappingError, match=name):
         SlamConfig(**{name: value})

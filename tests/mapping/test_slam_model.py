@@ -25,8 +25,9 @@ INCREMENT = 2.0 * math.pi / BEAMS
 def test_a_corridor_match_is_informative_across_it_and_not_along_it():
     """The match information (the score's curvature): a 40 m corridor 1.6 m wide seen by a 6 m LiDAR tells the
     lateral position and the heading, not the position along it, where the odometry it is fused with decides."""
-    world = world_from_dict({"walls": [[-20, -0.8, 20, -0.8], [-20, 0.8, 20, 0.8]], "wall_thickness": 0.1,
-                             "start": [0, 0, 0]})
+    world = world_from_dict(
+        {"walls": [[-20, -0.8, 20, -0.8], [-20, 0.8, 20, 0.8]], "wall_thickness": 0.1, "start": [0, 0, 0]}
+    )
     caster = NumpyRayCaster(world.faces)
     rng = np.random.default_rng(5)
     angles = -math.pi + INCREMENT * np.arange(BEAMS)
@@ -39,8 +40,9 @@ def test_a_corridor_match_is_informative_across_it_and_not_along_it():
     data = np.zeros((60, 600), dtype=np.int8)  # the submap: the scans of three poses behind, rasterized
     for x in (-0.9, -0.6, -0.3):
         cloud = scan_points(x) + (x, 0.0)
-        data[np.floor((cloud[:, 1] + 1.5) / 0.05).astype(int), np.floor((cloud[:, 0] + 15.0) / 0.05).astype(int)] = \
+        data[np.floor((cloud[:, 1] + 1.5) / 0.05).astype(int), np.floor((cloud[:, 0] + 15.0) / 0.05).astype(int)] = (
             OCCUPIED
+        )
     grid = OccupancyGrid(data, 0.05, (-15.0, -1.5, 0.0))
     points = scan_points(0.0)
     matcher = CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=0.075))
@@ -58,7 +60,7 @@ def test_a_beam_without_a_return_clears_up_to_the_sensors_range_only():
     x0, y0, x1, y1 = grid.bounds
     assert max(abs(x0), x1, abs(y0), y1) < 3.5 + 2.5  # the log-odds grid's growth margin (2 m) at most
     free = (grid.data >= 0) & (grid.data < 50)
-    assert free.sum() * grid.resolution ** 2 == pytest.approx(math.pi * 3.5 ** 2, rel=0.1)
+    assert free.sum() * grid.resolution**2 == pytest.approx(math.pi * 3.5**2, rel=0.1)
 
 
 def _one_cell_grid() -> OccupancyGrid:

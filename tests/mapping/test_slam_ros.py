@@ -48,9 +48,10 @@ def test_the_map_grows_while_exploring_and_save_map_writes_it(ros_context, tmp_p
             assert spin_until(executor, lambda: maps, 20.0), "no /map from slam"
             first = known_cells(maps[0])
             started = time.monotonic()
-            assert spin_until(executor, lambda: known_cells(maps[-1]) > 3 * first, TIMEOUT), \
-                f"/map did not grow: {first} -> {known_cells(maps[-1])} known cells in " \
+            assert spin_until(executor, lambda: known_cells(maps[-1]) > 3 * first, TIMEOUT), (
+                f"/map did not grow: {first} -> {known_cells(maps[-1])} known cells in "
                 f"{time.monotonic() - started:.0f} s"
+            )
             assert maps[-1].header.frame_id == "map" and any(f.state == "exploring" for f in frontiers)
             assert all(np.isfinite([m.info.origin.position.x, m.info.origin.position.y]).all() for m in maps)
             assert client.wait_for_service(timeout_sec=10.0)

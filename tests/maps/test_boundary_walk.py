@@ -12,8 +12,13 @@ HALF, THICKNESS, OFFSET = 2.0, 0.05, 0.105
 
 def _room_quads():
     h = HALF
-    world = world_from_dict({"wall_thickness": THICKNESS, "walls": [[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h],
-                                                                   [-h, h, -h, -h]], "start": [0.0, 0.0, 0.0]})
+    world = world_from_dict(
+        {
+            "wall_thickness": THICKNESS,
+            "walls": [[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]],
+            "start": [0.0, 0.0, 0.0],
+        }
+    )
     return world.polygons
 
 

@@ -58,8 +58,15 @@ def test_the_saved_files_are_what_nav2_map_server_reads(tmp_path):
     assert raw[:11] == b"P5\n3 2\n255\n"
     assert list(raw[11:]) == [0, 254, 254, 254, 0, 205]  # the top image row is grid row 1
     meta = yaml.safe_load(path.read_text())
-    assert meta == {"image": "lab.pgm", "mode": "trinary", "resolution": 0.025, "origin": [-1.5, 2.25, 0.0],
-                    "negate": 0, "occupied_thresh": 0.65, "free_thresh": 0.196}
+    assert meta == {
+        "image": "lab.pgm",
+        "mode": "trinary",
+        "resolution": 0.025,
+        "origin": [-1.5, 2.25, 0.0],
+        "negate": 0,
+        "occupied_thresh": 0.65,
+        "free_thresh": 0.196,
+    }
 
 
 def nav2_pixel(rgba, has_alpha, mode, negate, occupied, free):
@@ -92,30 +99,59 @@ def test_images_load_by_nav2_pixel_rules(tmp_path, image_mode, mode, negate):
     image = image.convert("RGB").convert("P") if image_mode == "P" else image.convert(image_mode)
     image.save(tmp_path / "m.png")
     occupied, free = sorted(rng.uniform(0.05, 0.95, 2))[::-1]
-    (tmp_path / "m.yaml").write_text(yaml.safe_dump({
-        "image": "m.png", "resolution": 0.1, "origin": [0, 0, 0], "negate": negate, "mode": mode,
-        "occupied_thresh": float(occupied), "free_thresh": float(free)}))
+    (tmp_path / "m.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "image": "m.png",
+                "resolution": 0.1,
+                "origin": [0, 0, 0],
+                "negate": negate,
+                "mode": mode,
+                "occupied_thresh": float(occupied),
+                "free_thresh": float(free),
+            }
+        )
+    )
     pixels = np.asarray(image.convert("RGBA"))
     has_alpha = image_mode in ("LA", "RGBA")
     expected = np.array([[nav2_pixel(p, has_alpha, mode, negate, occupied, free) for p in row] for row in pixels])
     assert np.array_equal(load_map(tmp_path / "m.yaml").data, expected[::-1])
 
 
-GOOD = {"image": "m.pgm", "resolution": 0.05, "origin": [0.0, 0.0, 0.0], "negate": 0,
-        "occupied_thresh": 0.65, "free_thresh": 0.196}
+GOOD = {
+    "image": "m.pgm",
+    "resolution": 0.05,
+    "origin": [0.0, 0.0, 0.0],
+    "negate": 0,
+    "occupied_thresh": 0.65,
+    "free_thresh": 0.196,
+}
 
 
-@pytest.mark.parametrize("change, key", [
-    ({"image": None}, "image"), ({"resolution": None}, "resolution"), ({"origin": None}, "origin"),
-    ({"negate": None}, "negate"), ({"occupied_thresh": None}, "occupied_thresh"),
-    ({"free_thresh": None}, "free_thresh"),
-    ({"image": "missing.pgm"}, "image"), ({"image": ""}, "image"),
-    ({"occupied_thresh": 1.5}, "occupied_thresh"), ({"free_thresh": -0.1}, "free_thresh"),
-    ({"free_thresh": 0.7}, "free_thresh"), ({"occupied_thresh": float("nan")}, "occupied_thresh"),
-    ({"origin": [0.0, 0.0]}, "origin"), ({"origin": ["a", 0, 0]}, "origin"), ({"origin": [0, 0, 0.5]}, "origin"),
-    ({"resolution": 0}, "resolution"), ({"resolution": "fine"}, "resolution"),
-    ({"mode": "colour"}, "mode"), ({"negate": 2}, "negate"),
-])
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"image": None}, "image"),
+        ({"resolution": None}, "resolution"),
+        ({"origin": None}, "origin"),
+        ({"negate": None}, "negate"),
+        ({"occupied_thresh": None}, "occupied_thresh"),
+        ({"free_thresh": None}, "free_thresh"),
+        ({"image": "missing.pgm"}, "image"),
+        ({"image": ""}, "image"),
+        ({"occupied_thresh": 1.5}, "occupied_thresh"),
+        ({"free_thresh": -0.1}, "free_thresh"),
+        ({"free_thresh": 0.7}, "free_thresh"),
+        ({"occupied_thresh": float("nan")}, "occupied_thresh"),
+        ({"origin": [0.0, 0.0]}, "origin"),
+        ({"origin": ["a", 0, 0]}, "origin"),
+        ({"origin": [0, 0, 0.5]}, "origin"),
+        ({"resolution": 0}, "resolution"),
+        ({"resolution": "fine"}, "resolution"),
+        ({"mode": "colour"}, "mode"),
+        ({"negate": 2}, "negate"),
+    ],
+)
 def test_malformed_map_files_are_refused_naming_file_and_key(tmp_path, change, key):
     save_map(OccupancyGrid(np.zeros((2, 2), np.int8), 0.05), tmp_path / "m")
     meta = {k: v for k, v in {**GOOD, **change}.items() if v is not None}
@@ -124,8 +160,9 @@ def test_malformed_map_files_are_refused_naming_file_and_key(tmp_path, change, k
         load_map(tmp_path / "m.yaml")
 
 
-@pytest.mark.parametrize("content", [b"", b"P5\n4 4\n255\n\x00\x00", b"not an image at all"],
-                         ids=["empty", "truncated", "garbage"])
+@pytest.mark.parametrize(
+    "content", [b"", b"P5\n4 4\n255\n\x00\x00", b"not an image at all"], ids=["empty", "truncated", "garbage"]
+)
 def test_broken_images_are_refused_naming_the_image(tmp_path, content):
     (tmp_path / "m.pgm").write_bytes(content)
     (tmp_path / "m.yaml").write_text(yaml.safe_dump(GOOD))

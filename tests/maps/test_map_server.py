@@ -28,8 +28,9 @@ TIMEOUT = 10.0
 @pytest.mark.parametrize("shape", [(1, 1), (3, 7), (40, 25), (120, 1)])
 def test_a_grid_survives_the_message_both_ways(shape):
     data = RNG.choice(np.array([-1, 0, 37, 100], dtype=np.int8), size=shape)
-    grid = OccupancyGrid(data, float(RNG.uniform(0.01, 0.5)), (float(RNG.uniform(-9, 9)), float(RNG.uniform(-9, 9)), 0.0),
-                         "odom")
+    grid = OccupancyGrid(
+        data, float(RNG.uniform(0.01, 0.5)), (float(RNG.uniform(-9, 9)), float(RNG.uniform(-9, 9)), 0.0), "odom"
+    )
     message = grid_message(grid, stamp(3.5))
     height, width = shape
     assert (message.info.width, message.info.height, message.header.frame_id) == (width, height, "odom")
@@ -59,13 +60,20 @@ def test_the_map_comes_from_exactly_one_of_yaml_filename_and_world(tmp_path):
     assert np.array_equal(load_grid({"yaml_filename": str(saved)}).data, expected.data)
 
 
-@pytest.mark.parametrize("text, key", [
-    ("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\nfree_thresh: 0.2\n", "occupied_thresh"),
-    ("image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n",
-     "image"),
-    ("image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n",
-     "resolution"),
-])
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        ("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\nfree_thresh: 0.2\n", "occupied_thresh"),
+        (
+            "image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n",
+            "image",
+        ),
+        (
+            "image: m.pgm\nresolution: -1\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n",
+            "resolution",
+        ),
+    ],
+)
 def test_a_malformed_map_file_is_refused_naming_file_and_key(tmp_path, text, key):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -90,7 +98,9 @@ def map_server(context, **params) -> MapServerNode:
 def test_the_node_latches_the_map_for_a_late_subscriber_and_answers_get_map(ros_context, executor):
     server = map_server(ros_context, world="inner_maze.yaml", resolution=0.05)
     executor.add_node(server)
-    assert server.try_transition(Transition.TRANSITION_CONFIGURE) and server.try_transition(Transition.TRANSITION_ACTIVATE)
+    assert server.try_transition(Transition.TRANSITION_CONFIGURE) and server.try_transition(
+        Transition.TRANSITION_ACTIVATE
+    )
     late = LateJoiner(ros_context)  # joins after the map went out
     executor.add_node(late)
     assert spin_until(executor, lambda: late.maps, TIMEOUT), "a late subscriber did not get the latched /map"
@@ -106,8 +116,9 @@ def test_the_node_latches_the_map_for_a_late_subscriber_and_answers_get_map(ros_
 
 def test_a_bad_map_fails_configure_and_leaves_nothing_behind(ros_context, executor, tmp_path, capfd):
     path = tmp_path / "lab.yaml"
-    path.write_text("image: lab.pgm\nresolution: 0.05\norigin: [0, 0]\nnegate: 0\noccupied_thresh: 0.65\n"
-                    "free_thresh: 0.2\n")
+    path.write_text(
+        "image: lab.pgm\nresolution: 0.05\norigin: [0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n"
+    )
     server = map_server(ros_context, yaml_filename=str(path))
     executor.add_node(server)
     assert not server.try_transition(Transition.TRANSITION_CONFIGURE)

@@ -55,9 +55,15 @@ def test_every_shipped_world_round_trips_through_map_server_files(tmp_path, path
     world = load_world(path)
     save_map(rasterize_world(world, LATTICE), tmp_path / "maps" / world.name)
     start, goal = list(world.start), world.goal
-    (tmp_path / "copy.yaml").write_text(yaml.safe_dump({
-        "map": f"maps/{world.name}.yaml", "start": [float(v) for v in start],
-        "goal": None if goal is None else [goal.x, goal.y, goal.radius]}))
+    (tmp_path / "copy.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "map": f"maps/{world.name}.yaml",
+                "start": [float(v) for v in start],
+                "goal": None if goal is None else [goal.x, goal.y, goal.radius],
+            }
+        )
+    )
     copy = load_world(tmp_path / "copy.yaml")
     assert copy.goal == world.goal
     commands = recorded_drive(seed=len(world.name), steps=1200)
@@ -105,7 +111,7 @@ def test_off_lattice_worlds_rasterize_back_to_the_same_grid(seed):
     copy = world_from_grid(grid, start=(0.0, 0.0, 0.0))
     again = rasterize_world(copy, 0.05, margin=0.0)
     (row, col) = grid.world_to_cell(*np.array(again.origin[:2]) + 0.5 * again.resolution)
-    assert np.array_equal(grid.occupied()[row:row + again.height, col:col + again.width], again.occupied())
+    assert np.array_equal(grid.occupied()[row : row + again.height, col : col + again.width], again.occupied())
 
 
 def test_a_bare_map_starts_at_its_most_open_cell(tmp_path):

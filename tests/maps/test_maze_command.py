@@ -11,8 +11,24 @@ from amr_maps.world import load_world
 
 
 def test_writes_one_loadable_world_per_seed_with_the_generated_geometry(tmp_path, capsys):
-    assert main(["loops", "--seed", "3", "--count", "2", "--size", "3", "--set", "loop_fraction=0.25",
-                 "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "loops",
+                "--seed",
+                "3",
+                "--count",
+                "2",
+                "--size",
+                "3",
+                "--set",
+                "loop_fraction=0.25",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     written = sorted(p.name for p in tmp_path.glob("*.yaml"))
     assert written == ["loops_3.yaml", "loops_4.yaml"]
     printed = capsys.readouterr().out
@@ -36,14 +52,17 @@ def test_all_writes_one_maze_of_each_family(tmp_path):
     assert sorted(p.stem for p in tmp_path.glob("*.yaml")) == sorted(f"{family}_1" for family in FAMILIES)
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["spiral"], "unknown maze family 'spiral'"),
-    (["loops", "--set", "loop_fractio=0.3"], "unknown option 'loop_fractio'"),
-    (["loops", "--set", "loop_fraction=lots"], "'lots' is not a number"),
-    (["perfect", "--size", "80"], "option size must be a number in"),
-    (["perfect", "--count", "0"], "--count must be at least 1"),
-    ([], "a family is required"),
-])
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["spiral"], "unknown maze family 'spiral'"),
+        (["loops", "--set", "loop_fractio=0.3"], "unknown option 'loop_fractio'"),
+        (["loops", "--set", "loop_fraction=lots"], "'lots' is not a number"),
+        (["perfect", "--size", "80"], "option size must be a number in"),
+        (["perfect", "--count", "0"], "--count must be at least 1"),
+        ([], "a family is required"),
+    ],
+)
 def test_bad_arguments_exit_2_naming_the_problem(argv, message, tmp_path, capsys):
     assert main([*argv, "--out", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err

@@ -21,9 +21,15 @@ def test_the_grid_is_read_back_from_the_walls():
     assert not MazeGrid.from_world(world).open_between((0, 0), (1, 0))
 
 
-@pytest.mark.parametrize("family, options", [
-    ("perfect", {}), ("rotated", {"loop_fraction": 0.0}), ("thin_walls", {"loop_fraction": 0.0}), ("dead_ends", {}),
-])
+@pytest.mark.parametrize(
+    "family, options",
+    [
+        ("perfect", {}),
+        ("rotated", {"loop_fraction": 0.0}),
+        ("thin_walls", {"loop_fraction": 0.0}),
+        ("dead_ends", {}),
+    ],
+)
 def test_a_tree_maze_tour_walks_every_passage_twice_and_reaches_the_goal(family, options):
     world = generate(family, 3, **options)
     grid = MazeGrid.from_world(world)

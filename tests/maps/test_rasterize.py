@@ -16,8 +16,10 @@ def clipped_area(polygon, x0, y0, x1, y1):
     """Area of a convex polygon clipped to the box (Sutherland-Hodgman): the reference overlap."""
     points = [tuple(p) for p in polygon]
     for axis, bound, keep_above in ((0, x0, True), (0, x1, False), (1, y0, True), (1, y1, False)):
+
         def inside(p):
             return p[axis] >= bound if keep_above else p[axis] <= bound
+
         result = []
         for i, current in enumerate(points):
             previous = points[i - 1]
@@ -44,8 +46,14 @@ def random_world(rng):
     for _ in range(rng.integers(0, 3)):
         x, y = rng.uniform(-1.5, 1.2, 2)
         boxes.append([x, y, x + rng.uniform(0.01, 0.3), y + rng.uniform(0.01, 0.3)])
-    return world_from_dict({"wall_thickness": float(rng.choice([0.01, 0.02, 0.05])), "walls": walls,
-                            "boxes": boxes, "start": [1.9, 1.9, 0.0]})
+    return world_from_dict(
+        {
+            "wall_thickness": float(rng.choice([0.01, 0.02, 0.05])),
+            "walls": walls,
+            "boxes": boxes,
+            "start": [1.9, 1.9, 0.0],
+        }
+    )
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -121,10 +129,15 @@ def test_an_open_world_keeps_its_inside_free_and_only_the_margin_unknown():
     assert outside.sum() == (grid.data == UNKNOWN).sum()
 
 
-@pytest.mark.parametrize("kwargs, words", [
-    ({"resolution": 0.0}, "resolution"), ({"resolution": float("nan")}, "resolution"),
-    ({"margin": -0.1}, "margin"), ({"resolution": "0.05"}, "resolution"),
-])
+@pytest.mark.parametrize(
+    "kwargs, words",
+    [
+        ({"resolution": 0.0}, "resolution"),
+        ({"resolution": float("nan")}, "resolution"),
+        ({"margin": -0.1}, "margin"),
+        ({"resolution": "0.05"}, "resolution"),
+    ],
+)
 def test_bad_arguments_are_refused_by_name(kwargs, words):
     world = load_world(SHIPPED_WORLDS[0])
     with pytest.raises(MapError, match=words):

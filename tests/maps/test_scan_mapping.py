@@ -66,7 +66,7 @@ def test_growth_keeps_cell_alignment_and_contents():
     shift = ((origin[0] - new[0]) / 0.1, (origin[1] - new[1]) / 0.1)
     assert np.allclose(shift, np.round(shift)) and np.allclose(((new[0] - 0.03) / 0.1) % 1.0, 0.0, atol=1e-9)
     c0, r0 = (int(round(v)) for v in shift)
-    assert np.array_equal(after[r0:r0 + before.shape[0], c0:c0 + before.shape[1]], before)
+    assert np.array_equal(after[r0 : r0 + before.shape[0], c0 : c0 + before.shape[1]], before)
     assert grid.shape[0] * 0.1 > 15.0 and grid.shape[1] * 0.1 > 20.0
 
 
@@ -80,8 +80,10 @@ def test_nan_and_infinite_readings():
     assert grid.origin[1] <= -0.0 and grid.origin[1] + grid.shape[0] * 0.1 >= 2.0  # grown to hold the clearing
     probability = grid.probability()
     assert probability.max() == pytest.approx(1.0 - 1.0 / (1.0 + math.exp(0.85)))  # only the 1 m return
-    up = [grid.probability()[int(math.floor((y - grid.origin[1]) / 0.1)), int(-grid.origin[0] / 0.1)]
-          for y in (0.5, 1.5, 1.95)]
+    up = [
+        grid.probability()[int(math.floor((y - grid.origin[1]) / 0.1)), int(-grid.origin[0] / 0.1)]
+        for y in (0.5, 1.5, 1.95)
+    ]
     assert all(p < 0.45 for p in up)
     occupancy = grid.to_occupancy_grid()
     # one free observation is p = 0.40 (between the thresholds: kept as 40), one hit 0.70 (occupied)

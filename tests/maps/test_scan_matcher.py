@@ -51,7 +51,7 @@ def test_pyramid_level_k_is_the_max_over_the_window_starting_at_each_cell():
         size = 1 << level
         for r in range(13):
             for c in range(11):
-                assert pyramid[level, r, c] == base[r:r + size, c:c + size].max()
+                assert pyramid[level, r, c] == base[r : r + size, c : c + size].max()
 
 
 def test_points_off_the_table_score_zero_and_bad_points_are_dropped():
@@ -64,8 +64,16 @@ def test_points_off_the_table_score_zero_and_bad_points_are_dropped():
         matcher.match(points, (0.0, np.nan, 0.0), 0.2, 0.1)
 
 
-@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (0.3, -0.2, 0.0), (-0.15, 0.35, math.radians(12)),
-                                    (0.42, 0.41, -math.radians(18)), (0.07, -0.03, math.radians(4))])
+@pytest.mark.parametrize(
+    "offset",
+    [
+        (0.0, 0.0, 0.0),
+        (0.3, -0.2, 0.0),
+        (-0.15, 0.35, math.radians(12)),
+        (0.42, 0.41, -math.radians(18)),
+        (0.07, -0.03, math.radians(4)),
+    ],
+)
 def test_match_recovers_known_offsets(pillars, offset):
     world, _, matcher = pillars
     truth = np.array([world.start.x, world.start.y, world.start.theta])
@@ -82,8 +90,7 @@ def test_refinement_goes_below_the_cell(pillars):
     world, grid, _ = pillars
     centres = np.column_stack([c.ravel() for c in grid.cell_to_world(*np.indices(grid.data.shape))])
     distance = np.abs(world.clearance(centres)).reshape(grid.data.shape)  # to the surfaces, exact
-    matcher = CorrelativeMatcher(ScoreMap.from_probability(np.exp(-0.5 * (distance / 0.1) ** 2), 0.05,
-                                                           grid.origin[:2]))
+    matcher = CorrelativeMatcher(ScoreMap.from_probability(np.exp(-0.5 * (distance / 0.1) ** 2), 0.05, grid.origin[:2]))
     truth = np.array([world.start.x + 0.021, world.start.y - 0.013, world.start.theta + 0.004])
     points = scan_points(world, truth)
     prior = truth + (0.123, 0.077, 0.05)  # the lattice passes 2.3 cm, 2.7 cm from the truth
@@ -105,8 +112,12 @@ def test_branch_and_bound_equals_brute_force(seed):
     prior = np.array([0.8, 0.1, rng.uniform(-3, 3)])
     step, window = 0.05, 0.3
     found = matcher.match(points, prior, window, 0.1, angular_step=step, refine=False)
-    best = max(matcher.score(points, prior + (dx * 0.1, dy * 0.1, da * step))
-               for dx in range(-3, 4) for dy in range(-3, 4) for da in range(-2, 3))
+    best = max(
+        matcher.score(points, prior + (dx * 0.1, dy * 0.1, da * step))
+        for dx in range(-3, 4)
+        for dy in range(-3, 4)
+        for da in range(-2, 3)
+    )
     assert found.exhaustive and found.score == pytest.approx(best, abs=1e-12)
     assert matcher.score(points, found.pose) == pytest.approx(found.score, abs=1e-12)
     brute_nodes = 7 * 7 * 5
@@ -118,8 +129,9 @@ def test_global_search_equals_brute_force_on_a_small_map():
     prob = np.clip(rng.random((24, 20)) ** 4, 0.0, 1.0)
     matcher = CorrelativeMatcher(ScoreMap.from_probability(prob, 0.1, (0.0, 0.0)), levels=3)
     points = rng.uniform(-0.6, 0.6, (15, 2))
-    found = matcher.search(points, np.ones(prob.shape, dtype=bool), angular_step=2 * math.pi / 16, count=1,
-                           refine=False, max_nodes=10**7)
+    found = matcher.search(
+        points, np.ones(prob.shape, dtype=bool), angular_step=2 * math.pi / 16, count=1, refine=False, max_nodes=10**7
+    )
     centres = [(0.05 + 0.1 * c, 0.05 + 0.1 * r) for r in range(24) for c in range(20)]
     best = max(matcher.score(points, (x, y, a * 2 * math.pi / 16)) for x, y in centres for a in range(16))
     assert len(found) == 1 and found[0].exhaustive and found[0].score == pytest.approx(best, abs=1e-12)
@@ -129,8 +141,12 @@ def twin_rooms():
     """Two 3 m rooms side by side with the same pillars, and one pillar more in the left room."""
     walls, boxes = [], []
     for x0 in (0.0, 3.5):
-        walls += [[x0, 0.0, x0 + 3.0, 0.0], [x0 + 3.0, 0.0, x0 + 3.0, 3.0], [x0 + 3.0, 3.0, x0, 3.0],
-                  [x0, 3.0, x0, 0.0]]
+        walls += [
+            [x0, 0.0, x0 + 3.0, 0.0],
+            [x0 + 3.0, 0.0, x0 + 3.0, 3.0],
+            [x0 + 3.0, 3.0, x0, 3.0],
+            [x0, 3.0, x0, 0.0],
+        ]
         boxes += [[x0 + 0.6, 0.6, x0 + 0.9, 0.9], [x0 + 2.0, 1.8, x0 + 2.3, 2.4]]
     boxes.append([2.2, 0.5, 2.5, 0.8])
     return world_from_dict({"wall_thickness": 0.05, "walls": walls, "boxes": boxes, "start": [1.5, 1.5, 0.3]})
@@ -177,7 +193,7 @@ def test_global_search_keeps_to_the_candidate_region(pillars):
     points = scan_points(world, truth, seed=4)
     region = np.zeros(grid.data.shape, dtype=bool)
     row, col = grid.world_to_cell(truth[0], truth[1])
-    region[row + 10:row + 20, col - 5:col + 5] = True  # 0.5-1 m away from the truth
+    region[row + 10 : row + 20, col - 5 : col + 5] = True  # 0.5-1 m away from the truth
     found = matcher.search(points, region, count=3, max_nodes=10**8, refine=False, min_separation=0.1)
     for m in found:
         r, c = grid.world_to_cell(m.pose[0], m.pose[1])
@@ -186,8 +202,9 @@ def test_global_search_keeps_to_the_candidate_region(pillars):
 
 
 def test_covariance_is_long_along_a_corridor():
-    world = world_from_dict({"wall_thickness": 0.05, "walls": [[0.0, 0.0, 30.0, 0.0], [0.0, 1.0, 30.0, 1.0]],
-                             "start": [15.0, 0.5, 0.0]})
+    world = world_from_dict(
+        {"wall_thickness": 0.05, "walls": [[0.0, 0.0, 30.0, 0.0], [0.0, 1.0, 30.0, 1.0]], "start": [15.0, 0.5, 0.0]}
+    )
     matcher = CorrelativeMatcher(ScoreMap.from_occupancy(rasterize_world(world, 0.05)))
     points = scan_points(world, (15.0, 0.5, 0.0), seed=5, max_range=3.0)
     found = matcher.match(points, (15.0, 0.5, 0.0), 0.3, 0.1)

@@ -9,8 +9,15 @@ import pytest
 
 from amr_maps.rasterize import rasterize_world
 from amr_maps.raycast import NumpyRayCaster
-from amr_maps.symmetry_families import (BROKEN, KINDS, START_CLEARANCE, SYMMETRIC, FeatureView,
-                                              SymmetryFamilyError, symmetry_case)
+from amr_maps.symmetry_families import (
+    BROKEN,
+    KINDS,
+    START_CLEARANCE,
+    SYMMETRIC,
+    FeatureView,
+    SymmetryFamilyError,
+    symmetry_case,
+)
 from amr_maps.world import world_from_dict
 
 
@@ -24,8 +31,11 @@ def _scans_at_rotations(world, rng, poses=20):
         scans = []
         for k in range(4):
             c, s = math.cos(k * math.pi / 2), math.sin(k * math.pi / 2)
-            scans.append(np.minimum(caster.cast(c * x - s * y, s * x + c * y, theta + k * math.pi / 2,
-                                                2 * math.pi / 240, 240, 3.5), 3.5))
+            scans.append(
+                np.minimum(
+                    caster.cast(c * x - s * y, s * x + c * y, theta + k * math.pi / 2, 2 * math.pi / 240, 240, 3.5), 3.5
+                )
+            )
         if np.isfinite(scans[0]).all() and scans[0].min() > 0.05:
             out.append(scans)
     return out
@@ -52,8 +62,9 @@ def test_on_the_lattice_a_symmetric_room_rasterizes_to_a_map_a_quarter_turn_leav
     assert np.array_equal(np.rot90(symmetric), symmetric)
     world = rasterize_world(world_from_dict(case.world), 0.02).data
     if kind in BROKEN:  # the feature breaks every rotation, the half turn too
-        assert not any(world.shape == np.rot90(world, k).shape and np.array_equal(np.rot90(world, k), world)
-                       for k in (1, 2, 3))
+        assert not any(
+            world.shape == np.rot90(world, k).shape and np.array_equal(np.rot90(world, k), world) for k in (1, 2, 3)
+        )
     else:
         assert case.world == case.symmetric
 
@@ -75,11 +86,15 @@ def test_the_feature_is_in_view_from_some_poses_only_and_tells_the_rotations_apa
     world, symmetric = world_from_dict(case.world), world_from_dict(case.symmetric)
     view = FeatureView(world, symmetric)
     rng = np.random.default_rng(1)
-    seen = [view.differing_beams(*pose, 2 * math.pi / 240, 240, 3.5)
-            for pose in rng.uniform([-1.5, -1.5, -math.pi], [1.5, 1.5, math.pi], size=(300, 3))]
+    seen = [
+        view.differing_beams(*pose, 2 * math.pi / 240, 240, 3.5)
+        for pose in rng.uniform([-1.5, -1.5, -math.pi], [1.5, 1.5, math.pi], size=(300, 3))
+    ]
     assert max(seen) >= 3 and min(seen) == 0
-    differs = [any(np.abs(turned - scans[0]).max() > 0.05 for turned in scans[1:])
-               for scans in _scans_at_rotations(world, rng, poses=40)]
+    differs = [
+        any(np.abs(turned - scans[0]).max() > 0.05 for turned in scans[1:])
+        for scans in _scans_at_rotations(world, rng, poses=40)
+    ]
     assert any(differs)
 
 
@@ -93,12 +108,15 @@ def test_options_fix_what_they_name():
     assert sum(lengths) == pytest.approx(4 * max(lengths[:3]) - 0.3)  # the enclosure's sides less one doorway
 
 
-@pytest.mark.parametrize("kind, options, message", [
-    ("hexagon", {}, "unknown symmetry family 'hexagon'"),
-    ("notch", {"width": 0.3}, "unknown option 'width'"),
-    ("island", {"size": 50.0}, "size must be a number in"),
-    ("ring", {"lattice": "yes"}, "lattice must be true or false"),
-])
+@pytest.mark.parametrize(
+    "kind, options, message",
+    [
+        ("hexagon", {}, "unknown symmetry family 'hexagon'"),
+        ("notch", {"width": 0.3}, "unknown option 'width'"),
+        ("island", {"size": 50.0}, "size must be a number in"),
+        ("ring", {"lattice": "yes"}, "lattice must be true or false"),
+    ],
+)
 def test_bad_requests_name_what_is_wrong(kind, options, message):
     with pytest.raises(SymmetryFamilyError, match=message):
         symmetry_case(kind, 0, **options)

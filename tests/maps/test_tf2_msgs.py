@@ -31,8 +31,9 @@ def rihs01(type_description_msg: dict) -> str:
     for description in [hashable["type_description"], *hashable["referenced_type_descriptions"]]:
         for field in description["fields"]:
             del field["default_value"]
-    text = json.dumps(hashable, ensure_ascii=True, allow_nan=False, indent=None, separators=(", ", ": "),
-                      sort_keys=False)
+    text = json.dumps(
+        hashable, ensure_ascii=True, allow_nan=False, indent=None, separators=(", ", ": "), sort_keys=False
+    )
     return "RIHS01_" + hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
@@ -42,7 +43,8 @@ def test_the_installed_tf_message_hashes_as_jazzy_does():
     assert rihs01(data["type_description_msg"]) == recorded["tf2_msgs/msg/TFMessage"] == JAZZY_TF_MESSAGE_HASH
     fields = data["type_description_msg"]["type_description"]["fields"]
     assert [(f["name"], f["type"]["nested_type_name"]) for f in fields] == [
-        ("transforms", "geometry_msgs/msg/TransformStamped")]
+        ("transforms", "geometry_msgs/msg/TransformStamped")
+    ]
 
 
 def test_the_message_carries_transforms_and_has_type_support():

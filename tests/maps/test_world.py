@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from amr_maps.world import (SOURCE_WORLDS, WorldError, load_world, resolve_world_path, world_from_dict,
-                            world_search_path)
+from amr_maps.world import SOURCE_WORLDS, WorldError, load_world, resolve_world_path, world_from_dict, world_search_path
 from amr_simulation.physics import Physics
 
 WORLDS = Path(__file__).resolve().parents[2] / "config" / "worlds"
@@ -163,7 +162,9 @@ def test_set_pose_outside_the_world_bounds_is_refused_naming_them():
     from amr_maps.world import load_world, resolve_world_path
 
     sim = Simulator(load_world(resolve_world_path("outer_corridor.yaml")))
-    with pytest.raises(SimulationError, match=r"\(100.000, 0.000\) lies outside the bounds of .*x in \[-4\.\d+, 4\.\d+\]"):
+    with pytest.raises(
+        SimulationError, match=r"\(100.000, 0.000\) lies outside the bounds of .*x in \[-4\.\d+, 4\.\d+\]"
+    ):
         sim.set_pose(100.0, 0.0, 0.0)
     xmin, ymin, xmax, ymax = sim.bounds
     assert xmin < -1.2 - 3.4 and xmax > 1.2 + 3.4, "the walls' extent plus the LiDAR range"
@@ -175,4 +176,6 @@ def test_relative_world_names_look_in_the_package_share_directory_first(monkeypa
     assert world_search_path()[0] == share
     assert (share / "open_room.yaml").is_file(), "worlds are installed with the package (make setup)"
     monkeypatch.delenv("AMENT_PREFIX_PATH")
-    assert world_search_path() == (share, SOURCE_WORLDS), "without an ament prefix, this prefix's share, then the source"
+    assert world_search_path() == (share, SOURCE_WORLDS), (
+        "without an ament prefix, this prefix's share, then the source"
+    )

@@ -16,11 +16,12 @@ from amr_maps.world import ROBOT_NAME, RobotSpec, WorldError, load_world, world_
 from amr_simulation.physics import Physics
 
 WORLDS = Path(__file__).resolve().parents[2] / "config" / "worlds"
-ROOM = {"wall_thickness": 0.1,  # inner faces at x = +-1.95, y = +-1.45; a box (pillar) at the centre
-        "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
-        "boxes": [[-0.2, -0.2, 0.2, 0.2]]}
-TWO = [{"name": "r1", "start": [-1.5, -1.0, 0.0], "goal": [1.5, 1.0, 0.15]},
-       {"name": "r2", "start": [1.5, -1.0, 7.0]}]
+ROOM = {
+    "wall_thickness": 0.1,  # inner faces at x = +-1.95, y = +-1.45; a box (pillar) at the centre
+    "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
+    "boxes": [[-0.2, -0.2, 0.2, 0.2]],
+}
+TWO = [{"name": "r1", "start": [-1.5, -1.0, 0.0], "goal": [1.5, 1.0, 0.15]}, {"name": "r2", "start": [1.5, -1.0, 7.0]}]
 
 
 def test_a_world_lists_its_robots_in_order_with_starts_and_goals() -> None:
@@ -44,28 +45,46 @@ def test_a_robot_list_loads_from_a_file(tmp_path: Path) -> None:
     assert [robot.name for robot in load_world(path).robots] == ["r1", "r2"]
 
 
-@pytest.mark.parametrize(("robots", "extra", "key", "problem"), [
-    ([], {}, "robots", "must be a non-empty list"),
-    ("r1", {}, "robots", "must be a non-empty list of robots .*got 'r1'"),
-    (["r1"], {}, r"robots\[0\]", "must be a mapping with name, start, goal, got 'r1'"),
-    ([{"name": "r1", "start": [0, 1, 0], "colour": "red"}], {}, r"robots\[0\]\.colour", "unknown key"),
-    ([{"start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "is required"),
-    ([{"name": "r1"}], {}, r"robots\[0\]\.start", "is required"),
-    ([{"name": "1r", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "ROS name token .*got '1r'"),
-    ([{"name": "r-1", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got 'r-1'"),
-    ([{"name": "a/b", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got 'a/b'"),
-    ([{"name": "", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got ''"),
-    ([{"name": 7, "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got 7"),
-    (TWO + [{"name": "r1", "start": [0, 1, 0]}], {}, r"robots\[2\]\.name", "'r1' is already the name of robots\\[0\\]"),
-    ([{"name": "r1", "start": [0, 1]}], {}, r"robots\[0\]\.start", r"expected \[x, y, theta\].*got \[0, 1\]"),
-    ([{"name": "r1", "start": [0, math.nan, 0]}], {}, r"robots\[0\]\.start", "finite numbers"),
-    ([{"name": "r1", "start": [0, 1, 0], "goal": [1, 1, 0]}], {}, r"robots\[0\]\.goal", "radius must be positive"),
-    ([{"name": "r1", "start": [0.1, 0.0, 0]}], {}, r"robots\[0\]\.start", r"\(0.1, 0\) lies inside a solid"),
-    ([{"name": "r1", "start": [0, 1, 0], "goal": [0.0, 1.49, 0.1]}], {}, r"robots\[0\]\.goal", "lies inside a solid"),
-    ([{"name": "r1", "start": [5.0, 1, 0]}], {}, r"robots\[0\]\.start", r"\(5, 1\) lies outside the solids' extent"),
-    (TWO, {"start": [0, 1, 0]}, "start", "gives each robot its own start and goal"),
-    (TWO, {"goal": [0, 1, 0.1]}, "goal", "gives each robot its own start and goal"),
-])
+@pytest.mark.parametrize(
+    ("robots", "extra", "key", "problem"),
+    [
+        ([], {}, "robots", "must be a non-empty list"),
+        ("r1", {}, "robots", "must be a non-empty list of robots .*got 'r1'"),
+        (["r1"], {}, r"robots\[0\]", "must be a mapping with name, start, goal, got 'r1'"),
+        ([{"name": "r1", "start": [0, 1, 0], "colour": "red"}], {}, r"robots\[0\]\.colour", "unknown key"),
+        ([{"start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "is required"),
+        ([{"name": "r1"}], {}, r"robots\[0\]\.start", "is required"),
+        ([{"name": "1r", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "ROS name token .*got '1r'"),
+        ([{"name": "r-1", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got 'r-1'"),
+        ([{"name": "a/b", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got 'a/b'"),
+        ([{"name": "", "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got ''"),
+        ([{"name": 7, "start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "got 7"),
+        (
+            TWO + [{"name": "r1", "start": [0, 1, 0]}],
+            {},
+            r"robots\[2\]\.name",
+            "'r1' is already the name of robots\\[0\\]",
+        ),
+        ([{"name": "r1", "start": [0, 1]}], {}, r"robots\[0\]\.start", r"expected \[x, y, theta\].*got \[0, 1\]"),
+        ([{"name": "r1", "start": [0, math.nan, 0]}], {}, r"robots\[0\]\.start", "finite numbers"),
+        ([{"name": "r1", "start": [0, 1, 0], "goal": [1, 1, 0]}], {}, r"robots\[0\]\.goal", "radius must be positive"),
+        ([{"name": "r1", "start": [0.1, 0.0, 0]}], {}, r"robots\[0\]\.start", r"\(0.1, 0\) lies inside a solid"),
+        (
+            [{"name": "r1", "start": [0, 1, 0], "goal": [0.0, 1.49, 0.1]}],
+            {},
+            r"robots\[0\]\.goal",
+            "lies inside a solid",
+        ),
+        (
+            [{"name": "r1", "start": [5.0, 1, 0]}],
+            {},
+            r"robots\[0\]\.start",
+            r"\(5, 1\) lies outside the solids' extent",
+        ),
+        (TWO, {"start": [0, 1, 0]}, "start", "gives each robot its own start and goal"),
+        (TWO, {"goal": [0, 1, 0.1]}, "goal", "gives each robot its own start and goal"),
+    ],
+)
 def test_a_bad_robot_list_names_file_key_and_value(robots, extra, key, problem) -> None:
     with pytest.raises(WorldError, match=rf"^fleet\.yaml: {key}: .*{problem}"):
         world_from_dict({**ROOM, **extra, "robots": robots}, source="fleet.yaml")
@@ -86,17 +105,33 @@ def test_robot_names_are_what_ros_accepts_as_one_namespace_level(name: str) -> N
 
 
 def test_footprints_are_checked_for_a_radius() -> None:
-    world = world_from_dict({**ROOM, "robots": [{"name": "r1", "start": [1.9, 0.0, 0.0]},
-                                                {"name": "r2", "start": [-1.0, 0.0, 0.0]},
-                                                {"name": "r3", "start": [-0.8, 0.0, 0.0]}]}, source="fleet.yaml")
+    world = world_from_dict(
+        {
+            **ROOM,
+            "robots": [
+                {"name": "r1", "start": [1.9, 0.0, 0.0]},
+                {"name": "r2", "start": [-1.0, 0.0, 0.0]},
+                {"name": "r3", "start": [-0.8, 0.0, 0.0]},
+            ],
+        },
+        source="fleet.yaml",
+    )
     world.check_footprints(0.04)  # clear of the wall by 0.05, of each other by 0.2
-    with pytest.raises(WorldError, match=r"^fleet\.yaml: robots\[0\]\.start: \[1.9, 0, 0\]: r1 \(radius 0.06 m\) "
-                                         r"overlaps a solid \(clearance 0.050 m\)"):
+    with pytest.raises(
+        WorldError,
+        match=r"^fleet\.yaml: robots\[0\]\.start: \[1.9, 0, 0\]: r1 \(radius 0.06 m\) "
+        r"overlaps a solid \(clearance 0.050 m\)",
+    ):
         world.check_footprints(0.06)
-    moved = world_from_dict({**ROOM, "robots": [{"name": "r2", "start": [-1.0, 0.0, 0.0]},
-                                                {"name": "r3", "start": [-0.8, 0.0, 0.0]}]}, source="fleet.yaml")
-    with pytest.raises(WorldError, match=r"robots\[1\]\.start: .*r3 overlaps r2 \(robots\[0\]\): centres 0.200 m "
-                                         r"apart, robots of radius 0.105 m need 0.210 m"):
+    moved = world_from_dict(
+        {**ROOM, "robots": [{"name": "r2", "start": [-1.0, 0.0, 0.0]}, {"name": "r3", "start": [-0.8, 0.0, 0.0]}]},
+        source="fleet.yaml",
+    )
+    with pytest.raises(
+        WorldError,
+        match=r"robots\[1\]\.start: .*r3 overlaps r2 \(robots\[0\]\): centres 0.200 m "
+        r"apart, robots of radius 0.105 m need 0.210 m",
+    ):
         moved.check_footprints(0.105)
 
 

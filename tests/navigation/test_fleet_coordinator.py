@@ -19,22 +19,45 @@ from amr_planning.costmap import Costmap
 
 def corridor_costmap() -> Costmap:
     """A corridor 4 m long, 0.4 m between the walls, with a pocket off its middle (+y)."""
-    walls = [[-2, -0.2, 2, -0.2], [-2, 0.2, -0.2, 0.2], [0.2, 0.2, 2, 0.2], [-0.2, 0.2, -0.2, 0.7],
-             [0.2, 0.2, 0.2, 0.7], [-0.2, 0.7, 0.2, 0.7], [-2, -0.2, -2, 0.2], [2, -0.2, 2, 0.2]]
+    walls = [
+        [-2, -0.2, 2, -0.2],
+        [-2, 0.2, -0.2, 0.2],
+        [0.2, 0.2, 2, 0.2],
+        [-0.2, 0.2, -0.2, 0.7],
+        [0.2, 0.2, 0.2, 0.7],
+        [-0.2, 0.7, 0.2, 0.7],
+        [-2, -0.2, -2, 0.2],
+        [2, -0.2, 2, 0.2],
+    ]
     world = world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "start": [-1.6, 0, 0]})
     return Costmap(rasterize_world(world, 0.02))
 
 
 def ring_costmap() -> Costmap:
     """A ring corridor 0.4 m wide round a 1.6 m square block."""
-    walls = [[-1.2, -1.2, 1.2, -1.2], [1.2, -1.2, 1.2, 1.2], [1.2, 1.2, -1.2, 1.2], [-1.2, 1.2, -1.2, -1.2],
-             [-0.8, -0.8, 0.8, -0.8], [0.8, -0.8, 0.8, 0.8], [0.8, 0.8, -0.8, 0.8], [-0.8, 0.8, -0.8, -0.8]]
+    walls = [
+        [-1.2, -1.2, 1.2, -1.2],
+        [1.2, -1.2, 1.2, 1.2],
+        [1.2, 1.2, -1.2, 1.2],
+        [-1.2, 1.2, -1.2, -1.2],
+        [-0.8, -0.8, 0.8, -0.8],
+        [0.8, -0.8, 0.8, 0.8],
+        [0.8, 0.8, -0.8, 0.8],
+        [-0.8, 0.8, -0.8, -0.8],
+    ]
     world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
     return Costmap(rasterize_world(world, 0.02))
 
 
-def drive(coordinator: FleetCoordinator, positions: dict, goals: dict, stamp: float, routes: dict,
-          rng: np.random.Generator, steps: int = 400) -> tuple[dict, int]:
+def drive(
+    coordinator: FleetCoordinator,
+    positions: dict,
+    goals: dict,
+    stamp: float,
+    routes: dict,
+    rng: np.random.Generator,
+    steps: int = 400,
+) -> tuple[dict, int]:
     """Every robot goes to the next waypoint of the route it was last told, one robot at a time in random order,
     reporting where it stands the time it takes at 0.2 m/s later; (the routes last told, the reports made) once no robot moves any more."""
     told = dict(routes)
@@ -194,7 +217,9 @@ def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_arou
     first = coordinator.plan()["r1"]
     assert first.state == FOLLOW
     vertices = coordinator.schedule.plan.vertices(0)
-    going_right = coordinator.schedule.plan.graph.points[vertices[1]][0] > -1.0 + 1e-6  # the shorter way: along the bottom
+    going_right = (
+        coordinator.schedule.plan.graph.points[vertices[1]][0] > -1.0 + 1e-6
+    )  # the shorter way: along the bottom
     assert going_right
     # r1 stands where it is: waiting is not stuck before stuck_time, stuck after
     assert coordinator.observe("r1", 10.0, -1.0, -1.0, True, goal) == {}

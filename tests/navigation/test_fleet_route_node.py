@@ -25,8 +25,16 @@ from amr_maps.world import world_from_dict
 from amr_navigation.fleet_schedule import BLOCKED_RETRY
 from amr_util.messages import quaternion
 
-WALLS = [[-2, -0.2, 2, -0.2], [-2, 0.2, -0.2, 0.2], [0.2, 0.2, 2, 0.2], [-0.2, 0.2, -0.2, 0.7],
-         [0.2, 0.2, 0.2, 0.7], [-0.2, 0.7, 0.2, 0.7], [-2, -0.2, -2, 0.2], [2, -0.2, 2, 0.2]]
+WALLS = [
+    [-2, -0.2, 2, -0.2],
+    [-2, 0.2, -0.2, 0.2],
+    [0.2, 0.2, 2, 0.2],
+    [-0.2, 0.2, -0.2, 0.7],
+    [0.2, 0.2, 0.2, 0.7],
+    [-0.2, 0.7, 0.2, 0.7],
+    [-2, -0.2, -2, 0.2],
+    [2, -0.2, 2, 0.2],
+]
 """a corridor 4 m long with a pocket off its middle."""
 
 
@@ -87,8 +95,9 @@ def odometry_message(seconds: float, x: float, y: float, theta: float) -> Odomet
     return message
 
 
-def route_message(state: str, waypoints=(), *, final: bool = False, plan: int = 1, progress: int = 0,
-                  total: int = 4) -> FleetRoute:
+def route_message(
+    state: str, waypoints=(), *, final: bool = False, plan: int = 1, progress: int = 0, total: int = 4
+) -> FleetRoute:
     message = FleetRoute(state=state, final=final, plan=plan, progress=progress, total=total)
     message.header.frame_id = "map"
     message.waypoints = [Point(x=float(x), y=float(y)) for x, y in waypoints]
@@ -99,8 +108,15 @@ def route_message(state: str, waypoints=(), *, final: bool = False, plan: int = 
 def navigator(ros_context):
     from amr_navigation.navigator_node import NavigatorNode
 
-    node = NavigatorNode(context=ros_context, namespace="/r1", parameter_overrides=[
-        Parameter("traffic", value=True), Parameter("coordination", value="plan"), Parameter("goal", value=[1.6, 0.0])])
+    node = NavigatorNode(
+        context=ros_context,
+        namespace="/r1",
+        parameter_overrides=[
+            Parameter("traffic", value=True),
+            Parameter("coordination", value="plan"),
+            Parameter("goal", value=[1.6, 0.0]),
+        ],
+    )
     assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
     assert node.try_transition(Transition.TRANSITION_ACTIVATE)
     for name in ("status", "speed_limit", "traffic", "path"):
@@ -120,8 +136,9 @@ def observe(node, seconds: float, estimate, odometry, localized: bool = True):
 def test_coordination_plan_needs_the_traffic_rules(ros_context):
     from amr_navigation.navigator_node import NavigatorNode
 
-    node = NavigatorNode(context=ros_context, namespace="/r1",
-                         parameter_overrides=[Parameter("coordination", value="plan")])
+    node = NavigatorNode(
+        context=ros_context, namespace="/r1", parameter_overrides=[Parameter("coordination", value="plan")]
+    )
     try:
         assert not node.try_transition(Transition.TRANSITION_CONFIGURE)
         assert "coordination" in node.configure_error and "traffic" in node.configure_error

@@ -77,16 +77,31 @@ def test_the_last_waypoint_is_the_robots_own_goal():
 def corridor() -> object:
     """A corridor one robot wide (0.35 m free) from -2 to 2 along x, a side pocket at x = 0.8; r1 and r2 face
     each other from its two ends, each sent to the other's end."""
-    walls = [[-2.0, -0.2, 2.0, -0.2], [-2.0, 0.2, 0.6, 0.2], [1.0, 0.2, 2.0, 0.2], [0.6, 0.2, 0.6, 0.7],
-             [1.0, 0.2, 1.0, 0.7], [0.6, 0.7, 1.0, 0.7], [-2.0, -0.2, -2.0, 0.2], [2.0, -0.2, 2.0, 0.2]]
-    return world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "robots": [
-        {"name": "r1", "start": [-1.6, 0.0, 0.0], "goal": [1.6, 0.0, 0.1]},
-        {"name": "r2", "start": [1.6, 0.0, math.pi], "goal": [-1.6, 0.0, 0.1]}]})
+    walls = [
+        [-2.0, -0.2, 2.0, -0.2],
+        [-2.0, 0.2, 0.6, 0.2],
+        [1.0, 0.2, 2.0, 0.2],
+        [0.6, 0.2, 0.6, 0.7],
+        [1.0, 0.2, 1.0, 0.7],
+        [0.6, 0.7, 1.0, 0.7],
+        [-2.0, -0.2, -2.0, 0.2],
+        [2.0, -0.2, 2.0, 0.2],
+    ]
+    return world_from_dict(
+        {
+            "name": "corridor",
+            "wall_thickness": 0.05,
+            "walls": walls,
+            "robots": [
+                {"name": "r1", "start": [-1.6, 0.0, 0.0], "goal": [1.6, 0.0, 0.1]},
+                {"name": "r2", "start": [1.6, 0.0, math.pi], "goal": [-1.6, 0.0, 0.1]},
+            ],
+        }
+    )
 
 
 def test_two_robots_planned_together_pass_each_other_through_the_pocket():
-    run = run_fleet(corridor(), localization="truth", duration=150.0, seed=2, coordination="plan",
-                    lattice_spacing=0.4)
+    run = run_fleet(corridor(), localization="truth", duration=150.0, seed=2, coordination="plan", lattice_spacing=0.4)
     assert run.reached == 2, [robot.events for robot in run.robots]
     assert run.robot_contacts == 0 and run.wall_contacts == 0
 
@@ -104,7 +119,9 @@ def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan()
     from amr_maps.maze_families import generate, grid_pitch
 
     data = with_robots(generate("perfect", 4, size=4.0), 3, 4)
-    run = run_fleet(world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=grid_pitch(data))
+    run = run_fleet(
+        world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=grid_pitch(data)
+    )
     events = [event for robot in run.robots for event in robot.events]
     assert any("fleet plan 1" in event for event in events), events
     assert run.reached == 3, events
@@ -134,6 +151,7 @@ def test_the_pose_driven_by_is_the_estimate_while_sure_and_odometry_from_the_las
     from amr_navigation.fleet_schedule import DeadReckoning
 
     reckoning = DeadReckoning()
+
     # the odom frame is the map frame turned a quarter turn and shifted (1, 2)
     def to_map(x, y, theta):
         return (1.0 - y, 2.0 + x, theta + math.pi / 2)

@@ -117,8 +117,12 @@ def test_pillar_goal_whole_loop_reaches_the_goal_without_collision():
     pf = ParticleFilter(rasterize_world(world, 0.02), config_of(filter_params), range_max=3.5)
     planner_config = PlannerConfig.from_params(node_parameters(CONFIG / "planner.yaml", "planner"))
     planner = Planner(rasterize_world(world, planner_config.resolution), planner_config)
-    nav = NavigationLoop(planner, WallFollower(read_wall_file(CONFIG / "wall_follower_sim.yaml")),
-                         PathFollower(read_follower_file(CONFIG / "path_follower_sim.yaml")), (world.goal.x, world.goal.y))
+    nav = NavigationLoop(
+        planner,
+        WallFollower(read_wall_file(CONFIG / "wall_follower_sim.yaml")),
+        PathFollower(read_follower_file(CONFIG / "path_follower_sim.yaml")),
+        (world.goal.x, world.goal.y),
+    )
     sim = Simulator(world, SimulationConfig(seed=0, lidar=LidarConfig(noise_std=0.01)))
     run = run_navigation(sim, pf, nav, limit=60.0)
     assert run.reached and run.collisions == 0, run

@@ -49,8 +49,9 @@ def test_an_unreachable_new_goal_stops_the_robot_and_says_why_once():
     nav = Navigator((2.5, 0.5))
     planned(nav, nav.decide((0.5, 0.5, 0.0), True))
     nav.set_goal((2.0, 2.0))
-    failed = planned(nav, nav.decide((1.0, 0.5, 0.0), True), None, "goal inside an obstacle: (2.0, 2.0) ...",
-                     goal_refused=True)
+    failed = planned(
+        nav, nav.decide((1.0, 0.5, 0.0), True), None, "goal inside an obstacle: (2.0, 2.0) ...", goal_refused=True
+    )
     assert failed.mode is Mode.NO_PATH and failed.controller is Controller.NONE and failed.path is None
     assert "no path to (2.00, 2.00): goal inside an obstacle" in failed.reason
     assert nav.followed_path is None  # the old path to the old goal is not driven on

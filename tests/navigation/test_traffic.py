@@ -13,8 +13,7 @@ from amr_control.path_follower import PathFollower, State
 from amr_evaluation.fleet_navigation import run_fleet
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.world import world_from_dict
-from amr_navigation.traffic import (TrafficConfig, free_travel, obstacle_speed, path_ahead, place_aside,
-                                    unmapped)
+from amr_navigation.traffic import TrafficConfig, free_travel, obstacle_speed, path_ahead, place_aside, unmapped
 from amr_planning.costmap import Costmap
 from amr_planning.planner import Planner
 from amr_util.parameter_spec import ConfigError
@@ -96,8 +95,15 @@ def test_a_box_not_on_the_map_stops_the_robot_which_replans_around_it():
     walls = [[-1.5, -0.75, 1.5, -0.75], [1.5, -0.75, 1.5, 0.75], [1.5, 0.75, -1.5, 0.75], [-1.5, 0.75, -1.5, -0.75]]
     robots = [{"name": "r1", "start": [-1.1, 0.0, 0.0], "goal": [1.1, 0.0, 0.1]}]
     known = world_from_dict({"name": "room", "wall_thickness": 0.05, "walls": walls, "robots": robots})
-    real = world_from_dict({"name": "room_box", "wall_thickness": 0.05, "walls": walls, "robots": robots,
-                            "boxes": [[-0.1, -0.15, 0.1, 0.15]]})
+    real = world_from_dict(
+        {
+            "name": "room_box",
+            "wall_thickness": 0.05,
+            "walls": walls,
+            "robots": robots,
+            "boxes": [[-0.1, -0.15, 0.1, 0.15]],
+        }
+    )
     run = run_fleet(real, map_world=known, localization="truth", duration=60.0, seed=1)
     robot = run.robots[0]
     assert robot.reached, robot.events
@@ -109,17 +115,35 @@ def corridor(pocket_x: float, junction: bool = False, length: float = 2.0):
     """A corridor one robot wide (0.35 m free) from -length to length along x, with a side pocket (0.35 m wide,
     0.475 m deep) or, with junction, a side corridor leading on at pocket_x; r1 and r2 face each other."""
     side = 0.7 if not junction else 1.2
-    walls = [[-length, -0.2, length, -0.2], [-length, 0.2, pocket_x - 0.2, 0.2], [pocket_x + 0.2, 0.2, length, 0.2],
-             [pocket_x - 0.2, 0.2, pocket_x - 0.2, side], [pocket_x + 0.2, 0.2, pocket_x + 0.2, side],
-             [-length, -0.2, -length, 0.2], [length, -0.2, length, 0.2]]
+    walls = [
+        [-length, -0.2, length, -0.2],
+        [-length, 0.2, pocket_x - 0.2, 0.2],
+        [pocket_x + 0.2, 0.2, length, 0.2],
+        [pocket_x - 0.2, 0.2, pocket_x - 0.2, side],
+        [pocket_x + 0.2, 0.2, pocket_x + 0.2, side],
+        [-length, -0.2, -length, 0.2],
+        [length, -0.2, length, 0.2],
+    ]
     if junction:  # the side corridor turns and ends in a room
-        walls += [[pocket_x - 0.2, side, pocket_x - 0.6, side], [pocket_x + 0.2, side, pocket_x + 0.2, side + 0.6],
-                  [pocket_x - 0.6, side, pocket_x - 0.6, side + 0.6], [pocket_x - 0.6, side + 0.6, pocket_x + 0.2, side + 0.6]]
+        walls += [
+            [pocket_x - 0.2, side, pocket_x - 0.6, side],
+            [pocket_x + 0.2, side, pocket_x + 0.2, side + 0.6],
+            [pocket_x - 0.6, side, pocket_x - 0.6, side + 0.6],
+            [pocket_x - 0.6, side + 0.6, pocket_x + 0.2, side + 0.6],
+        ]
     else:
         walls.append([pocket_x - 0.2, side, pocket_x + 0.2, side])
-    return world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "robots": [
-        {"name": "r1", "start": [-length + 0.3, 0.0, 0.0], "goal": [length - 0.3, 0.0, 0.1]},
-        {"name": "r2", "start": [length - 0.3, 0.0, math.pi], "goal": [-length + 0.3, 0.0, 0.1]}]})
+    return world_from_dict(
+        {
+            "name": "corridor",
+            "wall_thickness": 0.05,
+            "walls": walls,
+            "robots": [
+                {"name": "r1", "start": [-length + 0.3, 0.0, 0.0], "goal": [length - 0.3, 0.0, 0.1]},
+                {"name": "r2", "start": [length - 0.3, 0.0, math.pi], "goal": [-length + 0.3, 0.0, 0.1]},
+            ],
+        }
+    )
 
 
 @pytest.mark.parametrize("pocket_x, junction", [(0.8, False), (-0.8, False), (0.9, True), (-0.5, True)])
@@ -147,12 +171,26 @@ def dead_end(parked_first: bool):
     at x = 0.8 and open on to x = 2. One robot is parked at its goal at x = -0.6 (it starts there); the other
     comes from x = 1.7 to a goal at x = -1.6, deeper in the dead end: it must pass the parked robot, which has no
     place aside but out past it."""
-    walls = [[-2.0, -0.2, 2.0, -0.2], [-2.0, 0.2, 0.6, 0.2], [1.0, 0.2, 2.0, 0.2], [0.6, 0.2, 0.6, 0.9],
-             [1.0, 0.2, 1.0, 0.9], [0.6, 0.9, 1.0, 0.9], [-2.0, -0.2, -2.0, 0.2], [2.0, -0.2, 2.0, 0.2]]
+    walls = [
+        [-2.0, -0.2, 2.0, -0.2],
+        [-2.0, 0.2, 0.6, 0.2],
+        [1.0, 0.2, 2.0, 0.2],
+        [0.6, 0.2, 0.6, 0.9],
+        [1.0, 0.2, 1.0, 0.9],
+        [0.6, 0.9, 1.0, 0.9],
+        [-2.0, -0.2, -2.0, 0.2],
+        [2.0, -0.2, 2.0, 0.2],
+    ]
     parked = {"name": "parked", "start": [-0.6, 0.0, 0.0], "goal": [-0.6, 0.0, 0.1]}
     mover = {"name": "mover", "start": [1.7, 0.0, math.pi], "goal": [-1.6, 0.0, 0.1]}
-    return world_from_dict({"name": "dead_end", "wall_thickness": 0.05, "walls": walls,
-                            "robots": [parked, mover] if parked_first else [mover, parked]})
+    return world_from_dict(
+        {
+            "name": "dead_end",
+            "wall_thickness": 0.05,
+            "walls": walls,
+            "robots": [parked, mover] if parked_first else [mover, parked],
+        }
+    )
 
 
 @pytest.mark.parametrize("parked_first", [True, False])
@@ -201,11 +239,27 @@ def far_pocket():
     (0.35 m wide, 0.65 m deep) at x = 6. r1 (first in the list) goes from x = -1.2 to the right end, r2 from
     x = 1.2 to the left end: they meet near x = 0. Neither has a place aside within yield_search (4 m) of steps:
     r1's side is the dead end holding r2's goal; r2's only place is the pocket, about 5 m back."""
-    walls = [[-2.0, -0.2, 7.0, -0.2], [-2.0, 0.2, 5.8, 0.2], [6.2, 0.2, 7.0, 0.2], [5.8, 0.2, 5.8, 0.9],
-             [6.2, 0.2, 6.2, 0.9], [5.8, 0.9, 6.2, 0.9], [-2.0, -0.2, -2.0, 0.2], [7.0, -0.2, 7.0, 0.2]]
-    return world_from_dict({"name": "far_pocket", "wall_thickness": 0.05, "walls": walls, "robots": [
-        {"name": "r1", "start": [-1.2, 0.0, 0.0], "goal": [6.7, 0.0, 0.1]},
-        {"name": "r2", "start": [1.2, 0.0, math.pi], "goal": [-1.7, 0.0, 0.1]}]})
+    walls = [
+        [-2.0, -0.2, 7.0, -0.2],
+        [-2.0, 0.2, 5.8, 0.2],
+        [6.2, 0.2, 7.0, 0.2],
+        [5.8, 0.2, 5.8, 0.9],
+        [6.2, 0.2, 6.2, 0.9],
+        [5.8, 0.9, 6.2, 0.9],
+        [-2.0, -0.2, -2.0, 0.2],
+        [7.0, -0.2, 7.0, 0.2],
+    ]
+    return world_from_dict(
+        {
+            "name": "far_pocket",
+            "wall_thickness": 0.05,
+            "walls": walls,
+            "robots": [
+                {"name": "r1", "start": [-1.2, 0.0, 0.0], "goal": [6.7, 0.0, 0.1]},
+                {"name": "r2", "start": [1.2, 0.0, math.pi], "goal": [-1.7, 0.0, 0.1]},
+            ],
+        }
+    )
 
 
 def test_when_neither_robot_can_give_way_nearby_the_lower_priority_one_searches_farther():
@@ -225,13 +279,28 @@ def convoy():
     room (1.5 x 1.6 m). r2 and r3 go right, r3 0.8 m behind r2, to goals near the closed end; r1 (first in the
     list) comes from the closed end to a goal in the room. r1 and r2 meet face to face: r2's only place aside
     is the room, behind r3, which waits behind r2; r1's side is the dead end holding the others' goals."""
-    walls = [[-1.0, -0.2, 5.0, -0.2], [-1.0, 0.2, 5.0, 0.2], [5.0, -0.2, 5.0, 0.2],
-             [-1.0, 0.2, -1.0, 0.8], [-1.0, -0.2, -1.0, -0.8], [-1.0, 0.8, -2.5, 0.8], [-1.0, -0.8, -2.5, -0.8],
-             [-2.5, -0.8, -2.5, 0.8]]
-    return world_from_dict({"name": "convoy", "wall_thickness": 0.05, "walls": walls, "robots": [
-        {"name": "r1", "start": [4.3, 0.0, math.pi], "goal": [-2.1, 0.45, 0.1]},
-        {"name": "r2", "start": [1.2, 0.0, 0.0], "goal": [4.7, 0.0, 0.1]},
-        {"name": "r3", "start": [0.4, 0.0, 0.0], "goal": [3.9, 0.0, 0.1]}]})
+    walls = [
+        [-1.0, -0.2, 5.0, -0.2],
+        [-1.0, 0.2, 5.0, 0.2],
+        [5.0, -0.2, 5.0, 0.2],
+        [-1.0, 0.2, -1.0, 0.8],
+        [-1.0, -0.2, -1.0, -0.8],
+        [-1.0, 0.8, -2.5, 0.8],
+        [-1.0, -0.8, -2.5, -0.8],
+        [-2.5, -0.8, -2.5, 0.8],
+    ]
+    return world_from_dict(
+        {
+            "name": "convoy",
+            "wall_thickness": 0.05,
+            "walls": walls,
+            "robots": [
+                {"name": "r1", "start": [4.3, 0.0, math.pi], "goal": [-2.1, 0.45, 0.1]},
+                {"name": "r2", "start": [1.2, 0.0, 0.0], "goal": [4.7, 0.0, 0.1]},
+                {"name": "r3", "start": [0.4, 0.0, 0.0], "goal": [3.9, 0.0, 0.1]},
+            ],
+        }
+    )
 
 
 def test_a_robot_behind_the_one_that_must_give_way_makes_room_for_it_first():
@@ -269,8 +338,9 @@ def test_the_last_of_a_knot_of_three_gives_way_to_the_robot_it_blocks():
 
     def knot(priority: int) -> tuple[Traffic, object]:
         board = TrafficBoard()
-        board.post(TrafficPost("b", 1 if priority != 1 else 0, (1.8, 0.75, math.pi), dense([[1.8, 0.75], [1.8, 1.3]]),
-                               "c"))
+        board.post(
+            TrafficPost("b", 1 if priority != 1 else 0, (1.8, 0.75, math.pi), dense([[1.8, 0.75], [1.8, 1.3]]), "c")
+        )
         board.post(TrafficPost("c", 2 if priority != 2 else 0, (1.5, 1.1, -math.pi / 2), c_path, "a"))
         rules = Traffic("a", priority, board)
         return rules, rules.advise(pose, empty_scan(), path, costmap, 0.2, 0.0)

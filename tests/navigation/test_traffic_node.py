@@ -17,8 +17,9 @@ from builtin_interfaces.msg import Time
 
 
 def navigator(context, **parameters) -> NavigatorNode:
-    node = NavigatorNode(context=context, namespace="/r1",
-                         parameter_overrides=[Parameter(k, value=v) for k, v in parameters.items()])
+    node = NavigatorNode(
+        context=context, namespace="/r1", parameter_overrides=[Parameter(k, value=v) for k, v in parameters.items()]
+    )
     assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
     return node
 

@@ -24,5 +24,5 @@ def random_blocks(rng: np.random.Generator, rows: int, cols: int, count: int, la
     for _ in range(count):
         r, c = rng.integers(0, rows), rng.integers(0, cols)
         h, w = rng.integers(1, largest, 2)
-        data[r:r + h, c:c + w] = 100
+        data[r : r + h, c : c + w] = 100
     return data

@@ -106,16 +106,19 @@ def test_a_gap_narrower_than_the_robot_is_closed():
     assert error.value.reason is Reason.UNREACHABLE
 
 
-@pytest.mark.parametrize("start, goal, reason, words", [
-    ((0.7, 0.7), (5.0, 0.7), Reason.OUTSIDE_MAP, "goal .* off the map"),
-    ((-1.0, 0.7), (0.7, 0.7), Reason.OUTSIDE_MAP, "start .* off the map"),
-    ((0.7, 0.7), (math.nan, 0.7), Reason.INVALID, "goal .* finite"),
-    ((0.7, math.inf), (0.7, 0.7), Reason.INVALID, "start .* finite"),
-    ((0.7, 0.7), (0.76, 0.76), Reason.GOAL_BLOCKED, "occupied cell"),
-    ((0.76, 0.76), (0.3, 0.3), Reason.START_BLOCKED, "occupied cell"),
-    ((0.7, 0.7), ("a", 1), Reason.INVALID, "two numbers"),
-    ((0.7, 0.7), (1.0,), Reason.INVALID, "two numbers"),
-])
+@pytest.mark.parametrize(
+    "start, goal, reason, words",
+    [
+        ((0.7, 0.7), (5.0, 0.7), Reason.OUTSIDE_MAP, "goal .* off the map"),
+        ((-1.0, 0.7), (0.7, 0.7), Reason.OUTSIDE_MAP, "start .* off the map"),
+        ((0.7, 0.7), (math.nan, 0.7), Reason.INVALID, "goal .* finite"),
+        ((0.7, math.inf), (0.7, 0.7), Reason.INVALID, "start .* finite"),
+        ((0.7, 0.7), (0.76, 0.76), Reason.GOAL_BLOCKED, "occupied cell"),
+        ((0.76, 0.76), (0.3, 0.3), Reason.START_BLOCKED, "occupied cell"),
+        ((0.7, 0.7), ("a", 1), Reason.INVALID, "two numbers"),
+        ((0.7, 0.7), (1.0,), Reason.INVALID, "two numbers"),
+    ],
+)
 def test_bad_requests_raise_a_planning_error_naming_the_problem(start, goal, reason, words):
     data = walled(30, 30)
     data[15, 15] = 100  # cell centre (0.775, 0.775)

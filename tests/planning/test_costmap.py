@@ -69,12 +69,15 @@ def test_segments_are_checked_against_lethal_cells():
     assert free.tolist() == [False, True]
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"robot_radius": 0.0}, "robot_radius"),
-    ({"safety_margin": -0.01}, "safety_margin"),
-    ({"cost_weight": math.nan}, "cost_weight"),
-    ({"occupied_threshold": 0}, "occupied_threshold"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"robot_radius": 0.0}, "robot_radius"),
+        ({"safety_margin": -0.01}, "safety_margin"),
+        ({"cost_weight": math.nan}, "cost_weight"),
+        ({"occupied_threshold": 0}, "occupied_threshold"),
+    ],
+)
 def test_bad_configs_are_refused_by_name(kwargs, name):
     with pytest.raises(ConfigError, match=name):
         CostmapConfig(**kwargs)

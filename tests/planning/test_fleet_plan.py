@@ -16,8 +16,19 @@ from amr_maps.world import world_from_dict
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
 from amr_planning.fleet_starts import with_robots
-from amr_planning.fleet_plan import (FleetPlan, Lattice, assign, dependencies, execution_time, follows_free_space,
-                                     grid_lattice, improve, lattice, plan_lacam, plan_together)
+from amr_planning.fleet_plan import (
+    FleetPlan,
+    Lattice,
+    assign,
+    dependencies,
+    execution_time,
+    follows_free_space,
+    grid_lattice,
+    improve,
+    lattice,
+    plan_lacam,
+    plan_together,
+)
 
 
 def graph_of(points, edges) -> Lattice:
@@ -66,9 +77,15 @@ def test_a_swap_in_a_bare_corridor_is_refused_as_impossible():
         plan_lacam(graph, [0, 3], [3, 0])
 
 
-@pytest.mark.parametrize("starts, goals, message", [
-    ([0, 0], [3, 4], "share a start"), ([0, 1], [4, 4], "share a goal"), ([0, 9], [3, 4], "not on the lattice"),
-    ([0], [3, 4], "1 starts but 2 goals")])
+@pytest.mark.parametrize(
+    "starts, goals, message",
+    [
+        ([0, 0], [3, 4], "share a start"),
+        ([0, 1], [4, 4], "share a goal"),
+        ([0, 9], [3, 4], "not on the lattice"),
+        ([0], [3, 4], "1 starts but 2 goals"),
+    ],
+)
 def test_bad_requests_are_refused_with_what_is_wrong(starts, goals, message):
     for solver in (plan_together, plan_lacam):
         with pytest.raises(PlanningError, match=message):
@@ -116,8 +133,9 @@ def components(graph: Lattice) -> int:
     return count
 
 
-@pytest.mark.parametrize("family, seed", [("rotated", 0), ("rotated", 3), ("bends", 1), ("curved", 2),
-                                          ("narrowing", 0), ("thin_walls", 4)])
+@pytest.mark.parametrize(
+    "family, seed", [("rotated", 0), ("rotated", 3), ("bends", 1), ("curved", 2), ("narrowing", 0), ("thin_walls", 4)]
+)
 def test_where_the_grid_leaves_the_free_space_in_pieces_the_lattice_is_sampled_over_it_and_joined(family, seed):
     """A corridor at an angle to the grid (rotated mazes, bends, curves) leaves the square grid in pieces: robots
     there could not be planned (the fleet went by the traffic rules alone). The sampled lattice is one piece, its
@@ -196,8 +214,7 @@ def test_lacam_plans_six_robots_in_generated_tree_mazes_and_improve_keeps_them_v
     check(plan, starts, goals)
     better = improve(plan)
     check(better, starts, goals)
-    moves = [sum(a != b for a, b in zip(path[:-1], path[1:])) for path in (plan.paths, better.paths)
-             for path in path]
+    moves = [sum(a != b for a, b in zip(path[:-1], path[1:])) for path in (plan.paths, better.paths) for path in path]
     assert sum(moves[6:]) <= sum(moves[:6])
     assert better.makespan <= plan.makespan
     lower = sum(int(graph.distances(goal)[start]) for start, goal in zip(starts, goals))
@@ -292,8 +309,9 @@ def test_no_step_of_a_plan_is_a_rotation_round_a_cycle_of_the_lattice():
     bare = graph_of([[0, 0], [1, 0], [1, 1], [0, 1]], [(0, 1), (1, 2), (2, 3), (3, 0)])
     with pytest.raises(PlanningError, match="no plan exists"):
         plan_lacam(bare, [0, 1, 2, 3], [1, 2, 3, 0])
-    ring = graph_of([[math.cos(k * math.pi / 3), math.sin(k * math.pi / 3)] for k in range(6)],
-                    [(k, (k + 1) % 6) for k in range(6)])
+    ring = graph_of(
+        [[math.cos(k * math.pi / 3), math.sin(k * math.pi / 3)] for k in range(6)], [(k, (k + 1) % 6) for k in range(6)]
+    )
     starts, goals = [0, 1, 2, 3, 4], [1, 2, 3, 4, 5]
     for plan in (plan_lacam(ring, starts, goals), improve(plan_lacam(ring, starts, goals))):
         check(plan, starts, goals)
@@ -325,8 +343,10 @@ def test_assign_keeps_two_robots_in_one_cell_on_their_side_of_the_wall_and_in_th
     the left one the left vertex."""
     costmap = two_rows_costmap()
     graph = lattice(costmap, 0.6)
-    vertex = {name: graph.nearest(*centre) for name, centre in
-              {"bottom_left": (0.3, 0.3), "bottom_right": (0.9, 0.3), "top_right": (0.9, 0.9)}.items()}
+    vertex = {
+        name: graph.nearest(*centre)
+        for name, centre in {"bottom_left": (0.3, 0.3), "bottom_right": (0.9, 0.3), "top_right": (0.9, 0.9)}.items()
+    }
     assert np.allclose(graph.points[vertex["top_right"]], (0.9, 0.9), atol=0.05)
     right, left = (0.95, 0.25), (0.85, 0.42)
     greedy = [graph.nearest(*right)]

@@ -16,11 +16,19 @@ def test_the_shipped_parameter_file_is_valid_and_matches_the_defaults():
     assert config == PlannerConfig()
 
 
-@pytest.mark.parametrize("params, name", [
-    ({"planner": "dijkstra"}, "planner"), ({"plnner": "astar"}, "plnner"), ({"resolution": 0}, "resolution"),
-    ({"goal": [1.0]}, "goal"), ({"prm_node_count": 1.5}, "prm_node_count"), ({"safety_margin": -1.0}, "safety_margin"),
-    ({"smoothing_smooth_weight": 0.9}, "smooth_weight"), ({"world": 3}, "world"),
-])
+@pytest.mark.parametrize(
+    "params, name",
+    [
+        ({"planner": "dijkstra"}, "planner"),
+        ({"plnner": "astar"}, "plnner"),
+        ({"resolution": 0}, "resolution"),
+        ({"goal": [1.0]}, "goal"),
+        ({"prm_node_count": 1.5}, "prm_node_count"),
+        ({"safety_margin": -1.0}, "safety_margin"),
+        ({"smoothing_smooth_weight": 0.9}, "smooth_weight"),
+        ({"world": 3}, "world"),
+    ],
+)
 def test_bad_parameters_are_refused_by_name(params, name):
     with pytest.raises(ConfigError, match=name):
         PlannerConfig.from_params(params)

@@ -60,8 +60,11 @@ def test_the_roadmap_route_is_the_shortest_over_its_graph():
         if np.array_equal(new, best):
             break
         best = new
-    direct = np.hypot(*(roadmap.nodes[0] - roadmap.nodes[1])) if costmap.segments_free(
-        roadmap.nodes[:1], roadmap.nodes[1:2])[0] else np.inf
+    direct = (
+        np.hypot(*(roadmap.nodes[0] - roadmap.nodes[1]))
+        if costmap.segments_free(roadmap.nodes[:1], roadmap.nodes[1:2])[0]
+        else np.inf
+    )
     assert path.cost == pytest.approx(min(best[1], direct))
 
 
@@ -74,9 +77,14 @@ def test_a_closed_wall_makes_the_goal_unreachable_with_a_message():
     assert error.value.reason is Reason.UNREACHABLE
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"node_count": 0}, "node_count"), ({"connection_distance": -1.0}, "connection_distance"), ({"seed": -1}, "seed"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"node_count": 0}, "node_count"),
+        ({"connection_distance": -1.0}, "connection_distance"),
+        ({"seed": -1}, "seed"),
+    ],
+)
 def test_bad_configs_are_refused_by_name(kwargs, name):
     with pytest.raises(ConfigError, match=name):
         RoadmapConfig(**kwargs)

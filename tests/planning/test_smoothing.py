@@ -76,10 +76,15 @@ def test_densify_bounds_the_gaps_and_keeps_the_points():
         assert np.isclose(np.hypot(*(dense - p).T).min(), 0.0)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    ({"data_weight": 0.0}, "data_weight"), ({"smooth_weight": 0.6}, "smooth_weight"),
-    ({"spacing": 0.0}, "spacing"), ({"max_iterations": 0}, "max_iterations"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"data_weight": 0.0}, "data_weight"),
+        ({"smooth_weight": 0.6}, "smooth_weight"),
+        ({"spacing": 0.0}, "spacing"),
+        ({"max_iterations": 0}, "max_iterations"),
+    ],
+)
 def test_bad_configs_are_refused_by_name(kwargs, name):
     with pytest.raises(ConfigError, match=name):
         SmoothingConfig(**kwargs)

@@ -19,7 +19,6 @@ from amr_planning.planner_node import PlannerNode
 from amr_util.qos import LATCHED
 
 
-
 def two_rooms() -> OccupancyGrid:
     """4 x 2 m at 0.05 m, a wall across x = 2 m with a 0.5 m door at the top."""
     data = np.zeros((40, 80), dtype=np.int8)
@@ -107,8 +106,11 @@ def test_the_planner_answers_its_service_on_the_map_only_while_active_and_logs_a
     assert np.allclose(points[0], (0.5, 0.5)) and np.allclose(points[-1], (3.5, 0.5))
     assert points[np.argmin(np.abs(points[:, 0] - 2.025)), 1] > 1.35  # through the door
     assert rig.paths == []  # the planner answers; publishing /path is the navigator's
-    for goal_xy, words, refused_goal in (((math.nan, 1.0), "finite", True), ((9.0, 1.0), "off the map", True),
-                                         ((2.025, 0.5), "occupied", True)):
+    for goal_xy, words, refused_goal in (
+        ((math.nan, 1.0), "finite", True),
+        ((9.0, 1.0), "off the map", True),
+        ((2.025, 0.5), "occupied", True),
+    ):
         refused = call(executor, rig.plan, (0.5, 1.5), goal_xy)
         assert not refused.success and words in refused.message and not refused.path.poses
         assert refused.goal_refused is refused_goal
@@ -147,8 +149,9 @@ def test_the_follower_alone_answers_each_localized_observation_once_it_has_a_pat
     executor.add_node(rig)
     activate(follower)
     assert spin_until(executor, lambda: rig.count_subscribers("scan") > 0 and rig.count_subscribers("pose") > 0, 5.0)
-    assert not any(topic == "/cmd_vel" for topic, _ in follower.get_subscriber_names_and_types_by_node(
-        "path_follower", "/")), "no controller listens to /cmd_vel"
+    assert not any(
+        topic == "/cmd_vel" for topic, _ in follower.get_subscriber_names_and_types_by_node("path_follower", "/")
+    ), "no controller listens to /cmd_vel"
     step = 50_000_000
 
     def observe(k, localized=True):
@@ -184,13 +187,16 @@ def test_the_follower_alone_answers_each_localized_observation_once_it_has_a_pat
 
 
 def test_a_navigated_follower_answers_only_what_the_navigator_gives_it_and_a_held_observation_on_a_new_decision(
-        ros_context, executor):
+    ros_context, executor
+):
     follower = PathFollowerNode(context=ros_context, parameter_overrides=[Parameter("navigated", value=True)])
     rig = Rig(ros_context)
     executor.add_node(follower)
     executor.add_node(rig)
     activate(follower)
-    assert spin_until(executor, lambda: rig.count_subscribers("navigator/status") > 0 and rig.follow.service_is_ready(), 5.0)
+    assert spin_until(
+        executor, lambda: rig.count_subscribers("navigator/status") > 0 and rig.follow.service_is_ready(), 5.0
+    )
     request = FollowPath.Request(path=straight_path())
     future = rig.follow.call_async(request)
     assert spin_until(executor, future.done, 5.0) and future.result().success

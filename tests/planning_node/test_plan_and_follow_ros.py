@@ -80,17 +80,29 @@ def answered_observations(*controllers) -> dict[int, list[str]]:
 
 
 def test_the_navigator_hands_over_plans_follows_takes_new_goals_and_stops_for_an_unreachable_one(ros_context, executor):
-    simulator = SimulatorNode(context=ros_context, cli_args=params_file_args(
-        config_file("amr_simulation", "simulator.yaml"), "world:=hard_maze.yaml", "stop_at_goal:=false"))
-    map_server = MapServerNode(context=ros_context, parameter_overrides=[
-        Parameter("world", value="hard_maze.yaml"), Parameter("resolution", value=0.025)])
+    simulator = SimulatorNode(
+        context=ros_context,
+        cli_args=params_file_args(
+            config_file("amr_simulation", "simulator.yaml"), "world:=hard_maze.yaml", "stop_at_goal:=false"
+        ),
+    )
+    map_server = MapServerNode(
+        context=ros_context,
+        parameter_overrides=[Parameter("world", value="hard_maze.yaml"), Parameter("resolution", value=0.025)],
+    )
     planner = PlannerNode(context=ros_context)
-    follower = PathFollowerNode(context=ros_context, cli_args=params_file_args(
-        config_file("amr_control", "path_follower_sim.yaml"), "navigated:=true"))
-    wall = WallFollowerNode(context=ros_context, cli_args=params_file_args(
-        config_file("amr_control", "wall_follower_sim.yaml"), "navigated:=true"))
-    navigator = NavigatorNode(context=ros_context, cli_args=params_file_args(
-        config_file("amr_navigation", "navigator.yaml"), "world_goal_topic:=/simulator/goal"))
+    follower = PathFollowerNode(
+        context=ros_context,
+        cli_args=params_file_args(config_file("amr_control", "path_follower_sim.yaml"), "navigated:=true"),
+    )
+    wall = WallFollowerNode(
+        context=ros_context,
+        cli_args=params_file_args(config_file("amr_control", "wall_follower_sim.yaml"), "navigated:=true"),
+    )
+    navigator = NavigatorNode(
+        context=ros_context,
+        cli_args=params_file_args(config_file("amr_navigation", "navigator.yaml"), "world_goal_topic:=/simulator/goal"),
+    )
     localization = Localization(ros_context)
     answers = answered_observations(follower, wall)
     for node in (simulator, map_server, planner, follower, wall, navigator, localization):

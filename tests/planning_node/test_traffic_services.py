@@ -34,13 +34,16 @@ def open_grid(rows: int = 60, cols: int = 120, resolution: float = 0.025) -> Occ
     return OccupancyGrid(data, resolution)
 
 
-@pytest.mark.parametrize("obstacles, radius, reason", [
-    ([(0.0, math.nan)], 0.05, "not finite"),
-    ([(0.0, 0.0)], math.nan, "mark_radius"),
-    ([(0.0, 0.0)], -0.1, "mark_radius"),
-    ([(0.0, 0.0)], 5.0, "mark_radius"),
-    ([(0.0, 0.0)] * (MAX_OBSTACLES + 1), 0.05, "obstacle points"),
-])
+@pytest.mark.parametrize(
+    "obstacles, radius, reason",
+    [
+        ([(0.0, math.nan)], 0.05, "not finite"),
+        ([(0.0, 0.0)], math.nan, "mark_radius"),
+        ([(0.0, 0.0)], -0.1, "mark_radius"),
+        ([(0.0, 0.0)], 5.0, "mark_radius"),
+        ([(0.0, 0.0)] * (MAX_OBSTACLES + 1), 0.05, "obstacle points"),
+    ],
+)
 def test_a_malformed_obstacle_request_is_refused_with_the_reason(obstacles, radius, reason):
     with pytest.raises(ValueError, match=reason):
         request_obstacles(request((0, 0), (1, 1), obstacles, radius))

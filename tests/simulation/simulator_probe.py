@@ -35,8 +35,11 @@ class Probe(Node):
     """Publishes /cmd_vel, records /odometry, /odom, /ground_truth, /scan, ~/status and /clock."""
 
     def __init__(self, context, stamped: bool = True, use_sim_time: bool = False, robot: str = "") -> None:
-        super().__init__(f"simulator_probe_{robot}" if robot else "simulator_probe", context=context,
-                         parameter_overrides=[Parameter("use_sim_time", value=use_sim_time)])
+        super().__init__(
+            f"simulator_probe_{robot}" if robot else "simulator_probe",
+            context=context,
+            parameter_overrides=[Parameter("use_sim_time", value=use_sim_time)],
+        )
         self.stamped = stamped
         self.robot = robot
         """A robot of a fleet world: its topics in its namespace (/<robot>/scan, /<robot>/status, ...)."""
@@ -51,12 +54,12 @@ class Probe(Node):
         self.statuses: list[SimulatorStatus] = []
         self.clocks: list[Clock] = []
         self.observation_subscriptions = {
-            "status": self.create_subscription(SimulatorStatus, f"{ns}status" if robot else "simulator/status",
-                                               self.statuses.append, RELIABLE),
+            "status": self.create_subscription(
+                SimulatorStatus, f"{ns}status" if robot else "simulator/status", self.statuses.append, RELIABLE
+            ),
             "odometry": self.create_subscription(Odometry, f"{ns}odometry", self.odometry.append, RELIABLE),
             "odom": self.create_subscription(Odometry, f"{ns}odom", self.odom.append, RELIABLE),
-            "ground_truth": self.create_subscription(Odometry, f"{ns}ground_truth", self.ground_truth.append,
-                                                     RELIABLE),
+            "ground_truth": self.create_subscription(Odometry, f"{ns}ground_truth", self.ground_truth.append, RELIABLE),
             "scan": self.create_subscription(LaserScan, f"{ns}scan", self.scans.append, qos_profile_sensor_data),
         }
         self.clock_subscription = self.create_subscription(Clock, "/clock", self.clocks.append, RELIABLE)
@@ -78,19 +81,24 @@ class Probe(Node):
             self.cmd_vel.publish(twist)
 
     def streams(self) -> dict[str, list]:
-        return {"status": self.statuses, "odometry": self.odometry, "odom": self.odom,
-                "ground_truth": self.ground_truth, "scan": self.scans}
+        return {
+            "status": self.statuses,
+            "odometry": self.odometry,
+            "odom": self.odom,
+            "ground_truth": self.ground_truth,
+            "scan": self.scans,
+        }
 
     def connected(self) -> bool:
         """/cmd_vel and every observation topic the simulator publishes are matched."""
         return self.cmd_vel.get_subscription_count() > 0 and all(
-            self.observation_subscriptions[name].get_publisher_count() > 0 for name in self.expected)
+            self.observation_subscriptions[name].get_publisher_count() > 0 for name in self.expected
+        )
 
     def observations(self) -> int:
         """Complete observations received: every expected topic has delivered its message."""
         streams = self.streams()
         return min(len(streams[name]) for name in self.expected)
-
 
 
 MATCH_DELAY = 0.3
@@ -152,8 +160,9 @@ def simulator(ros_context, nodes):
     """Makes simulator nodes in this process (dotted names through a dict: **{'lidar.beams': 60})."""
 
     def make(**params) -> SimulatorNode:
-        nodes.append(SimulatorNode(context=ros_context,
-                                   parameter_overrides=[Parameter(k, value=v) for k, v in params.items()]))
+        nodes.append(
+            SimulatorNode(context=ros_context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
+        )
         return nodes[-1]
 
     return make

@@ -15,9 +15,7 @@ RADIUS = 0.105
 
 def thin_wall_world(thickness: float):
     """A wall along x = 1 (faces at 1 -+ thickness / 2) in front of a robot at the origin."""
-    return world_from_dict(
-        {"wall_thickness": thickness, "walls": [[1.0, -2.0, 1.0, 2.0]], "start": [0.0, 0.0, 0.0]}
-    )
+    return world_from_dict({"wall_thickness": thickness, "walls": [[1.0, -2.0, 1.0, 2.0]], "start": [0.0, 0.0, 0.0]})
 
 
 @pytest.mark.parametrize(("thickness", "dt"), [(0.01, 0.05), (0.05, 0.05), (0.01, 0.5), (0.01, 1.0)])

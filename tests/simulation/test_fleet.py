@@ -26,8 +26,10 @@ from sim_helpers import WORLDS, make_config
 RADIUS = 0.105
 SENSOR_BACK = 0.032  # the LiDAR sits 3.2 cm behind the axle
 AHEAD, LEFT, BEHIND, RIGHT = 0, 60, 120, 180  # beam indices of 240 over 360 deg
-ROOM = {"wall_thickness": 0.1,  # inner faces at x = +-1.95, y = +-1.45
-        "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]]}
+ROOM = {
+    "wall_thickness": 0.1,  # inner faces at x = +-1.95, y = +-1.45
+    "walls": [[-2.0, -1.5, 2.0, -1.5], [2.0, -1.5, 2.0, 1.5], [2.0, 1.5, -2.0, 1.5], [-2.0, 1.5, -2.0, -1.5]],
+}
 
 
 def room(*robots: tuple) -> World:
@@ -122,8 +124,17 @@ def test_disc_hits_match_pymunk_segment_queries(discs, origin, phi0, beams, fov,
     assume(all(math.hypot(origin[0] - x, origin[1] - y) > radius + 1e-3 for x, y in discs))
     increment = fov / beams
     ranges = np.full((1, beams), np.inf)
-    cast_discs(ranges, np.array([origin[0]]), np.array([origin[1]]), np.array([phi0]), increment, 3.0,
-               np.array(discs), radius, np.array([-1]))
+    cast_discs(
+        ranges,
+        np.array([origin[0]]),
+        np.array([origin[1]]),
+        np.array([phi0]),
+        increment,
+        3.0,
+        np.array(discs),
+        radius,
+        np.array([-1]),
+    )
     reference = PymunkRayCaster(space, pymunk.ShapeFilter()).cast(*origin, phi0, increment, beams, 3.0)
     fast = ranges[0]
     fast[fast > 3.0] = np.inf
@@ -140,14 +151,25 @@ def test_disc_hits_match_pymunk_segment_queries(discs, origin, phi0, beams, fov,
 
 def test_a_sensor_inside_a_disc_reads_zero_on_every_beam() -> None:
     ranges = np.full((2, 240), np.inf)
-    cast_discs(ranges, np.array([0.0, 5.0]), np.array([0.0, 5.0]), np.zeros(2), 2.0 * math.pi / 240, 3.5,
-               np.array([[0.05, 0.0]]), RADIUS, np.array([-1, -1]))
+    cast_discs(
+        ranges,
+        np.array([0.0, 5.0]),
+        np.array([0.0, 5.0]),
+        np.zeros(2),
+        2.0 * math.pi / 240,
+        3.5,
+        np.array([[0.05, 0.0]]),
+        RADIUS,
+        np.array([-1, -1]),
+    )
     assert np.all(ranges[0] == 0.0) and np.all(np.isinf(ranges[1]))
 
 
 @settings(max_examples=40, deadline=None)
 @given(
-    origins=st.lists(st.tuples(st.floats(-2.5, 2.5), st.floats(-2.5, 2.5), st.floats(-4.0, 4.0)), min_size=1, max_size=7),
+    origins=st.lists(
+        st.tuples(st.floats(-2.5, 2.5), st.floats(-2.5, 2.5), st.floats(-4.0, 4.0)), min_size=1, max_size=7
+    ),
     beams=st.integers(1, 500),
     fov=st.floats(0.1, 2.0 * math.pi),
     max_range=st.floats(0.3, 6.0),
@@ -188,8 +210,9 @@ def test_a_robot_cannot_push_another() -> None:
 
 def test_wall_and_robot_collisions_are_counted_apart() -> None:
     # r1 drives into the east wall; r2 and r3 meet in the middle; r4 stays clear
-    world = room(("r1", (1.5, 1.0, 0.0)), ("r2", (-1.0, -0.5, 0.0)), ("r3", (-0.4, -0.5, math.pi)),
-                 ("r4", (-1.5, 1.0, 0.0)))
+    world = room(
+        ("r1", (1.5, 1.0, 0.0)), ("r2", (-1.0, -0.5, 0.0)), ("r3", (-0.4, -0.5, math.pi)), ("r4", (-1.5, 1.0, 0.0))
+    )
     fleet = Fleet(world, make_config())
     for _ in range(150):
         fleet.step([(0.2, 0.0), (0.1, 0.0), (0.1, 0.0), (0.0, 0.5)])
@@ -247,10 +270,13 @@ def test_each_robot_stops_at_its_own_goal() -> None:
 
 def test_bad_commands_name_the_robot_and_do_not_step() -> None:
     fleet = Fleet(face_to_face(), make_config())
-    for commands, message in [({"r1": (0.1, 0.0)}, "missing \\['r2'\\]"), ([(0.1, 0.0)], "1 commands for 2 robots"),
-                              ({"r1": (0.0, 0.0), "r2": (0.0, 0.0), "r3": (0.0, 0.0)}, "unknown \\['r3'\\]"),
-                              ([(0.1, 0.0), (math.nan, 0.0)], "robot 'r2' must be finite"),
-                              ([(0.1, 0.0), "fast"], "robot 'r2' must be finite")]:
+    for commands, message in [
+        ({"r1": (0.1, 0.0)}, "missing \\['r2'\\]"),
+        ([(0.1, 0.0)], "1 commands for 2 robots"),
+        ({"r1": (0.0, 0.0), "r2": (0.0, 0.0), "r3": (0.0, 0.0)}, "unknown \\['r3'\\]"),
+        ([(0.1, 0.0), (math.nan, 0.0)], "robot 'r2' must be finite"),
+        ([(0.1, 0.0), "fast"], "robot 'r2' must be finite"),
+    ]:
         with pytest.raises(SimulationError, match=message):
             fleet.step(commands)
     assert fleet.steps == 0 and fleet.robots[0].pose == (-1.0, 0.0, 0.0)

@@ -9,7 +9,18 @@ from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT, call, change_state, drive, nodes, probe, seconds, settle, simulator, start, state_of)
+    TIMEOUT,
+    call,
+    change_state,
+    drive,
+    nodes,
+    probe,
+    seconds,
+    settle,
+    simulator,
+    start,
+    state_of,
+)
 from std_srvs.srv import Trigger
 
 from amr_simulation.config import LidarConfig
@@ -69,7 +80,8 @@ def test_n_commands_in_n_observations_out_in_order(simulator, probe, executor):
     lidar = LidarConfig()
     assert scan.header.frame_id == "base_scan" and len(scan.ranges) == lidar.beams
     assert (scan.angle_min, scan.range_min, scan.range_max) == pytest.approx(
-        (lidar.angle_min, lidar.range_min, lidar.range_max))
+        (lidar.angle_min, lidar.range_min, lidar.range_max)
+    )
     assert scan.angle_increment == pytest.approx(lidar.angle_increment)
 
 
@@ -160,7 +172,9 @@ def test_without_stop_at_goal_the_goal_is_judged_and_reported_and_the_robot_driv
     assert (goal.header.frame_id, goal.pose.position.x, goal.pose.position.y) == ("map", 1.5, -1.25)
     drive(executor, driver, [(0.2, 0.0)] * 40)
     assert [s.goal_reached for s in driver.statuses].index(True) == 30
-    assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(driver.ground_truth[30].pose.pose.position.x + 0.1)
+    assert driver.ground_truth[-1].pose.pose.position.x == pytest.approx(
+        driver.ground_truth[30].pose.pose.position.x + 0.1
+    )
 
 
 def test_services_answer_only_while_active(simulator, probe, executor):
@@ -217,14 +231,17 @@ start: [0.5, 0.5, 0.0]
 """
 
 
-@pytest.mark.parametrize(("params", "named"), [
-    ({"world": "BAD"}, "walls[0]"),
-    ({"world": "no_such_world.yaml"}, "no_such_world.yaml"),
-    ({"dt": -0.05}, "dt"),
-    ({"mode": "fast"}, "mode"),
-    ({"lidar.beam": 60}, "lidar.beam"),  # a typo, not silently ignored
-    ({"start": [-1.9, -1.0, 0.0]}, "overlaps"),
-])
+@pytest.mark.parametrize(
+    ("params", "named"),
+    [
+        ({"world": "BAD"}, "walls[0]"),
+        ({"world": "no_such_world.yaml"}, "no_such_world.yaml"),
+        ({"dt": -0.05}, "dt"),
+        ({"mode": "fast"}, "mode"),
+        ({"lidar.beam": 60}, "lidar.beam"),  # a typo, not silently ignored
+        ({"start": [-1.9, -1.0, 0.0]}, "overlaps"),
+    ],
+)
 def test_bad_configuration_fails_configure_naming_the_key(simulator, probe, executor, tmp_path, capfd, params, named):
     if params.get("world") == "BAD":
         params = {"world": str(tmp_path / "bad.yaml")}

@@ -5,7 +5,16 @@ import pytest
 from conftest import spin_until
 from rclpy.parameter import Parameter
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT, call, drive, nodes, probe, seconds, settle, simulator, start)
+    TIMEOUT,
+    call,
+    drive,
+    nodes,
+    probe,
+    seconds,
+    settle,
+    simulator,
+    start,
+)
 from std_srvs.srv import Trigger
 
 OPEN_ROOM = {"world": "open_room.yaml"}
@@ -63,8 +72,9 @@ def test_step_advances_exactly_one_step_per_request(simulator, probe, executor):
 
     for expected_steps in (4, 5, 6):
         answer = trigger(executor, control["step"])
-        assert answer.success and answer.message.startswith(f"stepped to t = {expected_steps * 0.05:.2f} s"), \
+        assert answer.success and answer.message.startswith(f"stepped to t = {expected_steps * 0.05:.2f} s"), (
             answer.message
+        )
         assert spin_until(executor, lambda: driver.statuses[-1].steps == expected_steps, TIMEOUT)
         driver.send(0.1, 0.0)
         settle(executor, 0.2)
@@ -143,11 +153,11 @@ def test_controls_are_refused_unless_active(simulator, probe, executor):
     executor.add_node(node)
     executor.add_node(driver)
     from lifecycle_msgs.msg import Transition
+
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
     for name, client in control.items():
         answer = trigger(executor, client)
-        assert not answer.success and answer.message == \
-            f"simulator is inactive: ~/{name} answers only while active"
+        assert not answer.success and answer.message == f"simulator is inactive: ~/{name} answers only while active"
 
 
 def test_reset_while_paused_drops_the_held_command_and_stays_paused(simulator, probe, executor):
@@ -209,4 +219,3 @@ def test_a_held_robot_pauses_without_resends_and_steps_at_zero_velocity(simulato
     count = len(driver.clocks)
     assert spin_until(executor, lambda: len(driver.clocks) > count, TIMEOUT), "running again: resends resume"
     assert clock_seconds(driver)[-1] == pytest.approx(0.20)
-

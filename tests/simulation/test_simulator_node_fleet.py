@@ -7,7 +7,16 @@ from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from rclpy.node import Node
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    RELIABLE, TIMEOUT, call, drive, nodes, probe, seconds, settle, simulator)
+    RELIABLE,
+    TIMEOUT,
+    call,
+    drive,
+    nodes,
+    probe,
+    seconds,
+    settle,
+    simulator,
+)
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
@@ -46,9 +55,10 @@ class TfProbe(Node):
     def __init__(self, context, topics: dict[str, bool]) -> None:
         super().__init__("tf_probe", context=context)
         self.messages: dict[str, list[TFMessage]] = {topic: [] for topic in topics}
-        self.subscriptions_ = [self.create_subscription(TFMessage, topic, self.messages[topic].append,
-                                                        LATCHED if latched else RELIABLE)
-                               for topic, latched in topics.items()]
+        self.subscriptions_ = [
+            self.create_subscription(TFMessage, topic, self.messages[topic].append, LATCHED if latched else RELIABLE)
+            for topic, latched in topics.items()
+        ]
 
     def frames(self, topic: str) -> set[tuple[str, str]]:
         return {(t.header.frame_id, t.child_frame_id) for m in self.messages[topic] for t in m.transforms}
@@ -69,17 +79,21 @@ def drive_all(executor, probes, commands) -> None:
         counts = [p.observations() for p in probes]
         for p, (v, w) in zip(probes, step):
             p.send(v, w)
-        assert spin_until(executor, lambda: all(p.observations() > c for p, c in zip(probes, counts)), TIMEOUT), \
+        assert spin_until(executor, lambda: all(p.observations() > c for p, c in zip(probes, counts)), TIMEOUT), (
             "not every robot's observation came back"
+        )
 
 
 def topics_of(node) -> dict[str, str]:
-    return {name: types[0] for name, types in node.get_publisher_names_and_types_by_node(
-        node.get_name(), node.get_namespace())}
+    return {
+        name: types[0]
+        for name, types in node.get_publisher_names_and_types_by_node(node.get_name(), node.get_namespace())
+    }
 
 
 def test_every_topic_is_in_its_robots_namespace_and_the_world_steps_when_every_robot_has_answered(
-        simulator, probe, executor, two_world):
+    simulator, probe, executor, two_world
+):
     node = simulator(world=two_world, **{"lidar.noise_std": 0.0})
     r1, r2 = probe(robot="r1"), probe(robot="r2")
     start_fleet(executor, node, [r1, r2])
@@ -92,8 +106,15 @@ def test_every_topic_is_in_its_robots_namespace_and_the_world_steps_when_every_r
     for plain in ("/scan", "/odom", "/odometry", "/tf", "/tf_static", "/simulator/status"):
         assert plain not in published, f"{plain}: a fleet's topics are namespaced"
     services = {name for name, _ in node.get_service_names_and_types_by_node(node.get_name(), node.get_namespace())}
-    assert {"/r1/set_pose", "/r1/reset", "/r2/set_pose", "/r2/reset", "/simulator/reset", "/simulator/pause",
-            "/simulator/step"} <= services
+    assert {
+        "/r1/set_pose",
+        "/r1/reset",
+        "/r2/set_pose",
+        "/r2/reset",
+        "/simulator/reset",
+        "/simulator/pause",
+        "/simulator/step",
+    } <= services
     assert "/simulator/set_pose" not in services, "set_pose is per robot in a fleet"
 
     assert [s.robot for s in r1.statuses] == ["r1"] and [s.robot for s in r2.statuses] == ["r2"]
@@ -121,8 +142,7 @@ def test_every_topic_is_in_its_robots_namespace_and_the_world_steps_when_every_r
     gap = r2.ground_truth[-1].pose.pose.position.x - r1.ground_truth[-1].pose.pose.position.x
     assert gap == pytest.approx(2 * RADIUS, abs=0.02)
     for p in (r1, r2):
-        assert (p.statuses[-1].robot_collisions, p.statuses[-1].wall_collisions, p.statuses[-1].collisions) == \
-            (1, 0, 1)
+        assert (p.statuses[-1].robot_collisions, p.statuses[-1].wall_collisions, p.statuses[-1].collisions) == (1, 0, 1)
         assert p.statuses[-1].in_contact
         assert min(p.scans[-1].ranges) < 2 * RADIUS, "the other robot fills its scan"
 
@@ -130,8 +150,17 @@ def test_every_topic_is_in_its_robots_namespace_and_the_world_steps_when_every_r
 def test_tf_per_namespace_with_plain_frames(simulator, probe, executor, two_world):
     node = simulator(world=two_world, publish_map_to_odom=True)
     r1, r2 = probe(robot="r1"), probe(robot="r2")
-    tf = TfProbe(node.context, {"/r1/tf": False, "/r2/tf": False, "/r1/tf_static": True, "/r2/tf_static": True,
-                                "/tf": False, "/tf_static": True})
+    tf = TfProbe(
+        node.context,
+        {
+            "/r1/tf": False,
+            "/r2/tf": False,
+            "/r1/tf_static": True,
+            "/r2/tf_static": True,
+            "/tf": False,
+            "/tf_static": True,
+        },
+    )
     start_fleet(executor, node, [r1, r2], [tf])
     drive_all(executor, [r1, r2], [((0.1, 0.0), (0.0, 0.5))] * 3)
     assert spin_until(executor, lambda: all(len(tf.messages[f"/{r}/tf"]) >= 4 for r in ("r1", "r2")), TIMEOUT)
@@ -152,8 +181,12 @@ def test_one_tf_tree_prefixes_every_frame_but_the_world(simulator, probe, execut
     start_fleet(executor, node, [r1, r2], [tf])
     drive_all(executor, [r1, r2], [((0.1, 0.0), (0.1, 0.0))] * 2)
     assert spin_until(executor, lambda: len(tf.messages["/tf"]) >= 3 and tf.messages["/tf_static"], TIMEOUT)
-    assert tf.frames("/tf") == {("r1/odom", "r1/base_footprint"), ("map", "r1/odom"),
-                                ("r2/odom", "r2/base_footprint"), ("map", "r2/odom")}
+    assert tf.frames("/tf") == {
+        ("r1/odom", "r1/base_footprint"),
+        ("map", "r1/odom"),
+        ("r2/odom", "r2/base_footprint"),
+        ("map", "r2/odom"),
+    }
     assert all(len(m.transforms) == 4 for m in tf.messages["/tf"]), "one TFMessage per step for the fleet"
     # latched: the last message holds both mountings
     assert tf.frames("/tf_static") == {("r1/base_footprint", "r1/base_scan"), ("r2/base_footprint", "r2/base_scan")}
@@ -203,8 +236,9 @@ def test_per_robot_and_world_services(simulator, probe, executor, two_world):
     assert seconds(r1.scans[-1].header.stamp) > 12 * DT, "stamps never go back"
 
 
-def test_a_silent_controller_holds_the_world_and_gets_its_observation_again(simulator, probe, executor, two_world,
-                                                                           capfd):
+def test_a_silent_controller_holds_the_world_and_gets_its_observation_again(
+    simulator, probe, executor, two_world, capfd
+):
     node = simulator(world=two_world, lockstep_resend_period=0.3)
     r1, r2 = probe(robot="r1"), probe(robot="r2")
     start_fleet(executor, node, [r1, r2])
@@ -241,8 +275,9 @@ def test_a_one_robot_world_keeps_its_plain_topics(simulator, probe, executor):
     assert node.try_transition(Transition.TRANSITION_CONFIGURE)
     assert node.robot_names == ("",)
     published = topics_of(node)
-    assert {"/scan", "/odom", "/odometry", "/ground_truth", "/simulator/status", "/tf", "/tf_static",
-            "/clock"} <= set(published)
+    assert {"/scan", "/odom", "/odometry", "/ground_truth", "/simulator/status", "/tf", "/tf_static", "/clock"} <= set(
+        published
+    )
     assert not any(name.count("/") > 1 and not name.startswith("/simulator/") for name in published), published
 
 
@@ -308,7 +343,8 @@ def test_every_message_of_robot_2_is_what_the_library_state_gives(simulator, pro
     scan = messages.laser_scan(stamp, "base_scan", robot.ranges, fleet.lidar, fleet.config.dt)
     received = r2.scans[-1]
     assert (received.angle_min, received.angle_increment, received.range_max, received.scan_time) == pytest.approx(
-        (scan.angle_min, scan.angle_increment, scan.range_max, scan.scan_time))
+        (scan.angle_min, scan.angle_increment, scan.range_max, scan.scan_time)
+    )
     assert list(received.ranges) == list(scan.ranges), "the scan is robot 2's own, this step's"
     status = messages.status(stamp, "map", fleet, robot, channel.distance, 0.0)
     got = r2.statuses[-1]
@@ -317,8 +353,7 @@ def test_every_message_of_robot_2_is_what_the_library_state_gives(simulator, pro
             assert getattr(got, name) == getattr(status, name), name
     assert got.robot == "r2" and got.header == status.header and got.steps == 6 and got.distance_travelled > 0.0
     transforms = tf.messages["/r2/tf"][-1].transforms
-    assert [(t.header.frame_id, t.child_frame_id) for t in transforms] == [("odom", "base_footprint"),
-                                                                          ("map", "odom")]
+    assert [(t.header.frame_id, t.child_frame_id) for t in transforms] == [("odom", "base_footprint"), ("map", "odom")]
     for transform, pose in zip(transforms, (robot.odom_pose, map_to_odom(robot.pose, robot.odom_pose))):
         want = messages.transform(stamp, "", "", pose)
         assert transform.header.stamp == stamp and transform.transform == want.transform

@@ -46,13 +46,25 @@ class DriverAndLocalizer(Node):
 def start(ros_context, executor, **parameters) -> DriverAndLocalizer:
     probe = DriverAndLocalizer(ros_context)
     executor.add_node(probe)
-    simulator = SimulatorNode(context=ros_context, parameter_overrides=[
-        Parameter("lockstep_resend_period", value=0.5), Parameter("enable_localization", value=True),
-        *(Parameter(name, value=value) for name, value in parameters.items())])
+    simulator = SimulatorNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("lockstep_resend_period", value=0.5),
+            Parameter("enable_localization", value=True),
+            *(Parameter(name, value=value) for name, value in parameters.items()),
+        ],
+    )
     executor.add_node(simulator)
     assert simulator.try_transition(Transition.TRANSITION_CONFIGURE)
-    spin_until(executor, lambda: simulator.count_subscribers("odometry") > 0 and
-               probe.count_subscribers("pose") > 0 and probe.count_subscribers("cmd_vel") > 0, 5.0)
+    spin_until(
+        executor,
+        lambda: (
+            simulator.count_subscribers("odometry") > 0
+            and probe.count_subscribers("pose") > 0
+            and probe.count_subscribers("cmd_vel") > 0
+        ),
+        5.0,
+    )
     assert simulator.try_transition(Transition.TRANSITION_ACTIVATE)  # the first observation goes out now
     return probe
 

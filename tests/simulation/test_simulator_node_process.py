@@ -7,18 +7,35 @@ import pytest
 from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from simulator_probe import (  # noqa: F401 (nodes, probe: fixtures)
-    MATCH_DELAY, TIMEOUT, change_state, drive, nodes, probe, settle, state_of)
+    MATCH_DELAY,
+    TIMEOUT,
+    change_state,
+    drive,
+    nodes,
+    probe,
+    settle,
+    state_of,
+)
 
 PARAMS_FILE = Path(sys.prefix) / "share" / "amr_simulation" / "config" / "simulator.yaml"
 
 
 def test_lockstep_drive_through_the_installed_executable(probe, executor, node_process):
-    simulator = node_process("amr_simulation", "simulator", "--params-file", str(PARAMS_FILE),
-                             "-p", "autostart:=true", "-p", "world:=open_room.yaml")
+    simulator = node_process(
+        "amr_simulation",
+        "simulator",
+        "--params-file",
+        str(PARAMS_FILE),
+        "-p",
+        "autostart:=true",
+        "-p",
+        "world:=open_room.yaml",
+    )
     driver = probe()
     executor.add_node(driver)
-    assert spin_until(executor, lambda: "simulator" in driver.get_node_names() and driver.connected(),
-                      3 * TIMEOUT), "simulator never appeared"
+    assert spin_until(executor, lambda: "simulator" in driver.get_node_names() and driver.connected(), 3 * TIMEOUT), (
+        "simulator never appeared"
+    )
     settle(executor, MATCH_DELAY)
     assert state_of(executor, driver) == "active"
 
@@ -39,8 +56,9 @@ def test_malformed_world_keeps_the_process_alive_and_unconfigured(probe, executo
     driver = probe()
     executor.add_node(driver)
     # by node name: earlier in-process simulators can leave service endpoints in this process's graph cache
-    assert spin_until(executor, lambda: "simulator" in driver.get_node_names()
-                      and driver.get_state.service_is_ready(), 3 * TIMEOUT), "simulator never appeared"
+    assert spin_until(
+        executor, lambda: "simulator" in driver.get_node_names() and driver.get_state.service_is_ready(), 3 * TIMEOUT
+    ), "simulator never appeared"
     assert state_of(executor, driver) == "unconfigured"
     assert not change_state(executor, driver, Transition.TRANSITION_CONFIGURE), "the world is still bad"
     assert simulator.process.poll() is None, "the node must survive a failed configure"

@@ -7,7 +7,15 @@ import pytest
 from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT, Probe, nodes, probe, seconds, settle, simulator, start)
+    TIMEOUT,
+    Probe,
+    nodes,
+    probe,
+    seconds,
+    settle,
+    simulator,
+    start,
+)
 
 DT = 0.05
 RATE = 4.0

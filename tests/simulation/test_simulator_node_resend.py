@@ -10,8 +10,9 @@ from amr_simulation.simulator_node import SimulatorNode
 
 
 def late_listener(ros_context, executor, period: float) -> list[Odometry]:
-    simulator = SimulatorNode(context=ros_context, parameter_overrides=[
-        Parameter("lockstep_resend_period", value=period)])
+    simulator = SimulatorNode(
+        context=ros_context, parameter_overrides=[Parameter("lockstep_resend_period", value=period)]
+    )
     executor.add_node(simulator)
     assert simulator.try_transition(Transition.TRANSITION_CONFIGURE)
     assert simulator.try_transition(Transition.TRANSITION_ACTIVATE)  # the first observation goes out now

@@ -39,8 +39,10 @@ class LoopResult:
 
     def line(self, name: str) -> str:
         goal = "-" if self.goal is None else ("reached" if self.goal else "missed")
-        return (f"{name:16s} t={self.time:6.1f} s  collisions={self.collisions}  mean speed={self.mean_speed:.3f} m/s  "
-                f"|wall error|={self.wall_error:.4f} m  goal={goal}")
+        return (
+            f"{name:16s} t={self.time:6.1f} s  collisions={self.collisions}  mean speed={self.mean_speed:.3f} m/s  "
+            f"|wall error|={self.wall_error:.4f} m  goal={goal}"
+        )
 
 
 def run_loop(world: Path | World, config: WallFollowerConfig, seconds: float = SECONDS, **simulation) -> LoopResult:

@@ -33,8 +33,10 @@ def test_reversing_gives_negative_speed():
 def test_arc_recovers_speed_and_turn_rate():
     v, w, dt = 0.15, 0.6, 0.05
     radius = v / w
-    samples = [(k * dt, radius * math.sin(w * k * dt), radius * (1 - math.cos(w * k * dt)), wrap_angle(w * k * dt))
-               for k in range(200)]
+    samples = [
+        (k * dt, radius * math.sin(w * k * dt), radius * (1 - math.cos(w * k * dt)), wrap_angle(w * k * dt))
+        for k in range(200)
+    ]
     for estimate in run(samples)[1:]:
         assert estimate.angular == pytest.approx(w, rel=1e-9)
         # the chord is slightly shorter than the arc: v * sinc(w dt / 2)
@@ -71,8 +73,17 @@ def test_repeated_or_older_stamps_are_rejected(stamp):
     assert differentiator.update(PoseSample(2.0, 0.2, 0.0, 0.0)).linear == pytest.approx(0.2)
 
 
-@given(st.lists(st.tuples(st.floats(allow_nan=True, allow_infinity=True, width=64),
-                          st.floats(-1e6, 1e6), st.floats(-1e6, 1e6), st.floats(-10, 10)), max_size=20))
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(allow_nan=True, allow_infinity=True, width=64),
+            st.floats(-1e6, 1e6),
+            st.floats(-1e6, 1e6),
+            st.floats(-10, 10),
+        ),
+        max_size=20,
+    )
+)
 def test_never_raises_and_never_outputs_nan(samples):
     for estimate in run(samples):
         assert math.isfinite(estimate.linear) and math.isfinite(estimate.angular)

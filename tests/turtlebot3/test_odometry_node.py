@@ -88,8 +88,11 @@ def test_process_started_like_ros2_run_derives_twist(ros_context, executor, node
     node_process("amr_turtlebot3", "odometry_node", "-p", "autostart:=true", "-p", "qos_depth:=100")
     probe = StreamProbe(ros_context)
     executor.add_node(probe)
-    assert spin_until(executor, lambda: "odometry_node" in probe.get_node_names()
-                      and probe.publisher.get_subscription_count() > 0, timeout=15.0), "node never appeared"
+    assert spin_until(
+        executor,
+        lambda: "odometry_node" in probe.get_node_names() and probe.publisher.get_subscription_count() > 0,
+        timeout=15.0,
+    ), "node never appeared"
     # one stream per case, each separated by a stamp jump backwards that the node must drop
     for t0, (name, (v, w, yaw0)) in zip((100.0, 200.0, 300.0, 400.0), CASES.items()):
         probe.received.clear()
@@ -130,9 +133,13 @@ def test_lifecycle_and_bad_input_in_process(ros_context, executor):
     assert change(Transition.TRANSITION_ACTIVATE)
 
     spin_until(executor, lambda: probe.publisher.get_subscription_count() > 0, timeout=5.0)
-    stream = [odom_message(1.0, 0.0, 0.0, 0.0), odom_message(1.0, 9.0, 0.0, 0.0),  # repeated stamp
-              odom_message(0.5, 9.0, 0.0, 0.0), odom_message(1.1, math.nan, 0.0, 0.0),  # older, NaN
-              odom_message(1.1, 0.01, 0.0, 0.0)]
+    stream = [
+        odom_message(1.0, 0.0, 0.0, 0.0),
+        odom_message(1.0, 9.0, 0.0, 0.0),  # repeated stamp
+        odom_message(0.5, 9.0, 0.0, 0.0),
+        odom_message(1.1, math.nan, 0.0, 0.0),  # older, NaN
+        odom_message(1.1, 0.01, 0.0, 0.0),
+    ]
     for message in stream:
         probe.publisher.publish(message)
     assert spin_until(executor, lambda: len(probe.received) >= 2, timeout=5.0)

@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 from amr_util.diff_drive import DiffDrive, DiffDriveError
 
 # TurtleBot3 Burger figures (ROBOTIS e-Manual), as config/simulator.yaml gives them to the simulator
-TURTLEBOT3_BURGER = DiffDrive(wheel_radius=0.033, track=0.160, max_wheel_speed=0.22 / 0.033,
-                              max_linear=0.22, max_angular=2.84)
+TURTLEBOT3_BURGER = DiffDrive(
+    wheel_radius=0.033, track=0.160, max_wheel_speed=0.22 / 0.033, max_linear=0.22, max_angular=2.84
+)
 
 speeds = st.floats(-5.0, 5.0, allow_nan=False)
 
@@ -87,9 +88,15 @@ def test_non_finite_speeds_are_refused(bad):
         TURTLEBOT3_BURGER.body_twist(0.0, bad)
 
 
-@pytest.mark.parametrize("linear, angular, expected", [
-    (1e308, 0.0, (0.22, 0.0)), (-1e308, 0.0, (-0.22, 0.0)), (0.0, 1e308, (0.0, 0.22 / 0.08)), (-5.0, 0.0, (-0.22, 0.0)),  # spinning: the wheels limit it
-])
+@pytest.mark.parametrize(
+    "linear, angular, expected",
+    [
+        (1e308, 0.0, (0.22, 0.0)),
+        (-1e308, 0.0, (-0.22, 0.0)),
+        (0.0, 1e308, (0.0, 0.22 / 0.08)),
+        (-5.0, 0.0, (-0.22, 0.0)),  # spinning: the wheels limit it
+    ],
+)
 def test_absurd_but_finite_twists_saturate_like_any_other(linear, angular, expected):
     drive = DiffDrive(wheel_radius=0.033, track=0.16, max_wheel_speed=0.22 / 0.033, max_linear=0.22, max_angular=2.84)
     v, w = drive.saturate(linear, angular)

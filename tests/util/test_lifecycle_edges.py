@@ -31,11 +31,25 @@ from amr_planning.planner_node import PlannerNode
 from amr_simulation.simulator_node import SimulatorNode
 from amr_turtlebot3.odometry_node import OdometryNode
 
-SHUTDOWN = {"unconfigured": Transition.TRANSITION_UNCONFIGURED_SHUTDOWN,
-            "inactive": Transition.TRANSITION_INACTIVE_SHUTDOWN, "active": Transition.TRANSITION_ACTIVE_SHUTDOWN}
-KEPT_SERVICES = ("change_state", "get_state", "get_available_states", "get_available_transitions",
-                 "get_transition_graph", "describe_parameters", "get_parameters", "get_parameter_types",
-                 "list_parameters", "set_parameters", "set_parameters_atomically", "get_type_description")
+SHUTDOWN = {
+    "unconfigured": Transition.TRANSITION_UNCONFIGURED_SHUTDOWN,
+    "inactive": Transition.TRANSITION_INACTIVE_SHUTDOWN,
+    "active": Transition.TRANSITION_ACTIVE_SHUTDOWN,
+}
+KEPT_SERVICES = (
+    "change_state",
+    "get_state",
+    "get_available_states",
+    "get_available_transitions",
+    "get_transition_graph",
+    "describe_parameters",
+    "get_parameters",
+    "get_parameter_types",
+    "list_parameters",
+    "set_parameters",
+    "set_parameters_atomically",
+    "get_type_description",
+)
 """The services rclpy gives every lifecycle node: the only ones left after shutdown."""
 QUIET = 1.2
 """s watched after shutdown: longer than the simulator's 1 s lockstep resend and 20 periods of a 20 Hz timer."""
@@ -52,16 +66,22 @@ NODES = {
     "path_follower_sim": (PathFollowerNode, files("amr_control", "path_follower_sim.yaml")),
     "path_follower_real": (PathFollowerNode, files("amr_control", "path_follower_real.yaml")),
     "odometry_node": (OdometryNode, {}),
-    "particle_filter": (ParticleFilterNode, files("amr_localization", "particle_filter.yaml", "world:=outer_corridor.yaml",
-                                                  "max_particles:=500")),
+    "particle_filter": (
+        ParticleFilterNode,
+        files("amr_localization", "particle_filter.yaml", "world:=outer_corridor.yaml", "max_particles:=500"),
+    ),
     "beacon_localizer": (BeaconLocalizerNode, files("amr_localization", "beacon_localizer.yaml")),
     "map_server": (MapServerNode, {"parameter_overrides": [Parameter("world", value="outer_corridor.yaml")]}),
     "planner": (PlannerNode, {"parameter_overrides": [Parameter("world", value="outer_corridor.yaml")]}),
     "navigator": (NavigatorNode, files("amr_navigation", "navigator.yaml")),
     "ik_service": (IKServiceNode, files("amr_kinematics", "ik_chains.yaml")),
 }
-COMMANDS = {"wall_follower_sim": TwistStamped, "wall_follower_real": Twist, "path_follower_sim": TwistStamped,
-            "path_follower_real": Twist}
+COMMANDS = {
+    "wall_follower_sim": TwistStamped,
+    "wall_follower_real": Twist,
+    "path_follower_sim": TwistStamped,
+    "path_follower_real": Twist,
+}
 
 
 @pytest.fixture
@@ -80,8 +100,10 @@ def publishes(monkeypatch):
 
 def is_zero(message) -> bool:
     twist = message.twist if isinstance(message, TwistStamped) else message
-    return all(v == 0.0 for v in (twist.linear.x, twist.linear.y, twist.linear.z,
-                                  twist.angular.x, twist.angular.y, twist.angular.z))
+    return all(
+        v == 0.0
+        for v in (twist.linear.x, twist.linear.y, twist.linear.z, twist.angular.x, twist.angular.y, twist.angular.z)
+    )
 
 
 def bring_to(node, state: str) -> None:

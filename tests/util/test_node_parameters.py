@@ -24,8 +24,10 @@ from amr_simulation.simulator_node import SimulatorNode
 from amr_turtlebot3.odometry_node import OdometryNode
 
 VALUE_FIELDS = {
-    ParameterType.PARAMETER_BOOL: "bool_value", ParameterType.PARAMETER_INTEGER: "integer_value",
-    ParameterType.PARAMETER_DOUBLE: "double_value", ParameterType.PARAMETER_STRING: "string_value",
+    ParameterType.PARAMETER_BOOL: "bool_value",
+    ParameterType.PARAMETER_INTEGER: "integer_value",
+    ParameterType.PARAMETER_DOUBLE: "double_value",
+    ParameterType.PARAMETER_STRING: "string_value",
     ParameterType.PARAMETER_BOOL_ARRAY: "bool_array_value",
     ParameterType.PARAMETER_INTEGER_ARRAY: "integer_array_value",
     ParameterType.PARAMETER_DOUBLE_ARRAY: "double_array_value",
@@ -38,8 +40,10 @@ NODES = {
     "ik_service": lambda context: IKServiceNode(context=context),
     "planner": lambda context: PlannerNode(context=context),
     "path_follower": lambda context: PathFollowerNode(context=context),
-    "lifecycle_manager": lambda context: LifecycleManager(context=context, parameter_overrides=[
-        Parameter("node_startup_order", value=["a", "b"]), Parameter("autostart", value=False)]),
+    "lifecycle_manager": lambda context: LifecycleManager(
+        context=context,
+        parameter_overrides=[Parameter("node_startup_order", value=["a", "b"]), Parameter("autostart", value=False)],
+    ),
 }
 
 
@@ -56,14 +60,21 @@ def test_describe_gives_every_parameter_its_own_name_type_and_description(ros_co
     probe = Node("probe", context=ros_context)
     for each in (node, probe):
         multi_executor.add_node(each)
-    names = call(multi_executor, probe.create_client(ListParameters, f"/{name}/list_parameters"),
-                 ListParameters.Request()).result.names
+    names = call(
+        multi_executor, probe.create_client(ListParameters, f"/{name}/list_parameters"), ListParameters.Request()
+    ).result.names
     names = [n for n in names if n not in ("use_sim_time", "start_type_description_service")]
     assert len(names) >= 3
-    described = call(multi_executor, probe.create_client(DescribeParameters, f"/{name}/describe_parameters"),
-                     DescribeParameters.Request(names=names)).descriptors
-    values = call(multi_executor, probe.create_client(GetParameters, f"/{name}/get_parameters"),
-                  GetParameters.Request(names=names)).values
+    described = call(
+        multi_executor,
+        probe.create_client(DescribeParameters, f"/{name}/describe_parameters"),
+        DescribeParameters.Request(names=names),
+    ).descriptors
+    values = call(
+        multi_executor,
+        probe.create_client(GetParameters, f"/{name}/get_parameters"),
+        GetParameters.Request(names=names),
+    ).values
     for asked, descriptor, value in zip(names, described, values):
         assert descriptor.name == asked, f"{name}: describe {asked!r} answered {descriptor.name!r}"
         assert descriptor.type == value.type != ParameterType.PARAMETER_NOT_SET, asked
@@ -89,8 +100,10 @@ def test_simulator_refuses_structural_sets_while_configured_and_applies_noise_li
     assert not result.successful
     assert result.reason == "dt is read-only while configured; cleanup, set, configure"
     assert node.get_parameter("dt").value == 0.05 and node._sim.config.dt == 0.05
-    for name, bad, words in (("mode", "bogus", "mode: must be one of lockstep, realtime"),
-                             ("lidar.noise_std", -1.0, "out of range")):
+    for name, bad, words in (
+        ("mode", "bogus", "mode: must be one of lockstep, realtime"),
+        ("lidar.noise_std", -1.0, "out of range"),
+    ):
         result = set_remote(multi_executor, probe, "simulator", name, bad)
         assert not result.successful and words in result.reason, result.reason
     assert set_remote(multi_executor, probe, "simulator", "lidar.noise_std", 0.0).successful
@@ -100,14 +113,22 @@ def test_simulator_refuses_structural_sets_while_configured_and_applies_noise_li
     node._sim.step(0.0, 0.0)
     assert np.array_equal(node._sim.ranges, first), "with the noise set to 0 live, a still robot reads the same ranges"
     assert node.try_transition(Transition.TRANSITION_CLEANUP)
-    assert set_remote(multi_executor, probe, "simulator", "dt", 0.1).successful, "unconfigured: structural sets are fine"
+    assert set_remote(multi_executor, probe, "simulator", "dt", 0.1).successful, (
+        "unconfigured: structural sets are fine"
+    )
     assert node.try_transition(Transition.TRANSITION_CONFIGURE) and node._sim.config.dt == 0.1
 
 
 def test_simulator_configure_reports_every_bad_key_at_once(ros_context, executor):
-    node = SimulatorNode(context=ros_context, parameter_overrides=[
-        Parameter("dt", value=-1.0), Parameter("mode", value="bogus"), Parameter("world", value="nowhere.yaml"),
-        Parameter("lidar.beamz", value=10)])
+    node = SimulatorNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("dt", value=-1.0),
+            Parameter("mode", value="bogus"),
+            Parameter("world", value="nowhere.yaml"),
+            Parameter("lidar.beamz", value=10),
+        ],
+    )
     executor.add_node(node)
     problems = node.parameter_problems()
     assert [p.split(":")[0] for p in problems] == ["world", "dt", "mode", "lidar.beamz"], problems

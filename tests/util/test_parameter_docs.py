@@ -3,9 +3,11 @@
 from amr_util.parameter_docs import drift, parameter_table, splice, value_text
 from amr_util.parameter_spec import ParameterSpec
 
-SPECS = (ParameterSpec("kp", 4.0, "rad/s per m | gain", minimum=0.0, maximum=100.0, live=True),
-         ParameterSpec("wall", "right", "hand", choices=("right", "left")),
-         ParameterSpec("topics", [""], "to record", kind="str_array", read_only=True))
+SPECS = (
+    ParameterSpec("kp", 4.0, "rad/s per m | gain", minimum=0.0, maximum=100.0, live=True),
+    ParameterSpec("wall", "right", "hand", choices=("right", "left")),
+    ParameterSpec("topics", [""], "to record", kind="str_array", read_only=True),
+)
 
 
 def test_a_table_has_one_row_per_parameter_with_file_columns():
@@ -18,8 +20,14 @@ def test_a_table_has_one_row_per_parameter_with_file_columns():
 
 
 def test_values_read_as_yaml_types():
-    assert [value_text(v) for v in (True, 4.0, 1e-5, 10, "", [0.0, 1.5])] == ["true", "4.0", "1e-05", "10", "''",
-                                                                          "[0.0, 1.5]"]
+    assert [value_text(v) for v in (True, 4.0, 1e-5, 10, "", [0.0, 1.5])] == [
+        "true",
+        "4.0",
+        "1e-05",
+        "10",
+        "''",
+        "[0.0, 1.5]",
+    ]
 
 
 def test_a_block_is_rewritten_and_drift_is_found():

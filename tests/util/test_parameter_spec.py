@@ -11,15 +11,18 @@ def test_kind_comes_from_the_default_and_integers_widen_to_floats():
     assert ParameterSpec("beams", 240).kind == "int"
 
 
-@pytest.mark.parametrize("spec, value, words", [
-    (ParameterSpec("kp", 4.0, minimum=0.0, maximum=100.0), "abc", "kp: must be a number, got 'abc'"),
-    (ParameterSpec("kp", 4.0, minimum=0.0, maximum=100.0), 101.0, "kp: must be in [0, 100], got 101.0"),
-    (ParameterSpec("kp", 4.0), float("nan"), "kp: must be finite"),
-    (ParameterSpec("beams", 240, minimum=1), True, "beams: must be an integer, got True"),
-    (ParameterSpec("wall", "right", choices=("right", "left")), "up", "wall: must be one of right, left, got 'up'"),
-    (ParameterSpec("names", ["a"]), ["a", 1], "names: must be a string, got 1"),
-    (ParameterSpec("world", "w", check=lambda v: "no such file" if v == "x" else None), "x", "world: no such file"),
-])
+@pytest.mark.parametrize(
+    "spec, value, words",
+    [
+        (ParameterSpec("kp", 4.0, minimum=0.0, maximum=100.0), "abc", "kp: must be a number, got 'abc'"),
+        (ParameterSpec("kp", 4.0, minimum=0.0, maximum=100.0), 101.0, "kp: must be in [0, 100], got 101.0"),
+        (ParameterSpec("kp", 4.0), float("nan"), "kp: must be finite"),
+        (ParameterSpec("beams", 240, minimum=1), True, "beams: must be an integer, got True"),
+        (ParameterSpec("wall", "right", choices=("right", "left")), "up", "wall: must be one of right, left, got 'up'"),
+        (ParameterSpec("names", ["a"]), ["a", 1], "names: must be a string, got 1"),
+        (ParameterSpec("world", "w", check=lambda v: "no such file" if v == "x" else None), "x", "world: no such file"),
+    ],
+)
 def test_bad_values_are_refused_naming_key_and_rule(spec, value, words):
     with pytest.raises(ValueError) as error:
         spec.coerce(value)
@@ -27,8 +30,11 @@ def test_bad_values_are_refused_naming_key_and_rule(spec, value, words):
 
 
 def test_problems_are_all_reported_at_once():
-    specs = [ParameterSpec("dt", 0.05, minimum=0.001), ParameterSpec("mode", "a", choices=("a", "b")),
-             ParameterSpec("ok", 1)]
+    specs = [
+        ParameterSpec("dt", 0.05, minimum=0.001),
+        ParameterSpec("mode", "a", choices=("a", "b")),
+        ParameterSpec("ok", 1),
+    ]
     problems = problems_of(specs, {"dt": -1.0, "mode": "c", "ok": 2})
     assert [p.split(":")[0] for p in problems] == ["dt", "mode"]
 
@@ -82,13 +88,15 @@ def test_a_config_states_each_parameter_once_and_derives_its_specs():
 def test_construction_and_from_params_validate_naming_the_key():
     assert Robot.from_params({"gain": 3, "wheel.radius": 0.05}).gain == 3.0
     assert Robot.from_params({"wheel": {"radius": 0.05}}).wheel.radius == 0.05
-    for params, words in [({"gain": 11.0}, "gain: must be in [0, 10], got 11.0"),
-                          ({"gain": -1.0}, "gain: must be >= 0 (in [0, 10]), got -1.0"),
-                          ({"wheel.radius": 0.0}, "wheel.radius: must be positive (in (0, 1]), got 0.0"),
-                          ({"mode": "slow", "gain": 6.0}, "gain: at most 5 when slow"),
-                          ({"start": [1.0]}, "start: 3 values"),
-                          ({"gian": 1.0}, "gian: unknown parameter (known: gain, mode, start, wheel.*, wheel_radius)"),
-                          ({"wheel.radius": "big"}, "wheel.radius: must be a number, got 'big'")]:
+    for params, words in [
+        ({"gain": 11.0}, "gain: must be in [0, 10], got 11.0"),
+        ({"gain": -1.0}, "gain: must be >= 0 (in [0, 10]), got -1.0"),
+        ({"wheel.radius": 0.0}, "wheel.radius: must be positive (in (0, 1]), got 0.0"),
+        ({"mode": "slow", "gain": 6.0}, "gain: at most 5 when slow"),
+        ({"start": [1.0]}, "start: 3 values"),
+        ({"gian": 1.0}, "gian: unknown parameter (known: gain, mode, start, wheel.*, wheel_radius)"),
+        ({"wheel.radius": "big"}, "wheel.radius: must be a number, got 'big'"),
+    ]:
         with pytest.raises(ConfigError) as error:
             Robot.from_params(params)
         assert str(error.value).startswith(words)

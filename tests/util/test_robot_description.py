@@ -16,8 +16,7 @@ from amr_navigation.traffic import TrafficConfig
 from amr_planning.costmap import CostmapConfig
 from amr_planning.planner_node import PlannerNode
 from amr_simulation.config import SimulationConfig
-from amr_util.robot_description import (RobotDescriptionError, default_robot, load_robot_description,
-                                        robot_parameters)
+from amr_util.robot_description import RobotDescriptionError, default_robot, load_robot_description, robot_parameters
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ROOT / "config" / "robot" / "turtlebot3_burger.yaml"
@@ -26,7 +25,12 @@ SHIPPED = ROOT / "config" / "robot" / "turtlebot3_burger.yaml"
 def test_the_shipped_burger():
     robot = default_robot()
     assert (robot.radius, robot.wheel_radius, robot.wheel_separation) == (0.105, 0.033, 0.16)
-    assert (robot.max_linear_speed, robot.max_angular_speed, robot.lidar_x, robot.lidar_beams) == (0.22, 2.84, -0.032, 360)
+    assert (robot.max_linear_speed, robot.max_angular_speed, robot.lidar_x, robot.lidar_beams) == (
+        0.22,
+        2.84,
+        -0.032,
+        360,
+    )
     assert robot.scan_period == pytest.approx(0.2)
 
 
@@ -37,15 +41,31 @@ def test_every_library_default_is_the_description():
     assert WallFollowerConfig().robot_radius == PathFollowerConfig().robot_radius == robot.radius
     assert sim.lidar.x == WallFollowerConfig().lidar_x == PathFollowerConfig().lidar_x == robot.lidar_x
     assert (sim.robot.track, sim.robot.max_linear, sim.robot.max_wheel_speed) == (
-        robot.wheel_separation, robot.max_linear_speed, robot.max_linear_speed / robot.wheel_radius)
+        robot.wheel_separation,
+        robot.max_linear_speed,
+        robot.max_linear_speed / robot.wheel_radius,
+    )
 
 
 def test_the_radius_is_written_once():
     """No literal 0.105 in the packages and config/ but the description (amr_mapping's explorer excepted: its
     owner moves it)."""
-    found = subprocess.run(["grep", "-rn", "--include=*.py", "--include=*.yaml", r"0\.105", *sorted(
-        str(p) for p in ROOT.glob("amr_*") if p.is_dir() and p.name not in ("amr_mapping", "amr_suite.egg-info")),
-        "config"], cwd=ROOT, capture_output=True, text=True).stdout.splitlines()
+    found = subprocess.run(
+        [
+            "grep",
+            "-rn",
+            "--include=*.py",
+            "--include=*.yaml",
+            r"0\.105",
+            *sorted(
+                str(p) for p in ROOT.glob("amr_*") if p.is_dir() and p.name not in ("amr_mapping", "amr_suite.egg-info")
+            ),
+            "config",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    ).stdout.splitlines()
     assert [line for line in found if not line.startswith(("config/robot/", "config/explorer.yaml"))] == []
 
 
@@ -57,13 +77,19 @@ def write(tmp_path, change) -> Path:
     return path
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda d: d["footprint"].update(radius=-1.0), r"footprint\.radius: must be a number in \[0\.01, 2\], got -1\.0"),
-    (lambda d: d["lidar"].update(beams=36.5), r"lidar\.beams: must be an integer in \[1, 10000\], got 36\.5"),
-    (lambda d: d["wheels"].pop("separation"), r"wheels\.separation: missing"),
-    (lambda d: d["limits"].update(max_speed=1.0), r"unknown key limits\.max_speed"),
-    (lambda d: d.update(arm={}), r"unknown section 'arm'"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            lambda d: d["footprint"].update(radius=-1.0),
+            r"footprint\.radius: must be a number in \[0\.01, 2\], got -1\.0",
+        ),
+        (lambda d: d["lidar"].update(beams=36.5), r"lidar\.beams: must be an integer in \[1, 10000\], got 36\.5"),
+        (lambda d: d["wheels"].pop("separation"), r"wheels\.separation: missing"),
+        (lambda d: d["limits"].update(max_speed=1.0), r"unknown key limits\.max_speed"),
+        (lambda d: d.update(arm={}), r"unknown section 'arm'"),
+    ],
+)
 def test_errors_name_file_key_and_value(tmp_path, change, message):
     path = write(tmp_path, change)
     with pytest.raises(RobotDescriptionError, match=re.escape(str(path)) + ".*" + message):
@@ -76,8 +102,10 @@ def test_a_node_takes_another_robot_for_the_facts_it_was_not_given(tmp_path, ros
     big = write(tmp_path, lambda d: d["footprint"].update(radius=0.2))
     assert robot_parameters(load_robot_description(big))["robot_radius"] == 0.2
     planner = PlannerNode(context=ros_context, parameter_overrides=[Parameter("robot_description", value=str(big))])
-    given = PlannerNode(context=ros_context, parameter_overrides=[
-        Parameter("robot_description", value=str(big)), Parameter("robot_radius", value=0.15)])
+    given = PlannerNode(
+        context=ros_context,
+        parameter_overrides=[Parameter("robot_description", value=str(big)), Parameter("robot_radius", value=0.15)],
+    )
     shipped = PlannerNode(context=ros_context)
     bad = PlannerNode(context=ros_context, parameter_overrides=[Parameter("robot_description", value="nope.yaml")])
     try:

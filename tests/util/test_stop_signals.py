@@ -35,8 +35,9 @@ SIGNAL_STORM = textwrap.dedent("""
 
 
 def test_a_storm_of_signals_setting_the_flag_being_waited_on_never_blocks_the_main_thread():
-    result = subprocess.run([sys.executable, "-c", SIGNAL_STORM], env=child_environment(), capture_output=True,
-                            text=True, timeout=30)
+    result = subprocess.run(
+        [sys.executable, "-c", SIGNAL_STORM], env=child_environment(), capture_output=True, text=True, timeout=30
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     assert result.stdout.strip() == "True (True, False) True"  # SIGTERM: stop; then SIGINT: hurry
 

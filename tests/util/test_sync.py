@@ -278,8 +278,14 @@ def test_small_queues_keep_the_guarantees_and_bound_memory(case, queue_size):
 
 def test_a_clock_jump_back_is_recovered_from_not_taken_for_late_messages():
     got, jumps = [], []
-    sync = ApproximateTimeSynchronizer(2, 0.01, 10, lambda *m: got.append(m), jump_threshold=0.5,
-                                       on_jump=lambda index, jump: jumps.append((index, jump)))
+    sync = ApproximateTimeSynchronizer(
+        2,
+        0.01,
+        10,
+        lambda *m: got.append(m),
+        jump_threshold=0.5,
+        on_jump=lambda index, jump: jumps.append((index, jump)),
+    )
     for stamp in (1.0, 1.05, 1e6, 1.10, 1.15):  # 1e6: one bad stamp far ahead, then normal ones
         sync.add(0, int(stamp * 1e9), f"a{stamp}")
         sync.add(1, int(stamp * 1e9), f"b{stamp}")

@@ -14,7 +14,11 @@ def test_transform_carries_frames_stamp_and_planar_pose():
     item = message.transforms[0]
     assert (item.header.frame_id, item.child_frame_id) == ("map", "odom")
     assert (item.header.stamp.sec, item.header.stamp.nanosec) == (3, 5)
-    assert (item.transform.translation.x, item.transform.translation.y, item.transform.translation.z) == (1.5, -2.0, 0.0)
+    assert (item.transform.translation.x, item.transform.translation.y, item.transform.translation.z) == (
+        1.5,
+        -2.0,
+        0.0,
+    )
     assert math.isclose(yaw_from_quaternion(item.transform.rotation), 2.5, abs_tol=1e-12)
 
 

@@ -29,8 +29,16 @@ def _same(data: bytes, message) -> bool:
     return deserialize_message(data, kind) == deserialize_message(serialize_message(message), kind)
 
 
-ODOMETRY = ("header.stamp.sec", "header.stamp.nanosec", "pose.pose.position.x", "pose.pose.position.y",
-            "pose.pose.orientation.z", "pose.pose.orientation.w", "twist.twist.linear.x", "twist.twist.angular.z")
+ODOMETRY = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "pose.pose.position.x",
+    "pose.pose.position.y",
+    "pose.pose.orientation.z",
+    "pose.pose.orientation.w",
+    "twist.twist.linear.x",
+    "twist.twist.angular.z",
+)
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -51,8 +59,15 @@ def test_odometry_rewritten_in_place_is_the_odometry_with_those_values(seed):
 
 
 def test_a_scan_takes_its_whole_ranges_with_infinities_and_keeps_its_geometry():
-    template = LaserScan(angle_min=-math.pi, angle_max=math.pi, angle_increment=2 * math.pi / 240, range_min=0.12,
-                         range_max=3.5, scan_time=0.05, ranges=[1.0] * 240)
+    template = LaserScan(
+        angle_min=-math.pi,
+        angle_max=math.pi,
+        angle_increment=2 * math.pi / 240,
+        range_min=0.12,
+        range_max=3.5,
+        scan_time=0.05,
+        ranges=[1.0] * 240,
+    )
     template.header.frame_id = "base_scan"
     wire = WireMessage(template, ("header.stamp.sec", "header.stamp.nanosec", "ranges"))
     ranges = np.random.default_rng(1).uniform(0.12, 3.5, 240)
@@ -61,8 +76,11 @@ def test_a_scan_takes_its_whole_ranges_with_infinities_and_keeps_its_geometry():
     received = deserialize_message(data, LaserScan)
     np.testing.assert_array_equal(np.asarray(received.ranges), ranges.astype(np.float32))
     assert (received.header.stamp.sec, received.header.stamp.nanosec) == (12, 500_000_000)
-    assert (received.header.frame_id, received.range_max, len(received.intensities)) == ("base_scan",
-                                                                                          pytest.approx(3.5), 0)
+    assert (received.header.frame_id, received.range_max, len(received.intensities)) == (
+        "base_scan",
+        pytest.approx(3.5),
+        0,
+    )
     with pytest.raises(ValueError, match="239 values for a sequence of 240"):
         wire.fill(12, 0, ranges[:-1])
 
@@ -71,12 +89,17 @@ def test_every_transform_of_a_tf_message_and_every_status_field():
     transforms = [TransformStamped() for _ in range(3)]
     for i, transform in enumerate(transforms):
         transform.header.frame_id, transform.child_frame_id = "map", f"r{i}/odom"
-    fields = [f"transforms.{i}.{name}" for i in range(3) for name in (
-        "header.stamp.sec", "transform.translation.x", "transform.rotation.z", "transform.rotation.w")]
+    fields = [
+        f"transforms.{i}.{name}"
+        for i in range(3)
+        for name in ("header.stamp.sec", "transform.translation.x", "transform.rotation.z", "transform.rotation.w")
+    ]
     values = [7, 1.5, 0.25, 0.96, 8, -2.0, -0.5, 0.86, 9, 3.25, 1.0, 0.0]
     expected = TFMessage(transforms=transforms)
-    wire = WireMessage(TFMessage(transforms=[TransformStamped(header=t.header, child_frame_id=t.child_frame_id)
-                                             for t in transforms]), fields)
+    wire = WireMessage(
+        TFMessage(transforms=[TransformStamped(header=t.header, child_frame_id=t.child_frame_id) for t in transforms]),
+        fields,
+    )
     for path, value in zip(fields, values):
         _set(expected, path, value)
     assert _same(wire.fill(*values), expected)

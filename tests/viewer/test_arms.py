@@ -35,15 +35,17 @@ def test_every_shipped_chain_stands_in_its_cell_at_home(arms):
 def test_joint_states_move_only_the_named_chain(arms):
     arm = arms.arms["rr2"]
     before = {name: other.version for name, other in arms.arms.items()}
-    changed = arms.on_joint_state(["rr2/q1", "rr2/q2", "nope/q1", "ur5/not_a_joint", "rr2/q3"], [0.5, -1.0, 3.0, 1.0,
-                                                                                                   2.0])
+    changed = arms.on_joint_state(
+        ["rr2/q1", "rr2/q2", "nope/q1", "ur5/not_a_joint", "rr2/q3"], [0.5, -1.0, 3.0, 1.0, 2.0]
+    )
     assert changed == {"rr2"} and arm.version == before["rr2"] + 1
     assert all(other.version == before[name] for name, other in arms.arms.items() if name != "rr2")
     assert arm.positions[:2] == pytest.approx([0.5, -1.0])
     tip = arm.points()[-1]
     a = arm.config.chain.a
-    expected = arm.origin[:2] + arm.scale * np.array([a[0] * math.cos(0.5) + a[1] * math.cos(-0.5),
-                                                      a[0] * math.sin(0.5) + a[1] * math.sin(-0.5)])
+    expected = arm.origin[:2] + arm.scale * np.array(
+        [a[0] * math.cos(0.5) + a[1] * math.cos(-0.5), a[0] * math.sin(0.5) + a[1] * math.sin(-0.5)]
+    )
     assert tip[:2] == pytest.approx(expected), "the planar 2R tip from its FK"
     assert arms.on_joint_state(["rr2/q1"], [0.5]) == set(), "the same value again changes nothing"
     assert arms.on_joint_state(["rr2/q1"], [math.nan]) == set()

@@ -31,8 +31,9 @@ import pytest
 CHROMIUM = Path(os.environ.get("AMR_CHROMIUM", "/usr/bin/chromium"))
 if not CHROMIUM.exists():
     pytest.skip(f"browser tests: no {CHROMIUM} (install it: apt-get install chromium)", allow_module_level=True)
-playwright_api = pytest.importorskip("playwright.sync_api",
-                                     reason="browser tests: no playwright (pip install -e '.[test]')")
+playwright_api = pytest.importorskip(
+    "playwright.sync_api", reason="browser tests: no playwright (pip install -e '.[test]')"
+)
 
 import rclpy  # noqa: E402
 from conftest import fresh_domain  # noqa: E402
@@ -52,8 +53,15 @@ from amr_viewer.scene import ROBOT_COLORS  # noqa: E402
 from amr_viewer.messages import occupancy_grid  # noqa: E402
 from amr_viewer.parameters import value_of  # noqa: E402
 
-ARGS = ["--enable-unsafe-swiftshader", "--no-sandbox", "--disable-background-networking", "--disable-dev-shm-usage",
-        "--disable-gpu-sandbox", "--mute-audio", "--no-first-run"]
+ARGS = [
+    "--enable-unsafe-swiftshader",
+    "--no-sandbox",
+    "--disable-background-networking",
+    "--disable-dev-shm-usage",
+    "--disable-gpu-sandbox",
+    "--mute-audio",
+    "--no-first-run",
+]
 VIEWPORT = {"width": 1024, "height": 640}
 FLEET_VIEWPORT = {"width": 1400, "height": 900}
 FLEET = ("r1", "r2", "r3", "r4")
@@ -102,18 +110,27 @@ class Probe(Node):
         self.fleet: dict[str, list[tuple[float, float]]] = {robot: [] for robot in robots}
         for robot in robots:
             poses = self.fleet[robot]
-            self.create_subscription(Odometry, f"/{robot}/ground_truth", lambda m, poses=poses: poses.append(
-                (m.pose.pose.position.x, m.pose.pose.position.y)), reliable(100))
+            self.create_subscription(
+                Odometry,
+                f"/{robot}/ground_truth",
+                lambda m, poses=poses: poses.append((m.pose.pose.position.x, m.pose.pose.position.y)),
+                reliable(100),
+            )
         self.clocks: list[float] = []
         self.truth: list[tuple[float, float]] = []
         self.goals: list[PoseStamped] = []
         self.paths: list[PathMessage] = []
         self.map: OccupancyGrid | None = None
-        self.create_subscription(Clock, "/clock", lambda m: self.clocks.append(m.clock.sec + m.clock.nanosec * 1e-9),
-                                 reliable(1000))
+        self.create_subscription(
+            Clock, "/clock", lambda m: self.clocks.append(m.clock.sec + m.clock.nanosec * 1e-9), reliable(1000)
+        )
         if not robots:  # a fleet's root has no ground truth (a subscription would make it a robot for the viewer)
-            self.create_subscription(Odometry, "/ground_truth", lambda m: self.truth.append(
-                (m.pose.pose.position.x, m.pose.pose.position.y)), reliable(100))
+            self.create_subscription(
+                Odometry,
+                "/ground_truth",
+                lambda m: self.truth.append((m.pose.pose.position.x, m.pose.pose.position.y)),
+                reliable(100),
+            )
         self.create_subscription(PoseStamped, "/goal_pose", self.goals.append, reliable(10))
         self.create_subscription(PathMessage, "/path", self.paths.append, LATCHED)
         self.create_subscription(OccupancyGrid, "/map", lambda m: setattr(self, "map", m), LATCHED)
@@ -153,8 +170,11 @@ class Stack:
         try:
             for attempt in range(self.ATTEMPTS):
                 self._start(name, extra)
-                wait_for(lambda: self.up() or self.process.poll() is not None or self.viewer_failed(), STARTUP,
-                         f"{name} and its viewer to come up")
+                wait_for(
+                    lambda: self.up() or self.process.poll() is not None or self.viewer_failed(),
+                    STARTUP,
+                    f"{name} and its viewer to come up",
+                )
                 if self.up() or not self.viewer_failed() or attempt == self.ATTEMPTS - 1:
                     break
                 self._stop_process()  # the port was taken before the viewer bound it: another one
@@ -169,12 +189,20 @@ class Stack:
         env = child_environment(ROS_DOMAIN_ID=str(self.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
         self.process = subprocess.Popen(
             [sys.executable, "-m", "amr_bringup.bringup", name, "--view", "--view-port", str(self.port), *extra],
-            env=env, stdout=self.log.open("w"), stderr=subprocess.STDOUT, start_new_session=True)
+            env=env,
+            stdout=self.log.open("w"),
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
 
     def up(self) -> bool:
         output = self.output()
-        return self.process.poll() is None and "all nodes active" in output and \
-            f": viewer at {self.url} (no authentication" in output and serving(self.port)
+        return (
+            self.process.poll() is None
+            and "all nodes active" in output
+            and f": viewer at {self.url} (no authentication" in output
+            and serving(self.port)
+        )
 
     def viewer_failed(self) -> bool:
         """The port was taken: before amr-bringup started (it refuses the port) or before the viewer bound it."""
@@ -303,8 +331,9 @@ def camera_of(stack: Stack, page: Browser):
     of the canvas left of the control panel)."""
     wait_for(lambda: stack.probe.map is not None, what="/map")
     box = page.canvas.bounding_box()
-    return top_down_camera(occupancy_grid(stack.probe.map).bounds, box["width"] / box["height"],
-                           free=free_share(box["width"]))
+    return top_down_camera(
+        occupancy_grid(stack.probe.map).bounds, box["width"] / box["height"], free=free_share(box["width"])
+    )
 
 
 # The stacks of their own first: the maze_navigation stack of the module's page runs from its first test to the end.
@@ -352,7 +381,7 @@ def near(image: np.ndarray, center: tuple[float, float], radius: float) -> np.nd
     """The (N, 3) pixels of `image` within `radius` px of `center`."""
     height, width = image.shape[:2]
     rows, cols = np.ogrid[:height, :width]
-    return image[(rows - center[1]) ** 2 + (cols - center[0]) ** 2 <= radius ** 2].astype(int)
+    return image[(rows - center[1]) ** 2 + (cols - center[0]) ** 2 <= radius**2].astype(int)
 
 
 def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(playwright, tmp_path):
@@ -364,8 +393,11 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
         browser = Browser(playwright, stack.url, FLEET_VIEWPORT)
         wait_for(lambda: all(truth[robot] for robot in FLEET), what="every robot's ground truth")
         starts = {robot: truth[robot][0] for robot in FLEET}
-        wait_for(lambda: all(math.dist(truth[robot][-1], starts[robot]) > 0.2 for robot in FLEET), STARTUP,
-                 "every robot to move 0.2 m")
+        wait_for(
+            lambda: all(math.dist(truth[robot][-1], starts[robot]) > 0.2 for robot in FLEET),
+            STARTUP,
+            "every robot to move 0.2 m",
+        )
         for robot in FLEET:  # the node table: a row per namespace
             browser.page.get_by_role("cell", name=f"/{robot}", exact=True).wait_for()
         browser.reply("from the true ring")  # the disc's distance from the ring, said
@@ -386,8 +418,9 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
         xmin, ymin, xmax, ymax = occupancy_grid(probe.map).bounds
         right = browser.pixel(xmax, ymax, camera)[0]
         left = browser.pixel(xmin, ymin, camera)[0]
-        assert box["x"] < left and right < panel["x"], f"the map ({left:.0f}-{right:.0f} px) left of the panel " \
-                                                        f"({panel['x']:.0f} px)"
+        assert box["x"] < left and right < panel["x"], (
+            f"the map ({left:.0f}-{right:.0f} px) left of the panel ({panel['x']:.0f} px)"
+        )
         scale = browser.pixel(1.0, 0.0, camera)[0] - browser.pixel(0.0, 0.0, camera)[0]  # px per m
         labels, discs = {}, {}
         for index, robot in enumerate(FLEET):
@@ -404,8 +437,10 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
         browser.page.get_by_label("Show labels").uncheck()
         unlabelled = browser.settled()
         for robot, (u, v) in labels.items():  # the label above each robot went with the checkbox
-            window = (slice(max(int(v - 0.2 * scale), 0), int(v + 0.2 * scale)),
-                      slice(max(int(u - 0.3 * scale), 0), int(u + 0.3 * scale)))
+            window = (
+                slice(max(int(v - 0.2 * scale), 0), int(v + 0.2 * scale)),
+                slice(max(int(u - 0.3 * scale), 0), int(u + 0.3 * scale)),
+            )
             changed = (np.abs(shown[window].astype(int) - unlabelled[window].astype(int)).sum(axis=2) > 60).sum()
             assert changed > 20, f"{robot}'s name label above it ({changed} pixels changed when hidden)"
         resume(browser)
@@ -511,8 +546,10 @@ def test_a_click_on_the_floor_sends_that_point_as_the_goal(page, navigation):
     goal = probe.goals[-1]
     assert goal.header.frame_id == "map"
     error = math.hypot(goal.pose.position.x - x, goal.pose.position.y - y)
-    assert error < 0.05, f"goal ({goal.pose.position.x:.3f}, {goal.pose.position.y:.3f}) is {error:.3f} m from the " \
-                         f"clicked ({x:.3f}, {y:.3f})"
+    assert error < 0.05, (
+        f"goal ({goal.pose.position.x:.3f}, {goal.pose.position.y:.3f}) is {error:.3f} m from the "
+        f"clicked ({x:.3f}, {y:.3f})"
+    )
 
 
 def test_a_slider_sets_a_live_parameter(page, navigation):

@@ -6,8 +6,17 @@ import numpy as np
 import pytest
 
 from amr_util.geometry import Pose2D, quaternion_from_yaw
-from amr_viewer.geometry import (PANEL_PIXELS, covariance_ellipse, floor_point, free_share, oblique_camera,
-                                 scan_points, top_down_camera, transform_points, wxyz_of)
+from amr_viewer.geometry import (
+    PANEL_PIXELS,
+    covariance_ellipse,
+    floor_point,
+    free_share,
+    oblique_camera,
+    scan_points,
+    top_down_camera,
+    transform_points,
+    wxyz_of,
+)
 
 RNG = np.random.default_rng(21)
 
@@ -59,8 +68,10 @@ def project(camera, point, aspect):
     """Pixel fractions (0..1, y down) of a world point for a camera looking straight down with +y up on screen."""
     height = camera.position[2] - point[2]
     half_h = height * math.tan(camera.fov / 2)
-    return (0.5 + (point[0] - camera.look_at[0]) / (2 * half_h * aspect),
-            0.5 - (point[1] - camera.look_at[1]) / (2 * half_h))
+    return (
+        0.5 + (point[0] - camera.look_at[0]) / (2 * half_h * aspect),
+        0.5 - (point[1] - camera.look_at[1]) / (2 * half_h),
+    )
 
 
 @pytest.mark.parametrize("aspect", [0.5, 1.0, 1.6, 3.0])

@@ -35,12 +35,16 @@ def test_unbounded_numbers_get_fields():
     assert entry(ParameterSpec("x", 1.0, "half bounded", minimum=0.0)).widget == "number"  # ours: to 1e308
     assert entry(ParameterSpec("seed", 0, "", minimum=0, maximum=2**31 - 1)).widget == "number", "too wide"
     assert entry(ParameterSpec("free", 2.5, "")).widget == "number"
-    descriptor = ParameterDescriptor(type=T.PARAMETER_DOUBLE, floating_point_range=[
-        FloatingPointRange(from_value=0.0, to_value=1.0, step=0.25)])
+    descriptor = ParameterDescriptor(
+        type=T.PARAMETER_DOUBLE, floating_point_range=[FloatingPointRange(from_value=0.0, to_value=1.0, step=0.25)]
+    )
     stepped = entry_from("a", descriptor, parameter_value(T.PARAMETER_DOUBLE, 0.5))
     assert (stepped.widget, stepped.step) == ("slider", 0.25)
-    outside = entry_from("b", ParameterDescriptor(type=T.PARAMETER_INTEGER, integer_range=[
-        IntegerRange(from_value=0, to_value=10, step=0)]), parameter_value(T.PARAMETER_INTEGER, 20))
+    outside = entry_from(
+        "b",
+        ParameterDescriptor(type=T.PARAMETER_INTEGER, integer_range=[IntegerRange(from_value=0, to_value=10, step=0)]),
+        parameter_value(T.PARAMETER_INTEGER, 20),
+    )
     assert outside.widget == "number", "a value outside its own range cannot sit on a slider"
 
 
@@ -52,19 +56,22 @@ def test_other_types_and_read_only():
     assert entry(ParameterSpec("fixed", 1.0, "", read_only=True)).widget == "readonly"
 
 
-@pytest.mark.parametrize("spec,given,expected", [
-    (ParameterSpec("b", True, ""), "false", False),
-    (ParameterSpec("b", True, ""), True, True),
-    (ParameterSpec("i", 3, ""), 7.0, 7),
-    (ParameterSpec("i", 3, ""), "12", 12),
-    (ParameterSpec("f", 0.5, ""), "0.25", 0.25),
-    (ParameterSpec("s", "x", ""), "hello", "hello"),
-    (ParameterSpec("fa", [0.0], ""), "[1, 2.5]", [1.0, 2.5]),
-    (ParameterSpec("fa", [0.0], ""), "[]", []),
-    (ParameterSpec("ia", [0], ""), "[1, 2]", [1, 2]),
-    (ParameterSpec("sa", ["a"], ""), "[a, 'b c']", ["a", "b c"]),
-    (ParameterSpec("ba", [True], ""), "[true, false]", [True, False]),
-])
+@pytest.mark.parametrize(
+    "spec,given,expected",
+    [
+        (ParameterSpec("b", True, ""), "false", False),
+        (ParameterSpec("b", True, ""), True, True),
+        (ParameterSpec("i", 3, ""), 7.0, 7),
+        (ParameterSpec("i", 3, ""), "12", 12),
+        (ParameterSpec("f", 0.5, ""), "0.25", 0.25),
+        (ParameterSpec("s", "x", ""), "hello", "hello"),
+        (ParameterSpec("fa", [0.0], ""), "[1, 2.5]", [1.0, 2.5]),
+        (ParameterSpec("fa", [0.0], ""), "[]", []),
+        (ParameterSpec("ia", [0], ""), "[1, 2]", [1, 2]),
+        (ParameterSpec("sa", ["a"], ""), "[a, 'b c']", ["a", "b c"]),
+        (ParameterSpec("ba", [True], ""), "[true, false]", [True, False]),
+    ],
+)
 def test_widget_values_become_the_parameters_type(spec, given, expected):
     parsed = entry(spec).parse(given)
     assert parsed == expected and type(parsed) is type(expected)
@@ -72,13 +79,16 @@ def test_widget_values_become_the_parameters_type(spec, given, expected):
     assert message.name == spec.name and value_of(message.value) == expected
 
 
-@pytest.mark.parametrize("spec,given,words", [
-    (ParameterSpec("i", 3, ""), 2.5, "an integer"),
-    (ParameterSpec("f", 0.5, ""), "fast", "a number"),
-    (ParameterSpec("b", True, ""), "maybe", "true or false"),
-    (ParameterSpec("ia", [0], ""), "[1.5]", "a list of integers"),
-    (ParameterSpec("fa", [0.0], ""), "{a: 1}", "a list of numbers"),
-])
+@pytest.mark.parametrize(
+    "spec,given,words",
+    [
+        (ParameterSpec("i", 3, ""), 2.5, "an integer"),
+        (ParameterSpec("f", 0.5, ""), "fast", "a number"),
+        (ParameterSpec("b", True, ""), "maybe", "true or false"),
+        (ParameterSpec("ia", [0], ""), "[1.5]", "a list of integers"),
+        (ParameterSpec("fa", [0.0], ""), "{a: 1}", "a list of numbers"),
+    ],
+)
 def test_a_bad_value_is_refused_saying_what_was_expected(spec, given, words):
     with pytest.raises(ValueError, match=f"{spec.name}: .* is not {words}"):
         entry(spec).parse(given)
@@ -90,17 +100,22 @@ def test_nice_steps_and_hidden_names():
 
 
 GRAPH = [
-    ("/scan", ["sensor_msgs/msg/LaserScan"]), ("/map", ["nav_msgs/msg/OccupancyGrid"]),
-    ("/robot1/ground_truth", ["nav_msgs/msg/Odometry"]), ("/robot1/tf", ["tf2_msgs/msg/TFMessage"]),
+    ("/scan", ["sensor_msgs/msg/LaserScan"]),
+    ("/map", ["nav_msgs/msg/OccupancyGrid"]),
+    ("/robot1/ground_truth", ["nav_msgs/msg/Odometry"]),
+    ("/robot1/tf", ["tf2_msgs/msg/TFMessage"]),
     ("/fleet/robot2/pose", ["amr_interfaces/msg/LocalizedPose"]),
     ("/other/scan", ["std_msgs/msg/String"]),  # not a robot: wrong type
-    ("/ik_service/joint_states", ["sensor_msgs/msg/JointState"]), ("/joint_states", ["sensor_msgs/msg/JointState"]),
+    ("/ik_service/joint_states", ["sensor_msgs/msg/JointState"]),
+    ("/joint_states", ["sensor_msgs/msg/JointState"]),
     ("/simulator/status", ["amr_interfaces/msg/SimulatorStatus"]),
 ]
-SERVICES = [(f"/simulator/{leaf}", ["std_srvs/srv/Trigger"]) for leaf in ("pause", "resume", "step", "reset",
-                                                                        "render")] + [
+SERVICES = [
+    (f"/simulator/{leaf}", ["std_srvs/srv/Trigger"]) for leaf in ("pause", "resume", "step", "reset", "render")
+] + [
     ("/robot1/simulator/pause", ["std_srvs/srv/Trigger"]),  # not every control: not a simulator to steer
-    ("/simulator/get_state", ["lifecycle_msgs/srv/GetState"]), ("/planner/get_state", ["lifecycle_msgs/srv/GetState"]),
+    ("/simulator/get_state", ["lifecycle_msgs/srv/GetState"]),
+    ("/planner/get_state", ["lifecycle_msgs/srv/GetState"]),
     ("/x/get_state", ["std_srvs/srv/Trigger"]),
     ("/particle_filter/reinitialize_global_localization", ["std_srvs/srv/Empty"]),
     ("/y/reinitialize_global_localization", ["std_srvs/srv/Trigger"]),  # not the standard type: not a localizer

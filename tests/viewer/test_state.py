@@ -44,9 +44,13 @@ def test_without_a_localizer_odometry_is_drawn_as_the_map():
 
 def test_a_fleet_on_one_shared_tree_is_drawn_from_its_prefixed_frames():
     # the simulator's one_tf_tree: every robot's transforms on the one /tf, frames prefixed by its name
-    shared = [tf("map", "r1/odom", 0.5, 0.0, 0.0), tf("r1/odom", "r1/base_footprint", 1.0, 2.0, 0.3),
-              tf("map", "r2/odom", 0.0, 0.0, 0.0), tf("r2/odom", "r2/base_footprint", -1.0, -2.0, 1.0),
-              tf("r1/base_footprint", "r1/base_scan", -0.032, 0.0, 0.0)]
+    shared = [
+        tf("map", "r1/odom", 0.5, 0.0, 0.0),
+        tf("r1/odom", "r1/base_footprint", 1.0, 2.0, 0.3),
+        tf("map", "r2/odom", 0.0, 0.0, 0.0),
+        tf("r2/odom", "r2/base_footprint", -1.0, -2.0, 1.0),
+        tf("r1/base_footprint", "r1/base_scan", -0.032, 0.0, 0.0),
+    ]
     r1, r2 = RobotState("/r1"), RobotState("r2")
     for state in (r1, r2):
         assert state.robot_pose() is None
@@ -54,8 +58,9 @@ def test_a_fleet_on_one_shared_tree_is_drawn_from_its_prefixed_frames():
     assert r1.robot_pose() == pytest.approx((1.5, 2.0, 0.3))
     assert r2.robot_pose() == pytest.approx((-1.0, -2.0, 1.0))
     r1.on_scan(Scan(ScanData(np.array([1.0]), 0.0, 0.1, 0.1, 4.0), "r1/base_scan"))
-    assert r1.scan_in_map() == pytest.approx(np.array([[1.5 - 0.032 * math.cos(0.3) + math.cos(0.3),
-                                                       2.0 - 0.032 * math.sin(0.3) + math.sin(0.3)]]))
+    assert r1.scan_in_map() == pytest.approx(
+        np.array([[1.5 - 0.032 * math.cos(0.3) + math.cos(0.3), 2.0 - 0.032 * math.sin(0.3) + math.sin(0.3)]])
+    )
     # a namespaced robot whose own tree has the plain frames keeps them
     plain = RobotState("/r3")
     plain.on_transforms([tf("odom", "base_footprint", 3.0, 0.0, 0.0)])
@@ -168,8 +173,9 @@ def test_the_true_ring_is_taken_at_the_instant_of_the_robots_transform():
         state.on_ground_truth(tf("map", "base_footprint", 0.1 * k, 0.0, 0.0, stamp=0.05 * k))
     assert state.truth_at_robot_instant() == pytest.approx((0.9, 0.0, 0.0)), "no TF: the latest truth"
     assert state.drawn_offset() is None, "no TF: the disc is the truth"
-    state.on_transforms([tf("map", "odom", 0.02, 0.0, 0.0, stamp=0.1), tf("odom", "base_footprint", 0.4, 0.0, 0.0,
-                                                                         stamp=0.2)])
+    state.on_transforms(
+        [tf("map", "odom", 0.02, 0.0, 0.0, stamp=0.1), tf("odom", "base_footprint", 0.4, 0.0, 0.0, stamp=0.2)]
+    )
     assert state.base_stamp == pytest.approx(0.2)
     assert state.truth_at_robot_instant() == pytest.approx((0.4, 0.0, 0.0))
     assert state.drawn_offset() == pytest.approx(0.02), "the filter's 2 cm, not the 50 cm the truth ran ahead"
@@ -185,6 +191,10 @@ def test_a_fleet_robot_on_the_shared_tree_takes_its_prefixed_base_stamp():
     state = RobotState("/r2")
     state.on_ground_truth(tf("map", "r2/base_footprint", 1.0, 0.0, 0.0, stamp=1.0))
     state.on_ground_truth(tf("map", "r2/base_footprint", 2.0, 0.0, 0.0, stamp=2.0))
-    state.on_transforms([tf("r2/odom", "r2/base_footprint", 1.0, 0.0, 0.0, stamp=1.0),
-                         tf("r1/odom", "r1/base_footprint", 5.0, 0.0, 0.0, stamp=2.0)])
+    state.on_transforms(
+        [
+            tf("r2/odom", "r2/base_footprint", 1.0, 0.0, 0.0, stamp=1.0),
+            tf("r1/odom", "r1/base_footprint", 5.0, 0.0, 0.0, stamp=2.0),
+        ]
+    )
     assert state.base_stamp == 1.0 and state.truth_at_robot_instant() == pytest.approx((1.0, 0.0, 0.0))

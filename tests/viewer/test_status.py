@@ -4,13 +4,21 @@ from amr_viewer.status import node_state_table, offset_text, split_node
 
 
 def test_node_states_are_grouped_by_namespace_root_first_active_first():
-    states = {"/r2/navigator": "active", "/simulator": "active", "/r1/planner": "inactive",
-              "/r1/navigator": "active", "/r1/path_follower": "active", "/map_server": "active"}
+    states = {
+        "/r2/navigator": "active",
+        "/simulator": "active",
+        "/r1/planner": "inactive",
+        "/r1/navigator": "active",
+        "/r1/path_follower": "active",
+        "/map_server": "active",
+    }
     rows = node_state_table(states).splitlines()
     assert rows[:2] == ["| namespace | nodes |", "|---|---|"]
-    assert rows[2:] == ["| / | active: map_server, simulator |",
-                        "| /r1 | active: navigator, path_follower; **inactive**: planner |",
-                        "| /r2 | active: navigator |"]
+    assert rows[2:] == [
+        "| / | active: map_server, simulator |",
+        "| /r1 | active: navigator, path_follower; **inactive**: planner |",
+        "| /r2 | active: navigator |",
+    ]
     assert node_state_table({}) == ""
 
 

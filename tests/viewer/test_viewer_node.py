@@ -58,8 +58,14 @@ class FakeRobot(Node):
         grid.data = cells.ravel().tolist()
         self.map.publish(grid)
         self.tf_static.publish(TFMessage(transforms=[transform("base_footprint", "base_scan", -0.032, 0.0, 0.0)]))
-        self.tf.publish(TFMessage(transforms=[transform("odom", "base_footprint", 0.5, 0.25, 0.0),
-                                              transform("map", "odom", 0.1, 0.0, 0.0)]))
+        self.tf.publish(
+            TFMessage(
+                transforms=[
+                    transform("odom", "base_footprint", 0.5, 0.25, 0.0),
+                    transform("map", "odom", 0.1, 0.0, 0.0),
+                ]
+            )
+        )
         scan = LaserScan()
         scan.header.frame_id = "base_scan"
         scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max = -math.pi, math.pi / 90, 0.12, 3.5
@@ -88,8 +94,17 @@ class FakeRobot(Node):
             point.pose.position.x, point.pose.position.y = x, 0.25
             path.poses.append(point)
         self.path.publish(path)
-        self.status.publish(SimulatorStatus(sim_time=3.5, steps=70, collisions=2, real_time_factor=12.0,
-                                            localization_enabled=True, localized=True, position_error=0.012))
+        self.status.publish(
+            SimulatorStatus(
+                sim_time=3.5,
+                steps=70,
+                collisions=2,
+                real_time_factor=12.0,
+                localization_enabled=True,
+                localized=True,
+                position_error=0.012,
+            )
+        )
 
 
 def transform(parent, child, x, y, yaw):
@@ -106,8 +121,10 @@ def viewer(ros_context):
     made = []
 
     def make(**parameters):
-        node = ViewerNode(context=ros_context, parameter_overrides=[
-            Parameter(name, value=value) for name, value in {"port": 0, **parameters}.items()])
+        node = ViewerNode(
+            context=ros_context,
+            parameter_overrides=[Parameter(name, value=value) for name, value in {"port": 0, **parameters}.items()],
+        )
         made.append(node)
         return node
 
@@ -124,12 +141,23 @@ def test_it_takes_every_layer_of_a_robot_from_the_graph(ros_context, executor, v
     assert node.url.startswith("http://127.0.0.1:")
     assert spin_until(executor, lambda: "" in node.robots, TIMEOUT), "the robot in the root namespace is found"
     link = node.robots[""]
-    assert spin_until(executor, lambda: robot.cloud.get_subscription_count() and robot.scan.get_subscription_count(),
-                      TIMEOUT)
+    assert spin_until(
+        executor, lambda: robot.cloud.get_subscription_count() and robot.scan.get_subscription_count(), TIMEOUT
+    )
     robot.publish_all()
     state = link.state
-    assert spin_until(executor, lambda: state.particle_count and state.map is not None and state.status and
-                      state.estimate is not None and len(state.path) and state.scan is not None, TIMEOUT)
+    assert spin_until(
+        executor,
+        lambda: (
+            state.particle_count
+            and state.map is not None
+            and state.status
+            and state.estimate is not None
+            and len(state.path)
+            and state.scan is not None
+        ),
+        TIMEOUT,
+    )
     assert (state.particle_count, len(state.particles)) == (5000, 800), "all counted, at most max_particles drawn"
     assert state.map.bounds == pytest.approx((-2.0, -1.5, 2.0, 1.5))
     assert state.robot_pose() == pytest.approx((0.6, 0.25, 0.0)), "map -> odom -> base_footprint"
@@ -189,8 +217,10 @@ def test_the_parameters_panel_sets_live_values_and_shows_refusals(ros_context, e
         assert spin_until(executor, lambda: "kp = 3.0" in reply.content, TIMEOUT)
         node._set_parameter("/wall_follower", entries["dt"], 0.1)
         assert spin_until(executor, lambda: "refused" in reply.content, TIMEOUT)
-        assert reply.content == "/wall_follower refused dt = 0.1: dt is read-only while configured; cleanup, set, " \
-                                "configure"
+        assert (
+            reply.content == "/wall_follower refused dt = 0.1: dt is read-only while configured; cleanup, set, "
+            "configure"
+        )
         assert follower.get_parameter("dt").value == 0.05
         node._set_parameter("/wall_follower", entries["kp"], "fast")
         assert reply.content == "kp: 'fast' is not a number"
@@ -237,12 +267,16 @@ class FakeControls(Node):
                 self.calls.append(name)
                 response.success, response.message = True, f"{name} done"
                 return response
+
             return callback
 
         for name in ("pause", "resume", "step", "reset"):
             self.create_service(Trigger, f"/simulator/{name}", answer(name))
-        self.create_service(Empty, "/particle_filter/reinitialize_global_localization",
-                            lambda request, response: self.calls.append("relocalize") or response)
+        self.create_service(
+            Empty,
+            "/particle_filter/reinitialize_global_localization",
+            lambda request, response: self.calls.append("relocalize") or response,
+        )
 
 
 def test_reset_restarts_global_localization_on_every_localizer_first(ros_context, executor, viewer):
@@ -250,17 +284,28 @@ def test_reset_restarts_global_localization_on_every_localizer_first(ros_context
     executor.add_node(node)
     executor.add_node(controls)
     assert node.try_transition(Transition.TRANSITION_CONFIGURE) and node.try_transition(Transition.TRANSITION_ACTIVATE)
-    assert spin_until(executor, lambda: node.simulators and node.localizers and all(
-        client.service_is_ready() for client in [*node.simulators["/simulator"].values(), *node.localizers.values()]),
-        TIMEOUT), "the simulator and the localizer found in the graph"
+    assert spin_until(
+        executor,
+        lambda: (
+            node.simulators
+            and node.localizers
+            and all(
+                client.service_is_ready()
+                for client in [*node.simulators["/simulator"].values(), *node.localizers.values()]
+            )
+        ),
+        TIMEOUT,
+    ), "the simulator and the localizer found in the graph"
     node._control("pause")
     assert spin_until(executor, lambda: "pause done" in node.panels.simulation_reply.content, TIMEOUT)
     node._control("reset")
     assert spin_until(executor, lambda: "reset" in controls.calls, TIMEOUT)
     assert controls.calls == ["pause", "relocalize", "reset"], "the localizer first: it judges the reset afresh"
     assert spin_until(executor, lambda: "reset done" in node.panels.simulation_reply.content, TIMEOUT)
-    assert node.panels.simulation_reply.content == \
-        "/simulator: reset done; global localization restarted on /particle_filter"
+    assert (
+        node.panels.simulation_reply.content
+        == "/simulator: reset done; global localization restarted on /particle_filter"
+    )
 
 
 FLEET_WORLD = """\
@@ -292,8 +337,10 @@ def test_it_draws_every_robot_of_a_fleet_in_its_namespace(ros_context, executor,
         def drawn() -> bool:
             for link in node.robots.values():
                 link.decode()
-            return all(s.status.get("steps", 0) > 5 and s.robot_pose() is not None and len(s.scan_in_map()) > 0
-                       for s in states.values())  # the scan placed: its frame's static transform may come last
+            return all(
+                s.status.get("steps", 0) > 5 and s.robot_pose() is not None and len(s.scan_in_map()) > 0
+                for s in states.values()
+            )  # the scan placed: its frame's static transform may come last
 
         assert spin_until(executor, drawn, TIMEOUT)
         executor.remove_node(node)
@@ -303,8 +350,11 @@ def test_it_draws_every_robot_of_a_fleet_in_its_namespace(ros_context, executor,
 def test_a_fleet_robot_found_before_its_own_tree_takes_it_when_it_appears(ros_context, viewer):
     node = viewer()
     link = RobotLink(node, "/r1", {"/r1/particle_cloud", "/tf"})  # its filter up, its simulator not yet
-    assert (link.topics["tf"], link.topics["map"], link.topics["simulator/status"]) == \
-        ("/tf", "/map", "/r1/simulator/status")
+    assert (link.topics["tf"], link.topics["map"], link.topics["simulator/status"]) == (
+        "/tf",
+        "/map",
+        "/r1/simulator/status",
+    )
     assert link.topics["particle_cloud"] == "/r1/particle_cloud"
     link.state.tree.set("odom", "base_footprint", Pose2D(1.0, 0.0, 0.0))  # the root's tree: not this robot's
     assert sorted(link.refresh({"/r1/particle_cloud", "/r1/tf", "/r1/status", "/tf"})) == ["simulator/status", "tf"]
