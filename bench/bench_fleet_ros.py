@@ -1,0 +1,341 @@
+"""How fast the fleet_navigation stack runs through ROS, and where its CPU goes (issue 36).
+
+    .venv/bin/python bench/bench_fleet_ros.py --robots 5 10 20            # real-time factor and CPU per robot-step
+    .venv/bin/python bench/bench_fleet_ros.py --robots 5 --profile        # and where the CPU goes, thread by thread
+
+Each run: a generated world (`--family`, default `pillars` rooms, `--size` m a side, default 4 m up to 6 robots
+and larger for more: SIZE_PER_ROBOT) with N robots each sent to the next one's start (bench_fleet_navigation's
+worlds), and `amr-bringup fleet_navigation world:=<file> --composed` (every node of every robot in one process,
+particle filters included, `coordination:=plan` with its fleet_planner) started as a child process. This process
+reads `/clock`; after `--warmup` s of wall clock it measures `--measure` s: the real-time factor (simulated s over
+wall s, from /clock) and the child's CPU time (/proc/<pid>/stat: every thread) per robot-step (a step is the
+simulator's dt, 0.05 s, for one robot).
+
+--profile samples the child's threads (a sampler thread in it, py-spy style, at `--hz`): each thread's own CPU
+clock (time.pthread_getcpuclockid) is read at every sample and the CPU spent since the last sample is charged
+to the thread's current Python stack, so a thread blocked in rcl_wait costs nothing. It prints the CPU by node
+kind (each composed node spins on a thread named `spin <node>`: simulator, particle_filter, navigator, ...), by
+layer (rclpy's executor, taking/publishing messages, our packages) and the functions that cost most (self and
+inclusive). Run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child
+inherits both). One run at a time: the machine has 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections import defaultdict
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+DT = 0.05
+"""s simulated per step (config/simulator.yaml)."""
+SIZE_PER_ROBOT = 0.9
+"""m of world side per robot beyond 6 (a 4 m world holds 6 robots 0.7 m apart with room to pass)."""
+
+
+# -- the child: amr-bringup with a sampler thread ----------------------------------------------------------------
+
+
+def _where(frame) -> list[str]:
+    stack = []
+    while frame is not None:
+        code = frame.f_code
+        stack.append(f"{_short(code.co_filename)}:{code.co_name}")
+        frame = frame.f_back
+    return stack
+
+
+def _short(filename: str) -> str:
+    parts = Path(filename).parts
+    for anchor in ("site-packages", "main", "work"):
+        if anchor in parts:
+            index = len(parts) - 1 - parts[::-1].index(anchor)
+            return "/".join(parts[index + 1 :])
+    return "/".join(parts[-2:])
+
+
+def sample(out: Path, start: float, duration: float, hz: float) -> None:
+    """From `start` s on, for `duration` s: every thread's CPU since the last sample charged to its stack; written
+    to `out` as JSON (per thread name: cpu; per function: self and inclusive cpu)."""
+    wakes, entities = _count_wakes()
+    time.sleep(start)
+    wakes.clear()
+    own = threading.get_ident()
+    clocks: dict[int, float] = {}
+    by_thread: dict[str, float] = defaultdict(float)
+    self_cpu: dict[str, float] = defaultdict(float)
+    inclusive: dict[str, float] = defaultdict(float)
+    by_thread_function: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
+    end = time.monotonic() + duration
+    process_began = time.process_time()
+    while time.monotonic() < end:
+        time.sleep(1.0 / hz)
+        names = {thread.ident: thread.name for thread in threading.enumerate()}
+        for ident, frame in sys._current_frames().items():
+            if ident == own:
+                continue
+            try:
+                cpu = time.clock_gettime(time.pthread_getcpuclockid(ident))
+            except (OSError, ProcessLookupError):
+                continue
+            spent, clocks[ident] = cpu - clocks.get(ident, cpu), cpu
+            if spent <= 0.0:
+                continue
+            name = names.get(ident, str(ident))
+            by_thread[name] += spent
+            stack = _where(frame)
+            self_cpu[stack[0]] += spent
+            for function in set(stack):
+                inclusive[function] += spent
+            by_thread_function[name][stack[0]] += spent
+    out.write_text(
+        json.dumps(
+            {
+                "process_cpu": time.process_time() - process_began,
+                "duration": duration,
+                "threads": by_thread,
+                "self": self_cpu,
+                "inclusive": inclusive,
+                "thread_self": by_thread_function,
+                "wakes": dict(wakes),
+                "entities": entities,
+            }
+        )
+    )
+
+
+def _count_wakes() -> tuple[dict[str, int], dict[str, dict[str, int]]]:
+    """Count each spinning thread's executor wake-ups (spin_once) from now on, and note each node's entities (what
+    every wake-up's wait set is built of)."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    wakes: dict[str, int] = defaultdict(int)
+    entities: dict[str, dict[str, int]] = {}
+    spin_once = SingleThreadedExecutor._spin_once_impl
+
+    def counted(self, *args, **kwargs):
+        thread = threading.current_thread().name
+        wakes[thread] += 1
+        if thread not in entities:
+            nodes = self.get_nodes()
+            entities[thread] = {
+                kind: sum(len(getattr(node, kind)) for node in nodes)
+                for kind in ("subscriptions", "publishers", "services", "clients", "timers", "waitables")
+            }
+        return spin_once(self, *args, **kwargs)
+
+    SingleThreadedExecutor._spin_once_impl = counted
+    return wakes, entities
+
+
+def child(argv: list[str]) -> int:
+    """`--child OUT START DURATION HZ -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not sampled)."""
+    out, start, duration, hz = argv[:4]
+    if out != "-":
+        threading.Thread(
+            target=sample, args=(Path(out), float(start), float(duration), float(hz)), daemon=True, name="sampler"
+        ).start()
+    from amr_bringup.bringup import main
+
+    return main(argv[5:])
+
+
+# -- the parent --------------------------------------------------------------------------------------------------
+
+
+def world_for(robots: int, family: str, size: float | None, seed: int) -> dict:
+    from bench_fleet_navigation import fleet_world
+
+    side = size if size is not None else max(4.0, 4.0 + SIZE_PER_ROBOT * (robots - 6))
+    return fleet_world(family, seed, robots, side)
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def run(robots: int, args) -> dict:
+    """One stack of `robots` robots: the real-time factor and CPU per robot-step over the measured window."""
+    import rclpy
+    import yaml
+    from rclpy.executors import SingleThreadedExecutor
+    from rosgraph_msgs.msg import Clock
+
+    from amr_evaluation.fleet_navigation import lattice_spacing
+    from amr_evaluation.ros_episode import stop_process
+    from amr_util.environment import child_environment
+    from amr_util.stamps import stamp_nanoseconds
+
+    data = world_for(robots, args.family, args.size, args.seed)
+    clock: list[float] = []  # the latest /clock, s
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"{data['name']}.yaml"
+        path.write_text(yaml.safe_dump(data, sort_keys=False))
+        profile = Path(folder) / "profile.json"
+        context = rclpy.Context()
+        rclpy.init(context=context)
+        node = rclpy.create_node("bench_fleet_ros_clock", context=context)
+        node.create_subscription(Clock, "/clock", lambda m: clock.append(stamp_nanoseconds(m.clock) * 1e-9), 10)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        log = open(Path(folder) / "bringup.log", "w+")
+        bringup = [
+            "fleet_navigation",
+            f"world:={path}",
+            "coordination:=plan",
+            f"lattice_spacing:={lattice_spacing(data, args.family)}",
+            "--composed",
+        ]
+        sampled = [str(profile), str(args.warmup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
+        process = subprocess.Popen(
+            [sys.executable, __file__, "--child", *sampled, "--", *bringup],
+            env=child_environment(),
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
+        result = {"robots": robots, "world": data["name"], "load": os.getloadavg()[0]}
+        try:
+            began = time.monotonic()
+            while time.monotonic() - began < args.warmup:
+                executor.spin_once(timeout_sec=0.1)
+                if process.poll() is not None:
+                    raise RuntimeError("amr-bringup exited early")
+            sim0, wall0, cpu0 = (clock[-1] if clock else 0.0), time.monotonic(), _cpu_seconds(process.pid)
+            while time.monotonic() - wall0 < args.measure:
+                executor.spin_once(timeout_sec=0.1)
+            sim1, wall1, cpu1 = (clock[-1] if clock else 0.0), time.monotonic(), _cpu_seconds(process.pid)
+            steps = (sim1 - sim0) / DT
+            result.update(
+                sim=sim1 - sim0,
+                wall=wall1 - wall0,
+                rtf=(sim1 - sim0) / (wall1 - wall0),
+                cpu=cpu1 - cpu0,
+                cpu_per_robot_step_ms=1e3 * (cpu1 - cpu0) / max(1.0, steps * robots),
+                sim_at_start=sim0,
+            )
+            if args.profile:
+                deadline = time.monotonic() + 30.0
+                while not profile.exists() and time.monotonic() < deadline:
+                    executor.spin_once(timeout_sec=0.2)
+                result["profile"] = json.loads(profile.read_text()) if profile.exists() else None
+        finally:
+            stop_process(process, timeout=60.0)
+            log.seek(0)
+            result["log_tail"] = log.read()[-2000:]
+            log.close()
+            executor.shutdown()
+            node.destroy_node()
+            context.try_shutdown()
+    return result
+
+
+LAYERS = (
+    ("rclpy executor (wait set, task machinery)", ("rclpy/executors.py", "rclpy/task.py", "rclpy/waitable.py")),
+    ("taking messages (deserialize)", ("rclpy/subscription.py", "_take", "rclpy/impl")),
+    ("publishing (serialize + DDS write)", ("rclpy/publisher.py",)),
+    ("message classes (Python fields)", ("_msg/", "_msg.py")),
+)
+
+
+def _layer(function: str) -> str:
+    for name, needles in LAYERS:
+        if any(needle in function for needle in needles):
+            return name
+    head = function.split("/")[0]
+    return f"our code: {head}" if head.startswith("amr_") else f"other: {head.split(':')[0]}"
+
+
+def _kind(thread: str) -> str:
+    name = thread.removeprefix("spin ").lstrip("/")
+    return name.split("/")[-1] if name != thread else thread
+
+
+def report(result: dict, top: int) -> None:
+    profile = result.get("profile")
+    if not profile:
+        return
+    total = sum(profile["threads"].values()) or 1.0
+    kinds: dict[str, float] = defaultdict(float)
+    for thread, cpu in profile["threads"].items():
+        kinds[_kind(thread)] += cpu
+    print(f"  CPU sampled {total:.1f} s of {profile['duration']:.0f} s ({profile['process_cpu']:.1f} s process CPU)")
+    print("  by node kind: " + ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in sorted(kinds.items(), key=_neg)))
+    layers: dict[str, float] = defaultdict(float)
+    for function, cpu in profile["self"].items():
+        layers[_layer(function)] += cpu
+    print(
+        "  by layer (self): " + ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in sorted(layers.items(), key=_neg))
+    )
+    wakes = profile.get("wakes", {})
+    seconds = profile["duration"]
+    print(
+        "  executor wake-ups per s (all nodes of a kind) and entities per node: "
+        + ", ".join(
+            f"{_kind(t)} {n / seconds:.0f}/s {profile['entities'].get(t, {})}"
+            for t, n in sorted(wakes.items(), key=_neg)
+        )
+    )
+    print("  top functions, self:")
+    for function, cpu in sorted(profile["self"].items(), key=_neg)[:top]:
+        print(f"    {100 * cpu / total:5.1f} %  {function}")
+    print("  top functions of ours, inclusive:")
+    ours = [(f, c) for f, c in profile["inclusive"].items() if f.startswith("amr_")]
+    for function, cpu in sorted(ours, key=_neg)[:top]:
+        print(f"    {100 * cpu / total:5.1f} %  {function}")
+
+
+def _neg(item) -> float:
+    return -item[1]
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--child":
+        return child(argv[1:])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", nargs="+", type=int, default=[5, 10, 20])
+    parser.add_argument("--family", default="pillars")
+    parser.add_argument("--size", type=float, help="m a side (default: 4 m, more beyond 6 robots)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--warmup", type=float, default=40.0, help="s of wall clock before measuring (startup)")
+    parser.add_argument("--measure", type=float, default=40.0, help="s of wall clock measured")
+    parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
+    parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
+    parser.add_argument("--top", type=int, default=15)
+    parser.add_argument("--json", type=Path, help="write every run's figures (and profile) here")
+    args = parser.parse_args(argv)
+    print(
+        f"fleet_navigation --composed, coordination plan, {args.family}, warm-up {args.warmup:g} s, measured "
+        f"{args.measure:g} s of wall clock, load {os.getloadavg()[0]:.1f}"
+    )
+    print("robots  world                       sim s at start  x real time  CPU s  ms CPU per robot-step  load")
+    results = []
+    for robots in args.robots:
+        result = run(robots, args)
+        results.append(result)
+        if "rtf" not in result:
+            print(f"{robots:6d}  failed:\n{result['log_tail']}")
+            continue
+        print(
+            f"{robots:6d}  {result['world']:26s}  {result['sim_at_start']:14.1f}  {result['rtf']:10.2f}x  "
+            f"{result['cpu']:5.1f}  {result['cpu_per_robot_step_ms']:21.2f}  {result['load']:4.1f}",
+            flush=True,
+        )
+        report(result, args.top)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
