@@ -1,65 +1,30 @@
-"""Test harness: DDS kept on loopback in a domain of this run's own, rclpy contexts, node processes."""
+"""Test harness: DDS kept on loopback in a domain of this run's own, rclpy contexts, node processes.
+
+A test module imports the package under test, tests/support and nothing else of tests/: the fixtures of this file
+and of the support modules named in pytest_plugins reach it by name (a fixture imported into a test module would
+shadow them). Helpers that are not fixtures (spin_until, fresh_domain, NodeProcess, ...) are in support.ros.
+"""
 
 from __future__ import annotations
 
-import itertools
 import os
 import random
-import signal
-import subprocess
-import sys
-import time
-from pathlib import Path
 
-# Before rclpy is imported anywhere: no DDS traffic leaves loopback, and parallel runs do not meet.
+import pytest
+import rclpy
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+from support.ros import NodeProcess, close, fresh_domain, spin_until
+
+pytest_plugins = ["support.kinematics", "support.ik_service", "support.simulator_probe"]
+"""Fixtures of a directory's tests: the kinematics chains, the IK service launcher, the simulator node probe."""
+
+__all__ = ["spin_until"]
+"""tests/mapping still imports spin_until from here (support.ros has it)."""
+
+# Before any ROS context is made (rcl reads them at rclpy.init): no DDS traffic leaves loopback, and parallel runs
+# do not meet (support.ros has given each pytest-xdist worker a domain of its own).
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(10, 100)))  # tests: ros_domain
-
-import pytest  # noqa: E402
-import rclpy  # noqa: E402
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
-
-from amr_util.environment import child_environment  # noqa: E402,F401 (tests import it from here)
-
-ROOT = Path(__file__).resolve().parent.parent
-PREFIX = Path(sys.prefix)
-
-
-def _test_domains() -> tuple[int, int]:
-    """(first, count) of the DDS domains the tests take one by one: 101-232, or AMR_TEST_DOMAINS=<first>-<last>
-    (runs side by side on one machine each give their own range)."""
-    text = os.environ.get("AMR_TEST_DOMAINS", "101-232")
-    try:
-        first, last = (int(part) for part in text.split("-"))
-    except ValueError:
-        raise pytest.UsageError(f"AMR_TEST_DOMAINS={text!r}: expected <first>-<last>, e.g. 101-232") from None
-    if not 0 <= first <= last <= 232:
-        raise pytest.UsageError(f"AMR_TEST_DOMAINS={text!r}: a DDS domain is 0-232, first <= last")
-    return first, last - first + 1
-
-
-def _worker_domains(first: int, count: int) -> tuple[int, int]:
-    """Under pytest-xdist (`pytest -n N`): worker i of N takes the i-th part of the range, and its first domain
-    becomes its ROS_DOMAIN_ID (the tests without a domain of their own), so the workers never meet."""
-    worker, workers = os.environ.get("PYTEST_XDIST_WORKER"), os.environ.get("PYTEST_XDIST_WORKER_COUNT")
-    if not worker or not workers:
-        return first, count
-    index, workers = int(worker.removeprefix("gw")), int(workers)
-    share = count // workers
-    if share < 2:
-        raise pytest.UsageError(f"{count} test domains cannot be shared by {workers} workers (2 each at least)")
-    first += index * share
-    os.environ["ROS_DOMAIN_ID"] = str(first)
-    return first + 1, share - 1
-
-
-FIRST_TEST_DOMAIN, TEST_DOMAINS = _worker_domains(*_test_domains())
-_next_domain = itertools.count(random.SystemRandom().randrange(TEST_DOMAINS))
-
-
-def fresh_domain() -> int:
-    """The next DDS domain of the tests' range (101-232, or AMR_TEST_DOMAINS), round robin."""
-    return FIRST_TEST_DOMAIN + next(_next_domain) % TEST_DOMAINS
 
 
 @pytest.fixture
@@ -82,15 +47,6 @@ def ros_context(ros_domain):
     context.try_shutdown()
 
 
-def close(executor) -> None:
-    """Destroy the executor's nodes: an undestroyed node outlives its test in the ROS graph, where a
-    later test (or a node process) can find a stale namesake."""
-    nodes = executor.get_nodes()
-    executor.shutdown()
-    for node in nodes:
-        node.destroy_node()
-
-
 @pytest.fixture
 def executor(ros_context):
     executor = SingleThreadedExecutor(context=ros_context)
@@ -103,45 +59,6 @@ def multi_executor(ros_context):
     executor = MultiThreadedExecutor(num_threads=4, context=ros_context)
     yield executor
     close(executor)
-
-
-def spin_until(executor, condition, timeout: float) -> bool:
-    """Spin until condition() holds or the timeout passes; returns whether it held."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        executor.spin_once(timeout_sec=0.02)
-    return condition()
-
-
-class NodeProcess:
-    """A node executable run as `ros2 run` would: lib/<package>/<executable> under the venv prefix."""
-
-    def __init__(self, package: str, executable: str, *ros_args: str, prefix: Path = PREFIX) -> None:
-        path = prefix / "lib" / package / executable
-        if not os.access(path, os.X_OK):
-            raise FileNotFoundError(f"{path} is missing or not executable: run `make setup`")
-        command = [str(path)] + (["--ros-args", *ros_args] if ros_args else [])
-        self.process = subprocess.Popen(
-            command,
-            env=child_environment(),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            start_new_session=True,
-        )
-
-    def stop(self, timeout: float = 10.0) -> tuple[int, str]:
-        """SIGINT, then SIGKILL if it lingers; returns (exit code, output)."""
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-        try:
-            output, _ = self.process.communicate(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.process.pid, signal.SIGKILL)
-            output, _ = self.process.communicate()
-        return self.process.returncode, output
 
 
 @pytest.fixture

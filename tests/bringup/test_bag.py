@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 import yaml
-from amr_interfaces.msg import SimulatorStatus
 from geometry_msgs.msg import TransformStamped
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -17,8 +16,9 @@ from tf2_msgs.msg import TFMessage
 
 from amr_bringup.bag_reader import read_bag, render_bag
 from amr_bringup.bag_writer import BagError, BagWriter, TopicQos
-from amr_simulation.simulator import Simulator
+from amr_interfaces.msg import SimulatorStatus
 from amr_maps.world import load_world, resolve_world_path
+from amr_simulation.simulator import Simulator
 
 STEPS = 1200  # 60 s at dt = 0.05
 TOPICS = {
@@ -85,7 +85,7 @@ def test_every_message_reads_back(recorded):
     assert {t: recording.count(t) for t in TOPICS} == {t: STEPS for t in TOPICS}
     assert recording.types == {t: msgtype for t, (msgtype, _) in TOPICS.items()}
     for (stamp, messages), (scan_stamp, scan), (_, odom), (_, tf), (_, status) in zip(
-        sent, *(recording.topics[t] for t in TOPICS)
+        sent, *(recording.topics[t] for t in TOPICS), strict=True
     ):
         assert scan_stamp == stamp
         assert np.array_equal(np.asarray(scan.ranges), np.asarray(messages["/scan"].ranges, dtype=np.float32))
@@ -127,8 +127,8 @@ def test_the_mcap_file_decodes_with_its_own_schemas(recorded):
         counts = {}
         for _, channel, _, decoded in reader.iter_decoded_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            assert decoded is not None, channel.topic
         assert counts == {t: STEPS for t in TOPICS}
-        assert decoded is not None
 
 
 def test_a_bag_renders_as_the_demo_figure(recorded, tmp_path):

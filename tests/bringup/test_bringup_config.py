@@ -312,7 +312,8 @@ def test_a_bare_name_finds_the_shipped_file_and_an_unknown_one_lists_them(tmp_pa
     assert find_bringup("real_robot") == find_bringup("real_robot.yaml")
     with pytest.raises(
         BringupError,
-        match="shipped: fleet_navigation, fleet_sim, ik_service, maze_localization, maze_mapping, maze_navigation, maze_sim, maze_sim_odometry, real_robot",
+        match="shipped: fleet_navigation, fleet_sim, ik_service, maze_localization, maze_mapping, maze_navigation, "
+        "maze_sim, maze_sim_odometry, real_robot",
     ):
         find_bringup("maze")
     own = tmp_path / "mine.yaml"

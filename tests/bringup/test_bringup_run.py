@@ -6,11 +6,10 @@ import signal
 import time
 
 import pytest
-from conftest import spin_until
 from lifecycle_msgs.srv import GetState
 from rclpy.node import Node
-
 from support.bringup_run import Bringup
+from support.ros import spin_until
 from support.waiting import poll_until
 
 STARTUP_TIMEOUT = 30.0
@@ -61,7 +60,7 @@ def wait_until_active(executor, probe: StateProbe, run: Bringup) -> None:
 
 
 def assert_gone(pids: dict[str, int]) -> None:
-    for name, pid in pids.items():
+    for pid in pids.values():
         for probe in (os.kill, os.killpg):  # the process, and its session's process group
             with pytest.raises(ProcessLookupError):
                 probe(pid, 0)

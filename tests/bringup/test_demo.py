@@ -4,7 +4,9 @@ import json
 import subprocess
 import sys
 
-from conftest import ROOT, child_environment
+from support.ros import ROOT
+
+from amr_util.environment import child_environment
 
 FIGURES = [
     "maze.png",

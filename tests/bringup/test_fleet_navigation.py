@@ -5,16 +5,16 @@ active in its namespace, each robot's filter localizing it, every robot driven."
 import math
 from pathlib import Path
 
-from amr_interfaces.msg import LocalizedPose
-from conftest import spin_until
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from support.ros import spin_until
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup
+from amr_interfaces.msg import LocalizedPose
 from amr_maps.world import load_world
 from amr_maps.world_symmetry import rotationally_symmetric
 from amr_util.stamps import stamp_nanoseconds

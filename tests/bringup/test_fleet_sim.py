@@ -5,18 +5,18 @@ import math
 from dataclasses import replace
 
 import pytest
-from amr_interfaces.msg import SimulatorStatus
-from conftest import spin_until
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
+from support.ros import spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import BringupError, load_bringup, parse_bringup, robot_nodes
+from amr_interfaces.msg import SimulatorStatus
 from amr_maps.world import RobotSpec
 from amr_util.qos import LATCHED
 from amr_util.stamps import stamp_nanoseconds

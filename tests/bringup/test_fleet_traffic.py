@@ -9,15 +9,14 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
-import pytest
-from amr_interfaces.msg import LocalizedPose, SimulatorStatus
-from conftest import spin_until
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from support.ros import spin_until
 
 from amr_bringup.composed import composed_stack
+from amr_interfaces.msg import LocalizedPose, SimulatorStatus
 
 RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
 FLEET_PLANNER = "fleet_planner"

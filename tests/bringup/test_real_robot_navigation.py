@@ -7,9 +7,9 @@ import signal
 import time
 
 import pytest
+from support.bringup_run import Bringup
 
 from amr_bringup.stack_config import load_bringup
-from support.bringup_run import Bringup
 
 GOAL_TIMEOUT = 90.0
 """wall-clock s for startup and the run at pace 2 (the goal comes at about 25 simulated s)."""

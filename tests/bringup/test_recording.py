@@ -11,12 +11,12 @@ import pytest
 import yaml
 from PIL import Image
 from rclpy.parameter import Parameter
+from support.bringup_run import Bringup
 
-from amr_bringup.composed import composed_stack
-from amr_bringup.recorder import BackgroundSpin, Recorder
 from amr_bringup import render_bag
 from amr_bringup.bag_reader import read_bag
-from support.bringup_run import Bringup
+from amr_bringup.composed import composed_stack
+from amr_bringup.recorder import BackgroundSpin, Recorder
 
 SPAN = 60.0
 DT = 0.05

@@ -8,19 +8,19 @@ import math
 
 import numpy as np
 import pytest
-from conftest import spin_until
 from geometry_msgs.msg import TwistStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from support.ros import spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.status import message_class
 from amr_maps.rasterize import rasterize_world
+from amr_maps.world import load_world, resolve_world_path
 from amr_util.geometry import Pose2D, compose
 from amr_util.geometry import yaw_from_quaternion as yaw
-from amr_maps.world import load_world, resolve_world_path
 from amr_util.qos import LATCHED as LATCHED_QOS
 from amr_util.qos import reliable
 from amr_util.stamps import stamp_seconds as seconds
@@ -115,7 +115,11 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
                 before = {topic: probe.count(topic) for topic in periodic}
                 probe.cmd_vel.publish(probe.held.pop(0) if probe.held else kick)
                 assert spin_until(
-                    executor, lambda: probe.held and all(probe.count(t) > before[t] for t in periodic), TIMEOUT
+                    executor,
+                    lambda before=before, periodic=periodic: (
+                        probe.held and all(probe.count(t) > before[t] for t in periodic)
+                    ),
+                    TIMEOUT,
                 ), f"step {step}: the loop stalled"
                 if step == 0:  # the loop waits for the next command: what arrives now is the first step's
                     assert spin_until(executor, lambda: probe.clock is not None, TIMEOUT), "no /clock"

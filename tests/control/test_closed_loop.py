@@ -7,10 +7,10 @@ import math
 
 import pytest
 import yaml
-
-from amr_simulation.config import EncoderConfig, LidarConfig
-from amr_maps.maze_families import goal_reachable
 from support.closed_loop import REAL_CONFIG, ROOT, SECONDS, SIM_CONFIG, run_loop
+
+from amr_maps.maze_families import goal_reachable
+from amr_simulation.config import EncoderConfig, LidarConfig
 
 WORLDS = sorted((ROOT / "config" / "worlds").glob("*.yaml"))
 MIN_MEAN_SPEED = 0.05  # m/s: below this the robot is stalling

@@ -7,18 +7,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from support.control import cast, corridor
 
 from amr_control.path_follower import PathError, PathFollower, State
 from amr_control.path_follower_config import ConfigError, PathFollowerConfig
-from amr_util.scan import ScanData
 from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.world import load_world
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap
 from amr_planning.smoothing import smooth_path
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_maps.world import load_world
-from control_helpers import cast, corridor
+from amr_util.scan import ScanData
 
 ROOT = Path(__file__).resolve().parents[2]
 CENTRED_LIDAR = PathFollowerConfig(lidar_x=0.0)  # the synthetic scans are cast from the rotation centre

@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 import pytest
+from support.control import cast, corridor
 
 from amr_control.scan_sectors import Footprint, ScanData, SectorReader, Sectors
-from control_helpers import cast, corridor
 
 READER = SectorReader(
     Sectors(math.radians(15.0), math.radians(20.0), math.radians(5.0)), Footprint(radius=0.105, lidar_x=-0.032)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support.control import BIG, cast, corridor
 
-from amr_util.scan import ScanData
 from amr_control.wall_follower import Issue, WallFollower
-from control_helpers import BIG, cast, corridor
+from amr_util.scan import ScanData
 
 DT = 0.05
 

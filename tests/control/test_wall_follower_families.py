@@ -11,14 +11,14 @@ import math
 
 import numpy as np
 import pytest
+from support.closed_loop import REAL_CONFIG, SIM_CONFIG, run_loop
+from support.control import cast, corridor
 
 from amr_control.scan_sectors import Footprint, ScanData, SectorReader, Sectors
 from amr_control.wall_follower import WallFollower
-from amr_simulation.config import EncoderConfig, LidarConfig
 from amr_maps.maze_families import generate
 from amr_maps.world import world_from_dict
-from control_helpers import cast, corridor
-from support.closed_loop import REAL_CONFIG, SIM_CONFIG, run_loop
+from amr_simulation.config import EncoderConfig, LidarConfig
 
 SECTORS = Sectors(math.radians(15.0), math.radians(20.0), math.radians(5.0))
 FOOTPRINT = Footprint(radius=0.105, lidar_x=-0.032)

@@ -15,18 +15,18 @@ import math
 
 import numpy as np
 import pytest
+from support.closed_loop import REAL_CONFIG, SIM_CONFIG
+from support.control import cast, corridor
 
 from amr_control.scan_sectors import Footprint, LineFit, SectorReader, Sectors
 from amr_control.wall_follower import GATE_PATIENCE, SkewFilter, WallFollower
 from amr_control.wall_follower_config import ConfigError, WallFollowerConfig
-from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_maps.maze_families import generate
 from amr_maps.maze_route import MazeGrid, cell_route, first_difference, hand_tour
+from amr_maps.world import world_from_dict
+from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
 from amr_util.scan import ScanData
-from amr_maps.world import world_from_dict
-from control_helpers import cast, corridor
-from support.closed_loop import REAL_CONFIG, SIM_CONFIG
 
 DT = 0.05
 READER = SectorReader(
@@ -353,7 +353,10 @@ def grid_maze(passages, columns: int, rows: int, width: float = 0.35, thickness:
             if frozenset(((i, j - 1), (i, j))) not in opened
         ]
     goal = passages[-3][1]  # (2, 0)
-    centre = lambda cell: [(cell[0] + 0.5) * pitch, (cell[1] + 0.5) * pitch]  # noqa: E731
+
+    def centre(cell):
+        return [(cell[0] + 0.5) * pitch, (cell[1] + 0.5) * pitch]
+
     return {
         "name": "side_passage",
         "wall_thickness": thickness,

@@ -4,12 +4,12 @@ handed over in legs, and the end of every other leg is logged at debug."""
 import math
 
 import pytest
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan
 
 from amr_control.path_follower_node import PathFollowerNode, ends_at_goal
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus
 
 
 class Logger:

@@ -4,8 +4,6 @@ import math
 import threading
 
 import pytest
-from conftest import spin_until
-from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
@@ -13,9 +11,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
+from support.ros import spin_until
 
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_control.wall_follower_node import WallFollowerNode
+from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
 from amr_turtlebot3.odometry_node import OdometryNode
 
 BEAMS = 240
@@ -90,7 +90,7 @@ def test_simulation_mode_answers_every_pair_with_a_twist_stamped(ros_context, ex
     node, rig = active_follower(ros_context, executor)
     for k in range(10):
         rig.send(10**9 + k * 50_000_000, right=0.25)  # 5 cm too far from the right wall
-        assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5), f"no command for pair {k}"
+        assert spin_until(executor, lambda k=k: len(rig.commands) == k + 1, 5), f"no command for pair {k}"
     last = rig.commands[-1].twist
     assert last.linear.x > 0.0 and last.angular.z < 0.0, "too far from the right wall: turn right (clockwise)"
     assert spin_until(executor, lambda: len(rig.status) == 10, 5)
@@ -108,7 +108,7 @@ def test_bad_scans_never_make_nan_commands(ros_context, executor):
         scan.ranges = ranges
         rig.odometry.publish(odometry(stamp, v=math.nan))
         rig.scan.publish(scan)
-        assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5)
+        assert spin_until(executor, lambda k=k: len(rig.commands) == k + 1, 5)
     for command in rig.commands:
         assert math.isfinite(command.twist.linear.x) and math.isfinite(command.twist.angular.z)
     assert node.state_label == "active"
@@ -269,7 +269,7 @@ def test_a_live_gain_set_changes_the_next_command_and_structure_stays(ros_contex
     node, rig = active_follower(ros_context, executor)
     for k in range(1, 30):  # settle into following the right wall of a straight corridor
         rig.send(k * 50_000_000)
-        assert spin_until(executor, lambda: len(rig.commands) == k, 5)
+        assert spin_until(executor, lambda k=k: len(rig.commands) == k, 5)
     assert rig.commands[-1].twist.linear.x == pytest.approx(0.15)
     results = node.set_parameters([Parameter("linear_speed", value=0.08)])
     assert results[0].successful, results[0].reason
@@ -292,12 +292,12 @@ def test_a_stamp_far_in_the_future_does_not_stop_the_robot_forever(ros_context, 
     node, rig = active_follower(ros_context, executor)
     for k in range(1, 4):
         rig.send(k * 50_000_000)
-        assert spin_until(executor, lambda: len(rig.commands) == k, 5)
+        assert spin_until(executor, lambda k=k: len(rig.commands) == k, 5)
     rig.send(10**15)  # one pair stamped 1e6 s ahead: answered, it is a pair like any other
     assert spin_until(executor, lambda: len(rig.commands) == 4, 5)
     for k in range(4, 10):  # normal stamps again: a clock jump back, recovered from with a warning
         rig.send(k * 50_000_000)
-        assert spin_until(executor, lambda: len(rig.commands) == k + 1, 5), "commands must resume"
+        assert spin_until(executor, lambda k=k: len(rig.commands) == k + 1, 5), "commands must resume"
     assert node._sync.stats.clock_jumps == 1
     bad = odometry(10 * 50_000_000)
     bad.header.stamp.nanosec = 2_000_000_000  # out of [0, 1e9): malformed, dropped with a warning

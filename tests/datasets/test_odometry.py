@@ -21,7 +21,7 @@ def straight(count: int, step: float = 1.0) -> np.ndarray:
 
 
 def relative_steps(poses: np.ndarray) -> np.ndarray:
-    return np.array([relative_pose(a, b) for a, b in zip(poses, poses[1:])])
+    return np.array([relative_pose(a, b) for a, b in zip(poses, poses[1:], strict=True)])
 
 
 @pytest.mark.parametrize(

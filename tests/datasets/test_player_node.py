@@ -9,8 +9,6 @@ import time
 import numpy as np
 import pytest
 from carmen_logs import write_log
-from conftest import spin_until
-from amr_interfaces.msg import LocalizedPose, PoseGraph
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
@@ -19,13 +17,15 @@ from rclpy.qos import qos_profile_sensor_data
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
+from support.ros import spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_datasets.carmen import read_carmen
 from amr_datasets.player_node import LogPlayerNode
+from amr_interfaces.msg import LocalizedPose, PoseGraph
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.qos import LATCHED
-from amr_util.stamps import stamp_nanoseconds, stamp_seconds
+from amr_util.stamps import stamp_seconds
 
 
 class Consumer(Node):

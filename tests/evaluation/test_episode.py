@@ -6,12 +6,12 @@ import dataclasses
 import json
 
 import pytest
+from support.evaluation import tiny_specs
 
 from amr_evaluation import configs
 from amr_evaluation.episode import RECORD_FIELDS, EpisodeSpec, run_episode
 from amr_evaluation.records import without_timing
 from amr_evaluation.worlds import WorldSpecError, world_spec_of_file
-from eval_helpers import tiny_specs
 
 
 def test_same_spec_same_key_and_record_other_spec_other_key():

@@ -11,9 +11,9 @@ import pytest
 from amr_evaluation import configs
 from amr_evaluation.episode import EpisodeSpec, run_episode
 from amr_evaluation.fleet_navigation import run_fleet
-from amr_planning.fleet_starts import MIN_SEPARATION, START_CLEARANCE, with_robots
 from amr_maps.maze_families import generate
 from amr_maps.world import world_from_dict
+from amr_planning.fleet_starts import MIN_SEPARATION, START_CLEARANCE, with_robots
 
 
 def test_with_robots_spreads_the_starts_and_sends_each_robot_to_the_next_start():

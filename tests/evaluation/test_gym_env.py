@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
+import gymnasium
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
 
-gymnasium = pytest.importorskip("gymnasium")
-
-from amr_control.wall_follower import WallFollower  # noqa: E402
-from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.gym_env import ENV_ID, MIN_GOAL_DISTANCE, QUALIFIED_ENV_ID, START_CLEARANCE, MazeEnv  # noqa: E402
-from amr_evaluation.wall_follower_loop import run  # noqa: E402
-from amr_evaluation.worlds import build_world  # noqa: E402
-from amr_control.wall_follower_config import WallFollowerConfig  # noqa: E402
-from gymnasium.utils.env_checker import check_env  # noqa: E402
-from amr_util.environment import child_environment  # noqa: E402
+from amr_control.wall_follower import WallFollower
+from amr_control.wall_follower_config import WallFollowerConfig
+from amr_evaluation import configs
+from amr_evaluation.gym_env import ENV_ID, MIN_GOAL_DISTANCE, QUALIFIED_ENV_ID, START_CLEARANCE, MazeEnv
+from amr_evaluation.wall_follower_loop import run
+from amr_evaluation.worlds import build_world
+from amr_util.environment import child_environment
 
 
 def test_passes_the_gymnasium_env_checker():
@@ -69,7 +68,7 @@ def test_same_seed_same_episode_other_seed_other_world():
     world, first = episode(7)
     again_world, again = episode(7)
     assert world == again_world
-    assert all(np.array_equal(a[0], b[0]) for a, b in zip(first[1:], again[1:]))
+    assert all(np.array_equal(a[0], b[0]) for a, b in zip(first[1:], again[1:], strict=True))
     assert [a[1] for a in first[1:]] == [b[1] for b in again[1:]]
     assert episode(8)[0] != world
 
@@ -91,7 +90,7 @@ def _follow_through_env(world: str | dict, steps: int, config: WallFollowerConfi
     env = MazeEnv(world=world, max_steps=steps, lidar_noise=0.01)
     observation, info = env.reset(seed=0)
     follower = WallFollower(config)
-    for step in range(steps):
+    for _ in range(steps):
         command = follower.compute(
             env.scan_of_observation(observation), *env.twist_of_observation(observation), env.sim.time
         )
@@ -169,7 +168,7 @@ def test_a_crash_scores_below_the_worst_run_without_one(world):
     for seed in range(4):
         crash, first, end = _episode(env, crash_first, seed)
         assert end["collided"], "the case is what it claims to be"
-        start, goal = first["start"], first["goal"]
+        goal = first["goal"]
         xmin, ymin, xmax, ymax = env.world.bounds
         farthest = min(
             max(np.hypot(x - goal[0], y - goal[1]) for x in (xmin, xmax) for y in (ymin, ymax)),

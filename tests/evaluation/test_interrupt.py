@@ -11,6 +11,7 @@ import sys
 import time
 
 import pytest
+from support.evaluation import tiny_specs
 
 from amr_evaluation import interrupt, runner
 from amr_evaluation.cli import main
@@ -18,7 +19,6 @@ from amr_evaluation.episode import run_episode
 from amr_evaluation.interrupt import INTERRUPTED, Interrupt
 from amr_evaluation.runner import run_sweep
 from amr_util.environment import child_environment
-from eval_helpers import tiny_specs
 
 LINE = "stopped: one line"
 SWALLOWED = """

@@ -11,15 +11,15 @@ import sys
 from pathlib import Path
 
 import pytest
+from support.evaluation import tiny_specs
+from support.waiting import poll_until
 
 from amr_evaluation.episode import run_episode
 from amr_evaluation.records import RecordWriter, read_records, without_timing
 from amr_evaluation.runner import SweepError, run_sweep
 from amr_util.environment import child_environment
-from eval_helpers import tiny_specs
-from support.waiting import poll_until
 
-HERE = Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
 
 
@@ -66,12 +66,12 @@ def test_a_killed_sweep_resumes_without_redoing_finished_episodes(tmp_path):
     specs = tiny_specs(8, duration=4.0)
     results = tmp_path / "killed.jsonl"
     script = (
-        "import sys, time; from eval_helpers import tiny_specs; from amr_evaluation.runner import run_sweep; "
+        "import sys, time; from support.evaluation import tiny_specs; from amr_evaluation.runner import run_sweep; "
         "from amr_evaluation.episode import run_episode; "
         "slow = lambda spec: (run_episode(spec), time.sleep(0.3))[0]; "  # a window to kill it in, on any load
-        f"run_sweep(tiny_specs(8, duration=4.0), sys.argv[1], workers=1, progress=False, episode=slow)"
+        "run_sweep(tiny_specs(8, duration=4.0), sys.argv[1], workers=1, progress=False, episode=slow)"
     )
-    env = child_environment(PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+    env = child_environment(PYTHONPATH=os.pathsep.join([str(TESTS), os.environ.get("PYTHONPATH", "")]))
     process = subprocess.Popen([sys.executable, "-c", script, str(results)], env=env)
     try:
         poll_until(

@@ -13,12 +13,13 @@ import sys
 from pathlib import Path
 
 import pytest
+from support.waiting import poll_until
 
 from amr_evaluation import configs
-from amr_evaluation.cli import INTERRUPTED, main
+from amr_evaluation.cli import main
+from amr_evaluation.interrupt import INTERRUPTED
 from amr_evaluation.parameter_check import node_specs, parameter_problems
 from amr_util.environment import child_environment
-from support.waiting import poll_until
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = Path(sys.executable).parent

@@ -6,7 +6,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import ROOT, child_environment
+from support.ros import ROOT
+
+from amr_util.environment import child_environment
 
 PREFIX = Path(sys.prefix)
 
@@ -72,8 +74,8 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
         [
             sys.executable,
             "-c",
-            "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls, amr_maps.maze_command, "
-            "amr_evaluation.closed_loop; "
+            "import amr_interfaces.srv as s, amr_turtlebot3.odometry as o, amr_kinematics.solvers.dls, "
+            "amr_maps.maze_command, amr_evaluation.closed_loop; "
             "print(s.SolveIK.__module__, s.SolveIK.Request().__class__.__name__, o.__file__)",
         ],
         cwd=tmp_path,

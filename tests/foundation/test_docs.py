@@ -10,8 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from doc_commands import DOC_FILES, ROOT, all_commands, check, code_blocks, is_node, parameter_docs
+from support.doc_commands import DOC_FILES, ROOT, all_commands, check, code_blocks, is_node, parameter_docs
 
 COMMANDS = all_commands()
 PYTHON_EXAMPLES = [

@@ -2,10 +2,11 @@
 
 import math
 
-from amr_interfaces.msg import SimulatorStatus
-from amr_interfaces.srv import ComputeFK, SetPose, SolveIK
 from geometry_msgs.msg import Point
 from rclpy.node import Node
+
+from amr_interfaces.msg import SimulatorStatus
+from amr_interfaces.srv import ComputeFK, SetPose, SolveIK
 
 
 def test_solve_ik_round_trip(ros_context, executor):

@@ -12,7 +12,7 @@ import subprocess
 import sys
 import textwrap
 
-from conftest import child_environment
+from amr_util.environment import child_environment
 
 CHILD = textwrap.dedent("""
     import importlib, json, math, sys
@@ -27,7 +27,7 @@ CHILD = textwrap.dedent("""
 
     sys.meta_path.insert(0, Unavailable())
     try:
-        import pymunk  # noqa: F401
+        importlib.import_module("pymunk")
     except ModuleNotFoundError:
         pass
     else:

@@ -6,14 +6,11 @@ import math
 
 import numpy as np
 import pytest
+from support.ull_figures import FIGURE_3_4, FIGURE_3_5
 
 from amr_kinematics.errors import SolverNotApplicableError
 from amr_kinematics.solvers import get_solver
 from amr_kinematics.ull_json import load_ull_json
-
-from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
-
-from support.ull_figures import FIGURE_3_4, FIGURE_3_5
 
 EPSILON = 0.01  # the report's convergence threshold, in its length units
 

@@ -6,15 +6,14 @@ import math
 
 import numpy as np
 import pytest
-from transforms3d.quaternions import mat2quat
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support.kinematics import prismatic_modified_chain, seed004_arm
+from transforms3d.quaternions import mat2quat
 
 from amr_kinematics.chain import Chain
 from amr_kinematics.errors import InvalidRequestError
 from amr_kinematics.transforms import rot_x, rot_z, trans
-
-from kin_helpers import chain_set, prismatic_modified_chain, raw_params, seed004_arm  # noqa: F401 (fixtures)
 
 SEED004_START = np.radians([0.0, 60.0, -40.0, -50.0, -60.0])
 

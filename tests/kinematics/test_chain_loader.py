@@ -7,11 +7,10 @@ import math
 
 import numpy as np
 import pytest
+from support.kinematics import CONFIG
 
 from amr_kinematics.config import ChainConfig, flatten_parameters, load_chain_set
 from amr_kinematics.errors import ChainConfigError, KinematicsError
-
-from kin_helpers import CONFIG, chain_set, raw_params  # noqa: F401 (fixtures)
 
 SHIPPED = ["arm5", "ull5", "ull3", "rr2", "manipulator3", "ur5", "panda"]
 

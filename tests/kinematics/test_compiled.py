@@ -6,13 +6,12 @@ import time
 
 import numpy as np
 import pytest
+from support.kinematics import random_targets
 
 from amr_kinematics.errors import InvalidRequestError
 from amr_kinematics.solvers import compiled, get_solver
 from amr_kinematics.solvers.base import Request, _seed, parse_goal
 from amr_kinematics.solvers.iterative import Refiner, StepSettings
-
-from kin_helpers import chain_set, random_targets, raw_params, unseen_set  # noqa: F401 (fixtures)
 
 pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba not installed")
 

@@ -17,10 +17,9 @@ import math
 
 import numpy as np
 import pytest
+from support.kinematics import seed004_arm
 
 from amr_kinematics.solvers import get_solver
-
-from kin_helpers import chain_set, raw_params, seed004_arm  # noqa: F401 (fixtures)
 
 START = np.radians([0.0, 60.0, -40.0, -50.0, -60.0])
 TARGET_CM = np.array([5.3, 4.78, 0.0])
@@ -63,7 +62,7 @@ def test_table_iteration_by_iteration(scale):
     chain, result = run(scale)
     assert result.success and result.iterations == 9
     assert len(result.history) == len(TABLE)
-    for record, (theta, s, e_xy, e_z) in zip(result.history, TABLE):
+    for record, (theta, s, e_xy, e_z) in zip(result.history, TABLE, strict=True):
         np.testing.assert_allclose(np.degrees(record.q), theta, atol=1e-4, err_msg=f"iteration {record.iteration}")
         reached_cm = chain.fk(record.q).position / scale
         np.testing.assert_allclose(reached_cm, s, atol=1e-4)

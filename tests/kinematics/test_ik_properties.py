@@ -15,8 +15,6 @@ from hypothesis import strategies as st
 
 from amr_kinematics.solvers import get_solver
 
-from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
-
 SOLVE = settings(
     max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
@@ -24,7 +22,7 @@ SOLVE = settings(
 
 def configuration(chain, data):
     """A random joint vector inside the limits (coupled joints derived, unclipped)."""
-    q = chain.apply_coupling([data.draw(st.floats(lo, hi)) for lo, hi in zip(chain.lower, chain.upper)])
+    q = chain.apply_coupling([data.draw(st.floats(lo, hi)) for lo, hi in zip(chain.lower, chain.upper, strict=True)])
     assume(chain.couplings_hold(q))
     return q
 

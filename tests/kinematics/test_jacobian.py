@@ -6,11 +6,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support.kinematics import prismatic_modified_chain
 
 from amr_kinematics.chain import Chain
 from amr_kinematics.transforms import rotation_error, xyz_rpy_matrix
-
-from kin_helpers import chain_set, prismatic_modified_chain, raw_params  # noqa: F401 (fixtures)
 
 
 def finite_difference_jacobian(chain, q, h=1e-6):
@@ -57,7 +56,7 @@ def test_shipped_chains_against_finite_differences(chain_set, name):
 @settings(max_examples=20, deadline=None)
 def test_mixed_prismatic_chains_against_finite_differences(build, data):
     chain = build()
-    q = np.array([data.draw(st.floats(lo, hi)) for lo, hi in zip(chain.lower, chain.upper)])
+    q = np.array([data.draw(st.floats(lo, hi)) for lo, hi in zip(chain.lower, chain.upper, strict=True)])
     np.testing.assert_allclose(chain.jacobian(q), finite_difference_jacobian(chain, q), atol=1e-6)
 
 

@@ -7,14 +7,13 @@ import warnings
 
 import numpy as np
 import pytest
+from support.kinematics import random_targets
 
 from amr_kinematics.chain import Chain
 from amr_kinematics.errors import InvalidRequestError, SolverNotApplicableError
 from amr_kinematics.solvers import get_solver
 from amr_kinematics.solvers.task import parse_task
 from amr_util.geometry import wrap_angle
-
-from kin_helpers import chain_set, random_targets, raw_params, unseen_set  # noqa: F401 (fixtures)
 
 POSITION_AND_YAW = [1.0, 1.0, 1.0, 0.0, 0.0, 1.0]
 TOOL_X_DOWN = [1.0, 0.0, 0.0, 0.0, 0.0, -1.0]  # tool x axis along the base's -z

@@ -11,8 +11,6 @@ from amr_kinematics.errors import InvalidRequestError
 from amr_kinematics.solvers import get_solver, latin_hypercube
 from amr_kinematics.solvers.base import MAX_TARGET_DISTANCE
 
-from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
-
 
 @given(st.integers(1, 40), st.integers(1, 7), st.integers(0, 2**32 - 1))
 @settings(max_examples=40)

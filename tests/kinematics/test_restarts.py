@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from support.kinematics import random_targets
 
 from amr_kinematics.solvers import SpreadStarts, get_solver
-
-from kin_helpers import chain_set, random_targets, raw_params, unseen_set  # noqa: F401 (fixtures)
 
 
 def test_consecutive_starts_share_one_hypercube(chain_set):

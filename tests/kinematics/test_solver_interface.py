@@ -11,10 +11,8 @@ import pytest
 from amr_kinematics.chain import Chain
 from amr_kinematics.errors import InvalidRequestError, KinematicsError, SolverNotApplicableError, UnknownSolverError
 from amr_kinematics.solvers import SOLVERS, applicable_solvers, get_solver, solve
-from amr_kinematics.solvers.iterative import Refiner, StepSettings
 from amr_kinematics.solvers.base import Request, parse_goal
-
-from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
+from amr_kinematics.solvers.iterative import Refiner, StepSettings
 
 
 def test_registry_names():

@@ -10,8 +10,6 @@ import pytest
 from amr_kinematics.chain import Chain
 from amr_kinematics.solvers import follow_path, get_solver, two_link_branches
 
-from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
-
 # seed 001, exercise 9: straight lines for l1 = l2 = 2, 100 points each
 PATHS = {
     "(2,0)->(0,2)": ((2.0, 0.0), (0.0, 2.0)),

@@ -6,12 +6,10 @@ import json
 
 import numpy as np
 import pytest
+from support.ull_figures import FIGURE_3_4, FIGURE_3_5
 
 from amr_kinematics.errors import ChainConfigError
 from amr_kinematics.ull_json import load_ull_json
-
-from kin_helpers import chain_set, raw_params  # noqa: F401 (fixtures)
-from support.ull_figures import FIGURE_3_4, FIGURE_3_5
 
 
 def test_nested_lists_flatten_in_order(tmp_path):

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support.kinematics import random_targets
 
 from amr_kinematics.chain import Chain
 from amr_kinematics.config import load_chain_set
@@ -14,8 +15,6 @@ from amr_kinematics.errors import ChainConfigError
 from amr_kinematics.solvers import get_solver
 from amr_kinematics.transforms import matrix_rpy, rot_z
 from amr_kinematics.urdf import urdf_chain
-
-from kin_helpers import chain_set, random_targets, raw_params  # noqa: F401 (fixtures)
 
 URDF_DIR = Path(__file__).resolve().parents[2] / "config" / "urdf"
 

@@ -6,14 +6,13 @@ import math
 
 import numpy as np
 import yaml
-from amr_interfaces.srv import ComputeFK, SolveIK
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rclpy.parameter import Parameter
+from support.ik_service import CONFIG, call, config_overrides, pose, solve_request
 
+from amr_interfaces.srv import ComputeFK, SolveIK
 from amr_kinematics.config import flatten_parameters
-
-from ik_node_helpers import CONFIG, call, config_overrides, launch, pose, solve_request  # noqa: F401 (fixture)
 
 SOLVE_REQUESTS = 1200
 FK_REQUESTS = 400

@@ -3,22 +3,14 @@
 from __future__ import annotations
 
 import pytest
-from amr_interfaces.srv import ComputeFK, SolveIK
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
+from support.ik_service import call, config_overrides, connect, pose, reached, solve_request
+from support.ros import spin_until
 
-from ik_node_helpers import (
-    call,
-    config_overrides,
-    connect,
-    launch,
-    pose,
-    reached,  # noqa: F401 (fixture)
-    solve_request,
-    spin_until,
-)
+from amr_interfaces.srv import ComputeFK, SolveIK
 
 GOOD = solve_request("rr2", pose(1.0, 1.0))
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import yaml
 from lifecycle_msgs.srv import GetState
+from support.ik_service import CONFIG, Probe, call, connect, pose, reached, solve_request
+from support.ros import spin_until
 
 from amr_kinematics.config import flatten_parameters
-
-from ik_node_helpers import CONFIG, Probe, call, connect, pose, reached, solve_request, spin_until
 
 DISCOVERY = 20.0  # s; a cold process imports numpy and rclpy, then DDS discovery takes ~1 s
 SLOW = 2.0  # s, an unreachable target's solve runs to this timeout

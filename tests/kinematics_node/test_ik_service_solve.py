@@ -9,23 +9,13 @@ import numpy as np
 import pytest
 import rclpy
 import yaml
-from amr_interfaces.srv import ComputeFK
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
+from support.ik_service import CONFIG, call, config_overrides, pose, quaternion_angle, solve_request, start, stop
+from support.ros import spin_until
 
+from amr_interfaces.srv import ComputeFK
 from amr_kinematics.config import flatten_parameters
-
-from ik_node_helpers import (
-    CONFIG,
-    call,
-    config_overrides,
-    pose,
-    quaternion_angle,
-    solve_request,
-    spin_until,
-    start,
-    stop,
-)
 
 MAX_TIMEOUT = 1.0  # s, the node's cap in this module: an unbounded solve costs at most this
 PARAMS = flatten_parameters(yaml.safe_load(CONFIG.read_text(encoding="utf-8")))

@@ -7,11 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from support.ik_service import CONFIG, call, config_overrides, pose, solve_request
+
 from amr_interfaces.srv import ComputeFK
-
 from amr_kinematics.config import flatten_parameters, load_chain_set
-
-from ik_node_helpers import CONFIG, call, config_overrides, launch, pose, solve_request  # noqa: F401 (fixture)
 
 UR5_URDF = Path(__file__).resolve().parents[2] / "config" / "urdf" / "ur5.urdf"
 

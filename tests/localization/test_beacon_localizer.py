@@ -6,15 +6,15 @@ import math
 
 import numpy as np
 import pytest
+from support.localization import WORLDS_DIR
 
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig
 from amr_localization.beacons import BeaconReading, expected_ranges, same_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
+from amr_maps.rasterize import rasterize_world as grid_of
 from amr_maps.world import load_world
-
-from loc_helpers import WORLDS_DIR, grid_of
 
 BEACONS = np.array([[0.0, 0.0], [4.0, 0.5], [3.5, 4.0], [0.5, 3.5]])
 
@@ -86,7 +86,7 @@ def test_the_particle_filter_localizes_from_beacon_ranges_alone():
     rng = np.random.default_rng(4)
     x, y, theta = -1.5, -1.0, 0.2
     errors = []
-    for step in range(300):
+    for _ in range(300):
         x, y, theta = (
             x + 0.005 * math.cos(theta),
             y + 0.005 * math.sin(theta),

@@ -7,25 +7,24 @@ import math
 import numpy as np
 import pytest
 
-from amr_util.scan import ScanData
+from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
 from amr_localization.errors import LocalizationError
 from amr_localization.kld_sampling import kld_sample_count
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
-from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
 from amr_localization.pose_estimate import weighted_pose
-from amr_util.geometry import compose, relative_pose
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.scan_beams import select_beams
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OCCUPIED, OccupancyGrid
+from amr_maps.rasterize import rasterize_world as grid_of
+from amr_maps.world import world_from_dict
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_maps.world import world_from_dict
-
-from loc_helpers import grid_of, scan_of
+from amr_util.geometry import compose, relative_pose
+from amr_util.scan import ScanData, scan_of
 
 ROOM = {  # 2 x 1.6 m room with a box off-centre: no symmetry
     "wall_thickness": 0.04,

@@ -7,21 +7,21 @@ import math
 
 import numpy as np
 import pytest
+from support.localization import ROOT, WORLDS_DIR, odometry_of
 
-from amr_util.scan import ScanData
 from amr_control.wall_follower_config import read_parameter_file
-from amr_localization.beacons import BeaconReading
 from amr_evaluation.closed_loop import run
+from amr_localization.beacons import BeaconReading
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_maps.occupancy_grid import OCCUPIED, UNKNOWN, OccupancyGrid
+from amr_maps.rasterize import rasterize_world as grid_of
+from amr_maps.world import load_world, world_from_dict
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_maps.world import load_world, world_from_dict
 from amr_util.parameter_spec import ConfigError
-
-from loc_helpers import ROOT, WORLDS_DIR, grid_of, odometry_of, scan_of
+from amr_util.scan import ScanData, scan_of
 
 FOLLOWER = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
 CONFIG = ParticleFilterConfig(lidar_x=-0.032)

@@ -8,25 +8,22 @@ import math
 
 import numpy as np
 import pytest
+from support.localization import ROOT
 
-from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import read_parameter_file
 from amr_evaluation.closed_loop import run
 from amr_localization.distance_field import DistanceField
-from amr_localization.free_space import FreeSpace
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
-from amr_util.geometry import relative_pose
-from amr_util.robot_description import default_robot
-from amr_localization.scan_beams import Beams, select_beams
+from amr_localization.scan_beams import Beams
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OCCUPIED, OccupancyGrid
-from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
+from amr_maps.rasterize import rasterize_world as grid_of
 from amr_maps.symmetry_families import FeatureView, symmetry_case
 from amr_maps.world import world_from_dict
-
-from loc_helpers import ROOT, grid_of, odometry_of, scan_of
+from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
+from amr_util.robot_description import default_robot
 
 FOLLOWER = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
 NOISY = dict(lidar=LidarConfig(noise_std=0.02), encoders=EncoderConfig(noise=0.02, slip=0.03))

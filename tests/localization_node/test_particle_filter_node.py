@@ -8,9 +8,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import spin_until
-from test_beacon_localizer_node import Driver
-from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus, SimulatorStatus
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
@@ -19,21 +16,22 @@ from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
+from support.localizer_driver import Driver
+from support.ros import spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_control.wall_follower_node import WallFollowerNode
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus, SimulatorStatus
 from amr_localization.messages import odometry_pose
-from amr_util.geometry import yaw_from_quaternion
-from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
 from amr_localization.particle_filter_node import ParticleFilterNode
+from amr_maps.world import load_world
 from amr_navigation.navigator_node import NavigatorNode
-from amr_util.geometry import compose, wrap_angle
 from amr_simulation import messages as sim_messages
-from amr_util.geometry import Pose2D
 from amr_simulation.simulator import Simulator
 from amr_simulation.simulator_node import SimulatorNode
-from amr_maps.world import load_world
+from amr_util.geometry import Pose2D, compose, wrap_angle, yaw_from_quaternion
 from amr_util.share import share_directory
+from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
 
 WORLDS = share_directory("amr_maps") / "config" / "worlds"
 PARTICLES = 3000
@@ -159,9 +157,9 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     spin_until(executor, lambda: simulator.count_subscribers("scan") >= 3, 5.0)  # recorder, filter, follower
     configure_and_activate(simulator)
 
-    done = lambda: (
-        recorder.path_follower_commands >= STEPS_AFTER_HANDOVER and len(recorder.poses) == len(recorder.scans)
-    )  # noqa: E731
+    def done() -> bool:
+        return recorder.path_follower_commands >= STEPS_AFTER_HANDOVER and len(recorder.poses) == len(recorder.scans)
+
     assert spin_until(executor, done, 90.0), (
         f"not localized: {len(recorder.poses)} poses, {len(recorder.scans)} scans, sim status {recorder.sim_status}"
     )
@@ -177,7 +175,8 @@ def test_localizes_in_a_composed_lockstep_run_and_the_follower_hands_over(execut
     t_first = stamp_ns(poses[first]) * 1e-9
     assert t_first <= 30.0, f"localized only at t = {t_first:.1f} s"
     print(
-        f"localized at t = {t_first:.2f} s after {first} scans; {len(recorder.clouds)} clouds, status {recorder.sim_status}"
+        f"localized at t = {t_first:.2f} s after {first} scans; {len(recorder.clouds)} clouds, "
+        f"status {recorder.sim_status}"
     )
     exploring = sum(not p.localized for p in poses)
     assert recorder.commands == exploring + recorder.path_follower_commands, "exactly one /cmd_vel per observation"
@@ -267,7 +266,9 @@ def send_one_by_one(executor, rig, send, cases, t: float = 20.0) -> float:
     for expected, (name, fault) in enumerate(cases, start=1):
         send(t, **fault)
         t += 0.05
-        assert spin_until(executor, lambda: len(rig.poses) >= expected, 3.0), f"no /pose after the {name}"
+        assert spin_until(executor, lambda expected=expected: len(rig.poses) >= expected, 3.0), (
+            f"no /pose after the {name}"
+        )
     return t
 
 
@@ -405,7 +406,8 @@ def test_a_beacons_only_filter_localizes_on_open_room_in_lockstep(executor):
     assert first is not None, f"not localized after {len(poses)} readings"
     position, heading = driver.error(poses[first])
     print(
-        f"beacons only: localized after {first} readings, error {100 * position:.1f} cm, {math.degrees(heading):.1f} deg"
+        f"beacons only: localized after {first} readings, error {100 * position:.1f} cm, "
+        f"{math.degrees(heading):.1f} deg"
     )
     assert position <= 0.05 and heading <= math.radians(5)
     assert all(p.localized for p in poses[first:])

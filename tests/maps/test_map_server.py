@@ -1,15 +1,13 @@
 """map_server: OccupancyGrid <-> nav_msgs both ways, the map's source, and the node (/map latched, ~/map)."""
 
-import math
-
 import numpy as np
 import pytest
-from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from nav_msgs.srv import GetMap
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from support.ros import spin_until
 
 from amr_maps.map_io import save_map
 from amr_maps.map_server_node import MapServerNode
@@ -17,9 +15,9 @@ from amr_maps.map_source import load_grid
 from amr_maps.messages import grid_from_message, grid_message
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.rasterize import rasterize_world
-from amr_util.stamps import stamp_from_seconds as stamp
 from amr_maps.world import load_world, resolve_world_path
 from amr_util.qos import LATCHED
+from amr_util.stamps import stamp_from_seconds as stamp
 
 RNG = np.random.default_rng(5)
 TIMEOUT = 10.0
@@ -65,7 +63,8 @@ def test_the_map_comes_from_exactly_one_of_yaml_filename_and_world(tmp_path):
     [
         ("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\nfree_thresh: 0.2\n", "occupied_thresh"),
         (
-            "image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n",
+            "image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\n"
+            "free_thresh: 0.2\n",
             "image",
         ),
         (

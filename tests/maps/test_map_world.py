@@ -10,8 +10,8 @@ from amr_maps.map_io import save_map
 from amr_maps.map_world import load_map_world, most_open_pose, world_from_grid
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.rasterize import rasterize_world
-from amr_simulation.simulator import Simulator
 from amr_maps.world import SOURCE_WORLDS, WorldError, load_world, world_from_dict
+from amr_simulation.simulator import Simulator
 
 SHIPPED_WORLDS = sorted(SOURCE_WORLDS.glob("*.yaml"))
 LATTICE = 0.005  # every shipped world's coordinates are multiples of it from their lower-left corner
@@ -91,7 +91,7 @@ def test_generated_lattice_worlds_keep_their_solids_exactly(tmp_path, seed):
     np.testing.assert_allclose(clearance[1][outside], clearance[0][outside], rtol=0, atol=1e-9)
     assert np.all(clearance[1][~outside] < 0.0)
     scanned = 0
-    for (x, y), room in zip(points, clearance[0]):
+    for (x, y), room in zip(points, clearance[0], strict=True):
         if room >= original.config.robot.radius and 0 < x < size and 0 < y < size:
             scans = []
             for sim in (original, rebuilt):

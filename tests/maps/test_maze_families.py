@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from amr_maps.maze_families import WALK_BUDGET, FAMILIES, MazeError, generate, goal_reachable, walk_length
-from amr_simulation.physics import Physics
+from amr_maps.maze_families import FAMILIES, WALK_BUDGET, MazeError, generate, goal_reachable, walk_length
 from amr_maps.world import world_from_dict
+from amr_simulation.physics import Physics
 
 RADIUS = 0.105  # TurtleBot3 Burger footprint
 SEEDS = (0, 1, 2)

@@ -17,7 +17,7 @@ def clipped_area(polygon, x0, y0, x1, y1):
     points = [tuple(p) for p in polygon]
     for axis, bound, keep_above in ((0, x0, True), (0, x1, False), (1, y0, True), (1, y1, False)):
 
-        def inside(p):
+        def inside(p, axis=axis, bound=bound, keep_above=keep_above):
             return p[axis] >= bound if keep_above else p[axis] <= bound
 
         result = []

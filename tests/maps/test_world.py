@@ -157,9 +157,9 @@ def test_outer_corridor_is_a_ring_closed_by_a_dead_end() -> None:
 
 
 def test_set_pose_outside_the_world_bounds_is_refused_naming_them():
+    from amr_maps.world import load_world, resolve_world_path
     from amr_simulation.errors import SimulationError
     from amr_simulation.simulator import Simulator
-    from amr_maps.world import load_world, resolve_world_path
 
     sim = Simulator(load_world(resolve_world_path("outer_corridor.yaml")))
     with pytest.raises(

@@ -10,21 +10,20 @@ import numpy as np
 
 from amr_control.path_follower import PathFollower
 from amr_control.path_follower_config import read_parameter_file as read_follower_file
-from amr_util.scan import ScanData
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import read_parameter_file as read_wall_file
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_parameters import config_of
-from amr_maps.rasterize import rasterize_world
 from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import load_world
 from amr_navigation.loop import NavigationLoop, run_navigation
 from amr_navigation.navigator import Mode
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_maps.world import load_world
 from amr_util.parameter_file import node_parameters
-
+from amr_util.scan import ScanData
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "config"

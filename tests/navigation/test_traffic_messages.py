@@ -8,10 +8,10 @@ import math
 
 import numpy as np
 import pytest
-from amr_interfaces.msg import TrafficPost as TrafficPostMessage
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point
 
+from amr_interfaces.msg import TrafficPost as TrafficPostMessage
 from amr_navigation.traffic import TrafficPost
 from amr_navigation.traffic_messages import (
     MAX_PATH_POINTS,

@@ -7,13 +7,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
 
 from amr_navigation.navigator_node import NavigatorNode
 from amr_navigation.traffic import TrafficPost
 from amr_navigation.traffic_messages import post_message
-from builtin_interfaces.msg import Time
 
 
 def navigator(context, **parameters) -> NavigatorNode:

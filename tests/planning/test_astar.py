@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
+from support.planning import grid, random_blocks, walled
 
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap, CostmapConfig
 from amr_planning.errors import PlanningError, Reason
-from planning_helpers import grid, random_blocks, walled
 
 SMALL_ROBOT = CostmapConfig(robot_radius=0.04, safety_margin=0.01)
 

@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from support.planning import grid, walled
 
 from amr_planning.costmap import MIN_COST, Costmap, CostmapConfig
 from amr_util.parameter_spec import ConfigError
-from planning_helpers import grid, walled
 
 
 def test_a_single_obstacle_cell_is_lethal_within_the_robot_radius_and_inflated_to_radius_plus_margin():

@@ -15,7 +15,6 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_starts import with_robots
 from amr_planning.fleet_plan import (
     FleetPlan,
     Lattice,
@@ -29,6 +28,7 @@ from amr_planning.fleet_plan import (
     plan_lacam,
     plan_together,
 )
+from amr_planning.fleet_starts import with_robots
 
 
 def graph_of(points, edges) -> Lattice:
@@ -55,9 +55,9 @@ def check(plan, starts, goals) -> None:
     for step in range(length):
         assert len(set(at[step])) == len(paths), f"two robots on one vertex at step {step}: {at[step]}"
         if step:
-            for robot, (a, b) in enumerate(zip(at[step - 1], at[step])):
+            for robot, (a, b) in enumerate(zip(at[step - 1], at[step], strict=True)):
                 assert a == b or b in graph.neighbours[a], f"robot {robot} jumps {a} -> {b}"
-                for other, (c, d) in enumerate(zip(at[step - 1], at[step])):
+                for other, (c, d) in enumerate(zip(at[step - 1], at[step], strict=True)):
                     assert not (other != robot and a != b and (a, b) == (d, c)), f"robots {robot}, {other} swap"
 
 
@@ -190,7 +190,7 @@ def test_robots_that_must_pass_each_other_in_a_corridor_without_a_branch_are_ref
     order = sorted(range(6), key=lambda robot: position[starts[robot]])
     free = [v for v in np.argsort(position) if v not in starts][-6:]  # six free vertices at the far end, in order
     kept = [0] * 6
-    for robot, vertex in zip(order, free):
+    for robot, vertex in zip(order, free, strict=True):
         kept[robot] = int(vertex)
     check(plan_lacam(graph, starts, kept), starts, kept)
 
@@ -214,10 +214,14 @@ def test_lacam_plans_six_robots_in_generated_tree_mazes_and_improve_keeps_them_v
     check(plan, starts, goals)
     better = improve(plan)
     check(better, starts, goals)
-    moves = [sum(a != b for a, b in zip(path[:-1], path[1:])) for path in (plan.paths, better.paths) for path in path]
+    moves = [
+        sum(a != b for a, b in zip(path[:-1], path[1:], strict=True))
+        for path in (plan.paths, better.paths)
+        for path in path
+    ]
     assert sum(moves[6:]) <= sum(moves[:6])
     assert better.makespan <= plan.makespan
-    lower = sum(int(graph.distances(goal)[start]) for start, goal in zip(starts, goals))
+    lower = sum(int(graph.distances(goal)[start]) for start, goal in zip(starts, goals, strict=True))
     assert sum(moves[6:]) >= lower
 
 
@@ -226,12 +230,12 @@ def execute(plan, rng, needs=None) -> list[dict]:
     move it depends on is done, and takes 1-5 ticks for it (occupying both vertices meanwhile). The occupancy
     of every tick (a robot's vertices); fails if a robot enters a vertex another occupies, or the fleet stalls."""
     needs = dependencies(plan) if needs is None else needs
-    moves = [[path[0]] + [b for a, b in zip(path[:-1], path[1:]) if a != b] for path in plan.paths]
+    moves = [[path[0]] + [b for a, b in zip(path[:-1], path[1:], strict=True) if a != b] for path in plan.paths]
     done = [0] * len(moves)
     busy = [0] * len(moves)  # ticks left of the move under way (0: standing at moves[r][done[r]])
     history = []
     for _ in range(100000):
-        if all(d == len(m) - 1 for d, m in zip(done, moves)) and not any(busy):
+        if all(d == len(m) - 1 for d, m in zip(done, moves, strict=True)) and not any(busy):
             return history
         occupied = {}
         for robot in range(len(moves)):
@@ -318,7 +322,7 @@ def test_no_step_of_a_plan_is_a_rotation_round_a_cycle_of_the_lattice():
         dependencies(plan)  # would raise PlanningError on a cycle
         for step in range(1, max(len(path) for path in plan.paths)):
             at = [[path[min(t, len(path) - 1)] for path in plan.paths] for t in (step - 1, step)]
-            onto = {a: b for a, b in zip(*at) if a != b}
+            onto = {a: b for a, b in zip(*at, strict=True) if a != b}
             assert not (len(onto) == 6 or set(onto) == set(onto.values()) and onto), f"rotation at step {step}"
 
 

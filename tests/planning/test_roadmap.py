@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
+from support.planning import grid, walled
 
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError, Reason
 from amr_planning.roadmap import Roadmap, RoadmapConfig
 from amr_util.parameter_spec import ConfigError
-from planning_helpers import grid, walled
 
 
 def two_rooms():

@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 from scipy.ndimage import label
+from support.planning import grid, random_blocks
 
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap, CostmapConfig
 from amr_planning.roadmap import Roadmap, RoadmapConfig
 from amr_planning.smoothing import SmoothingConfig, densify, smooth_path
 from amr_util.parameter_spec import ConfigError
-from planning_helpers import grid, random_blocks
 
 
 def heading_changes(points: np.ndarray) -> np.ndarray:

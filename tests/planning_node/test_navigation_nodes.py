@@ -1,11 +1,9 @@
-"""The planner and path follower nodes: map and goal in, /path out, ~/plan; one command per observation once in charge."""
+"""The planner and path follower nodes: map and goal in, /path out, ~/plan; one command per observation once in
+charge."""
 
 import math
 
 import numpy as np
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
-from amr_interfaces.srv import FollowPath, PlanPath
-from conftest import spin_until
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import OccupancyGrid, Path
@@ -13,8 +11,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
+from support.ros import spin_until
 
 from amr_control.path_follower_node import PathFollowerNode
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
+from amr_interfaces.srv import FollowPath, PlanPath
 from amr_planning.planner_node import PlannerNode
 from amr_util.qos import LATCHED
 
@@ -166,7 +167,7 @@ def test_the_follower_alone_answers_each_localized_observation_once_it_has_a_pat
     assert spin_until(executor, lambda: follower.in_charge, 5.0)
     for k in range(3, 8):
         observe(k)
-        assert spin_until(executor, lambda: len(rig.commands) == k - 2, 5.0)
+        assert spin_until(executor, lambda k=k: len(rig.commands) == k - 2, 5.0)
     spin_until(executor, lambda: False, 0.2)
     assert len(rig.commands) == 5 and all(c.twist.linear.x > 0.0 for c in rig.commands)
     assert len(rig.follower_status) == 5 and rig.follower_status[-1].state == "TRACK"

@@ -8,18 +8,18 @@ from collections import defaultdict
 from pathlib import Path
 
 import yaml
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus, SimulatorStatus
-from conftest import spin_until
 from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.time import Time
+from support.ros import spin_until
 
 from amr_bringup.demo import config_file, params_file_args
 from amr_control.path_follower_node import PathFollowerNode
 from amr_control.wall_follower_node import WallFollowerNode
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, SimulatorStatus
 from amr_maps.map_server_node import MapServerNode
 from amr_navigation.navigator_node import NavigatorNode
 from amr_planning.planner_node import PlannerNode
@@ -69,9 +69,9 @@ def answered_observations(*controllers) -> dict[int, list[str]]:
     """Spy on the controllers' _compute: which node answered which observation (by the scan's stamp)."""
     answers = defaultdict(list)
     for node in controllers:
-        original = node._compute
+        original, name = node._compute, node.get_name()
 
-        def compute(first, scan, original=original, name=node.get_name()):
+        def compute(first, scan, original=original, name=name):
             answers[Time.from_msg(scan.header.stamp).nanoseconds].append(name)
             return original(first, scan)
 

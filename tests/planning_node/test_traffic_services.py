@@ -8,12 +8,12 @@ import math
 
 import numpy as np
 import pytest
-from amr_interfaces.msg import SpeedLimit
-from amr_interfaces.srv import PlanPath
 from geometry_msgs.msg import Point
 from lifecycle_msgs.msg import Transition
 
 from amr_control.path_follower_node import PathFollowerNode
+from amr_interfaces.msg import SpeedLimit
+from amr_interfaces.srv import PlanPath
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_planning.planner import Planner
 from amr_planning.planner_node import MAX_OBSTACLES, PlannerNode, request_obstacles

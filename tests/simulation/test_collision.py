@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 
 import pytest
+from support.simulation import WORLDS, make_config
 
-from amr_simulation.simulator import Simulator
 from amr_maps.world import load_world, world_from_dict
-from sim_helpers import WORLDS, make_config
+from amr_simulation.simulator import Simulator
 
 RADIUS = 0.105
 

@@ -7,12 +7,12 @@ import math
 from pathlib import Path
 
 import pytest
+from support.simulation import WORLDS
 
 from amr_simulation.config import SimulationConfig, param_defaults, read_parameter_file
 from amr_simulation.simulator import Simulator
 from amr_util.parameter_spec import ConfigError
 from amr_util.robot_description import default_robot, robot_parameters
-from sim_helpers import WORLDS
 
 PARAMETER_FILE = Path(__file__).resolve().parents[2] / "config" / "simulator.yaml"
 

@@ -10,6 +10,7 @@ import pymunk
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from support.simulation import WORLDS, make_config
 
 from amr_maps.maze_families import FAMILIES, generate
 from amr_maps.raycast import NumpyRayCaster
@@ -17,11 +18,9 @@ from amr_maps.world import World, load_world, world_from_dict
 from amr_simulation.config import RobotConfig
 from amr_simulation.errors import SimulationError
 from amr_simulation.fleet import Fleet
-from amr_simulation.physics import Physics
 from amr_simulation.raycast import PymunkRayCaster, cast_discs
 from amr_simulation.simulator import Simulator
 from amr_util.parameter_spec import ConfigError
-from sim_helpers import WORLDS, make_config
 
 RADIUS = 0.105
 SENSOR_BACK = 0.032  # the LiDAR sits 3.2 cm behind the axle
@@ -100,7 +99,7 @@ def test_numpy_and_pymunk_casters_agree_with_robots_in_generated_worlds(family: 
         commands = [(0.15, w) for w in rng.uniform(-1.0, 1.0, 6)]
         for fleet in fleets:
             fleet.step(commands)
-    for fast, reference in zip(*(fleet.robots for fleet in fleets)):
+    for fast, reference in zip(*(fleet.robots for fleet in fleets), strict=True):
         fast, reference = np.asarray(fast.ranges), np.asarray(reference.ranges)
         assert np.array_equal(np.isinf(fast), np.isinf(reference))
         finite = np.isfinite(reference)
@@ -177,9 +176,9 @@ def test_a_sensor_inside_a_disc_reads_zero_on_every_beam() -> None:
 )
 def test_many_fans_at_once_are_bit_for_bit_the_single_casts(origins, beams, fov, max_range, name) -> None:
     caster = NumpyRayCaster(load_world(WORLDS / name).faces)
-    x, y, phi0 = (np.array(column) for column in zip(*origins))
+    x, y, phi0 = (np.array(column) for column in zip(*origins, strict=True))
     many = caster.cast_many(x, y, phi0, fov / beams, beams, max_range)
-    for row, (px, py, start) in zip(many, origins):
+    for row, (px, py, start) in zip(many, origins, strict=True):
         assert np.array_equal(row, caster.cast(px, py, start, fov / beams, beams, max_range))
 
 
@@ -327,7 +326,7 @@ def test_reset_puts_everyone_back_and_replays_the_same_run() -> None:
         runs.append([(r.pose, r.odom_pose, np.asarray(r.ranges).copy(), r.collisions) for r in fleet.robots])
         fleet.reset()
         assert fleet.steps == 0 and fleet.robots[1].pose == (1.0, 0.0, -math.pi)
-    for (pose, odom, ranges, hits), (pose2, odom2, ranges2, hits2) in zip(*runs):
+    for (pose, odom, ranges, hits), (pose2, odom2, ranges2, hits2) in zip(*runs, strict=True):
         assert (pose, odom, hits) == (pose2, odom2, hits2)
         np.testing.assert_array_equal(ranges, ranges2)
 

@@ -22,7 +22,7 @@ def matrix(p: Pose2D) -> np.ndarray:
     return np.array([[c, -s, p.x], [s, c, p.y], [0.0, 0.0, 1.0]])
 
 
-@pytest.mark.parametrize("a, b", list(zip(POSES, POSES[::-1])))
+@pytest.mark.parametrize("a, b", list(zip(POSES, POSES[::-1], strict=True)))
 def test_compose_is_the_product_of_homogeneous_matrices(a, b):
     product = matrix(a) @ matrix(b)
     c = compose(a, b)
@@ -35,7 +35,7 @@ def test_inverse_composes_to_identity_both_ways(a):
     assert close(compose(inverse(a), a), Pose2D(0.0, 0.0, 0.0))
 
 
-@pytest.mark.parametrize("truth, odom", list(zip(POSES[:20], POSES[20:])))
+@pytest.mark.parametrize("truth, odom", list(zip(POSES[:20], POSES[20:], strict=True)))
 def test_map_to_odom_composed_with_odometry_is_the_true_pose(truth, odom):
     assert close(compose(map_to_odom(truth, odom), odom), truth)
 

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from support.simulation import WORLDS, make_config
 
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import load_world, world_from_dict
 from amr_simulation.lidar import Lidar
 from amr_simulation.physics import WALLS_ONLY, Physics
-from amr_util.geometry import Pose2D
-from amr_maps.raycast import NumpyRayCaster
 from amr_simulation.raycast import PymunkRayCaster
 from amr_simulation.simulator import Simulator
-from amr_maps.world import load_world, world_from_dict
-from sim_helpers import WORLDS, make_config
+from amr_util.geometry import Pose2D
 
 # Inner faces at x = +-1.95 and y = +-0.95.
 BOX_ROOM = world_from_dict(

@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from support.simulation import WORLDS, make_config
 
-from amr_simulation.errors import SimulationError
-from amr_util.geometry import wrap_angle
-from amr_simulation.simulator import Simulator
 from amr_maps.world import load_world
-from sim_helpers import WORLDS, make_config
+from amr_simulation.errors import SimulationError
+from amr_simulation.simulator import Simulator
+from amr_util.geometry import wrap_angle
 
 
 @pytest.fixture(scope="module")
@@ -148,12 +148,12 @@ def test_same_seed_same_commands_same_observations(room) -> None:
         return out
 
     first, second = run(Simulator(room, config)), run(Simulator(room, config))
-    for a, b in zip(first, second):
+    for a, b in zip(first, second, strict=True):
         assert a[:3] == b[:3] and np.array_equal(a[3], b[3])
     sim = Simulator(room, config)
     run(sim)
     sim.reset()  # reset reseeds: the run repeats
     again = run(sim)
-    assert all(np.array_equal(a[3], b[3]) for a, b in zip(first, again))
+    assert all(np.array_equal(a[3], b[3]) for a, b in zip(first, again, strict=True))
     other = run(Simulator(room, make_config(lidar={"noise_std": 0.01}, encoders={"noise": 0.02}, seed=8)))
     assert not np.array_equal(first[-1][3], other[-1][3])

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from support.simulation import WORLDS, make_config
 
+from amr_maps.world import load_world
 from amr_simulation.render import draw_simulation
 from amr_simulation.simulator import Simulator
-from amr_maps.world import load_world
-from sim_helpers import WORLDS, make_config
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -3,26 +3,14 @@
 import math
 
 import pytest
-from amr_interfaces.srv import SetPose
-from conftest import spin_until
 from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
-from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT,
-    call,
-    change_state,
-    drive,
-    nodes,
-    probe,
-    seconds,
-    settle,
-    simulator,
-    start,
-    state_of,
-)
 from std_srvs.srv import Trigger
+from support.ros import spin_until
+from support.simulator_probe import TIMEOUT, call, change_state, drive, seconds, settle, start, state_of
 
+from amr_interfaces.srv import SetPose
 from amr_simulation.config import LidarConfig
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.qos import LATCHED
@@ -138,7 +126,7 @@ def test_reset_and_set_pose(simulator, probe, executor):
     assert (status.steps, status.sim_time, status.collisions, status.distance_travelled) == (0, 0.0, 0, 0.0)
     assert (truth.pose.pose.position.x, truth.pose.pose.position.y) == (-1.5, -1.0)
     stamps = [seconds(m.header.stamp) for m in driver.ground_truth]
-    assert all(later > earlier for earlier, later in zip(stamps, stamps[1:])), "stamps never go back"
+    assert all(later > earlier for earlier, later in zip(stamps, stamps[1:], strict=True)), "stamps never go back"
 
 
 def test_ramming_a_wall_counts_one_collision_and_stays_out(simulator, probe, executor):

@@ -2,20 +2,10 @@
 realtime; a paused and stepped lockstep run is the run it would have been."""
 
 import pytest
-from conftest import spin_until
 from rclpy.parameter import Parameter
-from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    TIMEOUT,
-    call,
-    drive,
-    nodes,
-    probe,
-    seconds,
-    settle,
-    simulator,
-    start,
-)
 from std_srvs.srv import Trigger
+from support.ros import spin_until
+from support.simulator_probe import TIMEOUT, call, drive, seconds, settle, start
 
 OPEN_ROOM = {"world": "open_room.yaml"}
 COMMANDS = [(0.2, 0.0), (0.2, 0.5), (0.1, -0.8), (0.22, 0.3), (0.0, 1.0), (0.15, 0.0)]
@@ -75,7 +65,7 @@ def test_step_advances_exactly_one_step_per_request(simulator, probe, executor):
         assert answer.success and answer.message.startswith(f"stepped to t = {expected_steps * 0.05:.2f} s"), (
             answer.message
         )
-        assert spin_until(executor, lambda: driver.statuses[-1].steps == expected_steps, TIMEOUT)
+        assert spin_until(executor, lambda steps=expected_steps: driver.statuses[-1].steps == steps, TIMEOUT)
         driver.send(0.1, 0.0)
         settle(executor, 0.2)
         assert driver.statuses[-1].steps == expected_steps, "one step per request, no more"
@@ -103,9 +93,9 @@ def test_a_paused_and_stepped_run_is_the_run_it_would_have_been(simulator, probe
             trigger(executor, control["step"])
         else:
             trigger(executor, control["resume"])
-            assert spin_until(executor, lambda: driver.observations() == index + 2, TIMEOUT)
+            assert spin_until(executor, lambda index=index: driver.observations() == index + 2, TIMEOUT)
             trigger(executor, control["pause"])
-        assert spin_until(executor, lambda: driver.observations() == index + 2, TIMEOUT)
+        assert spin_until(executor, lambda index=index: driver.observations() == index + 2, TIMEOUT)
     assert poses(driver) == expected, "the same poses, bit for bit"
 
 

@@ -2,24 +2,14 @@
 lockstep over every robot, per-robot and world-wide services."""
 
 import pytest
-from amr_interfaces.srv import SetPose
-from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from rclpy.node import Node
-from simulator_probe import (  # noqa: F401 (fixtures: nodes, probe, simulator)
-    RELIABLE,
-    TIMEOUT,
-    call,
-    drive,
-    nodes,
-    probe,
-    seconds,
-    settle,
-    simulator,
-)
 from std_srvs.srv import Trigger
+from support.ros import spin_until
+from support.simulator_probe import RELIABLE, TIMEOUT, call, seconds, settle
 from tf2_msgs.msg import TFMessage
 
+from amr_interfaces.srv import SetPose
 from amr_util.qos import LATCHED
 
 DT = 0.05
@@ -77,11 +67,13 @@ def drive_all(executor, probes, commands) -> None:
     """Lockstep for a fleet: every robot sends its command, then every robot's observation comes back."""
     for step in commands:
         counts = [p.observations() for p in probes]
-        for p, (v, w) in zip(probes, step):
+        for p, (v, w) in zip(probes, step, strict=True):
             p.send(v, w)
-        assert spin_until(executor, lambda: all(p.observations() > c for p, c in zip(probes, counts)), TIMEOUT), (
-            "not every robot's observation came back"
-        )
+        assert spin_until(
+            executor,
+            lambda counts=counts: all(p.observations() > c for p, c in zip(probes, counts, strict=True)),
+            TIMEOUT,
+        ), "not every robot's observation came back"
 
 
 def topics_of(node) -> dict[str, str]:
@@ -354,6 +346,6 @@ def test_every_message_of_robot_2_is_what_the_library_state_gives(simulator, pro
     assert got.robot == "r2" and got.header == status.header and got.steps == 6 and got.distance_travelled > 0.0
     transforms = tf.messages["/r2/tf"][-1].transforms
     assert [(t.header.frame_id, t.child_frame_id) for t in transforms] == [("odom", "base_footprint"), ("map", "odom")]
-    for transform, pose in zip(transforms, (robot.odom_pose, map_to_odom(robot.pose, robot.odom_pose))):
+    for transform, pose in zip(transforms, (robot.odom_pose, map_to_odom(robot.pose, robot.odom_pose)), strict=True):
         want = messages.transform(stamp, "", "", pose)
         assert transform.header.stamp == stamp and transform.transform == want.transform

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-from conftest import spin_until
-from amr_interfaces.msg import LocalizedPose
 from geometry_msgs.msg import TwistStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from support.ros import spin_until
 
+from amr_interfaces.msg import LocalizedPose
 from amr_simulation.simulator_node import SimulatorNode
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)

@@ -4,18 +4,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import spin_until
 from lifecycle_msgs.msg import Transition
-from simulator_probe import (  # noqa: F401 (nodes, probe: fixtures)
-    MATCH_DELAY,
-    TIMEOUT,
-    change_state,
-    drive,
-    nodes,
-    probe,
-    settle,
-    state_of,
-)
+from support.ros import spin_until
+from support.simulator_probe import MATCH_DELAY, TIMEOUT, change_state, drive, settle, state_of
 
 PARAMS_FILE = Path(sys.prefix) / "share" / "amr_simulation" / "config" / "simulator.yaml"
 

@@ -1,10 +1,10 @@
 """Lockstep start-up: an observation published before anyone listened is sent again."""
 
-from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from support.ros import spin_until
 
 from amr_simulation.simulator_node import SimulatorNode
 

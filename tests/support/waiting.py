@@ -4,7 +4,7 @@ and too long on a quiet one)."""
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 POLL_PERIOD = 0.02
 """s between two looks at a condition."""

@@ -3,16 +3,16 @@
 import math
 
 import pytest
-from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from support.ros import spin_until
 from transforms3d.euler import euler2quat
 
-from amr_util.geometry import wrap_angle
 from amr_turtlebot3.odometry_node import OdometryNode
+from amr_util.geometry import wrap_angle
 
 QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 DT = 0.05
@@ -76,7 +76,7 @@ def check_stream(received: list[Odometry], poses, v: float, w: float) -> None:
     assert len(received) == len(poses)
     assert received[0].twist.twist.linear.x == 0.0 and received[0].twist.twist.angular.z == 0.0
     want_v, want_w = expected_twist(v, w)
-    for message, pose in zip(received[1:], poses[1:]):
+    for message, pose in zip(received[1:], poses[1:], strict=True):
         assert message.pose.pose.position.x == pytest.approx(pose[1])
         assert message.header.frame_id == "odom"
         assert message.twist.twist.linear.x == pytest.approx(want_v, abs=1e-6)
@@ -94,13 +94,13 @@ def test_process_started_like_ros2_run_derives_twist(ros_context, executor, node
         timeout=15.0,
     ), "node never appeared"
     # one stream per case, each separated by a stamp jump backwards that the node must drop
-    for t0, (name, (v, w, yaw0)) in zip((100.0, 200.0, 300.0, 400.0), CASES.items()):
+    for t0, (name, (v, w, yaw0)) in zip((100.0, 200.0, 300.0, 400.0), CASES.items(), strict=True):
         probe.received.clear()
         poses = trajectory(v, w, 40, yaw0, t0)
         for pose in poses:  # paced, so the stream does not outrun the process
             probe.publisher.publish(odom_message(*pose))
             spin_until(executor, lambda: False, timeout=0.005)
-        assert spin_until(executor, lambda: len(probe.received) >= len(poses) - 1, timeout=5.0), name
+        assert spin_until(executor, lambda poses=poses: len(probe.received) >= len(poses) - 1, timeout=5.0), name
         spin_until(executor, lambda: False, timeout=0.2)
         # the first sample of a new stream is differentiated against the previous stream's last one
         check_stream([Odometry()] + probe.received[1:], poses, v, w)

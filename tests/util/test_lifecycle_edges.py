@@ -11,13 +11,13 @@ from __future__ import annotations
 import time
 
 import pytest
-from conftest import spin_until
 from geometry_msgs.msg import Twist, TwistStamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
+from support.ros import spin_until
 
 from amr_bringup.demo import config_file, params_file_args
 from amr_control.path_follower_node import PathFollowerNode
@@ -141,7 +141,7 @@ def test_shutdown_from_every_state_leaves_a_silent_finalized_node(name, ros_cont
             assert all(isinstance(message, COMMANDS[name]) for message in commands)
         assert not list(node.timers), f"{name}: timers left after shutdown from {state}"
         assert not list(node.subscriptions), f"{name}: subscriptions left: {[s.topic_name for s in node.subscriptions]}"
-        left = [s.srv_name for s in node.services if not s.srv_name.rsplit("/", 1)[-1] in KEPT_SERVICES]
+        left = [s.srv_name for s in node.services if s.srv_name.rsplit("/", 1)[-1] not in KEPT_SERVICES]
         assert not left, f"{name}: services left after shutdown from {state}: {left}"
         client_node.destroy_client(client)
         executor.remove_node(node)

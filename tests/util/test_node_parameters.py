@@ -7,13 +7,13 @@ configured is refused with the reason; a wrong value is refused naming the key.
 
 import numpy as np
 import pytest
-from conftest import spin_until
 from lifecycle_msgs.msg import Transition
 from rcl_interfaces.msg import Parameter as ParameterMessage
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from support.ros import spin_until
 
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_control.path_follower_node import PathFollowerNode
@@ -75,7 +75,7 @@ def test_describe_gives_every_parameter_its_own_name_type_and_description(ros_co
         probe.create_client(GetParameters, f"/{name}/get_parameters"),
         GetParameters.Request(names=names),
     ).values
-    for asked, descriptor, value in zip(names, described, values):
+    for asked, descriptor, value in zip(names, described, values, strict=True):
         assert descriptor.name == asked, f"{name}: describe {asked!r} answered {descriptor.name!r}"
         assert descriptor.type == value.type != ParameterType.PARAMETER_NOT_SET, asked
         assert descriptor.type != ParameterType.PARAMETER_BYTE_ARRAY, asked

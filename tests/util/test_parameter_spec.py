@@ -1,8 +1,18 @@
 """ParameterSpec: types, widening, limits, choices and checks, with messages naming the key."""
 
+from dataclasses import dataclass, field
+
 import pytest
 
-from amr_util.parameter_spec import ParameterSpec, field_docs, problems_of
+from amr_util.parameter_spec import (
+    Config,
+    ConfigError,
+    ParameterSpec,
+    field_docs,
+    parameter,
+    parameter_like,
+    problems_of,
+)
 
 
 def test_kind_comes_from_the_default_and_integers_widen_to_floats():
@@ -48,10 +58,6 @@ def test_field_docs_read_the_docstring_under_each_field():
 
 
 # -- configurations whose fields are parameters ----------------------------------------------------
-
-from dataclasses import dataclass, field  # noqa: E402
-
-from amr_util.parameter_spec import Config, ConfigError, parameter, parameter_like  # noqa: E402
 
 
 @dataclass(frozen=True)

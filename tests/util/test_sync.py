@@ -221,7 +221,7 @@ def interleave(per_input, rng):
     """A random arrival order that keeps each input's own order."""
     cursors = [0] * len(per_input)
     out = []
-    while any(c < len(s) for c, s in zip(cursors, per_input)):
+    while any(c < len(s) for c, s in zip(cursors, per_input, strict=True)):
         i = rng.choice([k for k, s in enumerate(per_input) if cursors[k] < len(s)])
         out.append(per_input[i][cursors[i]])
         cursors[i] += 1
@@ -250,7 +250,7 @@ def test_sets_are_within_slop_unique_ordered_and_independent_of_interleaving(cas
             assert max(ms_values) - min(ms_values) <= slop_ms
         for i in range(n):
             seq = [s[i][1] for s in rec.sets]
-            assert all(a < b for a, b in zip(seq, seq[1:])), "sets cross or repeat a stamp"
+            assert all(a < b for a, b in zip(seq, seq[1:], strict=True)), "sets cross or repeat a stamp"
     # Output depends on stamps only (as values: duplicates may swap equal-stamp objects).
     assert [[m[1] for m in s] for s in results[0]] == [[m[1] for m in s] for s in results[1]]
 
@@ -269,7 +269,7 @@ def test_small_queues_keep_the_guarantees_and_bound_memory(case, queue_size):
         assert max(m[1] for m in s) - min(m[1] for m in s) <= slop_ms
     for i in range(n):
         seq = [s[i][1] for s in rec.sets]
-        assert all(a < b for a, b in zip(seq, seq[1:]))
+        assert all(a < b for a, b in zip(seq, seq[1:], strict=True))
     total = sum(len(p) for p in per_input)
     stats = sync.stats
     dropped = stats.dropped_late + stats.dropped_unmatched + stats.dropped_overflow + stats.dropped_superseded

@@ -6,13 +6,13 @@ import math
 
 import numpy as np
 import pytest
-from amr_interfaces.msg import SimulatorStatus
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
+from amr_interfaces.msg import SimulatorStatus
 from amr_util.wire import WireMessage
 
 
@@ -53,7 +53,7 @@ def test_odometry_rewritten_in_place_is_the_odometry_with_those_values(seed):
         expected = Odometry()
         expected.header.frame_id, expected.child_frame_id = template.header.frame_id, template.child_frame_id
         expected.pose.covariance[0] = 0.25
-        for path, value in zip(ODOMETRY, values):
+        for path, value in zip(ODOMETRY, values, strict=True):
             _set(expected, path, value)
         assert _same(wire.fill(*values), expected)
 
@@ -100,7 +100,7 @@ def test_every_transform_of_a_tf_message_and_every_status_field():
         TFMessage(transforms=[TransformStamped(header=t.header, child_frame_id=t.child_frame_id) for t in transforms]),
         fields,
     )
-    for path, value in zip(fields, values):
+    for path, value in zip(fields, values, strict=True):
         _set(expected, path, value)
     assert _same(wire.fill(*values), expected)
 

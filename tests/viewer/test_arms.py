@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from amr_kinematics.errors import ChainConfigError
-from amr_util.parameter_file import dotted, node_parameters
-from amr_viewer.arms import ArmSet, DRAWN_REACH, reach_of, rotation_wxyz
 from amr_kinematics.transforms import quaternion_matrix
+from amr_util.parameter_file import dotted, node_parameters
+from amr_viewer.arms import DRAWN_REACH, ArmSet, reach_of, rotation_wxyz
 
 ROOT = Path(__file__).resolve().parents[2]
 PARAMETERS = {"use_sim_time": False, **dotted(node_parameters(ROOT / "config" / "ik_chains.yaml", "ik_service"))}
@@ -58,7 +58,7 @@ def test_frames_are_the_fk_frames(arms):
     wxyz, positions = arm.frames()
     result = arm.config.chain.fk(q)
     assert positions[-1] == pytest.approx(arm.origin + arm.scale * result.tool[:3, 3])
-    for quaternion, matrix in zip(wxyz, list(result.frames) + [result.tool]):
+    for quaternion, matrix in zip(wxyz, list(result.frames) + [result.tool], strict=True):
         w, x, y, z = quaternion
         assert quaternion_matrix((x, y, z, w)) == pytest.approx(matrix[:3, :3], abs=1e-9)
 

@@ -27,6 +27,23 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import rclpy
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import OccupancyGrid, Odometry
+from nav_msgs.msg import Path as PathMessage
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter_client import AsyncParameterClient
+from rosgraph_msgs.msg import Clock
+from support.ros import fresh_domain
+
+from amr_interfaces.srv import SolveIK
+from amr_util.environment import child_environment
+from amr_util.qos import LATCHED, reliable
+from amr_viewer.geometry import free_share, top_down_camera
+from amr_viewer.messages import occupancy_grid
+from amr_viewer.parameters import value_of
+from amr_viewer.scene import ROBOT_COLORS
 
 CHROMIUM = Path(os.environ.get("AMR_CHROMIUM", "/usr/bin/chromium"))
 if not CHROMIUM.exists():
@@ -34,24 +51,6 @@ if not CHROMIUM.exists():
 playwright_api = pytest.importorskip(
     "playwright.sync_api", reason="browser tests: no playwright (pip install -e '.[test]')"
 )
-
-import rclpy  # noqa: E402
-from conftest import fresh_domain  # noqa: E402
-from amr_interfaces.srv import SolveIK  # noqa: E402
-from geometry_msgs.msg import PoseStamped  # noqa: E402
-from nav_msgs.msg import OccupancyGrid, Odometry, Path as PathMessage  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
-from rclpy.qos import qos_profile_sensor_data  # noqa: E402
-from rosgraph_msgs.msg import Clock  # noqa: E402
-
-from amr_util.environment import child_environment  # noqa: E402
-from amr_util.qos import LATCHED, reliable  # noqa: E402
-from amr_viewer.geometry import free_share, top_down_camera  # noqa: E402
-from amr_viewer.scene import ROBOT_COLORS  # noqa: E402
-from amr_viewer.messages import occupancy_grid  # noqa: E402
-from amr_viewer.parameters import value_of  # noqa: E402
 
 ARGS = [
     "--enable-unsafe-swiftshader",
@@ -513,7 +512,7 @@ def test_step_advances_exactly_one_step(page, navigation):
     for expected in (1, 2):
         count, last = len(clocks), clocks[-1]
         page.button("Step").click()
-        wait_for(lambda: len(clocks) > count, what="one /clock after Step")
+        wait_for(lambda count=count: len(clocks) > count, what="one /clock after Step")
         quiet(clocks, 1.0, what="/clock to stop after one step")
         assert len(clocks) == count + 1, f"step {expected}: exactly one /clock, got {clocks[count:]}"
         assert clocks[-1] == pytest.approx(last + DT, abs=1e-9)

@@ -10,8 +10,8 @@ from nav_msgs.msg import Odometry
 from rclpy.serialization import serialize_message
 from tf2_msgs.msg import TFMessage
 
-from amr_viewer import cdr
 from amr_util.geometry import quaternion_from_yaw as quaternion_of
+from amr_viewer import cdr
 
 RNG = np.random.default_rng(7)
 NAMES = ["", "m", "map", "odom", "base_footprint", "robot_12/base_scan", "a" * 37]
@@ -39,7 +39,7 @@ def test_tf_message(count):
         expected.append((str(parent), str(child), t, x, y, yaw))
     parsed = cdr.tf_message(serialize_message(message))
     assert [(p.parent, p.child) for p in parsed] == [e[:2] for e in expected]
-    for p, e in zip(parsed, expected):
+    for p, e in zip(parsed, expected, strict=True):
         assert (p.stamp, *p.pose) == pytest.approx(e[2:], abs=1e-6)
 
 

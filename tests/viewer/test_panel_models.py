@@ -5,11 +5,11 @@ import math
 import pytest
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 
+from amr_util.geometry import Pose2D
 from amr_util.managed_node import descriptor_of
 from amr_util.parameter_spec import ParameterSpec
 from amr_viewer import topics
 from amr_viewer.clicks import GOAL, INITIAL_POSE, OFF, ClickTool
-from amr_util.geometry import Pose2D
 from amr_viewer.parameters import entry_from, nice_step, parameter_value, value_of, visible
 
 T = ParameterType

@@ -35,7 +35,7 @@ def test_each_robot_of_a_fleet_has_its_colour_and_its_name(server):
         assert scene.draw(state) > 0
     colors = [scene.color_of(state.namespace) for state in fleet]
     assert colors == list(ROBOT_COLORS[:4]) and len(set(colors)) == 4
-    for k, state in enumerate(fleet):
+    for k in range(len(fleet)):
         root = f"/robots/r{k + 1}"
         label = scene._handles[f"{root}/labels"]
         assert label.text == f"r{k + 1}" and label.visible

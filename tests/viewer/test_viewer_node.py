@@ -7,8 +7,6 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from amr_interfaces.msg import LocalizedPose, SimulatorStatus
-from conftest import spin_until
 from geometry_msgs.msg import Pose as PoseMessage
 from geometry_msgs.msg import PoseArray, PoseStamped, PoseWithCovarianceStamped, TransformStamped
 from lifecycle_msgs.msg import Transition
@@ -17,13 +15,15 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty, Trigger
+from support.ros import spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_control.wall_follower_node import WallFollowerNode
-from amr_util.qos import LATCHED, SENSOR_DATA, reliable
-from amr_viewer.clicks import INITIAL_POSE
+from amr_interfaces.msg import LocalizedPose, SimulatorStatus
 from amr_util.geometry import Pose2D
 from amr_util.geometry import quaternion_from_yaw as quaternion_of
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
+from amr_viewer.clicks import INITIAL_POSE
 from amr_viewer.viewer_node import TF_STATIC, RobotLink, ViewerNode
 
 TIMEOUT = 15.0
