@@ -54,7 +54,7 @@ from amr_util.geometry import Pose2D, is_finite_number, wrap_angle
 from amr_util.share import share_directory
 
 WORLD_KEYS = ("name", "wall_thickness", "walls", "boxes", "grid", "map", "start", "goal", "beacons", "robots")
-ROBOT_KEYS = ("name", "start", "goal")
+ROBOT_KEYS = ("name", "start", "goal", "priority")  # priority: the fleet planner's (amr_navigation.fleet_file)
 ROBOT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 """A ROS name token (what rclpy's validate_namespace accepts as one namespace level)."""
 GRID_KEYS = ("cell_size", "origin", "rows")

@@ -32,6 +32,19 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
 - **Jumped**: a robot whose status pose moves farther than half a spacing beyond what it could have driven since
   its last status (JUMP_SPEED) had its estimate moved by its localizer (withdrawn and declared again elsewhere):
   the plan assumed it was elsewhere, and the fleet is planned again at once from where the robots stand.
+- **Partial replans.** A stuck or jumped robot does not hold the fleet: only the robots whose routes conflict
+  (the robot itself, and any robot whose remaining way passes the vertex cut off) are planned again, each in
+  priority order around the others' remaining ways (each kept robot's way timed by the plan's action
+  dependencies, as early as they allow: `partial_plan`); the other robots drive on meanwhile and keep their
+  waypoints. If no such plan exists the whole fleet is planned again from where it stands.
+- **Off the caller's thread.** `begin_plan` takes what a plan needs (a `PlanJob`: the robots' statuses, the
+  lattice, the cuts, the plan in force and its progress) and returns the HOLDs to send; `compute_plan(job)` (pure:
+  any thread) makes the plan; `finish_plan(outcome)` adopts it (a kept robot's progress made meanwhile carried
+  over) unless the plan was dropped or the map changed meanwhile. `plan()` is the three at once.
+- **Expiry.** Every route is told with `expires` = its stamp + `route_lifetime` (statuses' clock): a navigator
+  that hears nothing newer by then goes back to its own planning. `renewals(now)` re-tells each FOLLOW route
+  halfway to its expiry; a HOLD is never renewed (a plan that takes longer than the lifetime lets the held robots
+  go on by themselves until it comes).
 - A plan that cannot be made (robots on one goal vertex, no lattice, no solution) is NONE to everyone with the
   reason, and tried again `retry_period` s later. A robot's goal changed (its status's goal is not the plan's),
   a new map: the plan is dropped (NONE to everyone) and made again once every robot is localized.
@@ -41,7 +54,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -49,7 +62,20 @@ from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_navigation.fleet_schedule import STOPPED_SHORT, HandOver, Schedule, legs
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_plan import Lattice, assign, execution_time, improve, lattice, plan_lacam
+from amr_planning.fleet_plan import (
+    FleetPlan,
+    Lattice,
+    assign,
+    dependencies,
+    execution_time,
+    improve,
+    lattice,
+    plan_lacam,
+)
+from amr_planning.fleet_plan import _around as around  # one robot's space-time constraints from the others' paths
+from amr_planning.fleet_plan import _path as space_time_path  # A* over (vertex, step) under those constraints
+from amr_planning.fleet_plan import _rotates as rotates
+from amr_planning.fleet_plan import _trim as trim
 from amr_planning.planner import Planner
 from amr_util.scan import ScanData
 
@@ -75,6 +101,8 @@ class Route:
     progress: int = 0
     total: int = 0
     reason: str = ""
+    expires: float = math.inf
+    """s (statuses' clock): after this, without a newer word, the robot goes back to its own planning."""
 
 
 @dataclass
@@ -84,6 +112,155 @@ class RobotStatus:
     y: float
     localized: bool
     goal: tuple[float, float] | None
+
+
+@dataclass(frozen=True)
+class PlanJob:
+    """What one plan needs, taken on the coordinator's thread (begin_plan) and planned on any (compute_plan)."""
+
+    generation: int
+    costmap: Costmap
+    spacing: float
+    lattice: Lattice | None
+    cut: tuple
+    statuses: tuple
+    goals: tuple
+    restart: dict
+    order: tuple
+    """robot indices in priority order (the first planned first in a partial replan)."""
+    follower_speed: float
+    turn_rate: float
+    replan: frozenset = frozenset()
+    """robots to plan again around the others (a partial replan); empty: the whole fleet."""
+    kept_plan: FleetPlan | None = None
+    progress: tuple = ()
+    """the kept robots' progress along kept_plan when the job was taken."""
+
+
+@dataclass(frozen=True)
+class PlanOutcome:
+    job: PlanJob
+    plan: FleetPlan | None
+    lattice: Lattice | None
+    cut: tuple
+    error: str = ""
+    events: tuple = ()
+    partial: bool = False
+    seconds: float = 0.0
+
+
+def compute_plan(job: PlanJob) -> PlanOutcome:
+    """The plan of `job` (no state of any coordinator touched: run it on a worker thread): a partial replan when the
+    job names robots to plan again and one exists, else the whole fleet; the error when none could be made."""
+    began = time.perf_counter()
+    events = []
+    graph = job.lattice
+    cut = tuple(job.cut)
+    try:
+        if graph is None:
+            graph = lattice(job.costmap, job.spacing)
+        if job.replan and job.kept_plan is not None:
+            plan = partial_plan(graph.without(cut), job)
+            if plan is not None:
+                return PlanOutcome(job, plan, graph, cut, partial=True, seconds=time.perf_counter() - began)
+            events.append(
+                f"no partial replan of {len(job.replan)} robots around the others: the whole fleet planned again"
+            )
+        try:
+            plan = _plan_on(graph, graph.without(cut), job, job.restart)
+        except (PlanningError, ValueError) as error:
+            if not cut:
+                raise
+            # in a tree maze a vertex cut off may be the only way to a goal: the cuts were guesses at something
+            # the map does not hold, and no plan at all is worse than meeting it again (the stuck rule stays)
+            events.append(
+                f"no fleet plan with {len(cut)} lattice edges cut off ({error}): they are "
+                "restored, the fleet planned on the whole lattice"
+            )
+            cut = ()
+            plan = _plan_on(graph, graph, job, job.restart)
+    except (PlanningError, ValueError) as error:
+        return PlanOutcome(job, None, graph, cut, str(error), tuple(events), seconds=time.perf_counter() - began)
+    return PlanOutcome(job, plan, graph, cut, events=tuple(events), seconds=time.perf_counter() - began)
+
+
+def _plan_on(whole: Lattice, graph: Lattice, job: PlanJob, restart: dict[int, int]) -> FleetPlan:
+    """The fleet plan on `graph` from the robots' vertices (`restart`'s, else assigned to where they stand:
+    amr_planning.fleet_plan.assign) to the vertices nearest their goals; PlanningError or ValueError when
+    none is found."""
+    statuses = job.statuses
+    moving = [robot for robot in range(len(statuses)) if robot not in restart]
+    # a vertex whose every edge is cut is where a robot was stuck: no robot is planned from it
+    blocked = [vertex for vertex in range(len(graph)) if not graph.neighbours[vertex] and whole.neighbours[vertex]]
+    chosen = assign(
+        graph,
+        job.costmap,
+        [(statuses[robot].x, statuses[robot].y) for robot in moving],
+        taken=list(restart.values()) + blocked,
+    )
+    vertex_of = {**restart, **dict(zip(moving, chosen, strict=True))}
+    starts = [vertex_of[robot] for robot in range(len(statuses))]
+    goals = [graph.nearest(*goal) for goal in job.goals]  # two goals on one vertex: too close, refused
+    plans = [improve(plan_lacam(graph, starts, goals, seed=1000 * k)) for k in range(PLAN_SEEDS)]
+    return min(
+        plans,
+        key=lambda plan: (execution_time(plan, job.follower_speed, job.turn_rate), plan.makespan, plan.cost),
+    )
+
+
+def kept_paths(plan: FleetPlan, progress, kept) -> dict[int, list[int]]:
+    """Each kept robot's remaining way along `plan` from its progress, timed step by step as its action dependencies
+    on the other kept robots allow at the earliest (a robot enters a vertex only a step after the robot before it
+    there has left: no two at one vertex, no swaps); dependencies on robots not kept are dropped."""
+    needs = dependencies(plan)
+    vertices = {robot: plan.vertices(robot) for robot in kept}
+    at = {robot: progress[robot] for robot in kept}
+    paths = {robot: [vertices[robot][at[robot]]] for robot in kept}
+    for _ in range(sum(len(v) for v in vertices.values()) + 1):
+        moving = [
+            robot
+            for robot in kept
+            if at[robot] + 1 < len(vertices[robot])
+            and all(at[other] >= action for other, action in needs[robot][at[robot] + 1] if other in at)
+        ]
+        if not moving:
+            break
+        for robot in moving:
+            at[robot] += 1
+        for robot in kept:
+            paths[robot].append(vertices[robot][at[robot]])
+    return paths
+
+
+def partial_plan(graph: Lattice, job: PlanJob) -> FleetPlan | None:
+    """The robots of job.replan planned again one at a time, in priority order, around the others' remaining ways
+    (kept_paths) and those planned before them (A* in space and time); None when one has no such way, when a
+    kept robot's way uses an edge no longer on `graph`, or the result would move robots round a cycle in one step."""
+    robots = len(job.statuses)
+    kept = [robot for robot in range(robots) if robot not in job.replan]
+    paths: dict[int, list[int]] = kept_paths(job.kept_plan, job.progress, kept)
+    for path in paths.values():
+        if any(b != a and b not in graph.neighbours[a] for a, b in zip(path[:-1], path[1:], strict=True)):
+            return None
+    taken = [path[0] for path in paths.values()] + [
+        vertex for vertex in range(len(graph)) if not graph.neighbours[vertex]
+    ]
+    for robot in [robot for robot in job.order if robot in job.replan]:
+        status, goal = job.statuses[robot], job.goals[robot]
+        start = job.restart.get(robot)
+        if start is None:
+            start = assign(graph, job.costmap, [(status.x, status.y)], taken=taken)[0]
+        target = graph.nearest(*goal)
+        fixed = [paths[other] for other in sorted(paths)] + [[start]]
+        path = space_time_path(graph, start, target, graph.distances(target), around(fixed, len(fixed) - 1))
+        if path is None:
+            return None
+        paths[robot] = path
+        taken.append(start)
+    ordered = [paths[robot] for robot in range(robots)]
+    if rotates(ordered):
+        return None
+    return FleetPlan(graph, tuple(tuple(trim(tuple(path))) for path in ordered), 0)
 
 
 class FleetCoordinator:
@@ -100,6 +277,9 @@ class FleetCoordinator:
         settle_time: float = 3.0,
         follower_speed: float = 0.2,
         turn_rate: float = 1.0,
+        priorities: list[int] | None = None,
+        route_lifetime: float = math.inf,
+        partial: bool = True,
     ) -> None:
         if not names:
             raise ValueError("robots: the fleet has no robot")
@@ -112,7 +292,28 @@ class FleetCoordinator:
         for key, value in (("follower_speed", follower_speed), ("turn_rate", turn_rate)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{key}: must be a positive number, got {value!r}")
+        if not (route_lifetime > 0.0):  # inf: routes never expire
+            raise ValueError(f"route_lifetime: must be a positive number of seconds, got {route_lifetime!r}")
         self.names = list(names)
+        if priorities is None:
+            priorities = list(range(len(names)))
+        if len(priorities) != len(names):
+            raise ValueError(f"priorities: {len(priorities)} priorities for {len(names)} robots")
+        self.priorities = [int(p) for p in priorities]
+        """per robot: its priority (0 first): who is planned first in a partial replan."""
+        self.order = tuple(sorted(range(len(names)), key=lambda robot: (self.priorities[robot], robot)))
+        self.route_lifetime = float(route_lifetime)
+        """s (statuses' clock) a route holds without a newer word (inf: for ever)."""
+        self.partial = bool(partial)
+        """a stuck or jumped robot is planned again around the others (else the whole fleet is)."""
+        self.partial_plans = 0
+        """plans made by planning only some robots again."""
+        self._generation = 0
+        """bumped when the plan is dropped or the map changes: a plan begun before is not adopted."""
+        self.planning = False
+        """a plan has been begun and not finished (begin_plan .. finish_plan)."""
+        self._replan_robots: set[int] = set()
+        """robots to plan again around the others (stuck or jumped), the plan in force kept meanwhile."""
         self.spacing = float(spacing)
         self.window = float(window)
         self.retry_period = float(retry_period)
@@ -142,6 +343,11 @@ class FleetCoordinator:
         self._costmap: Costmap | None = None
         self._lattice: Lattice | None = None
         self._goals: list[tuple[float, float]] = []
+        self._last: dict[str, Route] = {}
+        """the FOLLOW route each robot was last told (renewed by renewals)."""
+        self._job: PlanJob | None = None
+        self._holding: set[str] = set()
+        """robots told HOLD while a plan is made (not told their old routes meanwhile)."""
         self._told: dict[str, tuple] = {}
         """what each robot was last told (its span on the plan, or its state)."""
         self._retry_at = -math.inf
@@ -156,6 +362,8 @@ class FleetCoordinator:
     def set_costmap(self, costmap: Costmap) -> dict[str, Route]:
         """A new map's costmap (the lattice is made of it at the next plan); a plan in force is dropped."""
         self._costmap, self._lattice, self.cut, self._restart = costmap, None, [], {}
+        self._generation += 1
+        self._replan_robots = set()
         return self.drop("a new map") if self.schedule is not None else {}
 
     def observe(
@@ -193,8 +401,7 @@ class FleetCoordinator:
                 f"{stamp - before.stamp:.2f} s (its localizer moved its estimate): the fleet planned "
                 "again from where the robots stand"
             )
-            self.schedule, self._replan = None, True
-            return {}
+            return self._plan_again(robot)
         if self.schedule.report(robot, x, y):
             return self._routes()
         if self.schedule.allowed(robot) == self.schedule.progress[robot]:
@@ -209,6 +416,10 @@ class FleetCoordinator:
         """No plan in force, the costmap known, and every robot's latest status localized with a goal, all within
         `window` s of one another, each localized without a break for `settle_time` s (not before `retry_period` s
         after a failure)."""
+        if self.planning:
+            return False
+        if self._replan_robots and self.schedule is not None:
+            return True
         if self._replan and self.schedule is None and self._costmap is not None:
             return True
         if self.schedule is not None or self._costmap is None or len(self.statuses) < len(self.names):
@@ -218,83 +429,109 @@ class FleetCoordinator:
             return False
         stamps = [status.stamp for status in statuses]
         settled = all(
-            status.stamp - self._localized_since[name] >= self.settle_time for name, status in zip(self.names, statuses)
+            status.stamp - self._localized_since[name] >= self.settle_time
+            for name, status in zip(self.names, statuses, strict=True)
         )
         return settled and max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
 
     def hold(self) -> dict[str, Route]:
         """HOLD to every robot (while the plan is made)."""
         return self._tell(
-            {name: Route(HOLD, plan=self.plans + 1, reason="the fleet is being planned") for name in self.names}
+            {
+                name: self._stamped(Route(HOLD, plan=self.plans + 1, reason="the fleet is being planned"))
+                for name in self.names
+            }
         )
 
     def plan(self) -> dict[str, Route]:
-        """Plan the fleet from where the robots said they stand to their goals: every robot's route (FOLLOW), or
-        NONE to every one with the reason when no plan could be made."""
-        began = time.perf_counter()
-        statuses = [self.statuses[name] for name in self.names]
-        self._goals = [status.goal for status in statuses]
-        self._replan = False
-        try:
-            if self._lattice is None:
-                self._lattice = lattice(self._costmap, self.spacing)
-            restart, self._restart = self._restart, {}
-            try:
-                plan = self._plan_on(self._lattice.without(self.cut), statuses, restart)
-            except (PlanningError, ValueError) as error:
-                if not self.cut:
-                    raise
-                # in a tree maze a vertex cut off may be the only way to a goal: the cuts were guesses at something
-                # the map does not hold, and no plan at all is worse than meeting it again (the stuck rule stays)
-                self.events.append(
-                    f"no fleet plan with {len(self.cut)} lattice edges cut off ({error}): they are "
-                    "restored, the fleet planned on the whole lattice"
-                )
-                self.cut = []
-                plan = self._plan_on(self._lattice, statuses, restart)
-        except (PlanningError, ValueError) as error:
-            self.failures.append(str(error))
-            self._retry_at = max(status.stamp for status in statuses) + self.retry_period
+        """Plan the fleet from where the robots said they stand to their goals, here and now (begin_plan,
+        compute_plan, finish_plan): every robot's route (FOLLOW), or NONE to every one with the reason when no
+        plan could be made."""
+        self.begin_plan()
+        return self.finish_plan(compute_plan(self._job))
+
+    def begin_plan(self) -> tuple[PlanJob, dict[str, Route]]:
+        """The job of the plan due (for compute_plan, on any thread) and what to tell the robots meanwhile: HOLD to
+        those planned again (every robot for a whole plan; in a partial replan only those, the others driving on)."""
+        statuses = tuple(self.statuses[name] for name in self.names)
+        partial = bool(self._replan_robots) and self.schedule is not None and self.partial
+        replan = frozenset(self._conflicting(self._replan_robots)) if partial else frozenset()
+        if not partial:
+            self.schedule = None
+        goals = tuple(self._goals) if partial else tuple(status.goal for status in statuses)
+        restart, self._restart = self._restart, {}
+        self._job = PlanJob(
+            self._generation,
+            self._costmap,
+            self.spacing,
+            self._lattice,
+            tuple(self.cut),
+            statuses,
+            goals,
+            restart,
+            self.order,
+            self.follower_speed,
+            self.turn_rate,
+            replan,
+            self.schedule.plan if partial else None,
+            tuple(self.schedule.progress) if partial else (),
+        )
+        self._replan, self._replan_robots, self.planning = False, set(), True
+        holding = [self.names[robot] for robot in sorted(replan)] if partial else list(self.names)
+        self._holding = set(holding)
+        routes = {
+            name: self._stamped(Route(HOLD, plan=self.plans + 1, reason="the fleet is being planned"))
+            for name in holding
+        }
+        for name in holding:
+            self._told[name] = (HOLD, self.plans + 1)
+            self._last.pop(name, None)  # a HOLD is not renewed
+        return self._job, routes
+
+    def finish_plan(self, outcome: PlanOutcome) -> dict[str, Route]:
+        """Adopt the plan of a job begun by begin_plan: the routes that change (every robot's FOLLOW, or NONE to every
+        one with the reason when none was made); {} when the plan was dropped or the map changed since."""
+        self.planning, self._holding = False, set()
+        job = outcome.job
+        if job.generation != self._generation or (job.kept_plan is not None and self.schedule is None):
+            return {}
+        for name, goal in zip(self.names, job.goals, strict=True):  # a goal changed while it was planned
+            now = self.statuses[name].goal
+            if now is None or math.hypot(now[0] - goal[0], now[1] - goal[1]) > GOAL_TOLERANCE:
+                self.schedule = None
+                return {}
+        self.planning_time = outcome.seconds
+        self.events.extend(outcome.events)
+        self._lattice, self.cut = outcome.lattice, list(outcome.cut)
+        if outcome.plan is None:
+            self.schedule = None
+            self.failures.append(outcome.error)
+            self._retry_at = max(status.stamp for status in job.statuses) + self.retry_period
             return self._tell(
                 {
-                    name: Route(
-                        NONE,
-                        reason=f"no fleet plan: {error}; by the traffic rules, planning "
-                        f"again in {self.retry_period:g} s",
+                    name: self._stamped(
+                        Route(
+                            NONE,
+                            reason=f"no fleet plan: {outcome.error}; by the traffic rules, planning "
+                            f"again in {self.retry_period:g} s",
+                        )
                     )
                     for name in self.names
                 }
             )
-        finally:
-            self.planning_time = time.perf_counter() - began
+        before = self.schedule
         self.plans += 1
-        self.schedule = Schedule(plan, self._goals)
-        self._moving_since = [max(status.stamp for status in statuses)] * len(self.names)
+        self._goals = list(job.goals)
+        self.schedule = Schedule(outcome.plan, self._goals)
+        if outcome.partial:
+            self.partial_plans += 1
+            for robot in range(len(self.names)):  # a kept robot drove on while the plan was made
+                if robot not in job.replan and before is not None:
+                    moved = before.progress[robot] - job.progress[robot]
+                    self.schedule.progress[robot] = min(max(0, moved), len(self.schedule.waypoints[robot]) - 1)
+        latest = max(status.stamp for status in self.statuses.values())
+        self._moving_since = [latest] * len(self.names)
         return self._routes()
-
-    def _plan_on(self, graph: Lattice, statuses: list, restart: dict[int, int]):
-        """The fleet plan on `graph` from the robots' vertices (`restart`'s, else assigned to where they stand:
-        amr_planning.fleet_plan.assign) to the vertices nearest their goals; PlanningError or ValueError when
-        none is found."""
-        moving = [robot for robot in range(len(statuses)) if robot not in restart]
-        # a vertex whose every edge is cut is where a robot was stuck: no robot is planned from it
-        blocked = [
-            vertex for vertex in range(len(graph)) if not graph.neighbours[vertex] and self._lattice.neighbours[vertex]
-        ]
-        chosen = assign(
-            graph,
-            self._costmap,
-            [(statuses[robot].x, statuses[robot].y) for robot in moving],
-            taken=list(restart.values()) + blocked,
-        )
-        vertex_of = {**restart, **dict(zip(moving, chosen))}
-        starts = [vertex_of[robot] for robot in range(len(statuses))]
-        goals = [graph.nearest(*goal) for goal in self._goals]  # two goals on one vertex: too close, refused
-        plans = [improve(plan_lacam(graph, starts, goals, seed=1000 * k)) for k in range(PLAN_SEEDS)]
-        return min(
-            plans,
-            key=lambda plan: (execution_time(plan, self.follower_speed, self.turn_rate), plan.makespan, plan.cost),
-        )
 
     def route(self, name: str) -> Route:
         """What `name` is told now by the plan in force (FOLLOW), NONE without one."""
@@ -305,14 +542,16 @@ class FleetCoordinator:
         waypoints = schedule.route(robot, status.x, status.y)[1:]
         last = len(schedule.waypoints[robot]) - 1
         final = schedule.allowed(robot) == last and bool(np.allclose(waypoints[-1], schedule.waypoints[robot][last]))
-        return Route(
-            FOLLOW,
-            waypoints,
-            final,
-            self.plans,
-            schedule.progress[robot],
-            last,
-            f"{len(self.names)} robots, planned in {self.planning_time:.2f} s",
+        return self._stamped(
+            Route(
+                FOLLOW,
+                waypoints,
+                final,
+                self.plans,
+                schedule.progress[robot],
+                last,
+                f"{len(self.names)} robots, planned in {self.planning_time:.2f} s",
+            )
         )
 
     # -- helpers ----------------------------------------------------------------------------------------
@@ -324,12 +563,51 @@ class FleetCoordinator:
         """The FOLLOW routes whose span changed since the robot was last told (its stuck clock restarted)."""
         changed = {}
         for robot, name in enumerate(self.names):
+            if name in self._holding:
+                continue
             span = self._span(robot)
             if self._told.get(name) != span:
                 self._told[name] = span
                 self._moving_since[robot] = self.statuses[name].stamp
-                changed[name] = self.route(name)
+                changed[name] = self._last[name] = self.route(name)
         return changed
+
+    def renewals(self) -> dict[str, Route]:
+        """Each FOLLOW route past half its lifetime, told again with a new expiry (a HOLD is never renewed)."""
+        if not math.isfinite(self.route_lifetime) or not self.statuses:
+            return {}
+        now = self._now()
+        renewed = {}
+        for name, route in self._last.items():
+            if route.state == FOLLOW and route.expires - now < 0.5 * self.route_lifetime:
+                renewed[name] = self._last[name] = replace(route, expires=now + self.route_lifetime)
+        return renewed
+
+    def _now(self) -> float:
+        return max((status.stamp for status in self.statuses.values()), default=0.0)
+
+    def _stamped(self, route: Route) -> Route:
+        return replace(route, expires=self._now() + self.route_lifetime)
+
+    def _plan_again(self, robot: int) -> dict[str, Route]:
+        """Plan `robot` again (stuck or jumped): around the others, who keep their routes (partial), or the whole
+        fleet when partial replans are off."""
+        if self.partial:
+            self._replan_robots.add(robot)
+        else:
+            self.schedule, self._replan = None, True
+        return {}
+
+    def _conflicting(self, robots: set[int]) -> set[int]:
+        """`robots` and every robot whose remaining way passes a vertex cut off."""
+        schedule = self.schedule
+        blocked = {vertex for vertex, _ in self.cut}  # _stuck cuts every edge of the vertex, from it
+        conflicting = set(robots)
+        for robot in range(len(self.names)):
+            remaining = schedule.plan.vertices(robot)[schedule.progress[robot] + 1 :]
+            if blocked.intersection(remaining):
+                conflicting.add(robot)
+        return conflicting
 
     def _jumped(self, before: RobotStatus, now: RobotStatus) -> bool:
         """The status pose moved farther than half a spacing beyond JUMP_SPEED times the time between the two."""
@@ -354,7 +632,8 @@ class FleetCoordinator:
             f"{self.stuck_time:g} s: that lattice vertex cut off ({len(self.cut)} edges cut), the fleet "
             "planned again from where the robots stand"
         )
-        self.schedule, self._replan = None, True
+        self._moving_since[robot] = status.stamp
+        self._plan_again(robot)
 
     def take_events(self) -> list[str]:
         events, self.events = self.events, []
@@ -367,7 +646,8 @@ class FleetCoordinator:
 
     def drop(self, why: str) -> dict[str, Route]:
         """Drop the plan in force (if any): NONE to every robot, with `why`."""
-        self.schedule = None
+        self.schedule, self._replan_robots, self._last = None, set(), {}
+        self._generation += 1
         return self._tell(
             {
                 name: Route(

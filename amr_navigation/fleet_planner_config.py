@@ -17,7 +17,8 @@ class FleetPlannerConfig(Config):
     """the world whose `robots` list names the fleet (a path, or a name under config/worlds, as the simulator's
     world); '' = the robots parameter names it."""
     robots: list = parameter([], kind="str_array")
-    """the robots' names (their namespaces), in priority order; [] = the world's robots list."""
+    """the robots' names (their namespaces), in priority order; [] = the world's robots list (the fleet file: their
+    `priority` keys, amr_navigation.fleet_file)."""
     lattice_spacing: float = parameter(0.4, minimum=0.1, maximum=5.0)
     """m between the points of the lattice the fleet is planned on (amr_planning.fleet_plan.lattice: a square grid
     where it follows the free space, else points sampled along it at least this far apart): about a robot's width
@@ -48,6 +49,12 @@ class FleetPlannerConfig(Config):
     driven by its action dependencies, would all arrive first is kept (amr_planning.fleet_plan.execution_time)."""
     turn_rate: float = parameter(1.0, minimum=0.01, maximum=10.0)
     """rad/s the plans are timed at for a robot turning in place where its way bends."""
+    route_lifetime: float = parameter(30.0, minimum=0.0, maximum=3600.0)
+    """s (statuses' clock) a route holds without a newer word: each FOLLOW is renewed halfway to it, a HOLD never;
+    the navigators' own route_lifetime must be the same (0 = routes never expire)."""
+    partial_replans: bool = parameter(True)
+    """a stuck or jumped robot is planned again around the others, who drive on (false: the whole fleet is held
+    and planned again)."""
     costmap: CostmapConfig = field(default_factory=CostmapConfig)
     """the costmap the lattice is made of, as the planners build theirs: give it the planner nodes' robot_radius and
     safety_margin (the fleet_navigation stack ties them)."""

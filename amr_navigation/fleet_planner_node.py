@@ -17,18 +17,27 @@ activate   tells every robot NONE (the traffic rules until the fleet is planned)
 deactivate tells every robot NONE: the navigators go back to the traffic rules.
 cleanup    forgets the plan, the statuses and the map.
 
+Planning never runs in a callback: a status callback records the status and, when a plan is due, hands the job
+(FleetCoordinator.begin_plan) to a worker thread (compute_plan) and publishes the HOLDs; the worker triggers a guard
+condition when done, and its callback adopts the plan (finish_plan) and publishes the routes. Meanwhile statuses go on
+being read (the robots not planned again drive on their routes). Every FOLLOW route is renewed halfway to its expiry
+(`route_lifetime`; the navigators fall back to their own planning when a route expires).
+
 A malformed status (a pose or goal that is not finite) or map is refused with a throttled warning; nothing raises
 out of a callback; no route with a NaN is published.
 """
 
 from __future__ import annotations
 
-from amr_interfaces.msg import FleetRoute, NavigatorStatus
+from concurrent.futures import Future, ThreadPoolExecutor
+
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from amr_interfaces.msg import FleetRoute, NavigatorStatus
 from amr_maps.messages import grid_from_message
-from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route
+from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route, compute_plan
+from amr_navigation.fleet_file import load_fleet
 from amr_navigation.fleet_planner_config import NODE_NAME, FleetPlannerConfig
 from amr_navigation.fleet_route_messages import route_message
 from amr_planning.costmap import Costmap
@@ -39,15 +48,18 @@ from amr_util.stamps import stamp_nanoseconds
 
 def fleet_names(config: FleetPlannerConfig) -> list[str]:
     """The robots' names: the robots parameter, else the world's robots list (ValueError naming the world)."""
-    if config.robots:
-        return list(config.robots)
-    from amr_maps.world import load_world, resolve_world_path
+    return fleet_roster(config)[0]
 
-    world = load_world(resolve_world_path(config.world))
-    names = [robot.name for robot in world.fleet if robot.name]
-    if not names:
-        raise ValueError(f"world {config.world!r} has no robots list: there is no fleet to plan")
-    return names
+
+def fleet_roster(config: FleetPlannerConfig) -> tuple[list[str], list[int]]:
+    """The robots' names and priorities: the robots parameter (priorities in its order), else the fleet file's (the
+    world's robots list and their `priority` keys: amr_navigation.fleet_file; ValueError naming file, key, value)."""
+    if config.robots:
+        return list(config.robots), list(range(len(config.robots)))
+    from amr_maps.world import resolve_world_path
+
+    fleet = load_fleet(resolve_world_path(config.world))
+    return fleet.names, fleet.priorities
 
 
 class FleetPlannerNode(ManagedNode):
@@ -62,14 +74,20 @@ class FleetPlannerNode(ManagedNode):
         self.statuses_refused = 0
         self._routes: dict = {}
         self._entities: list = []
+        self._worker: ThreadPoolExecutor | None = None
+        self._job: Future | None = None
+        """the plan being made on the worker thread."""
+        self._job_done = None
+        """guard condition the worker triggers when the plan is made (its callback adopts it on the executor)."""
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
         problems = self.parameter_problems()
         if not problems:
             try:
                 config = FleetPlannerConfig.from_params(self.parameter_values())
+                names, priorities = fleet_roster(config)
                 coordinator = FleetCoordinator(
-                    fleet_names(config),
+                    names,
                     config.lattice_spacing,
                     window=config.window,
                     retry_period=config.retry_period,
@@ -77,6 +95,9 @@ class FleetPlannerNode(ManagedNode):
                     settle_time=config.settle_time,
                     follower_speed=config.follower_speed,
                     turn_rate=config.turn_rate,
+                    priorities=priorities,
+                    route_lifetime=config.route_lifetime if config.route_lifetime > 0 else float("inf"),
+                    partial=config.partial_replans,
                 )
             except (ValueError, OSError) as error:  # ConfigError names the key; a world names its file
                 problems = [str(error)]
@@ -92,6 +113,8 @@ class FleetPlannerNode(ManagedNode):
                 )
             )
         self._entities.append(self.create_subscription(OccupancyGridMessage, config.map_topic, self._on_map, LATCHED))
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="fleet_planning")
+        self._job_done = self.create_guard_condition(self._on_plan_done)
         self.get_logger().info(
             f"configured: {len(coordinator.names)} robots ({', '.join(coordinator.names)}), "
             f"lattice {config.lattice_spacing} m, routes on /<robot>/{config.route_topic}"
@@ -113,6 +136,11 @@ class FleetPlannerNode(ManagedNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        if self._worker is not None:
+            self._worker.shutdown(wait=True, cancel_futures=True)
+        if self._job_done is not None:
+            self.destroy_guard_condition(self._job_done)
+        self._worker = self._job = self._job_done = None
         for entity in self._entities:
             self.destroy_subscription(entity)
         for publisher in self._routes.values():
@@ -165,7 +193,7 @@ class FleetPlannerNode(ManagedNode):
                 return
             for event in self.coordinator.take_events():
                 self.get_logger().warning(event)
-            self._publish(routes)
+            self._publish({**self.coordinator.renewals(), **routes})
             self._plan_if_due()
 
         return on_status
@@ -177,8 +205,9 @@ class FleetPlannerNode(ManagedNode):
     # -- planning -----------------------------------------------------------------------------------------
 
     def _plan_if_due(self) -> None:
+        """A plan due: its job handed to the worker thread (never planned here), the HOLDs published."""
         coordinator = self.coordinator
-        if not coordinator.plan_due():
+        if self._job is not None or not coordinator.plan_due():
             return
         deaf = [name for name, publisher in self._routes.items() if publisher.get_subscription_count() == 0]
         if deaf:  # a navigator of coordination rules: a plan it would not follow would lead the others astray
@@ -187,17 +216,55 @@ class FleetPlannerNode(ManagedNode):
                 throttle_duration_sec=30.0,
             )
             return
-        self._publish(coordinator.hold())
-        routes = coordinator.plan()
+        job, holds = coordinator.begin_plan()
+        self._publish(holds)
+        self._job = self._worker.submit(compute_plan, job)
+        guard = self._job_done
+        self._job.add_done_callback(lambda _: guard.trigger())
+
+    def _on_plan_done(self) -> None:
+        """The worker's plan adopted (on the executor's thread) and the routes published."""
+        job, self._job = self._job, None
+        if job is None or not job.done() or self.coordinator is None:
+            self._job = job if job is not None and not job.done() else None
+            return
+        try:
+            outcome = job.result()
+        except Exception as error:  # a planner bug must not take the node down: the robots go by the rules
+            self.coordinator.planning = False
+            self.get_logger().error(f"the fleet plan raised {type(error).__name__}: {error}")
+            self._publish(self.coordinator.drop(f"planning raised {type(error).__name__}"))
+            return
+        routes = self.coordinator.finish_plan(outcome)
+        for event in self.coordinator.take_events():
+            self.get_logger().warning(event)
+        coordinator = self.coordinator
         if coordinator.schedule is None:
-            self.get_logger().error(next(iter(routes.values())).reason)
-        else:
+            if routes:
+                self.get_logger().error(next(iter(routes.values())).reason)
+        elif routes:
             self.get_logger().info(
-                f"fleet plan {coordinator.plans}: {len(coordinator.names)} robots on a lattice of "
-                f"{coordinator.lattice_size} points, planned in {coordinator.planning_time:.2f} s; the longest "
-                f"{max(len(w) for w in coordinator.schedule.waypoints) - 1} waypoints"
+                f"fleet plan {coordinator.plans}{' (partial)' if outcome.partial else ''}: {len(coordinator.names)} "
+                f"robots on a lattice of {coordinator.lattice_size} points, planned in {outcome.seconds:.2f} s on "
+                f"the worker thread; the longest {max(len(w) for w in coordinator.schedule.waypoints) - 1} waypoints"
             )
-        self._publish(routes)
+        if self.active:
+            self._publish(routes)
+            self._plan_if_due()
+
+    def wait_for_plan(self, timeout: float = 30.0) -> bool:
+        """Block until the plan being made is done and adopted (tests; never from a callback). False on timeout."""
+        job = self._job
+        if job is None:
+            return True
+        try:
+            job.result(timeout=timeout)
+        except TimeoutError:
+            return False
+        except Exception:  # adopted (and logged) by _on_plan_done
+            pass
+        self._on_plan_done()
+        return True
 
     def _publish(self, routes: dict[str, Route]) -> None:
         stamp = self.get_clock().now().to_msg()

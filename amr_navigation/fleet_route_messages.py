@@ -11,10 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from amr_interfaces.msg import FleetRoute
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import Point
 
+from amr_interfaces.msg import FleetRoute
 from amr_navigation.fleet_coordinator import FOLLOW, HOLD, NONE, Route
 
 MAX_ROUTE_POINTS = 10000

@@ -93,7 +93,7 @@ def legs(planner: Planner, route: np.ndarray) -> np.ndarray:
     where the planner finds none."""
     route = np.asarray(route, dtype=float)
     points = [route[:1]]
-    for a, b in zip(route[:-1], route[1:]):
+    for a, b in zip(route[:-1], route[1:], strict=True):
         try:
             leg = planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
         except PlanningError:

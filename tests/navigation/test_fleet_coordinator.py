@@ -59,7 +59,8 @@ def drive(
     steps: int = 400,
 ) -> tuple[dict, int]:
     """Every robot goes to the next waypoint of the route it was last told, one robot at a time in random order,
-    reporting where it stands the time it takes at 0.2 m/s later; (the routes last told, the reports made) once no robot moves any more."""
+    reporting where it stands the time it takes at 0.2 m/s later; (the routes last told, the reports made) once no
+    robot moves any more."""
     told = dict(routes)
     reports = 0
     for _ in range(steps):
@@ -121,8 +122,8 @@ def test_robots_driven_along_their_routes_all_reach_their_goals_and_are_told_onl
     starts, goal_points = points[:4], points[4:]
     coordinator = FleetCoordinator(names, 0.4 if family == "pillars" else _pitch(data), settle_time=0.0)
     coordinator.set_costmap(costmap)
-    goals = {name: (float(g[0]), float(g[1])) for name, g in zip(names, goal_points)}
-    positions = {name: np.array(s, dtype=float) for name, s in zip(names, starts)}
+    goals = {name: (float(g[0]), float(g[1])) for name, g in zip(names, goal_points, strict=True)}
+    positions = {name: np.array(s, dtype=float) for name, s in zip(names, starts, strict=True)}
     for name in names:
         coordinator.observe(name, 0.0, *positions[name], True, goals[name])
     assert coordinator.plan_due()
@@ -147,9 +148,9 @@ def _pitch(data: dict) -> float:
     return grid_pitch(data)
 
 
-def planned_in_the_corridor() -> tuple[FleetCoordinator, dict]:
+def planned_in_the_corridor(partial: bool = True) -> tuple[FleetCoordinator, dict]:
     """Two robots at the corridor's ends sent to the other end, planned (no settle time)."""
-    coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0)
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0, partial=partial)
     coordinator.set_costmap(corridor_costmap())
     goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
@@ -208,7 +209,7 @@ def test_bad_input_is_refused_naming_it():
 def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_around_it():
     """A ring corridor: r1's way is blocked (it reports the same place for longer than stuck_time); the vertex it
     could not reach is cut off and the new plan takes it the other way round, from the vertex it came from."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0, partial=False)
     coordinator.set_costmap(ring_costmap())
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
@@ -245,7 +246,7 @@ def test_cut_edges_that_leave_a_goal_unreachable_are_restored_and_the_fleet_plan
     """A corridor without a way round (a tree maze's corridor): r1 stuck on its way has the vertex it could not reach
     cut off, which leaves its goal unreachable. Rather than no plan at all (`perfect 15`: every retry failed for the
     rest of the run), the cut edges are restored and the fleet planned as before, from the vertex it came from."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0, partial=False)
     coordinator.set_costmap(corridor_costmap())
     goal = (1.6, 0.0)
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goal)
@@ -269,7 +270,7 @@ def test_a_robot_stuck_far_from_the_vertex_it_came_from_is_planned_again_from_wh
     the top left, more than a spacing from the vertex it came from. Planning it from that vertex (`perfect 15`: 1.2 m
     away, the same waypoint stuck every 15 s to the end of the run) would hand it a route that starts where it is
     not; it is planned from a vertex where it stands."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0, partial=False)
     coordinator.set_costmap(ring_costmap())
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
@@ -289,8 +290,9 @@ def test_a_robot_whose_pose_jumps_has_the_fleet_planned_again_from_where_it_stan
     """Through ROS, `perfect 15`: r2's filter declared localized 1.58 m off, the fleet was planned from that estimate,
     the filter withdrew and declared again at the true place. A status pose that moves farther than the robot
     could have driven since the last one (half a spacing beyond JUMP_SPEED) drops the plan and the fleet is planned
-    again at once, from where the robots stand now; moves a robot can drive do not."""
-    coordinator, goals = planned_in_the_corridor()
+    again at once, from where the robots stand now (here the whole fleet: partial replans off); moves a robot can
+    drive do not."""
+    coordinator, goals = planned_in_the_corridor(partial=False)
     coordinator.observe("r2", 1.0, 1.4, 0.0, True, goals["r2"])  # 0.2 m in 1 s: driven
     coordinator.observe("r2", 1.05, 1.35, 0.0, True, goals["r2"])
     assert coordinator.schedule is not None and not coordinator.plan_due()
@@ -307,9 +309,9 @@ def test_the_plan_kept_is_the_one_of_several_lacam_searches_that_would_end_first
     """LaCAM's plans are not of least cost and differ by seed (`perfect 9`: one seed's plan brought r3 home 35 s
     later than another's). The coordinator runs PLAN_SEEDS searches and keeps the plan whose robots, driven by its
     action dependencies, would all arrive first (fleet_plan.execution_time), not the least makespan."""
-    from amr_planning.fleet_starts import with_robots
     from amr_navigation.fleet_coordinator import PLAN_SEEDS
     from amr_planning.fleet_plan import execution_time, improve, plan_lacam
+    from amr_planning.fleet_starts import with_robots
 
     data = with_robots(generate("perfect", 9, size=4.0), 6, 9)
     names = [robot["name"] for robot in data["robots"]]

@@ -10,8 +10,6 @@ import math
 
 import numpy as np
 import pytest
-from amr_interfaces.msg import FleetRoute, LocalizedPose, NavigatorStatus, PathFollowerStatus
-from amr_interfaces.srv import FollowPath
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point
 from lifecycle_msgs.msg import Transition
@@ -19,6 +17,8 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rclpy.task import Future
 
+from amr_interfaces.msg import FleetRoute, LocalizedPose, NavigatorStatus, PathFollowerStatus
+from amr_interfaces.srv import FollowPath
 from amr_maps.messages import grid_message
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
@@ -251,6 +251,8 @@ def test_the_fleet_planner_says_none_then_holds_and_hands_out_routes_once_all_ar
     assert states("r1") == ["NONE"]  # r2 has just declared: the plan waits settle_time (3 s)
     r1(status_message(4.05, -1.6, 0.0, True, (1.6, 0.0)))
     r2(status_message(4.05, 1.6, 0.0, True, (-1.6, 0.0)))
+    assert states("r1") == ["NONE", "HOLD"]  # planned on the worker thread, adopted when done
+    assert node.wait_for_plan(30.0)
     assert states("r1") == ["NONE", "HOLD", "FOLLOW"] and states("r2") == ["NONE", "HOLD", "FOLLOW"]
     route = node._routes["r1"].messages[-1]
     assert route.plan == 1 and route.header.frame_id == "map" and route.waypoints
@@ -287,3 +289,53 @@ def test_the_fleet_planner_refuses_a_configuration_without_robots(ros_context):
         assert "world, robots" in node.configure_error
     finally:
         node.destroy_node()
+
+
+def test_the_fleet_planner_plans_on_a_worker_thread_and_its_executor_stays_responsive(planner, monkeypatch):
+    """The plan is held up (an event the test sets); statuses keep being read meanwhile, each callback returns at
+    once, and the routes come through the executor (the worker's guard condition) once the plan is done. Were the
+    plan made in the status callback, the callback would block until the event (10 s) and this test fail."""
+    import threading
+    import time
+
+    from rclpy.executors import SingleThreadedExecutor
+
+    import amr_navigation.fleet_planner_node as module
+
+    release, started = threading.Event(), threading.Event()
+    compute = module.compute_plan
+
+    def slow(job):
+        started.set()
+        release.wait(10.0)
+        return compute(job)
+
+    monkeypatch.setattr(module, "compute_plan", slow)
+    node = planner
+    node._on_map(corridor_map())
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        r1, r2 = node._status_callback("r1"), node._status_callback("r2")
+        for seconds in (1.0, 4.05):
+            r1(status_message(seconds, -1.6, 0.0, True, (1.6, 0.0)))
+            began = time.monotonic()
+            r2(status_message(seconds, 1.6, 0.0, True, (-1.6, 0.0)))
+        assert time.monotonic() - began < 2.0  # the callback that made the plan due returned at once
+        assert started.wait(5.0) and node.coordinator.planning
+        began = time.monotonic()
+        r1(status_message(4.1, -1.55, 0.0, True, (1.6, 0.0)))  # read while the plan is made
+        assert time.monotonic() - began < 2.0
+        assert node.coordinator.statuses["r1"].x == -1.55
+        assert [m.state for m in node._routes["r1"].messages] == ["NONE", "HOLD"]
+        release.set()
+        deadline = time.monotonic() + 30.0
+        while node._routes["r1"].messages[-1].state != "FOLLOW" and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert node._routes["r1"].messages[-1].state == "FOLLOW" and not node.coordinator.planning
+    finally:
+        release.set()
+        executor.shutdown(timeout_sec=5.0)
+        spinner.join(5.0)
