@@ -21,8 +21,8 @@ the independent joints and derive the coupled ones.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -254,12 +254,13 @@ class Chain:
         return self._clamped(q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q])
 
     def _clamped(self, values: list) -> np.ndarray:
-        return np.array([min(max(v, low), high) for v, low, high in zip(values, self._lower, self._upper)])
+        return np.array([min(max(v, low), high) for v, low, high in zip(values, self._lower, self._upper, strict=True)])
 
     def within_limits(self, q, tolerance: float = 0.0) -> bool:
         values = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
         return len(values) == self.n and all(
-            low - tolerance <= v <= high + tolerance for v, low, high in zip(values, self._lower, self._upper)
+            low - tolerance <= v <= high + tolerance
+            for v, low, high in zip(values, self._lower, self._upper, strict=True)
         )
 
     def couplings_hold(self, q, tolerance: float = 1e-9) -> bool:

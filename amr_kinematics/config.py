@@ -31,8 +31,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -41,11 +42,11 @@ from amr_util.parameter_spec import ConfigError, ParameterSpec
 
 from .chain import CONVENTIONS, JOINT_TYPES, PLANAR, Chain, Coupling
 from .errors import ChainConfigError, KinematicsError, SolverNotApplicableError
-from .urdf import urdf_chain
 from .solvers import SOLVERS, IKResult, get_solver
-from .solvers.task import parse_task
 from .solvers.base import DEFAULT_MAX_ITERATIONS, DEFAULT_TIMEOUT, DEFAULT_TOLERANCE, MAX_TIMEOUT, MAX_TOLERANCE
+from .solvers.task import parse_task
 from .transforms import xyz_rpy_matrix
+from .urdf import urdf_chain
 
 PARTIAL_POSE_WEIGHTS = (1.0, 1.0, 1.0, 0.0, 0.0, 1.0)
 """Position and yaw: the partial pose the warm-up solves once."""

@@ -32,16 +32,16 @@ import time
 from array import array
 
 import numpy as np
-from amr_interfaces.srv import ComputeFK, SolveIK
 from geometry_msgs.msg import Point, Pose
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+from amr_interfaces.srv import ComputeFK, SolveIK
 from amr_kinematics.config import CHAIN_KEYS, NODE_NAME, ChainConfig, flatten_parameters, load_chain_set
-from amr_kinematics.parameters import chain_specs
 from amr_kinematics.errors import KinematicsError
+from amr_kinematics.parameters import chain_specs
 from amr_kinematics.solvers.task import parse_task
 from amr_kinematics.transforms import matrix_quaternion, pose_matrix
 from amr_util.managed_node import ManagedNode, run
@@ -346,7 +346,7 @@ class IKServiceNode(ManagedNode):
         q = np.asarray(request.positions)
         outside = [
             name
-            for name, value, low, high in zip(chain.joint_names, q, chain.lower, chain.upper)
+            for name, value, low, high in zip(chain.joint_names, q, chain.lower, chain.upper, strict=True)
             if not low <= value <= high
         ]
         response.message = "ok" + (f" (outside the joint limits: {', '.join(outside)})" if outside else "")

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from .chain import MOTION_ROT_Z, MOTION_TRANS_X
 
@@ -194,5 +194,5 @@ def build_kernel(chain) -> Kernel:
     }
     source = "\n".join(_generate(chain, rot, jac, name) for name, (rot, jac) in variants.items())
     namespace = {"cos": math.cos, "sin": math.sin}
-    exec(compile(source, f"<kernel {chain.name}>", "exec"), namespace)  # noqa: S102 - generated above
+    exec(compile(source, f"<kernel {chain.name}>", "exec"), namespace)  # the source is generated above
     return Kernel(source=source, **{name: namespace[name] for name in variants})

@@ -103,7 +103,7 @@ def _rasterise(quads: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         gx, gy = np.meshgrid(xs[c0:c1], ys[r0:r1])
         inside = np.ones(gx.shape, dtype=bool)
         margin = step / math.sqrt(2.0)
-        for (ax, ay), (bx, by) in zip(quad, np.roll(quad, -1, axis=0)):
+        for (ax, ay), (bx, by) in zip(quad, np.roll(quad, -1, axis=0), strict=True):
             inside &= (bx - ax) * (gy - ay) - (by - ay) * (gx - ax) >= -margin * math.hypot(bx - ax, by - ay)
         image[r0:r1, c0:c1] |= inside
     return image

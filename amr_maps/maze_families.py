@@ -42,9 +42,11 @@ which every generated world is by construction.
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -396,7 +398,7 @@ def _corridor_walls(points: np.ndarray, half: np.ndarray) -> list[list[float]]:
         polyline.append(points[-1] + side * half[-1] * normals[-1])
     walls = []
     for polyline in sides.values():
-        walls += [[*a, *b] for a, b in zip(polyline[:-1], polyline[1:]) if np.linalg.norm(b - a) > 1e-6]
+        walls += [[*a, *b] for a, b in itertools.pairwise(polyline) if np.linalg.norm(b - a) > 1e-6]
     walls.append([*sides[1.0][0], *sides[-1.0][0]])
     walls.append([*sides[1.0][-1], *sides[-1.0][-1]])
     return walls
@@ -518,7 +520,7 @@ def _narrowing_family(rng, opts, hand):
     def draw() -> list[np.ndarray]:
         heading, point, pieces = rng.uniform(0.0, 2.0 * math.pi), np.zeros(2), []
         count = int(rng.integers(2, 5))
-        for k in range(count + 1):
+        for _ in range(count + 1):
             turn = math.radians(rng.choice([90.0, rng.uniform(30.0, 120.0)])) * rng.choice([-1.0, 1.0])
             length = rng.uniform(1.2, 2.2) + 2.0 * half * math.tan(0.5 * abs(turn))
             nxt = point + length * np.array([math.cos(heading), math.sin(heading)])
@@ -537,7 +539,7 @@ def _narrowing_family(rng, opts, hand):
 
 
 def _room_walls(corners: np.ndarray) -> list[list[float]]:
-    return [[*a, *b] for a, b in zip(corners, np.roll(corners, -1, axis=0))]
+    return [[*a, *b] for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True)]
 
 
 def _pillars_family(rng, opts, hand):
@@ -608,7 +610,7 @@ def _open_room_family(rng, opts, hand):
 def _inside_polygon(x: float, y: float, corners: np.ndarray) -> bool:
     """Even-odd rule: a ray to +x crosses the outline an odd number of times."""
     inside = False
-    for (x1, y1), (x2, y2) in zip(corners, np.roll(corners, -1, axis=0)):
+    for (x1, y1), (x2, y2) in zip(corners, np.roll(corners, -1, axis=0), strict=True):
         if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * (x2 - x1) / (y2 - y1):
             inside = not inside
     return inside
@@ -770,7 +772,7 @@ class _Geometry:
             b0, b1 = qb[:, None, :, :], np.roll(qb, -1, axis=1)[:, None, :, :]
             distance = _segment_segment_distance(a0, a1, b0, b1).min(axis=(1, 2))
             contained = self._inside(qa[:, 0], qb) | self._inside(qb[:, 0], qa)
-            for p, q in zip(i[(distance < gap) | contained], j[(distance < gap) | contained]):
+            for p, q in zip(i[(distance < gap) | contained], j[(distance < gap) | contained], strict=True):
                 parent[find(int(p))] = find(int(q))
         return np.array([find(k) for k in range(len(self.quads))])
 
@@ -833,7 +835,7 @@ class _Geometry:
         """No second solid nearly as near, nor a side wall just at the lost distance."""
         d = _point_segment_distance(np.array([x, y])[None], self.a, self.b)
         by_component = {}
-        for comp, dist in zip(self.component[self.owner], d):
+        for comp, dist in zip(self.component[self.owner], d, strict=True):
             by_component[int(comp)] = min(by_component.get(int(comp), math.inf), float(dist))
         near = sorted(by_component.values())
         if len(near) > 1 and near[1] - near[0] < 0.3:

@@ -21,8 +21,8 @@ routes cell by cell catches that (issue 20; bench/bench_wall_follower_families.p
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -54,7 +54,7 @@ class MazeGrid:
     """frozensets of two neighbouring cells with no wall between them"""
 
     @classmethod
-    def from_world(cls, world: dict) -> "MazeGrid":
+    def from_world(cls, world: dict) -> MazeGrid:
         """The grid of a world dict whose walls (centre lines) all lie on one square grid's lines."""
         walls = np.asarray(world.get("walls") or [], dtype=float).reshape(-1, 4)
         if len(walls) < 4:
@@ -81,7 +81,7 @@ class MazeGrid:
         n, m = int(round(u.max())), int(round(v.max()))
         u, v = np.round(u).astype(int), np.round(v).astype(int)
         blocked = set()
-        for (u1, u2), (v1, v2) in zip(u, v):
+        for (u1, u2), (v1, v2) in zip(u, v, strict=True):
             if u1 == u2:  # on the vertical line x = u1: closes (u1 - 1, j) | (u1, j)
                 blocked |= {frozenset(((u1 - 1, j), (u1, j))) for j in range(min(v1, v2), max(v1, v2))}
             else:
@@ -160,7 +160,7 @@ def first_difference(route: Sequence[Cell], reference: Sequence[Cell]) -> int | 
 
     A route longer than the reference differs where the reference ends.
     """
-    for index, (a, b) in enumerate(zip(route, reference)):
+    for index, (a, b) in enumerate(zip(route, reference, strict=False)):
         if a != b:
             return index
     return None if len(route) <= len(reference) else len(reference)

@@ -91,7 +91,7 @@ def _mark_polygon(
     y_low = origin_y + np.arange(row0, row1) * resolution
     x_high, y_high = x_low + resolution, y_low + resolution
     inside = np.ones((row1 - row0, col1 - col0), dtype=bool)
-    for a, b in zip(polygon, np.roll(polygon, -1, axis=0)):
+    for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
         dx, dy = b - a
         length = math.hypot(dx, dy)
         if length == 0.0:

@@ -15,7 +15,7 @@ lattice x = origin_x + k * resolution fixed by the first origin (cells keep thei
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numba
 import numpy as np
@@ -203,7 +203,7 @@ def map_from_scans(
     if len(poses) != len(scans):
         raise ValueError(f"map_from_scans: {len(poses)} poses for {len(scans)} scans")
     grid = LogOddsGrid(resolution, origin)
-    for pose, scan in zip(poses, scans):
+    for pose, scan in zip(poses, scans, strict=True):
         grid.insert_scan(pose, scan, mount, max_range)
     return grid.to_occupancy_grid(occupied, free, frame_id)
 

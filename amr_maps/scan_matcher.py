@@ -70,7 +70,7 @@ class ScoreMap:
         object.__setattr__(self, "free", free)
 
     @classmethod
-    def from_probability(cls, prob: np.ndarray, resolution: float, origin, free_below: float = 0.35) -> "ScoreMap":
+    def from_probability(cls, prob: np.ndarray, resolution: float, origin, free_below: float = 0.35) -> ScoreMap:
         """The table is the occupancy probability itself (Cartographer's probability grid); cells below
         `free_below` are the free ones (a log-odds map's unknown cells hold 0.5)."""
         prob = np.clip(np.nan_to_num(np.asarray(prob, dtype=np.float32), nan=0.0), 0.0, 1.0)
@@ -79,7 +79,7 @@ class ScoreMap:
     @classmethod
     def from_occupancy(
         cls, grid: OccupancyGrid, sigma: float = 0.05, unknown: float = 0.05, occupied_threshold: int = 65
-    ) -> "ScoreMap":
+    ) -> ScoreMap:
         """exp(-d^2 / (2 sigma^2)) with d the distance (m) from a cell's centre to the nearest occupied cell's
         (a likelihood field); unknown cells score at least `unknown` (a small constant: they may hide a wall).
         No occupied cell at all: every cell scores 0 (unknown ones `unknown`)."""
@@ -550,7 +550,7 @@ class _BranchAndBound:
         """(angle index, x, y, total) of the best leaves so far, best first."""
         return [
             (int(a), int(x), int(y), int(t))
-            for (a, x, y), t in zip(self.found[: self.state[2]], self.found_totals[: self.state[2]])
+            for (a, x, y), t in zip(self.found[: self.state[2]], self.found_totals[: self.state[2]], strict=True)
         ]
 
 

@@ -98,7 +98,7 @@ def symmetry_case(kind: str, seed: int, **options: Any) -> SymmetryCase:
     return SymmetryCase(kind, world, dict(symmetric, name=f"{name}_symmetric", wall_thickness=thickness, start=start))
 
 
-def feature_in_view(world: World, symmetric: World) -> "FeatureView":
+def feature_in_view(world: World, symmetric: World) -> FeatureView:
     """A FeatureView for the pair (built worlds of a SymmetryCase)."""
     return FeatureView(world, symmetric)
 
@@ -110,7 +110,7 @@ class FeatureView:
     (told_apart: the feature seen, or a wall seen where a turned copy would see the feature)."""
 
     def __init__(self, world: World, symmetric: World, tolerance: float = 0.05) -> None:
-        from amr_maps.raycast import NumpyRayCaster  # noqa: PLC0415 (only the benchmarks and tests need it)
+        from amr_maps.raycast import NumpyRayCaster  # here: only the benchmarks and tests need it
 
         self._casters = NumpyRayCaster(world.faces), NumpyRayCaster(symmetric.faces)
         self.tolerance = tolerance
@@ -171,7 +171,7 @@ class _Draw:
 
 def _square(half: float) -> list[list[float]]:
     corners = [(-half, -half), (half, -half), (half, half), (-half, half)]
-    return [[*a, *b] for a, b in zip(corners, corners[1:] + corners[:1])]
+    return [[*a, *b] for a, b in zip(corners, corners[1:] + corners[:1], strict=True)]
 
 
 def _doorway(draw: _Draw, size: float, thickness: float):

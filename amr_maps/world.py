@@ -41,9 +41,10 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import yaml
@@ -136,7 +137,7 @@ class World:
         the solids and of the other robots (a world of one robot is checked where it is placed)."""
         where = _Where(self.source)
         starts = np.array([[robot.start.x, robot.start.y] for robot in self.robots]).reshape(-1, 2)
-        for index, (robot, clear) in enumerate(zip(self.robots, self.clearance(starts))):
+        for index, (robot, clear) in enumerate(zip(self.robots, self.clearance(starts), strict=True)):
             if clear < radius:
                 raise where.error(
                     f"robots[{index}].start",
@@ -275,12 +276,12 @@ def world_from_dict(
     )
 
 
-def _start(value: Any, key: str, where: "_Where") -> Pose2D:
+def _start(value: Any, key: str, where: _Where) -> Pose2D:
     x, y, theta = _numbers(value, 3, key, where, "[x, y, theta]")
     return Pose2D(x, y, wrap_angle(theta))
 
 
-def _goal(value: Any, key: str, where: "_Where") -> Goal:
+def _goal(value: Any, key: str, where: _Where) -> Goal:
     gx, gy, radius = _numbers(value, 3, key, where, "[x, y, radius]")
     if radius <= 0.0:
         raise where.error(key, f"radius must be positive, got {radius}")
@@ -291,7 +292,7 @@ def _pose_text(pose: Pose2D) -> str:
     return f"[{pose.x:g}, {pose.y:g}, {pose.theta:g}]"
 
 
-def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where: "_Where") -> tuple[RobotSpec, ...]:
+def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where: _Where) -> tuple[RobotSpec, ...]:
     """The `robots` list: named robots, each starting (and ending, if it has a goal) in free space
     within the solids' extent; the footprints are checked by World.check_footprints(radius)."""
     for key in ("start", "goal"):
@@ -330,7 +331,7 @@ def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where
     xmin, ymin = faces[:, [0, 2]].min(), faces[:, [1, 3]].min()
     xmax, ymax = faces[:, [0, 2]].max(), faces[:, [1, 3]].max()
     clearance = solid_clearance(polygons, faces, np.array([point for _, point in points]))
-    for (key, (x, y)), clear in zip(points, clearance):
+    for (key, (x, y)), clear in zip(points, clearance, strict=True):
         if not (xmin <= x <= xmax and ymin <= y <= ymax):
             raise where.error(
                 key,
@@ -362,7 +363,7 @@ def solid_clearance(polygons: Sequence[np.ndarray], faces: np.ndarray, points: n
     return np.where(inside, -distance, distance)
 
 
-def _beacons(value: Any, where: "_Where") -> tuple[tuple[float, float], ...]:
+def _beacons(value: Any, where: _Where) -> tuple[tuple[float, float], ...]:
     """[[x, y], ...]: at least one; an empty list is refused (nothing to measure a range to)."""
     if not isinstance(value, list) or not value:
         raise where.error("beacons", f"must be a non-empty list of [x, y] (omit the key for no beacons), got {value!r}")
@@ -470,7 +471,7 @@ def _runs(flags: Sequence[bool]) -> list[tuple[int, int]]:
     """Half-open index ranges [start, stop) of consecutive True values."""
     padded = np.concatenate(([False], np.asarray(flags, dtype=bool), [False]))
     edges = np.flatnonzero(padded[1:] != padded[:-1])
-    return list(zip(edges[0::2].tolist(), edges[1::2].tolist()))
+    return list(zip(edges[0::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
 def _grid_boxes(solid: np.ndarray, size: float, ox: float, oy: float) -> list[np.ndarray]:

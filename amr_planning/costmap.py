@@ -91,7 +91,7 @@ class Costmap:
     def resolution(self) -> float:
         return self.grid.resolution
 
-    def with_obstacles(self, points, radius: float) -> "Costmap":
+    def with_obstacles(self, points, radius: float) -> Costmap:
         """A new costmap, same config, of a copy of this map with discs of `radius` (m) around `points`
         (N, 2) marked occupied: obstacles seen but not on the map (another robot), inflated as walls are.
         Points off the map mark nothing; this costmap and its grid are unchanged."""

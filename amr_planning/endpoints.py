@@ -50,7 +50,8 @@ def resolve(costmap: Costmap, point, what: str, snap_distance: float) -> Endpoin
         raise PlanningError(
             blocked,
             f"{what} ({x:.3f}, {y:.3f}) is {costmap.clearance[row, col]:.3f} m from an obstacle, closer than "
-            f"{costmap.config.robot_radius:.3f} m (the robot's radius), and the nearest cell clear enough is {distance:.3f} m away "
+            f"{costmap.config.robot_radius:.3f} m (the robot's radius), and the nearest cell clear enough is "
+            f"{distance:.3f} m away "
             f"(more than {snap_distance:.3f} m)",
             what,
         )

@@ -77,7 +77,7 @@ class Lattice:
             raise PlanningError(Reason.INVALID, f"no vertex left near ({x:.3f}, {y:.3f}): all {len(self)} are taken")
         return int(np.argmin(gaps))
 
-    def without(self, edges) -> "Lattice":
+    def without(self, edges) -> Lattice:
         """This lattice without the edges (u, v) given (each both ways): an edge found blocked."""
         cut = {(int(u), int(v)) for u, v in edges} | {(int(v), int(u)) for u, v in edges}
         return Lattice(
@@ -178,10 +178,10 @@ one of its points (a wider room's grid leaves at most about 1.7 spacings near wa
 
 def follows_free_space(costmap: Costmap, graph: Lattice, cover: float = COVER) -> bool:
     """Whether `graph` is a lattice robots can be planned on everywhere in the free space it reaches: in each
-    region of the free space (cells outside the inflated band, `Costmap.regions`) that holds vertices, they are joined into one graph, and every
-    free cell lies within `cover` spacings of one. A square grid follows the rooms and the grid mazes whose cells
-    it fits; it does not follow a corridor at an angle to it (rotated, bent or curved ones), which it leaves in
-    pieces or unvisited. A region without a vertex (a pocket no robot can leave) does not count."""
+    region of the free space (cells outside the inflated band, `Costmap.regions`) that holds vertices, they are joined
+    into one graph, and every free cell lies within `cover` spacings of one. A square grid follows the rooms and the
+    grid mazes whose cells it fits; it does not follow a corridor at an angle to it (rotated, bent or curved ones),
+    which it leaves in pieces or unvisited. A region without a vertex (a pocket no robot can leave) does not count."""
     from scipy.ndimage import distance_transform_edt
 
     if len(graph) == 0:
@@ -227,7 +227,7 @@ def sampled_lattice(costmap: Costmap, spacing: float) -> Lattice:
     kept_cells: list[tuple[int, int]] = []
     buckets: dict[tuple[int, int], list[np.ndarray]] = {}
     limit = spacing * spacing - 1e-12
-    for row, col in zip(rows[order], cols[order]):
+    for row, col in zip(rows[order], cols[order], strict=True):
         point = costmap.centre(row, col)
         key = (int(point[0] // spacing), int(point[1] // spacing))
         near = [
@@ -644,7 +644,7 @@ class _Constraint:
 @dataclass
 class _Node:
     config: tuple[int, ...]
-    parent: "_Node | None"
+    parent: _Node | None
     priorities: list[float]
     tree: deque
 
@@ -719,12 +719,12 @@ def _check_order_in_corridors(graph: Lattice, starts: list[int], goals: list[int
         edges = sum(degrees) // 2
         if len(robots) < 2 or max(degrees) > 2 or edges != len(vertices) - 1:
             continue  # a branch or a cycle: robots may pass each other there
-        end = next(int(v) for v, d in zip(vertices, degrees) if d <= 1)
+        end = next(int(v) for v, d in zip(vertices, degrees, strict=True) if d <= 1)
         position = graph.distances(end)
         by_start = sorted(robots, key=lambda robot: position[starts[robot]])
         by_goal = sorted(robots, key=lambda robot: position[goals[robot]])
         if by_start != by_goal:
-            first = next(i for i, (a, b) in enumerate(zip(by_start, by_goal)) if a != b)
+            first = next(i for i, (a, b) in enumerate(zip(by_start, by_goal, strict=True)) if a != b)
             raise PlanningError(
                 Reason.UNREACHABLE,
                 f"no plan exists: robots {by_start} stand in a corridor without a "
@@ -819,9 +819,9 @@ class _Pibt:
         self.now = {vertex: robot for robot, vertex in enumerate(config)}
         self.next: dict[int, int] = {}
         self.to: list[int] = [-1] * len(config)
-        for robot, vertex in zip(constraint.who, constraint.where):
+        for robot, vertex in zip(constraint.who, constraint.where, strict=True):
             self.to[robot] = vertex
-        for robot, vertex in zip(constraint.who, constraint.where):
+        for robot, vertex in zip(constraint.who, constraint.where, strict=True):
             if vertex in self.next:
                 return None
             occupant = self.now.get(vertex)
@@ -838,7 +838,7 @@ class _Pibt:
         here = self.config[i]
         options = list(self.graph.neighbours[here]) + [here]
         ties = self.rng.random(len(options))
-        options = [options[k] for k in np.argsort([self.to_goal[i][v] + t for v, t in zip(options, ties)])]
+        options = [options[k] for k in np.argsort([self.to_goal[i][v] + t for v, t in zip(options, ties, strict=True)])]
         swap = self._swap_partner(i, options)
         if swap is not None:
             options.reverse()
@@ -931,7 +931,7 @@ def _valid_step(graph, config, following) -> bool:
     """No two robots at one vertex, none swapping, every move along an edge, no rotation."""
     if len(set(following)) != len(following):
         return False
-    moves = {(a, b) for a, b in zip(config, following) if a != b}
+    moves = {(a, b) for a, b in zip(config, following, strict=True) if a != b}
     return all(b in graph.neighbours[a] and (b, a) not in moves for a, b in moves) and not _rotation(config, following)
 
 
@@ -939,7 +939,7 @@ def _rotation(before, after) -> bool:
     """Robots moving round a cycle of the lattice in one step, each into the vertex the next one leaves (allowed
     by the model, but the dependencies of such a step form a cycle: robots at their own speeds would wait on
     each other for ever)."""
-    onto = {a: b for a, b in zip(before, after) if a != b}
+    onto = {a: b for a, b in zip(before, after, strict=True) if a != b}
     for first in onto:
         vertex, seen = onto[first], 0
         while vertex in onto and seen <= len(onto):
@@ -992,7 +992,7 @@ def _rotates(paths) -> bool:
 
 
 def _moves(path) -> int:
-    return sum(1 for a, b in zip(path[:-1], path[1:]) if a != b)
+    return sum(1 for a, b in itertools.pairwise(path) if a != b)
 
 
 def _fewest_moves(graph: Lattice, start: int, goal: int, constraints: _Constraints, horizon: int) -> list[int] | None:

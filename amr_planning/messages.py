@@ -16,8 +16,8 @@ def path_message(points: np.ndarray, frame_id: str, stamp) -> Path:
     message.header.frame_id = frame_id
     points = np.asarray(points, dtype=float)
     headings = np.arctan2(*np.diff(points, axis=0).T[::-1]) if len(points) > 1 else np.zeros(1)
-    headings = np.append(headings, headings[-1])
-    for (x, y), heading in zip(points, headings):
+    headings = np.append(headings, headings[-1])[: len(points)]  # one per point (none for no points)
+    for (x, y), heading in zip(points, headings, strict=True):
         pose = PoseStamped()
         pose.header = message.header
         pose.pose.position.x, pose.pose.position.y = float(x), float(y)

@@ -93,7 +93,7 @@ class Planner:
         else:
             self._search = GridAStar(self.costmap, self.config.snap_distance)
 
-    def with_obstacles(self, points, radius: float) -> "Planner":
+    def with_obstacles(self, points, radius: float) -> Planner:
         """A planner of the same config on a copy of this map with discs of `radius` around `points` (N, 2)
         marked occupied (Costmap.with_obstacles): to plan around obstacles seen but not on the map."""
         return Planner(self.costmap.grid, self.config, self.costmap.with_obstacles(points, radius))

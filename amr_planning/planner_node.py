@@ -18,10 +18,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from amr_interfaces.srv import PlanPath
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from amr_interfaces.srv import PlanPath
 from amr_maps.messages import grid_from_message
 from amr_maps.occupancy_grid import MapError
 from amr_maps.rasterize import rasterize_world

@@ -64,7 +64,7 @@ class Roadmap:
         self.edges = pairs
         self._neighbours: list[list[tuple[int, float]]] = [[] for _ in range(len(self.nodes))]
         lengths = np.hypot(*(self.nodes[pairs[:, 0]] - self.nodes[pairs[:, 1]]).T) if len(pairs) else []
-        for (a, b), length in zip(pairs.tolist(), list(lengths)):
+        for (a, b), length in zip(pairs.tolist(), list(lengths), strict=True):
             self._neighbours[a].append((b, length))
             self._neighbours[b].append((a, length))
         self.build_seconds = time.perf_counter() - began

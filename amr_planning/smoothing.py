@@ -95,7 +95,7 @@ def _revert_collisions(path: np.ndarray, index: np.ndarray, previous: np.ndarray
     reverting it restores a segment that was already clear.
     """
     bad = np.zeros(len(index), dtype=bool)
-    for held, mask in zip(keep_out, (costmap.inflated, costmap.lethal)):
+    for held, mask in zip(keep_out, (costmap.inflated, costmap.lethal), strict=True):
         before = costmap.segments_free(path[index - 1], path[index], mask)
         after = costmap.segments_free(path[index], path[index + 1], mask)
         bad |= (~before & held[index - 1]) | (~after & held[index])

@@ -32,10 +32,10 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidTopicNameException
-from rclpy.executors import ExternalShutdownException, Executor, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.expand_topic_name import expand_topic_name
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
-from rclpy.expand_topic_name import expand_topic_name
 from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
 
@@ -216,7 +216,8 @@ class SpecifiedParameters:
         raise ValueError(f"{', '.join(changes)}: this node applies no parameter while configured")
 
     def _widen_parameters(self, parameters: list[Parameter]) -> list[Parameter]:
-        """An integer for a float parameter (YAML `1`, `ros2 param set ... 1`) is that float; [] takes the spec's type."""
+        """An integer for a float parameter (YAML `1`, `ros2 param set ... 1`) is that float; [] takes the spec's
+        type."""
         widened = []
         for parameter in parameters:
             spec = self._specs.get(parameter.name)

@@ -37,6 +37,7 @@ import ast
 import dataclasses
 import functools
 import inspect
+import itertools
 import math
 import textwrap
 import typing
@@ -280,7 +281,7 @@ def _field_docs(cls: type) -> tuple[tuple[str, str], ...]:
         except (OSError, TypeError):  # no source (an interactive class): no descriptions
             continue
         body = tree.body[0].body
-        for statement, following in zip(body, body[1:]):
+        for statement, following in itertools.pairwise(body):
             if (
                 isinstance(statement, ast.AnnAssign)
                 and isinstance(statement.target, ast.Name)
@@ -411,7 +412,7 @@ class Config:
         """The config in a ROS 2 parameter YAML file (``<node_name>: ros__parameters: ...``)."""
         return cls.from_params(node_parameters(path, node_name, ConfigError))
 
-    def structural_changes(self, other: "Config") -> list[str]:
+    def structural_changes(self, other: Config) -> list[str]:
         """The structural (not live) parameters whose values differ in `other`: what a running user of
         this config (a built filter, a stepping simulator) cannot take without being built anew."""
         mine, theirs = self.as_params(), other.as_params()

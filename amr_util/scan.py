@@ -8,8 +8,8 @@ Readings follow sensor_msgs/LaserScan and REP 117 (+inf: no return, -inf: closer
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

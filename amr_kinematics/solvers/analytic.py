@@ -44,7 +44,7 @@ def _local(chain: Chain, point) -> tuple[float, float]:
 def _fit(chain: Chain, q: list[float]) -> list[float] | None:
     """q moved by multiples of 2 pi into the limits, or None if impossible."""
     out = []
-    for value, low, high in zip(q, chain.lower.tolist(), chain.upper.tolist()):
+    for value, low, high in zip(q, chain.lower.tolist(), chain.upper.tolist(), strict=True):
         if not low <= value <= high:
             value = low + (value - low) % (2.0 * math.pi)
             if value > high:
@@ -93,7 +93,7 @@ def _branches(chain: Chain, target) -> tuple[list[list[float]], bool]:
 def joint_distance(chain: Chain, q, reference) -> float:
     """Distance in joint space, revolute differences wrapped to [-pi, pi]."""
     total = 0.0
-    for value, ref, prismatic in zip(q, reference, chain.prismatic.tolist()):
+    for value, ref, prismatic in zip(q, reference, chain.prismatic.tolist(), strict=True):
         diff = float(value) - float(ref)
         if not prismatic:
             diff = wrap_angle(diff)
@@ -105,7 +105,7 @@ def _nearest(chain: Chain, candidates: list[list[float]], reference: list[float]
     """The candidate nearest the reference, shifted by 2 pi to continue it when the
     limits allow (so a path never jumps by a full turn)."""
     best = min(candidates, key=lambda q: joint_distance(chain, q, reference))
-    continued = [r + wrap_angle(b - r) for b, r in zip(best, reference)]
+    continued = [r + wrap_angle(b - r) for b, r in zip(best, reference, strict=True)]
     return continued if chain.within_limits(continued) else best
 
 

@@ -81,7 +81,7 @@ class _Layout:
     packed_goals: dict  # goal templates of compiled.pack_goal by rows (Refiner._packed_goal)
 
 
-_LAYOUTS: "weakref.WeakKeyDictionary[Chain, dict]" = weakref.WeakKeyDictionary()
+_LAYOUTS: weakref.WeakKeyDictionary[Chain, dict] = weakref.WeakKeyDictionary()
 
 
 def _layout(chain: Chain, project: bool) -> _Layout:
@@ -133,7 +133,7 @@ def _layout(chain: Chain, project: bool) -> _Layout:
 
 def measured_attempt(
     chain: Chain, goal: Goal, request: Request, step: StepSettings, q0: np.ndarray, max_steps: int
-) -> "tuple[Attempt, np.ndarray] | None":
+) -> tuple[Attempt, np.ndarray] | None:
     """The first attempt of a solve and the measures of its end in one compiled call
     (``compiled.attempt_measured``: same steps as ``Refiner.run``), or None where the compiled
     attempt does not apply.  Why: at 2-4 joints the Python around one compiled attempt (building
@@ -194,7 +194,7 @@ def measured_attempt(
 
 
 def measured_result(
-    chain: Chain, out: np.ndarray, attempt: "Attempt", *, solver: str, message: str, attempts: int = 1
+    chain: Chain, out: np.ndarray, attempt: Attempt, *, solver: str, message: str, attempts: int = 1
 ) -> IKResult:
     """The IKResult of ``measured_attempt``'s output (what ``base.finish`` computes, already done)."""
     n = chain.n
@@ -388,7 +388,7 @@ class Refiner:
     def _run_numpy(self, q0: np.ndarray, max_steps: int, attempt: int) -> Attempt:
         chain, step = self.chain, self.step
         kernel = chain.kernel.pose_jacobian if self.use_rotation_rows else chain.kernel.position_jacobian
-        n, m = chain.n, self.m
+        n = chain.n
         rows = self.position_rows + self.rotation_rows
         weights = np.array([1.0] * len(self.position_rows) + [self.angular_weight] * len(self.rotation_rows))
         tx, ty, tz = self.target
@@ -619,4 +619,4 @@ def _scalar_step(q, jx, jy, jz, ex, ey, ez, damping, gain):
     y0 = (c00 * ex + c01 * ey + c02 * ez) * k
     y1 = (c01 * ex + c11 * ey + c12 * ez) * k
     y2 = (c02 * ex + c12 * ey + c22 * ez) * k
-    return [qi + y0 * gx + y1 * gy + y2 * gz for qi, gx, gy, gz in zip(q, jx, jy, jz)]
+    return [qi + y0 * gx + y1 * gy + y2 * gz for qi, gx, gy, gz in zip(q, jx, jy, jz, strict=True)]

@@ -24,7 +24,6 @@ from .base import IKResult, Solver, finish
 from .iterative import COUPLING_UPDATES, Refiner, StepSettings
 from .starts import SpreadStarts
 
-
 MAX_SAMPLES = 10_000  # sampling and scoring 10k candidates takes ~20 ms
 
 

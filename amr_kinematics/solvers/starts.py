@@ -86,11 +86,11 @@ class _Hypercubes:
     do not depend on a solve's seed configuration."""
 
     CACHED = 16
-    _by_chain: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+    _by_chain: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
     _lock = threading.Lock()
 
     @classmethod
-    def of(cls, chain, batch: int, random_seed: int) -> "_Hypercubes":
+    def of(cls, chain, batch: int, random_seed: int) -> _Hypercubes:
         with cls._lock:
             shared = cls._by_chain.setdefault(chain, {})
             sequence = shared.get((batch, random_seed))
