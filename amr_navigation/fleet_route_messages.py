@@ -40,8 +40,9 @@ def route_message(route: Route, stamp: TimeMessage, frame_id: str) -> FleetRoute
     return message
 
 
-def route_from_message(message: FleetRoute, frame: str) -> Route:
-    """The route in `message`, whose waypoints must be in `frame` (or unnamed); RouteError naming the problem."""
+def route_from_message(message: FleetRoute, frame: str, lifetime: float = 0.0) -> Route:
+    """The route in `message`, whose waypoints must be in `frame` (or unnamed); RouteError naming the problem. It
+    expires `lifetime` s after its stamp (0: never)."""
     if message.state not in (NONE, HOLD, FOLLOW):
         raise RouteError(f"state {message.state[:40]!r} is not NONE, HOLD or FOLLOW")
     if message.header.frame_id not in ("", frame):
@@ -62,4 +63,5 @@ def route_from_message(message: FleetRoute, frame: str) -> Route:
         int(message.progress),
         int(message.total),
         message.reason,
+        message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec + lifetime if lifetime > 0.0 else math.inf,
     )

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
@@ -46,7 +46,7 @@ DEFAULT_REPLAN_DISTANCE = 0.25
 """m off the planned path at which the robot counts as strayed and a new plan is due."""
 
 
-class Mode(str, Enum):
+class Mode(StrEnum):
     EXPLORE = "EXPLORE"
     """not localized: the wall follower drives."""
     FOLLOW = "FOLLOW"
@@ -61,7 +61,7 @@ class Mode(str, Enum):
     """a plan is being made for this observation (the node: the planner has not answered yet)."""
 
 
-class Controller(str, Enum):
+class Controller(StrEnum):
     """Who answers an observation with a command (the values are the controller nodes' default names)."""
 
     WALL_FOLLOWER = "wall_follower"
@@ -73,7 +73,7 @@ DRIVER = {Mode.EXPLORE: Controller.WALL_FOLLOWER, Mode.FOLLOW: Controller.PATH_F
 """The one controller of each mode; every other mode has none."""
 
 
-class Purpose(str, Enum):
+class Purpose(StrEnum):
     GOAL = "goal"
     """the navigator's own plan to its goal (first, new goal, strayed, retry): the stray check's reference."""
     FOLLOWER = "follower"

@@ -69,6 +69,10 @@ class NavigatorConfig(Config):
     odometry from the last sure estimate while the localizer is unsure."""
     route_topic: str = parameter("fleet_route", nonempty=True)
     """with coordination plan: the fleet planner's amr_interfaces/FleetRoute for this robot (transient local)."""
+    route_lifetime: float = parameter(30.0, minimum=0.0, maximum=3600.0)
+    """s: a route expires this long after its stamp without a newer one (the fleet planner renews each halfway, a
+    HOLD never): the navigator then goes back to its own planning (the traffic rules). The fleet planner's
+    route_lifetime must be the same; 0 = routes never expire."""
     odometry_topic: str = parameter("odometry", nonempty=True)
     """with coordination plan: nav_msgs/Odometry of the localizer's observations (what the pose to drive by moves on
     with while the localizer is unsure)."""

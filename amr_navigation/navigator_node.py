@@ -43,22 +43,19 @@ import time
 from collections import OrderedDict
 from dataclasses import dataclass, replace
 
-import math
-
 import numpy as np
-from amr_interfaces.msg import FleetRoute, LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
-from amr_interfaces.msg import TrafficPost as TrafficPostMessage
-from geometry_msgs.msg import Point
-from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
-from nav_msgs.msg import Odometry
-from sensor_msgs.msg import LaserScan
-from amr_interfaces.srv import FollowPath, PlanPath
 from builtin_interfaces.msg import Time as TimeMessage
-from geometry_msgs.msg import Pose, PoseStamped
-from nav_msgs.msg import Path
+from geometry_msgs.msg import Point, Pose, PoseStamped
+from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from nav_msgs.msg import Odometry, Path
 from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import State, TransitionCallbackReturn
+from sensor_msgs.msg import LaserScan
 
+from amr_interfaces.msg import FleetRoute, LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
+from amr_interfaces.msg import TrafficPost as TrafficPostMessage
+from amr_interfaces.srv import FollowPath, PlanPath
+from amr_maps.messages import grid_from_message
 from amr_navigation.fleet_coordinator import HOLD, NONE, Route
 from amr_navigation.fleet_route_messages import RouteError, route_from_message
 from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver, legs
@@ -73,18 +70,14 @@ from amr_navigation.traffic_messages import (
     speed_limit_message,
 )
 from amr_navigation.traffic_steps import FleetBoard, detour_done, idle_advice
-from amr_maps.messages import grid_from_message
 from amr_planning.costmap import Costmap, CostmapConfig
-from amr_planning.planner import Planner
-from amr_util.messages import scan_data
-from amr_util.qos import SENSOR_DATA
-from amr_util.stamps import stamp_nanoseconds
 from amr_planning.messages import path_message
-from amr_util.messages import path_points
+from amr_planning.planner import Planner
 from amr_util.geometry import all_finite, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
-from amr_util.messages import quaternion
-from amr_util.qos import LATCHED, reliable
+from amr_util.messages import path_points, quaternion, scan_data
+from amr_util.qos import LATCHED, SENSOR_DATA, reliable
+from amr_util.stamps import stamp_nanoseconds
 
 CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
@@ -294,7 +287,7 @@ class NavigatorNode(ManagedNode):
         if not self.active:
             return
         try:
-            route = route_from_message(message, self._values["global_frame"])
+            route = route_from_message(message, self._values["global_frame"], self._values.get("route_lifetime", 0.0))
         except RouteError as error:
             self.routes_refused += 1
             self.get_logger().error(f"fleet route refused, keeping the previous one: {error}")
@@ -385,6 +378,15 @@ class NavigatorNode(ManagedNode):
     def _decide(self, observation: Observation) -> None:
         if self._values.get("coordination") == "plan":
             driving = self._driving_pose(observation)  # every observation: the last sure estimate is kept
+            if self._route is not None and stamp_nanoseconds(observation.stamp) * 1e-9 > self._route.expires:
+                self.get_logger().warning(  # the fleet planner is silent (gone, or still planning): plan alone
+                    f"fleet route of plan {self._route.plan} expired at {self._route.expires:.2f} s: by the traffic "
+                    "rules until a new one"
+                )
+                self._route = None
+                self.navigator.plan_again("the fleet route expired: by the traffic rules")
+                self._log(self.navigator.take_events())
+                self._hand_over_due.reset()
             if self._route is not None:
                 self._decide_on_route(replace(observation, pose=driving, on_route=True))
                 return

@@ -20,8 +20,8 @@ The navigator of one robot runs them on every observation it drives with the pat
    **2b. Back off** from what no post explains: stopped for `yield_timeout` by unmapped returns while no robot on
    the board stands on its stretch of path (every plan around them failed), the robot drives to the nearest place
    `mark_range` from those returns (in a dead end shorter than that: as far from them as the dead end goes, if
-   that is two radii farther than it stands), waits there `yield_timeout`, then plans to its goal again. What stands there
-   may be a robot whose filter is not sure where it is (it posts no position, so rules 3-7 do not see it); in a
+   that is two radii farther than it stands), waits there `yield_timeout`, then plans to its goal again. What stands
+   there may be a robot whose filter is not sure where it is (it posts no position, so rules 3-7 do not see it); in a
    dead end the robot waiting at its mouth blocks both its way out and the view its filter needs.
 3. **Right of way** (two robots face to face in a corridor one robot wide, or crossing). Every robot
    posts on a `TrafficBoard` what the others need: its name, its priority (its place in the world's
@@ -42,9 +42,10 @@ The navigator of one robot runs them on every observation it drives with the pat
    their centres, is the place to wait; the robot is handed a path there (a detour: the navigator keeps
    its goal and does not count the detour as straying), waits there (zero speed) until none of them
    needs the place (their posted paths pass more than that distance away and they are farther than
-   that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it posts
-   `cannot_yield` (and looks again after `wait_time`), and the other robot yields instead. The robot with the right of way, blocked by a
-   robot that yields to it, waits without replanning around it (for at most `yield_timeout`).
+   that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it
+   posts `cannot_yield` (and looks again after `wait_time`), and the other robot yields instead. The robot with the
+   right of way, blocked by a robot that yields to it, waits without replanning around it (for at most
+   `yield_timeout`).
    A robot waiting aside that a robot it gives way to finds in its way again (that robot's new path passes
    the place) goes aside again for it.
 4. **Way out** (a passive robot boxed in). A robot parked at its goal in a dead end, or in a corridor one
@@ -95,9 +96,9 @@ The navigator of one robot runs them on every observation it drives with the pat
    5, the other robot gives way instead (letting the lower-priority robot push past bystanders first made a
    six-robot perfect maze cycle: 0/6 at goal). Driving there it holds before the robot on its way and posts it
    as its blocker, unable to give way: that robot, blocked by one that cannot give way, goes aside first
-   (rule 3), and on it goes; it does not go aside for the robots it passes. Without it a convoy in a corridor stands for good: every search treats the
-   robot behind as a wall, and planning around fails in a corridor. tests/navigation/test_traffic.py runs two
-   robots in a row meeting a third.
+   (rule 3), and on it goes; it does not go aside for the robots it passes. Without it a convoy in a corridor stands
+   for good: every search treats the robot behind as a wall, and planning around fails in a corridor.
+   tests/navigation/test_traffic.py runs two robots in a row meeting a third.
 
 7. **Knot** (three or more robots blocked in a cycle). Robots each blocked by the next, the last by the first
    (a by b, b by c, c by a: three at a junction of one-wide corridors, each facing the next one's centre), are not
@@ -124,8 +125,8 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field, replace
-from enum import Enum
+from dataclasses import dataclass, replace
+from enum import StrEnum
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt, label
@@ -402,7 +403,7 @@ class TrafficBoard:
 # -- one robot's rules ------------------------------------------------------------------------------
 
 
-class Phase(str, Enum):
+class Phase(StrEnum):
     GO = "GO"
     """following its path (perhaps slowed or stopped for an obstacle)."""
     YIELD = "YIELD"
@@ -559,8 +560,8 @@ class Traffic:
                         advice,
                         events=advice.events
                         + (
-                            f"the last of a knot of {len(knot) + 1} ({', '.join([self.name] + [p.name for p in knot])}, "
-                            f"each blocked by the next)",
+                            f"the last of a knot of {len(knot) + 1} "
+                            f"({', '.join([self.name] + [p.name for p in knot])}, each blocked by the next)",
                         ),
                     )
                 return advice
@@ -839,8 +840,8 @@ class Traffic:
             stretch,
             stamp,
             (
-                f"stopped {config.yield_timeout:g} s by something not on the map and not on the board (a robot not sure "
-                f"where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move"
+                f"stopped {config.yield_timeout:g} s by something not on the map and not on the board (a robot not "
+                f"sure where it is?): backing off to ({spot[0]:.2f}, {spot[1]:.2f}) to let it move"
             ),
         )
 

@@ -12,10 +12,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from amr_interfaces.msg import SpeedLimit, TrafficPost as TrafficPostMessage
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import Point
 
+from amr_interfaces.msg import SpeedLimit
+from amr_interfaces.msg import TrafficPost as TrafficPostMessage
 from amr_navigation.traffic import TrafficPost
 
 TRAFFIC_TOPIC = "/traffic"

@@ -37,15 +37,14 @@ import cProfile
 import importlib.util
 import json
 import math
+import os
 import pstats
+import random
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
-
-import os
-import random
-import tempfile
 
 import numpy as np
 import yaml
@@ -54,9 +53,9 @@ os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # before rclpy: no tr
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(101, 232)))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from amr_maps.world import World, load_world, resolve_world_path, world_from_dict  # noqa: E402
 from amr_simulation.config import SimulationConfig  # noqa: E402
 from amr_simulation.fleet import Fleet  # noqa: E402
-from amr_maps.world import World, load_world, resolve_world_path, world_from_dict  # noqa: E402
 from amr_util.environment import child_environment  # noqa: E402
 from amr_util.geometry import wrap_angle  # noqa: E402
 

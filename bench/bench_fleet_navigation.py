@@ -49,10 +49,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from amr_maps.maze_families import generate  # noqa: E402
 from amr_evaluation.fleet_navigation import lattice_spacing  # noqa: E402
-from amr_planning.fleet_starts import with_robots  # noqa: E402
+from amr_maps.maze_families import generate  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
+from amr_planning.fleet_starts import with_robots  # noqa: E402
 
 
 def fleet_world(family: str, seed: int, robots: int, size: float) -> dict:

@@ -29,13 +29,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from amr_evaluation.fleet_navigation import lattice_spacing  # noqa: E402
-from amr_planning.fleet_starts import with_robots  # noqa: E402
 from amr_maps.maze_families import generate  # noqa: E402
 from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 from amr_planning.costmap import Costmap, CostmapConfig  # noqa: E402
 from amr_planning.errors import PlanningError  # noqa: E402
 from amr_planning.fleet_plan import MAX_NODES, lattice, plan_lacam  # noqa: E402
+from amr_planning.fleet_starts import with_robots  # noqa: E402
 
 
 def timed(graph, starts, goals, first_budget: int) -> tuple[float, str]:
@@ -76,7 +76,7 @@ def draw(costmap, graph, data, path: Path, title: str) -> None:
     for vertex, neighbours in enumerate(graph.neighbours):
         for other in neighbours:
             if other > vertex:
-                ax.plot(*zip(graph.points[vertex], graph.points[other]), "-", color="tab:blue", lw=1)
+                ax.plot(*zip(graph.points[vertex], graph.points[other], strict=True), "-", color="tab:blue", lw=1)
     ax.plot(graph.points[:, 0], graph.points[:, 1], "o", color="tab:blue", ms=3)
     for index, robot in enumerate(data["robots"]):
         colour = f"C{(index + 1) % 10}"

@@ -339,3 +339,22 @@ def test_the_fleet_planner_plans_on_a_worker_thread_and_its_executor_stays_respo
         release.set()
         executor.shutdown(timeout_sec=5.0)
         spinner.join(5.0)
+
+
+def test_an_expired_route_sends_the_navigator_back_to_its_own_planning(navigator):
+    """A route expires route_lifetime (30 s) after its stamp without a newer word (the fleet planner gone, or still
+    planning after a HOLD): the navigator drops it and plans by itself; a renewed route is followed again."""
+    node, follow = navigator, navigator._service_clients["follow"]
+    route = route_message("FOLLOW", [(-1.2, 0.0), (-0.8, 0.0)], progress=0, total=4)
+    route.header.stamp = stamp(1.0)
+    node._on_route(route)
+    assert node._route.expires == pytest.approx(31.0)
+    status, _ = observe(node, 30.9, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert node._route is not None and status.controller == "path_follower" and len(follow.paths) == 1
+    observe(node, 31.05, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert node._route is None  # expired: its own planning (the traffic rules), the route's path not handed again
+    assert len(follow.paths) == 1
+    route.header.stamp = stamp(31.1)  # renewed
+    node._on_route(route)
+    observe(node, 31.15, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert node._route is not None and node._route.expires == pytest.approx(61.1) and len(follow.paths) == 2
