@@ -32,6 +32,7 @@ from __future__ import annotations
 from concurrent.futures import Future, ThreadPoolExecutor
 
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
 from amr_interfaces.msg import FleetRoute, NavigatorStatus
@@ -44,6 +45,10 @@ from amr_planning.costmap import Costmap
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED, reliable
 from amr_util.stamps import stamp_nanoseconds
+
+QUIET = PublisherEventCallbacks(use_default_callbacks=False)
+"""the routes' publishers' event callbacks: none (fewer waitables in every wait set; the navigators' subscriptions
+report an incompatible QoS)."""
 
 
 def fleet_names(config: FleetPlannerConfig) -> list[str]:
@@ -106,7 +111,9 @@ class FleetPlannerNode(ManagedNode):
             return self.fail_configure(problems)
         self.config, self.coordinator = config, coordinator
         for name in coordinator.names:
-            self._routes[name] = self.create_lifecycle_publisher(FleetRoute, f"/{name}/{config.route_topic}", LATCHED)
+            self._routes[name] = self.create_lifecycle_publisher(
+                FleetRoute, f"/{name}/{config.route_topic}", LATCHED, event_callbacks=QUIET
+            )
             self._entities.append(
                 self.create_subscription(
                     NavigatorStatus, f"/{name}/{config.status_topic}", self._status_callback(name), reliable(depth=50)

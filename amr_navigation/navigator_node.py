@@ -39,6 +39,7 @@ rules, a robot at its goal (REACHED) and one holding still are answered by the p
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, replace
@@ -49,6 +50,7 @@ from geometry_msgs.msg import Point, Pose, PoseStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from nav_msgs.msg import Odometry, Path
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from sensor_msgs.msg import LaserScan
 
@@ -73,7 +75,7 @@ from amr_navigation.traffic_steps import FleetBoard, detour_done, idle_advice
 from amr_planning.costmap import Costmap, CostmapConfig
 from amr_planning.messages import path_message
 from amr_planning.planner import Planner
-from amr_util.geometry import all_finite, yaw_from_quaternion
+from amr_util.geometry import all_finite, wrap_angle, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import path_points, quaternion, scan_data
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
@@ -81,6 +83,14 @@ from amr_util.stamps import stamp_nanoseconds
 
 CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
+QUIET = PublisherEventCallbacks(use_default_callbacks=False)
+"""the publishers' event callbacks: none (two QoS-event waitables fewer per publisher in every wait set, issue 36;
+their subscribers' own handlers still report an incompatible QoS)."""
+POST_MOVE, POST_TURN = 0.02, 0.05
+"""m and rad a robot's pose (and the start of its path) may move before its post is published again."""
+POST_KEEP_ALIVE = 500_000_000
+"""ns (node clock): an unchanged post is published again this often (well within any post_timeout the others keep
+it for: 0.1 s at the least)."""
 ODOMETRY_KEPT = 200
 """odometry poses kept to pair with /pose by stamp (coordination plan)."""
 STOPPED_SHORT_STATES = tuple(state.value for state in STOPPED_SHORT)
@@ -98,6 +108,33 @@ class Observation:
     localized: bool
     on_route: bool = False
     """decided on the fleet route (coordination plan); pose is then the pose driven by."""
+
+
+def same_post(a: TrafficPost, b: TrafficPost) -> bool:
+    """Two posts of one robot that tell the others the same: every flag, the pose within POST_MOVE and POST_TURN,
+    the path to the same end from a start within POST_MOVE."""
+    if (a.name, a.priority, a.blocked_by, a.yielding_to, a.passive, a.cannot_yield) != (
+        b.name,
+        b.priority,
+        b.blocked_by,
+        b.yielding_to,
+        b.passive,
+        b.cannot_yield,
+    ):
+        return False
+    if (a.pose is None) != (b.pose is None) or (a.path is None) != (b.path is None):
+        return False
+    if a.pose is not None:
+        if math.hypot(a.pose[0] - b.pose[0], a.pose[1] - b.pose[1]) > POST_MOVE:
+            return False
+        if abs(wrap_angle(a.pose[2] - b.pose[2])) > POST_TURN:
+            return False
+    if a.path is not None:
+        if len(a.path) == 0 or len(b.path) == 0:
+            return len(a.path) == len(b.path)
+        if not np.array_equal(a.path[-1], b.path[-1]) or math.hypot(*(a.path[0] - b.path[0])) > POST_MOVE:
+            return False
+    return True
 
 
 class NavigatorNode(ManagedNode):
@@ -140,6 +177,8 @@ class NavigatorNode(ManagedNode):
         reports of earlier observations are of an older path."""
         self._follower_blocked = False
         self.routes_refused = 0
+        self._last_post: tuple[TrafficPost, int] | None = None
+        """the post last published on /traffic and when (ns, node clock)."""
 
     # -- lifecycle ------------------------------------------------------------------------------
 
@@ -157,8 +196,8 @@ class NavigatorNode(ManagedNode):
             return self.fail_configure(problems)
         self.navigator, self._values = navigator, values
         self._outputs = {
-            "status": self.create_lifecycle_publisher(NavigatorStatus, "~/status", reliable()),
-            "path": self.create_lifecycle_publisher(Path, "path", LATCHED),
+            "status": self.create_lifecycle_publisher(NavigatorStatus, "~/status", reliable(), event_callbacks=QUIET),
+            "path": self.create_lifecycle_publisher(Path, "path", LATCHED, event_callbacks=QUIET),
         }
         self._entities = [
             self.create_subscription(LocalizedPose, "pose", self._on_pose, reliable()),
@@ -190,8 +229,12 @@ class NavigatorNode(ManagedNode):
         self.board = FleetBoard(config.post_timeout)
         self.traffic = Traffic(name, config.priority, self.board, config.traffic_rules)
         self._costmap_config = config.costmap
-        self._outputs["traffic"] = self.create_lifecycle_publisher(TrafficPostMessage, TRAFFIC_TOPIC, reliable())
-        self._outputs["speed_limit"] = self.create_lifecycle_publisher(SpeedLimit, "speed_limit", reliable())
+        self._outputs["traffic"] = self.create_lifecycle_publisher(
+            TrafficPostMessage, TRAFFIC_TOPIC, reliable(), event_callbacks=QUIET
+        )
+        self._outputs["speed_limit"] = self.create_lifecycle_publisher(
+            SpeedLimit, "speed_limit", reliable(), event_callbacks=QUIET
+        )
         self._entities += [
             self.create_subscription(TrafficPostMessage, TRAFFIC_TOPIC, self._on_post, reliable(depth=50)),
             self.create_subscription(LaserScan, "scan", self._on_scan, SENSOR_DATA),
@@ -223,6 +266,7 @@ class NavigatorNode(ManagedNode):
         self._inflight, self._pending, self._follower_request, self._last = None, None, None, None
         self._advised, self._reports_after = None, -1
         self._route, self._route_handed_at, self._follower_blocked = None, -1, False
+        self._last_post = None
         self._hand_over_due.reset()
         self._reckoning, self._odometry = DeadReckoning(), OrderedDict()
         self._timer = self.create_timer(
@@ -651,13 +695,19 @@ class NavigatorNode(ManagedNode):
         return self.navigator.followed_path is not None
 
     def _posted(self, decision: Decision) -> Decision:
-        """Publish this robot's latest post (what the rules just put on the board) on /traffic."""
+        """Publish this robot's latest post (what the rules just put on the board) on /traffic, unless it says what
+        the last one published did (same_post: within POST_MOVE and POST_TURN) and that one is younger than
+        POST_KEEP_ALIVE (issue 36: every post wakes every other navigator; most robots of a fleet stand, wait or
+        explore, so most posts said nothing new)."""
         post = self.board.get(self.traffic.name)
         if post is not None:
+            now = self.get_clock().now()
+            last = self._last_post
+            if last is not None and same_post(last[0], post) and 0 <= now.nanoseconds - last[1] < POST_KEEP_ALIVE:
+                return decision
             try:
-                self._outputs["traffic"].publish(
-                    post_message(post, self.get_clock().now().to_msg(), self._values["global_frame"])
-                )
+                self._outputs["traffic"].publish(post_message(post, now.to_msg(), self._values["global_frame"]))
+                self._last_post = (post, now.nanoseconds)
             except PostError as error:  # never a NaN on /traffic
                 self.get_logger().error(f"own traffic post not sent: {error}", throttle_duration_sec=2.0)
         return decision

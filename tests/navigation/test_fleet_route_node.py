@@ -358,3 +358,30 @@ def test_an_expired_route_sends_the_navigator_back_to_its_own_planning(navigator
     node._on_route(route)
     observe(node, 31.15, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
     assert node._route is not None and node._route.expires == pytest.approx(61.1) and len(follow.paths) == 2
+
+
+def test_a_post_that_says_nothing_new_is_not_published_again_before_its_keep_alive(navigator):
+    """Every post on /traffic wakes every other navigator: one that says what the last one did (the robot stood, or
+    moved under 2 cm) waits for the keep-alive (0.5 s), a real change goes out at once."""
+    from amr_navigation.navigator_node import POST_KEEP_ALIVE, same_post
+    from amr_navigation.traffic import TrafficPost
+
+    node = navigator
+    node.set_parameters([Parameter("use_sim_time", value=False)])
+    node._on_route(route_message("HOLD", plan=1))
+    posts = node._outputs["traffic"].messages
+    observe(node, 2.0, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert len(posts) == 1
+    for step in range(5):  # standing, held: nothing new
+        observe(node, 2.05 + 0.05 * step, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert len(posts) == 1
+    node._last_post = (node._last_post[0], node._last_post[1] - POST_KEEP_ALIVE)  # the keep-alive is due
+    observe(node, 2.4, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert len(posts) == 2
+    observe(node, 2.45, (-1.55, 0.0, 0.0), (0.05, 0.0, 0.0))  # moved 5 cm: published at once
+    assert len(posts) == 3 and posts[-1].pose.x == pytest.approx(-1.55)
+    a = TrafficPost("r1", 0, (0.0, 0.0, 0.0), np.array([[0.0, 0.0], [1.0, 0.0]]))
+    assert same_post(a, TrafficPost("r1", 0, (0.01, 0.0, 0.02), np.array([[0.01, 0.0], [1.0, 0.0]])))
+    assert not same_post(a, TrafficPost("r1", 0, (0.0, 0.0, 0.0), np.array([[0.0, 0.0], [1.0, 0.5]])))
+    assert not same_post(a, TrafficPost("r1", 0, (0.0, 0.0, 0.0), np.array([[0.0, 0.0], [1.0, 0.0]]), passive=True))
+    assert not same_post(a, TrafficPost("r1", 0, None, None))
