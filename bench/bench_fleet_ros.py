@@ -7,9 +7,9 @@ Each run: a generated world (`--family`, default `pillars` rooms, `--size` m a s
 and larger for more: SIZE_PER_ROBOT) with N robots each sent to the next one's start (bench_fleet_navigation's
 worlds), and `amr-bringup fleet_navigation world:=<file> --composed` (every node of every robot in one process,
 particle filters included, `coordination:=plan` with its fleet_planner) started as a child process. This process
-reads `/clock`; after `--warmup` s of wall clock it measures `--measure` s: the real-time factor (simulated s over
-wall s, from /clock) and the child's CPU time (/proc/<pid>/stat: every thread) per robot-step (a step is the
-simulator's dt, 0.05 s, for one robot).
+reads `/clock`; `--warmup` s of wall clock after the first /clock it measures `--measure` s: the real-time factor
+(simulated s over wall s, from /clock) and the child's CPU time (/proc/<pid>/stat: every thread) per robot-step (a
+step is the simulator's dt, 0.05 s, for one robot).
 
 --profile samples the child's threads (a sampler thread in it, py-spy style, at `--hz`): each thread's own CPU
 clock (time.pthread_getcpuclockid) is read at every sample and the CPU spent since the last sample is charged
@@ -63,10 +63,13 @@ def _short(filename: str) -> str:
 
 
 def sample(out: Path, start: float, duration: float, hz: float) -> None:
-    """From `start` s on, for `duration` s: every thread's CPU since the last sample charged to its stack; written
-    to `out` as JSON (per thread name: cpu; per function: self and inclusive cpu)."""
+    """Once the file `out`.go exists (the parent's measuring began; at most `start` s), for `duration` s: every
+    thread's CPU since the last sample charged to its stack; written to `out` as JSON (per thread name: cpu; per
+    function: self and inclusive cpu; executor wake-ups per thread name)."""
     wakes, entities = _count_wakes()
-    time.sleep(start)
+    go, began = out.with_suffix(".go"), time.monotonic()
+    while not go.exists() and time.monotonic() - began < start:
+        time.sleep(0.1)
     wakes.clear()
     own = threading.get_ident()
     clocks: dict[int, float] = {}
@@ -196,7 +199,7 @@ def run(robots: int, args) -> dict:
             f"lattice_spacing:={lattice_spacing(data, args.family)}",
             "--composed",
         ]
-        sampled = [str(profile), str(args.warmup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
+        sampled = [str(profile), str(args.startup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
         process = subprocess.Popen(
             [sys.executable, __file__, "--child", *sampled, "--", *bringup],
             env=child_environment(),
@@ -205,11 +208,14 @@ def run(robots: int, args) -> dict:
         )
         result = {"robots": robots, "world": data["name"], "load": os.getloadavg()[0]}
         try:
-            began = time.monotonic()
-            while time.monotonic() - began < args.warmup:
+            began, running = time.monotonic(), None
+            while running is None or time.monotonic() - running < args.warmup:
                 executor.spin_once(timeout_sec=0.1)
-                if process.poll() is not None:
-                    return result  # amr-bringup exited early: its log's tail is printed
+                if process.poll() is not None or time.monotonic() - began > args.startup:
+                    return result  # amr-bringup exited early or never ran: its log's tail is printed
+                if running is None and clock and clock[-1] > 0.0:
+                    running = time.monotonic()  # the stack is up and stepping
+            profile.with_suffix(".go").touch()
             sim0, wall0, cpu0 = (clock[-1] if clock else 0.0), time.monotonic(), _cpu_seconds(process.pid)
             while time.monotonic() - wall0 < args.measure:
                 executor.spin_once(timeout_sec=0.1)
@@ -307,7 +313,8 @@ def main(argv=None) -> int:
     parser.add_argument("--family", default="pillars")
     parser.add_argument("--size", type=float, help="m a side (default: 4 m, more beyond 6 robots)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--warmup", type=float, default=40.0, help="s of wall clock before measuring (startup)")
+    parser.add_argument("--startup", type=float, default=300.0, help="s of wall clock the stack may take to start")
+    parser.add_argument("--warmup", type=float, default=10.0, help="s of wall clock after the first /clock")
     parser.add_argument("--measure", type=float, default=40.0, help="s of wall clock measured")
     parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
     parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
