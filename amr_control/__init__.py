@@ -1,1 +1,2 @@
-"""Controllers: the synchronized wall follower and the path follower (pure pursuit), and scan sectors (no ROS), with their nodes."""
+"""Controllers: the synchronized wall follower and the path follower (pure pursuit), and scan sectors (no ROS), with
+their nodes."""

@@ -42,9 +42,10 @@ reason in :attr:`FollowCommand.message`; a bad path is refused by :meth:`set_pat
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from enum import Enum
-from typing import Any, Mapping
+from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -69,7 +70,7 @@ class PathError(ValueError):
     """A path that cannot be followed, with what is wrong with it."""
 
 
-class State(str, Enum):
+class State(StrEnum):
     IDLE = "IDLE"
     """no path to follow."""
     ALIGN = "ALIGN"
@@ -214,7 +215,8 @@ class PathFollower:
                 cross_track,
                 remaining,
                 True,
-                f"{cross_track:.3f} m from the path (more than {self.config.stray_distance} m): stopping, replan needed",
+                f"{cross_track:.3f} m from the path (more than {self.config.stray_distance} m): "
+                "stopping, replan needed",
             )
         self._progress = progress
 
@@ -433,7 +435,7 @@ def _returns(scan: ScanData | None, lidar_x: float) -> np.ndarray | str:
     if ranges.ndim != 1 or ranges.size == 0:
         return f"scan ranges must be a non-empty list, got shape {ranges.shape}: stopping"
     if not (math.isfinite(angle_min) and math.isfinite(increment) and math.isfinite(range_min)):
-        return f"scan with non-finite angle_min, angle_increment or range_min: stopping"
+        return "scan with non-finite angle_min, angle_increment or range_min: stopping"
     ranges = np.where(ranges == -np.inf, range_min, ranges)  # REP 117: closer than range_min
     valid = (ranges >= range_min) & (ranges <= range_max)  # NaN, +inf and out of range drop out
     angles = angle_min + increment * np.flatnonzero(valid)

@@ -29,8 +29,6 @@ from __future__ import annotations
 
 import math
 
-from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
-from amr_interfaces.srv import FollowPath
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Path
 from rclpy.lifecycle import State, TransitionCallbackReturn
@@ -40,6 +38,8 @@ from sensor_msgs.msg import LaserScan
 from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
+from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
+from amr_interfaces.srv import FollowPath
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command

@@ -16,6 +16,7 @@ A sector with no usable reading reads ``+inf`` (the seed's default of "far").
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -127,7 +128,7 @@ class _Geometry:
         self.sizes = [w.size for w in windows]
         self.gather = np.concatenate(windows)
         bounds = np.cumsum([0] + self.sizes)
-        self.slices = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        self.slices = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         self.nonempty = [i for i, size in enumerate(self.sizes) if size]
         self.starts = bounds[:-1][self.nonempty]
         # Unit vectors of the side windows, for the line fits.
@@ -206,13 +207,17 @@ class SectorReader:
         averaged = _flat_mean(ranges, geometry.mean_beams, increment, geometry.full_circle)
         minima = [math.inf] * 6
         if geometry.nonempty:
-            for index, value in zip(geometry.nonempty, np.minimum.reduceat(averaged[geometry.gather], geometry.starts)):
+            for index, value in zip(
+                geometry.nonempty, np.minimum.reduceat(averaged[geometry.gather], geometry.starts), strict=True
+            ):
                 minima[index] = float(value)
         front, ahead, left, right, left_abeam, right_abeam = minima
         gathered = ranges[geometry.gather]
         left_fit = _fit_line(gathered[geometry.slices[2]], *geometry.left_cs)
         right_fit = _fit_line(gathered[geometry.slices[3]], *geometry.right_cs)
-        left_wide, right_wide = (_fit_line(ranges[w], *cs) for w, cs in zip(geometry.directions, geometry.direction_cs))
+        left_wide, right_wide = (
+            _fit_line(ranges[w], *cs) for w, cs in zip(geometry.directions, geometry.direction_cs, strict=True)
+        )
         clearance, side = self._clearance(smoothed, geometry)
         sizes = (geometry.sizes[0], geometry.sizes[4], geometry.sizes[5])
         self._ranges, self._smoothed = ranges, averaged
@@ -258,8 +263,8 @@ class SectorReader:
         within WALL_END_BAND of the wall's line split into runs where consecutive ones lie further
         than WALL_END_GAP apart along it; the passed wall is the last run that ends before the
         LiDAR, and its last return (its end face included) gives the x returned. A wall resuming
-        beyond an opening lies further on the same line and ends ahead of the robot, if at all. Range noise moves these returns
-        mostly across the line, so the end is read to about a centimetre, where a window
+        beyond an opening lies further on the same line and ends ahead of the robot, if at all. Range noise moves these
+        returns mostly across the line, so the end is read to about a centimetre, where a window
         abeam reads it only when its last beam has passed it (later still when the robot is
         skewed towards the wall).
         """
@@ -420,8 +425,8 @@ def _flat_mean(ranges: np.ndarray, beams: int, increment: float, wrap: bool) -> 
     Along a straight line 1/r is A cos(theta) + B sin(theta); over beams symmetric about theta
     its mean is 1/r(theta) times the mean cosine of their offsets, so that ratio returns a
     straight wall's range unchanged while averaging the noise. One surface: all returned and
-    within FLAT_SPREAD of each other. A reading within KEEP_SHARE of that average agrees with its neighbours (noise-free data on
-    any smooth surface) and is kept exactly.
+    within FLAT_SPREAD of each other. A reading within KEEP_SHARE of that average agrees with its neighbours (noise-free
+    data on any smooth surface) and is kept exactly.
     """
     if beams <= 1:
         return ranges

@@ -52,9 +52,10 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Mapping
 from dataclasses import dataclass
-from enum import Enum
-from typing import Any, Mapping
+from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -93,7 +94,7 @@ SEARCH_TURN = math.radians(30.0)
 """Searching, a nearest wall further off the heading than this is faced by turning in place."""
 
 
-class State(str, Enum):
+class State(StrEnum):
     SEARCH = "SEARCH"
     FOLLOW = "FOLLOW"
     CORNER = "CORNER"
@@ -109,7 +110,7 @@ MOVING = (State.SEARCH, State.FOLLOW, State.CORNER, State.APPROACH, State.STABIL
 TURNING = (State.TURN_LEFT, State.TURN_RIGHT, State.TURN_AROUND)
 
 
-class Issue(str, Enum):
+class Issue(StrEnum):
     """Why a command is not a plain one; the value is the log message."""
 
     BAD_SCAN = "unusable scan (empty, bad angles or a window without beams): stopping"
@@ -612,7 +613,7 @@ class WallFollower:
         if not is_open.any():
             return None
         edges = np.flatnonzero(np.diff(np.concatenate([[0], is_open.astype(int), [0]])))
-        runs = list(zip(edges[0::2], edges[1::2] - 1))  # first and last index of each open run
+        runs = list(zip(edges[0::2], edges[1::2] - 1, strict=True))  # first and last index of each open run
         if not prefer_clockwise:
             runs = runs[::-1]
         # A run reaching the end of the sweep on the followed side is not bounded by the followed

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 
-from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.lifecycle import State, TransitionCallbackReturn
@@ -28,6 +27,7 @@ from sensor_msgs.msg import LaserScan
 from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
+from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.parameter_spec import ConfigError

@@ -38,6 +38,7 @@ what was done.
 from __future__ import annotations
 
 import gzip
+import itertools
 import math
 import re
 from collections import Counter
@@ -198,7 +199,7 @@ def read_carmen(
     bound = max_range if max_range is not None else _largest_reading(scans)
     return CarmenLog(
         path,
-        [_log_scan(raw, stamp, max_range, bound) for raw, stamp in zip(scans, stamps)],
+        [_log_scan(raw, stamp, max_range, bound) for raw, stamp in zip(scans, stamps, strict=True)],
         has_stamps=has_stamps,
         max_range=max_range,
         message=chosen,
@@ -358,7 +359,7 @@ def _stamps(scans: list[_Raw], path: Path) -> tuple[list[float], bool, str]:
         problem = f"no timestamp on line {missing}"
     else:
         stamps = [raw.stamp for raw in scans]
-        back = [b.line for a, b in zip(scans, scans[1:]) if not b.stamp > a.stamp]
+        back = [b.line for a, b in itertools.pairwise(scans) if not b.stamp > a.stamp]
         if len(scans) > 1 and all(stamp == stamps[0] for stamp in stamps):
             problem = f"every timestamp is {stamps[0]:g}"
         elif len(back) > MAX_STAMP_REPAIRS * len(scans):

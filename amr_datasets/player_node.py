@@ -31,7 +31,6 @@ import importlib
 import math
 import time
 
-from amr_interfaces.msg import LocalizedPose
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
@@ -47,6 +46,7 @@ from tf2_msgs.msg import TFMessage
 from amr_datasets.carmen import SCAN_TYPES, DatasetError, read_carmen
 from amr_datasets.odometry import OdometryNoiseModel
 from amr_datasets.player import LogPlayer, PlayerStep
+from amr_interfaces.msg import LocalizedPose
 from amr_util.geometry import Pose2D, quaternion_from_yaw
 from amr_util.managed_node import ManagedNode, run, topic_name_problem
 from amr_util.parameter_spec import ParameterSpec
@@ -60,6 +60,7 @@ WARNING_PERIOD = 5.0
 """Wall s between repeats of the pace timeout warning."""
 TF_DEPTH = 100
 DEFAULT_NOISE = OdometryNoiseModel()
+ORIGIN = Pose2D(0.0, 0.0, 0.0)
 DEFAULT_PACE_TYPE = "amr_interfaces/msg/LocalizedPose"
 """What the particle filter answers each scan with."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
@@ -222,7 +223,7 @@ def odometry_message(stamp: Time, frame: str, child: str) -> Odometry:
     return message
 
 
-def transform(stamp: Time, parent: str, child: str, pose: Pose2D = Pose2D(0.0, 0.0, 0.0)) -> TransformStamped:
+def transform(stamp: Time, parent: str, child: str, pose: Pose2D = ORIGIN) -> TransformStamped:
     message = TransformStamped()
     message.header.stamp, message.header.frame_id, message.child_frame_id = stamp, parent, child
     message.transform.translation.x, message.transform.translation.y = pose.x, pose.y

@@ -9,7 +9,8 @@ Every Fleet.step(commands) advances exactly config.dt seconds for every robot at
      odometry integrates it;
   4. every LiDAR scans from its robot's new pose: it sees the walls and the other robots (discs of
      the robot radius), never its own body; each robot's goal region is checked.
-A robot that has reached its goal ignores its commands and stays put until reset (unless stop_at_goal is false); the others go on.
+A robot that has reached its goal ignores its commands and stays put until reset (unless stop_at_goal is false); the
+others go on.
 
 Each robot has its own random streams (LiDAR noise, encoder noise and slip, beacons), seeded from the
 config's seed and the robot's name: robot `name` draws from SeedSequence(seed, spawn_key=name's UTF-8
@@ -23,8 +24,9 @@ A world without a `robots` list is one robot, exactly the one amr_simulation.sim
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pymunk
@@ -52,7 +54,7 @@ class SimulatedRobot:
     Read its properties; move it through the Fleet (step, set_pose, reset_robot).
     """
 
-    def __init__(self, fleet: "Fleet", index: int, spec: RobotSpec) -> None:
+    def __init__(self, fleet: Fleet, index: int, spec: RobotSpec) -> None:
         config = fleet.config
         self.index = index
         self.name = spec.name
@@ -208,7 +210,7 @@ class Fleet:
     @classmethod
     def from_params(
         cls, params: Mapping[str, Any], worlds_dirs: Sequence[str | Path] = (), ignore: Iterable[str] = ()
-    ) -> "Fleet":
+    ) -> Fleet:
         """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs (default:
         amr_maps.world.world_search_path())."""
         config = SimulationConfig.from_params(params, ignore)
@@ -259,7 +261,7 @@ class Fleet:
         drive = self.drive
         plans = []
         fastest = 0.0
-        for robot, (v, w) in zip(self.robots, commands):
+        for robot, (v, w) in zip(self.robots, commands, strict=True):
             if robot._goal_reached and self.config.stop_at_goal:
                 v = w = 0.0
             left, right = drive.command(v, w)
@@ -277,13 +279,13 @@ class Fleet:
         bodies = physics.bodies
         for _ in range(count):
             velocities = []
-            for body, (chord_speed, ground_w) in zip(bodies, turns):
+            for body, (chord_speed, ground_w) in zip(bodies, turns, strict=True):
                 mid = body.angle + 0.5 * ground_w * h
                 velocities.append((chord_speed * math.cos(mid), chord_speed * math.sin(mid), ground_w))
             physics.advance(velocities, h)
 
         self._steps += 1
-        for robot, (left, right, _, _) in zip(self.robots, plans):
+        for robot, (left, right, _, _) in zip(self.robots, plans, strict=True):
             x, y, theta = physics.pose(robot.index)
             previous, robot._pose = robot._pose, Pose2D(x, y, wrap_angle(theta))
             robot._twist = arc_twist(previous, robot._pose, dt)
@@ -381,7 +383,7 @@ class Fleet:
         elif len(commands) != len(self.robots):
             raise SimulationError(f"step: {len(commands)} commands for {len(self.robots)} robots")
         checked = []
-        for name, command in zip(self.names, commands):
+        for name, command in zip(self.names, commands, strict=True):
             try:
                 v, w = command
                 ok = math.isfinite(v) and math.isfinite(w)
@@ -448,7 +450,7 @@ class Fleet:
             noise = np.empty_like(true)
             for row, robot in enumerate(robots):
                 noise[row] = robot._lidar.noise()
-        for robot, scan in zip(robots, readings(true, noise, c)):
+        for robot, scan in zip(robots, readings(true, noise, c), strict=True):
             robot._ranges = scan
 
     def _cast(self, x: np.ndarray, y: np.ndarray, phi0: np.ndarray, observers: np.ndarray) -> np.ndarray:

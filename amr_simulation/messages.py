@@ -11,7 +11,6 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-from amr_interfaces.msg import BeaconRanges, SimulatorStatus
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, TransformStamped
 from nav_msgs.msg import Odometry
@@ -19,6 +18,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
+from amr_interfaces.msg import BeaconRanges, SimulatorStatus
 from amr_simulation.config import BeaconConfig, LidarConfig
 from amr_util.geometry import Pose2D, quaternion_from_yaw
 
@@ -99,7 +99,7 @@ STATUS_FIELDS = (
 
 
 def status_fields(
-    fleet: "Fleet", robot: "SimulatedRobot", distance: float, real_time_factor: float, localization=None
+    fleet: Fleet, robot: SimulatedRobot, distance: float, real_time_factor: float, localization=None
 ) -> dict:
     """SimulatorStatus's changing fields (STATUS_FIELDS) of one robot of a fleet; `localization` is the robot's
     LocalizationCheck state (None: the check is off, or no /pose yet)."""
@@ -124,8 +124,8 @@ def status_fields(
 def status(
     time: Time,
     frame: str,
-    fleet: "Fleet",
-    robot: "SimulatedRobot",
+    fleet: Fleet,
+    robot: SimulatedRobot,
     distance: float,
     real_time_factor: float,
     localization=False,

@@ -19,8 +19,8 @@ contact both treat the other as a wall: neither can push the other.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 import pymunk
@@ -153,7 +153,7 @@ class Physics:
     def advance(self, velocities: Sequence[tuple[float, float, float]], dt: float) -> None:
         """One substep of every robot at its world velocity (vx, vy) and turn rate w, minus pushes into
         what it touches."""
-        for body, contacts, (vx, vy, w) in zip(self.bodies, self.contacts, velocities):
+        for body, contacts, (vx, vy, w) in zip(self.bodies, self.contacts, velocities, strict=True):
             for normal in contacts.normals:  # the contacts the last substep left
                 into = vx * normal.x + vy * normal.y
                 if into > 0.0:

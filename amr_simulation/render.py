@@ -8,8 +8,9 @@ simulator.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -95,7 +96,7 @@ def draw_scan(ax: Axes, sensor: Pose2D, ranges: np.ndarray, lidar: LidarConfig, 
     )
 
 
-def draw_simulation(ax: Axes, sim: "Simulator") -> LineCollection:
+def draw_simulation(ax: Axes, sim: Simulator) -> LineCollection:
     """World, trajectory, robot and last scan of a simulator; returns the trajectory lines."""
     draw_world(ax, sim.world)
     lines = draw_trajectory(ax, sim.trajectory, sim.config.robot.max_linear)
@@ -106,7 +107,7 @@ def draw_simulation(ax: Axes, sim: "Simulator") -> LineCollection:
     return lines
 
 
-def draw_fleet(ax: Axes, fleet: "Fleet") -> LineCollection:
+def draw_fleet(ax: Axes, fleet: Fleet) -> LineCollection:
     """World, and per robot (one colour each) its trajectory, footprint, name and last scan; returns the
     first robot's trajectory lines."""
     draw_world(ax, fleet.world)
@@ -131,7 +132,7 @@ def draw_fleet(ax: Axes, fleet: "Fleet") -> LineCollection:
 
 
 def save_png(
-    sim: "Simulator | Fleet",
+    sim: Simulator | Fleet,
     path: str | Path,
     dpi: int = 120,
     draw: Callable[[Axes, Any], LineCollection] = draw_simulation,

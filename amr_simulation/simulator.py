@@ -17,8 +17,9 @@ with a `robots` list of several robots is simulated by a Fleet.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,7 @@ class Simulator:
     @classmethod
     def from_params(
         cls, params: Mapping[str, Any], worlds_dirs: Sequence[str | Path] = (), ignore: Iterable[str] = ()
-    ) -> "Simulator":
+    ) -> Simulator:
         """Build from a node's flat parameter dict; the world name is looked up in worlds_dirs (default:
         amr_maps.world.world_search_path())."""
         config = SimulationConfig.from_params(params, ignore)

@@ -59,8 +59,6 @@ import time
 from collections import deque
 from pathlib import Path
 
-from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
-from amr_interfaces.srv import SetPose
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock as RclpyClock
@@ -72,6 +70,8 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
+from amr_interfaces.srv import SetPose
 from amr_maps.world import load_world, resolve_world_path, world_problem
 from amr_simulation import messages
 from amr_simulation.config import SimulationConfig
@@ -312,7 +312,9 @@ class SimulatorNode(ManagedNode):
             self._set_pace(changes["pace"])
 
     def _create_interfaces(self) -> None:
-        get = lambda name: self.get_parameter(name).value  # noqa: E731
+        def get(name: str):
+            return self.get_parameter(name).value
+
         qos = reliable(get("qos_depth"))
         fleet = self._fleet
         named = bool(fleet.world.robots)
@@ -597,7 +599,7 @@ class SimulatorNode(ManagedNode):
         before = [(robot.collisions, robot.goal_reached) for robot in fleet.robots]
         fleet.step(commands)
         dt = fleet.config.dt
-        for channel, robot, (collisions, reached) in zip(self._robots, fleet.robots, before):
+        for channel, robot, (collisions, reached) in zip(self._robots, fleet.robots, before, strict=True):
             vx, vy, _ = robot.twist
             channel.distance += math.hypot(vx, vy) * dt
             x, y, _ = robot.pose
