@@ -99,9 +99,7 @@ def test_composed_stack_reaches_active_in_one_process_and_stops_on_sigterm(ros_c
 def test_a_stop_during_startup_takes_down_every_node_that_came_up(bringups):
     run = bringups("real_robot", "--composed")
     first_up = "configure odometry_node: odometry_node is inactive"
-    deadline = time.monotonic() + STARTUP_TIMEOUT
-    while first_up not in run.output and time.monotonic() < deadline and run.process.poll() is None:
-        time.sleep(0.005)
+    poll_until(lambda: first_up in run.output or run.process.poll() is not None, STARTUP_TIMEOUT, period=0.005)
     run.process.send_signal(signal.SIGTERM)  # the manager is still bringing the stack up
     assert run.finish() == 0, run.output
     assert first_up in run.output and "cleanup odometry_node: odometry_node is unconfigured" in run.output, run.output

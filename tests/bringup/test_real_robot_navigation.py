@@ -4,10 +4,10 @@ time reaches pillar_goal (a goal a wall follower never reaches) through localiza
 import os
 import re
 import signal
-import time
 
 import pytest
 from support.bringup_run import Bringup
+from support.waiting import poll_until
 
 from amr_bringup.stack_config import load_bringup
 
@@ -58,9 +58,7 @@ def run(ros_domain):
 
 def test_the_twin_reaches_the_goal_in_real_time(run):
     bringup = run("--composed", "real_robot_navigation_sim", "pace:=2.0")
-    deadline = time.monotonic() + GOAL_TIMEOUT
-    while time.monotonic() < deadline and bringup.process.poll() is None and "goal reached at" not in bringup.output:
-        time.sleep(0.2)
+    poll_until(lambda: bringup.process.poll() is not None or "goal reached at" in bringup.output, GOAL_TIMEOUT, 0.2)
     reached = re.search(r"goal reached at \(.*\), t = ([\d.]+) s, ([\d.]+) m, (\d+) collisions", bringup.output)
     bringup.process.send_signal(signal.SIGINT)
     code = bringup.finish(30.0)

@@ -12,6 +12,7 @@ import yaml
 from PIL import Image
 from rclpy.parameter import Parameter
 from support.bringup_run import Bringup
+from support.waiting import poll_until
 
 from amr_bringup import render_bag
 from amr_bringup.bag_reader import read_bag
@@ -68,11 +69,7 @@ def test_a_60_s_maze_run_is_recorded_complete_with_rosbag2_metadata_and_renders(
         before_activate=lambda node: recorder.wait_until_caught_up(),
     ) as (_, manager, _):
         assert all(step.ok for step in manager.startup())
-        started = time.monotonic()
-        while (
-            recorder.counts.get("/clock", 0) < wanted and time.monotonic() - started < 300.0
-        ):  # 8x real time on a quiet 2-core machine
-            time.sleep(0.05)
+        poll_until(lambda: recorder.counts.get("/clock", 0) >= wanted, 300.0, 0.05)  # 8x real time on a quiet machine
         manager.shutdown()
     recording.stop()  # the bag is finished
     counted = dict(recorder.counts)  # what the recorder's subscriptions received

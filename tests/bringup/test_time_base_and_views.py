@@ -12,7 +12,7 @@ from geometry_msgs.msg import TwistStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_bringup.composed import composed_stack
@@ -107,7 +107,7 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
                 ),
                 TIMEOUT,
             )
-            spin_until(executor, lambda: False, 0.3)  # matching settles
+            spin_for(executor, 0.3)  # matching settles
             kick = TwistStamped()  # the follower's answer to the first observation went out before we listened
             periodic: set[str] = set()
             checked: dict[str, int] = {}
@@ -123,7 +123,7 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
                 ), f"step {step}: the loop stalled"
                 if step == 0:  # the loop waits for the next command: what arrives now is the first step's
                     assert spin_until(executor, lambda: probe.clock is not None, TIMEOUT), "no /clock"
-                    spin_until(executor, lambda: False, 0.3)
+                    spin_for(executor, 0.3)
                     periodic = {t for t, _ in probe.batch if t not in LATCHED}
                 clock = probe.clock
                 assert clock is not None and clock == pytest.approx((step + 1) * DT, abs=1e-9)

@@ -11,7 +11,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 
 from amr_bringup.lifecycle_manager import LifecycleManager
 from amr_control.wall_follower_node import WallFollowerNode
@@ -122,12 +122,12 @@ def test_real_robot_mode_uses_twist_a_timer_and_stops_on_stale_data(ros_context,
     for k in range(6):  # the real robot: odometry and scan stamps differ a little
         rig.odometry.publish(odometry(now + k * 50_000_000 + 7_000_000))
         rig.scan.publish(corridor_scan(now + k * 50_000_000, right=0.25))
-        spin_until(executor, lambda: False, 0.05)
+        spin_for(executor, 0.05)
     moving = [c for c in rig.commands if c.linear.x > 0.0]
     assert moving, "the timer never published a command from the stored pair"
     assert moving[-1].angular.z > 0.0, "flip_angular_sign must invert the clockwise turn"
     rig.commands.clear()
-    spin_until(executor, lambda: False, 0.5)  # no more data: stale
+    spin_for(executor, 0.5)  # no more data: stale
     assert rig.commands and rig.commands[-1].linear.x == 0.0 and rig.commands[-1].angular.z == 0.0
 
 
@@ -150,12 +150,12 @@ def test_navigated_answers_only_what_the_navigator_gives_it_and_a_held_observati
         stamp = 10**9 + k * 50_000_000
         rig.send(stamp)
         status.publish(navigator_status(stamp, controller))
-        spin_until(executor, lambda: False, 0.2)
+        spin_for(executor, 0.2)
     assert len(rig.commands) == 2, "answered exactly the two observations the navigator gave it"
     status.publish(navigator_status(10**9 + 3 * 50_000_000, "wall_follower"))  # a new decision, held observation 3
     assert spin_until(executor, lambda: len(rig.commands) == 3, 5)
     status.publish(navigator_status(10**9 + 2 * 50_000_000, "wall_follower"))  # observation 2 was answered already
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 3
 
 
@@ -163,22 +163,22 @@ def test_navigated_real_robot_stops_once_when_the_navigator_hands_over_then_stay
     node, rig = active_follower(ros_context, executor, Twist, simulation=False, sync_slop=0.15, navigated=True)
     status = rig.create_publisher(NavigatorStatus, "navigator/status", 10)
     assert spin_until(executor, lambda: status.get_subscription_count() > 0, 5)
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert rig.commands == [], "not given any observation yet: no stale-data zeros either"
     now = node.get_clock().now().nanoseconds
     for k in range(6):
         stamp = now + k * 50_000_000
         rig.send(stamp, right=0.25)
         status.publish(navigator_status(stamp, "wall_follower"))
-        spin_until(executor, lambda: False, 0.05)
+        spin_for(executor, 0.05)
     assert any(c.linear.x > 0.0 for c in rig.commands), "in charge: the timer drives"
     rig.commands.clear()
     for k in range(6, 12):
         stamp = now + k * 50_000_000
         rig.send(stamp, right=0.25)
         status.publish(navigator_status(stamp, "path_follower"))
-        spin_until(executor, lambda: False, 0.05)
-    spin_until(executor, lambda: False, 0.5)
+        spin_for(executor, 0.05)
+    spin_for(executor, 0.5)
     zeros = [k for k, c in enumerate(rig.commands) if c.linear.x == 0.0 and c.angular.z == 0.0]
     assert zeros == [len(rig.commands) - 1], "one zero at the hand-over (a tick before it may hold the last command)"
     assert len(rig.commands) <= 2
@@ -192,7 +192,7 @@ def test_deactivation_publishes_a_zero_command(ros_context, executor):
     assert spin_until(executor, lambda: len(rig.commands) == 2, 5)
     assert rig.commands[-1].twist.linear.x == 0.0 and rig.commands[-1].twist.angular.z == 0.0
     rig.send(2 * 10**9)
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 2, "an inactive follower must stay quiet"
 
 
@@ -258,7 +258,7 @@ def test_real_robot_mode_holds_the_last_command_between_slow_scans(ros_context, 
     now = node.get_clock().now().nanoseconds
     for k in range(5):
         rig.send(now + k * 200_000_000, right=0.25)
-        spin_until(executor, lambda: False, 0.2)
+        spin_for(executor, 0.2)
     moving = [c for c in rig.commands if c.linear.x > 0.0]
     assert len(moving) >= 10, "between 5 Hz scans the 20 Hz timer must repeat the last command"
     first_moving = rig.commands.index(moving[0])
@@ -303,7 +303,7 @@ def test_a_stamp_far_in_the_future_does_not_stop_the_robot_forever(ros_context, 
     bad.header.stamp.nanosec = 2_000_000_000  # out of [0, 1e9): malformed, dropped with a warning
     rig.odometry.publish(bad)
     rig.scan.publish(corridor_scan(10 * 50_000_000))
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 10
     rig.send(11 * 50_000_000)
     assert spin_until(executor, lambda: len(rig.commands) == 11, 5)

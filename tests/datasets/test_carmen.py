@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from carmen_logs import MAX_RANGE, SHARED, flaser_line, ranges_of, write_log
+from support.carmen_logs import MAX_RANGE, SHARED, flaser_line, ranges_of, write_log
 
 from amr_datasets.carmen import DatasetError, detect_max_range, read_carmen
 from amr_util.geometry import wrap_angle

@@ -4,10 +4,11 @@ noise of the model visible in the statistics over many seeds."""
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
-from carmen_logs import SHARED, square_path
+from support.carmen_logs import SHARED, square_path
 
 from amr_datasets.carmen import read_carmen
 from amr_datasets.odometry import OdometryNoiseModel, increments, synthesize_odometry
@@ -21,7 +22,7 @@ def straight(count: int, step: float = 1.0) -> np.ndarray:
 
 
 def relative_steps(poses: np.ndarray) -> np.ndarray:
-    return np.array([relative_pose(a, b) for a, b in zip(poses, poses[1:], strict=True)])
+    return np.array([relative_pose(a, b) for a, b in pairwise(poses)])
 
 
 @pytest.mark.parametrize(

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 import pytest
-from carmen_logs import write_log
+from support.carmen_logs import write_log
 
 from amr_datasets.carmen import read_carmen
 from amr_datasets.odometry import OdometryNoiseModel, synthesize_odometry
@@ -26,7 +28,7 @@ def test_a_slice_plays_its_scans_at_their_stamps_with_odometry_from_its_first_po
     assert [s.stamp for s in steps] == pytest.approx([11.5, 12.0, 12.5, 13.0, 13.5])
     assert steps[0].odom == (0.0, 0.0, 0.0) and steps[0].odom_twist == (0.0, 0.0, 0.0)
     assert steps[2].scan is log.scans[5].scan and steps[2].pose == pytest.approx(log.scans[5].pose)
-    for a, b in zip(steps, steps[1:], strict=True):
+    for a, b in pairwise(steps):
         assert relative_pose(a.odom, b.odom) == pytest.approx(relative_pose(a.pose, b.pose), abs=1e-9)
     assert steps[1].odom_twist[0] == pytest.approx(0.5 / 0.5)  # 0.5 m in 0.5 s
     with pytest.raises(IndexError):

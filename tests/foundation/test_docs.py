@@ -130,7 +130,7 @@ def test_the_node_list_names_the_nodes_of_the_stacks_it_was_taken_from():
     ],
 )
 def test_the_checker_refuses_broken_commands(line, words):
-    from doc_commands import Command, split_commands
+    from support.doc_commands import Command, split_commands
 
     with pytest.raises((AssertionError, ValueError)) as error:
         for command in split_commands(line):

@@ -1,6 +1,7 @@
 """amr_maps.scan_matcher: offsets recovered, branch and bound = brute force, global search, budget, covariance."""
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -164,7 +165,7 @@ def test_global_search_finds_the_true_pose_among_a_look_alike():
     assert abs(math.remainder(found[0].pose[2] - truth[2], 2 * math.pi)) < math.radians(1.5)
     twin = [m for m in found[1:] if math.hypot(*(m.pose[:2] - truth[:2] - (3.5, 0.0))) < 0.1]
     assert twin and twin[0].score < found[0].score - 0.02
-    for a, b in zip(found, found[1:], strict=True):
+    for a, b in pairwise(found):
         assert a.score >= b.score
 
 

@@ -1,6 +1,6 @@
 """Following a fleet plan together (amr_navigation.fleet_schedule): how far each robot may go, when it has
-reached a waypoint, the route it is handed; and whole runs of the simulator's fleet driven by a plan
-(amr_evaluation.fleet_navigation.run_fleet with coordination "plan")."""
+reached a waypoint, the route it is handed. Whole runs of the simulator's fleet driven by a plan:
+tests/evaluation/test_fleet_plan_runs.py."""
 
 from __future__ import annotations
 
@@ -9,8 +9,6 @@ import math
 import numpy as np
 import pytest
 
-from amr_evaluation.fleet_navigation import run_fleet
-from amr_maps.world import world_from_dict
 from amr_navigation.fleet_schedule import Schedule
 from amr_planning.fleet_plan import FleetPlan, Lattice
 
@@ -72,61 +70,6 @@ def test_the_last_waypoint_is_the_robots_own_goal():
     schedule = Schedule(swap_plan(), goals=[(4.1, 0.05), (-0.1, 0.0)])
     assert schedule.waypoints[0][-1].tolist() == [4.1, 0.05]
     assert schedule.waypoints[1][-1].tolist() == [-0.1, 0.0]
-
-
-def corridor() -> object:
-    """A corridor one robot wide (0.35 m free) from -2 to 2 along x, a side pocket at x = 0.8; r1 and r2 face
-    each other from its two ends, each sent to the other's end."""
-    walls = [
-        [-2.0, -0.2, 2.0, -0.2],
-        [-2.0, 0.2, 0.6, 0.2],
-        [1.0, 0.2, 2.0, 0.2],
-        [0.6, 0.2, 0.6, 0.7],
-        [1.0, 0.2, 1.0, 0.7],
-        [0.6, 0.7, 1.0, 0.7],
-        [-2.0, -0.2, -2.0, 0.2],
-        [2.0, -0.2, 2.0, 0.2],
-    ]
-    return world_from_dict(
-        {
-            "name": "corridor",
-            "wall_thickness": 0.05,
-            "walls": walls,
-            "robots": [
-                {"name": "r1", "start": [-1.6, 0.0, 0.0], "goal": [1.6, 0.0, 0.1]},
-                {"name": "r2", "start": [1.6, 0.0, math.pi], "goal": [-1.6, 0.0, 0.1]},
-            ],
-        }
-    )
-
-
-def test_two_robots_planned_together_pass_each_other_through_the_pocket():
-    run = run_fleet(corridor(), localization="truth", duration=150.0, seed=2, coordination="plan", lattice_spacing=0.4)
-    assert run.reached == 2, [robot.events for robot in run.robots]
-    assert run.robot_contacts == 0 and run.wall_contacts == 0
-
-
-def test_a_coordination_other_than_rules_or_plan_is_refused():
-    with pytest.raises(ValueError, match="coordination 'central'"):
-        run_fleet(corridor(), localization="truth", duration=1.0, coordination="central")
-
-
-def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan():
-    """The robots go by the traffic rules (explore until localized, then to their goals) until all are localized
-    at once; the fleet is then planned from the estimates. A generated tree maze, three robots each sent to the
-    next one's start."""
-    from amr_maps.maze_families import generate, grid_pitch
-    from amr_planning.fleet_starts import with_robots
-
-    data = with_robots(generate("perfect", 4, size=4.0), 3, 4)
-    run = run_fleet(
-        world_from_dict(data), seed=4, duration=200.0, coordination="plan", lattice_spacing=grid_pitch(data)
-    )
-    events = [event for robot in run.robots for event in robot.events]
-    assert any("fleet plan 1" in event for event in events), events
-    assert run.reached == 3, events
-    assert run.robot_contacts == 0 and run.wall_contacts == 0
-    assert run.false_localized == 0
 
 
 def test_a_new_path_is_due_when_the_route_changes_and_a_second_after_the_follower_stopped_short():

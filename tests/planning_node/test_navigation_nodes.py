@@ -11,7 +11,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 
 from amr_control.path_follower_node import PathFollowerNode
 from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus
@@ -161,18 +161,18 @@ def test_the_follower_alone_answers_each_localized_observation_once_it_has_a_pat
 
     for k in range(3):  # no path yet: not in charge
         observe(k)
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert rig.commands == []
     rig.path_out.publish(straight_path())
     assert spin_until(executor, lambda: follower.in_charge, 5.0)
     for k in range(3, 8):
         observe(k)
         assert spin_until(executor, lambda k=k: len(rig.commands) == k - 2, 5.0)
-    spin_until(executor, lambda: False, 0.2)
+    spin_for(executor, 0.2)
     assert len(rig.commands) == 5 and all(c.twist.linear.x > 0.0 for c in rig.commands)
     assert len(rig.follower_status) == 5 and rig.follower_status[-1].state == "TRACK"
     observe(8, localized=False)  # a pose the localization does not vouch for: no command
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 5
 
     bad = Path()
@@ -182,7 +182,7 @@ def test_the_follower_alone_answers_each_localized_observation_once_it_has_a_pat
     rig.path_out.publish(bad)
     assert spin_until(executor, lambda: not follower.in_charge, 5.0)
     observe(9)
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 5
     follower.shut_down_cleanly()
 
@@ -218,13 +218,13 @@ def test_a_navigated_follower_answers_only_what_the_navigator_gives_it_and_a_hel
     observe(1, "path_follower")
     assert spin_until(executor, lambda: len(rig.commands) == 1, 5.0)
     observe(2, "")  # nobody: the robot is held on observation 2
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 1
     rig.decide(2, "path_follower")  # a new decision for the held observation (a goal arrived)
     assert spin_until(executor, lambda: len(rig.commands) == 2, 5.0)
     rig.decide(2, "path_follower")  # the same decision again: answered already, nothing more
     observe(3, "wall_follower")
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     assert len(rig.commands) == 2
     follower.shut_down_cleanly()
 

@@ -14,7 +14,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.time import Time
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 
 from amr_bringup.demo import config_file, params_file_args
 from amr_control.path_follower_node import PathFollowerNode
@@ -141,7 +141,7 @@ def test_the_navigator_hands_over_plans_follows_takes_new_goals_and_stops_for_an
     held = localization.last
     assert held.controller == "" and "no path to (2.00, 2.00)" in held.reason and "goal" in held.reason
     steps = status().steps
-    spin_until(executor, lambda: False, 1.5)
+    spin_for(executor, 1.5)
     assert status().steps == steps, "the robot moved on towards an old goal"
 
     # and a reachable one again: the held observation is given to the path follower
@@ -150,7 +150,7 @@ def test_the_navigator_hands_over_plans_follows_takes_new_goals_and_stops_for_an
     assert status().collisions == 0
 
     # exactly one command per observation: the one the navigator's last decision named, nobody's where it named none
-    spin_until(executor, lambda: False, 0.3)
+    spin_for(executor, 0.3)
     newest = max(localization.decisions)
     for stamp, decision in localization.decisions.items():
         expected = [decision.controller] if decision.controller else []

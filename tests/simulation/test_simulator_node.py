@@ -1,6 +1,7 @@
 """The simulator node in-process, lockstep mode: the seed's contract, services, lifecycle and bad input."""
 
 import math
+from itertools import pairwise
 
 import pytest
 from geometry_msgs.msg import PoseStamped
@@ -126,7 +127,7 @@ def test_reset_and_set_pose(simulator, probe, executor):
     assert (status.steps, status.sim_time, status.collisions, status.distance_travelled) == (0, 0.0, 0, 0.0)
     assert (truth.pose.pose.position.x, truth.pose.pose.position.y) == (-1.5, -1.0)
     stamps = [seconds(m.header.stamp) for m in driver.ground_truth]
-    assert all(later > earlier for earlier, later in zip(stamps, stamps[1:], strict=True)), "stamps never go back"
+    assert all(later > earlier for earlier, later in pairwise(stamps)), "stamps never go back"
 
 
 def test_ramming_a_wall_counts_one_collision_and_stays_out(simulator, probe, executor):

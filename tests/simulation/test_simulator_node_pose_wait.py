@@ -8,7 +8,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 
 from amr_interfaces.msg import LocalizedPose
 from amr_simulation.simulator_node import SimulatorNode
@@ -76,12 +76,12 @@ def stamps(probe: DriverAndLocalizer) -> list[int]:
 def test_a_step_waits_for_the_pose_of_the_last_observation(ros_context, executor):
     probe = start(ros_context, executor, lockstep_pose_wait=30.0)
     assert spin_until(executor, lambda: probe.observations, 5.0), "no first observation"
-    spin_until(executor, lambda: False, 1.5)
+    spin_for(executor, 1.5)
     assert len(stamps(probe)) == 1, "the /cmd_vel came at once, the /pose did not: no step may be taken yet"
     first = probe.observations[-1].header.stamp
     probe.answer(first)
     assert spin_until(executor, lambda: len(stamps(probe)) == 2, 5.0), "the /pose came: the step must be taken"
-    spin_until(executor, lambda: False, 0.5)
+    spin_for(executor, 0.5)
     assert len(stamps(probe)) == 2, "one /pose answers one observation: one step"
     probe.answer_poses = True
     probe.answer(probe.observations[-1].header.stamp)

@@ -2,6 +2,7 @@
 
 import math
 import time
+from itertools import pairwise
 
 import pytest
 from lifecycle_msgs.msg import Transition
@@ -36,7 +37,7 @@ def test_clock_leads_and_a_stale_command_stops_the_robot(simulator, probe, execu
     assert moving_steps(driver) in (10, 11)
     assert driver.ground_truth[-1].twist.twist.linear.x == 0.0
     clock = [seconds(m.clock) for m in driver.clocks]
-    assert [b - a for a, b in zip(clock, clock[1:], strict=True)] == pytest.approx([DT] * (len(clock) - 1))
+    assert [b - a for a, b in pairwise(clock)] == pytest.approx([DT] * (len(clock) - 1))
     assert seconds(driver.ground_truth[-1].header.stamp) <= clock[-1]
     # a node with use_sim_time follows /clock
     assert driver.get_clock().now().nanoseconds * 1e-9 == pytest.approx(clock[-1], abs=2 * DT)
@@ -80,4 +81,4 @@ def test_scan_period_publishes_the_lidar_at_its_own_rate(simulator, probe, execu
     odometry, scans = len(driver.odometry), len(driver.scans)
     assert odometry / 4 - 2 <= scans <= odometry / 4 + 2
     stamps = [seconds(m.header.stamp) for m in driver.scans]
-    assert [b - a for a, b in zip(stamps, stamps[1:], strict=True)] == pytest.approx([0.2] * (len(stamps) - 1))
+    assert [b - a for a, b in pairwise(stamps)] == pytest.approx([0.2] * (len(stamps) - 1))

@@ -4,7 +4,7 @@ from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from support.ros import spin_until
+from support.ros import spin_for
 
 from amr_simulation.simulator_node import SimulatorNode
 
@@ -20,7 +20,7 @@ def late_listener(ros_context, executor, period: float) -> list[Odometry]:
     received: list[Odometry] = []
     listener.create_subscription(Odometry, "odometry", received.append, 10)
     executor.add_node(listener)
-    spin_until(executor, lambda: False, 2.5)
+    spin_for(executor, 2.5)
     return received
 
 

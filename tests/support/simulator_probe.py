@@ -20,7 +20,7 @@ from amr_interfaces.msg import SimulatorStatus
 from amr_interfaces.srv import SetPose
 from amr_simulation.simulator_node import SimulatorNode
 from amr_util.stamps import stamp_seconds
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 TIMEOUT = 10.0
@@ -112,7 +112,7 @@ def call(executor, client, request, timeout: float = TIMEOUT, attempts: int = 1)
     the first request of a new client can still be lost after MATCH_DELAY (the reply's reader not yet matched)."""
     if client not in _matched_clients:
         assert client.wait_for_service(timeout_sec=timeout), f"{client.srv_name} not available"
-        spin_until(executor, lambda: False, MATCH_DELAY)
+        spin_for(executor, MATCH_DELAY)
         _matched_clients.add(client)
     for _ in range(attempts):
         future = client.call_async(request)
@@ -143,7 +143,7 @@ def drive(executor, probe: Probe, commands) -> None:
 
 def settle(executor, duration: float = 0.2) -> None:
     """Spin a little longer so that anything extra (which would be a bug) has time to arrive."""
-    spin_until(executor, lambda: False, duration)
+    spin_for(executor, duration)
 
 
 @pytest.fixture

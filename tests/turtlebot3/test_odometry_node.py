@@ -8,7 +8,7 @@ from lifecycle_msgs.srv import ChangeState, GetState
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 from transforms3d.euler import euler2quat
 
 from amr_turtlebot3.odometry_node import OdometryNode
@@ -99,9 +99,9 @@ def test_process_started_like_ros2_run_derives_twist(ros_context, executor, node
         poses = trajectory(v, w, 40, yaw0, t0)
         for pose in poses:  # paced, so the stream does not outrun the process
             probe.publisher.publish(odom_message(*pose))
-            spin_until(executor, lambda: False, timeout=0.005)
+            spin_for(executor, 0.005)
         assert spin_until(executor, lambda poses=poses: len(probe.received) >= len(poses) - 1, timeout=5.0), name
-        spin_until(executor, lambda: False, timeout=0.2)
+        spin_for(executor, 0.2)
         # the first sample of a new stream is differentiated against the previous stream's last one
         check_stream([Odometry()] + probe.received[1:], poses, v, w)
     if "wrap" in CASES:
@@ -143,12 +143,12 @@ def test_lifecycle_and_bad_input_in_process(ros_context, executor):
     for message in stream:
         probe.publisher.publish(message)
     assert spin_until(executor, lambda: len(probe.received) >= 2, timeout=5.0)
-    spin_until(executor, lambda: False, timeout=0.3)
+    spin_for(executor, 0.3)
     assert len(probe.received) == 2
     assert probe.received[1].twist.twist.linear.x == pytest.approx(0.1)
 
     assert change(Transition.TRANSITION_DEACTIVATE)
     probe.publisher.publish(odom_message(2.0, 0.0, 0.0, 0.0))
-    spin_until(executor, lambda: False, timeout=0.3)
+    spin_for(executor, 0.3)
     assert len(probe.received) == 2, "an inactive node must not publish"
     assert change(Transition.TRANSITION_CLEANUP)

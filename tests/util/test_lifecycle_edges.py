@@ -17,7 +17,7 @@ from lifecycle_msgs.srv import ChangeState
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 
 from amr_bringup.demo import config_file, params_file_args
 from amr_control.path_follower_node import PathFollowerNode
@@ -123,7 +123,7 @@ def test_shutdown_from_every_state_leaves_a_silent_finalized_node(name, ros_cont
         node = node_class(context=ros_context, **kwargs)
         executor.add_node(node)
         bring_to(node, state)
-        spin_until(executor, lambda: False, 0.3)  # timers and first messages run
+        spin_for(executor, 0.3)  # timers and first messages run
         client = client_node.create_client(ChangeState, f"{node.get_fully_qualified_name()}/change_state")
         assert spin_until(executor, client.service_is_ready, 5.0)
         asked = time.monotonic()
@@ -132,7 +132,7 @@ def test_shutdown_from_every_state_leaves_a_silent_finalized_node(name, ros_cont
         answered = time.monotonic()
         assert future.result().success, f"{name}: shutdown from {state} refused"
         assert node.state_label == "finalized"
-        spin_until(executor, lambda: False, QUIET)
+        spin_for(executor, QUIET)
         late = [(topic, message) for t, topic, message in publishes if t > answered and topic != "/rosout"]
         assert not late, f"{name}: published after shutdown from {state}: {[topic for topic, _ in late]}"
         if name in COMMANDS and state == "active":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import random
+from itertools import pairwise
 
 import pytest
 from hypothesis import given, settings
@@ -250,7 +251,7 @@ def test_sets_are_within_slop_unique_ordered_and_independent_of_interleaving(cas
             assert max(ms_values) - min(ms_values) <= slop_ms
         for i in range(n):
             seq = [s[i][1] for s in rec.sets]
-            assert all(a < b for a, b in zip(seq, seq[1:], strict=True)), "sets cross or repeat a stamp"
+            assert all(a < b for a, b in pairwise(seq)), "sets cross or repeat a stamp"
     # Output depends on stamps only (as values: duplicates may swap equal-stamp objects).
     assert [[m[1] for m in s] for s in results[0]] == [[m[1] for m in s] for s in results[1]]
 
@@ -269,7 +270,7 @@ def test_small_queues_keep_the_guarantees_and_bound_memory(case, queue_size):
         assert max(m[1] for m in s) - min(m[1] for m in s) <= slop_ms
     for i in range(n):
         seq = [s[i][1] for s in rec.sets]
-        assert all(a < b for a, b in zip(seq, seq[1:], strict=True))
+        assert all(a < b for a, b in pairwise(seq))
     total = sum(len(p) for p in per_input)
     stats = sync.stats
     dropped = stats.dropped_late + stats.dropped_unmatched + stats.dropped_overflow + stats.dropped_superseded

@@ -36,6 +36,7 @@ from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
 from rosgraph_msgs.msg import Clock
 from support.ros import fresh_domain
+from support.waiting import poll_until
 
 from amr_interfaces.srv import SolveIK
 from amr_util.environment import child_environment
@@ -82,12 +83,8 @@ def serving(port: int) -> bool:
 
 
 def wait_for(condition, timeout: float = WAIT, what: str = "condition") -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+    if not poll_until(condition, timeout, period=0.05):
+        raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
 def quiet(values: list, period: float, timeout: float = WAIT, what: str = "quiet") -> None:

@@ -15,7 +15,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty, Trigger
-from support.ros import spin_until
+from support.ros import spin_for, spin_until
 from tf2_msgs.msg import TFMessage
 
 from amr_control.wall_follower_node import WallFollowerNode
@@ -247,7 +247,7 @@ def test_cleanup_stops_serving_and_a_second_configure_serves_again(ros_context, 
         port = node.server.get_port()
         with socket.create_connection(("127.0.0.1", port), timeout=5.0):
             pass  # the page is served
-        spin_until(executor, lambda: False, 0.5)  # a few discoveries and draws
+        spin_for(executor, 0.5)  # a few discoveries and draws
         assert node.try_transition(Transition.TRANSITION_DEACTIVATE)
         assert node.try_transition(Transition.TRANSITION_CLEANUP)
         assert node.server is None and not list(node.clients) and node.robots == {}
