@@ -103,16 +103,18 @@ class ArmSet:
         self.cell = cell
 
     @classmethod
-    def from_parameters(cls, parameters: Mapping, origin=(0.0, 0.0, 0.0)) -> "ArmSet":
+    def from_parameters(cls, parameters: Mapping, origin=(0.0, 0.0, 0.0)) -> ArmSet:
         """From an IK service's parameters ({"chains": [...], "arm5.types": [...], ...}); ChainConfigError names
         the chain and key of anything wrong."""
         return cls(load_chain_set(parameters), origin)
 
     def on_joint_state(self, names: Sequence[str], positions: Sequence[float]) -> set[str]:
         """Take `<chain>/<joint>` values (any subset, any order); returns the chains that changed. Unknown names and
-        non-finite values are ignored."""
+        non-finite values are ignored, and so is a message without one position per name."""
         given: dict[str, dict[str, float]] = {}
-        for name, value in zip(names, positions):
+        if len(names) != len(positions):
+            return set()  # no positions (a JointState of efforts only), or a malformed message
+        for name, value in zip(names, positions, strict=True):
             chain, _, joint = name.partition("/")
             if chain in self.arms and joint and math.isfinite(value):
                 given.setdefault(chain, {})[joint] = float(value)

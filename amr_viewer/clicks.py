@@ -33,7 +33,7 @@ class ClickTool:
     def set_two_clicks(self, two_clicks: bool) -> None:
         self.two_clicks, self.pending = bool(two_clicks), None
 
-    def click(self, x: float, y: float, robot: Pose2D | None) -> tuple[str, Pose] | None:
+    def click(self, x: float, y: float, robot: Pose2D | None) -> tuple[str, Pose2D] | None:
         """(mode, pose) to send, or None (off, a first click of two, or a point that is not finite)."""
         if self.mode == OFF or not finite(x, y):
             return None

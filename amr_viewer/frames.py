@@ -15,7 +15,7 @@ MAX_DEPTH = 64
 
 class TransformTree:
     def __init__(self) -> None:
-        self._parents: dict[str, tuple[str, Pose]] = {}
+        self._parents: dict[str, tuple[str, Pose2D]] = {}
 
     def set(self, parent: str, child: str, pose: Pose2D) -> bool:
         """Record parent -> child; False (and nothing kept) for a non-finite pose, an empty name or a self loop."""
@@ -36,7 +36,7 @@ class TransformTree:
     def frames(self) -> set[str]:
         return set(self._parents) | {parent for parent, _ in self._parents.values()}
 
-    def _to_root(self, frame: str) -> tuple[str, Pose]:
+    def _to_root(self, frame: str) -> tuple[str, Pose2D]:
         """(root, pose of `frame` in the root)."""
         pose, seen = IDENTITY, 0
         while frame in self._parents and seen < MAX_DEPTH:

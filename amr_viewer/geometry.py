@@ -13,7 +13,6 @@ import numpy as np
 
 from amr_util.geometry import Pose2D, all_finite, quaternion_from_yaw
 
-
 IDENTITY = Pose2D(0.0, 0.0, 0.0)
 
 

@@ -10,7 +10,8 @@ import math
 import numpy as np
 
 from amr_util.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
-from amr_util.messages import path_points, scan_data  # noqa: F401 (path_points: the viewer's path reader)
+from amr_util.messages import path_points as path_points  # re-exported: the viewer's path reader
+from amr_util.messages import scan_data
 from amr_viewer.geometry import finite
 from amr_viewer.state import Estimate, MapImage, Scan, map_image
 

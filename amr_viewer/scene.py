@@ -16,9 +16,9 @@ import math
 import numpy as np
 import viser
 
-from amr_viewer.arms import ArmSet
 from amr_util.geometry import Pose2D
 from amr_util.robot_description import default_robot
+from amr_viewer.arms import ArmSet
 from amr_viewer.geometry import wxyz_of
 from amr_viewer.state import RobotState
 

@@ -23,10 +23,9 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
 from geometry_msgs.msg import PoseArray, PoseStamped, PoseWithCovarianceStamped
 from lifecycle_msgs.srv import GetState
-from nav_msgs.msg import Odometry, OccupancyGrid, Path
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from rclpy.clock import Clock, ClockType
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.parameter import Parameter
@@ -37,7 +36,9 @@ from sensor_msgs.msg import JointState, LaserScan
 from std_srvs.srv import Empty, Trigger
 from tf2_msgs.msg import TFMessage
 
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
 from amr_maps.world import load_world, resolve_world_path
+from amr_util.geometry import Pose2D
 from amr_util.managed_node import ManagedNode, run
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
@@ -45,7 +46,6 @@ from amr_util.robot_description import default_robot
 from amr_viewer import cdr, messages, status, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool
-from amr_util.geometry import Pose2D
 from amr_viewer.geometry import floor_point, free_share, oblique_camera, top_down_camera
 from amr_viewer.parameters import entry_from, value_of, visible
 from amr_viewer.state import Frames, RobotState, WorldGoal
@@ -122,7 +122,7 @@ class RobotLink:
         "simulator/status": (SimulatorStatus, reliable(10), False),
     }
 
-    def __init__(self, node: "ViewerNode", namespace: str, graph: set[str]) -> None:
+    def __init__(self, node: ViewerNode, namespace: str, graph: set[str]) -> None:
         self.node, self.namespace = node, namespace
         self.state = RobotState(
             namespace, node.frames, node.get_parameter("max_particles").value, node.get_parameter("trail_spacing").value
@@ -525,10 +525,10 @@ class ViewerNode(ManagedNode):
             )
 
         def got(names, response) -> None:
-            if isinstance(response, Exception):
+            if isinstance(response, Exception) or len(response.values) != len(names):  # one undeclared or unset
                 self._arms_asked.discard(node)
                 return
-            values = {name: value_of(value) for name, value in zip(names, response.values)}
+            values = {name: value_of(value) for name, value in zip(names, response.values, strict=True)}
             extents = [link.state.extent() for link in self.robots.values()]
             extents = [e for e in extents if e is not None]
             origin = (
@@ -791,9 +791,12 @@ class ViewerNode(ManagedNode):
             if isinstance(values, Exception):
                 reply.content = f"{node}: {values}"
                 return
+            if not len(names) == len(descriptors) == len(values.values):  # rclpy answers none for all then
+                reply.content = f"{node}: no values for {len(names)} parameters (one undeclared or unset); try Reload"
+                return
             entries = [
                 entry_from(name, descriptor, value)
-                for name, descriptor, value in zip(names, descriptors, values.values)
+                for name, descriptor, value in zip(names, descriptors, values.values, strict=True)
             ]
             self._parameter_entries[node] = {entry.name: entry for entry in entries}
             self.panels.show_parameters(node, entries)
