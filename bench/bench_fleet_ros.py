@@ -7,7 +7,8 @@ Each run: a generated world (`--family`, default `pillars` rooms, `--size` m a s
 and larger for more: SIZE_PER_ROBOT) with N robots each sent to the next one's start (bench_fleet_navigation's
 worlds), and `amr-bringup fleet_navigation world:=<file> --composed` (every node of every robot in one process,
 particle filters included, `coordination:=plan` with its fleet_planner) started as a child process. This process
-reads `/clock`; `--warmup` s of wall clock after the first /clock it measures `--measure` s: the real-time factor
+reads `/clock`; `--warmup` s of wall clock after /clock passed `--from-sim` (20 s: the robots' filters have localized
+them, the global place search is over) it measures `--measure` s: the real-time factor
 (simulated s over wall s, from /clock) and the child's CPU time (/proc/<pid>/stat: every thread) per robot-step (a
 step is the simulator's dt, 0.05 s, for one robot).
 
@@ -99,7 +100,8 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
             for function in set(stack):
                 inclusive[function] += spent
             by_thread_function[name][stack[0]] += spent
-    out.write_text(
+    partial = out.with_suffix(".part")  # renamed when whole: the parent polls for `out`
+    partial.write_text(
         json.dumps(
             {
                 "process_cpu": time.process_time() - process_began,
@@ -113,6 +115,7 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
             }
         )
     )
+    partial.replace(out)
 
 
 def _count_wakes() -> tuple[dict[str, int], dict[str, dict[str, int]]]:
@@ -213,8 +216,8 @@ def run(robots: int, args) -> dict:
                 executor.spin_once(timeout_sec=0.1)
                 if process.poll() is not None or time.monotonic() - began > args.startup:
                     return result  # amr-bringup exited early or never ran: its log's tail is printed
-                if running is None and clock and clock[-1] > 0.0:
-                    running = time.monotonic()  # the stack is up and stepping
+                if running is None and clock and clock[-1] >= args.from_sim:
+                    running = time.monotonic()  # the stack is up and past the start
             profile.with_suffix(".go").touch()
             sim0, wall0, cpu0 = (clock[-1] if clock else 0.0), time.monotonic(), _cpu_seconds(process.pid)
             while time.monotonic() - wall0 < args.measure:
@@ -314,7 +317,8 @@ def main(argv=None) -> int:
     parser.add_argument("--size", type=float, help="m a side (default: 4 m, more beyond 6 robots)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--startup", type=float, default=300.0, help="s of wall clock the stack may take to start")
-    parser.add_argument("--warmup", type=float, default=10.0, help="s of wall clock after the first /clock")
+    parser.add_argument("--from-sim", type=float, default=20.0, help="s simulated before the warm-up (localized)")
+    parser.add_argument("--warmup", type=float, default=5.0, help="s of wall clock after --from-sim")
     parser.add_argument("--measure", type=float, default=40.0, help="s of wall clock measured")
     parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
     parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
