@@ -22,12 +22,12 @@ import argparse
 import itertools
 import os
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Callable, Sequence
 
 from amr_evaluation import configs
 from amr_evaluation.episode import MODES, EpisodeSpec
-from amr_evaluation.interrupt import INTERRUPTED, Interrupt
+from amr_evaluation.interrupt import Interrupt
 from amr_evaluation.worlds import WorldSpecError, world_spec_of_file
 
 DEFAULT_OUT = "out/evaluation/results.jsonl"

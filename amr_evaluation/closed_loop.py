@@ -11,8 +11,8 @@ happened, which is what a kidnapped robot's wheels report).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 

@@ -113,7 +113,7 @@ class EpisodeSpec:
         return {"schema": SCHEMA, **dataclasses.asdict(self)}
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "EpisodeSpec":
+    def from_dict(cls, data: dict[str, Any]) -> EpisodeSpec:
         fields = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in data.items() if k in fields})
 
@@ -359,8 +359,8 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
 
 
 def _localization(spec: EpisodeSpec) -> dict[str, Any]:
-    from amr_evaluation.worlds import build_world, with_goal
     from amr_evaluation.closed_loop import run
+    from amr_evaluation.worlds import build_world, with_goal
 
     world = with_goal(build_world(spec.world), spec.goal, spec.seed)
     follower = wall_follower_config(spec)
@@ -471,17 +471,18 @@ def _fleet_navigation(spec: EpisodeSpec) -> dict[str, Any]:
     """Every robot of the world to its goal (amr_evaluation.fleet_navigation); options: robots (place that many
     on the world, each sent to the next one's start: with_robots), localization ('filter' or 'truth')."""
     from amr_evaluation.fleet_navigation import run_fleet
-    from amr_planning.fleet_starts import with_robots
     from amr_evaluation.worlds import build_world, world_dict
     from amr_maps.world import world_from_dict
     from amr_navigation.traffic import TrafficConfig
+    from amr_planning.fleet_starts import with_robots
 
     robots = spec.options.get("robots")
     if robots is not None:
         data = world_dict(spec.world)
         if data is None:
-            from amr_maps.world import resolve_world_path
             import yaml
+
+            from amr_maps.world import resolve_world_path
 
             data = yaml.safe_load(resolve_world_path(spec.world["file"]).read_text(encoding="utf-8"))
         world = world_from_dict(with_robots(data, int(robots), spec.seed), default_name=spec.world.get("name", "world"))

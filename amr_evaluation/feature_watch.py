@@ -52,7 +52,8 @@ class FeatureWatch:
                 self.seen = t
         if self.apart is None:
             self._apart = [
-                a if a is not None or n < self.beams else t for a, n in zip(self._apart, self.view.told_apart(*scan))
+                a if a is not None or n < self.beams else t
+                for a, n in zip(self._apart, self.view.told_apart(*scan), strict=True)
             ]
 
     def stop_after(self, seconds: float):

@@ -262,7 +262,7 @@ def run_fleet(
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
     while True:
-        for robot, run in zip(fleet.robots, runs):
+        for robot, run in zip(fleet.robots, runs, strict=True):
             if robot.goal_reached and not run.reached:
                 run.reached, run.time_to_goal = True, fleet.time
         if all(run.reached for run in runs):
@@ -271,7 +271,7 @@ def run_fleet(
         if fleet.time >= duration:
             break
         commands = []
-        for robot, loop, pf, run in zip(fleet.robots, loops, filters, runs):
+        for robot, loop, pf, run in zip(fleet.robots, loops, filters, runs, strict=True):
             scan = ScanData(
                 np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max
             )
@@ -326,7 +326,7 @@ def run_fleet(
             run.events.extend(f"{fleet.time:.2f} {event}" for event in command.events)
             commands.append((command.v, command.w))
         fleet.step(commands)
-    for robot, loop, run in zip(fleet.robots, loops, runs):
+    for robot, loop, run in zip(fleet.robots, loops, runs, strict=True):
         run.wall_collisions = robot.wall_collisions
         run.robot_collisions = sum(robot.robot_collisions.values())
         run.plans = loop.plans

@@ -57,20 +57,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from amr_util.geometry import Pose2D
-from amr_util.scan import ScanData
 from amr_evaluation.worlds import GOAL_RADIUS, GOAL_RESOLUTION, build_world, with_goal, world_spec_of_file
-from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_maps.maze_families import FAMILIES
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import Goal, World
+from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
+from amr_util.geometry import Pose2D
+from amr_util.scan import ScanData
 
 ENV_ID = "amr/Maze-v0"
 QUALIFIED_ENV_ID = f"amr_evaluation.gym_env:{ENV_ID}"

@@ -63,7 +63,7 @@ class Interrupt:
         self._watchdog: threading.Thread | None = None
         self._unraisable_hook = None
 
-    def __enter__(self) -> "Interrupt":
+    def __enter__(self) -> Interrupt:
         self._previous = signal.getsignal(signal.SIGINT)
         if self._previous is not signal.SIG_IGN:
             signal.signal(signal.SIGINT, self._on_signal)

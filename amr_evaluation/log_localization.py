@@ -56,14 +56,14 @@ class LogRun:
     @property
     def declared_after(self) -> float | None:
         """m of travel at the first declaration (None: never)."""
-        return next((t for t, on in zip(self.travel, self.localized) if on), None)
+        return next((t for t, on in zip(self.travel, self.localized, strict=True) if on), None)
 
     @property
     def wrong(self) -> int:
         """scans localized more than WRONG_POSITION or WRONG_HEADING off."""
         return sum(
             1
-            for e, h, on in zip(self.position_error, self.heading_error, self.localized)
+            for e, h, on in zip(self.position_error, self.heading_error, self.localized, strict=True)
             if on and (e > WRONG_POSITION or h > WRONG_HEADING)
         )
 
@@ -136,7 +136,7 @@ def run_log(
         pf.initialize_pose(*poses[0], np.diag([0.1**2, 0.1**2, math.radians(5.0) ** 2]))
     run = LogRun(name, mode)
     travel = 0.0
-    for index, (item, odom) in enumerate(zip(log.scans, odometry)):
+    for index, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
         if index:
             travel += float(np.hypot(*(poses[index, :2] - poses[index - 1, :2])))
         started = time.perf_counter()

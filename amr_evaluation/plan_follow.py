@@ -17,13 +17,13 @@ import numpy as np
 
 from amr_control.path_follower import PathFollower, State
 from amr_control.path_follower_config import PathFollowerConfig
-from amr_util.scan import ScanData
 from amr_maps.rasterize import rasterize_world
 from amr_planning.astar import GridAStar
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
 from amr_planning.smoothing import smooth_path
 from amr_simulation.simulator import Simulator
+from amr_util.scan import ScanData
 
 MAX_REPLANS = 20
 

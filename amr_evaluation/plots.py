@@ -9,14 +9,15 @@
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 
 def _runs(records: Iterable[dict[str, Any]]) -> tuple[list[str], list[str], list[dict]]:
@@ -46,7 +47,7 @@ def success_plot(records: Iterable[dict[str, Any]], path: Path) -> Path | None:
         rates = [100 * np.mean(cells[(f, config)]) if cells.get((f, config)) else np.nan for f in families]
         counts = [len(cells.get((f, config), [])) for f in families]
         bars = axes.bar(x + (index - (len(configs) - 1) / 2) * width, rates, width, label=config)
-        for bar, count, rate in zip(bars, counts, rates):
+        for bar, count, rate in zip(bars, counts, rates, strict=True):
             if count:
                 axes.annotate(
                     f"{int(round(rate * count / 100))}/{count}",

@@ -15,8 +15,9 @@ import os
 import statistics
 import time
 from collections import defaultdict
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from amr_evaluation.episode import TIMING_FIELDS
 
@@ -74,7 +75,7 @@ class RecordWriter:
         os.fsync(self._stream.fileno())
         self._stream.close()
 
-    def __enter__(self) -> "RecordWriter":
+    def __enter__(self) -> RecordWriter:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -157,7 +158,8 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
         goal = f"{row['reached']}/{row['with_goal']}" if row["with_goal"] else "-"
         lines.append(
             f"{row['controller']:13s} {row['config'][:14]:14s} {row['family'][:16]:16s} {row['episodes']:5d} "
-            f"{goal:>9s} {number(row['time_to_goal']):>7s} {row['collision_free']:4d}/{row['episodes'] - row['errors']:<4d} "
+            f"{goal:>9s} {number(row['time_to_goal']):>7s} "
+            f"{row['collision_free']:4d}/{row['episodes'] - row['errors']:<4d} "
             f"{row['stalls']:6d} {number(row['wall_error_run'], 100, 1):>8s} {row['localized']:5d} "
             f"{number(row['time_to_localized']):>6s} {number(row['localization_error'], 100, 1):>7s} "
             f"{number(row['cross_track'], 100, 2):>5s} {row['errors']:4d}"

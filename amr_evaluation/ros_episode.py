@@ -40,8 +40,9 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import yaml
 
@@ -216,12 +217,12 @@ def stop_process(process: subprocess.Popen, timeout: float = 15.0) -> None:
 def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
     """The child's work: the stack composed with the observer, started, watched, taken down."""
     import rclpy
-    from amr_interfaces.msg import SimulatorStatus
     from rclpy.parameter import Parameter
 
     from amr_bringup.bringup import ComposedStack, Console, check_composable
     from amr_bringup.lifecycle_manager import LifecycleManager
     from amr_bringup.stack_config import load_bringup
+    from amr_interfaces.msg import SimulatorStatus
     from amr_util.executors import NodeSpinners
     from amr_util.stop_signals import Flag
 

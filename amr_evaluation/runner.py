@@ -23,10 +23,11 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any
 
 from amr_evaluation.episode import EpisodeSpec, run_episode
 from amr_evaluation.records import RecordWriter, finished, read_records

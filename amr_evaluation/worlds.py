@@ -27,10 +27,10 @@ import numpy as np
 import yaml
 
 from amr_evaluation.cases import far_free_point
-from amr_maps.rasterize import rasterize_world
-from amr_planning.costmap import Costmap
 from amr_maps.maze_families import generate
+from amr_maps.rasterize import rasterize_world
 from amr_maps.world import Goal, World, load_world, resolve_world_path, world_from_dict
+from amr_planning.costmap import Costmap
 
 GOAL_RADIUS = 0.1
 """m, the radius of a "far" or "random" goal."""
