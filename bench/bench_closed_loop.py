@@ -17,12 +17,12 @@ import time
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(10, 99)))
 
-import rclpy  # noqa: E402
-from amr_interfaces.msg import SimulatorStatus  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
 
-from amr_util.environment import child_environment  # noqa: E402
-from amr_bringup.demo import run_maze  # noqa: E402
+from amr_bringup.demo import run_maze
+from amr_interfaces.msg import SimulatorStatus
+from amr_util.environment import child_environment
 
 DT = 0.05
 

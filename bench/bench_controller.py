@@ -21,15 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_control.wall_follower import WallFollower
+from amr_control.wall_follower_config import read_parameter_file
+from amr_maps.world import load_world
+from amr_simulation.config import LidarConfig, SimulationConfig
+from amr_simulation.simulator import Simulator
+from amr_util.scan import ScanData
 
-from amr_control.wall_follower import WallFollower  # noqa: E402
-from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
-from amr_maps.world import load_world  # noqa: E402
-from amr_simulation.config import LidarConfig, SimulationConfig  # noqa: E402
-from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_util.scan import ScanData  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 CONFIG = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
 TARGET_US = 100.0

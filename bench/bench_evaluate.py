@@ -16,6 +16,7 @@ Prints, asserts nothing; quotes the load average (the machine is shared).
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import signal
 import socket
@@ -28,17 +29,16 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_evaluation import configs
+from amr_evaluation.episode import EpisodeSpec, run_episode, wall_follower_config
+from amr_evaluation.records import without_timing
+from amr_evaluation.runner import run_sweep
+from amr_evaluation.wall_follower_loop import run
+from amr_evaluation.worlds import build_world, forget_generated_worlds
+from amr_maps.maze_families import FAMILIES
+from amr_util.environment import child_environment
 
-from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.episode import EpisodeSpec, run_episode, wall_follower_config  # noqa: E402
-from amr_evaluation.records import without_timing  # noqa: E402
-from amr_evaluation.runner import run_sweep  # noqa: E402
-from amr_evaluation.wall_follower_loop import run  # noqa: E402
-from amr_evaluation.worlds import build_world, forget_generated_worlds  # noqa: E402
-from amr_maps.maze_families import FAMILIES  # noqa: E402
-from amr_util.environment import child_environment  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def specs_of(count: int, seconds: float, first_seed: int = 0) -> list[EpisodeSpec]:
@@ -226,7 +226,7 @@ def set_up(specs) -> None:
 def gym_steps(steps: int) -> None:
     import gymnasium
 
-    import amr_evaluation.gym_env  # noqa: F401 - registers amr/Maze-v0
+    importlib.import_module("amr_evaluation.gym_env")  # registers amr/Maze-v0
 
     print(
         f"== amr/Maze-v0 steps per second ({steps} steps, random actions, 240 beams, generated mazes, "

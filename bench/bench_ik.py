@@ -9,8 +9,8 @@ not tuned on (bench/ik_unseen_chains.yaml).
 Targets are FK of uniformly random in-limit configurations (coupled joints
 derived, and within their limits), the same for every solver of a chain; every solve starts from the
 chain's ``home``; two untimed solves (``warm_up``) go first, as the IK node warms up at
-configure (numba loads each compiled function at its first call).  Success is checked here, the same way for everyone: position
-error <= 1e-5 m (x, y for planar chains), orientation error <= 1e-5 rad in pose
+configure (numba loads each compiled function at its first call).  Success is checked here, the same way for
+everyone: position error <= 1e-5 m (x, y for planar chains), orientation error <= 1e-5 rad in pose
 mode, joints within limits.  Our solvers run with the library defaults and a 5 ms
 timeout (``--timeout``); ikpy (scipy optimiser) and roboticstoolbox-python
 (C++ ``ik_LM``) run with their defaults on the first ``--peer-targets`` targets.
@@ -30,20 +30,17 @@ import math
 import os
 import platform
 import pstats
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import yaml
+from ik_peers import angle_between, peers
+
+from amr_kinematics.config import load_chain_set
+from amr_kinematics.solvers import applicable_solvers, get_solver
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from amr_kinematics.config import load_chain_set  # noqa: E402
-from amr_kinematics.solvers import applicable_solvers, get_solver  # noqa: E402
-from ik_peers import angle_between, peers  # noqa: E402
 
 TOLERANCE = 1e-5
 CHAIN_FILES = (ROOT / "config" / "ik_chains.yaml", Path(__file__).resolve().parent / "ik_unseen_chains.yaml")
@@ -111,7 +108,7 @@ def run_peer(peer, config, targets, with_orientation: bool):
         started, started_cpu = time.perf_counter(), time.thread_time()
         try:
             q, steps = peer.solve(target, config.home, with_orientation)
-        except Exception:  # noqa: BLE001 - a peer's failure is a failed solve
+        except Exception:  # a peer's failure is a failed solve
             q, steps = None, math.nan
         times.append(time.perf_counter() - started)
         cpu.append(time.thread_time() - started_cpu)

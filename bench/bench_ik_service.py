@@ -26,17 +26,16 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
 # Before rclpy is imported: DDS stays on loopback, in a domain of this run's own.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(101, 200)))
 
-import numpy as np  # noqa: E402
-import yaml  # noqa: E402
+import numpy as np
+import yaml
 
-from amr_kinematics.config import load_chain_set  # noqa: E402
+from amr_kinematics.config import load_chain_set
+
+ROOT = Path(__file__).resolve().parents[1]
 
 CONFIG = ROOT / "config" / "ik_chains.yaml"
 EXECUTABLE = Path(sys.prefix) / "lib" / "amr_kinematics" / "ik_service"
@@ -90,9 +89,10 @@ def percentile(values: list[float], q: float) -> float:
 def run_client(args) -> None:
     """Sequential requests; writes {"latencies": [s...], "successes": n} to args.out."""
     import rclpy
-    from amr_interfaces.srv import SolveIK
     from geometry_msgs.msg import Pose
     from rclpy.executors import SingleThreadedExecutor
+
+    from amr_interfaces.srv import SolveIK
 
     rclpy.init()
     node = rclpy.create_node(f"bench_ik_client_{os.getpid()}")

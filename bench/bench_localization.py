@@ -20,36 +20,34 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_control.wall_follower import WallFollower
+from amr_control.wall_follower_config import read_parameter_file
+from amr_evaluation import configs
+from amr_evaluation.episode import EpisodeSpec
+from amr_evaluation.runner import run_sweep
+from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig
+from amr_localization.beacons import BeaconReading, expected_ranges
+from amr_localization.distance_field import DistanceField
+from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
+from amr_localization.particle_filter import ParticleFilter
+from amr_localization.particle_filter_config import ParticleFilterConfig
+from amr_localization.scan_beams import select_beams
+from amr_localization.sensor_mount import SensorMount
+from amr_maps.rasterize import rasterize_world
+from amr_maps.symmetry_families import BROKEN, SYMMETRIC, symmetry_case
+from amr_maps.world import World, load_world
+from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
+from amr_simulation.simulator import Simulator
+from amr_util.geometry import wrap_angle
+from amr_util.scan import scan_of
 
-from amr_util.scan import scan_of  # noqa: E402
-from amr_control.wall_follower import WallFollower  # noqa: E402
-from amr_control.wall_follower_config import read_parameter_file  # noqa: E402
-from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig  # noqa: E402
-from amr_localization.beacons import BeaconReading, expected_ranges  # noqa: E402
-from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.episode import EpisodeSpec  # noqa: E402
-from amr_evaluation.runner import run_sweep  # noqa: E402
-from amr_localization.distance_field import DistanceField  # noqa: E402
-from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams  # noqa: E402
-from amr_localization.particle_filter import ParticleFilter  # noqa: E402
-from amr_localization.particle_filter_config import ParticleFilterConfig  # noqa: E402
-from amr_util.geometry import wrap_angle  # noqa: E402
-from amr_localization.scan_beams import select_beams  # noqa: E402
-from amr_localization.sensor_mount import SensorMount  # noqa: E402
-from amr_maps.rasterize import rasterize_world  # noqa: E402
-from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig  # noqa: E402
-from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_maps.symmetry_families import BROKEN, SYMMETRIC, symmetry_case  # noqa: E402
-from amr_maps.world import World, load_world  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 WORLDS = ROOT / "config" / "worlds"
 FOLLOWER = read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml")
@@ -131,8 +129,8 @@ def bench_update_cost(repeats: int) -> None:
             cells.append(f"{1e3 * np.median(times):16.2f}")
         print(f"{count:>10}" + "".join(cells))
     print(
-        "== whole filter update (motion + likelihood field + resampling + place hypotheses + place search), 5000 particles, "
-        "60 beams"
+        "== whole filter update (motion + likelihood field + resampling + place hypotheses + place search), "
+        "5000 particles, 60 beams"
     )
     pf = ParticleFilter(
         rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, min_particles=5000, max_particles=5000)
@@ -220,10 +218,12 @@ def bench_global(sweep: Sweep, seeds: int, mazes: int, seconds: float) -> None:
         data = random_maze(seed)
         runs.append(({"data": data, "name": data["name"]}, data["name"], seed))
     specs = []
-    for world, name, seed in runs:
+    for world, _, seed in runs:
         noise = (float(rng.uniform(0.01, 0.03)), float(rng.uniform(0.0, 0.03)), float(rng.uniform(0.0, 0.05)))
         specs.append(localization_spec(world, seed, *noise, seconds))
-    results = [summarize(f"{name} s{seed}", record) for (_, name, seed), record in zip(runs, sweep.run(specs))]
+    results = [
+        summarize(f"{name} s{seed}", record) for (_, name, seed), record in zip(runs, sweep.run(specs), strict=True)
+    ]
     results = [r for r in results if r["localized"] is not None]  # a run that failed is reported, not counted
     ok = [r for r in results if r["localized"]]
     print(f"localized within 60 s: {len(ok)}/{len(results)} ({100 * len(ok) / max(len(results), 1):.0f} %)")
@@ -234,8 +234,9 @@ def bench_global(sweep: Sweep, seeds: int, mazes: int, seconds: float) -> None:
             f"{sum(r['error'] <= 0.1 and r['heading'] <= 10 for r in ok)}/{len(ok)}"
         )
         print(
-            f"RMS while localized: worst {100 * max(r['rms'] for r in ok):.1f} cm, {max(r['rms_heading'] for r in ok):.2f} deg; "
-            f"median {100 * np.median([r['rms'] for r in ok]):.1f} cm, {np.median([r['rms_heading'] for r in ok]):.2f} deg"
+            f"RMS while localized: worst {100 * max(r['rms'] for r in ok):.1f} cm, "
+            f"{max(r['rms_heading'] for r in ok):.2f} deg; median {100 * np.median([r['rms'] for r in ok]):.1f} cm, "
+            f"{np.median([r['rms_heading'] for r in ok]):.2f} deg"
         )
         withdrawals = sum(r["withdrawn"] for r in ok)
         print(f"withdrawals while localized: {withdrawals} in {len(ok)} runs")
@@ -249,7 +250,7 @@ def bench_symmetric(sweep: Sweep, seeds: int, seconds: float) -> None:
         first = record["time_to_localized"]
         false += first is not None
         print(
-            f"seed {seed}: {'LOCALIZED at %.1f s' % first if first is not None else 'never localized'}  "
+            f"seed {seed}: {f'LOCALIZED at {first:.1f} s' if first is not None else 'never localized'}  "
             f"wall {record['wall_time']:.1f} s" + (f"  ERROR {record['error']}" if record["error"] else "")
         )
     print(f"false declarations: {false}/{seeds}")
@@ -266,7 +267,7 @@ def bench_kidnap(sweep: Sweep, seeds: int) -> None:
         localization_spec({"file": f"{name}.yaml"}, seed, 0.02, 0.02, 0.03, 100.0, kidnap=(30.0, pose))
         for name, seed, pose in cases
     ]
-    for (name, seed, pose), record in zip(cases, sweep.run(specs)):
+    for (name, seed, pose), record in zip(cases, sweep.run(specs), strict=True):
         if record["error"]:
             print(f"{name} -> {pose}: {record['error']}")
             continue
@@ -291,9 +292,10 @@ def _noise(rng: np.random.Generator) -> tuple[float, float, float]:
 def bench_symmetry(sweep: Sweep, seeds: int, seconds: float, control_seeds: int, control_seconds: float) -> None:
     after = 15.0
     print(
-        f"== symmetry broken by one feature (issue 20): {len(BROKEN)} families x {seeds} seeds, square rooms 3.5-6.5 m, "
-        f"features 0.2-0.6 m, LiDAR noise 0.01-0.03 m, encoder noise 0.005-0.03, slip 0.01-0.05; until {after:.0f} s "
-        f"after the first declaration with the feature seen, at most {seconds:.0f} s simulated. 'seen': 3 noise-free "
+        f"== symmetry broken by one feature (issue 20): {len(BROKEN)} families x {seeds} seeds, "
+        f"square rooms 3.5-6.5 m, features 0.2-0.6 m, LiDAR noise 0.01-0.03 m, encoder noise 0.005-0.03, "
+        f"slip 0.01-0.05; until {after:.0f} s after the first declaration with the feature seen, "
+        f"at most {seconds:.0f} s simulated. 'seen': 3 noise-free "
         "beams of the scan (240) see the feature (differ by > 5 cm from the symmetric room), 'glimpsed': one does; "
         "'apart': by then every quarter turn of the pose has been told apart by 3 beams at least once (the feature, "
         "or a wall where a turned copy would see it)"
@@ -319,7 +321,7 @@ def bench_symmetry(sweep: Sweep, seeds: int, seconds: float, control_seeds: int,
                 )
             )
     rows = []
-    for (case, noise), record in zip(cases, sweep.run(specs)):
+    for (case, noise), record in zip(cases, sweep.run(specs), strict=True):
         name = case.world["name"]
         if record["error"]:
             print(f"{name:18s} run failed: {record['error']}")
@@ -352,7 +354,8 @@ def bench_symmetry(sweep: Sweep, seeds: int, seconds: float, control_seeds: int,
         nan = math.nan
         print(
             f"{name:18s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  seen at "
-            f"{seen if seen is not None else nan:5.1f} s (glimpsed {glimpsed if glimpsed is not None else nan:5.1f} s), "
+            f"{seen if seen is not None else nan:5.1f} s "
+            f"(glimpsed {glimpsed if glimpsed is not None else nan:5.1f} s), "
             f"apart at {apart if apart is not None else nan:5.1f} s, {when}  {verdict}  CPU per observation "
             f"{1e3 * (extra['update_time_mean'] or 0.0):.2f} ms mean  wall {record['wall_time']:5.1f} s",
             flush=True,
@@ -396,15 +399,15 @@ def bench_symmetry(sweep: Sweep, seeds: int, seconds: float, control_seeds: int,
     noises = [_noise(rng) for _ in controls]
     specs = [
         EpisodeSpec("localization", LABEL, PARAMETERS, world, None, seed, *noise, control_seconds, {"stop_after": 0.0})
-        for (world, _, seed), noise in zip(controls, noises)
+        for (world, _, seed), noise in zip(controls, noises, strict=True)
     ]
     false = 0
-    for (_, name, _), noise, record in zip(controls, noises, sweep.run(specs)):
+    for (_, name, _), noise, record in zip(controls, noises, sweep.run(specs), strict=True):
         first = record["time_to_localized"]
         false += first is not None
         print(
             f"{name:22s} noise {noise[0]:.3f}/{noise[1]:.3f}/{noise[2]:.3f}  "
-            f"{'LOCALIZED at %.1f s' % first if first is not None else 'never localized'}  CPU per observation "
+            f"{f'LOCALIZED at {first:.1f} s' if first is not None else 'never localized'}  CPU per observation "
             f"{1e3 * (record['extra'].get('update_time_mean') or 0.0):.2f} ms mean  wall {record['wall_time']:5.1f} s"
             + (f"  ERROR {record['error']}" if record["error"] else ""),
             flush=True,
@@ -438,7 +441,8 @@ def bench_beacons(cases: int) -> None:
     rows = np.array(rows)
     for index, label in enumerate(("pyramidal", "exhaustive")):
         print(
-            f"{label:10s}: error max {100 * rows[:, index, 0].max():.2f} cm, mean {100 * rows[:, index, 0].mean():.2f} cm; "
+            f"{label:10s}: error max {100 * rows[:, index, 0].max():.2f} cm, "
+            f"mean {100 * rows[:, index, 0].mean():.2f} cm; "
             f"evaluations {rows[:, index, 1].mean():,.0f}; time {1e3 * rows[:, index, 2].mean():.2f} ms"
         )
     print(
@@ -520,6 +524,7 @@ def beacon_comparison_run(world: World, start, seed: int, seconds: float) -> dic
                     abs(float(wrap_angle(pose[2] - truth.theta))),
                     cpu,
                 ),
+                strict=True,
             ):
                 values.append(value)
         command = follower.compute(scan, *sim.odom_twist, sim.time)
@@ -556,11 +561,13 @@ def bench_beacon_comparison(starts: int, seconds: float) -> None:
                 print(
                     f"start {start}  {name:18s} localized at {row['time']:5.2f} s  error {100 * row['error']:5.2f} cm "
                     f"{row['heading']:4.2f} deg  RMS after {100 * row['rms']:5.2f} cm {row['rms_heading']:4.2f} deg  "
-                    f"localized {100 * row['kept']:5.1f} % after  CPU {1e3 * row['cpu']:.2f} ms (max {1e3 * row['cpu_max']:.1f})"
+                    f"localized {100 * row['kept']:5.1f} % after  "
+                    f"CPU {1e3 * row['cpu']:.2f} ms (max {1e3 * row['cpu_max']:.1f})"
                 )
             else:
                 print(
-                    f"start {start}  {name:18s} never localized  CPU {1e3 * row['cpu']:.2f} ms (max {1e3 * row['cpu_max']:.1f})"
+                    f"start {start}  {name:18s} never localized  "
+                    f"CPU {1e3 * row['cpu']:.2f} ms (max {1e3 * row['cpu_max']:.1f})"
                 )
             results.setdefault(name, []).append(row)
     print(
@@ -586,9 +593,9 @@ CROWDED_FAMILIES = ("open_room", "pillars", "loops", "perfect")
 
 
 def _crowded_case(args) -> dict:
+    from amr_control.wall_follower_config import WallFollowerConfig
     from amr_evaluation.crowded_localization import crowded_world, figures, run_crowded
     from amr_localization.particle_filter_parameters import config_of
-    from amr_control.wall_follower_config import WallFollowerConfig
     from amr_maps.maze_families import generate
 
     family, seed, others, mode, noise, known, seconds, overrides = args
@@ -636,8 +643,9 @@ def bench_crowded(seeds: int, jobs: int, seconds: float, known: bool, overrides:
     what = "tracking from the true start" if known else "global localization (particles spread over the map)"
     print(
         f"== crowded scans (issue 22): {what}, {seconds:.0f} s, {len(cases)} runs: {', '.join(CROWDED_FAMILIES)} "
-        f"x {seeds} seeds x stand/drive (and alone: the control), 1-5 other robots 0.3-1.2 m from the start, LiDAR noise 0.01-0.03 m, "
-        f"encoder noise 0.01, slip 0.02" + (f"; filter overrides {overrides}" if overrides else "")
+        f"x {seeds} seeds x stand/drive (and alone: the control), 1-5 other robots 0.3-1.2 m from the start, "
+        f"LiDAR noise 0.01-0.03 m, encoder noise 0.01, slip 0.02"
+        + (f"; filter overrides {overrides}" if overrides else "")
     )
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
         results = list(pool.map(_crowded_case, cases))
@@ -651,7 +659,8 @@ def bench_crowded(seeds: int, jobs: int, seconds: float, known: bool, overrides:
             continue
         print(
             f"{head}  localized at {f.first_localized:5.1f} s  max err {100 * f.max_error[0]:5.1f} cm "
-            f"{f.max_error[1]:5.1f} deg  RMS {100 * f.rms[0]:4.1f} cm {f.rms[1]:4.2f} deg  kept {100 * f.localized_share:5.1f} %"
+            f"{f.max_error[1]:5.1f} deg  RMS {100 * f.rms[0]:4.1f} cm {f.rms[1]:4.2f} deg  "
+            f"kept {100 * f.localized_share:5.1f} %"
             f"  withdrawals {f.withdrawals}  false {f.false_localized}  {occluded}  wall {result['wall']:5.1f} s"
         )
     alone = [r["figures"] for r in results if r["case"][3] == "alone"]

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
-from amr_interfaces.msg import LocalizedPose
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
@@ -25,6 +24,7 @@ from sensor_msgs.msg import LaserScan
 
 from amr_datasets.player_node import LogPlayerNode
 from amr_evaluation.log_localization import LogRun, range_max
+from amr_interfaces.msg import LocalizedPose
 from amr_localization.particle_filter_node import ParticleFilterNode
 from amr_maps.map_io import save_map
 from amr_util.geometry import wrap_angle, yaw_from_quaternion

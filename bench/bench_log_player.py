@@ -10,31 +10,42 @@ process on one SingleThreadedExecutor. Prints the read, synthesis and play times
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests" / "datasets"))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", "77")
 
-import rclpy  # noqa: E402
-from amr_interfaces.msg import LocalizedPose  # noqa: E402
-from lifecycle_msgs.msg import Transition  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.qos import qos_profile_sensor_data  # noqa: E402
-from sensor_msgs.msg import LaserScan  # noqa: E402
+import rclpy
+from lifecycle_msgs.msg import Transition
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
 
-from amr_datasets.carmen import read_carmen  # noqa: E402
-from amr_datasets.odometry import synthesize_odometry  # noqa: E402
-from amr_datasets.player_node import LogPlayerNode  # noqa: E402
-from carmen_logs import write_log  # noqa: E402
+from amr_datasets.carmen import read_carmen
+from amr_datasets.odometry import synthesize_odometry
+from amr_datasets.player_node import LogPlayerNode
+from amr_interfaces.msg import LocalizedPose
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _load_test_helper(name: str):
+    """The tests' module `name` (tests/support/<name>.py), loaded from its file: tests/ is no package."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "tests" / "support" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+write_log = _load_test_helper("carmen_logs").write_log
 
 
 class Answerer(Node):

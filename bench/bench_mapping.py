@@ -1,6 +1,14 @@
 """maze_mapping on generated maze families (issue 37): explore an unknown maze with slam + explorer + planner +
-navigator + path follower, through ROS (the composed stack, lockstep on simulated time), and judge the saved map
+navigator + path follower, through ROS (the composed stack, lockstep on simulated time) or, with --library, the same
+objects in one loop without ROS (faster: the model's figures without the transport), and judge the saved map
 against the world.
+
+The library loop does what the stack's nodes do, in process, one simulator step per command: GraphSlam.add on
+every scan (config/slam.yaml's lidar_x), the map handed to a new Planner (config/planner.yaml) and to the Explorer
+(config/explorer.yaml) at most every 1 s of scan time once it changed (slam's map_publish_period), the explorer
+deciding as the explorer node does (at once with no goal, after a new map at most every decision_period s, on the
+navigator's REACHED / NO_PATH of its goal), the NavigationLoop (navigator, planner, path follower of
+config/path_follower_sim.yaml) driving to the goal.
 
 Each run: a world of amr_maps.maze_families (family, seed), LiDAR noise, encoder noise and slip, the stack
 `maze_mapping world:=<it> save_to:=<dir>/<run>` until the explorer says `done` (it saves the map then) or the
@@ -19,6 +27,7 @@ it is). Prints; asserts nothing.
 
     .venv/bin/python bench/bench_mapping.py [--families perfect loops rotated pillars open_room] [--seeds 0 1 2]
         [--lidar-noise 0.01 0.03] [--encoder-noise 0.02] [--slip 0.05] [--budget 900] [--resolution 0.025] [--out DIR]
+        [--library] [--verbose]
 """
 
 from __future__ import annotations
@@ -26,7 +35,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -35,21 +43,13 @@ import numpy as np
 import yaml
 from scipy import ndimage
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-import rclpy
-from amr_interfaces.msg import Frontiers, SimulatorStatus
-from amr_interfaces.srv import SaveMap
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
-
-from amr_bringup.composed import composed_stack
 from amr_maps.map_io import load_map
 from amr_maps.maze_families import generate
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
-from amr_util.qos import reliable
+from amr_util.parameter_file import node_parameters
+
+ROOT = Path(__file__).resolve().parents[1]
 
 FAMILIES = ("perfect", "loops", "rotated", "pillars", "open_room")
 
@@ -102,6 +102,14 @@ def run(
     resolution: float | None = None,
 ) -> dict:
     """One maze_mapping run; the figures of the module docstring."""
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+
+    from amr_bringup.composed import composed_stack
+    from amr_interfaces.msg import Frontiers, SimulatorStatus
+    from amr_interfaces.srv import SaveMap
+    from amr_util.qos import reliable
+
     data = generate(family, seed)
     world = world_from_dict(data, source=f"{family} seed {seed}")
     name = f"{family}_{seed}"
@@ -171,6 +179,181 @@ def run(
     return result
 
 
+def shipped(node: str, file: str) -> dict:
+    """A node's parameters from config/<file> of this tree."""
+    return node_parameters(ROOT / "config" / file, node)
+
+
+def run_library(
+    family: str,
+    seed: int,
+    lidar_noise: float,
+    encoder_noise: float,
+    slip: float,
+    budget: float,
+    out: Path,
+    resolution: float | None = None,
+    verbose: bool = False,
+) -> dict:
+    """One exploration with the stack's objects in one loop, no ROS (module docstring); the figures of run()."""
+    from amr_control.path_follower import PathFollower
+    from amr_control.path_follower_config import PathFollowerConfig
+    from amr_control.wall_follower import WallFollower
+    from amr_control.wall_follower_config import WallFollowerConfig
+    from amr_mapping.explorer import DONE, Explorer
+    from amr_mapping.explorer_node import config_of as explorer_config_of
+    from amr_mapping.slam import GraphSlam
+    from amr_mapping.slam_node import config_of as slam_config_of
+    from amr_navigation.loop import NavigationLoop
+    from amr_navigation.navigator import Mode
+    from amr_planning.planner import Planner, PlannerConfig
+    from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
+    from amr_simulation.simulator import Simulator
+    from amr_util.scan import scan_of
+
+    data = generate(family, seed)
+    world = world_from_dict(data, source=f"{family} seed {seed}")
+    name = f"{family}_{seed}"
+    (out / f"{name}.world.yaml").write_text(yaml.safe_dump(data), encoding="utf-8")
+    started = time.monotonic()
+    simulator = shipped("simulator", "simulator.yaml")
+    sim = Simulator(
+        world,
+        SimulationConfig(
+            dt=simulator["dt"],
+            seed=seed,
+            lidar=LidarConfig(beams=simulator["lidar"]["beams"], noise_std=lidar_noise),
+            encoders=EncoderConfig(noise=encoder_noise, slip=slip),
+        ),
+    )
+    slam_params = shipped("slam", "slam.yaml")
+    if resolution is not None:
+        slam_params["resolution"] = resolution
+    slam = GraphSlam(slam_config_of(slam_params))
+    map_period = float(slam_params.get("map_publish_period", 1.0))
+    explorer_params = shipped("explorer", "explorer.yaml")
+    explorer = Explorer(explorer_config_of(explorer_params))
+    decision_period = float(explorer_params.get("decision_period", 1.0))
+    planner_config = PlannerConfig.from_params({**shipped("planner", "planner.yaml"), "world": ""})
+    navigator = shipped("navigator", "navigator.yaml")
+    loop = None
+    wall = WallFollowerConfig.from_params(shipped("wall_follower", "wall_follower_sim.yaml"))
+    follower = PathFollowerConfig.from_params(shipped("path_follower", "path_follower_sim.yaml"))
+    grid, map_new, map_dirty, map_at, last_decision, done_at, state = None, False, False, -math.inf, -math.inf, None, ""
+    log = []
+    failures = 0
+    nodes = []  # (t, true x, y, theta, odometry x, y, theta, slam x, y, theta when added)
+
+    def decide(now: float) -> None:
+        nonlocal map_new, last_decision, state
+        step = explorer.update(grid, slam.pose, now)
+        map_new, last_decision, state = False, now, step.state
+        for event in explorer.take_events():
+            log.append(f"{now:7.1f} explorer: {event}")
+        if step.new_goal and step.goal is not None and loop is not None:
+            loop.set_goal(step.goal)
+        if step.state == DONE:
+            log.append(f"{now:7.1f} explorer done: {step.reason}")
+
+    while sim.time <= budget:
+        now = sim.time
+        scan = scan_of(sim)
+        update = slam.add(int(round(now * 1e9)), tuple(sim.odom_pose), scan)
+        for event in update.events:
+            log.append(f"{now:7.1f} slam: {event}")
+        for closure in update.loop_closures:
+            log.append(f"{now:7.1f} slam: closure {closure.anchor} -> {closure.node} score {closure.score:.2f}")
+        if update.node_added:
+            truth = sim.pose
+            nodes.append((now, truth.x, truth.y, truth.theta, *sim.odom_pose, *update.pose))
+        map_dirty = map_dirty or update.map_changed
+        if map_dirty and now - map_at >= map_period:
+            grid, map_new, map_dirty, map_at = slam.occupancy_grid(), True, False, now
+            planner = Planner(grid, planner_config)
+            if loop is None:
+                loop = NavigationLoop(
+                    planner,
+                    WallFollower(wall),
+                    PathFollower(follower),
+                    None,
+                    replan_distance=float(navigator["replan_distance"]),
+                )
+            else:
+                loop.planner = planner
+        if explorer.goal is None and state != DONE:
+            decide(now)
+        elif map_new and now - last_decision >= decision_period:
+            decide(now)
+        elif explorer.goal is not None and now - explorer.goal_since > explorer.config.goal_timeout:
+            decide(now)
+        if state == DONE:
+            done_at = now
+            break
+        command = None
+        for _ in range(3):  # a goal reached or refused: the explorer's next goal answers the same observation
+            if loop is None:
+                break
+            command = loop.step(slam.pose, True, scan, *sim.odom_twist, now)
+            if verbose:
+                log.extend(f"{now:7.1f} navigator: {event}" for event in command.events)
+            goal = explorer.goal
+            if goal is None or loop.goal is None or math.hypot(loop.goal[0] - goal[0], loop.goal[1] - goal[1]) > 0.05:
+                break
+            if command.mode is Mode.REACHED:
+                explorer.reached()
+            elif command.mode is Mode.NO_PATH:
+                explorer.failed(f"the navigator: {' '.join(command.events)}")
+                if verbose:  # the map the planner refused to plan on, for a look
+                    failures += 1
+                    np.savez(
+                        out / f"{name}.no_path{failures}.npz",
+                        data=grid.data,
+                        resolution=grid.resolution,
+                        origin=np.array(grid.origin),
+                        pose=np.array(slam.pose),
+                        goal=np.array(goal),
+                    )
+                    log.append(f"{now:7.1f} map saved as {name}.no_path{failures}, pose {slam.pose}")
+            else:
+                break
+            decide(now)
+            if state == DONE:
+                break
+        if state == DONE:
+            done_at = now
+            break
+        if verbose and sim.steps % 100 == 0:
+            truth, (x, y, theta) = sim.pose, slam.pose
+            log.append(
+                f"{now:7.1f} at ({truth.x:.2f}, {truth.y:.2f}), error {math.hypot(x - truth.x, y - truth.y):.3f} m "
+                f"{math.degrees(abs(math.remainder(theta - truth.theta, math.tau))):.1f} deg"
+            )
+        v, w = (command.v, command.w) if command is not None else (0.0, 0.0)
+        sim.step(v, w)
+    slam.optimize()
+    save_to = out / name
+    slam.save(str(save_to))
+    truth = sim.pose
+    x, y, theta = slam.pose
+    result = {
+        "name": name,
+        "done": done_at,
+        "sim_time": sim.time,
+        "collisions": int(sim.collisions),
+        "wall": time.monotonic() - started,
+        "state": state,
+        "given_up": len(explorer.blacklist) - explorer.reached_count,
+        "closures": int(slam.graph()[2].sum()),
+        "pose_error": math.hypot(x - truth.x, y - truth.y),
+    }
+    (out / f"{name}.log").write_text("\n".join(log) + "\n", encoding="utf-8")
+    if verbose:
+        print("\n".join(log))
+        np.savez(out / f"{name}.nodes.npz", nodes=np.array(nodes), poses=slam.graph()[0])
+    result.update(judge(load_map(f"{save_to}.yaml"), world))
+    return result
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
@@ -187,23 +370,44 @@ def main() -> None:
     parser.add_argument("--budget", type=float, default=900.0, help="s simulated")
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--resolution", type=float, default=None, help="slam's cells (m); default slam.yaml's")
+    parser.add_argument("--library", action="store_true", help="the objects in one loop, no ROS (faster)")
+    parser.add_argument("--verbose", action="store_true", help="library: print each run's explorer and slam events")
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_mapping_"))
     out.mkdir(parents=True, exist_ok=True)
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = rclpy.Context()
-    rclpy.init(context=context)
+    context = None
+    if not args.library:
+        import rclpy
+
+        os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        context = rclpy.Context()
+        rclpy.init(context=context)
     low, high = args.lidar_noise
     print(f"maps and worlds in {out}; encoder noise {args.encoder_noise}, slip {args.slip}, budget {args.budget} s")
     print(
         f"{'run':14s} {'noise':>5s} {'done s':>7s} {'known':>6s} {'precise':>7s} {'walls':>6s} {'coll':>4s} "
-        f"{'gave up':>7s} {'wall s':>6s}"
+        f"{'gave up':>7s} {'wall s':>6s}" + ("  closures pose err" if args.library else "")
     )
     try:
         for family in args.families:
             for k, seed in enumerate(args.seeds):
                 noise = low + (high - low) * (k / max(1, len(args.seeds) - 1))
-                r = run(context, family, seed, noise, args.encoder_noise, args.slip, args.budget, out, args.resolution)
+                if args.library:
+                    r = run_library(
+                        family,
+                        seed,
+                        noise,
+                        args.encoder_noise,
+                        args.slip,
+                        args.budget,
+                        out,
+                        args.resolution,
+                        args.verbose,
+                    )
+                else:
+                    r = run(
+                        context, family, seed, noise, args.encoder_noise, args.slip, args.budget, out, args.resolution
+                    )
                 if "error" in r:
                     print(f"{r['name']:14s} {r['error']}", flush=True)
                     continue
@@ -211,11 +415,13 @@ def main() -> None:
                 print(
                     f"{r['name']:14s} {noise:5.3f} {done} {r.get('known', math.nan):6.3f} "
                     f"{r.get('precise', math.nan):7.3f} {r.get('walls', math.nan):6.3f} {r['collisions']:4d} "
-                    f"{r['given_up']:7d} {r['wall']:6.0f}",
+                    f"{r['given_up']:7d} {r['wall']:6.0f}"
+                    + (f"  {r['closures']:8d} {r['pose_error']:8.3f}" if args.library else ""),
                     flush=True,
                 )
     finally:
-        context.try_shutdown()
+        if context is not None:
+            context.try_shutdown()
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
 
 

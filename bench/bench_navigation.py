@@ -34,22 +34,20 @@ import argparse
 import dataclasses
 import os
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_evaluation import configs
+from amr_evaluation.cases import maze_variant
+from amr_evaluation.episode import EpisodeSpec
+from amr_evaluation.runner import run_sweep
+from amr_evaluation.worlds import build_world
+from amr_maps.maze_families import FAMILIES
+from amr_maps.world import load_world
+from amr_maps.world_symmetry import rotationally_symmetric
 
-from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.cases import maze_variant  # noqa: E402
-from amr_evaluation.episode import EpisodeSpec  # noqa: E402
-from amr_evaluation.runner import run_sweep  # noqa: E402
-from amr_evaluation.worlds import build_world  # noqa: E402
-from amr_maps.world_symmetry import rotationally_symmetric  # noqa: E402
-from amr_maps.maze_families import FAMILIES  # noqa: E402
-from amr_maps.world import load_world  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 WORLDS = ROOT / "config" / "worlds"
 LIMIT = 600.0
@@ -298,7 +296,9 @@ def main() -> None:
         "largest estimate error while localized, wall follower alone's time [wall-clock s]"
     )
     began = time.perf_counter()
-    records = dict(zip((s.key for s in specs), run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler)))
+    records = dict(
+        zip((s.key for s in specs), run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler), strict=True)
+    )
     rows = [(c, records[c.navigation.key], records[c.wall.key] if c.wall else None) for c in cases]
     for row in rows:
         print(line(*row))

@@ -19,31 +19,30 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_evaluation import configs
+from amr_evaluation.cases import far_free_point, maze_variant
+from amr_evaluation.episode import EpisodeSpec
+from amr_evaluation.runner import run_sweep
+from amr_maps.maze_families import FAMILIES, generate
+from amr_maps.occupancy_grid import OccupancyGrid
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import load_world, world_from_dict
+from amr_planning.astar import GridAStar
+from amr_planning.costmap import Costmap
+from amr_planning.errors import PlanningError
+from amr_planning.roadmap import Roadmap, RoadmapConfig
 
-from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.cases import far_free_point, maze_variant  # noqa: E402
-from amr_evaluation.episode import EpisodeSpec  # noqa: E402
-from amr_evaluation.runner import run_sweep  # noqa: E402
-from amr_maps.occupancy_grid import OccupancyGrid  # noqa: E402
-from amr_maps.rasterize import rasterize_world  # noqa: E402
-from amr_planning.astar import GridAStar  # noqa: E402
-from amr_planning.costmap import Costmap  # noqa: E402
-from amr_planning.errors import PlanningError  # noqa: E402
-from amr_planning.roadmap import Roadmap, RoadmapConfig  # noqa: E402
-from amr_maps.maze_families import FAMILIES, generate  # noqa: E402
-from amr_maps.world import load_world, world_from_dict  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 RESOLUTION = 0.05
 LOOP_RESOLUTION = 0.025  # closed loops: at 0.05 m the conservative map closes many 0.35 m corridors
@@ -101,22 +100,22 @@ def planning_times(repeat: int) -> None:
             (f"loop maze {size} x {size} m", rasterize_world(world, RESOLUTION), (world.start.x, world.start.y), None)
         )
     for name, grid, start, goal in cases:
-        build = median_ms(lambda: Costmap(grid), max(3, repeat // 4))
+        build = median_ms(functools.partial(Costmap, grid), max(3, repeat // 4))
         costmap = Costmap(grid)
         goal = goal if goal is not None else far_free_point(costmap, start)
         planner = GridAStar(costmap)
         try:
-            astar = median_ms(lambda: planner.plan(start, goal), repeat)
+            astar = median_ms(functools.partial(planner.plan, start, goal), repeat)
             expanded = planner.plan(start, goal).expanded
         except PlanningError as error:
             print(f"{name:28s} A* failed: {error}")
             continue
         area = (grid.width * grid.height) * RESOLUTION**2
         config = RoadmapConfig(node_count=int(min(max(200, 60 * area), PRM_MAX_NODES)), connection_distance=0.6, seed=0)
-        prm_build = median_ms(lambda: Roadmap(costmap, config), 1 if config.node_count > 10000 else 3)
+        prm_build = median_ms(functools.partial(Roadmap, costmap, config), 1 if config.node_count > 10000 else 3)
         roadmap = Roadmap(costmap, config)
         try:
-            prm_query = f"{median_ms(lambda: roadmap.plan(start, goal), repeat):9.1f}"
+            prm_query = f"{median_ms(functools.partial(roadmap.plan, start, goal), repeat):9.1f}"
         except PlanningError:
             prm_query = "  no path"
         print(
@@ -251,7 +250,9 @@ def closed_loops(seeds: int, jobs: int, scheduler: str | None, results: str | No
         f"records in {results}"
     )
     began = time.perf_counter()
-    records = dict(zip((s.key for s in specs), run_sweep(specs, results, workers=jobs, scheduler=scheduler)))
+    records = dict(
+        zip((s.key for s in specs), run_sweep(specs, results, workers=jobs, scheduler=scheduler), strict=True)
+    )
     elapsed = time.perf_counter() - began
     shipped_worlds(shipped, records)
     generated_mazes(mazes, records, seeds, elapsed)

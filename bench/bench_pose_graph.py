@@ -15,17 +15,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
 from amr_mapping.pose_graph import PoseGraph
 from amr_util.geometry import compose, relative_pose
+
+ROOT = Path(__file__).resolve().parents[1]
 
 SIGMA = np.array([0.05, 0.05, np.radians(1.0)])
 

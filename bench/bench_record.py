@@ -20,7 +20,6 @@ import argparse
 import os
 import random
 import statistics
-import sys
 import tempfile
 import threading
 import time
@@ -29,24 +28,23 @@ from pathlib import Path
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(10, 99)))
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import rclpy  # noqa: E402
-from mcap.writer import Writer as McapWriter  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.serialization import serialize_message  # noqa: E402
-from rosgraph_msgs.msg import Clock  # noqa: E402
-from sensor_msgs.msg import LaserScan  # noqa: E402
+import rclpy
+from mcap.writer import Writer as McapWriter
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
 
-from amr_bringup.bag_writer import BagWriter, suite_typestore  # noqa: E402
-from amr_bringup.composed import composed_stack  # noqa: E402
-from amr_bringup.processes import stop_processes  # noqa: E402
-from amr_bringup.recorder import BackgroundSpin, Recorder  # noqa: E402
-from amr_bringup.recording import RecorderProcess  # noqa: E402
-from amr_maps.world import load_world, resolve_world_path  # noqa: E402
-from amr_simulation.simulator import Simulator  # noqa: E402
+from amr_bringup.bag_writer import BagWriter, suite_typestore
+from amr_bringup.composed import composed_stack
+from amr_bringup.processes import stop_processes
+from amr_bringup.recorder import BackgroundSpin, Recorder
+from amr_bringup.recording import RecorderProcess
+from amr_maps.world import load_world, resolve_world_path
+from amr_simulation.simulator import Simulator
 
 MESSAGES_PER_STEP = 5
 
@@ -121,18 +119,21 @@ def lockstep_loop(seconds: float, record_to: Path | None, in_process: bool = Fal
     try:
         counter = StepCounter(context=context)
         extra: list[Node] = [counter]
-        hook = lambda node: None  # noqa: E731
-        recording = process = None
+        recording = process = recorder = None
         if record_to is not None and not in_process:
             process = RecorderProcess("bench_recorder", str(record_to), [], True, counter, lambda line: None)
-            hook = lambda node: process.wait_until_caught_up()  # noqa: E731
         elif record_to is not None:
             recorder = Recorder(
                 context=context,
                 parameter_overrides=[Parameter("path", value=str(record_to)), Parameter("use_sim_time", value=True)],
             )
             recording = BackgroundSpin(recorder)  # as amr-bringup does: the recorder has an executor of its own
-            hook = lambda node: recorder.wait_until_caught_up()  # noqa: E731
+        waited = process if process is not None else recorder
+
+        def hook(node) -> None:
+            if waited is not None:
+                waited.wait_until_caught_up()
+
         wanted = round(seconds / 0.05) + 1
         with composed_stack(
             context,

@@ -94,7 +94,7 @@ def main() -> None:
     matcher.match(scans[0], poses[0], 0.5, math.radians(20))  # compile / load the kernels
 
     times, errors, turns, nodes = [], [], [], []
-    for pose, points in zip(poses, scans):
+    for pose, points in zip(poses, scans, strict=True):
         prior = pose + np.array(
             [
                 rng.uniform(-args.offset, args.offset),
@@ -118,7 +118,7 @@ def main() -> None:
         f"{np.degrees(np.median(turns)):.2f} deg median, {np.degrees(np.max(turns)):.2f} deg max"
     )
 
-    for pose, points in zip(poses[: args.global_poses], scans[: args.global_poses]):
+    for pose, points in zip(poses[: args.global_poses], scans[: args.global_poses], strict=True):
         t = time.perf_counter()
         search = GlobalSearch(matcher, points)
         t_setup = time.perf_counter() - t

@@ -18,21 +18,18 @@ import cProfile
 import dataclasses
 import math
 import pstats
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from amr_maps.raycast import NumpyRayCaster  # noqa: E402
-from amr_maps.world import World, load_world, world_from_dict  # noqa: E402
-from amr_simulation.config import LidarConfig, SimulationConfig  # noqa: E402
-from amr_simulation.physics import WALLS_ONLY, Physics  # noqa: E402
-from amr_simulation.raycast import PymunkRayCaster  # noqa: E402
-from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_util.geometry import Pose2D  # noqa: E402
+from amr_maps.raycast import NumpyRayCaster
+from amr_maps.world import World, load_world, world_from_dict
+from amr_simulation.config import LidarConfig, SimulationConfig
+from amr_simulation.physics import WALLS_ONLY, Physics
+from amr_simulation.raycast import PymunkRayCaster
+from amr_simulation.simulator import Simulator
+from amr_util.geometry import Pose2D
 
 WORLDS = Path(__file__).resolve().parents[1] / "config" / "worlds"
 DT = 0.05

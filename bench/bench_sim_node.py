@@ -27,20 +27,19 @@ from pathlib import Path
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # before rclpy: no traffic leaves this machine
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(101, 232)))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import numpy as np  # noqa: E402
-import rclpy  # noqa: E402
-from geometry_msgs.msg import TwistStamped  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data  # noqa: E402
-from sensor_msgs.msg import LaserScan  # noqa: E402
+import numpy as np
+import rclpy
+from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
 
-from amr_simulation.simulator import Simulator  # noqa: E402
-from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
+from amr_simulation.simulator import Simulator
+from amr_simulation.simulator_node import SimulatorNode
 
 DT = 0.05
 FRONT_HALF_WIDTH = math.radians(45.0)

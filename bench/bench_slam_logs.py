@@ -26,15 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
 from amr_datasets.carmen import read_carmen
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
 from amr_mapping.trajectory_error import absolute_error, relative_error
 from amr_util.geometry import compose, relative_pose
+
+ROOT = Path(__file__).resolve().parents[1]
 
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
 
@@ -47,7 +46,7 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
     slam = GraphSlam(config)
     times, node_of, closures, events = [], [], 0, 0
     node = -1
-    for k, (item, odom) in enumerate(zip(log.scans, odometry)):
+    for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
         stamp = int(round(item.stamp * 1e9))
         try:
             update = slam.add(stamp, odom, item.scan)

@@ -40,17 +40,16 @@ from pathlib import Path
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(10, 99)))
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import rclpy  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rosgraph_msgs.msg import Clock  # noqa: E402
+import rclpy
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
 
-from amr_bringup.composed import composed_stack  # noqa: E402
-from amr_bringup.processes import stop_processes  # noqa: E402
-from amr_bringup.viewing import ViewerProcess  # noqa: E402
-from amr_util.environment import child_environment  # noqa: E402
-from amr_util.qos import reliable  # noqa: E402
+from amr_bringup.composed import composed_stack
+from amr_bringup.processes import stop_processes
+from amr_bringup.viewing import ViewerProcess
+from amr_util.environment import child_environment
+from amr_util.qos import reliable
 
 CHROMIUM = "/usr/bin/chromium"
 PARAMETERS = {

@@ -5,14 +5,16 @@ LiDAR noise 0.01-0.03 m with encoder noise 0.02 and slip 0.05; the goal is alway
 configured hand reaches (maze_families.goal_reachable) within maze_families.WALK_BUDGET m of
 boundary walk (36 m: 360 s at 0.1 m/s); "walk" is that length, "v walk" walk / time to goal.
 The real-robot configuration runs as on a TurtleBot3: 360 beams (LDS-01) and, with
---lds-rate, a scan every 0.2 s with the command held in between. Library closed loop (amr_evaluation/wall_follower_loop.py), 600 s per run.
+--lds-rate, a scan every 0.2 s with the command held in between. Library closed loop
+(amr_evaluation/wall_follower_loop.py), 600 s per run.
 
 Every run is an amr_evaluation episode (controller wall_follower) run by its runner: --jobs N local processes,
 --scheduler tcp://host:8786 a Dask cluster, --results FILE keeps the records and resumes from them (default:
 a fresh file in out/bench/). --png re-runs each episode in this process to draw it.
 
     python bench/bench_wall_follower_families.py [--seeds 5] [--noise 0.01 0.02 0.03]
-        [--families perfect bends ...] [--configs sim real] [--jobs 2] [--scheduler tcp://host:8786] [--outliers 0.002] [--png DIR]
+        [--families perfect bends ...] [--configs sim real] [--jobs 2] [--scheduler tcp://host:8786]
+        [--outliers 0.002] [--png DIR]
     python bench/bench_wall_follower_families.py --shipped   # the shipped worlds, as README's table
     python bench/bench_wall_follower_families.py --route [--mazes 6] [--run-seeds 3] [--jobs 2]
 
@@ -29,22 +31,20 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
-import sys
 import tempfile
 import time
 from collections import defaultdict
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_evaluation import configs
+from amr_evaluation.episode import EpisodeSpec, wall_follower_config
+from amr_evaluation.runner import run_sweep
+from amr_evaluation.wall_follower_loop import run
+from amr_evaluation.worlds import build_world, world_dict
+from amr_maps.maze_families import FAMILIES, walk_length
+from amr_maps.maze_route import MazeGrid, first_difference, hand_tour
 
-from amr_evaluation import configs  # noqa: E402
-from amr_evaluation.episode import EpisodeSpec, wall_follower_config  # noqa: E402
-from amr_evaluation.runner import run_sweep  # noqa: E402
-from amr_evaluation.wall_follower_loop import run  # noqa: E402
-from amr_evaluation.worlds import build_world, world_dict  # noqa: E402
-from amr_maps.maze_families import FAMILIES, walk_length  # noqa: E402
-from amr_maps.maze_route import MazeGrid, first_difference, hand_tour  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 CONFIGS = ("sim", "real")
 SHIPPED = ("hard_maze", "inner_maze", "open_room", "outer_corridor")
@@ -146,7 +146,7 @@ def main() -> None:
         print(f"episode {record['world']} {record['config']} noise {record['lidar_noise']} raised: {record['error']}")
     rows_of = [
         (job, r, walks[(r["family"], r["world_seed"], r["extra"].get("preferred_wall", "right"))])
-        for job, r in zip(jobs, records)
+        for job, r in zip(jobs, records, strict=True)
         if not r["error"]
     ]
 
@@ -161,8 +161,8 @@ def main() -> None:
     )
     print(
         f"{'family':11s} {'config':6s} {'goal':>7s} {'t mean':>7s} {'t max':>6s} {'coll':>4s} {'stall':>5s} "
-        f"{'v m/s':>6s} {'walk':>5s} {'v walk':>6s} {'err run':>7s} {'err fol':>7s}  time in state (%: search follow corner approach "
-        f"turnL turnR around stab avoid)"
+        f"{'v m/s':>6s} {'walk':>5s} {'v walk':>6s} {'err run':>7s} {'err fol':>7s}  "
+        f"time in state (%: search follow corner approach turnL turnR around stab avoid)"
     )
     totals: dict[str, list] = defaultdict(list)
     for (family, config_name), rows in groups.items():
@@ -207,11 +207,14 @@ def shipped(seconds: float, results: Path, jobs: int, scheduler: str | None) -> 
         for name in SHIPPED
     ]
     print(f"shipped worlds, sim config, LiDAR noise 0.01 m, {seconds:.0f} s max")
-    for name, r in zip(SHIPPED, run_sweep(specs, results, workers=jobs, scheduler=scheduler, progress=False)):
+    for name, r in zip(
+        SHIPPED, run_sweep(specs, results, workers=jobs, scheduler=scheduler, progress=False), strict=True
+    ):
         goal = "no goal" if r["goal_reached"] is None else f"goal {'reached' if r['goal_reached'] else 'missed'}"
         print(
-            f"{name:15s} {goal:13s} t={r['time']:6.1f} s  collisions {r['collisions']}  speed {r['mean_speed']:.3f} m/s  "
-            f"wall error following {r['wall_error_following'] * 1000:.1f} mm, whole run {r['wall_error_run'] * 1000:.1f} mm"
+            f"{name:15s} {goal:13s} t={r['time']:6.1f} s  collisions {r['collisions']}  "
+            f"speed {r['mean_speed']:.3f} m/s  wall error following {r['wall_error_following'] * 1000:.1f} mm, "
+            f"whole run {r['wall_error_run'] * 1000:.1f} mm"
         )
 
 
@@ -256,7 +259,7 @@ def routes(args: argparse.Namespace, results: Path) -> None:
             )
             keys.append((family, maze, config_name, noise, seed))
     started = time.monotonic()
-    records = dict(zip(keys, run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler)))
+    records = dict(zip(keys, run_sweep(specs, results, workers=args.jobs, scheduler=args.scheduler), strict=True))
     elapsed = time.monotonic() - started
     where = f"Dask at {args.scheduler}" if args.scheduler else f"{args.jobs} job(s)"
     print(
@@ -274,7 +277,7 @@ def routes(args: argparse.Namespace, results: Path) -> None:
     )
     tours = {}
     for family, maze in mazes:
-        spec = next(s for s, k in zip(specs, keys) if k[:2] == (family, maze))
+        spec = next(s for s, k in zip(specs, keys, strict=True) if k[:2] == (family, maze))
         data = world_dict(spec.world)
         tours[(family, maze)] = hand_tour(MazeGrid.from_world(data), data["start"], spec.world["options"]["hand"])
     notes = []

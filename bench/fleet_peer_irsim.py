@@ -5,8 +5,9 @@
 The scene (JSON on stdin) is what bench_fleet.scene() made: the room's solids as axis-aligned boxes,
 the robots' starts, radius, speed limits, LiDAR (beams, range), dt, steps and repeats. Each robot is
 an IR-SIM diff-drive disc with a 360-degree lidar2d of the same beams and range, driven by the same
-bump-and-turn rule from its own scan as our robots; only env.step() is timed (CPU and wall clock, as bench_fleet.py). Prints {"version": ..., "runs":
-[{"robots": n, "seconds": best CPU s, "wall": best wall s, "steps": steps, "collisions": c}, ...]}.
+bump-and-turn rule from its own scan as our robots; only env.step() is timed (CPU and wall clock, as bench_fleet.py).
+Prints {"version": ..., "runs": [{"robots": n, "seconds": best CPU s, "wall": best wall s, "steps": steps,
+"collisions": c}, ...]}.
 """
 
 from __future__ import annotations

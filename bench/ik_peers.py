@@ -7,6 +7,7 @@ so the peers solve exactly the same targets.
 
 from __future__ import annotations
 
+import importlib
 import math
 import warnings
 
@@ -20,24 +21,22 @@ def peers() -> tuple[dict, dict]:
     """({name: factory(chain) -> Peer}, {name: reason it is missing})."""
     available, missing = {}, {}
     try:
-        import ikpy  # noqa: F401
-
+        importlib.import_module("ikpy")
         available["ikpy"] = IkpyPeer
-    except Exception as exc:  # noqa: BLE001 - report any import failure as is
+    except Exception as exc:  # report any import failure as is
         missing["ikpy"] = f"{type(exc).__name__}: {exc}"
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            import roboticstoolbox  # noqa: F401
+            importlib.import_module("roboticstoolbox")
         available["rtb_LM"] = RtbPeer
         available["rtb_NR"] = RtbNRPeer
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         missing["rtb"] = f"{type(exc).__name__}: {exc}"
     try:
-        import pytracik  # noqa: F401
-
+        importlib.import_module("pytracik")
         available["tracik"] = TracIkPeer
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         missing["tracik"] = f"{type(exc).__name__}: {exc}"
     return available, missing
 
@@ -51,7 +50,7 @@ class IkpyPeer:
 
         fixed, motions = chain.segments()
         links = [OriginLink()]
-        for i, (frame, motion) in enumerate(zip(fixed[:-1], motions)):
+        for i, (frame, motion) in enumerate(zip(fixed[:-1], motions, strict=True)):
             if motion == MOTION_TRANS_X:
                 raise NotImplementedError("planar prismatic joints are not modelled for ikpy")
             axis = [0.0, 0.0, 1.0]

@@ -1,4 +1,5 @@
-"""ros2 launch amr_bringup maze_localization.launch.py: global localization while exploring: simulator, wall follower, particle filter.
+"""ros2 launch amr_bringup maze_localization.launch.py: global localization while exploring: simulator, wall follower,
+particle filter.
 
 The nodes, their parameters and the lifecycle order come from config/bringup/maze_localization.yaml,
 the file `amr-bringup maze_localization` reads: one source for both ways of starting the stack.

@@ -18,12 +18,11 @@ from pathlib import Path
 
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from amr_util.parameter_docs import blocks, drift, parameter_table, splice
+from amr_util.parameter_file import dotted
+from amr_util.parameter_spec import ParameterSpec
 
-from amr_util.parameter_docs import blocks, drift, parameter_table, splice  # noqa: E402
-from amr_util.parameter_file import dotted  # noqa: E402
-from amr_util.parameter_spec import ParameterSpec  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 DOCS = ROOT / "docs"
 CONFIG = ROOT / "config"
@@ -133,8 +132,9 @@ def _ik_service():
 
 def _ik_chain_keys():
     """Every `<chain>.<key>` a chain may have (named here by the key alone)."""
-    from amr_kinematics.config import CHAIN_KEYS
     from dataclasses import replace
+
+    from amr_kinematics.config import CHAIN_KEYS
 
     return tuple(replace(spec, name=f"<chain>.{key}") for key, spec in CHAIN_KEYS.items())
 
