@@ -14,14 +14,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from amr_interfaces.msg import BeaconRanges, LocalizerStatus
 from nav_msgs.msg import Odometry
 from rclpy.lifecycle import State, TransitionCallbackReturn
 
+from amr_interfaces.msg import BeaconRanges, LocalizerStatus
 from amr_localization import messages
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig
 from amr_localization.beacons import BeaconReading
-from amr_localization.errors import BeaconError, LocalizationError, OdometryError
+from amr_localization.errors import BeaconError, OdometryError
 from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.managed_node import run

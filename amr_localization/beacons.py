@@ -55,7 +55,7 @@ class BeaconReading:
     compass: float
 
     @classmethod
-    def checked(cls, ranges, compass: float, beacon_count: int) -> "BeaconReading":
+    def checked(cls, ranges, compass: float, beacon_count: int) -> BeaconReading:
         values = np.asarray(ranges, dtype=float)
         if values.shape != (beacon_count,):
             raise BeaconError(f"beacon ranges: expected {beacon_count} values (one per beacon), got {values.size}")

@@ -29,7 +29,6 @@ a second each scan adds its small share; a scan per metre counts fully. A scan's
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from amr_localization.scan_beams import Beams

@@ -14,8 +14,8 @@ beacons), which the exhaustive search does not.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

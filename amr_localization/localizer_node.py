@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import math
 
-from amr_interfaces.msg import LocalizedPose, LocalizerStatus
 from builtin_interfaces.msg import Time as TimeMessage
 from nav_msgs.msg import Odometry
 from tf2_msgs.msg import TFMessage
 
+from amr_interfaces.msg import LocalizedPose, LocalizerStatus
 from amr_localization import messages
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.geometry import map_to_odom

@@ -10,17 +10,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose, PoseArray, PoseWithCovariance
 from nav_msgs.msg import Odometry
 
+from amr_interfaces.msg import BeaconRanges, LocalizedPose, LocalizerStatus
 from amr_localization.beacons import BeaconReading, same_beacons
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import FilterStatus
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.geometry import yaw_from_quaternion
-from amr_util.messages import quaternion, transform  # transform: localizer_node broadcasts map -> odom with it
+from amr_util.messages import quaternion  # transform: localizer_node broadcasts map -> odom with it
 
 PLANAR_AXES = (0, 1, 5)
 """x, y, yaw in the row-major 6x6 covariance of PoseWithCovariance."""
@@ -101,7 +101,7 @@ def particle_cloud(stamp: Time, frame: str, particles: np.ndarray) -> PoseArray:
     half = 0.5 * particles[:, 2]
     cos, sin = np.cos(half), np.sin(half)
     message.poses = [Pose() for _ in range(len(particles))]
-    for pose, (x, y, _), w, z in zip(message.poses, particles, cos, sin):
+    for pose, (x, y, _), w, z in zip(message.poses, particles, cos, sin, strict=True):
         pose.position.x, pose.position.y = float(x), float(y)
         pose.orientation.w, pose.orientation.z = float(w), float(z)
     return message

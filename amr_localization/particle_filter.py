@@ -11,7 +11,7 @@ Each call to update(odometry, scan=..., beacons=..., stamp=...) does, in this or
    scan by how far the robot moved since the last one (beam_correlation.py); beacon ranges count fully.
    A measurement sharper than the particles can follow is applied in stages with resampling between them
    (progressive_correction.py), all of it in the end;
-3. resampling, when N_eff < resample_threshold N: systematic, to max_particles while the belief holds
+3. resampling, when N_eff < RESAMPLE_THRESHOLD N: systematic, to max_particles while the belief holds
    several places and to what KLD-sampling asks for once one place holds it, each particle moved by the
    regularized filter's kernel; a share drawn at random over free space when the likelihood collapsed
    (augmented MCL, recovery_alpha_slow / _fast);
@@ -32,8 +32,9 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -64,6 +65,11 @@ KLD_BIN_SIZE = 0.1
 """m, x and y side of a KLD histogram bin (AMCL's 0.5 m is for 10 cm maps; the maze worlds are 2 cm)."""
 KLD_BIN_ANGLE = math.radians(10.0)
 """rad, heading side of a KLD histogram bin (AMCL's)."""
+RESAMPLE_THRESHOLD = 0.5
+"""resample when the effective sample size falls under this share of the particles (and the progressive correction's
+stages shrink it at most to this)."""
+CLUSTER_RADIUS = 0.1
+"""m: particles closer than this belong to one cluster (a place hypothesis is born from each)."""
 CLUSTER_MIN_SIZE = 10
 """particles a cell needs to be part of a cluster (a place hypothesis's birth)."""
 CLOUD_SPREAD = (0.05, 0.05, math.radians(3.0))
@@ -89,6 +95,11 @@ FIT_WINDOW = 0.06
 """m: a place hypothesis is fitted to each scan within this of its pose (odometry's drift between two updates) ..."""
 FIT_ANGLE = math.radians(4.0)
 """rad: ... and this of its heading."""
+REFIT_WINDOW = 0.1
+"""m: a place search's proposals are refitted within 3 sigma of the odometry since its scan, up to this; a search
+whose scan is further back than this does not cover the map (the truth may be among places it could not refit)."""
+REFIT_ANGLE = math.radians(4.0)
+"""rad: see REFIT_WINDOW."""
 FREE_PATH_MARGIN = 0.1
 """m: a beam of a place hypothesis that goes through a wall of the map this far short of its end point reads as a
 random reading (LikelihoodField.log_likelihood_free_path)."""
@@ -147,6 +158,25 @@ class _Seen(NamedTuple):
     gain: float
 
 
+@dataclass
+class _Search:
+    """A place search under way: the odometry at its scan, and the variances (m^2, rad^2) the odometry motion model
+    has accumulated since (its proposals are moved by that odometry, and refitted within 3 sigma of it)."""
+
+    search: GlobalSearch
+    odometry: tuple[float, float, float]
+    position_variance: float = 0.0
+    heading_variance: float = 0.0
+
+    def moved(self, d_trans: float, d_theta: float, noise) -> None:
+        """First-order propagation of the motion model's noise (AMCL alphas): the heading's variance carried over
+        this step's distance adds to the position's."""
+        self.position_variance += (
+            noise.alpha3 * d_trans**2 + noise.alpha4 * d_theta**2 + self.heading_variance * d_trans**2
+        )
+        self.heading_variance += noise.alpha1 * d_theta**2 + noise.alpha2 * d_trans**2
+
+
 class ParticleFilter:
     """MCL over one map. Not thread-safe: one caller at a time."""
 
@@ -167,12 +197,16 @@ class ParticleFilter:
             self._laser = BeamModel(self.field, BeamModelParams(sigma_hit=config.sigma_hit), self.mount)
         else:
             params = LikelihoodFieldParams(
-                config.sigma_hit, config.z_hit, config.z_rand, config.laser_likelihood_max_dist
+                config.sigma_hit, 1.0 - config.z_rand, config.z_rand, config.laser_likelihood_max_dist
             )
             self._laser = LikelihoodField(self.field, params, self.mount, range_max)
         self._grid = grid
-        self._matcher: CorrelativeMatcher | None = None  # built at first use
-        self._coarse: tuple[CorrelativeMatcher, np.ndarray] | None = None  # the place search's, built at first use
+        self._matcher: CorrelativeMatcher | None = None
+        self._coarse: tuple[CorrelativeMatcher, np.ndarray] | None = None  # the place search's
+        if config.place_search_budget > 0 and config.laser_model_type == "likelihood_field" and range_max > 0:
+            # built here, with the likelihood field, not in the first update (whose time it would be)
+            self._matcher = self._new_matcher()
+            self._place_search_map()
         self.beacons = checked_beacons(beacons) if beacons is not None else None
         self._recovery = RecoveryRate(config.recovery_alpha_slow, config.recovery_alpha_fast)
         self._rng = np.random.default_rng(config.seed)
@@ -239,7 +273,7 @@ class ParticleFilter:
         self._pending_measurement = True
         self._moved = (0.0, 0.0)  # m and rad since the last scan used
         self._estimate_odometry = self._odometry
-        self._search: tuple[GlobalSearch, tuple[float, float, float]] | None = None
+        self._search: _Search | None = None
         self.hypotheses.clear()
         self._window.clear()
         self._shares = np.zeros(0)
@@ -329,6 +363,8 @@ class ParticleFilter:
         self.status.killed = int(np.count_nonzero(~alive & (self.weights > 0.0)))
         self.weights = np.where(alive, self.weights, 0.0)
         self.hypotheses.move(increment)
+        if self._search is not None:
+            self._search.moved(d_trans, d_theta, self.noise)
         if self._declared is not None:
             self._declared = np.asarray(compose(self._declared, increment), dtype=float)
         if len(self.hypotheses):  # a place is impossible where its pose is in a wall (not merely near one)
@@ -373,7 +409,7 @@ class ParticleFilter:
             step = (
                 remaining
                 if stage == MAX_STAGES - 1
-                else stage_exponent(log_prior, log_likelihood, remaining, config.resample_threshold)
+                else stage_exponent(log_prior, log_likelihood, remaining, RESAMPLE_THRESHOLD)
             )
             log_weight = log_prior + step * log_likelihood
             peak = log_weight.max()
@@ -391,7 +427,7 @@ class ParticleFilter:
         self._pending_measurement = False
         neff = effective_sample_size(self.weights)
         self.status.effective_sample_size = neff
-        if neff < config.resample_threshold * len(self.particles):
+        if neff < RESAMPLE_THRESHOLD * len(self.particles):
             self._resample(self._sample_count())
         self._weigh_places(seen, beacons)
         count = self._sample_count()
@@ -419,7 +455,7 @@ class ParticleFilter:
             marginal = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
             hypotheses.observe(self._log_likelihood(hypotheses.poses, seen, beacons, places=True), marginal)
         clusters = cluster_particles(
-            self.particles[:, :2], self.weights, self.config.cluster_radius, CLUSTER_MIN_SIZE, self.particles[:, 2]
+            self.particles[:, :2], self.weights, CLUSTER_RADIUS, CLUSTER_MIN_SIZE, self.particles[:, 2]
         )
         candidates = [
             weighted_pose(self.particles[clusters.labels == label], self.weights[clusters.labels == label])
@@ -442,7 +478,7 @@ class ParticleFilter:
         fit = self._log_likelihood(poses, seen, beacons, places=True)
         held = self._log_likelihood(hypotheses.poses, seen, beacons, places=True) if len(hypotheses) else fit[:0]
         born = []
-        for pose, which, score in zip(poses, index, fit):
+        for pose, which, score in zip(poses, index, fit, strict=True):
             if which >= 0:
                 if score > held[which]:
                     hypotheses.reanchor(int(which), pose)
@@ -567,9 +603,12 @@ class ParticleFilter:
     def matcher(self) -> CorrelativeMatcher:
         """The scan-to-map matcher of the place search and the estimate's refinement (built at first use)."""
         if self._matcher is None:
-            sigma = max(self.config.sigma_hit, self._grid.resolution)
-            self._matcher = CorrelativeMatcher(ScoreMap.from_occupancy(self._grid, sigma=sigma))
+            self._matcher = self._new_matcher()
         return self._matcher
+
+    def _new_matcher(self) -> CorrelativeMatcher:
+        sigma = max(self.config.sigma_hit, self._grid.resolution)
+        return CorrelativeMatcher(ScoreMap.from_occupancy(self._grid, sigma=sigma))
 
     def _points(self, beams: Beams) -> np.ndarray:
         """(K, 2) the returned beams' end points in the robot's frame."""
@@ -578,7 +617,7 @@ class ParticleFilter:
         ranges = beams.ranges[beams.returned]
         return np.column_stack([sensor[0] + ranges * np.cos(angles), sensor[1] + ranges * np.sin(angles)])
 
-    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0) -> np.ndarray:
+    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0, angle: float = 0.0) -> np.ndarray:
         """Each pose moved to where the scan fits best within FIT_WINDOW and FIT_ANGLE (the matcher, below the cell):
         a place is scored at its best pose, so that two places the scans cannot tell apart score alike however their
         particles happen to spread."""
@@ -587,7 +626,7 @@ class ParticleFilter:
         fitted = poses.copy()
         for row, pose in enumerate(poses):
             match = self.matcher.match(
-                points, pose, max(FIT_WINDOW, window), FIT_ANGLE, refine=True, covariance_cells=0
+                points, pose, max(FIT_WINDOW, window), max(FIT_ANGLE, angle), refine=True, covariance_cells=0
             )
             if np.isfinite(match.pose).all():
                 fitted[row] = match.pose[0], match.pose[1], float(wrap_angle(match.pose[2]))
@@ -619,8 +658,7 @@ class ParticleFilter:
             return np.zeros((0, 3))
         if self._search is None:
             matcher, region = self._place_search_map()
-            points = self._points(seen.beams)
-            points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
+            points = self._window_points(seen, matcher.resolution)
             search = GlobalSearch(
                 matcher,
                 points,
@@ -629,16 +667,37 @@ class ParticleFilter:
                 min_separation=2.0 * MERGE_DISTANCE,
                 min_angle_separation=2.0 * MERGE_ANGLE,
             )
-            self._search = (search, self._odometry)
-        search, odometry = self._search
-        search.step(budget, refine=False)
-        if not search.done:
+            self._search = _Search(search, self._odometry)
+        running = self._search
+        running.search.step(budget, refine=False)
+        if not running.search.done:
             return np.zeros((0, 3))
         self._search = None
         self._covered = True
-        poses = np.array([match.pose for match in search.matches(refine=False)]).reshape(-1, 3)
-        poses = np.atleast_2d(compose(poses, relative_pose(odometry, self._odometry))).reshape(-1, 3)
-        return self._fitted(poses, seen, self._place_search_resolution)  # from the coarse lattice to the map's
+        poses = np.array([match.pose for match in running.search.matches(refine=False)]).reshape(-1, 3)
+        poses = np.atleast_2d(compose(poses, relative_pose(running.odometry, self._odometry))).reshape(-1, 3)
+        # moved by the odometry since its scan, refitted within 3 sigma of it (at most REFIT_WINDOW, REFIT_ANGLE)
+        window = min(max(3.0 * math.sqrt(running.position_variance), self._place_search_resolution), REFIT_WINDOW)
+        angle = min(max(3.0 * math.sqrt(running.heading_variance), FIT_ANGLE), REFIT_ANGLE)
+        return self._fitted(poses, seen, window, angle)
+
+    def _window_points(self, seen: _Seen, resolution: float) -> np.ndarray:
+        """(K, 2) the end points of the scan and of the window's scans before it, in the robot's frame now (the past
+        ones placed by odometry), within PLACE_SEARCH_RANGE, one per cell of `resolution`: a few metres of travel
+        seen at once, which tells look-alike places apart where a single scan cannot (a corridor's stretch, a
+        room's doors), at the cost of a single scan's points."""
+        clouds = [self._points(seen.beams)]
+        for past in self._window:
+            x, y, theta = relative_pose(self._odometry, past.odometry)
+            points = self._points(past.beams)
+            c, s = math.cos(theta), math.sin(theta)
+            clouds.append(
+                np.column_stack([x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]])
+            )
+        points = np.concatenate(clouds)
+        points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
+        _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)
+        return points[np.sort(first)]
 
     def _place_search_map(self) -> tuple[CorrelativeMatcher, np.ndarray]:
         """The place search's matcher and candidate cells: the map max-pooled to at most PLACE_SEARCH_CELLS cells (a
@@ -704,7 +763,8 @@ class ParticleFilter:
         h = (4 / (N (d + 2)))^(1 / (d + 4)), d = 3. Copies of one particle otherwise stay on one pose, and a narrow
         likelihood met by sparse particles (a first update over a whole map) would freeze the cloud a particle's
         spacing from the truth. Particles at no place hypothesis (the spread of global localization) stay as
-        drawn; with no hypothesis yet, the whole cloud is one group. The kernel draws stay in free space (a draw outside keeps the particle where it was)."""
+        drawn; with no hypothesis yet, the whole cloud is one group. The kernel draws stay in free space (a draw
+        outside keeps the particle where it was)."""
         chosen = self.particles[keep]
         # each particle's place; with no place yet (a global start), the whole cloud is one group
         owner = self.hypotheses.find(self.particles) if len(self.hypotheses) else np.zeros(len(self.particles), int)

@@ -34,8 +34,6 @@ class ParticleFilterConfig(Config):
     kld_delta: float = parameter(0.01, above=0.0, below=1.0, live=True)
     """KLD sampling: probability that the bound fails (AMCL pf_z is the upper 1 - kld_delta quantile of the
     standard normal: 0.99 for 0.01)."""
-    resample_threshold: float = parameter(0.5, above=0.0, maximum=1.0, live=True)
-    """resample when N_eff < resample_threshold * N."""
     # motion: filter updates when odometry has moved this much (AMCL update_min_d, update_min_a)
     update_min_d: float = parameter(0.02, minimum=0.0, maximum=10.0, live=True)
     """m of odometry translation before a filter update; AMCL update_min_d."""
@@ -61,10 +59,9 @@ class ParticleFilterConfig(Config):
     """beams of each scan used, evenly spread over the valid returns; AMCL max_beams."""
     sigma_hit: float = parameter(0.05, minimum=0.001, maximum=10.0)
     """m, std of a beam end point's distance to the nearest obstacle; AMCL sigma_hit."""
-    z_hit: float = parameter(0.9, minimum=0.0, maximum=1.0)
-    """weight of the hit term of the mixture; AMCL z_hit."""
-    z_rand: float = parameter(0.1, minimum=0.0, maximum=1.0)
-    """weight of the random term of the mixture (clutter, people, other robots, glass); AMCL z_rand."""
+    z_rand: float = parameter(0.1, minimum=0.0, maximum=0.99)
+    """weight of the random term of the mixture (clutter, people, other robots, glass); the hit term has the rest,
+    1 - z_rand (AMCL z_rand and z_hit)."""
     laser_likelihood_max_dist: float = parameter(2.0, minimum=0.01, maximum=100.0)
     """m, distance to obstacles beyond which the likelihood field is flat; AMCL laser_likelihood_max_dist."""
     beam_correlation_length: float = parameter(0.25, minimum=0.0, maximum=10.0, live=True)
@@ -91,8 +88,6 @@ class ParticleFilterConfig(Config):
     recovery_alpha_fast: float = parameter(0.1, minimum=0.0, maximum=1.0)
     """augmented MCL: fast average of the likelihood; AMCL recovery_alpha_fast."""
     # place hypotheses (hypotheses.py)
-    cluster_radius: float = parameter(0.1, minimum=0.001, maximum=10.0, live=True)
-    """m, particles closer than this belong to one cluster (a place hypothesis is born from each cluster)."""
     localized_probability: float = parameter(0.95, above=0.5, maximum=1.0, live=True)
     """localized is declared once the best place hypothesis holds this posterior probability ..."""
     release_probability: float = parameter(0.8, above=0.0, maximum=1.0, live=True)

@@ -28,7 +28,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-from amr_interfaces.msg import BeaconRanges
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
@@ -38,6 +37,7 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from std_srvs.srv import Empty
 
+from amr_interfaces.msg import BeaconRanges
 from amr_localization import messages
 from amr_localization.beacons import BeaconReading, checked_beacons
 from amr_localization.errors import BeaconError, LocalizationError, OdometryError, ScanError
@@ -205,7 +205,7 @@ class ParticleFilterNode(LocalizerNode):
     def _on_pair(self, *inputs) -> None:
         """One filter update per set of inputs, then one /pose (+ tf, status, maybe cloud) with the scan's stamp
         (the beacon reading's without a scan)."""
-        named = dict(zip(self.INPUTS, inputs))
+        named = dict(zip(self.INPUTS, inputs, strict=True))
         odometry, scan, beacons = named["odometry"], named.get("scan"), named.get("beacons")
         if self.filter is None:
             self._waiting = inputs  # answered when the map arrives: a lockstep loop would wait for it for ever
