@@ -16,7 +16,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from amr_maps.occupancy_grid import OccupancyGrid
 from amr_mapping.frontiers import (
     Frontier,
     FrontierConfig,
@@ -25,6 +24,7 @@ from amr_mapping.frontiers import (
     reach_frontiers,
     with_robot_free,
 )
+from amr_maps.occupancy_grid import OccupancyGrid
 from amr_util.geometry import all_finite
 from amr_util.parameter_spec import parameter
 

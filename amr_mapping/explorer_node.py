@@ -20,16 +20,16 @@ from __future__ import annotations
 
 import math
 
-from amr_interfaces.msg import Frontiers, LocalizedPose, NavigatorStatus
-from amr_interfaces.srv import SaveMap
 from geometry_msgs.msg import Point, PoseStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from std_msgs.msg import String
 
+from amr_interfaces.msg import Frontiers, LocalizedPose, NavigatorStatus
+from amr_interfaces.srv import SaveMap
+from amr_mapping.explorer import DONE, Explorer, ExplorerConfig, Step
 from amr_maps.messages import grid_from_message
 from amr_maps.occupancy_grid import OccupancyGrid
-from amr_mapping.explorer import DONE, Explorer, ExplorerConfig, Step
 from amr_util.geometry import all_finite, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.parameter_spec import ParameterSpec

@@ -206,7 +206,8 @@ class PoseGraph:
         converged = False
         iterations = 0
         free = slice(3 * first_free, 3 * n)
-        for iterations in range(1, max_iterations + 1):
+        for iteration in range(1, max_iterations + 1):
+            iterations = iteration
             e = _errors(poses, ij, z)
             s = np.einsum("mi,mij,mj->m", e, info, e)
             rho, weight = self._kernel(s, width)

@@ -29,8 +29,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from amr_interfaces.msg import LocalizedPose, LocalizerStatus, PoseGraph
-from amr_interfaces.srv import SaveMap
 from builtin_interfaces.msg import Time as TimeMessage
 from geometry_msgs.msg import Pose2D as Pose2DMessage
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
@@ -41,9 +39,11 @@ from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
-from amr_maps.messages import grid_message
+from amr_interfaces.msg import LocalizedPose, LocalizerStatus, PoseGraph
+from amr_interfaces.srv import SaveMap
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
+from amr_maps.messages import grid_message
 from amr_util.geometry import all_finite, compose, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import quaternion, scan_data, transform

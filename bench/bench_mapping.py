@@ -224,6 +224,7 @@ def run_library(
             seed=seed,
             lidar=LidarConfig(beams=simulator["lidar"]["beams"], noise_std=lidar_noise),
             encoders=EncoderConfig(noise=encoder_noise, slip=slip),
+            stop_at_goal=False,  # as maze_mapping's simulator: the world's goal is nobody's goal here
         ),
     )
     slam_params = shipped("slam", "slam.yaml")

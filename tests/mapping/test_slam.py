@@ -44,7 +44,7 @@ def ring():
     corners = np.array([[1, 1], [7, 1], [7, 5], [1, 5], [1, 1]], dtype=float)
     truth = []
     for _ in range(2):
-        for a, b in zip(corners[:-1], corners[1:]):
+        for a, b in zip(corners[:-1], corners[1:], strict=True):
             heading = math.atan2(b[1] - a[1], b[0] - a[0])
             steps = int(round(np.hypot(*(b - a)) / 0.3))
             truth += [(*(a + (b - a) * k / steps), heading) for k in range(steps)]
@@ -75,7 +75,7 @@ def _run(ring, config: SlamConfig | None = None) -> tuple[GraphSlam, np.ndarray,
     slam = GraphSlam(config or SlamConfig(max_range_used=MAX_RANGE))
     rng = np.random.default_rng(1)
     closures = 0
-    for k, (pose, odom) in enumerate(zip(truth, odometry)):
+    for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
         update = slam.add(k * 100_000_000, odom, _scan(caster, pose, rng))
         closures += len(update.loop_closures)
     return slam, truth, odometry, closures

@@ -7,17 +7,16 @@ import time
 
 import numpy as np
 import pytest
-from amr_interfaces.msg import Frontiers
-from amr_interfaces.srv import SaveMap
+from conftest import spin_until
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from amr_bringup.composed import composed_stack
+from amr_interfaces.msg import Frontiers
+from amr_interfaces.srv import SaveMap
 from amr_maps.map_io import load_map
 from amr_util.qos import LATCHED, reliable
-
-from conftest import spin_until
 
 WORLD = "inner_maze.yaml"
 TIMEOUT = 90.0
