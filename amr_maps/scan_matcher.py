@@ -350,9 +350,7 @@ class CorrelativeMatcher:
 
 class GlobalSearch:
     """A resumable global branch and bound: the `count` best poses over the whole map, pairwise more than
-    min_separation (m) or min_angle_separation (rad) apart, of score >= min_score and >= min_ratio times the
-    best's (the places that could compete with the best: the higher min_ratio, the more of the lattice the bound
-    prunes). Each `step(max_nodes)`
+    min_separation (m) or min_angle_separation (rad) apart, of score >= min_score. Each `step(max_nodes)`
     scores at most max_nodes more nodes (each costs one lookup per point) and returns the best found so
     far; `done` once the search is complete (then the matches are exhaustive: the exact best of the
     lattice). The lattice: robot at the centre of each cell of candidates_region, headings k * step."""
@@ -367,12 +365,9 @@ class GlobalSearch:
         min_score: float = 0.0,
         min_separation: float = 0.5,
         min_angle_separation: float = 0.5,
-        min_ratio: float = 0.0,
     ) -> None:
         if not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f"global search: count must be an integer >= 1, got {count!r}")
-        if not math.isfinite(min_ratio) or not 0.0 <= min_ratio <= 1.0:
-            raise ValueError(f"global search: min_ratio must be in 0..1, got {min_ratio!r}")
         if not math.isfinite(min_score) or not 0.0 <= min_score <= 1.0:
             raise ValueError(f"global search: min_score must be in 0..1, got {min_score!r}")
         self.matcher = matcher
@@ -420,7 +415,6 @@ class GlobalSearch:
             angle_sep,
             n_angles,
         )
-        self._search.min_ratio = float(min_ratio)
 
     @property
     def done(self) -> bool:
@@ -488,7 +482,6 @@ class _BranchAndBound:
         self.use_region = region is not None
         self.count = count
         self.min_total = min_total
-        self.min_ratio = 0.0  # places scoring under this share of the best are pruned (GlobalSearch's min_ratio)
         self.sep2, self.angle_sep, self.n_angles = float(sep2), float(angle_sep), int(n_angles)
         self.top_totals = np.zeros(len(tops), dtype=np.int64)
         self.scored = 0  # top nodes scored so far (phase 1)
@@ -547,7 +540,6 @@ class _BranchAndBound:
                 self.found,
                 self.found_totals,
                 self.min_total,
-                self.min_ratio,
                 self.sep2,
                 self.angle_sep,
                 self.n_angles,
@@ -558,9 +550,6 @@ class _BranchAndBound:
         """(angle index, x, y, total) of the best leaves so far, best first."""
         found = self.found[: self.state[2]]
         totals = self.found_totals[: self.state[2]]
-        if len(totals):  # a leaf kept before a better one was found may have fallen under min_ratio of it
-            keep = totals >= math.ceil(totals[0] * self.min_ratio)
-            found, totals = found[keep], totals[keep]
         return [(int(a), int(x), int(y), int(t)) for (a, x, y), t in zip(found, totals, strict=True)]
 
 
@@ -703,15 +692,11 @@ def _keep_leaf(found, found_totals, state, total, a, x, y, sep2, angle_sep, n_an
 
 
 @numba.njit(cache=True)
-def _threshold(found_totals, state, min_total, min_ratio):  # pragma: no cover - compiled
-    """A node is worth opening when its bound is above this: min_total, min_ratio of the best so far, and the
-    worst kept once `count` are kept."""
-    threshold = min_total - 1
-    if state[2] > 0:
-        threshold = max(threshold, int(math.ceil(found_totals[0] * min_ratio)) - 1)
+def _threshold(found_totals, state, min_total):  # pragma: no cover - compiled
+    """A node is worth opening when its bound is above this."""
     if state[2] == found_totals.shape[0]:
-        threshold = max(threshold, found_totals[state[2] - 1])
-    return threshold
+        return found_totals[state[2] - 1]
+    return min_total - 1
 
 
 @numba.njit(cache=True)
@@ -733,7 +718,6 @@ def _branch_and_bound(
     found,
     found_totals,
     min_total,
-    min_ratio,
     sep2,
     angle_sep,
     n_angles,
@@ -748,7 +732,7 @@ def _branch_and_bound(
         sp = state[1]
         if sp == 0:
             ti = state[0]
-            if ti >= tops.shape[0] or top_totals[ti] <= _threshold(found_totals, state, min_total, min_ratio):
+            if ti >= tops.shape[0] or top_totals[ti] <= _threshold(found_totals, state, min_total):
                 state[0] = tops.shape[0]
                 state[3] = 1
                 break
@@ -764,7 +748,7 @@ def _branch_and_bound(
         state[1] = sp
         level, a, x, y = stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3]
         total = stack_totals[sp]
-        threshold = _threshold(found_totals, state, min_total, min_ratio)
+        threshold = _threshold(found_totals, state, min_total)
         if total <= threshold:
             continue
         if level == 0:
