@@ -21,6 +21,7 @@ from amr_localization import messages
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.geometry import map_to_odom
 from amr_util.managed_node import ManagedNode
+from amr_util.messages import transform
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 from amr_util.sync import ApproximateTimeSynchronizer, SyncError
@@ -126,7 +127,7 @@ class LocalizerNode(ManagedNode):
         odom = messages.odometry_pose(odometry)
         if "tf" in self._outputs and all(map(math.isfinite, odom)):
             correction = map_to_odom((pose.x, pose.y, pose.theta), odom)
-            self._outputs["tf"].publish(messages.transform(stamp, frame, self._settings["odom_frame_id"], correction))
+            self._outputs["tf"].publish(transform(stamp, frame, self._settings["odom_frame_id"], correction))
         status.header.stamp, status.header.frame_id = stamp, frame
         self._outputs["status"].publish(status)
         return True

@@ -20,7 +20,7 @@ from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import FilterStatus
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.geometry import yaw_from_quaternion
-from amr_util.messages import quaternion  # transform: localizer_node broadcasts map -> odom with it
+from amr_util.messages import quaternion
 
 PLANAR_AXES = (0, 1, 5)
 """x, y, yaw in the row-major 6x6 covariance of PoseWithCovariance."""
