@@ -16,7 +16,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from PIL import Image
 
-from amr_bringup.bag_reader import POSE_TOPICS, SCAN_TOPIC, read_bag, trajectory
+from amr_bringup.bag_reader import DEFAULT_LIDAR, POSE_TOPICS, SCAN_TOPIC, read_bag, trajectory
 from amr_bringup.bag_writer import BagError
 from amr_maps.world import World
 from amr_simulation.config import LidarConfig
@@ -34,7 +34,7 @@ def animate_bag(
     frames: int = 150,
     fps: float = 15.0,
     pose_topic: str | None = None,
-    lidar: LidarConfig = LidarConfig(),
+    lidar: LidarConfig = DEFAULT_LIDAR,
     robot_radius: float = default_robot().radius,
     max_speed: float = default_robot().max_linear_speed,
     size: tuple[float, float] = (4.8, 4.4),
@@ -92,7 +92,7 @@ def animate_bag(
         )
         moving = [
             artist
-            for artists, keep in zip((ax.patches, ax.lines, ax.collections, ax.texts), kept)
+            for artists, keep in zip((ax.patches, ax.lines, ax.collections, ax.texts), kept, strict=True)
             for artist in list(artists)[keep:]
         ]
         for artist in moving:  # robot, scan and time: drawn on this frame only

@@ -28,6 +28,8 @@ from amr_util.robot_description import default_robot
 
 POSE_TOPICS = ("/ground_truth", "/odom", "/odometry")
 SCAN_TOPIC = "/scan"
+DEFAULT_LIDAR = LidarConfig()
+"""The simulator's default LiDAR (frozen: one instance serves as every default)."""
 
 
 @dataclass
@@ -83,7 +85,7 @@ def render_bag(
     png: str | Path,
     world: World,
     pose_topic: str | None = None,
-    lidar: LidarConfig = LidarConfig(),
+    lidar: LidarConfig = DEFAULT_LIDAR,
     robot_radius: float = default_robot().radius,
     max_speed: float = default_robot().max_linear_speed,
     dpi: int = 120,

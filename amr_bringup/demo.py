@@ -25,32 +25,32 @@ from pathlib import Path
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-import numpy as np  # noqa: E402
-import rclpy  # noqa: E402
-from amr_interfaces.msg import LocalizedPose, SimulatorStatus, WallFollowerStatus  # noqa: E402
-from amr_interfaces.srv import ComputeFK, SolveIK  # noqa: E402
-from geometry_msgs.msg import PoseArray  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
-from nav_msgs.msg import Path as PathMessage  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-from std_srvs.srv import Trigger  # noqa: E402
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseArray
+from nav_msgs.msg import Odometry
+from nav_msgs.msg import Path as PathMessage
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from std_srvs.srv import Trigger
 
-from amr_bringup import demo_figures  # noqa: E402
-from amr_bringup.bag_animation import animate_bag  # noqa: E402
-from amr_bringup.composed import composed_stack  # noqa: E402
-from amr_bringup.lifecycle_manager import LifecycleManager  # noqa: E402
-from amr_bringup.recorder import BackgroundSpin, Recorder  # noqa: E402
-from amr_control.wall_follower_node import WallFollowerNode  # noqa: E402
-from amr_kinematics.ik_service_node import IKServiceNode  # noqa: E402
-from amr_maps.map_server_node import MapServerNode  # noqa: E402
-from amr_maps.world import load_world, resolve_world_path  # noqa: E402
-from amr_simulation.simulator_node import SimulatorNode  # noqa: E402
-from amr_turtlebot3.odometry_node import OdometryNode  # noqa: E402
-from amr_util.geometry import yaw_from_quaternion  # noqa: E402
-from amr_util.share import share_directory  # noqa: E402
-from amr_util.stamps import stamp_seconds  # noqa: E402
+from amr_bringup import demo_figures
+from amr_bringup.bag_animation import animate_bag
+from amr_bringup.composed import composed_stack
+from amr_bringup.lifecycle_manager import LifecycleManager
+from amr_bringup.recorder import BackgroundSpin, Recorder
+from amr_control.wall_follower_node import WallFollowerNode
+from amr_interfaces.msg import LocalizedPose, SimulatorStatus, WallFollowerStatus
+from amr_interfaces.srv import ComputeFK, SolveIK
+from amr_kinematics.ik_service_node import IKServiceNode
+from amr_maps.map_server_node import MapServerNode
+from amr_maps.world import load_world, resolve_world_path
+from amr_simulation.simulator_node import SimulatorNode
+from amr_turtlebot3.odometry_node import OdometryNode
+from amr_util.geometry import yaw_from_quaternion
+from amr_util.share import share_directory
+from amr_util.stamps import stamp_seconds
 
 FOLLOWING = "FOLLOW"  # the state in which the distance to the wall is being controlled
 PROGRESS_PERIOD = 3.0  # wall-clock seconds between progress lines

@@ -52,7 +52,7 @@ def arm_iterations_figure(path: Path, origins: Sequence[np.ndarray], target: Seq
     """A 3D arm (rows of joint origins, base first) drawn at every iteration, early ones pale."""
     figure = _figure((7.0, 6.0))
     ax = figure.add_subplot(projection="3d")
-    for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)))):
+    for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)), strict=True)):
         p = np.asarray(points)
         ax.plot(
             p[:, 0],
@@ -79,7 +79,7 @@ def planar_iterations_figure(path: Path, origins: Sequence[np.ndarray], target: 
     """A planar arm at every iteration of a solver, early ones pale."""
     figure = _figure((6.5, 6.0))
     ax = figure.add_subplot()
-    for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)))):
+    for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)), strict=True)):
         p = np.asarray(points)
         ax.plot(
             p[:, 0],
@@ -107,7 +107,7 @@ def path_tracking_figure(
     """Left: the arm along a straight-line path. Right: the joint angles, which must not jump."""
     figure = _figure((11.0, 4.8))
     arm_ax, joint_ax = figure.subplots(1, 2)
-    for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)))):
+    for k, (points, colour) in enumerate(zip(origins, _iteration_colours(len(origins)), strict=True)):
         if k % max(len(origins) // 12, 1) == 0 or k == len(origins) - 1:
             p = np.asarray(points)
             arm_ax.plot(p[:, 0], p[:, 1], "-o", color=colour, markersize=3, linewidth=1.2)
@@ -134,7 +134,7 @@ def localization_figure(path: Path, polygons: Sequence[np.ndarray], snapshots: S
     estimate (x, y, theta) or None)."""
     figure = _figure((4.2 * len(snapshots), 4.4))
     axes = figure.subplots(1, len(snapshots), squeeze=False)[0]
-    for ax, (title, particles, truth, estimate) in zip(axes, snapshots):
+    for ax, (title, particles, truth, estimate) in zip(axes, snapshots, strict=True):
         for polygon in polygons:
             ax.fill(polygon[:, 0], polygon[:, 1], color="0.25", linewidth=0)
         ax.scatter(

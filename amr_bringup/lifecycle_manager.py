@@ -26,7 +26,6 @@ from amr_bringup.lifecycle_sequence import MANAGER_PARAMETERS, LifecycleSequence
 from amr_util.managed_node import SpecifiedParameters
 from amr_util.stop_signals import StopSignals
 
-
 PARAMETERS = MANAGER_PARAMETERS
 SHUTDOWN_BUDGET = 3.0  # s to bring the managed nodes down on Ctrl-C (launch escalates to SIGTERM after 5 s)
 
@@ -152,7 +151,7 @@ def main(args=None) -> None:
     except ValueError as error:
         print(f"lifecycle_manager: {error}", file=sys.stderr)
         rclpy.shutdown()
-        raise SystemExit(2)
+        raise SystemExit(2) from None
     executor = MultiThreadedExecutor()
     executor.add_node(manager)
     spinner = threading.Thread(target=executor.spin, daemon=True)

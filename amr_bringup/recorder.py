@@ -232,7 +232,7 @@ def main(args=None) -> None:
     except ValueError as error:
         print(f"recorder: {error}", file=sys.stderr)
         rclpy.shutdown()
-        raise SystemExit(2)
+        raise SystemExit(2) from None
     spin_nodes([recorder], SingleThreadedExecutor())
 
 

@@ -195,7 +195,7 @@ class Bringup:
 
     def with_overrides(
         self, arguments: Mapping[str, str] | None = None, parameters: Mapping[str, str] | None = None
-    ) -> "Bringup":
+    ) -> Bringup:
         """This stack with `name:=value` arguments and `node.parameter:=value` parameters applied, then its
         per_robot nodes copied for the robots of its world (for_robots): the stack as it is started.
 
@@ -243,7 +243,7 @@ class Bringup:
         node, parameter = self.robots_from
         return str(self._value(self._node(node), parameter) or "")
 
-    def for_robots(self) -> "Bringup":
+    def for_robots(self) -> Bringup:
         """This stack with each per_robot node replaced by its copies for the robots of `robots_world()`."""
         if not any(node.per_robot for node in self.nodes):
             return self
