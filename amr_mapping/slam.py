@@ -118,6 +118,10 @@ ALIGN_EIGEN_RATIO = 1e-3
 """The refinement moves only along the directions the lines constrain: eigenvalues of its normal matrix below
 this share of the largest are left out (along a corridor the correlative match and the odometry decide)."""
 MAX_INFORMATION = (1.0 / 0.01**2, 1.0 / 0.01**2, 1.0 / math.radians(0.25) ** 2)
+CHAIN_INFORMATION = (1.0 / 0.002**2, 1.0 / 0.002**2, 1.0 / math.radians(0.05) ** 2)
+"""The closure gate's chain compounds each match's own covariance, capped here only (2 mm, 0.05 deg): compounded
+at MAX_INFORMATION's floor (kept for the graph's edges), 500 nodes of a maze drive came to 0.8 m and 12 deg,
+against 0.12 m and 2 deg of true drift, and a closure 1.6 m off passed the gate."""
 """A scan match's information is capped here (x, y, theta): standard deviations of 1 cm and 0.25 deg at least."""
 
 
@@ -284,6 +288,7 @@ class GraphSlam:
         self.ambiguous_closures = 0  # closure matches with a rival in the window (AMBIGUITY_RATIO)
         self.inconsistent_closures = 0  # closure matches putting points in the submap's clear space
         self._chain: list[np.ndarray] = [np.zeros((3, 3))]  # covariance of the edge (k - 1, k), node k's frame
+        self._step_covariance: np.ndarray | None = None  # the last match's, capped at CHAIN_INFORMATION
 
     # -- state -----------------------------------------------------------------------------------------
 
@@ -398,7 +403,8 @@ class GraphSlam:
         pose, information, score = self._match_local(prior, points, delta, events)
         node = self._add_node(stamp_ns, pose, odometry, ranges, angles, points, clear_range)
         self._graph.add_edge(last, node, relative_pose(self._graph.pose(last), pose), information)
-        self._chain.append(np.linalg.inv(information))
+        self._chain.append(np.linalg.inv(information) if self._step_covariance is None else self._step_covariance)
+        self._step_covariance = None
         self._pose = pose.copy()
         closures = self._close_loops(node, events)
         return SlamUpdate(
@@ -505,6 +511,7 @@ class GraphSlam:
         fused = matched + np.linalg.solve(information, odometry_information @ offset)
         pose = np.array(compose(anchor, fused))
         covariance = np.linalg.inv(information)
+        self._step_covariance = np.linalg.inv(_information(covariance, fused[2], CHAIN_INFORMATION))
         return pose, _information(covariance, fused[2]), float(match.score)
 
     def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
@@ -595,14 +602,14 @@ class GraphSlam:
         return np.einsum("kij,kjl,kml->im", jacobians, covariances, jacobians)
 
 
-def _information(covariance: np.ndarray, heading: float) -> np.ndarray:
-    """A match's information as an edge's (the error's frame: the measured node's), capped at MAX_INFORMATION."""
+def _information(covariance: np.ndarray, heading: float, cap=MAX_INFORMATION) -> np.ndarray:
+    """A match's information as an edge's (the error's frame: the measured node's), capped at `cap`."""
     covariance = np.asarray(covariance, dtype=float)
     if covariance.shape != (3, 3) or not np.all(np.isfinite(covariance)):
         return np.diag(MAX_INFORMATION) * 1e-4
     c, s = math.cos(heading), math.sin(heading)
     rotation = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    floor = np.diag(1.0 / np.asarray(MAX_INFORMATION))
+    floor = np.diag(1.0 / np.asarray(cap))
     cov = rotation @ covariance @ rotation.T + floor
     information = np.linalg.inv(0.5 * (cov + cov.T))
     return 0.5 * (information + information.T)
