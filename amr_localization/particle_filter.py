@@ -646,11 +646,6 @@ class ParticleFilter:
         match = self.matcher.match(points, pose, spread, turn, refine=True)
         if not np.isfinite(match.pose).all() or match.score <= self.matcher.score_interpolated(points, pose):
             return estimate
-        # the matcher fits every end point, another robot's too: its pose is kept where the measurement model (whose
-        # random term those readings are) scores it no lower than the particles' estimate
-        scores = self._log_likelihood(np.array([match.pose, pose]), seen, None, places=True)
-        if scores[0] < scores[1]:
-            return estimate
         covariance = np.where(np.isfinite(match.covariance), match.covariance, estimate.covariance)
         return PoseEstimate(float(match.pose[0]), float(match.pose[1]), float(wrap_angle(match.pose[2])), covariance)
 
