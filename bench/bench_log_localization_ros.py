@@ -2,12 +2,13 @@
 file of the log's map; used by bench_log_localization.py --ros (see its docstring).
 
 The figures are the library run's (amr_evaluation.log_localization.LogRun), from /pose against /ground_truth,
-plus the round trip: wall time from a scan reaching a watcher node to the /pose answering it reaching it.
+plus the round trip: wall time from the player publishing a scan to the /pose answering it reaching a watcher.
 """
 
 from __future__ import annotations
 
 import math
+import struct
 import tempfile
 import time
 from pathlib import Path
@@ -20,7 +21,6 @@ from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import LaserScan
 
 from amr_datasets.player_node import LogPlayerNode
 from amr_evaluation.log_localization import LogRun, range_max
@@ -28,7 +28,6 @@ from amr_interfaces.msg import LocalizedPose
 from amr_localization.particle_filter_node import ParticleFilterNode
 from amr_maps.map_io import save_map
 from amr_util.geometry import wrap_angle, yaw_from_quaternion
-from amr_util.qos import SENSOR_DATA
 from amr_util.stamps import stamp_nanoseconds
 
 KEEP = 100_000
@@ -57,12 +56,6 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
     watcher.create_subscription(
         Odometry, "ground_truth", lambda m: truth.__setitem__(stamp_nanoseconds(m.header.stamp), m), KEEP
     )
-    watcher.create_subscription(
-        LaserScan,
-        "scan",
-        lambda m: scan_seen.__setitem__(stamp_nanoseconds(m.header.stamp), time.monotonic()),
-        SENSOR_DATA,
-    )
 
     def on_pose(message: LocalizedPose) -> None:
         stamp = stamp_nanoseconds(message.header.stamp)
@@ -76,6 +69,20 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
         for node in (localizer, player):
             if not node.try_transition(Transition.TRANSITION_CONFIGURE):
                 return f"{name}: {node.get_name()} did not configure"
+        # the round trip starts when the player publishes a scan (in this process: before any callback runs on it)
+        scan_output = player._outputs["scan"]
+        publish = scan_output.publish
+
+        def publish_timed(message) -> None:
+            if isinstance(message, bytes):  # serialized (CDR: 4 bytes of encapsulation, then the header's stamp)
+                sec, nanosec = struct.unpack_from("<iI", message, 4)
+                stamp = sec * 1_000_000_000 + nanosec
+            else:
+                stamp = stamp_nanoseconds(message.header.stamp)
+            scan_seen[stamp] = time.monotonic()
+            publish(message)
+
+        scan_output.publish = publish_timed
         localizer.try_transition(Transition.TRANSITION_ACTIVATE)
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline and (
