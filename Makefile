@@ -21,9 +21,11 @@ $(VENV)/.deps-installed: pyproject.toml
 demo: setup
 	$(PY) -m amr_bringup.demo
 
-# One run, two pytest-xdist workers (tests/conftest.py gives each its own DDS domains), the browser tests among
+# Lint and format first (ruff, configured in pyproject.toml), then one run, two pytest-xdist workers (tests/conftest.py gives each its own DDS domains), the browser tests among
 # the rest (a stack that does not come up is stopped, and a viewer that lost its port is started on another).
 test: setup
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
 bench: setup
