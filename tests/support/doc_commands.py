@@ -359,4 +359,4 @@ def check(command: Command) -> None:
     elif head == "colcon":
         assert "amr_interfaces" in " ".join(words), "colcon must be given amr_interfaces' base path too"
     else:
-        raise AssertionError(f"{head}: a command the doc checker does not know (tests/foundation/doc_commands.py)")
+        raise AssertionError(f"{head}: a command the doc checker does not know (tests/support/doc_commands.py)")

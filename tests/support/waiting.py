@@ -12,7 +12,7 @@ POLL_PERIOD = 0.02
 
 def poll_until(condition: Callable[[], bool], timeout: float, period: float = POLL_PERIOD) -> bool:
     """Look at condition() every `period` s until it holds or `timeout` s have passed; whether it held (one last
-    look at the deadline). For ROS callbacks that must be spun meanwhile: conftest.spin_until."""
+    look at the deadline). For ROS callbacks that must be spun meanwhile: support.ros.spin_until."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if condition():
