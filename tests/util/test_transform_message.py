@@ -23,7 +23,7 @@ def test_transform_carries_frames_stamp_and_planar_pose():
 
 
 def test_localization_and_slam_use_the_same_helper():
-    from amr_localization import messages
+    from amr_localization import localizer_node
     from amr_mapping import slam_node
 
-    assert messages.transform is transform and slam_node.transform is transform
+    assert localizer_node.transform is transform and slam_node.transform is transform
