@@ -309,7 +309,7 @@ def _robots(data: dict, polygons: Sequence[np.ndarray], faces: np.ndarray, where
     for index, item in enumerate(value):
         key = f"robots[{index}]"
         if not isinstance(item, dict):
-            raise where.error(key, f"must be a mapping with {', '.join(ROBOT_KEYS)}, got {item!r}")
+            raise where.error(key, f"must be a mapping with name, start, goal (and optionally priority), got {item!r}")
         unknown = sorted(set(map(str, item)) - set(ROBOT_KEYS))
         if unknown:
             raise where.error(f"{key}.{unknown[0]}", f"unknown key (expected some of {', '.join(ROBOT_KEYS)})")

@@ -50,7 +50,7 @@ def test_a_robot_list_loads_from_a_file(tmp_path: Path) -> None:
     [
         ([], {}, "robots", "must be a non-empty list"),
         ("r1", {}, "robots", "must be a non-empty list of robots .*got 'r1'"),
-        (["r1"], {}, r"robots\[0\]", "must be a mapping with name, start, goal, got 'r1'"),
+        (["r1"], {}, r"robots\[0\]", r"must be a mapping with name, start, goal \(and optionally priority\), got 'r1'"),
         ([{"name": "r1", "start": [0, 1, 0], "colour": "red"}], {}, r"robots\[0\]\.colour", "unknown key"),
         ([{"start": [0, 1, 0]}], {}, r"robots\[0\]\.name", "is required"),
         ([{"name": "r1"}], {}, r"robots\[0\]\.start", "is required"),

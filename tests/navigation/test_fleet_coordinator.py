@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from support.fleet_costmaps import ring_costmap
 
 from amr_maps.maze_families import generate
 from amr_maps.rasterize import rasterize_world
@@ -30,22 +31,6 @@ def corridor_costmap() -> Costmap:
         [2, -0.2, 2, 0.2],
     ]
     world = world_from_dict({"name": "corridor", "wall_thickness": 0.05, "walls": walls, "start": [-1.6, 0, 0]})
-    return Costmap(rasterize_world(world, 0.02))
-
-
-def ring_costmap() -> Costmap:
-    """A ring corridor 0.4 m wide round a 1.6 m square block."""
-    walls = [
-        [-1.2, -1.2, 1.2, -1.2],
-        [1.2, -1.2, 1.2, 1.2],
-        [1.2, 1.2, -1.2, 1.2],
-        [-1.2, 1.2, -1.2, -1.2],
-        [-0.8, -0.8, 0.8, -0.8],
-        [0.8, -0.8, 0.8, 0.8],
-        [0.8, 0.8, -0.8, 0.8],
-        [-0.8, 0.8, -0.8, -0.8],
-    ]
-    world = world_from_dict({"name": "ring", "wall_thickness": 0.05, "walls": walls, "start": [-1.0, -1.0, 0]})
     return Costmap(rasterize_world(world, 0.02))
 
 

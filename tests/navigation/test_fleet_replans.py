@@ -7,12 +7,12 @@ import threading
 
 import numpy as np
 import pytest
+from support.fleet_costmaps import ring_costmap
 
 from amr_maps.world import WorldError
 from amr_navigation.fleet_coordinator import FOLLOW, HOLD, FleetCoordinator, compute_plan
 from amr_navigation.fleet_file import FleetFileError, load_fleet
 from amr_planning.fleet_plan import _first_conflict
-from tests.navigation.test_fleet_coordinator import ring_costmap
 
 GOALS = {"r1": (1.0, 1.0), "r2": (-1.0, 1.0), "r3": (1.0, -1.0)}
 STARTS = {"r1": (-1.0, -1.0), "r2": (1.0, 1.0), "r3": (-1.0, 1.0)}
