@@ -310,6 +310,11 @@ def run_localization(context, out: Path, world: str, duration: float) -> dict:
     with observer.lock:
         poses, clouds, truth = list(observer.poses), list(observer.clouds), dict(observer.truth)
     rows = [(t, pose, localized, truth[t]) for t, pose, localized in poses if t in truth]
+    if not rows or not clouds:
+        raise RuntimeError(
+            f"localization: the particle filter answered {len(rows)} scans with a /pose and published "
+            f"{len(clouds)} particle clouds in {duration:.0f} s simulated: nothing to draw (see the log above)"
+        )
     times = np.array([r[0] for r in rows])
     position_error = np.array([math.hypot(r[1][0] - r[3][0], r[1][1] - r[3][1]) for r in rows])
     heading_error = np.degrees([abs(math.remainder(r[1][2] - r[3][2], 2 * math.pi)) for r in rows])
