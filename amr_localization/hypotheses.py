@@ -28,8 +28,8 @@ and Kristensen 2001):
 
   which a place the robot is at beats by far, and a place it is not at (a kidnapped robot's old place) does not;
 - the posterior is P(h_i) = exp(L_i) / (exp(L_elsewhere) + sum_j exp(L_j)), each L kept within
-  MAX_LOG_ODDS of the best (a robot may be carried anywhere: a kidnapping's prior, which also keeps the
-  numbers finite);
+  MAX_LOG_ODDS of the best place's, elsewhere's too, either way (a robot may be carried anywhere, to a place
+  followed as well as away from it: a kidnapping's prior, which also keeps the numbers finite);
 - a hypothesis driven into a wall is impossible and dies, its belief going to `elsewhere` (not to the places
   left); at most MAX_HYPOTHESES are kept, the least likely forgotten first.
 
@@ -152,10 +152,11 @@ class PlaceHypotheses:
         return p[:-1] / p.sum()
 
     def _rank(self) -> None:
-        """Heaviest first, the evidence (elsewhere's too) within MAX_LOG_ODDS of the best, at most MAX_HYPOTHESES."""
+        """Heaviest first, the evidence (elsewhere's too, above as below) within MAX_LOG_ODDS of the best place's, at
+        most MAX_HYPOTHESES."""
         order = np.argsort(-self.evidence, kind="stable")[:MAX_HYPOTHESES]
         self.poses, self.evidence = self.poses[order], self.evidence[order]
         if len(self):
             best = self.evidence[0]
             self.evidence = np.maximum(self.evidence - best, -MAX_LOG_ODDS)
-            self.elsewhere = max(self.elsewhere - best, -MAX_LOG_ODDS)
+            self.elsewhere = min(max(self.elsewhere - best, -MAX_LOG_ODDS), MAX_LOG_ODDS)

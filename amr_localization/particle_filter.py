@@ -105,7 +105,7 @@ FREE_PATH_MARGIN = 0.1
 random reading (LikelihoodField.log_likelihood_free_path)."""
 NUDGES = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=float)
 """offsets (in cells and half degrees) within which each beam of a place hypothesis is scored at its best."""
-ANYWHERE = 256
+ANYWHERE = 64
 """poses spread over free space (fixed per filter) on which the data's marginal likelihood over the map is estimated
 (the `elsewhere` hypothesis: hypotheses.py)."""
 DEFAULT_PERIOD = 0.05
@@ -451,7 +451,7 @@ class ParticleFilter:
         if len(hypotheses) and seen is not None:
             hypotheses.poses = self._fitted(hypotheses.poses, seen)
         if len(hypotheses):
-            anywhere = self._log_likelihood(self._anywhere, seen, beacons)
+            anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True)  # the places' own model
             marginal = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
             hypotheses.observe(self._log_likelihood(hypotheses.poses, seen, beacons, places=True), marginal)
         clusters = cluster_particles(
@@ -574,6 +574,8 @@ class ParticleFilter:
         there scores as a random reading), for the few poses of place hypotheses; the particles' field alone scores
         a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway."""
         total = np.zeros(len(poses))
+        if not len(poses):
+            return total
         if seen is not None and places and isinstance(self._laser, LikelihoodField):
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses

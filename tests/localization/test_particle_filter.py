@@ -107,3 +107,17 @@ def test_an_initial_pose_tracks_from_there():
     assert math.hypot(estimate.pose.x - sim.pose.x, estimate.pose.y - sim.pose.y) < 0.05
     with pytest.raises(LocalizationError, match="outside the map"):
         pf.initialize_pose(50.0, 50.0, 0.0, np.diag([0.01, 0.01, 0.01]))
+
+
+def test_an_empty_set_of_places_scores_as_an_empty_set():
+    """Particles that form no cluster and a search that proposes nothing give the place scoring no pose at all: its
+    answer is empty (an intel log run raised here, reshaping the nudged scores of no pose)."""
+    data = np.zeros((60, 60), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    pf = ParticleFilter(OccupancyGrid(data, 0.1, (0.0, 0.0, 0.0)), ParticleFilterConfig(seed=1), range_max=3.5)
+    scan = ScanData(np.full(90, 2.0), -math.pi, 2.0 * math.pi / 90, 0.1, 3.5)
+    pf.update((0.0, 0.0, 0.0), scan)
+    pf.update((0.1, 0.0, 0.0), scan)
+    seen = pf._window[-1]
+    assert pf._log_likelihood(np.zeros((0, 3)), seen, None, places=True).shape == (0,)
+    assert pf._fitted(np.zeros((0, 3)), seen).shape == (0, 3)
