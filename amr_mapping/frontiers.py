@@ -187,8 +187,8 @@ def approaches(
 ) -> tuple[np.ndarray, np.ndarray]:
     """For every cell: (m of the shortest 8-connected path over free cells from the nearest reachable cell, inf beyond
     `limit`; that reachable cell's flat index, -1 if none). Paths go round walls, never through them; a diagonal
-    step may pass between two cells touching at their corners (a sight line to the frontier, not a way to drive:
-    refused, goals were chosen from where the frontier could not be seen, inner_maze 97.6 % seen)."""
+    step may pass between two cells touching at their corners (a sight line to the frontier, not a way to drive;
+    refusing it too chose goals the frontier could not be seen from: inner_maze was left 97.6 % seen)."""
     sources = np.flatnonzero(reachable)
     if len(sources) == 0:
         return np.full(free.shape, np.inf), np.full(free.shape, -1)
