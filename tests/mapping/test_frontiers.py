@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from mapping_helpers import reveal, unknown_like
+from support.mapping import reveal, unknown_like
 
 from amr_mapping.explorer import DONE, EXPLORING, WAITING, Explorer, ExplorerConfig
 from amr_mapping.frontiers import (
