@@ -58,7 +58,7 @@ from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
-from amr_util.geometry import compose, relative_pose, wrap_angle
+from amr_util.geometry import compose, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
 
 KLD_BIN_SIZE = 0.1
@@ -690,12 +690,7 @@ class ParticleFilter:
         room's doors), at the cost of a single scan's points."""
         clouds = [self._points(seen.beams)]
         for past in self._window:
-            x, y, theta = relative_pose(self._odometry, past.odometry)
-            points = self._points(past.beams)
-            c, s = math.cos(theta), math.sin(theta)
-            clouds.append(
-                np.column_stack([x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]])
-            )
+            clouds.append(transform_points(relative_pose(self._odometry, past.odometry), self._points(past.beams)))
         points = np.concatenate(clouds)
         points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
         _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)

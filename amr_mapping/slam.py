@@ -52,7 +52,7 @@ from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
-from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, wrap_angle
+from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
 
 MIN_BEAMS = 20
@@ -436,12 +436,8 @@ class GraphSlam:
         anchor_pose = self._graph.pose(anchor)
         poses = np.array([relative_pose(anchor_pose, self._graph.pose(k)) for k in members])
         clouds = []
-        for (x, y, theta), k in zip(poses, members, strict=True):
-            points = self._nodes[k].points
-            c, s = math.cos(theta), math.sin(theta)
-            clouds.append(
-                np.column_stack([x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]])
-            )
+        for pose, k in zip(poses, members, strict=True):
+            clouds.append(transform_points(pose, self._nodes[k].points))
         cloud = np.vstack(clouds + [np.zeros((1, 2))])
         resolution = self.config.resolution
         pad = window + LIKELIHOOD_PAD
@@ -706,9 +702,7 @@ def _align(
     current = pose.copy()
     for _ in range(ALIGN_ITERATIONS):
         c, s = math.cos(current[2]), math.sin(current[2])
-        moved = np.column_stack(
-            [current[0] + c * points[:, 0] - s * points[:, 1], current[1] + s * points[:, 0] + c * points[:, 1]]
-        )
+        moved = transform_points(current, points)
         distances, nearest = reference.tree.query(moved, distance_upper_bound=reach)
         paired = np.isfinite(distances)
         paired[paired] = np.isfinite(reference.normals[nearest[paired], 0])
@@ -736,9 +730,7 @@ def _clear_share(clear: OccupancyGrid | None, points: np.ndarray, pose: np.ndarr
     """The share of the points (robot frame) at pose (the grid's frame) that land in clear cells."""
     if clear is None or len(points) == 0:
         return 0.0
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    x = pose[0] + c * points[:, 0] - s * points[:, 1]
-    y = pose[1] + s * points[:, 0] + c * points[:, 1]
+    x, y = transform_points(pose, points).T
     rows, cols = clear.world_to_cell(x, y)
     rows, cols = np.asarray(rows, dtype=int), np.asarray(cols, dtype=int)
     inside = (rows >= 0) & (rows < clear.height) & (cols >= 0) & (cols < clear.width)

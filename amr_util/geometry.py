@@ -122,6 +122,15 @@ def relative_pose(origin, target) -> Pose2D:
     return Pose2D(float(c * dx + s * dy), float(-s * dx + c * dy), float(wrap_angle(target[2] - origin[2])))
 
 
+def transform_points(pose, points: np.ndarray) -> np.ndarray:
+    """(N, 2) points given in the frame `pose` (x, y, theta) places, in its parent frame."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    return np.column_stack(
+        [pose[0] + c * points[:, 0] - s * points[:, 1], pose[1] + s * points[:, 0] + c * points[:, 1]]
+    )
+
+
 def map_to_odom(true_pose, odom_pose) -> Pose2D:
     """The odom frame in the map frame, from where the robot is (map) and where odometry puts it (odom):
     the map -> odom transform a localizer publishes (REP 105).

@@ -26,13 +26,6 @@ def finite(*values: float) -> bool:
     return all_finite(values)
 
 
-def transform_points(pose: Pose2D, points: np.ndarray) -> np.ndarray:
-    """(N, 2) points given in the frame `pose` places, in its parent frame."""
-    c, s = math.cos(pose.theta), math.sin(pose.theta)
-    rotation = np.array([[c, -s], [s, c]])
-    return points @ rotation.T + np.array([pose.x, pose.y])
-
-
 def scan_points(
     ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float, range_max: float
 ) -> np.ndarray:

@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from amr_util.geometry import Pose2D
+from amr_util.geometry import Pose2D, transform_points
 from amr_util.scan import ScanData
 from amr_viewer.cdr import StampedTransform
 from amr_viewer.frames import TransformTree
-from amr_viewer.geometry import covariance_ellipse, finite, scan_points, transform_points
+from amr_viewer.geometry import covariance_ellipse, finite, scan_points
 
 LAYERS = ("map", "robot", "truth", "scan", "particles", "estimate", "path", "goal", "world", "beacons", "trail")
 TRAIL_BREAK = 0.5

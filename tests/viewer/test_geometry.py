@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from amr_util.geometry import Pose2D, quaternion_from_yaw
+from amr_util.geometry import quaternion_from_yaw
 from amr_viewer.geometry import (
     PANEL_PIXELS,
     covariance_ellipse,
@@ -14,7 +14,6 @@ from amr_viewer.geometry import (
     oblique_camera,
     scan_points,
     top_down_camera,
-    transform_points,
     wxyz_of,
 )
 
@@ -25,16 +24,6 @@ RNG = np.random.default_rng(21)
 def test_wxyz_is_the_yaw_quaternion_in_visers_order(theta):
     w, x, y, z = wxyz_of(theta)
     assert (x, y, z, w) == pytest.approx(quaternion_from_yaw(theta))
-
-
-def test_points_are_placed_by_a_pose_as_its_matrix_does():
-    for _ in range(20):
-        pose = Pose2D(*RNG.uniform(-5, 5, 2), RNG.uniform(-math.pi, math.pi))
-        c, s = math.cos(pose.theta), math.sin(pose.theta)
-        matrix = np.array([[c, -s, pose.x], [s, c, pose.y], [0, 0, 1]])
-        points = RNG.uniform(-1, 1, (5, 2))
-        expected = (matrix @ np.column_stack([points, np.ones(5)]).T).T[:, :2]
-        assert transform_points(pose, points) == pytest.approx(expected)
 
 
 def test_scan_points_drop_invalid_returns():

@@ -5,11 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from amr_util.geometry import Pose2D, compose
+from amr_util.geometry import Pose2D, compose, transform_points
 from amr_util.scan import ScanData
 from amr_viewer.cdr import StampedTransform
 from amr_viewer.frames import TransformTree
-from amr_viewer.geometry import transform_points
 from amr_viewer.state import Estimate, RobotState, Scan, Trail, decimate, map_image
 
 RNG = np.random.default_rng(3)
