@@ -96,10 +96,8 @@ FIT_WINDOW = 0.06
 FIT_ANGLE = math.radians(4.0)
 """rad: ... and this of its heading."""
 REFIT_WINDOW = 0.1
-"""m: a place search's proposals are refitted within 3 sigma of the odometry since its scan, up to this; a search
-whose scan is further back than this does not cover the map (the truth may be among places it could not refit)."""
-REFIT_ANGLE = math.radians(4.0)
-"""rad: see REFIT_WINDOW."""
+"""m: a place search's proposals are refitted within 3 sigma of the odometry's position since its scan (at least the
+search's cell), up to this (and within FIT_ANGLE)."""
 FREE_PATH_MARGIN = 0.1
 """m: a beam of a place hypothesis that goes through a wall of the map this far short of its end point reads as a
 random reading (LikelihoodField.log_likelihood_free_path)."""
@@ -161,7 +159,7 @@ class _Seen(NamedTuple):
 @dataclass
 class _Search:
     """A place search under way: the odometry at its scan, and the variances (m^2, rad^2) the odometry motion model
-    has accumulated since (its proposals are moved by that odometry, and refitted within 3 sigma of it)."""
+    has accumulated since (its proposals are moved by that odometry, and refitted within 3 sigma of its position)."""
 
     search: GlobalSearch
     odometry: tuple[float, float, float]
@@ -619,7 +617,7 @@ class ParticleFilter:
         ranges = beams.ranges[beams.returned]
         return np.column_stack([sensor[0] + ranges * np.cos(angles), sensor[1] + ranges * np.sin(angles)])
 
-    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0, angle: float = 0.0) -> np.ndarray:
+    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0) -> np.ndarray:
         """Each pose moved to where the scan fits best within FIT_WINDOW and FIT_ANGLE (the matcher, below the cell):
         a place is scored at its best pose, so that two places the scans cannot tell apart score alike however their
         particles happen to spread."""
@@ -628,7 +626,7 @@ class ParticleFilter:
         fitted = poses.copy()
         for row, pose in enumerate(poses):
             match = self.matcher.match(
-                points, pose, max(FIT_WINDOW, window), max(FIT_ANGLE, angle), refine=True, covariance_cells=0
+                points, pose, max(FIT_WINDOW, window), FIT_ANGLE, refine=True, covariance_cells=0
             )
             if np.isfinite(match.pose).all():
                 fitted[row] = match.pose[0], match.pose[1], float(wrap_angle(match.pose[2]))
@@ -678,10 +676,9 @@ class ParticleFilter:
         self._covered = True
         poses = np.array([match.pose for match in running.search.matches(refine=False)]).reshape(-1, 3)
         poses = np.atleast_2d(compose(poses, relative_pose(running.odometry, self._odometry))).reshape(-1, 3)
-        # moved by the odometry since its scan, refitted within 3 sigma of it (at most REFIT_WINDOW, REFIT_ANGLE)
+        # moved by the odometry since its scan, refitted within 3 sigma of it (at most REFIT_WINDOW)
         window = min(max(3.0 * math.sqrt(running.position_variance), self._place_search_resolution), REFIT_WINDOW)
-        angle = min(max(3.0 * math.sqrt(running.heading_variance), FIT_ANGLE), REFIT_ANGLE)
-        return self._fitted(poses, seen, window, angle)
+        return self._fitted(poses, seen, window)
 
     def _window_points(self, seen: _Seen, resolution: float) -> np.ndarray:
         """(K, 2) the end points of the scan and of the window's scans before it, in the robot's frame now (the past
