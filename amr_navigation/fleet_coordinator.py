@@ -71,11 +71,11 @@ from amr_planning.fleet_plan import (
     improve,
     lattice,
     plan_lacam,
+    rotates,
+    space_time_path,  # A* over (vertex, step) under those constraints
+    trim,
 )
-from amr_planning.fleet_plan import _around as around  # one robot's space-time constraints from the others' paths
-from amr_planning.fleet_plan import _path as space_time_path  # A* over (vertex, step) under those constraints
-from amr_planning.fleet_plan import _rotates as rotates
-from amr_planning.fleet_plan import _trim as trim
+from amr_planning.fleet_plan import constraints_around as around  # one robot's space-time constraints from the others
 from amr_planning.planner import Planner
 from amr_util.scan import ScanData
 

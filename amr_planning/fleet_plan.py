@@ -350,7 +350,9 @@ class _Constraints:
         )
 
 
-def _path(graph: Lattice, start: int, goal: int, to_goal: np.ndarray, constraints: _Constraints) -> list[int] | None:
+def space_time_path(
+    graph: Lattice, start: int, goal: int, to_goal: np.ndarray, constraints: _Constraints
+) -> list[int] | None:
     """The shortest path in space and time from start to goal (one vertex per step, the goal held from its
     last step on) obeying the constraints: A*, the lattice distance to the goal as the heuristic; None if none."""
     if to_goal[start] < 0:
@@ -427,7 +429,7 @@ def _conflicts_of(paths: list[list[int]]):
                 moves[(u, v)] = i
 
 
-def _first_conflict(paths: list[list[int]]):
+def first_conflict(paths: list[list[int]]):
     """The earliest conflict of the paths (see _conflicts_of); None if none."""
     return next(_conflicts_of(paths), None)
 
@@ -476,7 +478,7 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
     constraints = [_Constraints() for _ in range(count)]
     paths = []
     for i in range(count):
-        path = _path(graph, starts[i], goals[i], to_goal[i], constraints[i])
+        path = space_time_path(graph, starts[i], goals[i], to_goal[i], constraints[i])
         if path is None:
             raise PlanningError(
                 Reason.UNREACHABLE,
@@ -488,7 +490,7 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
     expanded = 0
     while open_list:
         _, _, _, constraints, paths = heapq.heappop(open_list)
-        conflict = _first_conflict(paths)
+        conflict = first_conflict(paths)
         if conflict is None:
             return FleetPlan(graph, tuple(tuple(path) for path in paths), expanded)
         expanded += 1
@@ -504,7 +506,7 @@ def plan_together(graph: Lattice, starts: list[int], goals: list[int], max_nodes
             else:  # forbid the robot its own move of the swap
                 u, v = _at(paths[robot], step - 1), _at(paths[robot], step)
                 mine = _Constraints(mine.vertices, mine.edges | {(u, v, step)})
-            path = _path(graph, starts[robot], goals[robot], to_goal[robot], mine)
+            path = space_time_path(graph, starts[robot], goals[robot], to_goal[robot], mine)
             if path is None:
                 continue
             child_constraints = list(constraints)
@@ -754,7 +756,7 @@ def _lacam(graph: Lattice, starts, goals, to_goal, max_nodes: int, seed: int) ->
                 node = node.parent
             configs.reverse()
             paths = tuple(tuple(config[i] for config in configs) for i in range(count))
-            return FleetPlan(graph, tuple(_trim(path) for path in paths), generated)
+            return FleetPlan(graph, tuple(trim(path) for path in paths), generated)
         if not node.tree:
             stack.pop()
             continue
@@ -949,7 +951,7 @@ def _rotation(before, after) -> bool:
     return False
 
 
-def _trim(path: tuple[int, ...]) -> tuple[int, ...]:
+def trim(path: tuple[int, ...]) -> tuple[int, ...]:
     """The path without the steps it waits at its goal at the end."""
     return path[: _arrival(path) + 1]
 
@@ -970,19 +972,19 @@ def improve(plan: FleetPlan, rounds: int = 4) -> FleetPlan:
     for _ in range(rounds):
         changed = False
         for robot in sorted(range(len(paths)), key=lambda i: -_moves(paths[i])):
-            path = _fewest_moves(plan.graph, paths[robot][0], goals[robot], _around(paths, robot), horizon)
+            path = _fewest_moves(plan.graph, paths[robot][0], goals[robot], constraints_around(paths, robot), horizon)
             if path is not None and _moves(path) < _moves(paths[robot]):
                 kept, paths[robot] = paths[robot], path
-                if _rotates(paths):
+                if rotates(paths):
                     paths[robot] = kept  # it would close a rotation with the others: keep the old path
                 else:
                     changed = True
         if not changed:
             break
-    return FleetPlan(plan.graph, tuple(tuple(_trim(tuple(path))) for path in paths), plan.nodes)
+    return FleetPlan(plan.graph, tuple(tuple(trim(tuple(path))) for path in paths), plan.nodes)
 
 
-def _rotates(paths) -> bool:
+def rotates(paths) -> bool:
     """Some step of the paths is a rotation (see _rotation)."""
     length = max(len(path) for path in paths)
     return any(
@@ -1005,7 +1007,7 @@ def _fewest_moves(graph: Lattice, start: int, goal: int, constraints: _Constrain
     return _search(graph, start, goal, constraints, horizon, moves)
 
 
-def _around(paths: list[list[int]], robot: int) -> _Constraints:
+def constraints_around(paths: list[list[int]], robot: int) -> _Constraints:
     """The constraints that keep one robot clear of the others' paths: never at a vertex where one is, never
     swapping with one, never on a goal one has reached for good."""
     vertices, edges, held = set(), set(), []

@@ -12,7 +12,7 @@ from support.fleet_costmaps import ring_costmap
 from amr_maps.world import WorldError
 from amr_navigation.fleet_coordinator import FOLLOW, HOLD, FleetCoordinator, compute_plan
 from amr_navigation.fleet_file import FleetFileError, load_fleet
-from amr_planning.fleet_plan import _first_conflict
+from amr_planning.fleet_plan import first_conflict
 
 GOALS = {"r1": (1.0, 1.0), "r2": (-1.0, 1.0), "r3": (1.0, -1.0)}
 STARTS = {"r1": (-1.0, -1.0), "r2": (1.0, 1.0), "r3": (-1.0, 1.0)}
@@ -43,7 +43,7 @@ def test_a_jumped_robot_is_planned_again_alone_while_the_others_keep_their_route
     assert {route.state for route in routes.values()} == {FOLLOW}
     for robot in (0, 2):  # r1 and r3 go the same ways as before the replan
         assert np.allclose(coordinator.schedule.waypoints[robot], before[robot])
-    assert _first_conflict([list(path) for path in coordinator.schedule.plan.paths]) is None
+    assert first_conflict([list(path) for path in coordinator.schedule.plan.paths]) is None
     start = coordinator.schedule.plan.graph.points[coordinator.schedule.plan.vertices(1)[0]]
     assert np.hypot(start[0] - (x - 0.8), start[1] - y) < 0.4  # r2 planned from where it stands now
 
