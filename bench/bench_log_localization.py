@@ -4,10 +4,10 @@
                                                     [--seeds 0 1] [--ros]
 
 For each CARMEN log in DIR (default: ../shared/data/carmen beside the repository), the map is the log's own scans
-at their corrected poses (known-pose log-odds mapping, 5 cm cells), the odometry is synthesized from the corrected
-poses (amr_datasets.odometry defaults: 5 % noise, +1 % scale, 0.5 deg/m heading bias, seeded), and the shipped
-filter configuration runs one update per scan (amr_evaluation.log_localization). Prints per run: travel before
-`localized`, scans localized, declarations more than 0.5 m or 10 deg off, median error while localized, and the
+at their corrected poses (known-pose log-odds mapping, 5 cm cells, saved and loaded as map_server serves it), the
+odometry is synthesized from the corrected poses (amr_datasets.odometry defaults: 5 % noise, +1 % scale, 0.5 deg/m
+heading bias, seeded), and the shipped filter configuration runs one update per scan
+(amr_evaluation.log_localization). Prints per run: travel before `localized`, scans localized, declarations more than 0.5 m or 10 deg off, median error while localized, and the
 filter update's time (median, p95, max).
 
 --ros plays each log through the ROS nodes instead (log_player in lockstep into particle_filter on a map_server
@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 from pathlib import Path
 
 import yaml
@@ -27,6 +28,7 @@ import yaml
 from amr_datasets.carmen import read_carmen
 from amr_evaluation.log_localization import log_map, run_log
 from amr_localization.particle_filter_config import ParticleFilterConfig
+from amr_maps.map_io import load_map, save_map
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "carmen"
@@ -39,6 +41,13 @@ def shipped_filter_parameters() -> dict:
     ]
     names = {spec.name for spec in ParticleFilterConfig.parameter_specs()}
     return {name: value for name, value in values.items() if name in names}
+
+
+def served(grid):
+    """The map as map_server serves it (saved and loaded again), for the library run as for the ROS one."""
+    with tempfile.TemporaryDirectory() as directory:
+        save_map(grid, Path(directory) / "map.yaml")
+        return load_map(Path(directory) / "map.yaml", frame_id=grid.frame_id)
 
 
 def main() -> int:
@@ -58,7 +67,7 @@ def main() -> int:
     parameters = shipped_filter_parameters()
     for path in files:
         log = read_carmen(path)
-        grid = log_map(log)
+        grid = served(log_map(log))
         name = path.name.split("-")[0].split(".")[0]
         for mode in args.modes:
             for seed in args.seeds:

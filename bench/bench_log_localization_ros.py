@@ -22,8 +22,9 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from amr_datasets.odometry import OdometryNoiseModel
 from amr_datasets.player_node import LogPlayerNode
-from amr_evaluation.log_localization import LogRun, range_max
+from amr_evaluation.log_localization import LogRun, log_parameters, range_max
 from amr_interfaces.msg import LocalizedPose
 from amr_localization.particle_filter_node import ParticleFilterNode
 from amr_maps.map_io import save_map
@@ -39,12 +40,11 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
     context = rclpy.Context()
     rclpy.init(context=context)
     executor = SingleThreadedExecutor(context=context)
-    overrides = [Parameter(key, value=value) for key, value in parameters.items()]
+    values = log_parameters(log, parameters, seed, OdometryNoiseModel())  # the library run's (the player's noise)
+    overrides = [Parameter(key, value=value) for key, value in values.items()]
     overrides += [
         Parameter("map_yaml", value=str(directory / "map.yaml")),
-        Parameter("seed", value=seed),
         Parameter("laser_max_range", value=range_max(log)),
-        Parameter("lidar_x", value=0.0),
         Parameter("particle_cloud_period", value=3600.0),
     ]
     localizer = ParticleFilterNode(context=context, parameter_overrides=overrides)
