@@ -7,8 +7,8 @@ For each CARMEN log in DIR (default: ../shared/data/carmen beside the repository
 at their corrected poses (known-pose log-odds mapping, 5 cm cells, saved and loaded as map_server serves it), the
 odometry is synthesized from the corrected poses (amr_datasets.odometry defaults: 5 % noise, +1 % scale, 0.5 deg/m
 heading bias, seeded), and the shipped filter configuration runs one update per scan
-(amr_evaluation.log_localization). Prints per run: travel before `localized`, scans localized, declarations more than 0.5 m or 10 deg off, median error while localized, and the
-filter update's time (median, p95, max).
+(amr_evaluation.log_localization). Prints per run: travel before `localized`, scans localized, declarations more
+than 0.5 m or 10 deg off, median error while localized, and the filter update's time (median, p95, max).
 
 --ros plays each log through the ROS nodes instead (log_player in lockstep into particle_filter on a map_server
 file): the same figures from /pose against /ground_truth, plus the round trip (scan out, /pose in).
