@@ -3,7 +3,8 @@
 A viewer subscribed to /tf and /ground_truth sees every step of a lockstep run, and a /particle_cloud of 5,000
 particles is 280 kB; rclpy's deserialization makes a Python object per pose. These readers pull the few fields the
 view needs straight from the serialized bytes (XCDR1, as rmw_fastrtps writes it: a 4-byte encapsulation header,
-then fields aligned to their size from the end of that header); the particles come out as one numpy array.
+then fields aligned to their size from the end of that header); the particles come out as one numpy array, and so do
+a SLAM pose graph's nodes and edges and the explorer's frontiers.
 """
 
 from __future__ import annotations
@@ -71,6 +72,20 @@ class Reader:
         start = self._take(8, count) if count else self._position
         return np.frombuffer(self._data, dtype=np.dtype(self._order + "f8"), count=count, offset=start)
 
+    def uint32_array(self, count: int) -> np.ndarray:
+        start = self._take(4, count) if count else self._position
+        return np.frombuffer(self._data, dtype=np.dtype(self._order + "u4"), count=count, offset=start)
+
+    def bool_array(self, count: int) -> np.ndarray:
+        start = self._take(1, count)
+        return np.frombuffer(self._data, dtype=np.uint8, count=count, offset=start) != 0
+
+    def sequence_length(self, what: str, limit: int = 10_000_000) -> int:
+        count = self.uint32()
+        if count > limit:
+            raise CdrError(f"{what} of {count} elements")
+        return count
+
     def string(self) -> str:
         length = self.uint32()
         start = self._take(1, length)
@@ -116,3 +131,46 @@ def pose_array(data: bytes) -> tuple[Stamped, np.ndarray]:
     # amr_util.geometry.yaw_from_quaternion, for every pose at once
     yaw = np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
     return header, np.column_stack([values[:, 0], values[:, 1], yaw])
+
+
+class PoseGraphData(NamedTuple):
+    header: Stamped
+    poses: np.ndarray
+    """(N, 3) x, y, theta of the nodes"""
+    edge_from: np.ndarray
+    edge_to: np.ndarray
+    loop_closure: np.ndarray
+    """(M,) bool"""
+
+
+def pose_graph(data: bytes) -> PoseGraphData:
+    """amr_interfaces/PoseGraph (a SLAM graph: node poses as geometry_msgs/Pose2D, edges, which are loop closures)."""
+    reader = Reader(data)
+    header = reader.header()
+    count = reader.sequence_length("PoseGraph poses")
+    poses = reader.float64_array(3 * count).reshape(count, 3)
+    edge_from = reader.uint32_array(reader.sequence_length("PoseGraph edge_from"))
+    edge_to = reader.uint32_array(reader.sequence_length("PoseGraph edge_to"))
+    loop = reader.bool_array(reader.sequence_length("PoseGraph loop_closure"))
+    return PoseGraphData(header, poses, edge_from, edge_to, loop)
+
+
+class FrontiersData(NamedTuple):
+    header: Stamped
+    centroids: np.ndarray
+    """(K, 2) x, y (z dropped)"""
+    sizes: np.ndarray
+    chosen: int
+    blacklisted: int
+    state: str
+
+
+def frontiers(data: bytes) -> FrontiersData:
+    """amr_interfaces/Frontiers (frontier exploration's centroids, sizes, the chosen one, its state)."""
+    reader = Reader(data)
+    header = reader.header()
+    count = reader.sequence_length("Frontiers centroids")
+    centroids = reader.float64_array(3 * count).reshape(count, 3)[:, :2]
+    sizes = reader.uint32_array(reader.sequence_length("Frontiers sizes"))
+    chosen, blacklisted = reader.int32(), reader.uint32()
+    return FrontiersData(header, centroids, sizes, chosen, blacklisted, reader.string())

@@ -3,10 +3,11 @@
 Each robot has a colour of its own (ROBOT_COLORS, in the order the robots are first drawn): its disc, its trail and
 the name label above it; the other layers keep one colour per kind (scan red, path blue, ...).
 
-Everything lies on the floor (z = 0, the map) a few millimetres apart so nothing flickers: map, world goal, trail,
-path, particles, scan, estimate, goal, robot. Point clouds and line sets keep one colour each, so a new set of any
-size replaces the old in one message; the trail's full chunks are drawn once and never sent again. Without a GPU
-(a headless browser's software WebGL) rendering dominates: dots and short line sets keep it cheap.
+Everything lies on the floor (z = 0, the map) a few millimetres apart so nothing flickers: map, world goal, SLAM
+graph, trail, path, particles, scan, estimate, goal, frontiers, robot. Point clouds and line sets keep one colour
+each, so a new set of any size replaces the old in one message; the trail's full chunks are drawn once and never
+sent again. Without a GPU (a headless browser's software WebGL) rendering dominates: dots and short line sets keep
+it cheap. The SLAM graph's sequential edges and its loop closures are two line sets, so each keeps its colour.
 """
 
 from __future__ import annotations
@@ -35,6 +36,11 @@ COLORS = {
     "beacons": (250, 200, 0),
     "arm": (60, 60, 60),
     "joint": (236, 180, 0),
+    "graph_edges": (0, 150, 160),
+    "graph_nodes": (0, 95, 110),
+    "loop_closures": (235, 30, 140),
+    "frontiers": (250, 170, 0),
+    "chosen_frontier": (215, 60, 0),
 }
 ROBOT_COLORS = (
     (40, 90, 200),
@@ -50,6 +56,7 @@ ROBOT_COLORS = (
 ROBOT_COLOR_NAMES = ("blue", "orange", "green", "purple", "brown", "cyan", "grey", "olive")
 HEIGHTS = {
     "world_goal": 0.002,
+    "graph": 0.003,
     "trail": 0.004,
     "path": 0.006,
     "particles": 0.008,
@@ -57,12 +64,13 @@ HEIGHTS = {
     "estimate": 0.012,
     "goal": 0.014,
     "beacons": 0.02,
+    "frontiers": 0.016,
     "robot": 0.0,
 }
 CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * math.pi, 41)), np.sin(np.linspace(0, 2 * math.pi, 41))])
 LINE = 0.012
 """m, the thickness of drawn lines."""
-TOGGLED = ("particles", "scan", "trail", "truth", "path", "labels")
+TOGGLED = ("map", "graph", "frontiers", "particles", "scan", "trail", "truth", "path", "labels")
 """Layers a user can hide."""
 MAP_PIXELS, MAP_UPSCALE = 1024, 8
 """A map image is repeated (nearest cell) up to about MAP_PIXELS on its long side, at most MAP_UPSCALE times."""
@@ -90,6 +98,12 @@ def arrow(pose: Pose2D, length: float) -> np.ndarray:
     base = np.array([pose.x, pose.y])
     barbs = [tip - 0.35 * length * np.array([math.cos(pose.theta + s), math.sin(pose.theta + s)]) for s in (0.5, -0.5)]
     return np.array([[base, tip], [tip, barbs[0]], [tip, barbs[1]]])
+
+
+def cross(center, size: float) -> np.ndarray:
+    """A cross at `center` as (2, 2, 2) segments."""
+    x, y = float(center[0]), float(center[1])
+    return np.array([[[x - size, y], [x + size, y]], [[x, y - size], [x, y + size]]])
 
 
 def circle(x: float, y: float, radius: float) -> np.ndarray:
@@ -139,9 +153,11 @@ class Scene:
             "map",
             "world",
             "beacons",
+            "graph",
             "path",
             "goal",
             "trail",
+            "frontiers",
             "particles",
             "scan",
             "estimate",
@@ -253,6 +269,36 @@ class Scene:
             return
         outline = polyline(circle(goal.x, goal.y, goal.radius), HEIGHTS["world_goal"])
         self._segments(f"{root}/world_goal", outline, COLORS["world_goal"], 2 * LINE)
+
+    def _draw_graph(self, state: RobotState, root: str) -> None:
+        """The SLAM pose graph: its sequential edges, its loop closures (thicker, in their own colour) and its nodes
+        as dots."""
+        graph, z = state.graph, HEIGHTS["graph"]
+        if graph is None:
+            for part in ("edges", "loops", "nodes"):
+                self._drop(f"{root}/graph/{part}")
+            return
+        self._segments(f"{root}/graph/edges", segments_at(graph.segments(False), z), COLORS["graph_edges"], 0.8 * LINE)
+        self._segments(
+            f"{root}/graph/loops", segments_at(graph.segments(True), z + 0.0005), COLORS["loop_closures"], 1.2 * LINE
+        )
+        self._cloud(f"{root}/graph/nodes", points3(graph.poses[:, :2], z + 0.001), COLORS["graph_nodes"], 0.035)
+
+    def _draw_frontiers(self, state: RobotState, root: str) -> None:
+        """The explorer's frontiers: a dot at each centroid, the chosen one ringed."""
+        frontiers, z = state.frontiers, HEIGHTS["frontiers"]
+        if frontiers is None:
+            self._drop(f"{root}/frontiers/centroids")
+            self._drop(f"{root}/frontiers/chosen")
+            return
+        self._cloud(f"{root}/frontiers/centroids", points3(frontiers.centroids, z), COLORS["frontiers"], 0.09)
+        chosen = frontiers.chosen_centroid
+        if chosen is None:
+            self._drop(f"{root}/frontiers/chosen")
+            return
+        ring = circle(float(chosen[0]), float(chosen[1]), 0.12)
+        rings = np.concatenate([np.stack([ring[:-1], ring[1:]], axis=1), cross(chosen, 0.12)])
+        self._segments(f"{root}/frontiers/chosen", segments_at(rings, z), COLORS["chosen_frontier"], 2 * LINE)
 
     def _draw_beacons(self, state: RobotState, root: str) -> None:
         self._cloud(f"{root}/beacons", points3(state.beacons, HEIGHTS["beacons"]), COLORS["beacons"], 0.09)

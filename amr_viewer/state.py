@@ -4,6 +4,9 @@ One RobotState per namespace (a fleet draws every one). Inputs arrive decoded (a
 each layer keeps a version number that changes when it does, so the scene redraws only what changed. The robot is
 placed through TF (map -> odom -> base_footprint; without a map -> odom, odometry is drawn as if it were the map, as
 the simulator starts it), else at its ground truth; the scan through TF at the scan's frame.
+
+A map, a SLAM pose graph or the explorer's frontiers in a frame that is not the robot's map frame, or holding a
+non-finite value, is not drawn: the input raises Skipped (its `kind` says why) and the state keeps what it had.
 """
 
 from __future__ import annotations
@@ -21,11 +24,34 @@ from amr_viewer.cdr import StampedTransform
 from amr_viewer.frames import TransformTree
 from amr_viewer.geometry import covariance_ellipse, finite, scan_points
 
-LAYERS = ("map", "robot", "truth", "scan", "particles", "estimate", "path", "goal", "world", "beacons", "trail")
+LAYERS = (
+    "map",
+    "robot",
+    "truth",
+    "scan",
+    "particles",
+    "estimate",
+    "path",
+    "goal",
+    "world",
+    "beacons",
+    "trail",
+    "graph",
+    "frontiers",
+)
 TRAIL_BREAK = 0.5
 """m: a jump longer than this between two trail points (a reset, a teleport) is not drawn as a line."""
 TRUTH_HISTORY = 400
 """Ground-truth poses kept by stamp, so the true-pose ring is drawn at the instant of the robot's transform."""
+
+
+class Skipped(ValueError):
+    """A message that is not drawn; `kind` is why: "frame" (not the map frame), "nan" (a non-finite value) or
+    "malformed" (sizes or indices that do not agree)."""
+
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
 
 
 @dataclass(frozen=True)
@@ -63,12 +89,14 @@ FREE_GRAY, OCCUPIED_GRAY, UNKNOWN_GRAY = 250, 45, 200
 
 def map_image(width: int, height: int, resolution: float, origin: Pose2D, data) -> MapImage:
     """An OccupancyGrid's cells (row-major from cell (0, 0)) as gray levels: free light, occupied dark, unknown
-    mid-gray; ValueError naming what is wrong with the grid."""
-    if width <= 0 or height <= 0 or not (resolution > 0.0 and math.isfinite(resolution)) or not finite(*origin):
-        raise ValueError(f"map of {width} x {height} cells at {resolution} m from {tuple(origin)}: not drawable")
+    mid-gray; Skipped (a ValueError) naming what is wrong with the grid."""
+    if not finite(resolution, *origin):
+        raise Skipped("nan", f"map at {resolution} m per cell from {tuple(origin)}: not finite")
+    if width <= 0 or height <= 0 or not resolution > 0.0:
+        raise Skipped("malformed", f"map of {width} x {height} cells at {resolution} m: not drawable")
     cells = np.asarray(data, dtype=np.int16)
     if cells.size != width * height:
-        raise ValueError(f"map data holds {cells.size} cells, {width} x {height} = {width * height} expected")
+        raise Skipped("malformed", f"map data holds {cells.size} cells, {width} x {height} = {width * height} expected")
     cells = cells.reshape(height, width)
     known = np.clip(cells, 0, 100).astype(float) / 100.0
     gray = FREE_GRAY + (OCCUPIED_GRAY - FREE_GRAY) * known
@@ -98,6 +126,84 @@ class WorldGoal:
     x: float
     y: float
     radius: float
+
+
+@dataclass(frozen=True)
+class PoseGraphView:
+    """A SLAM pose graph as drawn: node poses and edges (node index pairs), which are loop closures."""
+
+    poses: np.ndarray
+    """(N, 3) x, y, theta in the map frame"""
+    edges: np.ndarray
+    """(M, 2) int"""
+    loop: np.ndarray
+    """(M,) bool"""
+
+    @property
+    def loop_closures(self) -> int:
+        return int(self.loop.sum())
+
+    def segments(self, loop: bool) -> np.ndarray:
+        """(K, 2, 2) the sequential edges (loop False) or the loop closures (True) as segments."""
+        edges = self.edges[self.loop == loop]
+        return self.poses[:, :2][edges]
+
+
+def pose_graph_view(poses, edge_from, edge_to, loop) -> PoseGraphView:
+    """The arrays of an amr_interfaces/PoseGraph checked: Skipped for a non-finite pose ("nan"), edge arrays of
+    different lengths or an edge to a node that is not there ("malformed")."""
+    poses = np.array(poses, dtype=float).reshape(-1, 3)
+    edge_from, edge_to = np.asarray(edge_from, dtype=np.int64).ravel(), np.asarray(edge_to, dtype=np.int64).ravel()
+    loop = np.asarray(loop, dtype=bool).ravel()
+    if not np.isfinite(poses).all():
+        bad = int(np.flatnonzero(~np.isfinite(poses).all(axis=1))[0])
+        raise Skipped("nan", f"pose graph node {bad} of {len(poses)} is {tuple(poses[bad].tolist())}: not finite")
+    if not len(edge_from) == len(edge_to) == len(loop):
+        raise Skipped(
+            "malformed",
+            f"pose graph of {len(edge_from)} edge_from, {len(edge_to)} edge_to, {len(loop)} loop_closure: "
+            "one per edge expected",
+        )
+    edges = np.column_stack([edge_from, edge_to]).reshape(-1, 2)
+    if len(edges) and (edges.min() < 0 or edges.max() >= len(poses)):
+        bad = int(np.flatnonzero((edges < 0).any(axis=1) | (edges >= len(poses)).any(axis=1))[0])
+        raise Skipped(
+            "malformed", f"pose graph edge {bad} joins nodes {tuple(edges[bad].tolist())}: there are {len(poses)} nodes"
+        )
+    return PoseGraphView(poses, edges, loop)
+
+
+@dataclass(frozen=True)
+class FrontierView:
+    """Frontier exploration's state as drawn: each frontier's centroid and size, the one driven to."""
+
+    centroids: np.ndarray
+    """(K, 2) in the map frame"""
+    sizes: np.ndarray
+    """(K,) cells"""
+    chosen: int
+    """index of the frontier driven to, -1 for none"""
+    blacklisted: int
+    state: str
+
+    @property
+    def chosen_centroid(self) -> np.ndarray | None:
+        return self.centroids[self.chosen] if 0 <= self.chosen < len(self.centroids) else None
+
+
+def frontier_view(centroids, sizes, chosen: int, blacklisted: int, state: str) -> FrontierView:
+    """The fields of an amr_interfaces/Frontiers checked: Skipped for a non-finite centroid ("nan"), sizes not one
+    per centroid or a chosen index that is not a frontier's ("malformed")."""
+    centroids = np.array(centroids, dtype=float).reshape(-1, 2)
+    sizes = np.array(sizes, dtype=np.int64).ravel()
+    if not np.isfinite(centroids).all():
+        bad = int(np.flatnonzero(~np.isfinite(centroids).all(axis=1))[0])
+        raise Skipped("nan", f"frontier {bad} of {len(centroids)} at {tuple(centroids[bad].tolist())}: not finite")
+    if len(sizes) != len(centroids):
+        raise Skipped("malformed", f"{len(sizes)} frontier sizes for {len(centroids)} centroids")
+    if not -1 <= chosen < len(centroids):
+        raise Skipped("malformed", f"chosen frontier {chosen} of {len(centroids)}")
+    return FrontierView(centroids, sizes, int(chosen), int(blacklisted), str(state))
 
 
 def decimate(points: np.ndarray, limit: int) -> np.ndarray:
@@ -187,6 +293,10 @@ class RobotState:
         self.beacons: np.ndarray = np.zeros((0, 2))
         self.trail = Trail(spacing=trail_spacing)
         self.status: dict = {}
+        self.graph: PoseGraphView | None = None
+        self.frontiers: FrontierView | None = None
+        self.skipped: Counter[str] = Counter()
+        """layer -> messages not drawn (Skipped: a wrong frame, a non-finite value, malformed)"""
 
     def _changed(self, *layers: str) -> None:
         for layer in layers:
@@ -204,11 +314,38 @@ class RobotState:
             return self.prefixed_frames
         return self.plain_frames
 
+    @property
+    def map_frames(self) -> tuple[str, ...]:
+        """The frames a map, a graph or frontiers may be in: the map frame ("" is read as it, as amr_maps.messages
+        reads a grid) or, in a namespace, the map frame prefixed by it."""
+        prefix = self.namespace.strip("/")
+        plain = self.plain_frames.map.lstrip("/")
+        return ("", plain, f"{prefix}/{plain}") if prefix else ("", plain)
+
+    def check_frame(self, frame_id: str, what: str) -> None:
+        """Skipped ("frame") unless `frame_id` is one of map_frames."""
+        if frame_id.lstrip("/") not in self.map_frames:
+            raise Skipped("frame", f"{what} in frame {frame_id!r}, not {self.plain_frames.map!r}: not drawn")
+
     # -- inputs -------------------------------------------------------------------------------------------------
 
-    def on_map(self, image: MapImage) -> None:
+    def on_map(self, image: MapImage, frame_id: str = "") -> None:
+        """A new map replaces the one drawn (a SLAM map grows: each /map is the whole map so far)."""
+        self.check_frame(frame_id, "map")
         self.map = image
         self._changed("map")
+
+    def on_graph(self, graph: PoseGraphView, frame_id: str = "") -> None:
+        """A SLAM pose graph (amr_mapping's slam ~/graph) replaces the one drawn."""
+        self.check_frame(frame_id, "pose graph")
+        self.graph = graph
+        self._changed("graph")
+
+    def on_frontiers(self, frontiers: FrontierView, frame_id: str = "") -> None:
+        """The explorer's frontiers (amr_mapping's explorer ~/frontiers) replace the ones drawn."""
+        self.check_frame(frame_id, "frontiers")
+        self.frontiers = frontiers
+        self._changed("frontiers")
 
     def on_transforms(self, transforms: list[StampedTransform]) -> None:
         changed = False

@@ -44,3 +44,23 @@ def offset_text(offset: float | None) -> str | None:
     if offset is None:
         return None
     return f"disc {100.0 * offset:.0f} cm from the true ring (localization error)"
+
+
+def mapping_texts(graph, frontiers, skipped: Mapping[str, int]) -> list[str]:
+    """A robot's SLAM graph (amr_viewer.state.PoseGraphView), its explorer's frontiers (FrontierView) and the
+    messages not drawn, as the status panel says them; nothing for what there is not."""
+    texts = []
+    if graph is not None:
+        texts.append(f"graph {len(graph.poses)} nodes, {len(graph.edges)} edges, {graph.loop_closures} loop closures")
+    if frontiers is not None:
+        texts.append(
+            f"explorer {frontiers.state}: {len(frontiers.centroids)} frontiers"
+            + (", one chosen" if frontiers.chosen_centroid is not None else "")
+            + (f", {frontiers.blacklisted} given up" if frontiers.blacklisted else "")
+        )
+    texts.extend(
+        f"{count} {layer} message{'s' if count > 1 else ''} not drawn (see the log)"
+        for layer, count in sorted(skipped.items())
+        if count
+    )
+    return texts

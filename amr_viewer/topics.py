@@ -8,7 +8,7 @@ single robot of today's stacks.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 ROBOT_MARKERS = {
@@ -27,6 +27,10 @@ EMPTY = "std_srvs/srv/Empty"
 GLOBAL_LOCALIZATION = "reinitialize_global_localization"
 """A localizer's service that spreads its estimate over the map again (nav2 AMCL's name; our particle filter's)."""
 GET_STATE = "lifecycle_msgs/srv/GetState"
+POSE_GRAPH = "amr_interfaces/msg/PoseGraph"
+"""A SLAM node's graph for viewers (amr_mapping's slam: `<ns>/slam/graph`)."""
+FRONTIERS = "amr_interfaces/msg/Frontiers"
+"""Frontier exploration's state (amr_mapping's explorer: `<ns>/explorer/frontiers`)."""
 
 
 def split(name: str) -> tuple[str, str]:
@@ -100,6 +104,16 @@ def lifecycle_nodes(services: Iterable[tuple[str, Iterable[str]]]) -> list[str]:
     return sorted(
         split(name)[0] for name, types in services if split(name)[1] == "get_state" and GET_STATE in set(types)
     )
+
+
+def node_topic(topics: Mapping[str, Iterable[str]], namespace: str, leaf: str, kind: str) -> str | None:
+    """A node's private topic `<namespace>/<node>/<leaf>` of type `kind` (the first by name; None if there is
+    none): a SLAM node or an explorer by another name than the suite's."""
+    for name in sorted(topics):
+        node, found = split(name)
+        if found == leaf and node and split(node)[0] == namespace and kind in set(topics[name]):
+            return name
+    return None
 
 
 def full_name(name: str, namespace: str) -> str:

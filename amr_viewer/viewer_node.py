@@ -21,7 +21,7 @@ import math
 import queue
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 
 from geometry_msgs.msg import PoseArray, PoseStamped, PoseWithCovarianceStamped
 from lifecycle_msgs.srv import GetState
@@ -36,7 +36,7 @@ from sensor_msgs.msg import JointState, LaserScan
 from std_srvs.srv import Empty, Trigger
 from tf2_msgs.msg import TFMessage
 
-from amr_interfaces.msg import BeaconRanges, LocalizedPose, SimulatorStatus
+from amr_interfaces.msg import BeaconRanges, Frontiers, LocalizedPose, PoseGraph, SimulatorStatus
 from amr_maps.world import load_world, resolve_world_path
 from amr_util.geometry import Pose2D
 from amr_util.managed_node import ManagedNode, run
@@ -48,7 +48,7 @@ from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool
 from amr_viewer.geometry import floor_point, free_share, oblique_camera, top_down_camera
 from amr_viewer.parameters import entry_from, value_of, visible
-from amr_viewer.state import Frames, RobotState, WorldGoal
+from amr_viewer.state import Frames, RobotState, Skipped, WorldGoal, frontier_view, pose_graph_view
 
 NODE_NAME = "viewer"
 TF_STATIC = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -120,7 +120,14 @@ class RobotLink:
         "beacons": (BeaconRanges, reliable(10), False),
         "map": (OccupancyGrid, LATCHED, False),
         "simulator/status": (SimulatorStatus, reliable(10), False),
+        "slam/graph": (PoseGraph, reliable(2), False),
+        "explorer/frontiers": (Frontiers, reliable(2), False),
     }
+    TYPED = {"slam/graph": topics.POSE_GRAPH, "explorer/frontiers": topics.FRONTIERS}
+    """Leaves found by type when the suite's node name is not in the graph (a SLAM node or explorer named
+    otherwise in the robot's namespace)."""
+    LAYER = {"slam/graph": "graph", "explorer/frontiers": "frontiers"}
+    """Leaf -> the RobotState layer it feeds, where the names differ."""
 
     def __init__(self, node: ViewerNode, namespace: str, graph: set[str]) -> None:
         self.node, self.namespace = node, namespace
@@ -142,10 +149,17 @@ class RobotLink:
     def subscriptions(self) -> list:
         return [*self._raw_subscriptions.values(), self._goal_subscription]
 
-    def topic_of(self, leaf: str, graph: set[str]) -> str:
+    def topic_of(self, leaf: str, graph: Collection[str]) -> str:
         """The topic of `leaf` for this robot: in its namespace; a fleet robot's map and tree are the root's until
-        its own appear (then kept), its simulator status is `<ns>/status` once that appears (docs/fleet.md)."""
+        its own appear (then kept), its simulator status is `<ns>/status` once that appears (docs/fleet.md); the
+        SLAM graph and the frontiers are the suite's node names' (`slam/graph`, `explorer/frontiers`), else a
+        topic of their type under another node of the namespace when `graph` maps names to types."""
         own, current = topics.join(self.namespace, leaf), self.topics.get(leaf)
+        if leaf in self.TYPED:
+            if own in graph or (current is not None and current in graph):
+                return own if own in graph else current
+            found = topics.node_topic(graph, self.namespace, leaf.rpartition("/")[2], self.TYPED[leaf])
+            return found or current or own
         if not self.namespace:
             return own
         if leaf in ("map", "tf", "tf_static"):
@@ -155,7 +169,7 @@ class RobotLink:
             return status if status in graph or current == status else own
         return own
 
-    def refresh(self, graph: set[str]) -> list[str]:
+    def refresh(self, graph: Collection[str]) -> list[str]:
         """Subscribe each topic to what the graph now names (a fleet robot is often found by its filter's topics
         before its simulator publishes its own tf and status); returns the leaves resubscribed."""
         changed = []
@@ -182,13 +196,18 @@ class RobotLink:
 
     def decode(self) -> None:
         """Feed the raw messages kept since the last call to the state (one bad message is skipped, with a
-        ValueError naming it raised at the end)."""
+        ValueError naming it raised at the end; a map, graph or frontiers in a wrong frame or with a non-finite
+        value is counted in state.skipped and told to the node, which logs it once)."""
         state, problems = self.state, []
         for leaf, buffer in self.raw.items():
             while buffer:
                 data = buffer.popleft()
                 try:
                     self._feed(leaf, data)
+                except Skipped as error:
+                    layer = self.LAYER.get(leaf, leaf)
+                    state.skipped[layer] += 1
+                    self.node.report_skipped(self.namespace, layer, error)
                 except Exception as error:  # a malformed message must not stop the view
                     problems.append(f"{leaf}: {type(error).__name__}: {error}")
         if problems:
@@ -202,6 +221,20 @@ class RobotLink:
             state.on_ground_truth(cdr.odometry_pose(data))
         elif leaf == "particle_cloud":
             state.on_particles(cdr.pose_array(data)[1])
+        elif leaf == "map":
+            grid = deserialize_message(data, OccupancyGrid)
+            state.check_frame(grid.header.frame_id, "map")
+            state.on_map(messages.occupancy_grid(grid), grid.header.frame_id)
+        elif leaf == "slam/graph":
+            graph = cdr.pose_graph(data)
+            state.check_frame(graph.header.frame_id, "pose graph")
+            view = pose_graph_view(graph.poses, graph.edge_from, graph.edge_to, graph.loop_closure)
+            state.on_graph(view, graph.header.frame_id)
+        elif leaf == "explorer/frontiers":
+            found = cdr.frontiers(data)
+            state.check_frame(found.header.frame_id, "frontiers")
+            view = frontier_view(found.centroids, found.sizes, found.chosen, found.blacklisted, found.state)
+            state.on_frontiers(view, found.header.frame_id)
         else:
             convert, take = DECODED[leaf]
             getattr(state, take)(convert(deserialize_message(data, self.RAW_TOPICS[leaf][0])))
@@ -212,7 +245,6 @@ DECODED = {
     "pose": (messages.localized_pose, "on_estimate"),
     "path": (messages.path_points, "on_path"),
     "beacons": (messages.beacon_positions, "on_beacons"),
-    "map": (messages.occupancy_grid, "on_map"),
     "simulator/status": (messages.simulator_status, "on_status"),
 }
 """Leaf -> (converter to plain data, RobotState method) of the topics deserialized by rclpy (the others are decoded
@@ -269,7 +301,10 @@ class ViewerNode(ManagedNode):
         self._timers: list = []
         self._framed: set[int] = set()
         self._last_status = 0.0
-        self._graph: set[str] = set()
+        self._graph: dict[str, set[str]] = {}
+        """topic name -> its types, at the last look at the graph"""
+        self._reported: set[tuple[str, str, str]] = set()
+        """(namespace, layer, kind) of the messages not drawn that were logged (each once)"""
         self.paused: bool | None = None
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._pose_publishers: dict[str, object] = {}
@@ -443,7 +478,7 @@ class ViewerNode(ManagedNode):
     def _discover(self) -> None:
         graph_topics = self.get_topic_names_and_types()
         services = self.get_service_names_and_types()
-        self._graph = {name for name, _ in graph_topics}
+        self._graph = {name: set(types) for name, types in graph_topics}
         wanted = set(self.get_parameter("namespaces").value)
         for link in self.robots.values():
             for leaf in link.refresh(self._graph):
@@ -558,6 +593,16 @@ class ViewerNode(ManagedNode):
 
     # -- drawing ----------------------------------------------------------------------------------------------
 
+    def report_skipped(self, namespace: str, layer: str, error: Skipped) -> None:
+        """A message not drawn (a wrong frame, a non-finite value): logged the first time for each robot, layer and
+        reason; the status panel counts them."""
+        key = (namespace, layer, error.kind)
+        if key not in self._reported:
+            self._reported.add(key)
+            self.get_logger().warning(
+                f"robot {namespace or '/'}: {error} (skipped; said once, later ones are counted in the status panel)"
+            )
+
     def _draw(self) -> None:
         self.pending.poll()
         drawing = bool(self.server.get_clients())
@@ -646,6 +691,7 @@ class ViewerNode(ManagedNode):
             offset = status.offset_text(state.drawn_offset())
             if offset is not None:
                 details.append(offset)
+            details.extend(status.mapping_texts(state.graph, state.frontiers, state.skipped))
             lines.append(title + (": " + "; ".join(details) if details else ""))
         for node, arms in self.arms.items():
             lines.append(f"**arms of {node}**: {', '.join(arms.arms)}")
