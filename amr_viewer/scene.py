@@ -278,9 +278,9 @@ class Scene:
             for part in ("edges", "loops", "nodes"):
                 self._drop(f"{root}/graph/{part}")
             return
-        self._segments(f"{root}/graph/edges", segments_at(graph.segments(False), z), COLORS["graph_edges"], 0.8 * LINE)
+        self._segments(f"{root}/graph/edges", segments_at(graph.segments(False), z), COLORS["graph_edges"], LINE)
         self._segments(
-            f"{root}/graph/loops", segments_at(graph.segments(True), z + 0.0005), COLORS["loop_closures"], 1.2 * LINE
+            f"{root}/graph/loops", segments_at(graph.segments(True), z + 0.0005), COLORS["loop_closures"], 2 * LINE
         )
         self._cloud(f"{root}/graph/nodes", points3(graph.poses[:, :2], z + 0.001), COLORS["graph_nodes"], 0.035)
 

@@ -1,12 +1,14 @@
 """The viewer in a real browser: Playwright drives Debian's chromium (headless, offline) against running stacks.
 
 `amr-bringup maze_navigation --composed --view` (one stack for the module), `amr-bringup fleet_navigation
---composed --view` (four robots) and `amr-bringup ik_service --view`; a probe node in this process watches /clock,
+--composed --view` (four robots), `amr-bringup maze_mapping --composed --view` (SLAM) and `amr-bringup ik_service
+--view`; a probe node in this process watches /clock,
 the ground truths, /goal_pose and the nodes' parameters. Every wait polls for what it waits for (a drawing waits
 until two screenshots agree). Without /usr/bin/chromium (AMR_CHROMIUM names another) or playwright the whole module
 is skipped with one line saying how to install it.
-AMR_VIEWER_SCREENSHOT=docs/viewer.png and AMR_VIEWER_FLEET_SCREENSHOT=docs/viewer_fleet.png keep the screenshots
-of the one-robot and the fleet views there.
+AMR_VIEWER_SCREENSHOT=docs/viewer.png, AMR_VIEWER_FLEET_SCREENSHOT=docs/viewer_fleet.png and
+AMR_VIEWER_MAPPING_SCREENSHOT=docs/viewer_mapping.png keep the screenshots of the one-robot, the fleet and the
+mapping views there (the mapping one after the first loop closure).
 """
 
 from __future__ import annotations
@@ -38,13 +40,14 @@ from rosgraph_msgs.msg import Clock
 from support.ros import fresh_domain
 from support.waiting import poll_until
 
+from amr_interfaces.msg import Frontiers, PoseGraph
 from amr_interfaces.srv import SolveIK
 from amr_util.environment import child_environment
 from amr_util.qos import LATCHED, reliable
 from amr_viewer.geometry import free_share, top_down_camera
 from amr_viewer.messages import occupancy_grid
 from amr_viewer.parameters import value_of
-from amr_viewer.scene import ROBOT_COLORS
+from amr_viewer.scene import COLORS, ROBOT_COLORS
 
 CHROMIUM = Path(os.environ.get("AMR_CHROMIUM", "/usr/bin/chromium"))
 if not CHROMIUM.exists():
@@ -101,8 +104,13 @@ def quiet(values: list, period: float, timeout: float = WAIT, what: str = "quiet
 
 
 class Probe(Node):
-    def __init__(self, context, robots: tuple[str, ...] = ()) -> None:
+    def __init__(self, context, robots: tuple[str, ...] = (), mapping: bool = False) -> None:
         super().__init__("viewer_test_probe", context=context)
+        self.graphs: list[PoseGraph] = []
+        self.frontiers: list[Frontiers] = []
+        if mapping:  # amr_mapping's slam and explorer
+            self.create_subscription(PoseGraph, "/slam/graph", self.graphs.append, reliable(10))
+            self.create_subscription(Frontiers, "/explorer/frontiers", self.frontiers.append, reliable(10))
         self.fleet: dict[str, list[tuple[float, float]]] = {robot: [] for robot in robots}
         for robot in robots:
             poses = self.fleet[robot]
@@ -152,13 +160,13 @@ class Stack:
     ATTEMPTS = 3
     """startups tried when the viewer lost its port to another process"""
 
-    def __init__(self, name: str, tmp: Path, *extra: str, robots: tuple[str, ...] = ()) -> None:
+    def __init__(self, name: str, tmp: Path, *extra: str, robots: tuple[str, ...] = (), mapping: bool = False) -> None:
         self.domain = fresh_domain()
         self.log = tmp / f"{name}.log"
         self.process = None
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=self.domain)
-        self.probe = Probe(self.context, robots)
+        self.probe = Probe(self.context, robots, mapping)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.probe)
         self._spinner = threading.Thread(target=self._spin, daemon=True)
@@ -439,6 +447,68 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
             )
             changed = (np.abs(shown[window].astype(int) - unlabelled[window].astype(int)).sum(axis=2) > 60).sum()
             assert changed > 20, f"{robot}'s name label above it ({changed} pixels changed when hidden)"
+        resume(browser)
+        assert browser.failed == [] and browser.errors == []
+    finally:
+        if browser is not None:
+            browser.close()
+        stack.stop()
+
+
+def colored(image: np.ndarray, color: tuple[int, int, int], tolerance: int = 60) -> int:
+    """Pixels of `image` within `tolerance` (summed over R, G, B) of `color`."""
+    return int((np.abs(image.astype(int) - color).sum(axis=2) < tolerance).sum())
+
+
+def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(playwright, tmp_path):
+    """maze_mapping (slam, explorer) on inner_maze: the map slam has made so far, its graph and the frontiers; each
+    layer goes with its checkbox."""
+    stack = Stack("maze_mapping", tmp_path, "--composed", "-p", "simulator.pace:=2.0", mapping=True)
+    browser = None
+    wanted = os.environ.get("AMR_VIEWER_MAPPING_SCREENSHOT")
+    try:
+        probe = stack.probe
+        browser = Browser(playwright, stack.url)
+        wait_for(
+            lambda: (
+                len(probe.graphs) > 2
+                and len(probe.graphs[-1].poses) >= 8
+                and any(f.chosen >= 0 and len(f.centroids) > 1 for f in probe.frontiers)
+            ),
+            STARTUP,
+            "a graph of 8 nodes and frontiers with one chosen",
+        )
+        if wanted:  # the docs' picture: after the first loop closure
+            wait_for(lambda: any(probe.graphs[-1].loop_closure), 600.0, "a loop closure")
+        browser.reply("loop closures")  # the status panel says the graph ...
+        browser.reply("frontiers")  # ... and the explorer
+        browser.hide_notifications()
+        pause(browser, probe)
+        browser.toggle_folder("View")
+        browser.button("Top view").click()  # the camera over the map as it is now
+        browser.toggle_folder("View")
+        browser.page.mouse.move(0, 0)
+        shown = browser.settled()
+        shot = tmp_path / "viewer_mapping.png"
+        browser.page.screenshot(path=str(shot), timeout=120000)
+        if wanted:
+            shutil.copy(shot, wanted)
+        scene = shown[:, : int(free_share(shown.shape[1]) * shown.shape[1])]
+        counts = {
+            layer: colored(scene, COLORS[layer])
+            for layer in ("graph_edges", "graph_nodes", "frontiers", "chosen_frontier")
+        }
+        assert counts["graph_edges"] + counts["graph_nodes"] > 100, f"the pose graph is drawn: {counts}"
+        assert counts["frontiers"] > 20 and counts["chosen_frontier"] > 5, f"the frontiers are drawn: {counts}"
+        free, unknown = colored(scene, (250, 250, 250), 15), colored(scene, (200, 200, 200), 15)
+        assert free > 1000 and unknown > 1000, f"the map: {free} free and {unknown} unknown pixels"
+        browser.toggle_folder("View")
+        for layer, colors in (("graph", ("graph_edges", "graph_nodes")), ("frontiers", ("frontiers",))):
+            browser.page.get_by_label(f"Show {layer}").uncheck()
+            hidden = browser.settled()[:, : scene.shape[1]]
+            left = sum(colored(hidden, COLORS[color]) for color in colors)
+            assert left < 0.2 * sum(counts[color] for color in colors), f"{layer} hidden: {left} pixels left"
+            browser.page.get_by_label(f"Show {layer}").check()
         resume(browser)
         assert browser.failed == [] and browser.errors == []
     finally:
