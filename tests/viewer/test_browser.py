@@ -261,7 +261,7 @@ class Browser:
     def button(self, label: str):
         return self.page.get_by_role("button", name=label, exact=True)
 
-    def reply(self, text: str) -> None:
+    def reply(self, text: str | re.Pattern) -> None:
         self.page.get_by_text(text).first.wait_for()
 
     def choose(self, label: str, option: str) -> None:
@@ -480,19 +480,22 @@ def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(pl
         )
         if wanted:  # the docs' picture: after the first loop closure
             wait_for(lambda: any(probe.graphs[-1].loop_closure), 600.0, "a loop closure")
-        browser.reply("loop closures")  # the status panel says the graph ...
-        browser.reply("frontiers")  # ... and the explorer
+        browser.reply(re.compile(r"graph \d+ nodes, \d+ edges, \d+ loop closures"))  # the status panel says it
+        browser.reply(re.compile(r"explorer \w+: \d+ frontiers"))
         browser.hide_notifications()
         pause(browser, probe)
         browser.toggle_folder("View")
         browser.button("Top view").click()  # the camera over the map as it is now
-        browser.toggle_folder("View")
+        for folder in ("View", "Simulation", "Click on the floor"):  # folded: the status panel in the picture
+            browser.toggle_folder(folder)
         browser.page.mouse.move(0, 0)
         shown = browser.settled()
         shot = tmp_path / "viewer_mapping.png"
         browser.page.screenshot(path=str(shot), timeout=120000)
         if wanted:
             shutil.copy(shot, wanted)
+        for folder in ("Simulation", "Click on the floor"):
+            browser.toggle_folder(folder)
         scene = shown[:, : int(free_share(shown.shape[1]) * shown.shape[1])]
         counts = {
             layer: colored(scene, COLORS[layer])
