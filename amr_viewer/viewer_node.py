@@ -9,8 +9,10 @@ deactivate stops looking and drawing (the page stays up); cleanup stops the serv
 
 A thin shell over amr_viewer's plain classes: topics are taken raw where they are busy (/tf, /ground_truth, /scan,
 /particle_cloud, statuses: a lockstep run publishes them every step) and decoded at draw time, so the view costs
-the stack little (bench/bench_viewer.py). Every request made from the page runs on this node's executor (a guard
-condition wakes it); every service call has a deadline, and its answer (a refusal too) is shown as the node gives it.
+the stack little (bench/bench_viewer.py); a SLAM node's pose graph and the explorer's frontiers are read straight
+from CDR too. A map, graph or frontiers message in a wrong frame or with a NaN is skipped and logged once.
+Every request made from the page runs on this node's executor (a guard condition wakes it); every service call has
+a deadline, and its answer (a refusal too) is shown as the node gives it.
 """
 
 from __future__ import annotations
@@ -129,7 +131,7 @@ class RobotLink:
     LAYER = {"slam/graph": "graph", "explorer/frontiers": "frontiers"}
     """Leaf -> the RobotState layer it feeds, where the names differ."""
 
-    def __init__(self, node: ViewerNode, namespace: str, graph: set[str]) -> None:
+    def __init__(self, node: ViewerNode, namespace: str, graph: Collection[str]) -> None:
         self.node, self.namespace = node, namespace
         self.state = RobotState(
             namespace, node.frames, node.get_parameter("max_particles").value, node.get_parameter("trail_spacing").value
@@ -400,6 +402,7 @@ class ViewerNode(ManagedNode):
         self.robots, self.arms, self._arm_subscriptions, self._pose_publishers, self._guard = {}, {}, [], {}, None
         self._arms_asked, self._worlds_asked, self.simulators, self.localizers = set(), set(), {}, {}
         self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
+        self._reported = set()
         if self.server is not None:
             self.server.stop()
         self.server = self.scene = self.panels = None
