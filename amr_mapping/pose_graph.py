@@ -50,6 +50,33 @@ class OptimizeResult:
     seconds: float
 
 
+class Marginals:
+    """A factored pose-graph information (PoseGraph.marginals): joint covariances of nodes on request."""
+
+    def __init__(self, factor, count: int) -> None:
+        self._factor = factor
+        self._count = count
+
+    def covariance(self, indices) -> np.ndarray:
+        """(3k, 3k) joint covariance of nodes `indices`, in that order; node 0 (fixed) has zero rows."""
+        indices = np.asarray(indices, dtype=np.int64).reshape(-1)
+        if len(indices) == 0 or indices.min() < 0 or indices.max() >= self._count:
+            raise MappingError(f"pose graph: marginal covariance: indices must be in 0..{self._count - 1}")
+        k = len(indices)
+        covariance = np.zeros((3 * k, 3 * k))
+        if self._factor is None:
+            return covariance
+        columns = (3 * indices[:, None] + np.arange(3)).ravel()
+        free = np.flatnonzero(columns >= 3)
+        if len(free) == 0:
+            return covariance
+        unit = np.zeros((3 * (self._count - 1), len(free)))
+        unit[columns[free] - 3, np.arange(len(free))] = 1.0
+        solved = self._factor.solve(unit)
+        covariance[np.ix_(free, free)] = solved[columns[free] - 3]
+        return 0.5 * (covariance + covariance.T)
+
+
 class PoseGraph:
     """Nodes (x, y, theta) and edges with information matrices; `optimize` moves the nodes (node 0 fixed)."""
 
@@ -92,6 +119,11 @@ class PoseGraph:
     def edges(self) -> np.ndarray:
         """(M, 2) int node pairs (i, j)."""
         return self._ij[: self._edges].copy()
+
+    @property
+    def information(self) -> np.ndarray:
+        """(M, 3, 3) the edges' information matrices (a copy)."""
+        return self._info[: self._edges].copy()
 
     @property
     def loop(self) -> np.ndarray:
@@ -141,6 +173,23 @@ class PoseGraph:
         self._loop[k] = bool(loop)
         self._edges += 1
         return k
+
+    def remove_edges(self, indices) -> None:
+        """Removes the edges of the given indices (a closure found inconsistent); the others keep their order."""
+        drop = np.zeros(self._edges, dtype=bool)
+        indices = np.asarray(indices, dtype=np.int64).reshape(-1)
+        if len(indices) and (indices.min() < 0 or indices.max() >= self._edges):
+            raise MappingError(f"pose graph: remove_edges: indices must be in 0..{self._edges - 1}, got {indices!r}")
+        drop[indices] = True
+        keep = np.flatnonzero(~drop)
+        m = len(keep)
+        self._ij[:m], self._z[:m], self._info[:m], self._loop[:m] = (
+            self._ij[keep],
+            self._z[keep],
+            self._info[keep],
+            self._loop[keep],
+        )
+        self._edges = m
 
     def set_poses(self, poses) -> None:
         """Replaces every node pose (an (N, 3) array of the graph's N nodes)."""
@@ -267,6 +316,35 @@ class PoseGraph:
             float(change.max(initial=0.0)),
             time.perf_counter() - start,
         )
+
+    def marginals(self, information: np.ndarray | None = None) -> Marginals:
+        """The graph's own uncertainty at the current poses: the inverse of its information (J^T Omega J over
+        every edge, loop closures weighted by the robust kernel at kernel_width; node 0 fixed), factored once;
+        `Marginals.covariance(indices)` reads the joint covariance of any nodes from it (a loop closure shortens
+        the chain between two nodes). information: (M, 3, 3) per-edge informations to use instead of the
+        edges' own (as a gate may count the scan matches differently from the optimizer)."""
+        n, m = self._count, self._edges
+        if n < 2 or m == 0:
+            return Marginals(None, n)
+        ij, z = self._ij[:m], self._z[:m]
+        info = self._info[:m] if information is None else np.asarray(information, dtype=float)
+        if info.shape != (m, 3, 3) or not np.all(np.isfinite(info)):
+            raise MappingError(f"pose graph: marginals: information must be ({m}, 3, 3) finite, got {info.shape}")
+        poses = self._poses[:n]
+        e = _errors(poses, ij, z)
+        _, weight = self._kernel(np.einsum("mi,mij,mj->m", e, self._info[:m], e))
+        a, b = _jacobians(poses, ij, z)
+        hessian, _ = _normal_equations(n, ij, a, b, info * weight[:, None, None], e)
+        h = hessian[3:, 3:].tocsc()
+        h = h + sp.diags(np.full(h.shape[0], 1e-12 * max(float(np.abs(h.diagonal()).max()), 1.0)), format="csc")
+        try:
+            return Marginals(splu(h, permc_spec="COLAMD"), n)
+        except RuntimeError as error:
+            raise MappingError(f"pose graph: marginals: singular information ({error})") from error
+
+    def marginal_covariance(self, indices) -> np.ndarray:
+        """The joint covariance (3k, 3k) of nodes `indices` (see marginals; node 0's rows and columns zero)."""
+        return self.marginals().covariance(indices)
 
     def _kernel(self, s: np.ndarray, width: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(rho(s), rho'(s)) per edge: s for odometry edges, the robust kernel's (of width c, kernel_width by

@@ -37,6 +37,7 @@ from there.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, fields
@@ -77,9 +78,25 @@ MIN_MATCH_INFORMATION = 0.01
 """A match's information is at least this in every direction (a flat score: a standard deviation of 10 m, or
 10 rad: little enough that the odometry decides, not so little that a direction mixing x, y and theta leaks
 kilometres into the others)."""
+MATCH_CHI2 = 11.34
+"""A weak scan match (below WEAK_MATCH_SCORE) is used only when its offset from the odometry prior, against both
+covariances, is within this chi-square (3 dof, 99 %); min_match_score only asks for some overlap."""
+WEAK_MATCH_SCORE = 0.5
+"""A scan match scoring below this (a scan mostly of new ground: orebro's 2-3 m keyframes turning a corner) ..."""
+LOCAL_RIVAL_RATIO = 0.75
+"""... with a rival pose in the search window at least AMBIGUITY_DISTANCE off scoring this share of it or more
+has its covariance widened to span both (a two-mode mixture as one Gaussian): the odometry decides between them.
+On orebro two such matches, a parallel wall 0.4-0.75 m off, were taken at 3 cm and threw the map 5 m."""
+RIVAL_DIP = 0.8
+"""... and a rival is a mode of its own when the pose halfway to it scores below this share of both."""
+LOCAL_RIVAL_MAX_NODES = 100_000
+"""The local rival search's budget (branch and bound nodes): it bounds a weak match's time."""
 LOOP_CHI2 = 16.27
 """A loop-closure match is accepted when its offset from the poses now, against its covariance plus the
 chain's since the anchor, is within this chi-square (3 dof, 99.9 %)."""
+LOOP_RESIDUAL_CHI2 = 16.27
+"""After an optimization, a loop closure whose residual's chi-square is above this (3 dof, 99.9 %) is removed,
+the worst first, one at a time: the others and the scan matches agree on a graph it does not fit."""
 AMBIGUITY_DISTANCE = 0.2
 """m: a loop-closure match with a rival this far or further (anywhere in its search window, any heading) ..."""
 AMBIGUITY_RATIO = 0.9
@@ -144,20 +161,25 @@ class SlamConfig:
     standard deviations of the odometry model since the last node (0.05-2)."""
     match_angular_window: float = 1.0
     """rad, +- around the odometry prior's heading at most, as match_linear_window (0.05-1)."""
-    min_match_score: float = 0.3
-    """a scan match below this mean likelihood (0-1) is not used: the node is added on odometry alone."""
+    min_match_score: float = 0.2
+    """a scan match below this mean likelihood (0-1) is not used: the node is added on odometry alone (a weak
+    match, below WEAK_MATCH_SCORE, must also agree with the odometry and have no rival mode)."""
     loop_search_radius: float = 5.0
     """m: submaps whose anchor lies this close to the new node's pose are loop-closure candidates (0.5-20)."""
     loop_linear_window: float = 3.0
     """m, +- in x and y around the current estimate that a loop-closure match searches (0.2-10)."""
     loop_angular_window: float = 0.6
     """rad, +- around the current heading that a loop-closure match searches (0.1-pi)."""
-    loop_min_score: float = 0.55
-    """a loop-closure match must score this mean likelihood (0-1) to become an edge."""
+    loop_min_score: float = 0.3
+    """a loop-closure match must score this mean likelihood (0-1) to be tested (free space, rivals, the graph's
+    uncertainty) as a closure."""
     loop_min_travel: float = 8.0
     """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100)."""
     loop_max_candidates: int = 2
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
+    loop_time_budget: float = 0.05
+    """s: a loop-closure candidate is searched only this soon after the update started (the rest wait for the
+    next updates; one at least every other update): bounds an update's time on a slow or loaded machine (0-1)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
     lidar_x: float = 0.0
@@ -283,10 +305,12 @@ class GraphSlam:
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, _Reference] | None = None
         self._unoptimized = 0  # closures added since the last optimization
+        self._starved = False  # the last update searched no closure candidate (loop_time_budget)
         self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
         self.rejected_closures = 0  # closure matches that scored but disagreed with the poses (LOOP_CHI2)
         self.ambiguous_closures = 0  # closure matches with a rival in the window (AMBIGUITY_RATIO)
         self.inconsistent_closures = 0  # closure matches putting points in the submap's clear space
+        self.dropped_closures = 0  # closures removed after an optimization (LOOP_RESIDUAL_CHI2)
         self._chain: list[np.ndarray] = [np.zeros((3, 3))]  # covariance of the edge (k - 1, k), node k's frame
         self._step_covariance: np.ndarray | None = None  # the last match's, capped at CHAIN_INFORMATION
 
@@ -350,7 +374,7 @@ class GraphSlam:
         self._unoptimized = 0
         if not self._graph.loop.any():
             return False
-        result = self._graph.optimize(max_iterations=30)
+        result = self._optimize(30, [])
         if result.max_change > 0.0:
             self._grid = None
             self._local = None
@@ -406,7 +430,7 @@ class GraphSlam:
         self._chain.append(np.linalg.inv(information) if self._step_covariance is None else self._step_covariance)
         self._step_covariance = None
         self._pose = pose.copy()
-        closures = self._close_loops(node, events)
+        closures = self._close_loops(node, events, start)
         return SlamUpdate(
             self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start, tuple(events)
         )
@@ -501,16 +525,36 @@ class GraphSlam:
         match_information = _match_information(matcher, points, matched, cfg.resolution)
         if aligned is not None:
             match_information = _clamped(aligned)
-        information = match_information + odometry_information
+        if match.score < WEAK_MATCH_SCORE:
+            # little overlap: a second mode elsewhere in the window is as likely; the two as one Gaussian
+            rival = _local_rival(matcher, points, matched, relative_prior, linear, angular, match.score)
+            if rival is not None:
+                spread = rival - matched
+                spread[2] = wrap_angle(spread[2])
+                match_information = _clamped(np.linalg.inv(np.linalg.inv(match_information) + np.outer(spread, spread)))
+                events.append(
+                    f"scan match {match.score:.2f} has a rival {np.hypot(*spread[:2]):.2f} m, "
+                    f"{math.degrees(spread[2]):.0f} deg off: weighed as one wide mode"
+                )
         offset = relative_prior - matched
         offset[2] = wrap_angle(offset[2])
+        chi2 = float(
+            offset @ np.linalg.solve(np.linalg.inv(match_information) + np.linalg.inv(odometry_information), offset)
+        )
+        if match.score < WEAK_MATCH_SCORE and not chi2 <= MATCH_CHI2:
+            events.append(
+                f"scan match (score {match.score:.2f}) disagrees with the odometry (chi-square {chi2:.1f} > "
+                f"{MATCH_CHI2}): node added on odometry alone"
+            )
+            return prior, odometry_information, float(match.score)
+        information = match_information + odometry_information
         fused = matched + np.linalg.solve(information, odometry_information @ offset)
         pose = np.array(compose(anchor, fused))
         covariance = np.linalg.inv(information)
         self._step_covariance = np.linalg.inv(_information(covariance, fused[2], CHAIN_INFORMATION))
         return pose, _information(covariance, fused[2]), float(match.score)
 
-    def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
+    def _close_loops(self, node: int, events: list[str], start: float) -> list[LoopClosure]:
         cfg = self.config
         pose = self._graph.pose(node)
         travelled = self._nodes[node].travelled
@@ -524,12 +568,20 @@ class GraphSlam:
         # the ones left over from the last updates first (their turn came), then the nearest
         queue = [i for i in self._pending if any(i == c for _, c in candidates)]
         queue += [i for _, i in candidates if i not in queue]
-        searched, self._pending = queue[: cfg.loop_max_candidates], queue[cfg.loop_max_candidates :]
+        self._pending = queue
         points = self._nodes[node].points
         closures: list[LoopClosure] = []
         if len(points) < MIN_BEAMS:
             return closures
-        for i in searched:
+        marginals = None
+        searched = 0
+        while self._pending and searched < cfg.loop_max_candidates:
+            # the update's time: a candidate is started only within loop_time_budget of the update's start (the
+            # rest wait for the next updates), but one at least every other update, however slow the front end
+            if time.perf_counter() - start > cfg.loop_time_budget and (searched or not self._starved):
+                break
+            i = self._pending.pop(0)
+            searched += 1
             submap = self._submaps[i]
             anchor = poses[submap.anchor]
             prior = np.array(relative_pose(anchor, pose))
@@ -545,10 +597,13 @@ class GraphSlam:
             if rival >= AMBIGUITY_RATIO * match.score:
                 self.ambiguous_closures += 1
                 continue
-            # the closure against the poses now: its covariance plus the chain's since the anchor
+            # the closure against the poses now: its covariance plus the graph's own uncertainty of the
+            # anchor -> node relative pose (every edge, closures included: a closure found earlier shortens it)
             innovation = matched - np.array(relative_pose(anchor, pose))
             innovation[2] = wrap_angle(innovation[2])
-            spread = np.linalg.inv(information) + self._chain_covariance(submap.anchor, node)
+            if marginals is None:
+                marginals = self._gate_marginals()
+            spread = np.linalg.inv(information) + self._relative_covariance(marginals, submap.anchor, node)
             chi2 = float(innovation @ np.linalg.solve(spread, innovation))
             if not chi2 <= LOOP_CHI2:
                 self.rejected_closures += 1
@@ -557,6 +612,7 @@ class GraphSlam:
                 submap.anchor, node, matched, _information(np.linalg.inv(information), matched[2]), loop=True
             )
             closures.append(LoopClosure(submap.anchor, node, float(match.score)))
+        self._starved = searched == 0 and bool(self._pending)
         if closures:
             self._unoptimized += len(closures)
             chi = np.sqrt(self._graph.chi2()[-len(closures) :].max())
@@ -564,7 +620,7 @@ class GraphSlam:
             self._unoptimized = 0
             before = self._graph.pose(node)
             try:
-                result = self._graph.optimize(max_iterations=10)
+                result = self._optimize(10, events, drops=1)
                 events.append(
                     f"{len(closures)} loop closure(s): optimized in {result.iterations} iterations, "
                     f"moved up to {result.max_change:.2f}"
@@ -576,26 +632,58 @@ class GraphSlam:
                 self._local = None  # rebuilt at the optimized poses
         return closures
 
-    def _chain_covariance(self, first: int, last: int) -> np.ndarray:
-        """Covariance (first's frame) of node last's pose relative to node first's, compounded along the
-        sequential edges between them (the scan matches and odometry; no loop closure: an upper bound). An error
-        of node k's edge (in node k's frame) moves node last by J_k = [[R(theta_k), perp(p_last - p_k)], [0, 1]]."""
-        if last <= first:
-            return np.zeros((3, 3))
-        poses = self._graph.poses[first : last + 1]
-        origin = poses[0]
-        c, s = math.cos(origin[2]), math.sin(origin[2])
-        dx, dy = poses[:, 0] - origin[0], poses[:, 1] - origin[1]
-        x, y, theta = c * dx + s * dy, -s * dx + c * dy, poses[:, 2] - origin[2]
-        jacobians = np.zeros((last - first, 3, 3))
-        jacobians[:, 0, 0] = jacobians[:, 1, 1] = np.cos(theta[1:])
-        jacobians[:, 1, 0] = np.sin(theta[1:])
-        jacobians[:, 0, 1] = -jacobians[:, 1, 0]
-        jacobians[:, 0, 2] = -(y[-1] - y[1:])
-        jacobians[:, 1, 2] = x[-1] - x[1:]
-        jacobians[:, 2, 2] = 1.0
-        covariances = np.asarray(self._chain[first + 1 : last + 1])
-        return np.einsum("kij,kjl,kml->im", jacobians, covariances, jacobians)
+    def _optimize(self, max_iterations: int, events: list[str], drops: int = 3):
+        """The graph optimized, then the loop closures checked against it: the closure whose residual's
+        chi-square is largest, if above LOOP_RESIDUAL_CHI2, disagrees with the other closures and the scan
+        matches together (the kernel turned it down, it did not bend the graph to fit): it is removed and the
+        graph optimized again, at most `drops` times a call (one online: an update's time). MappingError from the
+        optimizer passes through."""
+        result = self._graph.optimize(max_iterations=max_iterations)
+        for _ in range(drops):
+            loop = np.flatnonzero(self._graph.loop)
+            if len(loop) == 0:
+                break
+            chi2 = self._graph.chi2()[loop]
+            worst = int(np.argmax(chi2))
+            if not chi2[worst] > LOOP_RESIDUAL_CHI2:
+                break
+            i, j = self._graph.edges[loop[worst]]
+            self._graph.remove_edges([loop[worst]])
+            self.dropped_closures += 1
+            events.append(
+                f"loop closure ({i}, {j}) disagrees with the optimized graph (chi-square {chi2[worst]:.0f} > "
+                f"{LOOP_RESIDUAL_CHI2}): removed"
+            )
+            moved = result.max_change
+            result = self._graph.optimize(max_iterations=max_iterations)
+            result = dataclasses.replace(result, max_change=max(moved, result.max_change))
+        return result
+
+    def _gate_marginals(self):
+        """The graph's information as the closure gate counts it, factored: each scan match's own covariance
+        (self._chain: capped at CHAIN_INFORMATION only, not at the edges' MAX_INFORMATION floor), the loop
+        closures' as in the graph."""
+        edges, loop = self._graph.edges, self._graph.loop
+        information = self._graph.information
+        sequential = np.flatnonzero(~loop)
+        information[sequential] = np.linalg.inv(np.asarray(self._chain)[edges[sequential, 1]])
+        return self._graph.marginals(information)
+
+    def _relative_covariance(self, marginals, first: int, last: int) -> np.ndarray:
+        """Covariance (first's frame) of node last's pose relative to node first's, from the graph's joint
+        covariance of the two (marginals)."""
+        joint = marginals.covariance([first, last])
+        a, b = self._graph.pose(first), self._graph.pose(last)
+        c, s = math.cos(a[2]), math.sin(a[2])
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        jacobian = np.array(
+            [
+                [-c, -s, -s * dx + c * dy, c, s, 0.0],
+                [s, -c, -c * dx - s * dy, -s, c, 0.0],
+                [0.0, 0.0, -1.0, 0.0, 0.0, 1.0],
+            ]
+        )
+        return jacobian @ joint @ jacobian.T
 
 
 def _information(covariance: np.ndarray, heading: float, cap=MAX_INFORMATION) -> np.ndarray:
@@ -642,6 +730,51 @@ def _rival_score(
     )
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
     return float(found[0].score) if found else 0.0
+
+
+def _local_rival(
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    pose: np.ndarray,
+    prior: np.ndarray,
+    linear: float,
+    angular: float,
+    score: float,
+) -> np.ndarray | None:
+    """The best pose within the front end's window (+-linear of the prior in x and y, +-angular in heading) at
+    least AMBIGUITY_DISTANCE from the match that scores LOCAL_RIVAL_RATIO of its score or more; None if none
+    (a budgeted branch and bound, GlobalSearch over the window's cells, headings outside the window dropped)."""
+    score_map = matcher.score_map
+    rows, cols = score_map.shape
+    res = score_map.resolution
+    x = score_map.origin[0] + (np.arange(cols) + 0.5) * res
+    y = score_map.origin[1] + (np.arange(rows) + 0.5) * res
+    region = (np.abs(y - prior[1]) <= linear)[:, None] & (np.abs(x - prior[0]) <= linear)[None, :]
+    region &= np.hypot(x[None, :] - pose[0], y[:, None] - pose[1]) >= AMBIGUITY_DISTANCE
+    if not region.any():
+        return None
+    search = GlobalSearch(
+        matcher,
+        points,
+        region,
+        count=5,
+        min_score=min(1.0, LOCAL_RIVAL_RATIO * score),
+        min_separation=AMBIGUITY_DISTANCE,
+        min_angle_separation=angular,
+    )
+    # headings within the window only: the search's top blocks at other headings dropped before it starts
+    # (GlobalSearch searches every heading; a corridor seen turned half round would be the rival otherwise)
+    blocks = search._search
+    keep = np.abs(wrap_angle(search.thetas[blocks.tops[:, 0]] - prior[2])) <= angular
+    blocks.tops, blocks.top_totals = blocks.tops[keep], blocks.top_totals[keep]
+    for found in search.step(LOCAL_RIVAL_MAX_NODES, refine=False):
+        # a mode of its own: the score dips between it and the match (else it is the match's own slope, which
+        # the match's information already has)
+        rival = np.asarray(found.pose, dtype=float)
+        middle = pose + 0.5 * np.array([*(rival[:2] - pose[:2]), wrap_angle(rival[2] - pose[2])])
+        if matcher.score(points, middle) < RIVAL_DIP * min(found.score, score):
+            return rival
+    return None
 
 
 def _voxel_means(points: np.ndarray, size: float) -> np.ndarray:

@@ -1,0 +1,124 @@
+"""GraphSlam's statistical tests on matches and closures: a weak scan match with a second mode in its window is
+widened to span both (the odometry decides between them), one that disagrees with the odometry is not used; the
+closure gate uses the graph's own uncertainty (a closure found earlier shortens the chain it compounds); a loop
+closure that the optimized graph disagrees with is removed; the pose graph's marginals and edge removal."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from amr_mapping import slam as slam_module
+from amr_mapping.errors import MappingError
+from amr_mapping.pose_graph import PoseGraph
+from amr_mapping.slam import GraphSlam
+from amr_maps.occupancy_grid import OCCUPIED, OccupancyGrid
+from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
+from amr_util.geometry import compose, relative_pose, wrap_angle
+
+STEP_COVARIANCE = np.diag([0.02**2, 0.02**2, math.radians(1.0) ** 2])
+
+
+def _chain(graph: PoseGraph, steps, covariance=STEP_COVARIANCE) -> np.ndarray:
+    """Nodes along `steps` (dx, dy, dtheta) from the origin, exact sequential edges; returns the poses."""
+    poses = [np.zeros(3)]
+    graph.add_node(poses[0])
+    for k, step in enumerate(steps, start=1):
+        poses.append(np.array(compose(poses[-1], step)))
+        graph.add_node(poses[-1])
+        graph.add_edge(k - 1, k, step, np.linalg.inv(covariance))
+    return np.array(poses)
+
+
+def _square(side: int = 5, laps: int = 1):
+    """Steps of `laps` laps of a square of `side` 1 m steps, a 90 deg turn at each corner."""
+    return [(1.0, 0.0, math.pi / 2 if k % side == side - 1 else 0.0) for k in range(4 * side * laps)]
+
+
+def test_marginals_equal_the_chain_and_shrink_with_a_closure():
+    """Along a chain the last node's covariance is the steps' compounded (x along: 20 steps of 2 cm); a closure
+    back to node 0 cuts it to about what the closure says."""
+    graph = PoseGraph()
+    _chain(graph, [(1.0, 0.0, 0.0)] * 20)
+    alone = graph.marginal_covariance([20])
+    assert alone[0, 0] == pytest.approx(20 * 0.02**2, rel=1e-6)
+    lever = sum(k**2 for k in range(20)) * math.radians(1.0) ** 2  # heading errors swing the end sideways
+    assert alone[1, 1] == pytest.approx(20 * 0.02**2 + lever, rel=1e-6)
+    graph.add_edge(0, 20, (20.0, 0.0, 0.0), np.linalg.inv(STEP_COVARIANCE), loop=True)
+    closed = graph.marginal_covariance([0, 20])
+    assert np.all(closed[:3] == 0.0) and np.all(closed[:, :3] == 0.0)  # node 0 is fixed
+    assert closed[3, 3] < 1.1 * 0.02**2 and closed[4, 4] < 1.1 * 0.02**2
+
+
+def test_remove_edges_keeps_the_others_in_order():
+    graph = PoseGraph()
+    _chain(graph, [(1.0, 0.0, 0.0)] * 3)
+    graph.add_edge(0, 3, (3.0, 0.0, 0.0), np.eye(3), loop=True)
+    graph.remove_edges([1])
+    assert graph.edges.tolist() == [[0, 1], [2, 3], [0, 3]]
+    assert graph.loop.tolist() == [False, False, True]
+    with pytest.raises(MappingError, match="remove_edges"):
+        graph.remove_edges([3])
+
+
+def test_the_gate_counts_the_closures_already_in_the_graph():
+    """Two nodes 56 steps apart along the path, tied by a closure 40 steps in: their relative pose is the last 16
+    steps' uncertainty, not the 56 steps' the chain compounded (a closure 1.2 m off passed that gate)."""
+    slam = GraphSlam()
+    poses = _chain(slam._graph, _square(5, 3), STEP_COVARIANCE)
+    slam._chain.extend([STEP_COVARIANCE] * (len(poses) - 1))
+    before = slam._relative_covariance(slam._gate_marginals(), 2, 58)
+    slam._graph.add_edge(2, 42, relative_pose(poses[2], poses[42]), np.linalg.inv(STEP_COVARIANCE), loop=True)
+    after = slam._relative_covariance(slam._gate_marginals(), 2, 58)
+    assert math.sqrt(before[0, 0] + before[1, 1]) > 0.5
+    assert math.sqrt(after[0, 0] + after[1, 1]) < 0.65 * math.sqrt(before[0, 0] + before[1, 1])
+    innovation = np.array([1.2, 0.0, 0.0])
+    assert innovation @ np.linalg.solve(before, innovation) < slam_module.LOOP_CHI2
+    assert innovation @ np.linalg.solve(after, innovation) > slam_module.LOOP_CHI2
+
+
+def test_a_closure_the_optimized_graph_disagrees_with_is_removed():
+    """Two laps of a square with true closures at every node of the second lap and one false closure 1.5 m off:
+    the kernel turns it down, its residual stays far out, it is removed; the true ones stay."""
+    slam = GraphSlam()
+    steps = _square(5, 2)
+    poses = _chain(slam._graph, steps)
+    information = np.linalg.inv(np.diag([0.01**2, 0.01**2, math.radians(0.5) ** 2]))
+    for k in range(21, 41):
+        slam._graph.add_edge(k - 20, k, relative_pose(poses[k - 20], poses[k]), information, loop=True)
+    false = np.array(relative_pose(poses[3], poses[30])) + (1.5, 0.0, 0.0)
+    slam._graph.add_edge(3, 30, false, information, loop=True)
+    events: list[str] = []
+    slam._optimize(30, events)
+    assert slam.dropped_closures == 1
+    assert slam._graph.loop.sum() == 20
+    assert [3, 30] not in slam._graph.edges.tolist()
+    assert any("(3, 30)" in event and "removed" in event for event in events)
+    error = slam._graph.poses - poses
+    assert np.abs(error[:, :2]).max() < 0.05 and np.abs(wrap_angle(error[:, 2])).max() < 0.01
+
+
+def _two_walls(gap: float | None) -> CorrelativeMatcher:
+    """A likelihood field of a 3 m wall at x = 2 (and a parallel one `gap` m further), 5 cm cells."""
+    data = np.zeros((120, 160), dtype=np.int8)  # x -2..6, y -3..3
+    ys = np.arange(-1.5, 1.5, 0.025)
+    for x in (2.0,) if gap is None else (2.0, 2.0 + gap):
+        data[np.floor((ys + 3.0) / 0.05).astype(int), int(math.floor((x + 2.0) / 0.05))] = OCCUPIED
+    grid = OccupancyGrid(data, 0.05, (-2.0, -3.0, 0.0))
+    return CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=0.075))
+
+
+def test_a_weak_match_with_a_second_mode_has_a_rival():
+    """A scan of a lone wall ahead, in a submap with a parallel wall 0.6 m behind the first: placing it on either
+    wall scores alike, so the match has a rival mode 0.6 m off; with one wall it has none (sliding along the wall
+    is the match's own slope, its information says so)."""
+    points = np.column_stack([np.full(100, 2.0), np.linspace(-1.5, 1.5, 100)])
+    for gap, expected in ((0.6, True), (None, False)):
+        matcher = _two_walls(gap)
+        match = matcher.match(points, np.zeros(3), 1.0, 0.2)
+        rival = slam_module._local_rival(matcher, points, match.pose, np.zeros(3), 1.0, 0.2, match.score)
+        assert (rival is not None) == expected, (gap, rival)
+        if expected:
+            assert abs(abs(rival[0] - match.pose[0]) - 0.6) < 0.1 and abs(rival[2]) < 0.1, rival
