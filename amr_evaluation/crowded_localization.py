@@ -1,4 +1,4 @@
-"""A robot localizing while other robots crowd its scan (issue 22), without ROS.
+"""A robot localizing while other robots crowd its scan, without ROS.
 
 The other robots are not on the map: for the particle filter every beam that ends on one is an outlier.
 `crowded_world` adds robots to a one-robot world: the localizing one (`ego`, at the world's start) and

@@ -236,7 +236,7 @@ def _wall_follower(spec: EpisodeSpec) -> dict[str, Any]:
     world = with_goal(build_world(spec.world), spec.goal, spec.seed)
     options = spec.options
     grid = None
-    if options.get("route"):  # the cells entered, for a grid maze's route (issue 20)
+    if options.get("route"):  # the cells entered, for a grid maze's route
         data = world_dict(spec.world)
         if data is None:
             raise ValueError(f"option route: world {spec.world} is not a generated or inline grid maze")

@@ -1,4 +1,4 @@
-"""When the feature that breaks a room's symmetry is in the LiDAR's view, from the true pose (issue 20).
+"""When the feature that breaks a room's symmetry is in the LiDAR's view, from the true pose.
 
 A localization episode given its world's symmetric counterpart (amr_maps.symmetry_families: the same
 room without the doorway, notch or pillar) watches every step of the run with a FeatureWatch: the
@@ -6,7 +6,7 @@ feature is *seen* when `beams` noise-free beams (3: 4.5 deg of the LDS's 240) se
 differ by more than 5 cm from the counterpart's at the same sensor pose), *glimpsed* when one does, and
 every quarter turn of the pose is *told apart* once `beams` beams have differed from that turn's at
 least once (the feature seen, or a wall where a turned copy would see it: about the earliest any
-observer could rule every copy out). The goal of issue 20 is counted from `seen`.
+observer could rule every copy out). Localization goals are counted from `seen`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""One library-level closed-loop run of the wall follower, and the figures issue 14 asks of it.
+"""One library-level closed-loop run of the wall follower, and its figures.
 
 The wall-follower episode of amr_evaluation (episode.py) and bench/bench_wall_follower_families.py run it.
 
@@ -19,7 +19,7 @@ a 0.25 m cell not visited before), time in each state, and the wall distance err
 (closest points seen between 30 and 150 deg off the heading, capped at 1 m: searching,
 turning and crossing rooms count); ``wall_error_following`` is the mean of the controller's
 own |d - target| while it is in FOLLOW (the figure reported before). With a ``grid``
-(amr_maps.maze_route.MazeGrid of a grid maze), ``route`` is the sequence of cells entered (issue 20).
+(amr_maps.maze_route.MazeGrid of a grid maze), ``route`` is the sequence of cells entered.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 In a perfect (tree) maze every right-hand follower walks the same route, the boundary of the
 solid beside its start (amr_maps.boundary_walk measures its length); a follower that skips a
 side opening or turns back has left it, whether or not it still stumbles on the goal. Comparing
-routes cell by cell catches that (issue 20; bench/bench_wall_follower_families.py --route).
+routes cell by cell catches that (bench/bench_wall_follower_families.py --route).
 
 * :class:`MazeGrid` reads the cell grid back from a grid maze's walls (amr_maps.maze_families
   ``perfect``, ``loops``, ``rotated``, ``thin_walls``, ``dead_ends``): walls on the lines of a

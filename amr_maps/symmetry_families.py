@@ -1,4 +1,4 @@
-"""Generated square rooms whose four-fold symmetry one feature breaks, and truly symmetric controls (issue 20).
+"""Generated square rooms whose four-fold symmetry one feature breaks, and truly symmetric controls.
 
 ``symmetry_case(kind, seed, **options)`` returns a :class:`SymmetryCase`: a world dict that
 :func:`amr_maps.world.world_from_dict` accepts, and its symmetric counterpart (the same

@@ -1,4 +1,4 @@
-"""Traffic rules for a robot among others (issue 22), as plain classes and functions (no ROS).
+"""Traffic rules for a robot among others, as plain classes and functions (no ROS).
 
 The navigator of one robot runs them on every observation it drives with the path follower
 (amr_navigation.loop.NavigationLoop with a `Traffic`); they decide, the path follower follows:

@@ -1,6 +1,6 @@
 """Planning several robots together (multi-agent path finding, MAPF) on a lattice of the free space.
 
-Why (issue 22, docs/fleet.md): the fleet's traffic rules (amr_navigation.traffic) let each robot decide alone.
+Why (docs/fleet.md): the fleet's traffic rules (amr_navigation.traffic) let each robot decide alone.
 In a tree maze a dead end that holds several goals must be entered deepest goal first and left in the reverse
 order, and no rule of one robot knows that. Planning the robots together settles it: at library level,
 amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along such a plan
@@ -23,14 +23,13 @@ amr_evaluation.fleet_navigation's `coordination="plan"` drives a fleet along suc
    goal. High level: best first by the sum of the paths' steps, the first conflict of the paths splits a node in
    two, each forbidding it to one of the two robots (i may not be at v at t / may not move u -> v arriving at
    t), and that robot is planned again. The first node without a conflict is a plan of least cost. Exponential
-   in the worst case; it gives up after `max_nodes` nodes. On six robots in the generated tree mazes it gave up
-   on all ten tried (5000 nodes each): it is the least-cost reference for small fleets, and a step in which
-   robots move round a cycle of the lattice is not a conflict to it (`dependencies` refuses such a plan).
+   in the worst case; it gives up after `max_nodes` nodes: it is the least-cost reference for small fleets, and a
+   step in which robots move round a cycle of the lattice is not a conflict to it (`dependencies` refuses such a
+   plan).
 3. **LaCAM** (`plan_lacam`, Okumura 2023): a depth-first search over configurations, PIBT with the swap of
-   LaCAM3 for each next one, constraints added lazily; complete. What the fleet uses: it planned all 40 of the
-   six-robot tree mazes of the bench in at most 1.1 s each. Never a rotation round a cycle. Restarted with the
-   next seed and twice the budget from 250 configurations: one search's time is heavy-tailed (107 s from one of 60
-   random starts on `perfect 15`'s lattice; bench/bench_fleet_plan.py).
+   LaCAM3 for each next one, constraints added lazily; complete. What the fleet uses. Never a rotation round a
+   cycle. Restarted with the next seed and twice the budget from 250 configurations: one search's time is
+   heavy-tailed (bench/bench_fleet_plan.py measures it).
 4. **Improvement** (`improve`): each robot planned again around the others' paths, fewest moves first (PIBT
    leaves back-and-forth moves); no plan gets more moves or a later end.
 5. **Action dependencies** (`dependencies`, Hoenig et al. 2016, "Multi-agent path finding with kinematic
@@ -677,9 +676,8 @@ def plan_lacam(
     successor of a configuration is tried in the end. Complete: it finds a plan if one exists, else says so
     (or gives up after `max_nodes` configurations). Not of least cost. PlanningError as plan_together.
 
-    Restarts: the search's time is heavy-tailed. From random starts on `perfect 15`'s lattice (36 vertices, six
-    robots) the median plan took 0.006 s and the slowest 107 s, while another seed found each slow one within a
-    few hundred configurations. So the search is run with `first_budget` configurations, and, where that is
+    Restarts: the search's time is heavy-tailed, and another seed usually finds a slow search's plan within a few
+    hundred configurations. So the search is run with `first_budget` configurations, and, where that is
     not enough, again with the next seed and twice the budget, until `max_nodes` are spent in all (Luby et al.
     1993, "Optimal speedup of Las Vegas algorithms"). A search that runs out of configurations to try proves
     there is no plan, at once."""

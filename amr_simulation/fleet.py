@@ -1,4 +1,4 @@
-"""Several robots in one world (issue 22): one pymunk space stepped in lockstep, no ROS.
+"""Several robots in one world: one pymunk space stepped in lockstep, no ROS.
 
 Every Fleet.step(commands) advances exactly config.dt seconds for every robot at once:
   1. each robot's (v, w) -> wheel speeds by the diff-drive inverse kinematics, saturated

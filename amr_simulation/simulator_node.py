@@ -21,7 +21,7 @@ node of a simulated stack can run on use_sim_time; /tf_static (base_footprint ->
 LiDAR mounting) is published once, latched, at activation.
 Activation, ~/reset and ~/set_pose each publish one observation too (a new starting point).
 
-Watching a run (issue 21): ~/pause holds the loop (lockstep: the /cmd_vel that answers the last
+Watching a run: ~/pause holds the loop (lockstep: the /cmd_vel that answers the last
 observation is kept, not stepped; realtime: the timer steps no more), ~/resume lets it go on (the
 held command steps at once), ~/step advances exactly one step and stays paused (pausing first if
 running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes, or, when none
@@ -34,7 +34,7 @@ replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
 stamps carry on one dt after the last one, so stamp-ordered consumers keep working.
 
-Several robots (issue 22, docs/fleet.md): a world with a `robots` list runs them all here, each robot's topics
+Several robots (docs/fleet.md): a world with a `robots` list runs them all here, each robot's topics
 and services in its namespace (<name>/cmd_vel, <name>/scan, <name>/status, <name>/tf, <name>/set_pose,
 <name>/reset, ...; with one_tf_tree the shared /tf with prefixed frames). Lockstep advances the world when every
 robot has a command held, then every robot's observation goes out; the resend timer republishes only to the
@@ -42,7 +42,7 @@ robots that have not answered, and a step owed while paused takes zero velocity 
 robot with its latest command (each one's own command_timeout). ~/reset, ~/pause, ~/resume, ~/step, ~/render act
 on the world. A world without `robots` is the node described above, topic for topic.
 
-Localization (issue 12): a world that declares `beacons` adds /beacons (amr_interfaces/BeaconRanges:
+Localization: a world that declares `beacons` adds /beacons (amr_interfaces/BeaconRanges:
 noisy range to each beacon in the world's order, and a noisy compass) to every observation. With
 `enable_localization` the node listens to /pose (a localizer's LocalizedPose), compares each estimate
 with the true pose at its stamp, logs once when the robot is first localized ("localized at t = ...,
@@ -719,7 +719,7 @@ class SimulatorNode(ManagedNode):
             fields = messages.status_fields(fleet, robot, channel.distance, rate, localization)
             outputs["status"].publish(wire.fill(sec, nanosec, *(fields[name] for name in messages.STATUS_FIELDS)))
 
-    # -- localization (issue 12): beacons out, /pose checked against the ground truth -------------
+    # -- localization: beacons out, /pose checked against the ground truth -------------
 
     def _create_localization_interfaces(self, channel: RobotChannel, qos) -> None:
         if self._fleet.world.beacons:

@@ -4,7 +4,7 @@
     .venv/bin/python scripts/parameter_docs.py --check   # exit 1 naming the tables that differ
 
 Every node of the suite is listed in NODES with where its parameters are stated (amr_util.parameter_spec)
-and the parameter files the suite ships for it (one column each). tests/foundation/test_parameter_docs.py
+and the parameter files the suite ships for it (one column each). tests/foundation/test_docs.py
 fails when a committed table differs from this, or when an installed executable has no entry.
 """
 

@@ -1,4 +1,4 @@
-"""The DLS attempt of ``iterative.Refiner`` compiled with numba (optional, issue 15).
+"""The DLS attempt of ``iterative.Refiner`` compiled with numba (optional).
 
 Same equations as ``Refiner._run_numpy`` (see iterative.py), on arrays:
 

@@ -1,4 +1,4 @@
-"""Partial poses: which task-space rows a solve drives to zero (issue 15).
+"""Partial poses: which task-space rows a solve drives to zero.
 
 A full pose asks 6 things (x, y, z, rotation about x, y, z); a SCARA can give
 position and yaw (4), a 5-joint arm position and the direction its tool points
