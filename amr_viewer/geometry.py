@@ -116,6 +116,18 @@ def top_down_camera(
     return Camera((cx, cy - TOP_DOWN_TILT, distance), (cx, cy, 0.0), fov)
 
 
+def outgrown(framed: tuple[float, float, float, float], now: tuple[float, float, float, float], margin=0.05) -> bool:
+    """Whether the box `now` (xmin, ymin, xmax, ymax) reaches beyond `framed` by more than `margin` of framed's
+    longer side: a SLAM map grown out of the view fitted to it."""
+    reach = margin * max(framed[2] - framed[0], framed[3] - framed[1], 0.1)
+    return (
+        framed[0] - now[0] > reach
+        or framed[1] - now[1] > reach
+        or now[2] - framed[2] > reach
+        or now[3] - framed[3] > reach
+    )
+
+
 def oblique_camera(bounds: tuple[float, float, float, float], fov: float = TOP_DOWN_FOV) -> Camera:
     """A camera looking down at 45 degrees from the south-east at the box (for the arms)."""
     xmin, ymin, xmax, ymax = bounds

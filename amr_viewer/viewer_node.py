@@ -25,6 +25,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Collection
 
+import numpy as np
 from geometry_msgs.msg import PoseArray, PoseStamped, PoseWithCovarianceStamped
 from lifecycle_msgs.srv import GetState
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
@@ -48,7 +49,7 @@ from amr_util.robot_description import default_robot
 from amr_viewer import cdr, messages, status, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool
-from amr_viewer.geometry import floor_point, free_share, oblique_camera, top_down_camera
+from amr_viewer.geometry import Camera, floor_point, free_share, oblique_camera, outgrown, top_down_camera
 from amr_viewer.parameters import entry_from, value_of, visible
 from amr_viewer.state import Frames, RobotState, Skipped, WorldGoal, frontier_view, pose_graph_view
 
@@ -302,6 +303,8 @@ class ViewerNode(ManagedNode):
         self._guard = None
         self._timers: list = []
         self._framed: set[int] = set()
+        self._top_views: dict[int, tuple[tuple[float, float, float, float], Camera]] = {}
+        """client -> (the bounds, the camera) of the top view it was last given: followed as a SLAM map grows"""
         self._last_status = 0.0
         self._graph: dict[str, set[str]] = {}
         """topic name -> its types, at the last look at the graph"""
@@ -402,7 +405,7 @@ class ViewerNode(ManagedNode):
         self.robots, self.arms, self._arm_subscriptions, self._pose_publishers, self._guard = {}, {}, [], {}, None
         self._arms_asked, self._worlds_asked, self.simulators, self.localizers = set(), set(), {}, {}
         self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
-        self._reported = set()
+        self._reported, self._top_views = set(), {}
         if self.server is not None:
             self.server.stop()
         self.server = self.scene = self.panels = None
@@ -623,6 +626,8 @@ class ViewerNode(ManagedNode):
             for client_id, client in self.server.get_clients().items():
                 if client_id not in self._framed:  # nothing to frame when it connected
                     self._frame(client, "top" if self.robots else "arms")
+                else:
+                    self._follow_growth(client)
         now = time.monotonic()
         if now - self._last_status >= STATUS_PERIOD:
             self._last_status = now
@@ -651,14 +656,8 @@ class ViewerNode(ManagedNode):
                 )
             )
         else:
-            extents = [e for e in (link.state.extent() for link in self.robots.values()) if e is not None]
-            if extents:
-                bounds = (
-                    min(e[0] for e in extents),
-                    min(e[1] for e in extents),
-                    max(e[2] for e in extents),
-                    max(e[3] for e in extents),
-                )
+            bounds = self._robot_bounds()
+            if bounds is not None:
                 camera = top_down_camera(bounds, client.camera.aspect, free=free_share(client.camera.image_width))
         if camera is None:
             return
@@ -666,6 +665,39 @@ class ViewerNode(ManagedNode):
         client.camera.position = camera.position
         client.camera.look_at = camera.look_at
         self._framed.add(client.client_id)
+        if view == "arms" and self.arms:
+            self._top_views.pop(client.client_id, None)
+        else:
+            self._top_views[client.client_id] = (bounds, camera)
+
+    def _robot_bounds(self) -> tuple[float, float, float, float] | None:
+        """(xmin, ymin, xmax, ymax) over every robot's extent (its map, else its surroundings)."""
+        extents = [e for e in (link.state.extent() for link in self.robots.values()) if e is not None]
+        if not extents:
+            return None
+        return (
+            min(e[0] for e in extents),
+            min(e[1] for e in extents),
+            max(e[2] for e in extents),
+            max(e[3] for e in extents),
+        )
+
+    def _follow_growth(self, client) -> bool:
+        """Frame the top view again when what it shows has grown out of it (a SLAM map) and the user has not moved
+        the camera since it was set (then it is left alone); True when it was framed again."""
+        view = self._top_views.get(client.client_id)
+        bounds = self._robot_bounds()
+        if view is None or bounds is None or not outgrown(view[0], bounds):
+            return False
+        framed, camera = view
+        if not (
+            np.allclose(client.camera.position, camera.position, atol=0.01)
+            and np.allclose(client.camera.look_at, camera.look_at, atol=0.01)
+        ):
+            self._top_views.pop(client.client_id)  # the user's camera from now on, until Top view is pressed
+            return False
+        self._frame(client, "top")
+        return True
 
     # -- status -----------------------------------------------------------------------------------------------
 

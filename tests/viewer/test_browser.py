@@ -484,12 +484,20 @@ def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(pl
         browser.reply(re.compile(r"explorer \w+: \d+ frontiers"))
         browser.hide_notifications()
         pause(browser, probe)
-        browser.toggle_folder("View")
-        browser.button("Top view").click()  # the camera over the map as it is now
-        for folder in ("View", "Simulation", "Click on the floor"):  # folded: the status panel in the picture
+        for folder in ("Simulation", "Click on the floor"):  # folded: the status panel in the picture
             browser.toggle_folder(folder)
         browser.page.mouse.move(0, 0)
         shown = browser.settled()
+        browser.toggle_folder("View")
+        browser.button("Top view").click()  # the camera over the map as it is now: where the view followed it
+        browser.toggle_folder("View")
+        browser.page.mouse.move(0, 0)
+        refitted = browser.settled()
+        region = (slice(None), slice(0, int(free_share(shown.shape[1]) * shown.shape[1])))
+        moved = (np.abs(shown[region].astype(int) - refitted[region].astype(int)).sum(axis=2) > 60).sum()
+        assert moved < 0.002 * shown[region].shape[0] * shown[region].shape[1], (
+            f"the top view follows the map as it grows ({moved} pixels changed by Top view)"
+        )
         shot = tmp_path / "viewer_mapping.png"
         browser.page.screenshot(path=str(shot), timeout=120000)
         if wanted:

@@ -3,6 +3,7 @@ the robot's state (a growing map replaces the last); a message with a NaN or in 
 once and counted; every robot namespace has its own graph and frontiers, found by type under another node name."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -14,8 +15,10 @@ from rclpy.parameter import Parameter
 from support.ros import spin_until
 
 from amr_interfaces.msg import Frontiers, LocalizedPose, PoseGraph
+from amr_util.geometry import Pose2D as Pose
 from amr_util.qos import LATCHED, reliable
-from amr_viewer.viewer_node import ViewerNode
+from amr_viewer.state import map_image
+from amr_viewer.viewer_node import RobotLink, ViewerNode
 
 TIMEOUT = 15.0
 
@@ -177,3 +180,30 @@ def test_every_robot_namespace_has_its_own_graph_and_frontiers(ros_context, exec
     assert states["/r1"].frontiers.chosen_centroid == pytest.approx((-4.0, 1.0)), "its namespace's map frame"
     assert np.allclose(states["/r2"].frontiers.centroids[:, 0], (4.0, 6.0))
     assert "" not in node.robots
+
+
+def test_the_top_view_follows_a_growing_map_until_the_user_moves_the_camera(ros_context, viewer):
+    node, _ = viewer
+    link = node.robots[""] = RobotLink(node, "", set())
+    state = link.state
+    client = SimpleNamespace(
+        client_id=7, camera=SimpleNamespace(aspect=1.6, image_width=1024, fov=1.0, position=None, look_at=None)
+    )
+
+    def grow(cells: int) -> None:
+        state.on_map(map_image(cells, cells, 0.05, Pose(-1.0, -1.0, 0.0), [-1] * cells * cells))
+
+    grow(40)
+    node._frame(client, "top")
+    first = client.camera.position
+    grow(41)  # 5 cm more on a 2 m map: within the margin
+    assert not node._follow_growth(client) and client.camera.position == first
+    grow(80)
+    assert node._follow_growth(client), "the map outgrew the view: framed again"
+    assert client.camera.position[2] > first[2], "from higher up"
+    client.camera.position = (0.5, 0.5, 3.0)  # the user turned the view
+    grow(160)
+    assert not node._follow_growth(client) and client.camera.position == (0.5, 0.5, 3.0), "the user's camera kept"
+    node._frame(client, "top")  # Top view pressed: followed again
+    grow(320)
+    assert node._follow_growth(client)
