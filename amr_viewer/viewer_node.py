@@ -683,11 +683,15 @@ class ViewerNode(ManagedNode):
         )
 
     def _follow_growth(self, client) -> bool:
-        """Frame the top view again when what it shows has grown out of it (a SLAM map) and the user has not moved
-        the camera since it was set (then it is left alone); True when it was framed again."""
+        """Frame the top view again when the robots' maps have grown out of it (a SLAM map) and the user has not
+        moved the camera since it was set (then it is left alone); True when it was framed again. Without a map
+        the view stays where it was put."""
         view = self._top_views.get(client.client_id)
-        bounds = self._robot_bounds()
-        if view is None or bounds is None or not outgrown(view[0], bounds):
+        maps = [link.state.map.bounds for link in self.robots.values() if link.state.map is not None]
+        if view is None or not maps:
+            return False
+        bounds = (min(b[0] for b in maps), min(b[1] for b in maps), max(b[2] for b in maps), max(b[3] for b in maps))
+        if not outgrown(view[0], bounds):
             return False
         framed, camera = view
         if not (

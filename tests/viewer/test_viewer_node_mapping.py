@@ -17,6 +17,7 @@ from support.ros import spin_until
 from amr_interfaces.msg import Frontiers, LocalizedPose, PoseGraph
 from amr_util.geometry import Pose2D as Pose
 from amr_util.qos import LATCHED, reliable
+from amr_viewer.cdr import StampedTransform
 from amr_viewer.state import map_image
 from amr_viewer.viewer_node import RobotLink, ViewerNode
 
@@ -193,6 +194,10 @@ def test_the_top_view_follows_a_growing_map_until_the_user_moves_the_camera(ros_
     def grow(cells: int) -> None:
         state.on_map(map_image(cells, cells, 0.05, Pose(-1.0, -1.0, 0.0), [-1] * cells * cells))
 
+    state.on_transforms([StampedTransform("odom", "base_footprint", 0.0, Pose(0.0, 0.0, 0.0))])
+    node._frame(client, "top")  # no map yet: the robot's surroundings
+    state.on_transforms([StampedTransform("odom", "base_footprint", 0.0, Pose(5.0, 0.0, 0.0))])
+    assert not node._follow_growth(client), "without a map the view stays where it was put"
     grow(40)
     node._frame(client, "top")
     first = client.camera.position
