@@ -15,6 +15,7 @@ from rclpy.serialization import serialize_message
 from amr_interfaces.msg import Frontiers, PoseGraph
 from amr_util.geometry import Pose2D
 from amr_viewer import cdr, status
+from amr_viewer.geometry import outgrown
 from amr_viewer.scene import COLORS, TOGGLED, Scene
 from amr_viewer.state import RobotState, Skipped, frontier_view, map_image, pose_graph_view
 from amr_viewer.topics import FRONTIERS, POSE_GRAPH, node_topic
@@ -193,3 +194,12 @@ def test_the_graph_and_frontiers_are_drawn_in_their_colours_and_can_be_hidden(se
     assert "/robots/root/graph/loops" not in handles, "no loop closure left: none drawn"
     assert handles["/robots/root/graph/edges"].points.shape == (11, 2, 3)
     assert not handles["/robots/root/graph/edges"].visible, "still hidden"
+
+
+def test_a_map_has_outgrown_its_view_beyond_a_margin_on_any_side():
+    framed = (-1.0, -1.0, 1.0, 1.0)
+    assert not outgrown(framed, framed) and not outgrown(framed, (-1.09, -0.5, 1.09, 0.5)), "within 5 % of 2 m"
+    for side in range(4):
+        grown = list(framed)
+        grown[side] += 0.15 if side >= 2 else -0.15
+        assert outgrown(framed, tuple(grown)), f"side {side}"
