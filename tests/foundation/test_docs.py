@@ -60,7 +60,11 @@ def anchors(path: Path) -> set[str]:
     return found
 
 
-@pytest.mark.parametrize("path", DOC_FILES, ids=lambda p: str(p.relative_to(ROOT)))
+DECISION_RECORDS = sorted((ROOT / "docs" / "decisions").glob("*.md"))
+"""Dated records of how a design or figure was reached: their links are checked, their commands are history."""
+
+
+@pytest.mark.parametrize("path", DOC_FILES + DECISION_RECORDS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_every_link_resolves(path):
     text = re.sub(r"^```.*?^```", "", path.read_text(encoding="utf-8"), flags=re.S | re.M)
     for target in re.findall(r"\]\(([^)\s]+)\)", text):
