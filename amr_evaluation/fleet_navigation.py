@@ -30,10 +30,8 @@ from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
-from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route, RouteDriver
-from amr_navigation.fleet_schedule import DeadReckoning
-from amr_navigation.loop import NavigationCommand, NavigationLoop
-from amr_navigation.navigator import Mode
+from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route
+from amr_navigation.loop import NavigationLoop
 from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
@@ -196,7 +194,8 @@ def run_fleet(
     coordination: "rules" (each robot's navigation loop with the traffic rules) or "plan" (the fleet planned
     together as the fleet_planner node plans it: amr_navigation.fleet_coordinator.FleetCoordinator fed every
     robot's pose, localized and goal each step, on a lattice `lattice_spacing` m apart; each robot's path follower
-    driven along the route it was last told by a RouteDriver, as the navigator node's coordination "plan" does).
+    driven along the route it was last told by its navigation loop's core, as the navigator node's coordination
+    "plan" does).
     With "plan" and the particle filters, the robots go as with "rules" (explore until localized, then the traffic
     rules) until every robot is localized at once; the fleet is then planned from the estimates, and a robot whose
     filter withdraws localized goes on by odometry from its last sure estimate until it is sure again."""
@@ -256,9 +255,6 @@ def run_fleet(
         coordinator.set_costmap(planner.costmap)
     told: dict[str, Route] = {}
     """with "plan": what each robot was last told (NONE or none: the traffic rules)."""
-    drivers = [RouteDriver(PathFollower(follower), planner) for _ in fleet.robots] if planned else []
-    reckoning = [DeadReckoning() for _ in fleet.robots]
-    """with "plan": each robot's pose to drive by (its last sure estimate moved on by odometry while unsure)."""
     lidar = fleet.lidar
     reason = f"time limit {duration:g} s"
     while True:
@@ -276,11 +272,13 @@ def run_fleet(
                 np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max
             )
             truth = robot.pose
+            confidence = None
             if pf is None:
                 pose, localized = (truth.x, truth.y, truth.theta), True
             else:
                 estimate = pf.update(tuple(robot.odom_pose), scan)
                 pose, localized = (estimate.pose.x, estimate.pose.y, estimate.pose.theta), estimate.localized
+                confidence = estimate.confidence
             false = False
             run.note_localized(fleet.time, localized, follower.dt)
             if localized:
@@ -289,9 +287,9 @@ def run_fleet(
                 if error > FALSE_LOCALIZED_ERROR:
                     run.false_localized_steps += 1
                     false = True
-            index = len(commands)
+            odometry = tuple(robot.odom_pose) if planned else None
             if planned:  # the navigator node's coordination "plan", the fleet_planner node's coordinator
-                driving = reckoning[index].pose(pose, localized, robot.odom_pose)
+                driving = loop.driving_pose(pose, localized, odometry, confidence)  # the pose its status carries
                 told.update(
                     coordinator.observe(
                         robot.name, fleet.time, driving[0], driving[1], localized, (robot.goal.x, robot.goal.y)
@@ -305,12 +303,18 @@ def run_fleet(
                         f"{fleet.time:.2f} fleet plan {coordinator.plans}: " + (told[robot.name].reason or "made")
                     )
             route = told.get(robot.name)
+            command = loop.step(
+                pose,
+                localized,
+                scan,
+                *robot.odom_twist,
+                fleet.time,
+                confidence=confidence,
+                route=route,
+                odometry=odometry,
+            )
             if route is not None and route.state != NONE:
                 pose = driving  # unsure: on by odometry from the last sure estimate
-                follow = drivers[index].command(pose, scan, fleet.time, route)
-                command = NavigationCommand(follow.v, follow.w, Mode.FOLLOW, follow, ())
-            else:
-                command = loop.step(pose, localized, scan, *robot.odom_twist, fleet.time)
             if false != run.falsely_localized:  # the episode's own events: when a false localized begins and ends
                 run.falsely_localized = false
                 event = (

@@ -58,8 +58,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from amr_control.path_follower import FollowCommand, PathError, PathFollower
-from amr_navigation.fleet_schedule import STOPPED_SHORT, HandOver, Schedule, legs
+from amr_navigation.fleet_schedule import Schedule
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
 from amr_planning.fleet_plan import (
@@ -76,8 +75,6 @@ from amr_planning.fleet_plan import (
     trim,
 )
 from amr_planning.fleet_plan import constraints_around as around  # one robot's space-time constraints from the others
-from amr_planning.planner import Planner
-from amr_util.scan import ScanData
 
 NONE, HOLD, FOLLOW = "NONE", "HOLD", "FOLLOW"
 GOAL_TOLERANCE = 1e-6
@@ -658,28 +655,3 @@ class FleetCoordinator:
                 for name in self.names
             }
         )
-
-
-class RouteDriver:
-    """One robot's path follower driven along the route it was last told, at library level (the navigator node's
-    coordination "plan" does the same through the path follower node): on FOLLOW the planner's `legs` from where it
-    stands through the waypoints, handed over again when the route changes or BLOCKED_RETRY s after the follower
-    stopped short (`HandOver`); on HOLD the follower stands (speed limit 0)."""
-
-    def __init__(self, follower: PathFollower, planner: Planner) -> None:
-        self.follower, self.planner = follower, planner
-        self._hand_over = HandOver()
-
-    def command(
-        self, pose: tuple[float, float, float], scan: ScanData | None, stamp: float, route: Route
-    ) -> FollowCommand:
-        x, y, theta = pose
-        if route.state == HOLD:
-            return self.follower.compute(x, y, theta, scan, speed_limit=0.0)
-        key = (route.plan, route.progress, route.waypoints.tobytes())
-        if self._hand_over.due(key, self.follower.state in STOPPED_SHORT, stamp):
-            try:
-                self.follower.set_path(legs(self.planner, np.vstack([(x, y), route.waypoints])))
-            except PathError:
-                self.follower.clear()
-        return self.follower.compute(x, y, theta, scan)

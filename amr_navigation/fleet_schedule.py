@@ -6,7 +6,7 @@ once every robot the plan puts there earlier has moved on). `Schedule` keeps eac
 waypoint it reached, in order) and says how far along its list a robot may go: up to the first waypoint whose
 dependencies are not all done. Robots driven this way at any speeds never meet at a vertex and never wait on one
 another in a cycle (Hoenig et al. 2016). What following a route needs, shared by the navigator node and the library
-level (amr_navigation.fleet_coordinator.RouteDriver): `legs` (the planner's paths through the waypoints),
+level (amr_navigation.navigator_core.NavigatorCore): `legs` (the planner's paths through the waypoints),
 `HandOver` (when a new path is due), `DeadReckoning` (the pose to drive by). No ROS.
 """
 

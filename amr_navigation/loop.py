@@ -1,12 +1,13 @@
-"""The navigation loop without ROS: the Navigator's decisions carried out with the controller and planner
-objects in process, one command per observation, as the `maze_navigation` stack carries them out with nodes.
+"""The navigation loop without ROS: the navigator core's effects carried out with the controller and planner objects
+in process, one command per observation, as the `maze_navigation` stack carries them out with nodes.
 
-`NavigationLoop.step` takes one observation (the localizer's estimate, the scan, the odometry twist) and
-returns the command that answers it: the Navigator (amr_navigation.navigator) decides who drives and when to
-plan; the loop plans (Planner.plan, as the planner node's ~/plan), hands paths to the PathFollower (as the
-navigator node's ~/follow_path call), and asks the WallFollower or the PathFollower for the command (as
-those nodes do when the navigator's status names them). A localized observation nobody drives (no goal,
-no path, reached) gets a zero command here; in the stack nobody answers it and the lockstep simulator holds.
+`NavigationLoop.step` takes one observation (the localizer's estimate, its confidence, the scan, the odometry) and
+returns the command that answers it. Everything that decides is the navigator core's
+(amr_navigation.navigator_core.NavigatorCore, which the navigator node runs too): the loop answers its calls (a
+plan: Planner.plan, as the planner node's ~/plan; a path to hand over: PathFollower.set_path, as the path
+follower's ~/follow_path), asks the controller the decision names for the command (with the decision's speed
+limit), and gives the path follower's report back to the core. A localized observation nobody drives (no goal, no
+path, reached) gets a zero command here; in the stack nobody answers it and the lockstep simulator holds.
 
 `run_navigation` drives a simulator and a particle filter with a NavigationLoop (the filter's estimate is its
 pose in the map moved by the odometry since its last update, which is what the node publishes on /pose)
@@ -24,9 +25,20 @@ import numpy as np
 
 from amr_control.path_follower import FollowCommand, PathError, PathFollower, State
 from amr_control.wall_follower import WallFollower
-from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE, Controller, Decision, Mode, Navigator, PlanRequest
+from amr_navigation.fleet_coordinator import Route
+from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE, Controller, Decision, Mode, Navigator
+from amr_navigation.navigator_core import (
+    DEFAULT_DRIVE_CONFIDENCE,
+    DEFAULT_RELEASE_CONFIDENCE,
+    FollowerReport,
+    NavigatorCore,
+    Observation,
+    Outcome,
+    PlanAnswer,
+    PlanCall,
+    run_job,
+)
 from amr_navigation.traffic import Traffic
-from amr_navigation.traffic_steps import detour_done, idle_advice
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
 from amr_util.scan import ScanData, scan_of
@@ -41,10 +53,14 @@ class NavigationCommand:
     """the path follower's command (FOLLOW, REACHED)."""
     events: tuple[str, ...] = ()
     """what happened at this observation: planned, replanned, localization lost, no path, ..."""
+    decision: Decision | None = None
+    """the core's decision for the observation (what the navigator node publishes on ~/status)."""
+    speed_limit: float | None = None
+    """the speed limit the path follower drove with (traffic rules; None: none)."""
 
 
 class NavigationLoop:
-    """A Navigator with its planner and controllers in process."""
+    """A NavigatorCore with its planner and controllers in process."""
 
     def __init__(
         self,
@@ -54,15 +70,39 @@ class NavigationLoop:
         goal: tuple[float, float] | None,
         replan_distance: float = DEFAULT_REPLAN_DISTANCE,
         traffic: Traffic | None = None,
+        drive_confidence: float = DEFAULT_DRIVE_CONFIDENCE,
+        release_confidence: float = DEFAULT_RELEASE_CONFIDENCE,
     ) -> None:
-        self.planner = planner
         self.wall_follower = wall_follower
         self.path_follower = path_follower
-        self.navigator = Navigator(goal, replan_distance)
-        self.traffic = traffic
-        """the traffic rules among other robots (amr_navigation.traffic); None: a robot alone, as before."""
+        self.core = NavigatorCore(
+            Navigator(goal, replan_distance),
+            traffic=traffic,
+            follower_speed=path_follower.config.linear_speed,
+            drive_confidence=drive_confidence,
+            release_confidence=release_confidence,
+        )
+        self.planner = planner
+        self._route: Route | None = None
+
+    @property
+    def planner(self) -> Planner:
+        return self.core.planner
+
+    @planner.setter
+    def planner(self, planner: Planner) -> None:
+        self.core.set_map(planner)
 
     # what the bench and the tests read
+    @property
+    def navigator(self) -> Navigator:
+        return self.core.navigator
+
+    @property
+    def traffic(self) -> Traffic | None:
+        """the traffic rules among other robots (amr_navigation.traffic); None: a robot alone."""
+        return self.core.traffic
+
     @property
     def goal(self) -> tuple[float, float] | None:
         return self.navigator.goal
@@ -89,7 +129,11 @@ class NavigationLoop:
 
     def set_goal(self, goal: tuple[float, float]) -> None:
         """A new goal (/goal_pose): planned for at the next localized observation."""
-        self.navigator.set_goal(goal)
+        self.core.set_goal(goal)
+
+    def driving_pose(self, pose, localized: bool, odometry, confidence: float | None = None):
+        """The pose this robot drives by on a fleet route for this observation (see NavigatorCore.driving_pose)."""
+        return self.core.driving_pose(pose, localized, odometry, confidence)
 
     def step(
         self,
@@ -99,87 +143,57 @@ class NavigationLoop:
         odometry_v: float,
         odometry_w: float,
         stamp: float,
+        *,
+        confidence: float | None = None,
+        route: Route | None = None,
+        odometry: tuple[float, float, float] | None = None,
     ) -> NavigationCommand:
-        decision = self._carry_out(self.navigator.decide(pose, localized))
-        events = list(decision.events)
-        traffic = self.traffic
-        if decision.controller is not Controller.PATH_FOLLOWER:
-            advice = None
-            if traffic is not None:  # posted; at the goal: make way for a robot it blocks
-                advice = idle_advice(traffic, decision, pose, self.planner.costmap, stamp)
-            if decision.controller is Controller.WALL_FOLLOWER:
-                command = self.wall_follower.compute(scan, odometry_v, odometry_w, stamp)
-                return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events))
-            if advice is None:
-                return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events))
-            events += advice.events
-            events += self._carry_out(self.navigator.detour(advice.detour, "going aside")).events
-        limit = None
-        if traffic is not None:
-            advice = traffic.advise(
-                pose,
-                scan,
-                self.navigator.followed_path,
-                self.planner.costmap,
-                self.path_follower.config.linear_speed,
-                stamp,
-            )
-            events += advice.events
-            if advice.hold:
-                return NavigationCommand(0.0, 0.0, Mode.FOLLOW, None, tuple(events))
-            if advice.replan:
-                self.navigator.plan_again("traffic: plan to the goal again")
-                events += self.navigator.take_events()
-                return NavigationCommand(0.0, 0.0, Mode.FOLLOW, None, tuple(events))
-            if advice.detour is not None:
-                events += self._carry_out(self.navigator.detour(advice.detour, "going aside")).events
-            if advice.replan_around is not None:
-                events += self._plan_around(pose, advice.replan_around)
-            limit = advice.speed_limit
-        follow = self.path_follower.compute(pose[0], pose[1], pose[2], scan, speed_limit=limit)
-        if detour_done(traffic, self.navigator, follow.reached, stamp):
-            return NavigationCommand(0.0, 0.0, Mode.FOLLOW, follow, tuple(events))
-        request = self.navigator.followed(follow.reached, follow.replan, follow.message)
-        if request is not None:
-            events += self._carry_out(self._plan(request)).events
-        events += self.navigator.take_events()
-        mode = Mode.REACHED if follow.reached else Mode.FOLLOW
-        return NavigationCommand(follow.v, follow.w, mode, follow, tuple(events))
+        """The command for one observation. confidence: the localizer's (None: from localized alone); route: the
+        fleet planner's latest word for this robot (None: its own planning); odometry: the observation's odometry
+        pose (on a route, what the pose to drive by moves on with while the localizer is unsure)."""
+        events: list[str] = []
+        if route is not self._route:
+            self._route = route
+            events += self.core.set_route(route)
+        observation = Observation(stamp, tuple(pose), bool(localized), confidence, odometry, scan)
+        outcome = run_job(self.core.step(observation), self._answer)
+        events += outcome.events
+        decision = outcome.decision
+        if decision.controller is Controller.WALL_FOLLOWER:
+            command = self.wall_follower.compute(scan, odometry_v, odometry_w, stamp)
+            return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events), decision)
+        if decision.controller is Controller.NONE:
+            return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events), decision)
+        x, y, theta = outcome.pose
+        follow = self.path_follower.compute(x, y, theta, scan, speed_limit=outcome.speed_limit)
+        report = self.core.report(
+            FollowerReport(stamp, follow.reached, follow.replan, follow.message, follow.state.value)
+        )
+        if not isinstance(report, Outcome):
+            report = run_job(report, self._answer)
+        events += report.events
+        if report.detour_end:
+            return NavigationCommand(0.0, 0.0, Mode.FOLLOW, follow, tuple(events), decision, outcome.speed_limit)
+        reached = follow.reached and not self.navigator.on_detour
+        mode = Mode.REACHED if reached else decision.mode
+        return NavigationCommand(follow.v, follow.w, mode, follow, tuple(events), decision, outcome.speed_limit)
 
-    def _carry_out(self, decision: Decision) -> Decision:
-        """Plan what the decision asks to, hand its path to the path follower; the decision to act on."""
-        events = list(decision.events)
-        while decision.plan is not None:
-            decision = self._plan(decision.plan)
-            events += decision.events
-        if decision.path is not None:
+    def _answer(self, call):
+        """A call of the core answered in process: a plan (Planner.plan), or a path handed to the path follower."""
+        if isinstance(call, PlanCall):
+            planner = self.planner
+            if call.marks is not None and len(call.marks):
+                planner = planner.with_obstacles(call.marks, call.mark_radius)
             try:
-                self.path_follower.set_path(decision.path)
-            except PathError as error:
-                self.path_follower.clear()
-                decision = self.navigator.path_refused(str(error))
-                events += decision.events
-        return Decision(decision.mode, decision.controller, None, decision.path, decision.reason, tuple(events))
-
-    def _plan_around(self, pose: tuple[float, float, float], marks: np.ndarray) -> list[str]:
-        """Plan to the goal with `marks` (unmapped returns) on a copy of the costmap; the events."""
-        goal = self.navigator.goal
-        planner = self.planner.with_obstacles(marks, self.traffic.config.mark_radius)
+                return PlanAnswer(planner.plan(call.start, call.goal))
+            except PlanningError as error:
+                return PlanAnswer(None, str(error), error.goal_refused)
         try:
-            points = planner.plan((pose[0], pose[1]), goal)
-        except PlanningError as error:
-            self.traffic.replanned_around(marks, False)
-            return [f"no way around the obstacle: {error}"]
-        self.traffic.replanned_around(marks, True)
-        return list(self._carry_out(self.navigator.adopt(points, "around an obstacle not on the map")).events)
-
-    def _plan(self, request: PlanRequest) -> Decision:
-        planner = self.planner if self.traffic is None else self.traffic.planner(self.planner)
-        try:
-            points = planner.plan(request.start, request.goal)
-        except PlanningError as error:
-            return self.navigator.planned(request, None, str(error), goal_refused=error.goal_refused)
-        return self.navigator.planned(request, points)
+            self.path_follower.set_path(call.path)
+        except PathError as error:
+            self.path_follower.clear()
+            return str(error)
+        return ""
 
 
 # -- the loop with a simulator and a particle filter --------------------------------------------
@@ -249,7 +263,7 @@ def run_navigation(
             if result.first_localized is None:
                 result.first_localized = sim.time
             result.max_localized_error = max(result.max_localized_error, error)
-        command = loop.step(pose, estimate.localized, scan, *sim.odom_twist, sim.time)
+        command = loop.step(pose, estimate.localized, scan, *sim.odom_twist, sim.time, confidence=estimate.confidence)
         steps[command.mode] += 1
         if command.follow is not None and command.follow.state is State.TRACK and loop.followed_path is not None:
             result.cross_track.append(distance_to_path(loop.followed_path, truth.x, truth.y))

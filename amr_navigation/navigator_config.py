@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from amr_navigation.navigator import DEFAULT_REPLAN_DISTANCE
+from amr_navigation.navigator_core import DEFAULT_DRIVE_CONFIDENCE, DEFAULT_RELEASE_CONFIDENCE
 from amr_navigation.traffic import TrafficConfig
 from amr_planning.costmap import CostmapConfig
 from amr_util.geometry import all_finite
@@ -28,6 +29,13 @@ class NavigatorConfig(Config):
     world_goal_topic, or a set of this parameter)."""
     replan_distance: float = parameter(DEFAULT_REPLAN_DISTANCE, minimum=0.01, maximum=10.0, live=True)
     """m the estimate may be from the planned path before a new plan is made."""
+    drive_confidence: float = parameter(DEFAULT_DRIVE_CONFIDENCE, minimum=0.0, maximum=1.0, live=True)
+    """the localizer's confidence (/pose's posterior probability of its best place) at which the robot drives a
+    path (below it: it explores); a localized /pose without a probability (confidence 0) counts as 1."""
+    release_confidence: float = parameter(DEFAULT_RELEASE_CONFIDENCE, minimum=0.0, maximum=1.0, live=True)
+    """... and under which it stops driving one and explores again (hysteresis, at most drive_confidence; 0.5: the
+    best place no longer holds most of the belief). Below the particle filter's own release_probability (0.8), a
+    short dip of its localized does not hand the robot to the wall follower and back."""
     plan_timeout: float = parameter(10.0, minimum=0.1, maximum=600.0, live=True)
     """s (wall clock) a ~/plan or ~/follow_path request may take before it counts as failed."""
     world_goal_topic: str = parameter("")
@@ -78,6 +86,11 @@ class NavigatorConfig(Config):
     with while the localizer is unsure)."""
 
     def validate(self) -> None:
+        if self.release_confidence > self.drive_confidence:
+            raise ConfigError(
+                f"release_confidence: must be <= drive_confidence ({self.drive_confidence}), "
+                f"got {self.release_confidence}"
+            )
         if self.coordination == "plan" and not self.traffic:
             raise ConfigError(
                 "coordination: 'plan' needs traffic: true (the robots go by the traffic rules until "
