@@ -203,9 +203,8 @@ class Scene:
         return self._root_of(state.namespace)
 
     def _put(self, name: str, handle) -> None:
-        old = self._handles.get(name)
-        if old is not None and old is not handle:
-            old.remove()
+        """Keep `handle`, added under `name` (viser has removed the node that had that name: removing it again
+        warned "Attempted to remove already removed node" at the first redraw of a new map)."""
         self._handles[name] = handle
         layer = name.split("/")[3] if name.count("/") >= 3 else ""
         if layer in self.hidden:

@@ -1,6 +1,6 @@
-"""What a SLAM graph costs the viewer: decoding an amr_interfaces/PoseGraph and drawing it, by graph size.
+"""What a SLAM graph and a growing map cost the viewer: decoding and drawing them, by size.
 
-    python bench/bench_viewer_slam.py [--sizes 1000 5000] [--repeats 20]
+    python bench/bench_viewer_slam.py [--sizes 1000 5000] [--cells 200 800] [--repeats 20]
 
 For each size: a graph of N nodes along a Manhattan walk with N - 1 sequential edges and N / 5 loop closures,
 serialized by rclpy as the slam node publishes it; then, median ms of --repeats:
@@ -10,8 +10,10 @@ serialized by rclpy as the slam node publishes it; then, median ms of --repeats:
   draw     amr_viewer.scene.Scene drawing the new graph into a viser server (no browser connected);
   bytes    the message's size.
 
-The slam node sends its graph with each /map (at most every map_publish_period, 1 s by default), so these run at
-most once a second. On a machine shared with other work the times move with its load.
+Then for each map of --cells x --cells cells (half unknown, walls and free space): rclpy's deserialize_message and
+the gray image (the viewer's path for /map), and the scene's redraw of it (an image upscaled to about 1,024 px,
+PNG-encoded for the browser). The slam node sends its graph with each /map (at most every map_publish_period, 1 s
+by default), so these run at most once a second. On a machine shared with other work the times move with its load.
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ import time
 import numpy as np
 import viser
 from geometry_msgs.msg import Pose2D
+from nav_msgs.msg import OccupancyGrid
 from rclpy.serialization import deserialize_message, serialize_message
 
 from amr_interfaces.msg import PoseGraph
-from amr_viewer import cdr
+from amr_viewer import cdr, messages
 from amr_viewer.scene import Scene
 from amr_viewer.state import RobotState, pose_graph_view
 
@@ -44,6 +47,19 @@ def graph_bytes(count: int, seed: int = 0) -> bytes:
     message.edge_from = list(range(count - 1)) + closures[:, 0].tolist()
     message.edge_to = list(range(1, count)) + closures[:, 1].tolist()
     message.loop_closure = [False] * (count - 1) + [True] * len(closures)
+    return serialize_message(message)
+
+
+def map_bytes(cells: int, seed: int = 0) -> bytes:
+    rng = np.random.default_rng(seed)
+    data = np.full((cells, cells), -1, dtype=np.int8)
+    data[: cells // 2] = rng.choice(np.array([0, 0, 0, 100], dtype=np.int8), (cells // 2, cells))
+    message = OccupancyGrid()
+    message.header.frame_id = "map"
+    message.info.width = message.info.height = cells
+    message.info.resolution = 0.05
+    message.info.origin.orientation.w = 1.0
+    message.data = data.ravel().tolist()
     return serialize_message(message)
 
 
@@ -70,6 +86,7 @@ def median_ms(work, repeats: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 5000])
+    parser.add_argument("--cells", type=int, nargs="+", default=[200, 800])
     parser.add_argument("--repeats", type=int, default=20)
     options = parser.parse_args()
     with contextlib.redirect_stdout(io.StringIO()):
@@ -91,6 +108,23 @@ def main() -> None:
             slow_ms = median_ms(lambda data=data: via_rclpy(data), options.repeats)
             draw_ms = median_ms(draw, options.repeats)
             print(f"{size:>6} {len(fast.edges):>6} {len(data):>8} {fast_ms:>8.2f} {slow_ms:>9.2f} {draw_ms:>8.2f}")
+        print(f"\n{'cells':>9} {'bytes':>8} {'decode ms':>10} {'draw ms':>8}")
+        for cells in options.cells:
+            data = map_bytes(cells)
+            state = RobotState("")
+
+            def decode(data=data):
+                grid = deserialize_message(data, OccupancyGrid)
+                return messages.occupancy_grid(grid)
+
+            image = decode()
+
+            def draw_map(state=state, image=image) -> None:
+                state.on_map(image, "map")
+                scene.draw(state)
+
+            decode_ms, draw_ms = median_ms(decode, options.repeats), median_ms(draw_map, options.repeats)
+            print(f"{cells:>4}x{cells:<4} {len(data):>8} {decode_ms:>10.2f} {draw_ms:>8.2f}")
     finally:
         server.stop()
 
