@@ -303,6 +303,10 @@ def _particle_filter(spec: EpisodeSpec, world):
     )
 
 
+CONFIDENCES = ("drive_confidence", "release_confidence")
+"""the navigator's confidence rule (config/navigator.yaml), passed to the library loop as the node reads it."""
+
+
 def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
     from amr_control.path_follower import PathFollower
     from amr_control.path_follower_config import PathFollowerConfig
@@ -325,6 +329,7 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
         PathFollower(PathFollowerConfig.from_params(spec.parameters["path_follower"])),
         (world.goal.x, world.goal.y),
         replan_distance=float(spec.parameters["navigator"]["replan_distance"]),
+        **{key: float(spec.parameters["navigator"][key]) for key in CONFIDENCES if key in spec.parameters["navigator"]},
     )
     particle_filter = _particle_filter(spec, world)
     sim = simulator_for(spec, world, dt=wall.dt)

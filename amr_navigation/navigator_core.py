@@ -259,10 +259,6 @@ class NavigatorCore:
         last, then = self._reckoning.sure
         return tuple(float(v) for v in compose(last, relative_pose(then, tuple(odometry))))
 
-    @property
-    def mode(self) -> Mode:
-        return self.navigator.mode
-
     # -- one observation ------------------------------------------------------------------------------
 
     def step(self, observation: Observation) -> Job:
@@ -309,11 +305,6 @@ class NavigatorCore:
         if request is None:
             return Outcome(None, events=tuple(events))
         return self._follower_plan(request, events)
-
-    @property
-    def held(self) -> bool:
-        """Nobody drives the last decision (a new goal or route should decide that observation again)."""
-        return self.navigator.mode in (Mode.IDLE, Mode.NO_PATH, Mode.REACHED) and self.route is None
 
     # -- carrying decisions out -------------------------------------------------------------------------
 

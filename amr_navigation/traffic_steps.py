@@ -1,5 +1,5 @@
-"""What the navigation loop (amr_navigation.loop) and the navigator node (amr_navigation.navigator_node) both do with
-the traffic rules around the Navigator's decisions, once, without ROS: the observations the path follower does not
+"""What the navigator core (amr_navigation.navigator_core, which the navigator node and the library loop both run) does
+with the traffic rules around the Navigator's decisions, without ROS: the observations the path follower does not
 drive (`idle_advice`), the end of a detour (`detour_done`), and the node's board of the others' posts, which
 forgets a robot that has gone quiet (`FleetBoard`).
 """
