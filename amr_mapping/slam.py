@@ -12,19 +12,24 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most +-match_linear_window /
   +-match_angular_window. The match's information is the curvature of its score (_match_information); it is
   fused with the odometry prior as two Gaussians (along a corridor the odometry decides) and the edge to the
-  previous node carries both. A score below min_match_score, or fewer than MIN_BEAMS usable beams, is not fatal:
-  the node is added on odometry alone and the update's events say so.
+  previous node carries both. A score below min_match_score (some overlap), or fewer than MIN_BEAMS usable
+  beams, is not fatal: the node is added on odometry alone and the update's events say so. A weak match (below
+  WEAK_MATCH_SCORE: a scan mostly of new ground) is tested: a rival mode in the window (_local_rival) widens its
+  covariance to span both, and it is used only if it agrees with the odometry (MATCH_CHI2).
 - Submaps for loop closure: every local_window consecutive nodes form a submap (scan points, as above), built
-  once in the frame of its middle node (the anchor) from the poses at the time (rigid, as Cartographer's).
+  in the frame of its middle node (the anchor) when first searched, from the poses then (rigid, as
+  Cartographer's).
 - Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
-  (the next updates take the next ones), each by CorrelativeMatcher.match within +-loop_linear_window /
-  +-loop_angular_window of the current estimate. A match scoring loop_min_score or more adds a loop-closure edge
-  (anchor, node) unless a rival pose along one of its axes scores nearly as well (ambiguous) or it disagrees
-  with the poses beyond LOOP_CHI2 against its covariance plus the one chained since the anchor; the graph is
-  optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy
-  kernel on closures, so a false closure bends the map little). An optimization that fails (MappingError) is
-  reported in the events and the poses kept.
+  and none once loop_time_budget of the update's CPU time is spent (the next updates take the rest), each by
+  CorrelativeMatcher.match within +-loop_linear_window / +-loop_angular_window of the current estimate. A match
+  scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it puts scan points in the
+  submap's seen-through space, a rival pose in the window scores nearly as well (ambiguous), or it disagrees with
+  the poses beyond LOOP_CHI2 against its covariance plus the graph's own uncertainty of the anchor -> node pose
+  (PoseGraph.marginals: every edge counted, earlier closures included); the graph is optimized
+  (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy kernel on closures, so a false closure
+  bends the map little), and a closure the optimized graph still disagrees with (LOOP_RESIDUAL_CHI2) is removed.
+  An optimization that fails (MappingError) is reported in the events and the poses kept.
 - The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
   changed, on request.
 
@@ -178,8 +183,9 @@ class SlamConfig:
     loop_max_candidates: int = 2
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
     loop_time_budget: float = 0.05
-    """s: a loop-closure candidate is searched only this soon after the update started (the rest wait for the
-    next updates; one at least every other update): bounds an update's time on a slow or loaded machine (0-1)."""
+    """s of the update's CPU time (its thread's: not the machine's load) after which no further loop-closure
+    candidate is searched (the rest wait for the next updates; one at least every other update): bounds an
+    update's time (0-1)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
     lidar_x: float = 0.0
@@ -267,9 +273,13 @@ class _Reference:
 
 @dataclass
 class _Submap:
+    """Nodes last - local_window + 1 .. last in the frame of the anchor node; the reference is built when the
+    submap is first searched for a closure (GraphSlam._reference_of), within that update's budget, from the poses
+    then (not on the completing node's update: an update's time)."""
+
     anchor: int
     last: int
-    reference: _Reference
+    reference: _Reference | None = None
 
     @property
     def matcher(self) -> CorrelativeMatcher:
@@ -386,7 +396,7 @@ class GraphSlam:
 
     def add(self, stamp_ns: int, odometry, scan: ScanData) -> SlamUpdate:
         """One scan with the odometry pose (x, y, theta, odom frame) at its stamp; see the module docstring."""
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.thread_time()
         if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
             raise MappingError(f"slam: stamp_ns must be an integer of nanoseconds, got {stamp_ns!r}")
         odometry = np.asarray(odometry, dtype=float).reshape(-1)
@@ -430,7 +440,7 @@ class GraphSlam:
         self._chain.append(np.linalg.inv(information) if self._step_covariance is None else self._step_covariance)
         self._step_covariance = None
         self._pose = pose.copy()
-        closures = self._close_loops(node, events, start)
+        closures = self._close_loops(node, events, cpu_start)
         return SlamUpdate(
             self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start, tuple(events)
         )
@@ -444,12 +454,17 @@ class GraphSlam:
         self._grid = None
         window = self.config.local_window
         if (index + 1) % window == 0:  # a submap is complete: nodes index - window + 1 .. index
-            anchor = index - window // 2
-            members = range(index - window + 1, index + 1)
-            reference = self._matcher(anchor, members, self.config.loop_linear_window)
-            reference.clear = self._clear_space(anchor, members)
-            self._submaps.append(_Submap(anchor, index, reference))
+            self._submaps.append(_Submap(index - window // 2, index))
         return index
+
+    def _reference_of(self, submap: _Submap) -> _Reference:
+        """The loop-closure submap's matcher and clear space, built on first use (see _Submap)."""
+        if submap.reference is None:
+            members = range(submap.last - self.config.local_window + 1, submap.last + 1)
+            reference = self._matcher(submap.anchor, members, self.config.loop_linear_window)
+            reference.clear = self._clear_space(submap.anchor, members)
+            submap.reference = reference
+        return submap.reference
 
     def _matcher(self, anchor: int, members, window: float) -> _Reference:
         """A matcher on the likelihood field of the members' scan points (their endpoints, Olson's rasterized
@@ -578,11 +593,12 @@ class GraphSlam:
         while self._pending and searched < cfg.loop_max_candidates:
             # the update's time: a candidate is started only within loop_time_budget of the update's start (the
             # rest wait for the next updates), but one at least every other update, however slow the front end
-            if time.perf_counter() - start > cfg.loop_time_budget and (searched or not self._starved):
+            if time.thread_time() - start > cfg.loop_time_budget and (searched or not self._starved):
                 break
             i = self._pending.pop(0)
             searched += 1
             submap = self._submaps[i]
+            self._reference_of(submap)
             anchor = poses[submap.anchor]
             prior = np.array(relative_pose(anchor, pose))
             match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)
