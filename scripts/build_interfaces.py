@@ -4,6 +4,10 @@ amr_interfaces always; interfaces/tf2_msgs (tf2_msgs/msg/TFMessage as Jazzy defi
 only where no other tf2_msgs is installed: a ROS 2 Jazzy install on AMENT_PREFIX_PATH keeps its own.
 Run with the venv's Python. It is incremental: a package's build is skipped when its
 interface files, CMakeLists.txt and package.xml hash to what was last installed.
+By default it generates only what a Python node loads (scripts/python_only_interfaces.cmake: the C structs, the
+Python conversions and the C typesupports; not the C++ headers and typesupports, which were most of the compile
+time), without optimization, the packages side by side; --all-typesupports builds everything, as colcon does,
+for C++ nodes built against this prefix.
 Two fixes make the ros-jazzy-* wheels build here: the wheels' exported CMake
 files name the wheel builder's include directories (/opt/python/cp311-cp311/...),
 which we rewrite to this interpreter's; and configure needs AMENT_PREFIX_PATH.
@@ -17,7 +21,9 @@ import os
 import subprocess
 import sys
 import sysconfig
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy
@@ -28,10 +34,27 @@ BUILT_ONLY_WHERE_MISSING = ("tf2_msgs",)
 PREFIX = Path(sys.prefix)
 WHEEL_BUILDER_PYTHON = "/opt/python/cp311-cp311/include/python3.11"
 WHEEL_BUILDER_NUMPY = "/opt/python/cp311-cp311/lib/python3.11/site-packages/numpy/_core/include"
+PYTHON_ONLY = ROOT / "scripts" / "python_only_interfaces.cmake"
+PYTHON_ONLY_BUILD_TYPE = "None"
+"""CMake's build type of the Python-only build: no -O flag (`None`, which has no flags) compiles the generated code
+in two thirds of Release's CPU time; the conversions it runs per message are not where a node's time goes."""
 
 
 def stamp(package: str) -> Path:
     return PREFIX / "share" / package / ".source_hash"
+
+
+def kind_stamp(package: str) -> Path:
+    """Beside the source hash: which typesupports were built, "python" or "all" (none: an older build, all)."""
+    return PREFIX / "share" / package / ".typesupports"
+
+
+def up_to_date(package: str, wanted: str, all_typesupports: bool) -> bool:
+    """Its sources hash to what was installed, and what was installed covers what is asked for."""
+    if not stamp(package).is_file() or stamp(package).read_text().strip() != wanted:
+        return False
+    installed = kind_stamp(package).read_text().strip() if kind_stamp(package).is_file() else "all"
+    return installed == "all" or not all_typesupports
 
 
 def source_hash(source: Path) -> str:
@@ -91,9 +114,17 @@ def run(command: list[str], env: dict[str, str]) -> None:
         raise SystemExit(f"build_interfaces: `{' '.join(command[:3])} ...` failed ({result.returncode})")
 
 
-def build(source: Path, build_dir: Path) -> None:
+INSTALLING = threading.Lock()
+"""Builds run side by side; their installs into the one prefix, one at a time."""
+
+
+def build(source: Path, build_dir: Path, all_typesupports: bool) -> None:
     env = child_environment()
     build_dir.mkdir(parents=True, exist_ok=True)
+    if all_typesupports:
+        selection = ["-UCMAKE_PROJECT_INCLUDE", "-DCMAKE_BUILD_TYPE=Release"]
+    else:
+        selection = [f"-DCMAKE_PROJECT_INCLUDE={PYTHON_ONLY}", f"-DCMAKE_BUILD_TYPE={PYTHON_ONLY_BUILD_TYPE}"]
     run(
         [
             "cmake",
@@ -105,38 +136,52 @@ def build(source: Path, build_dir: Path) -> None:
             f"-DCMAKE_PREFIX_PATH={PREFIX}",
             f"-DPython3_EXECUTABLE={sys.executable}",
             "-DBUILD_TESTING=OFF",
-            "-DCMAKE_BUILD_TYPE=Release",
+            *selection,
         ],
         env,
     )
     run(["cmake", "--build", str(build_dir), "--parallel", str(os.cpu_count() or 2)], env)
-    run(["cmake", "--install", str(build_dir)], env)
+    with INSTALLING:
+        run(["cmake", "--install", str(build_dir)], env)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--force", action="store_true", help="rebuild even if nothing changed")
     parser.add_argument("--build-dir", type=Path, default=Path("build"), help="one subdirectory per package")
+    parser.add_argument(
+        "--all-typesupports", action="store_true", help="also the C++ headers and typesupports (for C++ nodes)"
+    )
     args = parser.parse_args()
 
-    fixed = False
+    pending = {}
     for package, source in PACKAGES.items():
         if package in BUILT_ONLY_WHERE_MISSING and (elsewhere := installed_elsewhere(package)):
             print(f"{package}: provided by {elsewhere}, not built")
             continue
         wanted = source_hash(source)
-        if not args.force and stamp(package).is_file() and stamp(package).read_text().strip() == wanted:
+        if not args.force and up_to_date(package, wanted, args.all_typesupports):
             print(f"{package}: up to date")
             continue
+        pending[package] = wanted
+    if not pending:
+        return
+    changed = rewrite_exported_include_paths()
+    kind = "all" if args.all_typesupports else "python"
+
+    def build_one(package: str) -> str:
         started = time.monotonic()
-        changed = 0 if fixed else rewrite_exported_include_paths()
-        fixed = True
-        build(source, (args.build_dir / package).resolve())
-        stamp(package).write_text(wanted + "\n")
-        print(
-            f"{package}: built and installed into {PREFIX} in {time.monotonic() - started:.1f} s"
-            f" ({changed} exported CMake files fixed)"
+        build(PACKAGES[package], (args.build_dir / package).resolve(), args.all_typesupports)
+        stamp(package).write_text(pending[package] + "\n")
+        kind_stamp(package).write_text(kind + "\n")
+        return (
+            f"{package}: built ({kind} typesupports) and installed into {PREFIX} in {time.monotonic() - started:.1f} s"
         )
+
+    with ThreadPoolExecutor(len(pending)) as pool:
+        for line in pool.map(build_one, pending):
+            print(line)
+    print(f"({changed} exported CMake files of the wheels fixed)")
 
 
 if __name__ == "__main__":
