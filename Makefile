@@ -13,9 +13,12 @@ setup: $(VENV)/.deps-installed
 	@$(PY) scripts/install_ros_layout.py
 	@$(PY) scripts/build_interfaces.py
 
+# pip brings uv (a PyPI wheel with its binary), uv installs the rest: the versions pip would resolve, in a fraction of
+# pip's CPU (docs/testing.md). uv reads its own settings (UV_DEFAULT_INDEX, ...), not pip's configuration.
 $(VENV)/.deps-installed: pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	$(PY) -m pip install --quiet --disable-pip-version-check uv==0.13.9
+	$(VENV)/bin/uv pip install --quiet --python $(PY) -e '.[test]'
 	@touch $@
 
 demo: setup

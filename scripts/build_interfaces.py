@@ -91,7 +91,11 @@ def rewrite_exported_include_paths() -> int:
         for old, new in replacements.items():
             new_text = new_text.replace(old, new)
         if new_text != text:
-            path.write_text(new_text)
+            # a new file, not the old one rewritten: the installer may have hard-linked it from its cache (uv does),
+            # which must keep the wheel's text for the next venv
+            replacement = path.with_name(path.name + ".new")
+            replacement.write_text(new_text)
+            replacement.replace(path)
             changed += 1
     return changed
 

@@ -1,0 +1,76 @@
+"""A clean clone's setup and test run, step by step: the README's `make test` as CI runs it.
+
+    python bench/bench_setup.py [--dir /tmp/bench-setup] [--test] [--keep]
+
+Clones this repository's HEAD (committed work only) into --dir and runs there what `make test` runs, one Makefile
+step at a time: the venv and pip (`make .venv/.deps-installed`), the ROS layout and amr_interfaces
+(`make setup`), and with --test lint and the suite (`make test`, which finds setup done). One line per step: wall
+time, CPU time (its processes and theirs) and the load average before and after. On a shared machine the wall time
+is an upper bound; the CPU time is what the step costs. pip downloads what its cache lacks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def load() -> str:
+    return " ".join(Path("/proc/loadavg").read_text().split()[:3])
+
+
+def children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def step(name: str, command: list[str], cwd: Path, env: dict[str, str], log: Path) -> tuple[float, float, bool]:
+    before, cpu, started = load(), children_cpu(), time.monotonic()
+    with log.open("w") as out:
+        result = subprocess.run(command, cwd=cwd, env=env, stdout=out, stderr=subprocess.STDOUT)
+    wall, cpu = time.monotonic() - started, children_cpu() - cpu
+    status = "ok" if result.returncode == 0 else f"FAILED ({result.returncode}, see {log})"
+    print(f"{name:10s} {wall:7.1f} s wall {cpu:7.1f} s CPU  load {before} -> {load()}  {status}", flush=True)
+    return wall, cpu, result.returncode == 0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dir", type=Path, default=Path("/tmp/bench-setup"), help="the scratch clone (replaced)")
+    parser.add_argument("--test", action="store_true", help="also `make test` (lint and the whole suite)")
+    parser.add_argument("--keep", action="store_true", help="keep the clone afterwards")
+    args = parser.parse_args()
+
+    shutil.rmtree(args.dir, ignore_errors=True)
+    subprocess.run(["git", "clone", "--quiet", str(ROOT), str(args.dir)], check=True)
+    # the clone's own tools, not this interpreter's ROS environment
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")}
+    env.pop("VIRTUAL_ENV", None)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=args.dir, capture_output=True, text=True)
+    print(f"clean clone of {commit.stdout.strip()} in {args.dir}, {os.cpu_count()} cores", flush=True)
+    steps = [("pip", ["make", ".venv/.deps-installed"]), ("setup", ["make", "setup"])]
+    if args.test:
+        steps.append(("test", ["make", "test"]))
+    total_wall = total_cpu = 0.0
+    ok = True
+    for name, command in steps:
+        wall, cpu, ok = step(name, command, args.dir, env, args.dir.parent / f"{args.dir.name}-{name}.log")
+        total_wall, total_cpu = total_wall + wall, total_cpu + cpu
+        if not ok:
+            break
+    print(f"{'total':10s} {total_wall:7.1f} s wall {total_cpu:7.1f} s CPU")
+    if not args.keep:
+        shutil.rmtree(args.dir, ignore_errors=True)
+    sys.exit(0 if ok else 1)
+
+
+if __name__ == "__main__":
+    main()
