@@ -83,3 +83,12 @@ def sample_motion_model_odometry(
     moved[:, 1] = particles[:, 1] + trans * np.sin(heading)
     moved[:, 2] = wrap_angle(heading + rot2)
     return moved
+
+
+def motion_variance(
+    d_trans: float, d_theta: float, noise: OdometryNoise, heading_variance: float = 0.0
+) -> tuple[float, float]:
+    """(m^2, rad^2) the position's and the heading's variance one motion (d_trans m, d_theta rad) adds, first order
+    in the alphas, with the heading's variance already held (heading_variance) carried over its distance."""
+    position = noise.alpha3 * d_trans**2 + noise.alpha4 * d_theta**2 + heading_variance * d_trans**2
+    return position, noise.alpha1 * d_theta**2 + noise.alpha2 * d_trans**2

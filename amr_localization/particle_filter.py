@@ -49,12 +49,13 @@ from amr_localization.free_space import FreeSpace
 from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
-from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
+from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.progressive_correction import MAX_STAGES, stage_exponent
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.scan_beams import Beams, select_beams
+from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
@@ -106,6 +107,8 @@ NUDGES = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-
 ANYWHERE = 64
 """poses spread over free space (fixed per filter) on which the data's marginal likelihood over the map is estimated
 (the `elsewhere` hypothesis: hypotheses.py)."""
+CHAIN_RESOLUTION = 0.05
+"""m: cells of the scan-to-scan match that places the window's scans (at least the map's)."""
 DEFAULT_PERIOD = 0.05
 """s between two observations when no stamps are given (the simulator's 20 Hz)."""
 
@@ -148,31 +151,34 @@ class Estimate:
 
 
 class _Seen(NamedTuple):
-    """A scan used, for scoring hypotheses born later: the odometry then, its beams, their weights, its gain."""
+    """A scan used, for scoring hypotheses born later: the odometry then, its beams, their weights, its gain; its
+    end points (robot frame, within PLACE_SEARCH_RANGE, one per CHAIN_RESOLUTION cell) and its pose in the window's
+    frame (placed by scan-matched odometry: scan_odometry)."""
 
     odometry: tuple[float, float, float]
     beams: Beams
     weights: np.ndarray
     gain: float
+    points: np.ndarray
+    local: tuple[float, float, float]
 
 
 @dataclass
 class _Search:
-    """A place search under way: the odometry at its scan, and the variances (m^2, rad^2) the odometry motion model
-    has accumulated since (its proposals are moved by that odometry, and refitted within 3 sigma of its position)."""
+    """A place search under way: its scan's pose in the window's frame (its proposals are moved by the scan-matched
+    odometry since), and the variances (m^2, rad^2) the odometry motion model has accumulated since (they are
+    refitted within 3 sigma of its position)."""
 
     search: GlobalSearch
-    odometry: tuple[float, float, float]
+    local: tuple[float, float, float]
     position_variance: float = 0.0
     heading_variance: float = 0.0
 
     def moved(self, d_trans: float, d_theta: float, noise) -> None:
-        """First-order propagation of the motion model's noise (AMCL alphas): the heading's variance carried over
-        this step's distance adds to the position's."""
-        self.position_variance += (
-            noise.alpha3 * d_trans**2 + noise.alpha4 * d_theta**2 + self.heading_variance * d_trans**2
-        )
-        self.heading_variance += noise.alpha1 * d_theta**2 + noise.alpha2 * d_trans**2
+        """The motion model's noise over one more motion (motion_variance)."""
+        position, heading = motion_variance(d_trans, d_theta, noise, self.heading_variance)
+        self.position_variance += position
+        self.heading_variance += heading
 
 
 class ParticleFilter:
@@ -333,7 +339,7 @@ class ParticleFilter:
             self.status.event = "scan skipped: no valid return (NaN, inf or out of range everywhere)"
             selected = None
         if self._pending_measurement and (selected is not None or beacons is not None):
-            self._measure(selected, beacons)
+            self._measure(selected, beacons, scan if selected is not None else None)
         self.status.update_time = time.process_time() - started
         return Estimate(self._current_pose(odometry), self._localized, self.status)
 
@@ -374,7 +380,7 @@ class ParticleFilter:
             self.reinitialize_global()
             self.status.event = "every particle moved out of free space: global localization restarted"
 
-    def _measure(self, beams: Beams | None, beacons: BeaconReading | None) -> None:
+    def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
         config = self.config
         seen = None
         used = 0.0
@@ -385,7 +391,9 @@ class ParticleFilter:
                 if self._window or len(self.hypotheses)
                 else 1.0
             )
-            seen = _Seen(self._odometry, beams, weights, gain)
+            points = self._end_points(scan)
+            seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points))
+            self._rematch_places(seen)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
@@ -592,12 +600,55 @@ class ParticleFilter:
 
     def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
         """(H,) the log-likelihood of the scans in the window and of the current data at each pose, the poses of
-        the past scans reached back by odometry (a pose in a wall then scores as if it had seen nothing)."""
+        the past scans reached back through the window's scan-matched odometry (a pose in a wall then scores as if it
+        had seen nothing)."""
         total = self._log_likelihood(poses, seen, beacons, places=True)
+        if not self._window:
+            return total
+        now = seen.local if seen is not None else self._now()
         for past in self._window:
-            back = np.atleast_2d(compose(poses, relative_pose(self._odometry, past.odometry)))
+            back = np.atleast_2d(compose(poses, relative_pose(now, past.local)))
             total += self._log_likelihood(back, past, None, places=True)
         return total
+
+    def _end_points(self, scan: ScanData) -> np.ndarray:
+        """(K, 2) the scan's end points in the robot's frame, within PLACE_SEARCH_RANGE, one per chain cell."""
+        points = self._points(select_beams(scan, len(scan.ranges)))
+        points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
+        _, first = np.unique(np.floor(points / self._chain_resolution).astype(np.int64), axis=0, return_index=True)
+        return points[np.sort(first)]
+
+    @property
+    def _chain_resolution(self) -> float:
+        return max(CHAIN_RESOLUTION, self._grid.resolution)
+
+    def _placed(self, points: np.ndarray) -> tuple[float, float, float]:
+        """The scan's pose in the window's frame: the last window scan's, moved by the odometry's increment since,
+        matched and fused (scan_odometry.matched_increment); the odometry's own pose for the window's first."""
+        if not self._window:
+            return self._odometry
+        last = self._window[-1]
+        prior = np.asarray(relative_pose(last.odometry, self._odometry), dtype=float)
+        position, heading = motion_variance(math.hypot(prior[0], prior[1]), abs(float(prior[2])), self.noise)
+        increment = matched_increment(last.points, points, prior, position, heading, self._chain_resolution)
+        return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
+
+    def _rematch_places(self, seen: _Seen) -> None:
+        """The places (and the one declared), moved by the odometry since the window's last scan, moved by the
+        scan-matched increment instead (the better estimate of the same motion)."""
+        if not self._window:
+            return
+        last = self._window[-1]
+        correction = relative_pose(relative_pose(last.odometry, self._odometry), relative_pose(last.local, seen.local))
+        if len(self.hypotheses):
+            self.hypotheses.poses = np.atleast_2d(compose(self.hypotheses.poses, correction))
+        if self._declared is not None:
+            self._declared = np.asarray(compose(self._declared, correction), dtype=float)
+
+    def _now(self) -> tuple[float, float, float]:
+        """The pose now in the window's frame, without a scan: the last window scan's moved by odometry since."""
+        last = self._window[-1]
+        return tuple(np.asarray(compose(np.asarray(last.local), relative_pose(last.odometry, self._odometry))))
 
     @property
     def matcher(self) -> CorrelativeMatcher:
@@ -667,7 +718,7 @@ class ParticleFilter:
                 min_separation=2.0 * MERGE_DISTANCE,
                 min_angle_separation=2.0 * MERGE_ANGLE,
             )
-            self._search = _Search(search, self._odometry)
+            self._search = _Search(search, seen.local)
         running = self._search
         running.search.step(budget, refine=False)
         if not running.search.done:
@@ -675,8 +726,8 @@ class ParticleFilter:
         self._search = None
         self._covered = True
         poses = np.array([match.pose for match in running.search.matches(refine=False)]).reshape(-1, 3)
-        poses = np.atleast_2d(compose(poses, relative_pose(running.odometry, self._odometry))).reshape(-1, 3)
-        # moved by the odometry since its scan, refitted within 3 sigma of it (at most REFIT_WINDOW)
+        poses = np.atleast_2d(compose(poses, relative_pose(running.local, seen.local))).reshape(-1, 3)
+        # moved by the scan-matched odometry since its scan, refitted within 3 sigma of it (at most REFIT_WINDOW)
         window = min(max(3.0 * math.sqrt(running.position_variance), self._place_search_resolution), REFIT_WINDOW)
         return self._fitted(poses, seen, window)
 
@@ -687,7 +738,7 @@ class ParticleFilter:
         room's doors), at the cost of a single scan's points."""
         clouds = [self._points(seen.beams)]
         for past in self._window:
-            clouds.append(transform_points(relative_pose(self._odometry, past.odometry), self._points(past.beams)))
+            clouds.append(transform_points(relative_pose(seen.local, past.local), self._points(past.beams)))
         points = np.concatenate(clouds)
         points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
         _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)

@@ -96,6 +96,22 @@ class ScoreMap:
         table = np.where(grid.data < 0, np.maximum(table, unknown), table)
         return cls(table.astype(np.float32), grid.resolution, grid.origin[:2], grid.free())
 
+    @classmethod
+    def from_points(cls, points: np.ndarray, resolution: float, sigma: float, pad: float) -> ScoreMap:
+        """The likelihood field of a point cloud (a scan's end points: Olson's rasterized scan), on cells of
+        `resolution` covering the points and `pad` m around them; every cell a candidate."""
+        points = _finite_points(points)
+        if not len(points):
+            raise ValueError("score map: no finite point to rasterize")
+        if not math.isfinite(pad) or pad < 0.0:
+            raise ValueError(f"score map: pad must be a number >= 0 m, got {pad!r}")
+        low = np.floor((points.min(axis=0) - pad) / resolution) * resolution
+        shape = np.ceil((points.max(axis=0) + pad - low) / resolution).astype(int) + 1
+        data = np.zeros((shape[1], shape[0]), dtype=np.int8)
+        cells = np.floor((points - low) / resolution).astype(int)
+        data[cells[:, 1], cells[:, 0]] = 100
+        return cls.from_occupancy(OccupancyGrid(data, resolution, (float(low[0]), float(low[1]), 0.0)), sigma=sigma)
+
     @property
     def shape(self) -> tuple[int, int]:
         return int(self.table.shape[0]), int(self.table.shape[1])
@@ -214,6 +230,30 @@ class CorrelativeMatcher:
         a, x, y, total = found[0]
         pose = np.array([x_ref + x * res, y_ref + y * res, float(_wrap(thetas[a]))])
         return self._finish(points, pose, total, step, search.done, search.nodes, refine, covariance_cells)
+
+    def window_scores(
+        self, points: np.ndarray, prior, linear_window: float, angular_window: float, angular_step: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Every pose of the lattice within +-linear_window (m, in x and y) and +-angular_window (rad) of prior, and
+        its score (the mean cell lookup, 0..1): (M, 3) poses and (M,) scores; for a posterior over the window (the
+        match's score as a likelihood, times a prior) where the best pose alone is not enough."""
+        points = _finite_points(points)
+        prior = np.asarray(prior, dtype=float).reshape(3)
+        res = self.resolution
+        step = self._step(points, angular_step)
+        reach = int(math.ceil(linear_window / res - 1e-9))
+        turns = int(math.ceil(angular_window / step - 1e-9))
+        offsets = np.arange(-reach, reach + 1)
+        thetas = prior[2] + step * np.arange(-turns, turns + 1)
+        size = 2 * reach + 1
+        da, dy, dx = np.meshgrid(thetas - prior[2], offsets * res, offsets * res, indexing="ij")
+        poses = np.stack([prior[0] + dx.ravel(), prior[1] + dy.ravel(), prior[2] + da.ravel()], axis=1)
+        if len(points) == 0:
+            return poses, np.zeros(len(poses))
+        rows, cols = _cells(points, prior[0] - reach * res, prior[1] - reach * res, thetas, self.origin, res)
+        totals = np.empty((len(thetas), size, size), dtype=np.int64)
+        _lattice_totals(self.pyramid, self.pad, rows, cols, totals)
+        return poses, totals.ravel() / (len(points) * QUANTUM)
 
     # -- global search ---------------------------------------------------------------------------------------
 

@@ -212,3 +212,28 @@ def test_covariance_is_long_along_a_corridor():
     covariance = found.covariance
     assert np.all(np.linalg.eigvalsh(covariance) > 0.0) and np.allclose(covariance, covariance.T)
     assert covariance[0, 0] > 10.0 * covariance[1, 1]
+
+
+def test_score_map_from_points_peaks_on_the_points_and_pads_around_them():
+    points = np.array([[0.0, 0.0], [1.0, 0.5]])
+    score = ScoreMap.from_points(points, 0.1, 0.1, 0.3)
+    matcher = CorrelativeMatcher(score, levels=1)
+    assert matcher.score(points, (0.0, 0.0, 0.0)) == pytest.approx(1.0)
+    assert matcher.score(points + [0.35, 0.0], (0.0, 0.0, 0.0)) < 0.05
+    assert score.origin[0] <= -0.3 and score.origin[1] <= -0.3
+    with pytest.raises(ValueError, match="no finite point"):
+        ScoreMap.from_points(np.full((3, 2), np.nan), 0.1, 0.1, 0.3)
+
+
+def test_window_scores_cover_the_window_and_agree_with_the_match(pillars):
+    world, _, matcher = pillars
+    truth = np.array([1.0, 1.2, 0.3])
+    points = scan_points(world, truth)
+    prior = truth + [0.1, -0.05, 0.05]
+    poses, scores = matcher.window_scores(points, prior, 0.2, 0.1)
+    assert len(poses) == len(scores) and np.all((scores >= 0.0) & (scores <= 1.0))
+    assert np.abs(poses[:, :2] - prior[:2]).max() <= 0.2 + 0.05 and np.abs(poses[:, 2] - prior[2]).max() <= 0.11
+    best = poses[np.argmax(scores)]
+    match = matcher.match(points, prior, 0.2, 0.1, refine=False)
+    assert scores.max() == pytest.approx(match.score)
+    assert np.hypot(*(best[:2] - truth[:2])) <= 0.075

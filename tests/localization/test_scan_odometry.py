@@ -1,0 +1,67 @@
+"""Scan-matched odometry (amr_localization.scan_odometry): the window's scans placed by matching and odometry."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from amr_localization.motion_model import OdometryNoise, motion_variance
+from amr_localization.scan_odometry import matched_increment
+from amr_util.geometry import relative_pose, transform_points, wrap_angle
+
+
+def wall_points(segments, step=0.02) -> np.ndarray:
+    """Points along wall segments [(x0, y0, x1, y1), ...], `step` m apart, in the world frame."""
+    clouds = []
+    for x0, y0, x1, y1 in segments:
+        count = max(2, int(math.hypot(x1 - x0, y1 - y0) / step))
+        t = np.linspace(0.0, 1.0, count)
+        clouds.append(np.column_stack([x0 + t * (x1 - x0), y0 + t * (y1 - y0)]))
+    return np.concatenate(clouds)
+
+
+ROOM = wall_points([(0, 0, 8, 0), (8, 0, 8, 5), (8, 5, 0, 5), (0, 5, 0, 0), (3, 2, 4, 2), (4, 2, 4, 3.5)])
+CORRIDOR = wall_points([(-20, -1, 20, -1), (-20, 1, 20, 1)])
+
+
+def seen_from(points: np.ndarray, pose) -> np.ndarray:
+    """The world points in the robot frame at pose, within 8 m."""
+    local = transform_points(relative_pose(pose, (0.0, 0.0, 0.0)), points)
+    return local[np.hypot(local[:, 0], local[:, 1]) <= 8.0]
+
+
+def test_a_drifted_odometry_increment_is_corrected_by_the_match():
+    first, second = np.array([1.5, 1.0, 0.2]), np.array([2.5, 1.3, 0.35])
+    truth = np.array(relative_pose(first, second))
+    drifted = truth + [0.12, -0.08, math.radians(6.0)]  # the odometry's increment, off by 14 cm and 6 deg
+    noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)  # the filter's: sigma 0.1 m and 0.1 rad over 1 m
+    position, heading = motion_variance(1.0, 0.15, noise)
+    found = matched_increment(seen_from(ROOM, first), seen_from(ROOM, second), drifted, position, heading, 0.05)
+    assert math.hypot(*(found[:2] - truth[:2])) < 0.03
+    assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
+
+
+def test_along_a_corridor_the_odometry_decides_and_across_it_the_match():
+    first, second = np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    truth = np.array(relative_pose(first, second))
+    drifted = truth + [0.1, 0.1, 0.0]  # 10 cm too far along the corridor and 10 cm across it
+    noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)
+    position, heading = motion_variance(1.0, 0.0, noise)
+    found = matched_increment(seen_from(CORRIDOR, first), seen_from(CORRIDOR, second), drifted, position, heading, 0.05)
+    assert abs(found[1] - truth[1]) < 0.03  # across: the walls say where
+    assert abs(found[0] - drifted[0]) < 0.05  # along: the walls say nothing, the odometry stays
+
+
+def test_a_motion_too_small_to_move_a_point_by_a_cell_is_the_odometry_increment():
+    pose = np.array([2.0, 2.0, 0.0])
+    prior = np.array([0.01, 0.0, 0.001])
+    position, heading = motion_variance(0.01, 0.001, OdometryNoise(0.01, 0.01, 0.01, 0.01))
+    found = matched_increment(seen_from(ROOM, pose), seen_from(ROOM, pose + prior), prior, position, heading, 0.05)
+    np.testing.assert_array_equal(found, prior)
+
+
+def test_too_few_points_leave_the_odometry_increment():
+    prior = np.array([1.0, 0.0, 0.1])
+    found = matched_increment(ROOM[:5], ROOM[:5], prior, 0.01, 0.01, 0.05)
+    np.testing.assert_array_equal(found, prior)
