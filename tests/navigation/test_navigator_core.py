@@ -31,11 +31,15 @@ NO_RETURNS = ScanData(np.full(240, np.inf), 0.0, 2 * math.pi / 240, 0.12, 3.5)
 GOAL = (2.5, 0.5)
 
 
-def corridor_planner() -> Planner:
+def corridor_grid() -> OccupancyGrid:
     """A free 1 x 3 m area at 0.05 m closed by a one-cell wall."""
     data = np.zeros((20, 60), dtype=np.int8)
     data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
-    return Planner(OccupancyGrid(data, 0.05, (0.0, 0.0, 0.0)), PlannerConfig(resolution=0.05))
+    return OccupancyGrid(data, 0.05, (0.0, 0.0, 0.0))
+
+
+def corridor_planner() -> Planner:
+    return Planner(corridor_grid(), PlannerConfig(resolution=0.05))
 
 
 class StandingWallFollower:
@@ -165,8 +169,12 @@ class PlanClient:
     def call_async(self, request: PlanPath.Request) -> Future:
         start = (request.start.pose.position.x, request.start.pose.position.y)
         goal = (request.goal.pose.position.x, request.goal.pose.position.y)
+        planner = self.planner
+        if request.obstacles:  # the traffic rules' marks, on a copy of the costmap
+            marks = np.array([(point.x, point.y) for point in request.obstacles])
+            planner = planner.with_obstacles(marks, request.mark_radius)
         try:
-            response = PlanPath.Response(success=True, path=path_message(self.planner.plan(start, goal), "map", Time()))
+            response = PlanPath.Response(success=True, path=path_message(planner.plan(start, goal), "map", Time()))
         except PlanningError as error:
             response = PlanPath.Response(success=False, message=str(error), goal_refused=error.goal_refused)
         future = Future()
@@ -245,3 +253,71 @@ def test_the_node_and_the_library_take_the_same_decisions_on_one_sequence(ros_co
     assert len(library_paths) == len(node_paths) >= 3
     for ours, theirs in zip(library_paths, node_paths, strict=True):
         assert np.allclose(ours, theirs)
+
+
+def test_with_the_traffic_rules_the_node_and_the_library_limit_and_hold_alike(ros_context):
+    """Something not on the map 0.22 m ahead of r1 (r2 beside it on the board): r1's rules hold it, then plan around;
+    the node's speed limits, statuses and paths are the library's, observation by observation."""
+    from sensor_msgs.msg import LaserScan
+
+    from amr_maps.messages import grid_message
+    from amr_navigation.navigator_node import NavigatorNode
+    from amr_navigation.traffic import Traffic, TrafficBoard, TrafficPost
+
+    other = TrafficPost("r2", 1, (2.6, 0.8, math.pi), None)
+    ranges = np.full(240, np.inf)
+    ranges[[0, 1, 2, 238, 239]] = 0.22
+    ahead = ScanData(ranges, 0.0, 2 * math.pi / 240, 0.12, 3.5)
+    steps = [(0.0, (0.5, 0.5, 0.0), False, 0.2)] + [
+        (0.05 * (k + 1), (0.5 + 0.002 * k, 0.5, 0.0), True, 0.97) for k in range(60)
+    ]
+    board = TrafficBoard()
+    board.post(other)
+    planner = corridor_planner()
+    loop = NavigationLoop(planner, StandingWallFollower(), PathFollower(), GOAL, traffic=Traffic("r1", 0, board))
+    handed: list[np.ndarray] = []
+    original = loop.path_follower.set_path
+    loop.path_follower.set_path = lambda path: (handed.append(np.asarray(path, dtype=float)), original(path))
+    library = []
+    for stamp, pose, localized, confidence in steps:
+        command = loop.step(pose, localized, ahead, 0.0, 0.0, stamp, confidence=confidence)
+        decision = command.decision
+        library.append((decision.mode.value, decision.controller.value, command.speed_limit))
+
+    node = NavigatorNode(
+        context=ros_context,
+        namespace="/r1",
+        parameter_overrides=[Parameter("goal", value=list(GOAL)), Parameter("traffic", value=True)],
+    )
+    try:
+        assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
+        assert node.try_transition(Transition.TRANSITION_ACTIVATE)
+        for name in ("status", "path", "speed_limit", "traffic"):
+            node._outputs[name] = Recorder()
+        follow = node._service_clients["follow"] = FollowClient()
+        node._service_clients["plan"] = PlanClient(planner)
+        node._on_map(grid_message(corridor_grid(), Time(sec=1)))
+        scan = LaserScan(angle_min=0.0, angle_increment=2 * math.pi / 240, range_min=0.12, range_max=3.5)
+        scan.ranges = ranges.tolist()
+        ours = []
+        for stamp, pose, localized, confidence in steps:
+            node.board.receive(other, node.get_clock().now().nanoseconds * 1e-9)
+            node._on_scan(scan)
+            estimate = LocalizedPose(localized=localized, confidence=confidence)
+            estimate.header.stamp, estimate.header.frame_id = stamp_message(stamp), "map"
+            estimate.pose.pose.position.x, estimate.pose.pose.position.y = pose[0], pose[1]
+            estimate.pose.pose.orientation = quaternion(pose[2])
+            node._on_pose(estimate)
+            status = node._outputs["status"].messages[-1]
+            limits = [m for m in node._outputs["speed_limit"].messages if m.header.stamp == estimate.header.stamp]
+            limit = limits[-1].speed if limits and limits[-1].limited else None
+            ours.append((status.mode, status.controller, limit))
+    finally:
+        node.destroy_node()
+    assert any(limit == 0.0 for _, _, limit in library), library  # held
+    assert loop.traffic.counters.replans_around >= 1 and len(handed) >= 2  # then planned around it
+    for k, (a, b) in enumerate(zip(library, ours, strict=True)):
+        assert a == b, f"observation {k}: library {a}, node {b}"
+    assert len(handed) == len(follow.paths)
+    for a, b in zip(handed, follow.paths, strict=True):
+        assert np.allclose(a, b)
