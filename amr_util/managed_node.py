@@ -19,6 +19,13 @@ Lifecycle edges are handled here once for every node: `shutdown` from any state 
 and `on_cleanup` (if configured: subscriptions, services and publishers destroyed), so nothing is
 published afterwards; a node writes no `on_shutdown` of its own. Services made with
 `create_active_service` answer only while the node is active and refuse clearly otherwise.
+
+On simulated time (use_sim_time) a node's subscriptions have no QoS-event handlers (`QUIET_SUBSCRIPTION`): every
+publisher of a simulated stack is the suite's own, and rclpy's default handlers are two waitables per subscription,
+which its executor visits at every wake-up of the node (20 of a navigator's 22 waitables; a node with 10
+subscriptions spent 435 us a callback with them, 279 us without: issue 36,
+docs/decisions/2026-11-29-fleet-ros-layer.md). On wall time (a real robot's drivers) the default handlers stay, so
+an incompatible QoS or type is reported.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ import rclpy
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.expand_topic_name import expand_topic_name
@@ -66,6 +74,8 @@ ROBOT_DESCRIPTION = "robot_description"
 """The parameter a node with robot facts among its parameters (robot_radius, lidar_x, robot.radius, ...) declares."""
 REFUSAL_LOG_PERIOD = 2.0
 """s between two warnings about requests refused because the node is not active."""
+QUIET_SUBSCRIPTION = SubscriptionEventCallbacks(use_default_callbacks=False)
+"""A subscription's event callbacks with no handler (no waitable in the node's wait set)."""
 
 
 def topic_name_problem(name: str) -> str | None:
@@ -288,6 +298,14 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         self._forward_change_state = self._service_change_state.callback
         self._service_change_state.callback = self._on_change_state_request
         self.use_parameter_specs()
+
+    def create_subscription(self, msg_type, topic, callback, qos_profile, *, event_callbacks=None, **kwargs):
+        """As rclpy's; on simulated time without QoS-event handlers unless `event_callbacks` are given."""
+        if event_callbacks is None and self.get_parameter("use_sim_time").value is True:
+            event_callbacks = QUIET_SUBSCRIPTION
+        return super().create_subscription(
+            msg_type, topic, callback, qos_profile, event_callbacks=event_callbacks, **kwargs
+        )
 
     @property
     def parameters_in_force(self) -> bool:

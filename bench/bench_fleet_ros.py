@@ -17,8 +17,13 @@ clock (time.pthread_getcpuclockid) is read at every sample and the CPU spent sin
 to the thread's current Python stack, so a thread blocked in rcl_wait costs nothing. It prints the CPU by node
 kind (each composed node spins on a thread named `spin <node>`: simulator, particle_filter, navigator, ...), by
 layer (rclpy's executor, taking/publishing messages, our packages) and the functions that cost most (self and
-inclusive). Run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child
-inherits both). One run at a time: the machine has 2 cores.
+inclusive); it also counts every callback by node and topic (or timer) and every wait set rclpy builds and waits
+on (`_wait_for_ready_callbacks`: one wait may run several callbacks). Run it under
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child inherits both). One run at a
+time: the machine has 2 cores.
+
+--own-clocks undoes amr_util.executors.NodeSpinners' share_clock (each node its own /clock subscription), for an
+A/B in one sitting.
 """
 
 from __future__ import annotations
@@ -72,6 +77,7 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
     while not go.exists() and time.monotonic() - began < start:
         time.sleep(0.1)
     wakes.clear()
+    callbacks_before = dict(CALLBACKS)
     own = threading.get_ident()
     clocks: dict[int, float] = {}
     by_thread: dict[str, float] = defaultdict(float)
@@ -111,6 +117,7 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
                 "inclusive": inclusive,
                 "thread_self": by_thread_function,
                 "wakes": dict(wakes),
+                "callbacks": {key: n - callbacks_before.get(key, 0) for key, n in CALLBACKS.items()},
                 "entities": entities,
             }
         )
@@ -121,7 +128,7 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
 def _count_wakes() -> tuple[dict[str, int], dict[str, dict[str, int]]]:
     """Count each spinning thread's executor wake-ups (spin_once) from now on, and note each node's entities (what
     every wake-up's wait set is built of)."""
-    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.executors import Executor, SingleThreadedExecutor
 
     wakes: dict[str, int] = defaultdict(int)
     entities: dict[str, dict[str, int]] = {}
@@ -139,19 +146,62 @@ def _count_wakes() -> tuple[dict[str, int], dict[str, dict[str, int]]]:
         return spin_once(self, *args, **kwargs)
 
     SingleThreadedExecutor._spin_once_impl = counted
+    generator = Executor._wait_for_ready_callbacks
+
+    def waited(self, *args, **kwargs):  # one wait set built and waited on (then its ready callbacks yielded)
+        wakes["waits " + threading.current_thread().name] += 1
+        return generator(self, *args, **kwargs)
+
+    Executor._wait_for_ready_callbacks = waited
     return wakes, entities
 
 
+CALLBACKS: dict[str, int] = defaultdict(int)
+"""Callbacks run per `<node name>: <what>` (a subscription's topic, a timer's period), counted from node creation."""
+
+
+def _count_callbacks() -> None:
+    """Wrap every subscription's and timer's callback created from now on with a counter (CALLBACKS): which callback
+    runs how often, whichever executor runs it."""
+    from rclpy.node import Node
+
+    create_subscription, create_timer = Node.create_subscription, Node.create_timer
+
+    def counted(key: str, callback):
+        def run(*args):
+            CALLBACKS[key] += 1
+            return callback(*args)
+
+        return run
+
+    def subscription(self, msg_type, topic, callback, *args, **kwargs):
+        run = counted(f"{self.get_name()}: {topic}", callback)
+        return create_subscription(self, msg_type, topic, lambda message: run(message), *args, **kwargs)
+
+    def timer(self, period, callback, *args, **kwargs):
+        return create_timer(self, period, counted(f"{self.get_name()}: timer {period:g} s", callback), *args, **kwargs)
+
+    Node.create_subscription, Node.create_timer = subscription, timer
+
+
 def child(argv: list[str]) -> int:
-    """`--child OUT START DURATION HZ -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not sampled)."""
-    out, start, duration, hz = argv[:4]
+    """`--child OUT START DURATION HZ SHARE -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not
+    sampled); SHARE 1/0 is amr_util.executors.NodeSpinners' share_clock."""
+    out, start, duration, hz, share = argv[:5]
+    from amr_util.executors import NodeSpinners
+
+    try:
+        NodeSpinners.__init__.__kwdefaults__.update(share_clock=share == "1")
+    except (AttributeError, TypeError):  # the NodeSpinners before issue 36 item 6: no such option
+        pass
     if out != "-":
+        _count_callbacks()
         threading.Thread(
             target=sample, args=(Path(out), float(start), float(duration), float(hz)), daemon=True, name="sampler"
         ).start()
     from amr_bringup.bringup import main
 
-    return main(argv[5:])
+    return main(argv[6:])
 
 
 # -- the parent --------------------------------------------------------------------------------------------------
@@ -203,6 +253,7 @@ def run(robots: int, args) -> dict:
             "--composed",
         ]
         sampled = [str(profile), str(args.startup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
+        sampled.append(str(int(not args.own_clocks)))
         process = subprocess.Popen(
             [sys.executable, __file__, "--child", *sampled, "--", *bringup],
             env=child_environment(),
@@ -285,15 +336,23 @@ def report(result: dict, top: int) -> None:
     print(
         "  by layer (self): " + ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in sorted(layers.items(), key=_neg))
     )
-    wakes = profile.get("wakes", {})
+    every = profile.get("wakes", {})
+    wakes = {t: n for t, n in every.items() if not t.startswith("waits ")}
+    waits = {t.removeprefix("waits "): n for t, n in every.items() if t.startswith("waits ")}
     seconds = profile["duration"]
+    steps = result["sim"] / DT * result["robots"] or 1.0
+    print(f"  wait sets built and waited on per robot-step: {sum(waits.values()) / steps:.1f}")
     print(
-        "  executor wake-ups per s (all nodes of a kind) and entities per node: "
+        "  spin_once per s (all nodes of a kind) and entities per executor: "
         + ", ".join(
             f"{_kind(t)} {n / seconds:.0f}/s {profile['entities'].get(t, {})}"
             for t, n in sorted(wakes.items(), key=_neg)
         )
     )
+    callbacks = profile.get("callbacks", {})
+    print(f"  callbacks per robot-step: {sum(callbacks.values()) / steps:.1f}; the most frequent (all robots):")
+    for key, n in sorted(callbacks.items(), key=_neg)[:top]:
+        print(f"    {n / steps:5.2f}  {key}")
     print("  top functions, self:")
     for function, cpu in sorted(profile["self"].items(), key=_neg)[:top]:
         print(f"    {100 * cpu / total:5.1f} %  {function}")
@@ -320,6 +379,7 @@ def main(argv=None) -> int:
     parser.add_argument("--from-sim", type=float, default=20.0, help="s simulated before the warm-up (localized)")
     parser.add_argument("--warmup", type=float, default=5.0, help="s of wall clock after --from-sim")
     parser.add_argument("--measure", type=float, default=40.0, help="s of wall clock measured")
+    parser.add_argument("--own-clocks", action="store_true", help="each node its /clock subscription (as before)")
     parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
     parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
     parser.add_argument("--top", type=int, default=15)
