@@ -540,28 +540,22 @@ class GraphSlam:
         match_information = _match_information(matcher, points, matched, cfg.resolution)
         if aligned is not None:
             match_information = _clamped(aligned)
-        if match.score < WEAK_MATCH_SCORE:
-            # little overlap: a second mode elsewhere in the window is as likely; the two as one Gaussian
-            rival = _local_rival(matcher, points, matched, relative_prior, linear, angular, match.score)
-            if rival is not None:
-                spread = rival - matched
-                spread[2] = wrap_angle(spread[2])
-                match_information = _clamped(np.linalg.inv(np.linalg.inv(match_information) + np.outer(spread, spread)))
-                events.append(
-                    f"scan match {match.score:.2f} has a rival {np.hypot(*spread[:2]):.2f} m, "
-                    f"{math.degrees(spread[2]):.0f} deg off: weighed as one wide mode"
-                )
         offset = relative_prior - matched
         offset[2] = wrap_angle(offset[2])
-        chi2 = float(
-            offset @ np.linalg.solve(np.linalg.inv(match_information) + np.linalg.inv(odometry_information), offset)
-        )
-        if match.score < WEAK_MATCH_SCORE and not chi2 <= MATCH_CHI2:
-            events.append(
-                f"scan match (score {match.score:.2f}) disagrees with the odometry (chi-square {chi2:.1f} > "
-                f"{MATCH_CHI2}): node added on odometry alone"
+        if match.score < WEAK_MATCH_SCORE:
+            match_information = _weak_match(
+                matcher,
+                points,
+                match,
+                matched,
+                match_information,
+                relative_prior,
+                odometry_information,
+                events,
+                (linear, angular),
             )
-            return prior, odometry_information, float(match.score)
+            if match_information is None:
+                return prior, odometry_information, float(match.score)
         information = match_information + odometry_information
         fused = matched + np.linalg.solve(information, odometry_information @ offset)
         pose = np.array(compose(anchor, fused))
@@ -746,6 +740,42 @@ def _rival_score(
     )
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
     return float(found[0].score) if found else 0.0
+
+
+def _weak_match(
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    match,
+    matched: np.ndarray,
+    information: np.ndarray,
+    prior: np.ndarray,
+    odometry_information: np.ndarray,
+    events: list[str],
+    window: tuple[float, float],
+) -> np.ndarray | None:
+    """A weak front-end match (below WEAK_MATCH_SCORE) tested: its information widened over a rival mode in the
+    window (_local_rival; the two modes as one Gaussian, the odometry deciding between them), then None (not used:
+    the node goes on odometry alone) if its offset from the odometry prior, against both covariances, is beyond
+    MATCH_CHI2. window: (+-m, +-rad) around the prior, the match's own. Each outcome is said in `events`."""
+    rival = _local_rival(matcher, points, matched, prior, window[0], window[1], match.score)
+    if rival is not None:
+        spread = rival - matched
+        spread[2] = wrap_angle(spread[2])
+        information = _clamped(np.linalg.inv(np.linalg.inv(information) + np.outer(spread, spread)))
+        events.append(
+            f"scan match {match.score:.2f} has a rival {np.hypot(*spread[:2]):.2f} m, "
+            f"{math.degrees(spread[2]):.0f} deg off: weighed as one wide mode"
+        )
+    offset = prior - matched
+    offset[2] = wrap_angle(offset[2])
+    chi2 = float(offset @ np.linalg.solve(np.linalg.inv(information) + np.linalg.inv(odometry_information), offset))
+    if not chi2 <= MATCH_CHI2:
+        events.append(
+            f"scan match (score {match.score:.2f}) disagrees with the odometry (chi-square {chi2:.1f} > "
+            f"{MATCH_CHI2}): node added on odometry alone"
+        )
+        return None
+    return information
 
 
 def _local_rival(

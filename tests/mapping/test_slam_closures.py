@@ -122,3 +122,33 @@ def test_a_weak_match_with_a_second_mode_has_a_rival():
         assert (rival is not None) == expected, (gap, rival)
         if expected:
             assert abs(abs(rival[0] - match.pose[0]) - 0.6) < 0.1 and abs(rival[2]) < 0.1, rival
+
+
+def test_a_weak_match_is_widened_over_its_rival_and_refused_when_the_odometry_disagrees():
+    """The front end's test of a weak match: with a second wall 0.6 m behind, its covariance grows along x to span
+    both modes; on a lone wall it is used when the odometry prior lies 10 cm off, refused 60 cm off (odometry
+    sigma 10 cm: chi-square 36)."""
+    points = np.column_stack([np.full(100, 2.0), np.linspace(-1.5, 1.5, 100)])
+    odometry_information = np.diag([1.0 / 0.1**2, 1.0 / 0.1**2, 1.0 / 0.05**2])
+    for gap, prior_x, widened, used in ((0.6, 0.0, True, True), (None, 0.1, False, True), (None, 0.6, False, False)):
+        matcher = _two_walls(gap)
+        match = matcher.match(points, np.zeros(3), 1.0, 0.2)
+        information = slam_module._match_information(matcher, points, match.pose, 0.05)
+        events: list[str] = []
+        result = slam_module._weak_match(
+            matcher,
+            points,
+            match,
+            match.pose,
+            information,
+            np.array([prior_x, 0.0, 0.0]),
+            odometry_information,
+            events,
+            (1.0, 0.2),
+        )
+        assert (result is not None) == used, (gap, prior_x, events)
+        assert any("rival" in event for event in events) == widened, events
+        if widened:
+            assert np.linalg.inv(result)[0, 0] > 0.25**2 > np.linalg.inv(information)[0, 0]
+        if not used:
+            assert any("disagrees with the odometry" in event for event in events), events
