@@ -230,6 +230,11 @@ def run_fleet(
     board = TrafficBoard()
     loops, filters, runs = [], [], []
     replan_distance = float(parameters["navigator"]["replan_distance"])
+    confidences = {  # the navigator's confidence rule, as the node reads it
+        key: float(parameters["navigator"][key])
+        for key in ("drive_confidence", "release_confidence")
+        if key in parameters["navigator"]
+    }
     for index, robot in enumerate(fleet.robots):
         rules = Traffic(robot.name, index, board, traffic) if use_traffic else None
         loops.append(
@@ -240,6 +245,7 @@ def run_fleet(
                 (robot.goal.x, robot.goal.y),
                 replan_distance,
                 traffic=rules,
+                **confidences,
             )
         )
         filters.append(_particle_filter(parameters, known, seed * 1000 + index) if localization == "filter" else None)
