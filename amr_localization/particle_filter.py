@@ -5,7 +5,7 @@ Each call to update(odometry, scan=..., beacons=..., stamp=...) does, in this or
 1. motion: once odometry has moved update_min_d / update_min_a since the last filter update, every
    particle samples the accumulated increment (motion_model.py) and every place hypothesis moves by it;
    a particle or hypothesis whose end pose is not in free space has probability 0 (the map prior).
-   Odometry moving faster than max_odometry_speed is a reset of odometry, not motion;
+   Odometry moving faster than max_odometry_speed, and more than RESET_MIN_JUMP, is a reset, not motion;
 2. measurement: log w_i += g sum_k w_k log p(z_k | x_i), the likelihood field (or beam model) mixture
    with its hit and random terms, each beam weighted by how many others share its stretch of wall and the
    scan by how far the robot moved since the last one (beam_correlation.py); beacon ranges count fully.
@@ -16,9 +16,11 @@ Each call to update(odometry, scan=..., beacons=..., stamp=...) does, in this or
    regularized filter's kernel; a share drawn at random over free space when the likelihood collapsed
    (augmented MCL, recovery_alpha_slow / _fast);
 4. place hypotheses (hypotheses.py): born from the particles' clusters and from the place search
-   (amr_maps.scan_matcher: a budgeted branch-and-bound correlative search of the whole map), each fitted to
-   the scan and scored by the same measurement model, with their posterior probabilities; the particles are
-   made to agree with them (a likely place without particles gets a cloud);
+   (amr_maps.scan_matcher: a budgeted branch-and-bound correlative search of the whole map on the window's
+   scans), each fitted to the scan and scored by the same measurement model, with their posterior
+   probabilities; the particles are made to agree with them (a likely place without particles gets a cloud).
+   The window (the last WINDOW scans' worth of evidence, a new place is scored on) is placed by scan-matched
+   odometry (scan_odometry.py), and the places move by its increment from scan to scan;
 5. the estimate: the best hypothesis's particles' weighted mean, fitted to the scan by the matcher, and their
    covariance. Its confidence is the best hypothesis's probability times the share of the belief the
    hypotheses hold, and 0 until a place search has covered the map (or a pose was given, or beacons were
@@ -109,6 +111,10 @@ ANYWHERE = 64
 (the `elsewhere` hypothesis: hypotheses.py)."""
 CHAIN_RESOLUTION = 0.05
 """m: cells of the scan-to-scan match that places the window's scans (at least the map's)."""
+RESET_MIN_JUMP = 0.5
+"""m: odometry moving less than this is motion whatever the stamps say (a reset must also be too fast: the motion
+model's noise and the scans absorb a small jump, while a real motion taken as a reset is lost; intel's stamps put
+two scans 0.01 s apart across a 29-degree turn)."""
 DEFAULT_PERIOD = 0.05
 """s between two observations when no stamps are given (the simulator's 20 Hz)."""
 
@@ -347,7 +353,7 @@ class ParticleFilter:
         increment = relative_pose(self._odometry, odometry)
         d_trans = math.hypot(increment[0], increment[1])
         d_theta = abs(float(increment[2]))
-        if d_trans > self.config.max_odometry_speed * max(elapsed, DEFAULT_PERIOD):
+        if d_trans > max(self.config.max_odometry_speed * max(elapsed, DEFAULT_PERIOD), RESET_MIN_JUMP):
             # a robot does not move this fast: odometry was reset or is corrupt. Re-anchor so that the pose reported
             # stays where it was: est_odom' = new (+) old^-1 (+) est_odom
             if self._estimate_odometry is not None:
@@ -630,7 +636,9 @@ class ParticleFilter:
         last = self._window[-1]
         prior = np.asarray(relative_pose(last.odometry, self._odometry), dtype=float)
         position, heading = motion_variance(math.hypot(prior[0], prior[1]), abs(float(prior[2])), self.noise)
-        increment = matched_increment(last.points, points, prior, position, heading, self._chain_resolution)
+        increment = matched_increment(
+            last.points, points, prior, position, heading, self._chain_resolution, self.config.beam_correlation_length
+        )
         return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
 
     def _rematch_places(self, seen: _Seen) -> None:

@@ -40,8 +40,8 @@ class ParticleFilterConfig(Config):
     update_min_a: float = parameter(0.05, minimum=0.0, maximum=math.pi, live=True)
     """rad of odometry rotation before a filter update; AMCL update_min_a."""
     max_odometry_speed: float = parameter(2.0, minimum=0.01, maximum=100.0, live=True)
-    """m/s: odometry moving faster than this between two observations (by their stamps; 20 Hz when none are given)
-    is taken as a reset of odometry, not as motion."""
+    """m/s: odometry moving faster than this between two observations (by their stamps; 20 Hz when none are given),
+    and more than half a metre, is taken as a reset of odometry, not as motion."""
     alpha1: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)
     """rotation noise from rotation (AMCL alpha1)."""
     alpha2: float = parameter(0.1, minimum=0.0, maximum=10.0, live=True)

@@ -9,12 +9,14 @@ motion_model.motion_variance):
 
     p(x | scans, odometry)  ~  s(x)^N  exp(-1/2 (x - x_odom)^T Sigma_odom^-1 (x - x_odom))
 
-s(x) the mean likelihood-field lookup of the scan's N end points at x against the previous scan's (Olson's rasterized
-scan: amr_maps.scan_matcher), Sigma_odom = diag(sigma_p^2, sigma_p^2, sigma_theta^2). Where the walls tell the pose
-(a room) the match decides; where they do not (along a corridor) the odometry does. Only the end points that stay
-within the previous scan's reach wherever the window moves them are scored: beyond it that scan saw nothing, and no
-wall there is no evidence. A motion whose 3 sigma moves no point by a cell is the odometry's alone (a dense stream's
-scans, centimetres apart).
+s(x) the mean likelihood-field lookup of the scan's end points at x against the previous scan's (Olson's rasterized
+scan: amr_maps.scan_matcher), N the independent ones among them (end points within the beam correlation length
+count as one, as in the filter's measurement model: counting every point made a corridor's faint texture outweigh
+the odometry along it, 20-40 cm a scan on aces), Sigma_odom = diag(sigma_p^2, sigma_p^2, sigma_theta^2). Where the
+walls tell the pose (a room) the match decides; where they do not (along a corridor) the odometry does. Only the
+end points that stay within the previous scan's reach wherever the window moves them are scored: beyond it that scan
+saw nothing, and no wall there is no evidence. A motion whose 3 sigma moves no point by a cell is the odometry's
+alone (a dense stream's scans, centimetres apart).
 """
 
 from __future__ import annotations
@@ -43,10 +45,11 @@ def matched_increment(
     position_variance: float,
     heading_variance: float,
     resolution: float,
+    correlation_length: float,
 ) -> np.ndarray:
     """(x, y, theta) of the scan `points` in the frame of the scan `reference` ((K, 2) end points, each in its own
     robot frame): the odometry's increment `prior` with its variances (m^2, rad^2), fused with the scan match within
-    SIGMAS of it, on cells of `resolution`."""
+    SIGMAS of it, on cells of `resolution`; end points within `correlation_length` (m) count as one."""
     prior = np.asarray(prior, dtype=float).reshape(3)
     reference, points = np.asarray(reference, dtype=float), np.asarray(points, dtype=float)
     if len(reference) < MIN_POINTS or len(points) < MIN_POINTS:
@@ -63,12 +66,23 @@ def matched_increment(
     points = points[np.hypot(moved[:, 0], moved[:, 1]) <= reach - linear - resolution]
     if len(points) < MIN_POINTS:
         return prior
+    independent = len(_thinned(points, max(correlation_length, resolution)))
     # the window at twice the cell, then the cell around the coarse posterior's mean
     coarse = _posterior_mean(
-        reference, points, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
+        reference, points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
     )
     increment = _posterior_mean(
-        reference, points, coarse, prior, position_sigma, heading_sigma, 4 * resolution, angular, resolution, 2
+        reference,
+        points,
+        independent,
+        coarse,
+        prior,
+        position_sigma,
+        heading_sigma,
+        4 * resolution,
+        angular,
+        resolution,
+        2,
     )
     increment[2] = wrap_angle(increment[2])
     return increment
@@ -77,6 +91,7 @@ def matched_increment(
 def _posterior_mean(
     reference: np.ndarray,
     points: np.ndarray,
+    independent: int,
     centre: np.ndarray,
     prior: np.ndarray,
     position_sigma: float,
@@ -87,7 +102,8 @@ def _posterior_mean(
     angle_steps: int | None = None,
 ) -> np.ndarray:
     """The posterior's mean over the lattice of `resolution` within linear and angular (or angle_steps of the
-    lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior."""
+    lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the score to the power
+    of the `independent` points."""
     matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
     cloud = _thinned(points, resolution)
     step = default_angular_step(cloud, resolution)
@@ -96,7 +112,7 @@ def _posterior_mean(
     poses, scores = matcher.window_scores(cloud, centre, linear, angular, step)
     offsets = poses - prior
     offsets[:, 2] = wrap_angle(offsets[:, 2])
-    log_posterior = len(cloud) * np.log(np.maximum(scores, 1e-6)) - 0.5 * (
+    log_posterior = independent * np.log(np.maximum(scores, 1e-6)) - 0.5 * (
         (offsets[:, 0] ** 2 + offsets[:, 1] ** 2) / max(position_sigma**2, 1e-12)
         + offsets[:, 2] ** 2 / max(heading_sigma**2, 1e-12)
     )

@@ -37,7 +37,7 @@ def test_a_drifted_odometry_increment_is_corrected_by_the_match():
     drifted = truth + [0.12, -0.08, math.radians(6.0)]  # the odometry's increment, off by 14 cm and 6 deg
     noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)  # the filter's: sigma 0.1 m and 0.1 rad over 1 m
     position, heading = motion_variance(1.0, 0.15, noise)
-    found = matched_increment(seen_from(ROOM, first), seen_from(ROOM, second), drifted, position, heading, 0.05)
+    found = matched_increment(seen_from(ROOM, first), seen_from(ROOM, second), drifted, position, heading, 0.05, 0.25)
     assert math.hypot(*(found[:2] - truth[:2])) < 0.03
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
 
@@ -48,7 +48,9 @@ def test_along_a_corridor_the_odometry_decides_and_across_it_the_match():
     drifted = truth + [0.1, 0.1, 0.0]  # 10 cm too far along the corridor and 10 cm across it
     noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)
     position, heading = motion_variance(1.0, 0.0, noise)
-    found = matched_increment(seen_from(CORRIDOR, first), seen_from(CORRIDOR, second), drifted, position, heading, 0.05)
+    found = matched_increment(
+        seen_from(CORRIDOR, first), seen_from(CORRIDOR, second), drifted, position, heading, 0.05, 0.25
+    )
     assert abs(found[1] - truth[1]) < 0.03  # across: the walls say where
     assert abs(found[0] - drifted[0]) < 0.05  # along: the walls say nothing, the odometry stays
 
@@ -57,11 +59,13 @@ def test_a_motion_too_small_to_move_a_point_by_a_cell_is_the_odometry_increment(
     pose = np.array([2.0, 2.0, 0.0])
     prior = np.array([0.01, 0.0, 0.001])
     position, heading = motion_variance(0.01, 0.001, OdometryNoise(0.01, 0.01, 0.01, 0.01))
-    found = matched_increment(seen_from(ROOM, pose), seen_from(ROOM, pose + prior), prior, position, heading, 0.05)
+    found = matched_increment(
+        seen_from(ROOM, pose), seen_from(ROOM, pose + prior), prior, position, heading, 0.05, 0.25
+    )
     np.testing.assert_array_equal(found, prior)
 
 
 def test_too_few_points_leave_the_odometry_increment():
     prior = np.array([1.0, 0.0, 0.1])
-    found = matched_increment(ROOM[:5], ROOM[:5], prior, 0.01, 0.01, 0.05)
+    found = matched_increment(ROOM[:5], ROOM[:5], prior, 0.01, 0.01, 0.05, 0.25)
     np.testing.assert_array_equal(found, prior)
