@@ -23,12 +23,13 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
   and none once loop_time_budget of the update's CPU time is spent (the next updates take the rest), each by
   CorrelativeMatcher.match within +-loop_linear_window / +-loop_angular_window of the current estimate. A match
-  scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it puts scan points in the
-  submap's seen-through space, a rival pose in the window scores nearly as well (ambiguous), or it disagrees with
-  the poses beyond LOOP_CHI2 against its covariance plus the graph's own uncertainty of the anchor -> node pose
-  (PoseGraph.marginals: every edge counted, earlier closures included); the graph is optimized
-  (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy kernel on closures, so a false closure
-  bends the map little), and a closure the optimized graph still disagrees with (LOOP_RESIDUAL_CHI2) is removed.
+  scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it lies on the window's edge
+  (_on_edge), puts scan points in the submap's seen-through space, a rival pose in the window scores nearly as
+  well (ambiguous), or it disagrees with the poses beyond LOOP_CHI2 against its covariance plus the graph's own
+  uncertainty of the anchor -> node pose (PoseGraph.marginals: every edge counted, earlier closures included);
+  the graph is optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy kernel on
+  closures, so a false closure bends the map little), and a closure the optimized graph still disagrees with
+  (LOOP_RESIDUAL_CHI2) is removed.
   An optimization that fails (MappingError) is reported in the events and the poses kept.
 - The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
   changed, on request.
@@ -116,6 +117,9 @@ LOOP_MAX_CLEAR_SHARE = 0.01
 where the submap saw through (free-space consistency). A maze's cells one pitch apart match a scan nearly as
 well by score, the mean likelihood counting a point in unseen space and one in seen-through space alike; but a
 scan put a pitch off puts its walls across corridors the submap saw clear."""
+EDGE_CELLS = 2.0
+EDGE_ANGLE = 0.02
+"""rad, cells: a loop-closure match this close to its search window's edge is no peak (_on_edge)."""
 AMBIGUITY_MAX_NODES = 200_000
 """The rival search's budget (branch and bound nodes, each one lookup per point): it bounds a closure's time."""
 ALIGN_VOXEL_CELLS = 0.5
@@ -598,6 +602,9 @@ class GraphSlam:
             match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
                 continue
+            if _on_edge(match.pose, prior, cfg):
+                self.ambiguous_closures += 1  # the best of the window is on its edge: no peak, the best may lie beyond
+                continue
             matched, _ = _align(submap.reference, points, match.pose, cfg.resolution)
             if _clear_share(submap.reference.clear, points, matched) > LOOP_MAX_CLEAR_SHARE:
                 self.inconsistent_closures += 1
@@ -740,6 +747,17 @@ def _rival_score(
     )
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
     return float(found[0].score) if found else 0.0
+
+
+def _on_edge(pose: np.ndarray, prior: np.ndarray, config: SlamConfig) -> bool:
+    """Whether a loop-closure match lies on the edge of its search window (within EDGE_CELLS cells of the linear
+    window's side, or EDGE_ANGLE of the angular one): a maximum there is the window's, not the score's (loops
+    seed 2: a look-alike corridor 3.1 m off, at the +-3 m window's side, taken, the true place in the middle
+    scoring less)."""
+    linear = config.loop_linear_window - EDGE_CELLS * config.resolution
+    angular = config.loop_angular_window - EDGE_ANGLE
+    offset = np.abs(np.asarray(pose[:2], dtype=float) - prior[:2])
+    return bool(offset.max() >= linear or abs(wrap_angle(float(pose[2] - prior[2]))) >= angular)
 
 
 def _weak_match(

@@ -152,3 +152,15 @@ def test_a_weak_match_is_widened_over_its_rival_and_refused_when_the_odometry_di
             assert np.linalg.inv(result)[0, 0] > 0.25**2 > np.linalg.inv(information)[0, 0]
         if not used:
             assert any("disagrees with the odometry" in event for event in events), events
+
+
+def test_a_closure_match_on_its_windows_edge_is_no_peak():
+    """The best pose of a loop-closure window found on its side (3.1 m off with a +-3 m window, or at the angular
+    window's end) is the window's maximum, not the score's: not a closure; inside the window it may be one."""
+    config = GraphSlam().config
+    prior = np.array([1.0, 2.0, 0.3])
+    window, turn = config.loop_linear_window, config.loop_angular_window
+    assert slam_module._on_edge(prior + (window + 0.1, 0.0, 0.0), prior, config)
+    assert slam_module._on_edge(prior + (0.0, -window, 0.0), prior, config)
+    assert slam_module._on_edge(prior + (0.0, 0.0, turn), prior, config)
+    assert not slam_module._on_edge(prior + (window - 0.3, 1.0, turn - 0.1), prior, config)
