@@ -63,7 +63,7 @@ from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock as RclpyClock
 from rclpy.clock import ClockType
-from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.lifecycle import State, TransitionCallbackReturn
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -119,6 +119,10 @@ TRANSFORM_FIELDS = (
 """What changes from one observation to the next in each message (the rest: frames, names, geometry, stays)."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
 """Event callbacks of the node's publishers: none (see SimulatorNode._publisher)."""
+REPORTED = SubscriptionEventCallbacks()
+"""rclpy's default QoS-event handlers, kept on a one-robot world's /cmd_vel and /pose (a ManagedNode on simulated
+time has none): a controller of one's own with an incompatible QoS is reported here. A fleet's robots have none
+(two waitables per robot and input in every wait of this node: issue 36)."""
 
 
 class RateMeter:
@@ -353,6 +357,7 @@ class SimulatorNode(ManagedNode):
                 channel.topic("cmd_vel"),
                 lambda message, channel=channel: self._on_cmd_vel(channel, message),
                 qos,
+                event_callbacks=None if channel.name else REPORTED,
             )
             if named:
                 channel.services = [
@@ -728,7 +733,11 @@ class SimulatorNode(ManagedNode):
             channel.localization_check = LocalizationCheck()
             channel.localization_inputs = [
                 self.create_subscription(
-                    LocalizedPose, channel.topic("pose"), lambda message: self._on_pose(channel, message), qos
+                    LocalizedPose,
+                    channel.topic("pose"),
+                    lambda message: self._on_pose(channel, message),
+                    qos,
+                    event_callbacks=None if channel.name else REPORTED,
                 )
             ]
 
