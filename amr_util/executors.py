@@ -22,10 +22,22 @@ from collections.abc import Callable
 
 from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.time import Time
 from rclpy.time_source import TimeSource
 
 CLOCK_NODE = "_composed_clock"
 """The hidden node whose one /clock subscription feeds every composed node's clock (share_clock)."""
+
+
+class SharedTimeSource(TimeSource):
+    """rclpy's TimeSource, its clocks updated from a snapshot of them: a node attached from another thread while a
+    /clock message is handled does not break the loop over the clocks (it gets the next message's time)."""
+
+    def clock_callback(self, msg) -> None:
+        time = Time.from_msg(msg.clock)
+        self._last_time_set = time
+        for clock in tuple(self._associated_clocks):  # copied under the GIL in one C call
+            clock.set_ros_time_override(time)
 
 
 class NodeSpinners:
@@ -43,7 +55,7 @@ class NodeSpinners:
         self._on_error = on_error
         self._spinners: list[tuple[Node, Executor, threading.Thread]] = []
         self._share_clock = share_clock
-        self._clock: tuple[Node, TimeSource, Executor, threading.Thread] | None = None
+        self._clock: tuple[Node, SharedTimeSource, Executor, threading.Thread] | None = None
 
     def add_node(self, node: Node) -> None:
         if self._share_clock:
@@ -70,7 +82,7 @@ class NodeSpinners:
             clock_node = Node(
                 CLOCK_NODE, context=self._context, use_global_arguments=False, start_parameter_services=False
             )
-            source = TimeSource(node=clock_node)
+            source = SharedTimeSource(node=clock_node)
             source.ros_time_is_active = True
             executor = SingleThreadedExecutor(context=self._context)
             executor.add_node(clock_node)

@@ -6,11 +6,12 @@ import time
 
 import rclpy
 from builtin_interfaces.msg import Time
+from rclpy.clock import ROSClock
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty
 
-from amr_util.executors import CLOCK_NODE, NodeSpinners
+from amr_util.executors import CLOCK_NODE, NodeSpinners, SharedTimeSource
 
 
 def sim_time_node(context, name: str, namespace: str = ""):
@@ -82,3 +83,24 @@ def test_without_share_clock_each_node_keeps_its_subscription(ros_context):
     finally:
         spinners.shutdown()
         node.destroy_node()
+
+
+def test_a_clock_attached_while_the_clocks_are_updated():
+    """A node added (its clock attached) from another thread while a /clock message is handled: rclpy's own loop
+    over the set of clocks raises "Set changed size during iteration"; the shared source's does not, and the new
+    clock gets the next message's time."""
+    source = SharedTimeSource()
+    source.ros_time_is_active = True
+    late = ROSClock()
+
+    class Attacher:  # stands for the other thread: attaches a clock in the middle of the loop
+        def set_ros_time_override(self, time) -> None:
+            if late not in source._associated_clocks:
+                source.attach_clock(late)
+
+    source._associated_clocks.add(Attacher())
+    first = ROSClock()
+    source.attach_clock(first)
+    source.clock_callback(Clock(clock=Time(sec=3)))
+    source.clock_callback(Clock(clock=Time(sec=4)))
+    assert first.now().nanoseconds == late.now().nanoseconds == 4_000_000_000
