@@ -21,9 +21,6 @@ inclusive); it also counts every callback by node and topic (or timer) and every
 on (`_wait_for_ready_callbacks`: one wait may run several callbacks). Run it under
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child inherits both). One run at a
 time: the machine has 2 cores.
-
---own-clocks undoes amr_util.executors.NodeSpinners' share_clock (each node its own /clock subscription), for an
-A/B in one sitting.
 """
 
 from __future__ import annotations
@@ -185,15 +182,8 @@ def _count_callbacks() -> None:
 
 
 def child(argv: list[str]) -> int:
-    """`--child OUT START DURATION HZ SHARE -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not
-    sampled); SHARE 1/0 is amr_util.executors.NodeSpinners' share_clock."""
-    out, start, duration, hz, share = argv[:5]
-    from amr_util.executors import NodeSpinners
-
-    try:
-        NodeSpinners.__init__.__kwdefaults__.update(share_clock=share == "1")
-    except (AttributeError, TypeError):  # the NodeSpinners before issue 36 item 6: no such option
-        pass
+    """`--child OUT START DURATION HZ -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not sampled)."""
+    out, start, duration, hz = argv[:4]
     if out != "-":
         _count_callbacks()
         threading.Thread(
@@ -201,7 +191,7 @@ def child(argv: list[str]) -> int:
         ).start()
     from amr_bringup.bringup import main
 
-    return main(argv[6:])
+    return main(argv[5:])
 
 
 # -- the parent --------------------------------------------------------------------------------------------------
@@ -253,7 +243,6 @@ def run(robots: int, args) -> dict:
             "--composed",
         ]
         sampled = [str(profile), str(args.startup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
-        sampled.append(str(int(not args.own_clocks)))
         process = subprocess.Popen(
             [sys.executable, __file__, "--child", *sampled, "--", *bringup],
             env=child_environment(),
@@ -379,7 +368,6 @@ def main(argv=None) -> int:
     parser.add_argument("--from-sim", type=float, default=20.0, help="s simulated before the warm-up (localized)")
     parser.add_argument("--warmup", type=float, default=5.0, help="s of wall clock after --from-sim")
     parser.add_argument("--measure", type=float, default=40.0, help="s of wall clock measured")
-    parser.add_argument("--own-clocks", action="store_true", help="each node its /clock subscription (as before)")
     parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
     parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
     parser.add_argument("--top", type=int, default=15)
