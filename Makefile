@@ -25,11 +25,12 @@ demo: setup
 	$(PY) -m amr_bringup.demo
 
 # Lint and format first (ruff, configured in pyproject.toml), then one run, two pytest-xdist workers (tests/conftest.py gives each its own DDS domains), the browser tests among
-# the rest (a stack that does not come up is stopped, and a viewer that lost its port is started on another).
+# the rest (a stack that does not come up is stopped, and a viewer that lost its port is started on another); the 30
+# slowest tests listed at the end, where the suite's time goes.
 test: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	$(PY) -m pytest -q -n 2 --dist loadfile
+	$(PY) -m pytest -q -n 2 --dist loadfile --durations=30
 
 bench: setup
 	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,bench]'
