@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import random
+import signal
 
 import pytest
 import rclpy
@@ -31,6 +32,12 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(random.SystemRandom().randint(10, 100
 # (a first example that compiles a numba kernel took 426 ms beside other runs); what a test checks is its assertions.
 settings.register_profile("suite", deadline=None)
 settings.load_profile("suite")
+
+# A run started with SIGINT ignored (a background job of a non-interactive shell: `nohup make test &`) hands that on
+# to every process the tests start, and the tests that interrupt one (Ctrl-C of a sweep, a stack's duration) wait in
+# vain: SIGINT handled here, so the processes started from here begin with its default again.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture
