@@ -101,18 +101,24 @@ def log_map(log: CarmenLog, resolution: float = MAP_RESOLUTION) -> OccupancyGrid
     )
 
 
-def filter_for(
-    log: CarmenLog, grid: OccupancyGrid, parameters: dict, seed: int, noise: OdometryNoiseModel
-) -> ParticleFilter:
-    """The particle filter for a log: the given node parameters, the LiDAR at the log's pose, the motion noise of
-    the synthesized odometry (its alphas are standard deviations; AMCL's are variances: twice the std, squared)."""
+def log_parameters(log: CarmenLog, parameters: dict, seed: int, noise: OdometryNoiseModel) -> dict:
+    """The filter's parameter values for a log, the same for the library run and the node: the given values, the
+    LiDAR at the log's pose, the motion noise of the synthesized odometry (its alphas are standard deviations;
+    AMCL's are variances: twice the std, squared)."""
     alphas = {f"alpha{k}": (2.0 * getattr(noise, f"alpha{k}")) ** 2 for k in range(1, 5)}
     values = {**parameters, **alphas, "lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0, "seed": seed}
     if not log.has_stamps:  # stamps made up 1 s apart: no speed to judge an odometry reset by
         values["max_odometry_speed"] = next(
             spec.maximum for spec in ParticleFilterConfig.parameter_specs() if spec.name == "max_odometry_speed"
         )
-    return ParticleFilter(grid, config_of(values), range_max=range_max(log))
+    return values
+
+
+def filter_for(
+    log: CarmenLog, grid: OccupancyGrid, parameters: dict, seed: int, noise: OdometryNoiseModel
+) -> ParticleFilter:
+    """The particle filter for a log (log_parameters)."""
+    return ParticleFilter(grid, config_of(log_parameters(log, parameters, seed, noise)), range_max=range_max(log))
 
 
 def run_log(
