@@ -20,7 +20,7 @@ Each call to update(odometry, scan=..., beacons=..., stamp=...) does, in this or
    scans), each fitted to the scan and scored by the same measurement model, with their posterior
    probabilities; the particles are made to agree with them (a likely place without particles gets a cloud).
    The window (the last WINDOW scans' worth of evidence, a new place is scored on) is placed by scan-matched
-   odometry (scan_odometry.py), and the places move by its increment from scan to scan;
+   odometry (scan_odometry.py); the places and the place search's proposals move by its increments;
 5. the estimate: the best hypothesis's particles' weighted mean, fitted to the scan by the matcher, and their
    covariance. Its confidence is the best hypothesis's probability times the share of the belief the
    hypotheses hold, and 0 until a place search has covered the map (or a pose was given, or beacons were
@@ -643,7 +643,8 @@ class ParticleFilter:
 
     def _rematch_places(self, seen: _Seen) -> None:
         """The places (and the one declared), moved by the odometry since the window's last scan, moved by the
-        scan-matched increment instead (the better estimate of the same motion)."""
+        scan-matched increment instead: the better estimate of the same motion (each place is then fitted to the
+        scan within FIT_WINDOW, which a keyframe's odometry error can exceed)."""
         if not self._window:
             return
         last = self._window[-1]
