@@ -481,18 +481,14 @@ class GraphSlam:
         clouds = []
         for pose, k in zip(poses, members, strict=True):
             clouds.append(transform_points(pose, self._nodes[k].points))
-        cloud = np.vstack(clouds + [np.zeros((1, 2))])
+        cloud = np.vstack(clouds)
         resolution = self.config.resolution
-        pad = window + LIKELIHOOD_PAD
-        low = np.floor((cloud.min(axis=0) - pad) / resolution) * resolution
-        shape = np.ceil((cloud.max(axis=0) + pad - low) / resolution).astype(int) + 1
-        data = np.zeros((shape[1], shape[0]), dtype=np.int8)
-        cells = np.floor((cloud[:-1] - low) / resolution).astype(int)
-        data[cells[:, 1], cells[:, 0]] = 100
-        grid = OccupancyGrid(data, resolution, (float(low[0]), float(low[1]), 0.0))
-        matcher = CorrelativeMatcher(ScoreMap.from_occupancy(grid, sigma=LIKELIHOOD_SIGMA_CELLS * resolution))
-        means = _voxel_means(cloud[:-1], ALIGN_VOXEL_CELLS * resolution)
-        lines = _lines(means, cloud[:-1], ALIGN_NEIGHBOURHOOD_CELLS * resolution)
+        score_map = ScoreMap.from_points(
+            cloud, resolution, LIKELIHOOD_SIGMA_CELLS * resolution, window + LIKELIHOOD_PAD, cover=np.zeros((1, 2))
+        )
+        matcher = CorrelativeMatcher(score_map)
+        means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)
+        lines = _lines(means, cloud, ALIGN_NEIGHBOURHOOD_CELLS * resolution)
         return _Reference(matcher, means, *lines, cKDTree(means))
 
     def _clear_space(self, anchor: int, members) -> OccupancyGrid:

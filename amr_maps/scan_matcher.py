@@ -97,16 +97,20 @@ class ScoreMap:
         return cls(table.astype(np.float32), grid.resolution, grid.origin[:2], grid.free())
 
     @classmethod
-    def from_points(cls, points: np.ndarray, resolution: float, sigma: float, pad: float) -> ScoreMap:
+    def from_points(
+        cls, points: np.ndarray, resolution: float, sigma: float, pad: float, cover: np.ndarray | None = None
+    ) -> ScoreMap:
         """The likelihood field of a point cloud (a scan's end points: Olson's rasterized scan), on cells of
-        `resolution` covering the points and `pad` m around them; every cell a candidate."""
+        `resolution` covering the points, and the `cover` points if given (not rasterized), and `pad` m around them;
+        every cell a candidate."""
         points = _finite_points(points)
-        if not len(points):
-            raise ValueError("score map: no finite point to rasterize")
+        extent = points if cover is None else np.vstack([points, _finite_points(cover)])
+        if not len(extent):
+            raise ValueError("score map: no finite point to rasterize or cover")
         if not math.isfinite(pad) or pad < 0.0:
             raise ValueError(f"score map: pad must be a number >= 0 m, got {pad!r}")
-        low = np.floor((points.min(axis=0) - pad) / resolution) * resolution
-        shape = np.ceil((points.max(axis=0) + pad - low) / resolution).astype(int) + 1
+        low = np.floor((extent.min(axis=0) - pad) / resolution) * resolution
+        shape = np.ceil((extent.max(axis=0) + pad - low) / resolution).astype(int) + 1
         data = np.zeros((shape[1], shape[0]), dtype=np.int8)
         cells = np.floor((points - low) / resolution).astype(int)
         data[cells[:, 1], cells[:, 0]] = 100

@@ -221,7 +221,7 @@ def test_score_map_from_points_peaks_on_the_points_and_pads_around_them():
     assert matcher.score(points, (0.0, 0.0, 0.0)) == pytest.approx(1.0)
     assert matcher.score(points + [0.35, 0.0], (0.0, 0.0, 0.0)) < 0.05
     assert score.origin[0] <= -0.3 and score.origin[1] <= -0.3
-    with pytest.raises(ValueError, match="no finite point"):
+    with pytest.raises(ValueError, match="no finite point to rasterize or cover"):
         ScoreMap.from_points(np.full((3, 2), np.nan), 0.1, 0.1, 0.3)
 
 
