@@ -14,11 +14,13 @@ setup: $(VENV)/.deps-installed
 	@$(PY) scripts/build_interfaces.py
 
 # pip brings uv (a PyPI wheel with its binary), uv installs the rest: the versions pip would resolve, in a fraction of
-# pip's CPU (docs/testing.md). uv reads its own settings (UV_DEFAULT_INDEX, ...), not pip's configuration.
+# pip's CPU (docs/testing.md). uv reads its own settings (UV_DEFAULT_INDEX, ...), not pip's configuration: where it
+# cannot install (an index only pip is configured for), pip does.
 $(VENV)/.deps-installed: pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check uv==0.13.9
-	$(VENV)/bin/uv pip install --quiet --python $(PY) -e '.[test]'
+	$(PY) -m pip install --quiet --disable-pip-version-check uv==0.13.9 \
+		&& $(VENV)/bin/uv pip install --quiet --python $(PY) -e '.[test]' \
+		|| $(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
 	@touch $@
 
 demo: setup
