@@ -61,7 +61,7 @@ from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
-from amr_util.geometry import compose, relative_pose, transform_points, wrap_angle
+from amr_util.geometry import compose, one_per_cell, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
 
 KLD_BIN_SIZE = 0.1
@@ -620,9 +620,7 @@ class ParticleFilter:
     def _end_points(self, scan: ScanData) -> np.ndarray:
         """(K, 2) the scan's end points in the robot's frame, within PLACE_SEARCH_RANGE, one per chain cell."""
         points = self._points(select_beams(scan, len(scan.ranges)))
-        points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
-        _, first = np.unique(np.floor(points / self._chain_resolution).astype(np.int64), axis=0, return_index=True)
-        return points[np.sort(first)]
+        return one_per_cell(points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE], self._chain_resolution)
 
     @property
     def _chain_resolution(self) -> float:
@@ -749,9 +747,7 @@ class ParticleFilter:
         for past in self._window:
             clouds.append(transform_points(relative_pose(seen.local, past.local), self._points(past.beams)))
         points = np.concatenate(clouds)
-        points = points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE]
-        _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)
-        return points[np.sort(first)]
+        return one_per_cell(points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE], resolution)
 
     def _place_search_map(self) -> tuple[CorrelativeMatcher, np.ndarray]:
         """The place search's matcher and candidate cells: the map max-pooled to at most PLACE_SEARCH_CELLS cells (a

@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap, default_angular_step
-from amr_util.geometry import transform_points, wrap_angle
+from amr_util.geometry import one_per_cell, transform_points, wrap_angle
 
 SIGMAS = 3.0
 """the match's window, in standard deviations of the odometry's increment ..."""
@@ -65,7 +65,7 @@ def matched_increment(
     points = points[_within_view(reference, transform_points(prior, points), linear + resolution, angular)]
     if len(points) < MIN_POINTS:
         return prior
-    independent = len(_thinned(points, max(correlation_length, resolution)))
+    independent = len(one_per_cell(points, max(correlation_length, resolution)))
     # the window at twice the cell, then the cell around the coarse posterior's mean
     coarse = _posterior_mean(
         reference, points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
@@ -104,7 +104,7 @@ def _posterior_mean(
     lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the score to the power
     of the `independent` points."""
     matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
-    cloud = _thinned(points, resolution)
+    cloud = one_per_cell(points, resolution)
     step = default_angular_step(cloud, resolution)
     if angle_steps is not None:
         angular = angle_steps * step
@@ -119,12 +119,6 @@ def _posterior_mean(
     mean = prior + weights @ offsets / weights.sum()
     mean[2] = wrap_angle(mean[2])
     return mean
-
-
-def _thinned(points: np.ndarray, resolution: float) -> np.ndarray:
-    """One point per cell of `resolution` (the first)."""
-    _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)
-    return points[np.sort(first)]
 
 
 def _within_view(reference: np.ndarray, moved: np.ndarray, linear: float, angular: float) -> np.ndarray:

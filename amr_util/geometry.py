@@ -131,6 +131,14 @@ def transform_points(pose, points: np.ndarray) -> np.ndarray:
     )
 
 
+def one_per_cell(points: np.ndarray, resolution: float) -> np.ndarray:
+    """(M, 2) the first of the points in each square cell of `resolution` m, in their order (a voxel filter that
+    keeps measured points rather than cell centres or means)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
 def map_to_odom(true_pose, odom_pose) -> Pose2D:
     """The odom frame in the map frame, from where the robot is (map) and where odometry puts it (odom):
     the map -> odom transform a localizer publishes (REP 105).

@@ -1,4 +1,4 @@
-"""amr_util.geometry's point transform against the homogeneous matrix of the pose."""
+"""amr_util.geometry's point transform against the homogeneous matrix of the pose, and its one-point-per-cell filter."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from amr_util.geometry import Pose2D, transform_points
+from amr_util.geometry import Pose2D, one_per_cell, transform_points
 
 RNG = np.random.default_rng(21)
 
@@ -21,3 +21,8 @@ def test_points_are_placed_by_a_pose_as_its_matrix_does():
         expected = (matrix @ np.column_stack([points, np.ones(5)]).T).T[:, :2]
         assert transform_points(pose, points) == pytest.approx(expected)
         assert transform_points(tuple(pose), points) == pytest.approx(expected)  # any (x, y, theta)
+
+
+def test_one_per_cell_keeps_the_first_point_of_each_cell_in_order():
+    points = np.array([[0.01, 0.01], [0.5, 0.5], [0.02, 0.03], [0.12, 0.0], [0.55, 0.52]])
+    np.testing.assert_array_equal(one_per_cell(points, 0.1), points[[0, 1, 3]])
