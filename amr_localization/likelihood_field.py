@@ -122,22 +122,37 @@ class LikelihoodField:
         on the distance field (steps of the distance to the nearest wall, a few per metre in a room):
         meant for a few poses, not for thousands of particles.
         """
-        if beams.ranges.size == 0:
-            return np.zeros(len(particles))
+        terms = self.best_free_path(particles, np.zeros((1, 3)), beams, margin)
+        return terms if per_beam else terms.sum(axis=1)
+
+    def best_free_path(self, poses: np.ndarray, nudges: np.ndarray, beams: Beams, margin: float) -> np.ndarray:
+        """(H, beams): for each pose and beam, the best of log_likelihood_free_path's per-beam terms over the pose
+        moved by each of the (M, 3) `nudges` (x, y, theta offsets added to the pose): a beam reads as going through
+        a wall only where it does so from every nudged pose.
+
+        The same maximum as tracing every nudged beam, without doing so: a beam's candidates are taken in order
+        of their end point's term, and the first whose path is free ends the search (no later one can score more);
+        a blocked one scores min(term, see-through) and the next is traced only where it could score more. Where
+        the beam is free, one trace instead of M."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        nudges = np.asarray(nudges, dtype=float).reshape(-1, 3)
+        out = np.zeros((len(poses), beams.ranges.size))
+        if beams.ranges.size == 0 or not len(poses):
+            return out
         ranges = np.where(beams.returned, beams.ranges, beams.range_max) / self._resolution
-        sensor = self.mount.sensor_poses(particles)
-        col0 = (sensor[:, 0] - self._origin[0]) / self._resolution + 1.0
-        row0 = (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0
-        out = np.empty((len(particles), len(ranges)))
+        sensor = self.mount.sensor_poses((poses[:, None, :] + nudges[None, :, :]).reshape(-1, 3))
+        shape = (len(poses), len(nudges))
+        col0 = ((sensor[:, 0] - self._origin[0]) / self._resolution + 1.0).reshape(shape)
+        row0 = ((sensor[:, 1] - self._origin[1]) / self._resolution + 1.0).reshape(shape)
         rows, cols = self._shape
-        _free_path_terms(
+        _best_free_path_terms(
             self._table,
             self._cells,
             rows,
             cols,
             col0,
             row0,
-            sensor[:, 2],
+            sensor[:, 2].reshape(shape),
             beams.angles,
             ranges,
             beams.returned,
@@ -145,7 +160,7 @@ class LikelihoodField:
             self._see_through,
             out,
         )
-        return out if per_beam else out.sum(axis=1)
+        return out
 
 
 @numba.njit(cache=True)
@@ -166,41 +181,67 @@ def _sum_log_likelihood(table, rows, cols, col0, row0, cos_theta, sin_theta, alo
 
 
 @numba.njit(cache=True)
-def _free_path_terms(table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out):
-    """out[i, k]: the likelihood field's term of beam k for particle i, capped at see_through for a beam whose
-    path goes through an occupied cell before range - margin.
+def _blocked(cells, rows, cols, x, y, c, s, free):
+    """Whether the beam from (x, y) along (c, s) (cells) goes through an occupied cell before `free` cells.
 
     Sphere tracing in cells: from the sensor, step along the beam by the distance to the nearest occupied cell
     centre minus 1.5 cells (a point and an occupied cell are each up to half a diagonal from their centres), at
     least half a cell. The path is blocked where it has gone through an occupied cell and come out 2 cells clear
-    of any wall before range - margin: a beam that only grazes a wall's surface near its end point (at a shallow
-    angle, margin along the beam is little margin from the wall) is not blocked. Occupied cells the trace starts
-    in (a sensor a cell into a wall: the pose or the map a cell off) do not count.
+    of any wall before `free`: a beam that only grazes a wall's surface near its end point (at a shallow angle,
+    margin along the beam is little margin from the wall) is not blocked. Occupied cells the trace starts in (a
+    sensor a cell into a wall: the pose or the map a cell off) do not count.
     """
-    for i in range(col0.shape[0]):
-        x, y = col0[i], row0[i]
+    t = 0.0
+    inside = False
+    clear = False
+    while t < free:
+        col = x + c * t
+        row = y + s * t
+        if col < 0.0 or row < 0.0 or col >= cols or row >= rows:
+            return False
+        distance = cells[int(row) * cols + int(col)]
+        clear = clear or distance >= 1.0
+        if distance == 0.0 and clear:
+            inside = True
+        elif inside and distance >= 2.0:  # through a wall and out on its other side
+            return True
+        t += max(distance - 1.5, 0.5)
+    return False
+
+
+@numba.njit(cache=True)
+def _best_free_path_terms(
+    table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out
+):
+    """out[h, k]: the best over nudges n of beam k's likelihood-field term from sensor pose (col0, row0, theta)[h, n],
+    capped at see_through where that beam's path is blocked (_blocked) before range - margin. Candidates are traced
+    in decreasing order of their term, until one is free or none left could score more than the best so far."""
+    nudges = col0.shape[1]
+    value = np.empty(nudges)
+    done = np.empty(nudges, dtype=np.bool_)
+    for h in range(col0.shape[0]):
         for k in range(angles.shape[0]):
-            c, s = math.cos(theta[i] + angles[k]), math.sin(theta[i] + angles[k])
-            value = 0.0
-            if returned[k]:
-                col = min(max(x + c * ranges[k], 0.0), cols - 1.0)
-                row = min(max(y + s * ranges[k], 0.0), rows - 1.0)
-                value = table[int(row) * cols + int(col)]
-            free = ranges[k] - margin
-            t = 0.0
-            inside = False
-            clear = False  # walls the trace starts in (a sensor a cell into a wall: pose or map error) do not count
-            while t < free:
-                col = x + c * t
-                row = y + s * t
-                if col < 0.0 or row < 0.0 or col >= cols or row >= rows:
+            for n in range(nudges):
+                value[n] = 0.0
+                if returned[k]:
+                    c, s = math.cos(theta[h, n] + angles[k]), math.sin(theta[h, n] + angles[k])
+                    col = min(max(col0[h, n] + c * ranges[k], 0.0), cols - 1.0)
+                    row = min(max(row0[h, n] + s * ranges[k], 0.0), rows - 1.0)
+                    value[n] = table[int(row) * cols + int(col)]
+                done[n] = False
+            best = -np.inf
+            while True:
+                pick, top = -1, best
+                for n in range(nudges):
+                    if not done[n] and value[n] > top:
+                        pick, top = n, value[n]
+                if pick < 0:
                     break
-                distance = cells[int(row) * cols + int(col)]
-                clear = clear or distance >= 1.0
-                if distance == 0.0 and clear:
-                    inside = True
-                elif inside and distance >= 2.0:  # through a wall and out on its other side
-                    value = min(value, see_through)
+                done[pick] = True
+                c, s = math.cos(theta[h, pick] + angles[k]), math.sin(theta[h, pick] + angles[k])
+                if _blocked(cells, rows, cols, col0[h, pick], row0[h, pick], c, s, ranges[k] - margin):
+                    best = max(best, min(top, see_through))
+                else:
+                    best = top
                     break
-                t += max(distance - 1.5, 0.5)
-            out[i, k] = value
+            out[h, k] = best

@@ -32,6 +32,7 @@ Between filter updates the estimate follows odometry, so every call returns a fi
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections import deque
 from collections.abc import Sequence
@@ -179,12 +180,28 @@ class _Search:
     local: tuple[float, float, float]
     position_variance: float = 0.0
     heading_variance: float = 0.0
+    ahead: threading.Thread | None = None
 
     def moved(self, d_trans: float, d_theta: float, noise) -> None:
         """The motion model's noise over one more motion (motion_variance)."""
         position, heading = motion_variance(d_trans, d_theta, noise, self.heading_variance)
         self.position_variance += position
         self.heading_variance += heading
+
+    def advance(self, budget: int) -> None:
+        """The search's next `budget` nodes: those started ahead after the last update, or now."""
+        if self.ahead is not None:
+            self.ahead.join()
+            self.ahead = None
+        else:
+            self.search.advance(budget)
+
+    def start_ahead(self, budget: int) -> None:
+        """The next `budget` nodes on a thread of their own, started now and collected by the next `advance`: the
+        compiled branch and bound runs without the GIL while the rest of this update and the wait for the next scan
+        go on (the nodes and their order are those `advance` would score then: the same proposals)."""
+        self.ahead = threading.Thread(target=self.search.advance, args=(budget,), daemon=True)
+        self.ahead.start()
 
 
 class ParticleFilter:
@@ -592,9 +609,7 @@ class ParticleFilter:
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses
             step = np.array([self._grid.resolution, self._grid.resolution, math.radians(0.5)])
-            nudged = (poses[:, None, :] + NUDGES[None, :, :] * step).reshape(-1, 3)
-            terms = self._laser.log_likelihood_free_path(nudged, seen.beams, FREE_PATH_MARGIN, per_beam=True)
-            best = terms.reshape(len(poses), len(NUDGES), -1).max(axis=1)
+            best = self._laser.best_free_path(poses, NUDGES * step, seen.beams, FREE_PATH_MARGIN)
             total += seen.gain * (best @ seen.weights)
         elif seen is not None:
             total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)
@@ -727,8 +742,9 @@ class ParticleFilter:
             )
             self._search = _Search(search, seen.local)
         running = self._search
-        running.search.step(budget, refine=False)
+        running.advance(budget)
         if not running.search.done:
+            running.start_ahead(budget)
             return np.zeros((0, 3))
         self._search = None
         self._covered = True

@@ -474,7 +474,7 @@ class GlobalSearch:
         if max_nodes < 0:
             raise ValueError(f"global search: max_nodes must be >= 0, got {max_nodes!r}")
         if max_seconds is None:
-            self._search.run(int(max_nodes))
+            self.advance(max_nodes)
         else:
             deadline = time.perf_counter() + max_seconds
             left = int(max_nodes)
@@ -483,6 +483,14 @@ class GlobalSearch:
                 self._search.run(min(left, 20_000))
                 left -= self._search.nodes - before
         return self.matches(refine)
+
+    def advance(self, max_nodes: int) -> None:
+        """Score up to max_nodes more nodes, nothing else (step without the matches). The compiled search runs
+        without the GIL: a thread may advance a search while others go on, as long as no one else touches this
+        search meanwhile."""
+        if max_nodes < 0:
+            raise ValueError(f"global search: max_nodes must be >= 0, got {max_nodes!r}")
+        self._search.run(int(max_nodes))
 
     def matches(self, refine: bool = True) -> list[Match]:
         """The best matches so far, best first."""
@@ -680,7 +688,7 @@ def _node_total(pyramid, level, pad, rows, cols, a, x, y):  # pragma: no cover -
     return total
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _score_nodes(pyramid, level, pad, rows, cols, nodes, out, start, stop):  # pragma: no cover - compiled
     for k in range(start, stop):
         out[k] = _node_total(pyramid, level, pad, rows, cols, nodes[k, 0], nodes[k, 1], nodes[k, 2])
@@ -743,7 +751,7 @@ def _threshold(found_totals, state, min_total):  # pragma: no cover - compiled
     return min_total - 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _branch_and_bound(
     pyramid,
     pad,

@@ -49,3 +49,28 @@ def test_the_free_path_check_sees_a_beam_go_through_a_wall_where_the_likelihood_
         far.log_likelihood_free_path(np.array([[3.0, 3.0, math.pi / 2]]), _beam(3.5, 0.0, returned=False), 0.1)[0]
         == 0.0
     ), "no return and nothing within range: nothing to say"
+
+
+def test_the_best_free_path_over_nudges_is_the_best_of_each_nudged_pose_traced():
+    """best_free_path traces a beam's nudged poses in order of their end point's term and stops at the first free
+    one: the same per-beam maximum as tracing every nudged pose (through walls, along them, no return)."""
+    rng = np.random.default_rng(3)
+    data = np.zeros((120, 160), dtype=np.int8)  # 2.4 m x 3.2 m at 2 cm: outer walls, an inner wall with a doorway
+    data[[0, -1], :] = OCCUPIED
+    data[:, [0, -1]] = OCCUPIED
+    data[:, 80:82] = OCCUPIED
+    data[50:70, 80:82] = 0
+    data[rng.random(data.shape) < 0.01] = OCCUPIED  # clutter
+    model = LikelihoodField(DistanceField(OccupancyGrid(data, 0.02)), LikelihoodFieldParams(), SensorMount(0.05), 3.5)
+    count = 60
+    angles = np.linspace(-math.pi, math.pi, count, endpoint=False)
+    returned = rng.random(count) < 0.9
+    beams = Beams(rng.uniform(0.2, 3.4, count), angles, returned, 3.5, np.arange(count), 0.01)
+    poses = np.column_stack([rng.uniform(0.1, 3.1, 40), rng.uniform(0.1, 2.3, 40), rng.uniform(-3.1, 3.1, 40)])
+    nudges = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)]) * [0.02, 0.02, 0.01]
+    best = model.best_free_path(poses, nudges, beams, 0.1)
+    traced = np.stack([model.log_likelihood_free_path(poses + nudge, beams, 0.1, per_beam=True) for nudge in nudges])
+    see_through = math.log(0.1 / 3.5)
+    assert np.isclose(traced, see_through, atol=1e-5).any(axis=0).sum() > 100, "beams through walls, some nudges"
+    assert (best > traced[len(nudges) // 2]).sum() > 100, "the nudges matter: the pose itself scores less"
+    np.testing.assert_array_equal(best, traced.max(axis=0))
