@@ -14,13 +14,26 @@ repeated stamp, so such a status is checked here first.
 
 from __future__ import annotations
 
-from rclpy.time import Time
-
 NAVIGATOR_STATUS_TOPIC = "navigator/status"
+STEPPINGS = ("lockstep", "realtime")
+"""a controller's `stepping` parameter: how the world it drives steps, as the stack declares it (the simulator's
+mode); a real robot is realtime."""
+
+
+def stops_on_release(simulation: bool, stepping: str, status) -> bool:
+    """Whether a controller that has just lost the charge sends one zero command. On a timer (the real robot's
+    architecture): always. Answering observations (`simulation`): in a realtime world when the navigator gives the
+    robot to nobody (no goal, no path, reached): the zero is the explicit hold, time goes on and nobody else answers;
+    in lockstep never, as a command would step the world (the lockstep simulator holds the robot instead), nor when
+    another controller takes over (its command answers the observation)."""
+    return not simulation or (stepping == "realtime" and not status.controller)
 
 
 def stamp_ns(message) -> int:
-    return Time.from_msg(message.header.stamp).nanoseconds
+    """Integer nanoseconds of a message's header stamp (as rclpy's Time.from_msg; no ROS import here: the
+    controllers' configurations import STEPPINGS from this module)."""
+    stamp = message.header.stamp
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 class NavigatorGate:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from amr_control.navigated import STEPPINGS
 from amr_util.parameter_spec import Config, ConfigError, parameter
 from amr_util.robot_description import default_robot
 
@@ -29,6 +30,10 @@ class PathFollowerConfig(Config):
     simulation: bool = parameter(True)
     """True: /cmd_vel is TwistStamped and one command answers each observation (lockstep).
     False: Twist, and a timer computes every dt from the latest pose and scan."""
+    stepping: str = parameter("lockstep", choices=STEPPINGS)
+    """How the world steps, as the stack declares it (its mode argument sets the simulator's too); with simulation
+    and navigated. lockstep: a command answers only an observation given to this node. realtime: also one zero
+    command when the navigator gives the robot to nobody (the explicit hold: nobody else answers, time goes on)."""
     dt: float = parameter(0.05, minimum=0.001, maximum=1.0)
     """s, control period (timer period on the real robot)."""
     stale_timeout: float = parameter(0.5, minimum=0.001, maximum=10.0, live=True)

@@ -10,7 +10,8 @@ place before the first observation that needs it.
 Simulation (`simulation: true`, lockstep): each answered observation gets exactly one command,
 TwistStamped. Real robot (`simulation: false`): a timer computes every dt from the latest pair and
 publishes Twist (the last command between pairs), zero when no pair came for `stale_timeout`, and one
-zero when the node stops being in charge. Every computed command is reported on ~/status
+zero when the node stops being in charge (in simulation with `stepping: realtime`, one when the navigator gives
+the robot to nobody). Every computed command is reported on ~/status
 (amr_interfaces/PathFollowerStatus: state, reached, replan); a request for a new plan (blocked,
 strayed) is only reported there, for the navigator to act on. Deactivation and shutdown send a zero
 command. Bad messages are refused with a throttled warning; nothing raises out of a callback.
@@ -35,7 +36,7 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
+from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate, stops_on_release
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
 from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
@@ -242,7 +243,7 @@ class PathFollowerNode(ManagedNode):
         mine, changed = self._gate.admit(status, (pose, scan))
         if changed and not mine:
             self._latest_pair = None
-            if not self.config.simulation:
+            if stops_on_release(self.config.simulation, self.config.stepping, status):
                 self._publish(0.0, 0.0)  # the robot stops at the hand-over; the next controller takes it from here
         if mine:
             self._answer(driven_pose(pose, status), scan)

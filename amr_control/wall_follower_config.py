@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from amr_control.navigated import STEPPINGS
 from amr_util.parameter_spec import Config, ConfigError, parameter
 from amr_util.robot_description import default_robot
 
@@ -34,6 +35,10 @@ class WallFollowerConfig(Config):
     simulation: bool = parameter(True)
     """True: /cmd_vel is TwistStamped and commands are computed in the synchronized callback
     (lockstep). False: Twist, and a timer computes every dt from the latest pair (seed 5.2.2)."""
+    stepping: str = parameter("lockstep", choices=STEPPINGS)
+    """How the world steps, as the stack declares it (its mode argument sets the simulator's too); with simulation
+    and navigated. lockstep: a command answers only an observation given to this node. realtime: also one zero
+    command when the navigator gives the robot to nobody (the explicit hold: nobody else answers, time goes on)."""
     dt: float = parameter(0.05, minimum=0.001, maximum=1.0)
     """s, control period (timer period on the real robot)."""
     sync_slop: float = parameter(10.0, minimum=0.0, maximum=100.0)

@@ -11,7 +11,8 @@ With `navigated`, the navigator's navigator/status (amr_interfaces/NavigatorStat
 observation, stamped like the scan) is a third synchronized input: the follower answers only the
 observations the navigator gives it (amr_control.navigated), so in lockstep exactly one command
 answers each observation across every hand-over. On the real robot (timer), losing the charge sends
-one zero command; the timer is silent until the navigator names this node again.
+one zero command; the timer is silent until the navigator names this node again. In simulation with
+`stepping: realtime` (the simulator on its timer) it sends one when the navigator gives the robot to nobody.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate
+from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate, stops_on_release
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
@@ -179,7 +180,7 @@ class WallFollowerNode(ManagedNode):
             )
             if not mine:
                 self._latest_pair = None
-                if not self.config.simulation:
+                if stops_on_release(self.config.simulation, self.config.stepping, status):
                     self._publish(0.0, 0.0)
         if mine:
             self._on_pair(odometry, scan)
