@@ -21,7 +21,8 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   Cartographer's).
 - Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
-  and none once loop_time_budget of the update's CPU time is spent (the next updates take the rest), each by
+  and none once the update's work (_Work: lookups counted, builds at their measured equivalent) reaches
+  loop_work_budget (the next updates take the rest; deterministic: a run is repeatable), each by
   CorrelativeMatcher.match within +-loop_linear_window / +-loop_angular_window of the current estimate. A match
   scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it lies on the window's edge
   (_on_edge), puts scan points in the submap's seen-through space, a rival pose in the window scores nearly as
@@ -59,6 +60,7 @@ from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
+from amr_maps.window_search import window_modes
 from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
 
@@ -143,6 +145,13 @@ ALIGN_MIN_PAIRS = 20
 ALIGN_EIGEN_RATIO = 1e-3
 """The refinement moves only along the directions the lines constrain: eigenvalues of its normal matrix below
 this share of the largest are left out (along a corridor the correlative match and the odometry decide)."""
+REFERENCE_WORK_PER_POINT = 3_400.0
+"""Work units (a scan point looked up by a branch and bound) that building a reference costs per averaged point
+(likelihood field, lines, tree: about 16 us each against 4.7 ns a lookup, measured once on aces) ..."""
+CLEAR_WORK_PER_RAY = 1_100.0
+"""... that a loop-closure submap's clear space costs per ray (about 5 us) ..."""
+CANDIDATE_WORK = 500_000.0
+"""... and that a match's refinement and information cost besides its branch and bound (about 3 ms)."""
 MAX_INFORMATION = (1.0 / 0.01**2, 1.0 / 0.01**2, 1.0 / math.radians(0.25) ** 2)
 CHAIN_INFORMATION = (1.0 / 0.002**2, 1.0 / 0.002**2, 1.0 / math.radians(0.05) ** 2)
 """The closure gate's chain compounds each match's own covariance, capped here only (2 mm, 0.05 deg): compounded
@@ -186,10 +195,11 @@ class SlamConfig:
     """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100)."""
     loop_max_candidates: int = 2
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
-    loop_time_budget: float = 0.05
-    """s of the update's CPU time (its thread's: not the machine's load) after which no further loop-closure
-    candidate is searched (the rest wait for the next updates; one at least every other update): bounds an
-    update's time (0-1)."""
+    loop_work_budget: float = 10.0
+    """millions of work units (one: a scan point looked up by a branch and bound, about 5 ns here; a submap's
+    build counted at its measured equivalent) of the update's own (front end included) after which no further
+    loop-closure candidate is searched (the rest wait for the next updates; one at least every other update):
+    bounds an update's time, and unlike a clock the same on every run (0-1000)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
     lidar_x: float = 0.0
@@ -256,6 +266,18 @@ class SlamUpdate:
     events: tuple[str, ...] = ()
 
 
+class _Work:
+    """An update's work so far, in units of one scan point looked up by a branch and bound (the builds and the
+    refinement counted at their measured equivalents): what loop_work_budget bounds; a count, not a clock, so a
+    run does the same whatever the machine's load."""
+
+    def __init__(self) -> None:
+        self.units = 0.0
+
+    def add(self, units: float) -> None:
+        self.units += float(units)
+
+
 @dataclass
 class _Reference:
     """What a scan is matched against: the correlative matcher on the likelihood field of the scan points, and
@@ -319,7 +341,8 @@ class GraphSlam:
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, _Reference] | None = None
         self._unoptimized = 0  # closures added since the last optimization
-        self._starved = False  # the last update searched no closure candidate (loop_time_budget)
+        self._starved = False  # the last update searched no closure candidate (loop_work_budget)
+        self._work = _Work()  # the update's work so far
         self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
         self.rejected_closures = 0  # closure matches that scored but disagreed with the poses (LOOP_CHI2)
         self.ambiguous_closures = 0  # closure matches with a rival in the window (AMBIGUITY_RATIO)
@@ -400,7 +423,8 @@ class GraphSlam:
 
     def add(self, stamp_ns: int, odometry, scan: ScanData) -> SlamUpdate:
         """One scan with the odometry pose (x, y, theta, odom frame) at its stamp; see the module docstring."""
-        start, cpu_start = time.perf_counter(), time.thread_time()
+        start = time.perf_counter()
+        self._work = _Work()
         if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
             raise MappingError(f"slam: stamp_ns must be an integer of nanoseconds, got {stamp_ns!r}")
         odometry = np.asarray(odometry, dtype=float).reshape(-1)
@@ -444,7 +468,7 @@ class GraphSlam:
         self._chain.append(np.linalg.inv(information) if self._step_covariance is None else self._step_covariance)
         self._step_covariance = None
         self._pose = pose.copy()
-        closures = self._close_loops(node, events, cpu_start)
+        closures = self._close_loops(node, events)
         return SlamUpdate(
             self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start, tuple(events)
         )
@@ -467,6 +491,7 @@ class GraphSlam:
             members = range(submap.last - self.config.local_window + 1, submap.last + 1)
             reference = self._matcher(submap.anchor, members, self.config.loop_linear_window)
             reference.clear = self._clear_space(submap.anchor, members)
+            self._work.add(CLEAR_WORK_PER_RAY * sum(len(self._nodes[k].ranges) for k in members))
             submap.reference = reference
         return submap.reference
 
@@ -489,6 +514,7 @@ class GraphSlam:
         matcher = CorrelativeMatcher(score_map)
         means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)
         lines = _lines(means, cloud, ALIGN_NEIGHBOURHOOD_CELLS * resolution)
+        self._work.add(REFERENCE_WORK_PER_POINT * len(means))
         return _Reference(matcher, means, *lines, cKDTree(means))
 
     def _clear_space(self, anchor: int, members) -> OccupancyGrid:
@@ -528,6 +554,7 @@ class GraphSlam:
         angular = min(cfg.match_angular_window, WINDOW_SIGMAS * sigma[2])
         relative_prior = np.array(relative_pose(anchor, prior))
         match = matcher.match(points, relative_prior, linear, angular)
+        self._work.add(CANDIDATE_WORK + match.nodes * len(points))
         if match.score < cfg.min_match_score or not np.all(np.isfinite(match.pose)):
             events.append(
                 f"scan match score {match.score:.2f} < min_match_score {cfg.min_match_score}: "
@@ -553,6 +580,7 @@ class GraphSlam:
                 odometry_information,
                 events,
                 (linear, angular),
+                self._work,
             )
             if match_information is None:
                 return prior, odometry_information, float(match.score)
@@ -563,7 +591,7 @@ class GraphSlam:
         self._step_covariance = np.linalg.inv(_information(covariance, fused[2], CHAIN_INFORMATION))
         return pose, _information(covariance, fused[2]), float(match.score)
 
-    def _close_loops(self, node: int, events: list[str], start: float) -> list[LoopClosure]:
+    def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
         cfg = self.config
         pose = self._graph.pose(node)
         travelled = self._nodes[node].travelled
@@ -585,9 +613,9 @@ class GraphSlam:
         marginals = None
         searched = 0
         while self._pending and searched < cfg.loop_max_candidates:
-            # the update's time: a candidate is started only within loop_time_budget of the update's start (the
-            # rest wait for the next updates), but one at least every other update, however slow the front end
-            if time.thread_time() - start > cfg.loop_time_budget and (searched or not self._starved):
+            # the update's time: a candidate is started only while the update's work is within loop_work_budget
+            # (the rest wait for the next updates), but one at least every other update, however busy the front end
+            if self._work.units > cfg.loop_work_budget * 1e6 and (searched or not self._starved):
                 break
             i = self._pending.pop(0)
             searched += 1
@@ -596,6 +624,7 @@ class GraphSlam:
             anchor = poses[submap.anchor]
             prior = np.array(relative_pose(anchor, pose))
             match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)
+            self._work.add(CANDIDATE_WORK + match.nodes * len(points))
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
                 continue
             if _on_edge(match.pose, prior, cfg):
@@ -606,7 +635,7 @@ class GraphSlam:
                 self.inconsistent_closures += 1
                 continue
             information = _match_information(submap.matcher, points, matched, cfg.resolution)
-            rival = _rival_score(submap.matcher, points, matched, prior, cfg)
+            rival = _rival_score(submap.matcher, points, matched, prior, cfg, self._work)
             if rival >= AMBIGUITY_RATIO * match.score:
                 self.ambiguous_closures += 1
                 continue
@@ -713,7 +742,12 @@ def _information(covariance: np.ndarray, heading: float, cap=MAX_INFORMATION) ->
 
 
 def _rival_score(
-    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, prior: np.ndarray, config: SlamConfig
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    pose: np.ndarray,
+    prior: np.ndarray,
+    config: SlamConfig,
+    work: _Work | None = None,
 ) -> float:
     """The best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
     heading) at least AMBIGUITY_DISTANCE from the match (a branch and bound over that region: GlobalSearch, the
@@ -742,6 +776,8 @@ def _rival_score(
         min_separation=AMBIGUITY_DISTANCE,
     )
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
+    if work is not None:
+        work.add(search.nodes * len(search.points))
     return float(found[0].score) if found else 0.0
 
 
@@ -766,12 +802,13 @@ def _weak_match(
     odometry_information: np.ndarray,
     events: list[str],
     window: tuple[float, float],
+    work: _Work | None = None,
 ) -> np.ndarray | None:
     """A weak front-end match (below WEAK_MATCH_SCORE) tested: its information widened over a rival mode in the
     window (_local_rival; the two modes as one Gaussian, the odometry deciding between them), then None (not used:
     the node goes on odometry alone) if its offset from the odometry prior, against both covariances, is beyond
     MATCH_CHI2. window: (+-m, +-rad) around the prior, the match's own. Each outcome is said in `events`."""
-    rival = _local_rival(matcher, points, matched, prior, window[0], window[1], match.score)
+    rival = _local_rival(matcher, points, matched, prior, window[0], window[1], match.score, work)
     if rival is not None:
         spread = rival - matched
         spread[2] = wrap_angle(spread[2])
@@ -800,34 +837,28 @@ def _local_rival(
     linear: float,
     angular: float,
     score: float,
+    work: _Work | None = None,
 ) -> np.ndarray | None:
     """The best pose within the front end's window (+-linear of the prior in x and y, +-angular in heading) at
     least AMBIGUITY_DISTANCE from the match that scores LOCAL_RIVAL_RATIO of its score or more; None if none
-    (a budgeted branch and bound, GlobalSearch over the window's cells, headings outside the window dropped)."""
-    score_map = matcher.score_map
-    rows, cols = score_map.shape
-    res = score_map.resolution
-    x = score_map.origin[0] + (np.arange(cols) + 0.5) * res
-    y = score_map.origin[1] + (np.arange(rows) + 0.5) * res
-    region = (np.abs(y - prior[1]) <= linear)[:, None] & (np.abs(x - prior[0]) <= linear)[None, :]
-    region &= np.hypot(x[None, :] - pose[0], y[:, None] - pose[1]) >= AMBIGUITY_DISTANCE
-    if not region.any():
-        return None
-    search = GlobalSearch(
+    (amr_maps.window_search.window_modes: a budgeted branch and bound over the window's lattice less the match's
+    own AMBIGUITY_DISTANCE)."""
+    modes = window_modes(
         matcher,
         points,
-        region,
+        prior,
+        linear,
+        angular,
         count=5,
         min_score=min(1.0, LOCAL_RIVAL_RATIO * score),
         min_separation=AMBIGUITY_DISTANCE,
         min_angle_separation=angular,
+        exclude=(float(pose[0]), float(pose[1]), AMBIGUITY_DISTANCE),
+        max_nodes=LOCAL_RIVAL_MAX_NODES,
     )
-    # headings within the window only: the search's top blocks at other headings dropped before it starts
-    # (GlobalSearch searches every heading; a corridor seen turned half round would be the rival otherwise)
-    blocks = search._search
-    keep = np.abs(wrap_angle(search.thetas[blocks.tops[:, 0]] - prior[2])) <= angular
-    blocks.tops, blocks.top_totals = blocks.tops[keep], blocks.top_totals[keep]
-    for found in search.step(LOCAL_RIVAL_MAX_NODES, refine=False):
+    if work is not None:
+        work.add(modes.nodes * len(points))
+    for found in modes.matches:
         # a mode of its own: the score dips between it and the match (else it is the match's own slope, which
         # the match's information already has)
         rival = np.asarray(found.pose, dtype=float)

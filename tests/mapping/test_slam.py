@@ -101,6 +101,35 @@ def test_the_loop_closes_and_the_end_error_is_far_below_the_drift(mapped):
     assert slam.node_stamps == [k * 100_000_000 for k in range(len(truth))]
 
 
+class _Clock:
+    """A stand-in for the time module: each reading `step` s after the last (0: frozen)."""
+
+    def __init__(self, step: float) -> None:
+        self.step, self.now = step, 0.0
+
+    def _tick(self) -> float:
+        self.now += self.step
+        return self.now
+
+    perf_counter = thread_time = process_time = monotonic = _tick
+
+
+def test_a_run_does_not_depend_on_the_clock(ring, monkeypatch):
+    """The loop-closure search is bounded by a count of work (loop_work_budget), not by a clock: the same input
+    gives the same graph whether each clock reading comes a second after the last (a loaded machine) or never
+    moves (with the old 0.05 s CPU budget the first starved every closure search but one every other update)."""
+    import amr_mapping.slam as slam_module
+
+    graphs = []
+    for step in (0.0, 1.0):
+        monkeypatch.setattr(slam_module, "time", _Clock(step))
+        slam, _, _, closures = _run(ring, SlamConfig(max_range_used=MAX_RANGE, loop_work_budget=5.0))
+        graphs.append((slam.graph(), closures))
+    (first, closures), (second, again) = graphs
+    assert closures > 0 and closures == again
+    assert all(np.array_equal(a, b) for a, b in zip(first, second, strict=True))
+
+
 def test_map_to_odom_maps_the_odometry_onto_the_pose(mapped):
     slam, _, odometry, _ = mapped
     assert np.allclose(compose(slam.map_to_odom, odometry[-1]), slam.pose, atol=1e-9)
