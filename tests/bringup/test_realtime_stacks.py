@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import time
 from contextlib import contextmanager
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -20,6 +21,7 @@ from support.ros import spin_until
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup, shipped_stacks
+from amr_control.navigated import stops_on_release
 from amr_interfaces.msg import NavigatorStatus, SimulatorStatus
 from amr_util.qos import LATCHED
 
@@ -167,6 +169,15 @@ def test_every_simulated_stack_runs_in_real_time_by_one_argument():
                     assert node.parameters["stepping"] == mode, (name, node.managed_name)
                     navigated.add(name)
     assert navigated == {"maze_navigation", "maze_mapping", "fleet_navigation"}
+
+
+def test_a_released_controller_stops_the_robot_unless_the_zero_would_step_a_lockstep_world():
+    nobody, other = SimpleNamespace(controller=""), SimpleNamespace(controller="path_follower")
+    for stepping in ("lockstep", "realtime"):  # a timer-driven controller (a real robot's) always stops it
+        assert stops_on_release(False, stepping, nobody) and stops_on_release(False, stepping, other)
+    assert stops_on_release(True, "realtime", nobody), "real time: the zero is the hold"
+    assert not stops_on_release(True, "realtime", other), "the other controller's command answers the observation"
+    assert not stops_on_release(True, "lockstep", nobody), "lockstep: a zero would step the world"
 
 
 # -- the wall-follower stacks ---------------------------------------------------------------------------------------
