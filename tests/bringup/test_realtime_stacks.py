@@ -22,7 +22,7 @@ from support.ros import spin_until
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup, shipped_stacks
 from amr_control.navigated import stops_on_release
-from amr_interfaces.msg import NavigatorStatus, SimulatorStatus
+from amr_interfaces.msg import FleetRoute, NavigatorStatus, SimulatorStatus
 from amr_util.qos import LATCHED
 
 RELIABLE = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
@@ -54,8 +54,8 @@ robots:
 
 
 class Watch(Node):
-    """Each robot's simulator status (its ground truth's verdict), and for one robot its commands, the navigator's
-    statuses and /map; publishes goals."""
+    """Each robot's simulator status (its ground truth's verdict) and fleet route, /map, and for one robot its
+    commands and its navigator's statuses; publishes goals."""
 
     def __init__(self, context, robots=("",), navigated: bool = False) -> None:
         super().__init__("realtime_watch", context=context)
@@ -63,9 +63,12 @@ class Watch(Node):
         self.commands: list[TwistStamped] = []
         self.decisions: list[NavigatorStatus] = []
         self.maps: list[OccupancyGrid] = []
+        self.routes: dict[str, list[FleetRoute]] = {robot: [] for robot in robots}
         for robot in robots:
             topic = f"/{robot}/status" if robot else "/simulator/status"
             self.create_subscription(SimulatorStatus, topic, self.status[robot].append, RELIABLE)
+            if robot:
+                self.create_subscription(FleetRoute, f"/{robot}/fleet_route", self.routes[robot].append, LATCHED)
         if navigated:  # one robot: its TwistStamped commands and its navigator's decisions
             self.create_subscription(TwistStamped, "/cmd_vel", self.commands.append, RELIABLE)
             self.create_subscription(NavigatorStatus, "/navigator/status", self.decisions.append, RELIABLE)
@@ -274,6 +277,8 @@ def test_maze_mapping_grows_its_map_in_real_time(ros_context):
 
 
 def test_fleet_navigation_localizes_and_drives_two_robots_in_real_time(ros_context, tmp_path):
+    """Two robots, each with its filter, planner, navigator and controllers, and one fleet planner: both localized
+    within 10 cm and moving without a collision, then each handed its route of the fleet plan."""
     world = tmp_path / "two.yaml"
     world.write_text(TWO_ROBOTS)
     robots = ("r1", "r2")
@@ -285,6 +290,9 @@ def test_fleet_navigation_localizes_and_drives_two_robots_in_real_time(ros_conte
         for r in robots:
             assert max(watch.localized_errors(r)[-5:]) < 0.10, (r, watch.localized_errors(r)[-5:])
             assert watch.last(r).collisions == 0, r
+        assert run.until(lambda: all(any(m.state == "FOLLOW" for m in watch.routes[r]) for r in robots), 30.0), {
+            r: [m.state for m in watch.routes[r]] for r in robots
+        }  # the fleet planned together (coordination: plan), each robot handed its route
 
 
 # -- helpers --------------------------------------------------------------------------------------------------------
