@@ -193,12 +193,13 @@ def run_fleet(
 
     coordination: "rules" (each robot's navigation loop with the traffic rules) or "plan" (the fleet planned
     together as the fleet_planner node plans it: amr_navigation.fleet_coordinator.FleetCoordinator fed every
-    robot's pose, localized and goal each step, on a lattice `lattice_spacing` m apart; each robot's path follower
-    driven along the route it was last told by its navigation loop's core, as the navigator node's coordination
-    "plan" does).
+    robot's pose, its navigator's verdict (confident) and goal each step, on a lattice `lattice_spacing` m apart;
+    each robot's path follower driven along the route it was last told by its navigation loop's core, as the
+    navigator node's coordination "plan" does).
     With "plan" and the particle filters, the robots go as with "rules" (explore until localized, then the traffic
-    rules) until every robot is localized at once; the fleet is then planned from the estimates, and a robot whose
-    filter withdraws localized goes on by odometry from its last sure estimate until it is sure again."""
+    rules) until every robot's navigator is confident at once; the fleet is then planned from the estimates, and a
+    robot whose navigator is no longer confident goes on by odometry from its last sure estimate until it is sure
+    again."""
     if localization not in LOCALIZATIONS:
         raise ValueError(f"localization {localization!r}: expected one of {', '.join(LOCALIZATIONS)}")
     if coordination not in COORDINATIONS:
@@ -296,9 +297,10 @@ def run_fleet(
             odometry = tuple(robot.odom_pose) if planned else None
             if planned:  # the navigator node's coordination "plan", the fleet_planner node's coordinator
                 driving = loop.driving_pose(pose, localized, odometry, confidence)  # the pose its status carries
+                confident = loop.confident(localized, confidence)  # ... and its verdict (NavigatorStatus.confident)
                 told.update(
                     coordinator.observe(
-                        robot.name, fleet.time, driving[0], driving[1], localized, (robot.goal.x, robot.goal.y)
+                        robot.name, fleet.time, driving[0], driving[1], confident, (robot.goal.x, robot.goal.y)
                     )
                 )
                 run.events.extend(f"{fleet.time:.2f} {event}" for event in coordinator.take_events())

@@ -1,14 +1,16 @@
 """Who plans the fleet, when, and what each robot is told (the fleet_planner node's logic, no ROS).
 
 The fleet_planner node (amr_navigation.fleet_planner_node) feeds a `FleetCoordinator` each robot's navigator status
-as it comes (where the robot is, whether its localizer is sure, its goal) and the map's costmap, and publishes the
-`Route`s it returns on each robot's fleet_route (amr_interfaces/FleetRoute):
+as it comes (where the robot is, whether its navigator is confident, its goal) and the map's costmap, and publishes
+the `Route`s it returns on each robot's fleet_route (amr_interfaces/FleetRoute):
 
-- **NONE** until every robot's latest status says localized, with a goal, within `window` s of the others, and
-  has said localized without a break for `settle_time` s: the navigators go by the traffic rules meanwhile (as
-  run_fleet's coordination "plan" does at library level). A filter that has just declared may withdraw within a
-  second (a rival place found: through ROS, `perfect 15`'s r2 declared 1.58 m off and withdrew 0.2 s later), and a
-  plan made from that estimate sends the robot the wrong way.
+- **NONE** until every robot's latest status says confident, with a goal, all within `window` s of one another (a
+  snapshot of the fleet, not one robot's word of long ago): the navigators go by the traffic rules meanwhile (as
+  run_fleet's coordination "plan" does at library level). Confident is the navigator's own verdict
+  (navigator_core.ConfidenceGate on the localizer's confidence: reached drive_confidence, not fallen under
+  release_confidence since), the one it drives a path on; not the localizer's `localized`, whose withdrawals
+  within a second of a declaration the former `settle_time` guard (each robot localized without a break for 3 s)
+  waited out (bench/bench_fleet_confidence.py: docs/fleet.md).
 - **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_plan.lattice, `spacing`),
   each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_plan.assign:
   the assignment of least squared way lengths, the way straight to a vertex the robot sees, then along the
@@ -25,13 +27,15 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   cut off the lattice (every edge of it: a box on a vertex would block a way round that entered it from another
   side too), and the fleet is planned again at once from where the robots stand, the stuck robot from the vertex
   it came from if it stands within a spacing of it (else from where it stands, as the others; never from a vertex
-  cut off) (HOLD, then the new routes; every robot drives by odometry where its localizer is unsure, so no
+  cut off) (HOLD, then the new routes; every robot drives by odometry where its navigator is not confident, so no
   localization is waited for). The cut edges stay cut until a new map, or until a plan cannot be made with them
   (in a tree maze a vertex cut off may be the only way to a goal): then they are restored and the fleet is planned
   on the whole lattice.
 - **Jumped**: a robot whose status pose moves farther than half a spacing beyond what it could have driven since
-  its last status (JUMP_SPEED) had its estimate moved by its localizer (withdrawn and declared again elsewhere):
-  the plan assumed it was elsewhere, and the fleet is planned again at once from where the robots stand.
+  its last status (JUMP_SPEED) had its estimate moved by its localizer (another place became the best, or its
+  navigator became confident again after driving by odometry): the plan assumed it was elsewhere, and the fleet is
+  planned again at once from where the robots stand. The confidence does not make this unneeded: an estimate may
+  move while it stays confident (the best place changing) and does when confidence comes back.
 - **Partial replans.** A stuck or jumped robot does not hold the fleet: only the robots whose routes conflict
   (the robot itself, and any robot whose remaining way passes the vertex cut off) are planned again, each in
   priority order around the others' remaining ways (each kept robot's way timed by the plan's action
@@ -47,7 +51,7 @@ as it comes (where the robot is, whether its localizer is sure, its goal) and th
   go on by themselves until it comes).
 - A plan that cannot be made (robots on one goal vertex, no lattice, no solution) is NONE to everyone with the
   reason, and tried again `retry_period` s later. A robot's goal changed (its status's goal is not the plan's),
-  a new map: the plan is dropped (NONE to everyone) and made again once every robot is localized.
+  a new map: the plan is dropped (NONE to everyone) and made again once every robot is confident.
 """
 
 from __future__ import annotations
@@ -107,7 +111,8 @@ class RobotStatus:
     stamp: float
     x: float
     y: float
-    localized: bool
+    confident: bool
+    """the navigator's verdict: sure enough to drive a path (NavigatorStatus.confident)."""
     goal: tuple[float, float] | None
 
 
@@ -271,7 +276,6 @@ class FleetCoordinator:
         window: float = 0.5,
         retry_period: float = 10.0,
         stuck_time: float = 15.0,
-        settle_time: float = 3.0,
         follower_speed: float = 0.2,
         turn_rate: float = 1.0,
         priorities: list[int] | None = None,
@@ -284,8 +288,6 @@ class FleetCoordinator:
             raise ValueError(f"robots: a name is listed twice in {names}")
         if not (math.isfinite(spacing) and spacing > 0.0):
             raise ValueError(f"lattice_spacing: must be a positive number of metres, got {spacing!r}")
-        if not (math.isfinite(settle_time) and settle_time >= 0.0):
-            raise ValueError(f"settle_time: must be a number of seconds, 0 or more, got {settle_time!r}")
         for key, value in (("follower_speed", follower_speed), ("turn_rate", turn_rate)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{key}: must be a positive number, got {value!r}")
@@ -315,11 +317,8 @@ class FleetCoordinator:
         self.window = float(window)
         self.retry_period = float(retry_period)
         self.stuck_time = float(stuck_time)
-        self.settle_time = float(settle_time)
         self.follower_speed, self.turn_rate = float(follower_speed), float(turn_rate)
         """m/s and rad/s the plans are timed at (fleet_plan.execution_time), to keep the one that ends first."""
-        self._localized_since: dict[str, float] = {}
-        """per robot: the stamp of the first of its latest unbroken run of localized statuses."""
         self.cut: list[tuple[int, int]] = []
         """the lattice edges found blocked (cut until a new map)."""
         self.events: list[str] = []
@@ -364,10 +363,10 @@ class FleetCoordinator:
         return self.drop("a new map") if self.schedule is not None else {}
 
     def observe(
-        self, name: str, stamp: float, x: float, y: float, localized: bool, goal: tuple[float, float] | None
+        self, name: str, stamp: float, x: float, y: float, confident: bool, goal: tuple[float, float] | None
     ) -> dict[str, Route]:
-        """One robot's status (s, m, its goal or None): the routes that change, by robot name (ValueError for a
-        robot not in the fleet or a pose that is not finite)."""
+        """One robot's status (s, m, its navigator's verdict, its goal or None): the routes that change, by robot
+        name (ValueError for a robot not in the fleet or a pose that is not finite)."""
         if name not in self.names:
             raise ValueError(f"{name!r} is not a robot of the fleet ({', '.join(self.names)})")
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(stamp)):
@@ -375,15 +374,11 @@ class FleetCoordinator:
         if goal is not None and not all(math.isfinite(v) for v in goal):
             goal = None
         before = self.statuses.get(name)
-        if not localized:
-            self._localized_since.pop(name, None)
-        elif stamp < self._localized_since.get(name, math.inf):  # the first, or the clock went back
-            self._localized_since[name] = float(stamp)
         self.statuses[name] = RobotStatus(
             float(stamp),
             float(x),
             float(y),
-            bool(localized),
+            bool(confident),
             None if goal is None else (float(goal[0]), float(goal[1])),
         )
         if self.schedule is None:
@@ -410,9 +405,8 @@ class FleetCoordinator:
     # -- planning ---------------------------------------------------------------------------------------
 
     def plan_due(self) -> bool:
-        """No plan in force, the costmap known, and every robot's latest status localized with a goal, all within
-        `window` s of one another, each localized without a break for `settle_time` s (not before `retry_period` s
-        after a failure)."""
+        """No plan in force, the costmap known, and every robot's latest status confident with a goal, all within
+        `window` s of one another (not before `retry_period` s after a failure)."""
         if self.planning:
             return False
         if self._replan_robots and self.schedule is not None:
@@ -422,14 +416,10 @@ class FleetCoordinator:
         if self.schedule is not None or self._costmap is None or len(self.statuses) < len(self.names):
             return False
         statuses = [self.statuses[name] for name in self.names]
-        if not all(status.localized and status.goal is not None for status in statuses):
+        if not all(status.confident and status.goal is not None for status in statuses):
             return False
         stamps = [status.stamp for status in statuses]
-        settled = all(
-            status.stamp - self._localized_since[name] >= self.settle_time
-            for name, status in zip(self.names, statuses, strict=True)
-        )
-        return settled and max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
+        return max(stamps) - min(stamps) <= self.window and max(stamps) >= self._retry_at
 
     def hold(self) -> dict[str, Route]:
         """HOLD to every robot (while the plan is made)."""
@@ -650,7 +640,7 @@ class FleetCoordinator:
                 name: Route(
                     NONE,
                     reason=f"the fleet plan was dropped: {why}; by the traffic rules "
-                    "until every robot is localized again",
+                    "until every robot is confident again",
                 )
                 for name in self.names
             }

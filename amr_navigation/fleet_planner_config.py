@@ -25,7 +25,7 @@ class FleetPlannerConfig(Config):
     and its clearance; in a maze, the pitch of its cells."""
     status_topic: str = parameter("navigator/status", nonempty=True)
     """each robot's amr_interfaces/NavigatorStatus, in its namespace (/<robot>/navigator/status): where it stands,
-    whether it is localized, its goal."""
+    whether its navigator is confident (sure enough to drive a path), its goal."""
     route_topic: str = parameter("fleet_route", nonempty=True)
     """each robot's amr_interfaces/FleetRoute, in its namespace (/<robot>/fleet_route), transient local."""
     map_topic: str = parameter("/map", nonempty=True)
@@ -33,12 +33,8 @@ class FleetPlannerConfig(Config):
     global_frame: str = parameter("map", nonempty=True)
     """frame of the statuses' poses and goals and of the routes' waypoints."""
     window: float = parameter(0.5, minimum=0.0, maximum=60.0)
-    """s: the robots' latest statuses must all say localized within this much of one another for the fleet to be
+    """s: the robots' latest statuses must all say confident within this much of one another for the fleet to be
     planned (in lockstep they share each observation's stamp)."""
-    settle_time: float = parameter(3.0, minimum=0.0, maximum=600.0)
-    """s (statuses' clock) every robot must have said localized without a break before the fleet is planned: a
-    filter that has just declared may withdraw within a second (a rival place found), and a plan made from that
-    estimate sends the robot the wrong way."""
     retry_period: float = parameter(10.0, minimum=0.1, maximum=3600.0)
     """s (statuses' clock) after a plan that could not be made before the next try."""
     stuck_time: float = parameter(15.0, minimum=1.0, maximum=3600.0)

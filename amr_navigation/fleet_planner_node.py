@@ -2,9 +2,9 @@
 shell over amr_navigation.fleet_coordinator.FleetCoordinator).
 
 One per fleet, in the root namespace (/fleet_planner). It reads every robot's navigator status
-(/<robot>/navigator/status: where the robot stands, whether its localizer is sure, its goal) and the one /map
+(/<robot>/navigator/status: where the robot stands, whether its navigator is confident, its goal) and the one /map
 (transient local), and publishes each robot's amr_interfaces/FleetRoute on /<robot>/fleet_route (reliable,
-transient local): NONE (go by the traffic rules) until every robot is localized at once, then HOLD while it plans
+transient local): NONE (go by the traffic rules) until every robot is confident at once, then HOLD while it plans
 (amr_planning.fleet_plan on a lattice of the map's costmap), then FOLLOW: the waypoints the robot may drive to now,
 sent again whenever the robots' progress lets it go farther; a robot stuck on its way (something not on the map)
 has the lattice vertex it could not reach cut off and the fleet planned again. The navigators run `coordination: plan`
@@ -97,7 +97,6 @@ class FleetPlannerNode(ManagedNode):
                     window=config.window,
                     retry_period=config.retry_period,
                     stuck_time=config.stuck_time,
-                    settle_time=config.settle_time,
                     follower_speed=config.follower_speed,
                     turn_rate=config.turn_rate,
                     priorities=priorities,
@@ -132,7 +131,7 @@ class FleetPlannerNode(ManagedNode):
         result = super().on_activate(state)
         self._publish(
             {
-                name: Route(NONE, reason="no fleet plan yet: by the traffic rules until every robot is localized")
+                name: Route(NONE, reason="no fleet plan yet: by the traffic rules until every robot is confident")
                 for name in self.coordinator.names
             }
         )
@@ -192,7 +191,7 @@ class FleetPlannerNode(ManagedNode):
                     stamp_nanoseconds(message.header.stamp) * 1e-9,
                     position.x,
                     position.y,
-                    message.localized,
+                    message.confident,
                     goal,
                 )
             except ValueError as error:

@@ -135,14 +135,14 @@ class DeadReckoning:
 
     def __init__(self) -> None:
         self.sure: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
-        """(the last estimate said localized, the odometry pose then)."""
+        """(the last estimate the navigator was sure of, the odometry pose then)."""
 
-    def pose(self, estimate, localized: bool, odometry) -> tuple[float, float, float]:
-        """The pose to drive by for one observation (the estimate in the map frame and whether the localizer is
-        sure of it, the odometry pose in the odom frame of the same observation)."""
+    def pose(self, estimate, sure: bool, odometry) -> tuple[float, float, float]:
+        """The pose to drive by for one observation (the estimate in the map frame and whether the navigator is
+        sure of it: its ConfidenceGate, the odometry pose in the odom frame of the same observation)."""
         estimate = tuple(float(v) for v in estimate)
-        if localized or self.sure is None:
-            if localized:
+        if sure or self.sure is None:
+            if sure:
                 self.sure = (estimate, tuple(float(v) for v in odometry))
             return estimate
         last, then = self.sure

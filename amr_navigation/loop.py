@@ -57,6 +57,10 @@ class NavigationCommand:
     """the core's decision for the observation (what the navigator node publishes on ~/status)."""
     speed_limit: float | None = None
     """the speed limit the path follower drove with (traffic rules; None: none)."""
+    confidence: float = 0.0
+    """the localizer's confidence as the navigator read it (ConfidenceGate.confidence) ..."""
+    confident: bool = False
+    """... and the navigator's verdict: sure enough to drive a path (both on the node's ~/status)."""
 
 
 class NavigationLoop:
@@ -131,6 +135,11 @@ class NavigationLoop:
         """A new goal (/goal_pose): planned for at the next localized observation."""
         self.core.set_goal(goal)
 
+    def confident(self, localized: bool, confidence: float | None = None) -> bool:
+        """The navigator's verdict on this observation, without taking it: what its status will say (the fleet
+        planner's coordinator plans when every robot's says so)."""
+        return self.core.gate.peek(localized, confidence)
+
     def driving_pose(self, pose, localized: bool, odometry, confidence: float | None = None):
         """The pose this robot drives by on a fleet route for this observation (see NavigatorCore.driving_pose)."""
         return self.core.driving_pose(pose, localized, odometry, confidence)
@@ -159,11 +168,12 @@ class NavigationLoop:
         outcome = run_job(self.core.step(observation), self._answer)
         events += outcome.events
         decision = outcome.decision
+        gate = {"confidence": outcome.confidence, "confident": outcome.confident}
         if decision.controller is Controller.WALL_FOLLOWER:
             command = self.wall_follower.compute(scan, odometry_v, odometry_w, stamp)
-            return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events), decision)
+            return NavigationCommand(command.v, command.w, decision.mode, None, tuple(events), decision, **gate)
         if decision.controller is Controller.NONE:
-            return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events), decision)
+            return NavigationCommand(0.0, 0.0, decision.mode, None, tuple(events), decision, **gate)
         x, y, theta = outcome.pose
         follow = self.path_follower.compute(x, y, theta, scan, speed_limit=outcome.speed_limit)
         report = self.core.report(
@@ -173,10 +183,12 @@ class NavigationLoop:
             report = run_job(report, self._answer)
         events += report.events
         if report.detour_end:
-            return NavigationCommand(0.0, 0.0, Mode.FOLLOW, follow, tuple(events), decision, outcome.speed_limit)
+            return NavigationCommand(
+                0.0, 0.0, Mode.FOLLOW, follow, tuple(events), decision, outcome.speed_limit, **gate
+            )
         reached = follow.reached and not self.navigator.on_detour
         mode = Mode.REACHED if reached else decision.mode
-        return NavigationCommand(follow.v, follow.w, mode, follow, tuple(events), decision, outcome.speed_limit)
+        return NavigationCommand(follow.v, follow.w, mode, follow, tuple(events), decision, outcome.speed_limit, **gate)
 
     def _answer(self, call):
         """A call of the core answered in process: a plan (Planner.plan), or a path handed to the path follower."""

@@ -132,6 +132,10 @@ class Outcome:
     """what happened, for the log."""
     detour_end: bool = False
     """(a report) the path follower reached the end of a detour: the rules wait there."""
+    confidence: float = 0.0
+    """(an observation) the localizer's confidence as the gate read it (ConfidenceGate.confidence)..."""
+    confident: bool = False
+    """... and the gate's verdict: sure enough to drive a path (what ~/status says, and the fleet planner waits for)."""
 
 
 Job = Generator[Call, object, Outcome]
@@ -262,9 +266,14 @@ class NavigatorCore:
     # -- one observation ------------------------------------------------------------------------------
 
     def step(self, observation: Observation) -> Job:
-        """The job for one observation: its calls, then its Outcome."""
-        events: list[str] = []
+        """The job for one observation: its calls, then its Outcome (with the gate's confidence and verdict)."""
         sure = self.gate.update(observation.localized, observation.confidence)
+        outcome = yield from self._decide(observation, sure)
+        confidence = self.gate.confidence(observation.localized, observation.confidence)
+        return replace(outcome, confidence=confidence, confident=sure)
+
+    def _decide(self, observation: Observation, sure: bool) -> Job:
+        events: list[str] = []
         pose = tuple(float(v) for v in observation.pose)
         driving = pose
         if observation.odometry is not None:  # every observation: the last sure estimate is kept

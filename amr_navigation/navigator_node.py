@@ -601,6 +601,8 @@ class NavigatorNode(ManagedNode):
             controller=self._controller_name(decision.controller),
             reason=decision.reason,
             localized=received.localized,
+            confidence=outcome.confidence,
+            confident=outcome.confident,
             has_goal=navigator.goal is not None,
             plans=navigator.counters.plans,
             planning_failures=len(navigator.counters.planning_failures),

@@ -51,9 +51,9 @@ def test_a_coordination_other_than_rules_or_plan_is_refused():
 
 
 def test_with_particle_filters_the_fleet_localizes_first_then_follows_its_plan():
-    """The robots go by the traffic rules (explore until localized, then to their goals) until all are localized
-    at once; the fleet is then planned from the estimates. A generated tree maze, three robots each sent to the
-    next one's start."""
+    """The robots go by the traffic rules (explore until localized, then to their goals) until every navigator is
+    confident at once; the fleet is then planned from the estimates. A generated tree maze, three robots each sent
+    to the next one's start."""
     from amr_maps.maze_families import generate, grid_pitch
     from amr_planning.fleet_starts import with_robots
 

@@ -1,7 +1,7 @@
 """Who plans the fleet and what each robot is told (amr_navigation.fleet_coordinator, the fleet_planner node's
-logic): nothing until every robot is localized at once, then HOLD and each robot's route; routes told again only
-when they change; every robot driven along its route reaches its goal; a changed goal or map drops the plan; a plan
-that cannot be made is NONE with the reason, tried again later."""
+logic): nothing until every robot's navigator is confident at once, then HOLD and each robot's route; routes told
+again only when they change; every robot driven along its route reaches its goal; a changed goal or map drops the
+plan; a plan that cannot be made is NONE with the reason, tried again later."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def drive(
     return told, reports
 
 
-def test_nothing_is_planned_until_every_robot_is_localized_at_once_then_hold_and_routes():
+def test_nothing_is_planned_until_every_robot_is_confident_at_once_then_hold_and_routes():
     coordinator = FleetCoordinator(["r1", "r2"], 0.4)
     goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
     assert coordinator.observe("r1", 1.0, -1.6, 0.0, True, goals["r1"]) == {}
@@ -74,18 +74,14 @@ def test_nothing_is_planned_until_every_robot_is_localized_at_once_then_hold_and
     coordinator.set_costmap(corridor_costmap())
     assert not coordinator.plan_due()
     coordinator.observe("r2", 1.0, 1.6, 0.0, False, goals["r2"])
-    assert not coordinator.plan_due()  # r2 not localized
+    assert not coordinator.plan_due()  # r2's navigator not confident
     coordinator.observe("r2", 3.0, 1.6, 0.0, True, goals["r2"])
-    assert not coordinator.plan_due()  # r1's latest status is 2 s older
+    assert not coordinator.plan_due()  # r1's latest status is 2 s older (not within window)
     coordinator.observe("r1", 3.0, -1.6, 0.0, True, goals["r1"])
-    assert not coordinator.plan_due()  # r2 has just declared: not settle_time (3 s) yet
-    coordinator.observe("r2", 4.0, 1.6, 0.0, False, goals["r2"])  # withdrawn: its settle time starts again
-    coordinator.observe("r2", 5.0, 1.6, 0.0, True, goals["r2"])
-    coordinator.observe("r1", 6.0, -1.6, 0.0, True, goals["r1"])
-    coordinator.observe("r2", 6.0, 1.6, 0.0, True, goals["r2"])
-    assert not coordinator.plan_due()  # r2 localized for 1 s only
-    coordinator.observe("r1", 8.0, -1.6, 0.0, True, goals["r1"])
-    coordinator.observe("r2", 8.0, 1.6, 0.0, True, goals["r2"])
+    assert coordinator.plan_due()  # r2 has just become confident: the navigator's gate is the one word waited for
+    coordinator.observe("r2", 3.1, 1.6, 0.0, False, goals["r2"])
+    assert not coordinator.plan_due()  # and withdrawn: no plan
+    coordinator.observe("r2", 3.2, 1.6, 0.0, True, goals["r2"])
     assert coordinator.plan_due()
     held = coordinator.hold()
     assert {name: route.state for name, route in held.items()} == {"r1": HOLD, "r2": HOLD}
@@ -105,7 +101,7 @@ def test_robots_driven_along_their_routes_all_reach_their_goals_and_are_told_onl
     points = [costmap.centre(r, c) for r, c in picks]
     names = [f"r{i}" for i in range(4)]
     starts, goal_points = points[:4], points[4:]
-    coordinator = FleetCoordinator(names, 0.4 if family == "pillars" else _pitch(data), settle_time=0.0)
+    coordinator = FleetCoordinator(names, 0.4 if family == "pillars" else _pitch(data))
     coordinator.set_costmap(costmap)
     goals = {name: (float(g[0]), float(g[1])) for name, g in zip(names, goal_points, strict=True)}
     positions = {name: np.array(s, dtype=float) for name, s in zip(names, starts, strict=True)}
@@ -134,8 +130,8 @@ def _pitch(data: dict) -> float:
 
 
 def planned_in_the_corridor(partial: bool = True) -> tuple[FleetCoordinator, dict]:
-    """Two robots at the corridor's ends sent to the other end, planned (no settle time)."""
-    coordinator = FleetCoordinator(["r1", "r2"], 0.4, settle_time=0.0, partial=partial)
+    """Two robots at the corridor's ends sent to the other end, planned ."""
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, partial=partial)
     coordinator.set_costmap(corridor_costmap())
     goals = {"r1": (1.6, 0.0), "r2": (-1.6, 0.0)}
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goals["r1"])
@@ -150,7 +146,7 @@ def test_a_changed_goal_or_a_new_map_drops_the_plan():
     dropped = coordinator.observe("r2", 0.1, 1.6, 0.0, True, (-1.2, 0.0))
     assert {route.state for route in dropped.values()} == {NONE} and set(dropped) == {"r1", "r2"}
     assert "r2's goal changed" in dropped["r1"].reason
-    assert coordinator.plan_due()  # every robot still localized: planned again to the new goal
+    assert coordinator.plan_due()  # every robot still confident: planned again to the new goal
     coordinator.plan()
     assert coordinator.plans == 2
     assert np.allclose(coordinator.schedule.waypoints[1][-1], (-1.2, 0.0))
@@ -159,7 +155,7 @@ def test_a_changed_goal_or_a_new_map_drops_the_plan():
 
 
 def test_a_plan_that_cannot_be_made_is_none_with_the_reason_and_tried_again_later():
-    coordinator = FleetCoordinator(["r1", "r2"], 0.4, retry_period=10.0, settle_time=0.0)
+    coordinator = FleetCoordinator(["r1", "r2"], 0.4, retry_period=10.0)
     coordinator.set_costmap(corridor_costmap())
     same = (1.6, 0.0)  # both robots sent to one place
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, same)
@@ -194,7 +190,7 @@ def test_bad_input_is_refused_naming_it():
 def test_a_robot_stuck_on_its_way_has_its_edge_cut_and_the_fleet_is_planned_around_it():
     """A ring corridor: r1's way is blocked (it reports the same place for longer than stuck_time); the vertex it
     could not reach is cut off and the new plan takes it the other way round, from the vertex it came from."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0, partial=False)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, partial=False)
     coordinator.set_costmap(ring_costmap())
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
@@ -231,7 +227,7 @@ def test_cut_edges_that_leave_a_goal_unreachable_are_restored_and_the_fleet_plan
     """A corridor without a way round (a tree maze's corridor): r1 stuck on its way has the vertex it could not reach
     cut off, which leaves its goal unreachable. Rather than no plan at all (`perfect 15`: every retry failed for the
     rest of the run), the cut edges are restored and the fleet planned as before, from the vertex it came from."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0, partial=False)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, partial=False)
     coordinator.set_costmap(corridor_costmap())
     goal = (1.6, 0.0)
     coordinator.observe("r1", 0.0, -1.6, 0.0, True, goal)
@@ -255,7 +251,7 @@ def test_a_robot_stuck_far_from_the_vertex_it_came_from_is_planned_again_from_wh
     the top left, more than a spacing from the vertex it came from. Planning it from that vertex (`perfect 15`: 1.2 m
     away, the same waypoint stuck every 15 s to the end of the run) would hand it a route that starts where it is
     not; it is planned from a vertex where it stands."""
-    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, settle_time=0.0, partial=False)
+    coordinator = FleetCoordinator(["r1"], 0.4, stuck_time=15.0, partial=False)
     coordinator.set_costmap(ring_costmap())
     goal = (1.0, -0.2)
     coordinator.observe("r1", 0.0, -1.0, -1.0, True, goal)
@@ -300,7 +296,7 @@ def test_the_plan_kept_is_the_one_of_several_lacam_searches_that_would_end_first
 
     data = with_robots(generate("perfect", 9, size=4.0), 6, 9)
     names = [robot["name"] for robot in data["robots"]]
-    coordinator = FleetCoordinator(names, _pitch(data), settle_time=0.0, follower_speed=0.15, turn_rate=0.8)
+    coordinator = FleetCoordinator(names, _pitch(data), follower_speed=0.15, turn_rate=0.8)
     coordinator.set_costmap(Costmap(rasterize_world(world_from_dict(data), 0.025)))
     for robot in data["robots"]:
         coordinator.observe(robot["name"], 0.0, *robot["start"][:2], True, tuple(robot["goal"][:2]))

@@ -19,7 +19,7 @@ STARTS = {"r1": (-1.0, -1.0), "r2": (1.0, 1.0), "r3": (-1.0, 1.0)}
 
 
 def planned_on_the_ring(**options) -> FleetCoordinator:
-    coordinator = FleetCoordinator(list(GOALS), 0.4, settle_time=0.0, **options)
+    coordinator = FleetCoordinator(list(GOALS), 0.4, **options)
     coordinator.set_costmap(ring_costmap())
     for name, (x, y) in STARTS.items():
         coordinator.observe(name, 0.0, x, y, True, GOALS[name])

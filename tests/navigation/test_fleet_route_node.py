@@ -1,8 +1,8 @@
 """The fleet plan through ROS, node by node, its callbacks called directly: the navigator's `coordination: plan`
 (the traffic rules until a route, then the route: paths handed to the path follower, holds, dead reckoning, the goal
 reached, back to the rules on NONE, a malformed route refused), the fleet_planner node (NONE, then HOLD and routes
-once every robot is localized, nothing while a navigator does not listen, garbage statuses refused), and the path
-follower driving an unsure observation from the navigator's pose."""
+once every robot's navigator is confident, nothing while a navigator does not listen, garbage statuses refused), and
+the path follower driving an unsure observation from the navigator's pose."""
 
 from __future__ import annotations
 
@@ -151,6 +151,7 @@ def test_the_navigator_follows_its_route_holds_reckons_and_reaches_its_goal(navi
     node._on_route(route_message("FOLLOW", [(-1.2, 0.0), (-0.8, 0.0)], progress=0, total=4))
     status, limit = observe(node, 2.0, (-1.6, 0.0, 0.0), (0.0, 0.0, 0.0))
     assert status.controller == "path_follower" and status.mode == "FOLLOW", status
+    assert status.confident and status.confidence == 1.0  # localized without a probability: counts as 1
     assert not limit.limited
     assert len(follow.paths) == 1
     path = follow.paths[0]
@@ -162,6 +163,7 @@ def test_the_navigator_follows_its_route_holds_reckons_and_reaches_its_goal(navi
     # the localizer unsure (its estimate far off): the pose driven by is odometry from the last sure estimate
     status, _ = observe(node, 2.1, (5.0, 5.0, 1.0), (0.12, 0.01, 0.05), localized=False)
     assert status.controller == "path_follower" and not status.localized
+    assert not status.confident and status.confidence == 0.0
     assert (status.pose.position.x, status.pose.position.y) == pytest.approx((-1.48, 0.01))
 
     # blocked: a new path from where it stands BLOCKED_RETRY s later, not before
@@ -229,8 +231,12 @@ def planner(ros_context):
     node.destroy_node()
 
 
-def status_message(seconds: float, x: float, y: float, localized: bool, goal) -> NavigatorStatus:
-    message = NavigatorStatus(localized=localized, has_goal=goal is not None)
+def status_message(
+    seconds: float, x: float, y: float, confident: bool, goal, localized: bool | None = None
+) -> NavigatorStatus:
+    """A navigator's status: its verdict `confident` (the localizer's `localized` the same unless given)."""
+    localized = confident if localized is None else localized
+    message = NavigatorStatus(localized=localized, confident=confident, has_goal=goal is not None)
     message.header.stamp, message.header.frame_id = stamp(seconds), "map"
     message.pose.position.x, message.pose.position.y = x, y
     if goal is not None:
@@ -238,20 +244,18 @@ def status_message(seconds: float, x: float, y: float, localized: bool, goal) ->
     return message
 
 
-def test_the_fleet_planner_says_none_then_holds_and_hands_out_routes_once_all_are_localized(planner):
+def test_the_fleet_planner_says_none_then_holds_and_hands_out_routes_once_all_are_confident(planner):
     node = planner
     states = lambda name: [m.state for m in node._routes[name].messages]  # noqa: E731
     assert states("r1") == ["NONE"] and states("r2") == ["NONE"]  # on activation: the traffic rules
     node._on_map(corridor_map())
     r1, r2 = node._status_callback("r1"), node._status_callback("r2")
     r1(status_message(1.0, -1.6, 0.0, True, (1.6, 0.0)))
-    r2(status_message(1.0, 1.6, 0.0, False, (-1.6, 0.0)))
-    assert states("r1") == ["NONE"]
-    r2(status_message(1.05, 1.6, 0.0, True, (-1.6, 0.0)))
-    assert states("r1") == ["NONE"]  # r2 has just declared: the plan waits settle_time (3 s)
-    r1(status_message(4.05, -1.6, 0.0, True, (1.6, 0.0)))
-    r2(status_message(4.05, 1.6, 0.0, True, (-1.6, 0.0)))
-    assert states("r1") == ["NONE", "HOLD"]  # planned on the worker thread, adopted when done
+    r2(status_message(1.0, 1.6, 0.0, False, (-1.6, 0.0), localized=True))
+    assert states("r1") == ["NONE"]  # r2's localizer says localized, its navigator is not confident: no plan
+    r2(status_message(1.05, 1.6, 0.0, True, (-1.6, 0.0), localized=False))
+    assert states("r1") == ["NONE", "HOLD"]  # every navigator confident (r2's through a dip of localized)
+    # planned on the worker thread, adopted when done
     assert node.wait_for_plan(30.0)
     assert states("r1") == ["NONE", "HOLD", "FOLLOW"] and states("r2") == ["NONE", "HOLD", "FOLLOW"]
     route = node._routes["r1"].messages[-1]
@@ -259,8 +263,8 @@ def test_the_fleet_planner_says_none_then_holds_and_hands_out_routes_once_all_ar
     assert all(math.isfinite(p.x) and math.isfinite(p.y) for p in route.waypoints)
     # garbage statuses are refused, not raised; nothing published for them
     before = len(node._routes["r1"].messages)
-    r1(status_message(4.1, math.nan, 0.0, True, (1.6, 0.0)))
-    wrong = status_message(4.1, -1.6, 0.0, True, (1.6, 0.0))
+    r1(status_message(1.1, math.nan, 0.0, True, (1.6, 0.0)))
+    wrong = status_message(1.1, -1.6, 0.0, True, (1.6, 0.0))
     wrong.header.frame_id = "odom"
     r1(wrong)
     assert node.statuses_refused == 2 and len(node._routes["r1"].messages) == before
@@ -273,7 +277,7 @@ def test_the_fleet_planner_does_not_plan_while_a_navigator_does_not_listen(plann
     node = planner
     node._routes["r2"].subscribers = 0  # r2's navigator runs coordination: rules
     node._on_map(corridor_map())
-    for stamp in (1.0, 5.0):  # localized long enough: only r2's deaf navigator holds the plan back
+    for stamp in (1.0, 5.0):  # confident: only r2's deaf navigator holds the plan back
         node._status_callback("r1")(status_message(stamp, -1.6, 0.0, True, (1.6, 0.0)))
         node._status_callback("r2")(status_message(stamp, 1.6, 0.0, True, (-1.6, 0.0)))
     assert node.coordinator.plan_due()

@@ -80,9 +80,11 @@ def test_the_loop_follows_its_path_through_a_dip_of_localized_and_explores_under
     assert loop.step((0.5, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.05, confidence=0.97).mode is Mode.FOLLOW
     dip = loop.step((0.55, 0.5, 0.0), False, NO_RETURNS, 0.1, 0.0, 0.1, confidence=0.7)
     assert dip.mode is Mode.FOLLOW and dip.decision.controller is Controller.PATH_FOLLOWER
+    assert dip.confident and dip.confidence == 0.7  # the navigator's verdict, not the localizer's
+    assert not loop.confident(False, 0.3) and loop.confident(False, 0.7)  # peeked: the gate still sure
     assert loop.localization_losses == 0 and loop.plans == 1
     lost = loop.step((0.6, 0.5, 0.0), False, NO_RETURNS, 0.1, 0.0, 0.15, confidence=0.3)
-    assert lost.mode is Mode.EXPLORE and loop.localization_losses == 1
+    assert lost.mode is Mode.EXPLORE and loop.localization_losses == 1 and not lost.confident
     assert loop.step((0.6, 0.5, 0.0), True, NO_RETURNS, 0.0, 0.0, 0.2, confidence=0.96).mode is Mode.FOLLOW
     assert loop.plans == 1  # back on the same path
 
@@ -130,7 +132,16 @@ def run_library(steps) -> tuple[list[tuple], list, list[PathFollowerStatus]]:
             loop.set_goal(goal)
         command = loop.step(pose, localized, NO_RETURNS, 0.0, 0.0, stamp, confidence=confidence)
         decision = command.decision
-        decisions.append((decision.mode.value, decision.controller.value, decision.reason, loop.plans))
+        decisions.append(
+            (
+                decision.mode.value,
+                decision.controller.value,
+                decision.reason,
+                loop.plans,
+                command.confidence,
+                command.confident,
+            )
+        )
         report = None
         if command.follow is not None:
             follow = command.follow
@@ -232,7 +243,16 @@ def run_node(ros_context, steps, reports) -> tuple[list[tuple], list]:
             status = statuses.messages[-1]
             assert status.header.stamp == estimate.header.stamp
             names = {"wall_follower": "wall_follower", "path_follower": "path_follower", "": ""}
-            decisions.append((status.mode, names[status.controller], status.reason, status.plans))
+            decisions.append(
+                (
+                    status.mode,
+                    names[status.controller],
+                    status.reason,
+                    status.plans,
+                    status.confidence,
+                    status.confident,
+                )
+            )
             if report is not None:
                 node._on_follower(report)
         return decisions, follow.paths
@@ -247,6 +267,9 @@ def test_the_node_and_the_library_take_the_same_decisions_on_one_sequence(ros_co
     modes = [decision[0] for decision in library]
     assert {"EXPLORE", "FOLLOW", "REACHED", "NO_PATH"} <= set(modes), modes  # the sequence covers every hand-over
     assert modes[6:8] == ["FOLLOW", "FOLLOW"]  # through the dip of localized (confidence 0.7)
+    assert [decision[4:] for decision in library[:2]] == [(0.2, False), (0.97, True)]
+    assert [decision[4:] for decision in library[6:8]] == [(0.7, True), (0.7, True)]  # confident through the dip
+    assert library[14][4:] == (0.2, False)  # lost
     assert library[-1][3] >= 3  # first plan, stray, new goal
     for k, (ours, theirs) in enumerate(zip(library, node, strict=True)):
         assert ours == theirs, f"observation {k} at {steps[k][0]:.2f} s: library {ours}, node {theirs}"
