@@ -74,7 +74,8 @@ class LikelihoodField:
         # for the free-path check: distance in cells to the nearest occupied cell (the border counts as free)
         cells = np.pad(field.distances, 1, constant_values=np.inf) / grid.resolution
         self._cells = np.minimum(cells, 1e6).astype(np.float32).ravel()
-        self._see_through = math.log(params.z_rand / range_max) if params.z_rand > 0.0 else -30.0
+        # a beam through a wall scores as a random reading: the table's floor (a cell far from every wall) as stored
+        self._see_through = float(self._table.min()) if params.z_rand > 0.0 else -30.0
 
     def log_likelihood(self, particles: np.ndarray, beams: Beams, weights: np.ndarray | None = None) -> np.ndarray:
         """(N,) sum over the returned beams of w_k log p(z_k | particle) (w_k = 1 without `weights`)."""
@@ -133,7 +134,7 @@ class LikelihoodField:
         The same maximum as tracing every nudged beam, without doing so: a beam's candidates are taken in order
         of their end point's term, and the first whose path is free ends the search (no later one can score more);
         a blocked one scores min(term, see-through) and the next is traced only where it could score more. Where
-        the beam is free, one trace instead of M."""
+        the beam is free, one trace instead of M. Nudges in runs of one heading turn the beam once per run."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         nudges = np.asarray(nudges, dtype=float).reshape(-1, 3)
         out = np.zeros((len(poses), beams.ranges.size))
@@ -214,17 +215,24 @@ def _best_free_path_terms(
     table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out
 ):
     """out[h, k]: the best over nudges n of beam k's likelihood-field term from sensor pose (col0, row0, theta)[h, n],
-    capped at see_through where that beam's path is blocked (_blocked) before range - margin. Candidates are traced
-    in decreasing order of their term, until one is free or none left could score more than the best so far."""
+    capped at see_through (the table's floor) where that beam's path is blocked (_blocked) before range - margin.
+    Candidates are traced in decreasing order of their term, until one is free, is at the floor (capped or not, the
+    same), or none left could score more than the best so far."""
     nudges = col0.shape[1]
     value = np.empty(nudges)
     done = np.empty(nudges, dtype=np.bool_)
+    cos_n = np.empty(nudges)
+    sin_n = np.empty(nudges)
     for h in range(col0.shape[0]):
         for k in range(angles.shape[0]):
             for n in range(nudges):
+                if n == 0 or theta[h, n] != theta[h, n - 1]:
+                    cos_n[n], sin_n[n] = math.cos(theta[h, n] + angles[k]), math.sin(theta[h, n] + angles[k])
+                else:
+                    cos_n[n], sin_n[n] = cos_n[n - 1], sin_n[n - 1]
                 value[n] = 0.0
                 if returned[k]:
-                    c, s = math.cos(theta[h, n] + angles[k]), math.sin(theta[h, n] + angles[k])
+                    c, s = cos_n[n], sin_n[n]
                     col = min(max(col0[h, n] + c * ranges[k], 0.0), cols - 1.0)
                     row = min(max(row0[h, n] + s * ranges[k], 0.0), rows - 1.0)
                     value[n] = table[int(row) * cols + int(col)]
@@ -238,9 +246,12 @@ def _best_free_path_terms(
                 if pick < 0:
                     break
                 done[pick] = True
-                c, s = math.cos(theta[h, pick] + angles[k]), math.sin(theta[h, pick] + angles[k])
-                if _blocked(cells, rows, cols, col0[h, pick], row0[h, pick], c, s, ranges[k] - margin):
-                    best = max(best, min(top, see_through))
+                c, s = cos_n[pick], sin_n[pick]
+                # at the floor, blocked or not scores the same: no trace
+                if top > see_through and _blocked(
+                    cells, rows, cols, col0[h, pick], row0[h, pick], c, s, ranges[k] - margin
+                ):
+                    best = max(best, see_through)
                 else:
                     best = top
                     break

@@ -105,8 +105,9 @@ search's cell), up to this (and within FIT_ANGLE)."""
 FREE_PATH_MARGIN = 0.1
 """m: a beam of a place hypothesis that goes through a wall of the map this far short of its end point reads as a
 random reading (LikelihoodField.log_likelihood_free_path)."""
-NUDGES = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=float)
-"""offsets (in cells and half degrees) within which each beam of a place hypothesis is scored at its best."""
+NUDGES = np.array([(i, j, k) for k in (-1, 0, 1) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=float)
+"""offsets (in cells and half degrees) within which each beam of a place hypothesis is scored at its best (the
+heading slowest: LikelihoodField.best_free_path turns a beam once per heading)."""
 ANYWHERE = 64
 """poses spread over free space (fixed per filter) on which the data's marginal likelihood over the map is estimated
 (the `elsewhere` hypothesis: hypotheses.py)."""
@@ -480,9 +481,9 @@ class ParticleFilter:
         if len(hypotheses) and seen is not None:
             hypotheses.poses = self._fitted(hypotheses.poses, seen)
         if len(hypotheses):
-            anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True)  # the places' own model
-            marginal = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
-            hypotheses.observe(self._log_likelihood(hypotheses.poses, seen, beacons, places=True), marginal)
+            hypotheses.observe(
+                self._log_likelihood(hypotheses.poses, seen, beacons, places=True), self._elsewhere(seen, beacons)
+            )
         clusters = cluster_particles(
             self.particles[:, :2], self.weights, CLUSTER_RADIUS, CLUSTER_MIN_SIZE, self.particles[:, 2]
         )
@@ -594,6 +595,12 @@ class ParticleFilter:
             self.status.event = "localized withdrawn: another place explains the scans better than the one declared"
         self._declared = hypotheses.poses[0].copy() if self._localized else None
         self.status.confidence, self.status.runner_up = confidence, runner_up
+
+    def _elsewhere(self, seen: _Seen | None, beacons: BeaconReading | None) -> float:
+        """The data's marginal log-likelihood over the map (the places' own model): the log of its mean likelihood
+        at ANYWHERE poses drawn in free space."""
+        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True)
+        return float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
 
     def _log_likelihood(
         self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, places: bool = False

@@ -334,37 +334,21 @@ class CorrelativeMatcher:
         """Gauss-Newton on sum (1 - M(T(pose) p))^2 over the bilinear table M (Hector SLAM's scan matching),
         each step kept only if the mean score grows, the pose kept within `reach` cells and angular steps of
         the lattice's (the lattice's best may sit anywhere on a plateau of thick walls: a cell or two off)."""
-        res = self.resolution
-        start = pose.copy()
-        values, gx, gy = self._bilinear(points, pose)
-        best = float(values.mean())
-        for _ in range(iterations):
-            c, s = math.cos(pose[2]), math.sin(pose[2])
-            dwx = -s * points[:, 0] - c * points[:, 1]
-            dwy = c * points[:, 0] - s * points[:, 1]
-            jac = np.column_stack([gx, gy, gx * dwx + gy * dwy])
-            hessian = jac.T @ jac
-            hessian += np.diag(np.maximum(np.diag(hessian), 1e-9)) * 1e-3
-            try:
-                delta = np.linalg.solve(hessian, jac.T @ (1.0 - values))
-            except np.linalg.LinAlgError:
-                break
-            for shrink in (1.0, 0.5, 0.25, 0.125):  # backtracking: the bilinear surface is only piecewise smooth
-                trial = pose + shrink * delta
-                trial[:2] = np.clip(trial[:2], start[:2] - reach * res, start[:2] + reach * res)
-                trial[2] = np.clip(trial[2], start[2] - reach * step, start[2] + reach * step)
-                trial_values, trial_gx, trial_gy = self._bilinear(points, trial)
-                score = float(trial_values.mean())
-                if score > best:
-                    break
-            if not score > best:
-                break
-            moved = np.abs(trial - pose)
-            pose, values, gx, gy, best = trial, trial_values, trial_gx, trial_gy, score
-            if moved[0] < 1e-4 * res and moved[1] < 1e-4 * res and moved[2] < 1e-4 * step:
-                break
-        pose[2] = _wrap(pose[2])
-        return pose, best
+        refined = np.array(pose, dtype=float)
+        best = _refine_kernel(
+            self.score_map.table,
+            np.ascontiguousarray(points[:, 0], dtype=np.float64),
+            np.ascontiguousarray(points[:, 1], dtype=np.float64),
+            float(self.origin[0]),
+            float(self.origin[1]),
+            float(self.resolution),
+            refined,
+            float(step),
+            int(iterations),
+            float(reach),
+        )
+        refined[2] = _wrap(refined[2])
+        return refined, best
 
     def _covariance(self, points: np.ndarray, pose: np.ndarray, step: float, cells: int) -> np.ndarray:
         """Olson's covariance: the weighted second moments of the lattice poses within +-cells cells and
@@ -657,6 +641,105 @@ def _bilinear(table: np.ndarray, u: np.ndarray, v: np.ndarray, scale: float):
 
 
 @numba.njit(cache=True)
+def _mean_bilinear(table, px, py, ox, oy, res, pose, value, gx, gy):  # pragma: no cover - compiled
+    """The bilinear table at the points moved by pose (values, gradients per m in x and y); their mean."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    u = np.empty(px.shape[0])
+    v = np.empty(px.shape[0])
+    for k in range(px.shape[0]):
+        u[k] = (pose[0] + c * px[k] - s * py[k] - ox) / res - 0.5
+        v[k] = (pose[1] + s * px[k] + c * py[k] - oy) / res - 0.5
+    _bilinear_kernel(table, u, v, 1.0 / res, value, gx, gy)
+    return value.mean()
+
+
+@numba.njit(cache=True)
+def _refine_kernel(table, px, py, ox, oy, res, pose, step, iterations, reach):  # pragma: no cover - compiled
+    """CorrelativeMatcher._refine in place on pose; returns the mean score. Each Gauss-Newton step solves the 3x3
+    normal equations (Levenberg's 1e-3 of the diagonal added) and backtracks (1, 1/2, 1/4, 1/8 of it) until the
+    mean score grows; the pose stays within reach cells and angular steps of where it started."""
+    n = px.shape[0]
+    start = pose.copy()
+    value, gx, gy = np.empty(n), np.empty(n), np.empty(n)
+    trial_value, trial_gx, trial_gy = np.empty(n), np.empty(n), np.empty(n)
+    best = _mean_bilinear(table, px, py, ox, oy, res, pose, value, gx, gy)
+    trial = np.empty(3)
+    hessian = np.empty((3, 3))
+    gradient = np.empty(3)
+    jac = np.empty(3)
+    for _ in range(iterations):
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        hessian[:, :] = 0.0
+        gradient[:] = 0.0
+        for k in range(n):
+            jac[0] = gx[k]
+            jac[1] = gy[k]
+            jac[2] = gx[k] * (-s * px[k] - c * py[k]) + gy[k] * (c * px[k] - s * py[k])
+            residual = 1.0 - value[k]
+            for i in range(3):
+                gradient[i] += jac[i] * residual
+                for j in range(3):
+                    hessian[i, j] += jac[i] * jac[j]
+        for i in range(3):
+            hessian[i, i] += max(hessian[i, i], 1e-9) * 1e-3
+        delta = _solve3(hessian, gradient)
+        if not np.isfinite(delta).all():
+            break
+        score = -np.inf
+        for shrink in (1.0, 0.5, 0.25, 0.125):  # backtracking: the bilinear surface is only piecewise smooth
+            for i in range(3):
+                trial[i] = pose[i] + shrink * delta[i]
+            for i in range(2):
+                trial[i] = min(max(trial[i], start[i] - reach * res), start[i] + reach * res)
+            trial[2] = min(max(trial[2], start[2] - reach * step), start[2] + reach * step)
+            score = _mean_bilinear(table, px, py, ox, oy, res, trial, trial_value, trial_gx, trial_gy)
+            if score > best:
+                break
+        if not score > best:
+            break
+        small = (
+            abs(trial[0] - pose[0]) < 1e-4 * res
+            and abs(trial[1] - pose[1]) < 1e-4 * res
+            and abs(trial[2] - pose[2]) < 1e-4 * step
+        )
+        pose[:] = trial
+        value[:], gx[:], gy[:] = trial_value, trial_gx, trial_gy
+        best = score
+        if small:
+            break
+    return best
+
+
+@numba.njit(cache=True)
+def _solve3(a, b):  # pragma: no cover - compiled
+    """x with a x = b (3x3, Gaussian elimination with partial pivoting); NaN where a is singular."""
+    m = np.empty((3, 4))
+    m[:, :3] = a
+    m[:, 3] = b
+    for col in range(3):
+        pivot = col
+        for row in range(col + 1, 3):
+            if abs(m[row, col]) > abs(m[pivot, col]):
+                pivot = row
+        if m[pivot, col] == 0.0:
+            return np.full(3, np.nan)
+        if pivot != col:
+            for j in range(4):
+                m[col, j], m[pivot, j] = m[pivot, j], m[col, j]
+        for row in range(col + 1, 3):
+            factor = m[row, col] / m[col, col]
+            for j in range(col, 4):
+                m[row, j] -= factor * m[col, j]
+    x = np.empty(3)
+    for row in range(2, -1, -1):
+        total = m[row, 3]
+        for j in range(row + 1, 3):
+            total -= m[row, j] * x[j]
+        x[row] = total / m[row, row]
+    return x
+
+
+@numba.njit(cache=True)
 def _bilinear_kernel(table, u, v, scale, value, du, dv):  # pragma: no cover - compiled
     """_bilinear, one point at a time (the numpy version built a dozen temporaries per call: 1 ms for 60 points)."""
     rows, cols = table.shape
@@ -664,12 +747,12 @@ def _bilinear_kernel(table, u, v, scale, value, du, dv):  # pragma: no cover - c
         c0 = int(math.floor(u[k]))
         r0 = int(math.floor(v[k]))
         fu, fv = u[k] - c0, v[k] - r0
-        corner = np.zeros(4)
-        for i in range(4):
-            r, c = r0 + i // 2, c0 + i % 2
-            if 0 <= r < rows and 0 <= c < cols:
-                corner[i] = table[r, c]
-        v00, v01, v10, v11 = corner[0], corner[1], corner[2], corner[3]
+        inside_r0, inside_r1 = 0 <= r0 < rows, 0 <= r0 + 1 < rows
+        inside_c0, inside_c1 = 0 <= c0 < cols, 0 <= c0 + 1 < cols
+        v00 = table[r0, c0] if inside_r0 and inside_c0 else 0.0
+        v01 = table[r0, c0 + 1] if inside_r0 and inside_c1 else 0.0
+        v10 = table[r0 + 1, c0] if inside_r1 and inside_c0 else 0.0
+        v11 = table[r0 + 1, c0 + 1] if inside_r1 and inside_c1 else 0.0
         value[k] = (1 - fv) * ((1 - fu) * v00 + fu * v01) + fv * ((1 - fu) * v10 + fu * v11)
         du[k] = ((1 - fv) * (v01 - v00) + fv * (v11 - v10)) * scale
         dv[k] = ((1 - fu) * (v10 - v00) + fu * (v11 - v01)) * scale
