@@ -40,6 +40,17 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+def pytest_sessionstart(session) -> None:
+    """A parallel run (pytest-xdist's controller, before its workers start: their hook runs after this one) has the
+    numba kernels compiled once first (support.numba_cache), not by every worker and node process side by side."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    from support.numba_cache import warm_in_a_child
+
+    config.pluginmanager.get_plugin("terminalreporter").write_line(warm_in_a_child())
+
+
 @pytest.fixture
 def ros_domain(monkeypatch) -> int:
     """A DDS domain (fresh_domain) of this test's own, also for the processes it starts.
