@@ -10,7 +10,8 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local
   submap, the likelihood field of the last local_window nodes' scan points, within WINDOW_SIGMAS standard
   deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most +-match_linear_window /
-  +-match_angular_window. The match's information is the curvature of its score (_match_information); it is
+  +-match_angular_window. The match and its point-to-line refinement (_align) are weighed by their own
+  informations (_refined: the score's curvature, the refinement's normal equations); the result is
   fused with the odometry prior as two Gaussians (along a corridor the odometry decides) and the edge to the
   previous node carries both. A score below min_match_score (some overlap), or fewer than MIN_BEAMS usable
   beams, is not fatal: the node is added on odometry alone and the update's events say so. A weak match (below
@@ -561,12 +562,9 @@ class GraphSlam:
                 "node added on odometry alone"
             )
             return prior, odometry_information, float(match.score)
-        matched, aligned = _align(reference, points, match.pose, cfg.resolution)
+        matched, match_information = _refined(reference, points, match.pose, cfg.resolution)
         # the match and the odometry as two Gaussians on the pose in the anchor's frame (the odometry's
         # information is isotropic in x, y: the same in either frame)
-        match_information = _match_information(matcher, points, matched, cfg.resolution)
-        if aligned is not None:
-            match_information = _clamped(aligned)
         offset = relative_prior - matched
         offset[2] = wrap_angle(offset[2])
         if match.score < WEAK_MATCH_SCORE:
@@ -948,6 +946,31 @@ def _align(
             break
     variance = max(float(weight @ residual**2) / max(float(weight.sum()), 1e-9), ALIGN_MIN_SIGMA**2)
     return current, ALIGN_INFORMATION_SHARE * hessian / variance
+
+
+def _refined(
+    reference: _Reference, points: np.ndarray, pose: np.ndarray, resolution: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(pose, information) of a scan matched at `pose` (the correlative match, refined on the bilinear field):
+    the match and its point-to-line refinement (_align) as two estimates of one pose, each weighted by its own
+    information (_match_information: the score's curvature; _align's: its normal equations over its residuals'
+    spread). Where the lines explain the scan to a millimetre (a simulated maze: straight walls, the field's top
+    flat over a wall's cells) the refinement decides; where they do not (real logs: clutter, a SICK's 1-degree
+    beams; its residuals 1-2 cm, its heading sigma twice the match's on aces) the match does. Taking the
+    refinement whatever its information cost the logs (front end against submaps at the reference poses, aces:
+    heading error 0.40 deg mean with it, 0.26 without, 0.28 weighted). The information is the more informative
+    estimate's (largest determinant), not their sum: both come from the same scan."""
+    information = _match_information(reference.matcher, points, pose, resolution)
+    aligned, aligned_information = _align(reference, points, pose, resolution)
+    if aligned_information is None:
+        return np.asarray(pose, dtype=float), information
+    aligned_information = _clamped(aligned_information)
+    step = aligned - pose
+    step[2] = wrap_angle(step[2])
+    fused = pose + np.linalg.solve(information + aligned_information, aligned_information @ step)
+    if np.linalg.det(aligned_information) > np.linalg.det(information):
+        information = aligned_information
+    return fused, information
 
 
 def _clear_share(clear: OccupancyGrid | None, points: np.ndarray, pose: np.ndarray) -> float:
