@@ -88,9 +88,12 @@ WINDOW_SCANS = 200
 KIDNAP_LOG_PRIOR = -10.0
 """log-probability that the robot was carried, unseen, to a place no hypothesis followed: the prior of a place born
 while the filter is localized."""
-PLACE_SEARCH_CELLS = 1_000_000
+PLACE_SEARCH_CELLS = 250_000
 """the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
-proposals are then fitted on the map itself) ..."""
+proposals are then fitted on the map itself) ... A search's proposals are carried by the scan-matched odometry from
+its scan to the one it finishes on, and a long carry drifts: on a 60 m building at 1,000,000 cells (0.15 m) a search
+took 12-88 updates and its best proposal, 0.01-0.07 m off on its own scan, arrived 0.5-2.4 m off (35 m once); at
+250,000 (0.3 m) it takes 4-28 and arrives within 0.1 m (bench/README.md). Mazes of a few metres keep their cells."""
 PLACE_SEARCH_RANGE = 10.0
 """m: ... with the beams ending within this of the LiDAR (the far ones set the angular step, not the place)."""
 SEARCH_PROPOSALS = 4
@@ -776,8 +779,8 @@ class ParticleFilter:
         """The place search's matcher and candidate cells: the map max-pooled to at most PLACE_SEARCH_CELLS cells (a
         cell is occupied where any of its cells is, a candidate where any of its cells is free space), built at first
         use. A coarse lattice has fewer cells and, with the points within PLACE_SEARCH_RANGE, fewer headings: a global
-        search of a 60 m building in about a million nodes instead of tens of millions; a maze of a few metres keeps
-        its own cells (its corridors would close)."""
+        search of a 60 m building in a few hundred thousand nodes instead of tens of millions; a maze of a few metres
+        keeps its own cells (its corridors would close)."""
         if self._coarse is None:
             grid = self._grid
             factor = max(1, math.ceil(math.sqrt(grid.height * grid.width / PLACE_SEARCH_CELLS)))
