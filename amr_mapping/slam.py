@@ -8,7 +8,7 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   node's composed with the odometry since.
 - Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local
-  submap, the likelihood field of the last local_window nodes' scan points, within WINDOW_SIGMAS standard
+  submap, the likelihood field of the last local_window nodes' scan points (_point_field), within WINDOW_SIGMAS standard
   deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most +-match_linear_window /
   +-match_angular_window. The match and its point-to-line refinement (_align) are weighed by their own
   informations (_refined: the score's curvature, the refinement's normal equations); the result is
@@ -509,7 +509,7 @@ class GraphSlam:
             clouds.append(transform_points(pose, self._nodes[k].points))
         cloud = np.vstack(clouds)
         resolution = self.config.resolution
-        score_map = ScoreMap.from_points(
+        score_map = _point_field(
             cloud, resolution, LIKELIHOOD_SIGMA_CELLS * resolution, window + LIKELIHOOD_PAD, cover=np.zeros((1, 2))
         )
         matcher = CorrelativeMatcher(score_map)
@@ -958,9 +958,11 @@ def _refined(
     flat over a wall's cells) the refinement decides; where they do not (real logs: clutter, a SICK's 1-degree
     beams; its residuals 1-2 cm, its heading sigma twice the match's on aces) the match does. Taking the
     refinement whatever its information cost the logs (front end against submaps at the reference poses, aces:
-    heading error 0.40 deg mean with it, 0.26 without, 0.28 weighted). The information is the more informative
-    estimate's (largest determinant), not their sum: both come from the same scan."""
+    heading error 0.40 deg mean with it, 0.26 without, 0.28 weighted). The match's information carries the
+    field's quantization (_with_quantization). The information is the more informative estimate's (largest
+    determinant), not their sum: both come from the same scan."""
     information = _match_information(reference.matcher, points, pose, resolution)
+    information = _with_quantization(information, points, resolution)
     aligned, aligned_information = _align(reference, points, pose, resolution)
     if aligned_information is None:
         return np.asarray(pose, dtype=float), information
@@ -971,6 +973,48 @@ def _refined(
     if np.linalg.det(aligned_information) > np.linalg.det(information):
         information = aligned_information
     return fused, information
+
+
+def _point_field(points: np.ndarray, resolution: float, sigma: float, pad: float, cover: np.ndarray) -> ScoreMap:
+    """ScoreMap.from_points' likelihood field (the same cells, extent and sigma) with each cell's distance taken to
+    the points themselves (the mean of those in the nearest cell holding any) instead of to that cell's centre
+    (up to half a cell off: a wall's cells all scored 1, their neighbours alike), so the lattice's scores and the
+    score's curvature see the walls where they are. Front end against submaps at the reference poses, aces: heading
+    0.28 -> 0.26 deg a link (mean), 2.43 -> 2.26 cm (median). (The bilinear refinement between cell centres still
+    peaks at a centre: sub-cell precision is the point-to-line refinement's.)"""
+    extent = np.vstack([points, cover])
+    low = np.floor((extent.min(axis=0) - pad) / resolution) * resolution
+    cols, rows = (np.ceil((extent.max(axis=0) + pad - low) / resolution).astype(int) + 1).tolist()
+    cells = np.floor((points - low) / resolution).astype(np.int64)
+    flat = cells[:, 1] * cols + cells[:, 0]
+    occupied_cells, group = np.unique(flat, return_inverse=True)
+    count = np.bincount(group)
+    mean_x = np.zeros(rows * cols)
+    mean_y = np.zeros(rows * cols)
+    mean_x[occupied_cells] = np.bincount(group, weights=points[:, 0]) / count
+    mean_y[occupied_cells] = np.bincount(group, weights=points[:, 1]) / count
+    free = np.ones(rows * cols, dtype=bool)
+    free[occupied_cells] = False
+    _, (near_r, near_c) = ndimage.distance_transform_edt(free.reshape(rows, cols), return_indices=True)
+    nearest = near_r * cols + near_c
+    x = low[0] + (np.arange(cols) + 0.5) * resolution
+    y = low[1] + (np.arange(rows) + 0.5) * resolution
+    dx = x[None, :] - mean_x[nearest]
+    dy = y[:, None] - mean_y[nearest]
+    table = np.exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)).astype(np.float32)
+    return ScoreMap(table, resolution, (float(low[0]), float(low[1])))
+
+
+def _with_quantization(information: np.ndarray, points: np.ndarray, resolution: float) -> np.ndarray:
+    """A correlative match's information with the field's quantization added to its covariance: the field is a
+    table of cells (exact at their centres, interpolated between), so the match is uncertain by a cell's
+    res / sqrt(12) in x and y however sharp its score, and in heading by that much at the points' RMS range (0.8 deg
+    at 1 m: a maze's short ranges, where the refinement on the walls' lines is the better estimate; 0.2 deg at 4
+    m). Without it the match outweighed the refinement in the mazes (loops seed 1: precise 0.98 -> 0.85)."""
+    radius = max(float(np.sqrt(np.mean(np.sum(points**2, axis=1)))), resolution) if len(points) else 1.0
+    q = resolution / math.sqrt(12.0)
+    covariance = np.linalg.inv(information) + np.diag([q * q, q * q, (q / radius) ** 2])
+    return np.linalg.inv(covariance)
 
 
 def _clear_share(clear: OccupancyGrid | None, points: np.ndarray, pose: np.ndarray) -> float:

@@ -115,19 +115,52 @@ _NO_REFERENCE = _NoReference()
 
 
 def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatch):
-    """The front end's pose: the correlative match and its point-to-line refinement each weighted by its own
-    information, the edge given the more informative one's. A refinement claiming 100 times the match's precision
-    (a simulated maze's straight walls) decides; one claiming a quarter of it (a real log's clutter) moves the pose
-    a fifth of the way (taking it whatever its information cost the logs 0.40 vs 0.26 deg a link on aces)."""
-    match_information = np.diag([1e4, 1e4, 1e5])
-    monkeypatch.setattr(slam_module, "_match_information", lambda *args: match_information)
+    """The front end's pose: the correlative match (its information with the field's quantization) and its
+    point-to-line refinement, each weighted by its own information, the edge given the more informative one's. A
+    refinement claiming 100 times the match's precision (a simulated maze's straight walls) decides; one claiming a
+    fiftieth of it (a real log's clutter) moves the pose a fifth of the way or less (taking it whatever its
+    information cost the logs 0.40 vs 0.26 deg a link on aces)."""
+    curvature = np.diag([1e4, 1e4, 1e5])
+    monkeypatch.setattr(slam_module, "_match_information", lambda *args: curvature)
+    points = np.column_stack([2.0 * np.cos(np.linspace(0, 6, 30)), 2.0 * np.sin(np.linspace(0, 6, 30))])  # 2 m
+    match_information = slam_module._with_quantization(curvature, points, 0.05)
+    q = 0.05 / math.sqrt(12.0)
+    assert np.allclose(
+        np.linalg.inv(match_information), np.linalg.inv(curvature) + np.diag([q * q, q * q, (q / 2) ** 2])
+    )
     pose = np.array([1.0, 2.0, 0.5])
     refined = pose + np.array([0.02, -0.01, 0.004])
-    for share, moved in ((100.0, 100.0 / 101.0), (0.25, 0.25 / 1.25)):
-        monkeypatch.setattr(slam_module, "_align", lambda *args, s=share: (refined.copy(), s * match_information))
-        fused, information = slam_module._refined(_NO_REFERENCE, np.zeros((30, 2)), pose, 0.05)
-        assert fused == pytest.approx(pose + moved * (refined - pose), abs=1e-9)
-        assert np.allclose(information, max(share, 1.0) * match_information)
+    for share in (100.0, 0.02):
+        aligned_information = share * curvature
+        monkeypatch.setattr(slam_module, "_align", lambda *args, i=aligned_information: (refined.copy(), i))
+        fused, information = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
+        expected = pose + np.linalg.solve(
+            match_information + aligned_information, aligned_information @ (refined - pose)
+        )
+        assert fused == pytest.approx(expected, abs=1e-12)
+        toward = (fused - pose) / (refined - pose)
+        if share > 1.0:
+            assert np.all(toward > 0.95) and np.allclose(information, aligned_information)
+        else:
+            assert np.all(toward < 0.2) and np.allclose(information, match_information)
     monkeypatch.setattr(slam_module, "_align", lambda *args: (refined.copy(), None))  # too few pairs: the match
-    fused, information = slam_module._refined(_NO_REFERENCE, np.zeros((30, 2)), pose, 0.05)
-    assert np.array_equal(fused, pose) and information is match_information
+    fused, information = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
+    assert np.array_equal(fused, pose) and np.allclose(information, match_information)
+
+
+def test_the_field_measures_the_distance_to_the_points_not_to_their_cells():
+    """The submap's likelihood field at a cell's centre: exp(-d^2 / 2 sigma^2) with d the distance to the points
+    themselves (a wall at x = 0.0374, its cells' centres at 0.025 and 0.075: 12.4 and 37.6 mm); rasterized (the
+    distance to the cell holding the points) the wall's own cells scored 1 and their neighbours alike."""
+    wall = np.column_stack([np.full(200, 0.0374), np.linspace(-2.0, 2.0, 200)])
+    sigma = 0.075
+    field = slam_module._point_field(wall, 0.05, sigma, 1.5, cover=np.zeros((1, 2)))
+    centres = field.origin[0] + (np.arange(field.table.shape[1]) + 0.5) * 0.05
+    row = field.table[field.table.shape[0] // 2]
+    expected = np.exp(-0.5 * ((centres - 0.0374) / sigma) ** 2)
+    assert np.allclose(row, expected, atol=0.02)  # the nearest cell's points' mean: its y a little off the row's
+    rasterized = ScoreMap.from_points(wall, 0.05, sigma, 1.5, cover=np.zeros((1, 2)))
+    column = int(np.argmin(np.abs(centres - 0.025)))
+    assert rasterized.table[rasterized.table.shape[0] // 2, column] == pytest.approx(1.0)
+    assert row[column] == pytest.approx(math.exp(-0.5 * (0.0124 / sigma) ** 2), abs=0.005)
+    assert row[column] < 0.99

@@ -1,0 +1,174 @@
+"""Where GraphSlam's relative error on the CARMEN logs comes from (docs/amr_mapping.md, Figures): its links and
+nodes against the corrected poses, and the corrected poses' own noise (what a perfect method would score).
+
+For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default SlamConfig):
+
+- links: each sequential edge's measurement (the front end's) and the optimized poses' increment against the
+  reference's: translation and heading error, median / mean / p90, and the share of the heading error in the
+  worst 10 % of the links; the heading error growing with the lag (1 and 8 nodes): per-pose noise stays, drift
+  grows;
+- nodes: how many nodes' headings are more than 1.5 deg off their two neighbours' (estimate against reference),
+  the worst listed (a single match off, put back by the next: every pair starting there is off by its heading
+  times the pair's length).
+- --reference: each scan (every --every-th) matched by the front end's correlative matcher at its corrected pose
+  against the likelihood field of the other scans within 10 m at theirs, once those before it (more than --skip
+  scans away) and once those after: the covariance of the two corrections is the reference's own error per pose
+  (rms per component), the rest each side's matcher noise; then the relative error that a trajectory exact but
+  for per-pose noise of that size (and of 2 cm, 0.3 deg) scores against the reference.
+
+Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_links.py [--logs aces ...] [--reference]
+[--every 2] [--skip 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from amr_datasets.carmen import read_carmen
+from amr_datasets.odometry import synthesize_odometry
+from amr_mapping.errors import MappingError
+from amr_mapping.slam import LIKELIHOOD_PAD, LIKELIHOOD_SIGMA_CELLS, GraphSlam, SlamConfig, _beams
+from amr_mapping.trajectory_error import relative_error, relative_motions
+from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
+from amr_util.geometry import compose, relative_pose, transform_points, wrap_angle
+
+DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
+
+
+def _stats(values: np.ndarray, scale: float) -> str:
+    values = np.abs(values) * scale
+    return f"{np.median(values):.2f} / {values.mean():.2f} / {np.percentile(values, 90):.2f}"
+
+
+def links(name: str, log, seed: int) -> None:
+    reference = log.poses()
+    odometry = synthesize_odometry(reference, seed=seed)
+    slam = GraphSlam(SlamConfig())
+    scan_of: list[int] = []  # each node's scan index
+    for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
+        try:
+            update = slam.add(int(round(item.stamp * 1e9)), odom, item.scan)
+        except MappingError:
+            continue
+        if update.node_added:
+            scan_of.append(k)
+    slam.optimize()
+    poses, edges, loop = slam.graph()
+    scans = np.array(scan_of)
+    sequential = np.flatnonzero(~loop)
+    i, j = edges[sequential, 0], edges[sequential, 1]
+    truth = relative_motions(reference, scans[i], scans[j])
+    measured = slam._graph._z[sequential]  # the edges' measurements: the front end's (a diagnostic reads them)
+    optimized = relative_motions(poses, i, j)
+    print(
+        f"{name}: {len(poses)} nodes, {int(loop.sum())} closures; link error: translation cm, heading deg "
+        "(median / mean / p90)"
+    )
+    for label, estimate in (("front end", measured), ("optimized", optimized)):
+        error = estimate - truth
+        heading = np.degrees(np.abs(wrap_angle(error[:, 2])))
+        worst = np.sort(heading)[-max(1, len(heading) // 10) :].sum() / max(heading.sum(), 1e-12)
+        print(
+            f"  {label:9s} {_stats(np.hypot(error[:, 0], error[:, 1]), 100.0)} cm, {_stats(heading, 1.0)} deg; "
+            f"worst 10 % of links: {worst:.0%} of the heading error"
+        )
+    nodes_reference = reference[scans]
+    for lag in (1, 8):
+        a = np.arange(len(poses) - lag)
+        error = np.degrees(
+            np.abs(
+                wrap_angle(
+                    relative_motions(poses, a, a + lag)[:, 2] - relative_motions(nodes_reference, a, a + lag)[:, 2]
+                )
+            )
+        )
+        print(f"  heading error over {lag} node(s): rms {np.sqrt(np.mean(error**2)):.2f}, mean {error.mean():.2f} deg")
+    offsets = []
+    for k in range(1, len(poses) - 1):
+        pair = np.array([k - 1, k]), np.array([k, k + 1])
+        e = wrap_angle(relative_motions(poses, *pair)[:, 2] - relative_motions(nodes_reference, *pair)[:, 2])
+        offsets.append((scans[k], math.degrees(0.5 * (e[0] - e[1]))))
+    offsets = np.array(offsets)
+    off = offsets[np.abs(offsets[:, 1]) > 1.5]
+    worst = off[np.argsort(-np.abs(off[:, 1]))][:5]
+    listed = ", ".join(f"scan {int(s)} {e:+.1f}" for s, e in worst)
+    print(f"  nodes more than 1.5 deg off their neighbours' heading: {len(off)} ({listed})")
+
+
+def reference_noise(name: str, log, every: int, skip: int) -> None:
+    reference = log.poses()
+    resolution = 0.05
+    points = [_beams(item.scan, 20.0)[2] for item in log.scans]
+    world = [transform_points(pose, p) for pose, p in zip(reference, points, strict=True)]
+
+    def correction(k: int, others: list[int]) -> np.ndarray:
+        cloud = transform_points(
+            np.array(relative_pose(reference[k], np.zeros(3))), np.vstack([world[m] for m in others])
+        )
+        table = ScoreMap.from_points(
+            cloud, resolution, LIKELIHOOD_SIGMA_CELLS * resolution, 0.5 + LIKELIHOOD_PAD, cover=np.zeros((1, 2))
+        )
+        return CorrelativeMatcher(table).match(points[k], np.zeros(3), 0.3, math.radians(3.0)).pose
+
+    rows = []
+    for k in range(0, len(reference), every):
+        near = [m for m in range(len(reference)) if math.hypot(*(reference[m, :2] - reference[k, :2])) < 10.0]
+        before = [m for m in near if m < k - skip]
+        after = [m for m in near if m > k + skip]
+        if len(before) >= 3 and len(after) >= 3:
+            rows.append((k, correction(k, before), correction(k, after)))
+    before = np.array([r[1] for r in rows])
+    after = np.array([r[2] for r in rows])
+    parts = []
+    for c, (label, scale, unit) in enumerate((("x", 100.0, "cm"), ("y", 100.0, "cm"), ("heading", 57.29578, "deg"))):
+        a, b = before[:, c] - before[:, c].mean(), after[:, c] - after[:, c].mean()
+        shared = max(float(np.mean(a * b)), 0.0)
+        noise = max(float(np.mean(a**2)) - shared, 0.0)
+        parts.append(f"{label} {math.sqrt(shared) * scale:.2f} {unit} (matcher {math.sqrt(noise) * scale:.2f})")
+    print(
+        f"{name}: the reference's own error per pose, rms, from {len(rows)} scans: "
+        + ", ".join(parts)
+        + " (x: along the way, one-sided clouds bias it)"
+    )
+    rng = np.random.default_rng(0)
+    for sigma, degrees in ((0.015, 0.26), (0.02, 0.3)):
+        noise = np.column_stack(
+            [rng.normal(0, sigma, (len(reference), 2)), rng.normal(0, math.radians(degrees), len(reference))]
+        )
+        noisy = np.array([compose(p, d) for p, d in zip(reference, noise, strict=True)])
+        rel = relative_error(noisy, reference)
+        print(
+            f"  exact but for per-pose noise {sigma * 100:.1f} cm, {degrees} deg: rel {rel.translation:.4f} m "
+            f"{rel.rotation_deg:.3f} deg"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", default=str(DATA))
+    parser.add_argument("--logs", nargs="*", default=["intel", "fhw", "aces", "orebro"])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--reference", action="store_true", help="the corrected poses' own noise instead")
+    parser.add_argument("--every", type=int, default=2)
+    parser.add_argument("--skip", type=int, default=1)
+    args = parser.parse_args()
+    for name in args.logs:
+        path = next(Path(args.data).glob(f"{name}*"), None)
+        if path is None:
+            sys.exit(f"no log {name} in {args.data}")
+        log = read_carmen(path)
+        if args.reference:
+            reference_noise(name, log, args.every, args.skip)
+        else:
+            links(name, log, args.seed)
+    print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
+
+
+if __name__ == "__main__":
+    main()
