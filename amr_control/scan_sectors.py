@@ -16,6 +16,7 @@ A sector with no usable reading reads ``+inf`` (the seed's default of "far").
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from amr_control import scan_kernels
 from amr_util.scan import ScanData
 
 
@@ -399,14 +401,10 @@ def _running_mean(ranges: np.ndarray, beams: int, wrap: bool) -> np.ndarray:
     """Each beam the mean of its ``beams`` neighbours (odd) where they lie on one smooth surface, else kept.
 
     One surface: all returned and within SMOOTH_SPREAD of each other. An edge (a thin wall's
-    end against the room behind it) is never averaged away.
+    end against the room behind it) is never averaged away. At most scan_kernels.BLOCK beams.
     """
-    half = beams // 2
-    padded = np.pad(ranges, half, mode="wrap" if wrap else "edge")
-    windows = np.lib.stride_tricks.sliding_window_view(padded, beams)
-    with np.errstate(invalid="ignore"):  # inf - inf
-        smooth = np.all(np.isfinite(windows), axis=1) & (np.ptp(windows, axis=1) <= SMOOTH_SPREAD)
-    return np.where(smooth, np.where(smooth[:, None], windows, 0.0).mean(axis=1), ranges)
+    _check_window(beams)
+    return scan_kernels.running_mean(ranges, beams, wrap, SMOOTH_SPREAD)
 
 
 FLAT_SPREAD = 0.2
@@ -426,19 +424,24 @@ def _flat_mean(ranges: np.ndarray, beams: int, increment: float, wrap: bool) -> 
     its mean is 1/r(theta) times the mean cosine of their offsets, so that ratio returns a
     straight wall's range unchanged while averaging the noise. One surface: all returned and
     within FLAT_SPREAD of each other. A reading within KEEP_SHARE of that average agrees with its neighbours (noise-free
-    data on any smooth surface) and is kept exactly.
+    data on any smooth surface) and is kept exactly. At most scan_kernels.BLOCK beams.
     """
     if beams <= 1:
         return ranges
+    _check_window(beams)
+    return scan_kernels.flat_mean(ranges, beams, wrap, FLAT_SPREAD, _mean_cosine(beams, increment), KEEP_SHARE)
+
+
+@functools.lru_cache(maxsize=16)
+def _mean_cosine(beams: int, increment: float) -> float:
+    """The mean cosine of the beam offsets of a window of ``beams`` (odd) about its middle beam."""
     half = beams // 2
-    padded = np.pad(ranges, half, mode="wrap" if wrap else "edge")
-    windows = np.lib.stride_tricks.sliding_window_view(padded, beams)
-    with np.errstate(invalid="ignore", divide="ignore"):  # inf - inf, 1 / 0
-        smooth = np.all(np.isfinite(windows), axis=1) & (np.ptp(windows, axis=1) <= FLAT_SPREAD) & (ranges > 0.0)
-        inverse = np.where(smooth[:, None], 1.0 / windows, 0.0).mean(axis=1)
-        cosine = float(np.cos(increment * np.arange(-half, half + 1)).mean())
-        average = cosine / np.where(smooth, inverse, 1.0)
-        return np.where(smooth & (np.abs(average - ranges) > KEEP_SHARE * ranges), average, ranges)
+    return float(np.cos(increment * np.arange(-half, half + 1)).mean())
+
+
+def _check_window(beams: int) -> None:
+    if beams > scan_kernels.BLOCK:
+        raise ValueError(f"a scan average spans at most {scan_kernels.BLOCK} beams, got {beams}")
 
 
 def _running_median(ranges: np.ndarray, beams: int, wrap: bool) -> np.ndarray:
@@ -448,13 +451,7 @@ def _running_median(ranges: np.ndarray, beams: int, wrap: bool) -> np.ndarray:
     beams // 2 + 1 beams stays; readings that agree with their neighbours are kept exactly.
     Wraps round a full-circle scan; a partial one repeats its end beams.
     """
-    half = beams // 2
-    padded = np.pad(ranges, half, mode="wrap" if wrap else "edge")
-    windows = np.lib.stride_tricks.sliding_window_view(padded, beams)
-    median = np.sort(windows, axis=1)[:, half]
-    with np.errstate(invalid="ignore"):  # inf - inf: a run without returns, kept
-        jump = np.abs(ranges - median) > OUTLIER_JUMP
-    return np.where(jump, median, ranges)
+    return scan_kernels.running_median(ranges, beams, wrap, OUTLIER_JUMP)
 
 
 MIN_FIT_POINTS = 5

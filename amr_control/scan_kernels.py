@@ -1,0 +1,127 @@
+"""The compiled neighbourhood filters of scan_sectors: a scan's running median, running mean and flat mean.
+
+Each is one pass over the beams in numba (cache=True), with the arithmetic of the numpy formulation it replaced
+(np.pad, a sliding window, reductions along it): the same values bit for bit, a window's sum taken in numpy's
+order (block_sum; windows of at most BLOCK beams). A window of beam i holds beams i - beams // 2 ..
+i + beams // 2, wrapped round a full-circle scan (wrap) or with the end beams repeated (np.pad's "edge").
+"""
+
+import math
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _neighbour(index, count, wrap):  # pragma: no cover - compiled
+    """The beam at window position `index` (may lie off either end of the scan)."""
+    if wrap:
+        return index % count
+    return min(max(index, 0), count - 1)
+
+
+BLOCK = 128
+"""The longest window the filters take: numpy sums a run of at most this many in one block (no recursion)."""
+
+
+@numba.njit(cache=True, error_model="numpy")
+def block_sum(values, count):  # pragma: no cover - compiled
+    """values[:count] (count <= BLOCK) summed as numpy's add.reduce sums a contiguous float64 run (pairwise_sum):
+    in order below 8, else 8 interleaved partial sums, combined pairwise, then the rest in order."""
+    if count < 8:
+        total = 0.0
+        for i in range(count):
+            total += values[i]
+        return total
+    r0, r1, r2, r3, r4, r5, r6, r7 = (
+        values[0],
+        values[1],
+        values[2],
+        values[3],
+        values[4],
+        values[5],
+        values[6],
+        values[7],
+    )
+    i = 8
+    while i < count - count % 8:
+        r0 += values[i]
+        r1 += values[i + 1]
+        r2 += values[i + 2]
+        r3 += values[i + 3]
+        r4 += values[i + 4]
+        r5 += values[i + 5]
+        r6 += values[i + 6]
+        r7 += values[i + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < count:
+        total += values[i]
+        i += 1
+    return total
+
+
+@numba.njit(cache=True, error_model="numpy")
+def running_median(ranges, beams, wrap, jump):  # pragma: no cover - compiled
+    """Each beam further than `jump` from the median of its window (np.sort's order: inf last, NaN after) takes
+    that median; the others are kept (inf - inf compares False: kept)."""
+    count = ranges.size
+    half = beams // 2
+    out = np.empty(count)
+    window = np.empty(beams)
+    for i in range(count):
+        for k in range(beams):
+            window[k] = ranges[_neighbour(i - half + k, count, wrap)]
+        median = np.sort(window)[half]
+        out[i] = median if abs(ranges[i] - median) > jump else ranges[i]
+    return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def running_mean(ranges, beams, wrap, spread):  # pragma: no cover - compiled
+    """Each beam the mean of its window where all of it is finite and within `spread` (max - min), else kept."""
+    count = ranges.size
+    half = beams // 2
+    out = np.empty(count)
+    window = np.empty(beams)
+    for i in range(count):
+        low, high = math.inf, -math.inf
+        smooth = True
+        for k in range(beams):
+            value = ranges[_neighbour(i - half + k, count, wrap)]
+            if not math.isfinite(value):
+                smooth = False
+                break
+            low, high = min(low, value), max(high, value)
+            window[k] = value
+        out[i] = block_sum(window, beams) / beams if smooth and high - low <= spread else ranges[i]
+    return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def flat_mean(ranges, beams, wrap, spread, cosine, keep):  # pragma: no cover - compiled
+    """scan_sectors._flat_mean: where a beam's window is all finite, within `spread` and the beam positive, the
+    window's straight-line average cosine / mean(1 / r) replaces the beam unless within `keep` (a share of it)."""
+    count = ranges.size
+    half = beams // 2
+    out = np.empty(count)
+    inverse = np.empty(beams)
+    for i in range(count):
+        value = ranges[i]
+        out[i] = value
+        if not value > 0.0:
+            continue
+        low, high = math.inf, -math.inf
+        smooth = True
+        for k in range(beams):
+            r = ranges[_neighbour(i - half + k, count, wrap)]
+            if not math.isfinite(r):
+                smooth = False
+                break
+            low, high = min(low, r), max(high, r)
+            inverse[k] = 1.0 / r
+        if smooth and high - low <= spread:
+            average = cosine / (block_sum(inverse, beams) / beams)
+            if abs(average - value) > keep * value:
+                out[i] = average
+    return out
