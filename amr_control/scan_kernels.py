@@ -70,11 +70,22 @@ def running_median(ranges, beams, wrap, jump):  # pragma: no cover - compiled
     out = np.empty(count)
     window = np.empty(beams)
     for i in range(count):
-        for k in range(beams):
-            window[k] = ranges[_neighbour(i - half + k, count, wrap)]
-        median = np.sort(window)[half]
+        for k in range(beams):  # insertion sort in np.sort's order: the windows are a few beams
+            value = ranges[_neighbour(i - half + k, count, wrap)]
+            j = k
+            while j > 0 and _before(value, window[j - 1]):
+                window[j] = window[j - 1]
+                j -= 1
+            window[j] = value
+        median = window[half]
         out[i] = median if abs(ranges[i] - median) > jump else ranges[i]
     return out
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _before(a, b):  # pragma: no cover - compiled
+    """a sorts before b in np.sort's order (NaN last)."""
+    return a < b or (b != b and a == a)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -125,3 +136,63 @@ def flat_mean(ranges, beams, wrap, spread, cosine, keep):  # pragma: no cover - 
             if abs(average - value) > keep * value:
                 out[i] = average
     return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def clean(raw, range_min, range_max):  # pragma: no cover - compiled
+    """(ranges, usable): readings within [range_min, range_max] kept, -inf read as range_min, every other
+    reading (NaN, +inf, out of range) +inf; usable counts the measurements and the +-inf readings."""
+    ranges = np.empty(raw.size)
+    usable = 0
+    for i in range(raw.size):
+        value = raw[i]
+        if value >= range_min and value <= range_max:
+            ranges[i] = value
+            usable += 1
+        else:
+            ranges[i] = range_min if value == -math.inf else math.inf
+            if math.isinf(value):
+                usable += 1
+    return ranges, usable
+
+
+@numba.njit(cache=True, error_model="numpy")
+def clearance(ranges, forward, forward_cos, forward_sin, band_limit, lidar_x, reach):  # pragma: no cover
+    """(travel, side) of scan_sectors.SectorReader._clearance: the least x - sqrt(max(reach^2 - y^2, 0)) over the
+    forward returns within the band (r < band_limit) and ahead (x > 0), the first of equal ones, at least 0, and
+    the side of its return (+1 left, -1 right); (inf, 0) for none."""
+    best = math.inf
+    side = 0
+    reach_squared = reach * reach
+    for k in range(forward.size):
+        r = ranges[forward[k]]
+        if not r < band_limit[k]:
+            continue
+        x = lidar_x + r * forward_cos[k]
+        if not x > 0.0:
+            continue
+        y = r * forward_sin[k]
+        travel = x - math.sqrt(max(reach_squared - y * y, 0.0))
+        if side == 0 or travel < best:
+            best = travel
+            side = 1 if y > 0.0 else -1
+    return max(best, 0.0), side
+
+
+@numba.njit(cache=True, error_model="numpy")
+def fit_points(r, cos, sin):  # pragma: no cover - compiled
+    """(n, x, y, sum x, sum y) of a window's returns for scan_sectors._fit_line: beams without a return (r inf)
+    are zeroed and not counted; the sums in numpy's order (block_sum: at most BLOCK beams)."""
+    count = r.size
+    x = np.empty(count)
+    y = np.empty(count)
+    n = 0
+    for i in range(count):
+        if r[i] < math.inf:
+            n += 1
+            x[i] = r[i] * cos[i]
+            y[i] = r[i] * sin[i]
+        else:
+            x[i] = 0.0 * cos[i]
+            y[i] = 0.0 * sin[i]
+    return n, x, y, block_sum(x, count), block_sum(y, count)

@@ -192,13 +192,8 @@ class SectorReader:
         range_min = range_min if math.isfinite(range_min) and range_min > 0.0 else 0.0
         # NaN compares False; no planar LiDAR reads beyond MAX_RANGE, larger values are corrupt.
         range_max = min(range_max, MAX_RANGE) if range_max > range_min else MAX_RANGE
-        measured = (raw >= range_min) & (raw <= range_max)  # False for NaN
-        # Ignored readings become +inf: they never lower a minimum.
-        ranges = np.where(measured, raw, np.inf)
-        too_close = raw == -np.inf
-        if too_close.any():
-            ranges[too_close] = range_min
-        usable = int(np.count_nonzero(measured)) + int(np.count_nonzero(np.isinf(raw)))
+        # Ignored readings (NaN, out of range) become +inf: they never lower a minimum; -inf reads range_min.
+        ranges, usable = scan_kernels.clean(raw, range_min, range_max)
         if self.median_beams > 1:
             ranges = _running_median(ranges, self.median_beams, geometry.full_circle)
 
@@ -353,21 +348,16 @@ class SectorReader:
         after x - sqrt((R + m)^2 - y^2). A wall alongside, further than R + m, does not
         limit straight travel.
         """
-        r = ranges[geometry.forward]
-        in_band = np.flatnonzero(r < geometry.band_limit)  # +inf never is
-        if in_band.size == 0:
-            return math.inf, 0
-        r = r[in_band]
-        x = self.footprint.lidar_x + r * geometry.forward_cos[in_band]
-        y = r * geometry.forward_sin[in_band]
-        ahead = x > 0.0
-        if not ahead.any():
-            return math.inf, 0
-        x, y = x[ahead], y[ahead]
-        reach = self.footprint.radius + self.footprint.side_margin
-        travel = x - np.sqrt(np.maximum(reach * reach - y * y, 0.0))
-        nearest = int(np.argmin(travel))
-        return float(max(travel[nearest], 0.0)), (1 if y[nearest] > 0.0 else -1)
+        travel, side = scan_kernels.clearance(
+            ranges,
+            geometry.forward,
+            geometry.forward_cos,
+            geometry.forward_sin,
+            geometry.band_limit,
+            self.footprint.lidar_x,
+            self.footprint.radius + self.footprint.side_margin,
+        )
+        return float(travel), int(side)
 
 
 WALL_END_BAND = 0.08
@@ -463,13 +453,16 @@ def _fit_line(r: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> LineFit | None
 
     Beams without a return are zeroed, so they add nothing to the sums.
     """
-    finite = r < np.inf
-    n = int(np.count_nonzero(finite))
+    if r.size > scan_kernels.BLOCK:
+        finite = r < np.inf
+        n = int(np.count_nonzero(finite))
+        rz = np.where(finite, r, 0.0)
+        x, y = rz * cos, rz * sin
+        sx, sy = float(x.sum()), float(y.sum())
+    else:  # the same values in one compiled pass
+        n, x, y, sx, sy = scan_kernels.fit_points(r, cos, sin)
     if n < MIN_FIT_POINTS:
         return None
-    rz = np.where(finite, r, 0.0)
-    x, y = rz * cos, rz * sin
-    sx, sy = float(x.sum()), float(y.sum())
     mx, my = sx / n, sy / n
     sxx = float(x @ x) - sx * mx
     syy = float(y @ y) - sy * my
