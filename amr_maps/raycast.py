@@ -28,29 +28,65 @@ def beams_per_turn(increment: float, count: int) -> float:
     return float(count) if abs(turn - count) < 1e-9 * count else turn
 
 
-def fan_spans(k_lo: np.ndarray, k_hi: np.ndarray, turns: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """The beams that items covering the beam positions k in [k_lo, k_hi] span, as (first, counts).
-
-    k_lo lies in [0, period), k_hi in [k_lo, k_lo + period); turns is [[0], [period]] (beams per turn).
-    Beam j sits at k = j and, one turn on, at k = j + period: an item straddling k = 0 covers beams
-    ceil(k_lo) .. count - 1 and 0 .. floor(k_hi - period). first and counts are (2 n,): item i spans
-    beams first[i] .. first[i] + counts[i] - 1 in its first turn and first[n + i] .. in its second.
-    """
-    first = np.ceil(np.maximum(k_lo - turns, 0.0))
-    counts = np.maximum(np.minimum(np.floor(k_hi - turns), count - 1) - first + 1.0, 0.0)
-    return first.ravel().astype(np.intp), counts.ravel().astype(np.intp)
+@numba.njit(cache=True)
+def _facing(distance, x, y, max_range, box, lower, upper):  # pragma: no cover - compiled
+    """(origin, face) index arrays of the faces in front of each origin (distance > 0) and, for an origin the
+    world's box outgrows by more than max_range, within the square of half side max_range about it; row-major
+    (np.nonzero's order)."""
+    origins, faces = distance.shape
+    origin = np.empty(0, np.intp)
+    index = np.empty(0, np.intp)
+    for fill in (False, True):  # count, then fill arrays of that size
+        items = 0
+        for row in range(origins):
+            px, py = x[row], y[row]
+            outgrown = (
+                lower[0] < px - max_range
+                or lower[1] < py - max_range
+                or upper[0] > px + max_range
+                or upper[1] > py + max_range
+            )
+            for face in range(faces):
+                if not distance[row, face] > 0.0:
+                    continue
+                if outgrown and not (
+                    box[0, face] < px + max_range
+                    and box[1, face] < py + max_range
+                    and box[2, face] > px - max_range
+                    and box[3, face] > py - max_range
+                ):
+                    continue
+                if fill:
+                    origin[items], index[items] = row, face
+                items += 1
+        if not fill:
+            origin = np.empty(items, np.intp)
+            index = np.empty(items, np.intp)
+    return origin, index
 
 
 @numba.njit(cache=True)
-def _sweep_faces(ranges, rows, first, counts, headings, distances, increment):  # pragma: no cover - compiled
-    """ranges[row, beam] = min(itself, d / max(cos(heading + increment * beam), GRAZING)) over each span:
-    the hits of the faces on the beams they span (the same arithmetic numpy would do, beam by beam)."""
-    for item in range(first.size):
-        row, heading, distance = rows[item], headings[item], distances[item]
-        for beam in range(first[item], first[item] + counts[item]):
-            hit = distance / max(math.cos(heading + increment * beam), GRAZING)
-            if hit < ranges[row, beam]:
-                ranges[row, beam] = hit
+def _sweep_items(ranges, origin, angles, start, headings, distances, increment, period):  # pragma: no cover
+    """ranges[row, beam] = min(itself, d / max(cos(heading + increment * beam), GRAZING)) over the beams each
+    (origin, face) item spans, from its ends' angles (angles[0]: end a, angles[1]: end b).
+
+    The face covers the beam positions k in [k_b, k_a] (k_b in [0, period), k_a - k_b < period: beams per turn).
+    Beam j sits at k = j and, one turn on, at k = j + period: an item straddling k = 0 covers beams
+    ceil(k_b) .. count - 1 and 0 .. floor(k_a - period).
+    """
+    count = ranges.shape[1]
+    for item in range(origin.size):
+        k_a = ((angles[0, item] - start[item]) % TWO_PI) / increment
+        k_b = ((angles[1, item] - start[item]) % TWO_PI) / increment
+        k_a = k_b + (k_a - k_b) % period
+        row, heading, distance = origin[item], headings[item], distances[item]
+        for turn in (0.0, period):
+            first = math.ceil(max(k_b - turn, 0.0))
+            last = min(math.floor(k_a - turn), count - 1.0)
+            for beam in range(int(first), int(max(last - first + 1.0, 0.0)) + int(first)):
+                hit = distance / max(math.cos(heading + increment * beam), GRAZING)
+                if hit < ranges[row, beam]:
+                    ranges[row, beam] = hit
 
 
 class NumpyRayCaster:
@@ -102,40 +138,26 @@ class NumpyRayCaster:
         distance = np.empty((len(origins), len(self._line)))
         for row, (px, py) in enumerate(origins):  # a matrix-matrix product might round differently
             distance[row] = self._line @ (px, py, 1.0)
-        keep = distance > 0.0  # faces turned towards the origin ...
-        (xmin, ymin), (xmax, ymax) = self._lower, self._upper
-        outgrown = [
-            xmin < px - max_range or ymin < py - max_range or xmax > px + max_range or ymax > py + max_range
-            for px, py in origins
-        ]
-        if any(outgrown):  # ... and, when the world outgrows the range, within a square of half side max_range
-            box = self._box
-            near = (
-                (box[0] < x[:, None] + max_range)
-                & (box[1] < y[:, None] + max_range)
-                & (box[2] > x[:, None] - max_range)
-                & (box[3] > y[:, None] - max_range)
-            )
-            keep &= near | ~np.array(outgrown)[:, None]
-        origin, index = keep.nonzero()  # the (origin, face) items, origin by origin
+        # The faces turned towards each origin and, when the world outgrows the range, within a square of half
+        # side max_range: the (origin, face) items, origin by origin.
+        origin, index = _facing(distance, x, y, float(max_range), self._box, self._lower, self._upper)
         if index.size == 0:
             return ranges
-        # Seen from the origin, a front face runs clockwise from end a to end b: it covers
-        # the beam positions k in [k_b, k_a], k = ((angle - phi0) mod 2 pi) / increment.
+        # Seen from the origin, a front face runs clockwise from end a to end b: it covers the beam positions k
+        # in [k_b, k_a], k = ((angle - phi0) mod 2 pi) / increment. The angles are numpy's (its arctan2 may round
+        # differently from the compiled one); the spans and hits are compiled.
         ends = self._ends[:, :, index]
         start = phi0[origin]
-        k_a, k_b = np.mod(np.arctan2(ends[1] - y[origin], ends[0] - x[origin]) - start, TWO_PI) / increment
-        turns = self._period_offsets(increment, count)
-        k_a = k_b + np.mod(k_a - k_b, turns[1, 0])
-        first, counts = fan_spans(k_b, k_a, turns, count)
-        _sweep_faces(
+        angles = np.arctan2(ends[1] - y[origin], ends[0] - x[origin])
+        _sweep_items(
             ranges,
-            np.concatenate([origin] * 2),
-            first,
-            counts,
-            np.concatenate([start - self._inward[index]] * 2),
-            np.concatenate([distance[origin, index]] * 2),
-            increment,
+            origin,
+            angles,
+            start,
+            start - self._inward[index],
+            distance[origin, index],
+            float(increment),
+            self._period_offsets(increment, count)[1, 0],
         )
         return ranges
 
