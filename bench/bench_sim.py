@@ -9,6 +9,8 @@
    that grow with their walls (constant density: the 3.5 m range bounds what a
    scan sees) and in a fixed 3.6 m square where every wall is in range.
 3. LiDAR cost against beam count (60, 240, 720, 1440) on the inner maze.
+4. CPU per closed-loop step (the wall follower of config/wall_follower_sim.yaml driving the simulator, as the
+   control tests' loops do, by thread_time): the simulator's step and the follower's compute apart.
 """
 
 from __future__ import annotations
@@ -119,6 +121,30 @@ def scan_cost(world: World, beams: int, repeats: int, poses: int = 40) -> tuple[
     return costs[0], costs[1]
 
 
+def closed_loop_cpu(world: World, steps: int, repeats: int) -> tuple[float, float]:
+    """(simulator step, follower compute) us of CPU per step over `steps` closed-loop steps, best of `repeats`."""
+    from amr_control.wall_follower import WallFollower
+    from amr_control.wall_follower_config import read_parameter_file
+    from amr_util.scan import scan_of
+
+    follower_config = read_parameter_file(WORLDS.parents[0] / "wall_follower_sim.yaml")
+    best_sim = best_follower = math.inf
+    for _ in range(repeats):
+        sim = Simulator(world, SimulationConfig(dt=follower_config.dt))
+        follower = WallFollower(follower_config)
+        sim_cpu = follower_cpu = 0.0
+        for _ in range(steps):
+            scan = scan_of(sim)
+            start = time.thread_time()
+            command = follower.compute(scan, *sim.odom_twist, sim.time)
+            middle = time.thread_time()
+            sim.step(command.v, command.w)
+            sim_cpu += time.thread_time() - middle
+            follower_cpu += middle - start
+        best_sim, best_follower = min(best_sim, sim_cpu), min(best_follower, follower_cpu)
+    return best_sim / steps * 1e6, best_follower / steps * 1e6
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=2000, help="steps per real-time-factor run")
@@ -149,6 +175,14 @@ def main() -> None:
     for beams in (60, 240, 720, 1440):
         fast, slow = scan_cost(worlds["inner_maze"], beams, args.repeats)
         print(f"{beams:6d} | {fast:8.1f} {slow:8.0f} | {slow / fast:11.1f}x")
+
+    print(
+        f"\n4. Closed loop (wall follower + simulator), us of CPU per step, {args.steps} steps, best of {args.repeats}"
+    )
+    print(f"{'world':16} | {'simulator':>9} {'follower':>9} {'together':>9}")
+    for name in ("inner_maze", "hard_maze"):
+        sim_us, follower_us = closed_loop_cpu(worlds[name], args.steps, args.repeats)
+        print(f"{name:16} | {sim_us:9.1f} {follower_us:9.1f} {sim_us + follower_us:9.1f}")
 
     if args.profile:
         profiler = cProfile.Profile()
