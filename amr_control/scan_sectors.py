@@ -193,6 +193,8 @@ class SectorReader:
         # NaN compares False; no planar LiDAR reads beyond MAX_RANGE, larger values are corrupt.
         range_max = min(range_max, MAX_RANGE) if range_max > range_min else MAX_RANGE
         # Ignored readings (NaN, out of range) become +inf: they never lower a minimum; -inf reads range_min.
+        if not (raw.flags.writeable and raw.flags.c_contiguous):  # one compiled variant (a simulator's are read-only)
+            raw = np.array(raw)
         ranges, usable = scan_kernels.clean(raw, range_min, range_max)
         if self.median_beams > 1:
             ranges = _running_median(ranges, self.median_beams, geometry.full_circle)

@@ -134,6 +134,8 @@ class NumpyRayCaster:
         """(N, count) distances for N fans from origins (x[n], y[n]) starting at angles phi0[n]: row n is
         cast(x[n], y[n], phi0[n], ...) bit for bit, for the cost of a few more pairs rather than N casts."""
         ranges = self._no_hits(len(x), count)
+        # contiguous float64, one compiled variant (a fleet passes columns of its sensor poses)
+        x, y, phi0 = (np.ascontiguousarray(values, dtype=float) for values in (x, y, phi0))
         origins = list(zip(x.tolist(), y.tolist(), strict=True))
         distance = np.empty((len(origins), len(self._line)))
         for row, (px, py) in enumerate(origins):  # a matrix-matrix product might round differently
