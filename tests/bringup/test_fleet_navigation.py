@@ -11,6 +11,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from support.ros import spin_until
+from support.simulation import TWO_IN_THE_PILLAR_ROOM
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup
@@ -24,27 +25,6 @@ ROBOTS = ("r1", "r2")
 PER_ROBOT = ("planner", "path_follower", "wall_follower", "navigator", "particle_filter")
 TIMEOUT = 50.0
 """s of wall clock for both robots to be localized (a loaded 2-core machine; about 10 s when quiet)."""
-TWO = """\
-name: two_in_the_pillar_room
-wall_thickness: 0.05
-walls:
-  - [-2.0, -1.5, 2.0, -1.5]
-  - [2.0, -1.5, 2.0, 1.5]
-  - [2.0, 1.5, -1.0, 1.5]
-  - [-1.0, 1.5, -1.0, 1.0]
-  - [-1.0, 1.0, -2.0, 1.0]
-  - [-2.0, 1.0, -2.0, -1.5]
-boxes:
-  - [-0.15, -0.15, 0.15, 0.15]
-  - [0.8, 0.5, 1.4, 0.9]
-robots:
-  - name: r1
-    start: [-1.5, -1.0, 0.0]
-    goal: [0.0, -0.45, 0.15]
-  - name: r2
-    start: [1.6, -0.2, 3.14159265358979]
-    goal: [-0.5, 0.45, 0.15]
-"""
 
 
 class Observer(Node):
@@ -117,7 +97,7 @@ def test_every_shipped_fleet_world_can_be_localized():
 
 def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp_path):
     world = tmp_path / "two_in_the_pillar_room.yaml"
-    world.write_text(TWO)
+    world.write_text(TWO_IN_THE_PILLAR_ROOM)
     with composed_stack(
         ros_context,
         "fleet_navigation",

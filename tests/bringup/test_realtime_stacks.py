@@ -18,6 +18,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from support.ros import spin_until
+from support.simulation import TWO_IN_THE_PILLAR_ROOM
 
 from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup, shipped_stacks
@@ -30,27 +31,6 @@ NAVIGATED = ("wall_follower", "path_follower")
 """the controllers a navigator hands the robot to: in real time they stop it when it gives the robot to nobody."""
 STARTUP = 60.0
 """wall-clock s for a composed stack to come up on a loaded 2-core machine."""
-TWO_ROBOTS = """\
-name: two_in_the_pillar_room
-wall_thickness: 0.05
-walls:
-  - [-2.0, -1.5, 2.0, -1.5]
-  - [2.0, -1.5, 2.0, 1.5]
-  - [2.0, 1.5, -1.0, 1.5]
-  - [-1.0, 1.5, -1.0, 1.0]
-  - [-1.0, 1.0, -2.0, 1.0]
-  - [-2.0, 1.0, -2.0, -1.5]
-boxes:
-  - [-0.15, -0.15, 0.15, 0.15]
-  - [0.8, 0.5, 1.4, 0.9]
-robots:
-  - name: r1
-    start: [-1.5, -1.0, 0.0]
-    goal: [0.0, -0.45, 0.15]
-  - name: r2
-    start: [1.6, -0.2, 3.14159265358979]
-    goal: [-0.5, 0.45, 0.15]
-"""
 
 
 class Watch(Node):
@@ -205,7 +185,7 @@ def _drives(run: Run) -> None:
 
 def test_fleet_sim_drives_every_robot_in_real_time(ros_context, tmp_path):
     world = tmp_path / "two.yaml"
-    world.write_text(TWO_ROBOTS)
+    world.write_text(TWO_IN_THE_PILLAR_ROOM)
     with running(ros_context, "fleet_sim", {"world": str(world)}, {"simulator.pace": "2.0"}, ("r1", "r2")) as run:
         watch = run.watch
         assert run.until(lambda: all(watch.travelled(r) > 0.5 for r in ("r1", "r2")), 40.0), [
@@ -280,7 +260,7 @@ def test_fleet_navigation_localizes_and_drives_two_robots_in_real_time(ros_conte
     """Two robots, each with its filter, planner, navigator and controllers, and one fleet planner: both localized
     within 10 cm and moving without a collision, then each handed its route of the fleet plan."""
     world = tmp_path / "two.yaml"
-    world.write_text(TWO_ROBOTS)
+    world.write_text(TWO_IN_THE_PILLAR_ROOM)
     robots = ("r1", "r2")
     with running(ros_context, "fleet_navigation", {"world": str(world)}, robots=robots) as run:
         watch = run.watch
