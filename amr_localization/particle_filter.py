@@ -93,7 +93,11 @@ PLACE_SEARCH_CELLS = 250_000
 proposals are then fitted on the map itself) ... A search's proposals are carried by the scan-matched odometry from
 its scan to the one it finishes on, and a long carry drifts: on a 60 m building at 1,000,000 cells (0.15 m) a search
 took 12-88 updates and its best proposal, 0.01-0.07 m off on its own scan, arrived 0.5-2.4 m off (35 m once); at
-250,000 (0.3 m) it takes 4-28 and arrives within 0.1 m (bench/README.md). Mazes of a few metres keep their cells."""
+250,000 (0.3 m) it takes 4-28 and arrives within 0.1 m (bench/README.md). Small maps: PLACE_SEARCH_MIN_CELL."""
+PLACE_SEARCH_MIN_CELL = 0.05
+"""m: a map of finer cells is pooled for the place search by the largest whole factor that keeps its cells within
+this (2 cm maps to 4 cm): at 2 cm its search scored over a thousand headings, and a maze's place search was most
+of a simulated run's CPU."""
 PLACE_SEARCH_RANGE = 10.0
 """m: ... with the beams ending within this of the LiDAR (the far ones set the angular step, not the place)."""
 SEARCH_PROPOSALS = 4
@@ -780,10 +784,14 @@ class ParticleFilter:
         cell is occupied where any of its cells is, a candidate where any of its cells is free space), built at first
         use. A coarse lattice has fewer cells and, with the points within PLACE_SEARCH_RANGE, fewer headings: a global
         search of a 60 m building in a few hundred thousand nodes instead of tens of millions; a maze of a few metres
-        keeps its own cells (its corridors would close)."""
+        keeps cells of PLACE_SEARCH_MIN_CELL at most (coarser, its corridors would close)."""
         if self._coarse is None:
             grid = self._grid
-            factor = max(1, math.ceil(math.sqrt(grid.height * grid.width / PLACE_SEARCH_CELLS)))
+            factor = max(
+                math.ceil(math.sqrt(grid.height * grid.width / PLACE_SEARCH_CELLS)),
+                int(PLACE_SEARCH_MIN_CELL / grid.resolution + 1e-9),
+                1,
+            )
             rows, cols = -(-grid.height // factor), -(-grid.width // factor)
 
             def pooled(mask: np.ndarray) -> np.ndarray:
