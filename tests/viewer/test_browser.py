@@ -271,6 +271,20 @@ class Browser:
     def toggle_folder(self, title: str) -> None:
         self.page.get_by_text(title, exact=True).first.click()
 
+    def set_checked(self, label: str, value: bool) -> None:
+        """The panel's checkbox `label` to `value`: clicked, then looked at until the page shows it. A viewer
+        checkbox shows the viewer's state, so the click's answer comes back from the viewer (late on a loaded
+        machine: Playwright's own check() gives up at once); a click the page lost while redrawing the panel is
+        made again."""
+        box = self.page.get_by_label(label)
+        for _ in range(3):
+            if box.is_checked() == value:
+                return
+            box.click()
+            if poll_until(lambda: box.is_checked() == value, 15.0):
+                return
+        raise AssertionError(f"the checkbox {label!r} did not become {value}")
+
     def screenshot(self) -> np.ndarray:
         """The canvas as an (H, W, 3) array (the panels over it included)."""
         from PIL import Image
@@ -438,7 +452,7 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
             difference = np.abs(discs[first] - discs[second]).sum()
             assert difference > 60, f"{first} {discs[first]} and {second} {discs[second]}: not told apart"
         browser.toggle_folder("View")
-        browser.page.get_by_label("Show labels").uncheck()
+        browser.set_checked("Show labels", False)
         unlabelled = browser.settled()
         for robot, (u, v) in labels.items():  # the label above each robot went with the checkbox
             window = (
@@ -517,11 +531,11 @@ def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(pl
         assert free > 1000 and unknown > 1000, f"the map: {free} free and {unknown} unknown pixels"
         browser.toggle_folder("View")
         for layer, colors in (("graph", ("graph_edges", "graph_nodes")), ("frontiers", ("frontiers",))):
-            browser.page.get_by_label(f"Show {layer}").uncheck()
+            browser.set_checked(f"Show {layer}", False)
             hidden = browser.settled()[:, : scene.shape[1]]
             left = sum(colored(hidden, COLORS[color]) for color in colors)
             assert left <= 0.2 * sum(counts[color] for color in colors), f"{layer} hidden: {left} pixels left"
-            browser.page.get_by_label(f"Show {layer}").check()
+            browser.set_checked(f"Show {layer}", True)
         resume(browser)
         assert browser.failed == [] and browser.errors == []
     finally:
