@@ -204,13 +204,7 @@ class CorrelativeMatcher:
         y) and +-angular_window (rad) of prior, by branch and bound (exact unless max_nodes runs out: then
         exhaustive is False), refined below the cell when `refine`; its covariance from +-covariance_cells around the
         peak (0: the lattice's quantization only, not computed). No finite point: the prior, score 0."""
-        points = _finite_points(points)
-        prior = np.asarray(prior, dtype=float).reshape(3)
-        if not np.all(np.isfinite(prior)):
-            raise ValueError(f"match: prior must be a finite (x, y, theta), got {prior!r}")
-        for name, value in (("linear_window", linear_window), ("angular_window", angular_window)):
-            if not math.isfinite(value) or value < 0.0:
-                raise ValueError(f"match: {name} must be a number >= 0, got {value!r}")
+        points, prior = _window_arguments("match", points, prior, linear_window, angular_window)
         res = self.resolution
         step = self._step(points, angular_step)
         if len(points) == 0:
@@ -595,6 +589,19 @@ class _BranchAndBound:
 def _finite_points(points) -> np.ndarray:
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     return points[np.all(np.isfinite(points), axis=1)]
+
+
+def _window_arguments(who: str, points, prior, linear_window: float, angular_window: float):
+    """A windowed search's finite points and prior as arrays; a prior that is not finite or a window that is not a
+    number >= 0: ValueError naming the search (`who`) and the argument."""
+    points = _finite_points(points)
+    prior = np.asarray(prior, dtype=float).reshape(3)
+    if not np.all(np.isfinite(prior)):
+        raise ValueError(f"{who}: prior must be a finite (x, y, theta), got {prior!r}")
+    for name, value in (("linear_window", linear_window), ("angular_window", angular_window)):
+        if not math.isfinite(value) or value < 0.0:
+            raise ValueError(f"{who}: {name} must be a number >= 0, got {value!r}")
+    return points, prior
 
 
 def _wrap(angle: float) -> float:

@@ -21,9 +21,9 @@ from amr_maps.scan_matcher import (
     Match,
     _BranchAndBound,
     _cells,
-    _finite_points,
     _floor_covariance,
     _max_pyramid,
+    _window_arguments,
     _wrap,
 )
 
@@ -59,13 +59,7 @@ def window_modes(
     within radius of (x, y). A budgeted search: at most max_nodes branch and bound nodes (each one lookup per
     point); `nodes` says how many were scored, `exhaustive` whether the search finished (then the modes are the
     lattice's exact best). Bad arguments: ValueError naming them."""
-    points = _finite_points(points)
-    prior = np.asarray(prior, dtype=float).reshape(3)
-    if not np.all(np.isfinite(prior)):
-        raise ValueError(f"window modes: prior must be a finite (x, y, theta), got {prior!r}")
-    for name, value in (("linear_window", linear_window), ("angular_window", angular_window)):
-        if not math.isfinite(value) or value < 0.0:
-            raise ValueError(f"window modes: {name} must be a number >= 0, got {value!r}")
+    points, prior = _window_arguments("window modes", points, prior, linear_window, angular_window)
     if not isinstance(count, (int, np.integer)) or isinstance(count, bool) or count < 1:
         raise ValueError(f"window modes: count must be an integer >= 1, got {count!r}")
     if not math.isfinite(min_score) or not 0.0 <= min_score <= 1.0:
