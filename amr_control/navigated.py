@@ -14,6 +14,8 @@ repeated stamp, so such a status is checked here first.
 
 from __future__ import annotations
 
+from amr_util.stamps import stamp_nanoseconds
+
 NAVIGATOR_STATUS_TOPIC = "navigator/status"
 STEPPINGS = ("lockstep", "realtime")
 """a controller's `stepping` parameter: how the world it drives steps, as the stack declares it (the simulator's
@@ -27,13 +29,6 @@ def stops_on_release(simulation: bool, stepping: str, status) -> bool:
     in lockstep never, as a command would step the world (the lockstep simulator holds the robot instead), nor when
     another controller takes over (its command answers the observation)."""
     return not simulation or (stepping == "realtime" and not status.controller)
-
-
-def stamp_ns(message) -> int:
-    """Integer nanoseconds of a message's header stamp (as rclpy's Time.from_msg; no ROS import here: the
-    controllers' configurations import STEPPINGS from this module)."""
-    stamp = message.header.stamp
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 class NavigatorGate:
@@ -55,12 +50,12 @@ class NavigatorGate:
         mine = status.controller == self.name
         changed = mine != self.in_charge
         self.in_charge = mine
-        self._held = None if mine else (stamp_ns(status), inputs)
+        self._held = None if mine else (stamp_nanoseconds(status.header.stamp), inputs)
         return mine, changed
 
     def replay(self, status) -> tuple | None:
         """The held inputs, if `status` is a new decision for the held observation that names this node."""
-        if self._held is None or stamp_ns(status) != self._held[0]:
+        if self._held is None or stamp_nanoseconds(status.header.stamp) != self._held[0]:
             return None
         if status.controller != self.name:
             return None
@@ -70,7 +65,7 @@ class NavigatorGate:
 
     def is_repeat(self, status) -> bool:
         """A status for the observation held here (the synchronizer would drop it as a repeated stamp)."""
-        return self._held is not None and stamp_ns(status) == self._held[0]
+        return self._held is not None and stamp_nanoseconds(status.header.stamp) == self._held[0]
 
     def route(self, status, answer, pair) -> None:
         """A status as it arrives: a new decision on the held observation answers it (``answer(*held)``) when it

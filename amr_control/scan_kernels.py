@@ -89,23 +89,28 @@ def _before(a, b):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _gather(ranges, i, beams, wrap, spread, window):  # pragma: no cover - compiled
+    """The `beams` ranges centred on beam i into `window`; whether all are finite and within `spread` (max - min)."""
+    count = ranges.size
+    low, high = math.inf, -math.inf
+    for k in range(beams):
+        value = ranges[_neighbour(i - beams // 2 + k, count, wrap)]
+        if not math.isfinite(value):
+            return False
+        low, high = min(low, value), max(high, value)
+        window[k] = value
+    return high - low <= spread
+
+
+@numba.njit(cache=True, error_model="numpy")
 def running_mean(ranges, beams, wrap, spread):  # pragma: no cover - compiled
     """Each beam the mean of its window where all of it is finite and within `spread` (max - min), else kept."""
     count = ranges.size
-    half = beams // 2
     out = np.empty(count)
     window = np.empty(beams)
     for i in range(count):
-        low, high = math.inf, -math.inf
-        smooth = True
-        for k in range(beams):
-            value = ranges[_neighbour(i - half + k, count, wrap)]
-            if not math.isfinite(value):
-                smooth = False
-                break
-            low, high = min(low, value), max(high, value)
-            window[k] = value
-        out[i] = block_sum(window, beams) / beams if smooth and high - low <= spread else ranges[i]
+        smooth = _gather(ranges, i, beams, wrap, spread, window)
+        out[i] = block_sum(window, beams) / beams if smooth else ranges[i]
     return out
 
 
@@ -114,7 +119,6 @@ def flat_mean(ranges, beams, wrap, spread, cosine, keep):  # pragma: no cover - 
     """scan_sectors._flat_mean: where a beam's window is all finite, within `spread` and the beam positive, the
     window's straight-line average cosine / mean(1 / r) replaces the beam unless within `keep` (a share of it)."""
     count = ranges.size
-    half = beams // 2
     out = np.empty(count)
     inverse = np.empty(beams)
     for i in range(count):
@@ -122,16 +126,9 @@ def flat_mean(ranges, beams, wrap, spread, cosine, keep):  # pragma: no cover - 
         out[i] = value
         if not value > 0.0:
             continue
-        low, high = math.inf, -math.inf
-        smooth = True
-        for k in range(beams):
-            r = ranges[_neighbour(i - half + k, count, wrap)]
-            if not math.isfinite(r):
-                smooth = False
-                break
-            low, high = min(low, r), max(high, r)
-            inverse[k] = 1.0 / r
-        if smooth and high - low <= spread:
+        if _gather(ranges, i, beams, wrap, spread, inverse):
+            for k in range(beams):
+                inverse[k] = 1.0 / inverse[k]
             average = cosine / (block_sum(inverse, beams) / beams)
             if abs(average - value) > keep * value:
                 out[i] = average
