@@ -91,13 +91,11 @@ while the filter is localized."""
 PLACE_SEARCH_CELLS = 250_000
 """the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
 proposals are then fitted on the map itself) ... A search's proposals are carried by the scan-matched odometry from
-its scan to the one it finishes on, and a long carry drifts: on a 60 m building at 1,000,000 cells (0.15 m) a search
-took 12-88 updates and its best proposal, 0.01-0.07 m off on its own scan, arrived 0.5-2.4 m off (35 m once); at
-250,000 (0.3 m) it takes 4-28 and arrives within 0.1 m (bench/README.md). Small maps: PLACE_SEARCH_MIN_CELL."""
+its scan to the one it finishes on, so a search must finish within a few metres of travel: on a 60 m building, 0.3 m
+cells (why: docs/decisions/2026-11-29-localization-one-model.md, fourth pass)."""
 PLACE_SEARCH_MIN_CELL = 0.05
 """m: a map of finer cells is pooled for the place search by the largest whole factor that keeps its cells within
-this (2 cm maps to 4 cm): at 2 cm its search scored over a thousand headings, and a maze's place search was most
-of a simulated run's CPU."""
+this (2 cm maps to 4 cm: fewer cells and headings, nothing the scans tell apart lost)."""
 PLACE_SEARCH_RANGE = 10.0
 """m: ... with the beams ending within this of the LiDAR (the far ones set the angular step, not the place)."""
 SEARCH_PROPOSALS = 4

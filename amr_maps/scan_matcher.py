@@ -98,11 +98,19 @@ class ScoreMap:
 
     @classmethod
     def from_points(
-        cls, points: np.ndarray, resolution: float, sigma: float, pad: float, cover: np.ndarray | None = None
+        cls,
+        points: np.ndarray,
+        resolution: float,
+        sigma: float,
+        pad: float,
+        cover: np.ndarray | None = None,
+        to_points: bool = False,
     ) -> ScoreMap:
         """The likelihood field of a point cloud (a scan's end points: Olson's rasterized scan), on cells of
-        `resolution` covering the points, and the `cover` points if given (not rasterized), and `pad` m around them;
-        every cell a candidate."""
+        `resolution` covering the points, and the `cover` points if given (not rasterized), and `pad` m around them.
+        A cell's distance is to the nearest cell holding a point (its centre); `to_points`: to the mean of that
+        cell's points instead (up to half a cell nearer the truth: the lattice's scores and their curvature see the
+        walls where they are, as a scan matcher's front end wants; every cell a candidate)."""
         points = _finite_points(points)
         extent = points if cover is None else np.vstack([points, _finite_points(cover)])
         if not len(extent):
@@ -111,8 +119,10 @@ class ScoreMap:
             raise ValueError(f"score map: pad must be a number >= 0 m, got {pad!r}")
         low = np.floor((extent.min(axis=0) - pad) / resolution) * resolution
         shape = np.ceil((extent.max(axis=0) + pad - low) / resolution).astype(int) + 1
-        data = np.zeros((shape[1], shape[0]), dtype=np.int8)
         cells = np.floor((points - low) / resolution).astype(int)
+        if to_points:
+            return cls(_point_table(points, cells, low, shape, resolution, sigma), resolution, (low[0], low[1]))
+        data = np.zeros((shape[1], shape[0]), dtype=np.int8)
         data[cells[:, 1], cells[:, 0]] = 100
         return cls.from_occupancy(OccupancyGrid(data, resolution, (float(low[0]), float(low[1]), 0.0)), sigma=sigma)
 
@@ -584,6 +594,28 @@ class _BranchAndBound:
 
 
 # -- helpers ----------------------------------------------------------------------------------------------
+
+
+def _point_table(points, cells, low, shape, resolution: float, sigma: float) -> np.ndarray:
+    """exp(-d^2 / (2 sigma^2)), d from each cell's centre to the mean of the points in the nearest cell holding any
+    (ScoreMap.from_points with to_points)."""
+    cols, rows = int(shape[0]), int(shape[1])
+    flat = cells[:, 1] * cols + cells[:, 0]
+    occupied_cells, group = np.unique(flat, return_inverse=True)
+    count = np.bincount(group)
+    mean_x = np.zeros(rows * cols)
+    mean_y = np.zeros(rows * cols)
+    mean_x[occupied_cells] = np.bincount(group, weights=points[:, 0]) / count
+    mean_y[occupied_cells] = np.bincount(group, weights=points[:, 1]) / count
+    free = np.ones(rows * cols, dtype=bool)
+    free[occupied_cells] = False
+    _, (near_r, near_c) = ndimage.distance_transform_edt(free.reshape(rows, cols), return_indices=True)
+    nearest = near_r * cols + near_c
+    x = low[0] + (np.arange(cols) + 0.5) * resolution
+    y = low[1] + (np.arange(rows) + 0.5) * resolution
+    dx = x[None, :] - mean_x[nearest]
+    dy = y[:, None] - mean_y[nearest]
+    return np.exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)).astype(np.float32)
 
 
 def _finite_points(points) -> np.ndarray:

@@ -154,7 +154,7 @@ def test_the_field_measures_the_distance_to_the_points_not_to_their_cells():
     distance to the cell holding the points) the wall's own cells scored 1 and their neighbours alike."""
     wall = np.column_stack([np.full(200, 0.0374), np.linspace(-2.0, 2.0, 200)])
     sigma = 0.075
-    field = slam_module._point_field(wall, 0.05, sigma, 1.5, cover=np.zeros((1, 2)))
+    field = ScoreMap.from_points(wall, 0.05, sigma, 1.5, cover=np.zeros((1, 2)), to_points=True)
     centres = field.origin[0] + (np.arange(field.table.shape[1]) + 0.5) * 0.05
     row = field.table[field.table.shape[0] // 2]
     expected = np.exp(-0.5 * ((centres - 0.0374) / sigma) ** 2)
