@@ -291,19 +291,22 @@ class Browser:
 
         return np.asarray(Image.open(io.BytesIO(self.canvas.screenshot(timeout=120000))).convert("RGB"))
 
-    def settled(self, timeout: float = WAIT, region=None) -> np.ndarray:
-        """The canvas once two screenshots in a row agree (in `region`, by default the scene left of the panel, but
-        for a few pixels): what is drawn has reached the page."""
+    def settled(self, timeout: float = WAIT, region=None, still: float = 1.0) -> np.ndarray:
+        """The canvas once the screenshots have agreed for `still` s (in `region`, by default the scene left of the
+        panel, but for a few pixels): what is drawn has reached the page. Two shots 0.2 s apart were not enough on
+        a loaded machine: the viewer's updates came further apart than that, and a frame behind was taken."""
         last = self.screenshot()
         if region is None:
             region = (slice(None), slice(0, int(free_share(last.shape[1]) * last.shape[1])))
         deadline = time.monotonic() + timeout
+        since = time.monotonic()
         while time.monotonic() < deadline:
             time.sleep(0.2)
             shot = self.screenshot()
-            if (np.abs(shot[region].astype(int) - last[region].astype(int)).sum(axis=2) > 60).sum() < 5:
+            if (np.abs(shot[region].astype(int) - last[region].astype(int)).sum(axis=2) > 60).sum() >= 5:
+                last, since = shot, time.monotonic()
+            elif time.monotonic() - since >= still:
                 return shot
-            last = shot
         raise AssertionError(f"the drawing did not settle in {timeout} s")
 
     def hide_notifications(self) -> None:
