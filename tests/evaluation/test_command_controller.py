@@ -56,9 +56,10 @@ def spec_of(tmp_path, source: str, **options) -> EpisodeSpec:
 @pytest.mark.parametrize("clock", [{"clock": "lockstep"}, {"clock": "realtime", "pace": 2.0}], ids=lambda c: c["clock"])
 def test_a_student_node_is_run_and_recorded(tmp_path, ros_domain, monkeypatch, clock):
     monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
-    record = run_episode(spec_of(tmp_path, STUDENT, **clock))
+    # a node starting on a loaded machine (two test workers beside it) may take more than the silent case's 3 s
+    record = run_episode(spec_of(tmp_path, STUDENT, **clock, answer_timeout=10.0))
     assert record["error"] is None, record["error"]
-    assert record["goal_reached"] is True and record["reason"] == "goal region reached"
+    assert record["goal_reached"] is True and record["reason"] == "goal region reached", record["reason"]
     # 0.8 m at 0.2 m/s: 4 s; in real time a node on a loaded machine misses scans and drives less of each second
     latest = 8.0 if clock["clock"] == "lockstep" else 12.0
     assert 3.9 < record["time_to_goal"] < latest and record["collisions"] == 0
