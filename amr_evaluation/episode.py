@@ -18,7 +18,10 @@ Controllers (library level, no DDS: the simulator library and the controllers' p
   navigation loop, its own particle filter and the traffic rules; options robots, localization).
 
 ``mode="ros"`` runs the same spec through the ROS nodes (amr_evaluation.ros_episode: an amr-bringup
-stack in a child process with its own ROS_DOMAIN_ID).
+stack in a child process with its own ROS_DOMAIN_ID) and gives the same record: the library loops take what the
+stack's nodes take (``stack_map``: the stack's one map, the filter's and the planner's, with its resolution as /map
+carries it; ``AsSent``: the scan as its LaserScan carries it, float32 ranges and geometry). The particle filter
+turns a difference of 1e-7 in its inputs into millimetres at its first update, and the run goes its own way.
 """
 
 from __future__ import annotations
@@ -208,6 +211,58 @@ def simulator_for(spec: EpisodeSpec, world, dt: float = 0.05, beams: int = 240):
     )
 
 
+def as_sent(value: float) -> float:
+    """`value` as a float32 message field carries it (sensor_msgs/LaserScan's ranges and angles,
+    nav_msgs/MapMetaData's resolution)."""
+    return float(np.float32(value))
+
+
+class AsSent:
+    """A simulator whose scan reads as the simulator node's LaserScan carries it (float32 ranges, angles and
+    limits, read back as float64 by amr_util.messages.scan_data): a library loop then reads the scan the nodes
+    read. Everything else is the simulator's own."""
+
+    def __init__(self, sim) -> None:
+        self._sim = sim
+
+    @property
+    def ranges(self) -> np.ndarray:
+        return np.asarray(self._sim.ranges, dtype=np.float32).astype(float)
+
+    @property
+    def lidar(self):
+        from amr_util.scan import ScanData
+
+        lidar = self._sim.lidar
+        return ScanData(
+            (), *(as_sent(v) for v in (lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max))
+        )
+
+    def __getattr__(self, name: str):
+        return getattr(self._sim, name)
+
+
+def stack_map(spec: EpisodeSpec, world):
+    """The one map of the spec's ROS stack, the particle filter's and the planner's: the world rasterized at its
+    map_server's resolution (config/bringup), with that resolution as /map carries it (a float32)."""
+    from amr_bringup.stack_config import load_bringup
+    from amr_evaluation.ros_episode import STACKS
+    from amr_maps.occupancy_grid import OccupancyGrid
+    from amr_maps.rasterize import rasterize_world
+
+    server = next(node for node in load_bringup(STACKS[spec.controller]).nodes if node.name == "map_server")
+    grid = rasterize_world(world, float(server.parameters["resolution"]))
+    return OccupancyGrid(grid.data, as_sent(grid.resolution), grid.origin, grid.frame_id)
+
+
+def navigation_planner(spec: EpisodeSpec, world):
+    """The planner of a navigation episode, on the stack's map (the planner node plans on /map)."""
+    from amr_planning.planner import Planner, PlannerConfig
+
+    config = PlannerConfig.from_params({**spec.parameters["planner"], "world": ""})
+    return Planner(stack_map(spec, world), config)
+
+
 def wall_follower_config(spec: EpisodeSpec):
     """The wall follower's config; a generated world's hand (its goal was placed for it) sets the followed side."""
     from amr_control.wall_follower_config import WallFollowerConfig
@@ -293,14 +348,13 @@ class _TimedPlanner:
 
 
 def _particle_filter(spec: EpisodeSpec, world):
+    """The filter on the stack's map (the node takes /map; its own map_resolution rasterizes only a world it is
+    given itself)."""
     from amr_localization.particle_filter import ParticleFilter
     from amr_localization.particle_filter_parameters import config_of
-    from amr_maps.rasterize import rasterize_world
 
     params = {**spec.parameters["particle_filter"], "seed": spec.seed}
-    return ParticleFilter(
-        rasterize_world(world, params["map_resolution"]), config_of(params), range_max=params["laser_max_range"]
-    )
+    return ParticleFilter(stack_map(spec, world), config_of(params), range_max=params["laser_max_range"])
 
 
 CONFIDENCES = ("drive_confidence", "release_confidence")
@@ -312,13 +366,10 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
     from amr_control.path_follower_config import PathFollowerConfig
     from amr_control.wall_follower import WallFollower
     from amr_evaluation.worlds import build_world, with_goal
-    from amr_maps.rasterize import rasterize_world
     from amr_navigation.loop import NavigationLoop, run_navigation
-    from amr_planning.planner import Planner, PlannerConfig
 
     world = build_world(spec.world)
-    planner_config = PlannerConfig.from_params({**spec.parameters["planner"], "world": ""})
-    planner = _TimedPlanner(Planner(rasterize_world(world, planner_config.resolution), planner_config))
+    planner = _TimedPlanner(navigation_planner(spec, world))
     world = with_goal(world, spec.goal, spec.seed, planner.costmap)
     if world.goal is None:
         raise ValueError(f"{world.name}: has no goal; give one (goal: far, random or [x, y, radius])")
@@ -334,7 +385,11 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
     particle_filter = _particle_filter(spec, world)
     sim = simulator_for(spec, world, dt=wall.dt)
     run = run_navigation(
-        sim, particle_filter, navigator, limit=spec.duration, max_collisions=int(spec.options.get("max_collisions", 5))
+        AsSent(sim),
+        particle_filter,
+        navigator,
+        limit=spec.duration,
+        max_collisions=int(spec.options.get("max_collisions", 5)),
     )
     # reached: the true pose in the goal region (run.reached checks it when the follower says REACHED)
     reached = bool(run.reached and run.goal_distance <= world.goal.radius + 1e-9)
@@ -384,7 +439,7 @@ def _localization(spec: EpisodeSpec) -> dict[str, Any]:
     if stop_after is not None:
         until = watch.stop_after(float(stop_after)) if watch is not None else _localized_for(float(stop_after))
     trace = run(
-        sim,
+        AsSent(sim),
         particle_filter,
         follower,
         spec.duration,

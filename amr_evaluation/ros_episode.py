@@ -64,6 +64,15 @@ STARTUP_TIMEOUT = 60.0
 """wall-clock s for the stack to come up and publish its first status."""
 STALL_TIMEOUT = 30.0
 """wall-clock s without simulated time advancing before the episode is given up."""
+LOCKSTEP_WAITS = {
+    "maze_localization": {"simulator.lockstep_pose_wait": STALL_TIMEOUT},
+    "maze_navigation": {"simulator.lockstep_pose_wait": STALL_TIMEOUT, "navigator.plan_timeout": STALL_TIMEOUT},
+}
+"""What a lockstep step of each stack waits for, and how long (wall-clock s), as the library loop waits for it: the
+filter's /pose of the last observation, and the navigator's plan (its status, which the controllers answer, waits
+for ~/plan). The stacks' own 1 s and 10 s are made for a person watching; a loaded machine exceeds them, and a step
+that went on without the /pose, or a plan given up, is another run. A wait that is never answered ends the episode
+at STALL_TIMEOUT, with the reason."""
 
 
 class RosEpisodeError(RuntimeError):
@@ -115,7 +124,12 @@ def _world_file(spec, directory: Path) -> str:
 
         data = yaml.safe_load(resolve_world_path(spec.world["file"]).read_text(encoding="utf-8"))
     if spec.goal is not None:
-        world = with_goal(build_world(spec.world), spec.goal, spec.seed)
+        world, costmap = build_world(spec.world), None
+        if spec.controller == "navigation" and isinstance(spec.goal, str):  # placed as the library places it
+            from amr_evaluation.episode import navigation_planner
+
+            costmap = navigation_planner(spec, world).costmap
+        world = with_goal(world, spec.goal, spec.seed, costmap)
         data["goal"] = [world.goal.x, world.goal.y, world.goal.radius]
     path = directory / "world.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
@@ -227,7 +241,8 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
     from amr_util.stop_signals import Flag
 
     name, arguments = stack_of(spec, directory)
-    bringup = load_bringup(name).with_overrides(arguments, {})
+    waits = {key: str(value) for key, value in LOCKSTEP_WAITS.get(name, {}).items()}
+    bringup = load_bringup(name).with_overrides(arguments, waits)
     command = spec.parameters.get("command") if spec.controller == "command" else None
     if command is not None:  # the user's node drives instead of the shipped wall follower
         bringup = dataclasses.replace(
