@@ -1,5 +1,5 @@
-"""An episode through the ROS nodes (the maze_sim stack composed in a child process, its own domain) gives
-the library episode's figures."""
+"""An episode through the ROS nodes (the controller's stack composed in a child process, its own domain) gives
+the library episode's record: the wall follower, localization and navigation, each to the step."""
 
 from __future__ import annotations
 
@@ -33,6 +33,35 @@ def test_the_wall_follower_stack_matches_the_library_episode(ros_domain, monkeyp
     assert ros["time"] == pytest.approx(expected["time"], abs=1e-6)  # the first status at or past 8 s
     assert ros["collisions"] == expected["collisions"] == 0
     assert ros["goal_reached"] is expected["goal_reached"] is False
+    assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
+
+
+def test_the_navigation_stack_reaches_the_goal_at_the_library_episodes_step(ros_domain, monkeypatch):
+    """pillar_goal: localized at the third observation, one plan, the goal 8.3 s in (a filter fed other numbers than
+    the nodes', or the planner on another map, parts them by a few steps: 8.15 against 8.30 s)."""
+    monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
+    label, parameters = configs.resolve("navigation", "default")
+    library = EpisodeSpec("navigation", label, parameters, {"file": "pillar_goal.yaml"}, seed=1, duration=20.0)
+    ros = run_episode(dataclasses.replace(library, mode="ros"))
+    expected = run_episode(library)
+    assert ros["error"] is None, ros["error"]
+    assert expected["goal_reached"] is ros["goal_reached"] is True
+    assert ros["time_to_goal"] == pytest.approx(expected["time_to_goal"], abs=1e-6)
+    assert ros["time_to_localized"] == pytest.approx(expected["time_to_localized"], abs=1e-6)
+    assert ros["collisions"] == expected["collisions"] == 0
+    assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
+
+
+def test_the_localization_stack_localizes_at_the_library_episodes_step_with_its_error(ros_domain, monkeypatch):
+    monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
+    label, parameters = configs.resolve("localization", "default")
+    library = EpisodeSpec("localization", label, parameters, {"file": "open_room.yaml"}, seed=0, duration=3.0)
+    ros = run_episode(dataclasses.replace(library, mode="ros"))
+    expected = run_episode(library)
+    assert ros["error"] is None, ros["error"]
+    assert ros["time"] == pytest.approx(expected["time"], abs=1e-6)
+    assert ros["time_to_localized"] == pytest.approx(expected["time_to_localized"], abs=1e-6)
+    assert ros["localization_error"] == pytest.approx(expected["localization_error"], abs=1e-9)
     assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
 
 
