@@ -634,10 +634,16 @@ class GraphSlam:
             # (the rest wait for the next updates), but one at least every other update, however busy the front end
             if self._work.units > cfg.loop_work_budget * 1e6 and (searched or not self._starved):
                 break
-            i = self._pending.pop(0)
+            submap = self._submaps[self._pending[0]]
+            if submap.reference is None:
+                # a submap's build is as much work as its search (fhw: 20-80 ms each at load 8): only as the
+                # update's first candidate, and its search waits for the next update (first in the queue)
+                if not searched:
+                    self._reference_of(submap)
+                    searched += 1
+                break
             searched += 1
-            submap = self._submaps[i]
-            self._reference_of(submap)
+            self._pending.pop(0)
             anchor = poses[submap.anchor]
             prior = np.array(relative_pose(anchor, pose))
             match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)
@@ -652,7 +658,7 @@ class GraphSlam:
                 self.inconsistent_closures += 1
                 continue
             information = _match_information(submap.matcher, points, matched, cfg.resolution)
-            rival = _rival_score(submap.matcher, points, matched, prior, cfg, self._work)
+            rival = _rival_score(submap.matcher, points, matched, prior, cfg, self._work, match.score)
             if rival >= AMBIGUITY_RATIO * match.score:
                 self.ambiguous_closures += 1
                 continue
@@ -765,13 +771,16 @@ def _rival_score(
     prior: np.ndarray,
     config: SlamConfig,
     work: _Work | None = None,
+    score: float | None = None,
 ) -> float:
     """The best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
     heading) at least AMBIGUITY_DISTANCE from the match (a branch and bound over that region: GlobalSearch, the
     places scoring under AMBIGUITY_RATIO of the match pruned). A corridor, a row of equal rooms, a maze's
     cells one pitch apart match nearly as well there, and a closure to one of them says little about which;
     rivals only along the match's principal axes and 0.5 m off let 0.45-1.5 m false closures through in
-    generated mazes (the pitch 0.44 m, its diagonal 0.62 m)."""
+    generated mazes (the pitch 0.44 m, its diagonal 0.62 m). score: the match's (None: loop_min_score); a rival
+    below AMBIGUITY_RATIO of it is no rival, so the search prunes there (the same answer, a fraction of the work:
+    pruned at loop_min_score it was 60-120 ms of a closure's 150-250 on fhw)."""
     score_map = matcher.score_map
     rows, cols = score_map.shape
     res = score_map.resolution
@@ -789,7 +798,7 @@ def _rival_score(
         points,
         region,
         count=1,
-        min_score=min(1.0, AMBIGUITY_RATIO * config.loop_min_score),
+        min_score=min(1.0, AMBIGUITY_RATIO * (config.loop_min_score if score is None else score)),
         min_separation=AMBIGUITY_DISTANCE,
     )
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
