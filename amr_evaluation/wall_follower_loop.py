@@ -3,7 +3,9 @@
 The wall-follower episode of amr_evaluation (episode.py) and bench/bench_wall_follower_families.py run it.
 
 The simulator library and the controller in lockstep, as tests/control/test_closed_loop.py
-does (minus the synchronizer: lockstep stamps are identical, so every pair is the step's own).
+does (minus the synchronizer: lockstep stamps are identical, so every pair is the step's own). The controller reads
+the scan as the simulator node's LaserScan carries it (float32 ranges and geometry: amr_evaluation.episode.AsSent),
+so that the run is the ROS stack's to the step.
 Options the ROS path has and the library loop lacks are emulated here:
 
 * ``scan_period``: the LiDAR scans only every that many seconds (LDS-01: 0.2 s, 5 Hz); as
@@ -32,6 +34,7 @@ import numpy as np
 
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
+from amr_evaluation.episode import as_sent
 from amr_evaluation.figures import path_figures
 from amr_maps.maze_route import MazeGrid, cell_route
 from amr_maps.world import World
@@ -85,6 +88,7 @@ def run(
     )
     follower = WallFollower(config)
     lidar = sim.lidar
+    sent = [as_sent(v) for v in (lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)]
     outliers = np.random.default_rng([seed, 14])
     every = 1 if scan_period is None else max(1, round(scan_period / config.dt))
     states: Counter[str] = Counter()
@@ -93,12 +97,12 @@ def run(
     command, issues = None, 0
     while sim.time < seconds and not sim.goal_reached:
         if sim.steps % every == 0:
-            ranges = np.array(sim.ranges, dtype=float)
+            ranges = np.asarray(sim.ranges, dtype=np.float32).astype(float)  # as the LaserScan carries them
             if outlier_rate > 0.0:
                 hit = outliers.random(len(ranges)) < outlier_rate
                 ranges[hit] = outliers.uniform(lidar.range_min, 1.0, int(hit.sum()))
             odometry_v, odometry_w = sim.odom_twist
-            scan = ScanData(ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
+            scan = ScanData(ranges, *sent)
             command = follower.compute(scan, odometry_v, odometry_w, sim.time)
             issues += not command.ok
             if follower.state == "FOLLOW":
