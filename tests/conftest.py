@@ -16,6 +16,7 @@ import rclpy
 from hypothesis import settings
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from support.ros import NodeProcess, close, fresh_domain, spin_until
+from support.schedule import longest_files_first
 
 pytest_plugins = ["support.kinematics", "support.ik_service", "support.simulator_probe"]
 """Fixtures of a directory's tests: the kinematics chains, the IK service launcher, the simulator node probe."""
@@ -49,6 +50,13 @@ def pytest_sessionstart(session) -> None:
     from support.numba_cache import warm_in_a_child
 
     config.pluginmanager.get_plugin("terminalreporter").write_line(warm_in_a_child())
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """A pytest-xdist worker collects the files longest first (support.schedule): with `--dist loadfile
+    --no-loadscope-reorder` (make test) the files are handed out in that order and the two workers finish together."""
+    if hasattr(config, "workerinput"):
+        items[:] = longest_files_first(items)
 
 
 @pytest.fixture

@@ -1,31 +1,35 @@
 """The suite's numba kernels compiled once before a parallel run's workers start (tests/conftest.py).
 
-Each kernel is `numba.njit(cache=True)`: the first process to call it compiles it (about 30 s of CPU for them all)
+Each kernel is `numba.njit(cache=True)`: the first process to call it compiles it (about 26 s of CPU for them all)
 and writes the machine code beside its source (`__pycache__`), later processes load it in a fraction of a second.
 On a clean clone every process that reaches a kernel before that file exists compiles it again: both pytest-xdist
-workers and the node processes of the first stacks, side by side. `python -m support.numba_cache` (from tests/)
-calls every kernel once, as the suite's code calls them (the same argument types): the particle filter in its
-closed loop (the likelihood field, the place search's scan matcher, the LiDAR's ray casting), a fleet's scan (the
-other robots' discs), a log-odds map's update and every IK chain's warm-up. With the cache in place it costs the
-imports and the loads, about 2 s of CPU.
+workers and the node processes of the first stacks, side by side. `python -m support.numba_cache [part ...]` (from
+tests/) calls every kernel of the parts named (all without one) once, as the suite's code calls them (the same
+argument types). The two parts share no kernel and cost about the same, so warm_in_a_child compiles them side by
+side, one process each, on two cores:
+
+- `loop`: the particle filter in its closed loop (the likelihood field, the place search's scan matcher, the
+  LiDAR's ray casting, the wall follower's scan kernels), a fleet's scan (the other robots' discs), a log-odds
+  map's update;
+- `chains`: every IK chain's warm-up.
+
+With the cache in place it costs the imports and the loads, about 2 s of CPU.
 """
 
 from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def warm() -> None:
-    import yaml
-
+def warm_loop() -> None:
     from amr_control.wall_follower_config import read_parameter_file
     from amr_evaluation.closed_loop import run
-    from amr_kinematics.config import load_chain_set
     from amr_localization.particle_filter import ParticleFilter
     from amr_localization.particle_filter_config import ParticleFilterConfig
     from amr_maps.rasterize import rasterize_world
@@ -43,31 +47,61 @@ def warm() -> None:
     run(sim, pf, follower, 0.3)
     LogOddsGrid(0.05).insert_scan((0.0, 0.0, 0.0), scan_of(sim))
     Fleet(load_world(ROOT / "config" / "worlds" / "fleets" / "crossing.yaml"), SimulationConfig(seed=0))
+
+
+def warm_chains() -> None:
+    import yaml
+
+    from amr_kinematics.config import load_chain_set
+
     chains = yaml.safe_load((ROOT / "config" / "ik_chains.yaml").read_text(encoding="utf-8"))
     for chain in load_chain_set(chains).values():
         chain.warm_up()
 
 
+PARTS = {"loop": warm_loop, "chains": warm_chains}
+"""The kernels in parts that share none, each about half the compile time."""
+
+
+def warm(*parts: str) -> None:
+    """Every kernel of the parts named (all of them without one) called once."""
+    for part in parts or PARTS:
+        PARTS[part]()
+
+
 def warm_in_a_child(timeout: float = 600.0) -> str:
-    """warm() in a process of its own (nothing of it stays in pytest's); the line to print."""
+    """warm() in processes of their own, one per part, side by side (nothing of them stays in pytest's); the line
+    to print."""
     from amr_util.environment import child_environment
 
     started = time.monotonic()
-    try:
-        done = subprocess.run(
-            [sys.executable, "-m", "support.numba_cache"],
-            cwd=ROOT / "tests",
-            env=child_environment(),
-            capture_output=True,
-            text=True,
-            timeout=timeout,
+    children = {}
+    for part in PARTS:
+        errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a child never waits for its reader
+        command = [sys.executable, "-m", "support.numba_cache", part]
+        child = subprocess.Popen(
+            command, cwd=ROOT / "tests", env=child_environment(), stdout=subprocess.DEVNULL, stderr=errors
         )
-    except subprocess.TimeoutExpired:  # the tests compile what they need themselves, as without this
-        return f"numba kernels not compiled ahead: not done in {timeout:g} s"
-    if done.returncode != 0:
-        return f"numba kernels not compiled ahead: {done.stderr.strip().splitlines()[-1:]}"
-    return f"numba kernels compiled or loaded in {time.monotonic() - started:.1f} s"
+        children[part] = (child, errors)
+    failed = []
+    for part, (child, errors) in children.items():
+        try:
+            child.wait(timeout=max(0.0, started + timeout - time.monotonic()))
+        except subprocess.TimeoutExpired:  # the tests compile what they need themselves, as without this
+            child.kill()
+            child.wait()
+            failed.append(f"{part}: not done in {timeout:g} s")
+        else:
+            if child.returncode != 0:
+                errors.seek(0)
+                failed.append(f"{part}: {errors.read().strip().splitlines()[-1:]}")
+        errors.close()
+    if failed:
+        return f"numba kernels not compiled ahead: {'; '.join(failed)}"
+    return (
+        f"numba kernels compiled or loaded in {time.monotonic() - started:.1f} s ({' and '.join(PARTS)} side by side)"
+    )
 
 
 if __name__ == "__main__":
-    warm()
+    warm(*sys.argv[1:])
