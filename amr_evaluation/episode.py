@@ -20,8 +20,9 @@ Controllers (library level, no DDS: the simulator library and the controllers' p
 ``mode="ros"`` runs the same spec through the ROS nodes (amr_evaluation.ros_episode: an amr-bringup
 stack in a child process with its own ROS_DOMAIN_ID) and gives the same record: the library loops take what the
 stack's nodes take (``stack_map``: the stack's one map, the filter's and the planner's, with its resolution as /map
-carries it; ``AsSent``: the scan as its LaserScan carries it, float32 ranges and geometry). The particle filter
-turns a difference of 1e-7 in its inputs into millimetres at its first update, and the run goes its own way.
+carries it; ``AsSent``: the scan as its LaserScan carries it, float32 ranges and geometry, and the time as its
+stamp). The particle filter turns a difference of 1e-7 in its inputs into millimetres at its first update, and a
+controller's threshold or derivative turns it into another command some steps later: the runs go their own ways.
 """
 
 from __future__ import annotations
@@ -217,13 +218,23 @@ def as_sent(value: float) -> float:
     return float(np.float32(value))
 
 
+def as_stamped(seconds: float) -> float:
+    """`seconds` as a message's stamp carries them (whole nanoseconds, amr_util.stamps), read back as a node reads
+    them: the controllers' time-based terms see the nodes' intervals (0.05 s, not 0.05000000000000071)."""
+    return round(seconds * 1e9) * 1e-9
+
+
 class AsSent:
-    """A simulator whose scan reads as the simulator node's LaserScan carries it (float32 ranges, angles and
-    limits, read back as float64 by amr_util.messages.scan_data): a library loop then reads the scan the nodes
-    read. Everything else is the simulator's own."""
+    """A simulator whose observation reads as the simulator node's messages carry it: the scan as its LaserScan
+    (float32 ranges, angles and limits, read back as float64 by amr_util.messages.scan_data), the time as their
+    stamp (as_stamped). A library loop then reads what the nodes read. Everything else is the simulator's own."""
 
     def __init__(self, sim) -> None:
         self._sim = sim
+
+    @property
+    def time(self) -> float:
+        return as_stamped(self._sim.time)
 
     @property
     def ranges(self) -> np.ndarray:

@@ -4,8 +4,8 @@ The wall-follower episode of amr_evaluation (episode.py) and bench/bench_wall_fo
 
 The simulator library and the controller in lockstep, as tests/control/test_closed_loop.py
 does (minus the synchronizer: lockstep stamps are identical, so every pair is the step's own). The controller reads
-the scan as the simulator node's LaserScan carries it (float32 ranges and geometry: amr_evaluation.episode.AsSent),
-so that the run is the ROS stack's to the step.
+the scan as the simulator node's LaserScan carries it (float32 ranges and geometry) and its time as the stamp does
+(amr_evaluation.episode.AsSent), so that the run is the ROS stack's to the step.
 Options the ROS path has and the library loop lacks are emulated here:
 
 * ``scan_period``: the LiDAR scans only every that many seconds (LDS-01: 0.2 s, 5 Hz); as
@@ -34,7 +34,7 @@ import numpy as np
 
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
-from amr_evaluation.episode import as_sent
+from amr_evaluation.episode import as_sent, as_stamped
 from amr_evaluation.figures import path_figures
 from amr_maps.maze_route import MazeGrid, cell_route
 from amr_maps.world import World
@@ -103,7 +103,7 @@ def run(
                 ranges[hit] = outliers.uniform(lidar.range_min, 1.0, int(hit.sum()))
             odometry_v, odometry_w = sim.odom_twist
             scan = ScanData(ranges, *sent)
-            command = follower.compute(scan, odometry_v, odometry_w, sim.time)
+            command = follower.compute(scan, odometry_v, odometry_w, as_stamped(sim.time))
             issues += not command.ok
             if follower.state == "FOLLOW":
                 following_errors.append(abs(follower.measurements.wall_distance - config.target_wall_distance))
