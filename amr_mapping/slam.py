@@ -62,7 +62,7 @@ from amr_mapping.pose_graph import PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
-from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, default_angular_step
 from amr_maps.window_search import window_modes
 from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
@@ -100,6 +100,12 @@ has its covariance widened to span both (a two-mode mixture as one Gaussian): th
 On orebro two such matches, a parallel wall 0.4-0.75 m off, were taken at 3 cm and threw the map 5 m."""
 RIVAL_DIP = 0.8
 """... and a rival is a mode of its own when the pose halfway to it scores below this share of both."""
+POSTERIOR_MIN_MARGIN = 0.002
+"""A match whose odometry penalty is worth less than this much mean score is the posterior's mode as it is
+(_posterior_mode: no search) ..."""
+POSTERIOR_MODES = 8
+POSTERIOR_SEPARATION_CELLS = 2.0
+"""... else up to this many modes of the window, this many cells apart, are weighed."""
 LOCAL_RIVAL_MAX_NODES = 100_000
 """The local rival search's budget (branch and bound nodes): it bounds a weak match's time."""
 LOOP_CHI2 = 16.27
@@ -575,6 +581,9 @@ class GraphSlam:
                     "whole angular window: the better one used"
                 )
                 match, angular = wide, cfg.match_angular_window
+        match = _posterior_mode(
+            matcher, points, match, relative_prior, odometry_information, (linear, angular), self._work
+        )
         if match.score < cfg.min_match_score or not np.all(np.isfinite(match.pose)):
             events.append(
                 f"scan match score {match.score:.2f} < min_match_score {cfg.min_match_score}: "
@@ -816,6 +825,63 @@ def _on_edge(pose: np.ndarray, prior: np.ndarray, config: SlamConfig) -> bool:
     angular = config.loop_angular_window - EDGE_ANGLE
     offset = np.abs(np.asarray(pose[:2], dtype=float) - prior[:2])
     return bool(offset.max() >= linear or abs(wrap_angle(float(pose[2] - prior[2]))) >= angular)
+
+
+def _posterior_mode(
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    match,
+    prior: np.ndarray,
+    odometry_information: np.ndarray,
+    window: tuple[float, float],
+    work: _Work | None = None,
+):
+    """The match that maximizes the posterior over the window, the scan's likelihood (MATCH_INFORMATION_SCALE
+    times the mean score: the scale of _match_information) times the odometry prior, not the likelihood alone
+    (Olson 2009). Along a corridor the best score lies anywhere a door or a corner lines up: on aces the best
+    pose of the window was 0.3-0.47 m off along the corridor at scans 25-29 (0.814 against 0.793 at the true
+    pose), the posterior's 3-8 cm. Only a mode within the odometry's penalty of the best score can win, so the
+    window is searched for modes (window_modes, budgeted, counted) only when the match is that far off the
+    prior, and down to that score; the winner is matched again within two cells and steps (refined)."""
+    if not np.all(np.isfinite(match.pose)):
+        return match
+
+    def penalty(pose) -> float:
+        offset = np.asarray(pose, dtype=float) - prior
+        offset[2] = wrap_angle(offset[2])
+        return 0.5 * float(offset @ odometry_information @ offset)
+
+    best_score = matcher.score(points, match.pose)
+    margin = penalty(match.pose) / MATCH_INFORMATION_SCALE
+    if margin < POSTERIOR_MIN_MARGIN:
+        return match
+    modes = window_modes(
+        matcher,
+        points,
+        prior,
+        window[0],
+        window[1],
+        count=POSTERIOR_MODES,
+        min_score=float(np.clip(best_score - margin, 0.0, 1.0)),
+        min_separation=POSTERIOR_SEPARATION_CELLS * matcher.resolution,
+        min_angle_separation=window[1],
+        max_nodes=LOCAL_RIVAL_MAX_NODES,
+    )
+    if work is not None:
+        work.add(modes.nodes * len(points))
+    value = MATCH_INFORMATION_SCALE * best_score - penalty(match.pose)
+    chosen = None
+    for found in modes.matches:
+        candidate = MATCH_INFORMATION_SCALE * found.score - penalty(found.pose)
+        if candidate > value:
+            value, chosen = candidate, found
+    if chosen is None:
+        return match
+    step = default_angular_step(points, matcher.resolution)
+    again = matcher.match(points, chosen.pose, 2.0 * matcher.resolution, 2.0 * step)
+    if work is not None:
+        work.add(again.nodes * len(points))
+    return again
 
 
 def _weak_match(
