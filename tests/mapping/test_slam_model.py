@@ -1,6 +1,7 @@
 """GraphSlam's model terms found on the CARMEN logs: along a featureless corridor the scan match says nothing
 about the position along it (its information, fused with the odometry's); a beam without a return clears free
-space only up to the sensor's range_max; a SLAM map put in the world's frame (amr_mapping.map_frame)."""
+space only up to the sensor's range_max; a SLAM map put in the world's frame (amr_mapping.map_frame); the front
+end takes the posterior's mode (score and odometry prior), not the best score alone."""
 
 from __future__ import annotations
 
@@ -164,3 +165,25 @@ def test_the_field_measures_the_distance_to_the_points_not_to_their_cells():
     assert rasterized.table[rasterized.table.shape[0] // 2, column] == pytest.approx(1.0)
     assert row[column] == pytest.approx(math.exp(-0.5 * (0.0124 / sigma) ** 2), abs=0.005)
     assert row[column] < 0.99
+
+
+@pytest.mark.parametrize(("odometry_sigma", "expected_x"), [(0.1, 0.0), (1.0, 0.4)])
+def test_the_front_end_takes_the_posteriors_mode_not_the_best_score(odometry_sigma, expected_x):
+    """Two copies of a scene 0.4 m apart, the one at the odometry prior missing a point: the scan scores best at
+    the other copy (as along a corridor where a door lines up, aces: 0.3-0.47 m off, 0.02 of score better), but
+    the odometry's penalty there outweighs the score (its likelihood at MATCH_INFORMATION_SCALE) when the odometry
+    says 10 cm; said 1 m, the best score wins."""
+    rng = np.random.default_rng(3)
+    scene = rng.uniform(-2.0, 2.0, (60, 2))
+    cloud = np.vstack([scene[1:], scene + (0.4, 0.0)])  # the copy at 0 lacks its first point
+    table = ScoreMap.from_points(cloud, 0.05, 0.075, 1.5, cover=np.zeros((1, 2)), to_points=True)
+    matcher = CorrelativeMatcher(table)
+    prior = np.zeros(3)
+    best = matcher.match(scene, prior, 0.6, 0.1)
+    assert abs(best.pose[0] - 0.4) < 0.03  # the best score alone: the other copy
+    sigma = np.array([odometry_sigma, odometry_sigma, 0.05])
+    work = slam_module._Work()
+    chosen = slam_module._posterior_mode(matcher, scene, best, prior, np.diag(1.0 / sigma**2), (0.6, 0.1), work)
+    assert abs(chosen.pose[0] - expected_x) < 0.03 and abs(chosen.pose[1]) < 0.03, chosen.pose
+    # the search for modes is counted work, and is not done when the odometry's penalty is worth next to no score
+    assert (work.units > 0.0) == (odometry_sigma < 1.0)
