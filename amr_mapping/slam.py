@@ -7,25 +7,27 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   last node (slam_toolbox's minimum_travel_distance / minimum_travel_heading); between nodes the pose is the last
   node's composed with the odometry since.
 - Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
-  (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local
-  submap, the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points),
-  within WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
-  +-match_linear_window / +-match_angular_window. The match and its point-to-line refinement (_align) are weighed
-  by their own informations (_refined: the score's curvature, the refinement's normal equations); the result is
-  fused with the odometry prior as two Gaussians (along a corridor the odometry decides) and the edge to the
-  previous node carries both. A score below min_match_score (some overlap), or fewer than MIN_BEAMS usable
-  beams, is not fatal: the node is added on odometry alone and the update's events say so. A weak match (below
+  (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
+  the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points), within
+  WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
+  +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
+  likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
+  (_align) are weighed by their own informations (_refined: the score's curvature, the refinement's normal equations);
+  the result is fused with the odometry prior as two Gaussians (along a corridor the odometry decides) and the edge to
+  the previous node carries both. A score below min_match_score (some overlap), or fewer than MIN_BEAMS usable beams,
+  is not fatal: the node is added on odometry alone and the update's events say so. A weak match (below
   WEAK_MATCH_SCORE: a scan mostly of new ground, or a pose outside the window) is searched again over the whole
-  angular window (match_angular_window: the odometry may be off by more than its model says), then tested: a
-  rival mode in the window (_local_rival) widens its covariance to span both, and it is used only if it agrees
-  with the odometry (MATCH_CHI2).
+  angular window (match_angular_window: the odometry may be off by more than its model says), then tested: a rival
+  mode in the window (_local_rival) widens its covariance to span both, and it is used only if it agrees with the
+  odometry (MATCH_CHI2).
 - Submaps for loop closure: every local_window consecutive nodes form a submap (scan points, as above), built
   in the frame of its middle node (the anchor) when first searched, from the poses then (rigid, as
   Cartographer's).
 - Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
-  and none once the update's work (_Work: lookups counted, builds at their measured equivalent) reaches
-  loop_work_budget (the next updates take the rest; deterministic: a run is repeatable), each by
+  (a submap's build only as the update's first, its search in the next update) and none once the update's work
+  (_Work: lookups counted, builds at their measured equivalent) reaches loop_work_budget (the next updates take
+  the rest; deterministic: a run is repeatable), each by
   CorrelativeMatcher.match within +-loop_linear_window / +-loop_angular_window of the current estimate. A match
   scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it lies on the window's edge
   (_on_edge), puts scan points in the submap's seen-through space, a rival pose in the window scores nearly as
