@@ -6,7 +6,8 @@ Clones this repository's HEAD (committed work only) into --dir and runs there wh
 step at a time: the venv and pip (`make .venv/.deps-installed`), the ROS layout and amr_interfaces
 (`make setup`), and with --test lint and the suite (`make test`, which finds setup done). One line per step: wall
 time, CPU time (its processes and theirs) and the load average before and after. On a shared machine the wall time
-is an upper bound; the CPU time is what the step costs. pip downloads what its cache lacks.
+is an upper bound; the CPU time is what the step costs, and the step's line gives the load average's range while it
+ran (sampled every 5 s) and, for the test step, pytest's summary line. pip downloads what its cache lacks.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import resource
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -32,13 +34,34 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
+def one_minute_load() -> float:
+    return float(Path("/proc/loadavg").read_text().split()[0])
+
+
 def step(name: str, command: list[str], cwd: Path, env: dict[str, str], log: Path) -> tuple[float, float, bool]:
     before, cpu, started = load(), children_cpu(), time.monotonic()
+    samples, done = [one_minute_load()], threading.Event()
+
+    def sample() -> None:
+        while not done.wait(5.0):
+            samples.append(one_minute_load())
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
     with log.open("w") as out:
         result = subprocess.run(command, cwd=cwd, env=env, stdout=out, stderr=subprocess.STDOUT)
+    done.set()
+    sampler.join()
     wall, cpu = time.monotonic() - started, children_cpu() - cpu
     status = "ok" if result.returncode == 0 else f"FAILED ({result.returncode}, see {log})"
-    print(f"{name:10s} {wall:7.1f} s wall {cpu:7.1f} s CPU  load {before} -> {load()}  {status}", flush=True)
+    print(
+        f"{name:10s} {wall:7.1f} s wall {cpu:7.1f} s CPU  load {before} -> {load()} "
+        f"(1-min {min(samples):.1f}-{max(samples):.1f} while it ran)  {status}",
+        flush=True,
+    )
+    summary = [line for line in log.read_text(errors="replace").splitlines() if " passed" in line or " failed" in line]
+    if name == "test" and summary:
+        print(f"{'':10s} pytest: {summary[-1].strip('= ')}", flush=True)
     return wall, cpu, result.returncode == 0
 
 
