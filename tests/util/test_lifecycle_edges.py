@@ -4,6 +4,10 @@ From unconfigured, inactive and active the node answers success and ends finaliz
 controller's last command is a zero one; afterwards nothing is published (every publish of the process
 is recorded), and no timer, subscription or node service is left. The real-robot wall follower is the
 case the issue found: its 20 Hz timer kept publishing /cmd_vel after shutdown from active.
+
+The three states of a node are tried side by side, each node in an rclpy context and DDS domain of its own (they
+share a name), so that one window watches all three after their shutdowns; a message counts against a node unless
+it came from one of the other two's publishers.
 """
 
 from __future__ import annotations
@@ -11,13 +15,15 @@ from __future__ import annotations
 import time
 
 import pytest
+import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from support.ros import spin_for, spin_until
+from support.ros import close, fresh_domain
 
 from amr_bringup.demo import config_file, params_file_args
 from amr_control.path_follower_node import PathFollowerNode
@@ -86,12 +92,12 @@ COMMANDS = {
 
 @pytest.fixture
 def publishes(monkeypatch):
-    """Every message published in this process: (monotonic time, topic, message)."""
-    seen: list[tuple[float, str, object]] = []
+    """Every message published in this process: (monotonic time, topic, message, publisher)."""
+    seen: list[tuple[float, str, object, Publisher]] = []
     original = Publisher.publish
 
     def recording(self, message):
-        seen.append((time.monotonic(), self.topic_name, message))
+        seen.append((time.monotonic(), self.topic_name, message, self))
         return original(self, message)
 
     monkeypatch.setattr(Publisher, "publish", recording)
@@ -114,36 +120,71 @@ def bring_to(node, state: str) -> None:
     assert node.state_label == state
 
 
+def spin_all_until(executors, condition, timeout: float) -> bool:
+    """Spin every executor in turn until condition() holds or the timeout passes; returns whether it held."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        for executor in executors:
+            executor.spin_once(timeout_sec=0.005)
+    return condition()
+
+
+@pytest.fixture
+def contexts():
+    """One rclpy context per state, each in a DDS domain of its own; their executors closed and contexts shut down
+    afterwards."""
+    made: list[tuple[rclpy.Context, SingleThreadedExecutor]] = []
+
+    def make() -> tuple[rclpy.Context, SingleThreadedExecutor]:
+        context = rclpy.Context()
+        rclpy.init(context=context, domain_id=fresh_domain())
+        made.append((context, SingleThreadedExecutor(context=context)))
+        return made[-1]
+
+    yield make
+    for context, executor in made:
+        close(executor)
+        context.try_shutdown()
+
+
 @pytest.mark.parametrize("name", NODES)
-def test_shutdown_from_every_state_leaves_a_silent_finalized_node(name, ros_context, executor, publishes):
+def test_shutdown_from_every_state_leaves_a_silent_finalized_node(name, contexts, publishes):
     node_class, kwargs = NODES[name]
-    client_node = Node("lifecycle_probe", context=ros_context)
-    executor.add_node(client_node)
-    for state in ("unconfigured", "inactive", "active"):
-        node = node_class(context=ros_context, **kwargs)
+    nodes, executors, clients = {}, [], {}
+    for state in SHUTDOWN:
+        context, executor = contexts()
+        client_node = Node("lifecycle_probe", context=context)
+        node = node_class(context=context, **kwargs)
+        executor.add_node(client_node)
         executor.add_node(node)
         bring_to(node, state)
-        spin_for(executor, 0.3)  # timers and first messages run
-        client = client_node.create_client(ChangeState, f"{node.get_fully_qualified_name()}/change_state")
-        assert spin_until(executor, client.service_is_ready, 5.0)
-        asked = time.monotonic()
-        future = client.call_async(ChangeState.Request(transition=Transition(id=SHUTDOWN[state])))
-        assert spin_until(executor, future.done, 10.0), f"{name}: no answer to shutdown from {state}"
-        answered = time.monotonic()
+        nodes[state] = node
+        executors.append(executor)
+        clients[state] = client_node.create_client(ChangeState, f"{node.get_fully_qualified_name()}/change_state")
+    spin_all_until(executors, lambda: False, 0.3)  # timers and first messages run
+    assert spin_all_until(executors, lambda: all(c.service_is_ready() for c in clients.values()), 5.0)
+    own = {state: {id(publisher): publisher for publisher in node.publishers} for state, node in nodes.items()}
+    asked, answered = {}, {}
+    for state, node in nodes.items():
+        asked[state] = time.monotonic()
+        future = clients[state].call_async(ChangeState.Request(transition=Transition(id=SHUTDOWN[state])))
+        assert spin_all_until(executors, future.done, 10.0), f"{name}: no answer to shutdown from {state}"
+        answered[state] = time.monotonic()
         assert future.result().success, f"{name}: shutdown from {state} refused"
         assert node.state_label == "finalized"
-        spin_for(executor, QUIET)
-        late = [(topic, message) for t, topic, message in publishes if t > answered and topic != "/rosout"]
+    spin_all_until(executors, lambda: False, QUIET)
+    for state, node in nodes.items():
+        others = set().union(*(publishers for other, publishers in own.items() if other != state))
+        mine = [(t, topic, message) for t, topic, message, publisher in publishes if id(publisher) not in others]
+        late = [(topic, message) for t, topic, message in mine if t > answered[state] and topic != "/rosout"]
         assert not late, f"{name}: published after shutdown from {state}: {[topic for topic, _ in late]}"
         if name in COMMANDS and state == "active":
-            commands = [message for t, topic, message in publishes if topic == "/cmd_vel" and asked <= t <= answered]
+            commands = [m for t, topic, m in mine if topic == "/cmd_vel" and asked[state] <= t <= answered[state]]
             assert commands and is_zero(commands[-1]), f"{name}: no zero command on shutdown from active"
             assert all(isinstance(message, COMMANDS[name]) for message in commands)
         assert not list(node.timers), f"{name}: timers left after shutdown from {state}"
         assert not list(node.subscriptions), f"{name}: subscriptions left: {[s.topic_name for s in node.subscriptions]}"
         left = [s.srv_name for s in node.services if s.srv_name.rsplit("/", 1)[-1] not in KEPT_SERVICES]
         assert not left, f"{name}: services left after shutdown from {state}: {left}"
-        client_node.destroy_client(client)
-        executor.remove_node(node)
-        node.destroy_node()
-        publishes.clear()
