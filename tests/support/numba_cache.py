@@ -65,6 +65,9 @@ PARTS = {"loop": warm_loop, "chains": warm_chains}
 
 def warm(*parts: str) -> None:
     """Every kernel of the parts named (all of them without one) called once."""
+    unknown = [part for part in parts if part not in PARTS]
+    if unknown:
+        raise SystemExit(f"support.numba_cache: unknown part(s) {unknown}, expected some of {list(PARTS)}")
     for part in parts or PARTS:
         PARTS[part]()
 
