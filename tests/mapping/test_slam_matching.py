@@ -97,8 +97,5 @@ def test_a_closure_one_maze_pitch_off_is_refused_and_the_true_one_kept(maze):
         consistent = slam_module._clear_share(clear, points, match.pose) <= LOOP_MAX_CLEAR_SHARE
         rival = slam_module._rival_score(matcher, points, match.pose, at, config)
         unambiguous = rival < AMBIGUITY_RATIO * match.score
-        # pruned at the match's own score (what GraphSlam does): the same answer
-        pruned = slam_module._rival_score(matcher, points, match.pose, at, config, score=match.score)
-        assert (pruned < AMBIGUITY_RATIO * match.score) == unambiguous, (dx, rival, pruned)
         assert match.score >= config.loop_min_score
         assert (consistent, unambiguous) == (kept, kept), (dx, match.score, rival)
