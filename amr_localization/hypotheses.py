@@ -21,12 +21,15 @@ and Kristensen 2001):
   overtakes it only by the scans it is followed through (after a kidnapping the belief passes through
   doubt before it settles on the new place);
 - one more hypothesis, `elsewhere`, is the robot at none of the places followed (Jensfelt and Kristensen's
-  null hypothesis); its evidence grows by the data's marginal likelihood over the whole map, estimated on a
-  fixed sample of poses spread over free space,
+  null hypothesis); its evidence grows by the data's marginal likelihood over the places not followed,
+  estimated on a fixed sample of poses spread over free space and on the peaks the running place search has
+  met where no place is followed, each holding the share v / V of the map's poses a peak takes
+  (ParticleFilter._elsewhere),
 
-      L_elsewhere += log (1/M sum_m p(z | x_m)),
+      L_elsewhere += log (1/M sum_m p(z | x_m) + sum_k p(z | x_k) v / V),
 
-  which a place the robot is at beats by far, and a place it is not at (a kidnapped robot's old place) does not;
+  which a place the robot is at beats by far, and a place it is not at (a kidnapped robot's old place, a
+  look-alike) does not once the search has met where the robot is;
 - the posterior is P(h_i) = exp(L_i) / (exp(L_elsewhere) + sum_j exp(L_j)), each L kept within
   MAX_LOG_ODDS of the best place's, elsewhere's too, either way (a robot may be carried anywhere, to a place
   followed as well as away from it: a kidnapping's prior, which also keeps the numbers finite);

@@ -99,14 +99,18 @@ this (2 cm maps to 4 cm: fewer cells and headings, nothing the scans tell apart 
 PLACE_SEARCH_RANGE = 10.0
 """m: ... with the beams ending within this of the LiDAR (the far ones set the angular step, not the place)."""
 SEARCH_PROPOSALS = 4
-"""places a completed place search proposes, and the heaviest particle clusters proposed each update."""
+"""places a completed place search proposes (the best by the measurement model of the SEARCH_CANDIDATES best poses of
+its lattice), and the heaviest particle clusters proposed each update."""
+SEARCH_CANDIDATES = 8
+"""poses the place search keeps, best first by its lattice's score: a pooled lattice ranks look-alikes about alike
+(on the logs a true place came 5th to 8th), so the measurement model chooses the proposals among them."""
 FIT_WINDOW = 0.06
 """m: a place hypothesis is fitted to each scan within this of its pose (odometry's drift between two updates) ..."""
 FIT_ANGLE = math.radians(4.0)
 """rad: ... and this of its heading."""
 REFIT_WINDOW = 0.1
-"""m: a place search's proposals are refitted within 3 sigma of the odometry's position since its scan (at least the
-search's cell), up to this (and within FIT_ANGLE)."""
+"""m: a place search's proposals are refitted within 3 sigma of the odometry's position since its scan, up to this,
+and at least within the search's cell (a lattice pose is up to a cell off: within FIT_ANGLE in heading)."""
 FREE_PATH_MARGIN = 0.1
 """m: a beam of a place hypothesis that goes through a wall of the map this far short of its end point reads as a
 random reading (LikelihoodField.log_likelihood_free_path)."""
@@ -485,9 +489,11 @@ class ParticleFilter:
         hypotheses = self.hypotheses
         if len(hypotheses) and seen is not None:
             hypotheses.poses = self._fitted(hypotheses.poses, seen)
+        found, running = self._search_places(seen) if seen is not None else (np.zeros((0, 3)), np.zeros((0, 3)))
         if len(hypotheses):
             hypotheses.observe(
-                self._log_likelihood(hypotheses.poses, seen, beacons, places=True), self._elsewhere(seen, beacons)
+                self._log_likelihood(hypotheses.poses, seen, beacons, places=True),
+                self._elsewhere(seen, beacons, running),
             )
         clusters = cluster_particles(
             self.particles[:, :2], self.weights, CLUSTER_RADIUS, CLUSTER_MIN_SIZE, self.particles[:, 2]
@@ -499,7 +505,7 @@ class ParticleFilter:
         poses = np.array([[c.x, c.y, c.theta] for c in candidates]).reshape(-1, 3)
         settled = self._localized  # a place born while localized elsewhere is one the robot was carried to
         if seen is not None:
-            poses = np.vstack([self._fitted(poses, seen), self._search_places(seen)])
+            poses = np.vstack([self._fitted(poses, seen), found])
         self._admit(poses, seen, beacons, settled)
         hypotheses.merge()
         self._agree()
@@ -567,7 +573,8 @@ class ParticleFilter:
         self._outside = outside
 
     def _decide(self, seen: _Seen | None) -> None:
-        """The estimate is the best hypothesis's particles' mean; localized follows its confidence with hysteresis."""
+        """The estimate is the best hypothesis's particles' mean fitted to the scan, or the place's own pose where the
+        data fit that better; localized follows its confidence with hysteresis."""
         config = self.config
         hypotheses = self.hypotheses
         if not len(hypotheses):
@@ -582,6 +589,14 @@ class ParticleFilter:
             )
             if seen is not None:
                 self._estimate = self._refined(self._estimate, seen)
+                # the place's pose moves only where the data fit it no worse (as _fitted and _admit move it): the
+                # particles' mean, fitted within their spread, can lag a keyframe's odometry error the place's own fit
+                # has taken out
+                place = hypotheses.poses[0]
+                mean = np.array([self._estimate.x, self._estimate.y, self._estimate.theta])
+                fit = self._log_likelihood(np.array([mean, place]), seen, None, places=True)
+                if fit[1] > fit[0]:
+                    self._estimate = PoseEstimate(*map(float, place), self._estimate.covariance)
             hypotheses.reanchor(0, np.array([self._estimate.x, self._estimate.y, self._estimate.theta]))
             held = (1.0 - self._outside) if self._covered else 0.0  # the belief the hypotheses hold
             confidence = float(self._shares[0]) * held
@@ -601,11 +616,31 @@ class ParticleFilter:
         self._declared = hypotheses.poses[0].copy() if self._localized else None
         self.status.confidence, self.status.runner_up = confidence, runner_up
 
-    def _elsewhere(self, seen: _Seen | None, beacons: BeaconReading | None) -> float:
-        """The data's marginal log-likelihood over the map (the places' own model): the log of its mean likelihood
-        at ANYWHERE poses drawn in free space."""
+    def _elsewhere(self, seen: _Seen | None, beacons: BeaconReading | None, peaks: np.ndarray) -> float:
+        """The data's marginal log-likelihood over the places not followed (the places' own model),
+
+            log (1/V) integral p(z | x) dx  ~  log( mean_m p(z | x_m) + sum_k p(z | x_k) v / V ),
+
+        the ANYWHERE poses x_m drawn in free space for the background, and for its peaks, which a few dozen poses
+        drawn at random never meet (a scan is explained within centimetres and a degree of its pose), the running
+        place search's best poses so far x_k (`peaks`, moved to now and fitted) that no place followed is at, each
+        holding the share v / V of the map's poses a peak of the measurement model takes (_log_peak_share). A
+        place followed that the robot is not at then loses to `elsewhere` as soon as the search meets where it is,
+        not only once the search is complete."""
         anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True)
-        return float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
+        background = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
+        peaks = peaks[self.hypotheses.find(peaks) < 0] if len(peaks) else peaks
+        if not len(peaks):
+            return background
+        at_peaks = self._log_likelihood(peaks, seen, beacons, places=True) + self._log_peak_share
+        return float(np.logaddexp(background, np.logaddexp.reduce(at_peaks)))
+
+    @property
+    def _log_peak_share(self) -> float:
+        """log v / V: the share of the map's poses (free area x 2 pi) within a cell and a degree of a pose, the width
+        of the measurement model's peak as the places score it (each beam at its best within NUDGES)."""
+        peak = self._grid.resolution**2 * math.radians(1.0)
+        return math.log(peak / max(self.free_space.area * 2.0 * math.pi, peak))
 
     def _log_likelihood(
         self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, places: bool = False
@@ -734,13 +769,16 @@ class ParticleFilter:
         covariance = np.where(np.isfinite(match.covariance), match.covariance, estimate.covariance)
         return PoseEstimate(float(match.pose[0]), float(match.pose[1]), float(wrap_angle(match.pose[2])), covariance)
 
-    def _search_places(self, seen: _Seen) -> np.ndarray:
+    def _search_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray]:
         """Proposals of the place search: a branch and bound over the whole map for the scan, place_search_budget
         nodes per update, resumed over updates (a scan's search finishes on later updates; its poses are moved by
-        the odometry since). Nothing when the budget is 0."""
+        the odometry since). Returns the proposals of a search completed now, and the best poses so far of one
+        still running that no place followed is at (for `elsewhere`), each moved to now and fitted. Nothing when
+        the budget is 0."""
+        none = np.zeros((0, 3))
         budget = self.config.place_search_budget
         if budget <= 0:
-            return np.zeros((0, 3))
+            return none, none
         if self._search is None:
             matcher, region = self._place_search_map()
             points = self._window_points(seen, matcher.resolution)
@@ -748,23 +786,30 @@ class ParticleFilter:
                 matcher,
                 points,
                 region,
-                count=SEARCH_PROPOSALS,
+                count=SEARCH_CANDIDATES,
                 min_separation=2.0 * MERGE_DISTANCE,
                 min_angle_separation=2.0 * MERGE_ANGLE,
             )
             self._search = _Search(search, seen.local)
         running = self._search
         running.advance(budget)
-        if not running.search.done:
-            running.start_ahead(budget)
-            return np.zeros((0, 3))
-        self._search = None
-        self._covered = True
+        done = running.search.done
         poses = np.array([match.pose for match in running.search.matches(refine=False)]).reshape(-1, 3)
         poses = np.atleast_2d(compose(poses, relative_pose(running.local, seen.local))).reshape(-1, 3)
-        # moved by the scan-matched odometry since its scan, refitted within 3 sigma of it (at most REFIT_WINDOW)
-        window = min(max(3.0 * math.sqrt(running.position_variance), self._place_search_resolution), REFIT_WINDOW)
-        return self._fitted(poses, seen, window)
+        if not done:
+            running.start_ahead(budget)
+            poses = poses[:SEARCH_PROPOSALS]
+            poses = poses[self.hypotheses.find(poses) < 0]
+        else:
+            self._search = None
+            self._covered = True
+        # moved by the scan-matched odometry since its scan, refitted within 3 sigma of it (to REFIT_WINDOW) or its cell
+        window = max(min(3.0 * math.sqrt(running.position_variance), REFIT_WINDOW), self._place_search_resolution)
+        fitted = self._fitted(poses, seen, window) if len(poses) else poses
+        if not done:
+            return none, fitted
+        score = self._log_likelihood(fitted, seen, None, places=True)
+        return fitted[np.argsort(-score, kind="stable")[:SEARCH_PROPOSALS]], none
 
     def _window_points(self, seen: _Seen, resolution: float) -> np.ndarray:
         """(K, 2) the end points of the scan and of the window's scans before it, in the robot's frame now (the past

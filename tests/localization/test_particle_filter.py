@@ -121,3 +121,26 @@ def test_an_empty_set_of_places_scores_as_an_empty_set():
     seen = pf._window[-1]
     assert pf._log_likelihood(np.zeros((0, 3)), seen, None, places=True).shape == (0,)
     assert pf._fitted(np.zeros((0, 3)), seen).shape == (0, 3)
+
+
+def test_a_peak_the_place_search_has_met_where_no_place_is_followed_counts_for_elsewhere():
+    """`elsewhere` is the data's marginal likelihood over the places not followed: its background (poses drawn at
+    random, which never meet the measurement model's peak) plus the running place search's best poses that no place
+    is at, each holding its peak's share of the map (a peak at the true pose adds more than one 0.3 m off). A peak at
+    a place followed is that place's, not elsewhere's."""
+    world = load_world(WORLDS_DIR / "hard_maze.yaml")
+    sim = Simulator(world, SimulationConfig(**NOISY))
+    pf = ParticleFilter(grid_of(world, 0.05), ParticleFilterConfig(lidar_x=-0.032, max_particles=500))
+    pf.update(odometry_of(sim), scan_of(sim))
+    seen = pf._window[-1]
+    truth = np.array([[sim.pose.x, sim.pose.y, sim.pose.theta]])
+    off = truth + [[0.3, 0.0, 0.1]]
+    pf.hypotheses.clear()
+    pf.hypotheses.add(pf.free_space.sample(1, np.random.default_rng(0)), np.zeros(1))
+    background = pf._elsewhere(seen, None, np.zeros((0, 3)))
+    met, met_off = pf._elsewhere(seen, None, truth), pf._elsewhere(seen, None, off)
+    assert background < met_off < met, (background, met_off, met)
+    at_truth = pf._log_likelihood(truth, seen, None, places=True)[0]
+    assert met == pytest.approx(np.logaddexp(background, at_truth + pf._log_peak_share))
+    pf.hypotheses.add(truth, np.zeros(1))
+    assert pf._elsewhere(seen, None, truth) == background
