@@ -64,15 +64,17 @@ STARTUP_TIMEOUT = 60.0
 """wall-clock s for the stack to come up and publish its first status."""
 STALL_TIMEOUT = 30.0
 """wall-clock s without simulated time advancing before the episode is given up."""
+LOCKSTEP_WAIT = 20.0
+"""wall-clock s a lockstep step of an episode waits for the filter's /pose or the navigator's plan (LOCKSTEP_WAITS)."""
 LOCKSTEP_WAITS = {
-    "maze_localization": {"simulator.lockstep_pose_wait": STALL_TIMEOUT},
-    "maze_navigation": {"simulator.lockstep_pose_wait": STALL_TIMEOUT, "navigator.plan_timeout": STALL_TIMEOUT},
+    "maze_localization": {"simulator.lockstep_pose_wait": LOCKSTEP_WAIT},
+    "maze_navigation": {"simulator.lockstep_pose_wait": LOCKSTEP_WAIT, "navigator.plan_timeout": LOCKSTEP_WAIT},
 }
-"""What a lockstep step of each stack waits for, and how long (wall-clock s), as the library loop waits for it: the
-filter's /pose of the last observation, and the navigator's plan (its status, which the controllers answer, waits
-for ~/plan). The stacks' own 1 s and 10 s are made for a person watching; a loaded machine exceeds them, and a step
-that went on without the /pose, or a plan given up, is another run. A wait that is never answered ends the episode
-at STALL_TIMEOUT, with the reason."""
+"""What a lockstep step of each stack waits for, and how long, as the library loop waits for it: the filter's /pose
+of the last observation, and the navigator's plan (its status, which the controllers answer, waits for ~/plan). The
+stacks' own 1 s and 10 s are made for a person watching; a loaded machine exceeds them, and a step that went on
+without the /pose, or a plan given up, is another run. LOCKSTEP_WAIT is below STALL_TIMEOUT: a /pose lost on its way
+(sent before the simulator's subscription matched) costs that much wall clock, not the episode."""
 
 
 class RosEpisodeError(RuntimeError):
