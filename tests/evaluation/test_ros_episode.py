@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 from amr_evaluation import configs
@@ -63,6 +64,43 @@ def test_the_localization_stack_localizes_at_the_library_episodes_step_with_its_
     assert ros["time_to_localized"] == pytest.approx(expected["time_to_localized"], abs=1e-6)
     assert ros["localization_error"] == pytest.approx(expected["localization_error"], abs=1e-9)
     assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
+
+
+def test_the_library_reads_the_scan_and_the_map_as_the_nodes_read_their_messages():
+    """What makes the two modes one run: the library's scan, time and map are the messages' to the bit (a filter fed a
+    1e-7 difference localizes millimetres elsewhere)."""
+    from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import LaserScan
+
+    from amr_evaluation.episode import AsSent, simulator_for, stack_map
+    from amr_evaluation.worlds import build_world
+    from amr_maps.messages import grid_from_message, grid_message
+    from amr_maps.rasterize import rasterize_world
+    from amr_simulation import messages
+    from amr_util.messages import scan_data
+    from amr_util.scan import scan_of
+    from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
+
+    label, parameters = configs.resolve("navigation", "default")
+    spec = EpisodeSpec("navigation", label, parameters, {"file": "pillar_goal.yaml"}, seed=1)
+    world = build_world(spec.world)
+    sim = simulator_for(spec, world)
+    while sim.time == stamp_nanoseconds(stamp_from_seconds(sim.time)) * 1e-9:  # a time the float sum is off
+        sim.step(0.1, 0.3)
+    stamp = stamp_from_seconds(sim.time)
+    sent = deserialize_message(
+        serialize_message(messages.laser_scan(stamp, "base_scan", sim.ranges, sim.lidar, 0.05)), LaserScan
+    )
+    node, library = scan_data(sent), scan_of(AsSent(sim))
+    assert np.asarray(library.ranges).tobytes() == np.asarray(node.ranges).tobytes()
+    fields = ("angle_min", "angle_increment", "range_min", "range_max")
+    assert [getattr(library, f) for f in fields] == [getattr(node, f) for f in fields]
+    assert AsSent(sim).time == stamp_nanoseconds(sent.header.stamp) * 1e-9  # the controllers' and navigator's time
+    served = grid_message(rasterize_world(world, 0.02), stamp)  # map_server's in maze_navigation
+    read = grid_from_message(deserialize_message(serialize_message(served), OccupancyGridMessage))
+    grid = stack_map(spec, world)
+    assert (grid.resolution, grid.origin) == (read.resolution, read.origin) and np.array_equal(grid.data, read.data)
 
 
 def test_a_real_robot_configuration_is_refused_with_the_reason(tmp_path):
