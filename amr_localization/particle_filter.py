@@ -794,7 +794,8 @@ class ParticleFilter:
         running = self._search
         running.advance(budget)
         done = running.search.done
-        poses = np.array([match.pose for match in running.search.matches(refine=False)]).reshape(-1, 3)
+        found = running.search.matches(refine=False, covariance_cells=0)
+        poses = np.array([match.pose for match in found]).reshape(-1, 3)
         poses = np.atleast_2d(compose(poses, relative_pose(running.local, seen.local))).reshape(-1, 3)
         if not done:
             running.start_ahead(budget)

@@ -480,15 +480,16 @@ class GlobalSearch:
             raise ValueError(f"global search: max_nodes must be >= 0, got {max_nodes!r}")
         self._search.run(int(max_nodes))
 
-    def matches(self, refine: bool = True) -> list[Match]:
-        """The best matches so far, best first."""
+    def matches(self, refine: bool = True, covariance_cells: int = 4) -> list[Match]:
+        """The best matches so far, best first (covariance_cells 0: the lattice's quantization as the covariance,
+        not the score surface's: poses wanted, not their spread)."""
         res = self.matcher.resolution
         out = []
         for a, x, y, total in self._search.results():
             pose = np.array([self._x_ref + x * res, self._y_ref + y * res, float(_wrap(self.thetas[a]))])
             out.append(
                 self.matcher._finish(
-                    self.points, pose, total, self.angular_step, self.done, self._search.nodes, refine, 4
+                    self.points, pose, total, self.angular_step, self.done, self._search.nodes, refine, covariance_cells
                 )
             )
         return out

@@ -24,7 +24,7 @@ from rclpy.parameter import Parameter
 
 from amr_datasets.odometry import OdometryNoiseModel
 from amr_datasets.player_node import LogPlayerNode
-from amr_evaluation.log_localization import LogRun, log_parameters, range_max
+from amr_evaluation.log_localization import WRONG_HEADING, WRONG_POSITION, LogRun, log_parameters, range_max
 from amr_interfaces.msg import LocalizedPose
 from amr_localization.particle_filter_node import ParticleFilterNode
 from amr_maps.map_io import save_map
@@ -127,6 +127,11 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
         run.confidence.append(float(message.confidence))
         run.update_time.append(pose_seen[stamp] - scan_seen[stamp] if stamp in scan_seen else math.nan)
     round_trip = np.array([t for t in run.update_time if math.isfinite(t)]) * 1e3
+    wrong_at = [
+        f"{index} ({e:.2f} m, {math.degrees(h):.1f} deg)"
+        for index, (e, h, on) in enumerate(zip(run.position_error, run.heading_error, run.localized, strict=True))
+        if on and (e > WRONG_POSITION or h > WRONG_HEADING)
+    ]
     run.update_time = [0.0]
     position, heading = run.median_error()
     declared = "never" if run.declared_after is None else f"{run.declared_after:.1f} m"
@@ -135,4 +140,5 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
         f"timeouts, declared after {declared}, wrong {run.wrong}, median error {position * 100:.1f} cm "
         f"{heading:.2f} deg, round trip p50 {np.median(round_trip):.0f} ms p95 {np.percentile(round_trip, 95):.0f} "
         f"ms max {round_trip.max():.0f} ms, seed {seed}"
+        + (f"; wrong at scans {', '.join(wrong_at)}" if wrong_at else "")
     )
