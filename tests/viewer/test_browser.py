@@ -13,6 +13,7 @@ mapping views there (the mapping one after the first loop closure).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import itertools
 import math
@@ -64,6 +65,7 @@ ARGS = [
     "--disable-gpu-sandbox",
     "--mute-audio",
     "--no-first-run",
+    "--disable-gpu-watchdog",  # a GPU process slow under load is not killed (its page would lose WebGL)
 ]
 VIEWPORT = {"width": 1024, "height": 640}
 FLEET_VIEWPORT = {"width": 1400, "height": 900}
@@ -238,25 +240,65 @@ class Stack:
         self.context.try_shutdown()
 
 
-class Browser:
-    """One headless chromium page on the viewer, with every failed request and console error kept."""
+WEBGL_WATCH = "window.__webglLost = 0; addEventListener('webglcontextlost', () => window.__webglLost++, true);"
+"""Counts the page's WebGL contexts lost (the event does not bubble: caught on its way down)."""
+WEBGL_AVAILABLE = (
+    "(() => { const canvas = document.createElement('canvas');"
+    " return !!(canvas.getContext('webgl2') || canvas.getContext('webgl')); })()"
+)
 
-    def __init__(self, playwright, url: str, viewport: dict = VIEWPORT) -> None:
-        self.browser = playwright.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=ARGS)
+
+class Browser:
+    """One headless chromium page on the viewer, with every failed request and console error kept.
+
+    The page is ready when it shows its controls (the Pause button). viser's page applies what the server sends, its
+    controls too, in its WebGL render loop: a page without WebGL connects and receives them but never draws them. So
+    a page without WebGL fails at once, and a page that does not draw its controls in STARTUP s fails saying what it
+    saw (WebGL, contexts lost, its websockets, its last console messages)."""
+
+    def __init__(self, playwright, url: str, viewport: dict = VIEWPORT, extra_args: tuple[str, ...] = ()) -> None:
+        self.browser = playwright.chromium.launch(
+            executable_path=str(CHROMIUM), headless=True, args=[*ARGS, *extra_args]
+        )
         self.page = self.browser.new_page(viewport=viewport)
         self.page.set_default_timeout(WAIT * 1000)
         self.failed: list[str] = []
         self.errors: list[str] = []
+        self.console: list[str] = []
+        self.sockets: list[str] = []
         self.page.on("requestfailed", lambda request: self.failed.append(f"{request.url}: {request.failure}"))
         self.page.on("console", lambda message: message.type == "error" and self.errors.append(message.text))
+        self.page.on("console", lambda message: self.console.append(f"{message.type}: {message.text}"))
         self.page.on("pageerror", lambda error: self.errors.append(str(error)))
+        self.page.on("websocket", self._watch)
+        self.page.add_init_script(WEBGL_WATCH)
         try:
             self.page.goto(url, timeout=STARTUP * 1000)
-            self.button("Pause").wait_for(timeout=STARTUP * 1000)
+            self._wait_for_controls()
         except BaseException:
             self.browser.close()
             raise
         self.canvas = self.page.locator("canvas").first
+
+    def _watch(self, socket) -> None:
+        self.sockets.append("opened")
+        socket.on("close", lambda _: self.sockets.append("closed"))
+
+    def _wait_for_controls(self) -> None:
+        start = time.monotonic()
+        webgl = self.page.evaluate(WEBGL_AVAILABLE)
+        pause = self.button("Pause")
+        while webgl and time.monotonic() - start < STARTUP:
+            try:
+                pause.wait_for(timeout=2000)
+                return
+            except playwright_api.TimeoutError:
+                continue
+        raise AssertionError(
+            f"the page drew no controls in {time.monotonic() - start:.0f} s: WebGL "
+            f"{'available' if webgl else 'unavailable'}, {self.page.evaluate('window.__webglLost')} WebGL contexts "
+            f"lost, websocket {', '.join(self.sockets) or 'never opened'}; last console messages: {self.console[-8:]}"
+        )
 
     def button(self, label: str):
         return self.page.get_by_role("button", name=label, exact=True)
@@ -355,6 +397,30 @@ def camera_of(stack: Stack, page: Browser):
     return top_down_camera(
         occupancy_grid(stack.probe.map).bounds, box["width"] / box["height"], free=free_share(box["width"])
     )
+
+
+@pytest.fixture
+def panels_only():
+    """The viewer's page without ROS: a viser server with the viewer's panels only."""
+    import viser
+
+    from amr_viewer.panels import Panels
+
+    with contextlib.redirect_stdout(io.StringIO()):  # viser's banner
+        server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    Panels(server, actions=None)
+    yield f"http://127.0.0.1:{server.get_port()}"
+    server.stop()
+
+
+def test_a_page_without_webgl_says_so_at_once_instead_of_waiting_for_its_controls(playwright, panels_only):
+    """viser's page draws the controls it is sent in its WebGL render loop: without WebGL it connects, receives them
+    and never draws them (the "page never drew its controls" of a loaded run). The wait says so at once."""
+    Browser(playwright, panels_only).close()  # with WebGL: the controls
+    start = time.monotonic()
+    with pytest.raises(AssertionError, match=r"drew no controls in \d+ s: WebGL unavailable"):
+        Browser(playwright, panels_only, extra_args=("--disable-webgl",))
+    assert time.monotonic() - start < STARTUP / 3, "said at once, not after STARTUP"
 
 
 # The stacks of their own first: the maze_navigation stack of the module's page runs from its first test to the end.
