@@ -35,6 +35,9 @@ from amr_maps.occupancy_grid import OccupancyGrid
 QUANTUM = 65535
 """A table cell's score s is stored as round(s * QUANTUM) (uint16)."""
 MAX_LEVELS = 12
+FIELD_REACH = 6.0
+"""sigmas: a point cloud's field (ScoreMap.from_points) is computed this far from its points (beyond, exp(-18) = 1.5e-8
+of a point's score: 0)."""
 _FAR = 1 << 30
 """Cell indices are clipped to +-_FAR (points thousands of km away still score 0, without overflow)."""
 
@@ -122,9 +125,15 @@ class ScoreMap:
         cells = np.floor((points - low) / resolution).astype(int)
         if to_points:
             return cls(_point_table(points, cells, low, shape, resolution, sigma), resolution, (low[0], low[1]))
-        data = np.zeros((shape[1], shape[0]), dtype=np.int8)
-        data[cells[:, 1], cells[:, 0]] = 100
-        return cls.from_occupancy(OccupancyGrid(data, resolution, (float(low[0]), float(low[1]), 0.0)), sigma=sigma)
+        occupied = np.zeros((shape[1], shape[0]), dtype=bool)
+        occupied[cells[:, 1], cells[:, 0]] = True
+        # from_occupancy's field, cell for cell, within FIELD_REACH sigmas of a point (0 beyond, where it is below
+        # exp(-FIELD_REACH^2 / 2)): stamped around the points' cells, not a distance transform of the whole box a
+        # scan's far beams span (a 30 m scan: 1.6 million cells on 5 cm, 3.4 ms; the stamps, 0.1 ms)
+        reach = int(math.ceil(FIELD_REACH * sigma / resolution))
+        rows, cols = np.nonzero(occupied)
+        table = _stamped_field(rows, cols, occupied.shape, reach, resolution, sigma)
+        return cls(table.astype(np.float32), resolution, (float(low[0]), float(low[1])), ~occupied)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -595,6 +604,28 @@ class _BranchAndBound:
 
 
 # -- helpers ----------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def _stamped_field(rows, cols, shape, reach, resolution, sigma):
+    """exp(-d^2 / (2 sigma^2)), d (m) from each cell's centre to the nearest of the cells (rows, cols), for the cells
+    within `reach` cells of one (a disc stamped around each, the nearest kept); 0 elsewhere."""
+    table = np.zeros(shape)
+    for k in range(len(rows)):
+        r0, c0 = rows[k], cols[k]
+        for i in range(-reach, reach + 1):
+            r = r0 + i
+            if r < 0 or r >= shape[0]:
+                continue
+            for j in range(-reach, reach + 1):
+                c = c0 + j
+                if c < 0 or c >= shape[1] or i * i + j * j > reach * reach:
+                    continue
+                distance = math.sqrt(i * i + j * j) * resolution
+                value = math.exp(-0.5 * (distance / sigma) ** 2)
+                if value > table[r, c]:
+                    table[r, c] = value
+    return table
 
 
 def _point_table(points, cells, low, shape, resolution: float, sigma: float) -> np.ndarray:

@@ -10,7 +10,7 @@ from amr_maps.maze_families import generate
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.rasterize import rasterize_world
 from amr_maps.raycast import NumpyRayCaster
-from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, _max_pyramid
+from amr_maps.scan_matcher import FIELD_REACH, CorrelativeMatcher, GlobalSearch, ScoreMap, _max_pyramid
 from amr_maps.world import world_from_dict
 
 BEAMS = 180
@@ -223,6 +223,24 @@ def test_score_map_from_points_peaks_on_the_points_and_pads_around_them():
     assert score.origin[0] <= -0.3 and score.origin[1] <= -0.3
     with pytest.raises(ValueError, match="no finite point to rasterize or cover"):
         ScoreMap.from_points(np.full((3, 2), np.nan), 0.1, 0.1, 0.3)
+
+
+def test_a_point_clouds_field_is_the_occupancy_field_of_its_cells_within_its_reach():
+    """ScoreMap.from_points stamps the field around the points' cells instead of a distance transform of the box:
+    the same values cell for cell where they exceed exp(-FIELD_REACH^2 / 2), 0 beyond."""
+    points = np.random.default_rng(2).uniform(-3.0, 3.0, (60, 2))
+    resolution, sigma, pad = 0.05, 0.05, 0.2
+    field = ScoreMap.from_points(points, resolution, sigma, pad)
+    low = np.floor((points.min(axis=0) - pad) / resolution) * resolution
+    shape = np.ceil((points.max(axis=0) + pad - low) / resolution).astype(int) + 1
+    cells = np.floor((points - low) / resolution).astype(int)
+    data = np.zeros((shape[1], shape[0]), dtype=np.int8)
+    data[cells[:, 1], cells[:, 0]] = 100
+    reference = ScoreMap.from_occupancy(OccupancyGrid(data, resolution, (low[0], low[1], 0.0)), sigma=sigma)
+    assert field.table.shape == reference.table.shape and field.origin == pytest.approx(reference.origin)
+    near = reference.table > math.exp(-0.5 * FIELD_REACH**2) * 1.001
+    np.testing.assert_array_equal(field.table[near], reference.table[near])
+    assert (field.table[~near] <= math.exp(-0.5 * FIELD_REACH**2)).all() and near.mean() < 0.9
 
 
 def test_window_scores_cover_the_window_and_agree_with_the_match(pillars):
