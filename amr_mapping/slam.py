@@ -25,9 +25,8 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   Cartographer's).
 - Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
-  (a submap's build only as the update's first, its search in the next update) and none once the update's work
-  (_Work: lookups counted, builds at their measured equivalent) reaches loop_work_budget (the next updates take
-  the rest; deterministic: a run is repeatable), each by
+  and none once the update's work (_Work: lookups counted, builds at their measured equivalent) reaches
+  loop_work_budget (the next updates take the rest; deterministic: a run is repeatable), each by
   CorrelativeMatcher.match within +-loop_linear_window / +-loop_angular_window of the current estimate. A match
   scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it lies on the window's edge
   (_on_edge), puts scan points in the submap's seen-through space, a rival pose in the window scores nearly as
@@ -645,16 +644,10 @@ class GraphSlam:
             # (the rest wait for the next updates), but one at least every other update, however busy the front end
             if self._work.units > cfg.loop_work_budget * 1e6 and (searched or not self._starved):
                 break
-            submap = self._submaps[self._pending[0]]
-            if submap.reference is None:
-                # a submap's build is as much work as its search (fhw: 20-80 ms each at load 8): only as the
-                # update's first candidate, and its search waits for the next update (first in the queue)
-                if not searched:
-                    self._reference_of(submap)
-                    searched += 1
-                break
+            i = self._pending.pop(0)
             searched += 1
-            self._pending.pop(0)
+            submap = self._submaps[i]
+            self._reference_of(submap)
             anchor = poses[submap.anchor]
             prior = np.array(relative_pose(anchor, pose))
             match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)

@@ -20,7 +20,6 @@ from amr_util.scan import ScanData
 BEAMS = 180
 INCREMENT = 2.0 * math.pi / BEAMS
 MAX_RANGE = 8.0
-LOOP_LINEAR_WINDOW = 2.9  # tells a closure candidate's match from the front end's
 
 
 @pytest.fixture(scope="module")
@@ -243,41 +242,3 @@ def test_a_turn_the_odometry_misreads_beyond_its_window_is_found_in_the_whole_wi
     heading = math.degrees(abs(math.remainder(poses[6, 2] - poses[5, 2] - (truth[6, 2] - truth[5, 2]), 2 * math.pi)))
     assert heading < 1.0, (heading, events)
     assert any("whole angular window" in event for event in events), events
-
-
-def test_a_submaps_build_and_its_search_are_in_different_updates(ring, monkeypatch):
-    """The two largest parts of a loop-closure candidate's work, building its submap and searching it, never fall in
-    one update (an update's time is the front end and one of them): a built submap waits at the head of the queue
-    for the next update. The loop still closes."""
-    import amr_mapping.slam as slam_module
-
-    events: list[tuple[str, int]] = []
-    reference_of, match = slam_module.GraphSlam._reference_of, slam_module.CorrelativeMatcher.match
-
-    def spy_reference_of(self, submap):
-        if submap.reference is None:
-            events.append(("build", len(self._nodes)))
-        return reference_of(self, submap)
-
-    def spy_match(self, points, prior, linear_window, *args, **kwargs):
-        if linear_window == LOOP_LINEAR_WINDOW:  # a closure candidate's (the front end's window is smaller)
-            events.append(("search", spy_match.nodes()))
-        return match(self, points, prior, linear_window, *args, **kwargs)
-
-    slam_holder: list[GraphSlam] = []
-    spy_match.nodes = lambda: len(slam_holder[0]._nodes)
-    monkeypatch.setattr(slam_module.GraphSlam, "_reference_of", spy_reference_of)
-    monkeypatch.setattr(slam_module.CorrelativeMatcher, "match", spy_match)
-    caster, truth = ring
-    odometry = _odometry(truth)
-    config = SlamConfig(max_range_used=MAX_RANGE, loop_linear_window=LOOP_LINEAR_WINDOW)
-    slam = GraphSlam(config)
-    slam_holder.append(slam)
-    rng = np.random.default_rng(1)
-    closures = 0
-    for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
-        closures += len(slam.add(k * 100_000_000, odom, _scan(caster, pose, rng)).loop_closures)
-    built = {n for kind, n in events if kind == "build"}
-    searched = {n for kind, n in events if kind == "search"}
-    assert built and searched and closures > 0
-    assert not built & searched, sorted(built & searched)
