@@ -837,8 +837,8 @@ def _posterior_mode(
     pose), the posterior's 3-8 cm. Only a mode within the odometry's penalty of the best score can win, so the
     window is searched for modes (window_modes, budgeted, counted) only when the match is that far off the
     prior, and down to that score, AMBIGUITY_DISTANCE or more from the match (the match's own peak is left to the
-    Gaussian fusion with the odometry: pulled toward the prior within it, a maze's matches followed the slipping
-    odometry, perfect seed 0 precise 0.94 -> 0.85); the winner is matched again within two cells and steps."""
+    Gaussian fusion with the odometry, which would otherwise count the prior twice); the winner is matched again
+    within two cells and steps."""
     if not np.all(np.isfinite(match.pose)):
         return match
 
