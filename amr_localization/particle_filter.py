@@ -104,6 +104,8 @@ its lattice), and the heaviest particle clusters proposed each update."""
 SEARCH_CANDIDATES = 8
 """poses the place search keeps, best first by its lattice's score: a pooled lattice ranks look-alikes about alike
 (on the logs a true place came 5th to 8th), so the measurement model chooses the proposals among them."""
+RUNNING_PEAKS = 2
+"""of a place search under way, its best poses so far that `elsewhere` is scored at (each fitted every update)."""
 FIT_WINDOW = 0.06
 """m: a place hypothesis is fitted to each scan within this of its pose (odometry's drift between two updates) ..."""
 FIT_ANGLE = math.radians(4.0)
@@ -799,7 +801,7 @@ class ParticleFilter:
         poses = np.atleast_2d(compose(poses, relative_pose(running.local, seen.local))).reshape(-1, 3)
         if not done:
             running.start_ahead(budget)
-            poses = poses[:SEARCH_PROPOSALS]
+            poses = poses[:RUNNING_PEAKS]
             poses = poses[self.hypotheses.find(poses) < 0]
         else:
             self._search = None
