@@ -62,6 +62,8 @@ STATUS_PERIOD = 1.0
 RAW_KEEP = 64
 """Raw messages of a busy topic kept between two draws (a transform published every few steps is among them)."""
 WARNING_PERIOD = 5.0
+CAMERAS_KEPT = 4
+"""cameras a browser's top view was last given (a camera it reports that is one of them is not the user's)."""
 
 
 def specs() -> tuple[ParameterSpec, ...]:
@@ -303,7 +305,7 @@ class ViewerNode(ManagedNode):
         self._guard = None
         self._timers: list = []
         self._framed: set[int] = set()
-        self._top_views: dict[int, tuple[tuple[float, float, float, float], Camera]] = {}
+        self._top_views: dict[int, tuple[tuple[float, float, float, float], list[Camera]]] = {}
         """client -> (the bounds, the camera) of the top view it was last given: followed as a SLAM map grows"""
         self._last_status = 0.0
         self._graph: dict[str, set[str]] = {}
@@ -668,7 +670,10 @@ class ViewerNode(ManagedNode):
         if view == "arms" and self.arms:
             self._top_views.pop(client.client_id, None)
         else:
-            self._top_views[client.client_id] = (bounds, camera)
+            earlier = self._top_views.get(client.client_id, (None, []))[1]
+            # the cameras this view was given, latest last: the browser reports its camera back late, so a report of
+            # an earlier one is ours too, not the user's
+            self._top_views[client.client_id] = (bounds, [*earlier[-(CAMERAS_KEPT - 1) :], camera])
 
     def _robot_bounds(self) -> tuple[float, float, float, float] | None:
         """(xmin, ymin, xmax, ymax) over every robot's extent (its map, else its surroundings)."""
@@ -693,10 +698,10 @@ class ViewerNode(ManagedNode):
         bounds = (min(b[0] for b in maps), min(b[1] for b in maps), max(b[2] for b in maps), max(b[3] for b in maps))
         if not outgrown(view[0], bounds):
             return False
-        framed, camera = view
-        if not (
+        if not any(
             np.allclose(client.camera.position, camera.position, atol=0.01)
             and np.allclose(client.camera.look_at, camera.look_at, atol=0.01)
+            for camera in view[1]
         ):
             self._top_views.pop(client.client_id)  # the user's camera from now on, until Top view is pressed
             return False

@@ -37,15 +37,21 @@ def test_the_wall_follower_stack_matches_the_library_episode(ros_domain, monkeyp
     assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
 
 
+def _both_ways(ros_domain, monkeypatch, controller: str, world: str, **spec) -> tuple[dict, dict]:
+    """The records of one episode spec (the controller's default configuration) through ROS in its own domain and in
+    the library; the ROS run without an error."""
+    monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
+    label, parameters = configs.resolve(controller, "default")
+    library = EpisodeSpec(controller, label, parameters, {"file": world}, **spec)
+    ros = run_episode(dataclasses.replace(library, mode="ros"))
+    assert ros["error"] is None, ros["error"]
+    return ros, run_episode(library)
+
+
 def test_the_navigation_stack_reaches_the_goal_at_the_library_episodes_step(ros_domain, monkeypatch):
     """pillar_goal: localized at the third observation, one plan, the goal 8.3 s in (a filter fed other numbers than
     the nodes', or the planner on another map, parts them by a few steps: 8.15 against 8.30 s)."""
-    monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
-    label, parameters = configs.resolve("navigation", "default")
-    library = EpisodeSpec("navigation", label, parameters, {"file": "pillar_goal.yaml"}, seed=1, duration=20.0)
-    ros = run_episode(dataclasses.replace(library, mode="ros"))
-    expected = run_episode(library)
-    assert ros["error"] is None, ros["error"]
+    ros, expected = _both_ways(ros_domain, monkeypatch, "navigation", "pillar_goal.yaml", seed=1, duration=20.0)
     assert expected["goal_reached"] is ros["goal_reached"] is True
     assert ros["time_to_goal"] == pytest.approx(expected["time_to_goal"], abs=1e-6)
     assert ros["time_to_localized"] == pytest.approx(expected["time_to_localized"], abs=1e-6)
@@ -54,12 +60,7 @@ def test_the_navigation_stack_reaches_the_goal_at_the_library_episodes_step(ros_
 
 
 def test_the_localization_stack_localizes_at_the_library_episodes_step_with_its_error(ros_domain, monkeypatch):
-    monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
-    label, parameters = configs.resolve("localization", "default")
-    library = EpisodeSpec("localization", label, parameters, {"file": "open_room.yaml"}, seed=0, duration=3.0)
-    ros = run_episode(dataclasses.replace(library, mode="ros"))
-    expected = run_episode(library)
-    assert ros["error"] is None, ros["error"]
+    ros, expected = _both_ways(ros_domain, monkeypatch, "localization", "open_room.yaml", seed=0, duration=3.0)
     assert ros["time"] == pytest.approx(expected["time"], abs=1e-6)
     assert ros["time_to_localized"] == pytest.approx(expected["time_to_localized"], abs=1e-6)
     assert ros["localization_error"] == pytest.approx(expected["localization_error"], abs=1e-9)
