@@ -221,7 +221,9 @@ def as_sent(value: float) -> float:
 def as_stamped(seconds: float) -> float:
     """`seconds` as a message's stamp carries them (whole nanoseconds, amr_util.stamps), read back as a node reads
     them: the controllers' time-based terms see the nodes' intervals (0.05 s, not 0.05000000000000071)."""
-    return round(seconds * 1e9) * 1e-9
+    from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
+
+    return stamp_nanoseconds(stamp_from_seconds(seconds)) * 1e-9
 
 
 class AsSent:

@@ -34,7 +34,7 @@ import numpy as np
 
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
-from amr_evaluation.episode import as_sent, as_stamped
+from amr_evaluation.episode import AsSent
 from amr_evaluation.figures import path_figures
 from amr_maps.maze_route import MazeGrid, cell_route
 from amr_maps.world import World
@@ -42,7 +42,6 @@ from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.render import save_png
 from amr_simulation.simulator import Simulator
 from amr_util.geometry import wrap_angle
-from amr_util.scan import ScanData
 
 ERROR_CAP = 1.0  # m
 
@@ -88,7 +87,7 @@ def run(
     )
     follower = WallFollower(config)
     lidar = sim.lidar
-    sent = [as_sent(v) for v in (lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)]
+    sent = AsSent(sim)  # the scan and the time as the nodes read them
     outliers = np.random.default_rng([seed, 14])
     every = 1 if scan_period is None else max(1, round(scan_period / config.dt))
     states: Counter[str] = Counter()
@@ -97,13 +96,13 @@ def run(
     command, issues = None, 0
     while sim.time < seconds and not sim.goal_reached:
         if sim.steps % every == 0:
-            ranges = np.asarray(sim.ranges, dtype=np.float32).astype(float)  # as the LaserScan carries them
+            ranges = sent.ranges
             if outlier_rate > 0.0:
                 hit = outliers.random(len(ranges)) < outlier_rate
                 ranges[hit] = outliers.uniform(lidar.range_min, 1.0, int(hit.sum()))
             odometry_v, odometry_w = sim.odom_twist
-            scan = ScanData(ranges, *sent)
-            command = follower.compute(scan, odometry_v, odometry_w, as_stamped(sim.time))
+            scan = dataclasses.replace(sent.lidar, ranges=ranges)
+            command = follower.compute(scan, odometry_v, odometry_w, sent.time)
             issues += not command.ok
             if follower.state == "FOLLOW":
                 following_errors.append(abs(follower.measurements.wall_distance - config.target_wall_distance))
