@@ -131,8 +131,11 @@ class ScoreMap:
         # exp(-FIELD_REACH^2 / 2)): stamped around the points' cells, not a distance transform of the whole box a
         # scan's far beams span (a 30 m scan: 1.6 million cells on 5 cm, 3.4 ms; the stamps, 0.1 ms)
         reach = int(math.ceil(FIELD_REACH * sigma / resolution))
+        offsets = np.arange(-reach, reach + 1)
+        steps = np.hypot(offsets[:, None], offsets[None, :])
+        stamp = np.where(steps <= reach, np.exp(-0.5 * (steps * resolution / sigma) ** 2), 0.0)
         rows, cols = np.nonzero(occupied)
-        table = _stamped_field(rows, cols, occupied.shape, reach, resolution, sigma)
+        table = _stamped_field(rows, cols, occupied.shape, stamp)
         return cls(table.astype(np.float32), resolution, (float(low[0]), float(low[1])), ~occupied)
 
     @property
@@ -607,24 +610,17 @@ class _BranchAndBound:
 
 
 @numba.njit(cache=True)
-def _stamped_field(rows, cols, shape, reach, resolution, sigma):
-    """exp(-d^2 / (2 sigma^2)), d (m) from each cell's centre to the nearest of the cells (rows, cols), for the cells
-    within `reach` cells of one (a disc stamped around each, the nearest kept); 0 elsewhere."""
+def _stamped_field(rows, cols, shape, stamp):
+    """The largest of `stamp` (a (2 r + 1)^2 square centred on its middle) placed on each of the cells (rows, cols):
+    a field within r cells of them; 0 elsewhere."""
     table = np.zeros(shape)
+    reach = stamp.shape[0] // 2
     for k in range(len(rows)):
-        r0, c0 = rows[k], cols[k]
-        for i in range(-reach, reach + 1):
-            r = r0 + i
-            if r < 0 or r >= shape[0]:
-                continue
-            for j in range(-reach, reach + 1):
-                c = c0 + j
-                if c < 0 or c >= shape[1] or i * i + j * j > reach * reach:
-                    continue
-                distance = math.sqrt(i * i + j * j) * resolution
-                value = math.exp(-0.5 * (distance / sigma) ** 2)
-                if value > table[r, c]:
-                    table[r, c] = value
+        for i in range(max(rows[k] - reach, 0), min(rows[k] + reach + 1, shape[0])):
+            for j in range(max(cols[k] - reach, 0), min(cols[k] + reach + 1, shape[1])):
+                value = stamp[i - rows[k] + reach, j - cols[k] + reach]
+                if value > table[i, j]:
+                    table[i, j] = value
     return table
 
 
