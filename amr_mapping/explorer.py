@@ -7,20 +7,26 @@
   - else chooses the reachable, not blacklisted frontier of least cost (explore_lite's rule:
     potential_scale * path length - gain_scale * frontier length) and returns its goal as new;
   - with none left, is `done` (state "done", no goal); a later map with new frontiers makes it explore again.
-Blacklisting: a goal the navigator could not plan to or reach (`failed`), one not reached within goal_timeout,
-and one reached whose frontier is still there (`reached`: what lay beyond could not be seen from there) are
-given up; frontiers whose goal lies within blacklist_radius of a point given up are never chosen again.
+Giving up (amr_mapping.frontiers, reach_frontiers):
+  - a goal the navigator could not plan to or reach (`failed`), or not reached within goal_timeout: the point;
+    frontiers whose goal lies within blacklist_radius of it are never chosen again;
+  - a goal reached (`reached`): the frontier it was chosen for, as it was then; a frontier mostly of the same
+    cells (it is still there: what lay beyond could not be seen from there) is never chosen again, a frontier
+    mostly of new cells (an opening seen as the robot arrived) is, whatever its goal's distance to the one reached.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from amr_mapping.frontiers import (
     Frontier,
     FrontierConfig,
     best_frontier,
     detect_frontiers,
+    frontier_points,
     reach_frontiers,
     with_robot_free,
 )
@@ -54,12 +60,17 @@ class Step:
 
 @dataclass
 class Explorer:
-    """The frontier explorer's state between maps: the goal being driven to, and the points given up on."""
+    """The frontier explorer's state between maps: the goal being driven to, the points and frontiers given up."""
 
     config: ExplorerConfig = field(default_factory=ExplorerConfig)
     goal: tuple[float, float] | None = None
     goal_since: float = 0.0
+    goal_frontier: np.ndarray | None = None
+    """(K, 2) x, y of the cells of the frontier the goal was chosen for, as they were then."""
     blacklist: list[tuple[float, float]] = field(default_factory=list)
+    """goals given up (failed, timed out): points."""
+    given_up: list[np.ndarray] = field(default_factory=list)
+    """frontiers given up (their goal reached, they stayed): goal_frontier's cells each."""
     state: str = WAITING
     goals_sent: int = 0
     reached_count: int = 0
@@ -76,7 +87,12 @@ class Explorer:
             self.failed(f"not reached within goal_timeout ({config.goal_timeout:g} s)")
         seen = with_robot_free(grid, robot, config.footprint_radius)
         frontiers = reach_frontiers(
-            seen, detect_frontiers(seen, config.min_frontier_size, config.free_threshold), robot, config, self.blacklist
+            seen,
+            detect_frontiers(seen, config.min_frontier_size, config.free_threshold),
+            robot,
+            config,
+            self.blacklist,
+            self.given_up,
         )
         if self.goal is not None:
             kept = self._frontier_at_goal(seen, frontiers)
@@ -84,19 +100,20 @@ class Explorer:
                 self.state = EXPLORING
                 return Step(EXPLORING, self.goal, False, "driving to the frontier", tuple(frontiers), kept)
             self._say(f"frontier at ({self.goal[0]:.2f}, {self.goal[1]:.2f}) explored")
-            self.goal = None
+            self.goal, self.goal_frontier = None, None
         chosen = best_frontier(frontiers)
         if chosen < 0:
             self.state = DONE
             unreachable = sum(1 for f in frontiers if not f.reachable)
             reason = (
                 f"no reachable frontier left ({len(frontiers)} frontiers: {unreachable} unreachable, "
-                f"{sum(1 for f in frontiers if f.blacklisted)} blacklisted; {len(self.blacklist)} points "
-                "given up)"
+                f"{sum(1 for f in frontiers if f.blacklisted)} blacklisted; {len(self.blacklist)} points and "
+                f"{len(self.given_up)} frontiers given up)"
             )
             return Step(DONE, None, False, reason, tuple(frontiers), -1)
         frontier = frontiers[chosen]
         self.goal, self.goal_since, self.state = frontier.goal, now, EXPLORING
+        self.goal_frontier = frontier_points(seen, frontier)
         self.goals_sent += 1
         reason = (
             f"frontier of {frontier.length:.2f} m at ({frontier.centroid[0]:.2f}, {frontier.centroid[1]:.2f}), "
@@ -105,20 +122,26 @@ class Explorer:
         self._say(reason)
         return Step(EXPLORING, self.goal, True, reason, tuple(frontiers), chosen)
 
+    @property
+    def given_up_count(self) -> int:
+        """Points and frontiers given up."""
+        return len(self.blacklist) + len(self.given_up)
+
     def reached(self) -> None:
-        """The robot reached the goal: the point is given up (if its frontier is still there, it cannot be seen
-        from there), and the next update chooses again."""
+        """The robot reached the goal: the frontier it was chosen for is given up (if it is still there, what lies
+        beyond cannot be seen from there), and the next update chooses again."""
         if self.goal is not None:
             self.reached_count += 1
-            self.blacklist.append(self.goal)
-            self.goal = None
+            if self.goal_frontier is not None:
+                self.given_up.append(self.goal_frontier)
+            self.goal, self.goal_frontier = None, None
 
     def failed(self, reason: str) -> None:
         """The goal could not be planned to or reached: blacklisted, and the next update chooses again."""
         if self.goal is not None:
             self._say(f"goal ({self.goal[0]:.2f}, {self.goal[1]:.2f}) given up: {reason}")
             self.blacklist.append(self.goal)
-            self.goal = None
+            self.goal, self.goal_frontier = None, None
 
     def take_events(self) -> list[str]:
         events, self.events = self.events, []

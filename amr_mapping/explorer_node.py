@@ -4,8 +4,8 @@ amr_mapping.explorer.Explorer.
 Inputs: /map (nav_msgs/OccupancyGrid, transient local: the slam node's), /pose (amr_interfaces/LocalizedPose:
 the slam node's), and the navigator's ~/status (amr_interfaces/NavigatorStatus).
 Decisions: at a /pose after a new map (at most every decision_period s of pose time while a goal is being driven
-to; at once without one), and at once when the navigator reports the explorer's goal REACHED (the goal is
-given up as a point: the next frontier is chosen) or NO_PATH (the goal is blacklisted). A goal not reached
+to; at once without one), and at once when the navigator reports the explorer's goal REACHED (the frontier it
+was chosen for is given up: the next frontier is chosen) or NO_PATH (the goal is blacklisted). A goal not reached
 within goal_timeout s of pose time is blacklisted too.
 Outputs: a new goal as geometry_msgs/PoseStamped on /goal_pose (the navigator's goal input, frame map); ~/frontiers
 (amr_interfaces/Frontiers) and ~/status (std_msgs/String: the state and why) after every decision. With nothing
@@ -233,7 +233,7 @@ class ExplorerNode(ManagedNode):
         self._outputs["goal"].publish(message)
 
     def _publish(self, step: Step) -> None:
-        message = Frontiers(state=step.state, chosen=int(step.chosen), blacklisted=len(self.explorer.blacklist))
+        message = Frontiers(state=step.state, chosen=int(step.chosen), blacklisted=self.explorer.given_up_count)
         message.header.frame_id = self._settings["global_frame"]
         if self._stamp is not None:
             message.header.stamp = self._stamp

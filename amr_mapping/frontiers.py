@@ -19,8 +19,14 @@ Choice, explore_lite's rule (`frontier_search.cpp`, frontierCost):
 
     cost = potential_scale * distance - gain_scale * length          (length = size x resolution, m)
 
-the lowest cost wins: near and long frontiers first. Points given up on (blacklisted) rule out every frontier
-whose goal lies within `blacklist_radius` of one.
+the lowest cost wins: near and long frontiers first. What is given up rules frontiers out (blacklisted):
+  - a point (a goal the navigator could not plan to or reach): every frontier whose goal lies within
+    `blacklist_radius` of it;
+  - a frontier (one whose goal was reached while it stayed: what lies beyond cannot be seen from there): every
+    frontier at least half of whose cells lie within a cell of its cells (SAME_FRONTIER_SHARE). A frontier grown
+    mostly of new cells is another one: an opening seen from that goal only as the robot arrived, a place whose
+    goal may lie beside the one reached (a goal point would rule it out: rotated maze seed 0 was done at 78 s with
+    half of it unknown, the opening beside the reached goal).
 """
 
 from __future__ import annotations
@@ -30,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.ndimage import distance_transform_edt, label
+from scipy.ndimage import binary_dilation, distance_transform_edt, label
 from scipy.sparse.csgraph import dijkstra
 
 from amr_maps.occupancy_grid import UNKNOWN, OccupancyGrid
@@ -38,6 +44,8 @@ from amr_util.parameter_spec import Config, parameter
 from amr_util.robot_description import default_robot
 
 EIGHT = np.ones((3, 3), dtype=bool)
+SAME_FRONTIER_SHARE = 0.5
+"""a frontier is a given-up one when at least this share of its cells lie within a cell (8-neighbours) of its cells."""
 STEPS = ((0, 1, 1.0), (1, 0, 1.0), (1, 1, math.sqrt(2.0)), (1, -1, math.sqrt(2.0)))
 """(d_row, d_col, length in cells) of the 8-connected moves, each pair of cells once (edges are undirected)."""
 
@@ -204,18 +212,48 @@ def approaches(
     return gaps.reshape(free.shape), nearest.reshape(free.shape)
 
 
+def given_up_mask(grid: OccupancyGrid, given_up=()) -> np.ndarray:
+    """The cells of `grid` within a cell (8-neighbours) of a given-up frontier's points ((K, 2) x, y arrays)."""
+    mask = np.zeros(grid.data.shape, dtype=bool)
+    for points in given_up:
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        rows, cols = (np.asarray(v, dtype=int) for v in grid.world_to_cell(points[:, 0], points[:, 1]))
+        inside = (rows >= 0) & (rows < grid.height) & (cols >= 0) & (cols < grid.width)
+        mask[rows[inside], cols[inside]] = True
+    return binary_dilation(mask, structure=EIGHT) if mask.any() else mask
+
+
+def frontier_points(grid: OccupancyGrid, frontier: Frontier) -> np.ndarray:
+    """(K, 2) x, y of a frontier's cells: what a frontier given up is remembered by (the grid may grow)."""
+    x, y = grid.cell_to_world(frontier.cells[:, 0], frontier.cells[:, 1])
+    return np.column_stack([np.asarray(x, dtype=float), np.asarray(y, dtype=float)])
+
+
 def reach_frontiers(
-    grid: OccupancyGrid, frontiers: list[Frontier], robot: tuple[float, float], config: FrontierConfig, blacklist=()
+    grid: OccupancyGrid,
+    frontiers: list[Frontier],
+    robot: tuple[float, float],
+    config: FrontierConfig,
+    blacklist=(),
+    given_up=(),
 ) -> list[Frontier]:
-    """Each frontier with its goal, distance and cost from the robot at `robot` (x, y); blacklisted ones marked."""
+    """Each frontier with its goal, distance and cost from the robot at `robot` (x, y); blacklisted ones marked:
+    a goal within blacklist_radius of a point of `blacklist`, or the frontier one of `given_up` (frontier_points of
+    frontiers given up; module docstring)."""
     if not frontiers:
         return []
+    mask = given_up_mask(grid, given_up)
+
+    def same(frontier: Frontier) -> bool:
+        return bool(mask[frontier.cells[:, 0], frontier.cells[:, 1]].mean() >= SAME_FRONTIER_SHARE)
+
     safe = safe_cells(grid, config.robot_radius, config.free_threshold)
     res = grid.resolution
     start = _start_cell(grid, safe, robot, config.approach_distance)
     if start is None:
         return [
-            Frontier(f.cells, f.centroid, f.length, blacklisted=_near(f.centroid, blacklist, config)) for f in frontiers
+            Frontier(f.cells, f.centroid, f.length, blacklisted=_near(f.centroid, blacklist, config) or same(f))
+            for f in frontiers
         ]
     distances = path_distances(safe, start, res)
     free = (grid.data >= 0) & (grid.data < config.free_threshold)
@@ -230,7 +268,7 @@ def reach_frontiers(
                     frontier.cells,
                     frontier.centroid,
                     frontier.length,
-                    blacklisted=_near(frontier.centroid, blacklist, config),
+                    blacklisted=_near(frontier.centroid, blacklist, config) or same(frontier),
                 )
             )
             continue
@@ -241,7 +279,7 @@ def reach_frontiers(
         gx, gy = grid.cell_to_world(*goal_cell)
         goal = (float(gx), float(gy))
         distance = float(distances[goal_cell])
-        banned = _near(goal, blacklist, config)
+        banned = _near(goal, blacklist, config) or same(frontier)
         cost = math.inf if banned else config.potential_scale * distance - config.gain_scale * frontier.length
         result.append(Frontier(frontier.cells, frontier.centroid, frontier.length, goal, distance, cost, banned))
     return result

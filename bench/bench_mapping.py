@@ -19,7 +19,8 @@ simulated-time budget runs out. Printed per run:
   to the start) that the saved map knows (free or occupied)
 - precise: share of the saved map's occupied cells within one cell of a true wall
 - walls: share of the true wall cells bordering reachable space that the saved map marks occupied within one cell
-- collisions (the simulator's wall contacts), goals the explorer gave up, wall-clock s
+- collisions (the simulator's wall contacts), goals the explorer gave up (failed or timed out; through ROS: the
+  Frontiers message's count, frontiers given up at a reached goal included), wall-clock s
 
 The saved map is in slam's map frame, the odom frame of the first scan: the simulator's odometry starts at the
 world's start pose, so it is the world's frame (what `maze_navigation world:=<world> map:=<run>.yaml` takes as
@@ -343,7 +344,7 @@ def run_library(
         "collisions": int(sim.collisions),
         "wall": time.monotonic() - started,
         "state": state,
-        "given_up": len(explorer.blacklist) - explorer.reached_count,
+        "given_up": len(explorer.blacklist),
         "closures": int(slam.graph()[2].sum()),
         "pose_error": math.hypot(x - truth.x, y - truth.y),
     }
