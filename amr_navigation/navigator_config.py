@@ -16,6 +16,7 @@ from amr_util.parameter_spec import Config, ConfigError, parameter
 
 NODE_NAME = "navigator"
 COORDINATIONS = ("rules", "plan")
+NOBODY_DRIVES = ("wait", "zero")
 
 
 def _goal_problem(goal: list) -> str | None:
@@ -52,6 +53,12 @@ class NavigatorConfig(Config):
     and requests for a new plan)."""
     global_frame: str = parameter("map", nonempty=True)
     """frame of /pose, goals and paths (REP 105: map)."""
+    nobody_drives: str = parameter("wait", choices=NOBODY_DRIVES)
+    """what answers an observation this node gives nobody (IDLE, NO_PATH, REACHED), as the stack declares it. wait:
+    no command; a lockstep world waits on that observation (its clock stands) until a new goal or route decides it
+    again (maze_mapping: the explorer's next frontier), in real time the controller that had the robot stops it.
+    zero: this node answers it with a zero TwistStamped on cmd_vel, stamped with the observation: the robot stands
+    while a lockstep world goes on (/clock, ~/status), and a new goal is decided at the next observation."""
     # -- traffic rules among robots (issue 22) ----------------------------------------------------
     traffic: bool = parameter(False)
     """run the traffic rules among robots (amr_navigation.traffic): post on /traffic, read everyone's posts,

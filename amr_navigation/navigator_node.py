@@ -16,9 +16,12 @@ node only turns messages into observations and the core's effects into ROS calls
 
 Requests are made one at a time; an observation arriving meanwhile is decided after (the latest one), a plan the
 path follower asked for (its ~/status) after the request in flight. A request unanswered for `plan_timeout` (wall
-clock) counts as failed. Nobody drives (IDLE, NO_PATH, REACHED): the status names nobody and, in lockstep, the
-simulator holds the robot; a new goal or route decides the held observation again (the status goes out again with
-the same stamp), and one held for want of a path is decided again every RETRY_PERIOD.
+clock) counts as failed. Nobody drives (IDLE, NO_PATH, REACHED): the status names nobody, and what answers the
+observation is the stack's declaration, `nobody_drives`. zero: this node answers it with a zero TwistStamped on
+cmd_vel stamped with it, so in lockstep the robot stands while the world goes on (/clock, ~/status), and a new goal
+or route is decided at the next observation. wait: no command; in lockstep the simulator waits on the observation,
+a new goal or route decides it again (the status goes out again with the same stamp), and one held for want of a
+path is decided again every RETRY_PERIOD; in real time the controller that had the robot stops it.
 
 Goals: the `goal` parameter, geometry_msgs/PoseStamped on /goal_pose, and, with `world_goal_topic`, a latched
 PoseStamped (the simulator's ~/goal). The latest one wins, at any time. With `traffic: true` the node also reads
@@ -37,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from builtin_interfaces.msg import Time as TimeMessage
-from geometry_msgs.msg import Point, Pose, PoseStamped
+from geometry_msgs.msg import Point, Pose, PoseStamped, TwistStamped
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from nav_msgs.msg import Odometry, Path
 from rclpy.clock import Clock, ClockType
@@ -77,7 +80,7 @@ from amr_planning.messages import path_message
 from amr_planning.planner import Planner
 from amr_util.geometry import all_finite, wrap_angle, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
-from amr_util.messages import path_points, quaternion, scan_data
+from amr_util.messages import path_points, quaternion, scan_data, velocity_command
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import stamp_nanoseconds
 
@@ -167,6 +170,8 @@ class NavigatorNode(ManagedNode):
         self.declare_specs(NavigatorConfig.parameter_specs())
         self.core: NavigatorCore | None = None
         self.statuses_sent = 0
+        self.holds_sent = 0
+        """zero commands sent for observations given to nobody (nobody_drives zero)."""
         self._values: dict = {}
         self._entities: list = []
         self._outputs: dict = {}
@@ -178,6 +183,8 @@ class NavigatorNode(ManagedNode):
         self._follower_job: Job | None = None
         self._last: tuple[Received, Decision] | None = None
         self._last_decided = 0.0
+        self._last_answered = False
+        """the last observation was given to nobody and answered here (nobody_drives zero): the world has gone on."""
         self.configure_error = ""
         self.board: FleetBoard | None = None
         self.posts_dropped = 0
@@ -235,6 +242,10 @@ class NavigatorNode(ManagedNode):
             "status": self.create_lifecycle_publisher(NavigatorStatus, "~/status", reliable(), event_callbacks=QUIET),
             "path": self.create_lifecycle_publisher(Path, "path", LATCHED, event_callbacks=QUIET),
         }
+        if values["nobody_drives"] == "zero":  # the answer to an observation given to nobody
+            self._outputs["cmd_vel"] = self.create_lifecycle_publisher(
+                TwistStamped, "cmd_vel", reliable(), event_callbacks=QUIET
+            )
         self._entities = [
             self.create_subscription(LocalizedPose, "pose", self._on_pose, reliable()),
             self.create_subscription(PoseStamped, "goal_pose", self._on_goal, reliable()),
@@ -303,6 +314,7 @@ class NavigatorNode(ManagedNode):
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._inflight, self._pending, self._follower_job, self._last = None, None, None, None
+        self._last_answered = False
         self._last_post, self._odometry = None, OrderedDict()
         self.core.restart()
         self._timer = self.create_timer(
@@ -438,9 +450,12 @@ class NavigatorNode(ManagedNode):
     # -- running the core's jobs ----------------------------------------------------------------------
 
     def _decide_held_again(self) -> None:
-        """The robot is held on the last observation (nobody drives it): decide it again."""
-        if self._last is not None and self._last[1].controller is Controller.NONE and self._inflight is None:
-            self._decide(self._last[0])
+        """The robot is held on the last observation (nobody drives it, nobody answered it: nobody_drives wait): decide
+        it again. One answered here (zero) is over: the next observation is decided with the news."""
+        last = self._last
+        if last is not None and last[1].controller is Controller.NONE and not self._last_answered:
+            if self._inflight is None:
+                self._decide(last[0])
 
     def _decide(self, received: Received) -> None:
         stamp_ns = stamp_nanoseconds(received.stamp)
@@ -543,7 +558,18 @@ class NavigatorNode(ManagedNode):
                 )
             self._publish_status(received, outcome)
             self._last, self._last_decided = (received, outcome.decision), time.monotonic()
+            self._last_answered = self._hold(received, outcome.decision)
         self._next()
+
+    def _hold(self, received: Received, decision: Decision) -> bool:
+        """nobody_drives zero: an observation given to nobody answered with a zero command stamped with it (the
+        explicit hold: a lockstep world goes on); whether it was."""
+        publisher = self._outputs.get("cmd_vel")
+        if publisher is None or decision.controller is not Controller.NONE:
+            return False
+        publisher.publish(velocity_command(0.0, 0.0, stamped=True, flip_angular_sign=False, stamp=received.stamp))
+        self.holds_sent += 1
+        return True
 
     def _next(self) -> None:
         if self._follower_job is not None:
@@ -560,6 +586,7 @@ class NavigatorNode(ManagedNode):
         flight = self._inflight
         if flight is None:
             held = self._last is not None and self._last[1].mode is Mode.NO_PATH and not self.navigator.goal_refused
+            held = held and not self._last_answered  # answered: the next observation tries again
             if held and now - self._last_decided >= RETRY_PERIOD:
                 self._decide(self._last[0])
             return
