@@ -124,7 +124,7 @@ def generate(family: str, seed: int, **options: Any) -> dict:
 def grid_pitch(world: dict) -> float:
     """m from one cell of a grid maze (`perfect`, `loops`) to the next: the least gap, over 5 cm, between the
     distinct coordinates of its axis-aligned walls' ends (the lattice spacing that puts a robot on each cell when
-    the fleet is planned together, amr_planning.fleet_plan)."""
+    the fleet is planned together, amr_planning.fleet_lattice)."""
     values = np.unique(np.round(np.asarray(world["walls"], dtype=float).ravel(), 4))
     gaps = np.diff(values)
     gaps = gaps[gaps > 0.05]

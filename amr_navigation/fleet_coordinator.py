@@ -11,13 +11,13 @@ the `Route`s it returns on each robot's fleet_route (amr_interfaces/FleetRoute):
   release_confidence since), the one it drives a path on; not the localizer's `localized`, whose withdrawals
   within a second of a declaration the former `settle_time` guard (each robot localized without a break for 3 s)
   waited out (bench/bench_fleet_confidence.py: docs/fleet.md).
-- **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_plan.lattice, `spacing`),
-  each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_plan.assign:
+- **HOLD** to every robot, then the plan: the lattice of the costmap (amr_planning.fleet_lattice.lattice, `spacing`),
+  each robot from a vertex of its own near where it stands to the one nearest its goal (fleet_lattice.assign:
   the assignment of least squared way lengths, the way straight to a vertex the robot sees, then along the
   lattice; not each robot's nearest free vertex, which for the second of two robots in one maze cell may lie
   beyond a wall), `improve(plan_lacam(...))` with PLAN_SEEDS seeds, the plan that would end first kept
-  (fleet_plan.execution_time: its robots driven at `follower_speed`, turning at `turn_rate`, each move as soon as its
-  dependencies are done; not the makespan, which counts lockstep steps: in `perfect 9` the plan of 95 steps
+  (fleet_execution.execution_time: its robots driven at `follower_speed`, turning at `turn_rate`, each move as soon
+  as its dependencies are done; not the makespan, which counts lockstep steps: in `perfect 9` the plan of 95 steps
   brought the last robot home at 308.5 s, the one of 112 steps timed shortest at 248.2 s).
 - **FOLLOW**: each robot's waypoints it may drive to now (amr_navigation.fleet_schedule.Schedule.route from where
   it last said it stood), the last one its goal when `final`. Every status moves the schedule on
@@ -65,27 +65,20 @@ import numpy as np
 from amr_navigation.fleet_schedule import Schedule
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_plan import (
-    FleetPlan,
-    Lattice,
-    assign,
-    dependencies,
-    execution_time,
-    improve,
-    lattice,
-    plan_lacam,
-    rotates,
-    space_time_path,  # A* over (vertex, step) under those constraints
-    trim,
-)
-from amr_planning.fleet_plan import constraints_around as around  # one robot's space-time constraints from the others
+from amr_planning.fleet_execution import dependencies, execution_time
+from amr_planning.fleet_improve import improve
+from amr_planning.fleet_lacam import plan_lacam
+from amr_planning.fleet_lattice import Lattice, assign, lattice
+from amr_planning.fleet_paths import FleetPlan, rotates, trim
+from amr_planning.fleet_space_time import constraints_around as around  # one robot's constraints from the others
+from amr_planning.fleet_space_time import space_time_path  # A* over (vertex, step) under those constraints
 
 NONE, HOLD, FOLLOW = "NONE", "HOLD", "FOLLOW"
 GOAL_TOLERANCE = 1e-6
 """m a status's goal may differ from the plan's before the goal counts as changed."""
 PLAN_SEEDS = 4
 """LaCAM searches per plan (their seeds 1000 apart): the plan whose robots would all arrive first when driven by its
-action dependencies (fleet_plan.execution_time), then of least makespan and cost, is kept."""
+action dependencies (fleet_execution.execution_time), then of least makespan and cost, is kept."""
 JUMP_SPEED = 1.0
 """m/s no robot of the fleet drives faster than (a TurtleBot3 Burger 0.22): a status pose moving faster jumped."""
 
@@ -188,7 +181,7 @@ def compute_plan(job: PlanJob) -> PlanOutcome:
 
 def _plan_on(whole: Lattice, graph: Lattice, job: PlanJob, restart: dict[int, int]) -> FleetPlan:
     """The fleet plan on `graph` from the robots' vertices (`restart`'s, else assigned to where they stand:
-    amr_planning.fleet_plan.assign) to the vertices nearest their goals; PlanningError or ValueError when
+    amr_planning.fleet_lattice.assign) to the vertices nearest their goals; PlanningError or ValueError when
     none is found."""
     statuses = job.statuses
     moving = [robot for robot in range(len(statuses)) if robot not in restart]
@@ -318,7 +311,7 @@ class FleetCoordinator:
         self.retry_period = float(retry_period)
         self.stuck_time = float(stuck_time)
         self.follower_speed, self.turn_rate = float(follower_speed), float(turn_rate)
-        """m/s and rad/s the plans are timed at (fleet_plan.execution_time), to keep the one that ends first."""
+        """m/s and rad/s the plans are timed at (fleet_execution.execution_time), to keep the one that ends first."""
         self.cut: list[tuple[int, int]] = []
         """the lattice edges found blocked (cut until a new map)."""
         self.events: list[str] = []

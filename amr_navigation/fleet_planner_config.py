@@ -20,7 +20,7 @@ class FleetPlannerConfig(Config):
     """the robots' names (their namespaces), in priority order; [] = the world's robots list (the fleet file: their
     `priority` keys, amr_navigation.fleet_file)."""
     lattice_spacing: float = parameter(0.4, minimum=0.1, maximum=5.0)
-    """m between the points of the lattice the fleet is planned on (amr_planning.fleet_plan.lattice: a square grid
+    """m between the points of the lattice the fleet is planned on (amr_planning.fleet_lattice.lattice: a square grid
     where it follows the free space, else points sampled along it at least this far apart): about a robot's width
     and its clearance; in a maze, the pitch of its cells."""
     status_topic: str = parameter("navigator/status", nonempty=True)
@@ -42,7 +42,7 @@ class FleetPlannerConfig(Config):
     edge it is on counts as blocked (something not on the map): the edge is cut and the fleet planned again."""
     follower_speed: float = parameter(0.2, minimum=0.01, maximum=5.0)
     """m/s the plans are timed at (the path followers' linear_speed): of the searches' plans the one whose robots,
-    driven by its action dependencies, would all arrive first is kept (amr_planning.fleet_plan.execution_time)."""
+    driven by its action dependencies, would all arrive first is kept (amr_planning.fleet_execution.execution_time)."""
     turn_rate: float = parameter(1.0, minimum=0.01, maximum=10.0)
     """rad/s the plans are timed at for a robot turning in place where its way bends."""
     route_lifetime: float = parameter(30.0, minimum=0.0, maximum=3600.0)

@@ -5,7 +5,7 @@ One per fleet, in the root namespace (/fleet_planner). It reads every robot's na
 (/<robot>/navigator/status: where the robot stands, whether its navigator is confident, its goal) and the one /map
 (transient local), and publishes each robot's amr_interfaces/FleetRoute on /<robot>/fleet_route (reliable,
 transient local): NONE (go by the traffic rules) until every robot is confident at once, then HOLD while it plans
-(amr_planning.fleet_plan on a lattice of the map's costmap), then FOLLOW: the waypoints the robot may drive to now,
+(amr_planning.fleet_lacam on a lattice of the map's costmap), then FOLLOW: the waypoints the robot may drive to now,
 sent again whenever the robots' progress lets it go farther; a robot stuck on its way (something not on the map)
 has the lattice vertex it could not reach cut off and the fleet planned again. The navigators run `coordination: plan`
 (docs/amr_navigation.md); it plans only when every robot's route has a listener (with coordination: rules the

@@ -1,4 +1,4 @@
-"""Following a fleet plan (amr_planning.fleet_plan) together: which waypoints each robot may drive to now.
+"""Following a fleet plan (amr_planning.fleet_execution) together: which waypoints each robot may drive to now.
 
 A fleet plan gives every robot a list of waypoints (its lattice vertices, waits dropped) and, for each waypoint,
 the moves of other robots that must be done first (the action dependencies: a robot may drive into a vertex only
@@ -18,7 +18,8 @@ import numpy as np
 
 from amr_control.path_follower import State
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_plan import FleetPlan, dependencies
+from amr_planning.fleet_execution import dependencies
+from amr_planning.fleet_paths import FleetPlan
 from amr_planning.planner import Planner
 from amr_util.geometry import compose, relative_pose
 

@@ -1,4 +1,4 @@
-"""How long a fleet plan takes (amr_planning.fleet_plan.plan_lacam, library level, no ROS): prints, asserts nothing.
+"""How long a fleet plan takes (amr_planning.fleet_lacam.plan_lacam, library level, no ROS): prints, asserts nothing.
 
 Six robots (--robots) from random distinct lattice vertices (--trials of them, numpy default_rng(--seed)) to the
 bench's goals of a generated tree maze (`perfect` --maze, amr_evaluation.fleet_navigation.with_robots: each robot
@@ -34,7 +34,8 @@ from amr_maps.rasterize import rasterize_world  # noqa: E402
 from amr_maps.world import world_from_dict  # noqa: E402
 from amr_planning.costmap import Costmap, CostmapConfig  # noqa: E402
 from amr_planning.errors import PlanningError  # noqa: E402
-from amr_planning.fleet_plan import MAX_NODES, lattice, plan_lacam  # noqa: E402
+from amr_planning.fleet_lacam import MAX_NODES, plan_lacam  # noqa: E402
+from amr_planning.fleet_lattice import lattice  # noqa: E402
 from amr_planning.fleet_starts import with_robots  # noqa: E402
 
 

@@ -289,9 +289,11 @@ def test_a_robot_whose_pose_jumps_has_the_fleet_planned_again_from_where_it_stan
 def test_the_plan_kept_is_the_one_of_several_lacam_searches_that_would_end_first():
     """LaCAM's plans are not of least cost and differ by seed (`perfect 9`: one seed's plan brought r3 home 35 s
     later than another's). The coordinator runs PLAN_SEEDS searches and keeps the plan whose robots, driven by its
-    action dependencies, would all arrive first (fleet_plan.execution_time), not the least makespan."""
+    action dependencies, would all arrive first (fleet_execution.execution_time), not the least makespan."""
     from amr_navigation.fleet_coordinator import PLAN_SEEDS
-    from amr_planning.fleet_plan import execution_time, improve, plan_lacam
+    from amr_planning.fleet_execution import execution_time
+    from amr_planning.fleet_improve import improve
+    from amr_planning.fleet_lacam import plan_lacam
     from amr_planning.fleet_starts import with_robots
 
     data = with_robots(generate("perfect", 9, size=4.0), 6, 9)

@@ -12,7 +12,7 @@ from support.fleet_costmaps import ring_costmap
 from amr_maps.world import WorldError
 from amr_navigation.fleet_coordinator import FOLLOW, HOLD, FleetCoordinator, compute_plan
 from amr_navigation.fleet_file import FleetFileError, load_fleet
-from amr_planning.fleet_plan import first_conflict
+from amr_planning.fleet_cbs import first_conflict
 
 GOALS = {"r1": (1.0, 1.0), "r2": (-1.0, 1.0), "r3": (1.0, -1.0)}
 STARTS = {"r1": (-1.0, -1.0), "r2": (1.0, 1.0), "r3": (-1.0, 1.0)}

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from amr_navigation.fleet_schedule import Schedule
-from amr_planning.fleet_plan import FleetPlan, Lattice
+from amr_planning.fleet_lattice import Lattice
+from amr_planning.fleet_paths import FleetPlan
 
 
 def swap_plan() -> FleetPlan:

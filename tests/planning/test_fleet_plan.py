@@ -1,7 +1,7 @@
-"""Planning several robots together (amr_planning.fleet_plan): the lattice of a maze, conflict-based search and
+"""Planning several robots together (amr_planning.fleet_*): the lattice of a maze, conflict-based search and
 LaCAM on small graphs and generated mazes, the improvement pass, and the action dependencies executed at random
 speeds. Plans are checked here by code of the test's own (no two robots at one vertex, no swap, moves along
-edges, every robot at its goal), not by the module's conflict finder."""
+edges, every robot at its goal), not by fleet_cbs's conflict finder."""
 
 from __future__ import annotations
 
@@ -15,19 +15,12 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import world_from_dict
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.fleet_plan import (
-    FleetPlan,
-    Lattice,
-    assign,
-    dependencies,
-    execution_time,
-    follows_free_space,
-    grid_lattice,
-    improve,
-    lattice,
-    plan_lacam,
-    plan_together,
-)
+from amr_planning.fleet_cbs import plan_together
+from amr_planning.fleet_execution import dependencies, execution_time
+from amr_planning.fleet_improve import improve
+from amr_planning.fleet_lacam import plan_lacam
+from amr_planning.fleet_lattice import Lattice, assign, follows_free_space, grid_lattice, lattice
+from amr_planning.fleet_paths import FleetPlan
 from amr_planning.fleet_starts import with_robots
 
 
