@@ -7,7 +7,7 @@ returns the command that answers it. Everything that decides is the navigator co
 plan: Planner.plan, as the planner node's ~/plan; a path to hand over: PathFollower.set_path, as the path
 follower's ~/follow_path), asks the controller the decision names for the command (with the decision's speed
 limit), and gives the path follower's report back to the core. A localized observation nobody drives (no goal, no
-path, reached) gets a zero command here; in the stack nobody answers it and the lockstep simulator holds.
+path, reached) gets a zero command here, as the navigator node answers it with `nobody_drives: zero`.
 
 `run_navigation` drives a simulator and a particle filter with a NavigationLoop (the filter's estimate is its
 pose in the map moved by the odometry since its last update, which is what the node publishes on /pose)
