@@ -107,7 +107,8 @@ class EpisodeSpec:
     """s of simulated time at most."""
     options: dict = dataclasses.field(default_factory=dict)
     """controller options: beams, scan_period, outlier_rate, route (wall_follower: record the grid cells
-    entered as extra["route"], amr_maps.maze_route); max_collisions (navigation); kidnap [t, x, y, theta],
+    entered as extra["route"], amr_maps.maze_route); max_collisions, goal_after (navigation: the goal given at the
+    first observation at or after this many s, an idle stretch before: give_goal_after); kidnap [t, x, y, theta],
     symmetric (the world's symmetric counterpart, a world dict: the record's extra says when the feature
     breaking the symmetry was first seen), stop_after (s after the first declaration, and the feature seen,
     the run ends) (localization); resolution (plan_follow)."""
@@ -370,6 +371,35 @@ def _particle_filter(spec: EpisodeSpec, world):
     return ParticleFilter(stack_map(spec, world), config_of(params), range_max=params["laser_max_range"])
 
 
+def goal_after(spec: EpisodeSpec) -> float | None:
+    """The navigation option goal_after (s), checked; None without it."""
+    value = spec.options.get("goal_after")
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0.0):
+        raise ValueError(f"option goal_after: must be a number of seconds >= 0, got {value!r}")
+    return float(value)
+
+
+def give_goal_after(core, after: float, goal: tuple[float, float], log=lambda event: None) -> None:
+    """Option goal_after: the navigator core `core` is given `goal` at its first observation stamped at or after
+    `after` s, just before it decides that observation; until then it has none (localized: IDLE, nobody drives, the
+    robot stands and time goes on). The library loop's core and, through ROS, the navigator node's (ros_episode, in its
+    composed stack's process) are given it so: the same observation in both, where a /goal_pose would reach the node
+    at whatever observation the lockstep loop had got to."""
+    step = core.step
+    given: list[bool] = []
+
+    def stepped(observation):
+        if not given and observation.stamp >= after - 1e-9:
+            given.append(True)
+            for event in core.set_goal(goal):
+                log(event)
+        return step(observation)
+
+    core.step = stepped
+
+
 CONFIDENCES = ("drive_confidence", "release_confidence")
 """the navigator's confidence rule (config/navigator.yaml), passed to the library loop as the node reads it."""
 
@@ -387,14 +417,17 @@ def _navigation(spec: EpisodeSpec) -> dict[str, Any]:
     if world.goal is None:
         raise ValueError(f"{world.name}: has no goal; give one (goal: far, random or [x, y, radius])")
     wall = wall_follower_config(spec)
+    after = goal_after(spec)
     navigator = NavigationLoop(
         planner,
         WallFollower(wall),
         PathFollower(PathFollowerConfig.from_params(spec.parameters["path_follower"])),
-        (world.goal.x, world.goal.y),
+        (world.goal.x, world.goal.y) if after is None else None,
         replan_distance=float(spec.parameters["navigator"]["replan_distance"]),
         **{key: float(spec.parameters["navigator"][key]) for key in CONFIDENCES if key in spec.parameters["navigator"]},
     )
+    if after is not None:
+        give_goal_after(navigator.core, after, (world.goal.x, world.goal.y))
     particle_filter = _particle_filter(spec, world)
     sim = simulator_for(spec, world, dt=wall.dt)
     run = run_navigation(

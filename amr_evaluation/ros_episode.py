@@ -24,6 +24,11 @@ observation, as a node publishing from its scan callback does), or ``clock: real
 at ``pace`` x real time, the node's own timers free); plain Twist on /cmd_vel unless ``cmd_vel_stamped``. A node
 that sends no /cmd_vel for ``answer_timeout`` wall-clock s (default 10), or exits, ends the episode with a record
 saying so (``reason``; goal not reached), never a hang.
+
+The navigation option ``goal_after`` (an idle stretch: no goal until then) clears the navigator's world goal topic
+and gives the world's goal to the composed navigator node's core at its first observation at or after that time
+(episode.give_goal_after, as the library loop's); meanwhile the navigator answers the observations it gives nobody
+(``nobody_drives: zero``), so the world goes on at zero velocity as the library's does.
 """
 
 from __future__ import annotations
@@ -238,13 +243,17 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
     from amr_bringup.bringup import ComposedStack, Console, check_composable
     from amr_bringup.lifecycle_manager import LifecycleManager
     from amr_bringup.stack_config import load_bringup
+    from amr_evaluation.episode import goal_after
     from amr_interfaces.msg import SimulatorStatus
     from amr_util.executors import NodeSpinners
     from amr_util.stop_signals import Flag
 
     name, arguments = stack_of(spec, directory)
-    waits = {key: str(value) for key, value in LOCKSTEP_WAITS.get(name, {}).items()}
-    bringup = load_bringup(name).with_overrides(arguments, waits)
+    overrides = {key: str(value) for key, value in LOCKSTEP_WAITS.get(name, {}).items()}
+    after = goal_after(spec) if spec.controller == "navigation" else None
+    if after is not None:
+        overrides["navigator.world_goal_topic"] = ""  # the goal comes at `after` (_goal_given_after)
+    bringup = load_bringup(name).with_overrides(arguments, overrides)
     command = spec.parameters.get("command") if spec.controller == "command" else None
     if command is not None:  # the user's node drives instead of the shipped wall follower
         bringup = dataclasses.replace(
@@ -303,7 +312,9 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
         stack = ComposedStack(bringup, Console(live=False))
         for node in stack.nodes:
             spinners.add_node(node)
+        before_activate = (lambda name: None) if after is None else _goal_given_after(stack, after, arguments["world"])
         manager = LifecycleManager(
+            before_activate=before_activate,
             cli_args=["--ros-args", "-r", f"__node:={bringup.manager_name}"],
             parameter_overrides=[Parameter(k, value=v) for k, v in bringup.manager_parameters().items()],
         )
@@ -374,6 +385,23 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
             localization_error_max=state["max_error"],
         )
     return figures
+
+
+def _goal_given_after(stack, after: float, world: str):
+    """before_activate of the option goal_after: the navigator node's core (configured, not active yet) is given the
+    world's goal (of the file the simulator runs) at its first observation at or after `after` s."""
+    from amr_evaluation.episode import give_goal_after
+    from amr_maps.world import load_world, resolve_world_path
+
+    goal = load_world(resolve_world_path(world)).goal
+
+    def before_activate(name: str) -> None:
+        if name.strip("/") != "navigator":
+            return
+        node = next(node for node in stack.nodes if node.get_name() == "navigator")
+        give_goal_after(node.core, after, (goal.x, goal.y), node.get_logger().info)
+
+    return before_activate
 
 
 def _start_controller(command: dict, log: Path) -> subprocess.Popen:
