@@ -32,7 +32,8 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
 from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route
 from amr_navigation.loop import NavigationLoop
-from amr_navigation.traffic import Traffic, TrafficBoard, TrafficConfig
+from amr_navigation.traffic import Traffic, TrafficConfig
+from amr_navigation.traffic_board import TrafficBoard
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet

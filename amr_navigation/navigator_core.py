@@ -41,7 +41,8 @@ import numpy as np
 from amr_navigation.fleet_coordinator import HOLD, NONE, Route
 from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver, legs
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
-from amr_navigation.traffic import Traffic, TrafficPost
+from amr_navigation.traffic import Traffic
+from amr_navigation.traffic_board import TrafficPost
 from amr_navigation.traffic_steps import detour_done, idle_advice
 from amr_planning.planner import Planner
 from amr_util.geometry import compose, relative_pose

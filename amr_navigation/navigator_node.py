@@ -66,7 +66,8 @@ from amr_navigation.navigator_core import (
     PlanAnswer,
     PlanCall,
 )
-from amr_navigation.traffic import Traffic, TrafficPost
+from amr_navigation.traffic import Traffic
+from amr_navigation.traffic_board import TrafficPost
 from amr_navigation.traffic_messages import (
     TRAFFIC_TOPIC,
     PostError,

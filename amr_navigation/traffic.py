@@ -1,136 +1,55 @@
-"""Traffic rules for a robot among others, as plain classes and functions (no ROS).
+"""One robot's traffic rules among others (`Traffic`), without ROS. The rules, what each does and why, are explained
+in docs/amr_navigation.md ("Traffic: several robots") and the cases each was added for in
+docs/decisions/2026-11-26-traffic-rules.md; the geometry they use is amr_navigation.traffic_geometry, the board
+amr_navigation.traffic_board.
 
-The navigator of one robot runs them on every observation it drives with the path follower
-(amr_navigation.loop.NavigationLoop with a `Traffic`); they decide, the path follower follows:
+The navigator of one robot asks `Traffic.advise` on every observation it drives with the path follower
+(amr_navigation.loop.NavigationLoop with a `Traffic`, amr_navigation.navigator_core through ROS) and posts the
+others with `post_idle` / `wants_to_move`; the rules decide, the path follower follows: a speed cap (0: stop), a
+plan around unmapped returns, a detour to a place aside, a hold. The rules, by the numbers the code's comments use:
 
-1. **Stop for what is in the way.** The scan's returns are put on the map with the estimate; a
-   return farther than `map_tolerance` from every mapped obstacle is *unmapped* (another robot, a
-   person, a box). The path ahead is checked against the unmapped returns in front of the robot: the
-   free travel is the arc length to the first path point whose disc (`robot_radius` +
-   `path_clearance`) would touch `min_returns` of them. The speed rule (`obstacle_speed`, a pure
-   function, as nav2's regulated pure pursuit slows near obstacles) caps the path follower's speed:
-   0 within `stop_distance` of free travel, rising linearly to no cap at `slow_distance`; a stopped robot
-   moves on once the free travel exceeds `stop_distance` by RESUME_MARGIN (not at the first noisy beam).
-2. **Wait, then replan around it.** Stopped for `wait_time` with the obstacle still there, the robot
-   plans again to its goal on a copy of the costmap with the unmapped returns marked (each return and
-   a point one robot radius behind it along its beam, as discs of `mark_radius`, inflated as walls
-   are: amr_planning's `Costmap.with_obstacles`), and follows that path. A failed plan (no way round)
-   is tried again every `wait_time`. The marks are cleared once the scan sees through them (a beam at
-   a mark's bearing reaching `clear_distance` beyond it): the robot then plans again on the map.
-   **2b. Back off** from what no post explains: stopped for `yield_timeout` by unmapped returns while no robot on
-   the board stands on its stretch of path (every plan around them failed), the robot drives to the nearest place
-   `mark_range` from those returns (in a dead end shorter than that: as far from them as the dead end goes, if
-   that is two radii farther than it stands), waits there `yield_timeout`, then plans to its goal again. What stands
-   there may be a robot whose filter is not sure where it is (it posts no position, so rules 3-7 do not see it); in a
-   dead end the robot waiting at its mouth blocks both its way out and the view its filter needs.
-3. **Right of way** (two robots face to face in a corridor one robot wide, or crossing). Every robot
-   posts on a `TrafficBoard` what the others need: its name, its priority (its place in the world's
-   `robots` list: the first has the right of way over all), its estimate (None while not localized),
-   the next `conflict_distance` m of its path, which robot blocks it (another's posted centre within
-   2 `robot_radius` + `path_clearance` of that stretch of path, in front of it), whom it yields to, and
-   whether it is passive (its goal reached, or waiting aside). A robot **yields** to robot B when B is
-   blocked by it and
+1. Stop for what is in the way: unmapped scan returns (farther than `map_tolerance` from the map) on the path
+   ahead cap the speed (`obstacle_speed`); a stopped robot moves on past `stop_distance` + RESUME_MARGIN.
+2. Wait `wait_time`, then plan around them (marks cleared once the scan sees through them).
+   2b. Back off from returns no post explains, after `yield_timeout` with every plan around them failed.
+3. Right of way: a robot gives way to one it blocks that blocks it too and has the right of way (lower
+   priority number) or cannot give way; a passive robot (at its goal, waiting aside) makes way for anyone it
+   blocks. It waits at the nearest place within `yield_search` m, 2 `robot_radius` + `yield_clearance` from
+   their paths and centres, until they need it no more or stood still `yield_timeout`; with none it posts
+   `cannot_yield`.
+4. Way out: a passive robot boxed in looks past the robots it blocks, which make way for it first.
+5. Search farther: of two robots that both cannot give way, the lower-priority one searches the whole map
+   (past robots parked at their goals), then the other after `wait_time`.
+6. Make room: searching farther, a robot finally looks past robots waiting behind it, which make way first.
+7. Knot: of three or more robots blocked in a cycle, the lowest priority gives way.
 
-   - it is blocked by B too and B has the right of way (lower priority number), or B has posted that
-     it cannot yield (no place to wait), or
-   - it is passive (at its goal, or already waiting aside for another): a passive robot makes way for
-     anyone it blocks.
-
-   Yielding: on the costmap with the other robots' discs marked, the nearest cell (breadth-first over
-   the cells where the robot fits, at most `yield_search` m of steps) that is at least 2
-   `robot_radius` + `yield_clearance` from the stretches of path of every robot it blocks, and from
-   their centres, is the place to wait; the robot is handed a path there (a detour: the navigator keeps
-   its goal and does not count the detour as straying), waits there (zero speed) until none of them
-   needs the place (their posted paths pass more than that distance away and they are farther than
-   that), or until they have stood still for `yield_timeout` s, then plans to its goal again. Without such a place it
-   posts `cannot_yield` (and looks again after `wait_time`), and the other robot yields instead. The robot with the
-   right of way, blocked by a robot that yields to it, waits without replanning around it (for at most
-   `yield_timeout`).
-   A robot waiting aside that a robot it gives way to finds in its way again (that robot's new path passes
-   the place) goes aside again for it.
-4. **Way out** (a passive robot boxed in). A robot parked at its goal in a dead end, or in a corridor one
-   robot wide, blocks a robot that must pass it, and the only way to any place aside is where that robot
-   stands: the rule above finds no place. It then looks again as if the robots it blocks were not there
-   (they can make way; the place must still be that distance from their paths and centres), and takes a
-   place beyond them. Driving there it holds while a robot stands on its way (within 2 `robot_radius` +
-   `path_clearance` of the next `conflict_distance` m), and posts that robot as its blocker and itself as
-   `cannot_yield`, not passive: the blocked robot is then blocked by a robot that cannot yield, and by
-   rule 3 goes aside, off the boxed-in robot's way out (and its place). Once the boxed-in robot has
-   arrived, the other is done waiting (its way is free; if the place turns out to lie on its new path,
-   the boxed-in robot goes aside again for it); the boxed-in robot goes back only when that robot no
-   longer waits aside for it and its posted path no longer comes near the way back (it has passed), so
-   the two do not meet again at the goal. While driving aside a robot always posts the rest of its
-   detour (robots waiting for it to pass see it), and the post of a robot done waiting aside carries its
-   way back until it has a new plan.
-
-   Where it holds: a dead end or a corridor with a junction, a pocket or a room within `yield_search` m of
-   steps beyond the blocked robot, on the far side from the boxed-in one (the boxed-in robot's place), and
-   a second branch, or the corridor farther back, for the blocked robot to wait in off that way. Rooms
-   need none of it (there is a place aside within reach). A corridor with no branch within reach on the
-   blocked robot's side is not resolved: both post `cannot_yield` and wait (the boxed-in robot gives up
-   after `yield_timeout` and parks again, then tries again). tests/navigation/test_traffic.py runs a robot
-   parked in a dead end with the other coming in to a goal behind it, in either order of the list.
-5. **Search farther** (neither can give way within reach). Two robots blocked by each other that both post
-   `cannot_yield` (the lower-priority one found no place within `yield_search`, then the other found none
-   either) would wait for ever. The lower-priority one then searches again with no bound but the map, and
-   past robots parked at their goals (they make way for it by rule 3 when it holds before them on its way;
-   the place is still that distance from them), the place still that distance from the other's path and
-   centre; it goes there as in rule 3 while the other holds (at most `yield_timeout`, then it follows, held
-   back by rule 1). Should that fail too, the other does the same once its own search has failed for
-   `wait_time` (the lower-priority one has had its turn first). Both look again every `wait_time` and a robot
-   clears its flag on the observation it looks again, so each reads the other's `cannot_yield` as seen
-   within the last `wait_time`. Why this resolves a tree maze (one way between any two cells): the stretch
-   between the two splits the free space into two sides; the other's path runs through this robot's side to
-   its goal, so a place on this side is any cell that far from that path: a branch off it, or the dead end
-   beyond the other's goal (then the other parks at its goal in front of this robot, and rules 3 and 4 get
-   this one out). The bound, and the parked robots taken as walls, only made the search give up early; the
-   nearest place is still taken (breadth-first). Not resolved: neither side has such a cell anywhere (each a
-   bare corridor ending at the other's goal: no swap is possible), and a robot on the way that is not parked
-   (exploring, or itself giving way) still counts as a wall. tests/navigation/test_traffic.py runs a corridor
-   whose only place aside is a pocket 5 m behind the lower-priority robot (neither moves without the rule).
-
-6. **Make room** (a robot behind the one that must give way). When neither robot of a pair could give way nearby
-   (rule 5) and the farther search fails too because every way to a place aside is where a robot stands that it
-   does not give way to (one waiting behind it in a corridor one robot wide, itself blocked by this robot), the
-   robot searching farther looks last for a place past such robots (not where one stands); earlier, before rule
-   5, the other robot gives way instead (letting the lower-priority robot push past bystanders first made a
-   six-robot perfect maze cycle: 0/6 at goal). Driving there it holds before the robot on its way and posts it
-   as its blocker, unable to give way: that robot, blocked by one that cannot give way, goes aside first
-   (rule 3), and on it goes; it does not go aside for the robots it passes. Without it a convoy in a corridor stands
-   for good: every search treats the robot behind as a wall, and planning around fails in a corridor.
-   tests/navigation/test_traffic.py runs two robots in a row meeting a third.
-
-7. **Knot** (three or more robots blocked in a cycle). Robots each blocked by the next, the last by the first
-   (a by b, b by c, c by a: three at a junction of one-wide corridors, each facing the next one's centre), are not
-   a pair blocked by each other, so rule 3 never fires for any of them. The robot of the lowest priority in the
-   cycle (none of its robots passive or already giving way) gives way to the robot it blocks, as in rule 3 (a
-   place off that robot's path and centre, that robot holding meanwhile); with no place within `yield_search` for
-   `wait_time` it searches farther (rule 5). Every robot follows the chain of `blocked_by` on the board, so each
-   sees the same cycle and only its last moves. tests/navigation/test_traffic.py builds such a knot on the board.
-
-Two robots face to face in a one-wide corridor with a side pocket or a junction on either robot's
-side of the meeting point cannot deadlock: both are blocked by each other, exactly one yields (the
-other's rule is the same rule with the roles swapped), the yielding one has a place (the pocket, or
-the corridor behind it beyond the junction) or says it has none, and then the other has one (the
-pocket lies on its side). tests/navigation/test_traffic.py runs that world in the simulator.
-
-What a robot needs of the others is exactly its board post (`TrafficPost`). At library level the
-board is one object shared by the robots' navigators (amr_evaluation.fleet_navigation). Through ROS it
-is a topic shared by the fleet (absolute name `/traffic`, amr_interfaces/TrafficPost, every robot's
-navigator node publishing its post there and subscribing to everyone's: amr_navigation.navigator_node with
-`traffic: true`, amr_navigation.traffic_messages), not a per-robot topic.
+Invariants: what a robot knows of the others is exactly their posts (`TrafficPost`). Of two robots blocked by
+each other exactly one gives way (the rule is the same with the roles swapped), so two robots face to face in a
+one-wide corridor with a side pocket or a junction on either side of the meeting point never deadlock. Not
+resolved: neither side has a place anywhere (each a bare corridor ending at the other's goal: no swap is
+possible), and a robot on the way that is not parked (exploring, or itself giving way) counts as a wall.
+tests/navigation/test_traffic.py holds each rule to a world made for it.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt, label
 
+from amr_navigation.traffic_board import TrafficBoard, TrafficPost
+from amr_navigation.traffic_geometry import (
+    farthest_place,
+    free_travel,
+    min_distance,
+    obstacle_speed,
+    path_ahead,
+    place_aside,
+    scan_points,
+    unmapped,
+)
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner
@@ -192,212 +111,6 @@ class TrafficConfig(Config):
                 f"yield_clearance ({self.yield_clearance}) must exceed path_clearance "
                 f"({self.path_clearance}): a robot waiting aside must not block the path it cleared"
             )
-
-
-# -- pure functions ----------------------------------------------------------------------------
-
-
-def obstacle_speed(free_travel: float, stop_distance: float, slow_distance: float, speed: float) -> float:
-    """The speed cap for `free_travel` m of path before an obstacle: 0 at or below stop_distance, `speed` at
-    or beyond slow_distance, linear between (infinite free travel: `speed`)."""
-    if not free_travel > stop_distance:
-        return 0.0
-    if free_travel >= slow_distance:
-        return speed
-    return speed * (free_travel - stop_distance) / (slow_distance - stop_distance)
-
-
-def scan_points(scan: ScanData, pose: tuple[float, float, float], lidar_x: float) -> tuple[np.ndarray, np.ndarray]:
-    """(returns (N, 2) in the map frame, the same returns (N, 2) in the robot frame) of the valid beams
-    (REP 117: NaN, inf and out-of-range dropped)."""
-    ranges = np.asarray(scan.ranges, dtype=float)
-    valid = np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges <= scan.range_max)
-    angles = scan.angle_min + scan.angle_increment * np.flatnonzero(valid)
-    r = ranges[valid]
-    local = np.stack([lidar_x + r * np.cos(angles), r * np.sin(angles)], axis=1)
-    x, y, theta = pose
-    c, s = math.cos(theta), math.sin(theta)
-    world = np.stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]], axis=1)
-    return world, local
-
-
-def unmapped(costmap: Costmap, points: np.ndarray, tolerance: float) -> np.ndarray:
-    """True for points (N, 2) farther than `tolerance` from every obstacle of the costmap's map (points off
-    the map are taken as mapped: nothing is known there)."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    row, col = costmap.grid.world_to_cell(points[:, 0], points[:, 1])
-    inside = costmap.grid.inside(row, col)
-    result = np.zeros(len(points), dtype=bool)
-    result[inside] = costmap.clearance[row[inside], col[inside]] > tolerance
-    return result
-
-
-def path_ahead(path: np.ndarray, x: float, y: float, length: float, spacing: float = 0.025) -> np.ndarray:
-    """The stretch of `path` (N, 2) from the point closest to (x, y) on, `length` m long, resampled every
-    `spacing` m (its first point is that closest point)."""
-    path = np.asarray(path, dtype=float)
-    if len(path) == 1:
-        return path.copy()
-    starts, vectors = path[:-1], np.diff(path, axis=0)
-    lengths = np.hypot(*vectors.T)
-    rel = np.array([x, y]) - starts
-    t = np.clip(
-        np.divide((rel * vectors).sum(axis=1), lengths**2, out=np.zeros_like(lengths), where=lengths > 0), 0.0, 1.0
-    )
-    distances = np.hypot(*(starts + t[:, None] * vectors - (x, y)).T)
-    best = int(np.argmin(distances))
-    arc = np.concatenate([[0.0], np.cumsum(lengths)])
-    begin = arc[best] + t[best] * lengths[best]
-    end = min(arc[-1], begin + length)
-    s = np.append(np.arange(begin, end, spacing), end)
-    return np.stack([np.interp(s, arc, path[:, 0]), np.interp(s, arc, path[:, 1])], axis=1)
-
-
-def free_travel(stretch: np.ndarray, points: np.ndarray, reach: float, min_returns: int) -> float:
-    """m along `stretch` (M, 2), a path resampled from the robot on, before its disc of radius `reach` touches
-    `min_returns` of `points` (N, 2); inf when fewer are ever touched."""
-    if len(points) < min_returns or len(stretch) == 0:
-        return math.inf
-    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(stretch, axis=0).T))])
-    distance = np.hypot(stretch[:, None, 0] - points[None, :, 0], stretch[:, None, 1] - points[None, :, 1])
-    touched = distance <= reach
-    hit = touched.any(axis=0)
-    if np.count_nonzero(hit) < min_returns:
-        return math.inf
-    first = np.argmax(touched[:, hit], axis=0)  # the first sample touching each hit return
-    return float(np.sort(arc[first])[min_returns - 1])
-
-
-def min_distance(points: np.ndarray, x: float, y: float) -> float:
-    """m from (x, y) to the nearest of points (N, 2); inf for none."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    return float(np.hypot(points[:, 0] - x, points[:, 1] - y).min()) if len(points) else math.inf
-
-
-def place_aside(
-    costmap: Costmap, start: tuple[float, float], avoid: np.ndarray, distance: float, search: float
-) -> tuple[float, float] | None:
-    """The nearest cell (breadth-first, 8-connected, over the cells where the robot fits) at least `distance`
-    from every point of `avoid` (N, 2) (others' paths and centres), within `search` m of steps; None if none.
-    Cells clear of the safety margin are preferred (searched first); else any non-lethal cell."""
-    avoid = np.asarray(avoid, dtype=float).reshape(-1, 2)
-    # points farther than that from every cell the search can reach change nothing: left out (the cost is per point)
-    avoid = avoid[
-        np.abs(avoid - np.asarray(start, dtype=float)).max(axis=1) <= search + distance + 2.0 * costmap.grid.resolution
-    ]
-    for passable in (~costmap.inflated, ~costmap.lethal):
-        found = _breadth_first(costmap, passable, start, avoid, distance, search)
-        if found is not None:
-            return found
-    return None
-
-
-def farthest_place(
-    costmap: Costmap, start: tuple[float, float], avoid: np.ndarray
-) -> tuple[tuple[float, float], float] | None:
-    """The cell reachable from `start` (4-connected over the cells where the robot fits; those clear of the safety
-    margin if the start has any such neighbour) farthest from every point of `avoid` (N, 2), and that distance (m);
-    None if `avoid` is empty or the start is off the map. Where no place lies a given distance away (a dead end
-    shorter than that), the way as far as it goes."""
-    avoid = np.asarray(avoid, dtype=float).reshape(-1, 2)
-    grid = costmap.grid
-    row, col = (int(v) for v in grid.world_to_cell(start[0], start[1]))
-    if len(avoid) == 0 or not grid.inside(row, col):
-        return None
-    seeds = np.zeros(costmap.shape, dtype=bool)
-    rows, cols = grid.world_to_cell(avoid[:, 0], avoid[:, 1])
-    inside = grid.inside(rows, cols)
-    seeds[np.asarray(rows)[inside], np.asarray(cols)[inside]] = True
-    if not seeds.any():
-        return None
-    away = distance_transform_edt(~seeds) * grid.resolution
-    for passable in (~costmap.inflated, ~costmap.lethal):
-        walk = passable.copy()
-        walk[row, col] = True  # the robot stands where it stands, whatever the marks say
-        parts, _ = label(walk)
-        reach = parts == parts[row, col]
-        if reach.sum() > 1:
-            break
-    score = np.where(reach, away, -1.0)
-    best = np.unravel_index(int(np.argmax(score)), score.shape)
-    x, y = costmap.centre(best[0], best[1])
-    return (float(x), float(y)), float(score[best])
-
-
-def _breadth_first(costmap, passable, start, avoid, distance, search):
-    grid = costmap.grid
-    row, col = (int(v) for v in grid.world_to_cell(start[0], start[1]))
-    if not grid.inside(row, col):
-        return None
-    rows, cols = passable.shape
-    # far enough from every avoided point: one distance transform-free test on all cells at once
-    reach = int(math.ceil(search / grid.resolution))
-    r0, r1 = max(0, row - reach), min(rows, row + reach + 1)
-    c0, c1 = max(0, col - reach), min(cols, col + reach + 1)
-    rr, cc = np.mgrid[r0:r1, c0:c1]
-    centres = costmap.centre(rr, cc)
-    clear = np.ones(rr.shape, dtype=bool)
-    for chunk in np.array_split(avoid, max(1, len(avoid) // 64)) if len(avoid) else ():
-        gap = np.hypot(centres[..., None, 0] - chunk[None, None, :, 0], centres[..., None, 1] - chunk[None, None, :, 1])
-        clear &= (gap >= distance).all(axis=-1)
-    ok = passable[r0:r1, c0:c1] & clear
-    walk = passable[r0:r1, c0:c1]
-    seen = np.zeros(walk.shape, dtype=bool)
-    sr, sc = row - r0, col - c0
-    queue = deque([(sr, sc)])
-    seen[sr, sc] = True
-    height, width = walk.shape
-    while queue:
-        i, j = queue.popleft()
-        if ok[i, j]:
-            x, y = costmap.centre(i + r0, j + c0)
-            return float(x), float(y)
-        for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
-            a, b = i + di, j + dj
-            if 0 <= a < height and 0 <= b < width and not seen[a, b] and walk[a, b]:
-                seen[a, b] = True
-                queue.append((a, b))
-    return None
-
-
-# -- the board ------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class TrafficPost:
-    """What one robot tells the others, once per observation."""
-
-    name: str
-    priority: int
-    """lower is first: its index in the world's robots list."""
-    pose: tuple[float, float, float] | None = None
-    """the estimate in the map frame; None while not localized."""
-    path: np.ndarray | None = None
-    """(M, 2) the rest of the path it follows (from its closest point on); None without one."""
-    blocked_by: str = ""
-    """the robot whose centre stands on that stretch of path, in front of it ('' none)."""
-    yielding_to: tuple[str, ...] = ()
-    passive: bool = False
-    """at its goal or waiting aside: it makes way for anyone it blocks."""
-    cannot_yield: bool = False
-    """it should yield but found no place to wait: the other robot yields instead."""
-
-
-class TrafficBoard:
-    """Every robot's latest post (at library level one object shared by the fleet's navigators; through ROS
-    a topic in a namespace the fleet shares)."""
-
-    def __init__(self) -> None:
-        self._posts: dict[str, TrafficPost] = {}
-
-    def post(self, post: TrafficPost) -> None:
-        self._posts[post.name] = post
-
-    def others(self, name: str) -> list[TrafficPost]:
-        return [post for other, post in self._posts.items() if other != name]
-
-    def get(self, name: str) -> TrafficPost | None:
-        return self._posts.get(name)
 
 
 # -- one robot's rules ------------------------------------------------------------------------------

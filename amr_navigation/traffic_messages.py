@@ -1,4 +1,4 @@
-"""amr_navigation.traffic.TrafficPost <-> amr_interfaces/TrafficPost (the fleet's /traffic topic), and the
+"""amr_navigation.traffic_board.TrafficPost <-> amr_interfaces/TrafficPost (the fleet's /traffic topic), and the
 navigator's speed limit message (amr_interfaces/SpeedLimit).
 
 `post_message` writes a post (refusing one that is not finite: no NaN is published); `post_from_message` reads
@@ -17,7 +17,7 @@ from geometry_msgs.msg import Point
 
 from amr_interfaces.msg import SpeedLimit
 from amr_interfaces.msg import TrafficPost as TrafficPostMessage
-from amr_navigation.traffic import TrafficPost
+from amr_navigation.traffic_board import TrafficPost
 
 TRAFFIC_TOPIC = "/traffic"
 """the fleet's board: absolute, shared by every robot's navigator (each publishes its post, reads everyone's)."""

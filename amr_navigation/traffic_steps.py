@@ -7,7 +7,8 @@ forgets a robot that has gone quiet (`FleetBoard`).
 from __future__ import annotations
 
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator
-from amr_navigation.traffic import Advice, Traffic, TrafficBoard, TrafficPost
+from amr_navigation.traffic import Advice, Traffic
+from amr_navigation.traffic_board import TrafficBoard, TrafficPost
 from amr_planning.costmap import Costmap
 
 

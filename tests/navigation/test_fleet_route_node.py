@@ -368,7 +368,7 @@ def test_a_post_that_says_nothing_new_is_not_published_again_before_its_keep_ali
     """Every post on /traffic wakes every other navigator: one that says what the last one did (the robot stood, or
     moved under 2 cm) waits for the keep-alive (0.5 s), a real change goes out at once."""
     from amr_navigation.navigator_node import POST_KEEP_ALIVE, same_post
-    from amr_navigation.traffic import TrafficPost
+    from amr_navigation.traffic_board import TrafficPost
 
     node = navigator
     node.set_parameters([Parameter("use_sim_time", value=False)])

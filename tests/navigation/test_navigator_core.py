@@ -285,7 +285,8 @@ def test_with_the_traffic_rules_the_node_and_the_library_limit_and_hold_alike(ro
 
     from amr_maps.messages import grid_message
     from amr_navigation.navigator_node import NavigatorNode
-    from amr_navigation.traffic import Traffic, TrafficBoard, TrafficPost
+    from amr_navigation.traffic import Traffic
+    from amr_navigation.traffic_board import TrafficBoard, TrafficPost
 
     other = TrafficPost("r2", 1, (2.6, 0.8, math.pi), None)
     ranges = np.full(240, np.inf)

@@ -11,7 +11,8 @@ import pytest
 
 from amr_control.path_follower import PathFollower, State
 from amr_maps.occupancy_grid import OccupancyGrid
-from amr_navigation.traffic import TrafficConfig, free_travel, obstacle_speed, path_ahead, place_aside, unmapped
+from amr_navigation.traffic import TrafficConfig
+from amr_navigation.traffic_geometry import free_travel, obstacle_speed, path_ahead, place_aside, unmapped
 from amr_planning.costmap import Costmap
 from amr_planning.planner import Planner
 from amr_util.parameter_spec import ConfigError
@@ -99,7 +100,8 @@ def face_scan(distance: float, lidar_x: float = -0.032) -> ScanData:
 
 
 def test_a_stopped_robot_moves_on_only_once_the_way_is_clear_by_a_margin():
-    from amr_navigation.traffic import RESUME_MARGIN, Traffic, TrafficBoard
+    from amr_navigation.traffic import RESUME_MARGIN, Traffic
+    from amr_navigation.traffic_board import TrafficBoard
 
     costmap = Costmap(open_grid())
     path = np.array([[1.0, 0.75], [2.4, 0.75]])
@@ -131,7 +133,8 @@ def test_the_last_of_a_knot_of_three_gives_way_to_the_robot_it_blocks():
     """Rule 7: a, b and c each blocked by the next (a by b, b by c, c by a), a cycle the pairwise rule (rule 3) never
     resolves: the lowest-priority robot of the cycle goes aside, off the path of the one it blocks (c); the others
     do not."""
-    from amr_navigation.traffic import Traffic, TrafficBoard, TrafficPost
+    from amr_navigation.traffic import Traffic
+    from amr_navigation.traffic_board import TrafficBoard, TrafficPost
 
     costmap = Costmap(open_grid(60, 160))
     path = np.array([[1.5, 0.75], [3.6, 0.75]])
@@ -176,7 +179,8 @@ def test_a_robot_stopped_by_something_no_robot_on_the_board_explains_backs_off_a
     is not sure where it is posts no position), with no way around, the robot backs off to a place mark_range from
     them, waits there for yield_timeout, then plans to its goal again. A robot on the board standing there is left to
     the right-of-way rules instead."""
-    from amr_navigation.traffic import Phase, Traffic, TrafficBoard, TrafficPost
+    from amr_navigation.traffic import Phase, Traffic
+    from amr_navigation.traffic_board import TrafficBoard, TrafficPost
 
     costmap = Costmap(open_grid(60, 160))
     config = TrafficConfig(yield_timeout=10.0)
@@ -205,7 +209,9 @@ def test_in_a_dead_end_shorter_than_mark_range_a_robot_backs_off_as_far_as_it_go
     radii to it (a robot not sure where it is, 0.19 m ahead): it backs off to the dead end's far end. Before, the
     returns were marked as robot-sized discs, the robot's own cell lay inside them, and no place was ever found
     (fleet `perfect 15`: two robots boxed an unlocalized one in a corridor for 150 s)."""
-    from amr_navigation.traffic import Phase, Traffic, TrafficBoard, farthest_place
+    from amr_navigation.traffic import Phase, Traffic
+    from amr_navigation.traffic_board import TrafficBoard
+    from amr_navigation.traffic_geometry import farthest_place
 
     costmap = Costmap(open_grid(18, 60))  # a corridor 0.4 m wide, 1.5 m long, closed at both ends
     config = TrafficConfig(yield_timeout=10.0)

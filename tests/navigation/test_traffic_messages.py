@@ -12,7 +12,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point
 
 from amr_interfaces.msg import TrafficPost as TrafficPostMessage
-from amr_navigation.traffic import TrafficPost
+from amr_navigation.traffic_board import TrafficPost
 from amr_navigation.traffic_messages import (
     MAX_PATH_POINTS,
     PostError,

@@ -12,7 +12,7 @@ from lifecycle_msgs.msg import Transition
 from rclpy.parameter import Parameter
 
 from amr_navigation.navigator_node import NavigatorNode
-from amr_navigation.traffic import TrafficPost
+from amr_navigation.traffic_board import TrafficPost
 from amr_navigation.traffic_messages import post_message
 
 
