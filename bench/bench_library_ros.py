@@ -2,14 +2,17 @@
 
     .venv/bin/python bench/bench_library_ros.py                  # the sweep: library against ROS, spec by spec
     .venv/bin/python bench/bench_library_ros.py --quick          # a few specs of each controller
+    .venv/bin/python bench/bench_library_ros.py --idle           # only the navigation specs with an idle stretch
     .venv/bin/python bench/bench_library_ros.py --trace navigation pillar_goal 1   # where two runs part
 
 The sweep runs each spec (the wall follower, localization and navigation on shipped worlds and generated mazes,
 several seeds) with `mode: library` in this process and `mode: ros` (the controller's stack composed in a child
 process, amr_evaluation.ros_episode), and prints per spec: goal reached, time to goal (else the end), collisions,
 the first localized observation, distance, in both, and whether they agree: the same goal verdict and collisions,
-times within 2 %. Run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the episodes take their domains from
-AMR_EVALUATE_ROS_DOMAINS (default 120-199). One episode at a time: the figures are simulated time, not wall clock.
+times within 2 %. Navigation also runs with an idle stretch (IDLE: option goal_after, no goal until then: localized,
+nobody drives, the robot stands while time goes on, then the trip). Run it under
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the episodes take their domains from AMR_EVALUATE_ROS_DOMAINS (default
+120-199). One episode at a time: the figures are simulated time, not wall clock.
 
 --trace CONTROLLER WORLD SEED runs one spec both ways with the shared classes instrumented (the simulator's step,
 the particle filter's update, the navigator core's decision, the planner, the path handed over, both controllers'
@@ -47,13 +50,16 @@ QUICK = {
     "localization": (["inner_maze"], [0]),
     "navigation": (["pillar_goal", "open_room"], [0, 1]),
 }
+IDLE = (["pillar_goal", "open_room"], [0, 1], 3.0)
+"""navigation with an idle stretch: worlds, seeds, goal_after (s)."""
+QUICK_IDLE = (["pillar_goal"], [1], 3.0)
 
 
 def world_spec(world) -> dict:
     return world if isinstance(world, dict) else {"file": f"{world}.yaml"}
 
 
-def spec_of(controller: str, world, seed: int, args) -> EpisodeSpec:
+def spec_of(controller: str, world, seed: int, args, options: dict | None = None) -> EpisodeSpec:
     label, parameters = configs.resolve(controller, "sim" if controller == "wall_follower" else "default")
     goal = "far" if isinstance(world, dict) and controller == "navigation" else None
     return EpisodeSpec(
@@ -66,6 +72,7 @@ def spec_of(controller: str, world, seed: int, args) -> EpisodeSpec:
         encoder_noise=args.encoder_noise,
         slip=args.slip,
         duration=DURATIONS[controller],
+        options=options or {},
     )
 
 
@@ -91,26 +98,33 @@ def agree(library: dict, ros: dict) -> tuple[bool, float]:
 
 
 def sweep(args) -> int:
-    table = QUICK if args.quick else SWEEP
+    table = {} if args.idle else QUICK if args.quick else SWEEP
+    runs = [
+        (controller, world, seed, None)
+        for controller in args.controllers
+        for world in table.get(controller, ((), ()))[0]
+        for seed in table[controller][1]
+    ]
+    if "navigation" in args.controllers:
+        worlds, seeds, after = QUICK_IDLE if args.quick else IDLE
+        runs += [("navigation", world, seed, {"goal_after": after}) for world in worlds for seed in seeds]
     rows, parted = 0, 0
     print(f"library / ROS lockstep; encoder noise {args.encoder_noise}, slip {args.slip}; simulated seconds")
-    for controller in args.controllers:
-        worlds, seeds = table[controller]
-        for world in worlds:
-            for seed in seeds:
-                spec = spec_of(controller, world, seed, args)
-                began = time.perf_counter()
-                library = run_episode(spec)
-                ros = run_episode(dataclasses.replace(spec, mode="ros"))
-                same, difference = agree(library, ros)
-                rows += 1
-                parted += not same
-                name = world if isinstance(world, str) else f"{world['family']}_{world['seed']}"
-                print(
-                    f"{controller:13s} {name:12s} seed {seed}  library {outcome(library)}  |  ROS {outcome(ros)}  |  "
-                    f"{difference * 100:5.2f} %  {'agree' if same else 'PART'}  ({time.perf_counter() - began:.0f} s)",
-                    flush=True,
-                )
+    for controller, world, seed, options in runs:
+        spec = spec_of(controller, world, seed, args, options)
+        began = time.perf_counter()
+        library = run_episode(spec)
+        ros = run_episode(dataclasses.replace(spec, mode="ros"))
+        same, difference = agree(library, ros)
+        rows += 1
+        parted += not same
+        name = world if isinstance(world, str) else f"{world['family']}_{world['seed']}"
+        label = controller if options is None else f"{controller} idle"
+        print(
+            f"{label:15s} {name:12s} seed {seed}  library {outcome(library)}  |  ROS {outcome(ros)}  |  "
+            f"{difference * 100:5.2f} %  {'agree' if same else 'PART'}  ({time.perf_counter() - began:.0f} s)",
+            flush=True,
+        )
     print(f"{rows - parted} of {rows} specs agree (goal, collisions, time within {AGREEMENT * 100:g} %)")
     return 0 if parted == 0 else 1
 
@@ -252,6 +266,7 @@ def trace_child(directory: Path) -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a few specs of each controller")
+    parser.add_argument("--idle", action="store_true", help="only the navigation specs with an idle stretch (IDLE)")
     parser.add_argument("--controllers", nargs="+", default=list(SWEEP), choices=list(SWEEP))
     parser.add_argument("--encoder-noise", type=float, default=0.0)
     parser.add_argument("--slip", type=float, default=0.0)
