@@ -3,12 +3,14 @@
 `Explorer.update(grid, pose, now)` finds the frontiers (amr_mapping.frontiers: free cells beside unknown ones,
 8-connected, at least min_frontier_size long), reaches them from the robot over the cells its disc fits in, and
   - keeps the current goal while a frontier cell still lies within approach_distance of it (the robot is on its
-    way; the frontier recedes as it sees more) and goal_timeout has not passed since it was chosen;
+    way; the frontier recedes as it sees more) and the robot makes progress: goal_timeout has not passed since
+    the path to that frontier's goal was last a cell shorter than ever (explore_lite's progress_timeout; a time
+    since the choice gave up goals far away on the way: perfect maze seed 0, a goal 26 m off);
   - else chooses the reachable, not blacklisted frontier of least cost (explore_lite's rule:
     potential_scale * path length - gain_scale * frontier length) and returns its goal as new;
   - with none left, is `done` (state "done", no goal); a later map with new frontiers makes it explore again.
 Giving up (amr_mapping.frontiers, reach_frontiers):
-  - a goal the navigator could not plan to or reach (`failed`), or not reached within goal_timeout: the point;
+  - a goal the navigator could not plan to or reach (`failed`), or without progress for goal_timeout: the point;
     frontiers whose goal lies within blacklist_radius of it are never chosen again;
   - a goal reached (`reached`): the frontier it was chosen for, as it was then; a frontier mostly of the same
     cells (it is still there: what lay beyond could not be seen from there) is never chosen again, a frontier
@@ -17,6 +19,7 @@ Giving up (amr_mapping.frontiers, reach_frontiers):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,8 +45,8 @@ class ExplorerConfig(FrontierConfig):
     """FrontierConfig's choice and reach, and when a goal is given up."""
 
     goal_timeout: float = parameter(120.0, above=0.0, maximum=1e6, live=True)
-    """s (of the pose's stamps) a goal may take before it is given up and blacklisted (explore_lite
-    progress_timeout, here per goal)."""
+    """s (of the pose's stamps) without progress (the path to the goal's frontier a cell shorter than ever) after
+    which a goal is given up and blacklisted (explore_lite progress_timeout)."""
 
 
 @dataclass(frozen=True)
@@ -65,6 +68,9 @@ class Explorer:
     config: ExplorerConfig = field(default_factory=ExplorerConfig)
     goal: tuple[float, float] | None = None
     goal_since: float = 0.0
+    """s, when the goal was chosen or last progressed to (its frontier's path a cell shorter than ever)."""
+    goal_best: float = math.inf
+    """m, the shortest path to the goal's frontier so far."""
     goal_frontier: np.ndarray | None = None
     """(K, 2) x, y of the cells of the frontier the goal was chosen for, as they were then."""
     blacklist: list[tuple[float, float]] = field(default_factory=list)
@@ -83,24 +89,22 @@ class Explorer:
             return Step(WAITING, reason="no map yet" if grid is None else "no pose yet")
         robot = (float(pose[0]), float(pose[1]))
         config = self.config
-        if self.goal is not None and now - self.goal_since > config.goal_timeout:
-            self.failed(f"not reached within goal_timeout ({config.goal_timeout:g} s)")
         seen = with_robot_free(grid, robot, config.footprint_radius)
-        frontiers = reach_frontiers(
-            seen,
-            detect_frontiers(seen, config.min_frontier_size, config.free_threshold),
-            robot,
-            config,
-            self.blacklist,
-            self.given_up,
-        )
+        found = detect_frontiers(seen, config.min_frontier_size, config.free_threshold)
+        frontiers = reach_frontiers(seen, found, robot, config, self.blacklist, self.given_up)
         if self.goal is not None:
             kept = self._frontier_at_goal(seen, frontiers)
-            if kept >= 0:
+            if kept >= 0 and frontiers[kept].distance <= self.goal_best - grid.resolution:
+                self.goal_best, self.goal_since = frontiers[kept].distance, now
+            if now - self.goal_since > config.goal_timeout:
+                self.failed(f"no progress within goal_timeout ({config.goal_timeout:g} s)")
+                frontiers = reach_frontiers(seen, found, robot, config, self.blacklist, self.given_up)
+            elif kept >= 0:
                 self.state = EXPLORING
                 return Step(EXPLORING, self.goal, False, "driving to the frontier", tuple(frontiers), kept)
-            self._say(f"frontier at ({self.goal[0]:.2f}, {self.goal[1]:.2f}) explored")
-            self.goal, self.goal_frontier = None, None
+            else:
+                self._say(f"frontier at ({self.goal[0]:.2f}, {self.goal[1]:.2f}) explored")
+                self.goal, self.goal_frontier = None, None
         chosen = best_frontier(frontiers)
         if chosen < 0:
             self.state = DONE
@@ -112,7 +116,7 @@ class Explorer:
             )
             return Step(DONE, None, False, reason, tuple(frontiers), -1)
         frontier = frontiers[chosen]
-        self.goal, self.goal_since, self.state = frontier.goal, now, EXPLORING
+        self.goal, self.goal_since, self.goal_best, self.state = frontier.goal, now, frontier.distance, EXPLORING
         self.goal_frontier = frontier_points(seen, frontier)
         self.goals_sent += 1
         reason = (

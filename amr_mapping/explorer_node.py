@@ -5,8 +5,8 @@ Inputs: /map (nav_msgs/OccupancyGrid, transient local: the slam node's), /pose (
 the slam node's), and the navigator's ~/status (amr_interfaces/NavigatorStatus).
 Decisions: at a /pose after a new map (at most every decision_period s of pose time while a goal is being driven
 to; at once without one), and at once when the navigator reports the explorer's goal REACHED (the frontier it
-was chosen for is given up: the next frontier is chosen) or NO_PATH (the goal is blacklisted). A goal not reached
-within goal_timeout s of pose time is blacklisted too.
+was chosen for is given up: the next frontier is chosen) or NO_PATH (the goal is blacklisted). A goal without
+progress for goal_timeout s of pose time (its frontier's path no shorter) is blacklisted too.
 Outputs: a new goal as geometry_msgs/PoseStamped on /goal_pose (the navigator's goal input, frame map); ~/frontiers
 (amr_interfaces/Frontiers) and ~/status (std_msgs/String: the state and why) after every decision. With nothing
 reachable left the state is `done`; with `save_to` set, the slam node's ~/save_map is then called with it (once

@@ -84,3 +84,19 @@ def test_reach_frontiers_marks_the_frontiers_mostly_of_given_up_cells():
         [reached] = reach_frontiers(grid, detect_frontiers(grid, config.min_frontier_size), robot, config, (), [points])
         assert reached.reachable and reached.blacklisted == banned, opening
         assert math.isinf(reached.cost) == banned
+
+
+def test_a_goal_is_kept_while_the_robot_gets_closer_and_given_up_once_it_stops_getting_closer():
+    """goal_timeout counts from the last progress (explore_lite's progress_timeout), not from the choice: a goal
+    far away takes longer than the timeout to reach."""
+    explorer = Explorer(ExplorerConfig(goal_timeout=10.0))
+    room = walled(slice(12, 17))
+    first = explorer.update(room, ROBOT, 0.0)
+    for k, col in enumerate(range(9, 25)):  # a cell nearer every 8 s: 128 s in all
+        step = explorer.update(room, (*room.cell_to_world(14, col), 0.0), 8.0 * (k + 1))
+        assert step.goal == first.goal and not step.new_goal and step.state == EXPLORING, (col, step.reason)
+    stalled = (*room.cell_to_world(14, 24), 0.0)
+    assert explorer.update(room, stalled, 8.0 * 16 + 9.0).goal == first.goal  # 9 s without progress: kept
+    step = explorer.update(room, stalled, 8.0 * 16 + 11.0)  # 11 s: given up (as a point: nothing else to explore)
+    assert step.state == DONE and explorer.blacklist == [first.goal]
+    assert "no progress within goal_timeout" in " ".join(explorer.take_events())
