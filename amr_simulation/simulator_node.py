@@ -26,9 +26,9 @@ observation is kept, not stepped; realtime: the timer steps no more), ~/resume l
 held command steps at once), ~/step advances exactly one step and stays paused (pausing first if
 running; in lockstep with no command held yet, the next /cmd_vel is stepped when it comes, or, when none
 has come for lockstep_resend_period, a step at zero velocity is taken: the driver holds the robot, as
-a navigator does while nobody drives). While paused no observation is resent: /clock stops exactly. A
-paused and stepped lockstep run is the run it would have been: every command still advances one dt,
-in order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
+a navigator with nobody_drives: wait does while nobody drives). While paused no observation is resent: /clock
+stops exactly. A paused and stepped lockstep run is the run it would have been: every command still advances one
+dt, in order. The live parameter `pace` sets the speed: lockstep 0 steps each command at once, N > 0 holds
 each command until a steady timer at dt / N releases it (at most N x real time); realtime N > 0
 replaces `rate`. ~/reset and ~/set_pose drop a held command (it answered the old observation).
 Stamps never go back: a reset restarts the simulator's own time (status sim_time), while the
