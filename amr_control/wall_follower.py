@@ -380,79 +380,121 @@ class WallFollower:
         lost = c.wall_lost_distance + (c.wall_lost_hysteresis if state == State.FOLLOW else 0.0)
         present = self._abeam(r, self._followed) <= lost
         if state == State.AVOID:
-            if r.clearance >= 2.0 * c.safety_margin:
-                self._state, self._state_time, self._traveled = self._resume
-                self._last_error = None
+            self._avoid_step(r)
         elif state in TURNING:
-            turned = self._turned >= self._turn_angle
-            # A square turn facing an open way (the footprint could drive open_travel_distance along
-            # it) ends at its angle: a corridor that leaves less than turn_exit_distance ahead (a
-            # T-junction or a one-cell side passage of a 0.35 m maze, under the real configuration's
-            # 0.515 m) is still the corridor the turn was square to. Waiting for room there ran the
-            # turn TURN_OVERSHOOT past square, and the next turns inherited the 30 deg.
-            room = (
-                not self._turn_needs_room
-                or r.ahead >= c.turn_exit_distance
-                or (turned and self._square_turn and self._open_ahead())
-            )
-            # Never more than TURN_OVERSHOOT past the angle waiting for room: in a narrow bend
-            # the way back is the first direction with that much room.
-            done = turned and (room or self._turned >= self._turn_angle + TURN_OVERSHOOT)
-            if done or self._state_time >= c.turn_timeout_factor * self._turn_angle / c.turn_speed:
-                if self._square_turn:
-                    self._skew_filter.square()
-                self._enter(State.STABILIZE)
+            self._turn_step(r)
         elif state == State.STABILIZE:
-            if self._state_time >= c.stabilize_time:
-                if present:
-                    self._enter(State.FOLLOW)
-                elif self._traveled >= c.corner_exit_distance:
-                    self._enter(State.SEARCH)
+            self._stabilize_step(present)
         elif state == State.SEARCH:
+            self._search_step(r, present)
+        elif state == State.CORNER:
+            self._corner_step(present)
+        elif state == State.APPROACH:
+            self._approach_step(r)
+        else:
+            self._follow_step(r, present)
+        if self._state in MOVING:
+            self._safety_step(r, present)
+
+    def _avoid_step(self, r: Readings) -> None:
+        """AVOID: back to the state it interrupted once the clearance is twice the safety margin."""
+        if r.clearance >= 2.0 * self.config.safety_margin:
+            self._state, self._state_time, self._traveled = self._resume
+            self._last_error = None
+
+    def _turn_step(self, r: Readings) -> None:
+        """Turning in place: STABILIZE once the angle is turned with room ahead, or on the turn's timeout."""
+        c = self.config
+        turned = self._turned >= self._turn_angle
+        # A square turn facing an open way (the footprint could drive open_travel_distance along
+        # it) ends at its angle: a corridor that leaves less than turn_exit_distance ahead (a
+        # T-junction or a one-cell side passage of a 0.35 m maze, under the real configuration's
+        # 0.515 m) is still the corridor the turn was square to. Waiting for room there ran the
+        # turn TURN_OVERSHOOT past square, and the next turns inherited the 30 deg.
+        room = (
+            not self._turn_needs_room
+            or r.ahead >= c.turn_exit_distance
+            or (turned and self._square_turn and self._open_ahead())
+        )
+        # Never more than TURN_OVERSHOOT past the angle waiting for room: in a narrow bend
+        # the way back is the first direction with that much room.
+        done = turned and (room or self._turned >= self._turn_angle + TURN_OVERSHOOT)
+        if done or self._state_time >= c.turn_timeout_factor * self._turn_angle / c.turn_speed:
+            if self._square_turn:
+                self._skew_filter.square()
+            self._enter(State.STABILIZE)
+
+    def _stabilize_step(self, present: bool) -> None:
+        """STABILIZE: after stabilize_time, FOLLOW the wall if it is there, else SEARCH past corner_exit_distance."""
+        c = self.config
+        if self._state_time >= c.stabilize_time:
             if present:
                 self._enter(State.FOLLOW)
-            elif not self._search_aimed:  # settle on the nearest wall once, then drive straight to it
-                self._search_aimed = True
-                bearing, distance = self._reader.nearest()
-                if c.wall_lost_distance < distance < math.inf:  # far: face it
-                    turn = bearing
-                elif distance < math.inf and r.front > c.wall_lost_distance:
-                    # Near, not on the followed side, nothing ahead to turn at: put it on that side.
-                    abeam = -0.5 * math.pi if self._followed == "right" else 0.5 * math.pi
-                    turn = math.remainder(bearing - abeam, 2.0 * math.pi)
-                else:  # among walls: the turns at the wall ahead handle it
-                    turn = 0.0
-                if abs(turn) > SEARCH_TURN:
-                    self._start_turn(State.TURN_LEFT if turn > 0.0 else State.TURN_RIGHT, angle=abs(turn))
-                    self._turn_needs_room = False
-        elif state == State.CORNER:
-            if present:  # the opening was only a short gap
-                self._enter(State.FOLLOW)
-            elif self._corner_reached():
-                self._turn_into_opening()
-        elif state == State.APPROACH:
-            if r.front <= self._pivot_distance or self._traveled >= c.front_threshold - self._pivot_distance:
-                self._decide_turn(r)
-        elif not present:  # FOLLOW: the followed wall ended
+            elif self._traveled >= c.corner_exit_distance:
+                self._enter(State.SEARCH)
+
+    def _search_step(self, r: Readings, present: bool) -> None:
+        """SEARCH: FOLLOW a wall found on the followed side; else, once, aim at the nearest wall."""
+        if present:
+            self._enter(State.FOLLOW)
+        elif not self._search_aimed:  # settle on the nearest wall once, then drive straight to it
+            self._search_aimed = True
+            self._aim_at_nearest_wall(r)
+
+    def _aim_at_nearest_wall(self, r: Readings) -> None:
+        """Turn in place towards the nearest wall (far: face it; near and nothing ahead: put it on the followed
+        side) when that is more than SEARCH_TURN off the heading."""
+        c = self.config
+        bearing, distance = self._reader.nearest()
+        if c.wall_lost_distance < distance < math.inf:  # far: face it
+            turn = bearing
+        elif distance < math.inf and r.front > c.wall_lost_distance:
+            # Near, not on the followed side, nothing ahead to turn at: put it on that side.
+            abeam = -0.5 * math.pi if self._followed == "right" else 0.5 * math.pi
+            turn = math.remainder(bearing - abeam, 2.0 * math.pi)
+        else:  # among walls: the turns at the wall ahead handle it
+            turn = 0.0
+        if abs(turn) > SEARCH_TURN:
+            self._start_turn(State.TURN_LEFT if turn > 0.0 else State.TURN_RIGHT, angle=abs(turn))
+            self._turn_needs_room = False
+
+    def _corner_step(self, present: bool) -> None:
+        """CORNER (past the followed wall's end): FOLLOW if the wall is back, else turn into the opening once there."""
+        if present:  # the opening was only a short gap
+            self._enter(State.FOLLOW)
+        elif self._corner_reached():
+            self._turn_into_opening()
+
+    def _approach_step(self, r: Readings) -> None:
+        """APPROACH (a wall ahead at a corner): decide the turn at the pivot distance."""
+        if r.front <= self._pivot_distance or self._traveled >= self.config.front_threshold - self._pivot_distance:
+            self._decide_turn(r)
+
+    def _follow_step(self, r: Readings, present: bool) -> None:
+        """FOLLOW: CORNER when the followed wall ends, else keep its fitted line."""
+        if not present:  # the followed wall ended
             self._enter(State.CORNER)
         else:
             fit = self._fit(r, self._followed)
             if fit is not None:
                 self._wall_line = fit.distance
 
-        if self._state in MOVING:
-            if r.front < c.front_threshold and self._state != State.APPROACH and not self._committed(r):
-                # Following a wall (or just past its end) rather than looking for one?
-                self._tracking = present or self._state == State.CORNER
-                dead_end = self._open_direction(self._followed == "right", hand_on_wall=present) is None
-                if dead_end or r.front <= self._pivot_distance:
-                    self._decide_turn(r)
-                else:  # a corner: turn where the robot will be centred in the new corridor
-                    self._enter(State.APPROACH)
-            elif r.clearance < c.safety_margin:
-                self._resume = (self._state, self._state_time, self._traveled)
-                self._enter(State.AVOID)
-                self._turn_sign = -1.0 if r.clearance_side > 0 else 1.0
+    def _safety_step(self, r: Readings, present: bool) -> None:
+        """While moving: a wall ahead starts a turn (or APPROACH to a corner), a return within the safety margin
+        AVOID (turning away from it)."""
+        c = self.config
+        if r.front < c.front_threshold and self._state != State.APPROACH and not self._committed(r):
+            # Following a wall (or just past its end) rather than looking for one?
+            self._tracking = present or self._state == State.CORNER
+            dead_end = self._open_direction(self._followed == "right", hand_on_wall=present) is None
+            if dead_end or r.front <= self._pivot_distance:
+                self._decide_turn(r)
+            else:  # a corner: turn where the robot will be centred in the new corridor
+                self._enter(State.APPROACH)
+        elif r.clearance < c.safety_margin:
+            self._resume = (self._state, self._state_time, self._traveled)
+            self._enter(State.AVOID)
+            self._turn_sign = -1.0 if r.clearance_side > 0 else 1.0
 
     def _corner_reached(self) -> bool:
         """Whether the robot, past the end of the followed wall, is where it turns into the opening.
