@@ -40,7 +40,7 @@ SECONDS = {
     "evaluation/test_fleet_traffic_runs.py": 14,
     "simulation/test_simulator_node_controls.py": 13,
     "localization/test_particle_filter.py": 13,
-    "planning/test_fleet_plan.py": 10,
+    "planning/test_fleet_lacam.py": 10,
     "evaluation/test_sweep_input.py": 10,
     "evaluation/test_episode.py": 10,
     "simulation/test_fleet.py": 9,
