@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import random
+import resource
 import signal
 
 import pytest
@@ -57,6 +58,29 @@ def pytest_collection_modifyitems(config, items) -> None:
     --no-loadscope-reorder` (make test) the files are handed out in that order and the two workers finish together."""
     if hasattr(config, "workerinput"):
         items[:] = longest_files_first(items)
+
+
+CPU_LOG = os.environ.get("AMR_TEST_CPU")
+"""A file each test's CPU seconds are appended to (`AMR_TEST_CPU=cpu.txt`): this process's and its ended children's
+(a stack's processes, chromium at its module's end), from its setup to its teardown, module fixtures' included. Lines
+like `--durations=0`'s: `python -m support.schedule cpu.txt` (from tests/) sums them per file."""
+
+
+def _cpu_seconds() -> float:
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    if not CPU_LOG:
+        return (yield)
+    start = _cpu_seconds()
+    try:
+        return (yield)
+    finally:
+        with open(CPU_LOG, "a", encoding="utf-8") as log:
+            log.write(f"{_cpu_seconds() - start:.2f}s cpu {item.nodeid}\n")
 
 
 @pytest.fixture

@@ -86,11 +86,12 @@ def longest_files_first(items: list) -> list:
     return sorted(items, key=key)
 
 
-DURATION = re.compile(r"^\s*([0-9.]+)s\s+(?:setup|call|teardown)\s+(?:tests/)?([^:\s]+)::")
+DURATION = re.compile(r"^\s*([0-9.]+)s\s+(?:setup|call|teardown|cpu)\s+(?:tests/)?([^:\s]+)::")
 
 
 def seconds_per_file(lines) -> dict[str, float]:
-    """Each file's summed seconds from pytest's `--durations=0` lines, longest first."""
+    """Each file's summed seconds from pytest's `--durations=0` lines (or AMR_TEST_CPU's, tests/conftest.py),
+    longest first."""
     total: dict[str, float] = defaultdict(float)
     for line in lines:
         match = DURATION.match(line)
