@@ -12,9 +12,10 @@
 Giving up (amr_mapping.frontiers, reach_frontiers):
   - a goal the navigator could not plan to or reach (`failed`), or without progress for goal_timeout: the point;
     frontiers whose goal lies within blacklist_radius of it are never chosen again;
-  - a goal reached (`reached`): the frontier it was chosen for, as it was then; a frontier mostly of the same
-    cells (it is still there: what lay beyond could not be seen from there) is never chosen again, a frontier
-    mostly of new cells (an opening seen as the robot arrived) is, whatever its goal's distance to the one reached.
+  - a goal reached (`reached`): the frontier it was chosen for, as it was then, from there; a frontier mostly of
+    the same cells (it is still there: what lay beyond could not be seen from there) whose goal lies within
+    blacklist_radius of that one is never chosen again; a frontier mostly of new cells (an opening seen as the
+    robot arrived), or the same one with its goal elsewhere (the map grew: another view), is.
 """
 
 from __future__ import annotations
@@ -75,8 +76,8 @@ class Explorer:
     """(K, 2) x, y of the cells of the frontier the goal was chosen for, as they were then."""
     blacklist: list[tuple[float, float]] = field(default_factory=list)
     """goals given up (failed, timed out): points."""
-    given_up: list[np.ndarray] = field(default_factory=list)
-    """frontiers given up (their goal reached, they stayed): goal_frontier's cells each."""
+    given_up: list[tuple[tuple[float, float], np.ndarray]] = field(default_factory=list)
+    """frontiers given up from a goal (reached, they stayed): (the goal, goal_frontier's cells) each."""
     state: str = WAITING
     goals_sent: int = 0
     reached_count: int = 0
@@ -137,7 +138,7 @@ class Explorer:
         if self.goal is not None:
             self.reached_count += 1
             if self.goal_frontier is not None:
-                self.given_up.append(self.goal_frontier)
+                self.given_up.append((self.goal, self.goal_frontier))
             self.goal, self.goal_frontier = None, None
 
     def failed(self, reason: str) -> None:

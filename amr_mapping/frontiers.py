@@ -22,11 +22,12 @@ Choice, explore_lite's rule (`frontier_search.cpp`, frontierCost):
 the lowest cost wins: near and long frontiers first. What is given up rules frontiers out (blacklisted):
   - a point (a goal the navigator could not plan to or reach): every frontier whose goal lies within
     `blacklist_radius` of it;
-  - a frontier (one whose goal was reached while it stayed: what lies beyond cannot be seen from there): every
-    frontier at least half of whose cells lie within a cell of its cells (SAME_FRONTIER_SHARE). A frontier grown
-    mostly of new cells is another one: an opening seen from that goal only as the robot arrived, a place whose
-    goal may lie beside the one reached (a goal point would rule it out: rotated maze seed 0 was done at 78 s with
-    half of it unknown, the opening beside the reached goal).
+  - a frontier from a goal (the goal was reached and the frontier stayed: what lies beyond cannot be seen from
+    there): a frontier whose goal lies within `blacklist_radius` of that goal and at least half of whose cells lie
+    within a cell of that frontier's cells (SAME_FRONTIER_SHARE). A frontier grown mostly of new cells is another
+    one (an opening seen only as the robot arrived: rotated maze seed 0, its goal 0.18 m from the one reached, was
+    done at 78 s with half of it unknown when the goal's point was given up); the same frontier with its goal
+    elsewhere (a room seen since, from which its corner can be seen: perfect maze seed 0, 0.6 m on) is tried there.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.ndimage import binary_dilation, distance_transform_edt, label
+from scipy.ndimage import distance_transform_edt, label
 from scipy.sparse.csgraph import dijkstra
 
 from amr_maps.occupancy_grid import UNKNOWN, OccupancyGrid
@@ -212,15 +213,17 @@ def approaches(
     return gaps.reshape(free.shape), nearest.reshape(free.shape)
 
 
-def given_up_mask(grid: OccupancyGrid, given_up=()) -> np.ndarray:
-    """The cells of `grid` within a cell (8-neighbours) of a given-up frontier's points ((K, 2) x, y arrays)."""
-    mask = np.zeros(grid.data.shape, dtype=bool)
-    for points in given_up:
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
-        rows, cols = (np.asarray(v, dtype=int) for v in grid.world_to_cell(points[:, 0], points[:, 1]))
-        inside = (rows >= 0) & (rows < grid.height) & (cols >= 0) & (cols < grid.width)
-        mask[rows[inside], cols[inside]] = True
-    return binary_dilation(mask, structure=EIGHT) if mask.any() else mask
+def same_frontier(grid: OccupancyGrid, frontier: Frontier, points) -> bool:
+    """Whether at least SAME_FRONTIER_SHARE of `frontier`'s cells lie within a cell (8-neighbours) of the cells of
+    `points` ((K, 2) x, y: frontier_points of a frontier given up)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(points) == 0 or frontier.size == 0:
+        return False
+    rows, cols = (np.asarray(v, dtype=int) for v in grid.world_to_cell(points[:, 0], points[:, 1]))
+    near = (np.abs(frontier.cells[:, None, 0] - rows[None, :]) <= 1) & (
+        np.abs(frontier.cells[:, None, 1] - cols[None, :]) <= 1
+    )
+    return bool(near.any(axis=1).mean() >= SAME_FRONTIER_SHARE)
 
 
 def frontier_points(grid: OccupancyGrid, frontier: Frontier) -> np.ndarray:
@@ -238,22 +241,16 @@ def reach_frontiers(
     given_up=(),
 ) -> list[Frontier]:
     """Each frontier with its goal, distance and cost from the robot at `robot` (x, y); blacklisted ones marked:
-    a goal within blacklist_radius of a point of `blacklist`, or the frontier one of `given_up` (frontier_points of
-    frontiers given up; module docstring)."""
+    a goal within blacklist_radius of a point of `blacklist`, or of the goal of a (goal, frontier_points) pair of
+    `given_up` whose frontier it is (same_frontier; module docstring)."""
     if not frontiers:
         return []
-    mask = given_up_mask(grid, given_up)
-
-    def same(frontier: Frontier) -> bool:
-        return bool(mask[frontier.cells[:, 0], frontier.cells[:, 1]].mean() >= SAME_FRONTIER_SHARE)
-
     safe = safe_cells(grid, config.robot_radius, config.free_threshold)
     res = grid.resolution
     start = _start_cell(grid, safe, robot, config.approach_distance)
     if start is None:
         return [
-            Frontier(f.cells, f.centroid, f.length, blacklisted=_near(f.centroid, blacklist, config) or same(f))
-            for f in frontiers
+            Frontier(f.cells, f.centroid, f.length, blacklisted=_near(f.centroid, blacklist, config)) for f in frontiers
         ]
     distances = path_distances(safe, start, res)
     free = (grid.data >= 0) & (grid.data < config.free_threshold)
@@ -268,7 +265,7 @@ def reach_frontiers(
                     frontier.cells,
                     frontier.centroid,
                     frontier.length,
-                    blacklisted=_near(frontier.centroid, blacklist, config) or same(frontier),
+                    blacklisted=_near(frontier.centroid, blacklist, config),
                 )
             )
             continue
@@ -279,7 +276,9 @@ def reach_frontiers(
         gx, gy = grid.cell_to_world(*goal_cell)
         goal = (float(gx), float(gy))
         distance = float(distances[goal_cell])
-        banned = _near(goal, blacklist, config) or same(frontier)
+        banned = _near(goal, blacklist, config) or any(
+            _near(goal, [point], config) and same_frontier(grid, frontier, cells) for point, cells in given_up
+        )
         cost = math.inf if banned else config.potential_scale * distance - config.gain_scale * frontier.length
         result.append(Frontier(frontier.cells, frontier.centroid, frontier.length, goal, distance, cost, banned))
     return result

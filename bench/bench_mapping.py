@@ -19,6 +19,8 @@ simulated-time budget runs out. Printed per run:
   to the start) that the saved map knows (free or occupied)
 - precise: share of the saved map's occupied cells within one cell of a true wall
 - walls: share of the true wall cells bordering reachable space that the saved map marks occupied within one cell
+- with --library: loop closures in the final graph, the pose error at the end, and the final graph's nodes
+  against the true poses where they were added (mean / max, m: the drift the map is drawn with)
 - collisions (the simulator's wall contacts), goals the explorer gave up (failed or timed out; through ROS: the
   Frontiers message's count, frontiers given up at a reached goal included), wall-clock s
 
@@ -28,7 +30,10 @@ it is). Prints; asserts nothing.
 
     .venv/bin/python bench/bench_mapping.py [--families perfect loops rotated pillars open_room] [--seeds 0 1 2]
         [--lidar-noise 0.01 0.03] [--encoder-noise 0.02] [--slip 0.05] [--budget 900] [--resolution 0.025] [--out DIR]
-        [--library] [--verbose]
+        [--library] [--verbose] [--slam KEY=VALUE ...]
+
+--slam overrides config/slam.yaml's slam parameters (e.g. `--slam local_window=20`: a SlamConfig experiment
+without editing the shipped file).
 """
 
 from __future__ import annotations
@@ -101,6 +106,7 @@ def run(
     budget: float,
     out: Path,
     resolution: float | None = None,
+    slam_overrides: dict | None = None,
 ) -> dict:
     """One maze_mapping run; the figures of the module docstring."""
     from rclpy.executors import SingleThreadedExecutor
@@ -127,6 +133,8 @@ def run(
     }
     if resolution is not None:
         parameters["slam.resolution"] = str(resolution)
+    for key, value in (slam_overrides or {}).items():
+        parameters[f"slam.{key}"] = str(value)
     started = time.monotonic()
     done_at, state, statuses, blacklisted = None, "", [], 0
     with composed_stack(
@@ -195,6 +203,7 @@ def run_library(
     out: Path,
     resolution: float | None = None,
     verbose: bool = False,
+    slam_overrides: dict | None = None,
 ) -> dict:
     """One exploration with the stack's objects in one loop, no ROS (module docstring); the figures of run()."""
     from amr_control.path_follower import PathFollower
@@ -231,6 +240,7 @@ def run_library(
     slam_params = shipped("slam", "slam.yaml")
     if resolution is not None:
         slam_params["resolution"] = resolution
+    slam_params.update(slam_overrides or {})
     slam = GraphSlam(slam_config_of(slam_params))
     map_period = float(slam_params.get("map_publish_period", 1.0))
     explorer_params = shipped("explorer", "explorer.yaml")
@@ -348,6 +358,11 @@ def run_library(
         "closures": int(slam.graph()[2].sum()),
         "pose_error": math.hypot(x - truth.x, y - truth.y),
     }
+    if nodes:  # the final graph's nodes against the true poses where they were added
+        poses = slam.graph()[0][: len(nodes)]
+        true_xy = np.array(nodes)[:, 1:3]
+        errors = np.hypot(poses[:, 0] - true_xy[:, 0], poses[:, 1] - true_xy[:, 1])
+        result["node_error"] = (float(errors.mean()), float(errors.max()))
     (out / f"{name}.log").write_text("\n".join(log) + "\n", encoding="utf-8")
     if verbose:
         print("\n".join(log))
@@ -374,7 +389,14 @@ def main() -> None:
     parser.add_argument("--resolution", type=float, default=None, help="slam's cells (m); default slam.yaml's")
     parser.add_argument("--library", action="store_true", help="the objects in one loop, no ROS (faster)")
     parser.add_argument("--verbose", action="store_true", help="library: print each run's explorer and slam events")
+    parser.add_argument("--slam", nargs="*", default=[], metavar="KEY=VALUE", help="slam parameters over slam.yaml's")
     args = parser.parse_args()
+    slam_overrides = {}
+    for item in args.slam:
+        key, _, value = item.partition("=")
+        if not value:
+            parser.error(f"--slam {item!r}: KEY=VALUE expected")
+        slam_overrides[key] = yaml.safe_load(value)
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_mapping_"))
     out.mkdir(parents=True, exist_ok=True)
     context = None
@@ -385,10 +407,13 @@ def main() -> None:
         context = rclpy.Context()
         rclpy.init(context=context)
     low, high = args.lidar_noise
-    print(f"maps and worlds in {out}; encoder noise {args.encoder_noise}, slip {args.slip}, budget {args.budget} s")
+    print(
+        f"maps and worlds in {out}; encoder noise {args.encoder_noise}, slip {args.slip}, budget {args.budget} s"
+        + (f"; slam {slam_overrides}" if slam_overrides else "")
+    )
     print(
         f"{'run':14s} {'noise':>5s} {'done s':>7s} {'known':>6s} {'precise':>7s} {'walls':>6s} {'coll':>4s} "
-        f"{'gave up':>7s} {'wall s':>6s}" + ("  closures pose err" if args.library else "")
+        f"{'gave up':>7s} {'wall s':>6s}" + ("  closures pose err  node err mean/max" if args.library else "")
     )
     try:
         for family in args.families:
@@ -405,10 +430,20 @@ def main() -> None:
                         out,
                         args.resolution,
                         args.verbose,
+                        slam_overrides,
                     )
                 else:
                     r = run(
-                        context, family, seed, noise, args.encoder_noise, args.slip, args.budget, out, args.resolution
+                        context,
+                        family,
+                        seed,
+                        noise,
+                        args.encoder_noise,
+                        args.slip,
+                        args.budget,
+                        out,
+                        args.resolution,
+                        slam_overrides,
                     )
                 if "error" in r:
                     print(f"{r['name']:14s} {r['error']}", flush=True)
@@ -418,7 +453,12 @@ def main() -> None:
                     f"{r['name']:14s} {noise:5.3f} {done} {r.get('known', math.nan):6.3f} "
                     f"{r.get('precise', math.nan):7.3f} {r.get('walls', math.nan):6.3f} {r['collisions']:4d} "
                     f"{r['given_up']:7d} {r['wall']:6.0f}"
-                    + (f"  {r['closures']:8d} {r['pose_error']:8.3f}" if args.library else ""),
+                    + (
+                        f"  {r['closures']:8d} {r['pose_error']:8.3f}  "
+                        f"{r['node_error'][0]:.3f} / {r['node_error'][1]:.3f}"
+                        if args.library and "node_error" in r
+                        else ""
+                    ),
                     flush=True,
                 )
     finally:

@@ -66,13 +66,13 @@ def test_a_failed_goal_is_given_up_as_a_point_whatever_its_frontier_becomes():
     assert step.state == DONE, step.reason  # the wider opening's goal is the same point
 
 
-def test_reach_frontiers_marks_the_frontiers_mostly_of_given_up_cells():
+def test_reach_frontiers_marks_the_frontiers_mostly_of_given_up_cells_whose_goal_is_the_one_reached():
     config = FrontierConfig()
     small = walled(slice(12, 17))
-    [frontier] = detect_frontiers(small, config.min_frontier_size)
+    robot = ROBOT[:2]
+    [frontier] = reach_frontiers(small, detect_frontiers(small, config.min_frontier_size), robot, config)
     points = frontier_points(small, frontier)
     assert points.shape == (5, 2)
-    robot = ROBOT[:2]
     for opening, banned in (
         (slice(12, 17), True),
         (slice(14, 19), True),
@@ -81,9 +81,15 @@ def test_reach_frontiers_marks_the_frontiers_mostly_of_given_up_cells():
     ):
         # 5 of 5 cells within a cell; 4 of 5 (rows 14-18 against 12-16: 14-17); 2 of 5 (16, 17); 7 of 22
         grid = walled(opening)
-        [reached] = reach_frontiers(grid, detect_frontiers(grid, config.min_frontier_size), robot, config, (), [points])
+        found = detect_frontiers(grid, config.min_frontier_size)
+        [reached] = reach_frontiers(grid, found, robot, config, (), [(frontier.goal, points)])
         assert reached.reachable and reached.blacklisted == banned, opening
         assert math.isinf(reached.cost) == banned
+        assert math.dist(reached.goal, frontier.goal) <= config.blacklist_radius
+        # the same frontier given up from a goal elsewhere (beyond blacklist_radius): tried from here
+        elsewhere = (frontier.goal[0] - 2.0 * config.blacklist_radius, frontier.goal[1])
+        [again] = reach_frontiers(grid, found, robot, config, (), [(elsewhere, points)])
+        assert again.reachable and not again.blacklisted, opening
 
 
 def test_a_goal_is_kept_while_the_robot_gets_closer_and_given_up_once_it_stops_getting_closer():
