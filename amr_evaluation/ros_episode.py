@@ -9,7 +9,10 @@ time. The child (``python -m amr_evaluation.ros_episode SPEC RECORD``) composes 
 as fast as the loop allows from its activation on, and an observer in another process could miss the first
 seconds while discovery matches it. The episode ends at the first status that reaches the duration, the
 goal, or ``max_collisions``; the record is made from it (goal, times, collisions, distance, the first
-localized declaration and the estimate's error) and written as JSON for the parent.
+localized declaration and the estimate's error) and written as JSON for the parent. ``extra.slowest_step`` is the
+longest wall-clock wait between two of the simulator's statuses and the simulated time it ended at ([s, t]): a step
+that waited for a lost /pose or an unanswered observation shows there (under load a few tenths of a second at the
+first step: the filter's first, global update).
 
 Each episode takes a ROS domain of its own for its lifetime: the first free one of
 ``AMR_EVALUATE_ROS_DOMAINS`` (``first-last``, default 120-199), claimed with a lock file in the temporary
@@ -271,6 +274,8 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
         "max_error": 0.0,
         "commands": 0,
         "last_command": None,
+        "last_status_wall": None,
+        "slowest_step": (0.0, 0.0),
     }
 
     def on_command(message) -> None:
@@ -284,6 +289,10 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
             if state["reason"]:
                 return
             state["status"] = message
+            now, last = time.monotonic(), state["last_status_wall"]
+            if last is not None and now - last > state["slowest_step"][0]:
+                state["slowest_step"] = (now - last, message.sim_time)
+            state["last_status_wall"] = now
             if message.localization_enabled and message.localized and math.isfinite(message.position_error):
                 if state["first_error"] is None:
                     state["first_error"] = message.position_error
@@ -371,13 +380,15 @@ def _episode_in_this_process(spec, directory: Path) -> dict[str, Any]:
         figures.update(
             goal_reached=bool(status.goal_reached), time_to_goal=status.sim_time if status.goal_reached else None
         )
+    wait, at = state["slowest_step"]
+    figures["extra"] = {"slowest_step": [round(wait, 3), at]}
     if command is not None:
         output = controller_log.read_text(encoding="utf-8", errors="replace") if controller_log.exists() else ""
-        figures["extra"] = {
-            "commands": state["commands"],
-            "clock": spec.options.get("clock", "lockstep"),
-            "controller_output": output[-1000:],
-        }
+        figures["extra"].update(
+            commands=state["commands"],
+            clock=spec.options.get("clock", "lockstep"),
+            controller_output=output[-1000:],
+        )
     if status.localization_enabled and status.first_localized_time >= 0.0:
         figures.update(
             time_to_localized=status.first_localized_time,

@@ -63,16 +63,23 @@ def test_an_idle_stretch_goes_on_at_zero_velocity_in_both_and_the_late_goal_is_r
     ros_domain, monkeypatch
 ):
     """goal_after: localized at 0.45 s with no goal, the robot stands (nobody drives: the navigator's zero command
-    answers each observation, as the library loop's zero) until the goal comes at 2 s; then the same trip. Before,
-    the lockstep world stood still at the first idle observation and the episode stalled."""
+    answers each observation, as the library loop's zero) until the goal 0.7 m ahead comes at 1.5 s; then the same
+    trip. Before, the lockstep world stood still at the first idle observation and the episode stalled."""
     ros, expected = _both_ways(
-        ros_domain, monkeypatch, "navigation", "pillar_goal.yaml", seed=1, duration=20.0, options={"goal_after": 2.0}
+        ros_domain,
+        monkeypatch,
+        "navigation",
+        "pillar_goal.yaml",
+        goal=[-0.8, -1.0, 0.15],
+        seed=1,
+        duration=10.0,
+        options={"goal_after": 1.5},
     )
     assert expected["goal_reached"] is ros["goal_reached"] is True
-    assert expected["time_to_goal"] > 2.0 + 8.0  # the idle stretch, then a trip of about 8 s
+    assert expected["time_to_goal"] > 1.5 + 2.0  # the idle stretch, then a trip of about 3 s
     assert ros["time_to_goal"] == pytest.approx(expected["time_to_goal"], abs=1e-6)
     assert ros["time_to_localized"] == pytest.approx(expected["time_to_localized"], abs=1e-6)
-    assert expected["time_to_localized"] < 2.0
+    assert expected["time_to_localized"] < 1.5 and expected["extra"]["steps"]["IDLE"] >= 20
     assert ros["collisions"] == expected["collisions"] == 0
     assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
 
