@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import yaml
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
@@ -17,10 +18,13 @@ from support.ros import spin_until
 
 from amr_bringup.composed import composed_stack
 from amr_interfaces.msg import NavigatorStatus, SimulatorStatus
+from amr_maps.world import resolve_world_path
 
 RELIABLE = QoSProfile(depth=500, reliability=ReliabilityPolicy.RELIABLE)
-SECOND_GOAL = (0.7, -0.9)
-"""0.9 m on from the world's goal, south-east of the pillar."""
+FIRST_GOAL = [-0.8, -1.0, 0.15]
+"""the world's goal: pillar_goal's moved to 0.7 m ahead of the start (a short first trip)."""
+SECOND_GOAL = (-0.8, -0.5)
+"""0.5 m on from it."""
 
 
 class Watch(Node):
@@ -67,8 +71,12 @@ def _seconds(stamp) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 
 
-def test_after_arrival_and_a_refused_goal_time_goes_on_and_a_new_goal_is_reached(ros_context):
-    with composed_stack(ros_context, "maze_navigation", arguments={"world": "pillar_goal.yaml"}) as (nodes, manager, _):
+def test_after_arrival_and_a_refused_goal_time_goes_on_and_a_new_goal_is_reached(ros_context, tmp_path):
+    world = yaml.safe_load(resolve_world_path("pillar_goal.yaml").read_text(encoding="utf-8"))
+    world["goal"] = FIRST_GOAL
+    (tmp_path / "world.yaml").write_text(yaml.safe_dump(world), encoding="utf-8")
+    arguments = {"world": str(tmp_path / "world.yaml")}
+    with composed_stack(ros_context, "maze_navigation", arguments=arguments) as (nodes, manager, _):
         watch = Watch(ros_context)
         executor = SingleThreadedExecutor(context=ros_context)
         executor.add_node(watch)
