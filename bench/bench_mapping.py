@@ -4,8 +4,9 @@ objects in one loop without ROS (faster: the model's figures without the transpo
 against the world.
 
 The library loop does what the stack's nodes do, in process, one simulator step per command: GraphSlam.add on
-every scan (config/slam.yaml's lidar_x), the map handed to a new Planner (config/planner.yaml) and to the Explorer
-(config/explorer.yaml) at most every 1 s of scan time once it changed (slam's map_publish_period), the explorer
+every scan (config/slam.yaml with config/bringup/maze_mapping.yaml's slam parameters over it), the map handed to a
+new Planner (config/planner.yaml) and to the Explorer (config/explorer.yaml) at most every 1 s of scan time once it
+changed (slam's map_publish_period), the explorer
 deciding as the explorer node does (at once with no goal, after a new map at most every decision_period s, on the
 navigator's REACHED / NO_PATH of its goal), the NavigationLoop (navigator, planner, path follower of
 config/path_follower_sim.yaml) driving to the goal.
@@ -193,6 +194,15 @@ def shipped(node: str, file: str) -> dict:
     return node_parameters(ROOT / "config" / file, node)
 
 
+def stack_parameters(node: str, stack: str = "maze_mapping") -> dict:
+    """The parameters config/bringup/<stack>.yaml sets on a node over its files (use_sim_time aside)."""
+    data = yaml.safe_load((ROOT / "config" / "bringup" / f"{stack}.yaml").read_text(encoding="utf-8"))
+    for entry in data.get("nodes", []):
+        if entry.get("name") == node:
+            return {k: v for k, v in (entry.get("parameters") or {}).items() if k != "use_sim_time"}
+    return {}
+
+
 def run_library(
     family: str,
     seed: int,
@@ -237,7 +247,7 @@ def run_library(
             stop_at_goal=False,  # as maze_mapping's simulator: the world's goal is nobody's goal here
         ),
     )
-    slam_params = shipped("slam", "slam.yaml")
+    slam_params = {**shipped("slam", "slam.yaml"), **stack_parameters("slam")}
     if resolution is not None:
         slam_params["resolution"] = resolution
     slam_params.update(slam_overrides or {})
