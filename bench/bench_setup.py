@@ -7,7 +7,9 @@ step at a time: the venv and pip (`make .venv/.deps-installed`), the ROS layout 
 (`make setup`), and with --test lint and the suite (`make test`, which finds setup done). One line per step: wall
 time, CPU time (its processes and theirs) and the load average before and after. On a shared machine the wall time
 is an upper bound; the CPU time is what the step costs, and the step's line gives the load average's range while it
-ran (sampled every 5 s) and, for the test step, pytest's summary line. pip downloads what its cache lacks.
+ran (sampled every 5 s) and, for the test step, pytest's summary line and the files that took the most CPU
+(tests/conftest.py's AMR_TEST_CPU record, kept beside the clone as <dir>-cpu.txt). pip downloads what its cache
+lacks.
 """
 
 from __future__ import annotations
@@ -36,6 +38,21 @@ def children_cpu() -> float:
 
 def one_minute_load() -> float:
     return float(Path("/proc/loadavg").read_text().split()[0])
+
+
+HEAVIEST = 10
+"""files listed after the test step, the most CPU first"""
+
+
+def heaviest_files(record: Path, count: int = HEAVIEST) -> str:
+    """The `count` test files of most CPU in an AMR_TEST_CPU record (tests/conftest.py), and the record's total."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from support.schedule import seconds_per_file
+
+    with record.open(encoding="utf-8") as lines:
+        per_file = seconds_per_file(lines)
+    listed = ", ".join(f"{name} {seconds:.0f} s" for name, seconds in list(per_file.items())[:count])
+    return f"tests' CPU {sum(per_file.values()):.0f} s in {len(per_file)} files; the most: {listed}"
 
 
 def step(name: str, command: list[str], cwd: Path, env: dict[str, str], log: Path) -> tuple[float, float, bool]:
@@ -79,6 +96,9 @@ def main() -> None:
     env.pop("VIRTUAL_ENV", None)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=args.dir, capture_output=True, text=True)
     print(f"clean clone of {commit.stdout.strip()} in {args.dir}, {os.cpu_count()} cores", flush=True)
+    record = args.dir.parent / f"{args.dir.name}-cpu.txt"
+    record.unlink(missing_ok=True)
+    env["AMR_TEST_CPU"] = str(record)
     steps = [("pip", ["make", ".venv/.deps-installed"]), ("setup", ["make", "setup"])]
     if args.test:
         steps.append(("test", ["make", "test"]))
@@ -87,6 +107,8 @@ def main() -> None:
     for name, command in steps:
         wall, cpu, ok = step(name, command, args.dir, env, args.dir.parent / f"{args.dir.name}-{name}.log")
         total_wall, total_cpu = total_wall + wall, total_cpu + cpu
+        if name == "test" and record.is_file():
+            print(f"{'':10s} {heaviest_files(record)}", flush=True)
         if not ok:
             break
     print(f"{'total':10s} {total_wall:7.1f} s wall {total_cpu:7.1f} s CPU")
