@@ -48,7 +48,8 @@ noisy range to each beacon in the world's order, and a noisy compass) to every o
 with the true pose at its stamp, logs once when the robot is first localized ("localized at t = ...,
 error x m, y deg") and reports the latest error in ~/status. With `lockstep_pose_wait` > 0 as well, lockstep
 takes the localizer into the loop: a step waits, besides every /cmd_vel, for the /pose stamped with the last
-observation (each robot's own), at most that many wall-clock seconds (then it steps without it and says so).
+observation (each robot's own), at most that many wall-clock seconds (then it steps without it and says so); an
+observation sent again whose /pose came is not waited for again (a localizer drops the repeated stamp).
 A localizer outside the loop falls behind when the loop runs faster than it, and drops observations.
 """
 
@@ -171,6 +172,8 @@ class RobotChannel:
         self.localization_inputs: list = []
         self.pose_due: int | None = None
         """lockstep_pose_wait: the stamp (ns) of the observation whose /pose the next step waits for."""
+        self.observed: int | None = None
+        """lockstep_pose_wait: the stamp (ns) of its last observation (one sent again keeps what its /pose did)."""
         self.wires: dict[object, WireMessage] = {}
         """Its outgoing messages by topic, serialized at the first observation and rewritten in place at each one
         after (amr_util.wire: converting a message for rclpy costs more than writing it)."""
@@ -425,7 +428,7 @@ class SimulatorNode(ManagedNode):
                 self.destroy_timer(timer)
         self._resend_timer = self._pace_timer = self._pose_wait_timer = None
         for channel in self._robots:
-            channel.pose_due = None
+            channel.pose_due = channel.observed = None
 
     def _set_pace(self, pace: float) -> None:
         """The steady timer that paces the steps: lockstep, none for 0 (a command steps at once); realtime, the
@@ -673,7 +676,10 @@ class SimulatorNode(ManagedNode):
     def _publish_robot(self, channel: RobotChannel, stamp, rate: float) -> None:
         channel.last_output = time.monotonic()
         if self._pose_wait > 0.0 and channel.localization_check is not None:
-            channel.pose_due = stamp_nanoseconds(stamp)
+            observed = stamp_nanoseconds(stamp)
+            if observed != channel.observed:  # sent again, an observation whose /pose came is not waited for again
+                channel.pose_due = observed  # (the localizer drops the repeated stamp: it would never come)
+            channel.observed = observed
         fleet, frames, outputs = self._fleet, channel.frames, channel.outputs
         robot = fleet.robots[channel.index]
         sec, nanosec = stamp.sec, stamp.nanosec
