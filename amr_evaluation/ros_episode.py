@@ -412,11 +412,11 @@ def _compile_kernels(spec) -> float:
     The kernels are cached per source version (numba cache=True). With the cache cold (a kernel's module edited since
     the last run, a clean clone) the first call compiles, holding the GIL: the filter's first update took 21 s under
     load, the wall follower's first command 3 s. Inside the lockstep loop the first observation then waited that
-    long, the simulator sent it again after lockstep_resend_period and re-armed its wait for a /pose the filter had
-    already sent (the repeated stamp is dropped), and the step went on without it after LOCKSTEP_WAIT, or the episode
-    failed for want of progress (navigation on pillar_goal: no progress on /simulator/status). Compiled here, that
-    wait is over before the loop's clock starts; with the cache warm it costs about a second (building the
-    simulator and the filter once more)."""
+    long, past lockstep_resend_period (sent again) and up to LOCKSTEP_WAIT (stepped without its /pose), or the
+    episode failed for want of progress (navigation on pillar_goal: no progress on /simulator/status, the start-up
+    stalls of issue 36). Compiled here, that wait is over before the loop's clock starts (measured with the cache
+    cold: the first step 0.21 s); with the cache warm it costs about a second (the simulator and the filter built
+    once more)."""
     began = time.monotonic()
     if spec.controller in ("wall_follower", "localization", "navigation"):
         from amr_evaluation.episode import run_episode
