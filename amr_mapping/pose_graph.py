@@ -8,12 +8,12 @@ SLAM" (2010):
     e_t = R_z^T (R_i^T (t_j - t_i) - t_z),   e_theta = wrap(theta_j - theta_i - theta_z)
 
 and the optimizer minimizes sum rho(e^T Omega e) over the edges, node 0 held fixed (the gauge). rho is the
-identity for odometry and scan-match edges and a robust kernel (Cauchy by default, or Huber) for loop
-closures, applied by iteratively reweighted least squares: a closure whose error is many standard
-deviations off weighs c^2 / (c^2 + s) of itself, so one false closure bends the map little instead of
-wrecking it. Each iteration builds the sparse normal equations H dx = -b in one pass of numpy over all edges
-and solves them with SuperLU (scipy.sparse.linalg.splu); LM damping (H + lambda diag H) makes a step that
-raises the cost be retried smaller.
+identity for odometry and scan-match edges (or a Cauchy kernel of a fixed width: edge_kernel_width) and a
+robust kernel (Cauchy by default, or Huber) for loop closures, applied by iteratively reweighted least squares:
+a closure whose error is many standard deviations off weighs c^2 / (c^2 + s) of itself, so one false closure
+bends the map little instead of wrecking it. Each iteration builds the sparse normal equations H dx = -b in one
+pass of numpy over all edges and solves them with SuperLU (scipy.sparse.linalg.splu); LM damping
+(H + lambda diag H) makes a step that raises the cost be retried smaller.
 
 An optimization that diverges (a non-finite cost or step, a singular system) or stalls (no damping finds a
 step that lowers the cost while the gradient is not yet small) raises MappingError and leaves the poses as
@@ -80,15 +80,28 @@ class Marginals:
 class PoseGraph:
     """Nodes (x, y, theta) and edges with information matrices; `optimize` moves the nodes (node 0 fixed)."""
 
-    def __init__(self, loop_kernel: str = "cauchy", kernel_width: float = 3.0) -> None:
+    def __init__(
+        self, loop_kernel: str = "cauchy", kernel_width: float = 3.0, edge_kernel_width: float | None = None
+    ) -> None:
         """loop_kernel: 'cauchy', 'huber' or 'none' for loop-closure edges; kernel_width: c, in standard
-        deviations (the square root of e^T Omega e) at which the kernel starts to down-weight (1-10)."""
+        deviations (the square root of e^T Omega e) at which the kernel starts to down-weight (1-10);
+        edge_kernel_width: a Cauchy kernel of this width on the other edges (odometry, scan matches; graduated
+        as the closures' kernel is, down to it), None: plain least squares. A chain without closures is unchanged
+        by it (its edges are met exactly); with closures, one scan match far off (a wrong heading mode in a fast
+        turn) gives way to the closures and its neighbours instead of bending them."""
         if loop_kernel not in KERNELS:
             raise MappingError(f"pose graph: loop_kernel must be one of {', '.join(KERNELS)}, got {loop_kernel!r}")
         if not (math.isfinite(kernel_width) and kernel_width > 0.0):
             raise MappingError(f"pose graph: kernel_width must be a positive number, got {kernel_width!r}")
+        if edge_kernel_width is not None and not (
+            isinstance(edge_kernel_width, (int, float)) and math.isfinite(edge_kernel_width) and edge_kernel_width > 0
+        ):
+            raise MappingError(
+                f"pose graph: edge_kernel_width must be a positive number or None, got {edge_kernel_width!r}"
+            )
         self.loop_kernel = loop_kernel
         self.kernel_width = float(kernel_width)
+        self.edge_kernel_width = None if edge_kernel_width is None else float(edge_kernel_width)
         self._poses = np.zeros((0, 3))
         self._count = 0
         self._ij = np.zeros((0, 2), dtype=np.int64)
@@ -347,11 +360,19 @@ class PoseGraph:
         return self.marginals().covariance(indices)
 
     def _kernel(self, s: np.ndarray, width: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(rho(s), rho'(s)) per edge: s for odometry edges, the robust kernel's (of width c, kernel_width by
-        default) for loop closures."""
+        """(rho(s), rho'(s)) per edge: s for odometry edges (Cauchy's of edge_kernel_width if set, widened as the
+        closures' is), the robust kernel's (of width c, kernel_width by default) for loop closures."""
         rho = s.copy()
         weight = np.ones_like(s)
         loop = self._loop[: self._edges]
+        if self.edge_kernel_width is not None:
+            # graduated with the closures' kernel (its width over kernel_width): both start near least squares, so
+            # a false closure is not met by breaking the scan matches at its ends
+            e2 = (
+                self.edge_kernel_width * max(1.0, (self.kernel_width if width is None else width) / self.kernel_width)
+            ) ** 2
+            rho[~loop] = e2 * np.log1p(s[~loop] / e2)
+            weight[~loop] = 1.0 / (1.0 + s[~loop] / e2)
         if self.loop_kernel == "none" or not loop.any():
             return rho, weight
         c = self.kernel_width if width is None else width

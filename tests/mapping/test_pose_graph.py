@@ -82,6 +82,50 @@ def test_without_the_kernel_the_false_closure_wrecks_the_map_and_huber_only_soft
     assert 0.15 < _with_false_closure("huber") < wrecked / 2  # convex: the false closure still pulls
 
 
+def _with_a_wrong_match(edge_kernel_width: float | None) -> float:
+    """Two laps, every edge (the scan matches and the closures) at SIGMA, but one scan match 10 deg off (a
+    wrong heading mode in a fast turn); the largest position error after optimizing."""
+    truth = _square_loops()
+    rng = np.random.default_rng(3)
+    graph = PoseGraph(edge_kernel_width=edge_kernel_width)
+    guess = truth[0].copy()
+    graph.add_node(guess)
+    for k in range(1, len(truth)):
+        z = np.array(relative_pose(truth[k - 1], truth[k])) + rng.normal(0.0, SIGMA)
+        if k == 30:
+            z[2] += np.radians(10.0)
+        guess = np.array(compose(guess, z))
+        graph.add_node(guess)
+        graph.add_edge(k - 1, k, z, INFO)
+    for j in range(len(truth)):
+        for i in range(j - 5):
+            if np.hypot(*(truth[i, :2] - truth[j, :2])) < 1e-6:
+                graph.add_edge(i, j, np.array(relative_pose(truth[i], truth[j])) + rng.normal(0.0, SIGMA), INFO, True)
+    assert graph.optimize(max_iterations=50).converged
+    return _position_error(graph, truth)
+
+
+def test_a_kernel_on_the_scan_matches_lets_one_far_off_give_way_to_the_closures():
+    """Least squares spreads the wrong match's 10 deg over the loop (0.14 m off); with the Cauchy kernel on the
+    scan-match edges it gives way (0.06 m, about the error with no wrong match: 0.07)."""
+    plain, robust = _with_a_wrong_match(None), _with_a_wrong_match(3.0)
+    assert plain > 0.12
+    assert robust < 0.08 and robust < 0.6 * plain
+
+
+def test_an_edge_kernel_still_meets_every_edge_of_a_chain_without_closures():
+    truth = _square_loops(laps=1)
+    graph = PoseGraph(edge_kernel_width=3.0)
+    graph.add_node(truth[0])
+    for k in range(1, len(truth)):
+        graph.add_node(truth[k])
+        graph.add_edge(k - 1, k, np.array(relative_pose(truth[k - 1], truth[k])) + (0.0, 0.0, 0.2), INFO)
+    before = graph.poses
+    result = graph.optimize()
+    assert result.converged and not np.allclose(graph.poses, before)  # it moved: the edges disagreed with the poses
+    assert np.allclose(graph.chi2(), 0.0, atol=1e-6)  # and now meets every edge exactly: a chain has one solution
+
+
 def test_a_diverging_optimization_raises_and_keeps_the_poses(monkeypatch):
     truth = _square_loops(laps=1)
     graph, _ = _graph(truth, seed=3)
@@ -114,6 +158,8 @@ def test_an_optimized_graph_optimizes_again_without_moving():
         (lambda g: g.add_edge(0, 1, (1, 0, 0), INFO + np.triu(np.ones((3, 3)), 1)), "symmetric"),
         (lambda g: g.add_node((0, np.inf, 0)), "finite"),
         (lambda g: PoseGraph(loop_kernel="tukey"), "loop_kernel"),
+        (lambda g: PoseGraph(edge_kernel_width=0.0), "edge_kernel_width"),
+        (lambda g: PoseGraph(edge_kernel_width=float("nan")), "edge_kernel_width"),
     ],
 )
 def test_bad_input_is_refused(call, message):
