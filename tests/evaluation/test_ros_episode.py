@@ -129,6 +129,14 @@ def test_the_library_reads_the_scan_and_the_map_as_the_nodes_read_their_messages
     assert (grid.resolution, grid.origin) == (read.resolution, read.origin) and np.array_equal(grid.data, read.data)
 
 
+@pytest.mark.parametrize("value", [-1.0, "soon", True, [1.0]])
+def test_a_bad_goal_after_gives_a_record_naming_the_option(value):
+    label, parameters = configs.resolve("navigation", "default")
+    spec = EpisodeSpec("navigation", label, parameters, {"file": "pillar_goal.yaml"}, options={"goal_after": value})
+    record = run_episode(spec)
+    assert record["error"] is not None and "option goal_after" in record["error"], record["error"]
+
+
 def test_a_real_robot_configuration_is_refused_with_the_reason(tmp_path):
     label, parameters = configs.resolve("wall_follower", "real")
     spec = EpisodeSpec("wall_follower", label, parameters, {"file": "open_room.yaml"}, mode="ros")
