@@ -117,6 +117,24 @@ def test_clusters_separate_distant_groups_rank_them_by_weight_and_ignore_sparse_
     assert clusters.weights[0] == pytest.approx(600 / 920, rel=0.05)
 
 
+def test_clusters_join_touching_dense_cells_across_the_heading_wrap_however_far_the_cloud_spreads():
+    """Dense cells touching (26-neighbourhood, the heading's last bin beside its first) are one cluster, as a
+    flood fill over every cell of the cloud's bounding box would find; a cloud spread over 100 m beside a tight one
+    (a global start's particles) costs the dense cells' look-ups, not the box's tens of millions of cells."""
+    rng = np.random.default_rng(3)
+    across = np.column_stack([rng.normal([50.0, 50.0], 0.03, (200, 2)), rng.normal(math.pi, 0.05, 200)])
+    apart = np.column_stack([rng.normal([50.6, 50.0], 0.03, (200, 2)), rng.normal(math.pi, 0.05, 200)])
+    spread = np.column_stack([rng.uniform(0.0, 100.0, (4000, 2)), rng.uniform(-math.pi, math.pi, 4000)])
+    particles = np.vstack([across, apart, spread])
+    clusters = cluster_particles(particles[:, :2], np.full(len(particles), 1.0), 0.1, 10, particles[:, 2])
+    assert clusters.count == 2
+    # the headings on either side of +-pi (bins 23 and 0) are one cluster, the one 0.6 m away another
+    assert len(np.unique(clusters.labels[:200])) == 1 and clusters.labels[0] >= 0
+    assert len(np.unique(clusters.labels[200:400])) == 1 and clusters.labels[200] != clusters.labels[0]
+    assert (clusters.labels[400:] == -1).all()  # one particle per 2.5 m^2: noise
+    assert sorted(clusters.sizes) == [200, 200]
+
+
 def test_estimate_heading_is_the_circular_mean_across_pi():
     particles = np.array([[0.0, 0.0, math.pi - 0.1], [1.0, 2.0, -math.pi + 0.1]])
     estimate = weighted_pose(particles, np.array([1.0, 1.0]))
