@@ -39,21 +39,6 @@ MIN_POINTS = 20
 """end points each scan needs for a match (fewer: the odometry's increment)."""
 
 
-def matched_increment(
-    reference: np.ndarray,
-    points: np.ndarray,
-    prior,
-    position_variance: float,
-    heading_variance: float,
-    resolution: float,
-    correlation_length: float,
-) -> np.ndarray:
-    """matched_link's increment alone."""
-    return matched_link(
-        reference, points, prior, position_variance, heading_variance, resolution, correlation_length
-    )[0]
-
-
 def matched_link(
     reference: np.ndarray,
     points: np.ndarray,

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from amr_localization.motion_model import OdometryNoise, motion_variance
-from amr_localization.scan_odometry import matched_increment, matched_link
+from amr_localization.scan_odometry import matched_link
 from amr_util.geometry import relative_pose, transform_points, wrap_angle
 
 
@@ -23,6 +23,11 @@ def wall_points(segments, step=0.02) -> np.ndarray:
 
 ROOM = wall_points([(0, 0, 8, 0), (8, 0, 8, 5), (8, 5, 0, 5), (0, 5, 0, 0), (3, 2, 4, 2), (4, 2, 4, 3.5)])
 CORRIDOR = wall_points([(-20, -1, 20, -1), (-20, 1, 20, 1)])
+
+
+def matched_increment(*args) -> np.ndarray:
+    """matched_link's increment alone."""
+    return matched_link(*args)[0]
 
 
 def seen_from(points: np.ndarray, pose) -> np.ndarray:
