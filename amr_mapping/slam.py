@@ -12,8 +12,7 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
   +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
   likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
-  (_align) are weighed by their own informations (_refined: the posterior's spread over the lattice around the match,
-  _surface_information; the refinement's normal equations);
+  (_align) are weighed by their own informations (_refined: the score's curvature, the refinement's normal equations);
   the result is fused with the odometry prior as two Gaussians (along a corridor the odometry decides) and the edge to
   the previous node carries both. A score below min_match_score (some overlap), or fewer than MIN_BEAMS usable beams,
   is not fatal: the node is added on odometry alone and the update's events say so. A weak match (below
@@ -34,8 +33,8 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   well (ambiguous), or it disagrees with the poses beyond LOOP_CHI2 against its covariance plus the graph's own
   uncertainty of the anchor -> node pose (PoseGraph.marginals: every edge counted, earlier closures included);
   the graph is optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy kernel on
-  closures, so a false closure bends the map little, and a fixed one on the scan matches, EDGE_KERNEL_WIDTH), and a
-  closure the optimized graph still disagrees with (LOOP_RESIDUAL_CHI2) is removed.
+  closures, so a false closure bends the map little), and a closure the optimized graph still disagrees with
+  (LOOP_RESIDUAL_CHI2) is removed.
   An optimization that fails (MappingError) is reported in the events and the poses kept.
 - The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
   changed, on request.
@@ -75,10 +74,6 @@ ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
 """Odometry edge's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled)."""
 LIKELIHOOD_SIGMA_CELLS = 1.5
 """The submaps' likelihood field: exp(-d^2 / (2 sigma^2)), sigma this many cells."""
-EDGE_KERNEL_WIDTH = 3.0
-"""The scan-match edges' Cauchy kernel in the optimizer (PoseGraph edge_kernel_width, standard deviations): with
-loop closures about, a match far off (fhw's fast turns: a heading mode degrees off) gives way (fhw 0.0800 -> 0.0793,
-aces 0.0588 -> 0.0579 m alone)."""
 OPTIMIZE_CHI = 3.0
 """A new closure this many standard deviations off the current poses makes the graph be optimized at once ..."""
 OPTIMIZE_EVERY = 10
@@ -90,14 +85,7 @@ WINDOW_SIGMAS = 3.0
 match_linear_window / match_angular_window)."""
 MATCH_INFORMATION_SCALE = 200.0
 """A match's information per unit of negative curvature of the mean score (the points' effective count over
-the score's noise variance: neighbouring beams are not independent); the front end's likelihood is
-exp(MATCH_INFORMATION_SCALE * score)."""
-SURFACE_CELLS = 6
-SURFACE_STEPS = 8
-SURFACE_STEP = math.radians(0.25)
-"""The front end's match covariance is the posterior's spread over the lattice within +-SURFACE_CELLS cells and
-+-SURFACE_STEPS steps of SURFACE_STEP rad around the match (_surface_information: Olson 2009), not the score's
-curvature at the match alone."""
+the score's noise variance: neighbouring beams are not independent)."""
 MIN_MATCH_INFORMATION = 0.01
 """A match's information is at least this in every direction (a flat score: a standard deviation of 10 m, or
 10 rad: little enough that the odometry decides, not so little that a direction mixing x, y and theta leaks
@@ -352,7 +340,7 @@ class GraphSlam:
 
     def __init__(self, config: SlamConfig | None = None) -> None:
         self.config = SlamConfig() if config is None else config
-        self._graph = PoseGraph(edge_kernel_width=EDGE_KERNEL_WIDTH)
+        self._graph = PoseGraph()
         self._nodes: list[_Node] = []
         self._submaps: list[_Submap] = []
         self._odometry: np.ndarray | None = None  # the last odometry reading
@@ -1056,15 +1044,15 @@ def _refined(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(pose, information) of a scan matched at `pose` (the correlative match, refined on the bilinear field):
     the match and its point-to-line refinement (_align) as two estimates of one pose, each weighted by its own
-    information (_surface_information: the posterior's spread over the lattice around the match; _align's: its
-    normal equations over its residuals' spread). Where the lines explain the scan to a millimetre (a simulated
-    maze: straight walls, the field's top flat over a wall's cells) the refinement decides; where they do not (real
-    logs: clutter, a SICK's 1-degree beams; its residuals 1-2 cm, its heading sigma twice the match's on aces) the
-    match does. Taking the refinement whatever its information cost the logs (front end against submaps at the
-    reference poses, aces: heading error 0.40 deg mean with it, 0.26 without, 0.28 weighted). The match's
-    information carries the field's quantization (_with_quantization). The information is the more informative
-    estimate's (largest determinant), not their sum: both come from the same scan."""
-    information = _surface_information(reference.matcher, points, pose, resolution)
+    information (_match_information: the score's curvature; _align's: its normal equations over its residuals'
+    spread). Where the lines explain the scan to a millimetre (a simulated maze: straight walls, the field's top
+    flat over a wall's cells) the refinement decides; where they do not (real logs: clutter, a SICK's 1-degree
+    beams; its residuals 1-2 cm, its heading sigma twice the match's on aces) the match does. Taking the
+    refinement whatever its information cost the logs (front end against submaps at the reference poses, aces:
+    heading error 0.40 deg mean with it, 0.26 without, 0.28 weighted). The match's information carries the
+    field's quantization (_with_quantization). The information is the more informative estimate's (largest
+    determinant), not their sum: both come from the same scan."""
+    information = _match_information(reference.matcher, points, pose, resolution)
     information = _with_quantization(information, points, resolution)
     aligned, aligned_information = _align(reference, points, pose, resolution)
     if aligned_information is None:
@@ -1076,34 +1064,6 @@ def _refined(
     if np.linalg.det(aligned_information) > np.linalg.det(information):
         information = aligned_information
     return fused, information
-
-
-def _surface_information(
-    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, resolution: float
-) -> np.ndarray:
-    """The information of a front-end match from the score surface around it (Olson, "Real-time correlative scan
-    matching", 2009): the scan's likelihood exp(MATCH_INFORMATION_SCALE * score) over every lattice pose within
-    +-SURFACE_CELLS cells and +-SURFACE_STEPS * SURFACE_STEP of the match (CorrelativeMatcher.window_scores), its
-    covariance the weighted second moments about their mean; eigenvalues clamped at MIN_MATCH_INFORMATION. The
-    score's curvature at the match (_match_information) sees only the peak it sits on: along a corridor a door
-    lining up makes a sharp bump 10-25 cm off, and the match was taken there at a few centimetres (aces scans
-    293-296, 362); the spread over the lattice sees the plateau, so the odometry weighs in along it (aces
-    0.059 -> 0.055 m, intel 0.060 -> 0.057). Its lookups (2,873 poses a node: about 1 M, 5 ms) are not counted in
-    the update's work (loop_work_budget), a fixed cost of every node: counted, they took the closure search's
-    share (intel 0.064 m, 310 closures against 328)."""
-    poses, scores = matcher.window_scores(
-        points, pose, SURFACE_CELLS * resolution, SURFACE_STEPS * SURFACE_STEP, SURFACE_STEP
-    )
-    if len(scores) == 0 or not np.all(np.isfinite(scores)):
-        return np.diag([MIN_MATCH_INFORMATION] * 3)
-    weight = np.exp(MATCH_INFORMATION_SCALE * (scores - scores.max()))
-    offsets = poses - np.asarray(pose, dtype=float)
-    offsets[:, 2] = wrap_angle(offsets[:, 2])
-    centred = offsets - weight @ offsets / weight.sum()
-    covariance = (centred * weight[:, None]).T @ centred / weight.sum()
-    # a peak on one lattice pose: no spread of its own (the quantization is added by the caller)
-    covariance += np.diag([1e-8, 1e-8, 1e-10])
-    return _clamped(np.linalg.inv(covariance))
 
 
 def _with_quantization(information: np.ndarray, points: np.ndarray, resolution: float) -> np.ndarray:

@@ -1,8 +1,7 @@
 """GraphSlam's model terms found on the CARMEN logs: along a featureless corridor the scan match says nothing
 about the position along it (its information, fused with the odometry's); a beam without a return clears free
-space only up to the sensor's range_max; a match's covariance is its score surface's spread; a SLAM map put in
-the world's frame (amr_mapping.map_frame); the front end takes the posterior's mode (score and odometry prior), not
-the best score alone."""
+space only up to the sensor's range_max; a SLAM map put in the world's frame (amr_mapping.map_frame); the front
+end takes the posterior's mode (score and odometry prior), not the best score alone."""
 
 from __future__ import annotations
 
@@ -53,26 +52,6 @@ def test_a_corridor_match_is_informative_across_it_and_not_along_it():
     sigma = np.sqrt(np.diag(np.linalg.inv(information)))
     assert sigma[1] < 0.05 and sigma[2] < math.radians(2.0)  # across, heading: a few cm, a degree
     assert sigma[0] > 20 * sigma[1]  # along: no better than the odometry it is fused with
-
-
-def test_the_match_covariance_spans_a_plateau_the_curvature_at_its_peak_does_not():
-    """The front end's match information is the score surface's spread around the match (Olson 2009), not the
-    curvature at the match: a wall seen where the submap holds two, 15 cm apart (a door's frame, a bench before a
-    wall), scores alike anywhere between; the curvature at one of them says 8 mm, the surface 5-10 cm. One wall:
-    both about a centimetre."""
-    ys = np.linspace(-1.5, 1.5, 61)
-    wall = np.column_stack([np.full(len(ys), 1.0), ys])
-    side = np.column_stack([np.linspace(-0.5, 0.9, 29), np.full(29, 1.6)])  # fixes the position along the wall
-    points = np.vstack([wall, side])
-    for cloud, lo, hi in ((points, 0.005, 0.02), (np.vstack([points, points + (0.15, 0.0)]), 0.05, 0.1)):
-        matcher = CorrelativeMatcher(
-            ScoreMap.from_points(cloud, 0.05, 0.075, 1.0, cover=np.zeros((1, 2)), to_points=True)
-        )
-        surface = np.sqrt(np.diag(np.linalg.inv(slam_module._surface_information(matcher, points, np.zeros(3), 0.05))))
-        curvature = np.sqrt(np.diag(np.linalg.inv(_match_information(matcher, points, np.zeros(3), 0.05))))
-        assert lo < surface[0] < hi, surface
-        assert curvature[0] < 0.012
-        assert surface[1] < 0.02 and surface[2] < math.radians(2.0)
 
 
 def test_a_beam_without_a_return_clears_up_to_the_sensors_range_only():
@@ -137,13 +116,13 @@ _NO_REFERENCE = _NoReference()
 
 
 def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatch):
-    """The front end's pose: the correlative match (its surface's information with the field's quantization) and its
+    """The front end's pose: the correlative match (its information with the field's quantization) and its
     point-to-line refinement, each weighted by its own information, the edge given the more informative one's. A
     refinement claiming 100 times the match's precision (a simulated maze's straight walls) decides; one claiming a
     fiftieth of it (a real log's clutter) moves the pose a fifth of the way or less (taking it whatever its
     information cost the logs 0.40 vs 0.26 deg a link on aces)."""
     curvature = np.diag([1e4, 1e4, 1e5])
-    monkeypatch.setattr(slam_module, "_surface_information", lambda *args: curvature)
+    monkeypatch.setattr(slam_module, "_match_information", lambda *args: curvature)
     points = np.column_stack([2.0 * np.cos(np.linspace(0, 6, 30)), 2.0 * np.sin(np.linspace(0, 6, 30))])  # 2 m
     match_information = slam_module._with_quantization(curvature, points, 0.05)
     q = 0.05 / math.sqrt(12.0)
