@@ -58,7 +58,7 @@ from amr_localization.pose_estimate import PoseEstimate, weighted_pose
 from amr_localization.progressive_correction import MAX_STAGES, stage_exponent
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.scan_beams import Beams, select_beams
-from amr_localization.scan_odometry import matched_link
+from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
@@ -172,9 +172,7 @@ class Estimate:
 class _Seen(NamedTuple):
     """A scan used, for scoring hypotheses born later: the odometry then, its beams, their weights, its gain; its
     end points (robot frame, within PLACE_SEARCH_RANGE, one per CHAIN_RESOLUTION cell) and its pose in the window's
-    frame (placed by scan-matched odometry: scan_odometry) and that placement's variance relative to the window's
-    scan before it (m^2, at the scan's end points: the link's position variance plus its heading's times their
-    median range squared; 0 for a window's first scan)."""
+    frame (placed by scan-matched odometry: scan_odometry)."""
 
     odometry: tuple[float, float, float]
     beams: Beams
@@ -182,7 +180,6 @@ class _Seen(NamedTuple):
     gain: float
     points: np.ndarray
     local: tuple[float, float, float]
-    link: float = 0.0
 
 
 @dataclass
@@ -430,7 +427,7 @@ class ParticleFilter:
                 else 1.0
             )
             points = self._end_points(scan)
-            seen = _Seen(self._odometry, beams, weights, gain, points, *self._placed(points))
+            seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points))
             self._rematch_places(seen)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
@@ -481,7 +478,6 @@ class ParticleFilter:
             self._window.append(seen)
             while sum(past.gain for past in self._window) - self._window[0].gain >= WINDOW:
                 self._window.popleft()
-            self._trim_window()
         self._estimate_odometry = self._odometry
         self.status.updated = True
         self.status.particles = len(self.particles)
@@ -514,21 +510,8 @@ class ParticleFilter:
             poses = np.vstack([self._fitted(poses, seen), found])
         self._admit(poses, seen, beacons, settled)
         hypotheses.merge()
-        self._owner = self._ownership(clusters, poses[: len(candidates)])
         self._agree()
         self._decide(seen)
-
-    def _ownership(self, clusters, cluster_poses: np.ndarray) -> np.ndarray:
-        """(N,) the place each particle holds belief for, -1 for none: the place its cluster is at (the cluster's
-        fitted mean, as _admit matched it), else the place it is itself within MERGE_DISTANCE and MERGE_ANGLE of. A
-        posterior drawn out along a corridor is one place, however far its particles reach past the merge window."""
-        owner = self.hypotheses.find(self.particles)
-        if len(cluster_poses):
-            places = self.hypotheses.find(cluster_poses)
-            for label, place in enumerate(places):
-                if place >= 0:
-                    owner[clusters.labels == label] = place
-        return owner
 
     def _admit(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, settled: bool) -> None:
         """Each candidate pose re-anchors the hypothesis it is where the data fit it better there (the best such
@@ -565,9 +548,9 @@ class ParticleFilter:
         of the belief the hypotheses hold; a likely place with no particle gets a cloud (sensor resetting)."""
         hypotheses = self.hypotheses
         probabilities = hypotheses.probabilities()
-        owner = self._owner
+        owner = hypotheses.find(self.particles)
         outside = float(self.weights[owner < 0].sum())
-        clouds, cloud_weights, cloud_owners = [], [], []
+        clouds, cloud_weights = [], []
         for index, probability in enumerate(probabilities):
             member = owner == index
             target = probability * (1.0 - outside)
@@ -582,11 +565,9 @@ class ParticleFilter:
                 if inside.any():
                     clouds.append(cloud[inside])
                     cloud_weights.append(np.full(int(inside.sum()), target / inside.sum()))
-                    cloud_owners.append(np.full(int(inside.sum()), index))
         if clouds:
             self.particles = np.concatenate([self.particles, *clouds])
             self.weights = np.concatenate([self.weights, *cloud_weights])
-            self._owner = np.concatenate([owner, *cloud_owners])
             self.status.injected += sum(len(c) for c in clouds)
         total = self.weights.sum()
         self.weights = self.weights / total if total > 0.0 else np.full(len(self.weights), 1.0 / len(self.weights))
@@ -602,7 +583,7 @@ class ParticleFilter:
             self._estimate = weighted_pose(self.particles, self.weights)
             confidence = runner_up = 0.0
         else:
-            member = self._owner == 0
+            member = hypotheses.find(self.particles) == 0
             self._estimate = (
                 weighted_pose(self.particles[member], self.weights[member])
                 if member.any()
@@ -709,36 +690,18 @@ class ParticleFilter:
     def _chain_resolution(self) -> float:
         return max(CHAIN_RESOLUTION, self._grid.resolution)
 
-    def _placed(self, points: np.ndarray) -> tuple[tuple[float, float, float], float]:
+    def _placed(self, points: np.ndarray) -> tuple[float, float, float]:
         """The scan's pose in the window's frame: the last window scan's, moved by the odometry's increment since,
-        matched and fused (scan_odometry.matched_link); the odometry's own pose for the window's first. And that
-        link's variance at the scan's end points (_Seen.link)."""
+        matched and fused (scan_odometry.matched_increment); the odometry's own pose for the window's first."""
         if not self._window:
-            return self._odometry, 0.0
+            return self._odometry
         last = self._window[-1]
         prior = np.asarray(relative_pose(last.odometry, self._odometry), dtype=float)
         position, heading = motion_variance(math.hypot(prior[0], prior[1]), abs(float(prior[2])), self.noise)
-        increment, covariance = matched_link(
+        increment = matched_increment(
             last.points, points, prior, position, heading, self._chain_resolution, self.config.beam_correlation_length
         )
-        reach = float(np.median(np.hypot(points[:, 0], points[:, 1]))) if len(points) else 0.0
-        link = float(np.linalg.eigvalsh(covariance[:2, :2])[-1] + covariance[2, 2] * reach**2)
-        return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3)), link
-
-    def _trim_window(self) -> None:
-        """The window keeps the scans its links place relative to the latest within what the places' scoring
-        tolerates (a cell, as each beam is scored at its best within one, plus sigma_hit): the links' variances,
-        summed from the latest back, at most that squared. A scan before a link the scans could not tell (a gap of
-        metres between keyframes, a match with two modes) is placed by odometry alone, often decimetres off, and
-        held rigid it makes the true place score worse than a look-alike one."""
-        tolerance = (self._grid.resolution + self.config.sigma_hit) ** 2
-        variance = 0.0
-        for index in range(len(self._window) - 1, 0, -1):
-            variance += self._window[index].link
-            if variance > tolerance:
-                for _ in range(index):
-                    self._window.popleft()
-                return
+        return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
 
     def _rematch_places(self, seen: _Seen) -> None:
         """The places (and the one declared), moved by the odometry since the window's last scan, moved by the

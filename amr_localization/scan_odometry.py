@@ -39,7 +39,7 @@ MIN_POINTS = 20
 """end points each scan needs for a match (fewer: the odometry's increment)."""
 
 
-def matched_link(
+def matched_increment(
     reference: np.ndarray,
     points: np.ndarray,
     prior,
@@ -48,33 +48,29 @@ def matched_link(
     resolution: float,
     correlation_length: float,
 ) -> np.ndarray:
-    """((x, y, theta), (3, 3) covariance) of the scan `points` in the frame of the scan `reference` ((K, 2) end
-    points, each in its own robot frame): the odometry's increment `prior` with its variances (m^2, rad^2), fused with
-    the scan match within SIGMAS of it, on cells of `resolution`; end points within `correlation_length` (m) count as
-    one. The covariance is the spread of the posterior over the window at twice the cell plus the final cell's
-    quantization; the prior's where no match is made: a link the scans do not tell stays as uncertain as the
-    odometry."""
+    """(x, y, theta) of the scan `points` in the frame of the scan `reference` ((K, 2) end points, each in its own
+    robot frame): the odometry's increment `prior` with its variances (m^2, rad^2), fused with the scan match within
+    SIGMAS of it, on cells of `resolution`; end points within `correlation_length` (m) count as one."""
     prior = np.asarray(prior, dtype=float).reshape(3)
     reference, points = np.asarray(reference, dtype=float), np.asarray(points, dtype=float)
-    unmatched = np.diag([max(position_variance, 0.0)] * 2 + [max(heading_variance, 0.0)])
     if len(reference) < MIN_POINTS or len(points) < MIN_POINTS:
-        return prior, unmatched
+        return prior
     position_sigma = math.sqrt(max(position_variance, 0.0))
     heading_sigma = math.sqrt(max(heading_variance, 0.0))
     farthest = float(np.hypot(points[:, 0], points[:, 1]).max())
     if SIGMAS * (position_sigma + heading_sigma * farthest) < resolution:
-        return prior, unmatched
+        return prior
     linear = max(min(SIGMAS * position_sigma, MAX_LINEAR), resolution)
     angular = min(SIGMAS * heading_sigma, MAX_ANGULAR)
     points = points[_within_view(reference, transform_points(prior, points), linear + resolution, angular)]
     if len(points) < MIN_POINTS:
-        return prior, unmatched
+        return prior
     independent = len(one_per_cell(points, max(correlation_length, resolution)))
     # the window at twice the cell, then the cell around the coarse posterior's mean
-    coarse, spread, _ = _posterior_mean(
+    coarse = _posterior_mean(
         reference, points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
     )
-    increment, _, step = _posterior_mean(
+    increment = _posterior_mean(
         reference,
         points,
         independent,
@@ -88,8 +84,7 @@ def matched_link(
         2,
     )
     increment[2] = wrap_angle(increment[2])
-    # the coarse posterior's spread (a second mode, a corridor's length) and the fine lattice's quantization
-    return increment, spread + np.diag([resolution**2 / 12.0] * 2 + [step**2 / 12.0])
+    return increment
 
 
 def _posterior_mean(
@@ -104,10 +99,10 @@ def _posterior_mean(
     angular: float,
     resolution: float,
     angle_steps: int | None = None,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """The posterior's mean and its spread (the weighted covariance of the lattice's poses) over the lattice of
-    `resolution` within linear and angular (or angle_steps of the lattice's angular step, returned third) of centre;
-    the odometry's increment `prior` the Gaussian prior, the score to the power of the `independent` points."""
+) -> np.ndarray:
+    """The posterior's mean over the lattice of `resolution` within linear and angular (or angle_steps of the
+    lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the score to the power
+    of the `independent` points."""
     matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
     cloud = one_per_cell(points, resolution)
     step = default_angular_step(cloud, resolution)
@@ -121,12 +116,9 @@ def _posterior_mean(
         + offsets[:, 2] ** 2 / max(heading_sigma**2, 1e-12)
     )
     weights = np.exp(log_posterior - log_posterior.max())
-    weights = weights / weights.sum()
-    shift = weights @ offsets
-    deviation = offsets - shift
-    mean = prior + shift
+    mean = prior + weights @ offsets / weights.sum()
     mean[2] = wrap_angle(mean[2])
-    return mean, (deviation * weights[:, None]).T @ deviation, step
+    return mean
 
 
 def _within_view(reference: np.ndarray, moved: np.ndarray, linear: float, angular: float) -> np.ndarray:

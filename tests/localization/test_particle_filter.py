@@ -109,17 +109,12 @@ def test_an_initial_pose_tracks_from_there():
         pf.initialize_pose(50.0, 50.0, 0.0, np.diag([0.01, 0.01, 0.01]))
 
 
-def box_filter() -> ParticleFilter:
-    """A filter on an empty 6 m box at 0.1 m, seed 1, a 3.5 m scanner."""
-    data = np.zeros((60, 60), dtype=np.int8)
-    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
-    return ParticleFilter(OccupancyGrid(data, 0.1, (0.0, 0.0, 0.0)), ParticleFilterConfig(seed=1), range_max=3.5)
-
-
 def test_an_empty_set_of_places_scores_as_an_empty_set():
     """Particles that form no cluster and a search that proposes nothing give the place scoring no pose at all: its
     answer is empty (an intel log run raised here, reshaping the nudged scores of no pose)."""
-    pf = box_filter()
+    data = np.zeros((60, 60), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    pf = ParticleFilter(OccupancyGrid(data, 0.1, (0.0, 0.0, 0.0)), ParticleFilterConfig(seed=1), range_max=3.5)
     scan = ScanData(np.full(90, 2.0), -math.pi, 2.0 * math.pi / 90, 0.1, 3.5)
     pf.update((0.0, 0.0, 0.0), scan)
     pf.update((0.1, 0.0, 0.0), scan)
@@ -149,44 +144,3 @@ def test_a_peak_the_place_search_has_met_where_no_place_is_followed_counts_for_e
     assert met == pytest.approx(np.logaddexp(background, at_truth + pf._log_peak_share))
     pf.hypotheses.add(truth, np.zeros(1))
     assert pf._elsewhere(seen, None, truth) == background
-
-
-def test_the_window_keeps_only_the_scans_its_links_place_within_the_scoring_tolerance():
-    """A new place is scored on the window's scans held rigid to the latest; a scan before a link the scans could
-    not tell (a gap of metres between keyframes) would be decimetres off and make the true place score worse than a
-    look-alike: the window starts after it. Links the scans told (centimetres) keep the window whole."""
-    pf = box_filter()
-    scan = ScanData(np.full(90, 2.0), -math.pi, 2.0 * math.pi / 90, 0.1, 3.5)
-    pf.update((0.0, 0.0, 0.0), scan)
-    pf.update((0.1, 0.0, 0.0), scan)
-    template = pf._window[-1]
-    tolerance = (0.1 + pf.config.sigma_hit) ** 2
-    pf._window.clear()
-    pf._window.extend(template._replace(link=link) for link in [0.0, 0.02 * tolerance, 0.02 * tolerance])
-    pf._trim_window()
-    assert len(pf._window) == 3
-    pf._window.extend(template._replace(link=link) for link in [1.5 * tolerance, 0.02 * tolerance])
-    pf._trim_window()
-    assert [seen.link for seen in pf._window] == [1.5 * tolerance, 0.02 * tolerance]
-
-
-def test_the_particles_of_a_cluster_hold_belief_for_the_place_the_cluster_is_at():
-    """A posterior drawn out along a corridor past a place's merge window is that place's, not elsewhere's: a
-    particle belongs to the place its cluster's fitted mean is at, and only particles in no such cluster go by their
-    own distance to a place."""
-    pf = box_filter()
-    pf.hypotheses.clear()
-    pf.hypotheses.add(np.array([[3.0, 3.0, 0.0]]), np.zeros(1))
-    along = np.column_stack([np.linspace(2.6, 3.4, 40), np.full(40, 3.0), np.zeros(40)])  # 0.4 m either side
-    stray = np.array([[3.45, 3.0, 0.0]])  # beyond the window, in no cluster
-    pf.particles = np.vstack([along, stray])
-    pf.weights = np.full(len(pf.particles), 1.0 / len(pf.particles))
-
-    class Clusters:
-        labels = np.concatenate([np.zeros(40, int), [-1]])
-
-    owner = pf._ownership(Clusters, np.array([[3.0, 3.0, 0.0]]))
-    assert (owner[:40] == 0).all()
-    assert owner[40] == -1
-    unclustered = pf._ownership(Clusters, np.zeros((0, 3)))
-    assert (unclustered[:40] == -1).any()  # by distance alone, the ends of the cloud would be elsewhere's

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from amr_localization.motion_model import OdometryNoise, motion_variance
-from amr_localization.scan_odometry import matched_link
+from amr_localization.scan_odometry import matched_increment
 from amr_util.geometry import relative_pose, transform_points, wrap_angle
 
 
@@ -23,11 +23,6 @@ def wall_points(segments, step=0.02) -> np.ndarray:
 
 ROOM = wall_points([(0, 0, 8, 0), (8, 0, 8, 5), (8, 5, 0, 5), (0, 5, 0, 0), (3, 2, 4, 2), (4, 2, 4, 3.5)])
 CORRIDOR = wall_points([(-20, -1, 20, -1), (-20, 1, 20, 1)])
-
-
-def matched_increment(*args) -> np.ndarray:
-    """matched_link's increment alone."""
-    return matched_link(*args)[0]
 
 
 def seen_from(points: np.ndarray, pose) -> np.ndarray:
@@ -74,28 +69,3 @@ def test_too_few_points_leave_the_odometry_increment():
     prior = np.array([1.0, 0.0, 0.1])
     found = matched_increment(ROOM[:5], ROOM[:5], prior, 0.01, 0.01, 0.05, 0.25)
     np.testing.assert_array_equal(found, prior)
-
-
-def test_a_link_the_walls_tell_is_more_certain_than_its_odometry_and_one_they_cannot_is_not():
-    """matched_link's covariance: a room's scans place the second within centimetres, far below the odometry's
-    spread; too few points leave the odometry's own variances (a link the scans do not tell)."""
-    first, second = np.array([1.5, 1.0, 0.2]), np.array([2.5, 1.3, 0.35])
-    prior = np.array(relative_pose(first, second))
-    noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)
-    position, heading = motion_variance(1.0, 0.15, noise)
-    _, covariance = matched_link(seen_from(ROOM, first), seen_from(ROOM, second), prior, position, heading, 0.05, 0.25)
-    assert np.linalg.eigvalsh(covariance[:2, :2])[-1] < 0.1 * position
-    assert covariance[2, 2] < 0.1 * heading
-    _, unmatched = matched_link(ROOM[:5], ROOM[:5], prior, position, heading, 0.05, 0.25)
-    np.testing.assert_allclose(np.diag(unmatched), [position, position, heading])
-    # along a corridor the walls say nothing: the link keeps most of the odometry's spread that way
-    _, along = matched_link(
-        seen_from(CORRIDOR, (0.0, 0.0, 0.0)),
-        seen_from(CORRIDOR, (1.0, 0.0, 0.0)),
-        (1.0, 0.0, 0.0),
-        position,
-        1e-6,
-        0.05,
-        0.25,
-    )
-    assert along[0, 0] > 0.3 * position > 10.0 * along[1, 1]
