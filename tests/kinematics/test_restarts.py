@@ -28,6 +28,11 @@ def test_coupled_joints_follow_the_spread_ones(chain_set):
         )
 
 
+RESTART_BUDGET = 0.5
+"""s of wall clock per solve: ten times what these solves take on a quiet machine, so that a loaded one does not end
+a solve before its restarts (the claim is that restarts solve every target, not how fast: bench/bench_ik.py)."""
+
+
 @pytest.mark.parametrize("solver, steps", [("dls", 6), ("pinv", 15)])  # pinv's gain 0.7 needs more steps
 def test_an_iteration_cap_does_not_end_a_solve_with_time_left(chain_set, solver, steps):
     config = chain_set["panda"]
@@ -51,7 +56,9 @@ def test_ccd_solves_a_ten_joint_snake(unseen_set):
     chain = unseen_set["snake10"].chain
     targets = random_targets(chain, 40, seed=7)
     solved = sum(
-        get_solver("ccd").solve(chain, t[:2, 3], seed=unseen_set["snake10"].home, tolerance=1e-5, timeout=0.05).success
+        get_solver("ccd")
+        .solve(chain, t[:2, 3], seed=unseen_set["snake10"].home, tolerance=1e-5, timeout=RESTART_BUDGET)
+        .success
         for t in targets
     )
     assert solved == 40  # a single descent (the report's method) solved 75 % of such targets
@@ -62,7 +69,9 @@ def test_pinv_full_pose_on_unseen_arms(unseen_set, name):
     config = unseen_set[name]
     targets = random_targets(config.chain, 25, seed=11)
     solved = sum(
-        get_solver("pinv").solve(config.chain, t, seed=config.home, with_orientation=True, timeout=0.05).success
+        get_solver("pinv")
+        .solve(config.chain, t, seed=config.home, with_orientation=True, timeout=RESTART_BUDGET)
+        .success
         for t in targets
     )
     assert solved == 25  # gain 1.0 and one hypercube of candidates: 88-90 %
