@@ -429,32 +429,11 @@ def main() -> None:
         for family in args.families:
             for k, seed in enumerate(args.seeds):
                 noise = low + (high - low) * (k / max(1, len(args.seeds) - 1))
+                case = (family, seed, noise, args.encoder_noise, args.slip, args.budget, out, args.resolution)
                 if args.library:
-                    r = run_library(
-                        family,
-                        seed,
-                        noise,
-                        args.encoder_noise,
-                        args.slip,
-                        args.budget,
-                        out,
-                        args.resolution,
-                        args.verbose,
-                        slam_overrides,
-                    )
+                    r = run_library(*case, args.verbose, slam_overrides)
                 else:
-                    r = run(
-                        context,
-                        family,
-                        seed,
-                        noise,
-                        args.encoder_noise,
-                        args.slip,
-                        args.budget,
-                        out,
-                        args.resolution,
-                        slam_overrides,
-                    )
+                    r = run(context, *case, slam_overrides)
                 if "error" in r:
                     print(f"{r['name']:14s} {r['error']}", flush=True)
                     continue
