@@ -410,13 +410,10 @@ def _compile_kernels(spec) -> float:
     s of the spec's library episode (the same classes the composed nodes are): the wall-clock s it took.
 
     The kernels are cached per source version (numba cache=True). With the cache cold (a kernel's module edited since
-    the last run, a clean clone) the first call compiles, holding the GIL: the filter's first update took 21 s under
-    load, the wall follower's first command 3 s. Inside the lockstep loop the first observation then waited that
-    long, past lockstep_resend_period (sent again) and up to LOCKSTEP_WAIT (stepped without its /pose), or the
-    episode failed for want of progress (navigation on pillar_goal: no progress on /simulator/status, the start-up
-    stalls of issue 36). Compiled here, that wait is over before the loop's clock starts (measured with the cache
-    cold: the first step 0.21 s); with the cache warm it costs about a second (the simulator and the filter built
-    once more)."""
+    the last run, a clean clone) the first call compiles for seconds, holding the GIL; inside the lockstep loop the
+    first observation would wait that long, past lockstep_resend_period and LOCKSTEP_WAIT. Compiled here, that wait
+    is over before the loop's clock starts; with the cache warm this costs about a second (the simulator and the
+    filter built once more). Measured: docs/amr_evaluation.md."""
     began = time.monotonic()
     if spec.controller in ("wall_follower", "localization", "navigation"):
         from amr_evaluation.episode import run_episode

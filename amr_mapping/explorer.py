@@ -4,8 +4,8 @@
 8-connected, at least min_frontier_size long), reaches them from the robot over the cells its disc fits in, and
   - keeps the current goal while a frontier cell still lies within approach_distance of it (the robot is on its
     way; the frontier recedes as it sees more) and the robot makes progress: goal_timeout has not passed since
-    the path to that frontier's goal was last a cell shorter than ever (explore_lite's progress_timeout; a time
-    since the choice gave up goals far away on the way: perfect maze seed 0, a goal 26 m off);
+    the path to that frontier's goal was last a cell shorter than ever (explore_lite's progress_timeout: a far goal
+    the robot is still nearing is kept);
   - else chooses the reachable, not blacklisted frontier of least cost (explore_lite's rule:
     potential_scale * path length - gain_scale * frontier length) and returns its goal as new;
   - with none left, is `done` (state "done", no goal); a later map with new frontiers makes it explore again.

@@ -25,9 +25,8 @@ the lowest cost wins: near and long frontiers first. What is given up rules fron
   - a frontier from a goal (the goal was reached and the frontier stayed: what lies beyond cannot be seen from
     there): a frontier whose goal lies within `blacklist_radius` of that goal and at least half of whose cells lie
     within a cell of that frontier's cells (SAME_FRONTIER_SHARE). A frontier grown mostly of new cells is another
-    one (an opening seen only as the robot arrived: rotated maze seed 0, its goal 0.18 m from the one reached, was
-    done at 78 s with half of it unknown when the goal's point was given up); the same frontier with its goal
-    elsewhere (a room seen since, from which its corner can be seen: perfect maze seed 0, 0.6 m on) is tried there.
+    one (an opening seen only as the robot arrived), and the same frontier with its goal elsewhere (the map grew:
+    another view of it) is tried there.
 """
 
 from __future__ import annotations

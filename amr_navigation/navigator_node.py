@@ -454,9 +454,9 @@ class NavigatorNode(ManagedNode):
         """The robot is held on the last observation (nobody drives it, nobody answered it: nobody_drives wait): decide
         it again. One answered here (zero) is over: the next observation is decided with the news."""
         last = self._last
-        if last is not None and last[1].controller is Controller.NONE and not self._last_answered:
-            if self._inflight is None:
-                self._decide(last[0])
+        held = last is not None and last[1].controller is Controller.NONE and not self._last_answered
+        if held and self._inflight is None:
+            self._decide(last[0])
 
     def _decide(self, received: Received) -> None:
         stamp_ns = stamp_nanoseconds(received.stamp)

@@ -1,4 +1,4 @@
-"""Nobody drives is an explicit hold with time going on (issue 36 item 2): maze_navigation composed in lockstep, its
+"""Nobody drives is an explicit hold with time going on: maze_navigation composed in lockstep, its
 navigator declared `nobody_drives: zero`. After arrival and after a refused goal the navigator answers every
 observation it gives nobody with a zero command, so the robot stands while /clock and /navigator/status go on, and a
 goal sent then is driven to. (Before, the lockstep world stood still on the first such observation.)"""

@@ -3,7 +3,7 @@
 A localizer drops a repeated stamp (amr_util.sync), so a /pose for an observation sent again never comes twice. When
 the /cmd_vel is slow (a navigator planning, a controller's first command compiling its kernels) the simulator sends
 the observation again after lockstep_resend_period; the step must still go as soon as the /cmd_vel comes, not after
-lockstep_pose_wait (ros_episode's episodes wait 20 s: the start-up stalls of issue 36)."""
+lockstep_pose_wait (ros_episode's episodes wait 20 s)."""
 
 from __future__ import annotations
 
