@@ -11,6 +11,7 @@ import os
 import random
 import resource
 import signal
+import time
 
 import pytest
 import rclpy
@@ -50,7 +51,12 @@ def pytest_sessionstart(session) -> None:
         return
     from support.numba_cache import warm_in_a_child
 
-    config.pluginmanager.get_plugin("terminalreporter").write_line(warm_in_a_child())
+    began = time.time()
+    line = warm_in_a_child()
+    if CPU_LOG:
+        with open(CPU_LOG, "a", encoding="utf-8") as log:
+            log.write(f"# warm-up {began:.2f} {time.time():.2f}\n")
+    config.pluginmanager.get_plugin("terminalreporter").write_line(line)
 
 
 def pytest_collection_modifyitems(config, items) -> None:
@@ -58,6 +64,9 @@ def pytest_collection_modifyitems(config, items) -> None:
     --no-loadscope-reorder` (make test) the files are handed out in that order and the two workers finish together."""
     if hasattr(config, "workerinput"):
         items[:] = longest_files_first(items)
+        if CPU_LOG:
+            with open(CPU_LOG, "a", encoding="utf-8") as log:
+                log.write(f"# collected {os.environ.get('PYTEST_XDIST_WORKER')} {time.time():.2f}\n")
 
 
 CPU_LOG = os.environ.get("AMR_TEST_CPU")
@@ -75,12 +84,13 @@ def _cpu_seconds() -> float:
 def pytest_runtest_protocol(item, nextitem):
     if not CPU_LOG:
         return (yield)
-    start = _cpu_seconds()
+    start, began = _cpu_seconds(), time.time()
     try:
         return (yield)
     finally:
+        worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
         with open(CPU_LOG, "a", encoding="utf-8") as log:
-            log.write(f"{_cpu_seconds() - start:.2f}s cpu {item.nodeid}\n")
+            log.write(f"{_cpu_seconds() - start:.2f}s cpu {item.nodeid} {worker} {began:.2f} {time.time():.2f}\n")
 
 
 @pytest.fixture
