@@ -4,16 +4,19 @@
     .venv/bin/python scripts/parameter_docs.py --check   # exit 1 naming the tables that differ
 
 Every node of the suite is listed in NODES with where its parameters are stated (amr_util.parameter_spec)
-and the parameter files the suite ships for it (one column each). tests/foundation/test_docs.py
-fails when a committed table differs from this, or when an installed executable has no entry.
+and the parameter files the suite ships for it (one column each). A group of parameters another table already
+lists (the navigator's `traffic_rules.*` are the traffic table's) is one row linking there (`Refer`), checked to be
+the same specs. tests/foundation/test_docs.py fails when a committed table differs from this, or when an installed
+executable has no entry.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import yaml
@@ -29,12 +32,23 @@ CONFIG = ROOT / "config"
 
 
 @dataclass(frozen=True)
+class Refer:
+    """The parameters `<prefix>*` of a node are those `<target_prefix>*` of the node `target` lists: one row."""
+
+    prefix: str
+    target: str
+    target_prefix: str = ""
+
+
+@dataclass(frozen=True)
 class Node:
     package: str
     executable: str
     specs: Callable[[], Sequence[ParameterSpec]]
     files: tuple[str, ...] = ()
     """Shipped parameter files (config/), one table column each."""
+    refers: tuple[Refer, ...] = ()
+    """Groups of parameters written as one row linking to the table that lists them."""
 
     @property
     def key(self) -> str:
@@ -170,9 +184,20 @@ NODES = (
     Node("amr_localization", "particle_filter", _particle_filter, ("particle_filter.yaml",)),
     Node("amr_localization", "beacon_localizer", _beacon_localizer, ("beacon_localizer.yaml",)),
     Node("amr_planning", "planner", _planner, ("planner.yaml",)),
-    Node("amr_navigation", "navigator", _navigator, ("navigator.yaml",)),
+    Node(
+        "amr_navigation",
+        "navigator",
+        _navigator,
+        ("navigator.yaml",),
+        (Refer("traffic_rules.", "amr_navigation/traffic"),),
+    ),
     Node("amr_navigation", "traffic", _traffic, ("traffic.yaml",)),
-    Node("amr_navigation", "fleet_planner", _fleet_planner),
+    Node(
+        "amr_navigation",
+        "fleet_planner",
+        _fleet_planner,
+        refers=(Refer("costmap.", "amr_navigation/navigator", "costmap."),),
+    ),
     Node("amr_maps", "map_server", _map_server),
     Node("amr_turtlebot3", "odometry_node", _odometry_node, ("odometry_node.yaml",)),
     Node("amr_bringup", "lifecycle_manager", _lifecycle_manager),
@@ -193,12 +218,56 @@ def file_values(node: Node, name: str) -> dict:
     return dotted(data[section]["ros__parameters"])
 
 
+def _target(refer: Refer) -> Node:
+    return next(node for node in NODES if node.key == refer.target)
+
+
+def _link(node: Node, target: Node) -> str:
+    """A link from node's page to target's table: the anchor of the last heading above its block."""
+    text = target.page.read_text(encoding="utf-8") if target.page.is_file() else ""
+    above = re.sub(r"^```.*?^```", "", text.split(f"<!-- parameters: {target.key} -->")[0], flags=re.S | re.M)
+    headings = re.findall(r"^#+ (.+)$", above, re.M)
+    slug = re.sub(r"[^\w\- ]", "", headings[-1].strip().lower()).replace(" ", "-") if headings else ""
+    return ("" if target.page == node.page else target.page.name) + f"#{slug}"
+
+
+def referral_problems(node: Node) -> list[str]:
+    """Why a group of the node's parameters cannot be one row: its specs differ from the target's, or a shipped
+    file sets one of them (the row has no values)."""
+    specs = node.specs()
+    found = []
+    for refer in node.refers:
+        mine = [replace(s, name=s.name.removeprefix(refer.prefix)) for s in specs if s.name.startswith(refer.prefix)]
+        theirs = [
+            replace(s, name=s.name.removeprefix(refer.target_prefix))
+            for s in _target(refer).specs()
+            if s.name.startswith(refer.target_prefix)
+        ]
+        if not mine or mine != theirs:
+            found.append(f"{node.key}: {refer.prefix}* are not the {refer.target_prefix}* parameters of {refer.target}")
+        if any(name.startswith(refer.prefix) for file in node.files for name in file_values(node, file)):
+            found.append(f"{node.key}: a shipped file sets {refer.prefix}*: the group needs its own rows")
+    return found
+
+
+def table(node: Node) -> str:
+    """A node's table: a row per parameter, each group another table lists as one row linking there."""
+    specs = [s for s in node.specs() if not any(s.name.startswith(refer.prefix) for refer in node.refers)]
+    made = parameter_table(specs, {name: file_values(node, name) for name in node.files})
+    for refer in node.refers:
+        link = f"[{refer.target}]({_link(node, _target(refer))})"
+        what = (
+            f"the `{refer.target_prefix}*` rows of {link}"
+            if refer.target_prefix
+            else f"each row of {link}, so prefixed"
+        )
+        made += "| " + " | ".join([f"`{refer.prefix}*`", *[""] * (len(node.files) + 4), what]) + " |\n"
+    return made
+
+
 def tables() -> dict[str, str]:
     """{block key: table} of every node, from the specs and the shipped files."""
-    return {
-        node.key: parameter_table(node.specs(), {name: file_values(node, name) for name in node.files})
-        for node in NODES
-    }
+    return {node.key: table(node) for node in NODES}
 
 
 def pages() -> dict[Path, list[str]]:
@@ -212,7 +281,7 @@ def pages() -> dict[Path, list[str]]:
 def problems() -> list[str]:
     """What differs between the committed docs and the specs, one line each (empty: all in step)."""
     made = tables()
-    lines = []
+    lines = [problem for node in NODES for problem in referral_problems(node)]
     for page, keys in pages().items():
         if not page.is_file():
             lines.append(f"{page.relative_to(ROOT)}: missing (it must hold the tables of {', '.join(keys)})")
