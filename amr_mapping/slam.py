@@ -8,7 +8,7 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   node's composed with the odometry since.
 - Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
-  the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points), within
+  the likelihood field of the last local_window nodes' scan points (amr_mapping.point_field), within
   WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
   +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
   likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
@@ -59,11 +59,12 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from amr_mapping.errors import MappingError
+from amr_mapping.point_field import neighbourhood_lines, point_field
 from amr_mapping.pose_graph import PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
-from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, default_angular_step
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, default_angular_step
 from amr_maps.window_search import window_modes
 from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
@@ -518,13 +519,8 @@ class GraphSlam:
             clouds.append(transform_points(pose, self._nodes[k].points))
         cloud = np.vstack(clouds)
         resolution = self.config.resolution
-        score_map = ScoreMap.from_points(
-            cloud,
-            resolution,
-            LIKELIHOOD_SIGMA_CELLS * resolution,
-            window + LIKELIHOOD_PAD,
-            cover=np.zeros((1, 2)),
-            to_points=True,
+        score_map = point_field(
+            cloud, resolution, LIKELIHOOD_SIGMA_CELLS * resolution, window + LIKELIHOOD_PAD, np.zeros((1, 2))
         )
         matcher = CorrelativeMatcher(score_map)
         means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)
@@ -960,7 +956,9 @@ def _local_rival(
 def _voxel_means(points: np.ndarray, size: float) -> np.ndarray:
     """The mean of the points in each square of `size` m that holds any."""
     cells = np.floor(points / size).astype(np.int64)
-    _, group = np.unique(cells, axis=0, return_inverse=True)
+    cells -= cells.min(axis=0)
+    # one key per square, in the rows' lexicographic order (np.unique(axis=0)'s, several times slower)
+    _, group = np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1], return_inverse=True)
     group = group.reshape(-1)
     count = np.bincount(group)
     return np.column_stack(
@@ -971,30 +969,9 @@ def _voxel_means(points: np.ndarray, size: float) -> np.ndarray:
 def _lines(means: np.ndarray, points: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
     """(centres, normals): each mean's neighbourhood (the points within `reach` m, at most ALIGN_NEIGHBOURS) as a
     line: its centroid and unit normal (principal axes); normals NaN where fewer than ALIGN_MIN_NEIGHBOURS are
-    that close or they do not lie along a line (ALIGN_FLATNESS: a corner, a lone point)."""
-    centres, normals = means.astype(float), np.full(means.shape, np.nan)
-    if len(points) < ALIGN_MIN_NEIGHBOURS:
-        return centres, normals
-    distances, neighbours = cKDTree(points).query(
-        means, k=min(ALIGN_NEIGHBOURS, len(points)), distance_upper_bound=reach
-    )
-    near = np.isfinite(distances)
-    count = near.sum(axis=1)
-    enough = count >= ALIGN_MIN_NEIGHBOURS
-    if not enough.any():
-        return centres, normals
-    near, count = near[enough], count[enough]
-    groups = points[np.where(near, neighbours[enough], 0)]  # (K, n, 2); the far ones masked below
-    weight = near[:, :, None].astype(float)
-    middle = (groups * weight).sum(axis=1) / count[:, None]
-    centred = (groups - middle[:, None, :]) * weight
-    scatter = np.einsum("kni,knj->kij", centred, centred)
-    values, vectors = np.linalg.eigh(scatter)  # ascending: the normal is the small axis
-    flat = values[:, 0] <= ALIGN_FLATNESS**2 * np.maximum(values[:, 1], 1e-12)
-    rows = np.flatnonzero(enough)[flat]
-    centres[rows] = middle[flat]
-    normals[rows] = vectors[flat, :, 0]
-    return centres, normals
+    that close or they do not lie along a line (ALIGN_FLATNESS: a corner, a lone point). See
+    amr_mapping.point_field.neighbourhood_lines."""
+    return neighbourhood_lines(means, points, reach, ALIGN_NEIGHBOURS, ALIGN_MIN_NEIGHBOURS, ALIGN_FLATNESS)
 
 
 def _align(
