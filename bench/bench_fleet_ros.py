@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import linecache
 import os
 import subprocess
 import sys
@@ -65,10 +66,23 @@ def _short(filename: str) -> str:
     return "/".join(parts[-2:])
 
 
+def _idle(frame) -> bool:
+    """Whether a thread is blocked (in an executor's wait, a sleep, a lock): its current line waits."""
+    line = linecache.getline(frame.f_code.co_filename, frame.f_lineno or 0)
+    return any(word in line for word in IDLE_CALLS)
+
+
+IDLE_CALLS = (".wait(", "sleep(", ".acquire(", ".join(", "select(", ".get(")
+"""Calls that block: a sample of a thread whose current line is one of them finds it idle."""
+
+
 def sample(out: Path, start: float, duration: float, hz: float) -> None:
     """Once the file `out`.go exists (the parent's measuring began; at most `start` s), for `duration` s: every
-    thread's CPU since the last sample charged to its stack; written to `out` as JSON (per thread name: cpu; per
-    function: self and inclusive cpu; executor wake-ups per thread name)."""
+    thread's CPU (its own CPU clock, exact) and, every 1/hz s, the stack of each thread that is not blocked (in
+    an executor's wait, a sleep: `_idle`), each such sample one 1/hz s of that thread's time (a thread mostly
+    blocked spends its CPU in short callbacks between samples; charging a thread's CPU to wherever it is at the
+    sample would charge it to the wait). Written to `out` as JSON (per thread name: cpu; per function: self and
+    inclusive busy samples in s; executor wake-ups per thread name)."""
     wakes, entities = _count_wakes()
     go, began = out.with_suffix(".go"), time.monotonic()
     while not go.exists() and time.monotonic() - began < start:
@@ -83,8 +97,9 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
     by_thread_function: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     end = time.monotonic() + duration
     process_began = time.process_time()
+    weight = 1.0 / hz
     while time.monotonic() < end:
-        time.sleep(1.0 / hz)
+        time.sleep(weight)
         names = {thread.ident: thread.name for thread in threading.enumerate()}
         for ident, frame in sys._current_frames().items():
             if ident == own:
@@ -94,15 +109,15 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
             except (OSError, ProcessLookupError):
                 continue
             spent, clocks[ident] = cpu - clocks.get(ident, cpu), cpu
-            if spent <= 0.0:
-                continue
             name = names.get(ident, str(ident))
             by_thread[name] += spent
+            if _idle(frame):
+                continue
             stack = _where(frame)
-            self_cpu[stack[0]] += spent
+            self_cpu[stack[0]] += weight
             for function in set(stack):
-                inclusive[function] += spent
-            by_thread_function[name][stack[0]] += spent
+                inclusive[function] += weight
+            by_thread_function[name][stack[0]] += weight
     partial = out.with_suffix(".part")  # renamed when whole: the parent polls for `out`
     partial.write_text(
         json.dumps(
@@ -123,26 +138,34 @@ def sample(out: Path, start: float, duration: float, hz: float) -> None:
 
 
 def _count_wakes() -> tuple[dict[str, int], dict[str, dict[str, int]]]:
-    """Count each spinning thread's executor wake-ups (spin_once) from now on, and note each node's entities (what
-    every wake-up's wait set is built of)."""
+    """Count each spinning thread's executor wake-ups (spin_once) and waits from now on, and note each node's
+    entities (what every wake-up's wait set is built of). rclpy's executor may wait several times per spin_once
+    (`_wait_for_ready_callbacks`, rebuilding the wait set each time); the lean executor waits once."""
     from rclpy.executors import Executor, SingleThreadedExecutor
+
+    from amr_util.lean_executor import LeanExecutor
 
     wakes: dict[str, int] = defaultdict(int)
     entities: dict[str, dict[str, int]] = {}
-    spin_once = SingleThreadedExecutor._spin_once_impl
 
-    def counted(self, *args, **kwargs):
-        thread = threading.current_thread().name
-        wakes[thread] += 1
-        if wakes[thread] % 500 == 1:  # the node's entities now (they grow on configure)
-            nodes = self.get_nodes()
-            entities[thread] = {
-                kind: sum(sum(1 for _ in getattr(node, kind)) for node in nodes)
-                for kind in ("subscriptions", "publishers", "services", "clients", "timers", "waitables")
-            }
-        return spin_once(self, *args, **kwargs)
+    def counting(spin_once, waits: bool):
+        def counted(self, *args, **kwargs):
+            thread = threading.current_thread().name
+            wakes[thread] += 1
+            if waits:
+                wakes["waits " + thread] += 1
+            if wakes[thread] % 500 == 1:  # the node's entities now (they grow on configure)
+                nodes = self.get_nodes()
+                entities[thread] = {
+                    kind: sum(sum(1 for _ in getattr(node, kind)) for node in nodes)
+                    for kind in ("subscriptions", "publishers", "services", "clients", "timers", "waitables")
+                }
+            return spin_once(self, *args, **kwargs)
 
-    SingleThreadedExecutor._spin_once_impl = counted
+        return counted
+
+    SingleThreadedExecutor._spin_once_impl = counting(SingleThreadedExecutor._spin_once_impl, False)
+    LeanExecutor._spin_once_impl = counting(LeanExecutor._spin_once_impl, True)
     generator = Executor._wait_for_ready_callbacks
 
     def waited(self, *args, **kwargs):  # one wait set built and waited on (then its ready callbacks yielded)
@@ -182,8 +205,16 @@ def _count_callbacks() -> None:
 
 
 def child(argv: list[str]) -> int:
-    """`--child OUT START DURATION HZ -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not sampled)."""
-    out, start, duration, hz = argv[:4]
+    """`--child OUT START DURATION HZ EXECUTOR -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not
+    sampled), its nodes spun by EXECUTOR (`lean`: amr_util.lean_executor, as shipped; `stock`: rclpy's
+    SingleThreadedExecutor, for an A/B)."""
+    out, start, duration, hz, executor = argv[:5]
+    if executor == "stock":
+        from rclpy.executors import SingleThreadedExecutor
+
+        import amr_util.executors
+
+        amr_util.executors.LeanExecutor = SingleThreadedExecutor
     if out != "-":
         _count_callbacks()
         threading.Thread(
@@ -191,7 +222,7 @@ def child(argv: list[str]) -> int:
         ).start()
     from amr_bringup.bringup import main
 
-    return main(argv[5:])
+    return main(argv[6:])
 
 
 # -- the parent --------------------------------------------------------------------------------------------------
@@ -244,7 +275,7 @@ def run(robots: int, args) -> dict:
         ]
         sampled = [str(profile), str(args.startup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
         process = subprocess.Popen(
-            [sys.executable, __file__, "--child", *sampled, "--", *bringup],
+            [sys.executable, __file__, "--child", *sampled, args.executor, "--", *bringup],
             env=child_environment(),
             stdout=log,
             stderr=subprocess.STDOUT,
@@ -289,7 +320,10 @@ def run(robots: int, args) -> dict:
 
 
 LAYERS = (
-    ("rclpy executor (wait set, task machinery)", ("rclpy/executors.py", "rclpy/task.py", "rclpy/waitable.py")),
+    (
+        "executor (wait set, task machinery, taking)",
+        ("rclpy/executors.py", "rclpy/task.py", "rclpy/waitable.py", "amr_util/lean_executor.py"),
+    ),
     ("taking messages (deserialize)", ("rclpy/subscription.py", "_take", "rclpy/impl")),
     ("publishing (serialize + DDS write)", ("rclpy/publisher.py",)),
     ("message classes (Python fields)", ("_msg/", "_msg.py")),
@@ -311,20 +345,24 @@ def _kind(thread: str) -> str:
 
 def report(result: dict, top: int) -> None:
     profile = result.get("profile")
+    if "profile" in result and not profile:
+        print(f"  no profile was written; the stack's log ends:\n{result['log_tail']}")
     if not profile:
         return
     total = sum(profile["threads"].values()) or 1.0
     kinds: dict[str, float] = defaultdict(float)
     for thread, cpu in profile["threads"].items():
         kinds[_kind(thread)] += cpu
-    print(f"  CPU sampled {total:.1f} s of {profile['duration']:.0f} s ({profile['process_cpu']:.1f} s process CPU)")
+    busy = sum(profile["self"].values()) or 1.0
+    print(
+        f"  threads' CPU {total:.1f} s in {profile['duration']:.0f} s ({profile['process_cpu']:.1f} s process CPU); "
+        f"{busy:.1f} s of threads found busy (the shares below are of these)"
+    )
     print("  by node kind: " + ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in sorted(kinds.items(), key=_neg)))
     layers: dict[str, float] = defaultdict(float)
     for function, cpu in profile["self"].items():
         layers[_layer(function)] += cpu
-    print(
-        "  by layer (self): " + ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in sorted(layers.items(), key=_neg))
-    )
+    print("  by layer (self): " + ", ".join(f"{k} {100 * v / busy:.0f} %" for k, v in sorted(layers.items(), key=_neg)))
     every = profile.get("wakes", {})
     wakes = {t: n for t, n in every.items() if not t.startswith("waits ")}
     waits = {t.removeprefix("waits "): n for t, n in every.items() if t.startswith("waits ")}
@@ -344,11 +382,11 @@ def report(result: dict, top: int) -> None:
         print(f"    {n / steps:5.2f}  {key}")
     print("  top functions, self:")
     for function, cpu in sorted(profile["self"].items(), key=_neg)[:top]:
-        print(f"    {100 * cpu / total:5.1f} %  {function}")
+        print(f"    {100 * cpu / busy:5.1f} %  {function}")
     print("  top functions of ours, inclusive:")
     ours = [(f, c) for f, c in profile["inclusive"].items() if f.startswith("amr_")]
     for function, cpu in sorted(ours, key=_neg)[:top]:
-        print(f"    {100 * cpu / total:5.1f} %  {function}")
+        print(f"    {100 * cpu / busy:5.1f} %  {function}")
 
 
 def _neg(item) -> float:
@@ -371,11 +409,14 @@ def main(argv=None) -> int:
     parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
     parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
     parser.add_argument("--top", type=int, default=15)
+    parser.add_argument(
+        "--executor", choices=("lean", "stock"), default="lean", help="stock: rclpy's SingleThreadedExecutor (A/B)"
+    )
     parser.add_argument("--json", type=Path, help="write every run's figures (and profile) here")
     args = parser.parse_args(argv)
     print(
-        f"fleet_navigation --composed, coordination plan, {args.family}, warm-up {args.warmup:g} s, measured "
-        f"{args.measure:g} s of wall clock, load {os.getloadavg()[0]:.1f}"
+        f"fleet_navigation --composed ({args.executor} executor), coordination plan, {args.family}, warm-up "
+        f"{args.warmup:g} s, measured {args.measure:g} s of wall clock, load {os.getloadavg()[0]:.1f}"
     )
     print("robots  world                       sim s at start  x real time  CPU s  ms CPU per robot-step  load")
     results = []

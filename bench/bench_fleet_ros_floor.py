@@ -21,14 +21,18 @@ import threading
 import time
 
 
-def one(nodes: int, rate: float, seconds: float, single: bool) -> str:
+def one(nodes: int, rate: float, seconds: float, single: bool, lean: bool) -> str:
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from std_msgs.msg import Empty
 
+    from amr_util.lean_executor import LeanExecutor
+
+    make = LeanExecutor if lean else SingleThreadedExecutor
+
     rclpy.init()
     counts = [0] * nodes
-    shared = SingleThreadedExecutor() if single else None
+    shared = make() if single else None
     for k in range(nodes):
         node = rclpy.create_node(f"floor_{k}")
         node.create_subscription(Empty, "/tick", lambda _, k=k: counts.__setitem__(k, counts[k] + 1), 10)
@@ -37,7 +41,7 @@ def one(nodes: int, rate: float, seconds: float, single: bool) -> str:
         if single:
             shared.add_node(node)
         else:
-            executor = SingleThreadedExecutor()
+            executor = make()
             executor.add_node(node)
             threading.Thread(target=executor.spin, daemon=True).start()
     if single:
@@ -52,7 +56,8 @@ def one(nodes: int, rate: float, seconds: float, single: bool) -> str:
     time.sleep(0.3)
     cpu, wall, done = time.process_time() - cpu, time.monotonic() - wall, sum(counts) - done
     return (
-        f"{nodes:4d} nodes, {'one executor  ' if single else 'a thread each '}: {done / wall:6.0f} callbacks/s "
+        f"{'lean ' if lean else 'stock'} {nodes:4d} nodes, {'one executor  ' if single else 'a thread each '}: "
+        f"{done / wall:6.0f} callbacks/s "
         f"(of {nodes * rate:.0f}), CPU {cpu / wall:.2f} cores, {1e6 * cpu / max(done, 1):5.0f} us CPU per callback"
     )
 
@@ -62,20 +67,25 @@ def main(argv=None) -> int:
     parser.add_argument("--nodes", nargs="+", type=int, default=[1, 10, 30, 60])
     parser.add_argument("--rate", type=float, default=100.0, help="Hz of /tick")
     parser.add_argument("--seconds", type=float, default=8.0)
-    parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)  # a configuration, in the child process
+    parser.add_argument("--executor", nargs="+", choices=("stock", "lean"), default=["stock", "lean"])
+    parser.add_argument("--layout", nargs="+", choices=("threads", "single"), default=["threads", "single"])
+    parser.add_argument("--one", nargs=3, help=argparse.SUPPRESS)  # a configuration, in the child process
     args = parser.parse_args(argv)
     if args.one:
-        print(one(int(args.one[0]), args.rate, args.seconds, args.one[1] == "single"), flush=True)
+        print(
+            one(int(args.one[0]), args.rate, args.seconds, args.one[1] == "single", args.one[2] == "lean"), flush=True
+        )
         os._exit(0)  # the spinning threads are daemons: no orderly shutdown needed
     from amr_util.environment import child_environment
 
     print(f"/tick at {args.rate:g} Hz for {args.seconds:g} s, load {os.getloadavg()[0]:.1f}")
-    for single in (False, True):
-        for nodes in args.nodes:
-            command = [sys.executable, __file__, "--one", str(nodes), "single" if single else "threads"]
-            command += ["--rate", str(args.rate), "--seconds", str(args.seconds)]
-            result = subprocess.run(command, env=child_environment(), capture_output=True, text=True, timeout=120)
-            print(result.stdout.strip() or result.stderr[-500:], flush=True)
+    for executor in args.executor:
+        for layout in args.layout:
+            for nodes in args.nodes:
+                command = [sys.executable, __file__, "--one", str(nodes), layout, executor]
+                command += ["--rate", str(args.rate), "--seconds", str(args.seconds)]
+                result = subprocess.run(command, env=child_environment(), capture_output=True, text=True, timeout=120)
+                print(result.stdout.strip() or result.stderr[-500:], flush=True)
     return 0
 
 
