@@ -10,15 +10,18 @@ from __future__ import annotations
 import os
 import random
 import resource
+import shutil
 import signal
+import tempfile
 import time
+from pathlib import Path
 
 import pytest
 import rclpy
 from hypothesis import settings
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from support.ros import NodeProcess, close, fresh_domain, spin_until
-from support.schedule import longest_files_first
+from support.schedule import calls_no_kernel, longest_files_first
 
 pytest_plugins = ["support.kinematics", "support.ik_service", "support.simulator_probe"]
 """Fixtures of a directory's tests: the kinematics chains, the IK service launcher, the simulator node probe."""
@@ -43,20 +46,56 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+WARMED = "AMR_TEST_NUMBA_WARMED"
+"""Set by a parallel run's controller for its workers: the file support.numba_cache.Warming writes once the numba
+kernels are compiled."""
+_WARMING = pytest.StashKey[tuple]()
+"""The controller's warm-up (support.numba_cache.Warming) and when it began."""
+
+
+def _log(line: str) -> None:
+    if CPU_LOG:
+        with open(CPU_LOG, "a", encoding="utf-8") as log:
+            log.write(line + "\n")
+
+
 def pytest_sessionstart(session) -> None:
     """A parallel run (pytest-xdist's controller, before its workers start: their hook runs after this one) has the
-    numba kernels compiled once first (support.numba_cache), not by every worker and node process side by side."""
+    numba kernels compiled once (support.numba_cache), not by every worker and node process side by side: started
+    here and not waited for, the workers start, collect and run the tests that call no kernel meanwhile."""
     config = session.config
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
-    from support.numba_cache import warm_in_a_child
+    from support.numba_cache import Warming
+
+    done = Path(tempfile.mkdtemp(prefix="amr-numba-warm-")) / "done"
+    os.environ[WARMED] = str(done)  # before the workers start: they inherit it
+    began = time.time()
+    config.stash[_WARMING] = (Warming(done), began)
+
+
+def pytest_terminal_summary(terminalreporter, config) -> None:
+    """The controller's line on the numba warm-up (when it ended, in AMR_TEST_CPU's record)."""
+    if _WARMING not in config.stash:
+        return
+    warming, began = config.stash[_WARMING]
+    warming.stop()
+    terminalreporter.write_line(warming.line(timeout=5.0))
+    if warming.done.is_file():
+        _log(f"# warm-up {began:.2f} {warming.done.stat().st_mtime:.2f}")
+    shutil.rmtree(warming.done.parent, ignore_errors=True)
+
+
+def _wait_for_kernels(item) -> None:
+    """A worker's test that calls numba kernels waits for the controller's warm-up (pytest_sessionstart)."""
+    done = os.environ.get(WARMED)
+    if not done or Path(done).is_file() or calls_no_kernel(item):
+        return
+    from support.numba_cache import wait_for
 
     began = time.time()
-    line = warm_in_a_child()
-    if CPU_LOG:
-        with open(CPU_LOG, "a", encoding="utf-8") as log:
-            log.write(f"# warm-up {began:.2f} {time.time():.2f}\n")
-    config.pluginmanager.get_plugin("terminalreporter").write_line(line)
+    wait_for(Path(done))
+    _log(f"# waited {os.environ.get('PYTEST_XDIST_WORKER')} {began:.2f} {time.time():.2f}")
 
 
 def pytest_collection_modifyitems(config, items) -> None:
@@ -64,9 +103,7 @@ def pytest_collection_modifyitems(config, items) -> None:
     --no-loadscope-reorder` (make test) the files are handed out in that order and the two workers finish together."""
     if hasattr(config, "workerinput"):
         items[:] = longest_files_first(items)
-        if CPU_LOG:
-            with open(CPU_LOG, "a", encoding="utf-8") as log:
-                log.write(f"# collected {os.environ.get('PYTEST_XDIST_WORKER')} {time.time():.2f}\n")
+        _log(f"# collected {os.environ.get('PYTEST_XDIST_WORKER')} {time.time():.2f}")
 
 
 CPU_LOG = os.environ.get("AMR_TEST_CPU")
@@ -82,6 +119,7 @@ def _cpu_seconds() -> float:
 
 @pytest.hookimpl(wrapper=True)
 def pytest_runtest_protocol(item, nextitem):
+    _wait_for_kernels(item)
     if not CPU_LOG:
         return (yield)
     start, began = _cpu_seconds(), time.time()
@@ -89,8 +127,7 @@ def pytest_runtest_protocol(item, nextitem):
         return (yield)
     finally:
         worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-        with open(CPU_LOG, "a", encoding="utf-8") as log:
-            log.write(f"{_cpu_seconds() - start:.2f}s cpu {item.nodeid} {worker} {began:.2f} {time.time():.2f}\n")
+        _log(f"{_cpu_seconds() - start:.2f}s cpu {item.nodeid} {worker} {began:.2f} {time.time():.2f}")
 
 
 @pytest.fixture

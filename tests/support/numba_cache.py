@@ -5,8 +5,8 @@ and writes the machine code beside its source (`__pycache__`), later processes l
 On a clean clone every process that reaches a kernel before that file exists compiles it again: both pytest-xdist
 workers and the node processes of the first stacks, side by side. `python -m support.numba_cache [part ...]` (from
 tests/) calls every kernel of the parts named (all without one) once, as the suite's code calls them (the same
-argument types). The two parts share no kernel and cost about the same, so warm_in_a_child compiles them side by
-side, one process each, on two cores:
+argument types). The two parts share no kernel and cost about the same, so Warming compiles them side by side, one
+process each, on two cores, while the workers start and run the tests that call no kernel:
 
 - `loop`: the particle filter in its closed loop (the likelihood field, the place search's scan matcher, the
   LiDAR's ray casting, the wall follower's scan kernels), a fleet's scan (the other robots' discs), a log-odds
@@ -21,6 +21,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -72,38 +73,69 @@ def warm(*parts: str) -> None:
         PARTS[part]()
 
 
-def warm_in_a_child(timeout: float = 600.0) -> str:
-    """warm() in processes of their own, one per part, side by side (nothing of them stays in pytest's); the line
-    to print."""
-    from amr_util.environment import child_environment
+class Warming:
+    """warm() in processes of their own, one per part, side by side (nothing of them stays in pytest's), started at
+    once and not waited for: a parallel run's workers start and collect meanwhile, and the tests that call no kernel
+    run (support.schedule.WITHOUT_KERNELS); the others wait for `done` (tests/conftest.py). When both have ended,
+    `done` holds the line to print (also when a part failed or took longer than `timeout`: then the tests compile
+    what they need themselves, as without the warm-up)."""
 
-    started = time.monotonic()
-    children = {}
-    for part in PARTS:
-        errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a child never waits for its reader
-        command = [sys.executable, "-m", "support.numba_cache", part]
-        child = subprocess.Popen(
-            command, cwd=ROOT / "tests", env=child_environment(), stdout=subprocess.DEVNULL, stderr=errors
-        )
-        children[part] = (child, errors)
-    failed = []
-    for part, (child, errors) in children.items():
-        try:
-            child.wait(timeout=max(0.0, started + timeout - time.monotonic()))
-        except subprocess.TimeoutExpired:  # the tests compile what they need themselves, as without this
-            child.kill()
-            child.wait()
-            failed.append(f"{part}: not done in {timeout:g} s")
+    def __init__(self, done: Path, timeout: float = 600.0) -> None:
+        from amr_util.environment import child_environment
+
+        self.done, self.started, self.timeout = done, time.monotonic(), timeout
+        self.children = {}
+        for part in PARTS:
+            errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a child never waits for its reader
+            command = [sys.executable, "-m", "support.numba_cache", part]
+            child = subprocess.Popen(
+                command, cwd=ROOT / "tests", env=child_environment(), stdout=subprocess.DEVNULL, stderr=errors
+            )
+            self.children[part] = (child, errors)
+        self._waiter = threading.Thread(target=self._wait, daemon=True)
+        self._waiter.start()
+
+    def _wait(self) -> None:
+        failed = []
+        for part, (child, errors) in self.children.items():
+            try:
+                child.wait(timeout=max(0.0, self.started + self.timeout - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
+                failed.append(f"{part}: not done in {self.timeout:g} s")
+            else:
+                if child.returncode != 0:
+                    errors.seek(0)
+                    failed.append(f"{part}: {errors.read().strip().splitlines()[-1:]}")
+            errors.close()
+        seconds = time.monotonic() - self.started
+        if failed:
+            line = f"numba kernels not compiled ahead: {'; '.join(failed)}"
         else:
-            if child.returncode != 0:
-                errors.seek(0)
-                failed.append(f"{part}: {errors.read().strip().splitlines()[-1:]}")
-        errors.close()
-    if failed:
-        return f"numba kernels not compiled ahead: {'; '.join(failed)}"
-    return (
-        f"numba kernels compiled or loaded in {time.monotonic() - started:.1f} s ({' and '.join(PARTS)} side by side)"
-    )
+            line = f"numba kernels compiled or loaded in {seconds:.1f} s ({' and '.join(PARTS)} side by side)"
+        partial = self.done.with_name(self.done.name + ".part")
+        partial.write_text(line + "\n", encoding="utf-8")
+        partial.replace(self.done)  # whole or absent: a reader never sees half a line
+
+    def stop(self) -> None:
+        """The parts still running killed (a run interrupted before they ended)."""
+        for child, _ in self.children.values():
+            if child.poll() is None:
+                child.kill()
+
+    def line(self, timeout: float | None = None) -> str:
+        """The line to print, once the parts have ended (waiting up to `timeout` s for them)."""
+        self._waiter.join(timeout)
+        return self.done.read_text(encoding="utf-8").strip() if self.done.is_file() else "numba warm-up still running"
+
+
+def wait_for(done: Path, timeout: float = 600.0) -> float:
+    """Until the warm-up whose marker is `done` has ended (or `timeout` s): the seconds waited."""
+    began = time.monotonic()
+    while not done.is_file() and time.monotonic() - began < timeout:
+        time.sleep(0.1)
+    return time.monotonic() - began
 
 
 if __name__ == "__main__":

@@ -6,8 +6,11 @@ the longest files, a single test each (colcon building the interfaces, the demo)
 while the other had finished. Handed out longest first, the files left at the end are short ones and the two workers
 finish close together. A file not in SECONDS counts as short (0 s) and keeps its place among the short ones.
 
-Refresh SECONDS from a run's `--durations=0` lines: `python -m support.schedule durations.txt` (from tests/)
-prints each file's summed seconds, longest first. Only the order matters, not the figures.
+Refresh SECONDS from a run's `--durations=0` lines or its AMR_TEST_CPU record: `python -m support.schedule
+durations.txt` (from tests/) prints each file's summed seconds, longest first. Only the order matters, not the
+figures. `python -m support.schedule --timeline cpu.txt` reads an AMR_TEST_CPU record of a parallel run as a
+timeline: the numba warm-up, each worker's collection, first and last test and its waits, and the files that ended
+last (the tail).
 """
 
 from __future__ import annotations
@@ -20,59 +23,66 @@ from pathlib import Path
 TESTS = Path(__file__).resolve().parents[1]
 
 SECONDS = {
-    "viewer/test_browser.py": 139,
-    "foundation/test_colcon_build.py": 85,
-    "bringup/test_fleet_traffic.py": 68,
-    "evaluation/test_localization_closed_loop.py": 59,
-    "evaluation/test_fleet_plan_runs.py": 59,
-    "control_node/test_closed_loop_ros.py": 37,
-    "control/test_closed_loop.py": 37,
-    "bringup/test_demo.py": 28,
-    "foundation/test_docs.py": 23,
-    "bringup/test_realtime_stacks.py": 22,
-    "evaluation/test_ros_episode.py": 21,
-    "evaluation/test_crowded_localization.py": 20,
+    "viewer/test_browser.py": 190,
+    "foundation/test_colcon_build.py": 71,
+    "bringup/test_fleet_traffic.py": 61,
+    "evaluation/test_localization_closed_loop.py": 45,
+    "evaluation/test_fleet_plan_runs.py": 44,
+    "control_node/test_closed_loop_ros.py": 40,
+    "bringup/test_realtime_stacks.py": 30,
+    "control/test_closed_loop.py": 27,
+    "bringup/test_demo.py": 24,
+    "foundation/test_docs.py": 21,
+    "bringup/test_bringup_run.py": 20,
     "util/test_lifecycle_edges.py": 20,
-    "bringup/test_bringup_run.py": 19,
-    "planning_node/test_plan_and_follow_ros.py": 18,
+    "evaluation/test_ros_episode.py": 20,
     "bringup/test_recording.py": 16,
-    "evaluation/test_fleet_traffic_runs.py": 15,
-    "evaluation/test_symmetry_closed_loop.py": 15,
-    "foundation/test_without_pymunk.py": 14,
-    "localization/test_particle_filter.py": 13,
-    "simulation/test_simulator_node_controls.py": 13,
-    "evaluation/test_episode.py": 11,
-    "bringup/test_real_robot_navigation.py": 11,
-    "evaluation/test_sweep_input.py": 11,
-    "planning/test_fleet_lacam.py": 10,
-    "foundation/test_declared_dependencies.py": 9,
-    "simulation/test_fleet.py": 9,
-    "control/test_wall_follower_route.py": 9,
-    "evaluation/test_runner.py": 9,
-    "evaluation/test_command_controller.py": 8,
-    "mapping/test_slam.py": 8,
+    "evaluation/test_symmetry_closed_loop.py": 13,
+    "evaluation/test_fleet_traffic_runs.py": 11,
+    "planning_node/test_plan_and_follow_ros.py": 10,
+    "evaluation/test_episode.py": 9,
+    "evaluation/test_sweep_input.py": 9,
+    "evaluation/test_crowded_localization.py": 8,
+    "localization/test_particle_filter.py": 8,
+    "kinematics_node/test_ik_service_fuzz.py": 7,
+    "control/test_wall_follower_route.py": 7,
     "kinematics_node/test_ik_service_process.py": 7,
-    "kinematics/test_compiled.py": 7,
-    "turtlebot3/test_odometry_node.py": 6,
-    "kinematics_node/test_ik_service_fuzz.py": 6,
-    "navigation/test_loop.py": 6,
-    "simulation/test_simulator_node_process.py": 5,
-    "evaluation/test_gym_env.py": 5,
-    "simulation/test_simulator_node_resend.py": 5,
+    "mapping/test_slam.py": 7,
+    "evaluation/test_runner.py": 7,
+    "simulation/test_fleet.py": 6,
+    "planning/test_fleet_lacam.py": 6,
+    "kinematics/test_compiled.py": 6,
+    "bringup/test_real_robot_navigation.py": 6,
+    "evaluation/test_command_controller.py": 6,
+    "foundation/test_without_pymunk.py": 5,
     "navigation/test_nobody_drives.py": 5,
+    "evaluation/test_gym_env.py": 4,
     "maps/test_maze_families.py": 4,
-    "control_node/test_wall_follower_node.py": 4,
-    "simulation/test_simulator_node_fleet.py": 4,
+    "kinematics_node/test_ik_service_lifecycle.py": 4,
+    "foundation/test_declared_dependencies.py": 3,
 }
-"""Seconds a worker spends on the file (tests/-relative path): its processes' CPU, or its wall time where it mostly
-waits. The larger of the full run of 2026-11-29 afternoon (the lifecycle edges measured alone after their windows were
-shared) and a clean clone's recorded CPU that evening (AMR_TEST_CPU, load 7-13); files under 3 s are left out."""
+"""Seconds a worker spends on the file (tests/-relative path): its processes' CPU in a clean clone's run on a quiet
+machine (263bdf0, AMR_TEST_CPU, load 1-2), or its wall time where it mostly waits (the browser's stacks and pages,
+the real-time stacks, the lifecycle windows); files under 3 s are left out."""
+
+WITHOUT_KERNELS = (
+    "foundation/test_colcon_build.py",
+    "viewer/test_browser.py::test_a_page_without_webgl",
+    "viewer/test_browser.py::test_a_page_whose_first_connection_failed",
+)
+"""Tests (tests/-relative node ids, or their beginnings) that call no numba kernel, in this process or a node process:
+a parallel run's first ones (the longest files first) run while the kernels are compiled (tests/conftest.py)."""
 
 
 def file_of(item) -> str:
     """The test file of a collected item, relative to tests/ ("viewer/test_browser.py")."""
     path = Path(item.path)
     return path.relative_to(TESTS).as_posix() if path.is_relative_to(TESTS) else path.as_posix()
+
+
+def calls_no_kernel(item) -> bool:
+    """Whether the item is one of WITHOUT_KERNELS."""
+    return f"{file_of(item)}::{item.name}".startswith(WITHOUT_KERNELS)
 
 
 def longest_files_first(items: list) -> list:
@@ -103,7 +113,55 @@ def seconds_per_file(lines) -> dict[str, float]:
     return dict(sorted(total.items(), key=lambda entry: -entry[1]))
 
 
+RECORDED = re.compile(r"^([0-9.]+)s cpu (\S+) (\S+) ([0-9.]+) ([0-9.]+)$")
+"""An AMR_TEST_CPU line: CPU seconds, node id, worker, start and end (epoch seconds)."""
+
+
+def timeline(lines, tail: int = 8) -> list[str]:
+    """An AMR_TEST_CPU record of a parallel run as lines to print, in seconds from the controller's start of the
+    numba warm-up (or the first test): the warm-up, each worker's collection, first test, last end, CPU and the
+    seconds it waited for the warm-up, and the `tail` files that ended last (worker, start, end, CPU)."""
+    marks: dict[str, tuple[float, ...]] = {}
+    waited: dict[str, float] = defaultdict(float)
+    tests = []
+    for line in lines:
+        words = line.split()
+        if line.startswith("# warm-up"):
+            marks["warm-up"] = (float(words[2]), float(words[3]))
+        elif line.startswith("# collected"):
+            marks[f"{words[2]} collected"] = (float(words[3]),)
+        elif line.startswith("# waited"):
+            waited[words[2]] += float(words[4]) - float(words[3])
+        elif match := RECORDED.match(line.strip()):
+            cpu, nodeid, worker, start, end = match.groups()
+            tests.append((float(cpu), nodeid.split("::")[0], worker, float(start), float(end)))
+    if not tests:
+        return ["no timed tests in the record (AMR_TEST_CPU of a run with this conftest)"]
+    zero = marks.get("warm-up", (min(test[3] for test in tests),))[0]
+    out = [f"{name}: {', '.join(f'{t - zero:.1f}' for t in times)} s" for name, times in sorted(marks.items())]
+    for worker in sorted({test[2] for test in tests}):
+        mine = [test for test in tests if test[2] == worker]
+        first, last = min(t[3] for t in mine) - zero, max(t[4] for t in mine) - zero
+        cpu = sum(t[0] for t in mine)
+        out.append(
+            f"{worker}: first test {first:.1f} s, last end {last:.1f} s, {cpu:.0f} s of CPU in {len(mine)} tests,"
+            f" {waited[worker]:.1f} s waiting for the warm-up"
+        )
+    files: dict[str, list] = {}
+    for cpu, name, worker, start, end in sorted(tests, key=lambda test: test[3]):
+        entry = files.setdefault(name, [worker, start, end, 0.0])
+        entry[2], entry[3] = max(entry[2], end), entry[3] + cpu
+    out.append("files that ended last (worker, start, end, CPU):")
+    for name, (worker, start, end, cpu) in sorted(files.items(), key=lambda item: item[1][2])[-tail:]:
+        out.append(f"  {name} {worker} {start - zero:.1f}-{end - zero:.1f} s, {cpu:.1f} s of CPU")
+    return out
+
+
 if __name__ == "__main__":
+    if sys.argv[1] == "--timeline":
+        with open(sys.argv[2], encoding="utf-8") as record:
+            print("\n".join(timeline(record)))
+        sys.exit()
     with open(sys.argv[1], encoding="utf-8") as durations:
         for name, seconds in seconds_per_file(durations).items():
             if seconds >= 3:
