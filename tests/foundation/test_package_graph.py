@@ -10,6 +10,7 @@ same at run time).
 from __future__ import annotations
 
 import ast
+import functools
 from collections import defaultdict
 from graphlib import CycleError, TopologicalSorter
 from pathlib import Path
@@ -123,8 +124,10 @@ def imports(path: Path, import_time_only: bool = False) -> set[str]:
     return names
 
 
+@functools.cache
 def edges() -> dict[str, dict[str, set[str]]]:
-    """importing module -> {imported amr_* module, ...} for every module of every package."""
+    """importing module -> {imported amr_* module, ...} for every module of every package (parsed once, by the
+    first test that asks: not at collection, where every pytest-xdist worker would parse them all)."""
     graph: dict[str, dict[str, set[str]]] = defaultdict(dict)
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
@@ -132,9 +135,6 @@ def edges() -> dict[str, dict[str, set[str]]]:
                 name for name in imports(path) if name.split(".")[0].startswith("amr_")
             }
     return graph
-
-
-GRAPH = edges()
 
 
 def test_every_package_has_a_place_in_the_layering():
@@ -145,7 +145,7 @@ def test_every_package_has_a_place_in_the_layering():
 def test_imports_follow_the_layering(package):
     wrong = sorted(
         f"{module} imports {name}"
-        for module, names in GRAPH[package].items()
+        for module, names in edges()[package].items()
         for name in names
         if name.split(".")[0] not in ALLOWED[package] | {package, MESSAGES}
     )
@@ -158,7 +158,7 @@ def test_side_by_side_packages_import_no_other_package_nodes(package):
     their libraries."""
     wrong = sorted(
         f"{module} imports {name}"
-        for module, names in GRAPH[package].items()
+        for module, names in edges()[package].items()
         for name in names
         if name.split(".")[0] in SIDE_BY_SIDE - {package} and name.endswith("_node")
     )
@@ -177,7 +177,7 @@ def test_runtime_packages_import_neither_the_simulator_nor_pymunk(package):
 
 def test_the_package_graph_has_no_cycle():
     graph = {
-        package: {name.split(".")[0] for names in GRAPH[package].values() for name in names} - {package, MESSAGES}
+        package: {name.split(".")[0] for names in edges()[package].values() for name in names} - {package, MESSAGES}
         for package in PACKAGES
     }
     try:
@@ -210,6 +210,6 @@ def test_the_module_graph_has_no_cycle_at_import_time():
 
 def test_the_parser_finds_absolute_relative_and_function_level_imports():
     """The tests above would pass on an empty graph: the parser must see every kind of import."""
-    assert "amr_maps.world" in GRAPH["amr_simulation"]["amr_simulation.simulator"]  # absolute
-    assert "amr_kinematics.errors" in GRAPH["amr_kinematics"]["amr_kinematics.solvers.ccd"]  # from ..errors
-    assert "amr_util.share" in GRAPH["amr_kinematics"]["amr_kinematics.urdf"]  # inside a function
+    assert "amr_maps.world" in edges()["amr_simulation"]["amr_simulation.simulator"]  # absolute
+    assert "amr_kinematics.errors" in edges()["amr_kinematics"]["amr_kinematics.solvers.ccd"]  # from ..errors
+    assert "amr_util.share" in edges()["amr_kinematics"]["amr_kinematics.urdf"]  # inside a function
