@@ -8,8 +8,10 @@ step at a time: the venv and pip (`make .venv/.deps-installed`), the ROS layout 
 time, CPU time (its processes and theirs) and the load average before and after. On a shared machine the wall time
 is an upper bound; the CPU time is what the step costs, and the step's line gives the load average's range while it
 ran (sampled every 5 s) and, for the test step, pytest's summary line and the files that took the most CPU
-(tests/conftest.py's AMR_TEST_CPU record, kept beside the clone as <dir>-cpu.txt). pip downloads what its cache
-lacks.
+(tests/conftest.py's AMR_TEST_CPU record, kept beside the clone as <dir>-cpu.txt) with the run's timeline (the
+numba warm-up, each worker's first and last test, the files that ended last). Each step also says how many cores
+the whole machine kept busy meanwhile and how many of them were the step's: on a shared machine the difference is
+the other users'. pip downloads what its cache lacks.
 """
 
 from __future__ import annotations
@@ -40,23 +42,33 @@ def one_minute_load() -> float:
     return float(Path("/proc/loadavg").read_text().split()[0])
 
 
+def busy_and_total() -> tuple[int, int]:
+    """The machine's CPU time so far (/proc/stat, all cores, in ticks): busy, and busy plus idle."""
+    ticks = [int(field) for field in Path("/proc/stat").read_text().splitlines()[0].split()[1:]]
+    idle = ticks[3] + ticks[4]  # idle, iowait
+    return sum(ticks[:8]) - idle, sum(ticks[:8])
+
+
 HEAVIEST = 10
 """files listed after the test step, the most CPU first"""
 
 
 def heaviest_files(record: Path, count: int = HEAVIEST) -> str:
-    """The `count` test files of most CPU in an AMR_TEST_CPU record (tests/conftest.py), and the record's total."""
+    """The `count` test files of most CPU in an AMR_TEST_CPU record (tests/conftest.py), the record's total and its
+    timeline (support.schedule.timeline: the warm-up, the workers' collection, first and last test, the tail)."""
     sys.path.insert(0, str(ROOT / "tests"))
-    from support.schedule import seconds_per_file
+    from support.schedule import seconds_per_file, timeline
 
     with record.open(encoding="utf-8") as lines:
         per_file = seconds_per_file(lines)
     listed = ", ".join(f"{name} {seconds:.0f} s" for name, seconds in list(per_file.items())[:count])
-    return f"tests' CPU {sum(per_file.values()):.0f} s in {len(per_file)} files; the most: {listed}"
+    with record.open(encoding="utf-8") as lines:
+        times = "\n".join(f"{'':10s} {line}" for line in timeline(lines, tail=4))
+    return f"tests' CPU {sum(per_file.values()):.0f} s in {len(per_file)} files; the most: {listed}\n{times}"
 
 
 def step(name: str, command: list[str], cwd: Path, env: dict[str, str], log: Path) -> tuple[float, float, bool]:
-    before, cpu, started = load(), children_cpu(), time.monotonic()
+    before, cpu, started, ticks = load(), children_cpu(), time.monotonic(), busy_and_total()
     samples, done = [one_minute_load()], threading.Event()
 
     def sample() -> None:
@@ -70,10 +82,14 @@ def step(name: str, command: list[str], cwd: Path, env: dict[str, str], log: Pat
     done.set()
     sampler.join()
     wall, cpu = time.monotonic() - started, children_cpu() - cpu
+    busy, total = (after - then for after, then in zip(busy_and_total(), ticks, strict=True))
+    cores = os.cpu_count() or 1
     status = "ok" if result.returncode == 0 else f"FAILED ({result.returncode}, see {log})"
     print(
         f"{name:10s} {wall:7.1f} s wall {cpu:7.1f} s CPU  load {before} -> {load()} "
-        f"(1-min {min(samples):.1f}-{max(samples):.1f} while it ran)  {status}",
+        f"(1-min {min(samples):.1f}-{max(samples):.1f} while it ran)  {status}\n"
+        f"{'':10s} cores busy {cores * busy / max(total, 1):.2f} of {cores} on average, this step's "
+        f"{cpu / wall:.2f} of them",
         flush=True,
     )
     summary = [line for line in log.read_text(errors="replace").splitlines() if " passed" in line or " failed" in line]
