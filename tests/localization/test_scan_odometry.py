@@ -69,3 +69,68 @@ def test_too_few_points_leave_the_odometry_increment():
     prior = np.array([1.0, 0.0, 0.1])
     found = matched_increment(ROOM[:5], ROOM[:5], prior, 0.01, 0.01, 0.05, 0.25)
     np.testing.assert_array_equal(found, prior)
+
+
+def seen_in_view(points: np.ndarray, pose, reach: float, field_of_view: float) -> np.ndarray:
+    """The world points in the robot frame at pose, within `reach` and the scanner's field of view (rad, centred
+    ahead)."""
+    local = seen_from(points, pose)
+    bearing = np.arctan2(local[:, 1], local[:, 0])
+    return local[(np.hypot(local[:, 0], local[:, 1]) <= reach) & (np.abs(bearing) <= 0.5 * field_of_view)]
+
+
+HALL = wall_points(
+    [
+        (0, 0, 12, 0),
+        (12, 0, 12, 6),
+        (12, 6, 0, 6),
+        (0, 6, 0, 0),
+        (3, 2, 4, 2),
+        (4, 2, 4, 3.5),
+        (8, 4, 9.5, 4),
+        (8, 1, 8, 2.5),
+        (6, 5, 6, 6),
+    ]
+)
+
+
+def test_a_keyframe_metres_away_is_placed_though_most_of_its_points_were_never_seen():
+    # a 180-degree scanner 2.8 m on and turned 35 deg: most of the second scan lies outside the first scan's view,
+    # and the odometry's increment is off by 0.5 m and 12 deg
+    first, second = np.array([2.0, 4.5, -0.3]), np.array([4.6, 3.6, 0.3])
+    truth = np.array(relative_pose(first, second))
+    drifted = truth + [0.3, -0.4, math.radians(12.0)]
+    noise = OdometryNoise(0.05, 0.05, 0.05, 0.05)
+    position, heading = motion_variance(math.hypot(*truth[:2]), abs(truth[2]), noise)
+    found = matched_increment(
+        seen_in_view(HALL, first, 8.0, math.pi),
+        seen_in_view(HALL, second, 8.0, math.pi),
+        drifted,
+        position,
+        heading,
+        0.05,
+        0.25,
+    )
+    assert math.hypot(*(found[:2] - truth[:2])) < 0.05
+    assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
+
+
+def test_a_turn_in_place_gains_nothing_by_turning_points_out_of_view():
+    # a 180-degree scanner turning 60 deg on the spot: a third of the second scan is where the first did not look
+    first = np.array([6.0, 3.0, 0.0])
+    second = first + [0.0, 0.0, math.radians(60.0)]
+    truth = np.array(relative_pose(first, second))
+    drifted = truth + [0.05, -0.05, math.radians(-8.0)]
+    noise = OdometryNoise(0.05, 0.05, 0.05, 0.05)
+    position, heading = motion_variance(0.0, abs(truth[2]), noise)
+    found = matched_increment(
+        seen_in_view(HALL, first, 8.0, math.pi),
+        seen_in_view(HALL, second, 8.0, math.pi),
+        drifted,
+        position,
+        heading,
+        0.05,
+        0.25,
+    )
+    assert math.hypot(*(found[:2] - truth[:2])) < 0.03
+    assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
