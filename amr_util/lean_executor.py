@@ -88,6 +88,17 @@ class LeanExecutor(SingleThreadedExecutor):
     def __init__(self, *, context=None) -> None:
         super().__init__(context=context)
         self._entities: _Entities | None = None
+        self._context_down = False
+
+    def spin(self) -> None:
+        """Execute callbacks until the executor or its context is shut down. The context is asked whether it is
+        still up only when the executor's guard condition wakes it (the context's shutdown triggers it), not at
+        every wake-up: Context.ok takes the context's lock, which a hundred spinning threads contend for (12 % of
+        the 20-robot fleet's busy samples)."""
+        if not self._context.ok():
+            return
+        while not self._is_shutdown and not self._context_down:
+            self._spin_once_impl()
 
     # -- what changes the wait set ------------------------------------------------------------------------------
 
@@ -125,6 +136,7 @@ class LeanExecutor(SingleThreadedExecutor):
                     held.enter_context(waitable)
             except InvalidHandle:  # destroyed since the gathering (its wake() is on its way): gather again
                 self._entities = None
+                self._check_context()
                 return
             held.enter_context(self._context.handle)
             subscriptions, clients, services, timers, guards = entities.handles
@@ -144,14 +156,11 @@ class LeanExecutor(SingleThreadedExecutor):
             wait_set.wait(timeout)
             if self._is_shutdown:
                 return
-            if not self._context.ok():
-                raise ExternalShutdownException()
-            ready_subscriptions = set(wait_set.get_ready_entities("subscription"))
             ready_guards = set(wait_set.get_ready_entities("guard_condition"))
-            if (
-                entities.executor_guards[0].handle.pointer in ready_guards
-            ):  # a change, or a gathering raced with one: gather again
-                self._entities = None
+            if any(guard.handle.pointer in ready_guards for guard in entities.executor_guards):
+                self._entities = None  # a change, or a gathering raced with one: gather again
+                self._check_context()  # the context's shutdown triggers the executor's guard
+            ready_subscriptions = set(wait_set.get_ready_entities("subscription"))
             ready_timers = set(wait_set.get_ready_entities("timer"))
             ready_clients = set(wait_set.get_ready_entities("client"))
             ready_services = set(wait_set.get_ready_entities("service"))
@@ -179,6 +188,11 @@ class LeanExecutor(SingleThreadedExecutor):
                 for service in services:
                     if service.handle.pointer in ready_services:
                         self._answer(service)
+
+    def _check_context(self) -> None:
+        if not self._context.ok():
+            self._context_down = True
+            raise ExternalShutdownException()
 
     def _run_tasks(self) -> bool:
         """Run (or resume) every task made with create_task; whether some are still pending (awaiting)."""

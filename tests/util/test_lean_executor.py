@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import threading
+
 import pytest
+import rclpy
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
+from rclpy.executors import ExternalShutdownException
 from rclpy.lifecycle import LifecycleNode
 from std_msgs.msg import Empty, String
 from std_srvs.srv import Trigger
@@ -124,3 +128,25 @@ def test_an_exception_leaves_spin_once(node, lean):
     publisher.publish(Empty())
     with pytest.raises(RuntimeError, match="lean probe"):
         spin_until(lean, lambda: False, 5.0)
+
+
+def test_spin_ends_when_the_context_shuts_down(ros_domain):
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=ros_domain)
+    executor = LeanExecutor(context=context)
+    made = LifecycleNode("lean_context_probe", context=context)
+    executor.add_node(made)
+    ended = threading.Event()
+
+    def spin():
+        try:
+            executor.spin()
+        except ExternalShutdownException:
+            pass
+        ended.set()
+
+    threading.Thread(target=spin, daemon=True).start()
+    assert not ended.wait(0.3)  # spinning
+    context.try_shutdown()
+    assert ended.wait(5.0)
+    made.destroy_node()
