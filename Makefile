@@ -31,11 +31,11 @@ demo: setup
 # slowest tests listed at the end, where the suite's time goes. The files are handed out longest first
 # (tests/support/schedule.py; xdist's own order is by test count). Python writes its bytecode even where
 # PYTHONDONTWRITEBYTECODE is set: uv installs without .pyc, and every node process would compile numpy, scipy and
-# rclpy again (docs/testing.md).
+# rclpy again (docs/testing.md). TEST_WORKERS=3 tries another number of workers.
 test: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder --durations=30
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -n $(or $(TEST_WORKERS),2) --dist loadfile --no-loadscope-reorder --durations=30
 
 bench: setup
 	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,bench]'

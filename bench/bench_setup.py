@@ -1,6 +1,6 @@
 """A clean clone's setup and test run, step by step: the README's `make test` as CI runs it.
 
-    python bench/bench_setup.py [--dir /tmp/bench-setup] [--test] [--keep]
+    python bench/bench_setup.py [--dir /tmp/bench-setup] [--test [--workers N]] [--keep]
 
 Clones this repository's HEAD (committed work only) into --dir and runs there what `make test` runs, one Makefile
 step at a time: the venv and pip (`make .venv/.deps-installed`), the ROS layout and amr_interfaces
@@ -103,6 +103,7 @@ def main() -> None:
     parser.add_argument("--dir", type=Path, default=Path("/tmp/bench-setup"), help="the scratch clone (replaced)")
     parser.add_argument("--test", action="store_true", help="also `make test` (lint and the whole suite)")
     parser.add_argument("--keep", action="store_true", help="keep the clone afterwards")
+    parser.add_argument("--workers", type=int, help="pytest-xdist workers of the test step (make test TEST_WORKERS=)")
     args = parser.parse_args()
 
     shutil.rmtree(args.dir, ignore_errors=True)
@@ -117,7 +118,7 @@ def main() -> None:
     env["AMR_TEST_CPU"] = str(record)
     steps = [("pip", ["make", ".venv/.deps-installed"]), ("setup", ["make", "setup"])]
     if args.test:
-        steps.append(("test", ["make", "test"]))
+        steps.append(("test", ["make", "test", *([f"TEST_WORKERS={args.workers}"] if args.workers else [])]))
     total_wall = total_cpu = 0.0
     ok = True
     for name, command in steps:
