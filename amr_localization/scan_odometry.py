@@ -13,12 +13,15 @@ s(x) the mean likelihood-field lookup of the scan's end points at x against the 
 scan: amr_maps.scan_matcher), N the independent ones among them (end points within the beam correlation length
 count as one, as in the filter's measurement model: counting every point made a corridor's faint texture outweigh
 the odometry along it, 20-40 cm a scan on aces), Sigma_odom = diag(sigma_p^2, sigma_p^2, sigma_theta^2). Where the
-walls tell the pose (a room) the match decides; where they do not (along a corridor) the odometry does. An end point
-that x puts where the previous scan did not look (beyond its reach, outside its field of view) is no evidence either
-way: it scores what the points where that scan looked score at the best match (their mean lookup there), so that no
-increment gains by moving points out of its view (a turn in place seen by a 180-degree scanner) and none loses by
-moving them into it (a keyframe metres away, most of whose points that scan never saw). A motion whose 3 sigma moves
-no point by a cell is the odometry's alone (a dense stream's scans, centimetres apart).
+walls tell the pose (a room) the match decides; where they do not (along a corridor) the odometry does.
+
+Where the previous scan did not look (beyond its reach, outside its field of view) it saw no wall, and no wall there
+is no evidence: the posterior is taken over the end points that stay within its view wherever the window moves them
+(scored beyond it, a turn in place seen by a 180-degree scanner matched 45 cm and 13 deg off on fhw). A wide window
+(a keyframe metres away) can leave too few of them to place the scan: the posterior over all the end points is taken
+too, and of the two increments the one whose posterior is higher on the end points both keep within that scan's view
+is chosen (the same data for both: a likelihood ratio). A motion whose 3 sigma moves no point by a cell is the
+odometry's alone (a dense stream's scans, centimetres apart).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import math
 import numpy as np
 
 from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap, default_angular_step
-from amr_util.geometry import one_per_cell, wrap_angle
+from amr_util.geometry import one_per_cell, transform_points, wrap_angle
 
 SIGMAS = 3.0
 """the match's window, in standard deviations of the odometry's increment ..."""
@@ -63,8 +66,37 @@ def matched_increment(
         return prior
     linear = max(min(SIGMAS * position_sigma, MAX_LINEAR), resolution)
     angular = min(SIGMAS * heading_sigma, MAX_ANGULAR)
+    in_view = _within_view(reference, transform_points(prior, points), linear + resolution, angular)
+    sets = [points[in_view]] if in_view.all() else [points[in_view], points]
+    found = [
+        _matched(
+            reference, chosen, prior, position_sigma, heading_sigma, linear, angular, resolution, correlation_length
+        )
+        for chosen in sets
+        if len(chosen) >= MIN_POINTS
+    ]
+    if len(found) < 2:
+        return found[0] if found else prior
+    scores = _log_posteriors(
+        reference, points, found, prior, position_sigma, heading_sigma, resolution, correlation_length
+    )
+    return found[int(np.argmax(scores))]
+
+
+def _matched(
+    reference: np.ndarray,
+    points: np.ndarray,
+    prior: np.ndarray,
+    position_sigma: float,
+    heading_sigma: float,
+    linear: float,
+    angular: float,
+    resolution: float,
+    correlation_length: float,
+) -> np.ndarray:
+    """The posterior's mean on `points`: over the window at twice the cell, then over the cell around the coarse
+    mean."""
     independent = len(one_per_cell(points, max(correlation_length, resolution)))
-    # the window at twice the cell, then the cell around the coarse posterior's mean
     coarse = _posterior_mean(
         reference, points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
     )
@@ -85,6 +117,40 @@ def matched_increment(
     return increment
 
 
+def _log_posteriors(
+    reference: np.ndarray,
+    points: np.ndarray,
+    increments: list[np.ndarray],
+    prior: np.ndarray,
+    position_sigma: float,
+    heading_sigma: float,
+    resolution: float,
+    correlation_length: float,
+) -> np.ndarray:
+    """The log-posterior of each increment on the same data: the end points every increment puts within the reference
+    scan's view (its reach and field of view), scored on its field (bilinear), to the power of the independent ones,
+    times the odometry's Gaussian prior."""
+    common = np.ones(len(points), dtype=bool)
+    for increment in increments:
+        common &= _within_view(reference, transform_points(increment, points), 0.0, 0.0)
+    if np.count_nonzero(common) < MIN_POINTS:
+        common[:] = True
+    shared = points[common]
+    independent = len(one_per_cell(shared, max(correlation_length, resolution)))
+    matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
+    scores = []
+    for increment in increments:
+        offset = np.asarray(increment, dtype=float) - prior
+        offset[2] = wrap_angle(offset[2])
+        fit = max(matcher.score_interpolated(shared, increment), 1e-6)
+        scores.append(
+            independent * math.log(fit)
+            - 0.5 * ((offset[0] ** 2 + offset[1] ** 2) / max(position_sigma**2, 1e-12))
+            - 0.5 * offset[2] ** 2 / max(heading_sigma**2, 1e-12)
+        )
+    return np.array(scores)
+
+
 def _posterior_mean(
     reference: np.ndarray,
     points: np.ndarray,
@@ -101,17 +167,12 @@ def _posterior_mean(
     """The posterior's mean over the lattice of `resolution` within linear and angular (or angle_steps of the
     lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the score to the power
     of the `independent` points."""
-    field = ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution)
+    matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
     cloud = one_per_cell(points, resolution)
     step = default_angular_step(cloud, resolution)
     if angle_steps is not None:
         angular = angle_steps * step
-    poses, scores = CorrelativeMatcher(field, levels=1).window_scores(cloud, centre, linear, angular, step)
-    view = ScoreMap(_view(reference, field), resolution, field.origin)
-    _, seen = CorrelativeMatcher(view, levels=1).window_scores(cloud, centre, linear, angular, step)
-    best = int(np.argmax(scores))
-    unseen = min(scores[best] / max(seen[best], 1e-9), 1.0)  # what a point where the scan looked scores at the best
-    scores = scores + unseen * (1.0 - seen)
+    poses, scores = matcher.window_scores(cloud, centre, linear, angular, step)
     offsets = poses - prior
     offsets[:, 2] = wrap_angle(offsets[:, 2])
     log_posterior = independent * np.log(np.maximum(scores, 1e-6)) - 0.5 * (
@@ -124,20 +185,16 @@ def _posterior_mean(
     return mean
 
 
-def _view(reference: np.ndarray, field: ScoreMap) -> np.ndarray:
-    """On the cells of `field` (the reference scan's likelihood field), 1 where the `reference` scan looked: within
-    its reach and its field of view (all around if its end points span the circle); 0 elsewhere, as beyond the
-    field's cells."""
-    rows, cols = field.table.shape
-    x = field.origin[0] + (np.arange(cols) + 0.5) * field.resolution
-    y = (field.origin[1] + (np.arange(rows) + 0.5) * field.resolution)[:, None]
+def _within_view(reference: np.ndarray, moved: np.ndarray, linear: float, angular: float) -> np.ndarray:
+    """(K,) whether each point (in the reference scan's frame) stays within what that scan saw, its reach and its
+    field of view (unless it saw all around), wherever the window (linear m, angular rad) moves it."""
     reach = float(np.hypot(reference[:, 0], reference[:, 1]).max())
-    seen = x[None, :] ** 2 + y**2 <= reach**2
+    ranges = np.hypot(moved[:, 0], moved[:, 1])
+    keep = ranges <= reach - linear
     bearings = np.arctan2(reference[:, 1], reference[:, 0])
     low, high = float(bearings.min()), float(bearings.max())
-    if high - low < 2.0 * math.pi - 0.1:
-        # between the two extreme bearings, counter-clockwise from low to high (half-planes through the sensor)
-        after_low = math.cos(low) * y - math.sin(low) * x[None, :] >= 0.0
-        before_high = math.cos(high) * y - math.sin(high) * x[None, :] <= 0.0
-        seen &= (after_low & before_high) if high - low <= math.pi else (after_low | before_high)
-    return seen.astype(np.float32)
+    if high - low < 2.0 * math.pi - 2.0 * angular:
+        margin = angular + np.arcsin(np.clip(linear / np.maximum(ranges, linear), 0.0, 1.0))
+        bearing = np.arctan2(moved[:, 1], moved[:, 0])
+        keep &= (bearing >= low + margin) & (bearing <= high - margin)
+    return keep
