@@ -46,7 +46,10 @@ def point_field(points: np.ndarray, resolution: float, sigma: float, pad: float,
     x = low[0] + (np.arange(cols) + 0.5) * resolution
     y = low[1] + (np.arange(rows) + 0.5) * resolution
     d2 = _nearest_cell_means(occupied // cols, occupied % cols, mean_x, mean_y, x, y, reach)
-    return ScoreMap(np.exp(-0.5 * d2 / (sigma * sigma)).astype(np.float32), resolution, (float(low[0]), float(low[1])))
+    table = np.zeros((rows, cols), dtype=np.float32)
+    near = np.isfinite(d2)
+    table[near] = np.exp(-0.5 * d2[near] / (sigma * sigma))
+    return ScoreMap(table, resolution, (float(low[0]), float(low[1])))
 
 
 @numba.njit(cache=True)
