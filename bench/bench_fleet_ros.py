@@ -13,12 +13,14 @@ them, the global place search is over) it measures `--measure` s: the real-time 
 step is the simulator's dt, 0.05 s, for one robot).
 
 --profile samples the child's threads (a sampler thread in it, py-spy style, at `--hz`): each thread's own CPU
-clock (time.pthread_getcpuclockid) is read at every sample and the CPU spent since the last sample is charged
-to the thread's current Python stack, so a thread blocked in rcl_wait costs nothing. It prints the CPU by node
-kind (each composed node spins on a thread named `spin <node>`: simulator, particle_filter, navigator, ...), by
-layer (rclpy's executor, taking/publishing messages, our packages) and the functions that cost most (self and
-inclusive); it also counts every callback by node and topic (or timer) and every wait set rclpy builds and waits
-on (`_wait_for_ready_callbacks`: one wait may run several callbacks). Run it under
+clock (time.pthread_getcpuclockid) gives the CPU by node kind (each composed node spins on a thread named
+`spin <node>`: simulator, particle_filter, navigator, ...); the stack of every thread not blocked at the sample
+(`_idle`: not in a wait, a sleep, a lock) gives the split by layer (the executor, publishing, our packages) and the
+functions that cost most (self and inclusive). With dozens of threads taking turns on the GIL, a thread waiting for
+the GIL is sampled where it waits: the split is a hint; `perf record -p <child pid>` splits by library. It also
+counts every callback by node and topic (or timer) and every wait (the lean executor waits once a spin_once;
+rclpy's may wait several times, rebuilding its wait set: `_wait_for_ready_callbacks`). `--executor stock` runs the
+nodes on rclpy's SingleThreadedExecutor instead of amr_util.lean_executor (an A/B). Run it under
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child inherits both). One run at a
 time: the machine has 2 cores.
 """

@@ -1,14 +1,15 @@
 """The floor of rclpy's cost per callback: trivial nodes in one process, as a composed stack runs them (issue 36).
 
-    .venv/bin/python bench/bench_fleet_ros_floor.py      # 1, 10, 30, 60 nodes: a thread each, then one executor
+    .venv/bin/python bench/bench_fleet_ros_floor.py      # 1, 10, 30, 60 nodes; each executor, each layout
 
-K nodes, each with one subscription to /tick (and four publishers, as our nodes have a few), spun either each by a
-SingleThreadedExecutor on a thread of its own (amr_util.executors.NodeSpinners: how `amr-bringup --composed` runs a
-stack) or all by one SingleThreadedExecutor; the main thread publishes /tick at --rate Hz for --seconds. Prints the
-callbacks run per second, the process's CPU (cores) and the CPU per callback. The callbacks do nothing, so the CPU
-per callback is what rclpy and the middleware cost for one wake-up: multiplied by the wake-ups per robot-step that
-bench_fleet_ros.py --profile counts, it is most of the fleet stack's CPU. Each configuration runs in a process of its
-own. Run it under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own.
+K nodes, each with one subscription to /tick (and four publishers, as our nodes have a few), spun either each by an
+executor on a thread of its own (`--layout threads`: amr_util.executors.NodeSpinners, how `amr-bringup --composed`
+runs a stack) or all by one executor (`single`); the executor is amr_util.lean_executor.LeanExecutor (`--executor
+lean`, what the suite's nodes spin on) or rclpy's SingleThreadedExecutor (`stock`). The main thread publishes /tick
+at --rate Hz for --seconds. Prints the callbacks run per second, the process's CPU (cores) and the CPU per callback
+(the publisher's share included). The callbacks do nothing, so the CPU per callback is what the executor and the
+middleware cost for one wake-up. Each configuration runs in a process of its own. Run it under
+ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own.
 """
 
 from __future__ import annotations
