@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 import rclpy
@@ -62,6 +63,31 @@ def test_a_destroyed_subscription_is_no_longer_called(node, lean):
     publisher.publish(String(data="after"))
     spin_for(lean, 0.3)
     assert heard == ["before"]
+
+
+def test_an_entity_destroyed_by_a_callback_of_the_same_wake_up_is_not_called(node, lean):
+    heard: list[str] = []
+    second = None
+
+    def first_heard(message):
+        heard.append("first")
+        node.destroy_subscription(second)
+        node.destroy_guard_condition(guard)
+
+    node.create_subscription(String, "lean_first", first_heard, 10)
+    second = node.create_subscription(String, "lean_second", lambda m: heard.append("second"), 10)
+    guard = node.create_guard_condition(lambda: heard.append("guard"))
+    to_first, to_second = (
+        node.create_publisher(String, "lean_first", 10),
+        node.create_publisher(String, "lean_second", 10),
+    )
+    assert spin_until(lean, lambda: to_first.get_subscription_count() and to_second.get_subscription_count(), 5.0)
+    to_first.publish(String())
+    to_second.publish(String())
+    guard.trigger()
+    time.sleep(0.2)  # both delivered: one wake-up finds all three ready
+    spin_for(lean, 0.3)
+    assert heard == ["first"]
 
 
 def test_timers_guard_conditions_and_an_async_callback(node, lean):
