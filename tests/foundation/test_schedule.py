@@ -72,7 +72,10 @@ def test_the_timeline_gives_the_warm_up_each_worker_and_the_files_that_ended_las
     ]
     lines = timeline(record, tail=2)
     assert "warm-up: 0.0, 30.0 s" in lines and "gw1 collected: 11.0 s" in lines
-    assert "gw0: first test 11.0 s, last end 51.0 s, 15 s of CPU in 3 tests, 17.0 s waiting for the warm-up" in lines
+    assert (
+        "gw0: first test 11.0 s, last end 51.0 s, 15 s of CPU in 3 tests (38% of a core), 17.0 s waiting for the"
+        " warm-up" in lines
+    )
     assert lines[-2:] == [
         "  tests/maps/test_a.py gw0 50.0-51.0 s, 1.0 s of CPU",
         "  tests/foundation/test_colcon_build.py gw1 11.5-100.0 s, 60.0 s of CPU",

@@ -119,8 +119,9 @@ RECORDED = re.compile(r"^([0-9.]+)s cpu (\S+) (\S+) ([0-9.]+) ([0-9.]+)$")
 
 def timeline(lines, tail: int = 8) -> list[str]:
     """An AMR_TEST_CPU record of a parallel run as lines to print, in seconds from the controller's start of the
-    numba warm-up (or the first test): the warm-up, each worker's collection, first test, last end, CPU and the
-    seconds it waited for the warm-up, and the `tail` files that ended last (worker, start, end, CPU)."""
+    numba warm-up (or the first test): the warm-up, each worker's collection, first test, last end, CPU (and its share
+    of one core from first test to last end: on idle cores, what the worker's tests did not wait) and the seconds it
+    waited for the warm-up, and the `tail` files that ended last (worker, start, end, CPU)."""
     marks: dict[str, tuple[float, ...]] = {}
     waited: dict[str, float] = defaultdict(float)
     tests = []
@@ -144,8 +145,8 @@ def timeline(lines, tail: int = 8) -> list[str]:
         first, last = min(t[3] for t in mine) - zero, max(t[4] for t in mine) - zero
         cpu = sum(t[0] for t in mine)
         out.append(
-            f"{worker}: first test {first:.1f} s, last end {last:.1f} s, {cpu:.0f} s of CPU in {len(mine)} tests,"
-            f" {waited[worker]:.1f} s waiting for the warm-up"
+            f"{worker}: first test {first:.1f} s, last end {last:.1f} s, {cpu:.0f} s of CPU in {len(mine)} tests"
+            f" ({cpu / max(last - first, 1e-9):.0%} of a core), {waited[worker]:.1f} s waiting for the warm-up"
         )
     files: dict[str, list] = {}
     for cpu, name, worker, start, end in sorted(tests, key=lambda test: test[3]):
