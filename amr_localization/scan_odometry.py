@@ -68,23 +68,26 @@ def matched_increment(
     angular = min(SIGMAS * heading_sigma, MAX_ANGULAR)
     in_view = _within_view(reference, transform_points(prior, points), linear + resolution, angular)
     sets = [points[in_view]] if in_view.all() else [points[in_view], points]
+    # the reference scan's field on the two lattices (twice the cell, the cell), shared by both point sets
+    fields = [
+        CorrelativeMatcher(ScoreMap.from_points(reference, cell, cell, 4.0 * cell), levels=1)
+        for cell in (2 * resolution, resolution)
+    ]
     found = [
-        _matched(
-            reference, chosen, prior, position_sigma, heading_sigma, linear, angular, resolution, correlation_length
-        )
+        _matched(fields, chosen, prior, position_sigma, heading_sigma, linear, angular, resolution, correlation_length)
         for chosen in sets
         if len(chosen) >= MIN_POINTS
     ]
     if len(found) < 2:
         return found[0] if found else prior
     scores = _log_posteriors(
-        reference, points, found, prior, position_sigma, heading_sigma, resolution, correlation_length
+        reference, fields[1], points, found, prior, position_sigma, heading_sigma, resolution, correlation_length
     )
     return found[int(np.argmax(scores))]
 
 
 def _matched(
-    reference: np.ndarray,
+    fields: list[CorrelativeMatcher],
     points: np.ndarray,
     prior: np.ndarray,
     position_sigma: float,
@@ -95,13 +98,13 @@ def _matched(
     correlation_length: float,
 ) -> np.ndarray:
     """The posterior's mean on `points`: over the window at twice the cell, then over the cell around the coarse
-    mean."""
+    mean (`fields`: the reference scan's field on each lattice)."""
     independent = len(one_per_cell(points, max(correlation_length, resolution)))
     coarse = _posterior_mean(
-        reference, points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
+        fields[0], points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
     )
     increment = _posterior_mean(
-        reference,
+        fields[1],
         points,
         independent,
         coarse,
@@ -119,6 +122,7 @@ def _matched(
 
 def _log_posteriors(
     reference: np.ndarray,
+    field: CorrelativeMatcher,
     points: np.ndarray,
     increments: list[np.ndarray],
     prior: np.ndarray,
@@ -128,7 +132,7 @@ def _log_posteriors(
     correlation_length: float,
 ) -> np.ndarray:
     """The log-posterior of each increment on the same data: the end points every increment puts within the reference
-    scan's view (its reach and field of view), scored on its field (bilinear), to the power of the independent ones,
+    scan's view (its reach and field of view), scored on its `field` (bilinear), to the power of the independent ones,
     times the odometry's Gaussian prior."""
     common = np.ones(len(points), dtype=bool)
     for increment in increments:
@@ -137,12 +141,11 @@ def _log_posteriors(
         common[:] = True
     shared = points[common]
     independent = len(one_per_cell(shared, max(correlation_length, resolution)))
-    matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
     scores = []
     for increment in increments:
         offset = np.asarray(increment, dtype=float) - prior
         offset[2] = wrap_angle(offset[2])
-        fit = max(matcher.score_interpolated(shared, increment), 1e-6)
+        fit = max(field.score_interpolated(shared, increment), 1e-6)
         scores.append(
             independent * math.log(fit)
             - 0.5 * ((offset[0] ** 2 + offset[1] ** 2) / max(position_sigma**2, 1e-12))
@@ -152,7 +155,7 @@ def _log_posteriors(
 
 
 def _posterior_mean(
-    reference: np.ndarray,
+    matcher: CorrelativeMatcher,
     points: np.ndarray,
     independent: int,
     centre: np.ndarray,
@@ -164,10 +167,9 @@ def _posterior_mean(
     resolution: float,
     angle_steps: int | None = None,
 ) -> np.ndarray:
-    """The posterior's mean over the lattice of `resolution` within linear and angular (or angle_steps of the
-    lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the score to the power
-    of the `independent` points."""
-    matcher = CorrelativeMatcher(ScoreMap.from_points(reference, resolution, resolution, 4.0 * resolution), levels=1)
+    """The posterior's mean over the lattice of `resolution` (the `matcher`'s) within linear and angular (or
+    angle_steps of the lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the
+    score to the power of the `independent` points."""
     cloud = one_per_cell(points, resolution)
     step = default_angular_step(cloud, resolution)
     if angle_steps is not None:
