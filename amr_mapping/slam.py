@@ -8,7 +8,8 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   node's composed with the odometry since.
 - Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
-  the likelihood field of the last local_window nodes' scan points (amr_mapping.point_field), within
+  the likelihood field of the last local_window nodes' scan points (amr_mapping.point_field; the nodes added on
+  odometry alone left out: their poses are unverified), within
   WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
   +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
   likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
@@ -349,6 +350,7 @@ class GraphSlam:
         self._pose = np.zeros(3)
         self._travelled = 0.0
         self._grid: OccupancyGrid | None = None
+        self._unmatched: set[int] = set()  # nodes added on odometry alone (left out of the local submap)
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, _Reference] | None = None
         self._unoptimized = 0  # closures added since the last optimization
@@ -475,6 +477,8 @@ class GraphSlam:
 
         pose, information, score = self._match_local(prior, points, delta, events)
         node = self._add_node(stamp_ns, pose, odometry, ranges, angles, points, clear_range)
+        if pose is prior:  # matched nothing (_match_local hands back the prior itself)
+            self._unmatched.add(node)
         self._graph.add_edge(last, node, relative_pose(self._graph.pose(last), pose), information)
         self._chain.append(np.linalg.inv(information) if self._step_covariance is None else self._step_covariance)
         self._step_covariance = None
@@ -547,7 +551,7 @@ class GraphSlam:
         self, prior: np.ndarray, points: np.ndarray, delta: np.ndarray, events: list[str]
     ) -> tuple[np.ndarray, np.ndarray, float | None]:
         """(pose, edge information, score): the scan matched against the local submap within 3 sigma of the
-        odometry model since the last node, fused with the odometry prior; or the prior alone."""
+        odometry model since the last node, fused with the odometry prior; or the prior alone (the same array)."""
         cfg = self.config
         odometry_information = _odometry_information(delta)
         if len(points) < MIN_BEAMS:
@@ -556,6 +560,9 @@ class GraphSlam:
         last = len(self._nodes) - 1
         if self._local is None or self._local[0] != last:
             members = range(max(0, last - cfg.local_window + 1), last + 1)
+            # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
+            # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them)
+            members = [k for k in members if k not in self._unmatched] or list(members)
             self._local = (last, self._matcher(last, members, cfg.match_linear_window))
         reference = self._local[1]
         matcher = reference.matcher

@@ -99,3 +99,35 @@ def test_a_closure_one_maze_pitch_off_is_refused_and_the_true_one_kept(maze):
         unambiguous = rival < AMBIGUITY_RATIO * match.score
         assert match.score >= config.loop_min_score
         assert (consistent, unambiguous) == (kept, kept), (dx, match.score, rival)
+
+
+def test_a_node_added_on_odometry_alone_is_left_out_of_the_local_submap(maze, monkeypatch):
+    """A scan not matched (here: too few usable beams) stands where the odometry put it, unverified (fhw's turn in
+    place: 4-7 deg off): the next nodes are matched against the local submap without it."""
+    caster, world = maze
+    truth = _driving(world)
+    rng = np.random.default_rng(0)
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE))
+    built = []
+    original = GraphSlam._matcher
+
+    def recording(self, anchor, members, window):
+        built.append((anchor, list(members)))
+        return original(self, anchor, members, window)
+
+    monkeypatch.setattr(GraphSlam, "_matcher", recording)
+    blind = 3
+    for k, pose in enumerate(truth):
+        scan = _scan(caster, pose, rng)
+        if k == blind:
+            ranges = np.full(BEAMS, np.inf)
+            ranges[:5] = scan.ranges[:5]  # 5 usable beams (< MIN_BEAMS): the node goes on odometry alone
+            scan = ScanData(ranges, 0.0, INCREMENT, 0.12, MAX_RANGE)
+        update = slam.add(k * 100_000_000, pose, scan)
+        assert update.node == k
+        if k == blind:
+            assert any("odometry alone" in event for event in update.events)
+    local = [members for anchor, members in built if anchor >= blind]
+    assert local and all(blind not in members for members in local)
+    assert all(anchor in members or anchor == blind for anchor, members in built if anchor >= blind)
+    assert [members for anchor, members in built if anchor == blind - 2] == [list(range(blind - 1))]
