@@ -159,7 +159,8 @@ ALIGN_EIGEN_RATIO = 1e-3
 this share of the largest are left out (along a corridor the correlative match and the odometry decide)."""
 REFERENCE_WORK_PER_POINT = 3_400.0
 """Work units (a scan point looked up by a branch and bound) that building a reference costs per averaged point
-(likelihood field, lines, tree: about 16 us each against 4.7 ns a lookup, measured once on aces) ..."""
+(likelihood field, lines, tree: about 16 us each against 4.7 ns a lookup, measured once on aces; about a third of
+that since amr_mapping.point_field, kept so that the closures' schedule, and so a run, stays as it was) ..."""
 CLEAR_WORK_PER_RAY = 1_100.0
 """... that a loop-closure submap's clear space costs per ray (about 5 us) ..."""
 CANDIDATE_WORK = 500_000.0
