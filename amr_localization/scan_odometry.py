@@ -27,6 +27,7 @@ odometry's alone (a dense stream's scans, centimetres apart).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -68,56 +69,40 @@ def matched_increment(
     angular = min(SIGMAS * heading_sigma, MAX_ANGULAR)
     in_view = _within_view(reference, transform_points(prior, points), linear + resolution, angular)
     sets = [points[in_view]] if in_view.all() else [points[in_view], points]
+    odometry = _Odometry(prior, position_sigma, heading_sigma)
     # the reference scan's field on the two lattices (twice the cell, the cell), shared by both point sets
-    fields = [
+    coarse, fine = (
         CorrelativeMatcher(ScoreMap.from_points(reference, cell, cell, 4.0 * cell), levels=1)
         for cell in (2 * resolution, resolution)
-    ]
-    found = [
-        _matched(fields, chosen, prior, position_sigma, heading_sigma, linear, angular, resolution, correlation_length)
-        for chosen in sets
-        if len(chosen) >= MIN_POINTS
-    ]
+    )
+    found = []
+    for chosen in sets:
+        if len(chosen) < MIN_POINTS:
+            continue
+        independent = len(one_per_cell(chosen, max(correlation_length, resolution)))
+        # the window at twice the cell, then the cell around the coarse posterior's mean
+        centre = _posterior_mean(coarse, chosen, independent, prior, odometry, linear, angular)
+        found.append(_posterior_mean(fine, chosen, independent, centre, odometry, 4 * resolution, angular, 2))
     if len(found) < 2:
         return found[0] if found else prior
-    scores = _log_posteriors(
-        reference, fields[1], points, found, prior, position_sigma, heading_sigma, resolution, correlation_length
-    )
-    return found[int(np.argmax(scores))]
+    return found[int(np.argmax(_log_posteriors(reference, fine, points, found, odometry, correlation_length)))]
 
 
-def _matched(
-    fields: list[CorrelativeMatcher],
-    points: np.ndarray,
-    prior: np.ndarray,
-    position_sigma: float,
-    heading_sigma: float,
-    linear: float,
-    angular: float,
-    resolution: float,
-    correlation_length: float,
-) -> np.ndarray:
-    """The posterior's mean on `points`: over the window at twice the cell, then over the cell around the coarse
-    mean (`fields`: the reference scan's field on each lattice)."""
-    independent = len(one_per_cell(points, max(correlation_length, resolution)))
-    coarse = _posterior_mean(
-        fields[0], points, independent, prior, prior, position_sigma, heading_sigma, linear, angular, 2 * resolution
-    )
-    increment = _posterior_mean(
-        fields[1],
-        points,
-        independent,
-        coarse,
-        prior,
-        position_sigma,
-        heading_sigma,
-        4 * resolution,
-        angular,
-        resolution,
-        2,
-    )
-    increment[2] = wrap_angle(increment[2])
-    return increment
+class _Odometry(NamedTuple):
+    """The odometry's increment and its standard deviations: the match's Gaussian prior."""
+
+    increment: np.ndarray
+    position_sigma: float
+    heading_sigma: float
+
+    def log_density(self, poses: np.ndarray) -> np.ndarray:
+        """(M,) the prior's log-density (up to a constant) at each (M, 3) pose."""
+        offsets = np.atleast_2d(poses) - self.increment
+        offsets[:, 2] = wrap_angle(offsets[:, 2])
+        return -0.5 * (
+            (offsets[:, 0] ** 2 + offsets[:, 1] ** 2) / max(self.position_sigma**2, 1e-12)
+            + offsets[:, 2] ** 2 / max(self.heading_sigma**2, 1e-12)
+        )
 
 
 def _log_posteriors(
@@ -125,33 +110,21 @@ def _log_posteriors(
     field: CorrelativeMatcher,
     points: np.ndarray,
     increments: list[np.ndarray],
-    prior: np.ndarray,
-    position_sigma: float,
-    heading_sigma: float,
-    resolution: float,
+    odometry: _Odometry,
     correlation_length: float,
 ) -> np.ndarray:
     """The log-posterior of each increment on the same data: the end points every increment puts within the reference
     scan's view (its reach and field of view), scored on its `field` (bilinear), to the power of the independent ones,
-    times the odometry's Gaussian prior."""
+    times the odometry's prior."""
     common = np.ones(len(points), dtype=bool)
     for increment in increments:
         common &= _within_view(reference, transform_points(increment, points), 0.0, 0.0)
     if np.count_nonzero(common) < MIN_POINTS:
         common[:] = True
     shared = points[common]
-    independent = len(one_per_cell(shared, max(correlation_length, resolution)))
-    scores = []
-    for increment in increments:
-        offset = np.asarray(increment, dtype=float) - prior
-        offset[2] = wrap_angle(offset[2])
-        fit = max(field.score_interpolated(shared, increment), 1e-6)
-        scores.append(
-            independent * math.log(fit)
-            - 0.5 * ((offset[0] ** 2 + offset[1] ** 2) / max(position_sigma**2, 1e-12))
-            - 0.5 * offset[2] ** 2 / max(heading_sigma**2, 1e-12)
-        )
-    return np.array(scores)
+    independent = len(one_per_cell(shared, max(correlation_length, field.resolution)))
+    fits = np.array([max(field.score_interpolated(shared, increment), 1e-6) for increment in increments])
+    return independent * np.log(fits) + odometry.log_density(np.array(increments))
 
 
 def _posterior_mean(
@@ -159,30 +132,23 @@ def _posterior_mean(
     points: np.ndarray,
     independent: int,
     centre: np.ndarray,
-    prior: np.ndarray,
-    position_sigma: float,
-    heading_sigma: float,
+    odometry: _Odometry,
     linear: float,
     angular: float,
-    resolution: float,
     angle_steps: int | None = None,
 ) -> np.ndarray:
-    """The posterior's mean over the lattice of `resolution` (the `matcher`'s) within linear and angular (or
-    angle_steps of the lattice's angular step) of centre; the odometry's increment `prior` the Gaussian prior, the
-    score to the power of the `independent` points."""
-    cloud = one_per_cell(points, resolution)
-    step = default_angular_step(cloud, resolution)
+    """The posterior's mean over the `matcher`'s lattice within linear and angular (or angle_steps of the lattice's
+    angular step) of centre: the score to the power of the `independent` points times the odometry's prior."""
+    cloud = one_per_cell(points, matcher.resolution)
+    step = default_angular_step(cloud, matcher.resolution)
     if angle_steps is not None:
         angular = angle_steps * step
     poses, scores = matcher.window_scores(cloud, centre, linear, angular, step)
-    offsets = poses - prior
-    offsets[:, 2] = wrap_angle(offsets[:, 2])
-    log_posterior = independent * np.log(np.maximum(scores, 1e-6)) - 0.5 * (
-        (offsets[:, 0] ** 2 + offsets[:, 1] ** 2) / max(position_sigma**2, 1e-12)
-        + offsets[:, 2] ** 2 / max(heading_sigma**2, 1e-12)
-    )
+    log_posterior = independent * np.log(np.maximum(scores, 1e-6)) + odometry.log_density(poses)
     weights = np.exp(log_posterior - log_posterior.max())
-    mean = prior + weights @ offsets / weights.sum()
+    offsets = poses - odometry.increment
+    offsets[:, 2] = wrap_angle(offsets[:, 2])
+    mean = odometry.increment + weights @ offsets / weights.sum()
     mean[2] = wrap_angle(mean[2])
     return mean
 

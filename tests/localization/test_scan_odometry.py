@@ -94,15 +94,12 @@ HALL = wall_points(
 )
 
 
-def test_a_keyframe_metres_away_is_placed_though_the_window_could_move_most_points_out_of_view():
-    # a 180-degree scanner 3 m on and turned 49 deg, the odometry's increment 0.6 m and 5 deg off: the end points
-    # that stay in the first scan's view wherever the 1 m / 30 deg window moves them are too few to place it
-    first, second = np.array([10.8, 2.35, -1.97]), np.array([8.4, 0.54, -1.11])
+def placed_by_a_half_circle_scanner(first, second, drifted) -> np.ndarray:
+    """The increment from `first` to `second` (world poses in HALL) that matched_increment finds from a 180-degree
+    scanner's end points within 8 m, the odometry's increment `drifted` with 5 % motion noise."""
     truth = np.array(relative_pose(first, second))
-    drifted = truth + [-0.216, -0.552, -0.09]
-    noise = OdometryNoise(0.05, 0.05, 0.05, 0.05)
-    position, heading = motion_variance(math.hypot(*truth[:2]), abs(truth[2]), noise)
-    found = matched_increment(
+    position, heading = motion_variance(math.hypot(*truth[:2]), abs(truth[2]), OdometryNoise(0.05, 0.05, 0.05, 0.05))
+    return matched_increment(
         seen_in_view(HALL, first, 8.0, math.pi),
         seen_in_view(HALL, second, 8.0, math.pi),
         drifted,
@@ -111,6 +108,15 @@ def test_a_keyframe_metres_away_is_placed_though_the_window_could_move_most_poin
         0.05,
         0.25,
     )
+
+
+def test_a_keyframe_metres_away_is_placed_though_the_window_could_move_most_points_out_of_view():
+    # a 180-degree scanner 3 m on and turned 49 deg, the odometry's increment 0.6 m and 5 deg off: the end points
+    # that stay in the first scan's view wherever the 1 m / 30 deg window moves them are too few to place it
+    first, second = np.array([10.8, 2.35, -1.97]), np.array([8.4, 0.54, -1.11])
+    truth = np.array(relative_pose(first, second))
+    drifted = truth + [-0.216, -0.552, -0.09]
+    found = placed_by_a_half_circle_scanner(first, second, drifted)
     assert math.hypot(*(found[:2] - truth[:2])) < 0.05
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
 
@@ -121,16 +127,6 @@ def test_a_turn_in_place_gains_nothing_by_turning_points_out_of_view():
     second = first + [0.0, 0.0, math.radians(120.0)]
     truth = np.array(relative_pose(first, second))
     drifted = truth + [0.05, -0.05, math.radians(8.0)]
-    noise = OdometryNoise(0.05, 0.05, 0.05, 0.05)
-    position, heading = motion_variance(0.0, abs(truth[2]), noise)
-    found = matched_increment(
-        seen_in_view(HALL, first, 8.0, math.pi),
-        seen_in_view(HALL, second, 8.0, math.pi),
-        drifted,
-        position,
-        heading,
-        0.05,
-        0.25,
-    )
+    found = placed_by_a_half_circle_scanner(first, second, drifted)
     assert math.hypot(*(found[:2] - truth[:2])) < 0.06  # the odometry's 7 cm, taken in
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(0.5)
