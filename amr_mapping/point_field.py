@@ -1,14 +1,10 @@
-"""The submaps' likelihood field and lines, computed around the points instead of over the whole box.
+"""The submaps' lines, found around the points on a grid.
 
-`point_field` is `amr_maps.scan_matcher.ScoreMap.from_points(..., to_points=True)`'s field, stamped: the same box
-and the same exp(-d^2 / (2 sigma^2)), d from a cell's centre to the mean of the points in the nearest cell holding
-any (by the cells' centres; of cells equally near, the lowest column then row, as scipy's transform), computed only
-within FIELD_REACH sigmas of the points' cells (0 beyond: below exp(-18), under the matcher's uint16 quantum; cell for
-cell the same value within). from_points' distance
-transform of the box a submap's 20 m beams span (about 800 x 800 cells) was 40-60 % of GraphSlam's time on the
-logs; the stamps cost the points' cells times a square of FIELD_REACH sigmas. The field measured to the nearest mean
-itself instead (not the nearest cell's) was tried: intel 0.060 -> 0.056 m, but orebro's weak matches found rivals
-in its smoother field (ATE 0.10 -> 0.27 m); not kept.
+`neighbourhood_lines` gives each voxel mean the centroid and normal of its nearest points (a grid of `reach` m
+squares finds them: a k-d tree's query did the same 5-10 times slower). The submaps' likelihood field is
+amr_maps.scan_matcher.ScoreMap.from_points(..., to_points=True), stamped around the points. The field measured to
+the nearest mean itself instead (not the nearest cell's) was tried: intel 0.060 -> 0.056 m, but orebro's weak
+matches found rivals in its smoother field (ATE 0.10 -> 0.27 m); not kept.
 """
 
 from __future__ import annotations
@@ -17,65 +13,6 @@ import math
 
 import numba
 import numpy as np
-
-from amr_maps.scan_matcher import FIELD_REACH, ScoreMap
-
-
-def point_field(points: np.ndarray, resolution: float, sigma: float, pad: float, cover: np.ndarray) -> ScoreMap:
-    """The likelihood field of `points` (K, 2) on cells of `resolution` m covering them and the `cover` points,
-    `pad` m around (ScoreMap.from_points' box), every cell a candidate; see the module docstring."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    points = points[np.all(np.isfinite(points), axis=1)]
-    cover = np.asarray(cover, dtype=float).reshape(-1, 2)
-    extent = np.vstack([points, cover[np.all(np.isfinite(cover), axis=1)]])
-    if not len(extent):
-        raise ValueError("point field: no finite point to rasterize or cover")
-    low = np.floor((extent.min(axis=0) - pad) / resolution) * resolution
-    shape = np.ceil((extent.max(axis=0) + pad - low) / resolution).astype(int) + 1
-    cols, rows = int(shape[0]), int(shape[1])
-    if not len(points):
-        return ScoreMap(np.zeros((rows, cols), dtype=np.float32), resolution, (float(low[0]), float(low[1])))
-    cells = np.floor((points - low) / resolution).astype(int)
-    flat = cells[:, 1] * cols + cells[:, 0]
-    occupied, group = np.unique(flat, return_inverse=True)
-    group = group.reshape(-1)
-    count = np.bincount(group)
-    mean_x = np.bincount(group, weights=points[:, 0]) / count
-    mean_y = np.bincount(group, weights=points[:, 1]) / count
-    reach = int(math.ceil(FIELD_REACH * sigma / resolution))
-    x = low[0] + (np.arange(cols) + 0.5) * resolution
-    y = low[1] + (np.arange(rows) + 0.5) * resolution
-    d2 = _nearest_cell_means(occupied // cols, occupied % cols, mean_x, mean_y, x, y, reach)
-    table = np.zeros((rows, cols), dtype=np.float32)
-    near = np.isfinite(d2)
-    table[near] = np.exp(-0.5 * d2[near] / (sigma * sigma))
-    return ScoreMap(table, resolution, (float(low[0]), float(low[1])))
-
-
-@numba.njit(cache=True)
-def _nearest_cell_means(rows, cols, mean_x, mean_y, x, y, reach):  # pragma: no cover - compiled
-    """Squared distance (m^2) from each cell's centre (x[col], y[row]) to the mean of the nearest occupied cell
-    within `reach` cells (rows, cols; by the cells' centres; of cells equally near, the lowest column, then row:
-    scipy's distance transform's choice), infinite beyond every one."""
-    n_rows, n_cols = len(y), len(x)
-    table = np.full((n_rows, n_cols), np.inf)
-    best = np.full((n_rows, n_cols), -1)
-    for k in range(len(rows)):
-        for i in range(max(rows[k] - reach, 0), min(rows[k] + reach + 1, n_rows)):
-            di = i - rows[k]
-            for j in range(max(cols[k] - reach, 0), min(cols[k] + reach + 1, n_cols)):
-                dj = j - cols[k]
-                b = best[i, j]
-                if b >= 0:
-                    step = di * di + dj * dj
-                    other = (i - rows[b]) ** 2 + (j - cols[b]) ** 2
-                    if step > other or (step == other and (cols[k], rows[k]) > (cols[b], rows[b])):
-                        continue
-                best[i, j] = k
-                dx = x[j] - mean_x[k]
-                dy = y[i] - mean_y[k]
-                table[i, j] = dx * dx + dy * dy
-    return table
 
 
 def neighbourhood_lines(

@@ -8,7 +8,7 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   node's composed with the odometry since.
 - Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
-  the likelihood field of the last local_window nodes' scan points (amr_mapping.point_field; the nodes added on
+  the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points; the nodes added on
   odometry alone left out: their poses are unverified), within
   WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
   +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
@@ -60,12 +60,12 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from amr_mapping.errors import MappingError
-from amr_mapping.point_field import neighbourhood_lines, point_field
+from amr_mapping.point_field import neighbourhood_lines
 from amr_mapping.pose_graph import PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
-from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, default_angular_step
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, default_angular_step
 from amr_maps.window_search import window_modes
 from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
@@ -160,7 +160,8 @@ this share of the largest are left out (along a corridor the correlative match a
 REFERENCE_WORK_PER_POINT = 3_400.0
 """Work units (a scan point looked up by a branch and bound) that building a reference costs per averaged point
 (likelihood field, lines, tree: about 16 us each against 4.7 ns a lookup, measured once on aces; about a third of
-that since amr_mapping.point_field, kept so that the closures' schedule, and so a run, stays as it was) ..."""
+that since the field is stamped around the points, kept so that the closures' schedule, and so a run, stays as it
+was) ..."""
 CLEAR_WORK_PER_RAY = 1_100.0
 """... that a loop-closure submap's clear space costs per ray (about 5 us) ..."""
 CANDIDATE_WORK = 500_000.0
@@ -524,8 +525,13 @@ class GraphSlam:
             clouds.append(transform_points(pose, self._nodes[k].points))
         cloud = np.vstack(clouds)
         resolution = self.config.resolution
-        score_map = point_field(
-            cloud, resolution, LIKELIHOOD_SIGMA_CELLS * resolution, window + LIKELIHOOD_PAD, np.zeros((1, 2))
+        score_map = ScoreMap.from_points(
+            cloud,
+            resolution,
+            LIKELIHOOD_SIGMA_CELLS * resolution,
+            window + LIKELIHOOD_PAD,
+            cover=np.zeros((1, 2)),
+            to_points=True,
         )
         matcher = CorrelativeMatcher(score_map)
         means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)

@@ -626,24 +626,50 @@ def _stamped_field(rows, cols, shape, stamp):
 
 def _point_table(points, cells, low, shape, resolution: float, sigma: float) -> np.ndarray:
     """exp(-d^2 / (2 sigma^2)), d from each cell's centre to the mean of the points in the nearest cell holding any
-    (ScoreMap.from_points with to_points)."""
+    (by the cells' centres; of cells equally near, the lowest column then row), within FIELD_REACH sigmas of the
+    points' cells and 0 beyond, as from_points' own field (ScoreMap.from_points with to_points): stamped around the
+    occupied cells, not a distance transform of the whole box (a submap's 20 m beams: 800 x 800 cells)."""
     cols, rows = int(shape[0]), int(shape[1])
     flat = cells[:, 1] * cols + cells[:, 0]
-    occupied_cells, group = np.unique(flat, return_inverse=True)
+    occupied, group = np.unique(flat, return_inverse=True)
+    group = group.reshape(-1)
     count = np.bincount(group)
-    mean_x = np.zeros(rows * cols)
-    mean_y = np.zeros(rows * cols)
-    mean_x[occupied_cells] = np.bincount(group, weights=points[:, 0]) / count
-    mean_y[occupied_cells] = np.bincount(group, weights=points[:, 1]) / count
-    free = np.ones(rows * cols, dtype=bool)
-    free[occupied_cells] = False
-    _, (near_r, near_c) = ndimage.distance_transform_edt(free.reshape(rows, cols), return_indices=True)
-    nearest = near_r * cols + near_c
+    mean_x = np.bincount(group, weights=points[:, 0]) / count
+    mean_y = np.bincount(group, weights=points[:, 1]) / count
+    reach = int(math.ceil(FIELD_REACH * sigma / resolution))
     x = low[0] + (np.arange(cols) + 0.5) * resolution
     y = low[1] + (np.arange(rows) + 0.5) * resolution
-    dx = x[None, :] - mean_x[nearest]
-    dy = y[:, None] - mean_y[nearest]
-    return np.exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)).astype(np.float32)
+    d2 = _nearest_cell_means(occupied // cols, occupied % cols, mean_x, mean_y, x, y, reach)
+    table = np.zeros((rows, cols), dtype=np.float32)
+    near = np.isfinite(d2)
+    table[near] = np.exp(-0.5 * d2[near] / (sigma * sigma))
+    return table
+
+
+@numba.njit(cache=True)
+def _nearest_cell_means(rows, cols, mean_x, mean_y, x, y, reach):  # pragma: no cover - compiled
+    """Squared distance (m^2) from each cell's centre (x[col], y[row]) to the mean of the nearest occupied cell
+    within `reach` cells (rows, cols; by the cells' centres; of cells equally near, the lowest column, then row:
+    scipy's distance transform's choice), infinite beyond every one."""
+    n_rows, n_cols = len(y), len(x)
+    table = np.full((n_rows, n_cols), np.inf)
+    best = np.full((n_rows, n_cols), -1)
+    for k in range(len(rows)):
+        for i in range(max(rows[k] - reach, 0), min(rows[k] + reach + 1, n_rows)):
+            di = i - rows[k]
+            for j in range(max(cols[k] - reach, 0), min(cols[k] + reach + 1, n_cols)):
+                dj = j - cols[k]
+                b = best[i, j]
+                if b >= 0:
+                    step = di * di + dj * dj
+                    other = (i - rows[b]) ** 2 + (j - cols[b]) ** 2
+                    if step > other or (step == other and (cols[k], rows[k]) > (cols[b], rows[b])):
+                        continue
+                best[i, j] = k
+                dx = x[j] - mean_x[k]
+                dy = y[i] - mean_y[k]
+                table[i, j] = dx * dx + dy * dy
+    return table
 
 
 def _finite_points(points) -> np.ndarray:

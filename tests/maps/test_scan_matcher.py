@@ -255,3 +255,50 @@ def test_window_scores_cover_the_window_and_agree_with_the_match(pillars):
     match = matcher.match(points, prior, 0.2, 0.1, refine=False)
     assert scores.max() == pytest.approx(match.score)
     assert np.hypot(*(best[:2] - truth[:2])) <= 0.075
+
+
+def _transformed_points_table(points: np.ndarray, resolution: float, sigma: float, pad: float) -> np.ndarray:
+    """from_points' to_points field by a distance transform of the whole box (scipy's nearest occupied cell, ties
+    by its choice), exp(-d^2 / (2 sigma^2)) to that cell's points' mean: what the stamped field must equal."""
+    from scipy import ndimage
+
+    extent = np.vstack([points, np.zeros((1, 2))])
+    low = np.floor((extent.min(axis=0) - pad) / resolution) * resolution
+    cols, rows = (np.ceil((extent.max(axis=0) + pad - low) / resolution).astype(int) + 1).tolist()
+    cells = np.floor((points - low) / resolution).astype(int)
+    flat = cells[:, 1] * cols + cells[:, 0]
+    occupied, group = np.unique(flat, return_inverse=True)
+    count = np.bincount(group)
+    mean_x, mean_y = np.zeros(rows * cols), np.zeros(rows * cols)
+    mean_x[occupied] = np.bincount(group, weights=points[:, 0]) / count
+    mean_y[occupied] = np.bincount(group, weights=points[:, 1]) / count
+    free = np.ones(rows * cols, dtype=bool)
+    free[occupied] = False
+    _, (near_r, near_c) = ndimage.distance_transform_edt(free.reshape(rows, cols), return_indices=True)
+    nearest = near_r * cols + near_c
+    dx = (low[0] + (np.arange(cols) + 0.5) * resolution)[None, :] - mean_x[nearest]
+    dy = (low[1] + (np.arange(rows) + 0.5) * resolution)[:, None] - mean_y[nearest]
+    return np.exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)).astype(np.float32)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_field_to_the_points_is_stamped_as_the_distance_transform_gives_it(seed):
+    # walls (a corridor, a crossing wall) and clutter: ties between equally near cells
+    rng = np.random.default_rng(seed)
+    along = rng.uniform(0.0, 6.0, 800)
+    cloud = np.vstack(
+        [
+            np.column_stack([along, 0.01 * rng.normal(size=800)]),
+            np.column_stack([along, 1.2 + 0.01 * rng.normal(size=800)]),
+            np.column_stack([3.0 + 0.01 * rng.normal(size=300), rng.uniform(-2.0, 2.0, 300)]),
+            rng.uniform(-4.0, 8.0, (200, 2)),
+        ]
+    )
+    field = ScoreMap.from_points(cloud, 0.05, 0.075, 2.5, cover=np.zeros((1, 2)), to_points=True)
+    expected = _transformed_points_table(cloud, 0.05, 0.075, 2.5)
+    assert field.table.shape == expected.shape
+    # the same values wherever the field is above exp(-FIELD_REACH^2 / 2); 0 beyond
+    near = expected > np.exp(-0.5 * FIELD_REACH**2) * 1.01
+    assert near.sum() > 10_000
+    assert np.array_equal(field.table[near], expected[near])
+    assert np.abs(field.table - expected).max() < 1e-7
