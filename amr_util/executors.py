@@ -23,6 +23,14 @@ from rclpy.node import Node
 from amr_util.lean_executor import LeanExecutor
 
 
+def executor_for(node: Node, context=None) -> Executor:
+    """The executor a node spins on: a MultiThreadedExecutor where its class says `multithreaded_executor = True`
+    (callbacks that must overlap), else a LeanExecutor."""
+    if getattr(node, "multithreaded_executor", False):
+        return MultiThreadedExecutor(context=context)
+    return LeanExecutor(context=context)
+
+
 class NodeSpinners:
     """add_node() starts spinning a node at once; shutdown() stops every spinner (the nodes stay, for the caller
     to destroy). An exception out of a callback stops that node's spinner and is passed to `on_error`."""
@@ -33,10 +41,7 @@ class NodeSpinners:
         self._spinners: list[tuple[Node, Executor, threading.Thread]] = []
 
     def add_node(self, node: Node) -> None:
-        if getattr(node, "multithreaded_executor", False):
-            executor: Executor = MultiThreadedExecutor(context=self._context)
-        else:
-            executor = LeanExecutor(context=self._context)
+        executor = executor_for(node, self._context)
         executor.add_node(node)
         thread = threading.Thread(target=self._spin, args=(executor,), name=f"spin {node.get_name()}", daemon=True)
         self._spinners.append((node, executor, thread))

@@ -40,14 +40,14 @@ from lifecycle_msgs.srv import ChangeState
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidTopicNameException
-from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.expand_topic_name import expand_topic_name
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 from rclpy.validate_full_topic_name import validate_full_topic_name
 
-from amr_util.lean_executor import LeanExecutor
+from amr_util.executors import executor_for
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.robot_description import (
     DEFAULT_FILE,
@@ -442,9 +442,9 @@ def spin_nodes(nodes: Sequence[LifecycleNode], executor: Executor) -> None:
 
 
 def run(node_factory: Callable[[], LifecycleNode], *, args: Sequence[str] | None = None) -> None:
-    """The body of every node's main(): init, build, spin (amr_util.lean_executor), shut down. A node whose callbacks
-    must overlap says so with the class attribute `multithreaded_executor = True` (as amr_util.executors reads it)."""
+    """The body of every node's main(): init, build, spin on amr_util.executors.executor_for's executor, shut
+    down."""
     rclpy.init(args=list(sys.argv if args is None else args), signal_handler_options=SignalHandlerOptions.NO)
     node = node_factory()
-    executor = MultiThreadedExecutor() if getattr(node, "multithreaded_executor", False) else LeanExecutor()
+    executor = executor_for(node)
     spin_nodes([node], executor)
