@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -76,6 +77,7 @@ class LikelihoodField:
         self._cells = np.minimum(cells, 1e6).astype(np.float32).ravel()
         # a beam through a wall scores as a random reading: the table's floor (a cell far from every wall) as stored
         self._see_through = float(self._table.min()) if params.z_rand > 0.0 else -30.0
+        self._range_cells = range_max / grid.resolution + 2.0  # no beam's path is longer
 
     def log_likelihood(self, particles: np.ndarray, beams: Beams, weights: np.ndarray | None = None) -> np.ndarray:
         """(N,) sum over the returned beams of w_k log p(z_k | particle) (w_k = 1 without `weights`)."""
@@ -126,7 +128,13 @@ class LikelihoodField:
         terms = self.best_free_path(particles, np.zeros((1, 3)), beams, margin)
         return terms if per_beam else terms.sum(axis=1)
 
-    def best_free_path(self, poses: np.ndarray, nudges: np.ndarray, beams: Beams, margin: float) -> np.ndarray:
+    def fixed_poses(self, poses: np.ndarray, nudges: np.ndarray) -> FixedPoses:
+        """Poses scored by best_free_path again and again (FixedPoses): their paths traced once."""
+        return FixedPoses(self, poses, nudges)
+
+    def best_free_path(
+        self, poses: np.ndarray, nudges: np.ndarray, beams: Beams, margin: float, exits: Exits | None = None
+    ) -> np.ndarray:
         """(H, beams): for each pose and beam, the best of log_likelihood_free_path's per-beam terms over the pose
         moved by each of the (M, 3) `nudges` (x, y, theta offsets added to the pose): a beam reads as going through
         a wall only where it does so from every nudged pose.
@@ -134,7 +142,9 @@ class LikelihoodField:
         The same maximum as tracing every nudged beam, without doing so: a beam's candidates are taken in order
         of their end point's term, and the first whose path is free ends the search (no later one can score more);
         a blocked one scores min(term, see-through) and the next is traced only where it could score more. Where
-        the beam is free, one trace instead of M. Nudges in runs of one heading turn the beam once per run."""
+        the beam is free, one trace instead of M. Nudges in runs of one heading turn the beam once per run.
+        exits: where each nudged beam of these poses goes through a wall and out (FixedPoses), read and filled in
+        instead of traced."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         nudges = np.asarray(nudges, dtype=float).reshape(-1, 3)
         out = np.zeros((len(poses), beams.ranges.size))
@@ -160,8 +170,53 @@ class LikelihoodField:
             margin / self._resolution,
             self._see_through,
             out,
+            _NO_EXITS if exits is None else exits.table,
+            _NO_COLUMNS if exits is None else exits.columns,
+            self._range_cells,
         )
         return out
+
+
+class Exits(NamedTuple):
+    """Where nudged beams first go through a wall and out (cells from the sensor; inf: never within range_max; NaN:
+    not traced yet), table[pose, columns[k], nudge] for beam k."""
+
+    table: np.ndarray
+    columns: np.ndarray
+
+
+class FixedPoses:
+    """Poses scored again and again with the same nudges (the particle filter's `elsewhere` poses, drawn once): the
+    first exit of each nudged beam through a wall, kept per beam of the scan (its angle in the sensor frame) as it is
+    first traced. A path is blocked before a length exactly where its first exit lies before it, so the score is the
+    one best_free_path gives, while a beam seen before costs a look-up where it cost up to a trace per nudge (poses
+    drawn at random see through walls on most beams: each nudged beam is traced to a wall)."""
+
+    def __init__(self, field: LikelihoodField, poses: np.ndarray, nudges: np.ndarray) -> None:
+        self.field = field
+        self.poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        self.nudges = np.asarray(nudges, dtype=float).reshape(-1, 3)
+        self._columns: dict[int, int] = {}
+        self._table = np.empty((len(self.poses), 0, len(self.nudges)))
+
+    def best_free_path(self, beams: Beams, margin: float) -> np.ndarray:
+        """(H, beams): LikelihoodField.best_free_path of these poses."""
+        keys = np.round(beams.angles * ANGLE_KEYS).astype(np.int64).tolist()
+        new = [key for key in dict.fromkeys(keys) if key not in self._columns]
+        if new:
+            for key in new:
+                self._columns[key] = len(self._columns)
+            grown = np.full((len(self.poses), len(self._columns), len(self.nudges)), np.nan)
+            grown[:, : self._table.shape[1]] = self._table
+            self._table = grown
+        columns = np.array([self._columns[key] for key in keys], dtype=np.int64)
+        return self.field.best_free_path(self.poses, self.nudges, beams, margin, Exits(self._table, columns))
+
+
+ANGLE_KEYS = 1e7
+"""beams are told apart by their angle in the sensor frame to 1e-7 rad (a scan's beams lie far more apart)."""
+_NO_EXITS = np.empty((0, 0, 0))
+_NO_COLUMNS = np.empty(0, dtype=np.int64)
 
 
 @numba.njit(cache=True)
@@ -182,8 +237,9 @@ def _sum_log_likelihood(table, rows, cols, col0, row0, cos_theta, sin_theta, alo
 
 
 @numba.njit(cache=True)
-def _blocked(cells, rows, cols, x, y, c, s, free):
-    """Whether the beam from (x, y) along (c, s) (cells) goes through an occupied cell before `free` cells.
+def _exit(cells, rows, cols, x, y, c, s, free):
+    """Where (cells from (x, y)) the beam from (x, y) along (c, s) first goes through an occupied cell and out; inf
+    where it does not before `free` cells: the path to `free` is blocked exactly where the result is below `free`.
 
     Sphere tracing in cells: from the sensor, step along the beam by the distance to the nearest occupied cell
     centre minus 1.5 cells (a point and an occupied cell are each up to half a diagonal from their centres), at
@@ -199,25 +255,42 @@ def _blocked(cells, rows, cols, x, y, c, s, free):
         col = x + c * t
         row = y + s * t
         if col < 0.0 or row < 0.0 or col >= cols or row >= rows:
-            return False
+            return math.inf
         distance = cells[int(row) * cols + int(col)]
         clear = clear or distance >= 1.0
         if distance == 0.0 and clear:
             inside = True
         elif inside and distance >= 2.0:  # through a wall and out on its other side
-            return True
+            return t
         t += max(distance - 1.5, 0.5)
-    return False
+    return math.inf
 
 
 @numba.njit(cache=True)
 def _best_free_path_terms(
-    table, cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, see_through, out
+    table,
+    cells,
+    rows,
+    cols,
+    col0,
+    row0,
+    theta,
+    angles,
+    ranges,
+    returned,
+    margin,
+    see_through,
+    out,
+    exits,
+    columns,
+    range_cells,
 ):
     """out[h, k]: the best over nudges n of beam k's likelihood-field term from sensor pose (col0, row0, theta)[h, n],
-    capped at see_through (the table's floor) where that beam's path is blocked (_blocked) before range - margin.
+    capped at see_through (the table's floor) where that beam's path is blocked (_exit) before range - margin.
     Candidates are traced in decreasing order of their term, until one is free, is at the floor (capped or not, the
-    same), or none left could score more than the best so far."""
+    same), or none left could score more than the best so far. exits (unless empty): each nudged beam's exit, read
+    where known, else traced to range_cells and kept; the same maximum, taken in one pass."""
+    memo = exits.shape[1] > 0
     nudges = col0.shape[1]
     value = np.empty(nudges)
     done = np.empty(nudges, dtype=np.bool_)
@@ -238,6 +311,22 @@ def _best_free_path_terms(
                     value[n] = table[int(row) * cols + int(col)]
                 done[n] = False
             best = -np.inf
+            if memo:  # exits known or kept once traced: each nudge in turn, read where it could score more
+                free = ranges[k] - margin
+                for n in range(nudges):
+                    term = value[n]
+                    if term <= best:
+                        continue
+                    if term > see_through:
+                        out_at = exits[h, columns[k], n]
+                        if math.isnan(out_at):
+                            out_at = _exit(cells, rows, cols, col0[h, n], row0[h, n], cos_n[n], sin_n[n], range_cells)
+                            exits[h, columns[k], n] = out_at
+                        if out_at < free:
+                            term = see_through
+                    best = max(best, term)
+                out[h, k] = best
+                continue
             while True:
                 pick, top = -1, best
                 for n in range(nudges):
@@ -247,9 +336,12 @@ def _best_free_path_terms(
                     break
                 done[pick] = True
                 c, s = cos_n[pick], sin_n[pick]
-                # at the floor, blocked or not scores the same: no trace
-                if top > see_through and _blocked(
-                    cells, rows, cols, col0[h, pick], row0[h, pick], c, s, ranges[k] - margin
+                if top <= see_through:  # at the floor, blocked or not scores the same: no trace
+                    best = top
+                    break
+                if (
+                    _exit(cells, rows, cols, col0[h, pick], row0[h, pick], c, s, ranges[k] - margin)
+                    < ranges[k] - margin
                 ):
                     best = max(best, see_through)
                 else:

@@ -51,7 +51,7 @@ from amr_localization.errors import BeaconError, LocalizationError, OdometryErro
 from amr_localization.free_space import FreeSpace
 from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
-from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
+from amr_localization.likelihood_field import FixedPoses, LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, weighted_pose
@@ -253,6 +253,11 @@ class ParticleFilter:
         self._stamp: float | None = None
         self.hypotheses = PlaceHypotheses()
         self._anywhere = self.free_space.sample(ANYWHERE, np.random.default_rng(config.seed))
+        self._anywhere_paths = (
+            self._laser.fixed_poses(self._anywhere, NUDGES * self._nudge_step)
+            if isinstance(self._laser, LikelihoodField)
+            else None
+        )
         self._window: deque[_Seen] = deque(maxlen=WINDOW_SCANS)
         self.reinitialize_global()
 
@@ -629,13 +634,18 @@ class ParticleFilter:
         holding the share v / V of the map's poses a peak of the measurement model takes (_log_peak_share). A
         place followed that the robot is not at then loses to `elsewhere` as soon as the search meets where it is,
         not only once the search is complete."""
-        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True)
+        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True, fixed=self._anywhere_paths)
         background = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
         peaks = peaks[self.hypotheses.find(peaks) < 0] if len(peaks) else peaks
         if not len(peaks):
             return background
         at_peaks = self._log_likelihood(peaks, seen, beacons, places=True) + self._log_peak_share
         return float(np.logaddexp(background, np.logaddexp.reduce(at_peaks)))
+
+    @property
+    def _nudge_step(self) -> np.ndarray:
+        """NUDGES' unit: a cell, a cell and half a degree."""
+        return np.array([self._grid.resolution, self._grid.resolution, math.radians(0.5)])
 
     @property
     def _log_peak_share(self) -> float:
@@ -645,20 +655,29 @@ class ParticleFilter:
         return math.log(peak / max(self.free_space.area * 2.0 * math.pi, peak))
 
     def _log_likelihood(
-        self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, places: bool = False
+        self,
+        poses: np.ndarray,
+        seen: _Seen | None,
+        beacons: BeaconReading | None,
+        places: bool = False,
+        fixed: FixedPoses | None = None,
     ) -> np.ndarray:
         """(H,) the data's log-likelihood at each pose, weighted as the particles' is. places: the likelihood field
         with the beam model's free path (LikelihoodField.log_likelihood_free_path: a beam through a wall of the map
         there scores as a random reading), for the few poses of place hypotheses; the particles' field alone scores
-        a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway."""
+        a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway. fixed: the
+        same poses with their paths kept (LikelihoodField.fixed_poses), scored alike."""
         total = np.zeros(len(poses))
         if not len(poses):
             return total
         if seen is not None and places and isinstance(self._laser, LikelihoodField):
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses
-            step = np.array([self._grid.resolution, self._grid.resolution, math.radians(0.5)])
-            best = self._laser.best_free_path(poses, NUDGES * step, seen.beams, FREE_PATH_MARGIN)
+            best = (
+                self._laser.best_free_path(poses, NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
+                if fixed is None
+                else fixed.best_free_path(seen.beams, FREE_PATH_MARGIN)
+            )
             total += seen.gain * (best @ seen.weights)
         elif seen is not None:
             total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)

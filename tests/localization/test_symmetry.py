@@ -74,3 +74,30 @@ def test_the_best_free_path_over_nudges_is_the_best_of_each_nudged_pose_traced()
     assert np.isclose(traced, see_through, atol=1e-5).any(axis=0).sum() > 100, "beams through walls, some nudges"
     assert (best > traced[len(nudges) // 2]).sum() > 100, "the nudges matter: the pose itself scores less"
     np.testing.assert_array_equal(best, traced.max(axis=0))
+
+
+def test_fixed_poses_score_as_best_free_path_with_their_paths_kept():
+    """FixedPoses keeps each nudged beam's exit through a wall per beam (its angle): scans with other beams and other
+    ranges, some beams seen before, score exactly as best_free_path traces them, and a kept exit is read, not traced
+    again (a wrong kept value shows)."""
+    rng = np.random.default_rng(4)
+    data = np.zeros((120, 160), dtype=np.int8)
+    data[[0, -1], :] = OCCUPIED
+    data[:, [0, -1]] = OCCUPIED
+    data[:, 80:82] = OCCUPIED
+    data[50:70, 80:82] = 0
+    data[rng.random(data.shape) < 0.01] = OCCUPIED
+    model = LikelihoodField(DistanceField(OccupancyGrid(data, 0.02)), LikelihoodFieldParams(), SensorMount(0.05), 3.5)
+    poses = np.column_stack([rng.uniform(0.1, 3.1, 30), rng.uniform(0.1, 2.3, 30), rng.uniform(-3.1, 3.1, 30)])
+    nudges = np.array([(i, j, k) for k in (-1, 0, 1) for i in (-1, 0, 1) for j in (-1, 0, 1)]) * [0.02, 0.02, 0.01]
+    fixed = model.fixed_poses(poses, nudges)
+    scan = np.linspace(-math.pi, math.pi, 180, endpoint=False)
+    for _ in range(4):
+        index = np.sort(rng.choice(180, 60, replace=False))
+        returned = rng.random(60) < 0.9
+        beams = Beams(rng.uniform(0.2, 3.4, 60), scan[index], returned, 3.5, index - index[0], scan[1] - scan[0])
+        np.testing.assert_array_equal(fixed.best_free_path(beams, 0.1), model.best_free_path(poses, nudges, beams, 0.1))
+    kept = fixed._table
+    assert np.isfinite(kept).sum() > 1000 and np.isnan(kept).sum() > 1000, "exits kept as traced, the rest not yet"
+    kept[np.isfinite(kept)] = 0.0  # every kept exit made wrong: at the sensor
+    assert (fixed.best_free_path(beams, 0.1) != model.best_free_path(poses, nudges, beams, 0.1)).any()
