@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from amr_util.geometry import compose, wrap_angle
@@ -92,13 +93,10 @@ class PlaceHypotheses:
     def find(self, poses: np.ndarray) -> np.ndarray:
         """(C,) the hypothesis each pose is (within MERGE_DISTANCE and MERGE_ANGLE), -1 where none."""
         poses = np.atleast_2d(poses)
-        if not len(self) or not len(poses):
-            return np.full(len(poses), -1)
-        near = np.hypot(poses[:, None, 0] - self.poses[None, :, 0], poses[:, None, 1] - self.poses[None, :, 1])
-        turn = np.abs(wrap_angle(poses[:, None, 2] - self.poses[None, :, 2]))
-        distance = np.where(turn <= MERGE_ANGLE, near, np.inf)
-        best = np.argmin(distance, axis=1)
-        return np.where(distance[np.arange(len(poses)), best] <= MERGE_DISTANCE, best, -1)
+        out = np.full(len(poses), -1)
+        if len(self) and len(poses):
+            _nearest(np.asarray(poses, dtype=float), self.poses, MERGE_DISTANCE, MERGE_ANGLE, out)
+        return out
 
     def merge(self) -> None:
         """Hypotheses that have come within MERGE_DISTANCE and MERGE_ANGLE of a stronger one (both fitted to the
@@ -163,3 +161,21 @@ class PlaceHypotheses:
             best = self.evidence[0]
             self.evidence = np.maximum(self.evidence - best, -MAX_LOG_ODDS)
             self.elsewhere = min(max(self.elsewhere - best, -MAX_LOG_ODDS), MAX_LOG_ODDS)
+
+
+@numba.njit(cache=True)
+def _nearest(poses, places, distance, angle, out):
+    """out[i]: the nearest place (first of equals) within `angle` in heading of pose i, if within `distance`: one pass,
+    no (poses x places) temporaries (the particles are found at every update, several times)."""
+    for i in range(poses.shape[0]):
+        best = np.inf
+        for j in range(places.shape[0]):
+            dx, dy = poses[i, 0] - places[j, 0], poses[i, 1] - places[j, 1]
+            if abs(dx) > distance or abs(dy) > distance:  # beyond it (most particles from most places): no more
+                continue
+            near = math.hypot(dx, dy)
+            if near <= distance and near < best:
+                turn = abs((poses[i, 2] - places[j, 2] + math.pi) % (2.0 * math.pi) - math.pi)
+                if turn <= angle:
+                    best = near
+                    out[i] = j

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from amr_util.geometry import wrap_angle
@@ -41,8 +42,30 @@ def weighted_pose(particles: np.ndarray, weights: np.ndarray) -> PoseEstimate:
         raise ValueError("weighted_pose: no particles")
     total = float(np.sum(weights))
     w = weights / total if total > 0.0 and math.isfinite(total) else np.full(len(particles), 1.0 / len(particles))
-    x, y = w @ particles[:, 0], w @ particles[:, 1]
-    theta = math.atan2(w @ np.sin(particles[:, 2]), w @ np.cos(particles[:, 2]))
-    deviation = np.column_stack([particles[:, 0] - x, particles[:, 1] - y, wrap_angle(particles[:, 2] - theta)])
-    covariance = (deviation * w[:, None]).T @ deviation
-    return PoseEstimate(float(x), float(y), float(wrap_angle(theta)), covariance)
+    mean, covariance = np.empty(3), np.zeros((3, 3))
+    _moments(np.asarray(particles, dtype=float), np.asarray(w, dtype=float), mean, covariance)
+    return PoseEstimate(float(mean[0]), float(mean[1]), float(wrap_angle(float(mean[2]))), covariance)
+
+
+@numba.njit(cache=True)
+def _moments(particles, w, mean, covariance):
+    """The module's formulas in two passes over the particles, no temporaries (it runs several times an update, on
+    thousands of particles)."""
+    x = y = s = c = 0.0
+    for i in range(particles.shape[0]):
+        x += w[i] * particles[i, 0]
+        y += w[i] * particles[i, 1]
+        s += w[i] * math.sin(particles[i, 2])
+        c += w[i] * math.cos(particles[i, 2])
+    theta = math.atan2(s, c)
+    mean[0], mean[1], mean[2] = x, y, theta
+    d = np.empty(3)
+    for i in range(particles.shape[0]):
+        d[0], d[1] = particles[i, 0] - x, particles[i, 1] - y
+        d[2] = (particles[i, 2] - theta + math.pi) % (2.0 * math.pi) - math.pi
+        for a in range(3):
+            for b in range(a, 3):
+                covariance[a, b] += w[i] * d[a] * d[b]
+    for a in range(3):
+        for b in range(a):
+            covariance[a, b] = covariance[b, a]

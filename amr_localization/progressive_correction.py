@@ -16,18 +16,14 @@ keyframe counts fully, in as many stages as its sharpness needs (at most MAX_STA
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 MAX_STAGES = 6
 """stages of one measurement at most; the last takes the rest of the likelihood."""
 BISECTION_STEPS = 12
-
-
-def effective_share(log_weights: np.ndarray) -> float:
-    """N_eff / N of the normalized exp(log_weights) (particles at -inf count as dead: weight 0)."""
-    weights = np.exp(log_weights - np.max(log_weights))
-    weights = weights / weights.sum()
-    return 1.0 / float(weights @ weights) / len(weights)
 
 
 def stage_exponent(log_prior: np.ndarray, log_likelihood: np.ndarray, remaining: float, min_ess_ratio: float) -> float:
@@ -36,12 +32,35 @@ def stage_exponent(log_prior: np.ndarray, log_likelihood: np.ndarray, remaining:
     alive = np.isfinite(log_prior)
     prior, likelihood = log_prior[alive], log_likelihood[alive]
     target = min_ess_ratio * len(log_prior) / len(prior)
-    if effective_share(prior + remaining * likelihood) >= target:
+    return _bisection(
+        np.ascontiguousarray(prior, dtype=float), np.ascontiguousarray(likelihood, dtype=float), remaining, target
+    )
+
+
+@numba.njit(cache=True)
+def _share(prior, likelihood, exponent):
+    """N_eff / N of the normalized exp(prior + exponent likelihood), in two passes without temporaries."""
+    peak = -np.inf
+    for i in range(prior.shape[0]):
+        peak = max(peak, prior[i] + exponent * likelihood[i])
+    total = squares = 0.0
+    for i in range(prior.shape[0]):
+        weight = math.exp(prior[i] + exponent * likelihood[i] - peak)
+        total += weight
+        squares += weight * weight
+    return total * total / squares / prior.shape[0]
+
+
+@numba.njit(cache=True)
+def _bisection(prior, likelihood, remaining, target):
+    """stage_exponent's bisection on the live particles (compiled: 5,000 particles a step, up to 13 steps a stage,
+    several stages an update)."""
+    if _share(prior, likelihood, remaining) >= target:
         return remaining
     low, high = 0.0, remaining
     for _ in range(BISECTION_STEPS):
         middle = 0.5 * (low + high)
-        if effective_share(prior + middle * likelihood) >= target:
+        if _share(prior, likelihood, middle) >= target:
             low = middle
         else:
             high = middle

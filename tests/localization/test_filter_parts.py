@@ -11,10 +11,12 @@ from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
 from amr_localization.errors import LocalizationError
+from amr_localization.hypotheses import MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
 from amr_localization.pose_estimate import weighted_pose
+from amr_localization.progressive_correction import BISECTION_STEPS, stage_exponent
 from amr_localization.resampling import effective_sample_size, systematic_resample
 from amr_localization.scan_beams import select_beams
 from amr_localization.sensor_mount import SensorMount
@@ -183,3 +185,43 @@ def test_the_compiled_likelihood_sum_equals_the_formula_beam_by_beam():
     d = distance[row, col]
     expected = np.log(0.9 * np.exp(-0.5 * (d / 0.05) ** 2) / (0.05 * math.sqrt(2 * math.pi)) + 0.1 / 3.5).sum(axis=1)
     assert model.log_likelihood(particles, beams) == pytest.approx(expected, rel=1e-5, abs=1e-3)
+
+
+def _share(log_weights: np.ndarray) -> float:
+    weights = np.exp(log_weights - log_weights.max())
+    return weights.sum() ** 2 / (weights @ weights) / len(weights)
+
+
+def test_the_stage_exponent_is_the_largest_that_keeps_the_effective_sample_size():
+    """Progressive correction's step: the largest lambda (to the bisection's resolution) whose weights keep N_eff at
+    the target share of the particles, dead particles (prior -inf) left out; the whole rest where that keeps it."""
+    rng = np.random.default_rng(5)
+    log_prior = np.log(rng.uniform(0.5, 1.0, 3000))
+    log_prior[:500] = -np.inf
+    log_likelihood = rng.normal(0.0, 40.0, 3000)
+    step = stage_exponent(log_prior, log_likelihood, 1.0, 0.5)
+    alive = np.isfinite(log_prior)
+    target = 0.5 * 3000 / alive.sum()
+    assert 0.0 < step < 1.0
+    assert _share(log_prior[alive] + step * log_likelihood[alive]) >= target
+    assert _share(log_prior[alive] + (step + 2.0**-BISECTION_STEPS) * log_likelihood[alive]) < target
+    flat = rng.normal(0.0, 0.01, 3000)
+    assert stage_exponent(log_prior, flat, 0.7, 0.5) == 0.7
+
+
+def test_a_pose_is_found_at_the_nearest_place_within_the_merge_window_across_the_angle_wrap():
+    rng = np.random.default_rng(6)
+    places = PlaceHypotheses()
+    places.add(np.array([[0.0, 0.0, math.pi - 0.01], [0.1, 0.0, -math.pi + 0.01], [3.0, 3.0, 0.0]]), np.zeros(3))
+    poses = np.column_stack(
+        [rng.uniform(-0.5, 3.5, 4000), rng.uniform(-0.5, 3.5, 4000), rng.uniform(-math.pi, math.pi, 4000)]
+    )
+    poses[:2000, :2] = rng.normal(0.0, MERGE_DISTANCE, (2000, 2))
+    poses[:2000, 2] = math.pi + rng.normal(0.0, MERGE_ANGLE, 2000)
+    near = np.hypot(poses[:, None, 0] - places.poses[None, :, 0], poses[:, None, 1] - places.poses[None, :, 1])
+    turn = np.abs(np.mod(poses[:, None, 2] - places.poses[None, :, 2] + math.pi, 2.0 * math.pi) - math.pi)
+    distance = np.where(turn <= MERGE_ANGLE, near, np.inf)
+    expected = np.where(distance.min(axis=1) <= MERGE_DISTANCE, distance.argmin(axis=1), -1)
+    found = places.find(poses)
+    assert {0, 1, -1} <= set(found.tolist()), "both places across the wrap, and none"
+    np.testing.assert_array_equal(found, expected)
