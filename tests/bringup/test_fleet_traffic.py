@@ -29,6 +29,10 @@ STALLED = 15.0
 """s of wall clock without simulated time going on: the world is held (a deadlock through ROS)."""
 WALL_LIMIT = 150.0
 """s of wall clock at most for the run (it ends as soon as both robots are at their goals)."""
+STOOD_STILL = 20.0
+"""s of simulated time in which no robot moved (1 cm): a deadlock, decided (longer than any of the stack's waits:
+plan_timeout 10 s, the fleet planner's stuck_time 15 s); the run without the rules ends there, not at SIM_LIMIT
+(its robots stop face to face at about 8 s)."""
 
 
 def corridor_yaml(pocket_x: float = 0.8, length: float = 2.0) -> str:
@@ -106,21 +110,30 @@ class Truth(Node):
     def sim_time(self) -> float:
         return min((status.sim_time for status in self.status.values()), default=0.0)
 
+    def travelled(self, robot: str) -> float:
+        """m the robot has driven (ground truth), 0 before its first status."""
+        return self.status[robot].distance_travelled if robot in self.status else 0.0
 
-def run_corridor(ros_context, tmp_path, traffic: bool) -> tuple[int, int, float, dict]:
+
+def run_corridor(
+    ros_context, tmp_path, traffic: bool, stood_still: float | None = None
+) -> tuple[int, int, float, dict]:
     """(robots at their goals, robot-robot contacts, simulated s) of one run; both navigators' traffic counters."""
     world = tmp_path / "corridor.yaml"
     world.write_text(corridor_yaml())
-    reached, contacts, _, sim_time, detail = run_stack(ros_context, world, None, ROBOTS, traffic)
+    reached, contacts, _, sim_time, detail = run_stack(
+        ros_context, world, None, ROBOTS, traffic, stood_still=stood_still
+    )
     return reached, contacts, sim_time, detail
 
 
 def run_stack(
-    ros_context, world, map_world, robots, traffic: bool, coordination: str = "rules"
+    ros_context, world, map_world, robots, traffic: bool, coordination: str = "rules", stood_still: float | None = None
 ) -> tuple[int, int, int, float, dict]:
     """(robots at their goals, robot-robot contacts, wall contacts, simulated s, {wall: s, robot: its traffic
-    counters, plans: the fleet planner's}) of one run of fleet_navigation on `world` (the map made of `map_world`
-    when given)."""
+    counters, plans: the fleet planner's, still: the simulated s no robot had moved at the end}) of one run of
+    fleet_navigation on `world` (the map made of `map_world` when given). With `stood_still`, the run also ends once
+    no robot has moved for that many simulated s (a deadlock)."""
     away = (("pose", "particle_filter_unused/pose"), ("scan", "particle_filter_unused/scan"))
     parameters = {
         "simulator.lockstep_resend_period": "0.5",
@@ -154,16 +167,22 @@ def run_stack(
             assert all(step.ok for step in manager.startup()), "fleet_navigation did not come up"
             started = time.monotonic()
             progress = [0.0, started]  # the world held (nobody answering an observation) is a deadlock too
+            # the robots' distances travelled at their last move, and its simulated time
+            moved = [(0.0,) * len(robots), 0.0]
 
             def over() -> bool:
                 now, sim = time.monotonic(), truth.sim_time()
                 if sim > progress[0]:
                     progress[:] = [sim, now]
+                travelled = tuple(truth.travelled(r) for r in robots)
+                if max(abs(a - b) for a, b in zip(travelled, moved[0], strict=True)) > 0.01:
+                    moved[:] = [travelled, sim]
                 return (
                     truth.reached() == len(robots)
                     or truth.robot_contacts() > 0
                     or sim >= SIM_LIMIT
                     or now - progress[1] > STALLED
+                    or (stood_still is not None and sim - moved[1] >= stood_still)
                 )
 
             spin_until(executor, over, WALL_LIMIT)
@@ -175,7 +194,8 @@ def run_stack(
         counters["plans"] = nodes[FLEET_PLANNER].coordinator.plans
         counters["cut"] = list(nodes[FLEET_PLANNER].coordinator.cut)
         walls = sum(status.wall_collisions for status in truth.status.values())
-        result = truth.reached(), truth.robot_contacts(), walls, truth.sim_time(), {"wall": wall, **counters}
+        detail = {"wall": wall, "still": truth.sim_time() - moved[1], **counters}
+        result = truth.reached(), truth.robot_contacts(), walls, truth.sim_time(), detail
         truth.destroy_node()
     return result
 
@@ -203,7 +223,8 @@ def test_planned_together_the_two_robots_pass_through_the_pocket_through_ros(ros
 
 
 def test_without_the_rules_the_corridor_deadlocks_or_collides_through_ros(ros_context, tmp_path):
-    reached, contacts, sim_time, detail = run_corridor(ros_context, tmp_path, traffic=False)
+    """Deadlocked is decided once neither robot has moved for STOOD_STILL simulated s (or at SIM_LIMIT)."""
+    reached, contacts, sim_time, detail = run_corridor(ros_context, tmp_path, traffic=False, stood_still=STOOD_STILL)
     print(f"traffic off: {reached} reached, {contacts} contacts, {sim_time:.1f} s simulated, {detail}")
     assert reached < 2 or contacts > 0, (reached, contacts, sim_time, detail)
 
