@@ -100,7 +100,7 @@ def _wait_for_kernels(item) -> None:
 
 def pytest_collection_modifyitems(config, items) -> None:
     """A pytest-xdist worker collects the files longest first (support.schedule): with `--dist loadfile
-    --no-loadscope-reorder` (make test) the files are handed out in that order and the two workers finish together."""
+    --no-loadscope-reorder` (make test) the files are handed out in that order and the workers finish together."""
     if hasattr(config, "workerinput"):
         items[:] = longest_files_first(items)
         _log(f"# collected {os.environ.get('PYTEST_XDIST_WORKER')} {time.time():.2f}")

@@ -14,6 +14,7 @@ from support.schedule import (
     longest_files_first,
     seconds_per_file,
     timeline,
+    walls_per_file,
 )
 
 
@@ -83,6 +84,11 @@ def test_the_timeline_gives_the_warm_up_each_worker_and_the_files_that_ended_las
     assert seconds_per_file(record) == {
         "foundation/test_colcon_build.py": 60.0,
         "viewer/test_browser.py": 14.0,
+        "maps/test_a.py": 1.0,
+    }
+    assert walls_per_file(record) == {  # a file's first start to its last end on its worker
+        "foundation/test_colcon_build.py": 88.5,
+        "viewer/test_browser.py": 39.0,
         "maps/test_a.py": 1.0,
     }
 

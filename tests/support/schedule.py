@@ -1,16 +1,17 @@
 """The order in which a parallel run hands its test files out: the longest first (tests/conftest.py).
 
-`make test` runs `pytest -n 2 --dist loadfile --no-loadscope-reorder`: each worker takes a whole file at a time, in
+`make test` runs `pytest -n 3 --dist loadfile --no-loadscope-reorder`: each worker takes a whole file at a time, in
 collection order. pytest-xdist's own order (without `--no-loadscope-reorder`) is by the number of tests, which put
 the longest files, a single test each (colcon building the interfaces, the demo), last: one worker ran them alone
-while the other had finished. Handed out longest first, the files left at the end are short ones and the two workers
+while the other had finished. Handed out longest first, the files left at the end are short ones and the workers
 finish close together. A file not in SECONDS counts as short (0 s) and keeps its place among the short ones.
 
 Refresh SECONDS from a run's `--durations=0` lines or its AMR_TEST_CPU record: `python -m support.schedule
-durations.txt` (from tests/) prints each file's summed seconds, longest first. Only the order matters, not the
-figures. `python -m support.schedule --timeline cpu.txt` reads an AMR_TEST_CPU record of a parallel run as a
-timeline: the numba warm-up, each worker's collection, first and last test and its waits, and the files that ended
-last (the tail).
+durations.txt` (from tests/) prints each file's summed seconds, longest first; `python -m support.schedule --walls
+cpu.txt` each file's seconds on its worker (from its first test's start to its last one's end) in an AMR_TEST_CPU
+record. Only the order matters, not the figures. `python -m support.schedule --timeline cpu.txt` reads an
+AMR_TEST_CPU record of a parallel run as a timeline: the numba warm-up, each worker's collection, first and last test
+and its waits, and the files that ended last (the tail).
 """
 
 from __future__ import annotations
@@ -23,47 +24,54 @@ from pathlib import Path
 TESTS = Path(__file__).resolve().parents[1]
 
 SECONDS = {
-    "viewer/test_browser.py": 190,
-    "foundation/test_colcon_build.py": 71,
-    "bringup/test_fleet_traffic.py": 61,
-    "evaluation/test_localization_closed_loop.py": 45,
+    "viewer/test_browser.py": 151,
+    "foundation/test_colcon_build.py": 106,
+    "bringup/test_realtime_stacks.py": 46,
+    "evaluation/test_localization_closed_loop.py": 46,
     "evaluation/test_fleet_plan_runs.py": 44,
-    "control_node/test_closed_loop_ros.py": 40,
-    "bringup/test_realtime_stacks.py": 30,
-    "control/test_closed_loop.py": 27,
-    "bringup/test_demo.py": 24,
-    "foundation/test_docs.py": 21,
-    "bringup/test_bringup_run.py": 20,
-    "util/test_lifecycle_edges.py": 20,
-    "evaluation/test_ros_episode.py": 20,
-    "bringup/test_recording.py": 16,
+    "bringup/test_fleet_traffic.py": 37,
+    "control_node/test_closed_loop_ros.py": 36,
+    "control/test_closed_loop.py": 30,
+    "bringup/test_bringup_run.py": 26,
+    "bringup/test_demo.py": 21,
+    "util/test_lifecycle_edges.py": 21,
+    "bringup/test_recording.py": 20,
+    "evaluation/test_ros_episode.py": 18,
+    "foundation/test_docs.py": 17,
+    "simulation/test_simulator_node_controls.py": 14,
     "evaluation/test_symmetry_closed_loop.py": 13,
-    "evaluation/test_fleet_traffic_runs.py": 11,
-    "planning_node/test_plan_and_follow_ros.py": 10,
+    "kinematics_node/test_ik_service_process.py": 13,
+    "evaluation/test_command_controller.py": 13,
+    "evaluation/test_fleet_traffic_runs.py": 12,
+    "planning_node/test_plan_and_follow_ros.py": 12,
+    "evaluation/test_sweep_input.py": 10,
     "evaluation/test_episode.py": 9,
-    "evaluation/test_sweep_input.py": 9,
+    "localization/test_particle_filter.py": 9,
+    "simulation/test_simulator_node.py": 9,
+    "bringup/test_real_robot_navigation.py": 8,
+    "control/test_wall_follower_route.py": 8,
     "evaluation/test_crowded_localization.py": 8,
-    "localization/test_particle_filter.py": 8,
-    "kinematics_node/test_ik_service_fuzz.py": 7,
-    "control/test_wall_follower_route.py": 7,
-    "kinematics_node/test_ik_service_process.py": 7,
-    "mapping/test_slam.py": 7,
     "evaluation/test_runner.py": 7,
-    "simulation/test_fleet.py": 6,
+    "simulation/test_simulator_node_fleet.py": 7,
     "planning/test_fleet_lacam.py": 6,
+    "kinematics_node/test_ik_service_fuzz.py": 6,
+    "simulation/test_fleet.py": 6,
     "kinematics/test_compiled.py": 6,
-    "bringup/test_real_robot_navigation.py": 6,
-    "evaluation/test_command_controller.py": 6,
-    "foundation/test_without_pymunk.py": 5,
-    "navigation/test_nobody_drives.py": 5,
+    "control_node/test_wall_follower_node.py": 6,
+    "turtlebot3/test_odometry_node.py": 6,
+    "foundation/test_without_pymunk.py": 6,
+    "simulation/test_simulator_node_resend.py": 5,
+    "mapping/test_slam.py": 5,
     "evaluation/test_gym_env.py": 4,
+    "simulation/test_simulator_node_process.py": 4,
     "maps/test_maze_families.py": 4,
+    "navigation/test_nobody_drives.py": 4,
     "kinematics_node/test_ik_service_lifecycle.py": 4,
     "foundation/test_declared_dependencies.py": 3,
 }
-"""Seconds a worker spends on the file (tests/-relative path): its processes' CPU in a clean clone's run on a quiet
-machine (263bdf0, AMR_TEST_CPU, load 1-2), or its wall time where it mostly waits (the browser's stacks and pages,
-the real-time stacks, the lifecycle windows); files under 3 s are left out."""
+"""Seconds a worker spends on the file (tests/-relative path): from its first test's start to its last one's end in a
+clean clone's run (bee98e7, two workers, load 1-6: `--walls` of its AMR_TEST_CPU record; test_fleet_traffic.py less
+the 10 s its deadlocked run no longer waits); files under 3 s are left out."""
 
 WITHOUT_KERNELS = (
     "foundation/test_colcon_build.py",
@@ -158,10 +166,26 @@ def timeline(lines, tail: int = 8) -> list[str]:
     return out
 
 
+def walls_per_file(lines) -> dict[str, float]:
+    """Each file's seconds on its worker in an AMR_TEST_CPU record (its first test's start to its last one's end),
+    tests/-relative, longest first."""
+    spans: dict[str, list[float]] = {}
+    for line in lines:
+        if match := RECORDED.match(line.strip()):
+            name = match.group(2).split("::")[0].removeprefix("tests/")
+            start, end = float(match.group(4)), float(match.group(5))
+            span = spans.setdefault(name, [start, end])
+            span[:] = [min(span[0], start), max(span[1], end)]
+    return dict(sorted(((name, end - start) for name, (start, end) in spans.items()), key=lambda entry: -entry[1]))
+
+
 if __name__ == "__main__":
-    if sys.argv[1] == "--timeline":
+    if sys.argv[1] in ("--timeline", "--walls"):
         with open(sys.argv[2], encoding="utf-8") as record:
-            print("\n".join(timeline(record)))
+            if sys.argv[1] == "--timeline":
+                print("\n".join(timeline(record)))
+            else:
+                print("\n".join(f'    "{name}": {s:.0f},' for name, s in walls_per_file(record).items() if s >= 3))
         sys.exit()
     with open(sys.argv[1], encoding="utf-8") as durations:
         for name, seconds in seconds_per_file(durations).items():
