@@ -919,20 +919,27 @@ class ParticleFilter:
         owner = self.hypotheses.find(self.particles) if len(self.hypotheses) else np.zeros(len(self.particles), int)
         chosen_owner = owner[keep]
         bandwidth = (4.0 / (len(keep) * 5.0)) ** (1.0 / 7.0)
+        places, factors = [], []
         for index in np.unique(chosen_owner[chosen_owner >= 0]):
             member = owner == index
             if np.count_nonzero(member) < 2:
                 continue
             covariance = weighted_pose(self.particles[member], self.weights[member]).covariance
             try:
-                factor = np.linalg.cholesky(covariance + 1e-12 * np.eye(3))
+                factors.append(np.linalg.cholesky(covariance + 1e-12 * np.eye(3)))
             except np.linalg.LinAlgError:
                 continue
-            rows = np.flatnonzero(chosen_owner == index)
-            moved = chosen[rows] + bandwidth * self._rng.standard_normal((len(rows), 3)) @ factor.T
-            inside = self.free_space.contains(moved[:, 0], moved[:, 1])
-            moved[:, 2] = wrap_angle(moved[:, 2])
-            chosen[rows[inside]] = moved[inside]
+            places.append(index)
+        if not places:
+            return chosen
+        # the kernel's draws, place by place (ascending), each place's rows in their order: one draw for them all
+        rows = np.flatnonzero(np.isin(chosen_owner, places))
+        rows = rows[np.argsort(chosen_owner[rows], kind="stable")]
+        factor = np.array(factors)[np.searchsorted(places, chosen_owner[rows])]
+        moved = chosen[rows] + bandwidth * np.einsum("nij,nj->ni", factor, self._rng.standard_normal((len(rows), 3)))
+        inside = self.free_space.contains(moved[:, 0], moved[:, 1])
+        moved[:, 2] = wrap_angle(moved[:, 2])
+        chosen[rows[inside]] = moved[inside]
         return chosen
 
     def _current_pose(self, odometry: tuple[float, float, float]) -> PoseEstimate:

@@ -135,7 +135,12 @@ def one_per_cell(points: np.ndarray, resolution: float) -> np.ndarray:
     """(M, 2) the first of the points in each square cell of `resolution` m, in their order (a voxel filter that
     keeps measured points rather than cell centres or means)."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
-    _, first = np.unique(np.floor(points / resolution).astype(np.int64), axis=0, return_index=True)
+    if not len(points):
+        return points
+    cells = np.floor(points / resolution).astype(np.int64)
+    cells -= cells.min(axis=0)
+    # one key per cell (row-major over the points' box): a 1-D unique, several times faster than rows'
+    _, first = np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1], return_index=True)
     return points[np.sort(first)]
 
 
