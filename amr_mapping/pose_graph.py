@@ -134,6 +134,11 @@ class PoseGraph:
         return self._ij[: self._edges].copy()
 
     @property
+    def measurements(self) -> np.ndarray:
+        """(M, 3) the edges' measured motions (dx, dy, dtheta of node j in node i's frame; a copy)."""
+        return self._z[: self._edges].copy()
+
+    @property
     def information(self) -> np.ndarray:
         """(M, 3, 3) the edges' information matrices (a copy)."""
         return self._info[: self._edges].copy()

@@ -205,8 +205,10 @@ class SlamConfig:
     loop_min_score: float = 0.3
     """a loop-closure match must score this mean likelihood (0-1) to be tested (free space, rivals, the graph's
     uncertainty) as a closure."""
-    loop_min_travel: float = 8.0
-    """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100)."""
+    loop_min_travel: float = 4.0
+    """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100).
+    4 m binds a tree-shaped maze's chain where it is driven back out of a dead end (8 m found no closure in a
+    perfect maze's first 637 nodes); 3 m let false closures through."""
     loop_max_candidates: int = 2
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
     loop_work_budget: float = 10.0
@@ -359,6 +361,10 @@ class GraphSlam:
         self._starved = False  # the last update searched no closure candidate (loop_work_budget)
         self._work = _Work()  # the update's work so far
         self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
+        self.searched_closures = 0  # closure candidates matched (a submap searched for the new node)
+        self.closure_outcomes: list[tuple[int, int, str, np.ndarray]] = []
+        """Every closure candidate searched: (anchor, node, outcome, the match in the anchor's frame); outcome one of
+        low score, edge, clear, ambiguous, gate, kept (a diagnostic: bench/bench_slam_replay.py)."""
         self.rejected_closures = 0  # closure matches that scored but disagreed with the poses (LOOP_CHI2)
         self.ambiguous_closures = 0  # closure matches with a rival in the window (AMBIGUITY_RATIO)
         self.inconsistent_closures = 0  # closure matches putting points in the submap's clear space
@@ -656,6 +662,7 @@ class GraphSlam:
                 break
             i = self._pending.pop(0)
             searched += 1
+            self.searched_closures += 1
             submap = self._submaps[i]
             self._reference_of(submap)
             anchor = poses[submap.anchor]
@@ -663,18 +670,22 @@ class GraphSlam:
             match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)
             self._work.add(CANDIDATE_WORK + match.nodes * len(points))
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
+                self.closure_outcomes.append((submap.anchor, node, "low score", match.pose))
                 continue
             if _on_edge(match.pose, prior, cfg):
                 self.ambiguous_closures += 1  # the best of the window is on its edge: no peak, the best may lie beyond
+                self.closure_outcomes.append((submap.anchor, node, "edge", match.pose))
                 continue
             matched, _ = _align(submap.reference, points, match.pose, cfg.resolution)
             if _clear_share(submap.reference.clear, points, matched) > LOOP_MAX_CLEAR_SHARE:
                 self.inconsistent_closures += 1
+                self.closure_outcomes.append((submap.anchor, node, "clear", matched))
                 continue
             information = _match_information(submap.matcher, points, matched, cfg.resolution)
             rival = _rival_score(submap.matcher, points, matched, prior, cfg, self._work)
             if rival >= AMBIGUITY_RATIO * match.score:
                 self.ambiguous_closures += 1
+                self.closure_outcomes.append((submap.anchor, node, "ambiguous", matched))
                 continue
             # the closure against the poses now: its covariance plus the graph's own uncertainty of the
             # anchor -> node relative pose (every edge, closures included: a closure found earlier shortens it)
@@ -686,7 +697,9 @@ class GraphSlam:
             chi2 = float(innovation @ np.linalg.solve(spread, innovation))
             if not chi2 <= LOOP_CHI2:
                 self.rejected_closures += 1
+                self.closure_outcomes.append((submap.anchor, node, "gate", matched))
                 continue
+            self.closure_outcomes.append((submap.anchor, node, "kept", matched))
             self._graph.add_edge(
                 submap.anchor, node, matched, _information(np.linalg.inv(information), matched[2]), loop=True
             )

@@ -214,8 +214,11 @@ def run_library(
     resolution: float | None = None,
     verbose: bool = False,
     slam_overrides: dict | None = None,
+    record: bool = False,
 ) -> dict:
-    """One exploration with the stack's objects in one loop, no ROS (module docstring); the figures of run()."""
+    """One exploration with the stack's objects in one loop, no ROS (module docstring); the figures of run().
+    record: every scan's stamp, odometry, ranges and true pose saved as <out>/<run>.inputs.npz (what
+    bench/bench_slam_replay.py feeds GraphSlam again, without the explorer's closed loop)."""
     from amr_control.path_follower import PathFollower
     from amr_control.path_follower_config import PathFollowerConfig
     from amr_control.wall_follower import WallFollower
@@ -265,6 +268,7 @@ def run_library(
     log = []
     failures = 0
     nodes = []  # (t, true x, y, theta, odometry x, y, theta, slam x, y, theta when added)
+    inputs = []  # record: (stamp ns, odometry x, y, theta, true x, y, theta), ranges
 
     def decide(now: float) -> None:
         nonlocal map_new, last_decision, state
@@ -281,6 +285,10 @@ def run_library(
         now = sim.time
         scan = scan_of(sim)
         update = slam.add(int(round(now * 1e9)), tuple(sim.odom_pose), scan)
+        if record:
+            inputs.append(
+                ((int(round(now * 1e9)), *sim.odom_pose, sim.pose.x, sim.pose.y, sim.pose.theta), scan.ranges)
+            )
         for event in update.events:
             log.append(f"{now:7.1f} slam: {event}")
         for closure in update.loop_closures:
@@ -374,6 +382,14 @@ def run_library(
         errors = np.hypot(poses[:, 0] - true_xy[:, 0], poses[:, 1] - true_xy[:, 1])
         result["node_error"] = (float(errors.mean()), float(errors.max()))
     (out / f"{name}.log").write_text("\n".join(log) + "\n", encoding="utf-8")
+    if record and inputs:
+        np.savez_compressed(
+            out / f"{name}.inputs.npz",
+            poses=np.array([row for row, _ in inputs], dtype=float),
+            ranges=np.array([ranges for _, ranges in inputs], dtype=float),
+            scan=np.array([scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max]),
+            lidar_noise=lidar_noise,
+        )
     if verbose:
         print("\n".join(log))
         np.savez(out / f"{name}.nodes.npz", nodes=np.array(nodes), poses=slam.graph()[0])
@@ -400,6 +416,7 @@ def main() -> None:
     parser.add_argument("--library", action="store_true", help="the objects in one loop, no ROS (faster)")
     parser.add_argument("--verbose", action="store_true", help="library: print each run's explorer and slam events")
     parser.add_argument("--slam", nargs="*", default=[], metavar="KEY=VALUE", help="slam parameters over slam.yaml's")
+    parser.add_argument("--record", action="store_true", help="library: save each run's inputs (bench_slam_replay.py)")
     args = parser.parse_args()
     slam_overrides = {}
     for item in args.slam:
@@ -431,7 +448,7 @@ def main() -> None:
                 noise = low + (high - low) * (k / max(1, len(args.seeds) - 1))
                 case = (family, seed, noise, args.encoder_noise, args.slip, args.budget, out, args.resolution)
                 if args.library:
-                    r = run_library(*case, args.verbose, slam_overrides)
+                    r = run_library(*case, args.verbose, slam_overrides, args.record)
                 else:
                     r = run(context, *case, slam_overrides)
                 if "error" in r:

@@ -15,7 +15,7 @@ Goals (the issue): relative error <= 5 cm and <= 1 deg, ATE <= 0.2 m, >= 10x fas
 above 200 ms.
 
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_logs.py [--data DIR] [--logs intel ...]
-[--seed 0] [--save DIR (maps and poses of each log)]
+[--seed 0] [--save DIR (maps and poses of each log)] [--slam KEY=VALUE ... (SlamConfig fields)]
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from amr_datasets.carmen import read_carmen
 from amr_datasets.odometry import synthesize_odometry
@@ -130,13 +131,20 @@ def main() -> None:
     parser.add_argument("--logs", nargs="*", default=None, help="log names (intel, aces, ...); default all")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--save", type=Path, default=None)
+    parser.add_argument(
+        "--slam", nargs="*", default=[], metavar="KEY=VALUE", help="SlamConfig fields over the defaults"
+    )
     args = parser.parse_args()
     paths = sorted(args.data.glob("*.log*"))
     if args.logs:
         paths = [p for p in paths if p.name.split("-")[0].split(".")[0] in args.logs]
     if not paths:
         sys.exit(f"no CARMEN logs in {args.data}")
-    config = SlamConfig()
+    overrides = {}
+    for item in args.slam:
+        key, _, value = item.partition("=")
+        overrides[key] = yaml.safe_load(value)
+    config = SlamConfig(**overrides)
     print(f"config: {config}")
     warm_up(paths[0], config)
     gc.collect()

@@ -1,0 +1,177 @@
+"""GraphSlam alone on a maze run's recorded inputs (issue 37: the mazes' drift): where its error comes from, measured
+against the truth, without the explorer's closed loop (the same scans and odometry for every variant).
+
+Record the inputs first: `bench/bench_mapping.py --library --record --out DIR` saves <run>.inputs.npz (every scan's
+stamp, odometry, ranges and true pose). Then, per run:
+
+- links: each sequential edge's measurement (the front end's) against the true motion: translation mm and heading deg
+  (rms, mean: a bias, and the worst);
+- heading: the nodes' heading error when added (online, before later closures move them): rms and the largest;
+- closures: candidates searched, in the final graph, refused (ambiguous or on the window's edge / seen-through space /
+  the chi-square gate), dropped after an optimization; then each outcome's count and how many of its matches were
+  right (within 5 cm and 1 deg of the true relative pose: a right closure refused, or a wrong one refused);
+- nodes: the final graph's nodes against the true poses (mean / max m, heading max deg);
+- the map of the final graph judged against the world as bench_mapping.py judges a saved map (known, precise, walls).
+
+Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_replay.py DIR [--runs perfect_0 loops_0 ...]
+[--slam KEY=VALUE ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+from bench_mapping import judge, shipped, stack_parameters  # the script's directory is on sys.path
+
+import amr_mapping.slam as slam_module
+from amr_mapping.errors import MappingError
+from amr_mapping.slam import GraphSlam
+from amr_mapping.slam_node import config_of
+from amr_mapping.trajectory_error import relative_motions
+from amr_maps.maze_families import generate
+from amr_maps.world import world_from_dict
+from amr_util.geometry import wrap_angle
+from amr_util.scan import ScanData
+
+RIGHT_M, RIGHT_RAD = 0.05, math.radians(1.0)
+"""A closure candidate's match this close to the true relative pose is right."""
+
+
+def replay(path: Path, overrides: dict) -> dict:
+    """One recorded run through GraphSlam (slam.yaml and maze_mapping's parameters, `overrides` over them)."""
+    data = np.load(path)
+    rows, ranges, scan = data["poses"], data["ranges"], data["scan"]
+    params = {**shipped("slam", "slam.yaml"), **stack_parameters("slam"), **overrides}
+    slam = GraphSlam(config_of(params))
+    truth, online = [], []
+    started = time.process_time()
+    for row, reading in zip(rows, ranges, strict=True):
+        try:
+            update = slam.add(int(row[0]), row[1:4], ScanData(reading, *scan))
+        except MappingError:
+            continue
+        if update.node_added:
+            truth.append(row[4:7])
+            online.append(update.pose)
+    slam.optimize()
+    seconds = time.process_time() - started
+    truth, online = np.array(truth), np.array(online)
+    poses, edges, loop = slam.graph()
+    sequential = np.flatnonzero(~loop)
+    i, j = edges[sequential, 0], edges[sequential, 1]
+    error = slam._graph.measurements[sequential] - relative_motions(truth, i, j)
+    link_heading = np.degrees(wrap_angle(error[:, 2]))
+    heading_online = np.degrees(wrap_angle(online[:, 2] - truth[:, 2]))
+    node = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
+    chi2 = slam._graph.chi2(truth)  # each edge's chi-square at the true poses: 3 on average if weighed right
+    loop_error = slam._graph.measurements[loop] - relative_motions(truth, edges[loop, 0], edges[loop, 1])
+    outcomes = {}
+    for anchor, node_index, outcome, matched in slam.closure_outcomes:
+        true = relative_motions(truth, np.array([anchor]), np.array([node_index]))[0]
+        right = math.hypot(*(matched[:2] - true[:2])) < RIGHT_M and abs(wrap_angle(matched[2] - true[2])) < RIGHT_RAD
+        count = outcomes.setdefault(outcome, [0, 0])
+        count[0] += 1
+        count[1] += int(right)
+    family, _, seed = path.name.split(".")[0].rpartition("_")
+    world = world_from_dict(generate(family, int(seed)), source=f"{family} seed {seed}")
+    map_figures = judge(slam.occupancy_grid(), world)
+    return {
+        "name": path.name.split(".")[0],
+        "nodes": len(poses),
+        "link_mm": 1000.0 * math.sqrt(float(np.mean(np.sum(error[:, :2] ** 2, axis=1)))),
+        "link_deg": (
+            float(np.sqrt(np.mean(link_heading**2))),
+            float(link_heading.mean()),
+            float(np.abs(link_heading).max()),
+        ),
+        "heading": (float(np.sqrt(np.mean(heading_online**2))), float(np.abs(heading_online).max())),
+        "closures": (
+            slam.searched_closures,
+            int(loop.sum()),
+            slam.ambiguous_closures,
+            slam.inconsistent_closures,
+            slam.rejected_closures,
+            slam.dropped_closures,
+        ),
+        "node": (
+            float(node.mean()),
+            float(node.max()),
+            float(np.abs(np.degrees(wrap_angle(poses[:, 2] - truth[:, 2]))).max()),
+        ),
+        "seconds": seconds,
+        "outcomes": outcomes,
+        "chi2": (float(np.mean(chi2[~loop])), float(np.median(chi2[~loop])), *_mean_median(chi2[loop])),
+        "loop_error": (
+            1000.0 * math.sqrt(float(np.mean(np.sum(loop_error[:, :2] ** 2, axis=1)))) if loop.any() else math.nan,
+            float(np.degrees(np.sqrt(np.mean(wrap_angle(loop_error[:, 2]) ** 2)))) if loop.any() else math.nan,
+        ),
+        **map_figures,
+    }
+
+
+def _mean_median(values: np.ndarray) -> tuple[float, float]:
+    return (float(np.mean(values)), float(np.median(values))) if len(values) else (math.nan, math.nan)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("directory", type=Path)
+    parser.add_argument("--runs", nargs="*", default=None, help="run names (perfect_0 ...); default every recording")
+    parser.add_argument("--slam", nargs="*", default=[], metavar="KEY=VALUE", help="slam parameters over slam.yaml's")
+    parser.add_argument(
+        "--constant",
+        nargs="*",
+        default=[],
+        metavar="NAME=VALUE",
+        help="amr_mapping.slam module constants (experiments)",
+    )
+    args = parser.parse_args()
+    overrides = {}
+    for item in args.slam:
+        key, _, value = item.partition("=")
+        overrides[key] = yaml.safe_load(value)
+    for item in args.constant:
+        name, _, value = item.partition("=")
+        if not hasattr(slam_module, name):
+            parser.error(f"--constant {item!r}: amr_mapping.slam has no {name}")
+        setattr(slam_module, name, yaml.safe_load(value))
+    paths = sorted(args.directory.glob("*.inputs.npz"))
+    if args.runs:
+        paths = [p for p in paths if p.name.split(".")[0] in args.runs]
+    print(
+        f"{'run':11s} {'nodes':>5s} {'link mm':>7s} {'link deg rms/mean/max':>22s} {'heading rms/max':>15s} "
+        f"{'closures srch/kept/amb/clear/chi2/drop':>38s} {'node m mean/max, deg':>21s} {'known':>5s} {'precise':>7s} "
+        f"{'walls':>5s} {'cpu s':>5s}"
+    )
+    for path in paths:
+        r = replay(path, overrides)
+        rms, mean, worst = r["link_deg"]
+        print(
+            f"{r['name']:11s} {r['nodes']:5d} {r['link_mm']:7.2f} {rms:8.3f}/{mean:+.3f}/{worst:5.2f} "
+            f"{r['heading'][0]:7.2f}/{r['heading'][1]:5.2f} {'/'.join(str(c) for c in r['closures']):>38s} "
+            f"{r['node'][0]:.3f}/{r['node'][1]:.3f}, {r['node'][2]:4.1f} {r['known']:5.3f} {r['precise']:7.3f} "
+            f"{r['walls']:5.3f} {r['seconds']:5.0f}",
+            flush=True,
+        )
+        print(
+            "            closure candidates (right: within 5 cm and 1 deg of the truth): "
+            + ", ".join(f"{k} {n} ({right} right)" for k, (n, right) in sorted(r["outcomes"].items())),
+            flush=True,
+        )
+        print(
+            "            chi-square at the true poses (3: weighed right), mean / median: scan matches "
+            f"{r['chi2'][0]:.1f} / {r['chi2'][1]:.1f}, closures {r['chi2'][2]:.1f} / {r['chi2'][3]:.1f}; closures' "
+            f"error rms {r['loop_error'][0]:.1f} mm, {r['loop_error'][1]:.2f} deg",
+            flush=True,
+        )
+    print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
+
+
+if __name__ == "__main__":
+    main()
