@@ -494,13 +494,15 @@ class ParticleFilter:
         """Step 4: the hypotheses observe the data, new ones are born from the clusters and the place search, the
         particles are made to agree with their probabilities, and the estimate and localized follow."""
         hypotheses = self.hypotheses
+        none = np.zeros((0, 3))
         if len(hypotheses) and seen is not None:
-            hypotheses.poses = self._fitted(hypotheses.poses, seen)
-        found, running = self._search_places(seen) if seen is not None else (np.zeros((0, 3)), np.zeros((0, 3)))
+            hypotheses.poses, held = self._fitted(hypotheses.poses, seen)
+        else:
+            held = np.zeros(len(hypotheses))
+        found, found_fit, running = self._search_places(seen) if seen is not None else (none, np.zeros(0), none)
         if len(hypotheses):
             hypotheses.observe(
-                self._log_likelihood(hypotheses.poses, seen, beacons, places=True),
-                self._elsewhere(seen, beacons, running),
+                held + self._log_likelihood(hypotheses.poses, None, beacons), self._elsewhere(seen, beacons, running)
             )
         clusters = cluster_particles(
             self.particles[:, :2], self.weights, CLUSTER_RADIUS, CLUSTER_MIN_SIZE, self.particles[:, 2]
@@ -511,19 +513,22 @@ class ParticleFilter:
         ]
         poses = np.array([[c.x, c.y, c.theta] for c in candidates]).reshape(-1, 3)
         settled = self._localized  # a place born while localized elsewhere is one the robot was carried to
+        fit = np.zeros(len(poses))
         if seen is not None:
-            poses = np.vstack([self._fitted(poses, seen), found])
-        self._admit(poses, seen, beacons, settled)
+            poses, fit = self._fitted(poses, seen)
+            poses, fit = np.vstack([poses, found]), np.concatenate([fit, found_fit])
+        self._admit(poses, fit + self._log_likelihood(poses, None, beacons), seen, beacons, settled)
         hypotheses.merge()
         self._agree()
         self._decide(seen)
 
-    def _admit(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, settled: bool) -> None:
-        """Each candidate pose re-anchors the hypothesis it is where the data fit it better there (the best such
-        candidate wins), or is born."""
+    def _admit(
+        self, poses: np.ndarray, fit: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, settled: bool
+    ) -> None:
+        """Each candidate pose (`fit`: the data's log-likelihood there by the places' model) re-anchors the hypothesis
+        it is where the data fit it better there (the best such candidate wins), or is born."""
         hypotheses = self.hypotheses
         index = hypotheses.find(poses)
-        fit = self._log_likelihood(poses, seen, beacons, places=True)
         held = self._log_likelihood(hypotheses.poses, seen, beacons, places=True) if len(hypotheses) else fit[:0]
         born = []
         for pose, which, score in zip(poses, index, fit, strict=True):
@@ -758,10 +763,10 @@ class ParticleFilter:
         ranges = beams.ranges[beams.returned]
         return np.column_stack([sensor[0] + ranges * np.cos(angles), sensor[1] + ranges * np.sin(angles)])
 
-    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0) -> np.ndarray:
+    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Each pose moved to where the scan fits best within FIT_WINDOW and FIT_ANGLE (the matcher, below the cell):
         a place is scored at its best pose, so that two places the scans cannot tell apart score alike however their
-        particles happen to spread."""
+        particles happen to spread. Returns the poses and the scan's log-likelihood at each by the places' model."""
         points = self._points(seen.beams)
         poses = np.array(poses, dtype=float).reshape(-1, 3)
         fitted = poses.copy()
@@ -772,10 +777,9 @@ class ParticleFilter:
             if np.isfinite(match.pose).all():
                 fitted[row] = match.pose[0], match.pose[1], float(wrap_angle(match.pose[2]))
         # the matcher's table is flat a wall thick: its fit is kept where the places' model scores it no lower
-        better = self._log_likelihood(fitted, seen, None, places=True) >= self._log_likelihood(
-            poses, seen, None, places=True
-        )
-        return np.where(better[:, None], fitted, poses)
+        score = self._log_likelihood(np.concatenate([fitted, poses]), seen, None, places=True)
+        after, before = score[: len(poses)], score[len(poses) :]
+        return np.where((after >= before)[:, None], fitted, poses), np.maximum(after, before)
 
     def _refined(self, estimate: PoseEstimate, seen: _Seen) -> PoseEstimate:
         """The estimate fitted to the scan: the matcher's best pose within the estimate's spread (at most the
@@ -790,16 +794,16 @@ class ParticleFilter:
         covariance = np.where(np.isfinite(match.covariance), match.covariance, estimate.covariance)
         return PoseEstimate(float(match.pose[0]), float(match.pose[1]), float(wrap_angle(match.pose[2])), covariance)
 
-    def _search_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray]:
+    def _search_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Proposals of the place search: a branch and bound over the whole map for the scan, place_search_budget
         nodes per update, resumed over updates (a scan's search finishes on later updates; its poses are moved by
-        the odometry since). Returns the proposals of a search completed now, and the best poses so far of one
-        still running that no place followed is at (for `elsewhere`), each moved to now and fitted. Nothing when
-        the budget is 0."""
+        the odometry since). Returns the proposals of a search completed now and the scan's log-likelihood at each,
+        and the best poses so far of one still running that no place followed is at (for `elsewhere`), each moved to
+        now and fitted. Nothing when the budget is 0."""
         none = np.zeros((0, 3))
         budget = self.config.place_search_budget
         if budget <= 0:
-            return none, none
+            return none, np.zeros(0), none
         if self._search is None:
             matcher, region = self._place_search_map()
             points = self._window_points(seen, matcher.resolution)
@@ -827,11 +831,11 @@ class ParticleFilter:
             self._covered = True
         # moved by the scan-matched odometry since its scan, refitted within 3 sigma of it (to REFIT_WINDOW) or its cell
         window = max(min(3.0 * math.sqrt(running.position_variance), REFIT_WINDOW), self._place_search_resolution)
-        fitted = self._fitted(poses, seen, window) if len(poses) else poses
+        fitted, score = self._fitted(poses, seen, window)
         if not done:
-            return none, fitted
-        score = self._log_likelihood(fitted, seen, None, places=True)
-        return fitted[np.argsort(-score, kind="stable")[:SEARCH_PROPOSALS]], none
+            return none, np.zeros(0), fitted
+        best = np.argsort(-score, kind="stable")[:SEARCH_PROPOSALS]
+        return fitted[best], score[best], none
 
     def _window_points(self, seen: _Seen, resolution: float) -> np.ndarray:
         """(K, 2) the end points of the scan and of the window's scans before it, in the robot's frame now (the past

@@ -120,7 +120,11 @@ def test_an_empty_set_of_places_scores_as_an_empty_set():
     pf.update((0.1, 0.0, 0.0), scan)
     seen = pf._window[-1]
     assert pf._log_likelihood(np.zeros((0, 3)), seen, None, places=True).shape == (0,)
-    assert pf._fitted(np.zeros((0, 3)), seen).shape == (0, 3)
+    poses, scores = pf._fitted(np.zeros((0, 3)), seen)
+    assert poses.shape == (0, 3) and scores.shape == (0,)
+    # and a few poses are scored where they end up, as the places' model scores them
+    poses, scores = pf._fitted(np.array([[3.0, 3.0, 0.0], [1.0, 4.5, 2.0], [5.0, 1.0, -1.0]]), seen)
+    np.testing.assert_allclose(scores, pf._log_likelihood(poses, seen, None, places=True), rtol=1e-12)
 
 
 def test_a_peak_the_place_search_has_met_where_no_place_is_followed_counts_for_elsewhere():
