@@ -54,9 +54,9 @@ from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import FixedPoses, LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
 from amr_localization.particle_filter_config import ParticleFilterConfig
-from amr_localization.pose_estimate import PoseEstimate, weighted_pose
+from amr_localization.pose_estimate import PoseEstimate, grouped_covariances, weighted_pose
 from amr_localization.progressive_correction import MAX_STAGES, stage_exponent
-from amr_localization.resampling import effective_sample_size, systematic_resample
+from amr_localization.resampling import effective_sample_size, jitter, systematic_resample
 from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
@@ -924,26 +924,34 @@ class ParticleFilter:
         chosen_owner = owner[keep]
         bandwidth = (4.0 / (len(keep) * 5.0)) ** (1.0 / 7.0)
         places, factors = [], []
-        for index in np.unique(chosen_owner[chosen_owner >= 0]):
-            member = owner == index
-            if np.count_nonzero(member) < 2:
-                continue
-            covariance = weighted_pose(self.particles[member], self.weights[member]).covariance
-            try:
-                factors.append(np.linalg.cholesky(covariance + 1e-12 * np.eye(3)))
-            except np.linalg.LinAlgError:
-                continue
-            places.append(index)
+        chosen_places = np.unique(chosen_owner[chosen_owner >= 0])
+        if len(chosen_places):
+            covariances, counts = grouped_covariances(self.particles, self.weights, owner, int(chosen_places[-1]) + 1)
+            for index in chosen_places:
+                if counts[index] < 2:
+                    continue
+                try:
+                    factors.append(np.linalg.cholesky(covariances[index] + 1e-12 * np.eye(3)))
+                except np.linalg.LinAlgError:
+                    continue
+                places.append(index)
         if not places:
             return chosen
         # the kernel's draws, place by place (ascending), each place's rows in their order: one draw for them all
-        rows = np.flatnonzero(np.isin(chosen_owner, places))
-        rows = rows[np.argsort(chosen_owner[rows], kind="stable")]
-        factor = np.array(factors)[np.searchsorted(places, chosen_owner[rows])]
-        moved = chosen[rows] + bandwidth * np.einsum("nij,nj->ni", factor, self._rng.standard_normal((len(rows), 3)))
-        inside = self.free_space.contains(moved[:, 0], moved[:, 1])
-        moved[:, 2] = wrap_angle(moved[:, 2])
-        chosen[rows[inside]] = moved[inside]
+        places = np.array(places, dtype=np.int64)
+        draws = self._rng.standard_normal((int(np.isin(chosen_owner, places).sum()), 3))
+        grid = self.free_space.grid
+        jitter(
+            chosen,
+            chosen_owner,
+            places,
+            np.array(factors),
+            draws,
+            bandwidth,
+            self.free_space.mask,
+            *grid.origin[:2],
+            grid.resolution,
+        )
         return chosen
 
     def _current_pose(self, odometry: tuple[float, float, float]) -> PoseEstimate:

@@ -69,3 +69,63 @@ def _moments(particles, w, mean, covariance):
     for a in range(3):
         for b in range(a):
             covariance[a, b] = covariance[b, a]
+
+
+def grouped_covariances(
+    particles: np.ndarray, weights: np.ndarray, owner: np.ndarray, groups: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """weighted_pose's covariance of the particles of each group 0..groups-1 (owner[i]: particle i's group, -1 for
+    none), in two passes over the particles for all groups at once; and (groups,) the particles in each."""
+    covariances, counts = np.zeros((groups, 3, 3)), np.zeros(groups, dtype=np.int64)
+    _grouped(np.asarray(particles, dtype=float), np.asarray(weights, dtype=float), owner, covariances, counts)
+    return covariances, counts
+
+
+@numba.njit(cache=True)
+def _grouped(particles, weights, owner, covariances, counts):
+    groups = counts.shape[0]
+    sums = np.zeros((groups, 5))  # weight, w x, w y, w sin, w cos
+    for i in range(particles.shape[0]):
+        g = owner[i]
+        if g < 0 or g >= groups:
+            continue
+        counts[g] += 1
+        w = weights[i]
+        sums[g, 0] += w
+    # weighted_pose's normalization: equal weights where a group's sum is not positive and finite
+    scale = np.zeros(groups)
+    equal = np.zeros(groups, dtype=np.bool_)
+    for g in range(groups):
+        total = sums[g, 0]
+        if total > 0.0 and math.isfinite(total):
+            scale[g] = 1.0 / total
+        elif counts[g] > 0:
+            equal[g] = True
+            scale[g] = 1.0 / counts[g]
+    for i in range(particles.shape[0]):
+        g = owner[i]
+        if g < 0 or g >= groups:
+            continue
+        w = scale[g] if equal[g] else weights[i] * scale[g]
+        sums[g, 1] += w * particles[i, 0]
+        sums[g, 2] += w * particles[i, 1]
+        sums[g, 3] += w * math.sin(particles[i, 2])
+        sums[g, 4] += w * math.cos(particles[i, 2])
+    theta = np.empty(groups)
+    for g in range(groups):
+        theta[g] = math.atan2(sums[g, 3], sums[g, 4])
+    d = np.empty(3)
+    for i in range(particles.shape[0]):
+        g = owner[i]
+        if g < 0 or g >= groups:
+            continue
+        w = scale[g] if equal[g] else weights[i] * scale[g]
+        d[0], d[1] = particles[i, 0] - sums[g, 1], particles[i, 1] - sums[g, 2]
+        d[2] = (particles[i, 2] - theta[g] + math.pi) % (2.0 * math.pi) - math.pi
+        for a in range(3):
+            for b in range(a, 3):
+                covariances[g, a, b] += w * d[a] * d[b]
+    for g in range(groups):
+        for a in range(3):
+            for b in range(a):
+                covariances[g, a, b] = covariances[g, b, a]

@@ -11,6 +11,9 @@ almost exactly: in a symmetric world the modes are not lost by chance.
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 
@@ -25,3 +28,26 @@ def systematic_resample(weights: np.ndarray, count: int, rng: np.random.Generato
     cumulative = np.cumsum(weights)
     cumulative[-1] = 1.0  # rounding must not leave the last pointer past the end
     return np.searchsorted(cumulative, pointers, side="right").clip(max=len(weights) - 1)
+
+
+@numba.njit(cache=True)
+def jitter(poses, owner, places, factors, draws, bandwidth, free, origin_x, origin_y, resolution):
+    """The regularized filter's kernel move, in place: the poses whose owner is places[g] (place by place, each
+    place's poses in their order, taking the rows of `draws` in turn) moved by bandwidth * factors[g] @ draw, where the
+    move ends in a True cell of `free` (rows y, columns x, cells of `resolution` from the origin); heading wrapped."""
+    d = 0
+    for g in range(places.shape[0]):
+        f = factors[g]
+        for i in range(poses.shape[0]):
+            if owner[i] != places[g]:
+                continue
+            z0, z1, z2 = draws[d, 0], draws[d, 1], draws[d, 2]
+            d += 1
+            x = poses[i, 0] + bandwidth * (f[0, 0] * z0 + f[0, 1] * z1 + f[0, 2] * z2)
+            y = poses[i, 1] + bandwidth * (f[1, 0] * z0 + f[1, 1] * z1 + f[1, 2] * z2)
+            theta = poses[i, 2] + bandwidth * (f[2, 0] * z0 + f[2, 1] * z1 + f[2, 2] * z2)
+            col = math.floor((x - origin_x) / resolution)
+            row = math.floor((y - origin_y) / resolution)
+            if 0 <= row < free.shape[0] and 0 <= col < free.shape[1] and free[row, col]:
+                poses[i, 0], poses[i, 1] = x, y
+                poses[i, 2] = (theta + math.pi) % (2.0 * math.pi) - math.pi

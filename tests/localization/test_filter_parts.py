@@ -15,9 +15,9 @@ from amr_localization.hypotheses import MERGE_ANGLE, MERGE_DISTANCE, PlaceHypoth
 from amr_localization.kld_sampling import kld_sample_count
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
-from amr_localization.pose_estimate import weighted_pose
+from amr_localization.pose_estimate import grouped_covariances, weighted_pose
 from amr_localization.progressive_correction import BISECTION_STEPS, stage_exponent
-from amr_localization.resampling import effective_sample_size, systematic_resample
+from amr_localization.resampling import effective_sample_size, jitter, systematic_resample
 from amr_localization.scan_beams import select_beams
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OCCUPIED, OccupancyGrid
@@ -225,3 +225,43 @@ def test_a_pose_is_found_at_the_nearest_place_within_the_merge_window_across_the
     found = places.find(poses)
     assert {0, 1, -1} <= set(found.tolist()), "both places across the wrap, and none"
     np.testing.assert_array_equal(found, expected)
+
+
+def test_the_kernel_moves_each_place_s_poses_by_its_factor_in_free_space_only():
+    """jitter takes the draws place by place, each place's poses in their order: the same moves as drawing for each
+    place in turn and applying its factor; a move out of the free cells leaves the pose where it was."""
+    rng = np.random.default_rng(7)
+    poses = np.column_stack([rng.uniform(0.0, 4.0, 300), rng.uniform(0.0, 3.0, 300), rng.uniform(-3.1, 3.1, 300)])
+    owner = rng.integers(-1, 3, 300)
+    free = rng.random((30, 40)) < 0.8  # cells of 0.1 m from (0, 0): rows y, columns x
+    places = np.array([0, 2])
+    factors = np.array([np.linalg.cholesky(m @ m.T + 0.01 * np.eye(3)) for m in rng.normal(0.0, 0.3, (2, 3, 3))])
+    draws = rng.standard_normal((int(np.isin(owner, places).sum()), 3))
+    expected, used = poses.copy(), 0
+    for factor, place in zip(factors, places, strict=True):
+        rows = np.flatnonzero(owner == place)
+        moved = poses[rows] + 0.4 * draws[used : used + len(rows)] @ factor.T
+        used += len(rows)
+        col, row = np.floor(moved[:, 0] / 0.1).astype(int), np.floor(moved[:, 1] / 0.1).astype(int)
+        inside = (row >= 0) & (row < 30) & (col >= 0) & (col < 40)
+        inside[inside] = free[row[inside], col[inside]]
+        moved[:, 2] = np.mod(moved[:, 2] + math.pi, 2.0 * math.pi) - math.pi
+        expected[rows[inside]] = moved[inside]
+    got = poses.copy()
+    jitter(got, owner, places, factors, draws, 0.4, free, 0.0, 0.0, 0.1)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    moved = (got != poses).any(axis=1)
+    assert moved[owner == 0].any() and not moved[owner == 1].any() and (~moved[owner == 2]).any()
+
+
+def test_each_group_s_covariance_is_its_particles_weighted_pose_covariance():
+    rng = np.random.default_rng(8)
+    particles = np.column_stack([rng.normal(0, 1, 2000), rng.normal(0, 1, 2000), rng.uniform(-3.2, 3.2, 2000)])
+    weights, owner = rng.random(2000), rng.integers(-1, 4, 2000)
+    weights[owner == 2] = 0.0  # a group of dead particles: equal weights, as weighted_pose takes them
+    covariances, counts = grouped_covariances(particles, weights, owner, 4)
+    for group in range(4):
+        member = owner == group
+        assert counts[group] == member.sum()
+        expected = weighted_pose(particles[member], weights[member]).covariance
+        np.testing.assert_allclose(covariances[group], expected, atol=1e-12)
