@@ -205,10 +205,8 @@ class SlamConfig:
     loop_min_score: float = 0.3
     """a loop-closure match must score this mean likelihood (0-1) to be tested (free space, rivals, the graph's
     uncertainty) as a closure."""
-    loop_min_travel: float = 4.0
-    """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100).
-    4 m binds a tree-shaped maze's chain where it is driven back out of a dead end (8 m found no closure in a
-    perfect maze's first 637 nodes); 3 m let false closures through."""
+    loop_min_travel: float = 8.0
+    """m of path between a candidate submap's last node and the new node (the local submap is no loop) (1-100)."""
     loop_max_candidates: int = 2
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
     loop_work_budget: float = 10.0

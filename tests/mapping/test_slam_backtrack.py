@@ -1,6 +1,7 @@
 """GraphSlam in a dead end (a tree-shaped maze's branch): driving back out, the robot sees again what it saw on the
-way in, a few metres of path earlier; loop_min_travel (4 m) lets the closure search bind the chain there, where 8 m
-found nothing in a perfect maze until its 637th node. Each candidate searched is counted with its outcome."""
+way in, a few metres of path earlier; loop_min_travel 4 m lets the closure search bind the chain there, where the
+default 8 m searches nothing (a perfect maze's first closure came at its 637th node). Each candidate searched is
+counted with its outcome (slam.closure_outcomes: bench/bench_slam_replay.py judges them against the truth)."""
 
 from __future__ import annotations
 
@@ -61,8 +62,7 @@ def _run(dead_end, config: SlamConfig) -> tuple[GraphSlam, int]:
 
 
 def test_backing_out_of_a_dead_end_closes_loops_with_the_way_in(dead_end):
-    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE))
-    assert SlamConfig().loop_min_travel == 4.0
+    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE, loop_min_travel=4.0))
     assert closures > 0
     outcomes = [outcome for *_, outcome, _ in slam.closure_outcomes]
     assert len(outcomes) == slam.searched_closures and outcomes.count("kept") == closures
@@ -78,6 +78,7 @@ def test_backing_out_of_a_dead_end_closes_loops_with_the_way_in(dead_end):
         assert abs(math.remainder(measured[2] - true[2], math.tau)) < math.radians(1.0)
 
 
-def test_eight_metres_of_path_found_no_closure_there(dead_end):
-    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE, loop_min_travel=8.0))
+def test_the_default_eight_metres_of_path_search_nothing_there(dead_end):
+    assert SlamConfig().loop_min_travel == 8.0
+    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE))
     assert closures == 0 and slam.searched_closures == 0
