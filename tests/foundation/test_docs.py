@@ -130,6 +130,7 @@ def test_the_node_list_names_the_nodes_of_the_stacks_it_was_taken_from():
         ('ros2 service call /solve_ik amr_interfaces/srv/SolveIK "{chain: ur5, targett: {}}"', "no field 'targett'"),
         ("python bench/bench_ik.py --no-such-flag", "no option --no-such-flag"),
         ("make deploy", "no such target"),
+        ("make test TEST_WORKER=3", "the Makefile reads no TEST_WORKER"),
         ("ros2 launch amr_bringup maze_sim.launch.py wrld:=x.yaml", "unknown argument 'wrld'"),
     ],
 )

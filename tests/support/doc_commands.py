@@ -310,8 +310,12 @@ def check(command: Command) -> None:
     if tuple(words[:2]) in ACCEPTED or (head,) in ACCEPTED:
         return
     if head == "make":
-        targets = set(re.findall(r"^([\w-]+):", (ROOT / "Makefile").read_text(encoding="utf-8"), re.M))
-        assert set(words[1:]) <= targets, f"make {' '.join(words[1:])}: no such target"
+        makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+        targets = set(re.findall(r"^([\w-]+):", makefile, re.M))
+        variables = {word.partition("=")[0] for word in words[1:] if "=" in word}  # make test TEST_WORKERS=2
+        assert {word for word in words[1:] if "=" not in word} <= targets, f"make {' '.join(words[1:])}: no such target"
+        unused = [name for name in sorted(variables) if f"$({name})" not in makefile]
+        assert not unused, f"make {' '.join(words[1:])}: the Makefile reads no {', '.join(unused)}"
     elif head == "amr-bringup":
         check_bringup(words[1:])
     elif head in ("python", "python3", ".venv/bin/python"):
