@@ -11,13 +11,11 @@ turn on the spot (a symmetric room's quarter turns) are two clusters, not one wi
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 
 @dataclass(frozen=True)
@@ -84,27 +82,52 @@ def _touching(dense: np.ndarray, shape: tuple[int, ...], wrap: bool) -> np.ndarr
     cloud spread over a 100 m map is tens of millions of cells)."""
     if not len(dense):
         return np.zeros(0, dtype=np.int64)
-    index = np.array(np.unravel_index(dense, shape)).T
-    rows, cols = [], []
-    for offset in itertools.product((-1, 0, 1), repeat=len(shape)):
-        if not any(offset):
-            continue
-        neighbour = index + offset
-        if wrap:
-            neighbour[:, 2] %= shape[2]
-        elif len(shape) > 2:
-            inside = (neighbour[:, 2] >= 0) & (neighbour[:, 2] < shape[2])
-            neighbour = np.where(inside[:, None], neighbour, index)
-        keys = np.ravel_multi_index(tuple(neighbour.T), shape)
-        at = np.minimum(np.searchsorted(dense, keys), len(dense) - 1)
-        found = dense[at] == keys
-        rows.append(np.flatnonzero(found))
-        cols.append(at[found])
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(dense), len(dense)))
-    _, component = connected_components(graph, directed=False)
-    first = np.full(component.max() + 1, len(dense))
-    np.minimum.at(first, component, np.arange(len(dense)))
-    number = np.empty(len(first), dtype=np.int64)
-    number[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return number[component]
+    dims = np.array(tuple(shape) + (1,) * (3 - len(shape)), dtype=np.int64)
+    component = np.empty(len(dense), dtype=np.int64)
+    _components(np.asarray(dense, dtype=np.int64), dims, len(shape) > 2, wrap, component)
+    return component
+
+
+@numba.njit(cache=True)
+def _root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@numba.njit(cache=True)
+def _components(dense, dims, headings, wrap, out):
+    """Union-find over the dense cells: each cell joined to its neighbours found among them (binary search)."""
+    cols, bins = dims[1], dims[2]
+    parent = np.arange(dense.shape[0])
+    reach = 1 if headings else 0
+    for i in range(dense.shape[0]):
+        key = dense[i]
+        h = key % bins
+        c = (key // bins) % cols
+        r = key // (bins * cols)
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                for dh in range(-reach, reach + 1):
+                    if dr == 0 and dc == 0 and dh == 0:
+                        continue
+                    nh = h + dh
+                    if nh < 0 or nh >= bins:
+                        if not wrap:
+                            continue
+                        nh %= bins
+                    neighbour = ((r + dr) * cols + (c + dc)) * bins + nh
+                    j = np.searchsorted(dense, neighbour)
+                    if j < dense.shape[0] and dense[j] == neighbour:
+                        a, b = _root(parent, i), _root(parent, j)
+                        if a != b:
+                            parent[max(a, b)] = min(a, b)
+    number = np.full(dense.shape[0], -1, dtype=np.int64)
+    count = 0
+    for i in range(dense.shape[0]):  # in the order of each component's first cell
+        root = _root(parent, i)
+        if number[root] < 0:
+            number[root] = count
+            count += 1
+        out[i] = number[root]

@@ -265,3 +265,22 @@ def test_each_group_s_covariance_is_its_particles_weighted_pose_covariance():
         assert counts[group] == member.sum()
         expected = weighted_pose(particles[member], weights[member]).covariance
         np.testing.assert_allclose(covariances[group], expected, atol=1e-12)
+
+
+def test_clusters_are_the_8_connected_components_of_the_dense_cells():
+    """Against scipy's labelling of the whole box (2-D): the same partition of the particles into clusters."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        xy = rng.uniform(0.0, 3.0, (1500, 2))
+        clusters = cluster_particles(xy, np.ones(1500), 0.1, 3)
+        cells = np.floor(xy / 0.1).astype(int)
+        counts = np.zeros((31, 31), dtype=int)
+        np.add.at(counts, (cells[:, 0], cells[:, 1]), 1)
+        labels, _ = ndimage.label(counts >= 3, structure=np.ones((3, 3)))
+        expected = labels[cells[:, 0], cells[:, 1]] - 1
+        assert (clusters.labels >= 0).sum() > 500 and clusters.count > 1
+        pairs = set(zip(clusters.labels.tolist(), expected.tolist(), strict=True))
+        assert len(pairs) == len({a for a, _ in pairs}) == len({b for _, b in pairs}), "one cluster, one component"
+        assert ((clusters.labels < 0) == (expected < 0)).all()
