@@ -75,19 +75,24 @@ class PlaceHypotheses:
 
     def clear(self) -> None:
         self.poses, self.evidence = np.zeros((0, 3)), np.zeros(0)
+        self.variance = np.zeros(0)
+        """(H,) m^2: the motion's position variance each place has been moved by since particles last held it (a
+        place without particles is carried by odometry and the window's links alone: it is fitted within 3 sigma)."""
         self.elsewhere = 0.0
 
-    def move(self, increment) -> None:
-        """Every hypothesis moved by the odometry increment (x, y, theta in the robot's frame)."""
+    def move(self, increment, variance: float = 0.0) -> None:
+        """Every hypothesis moved by the odometry increment (x, y, theta in the robot's frame), its position variance
+        grown by the motion's (m^2)."""
         if len(self):
             self.poses = np.atleast_2d(compose(self.poses, increment))
+            self.variance = self.variance + variance
 
     def keep(self, alive: np.ndarray) -> None:
         """Only the hypotheses where `alive` (a place in a wall is impossible): the belief in the others goes to
         `elsewhere` (the robot is somewhere, but not at a place followed), not to the places left."""
         if (~alive).any():
             self.elsewhere = float(np.logaddexp(self.elsewhere, np.logaddexp.reduce(self.evidence[~alive])))
-        self.poses, self.evidence = self.poses[alive], self.evidence[alive]
+        self.poses, self.evidence, self.variance = self.poses[alive], self.evidence[alive], self.variance[alive]
         self._rank()
 
     def find(self, poses: np.ndarray) -> np.ndarray:
@@ -110,7 +115,7 @@ class PlaceHypotheses:
                 np.abs(wrap_angle(self.poses[later, 2] - self.poses[i, 2])) <= MERGE_ANGLE
             )
             keep[later[near]] = False
-        self.poses, self.evidence = self.poses[keep], self.evidence[keep]
+        self.poses, self.evidence, self.variance = self.poses[keep], self.evidence[keep], self.variance[keep]
 
     def same_place(self, pose: np.ndarray, index: int = 0) -> bool:
         """Whether `pose` is hypothesis `index`'s place (within MERGE_DISTANCE and MERGE_ANGLE)."""
@@ -135,6 +140,7 @@ class PlaceHypotheses:
         base = float(self.evidence.max()) if len(self) else 0.0
         self.poses = np.vstack([self.poses, poses])
         self.evidence = np.concatenate([self.evidence, base + np.asarray(window_gain, float)])
+        self.variance = np.concatenate([self.variance, np.zeros(len(poses))])
         self._rank()
 
     def observe(self, log_likelihood: np.ndarray, elsewhere: float) -> None:
@@ -156,7 +162,7 @@ class PlaceHypotheses:
         """Heaviest first, the evidence (elsewhere's too, above as below) within MAX_LOG_ODDS of the best place's, at
         most MAX_HYPOTHESES."""
         order = np.argsort(-self.evidence, kind="stable")[:MAX_HYPOTHESES]
-        self.poses, self.evidence = self.poses[order], self.evidence[order]
+        self.poses, self.evidence, self.variance = self.poses[order], self.evidence[order], self.variance[order]
         if len(self):
             best = self.evidence[0]
             self.evidence = np.maximum(self.evidence - best, -MAX_LOG_ODDS)

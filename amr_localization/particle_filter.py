@@ -406,7 +406,7 @@ class ParticleFilter:
         self.particles = moved
         self.status.killed = int(np.count_nonzero(~alive & (self.weights > 0.0)))
         self.weights = np.where(alive, self.weights, 0.0)
-        self.hypotheses.move(increment)
+        self.hypotheses.move(increment, motion_variance(d_trans, d_theta, self.noise)[0])
         if self._search is not None:
             self._search.moved(d_trans, d_theta, self.noise)
         if self._declared is not None:
@@ -496,7 +496,9 @@ class ParticleFilter:
         hypotheses = self.hypotheses
         none = np.zeros((0, 3))
         if len(hypotheses) and seen is not None:
-            hypotheses.poses, held = self._fitted(hypotheses.poses, seen)
+            # a place without particles, carried by odometry and the window's links alone: within 3 sigma of them
+            window = np.minimum(3.0 * np.sqrt(hypotheses.variance), MERGE_DISTANCE)
+            hypotheses.poses, held = self._fitted(hypotheses.poses, seen, window)
         else:
             held = np.zeros(len(hypotheses))
         found, found_fit, running = self._search_places(seen) if seen is not None else (none, np.zeros(0), none)
@@ -565,6 +567,8 @@ class ParticleFilter:
             member = owner == index
             target = probability * (1.0 - outside)
             mass = float(self.weights[member].sum())
+            if target * len(self.particles) >= 1.0:  # a particle's share or more: particles follow the place
+                hypotheses.variance[index] = 0.0
             if mass > 0.0:
                 self.weights[member] *= target / mass
             elif target * len(self.particles) >= 1.0:
@@ -763,17 +767,18 @@ class ParticleFilter:
         ranges = beams.ranges[beams.returned]
         return np.column_stack([sensor[0] + ranges * np.cos(angles), sensor[1] + ranges * np.sin(angles)])
 
-    def _fitted(self, poses: np.ndarray, seen: _Seen, window: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    def _fitted(
+        self, poses: np.ndarray, seen: _Seen, window: float | np.ndarray = 0.0
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Each pose moved to where the scan fits best within FIT_WINDOW and FIT_ANGLE (the matcher, below the cell):
         a place is scored at its best pose, so that two places the scans cannot tell apart score alike however their
         particles happen to spread. Returns the poses and the scan's log-likelihood at each by the places' model."""
         points = self._points(seen.beams)
         poses = np.array(poses, dtype=float).reshape(-1, 3)
         fitted = poses.copy()
+        windows = np.broadcast_to(np.maximum(window, FIT_WINDOW), (len(poses),))
         for row, pose in enumerate(poses):
-            match = self.matcher.match(
-                points, pose, max(FIT_WINDOW, window), FIT_ANGLE, refine=True, covariance_cells=0
-            )
+            match = self.matcher.match(points, pose, float(windows[row]), FIT_ANGLE, refine=True, covariance_cells=0)
             if np.isfinite(match.pose).all():
                 fitted[row] = match.pose[0], match.pose[1], float(wrap_angle(match.pose[2]))
         # the matcher's table is flat a wall thick: its fit is kept where the places' model scores it no lower

@@ -148,3 +148,36 @@ def test_a_peak_the_place_search_has_met_where_no_place_is_followed_counts_for_e
     assert met == pytest.approx(np.logaddexp(background, at_truth + pf._log_peak_share))
     pf.hypotheses.add(truth, np.zeros(1))
     assert pf._elsewhere(seen, None, truth) == background
+
+
+def test_a_place_is_fitted_within_its_window_and_its_variance_follows_it_through_every_change():
+    """A place without particles is fitted within 3 sigma of the motion it has been carried by (the window per pose):
+    a pose 25 cm off comes back within 6 cm in a 30 cm window, not in the fixed one; the
+    places' variances move with them when they are ranked, kept or merged."""
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    sim = Simulator(world, SimulationConfig(seed=1))
+    pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(seed=1))
+    pf.initialize_pose(sim.pose.x, sim.pose.y, sim.pose.theta, np.diag([0.01**2, 0.01**2, 0.01**2]))
+    for _ in range(5):
+        pf.update(odometry_of(sim), scan_of(sim))
+        sim.step(0.1, 0.3)
+    pf.update(odometry_of(sim), scan_of(sim))
+    truth = np.array([sim.pose.x, sim.pose.y, sim.pose.theta])
+    off = truth + [0.22, -0.12, 0.0]
+    seen = pf._window[-1]
+    fixed, _ = pf._fitted(np.array([off]), seen)
+    wide, _ = pf._fitted(np.array([off]), seen, np.array([0.3]))
+    assert math.hypot(*(fixed[0, :2] - truth[:2])) > 0.1
+    assert math.hypot(*(wide[0, :2] - truth[:2])) < 0.06
+    places = pf.hypotheses
+    places.clear()
+    places.add(np.array([[1.0, 1.0, 0.0], [2.0, 1.0, 0.0], [1.05, 1.0, 0.0]]), np.array([0.0, -1.0, -2.0]))
+    places.move((0.1, 0.0, 0.0), 0.01)
+    places.variance[:] = [0.01, 0.02, 0.03]
+    places.observe(np.array([0.0, 5.0, 0.0]), -50.0)  # the second becomes the best: ranked first with its variance
+    np.testing.assert_allclose(places.poses[:, 0], [2.1, 1.1, 1.15])
+    np.testing.assert_allclose(places.variance, [0.02, 0.01, 0.03])
+    places.merge()  # the third is the first's place (5 cm apart): merged into the stronger
+    np.testing.assert_allclose(places.variance, [0.02, 0.01])
+    places.keep(np.array([False, True]))
+    np.testing.assert_allclose(places.variance, [0.01])
