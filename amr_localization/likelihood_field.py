@@ -311,8 +311,8 @@ def _best_free_path_terms(
                     value[n] = table[int(row) * cols + int(col)]
                 done[n] = False
             best = -np.inf
+            free = ranges[k] - margin
             if memo:  # exits known or kept once traced: each nudge in turn, read where it could score more
-                free = ranges[k] - margin
                 for n in range(nudges):
                     term = value[n]
                     if term <= best:
@@ -339,10 +339,7 @@ def _best_free_path_terms(
                 if top <= see_through:  # at the floor, blocked or not scores the same: no trace
                     best = top
                     break
-                if (
-                    _exit(cells, rows, cols, col0[h, pick], row0[h, pick], c, s, ranges[k] - margin)
-                    < ranges[k] - margin
-                ):
+                if _exit(cells, rows, cols, col0[h, pick], row0[h, pick], c, s, free) < free:
                     best = max(best, see_through)
                 else:
                     best = top

@@ -567,11 +567,12 @@ class ParticleFilter:
             member = owner == index
             target = probability * (1.0 - outside)
             mass = float(self.weights[member].sum())
-            if target * len(self.particles) >= 1.0:  # a particle's share or more: particles follow the place
+            followed = target * len(self.particles) >= 1.0  # a particle's share or more: particles follow the place
+            if followed:
                 hypotheses.variance[index] = 0.0
             if mass > 0.0:
                 self.weights[member] *= target / mass
-            elif target * len(self.particles) >= 1.0:
+            elif followed:
                 count = max(MIN_CLOUD, int(round(target * len(self.particles))))
                 cloud = hypotheses.poses[index] + self._rng.standard_normal((count, 3)) * CLOUD_SPREAD
                 cloud[:, 2] = wrap_angle(cloud[:, 2])

@@ -40,49 +40,27 @@ def weighted_pose(particles: np.ndarray, weights: np.ndarray) -> PoseEstimate:
     those the motion update moved into a wall are): the estimate is always finite for finite particles."""
     if len(particles) == 0:
         raise ValueError("weighted_pose: no particles")
-    total = float(np.sum(weights))
-    w = weights / total if total > 0.0 and math.isfinite(total) else np.full(len(particles), 1.0 / len(particles))
-    mean, covariance = np.empty(3), np.zeros((3, 3))
-    _moments(np.asarray(particles, dtype=float), np.asarray(w, dtype=float), mean, covariance)
-    return PoseEstimate(float(mean[0]), float(mean[1]), float(wrap_angle(float(mean[2]))), covariance)
-
-
-@numba.njit(cache=True)
-def _moments(particles, w, mean, covariance):
-    """The module's formulas in two passes over the particles, no temporaries (it runs several times an update, on
-    thousands of particles)."""
-    x = y = s = c = 0.0
-    for i in range(particles.shape[0]):
-        x += w[i] * particles[i, 0]
-        y += w[i] * particles[i, 1]
-        s += w[i] * math.sin(particles[i, 2])
-        c += w[i] * math.cos(particles[i, 2])
-    theta = math.atan2(s, c)
-    mean[0], mean[1], mean[2] = x, y, theta
-    d = np.empty(3)
-    for i in range(particles.shape[0]):
-        d[0], d[1] = particles[i, 0] - x, particles[i, 1] - y
-        d[2] = (particles[i, 2] - theta + math.pi) % (2.0 * math.pi) - math.pi
-        for a in range(3):
-            for b in range(a, 3):
-                covariance[a, b] += w[i] * d[a] * d[b]
-    for a in range(3):
-        for b in range(a):
-            covariance[a, b] = covariance[b, a]
+    particles = np.asarray(particles, dtype=float).reshape(-1, 3)
+    means, covariances = np.empty((1, 3)), np.zeros((1, 3, 3))
+    one = np.zeros(len(particles), dtype=np.int64)  # every particle in group 0
+    _grouped(particles, np.asarray(weights, dtype=float), one, means, covariances, np.zeros(1, dtype=np.int64))
+    return PoseEstimate(float(means[0, 0]), float(means[0, 1]), float(wrap_angle(float(means[0, 2]))), covariances[0])
 
 
 def grouped_covariances(
     particles: np.ndarray, weights: np.ndarray, owner: np.ndarray, groups: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """weighted_pose's covariance of the particles of each group 0..groups-1 (owner[i]: particle i's group, -1 for
-    none), in two passes over the particles for all groups at once; and (groups,) the particles in each."""
-    covariances, counts = np.zeros((groups, 3, 3)), np.zeros(groups, dtype=np.int64)
-    _grouped(np.asarray(particles, dtype=float), np.asarray(weights, dtype=float), owner, covariances, counts)
+    none), all groups at once; and (groups,) the particles in each."""
+    means, covariances, counts = np.empty((groups, 3)), np.zeros((groups, 3, 3)), np.zeros(groups, dtype=np.int64)
+    _grouped(np.asarray(particles, dtype=float), np.asarray(weights, dtype=float), owner, means, covariances, counts)
     return covariances, counts
 
 
 @numba.njit(cache=True)
-def _grouped(particles, weights, owner, covariances, counts):
+def _grouped(particles, weights, owner, means, covariances, counts):
+    """The module's formulas for each group at once, in three passes over the particles without temporaries (they
+    run several times an update, on thousands of particles): counts and weights, means, covariances."""
     groups = counts.shape[0]
     sums = np.zeros((groups, 5))  # weight, w x, w y, w sin, w cos
     for i in range(particles.shape[0]):
@@ -114,6 +92,7 @@ def _grouped(particles, weights, owner, covariances, counts):
     theta = np.empty(groups)
     for g in range(groups):
         theta[g] = math.atan2(sums[g, 3], sums[g, 4])
+        means[g, 0], means[g, 1], means[g, 2] = sums[g, 1], sums[g, 2], theta[g]
     d = np.empty(3)
     for i in range(particles.shape[0]):
         g = owner[i]
