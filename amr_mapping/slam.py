@@ -52,6 +52,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -162,6 +163,8 @@ REFERENCE_WORK_PER_POINT = 3_400.0
 (likelihood field, lines, tree: about 16 us each against 4.7 ns a lookup, measured once on aces; about a third of
 that since the field is stamped around the points, kept so that the closures' schedule, and so a run, stays as it
 was) ..."""
+CLOSURE_OUTCOMES_KEPT = 10_000
+"""closure candidates whose outcome GraphSlam keeps for diagnosis (the latest; a long run's memory stays bounded)."""
 CLEAR_WORK_PER_RAY = 1_100.0
 """... that a loop-closure submap's clear space costs per ray (about 5 us) ..."""
 CANDIDATE_WORK = 500_000.0
@@ -360,9 +363,10 @@ class GraphSlam:
         self._work = _Work()  # the update's work so far
         self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
         self.searched_closures = 0  # closure candidates matched (a submap searched for the new node)
-        self.closure_outcomes: list[tuple[int, int, str, np.ndarray]] = []
-        """Every closure candidate searched: (anchor, node, outcome, the match in the anchor's frame); outcome one of
-        low score, edge, clear, ambiguous, gate, kept (a diagnostic: bench/bench_slam_replay.py)."""
+        self.closure_outcomes: deque[tuple[int, int, str, np.ndarray]] = deque(maxlen=CLOSURE_OUTCOMES_KEPT)
+        """The last CLOSURE_OUTCOMES_KEPT closure candidates searched: (anchor, node, outcome, the match in the anchor's
+        frame); outcome one of low score, edge, clear, ambiguous, gate, kept (a diagnostic:
+        bench/bench_slam_replay.py)."""
         self.rejected_closures = 0  # closure matches that scored but disagreed with the poses (LOOP_CHI2)
         self.ambiguous_closures = 0  # closure matches with a rival in the window (AMBIGUITY_RATIO)
         self.inconsistent_closures = 0  # closure matches putting points in the submap's clear space
