@@ -86,6 +86,20 @@ def spin_for(executor, seconds: float) -> None:
     spin_until(executor, lambda: False, seconds)
 
 
+def published_topics(node, name: str, namespace: str, expected=(), timeout: float = 10.0) -> dict[str, str]:
+    """The topics node `namespace/name` publishes, by the ROS graph as `node` sees it: {topic: first type}.
+
+    The graph is eventually consistent: a node's own new publishers reach its graph cache through discovery, so
+    under load the first look can miss them. This waits (without spinning: the graph updates on DDS threads)
+    until every `expected` topic is listed or the timeout passes, and returns what is listed then."""
+    deadline = time.monotonic() + timeout
+    while True:
+        listed = {topic: types[0] for topic, types in node.get_publisher_names_and_types_by_node(name, namespace)}
+        if set(expected) <= set(listed) or time.monotonic() >= deadline:
+            return listed
+        time.sleep(0.05)
+
+
 class NodeProcess:
     """A node executable run as `ros2 run` would: lib/<package>/<executable> under the venv prefix."""
 
