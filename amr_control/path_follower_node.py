@@ -46,6 +46,7 @@ from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer
+from amr_util.throttle import ThrottledLogger
 
 POSE, SCAN, STATUS = 0, 1, 2
 WARNING_PERIOD = 2.0
@@ -90,6 +91,8 @@ class PathFollowerNode(ManagedNode):
         self._status_publisher = None
         self._timer = None
         self._latest_pair = None
+        self._throttled = ThrottledLogger(lambda: self.get_logger(), WARNING_PERIOD)
+        """warnings and errors a node may repeat every step, decided before rclpy's logger resolves its caller."""
         self._latest_pair_time: Time | None = None
         self._gate = NavigatorGate(self.get_name())
         self._speed_limit: tuple[int, float | None] | None = None  # (stamp ns, m/s or None)
@@ -282,7 +285,7 @@ class PathFollowerNode(ManagedNode):
                 p.position.x, p.position.y, yaw_from_quaternion(p.orientation), scan_data(scan), speed_limit=limit
             )
         except Exception as error:  # a controller bug must not take the robot's node down
-            self.get_logger().error(f"path follower failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
+            self._throttled.error(f"path follower failed, stopping: {error!r}")
             command = None
         if command is None:
             self._publish(0.0, 0.0)
@@ -330,7 +333,7 @@ class PathFollowerNode(ManagedNode):
         self._status_publisher.publish(status)
 
     def _warn(self, text: str) -> None:
-        self.get_logger().warning(text, throttle_duration_sec=WARNING_PERIOD)
+        self._throttled.warning(text)
 
 
 def main(args=None) -> None:

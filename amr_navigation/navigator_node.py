@@ -69,6 +69,8 @@ from amr_navigation.navigator_core import (
 from amr_navigation.traffic import Traffic
 from amr_navigation.traffic_board import TrafficPost
 from amr_navigation.traffic_messages import (
+    POST_SPACING,
+    POST_TOLERANCE,
     TRAFFIC_TOPIC,
     PostError,
     post_from_message,
@@ -84,6 +86,7 @@ from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import path_points, quaternion, scan_data, velocity_command
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import stamp_nanoseconds
+from amr_util.throttle import ThrottledLogger
 
 CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
@@ -197,6 +200,8 @@ class NavigatorNode(ManagedNode):
         """coordination plan: the latest odometry poses by stamp (ns), to pair with /pose."""
         self._last_post: tuple[TrafficPost, int] | None = None
         """the post last published on /traffic and when (ns, node clock)."""
+        self._throttled = ThrottledLogger(lambda: self.get_logger(), 2.0)
+        """warnings a node may repeat every step, decided before rclpy's logger resolves its caller."""
 
     @property
     def navigator(self) -> Navigator | None:
@@ -353,7 +358,7 @@ class NavigatorNode(ManagedNode):
         p = message.pose.pose
         pose = (p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
         if not all_finite(pose):
-            self.get_logger().warning("a non-finite /pose was ignored", throttle_duration_sec=2.0)
+            self._throttled.warning("a non-finite /pose was ignored")
             return
         confidence = float(message.confidence) if math.isfinite(message.confidence) else None
         received = Received(message.header.stamp, pose, bool(message.localized), confidence)
@@ -401,15 +406,13 @@ class NavigatorNode(ManagedNode):
 
     def _on_post(self, message: TrafficPostMessage) -> None:
         """Another robot's post onto the board; a malformed one is dropped and logged, never raised."""
-        if self.board is None:
+        if self.board is None or message.name == self.traffic.name:  # its own: not decoded
             return
         try:
-            post = post_from_message(message)
+            post = post_from_message(message, spacing=POST_SPACING)  # posted thinned (_posted)
         except (PostError, ValueError, TypeError) as error:
             self.posts_dropped += 1
-            self.get_logger().warning(f"a traffic post was dropped: {error}", throttle_duration_sec=2.0)
-            return
-        if post.name == self.traffic.name:
+            self._throttled.warning(f"a traffic post was dropped: {error}")
             return
         self.board.receive(post, stamp_nanoseconds(message.header.stamp) * 1e-9)
 
@@ -611,10 +614,11 @@ class NavigatorNode(ManagedNode):
         if last is not None and same_post(last[0], post) and 0 <= now.nanoseconds - last[1] < POST_KEEP_ALIVE:
             return
         try:
-            self._outputs["traffic"].publish(post_message(post, now.to_msg(), self._values["global_frame"]))
+            message = post_message(post, now.to_msg(), self._values["global_frame"], tolerance=POST_TOLERANCE)
+            self._outputs["traffic"].publish(message)
             self._last_post = (post, now.nanoseconds)
         except PostError as error:  # never a NaN on /traffic
-            self.get_logger().error(f"own traffic post not sent: {error}", throttle_duration_sec=2.0)
+            self._throttled.error(f"own traffic post not sent: {error}")
 
     def _controller_name(self, controller: Controller) -> str:
         return {

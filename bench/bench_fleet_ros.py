@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/bench_fleet_ros.py --robots 5 10 20            # real-time factor and CPU per robot-step
     .venv/bin/python bench/bench_fleet_ros.py --robots 5 --profile        # and where the CPU goes, thread by thread
+    .venv/bin/python bench/bench_fleet_ros.py --robots 5 --cprofile       # by function, each thread's own CPU time
 
 Each run: a generated world (`--family`, default `pillars` rooms, `--size` m a side, default 4 m up to 6 robots
 and larger for more: SIZE_PER_ROBOT) with N robots each sent to the next one's start (bench_fleet_navigation's
@@ -23,6 +24,10 @@ rclpy's may wait several times, rebuilding its wait set: `_wait_for_ready_callba
 nodes on rclpy's SingleThreadedExecutor instead of amr_util.lean_executor (an A/B). Run it under
 ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own (the child inherits both). One run at a
 time: the machine has 2 cores.
+
+--cprofile profiles every spinning thread with cProfile on its own CPU clock (time.thread_time: a thread waiting for
+the GIL or a wake-up costs nothing) over the measured window, merged: the functions by own CPU and, of ours,
+inclusive. Deterministic but slow (it about doubles the CPU): its run's real-time figures are not the stack's.
 """
 
 from __future__ import annotations
@@ -206,25 +211,75 @@ def _count_callbacks() -> None:
     Node.create_subscription, Node.create_timer = subscription, timer
 
 
+def profile_functions(out: Path, start: float, duration: float) -> None:
+    """Once `out`.go exists (at most `start` s), for `duration` s: each spinning thread profiled by cProfile on its
+    own CPU clock, enabled and disabled by the thread itself at its next spin_once; the merged figures to `out`."""
+    import cProfile
+    import pstats
+
+    from rclpy.executors import SingleThreadedExecutor
+
+    from amr_util.lean_executor import LeanExecutor
+
+    profilers: dict[int, cProfile.Profile] = {}
+    state = {"on": False, "over": False}
+
+    def profiled(spin_once):
+        def run(self, *args, **kwargs):
+            ident = threading.get_ident()
+            if state["on"] and ident not in profilers:
+                profilers[ident] = cProfile.Profile(time.thread_time)
+                profilers[ident].enable()
+            elif state["over"] and ident in profilers:
+                profilers[ident].disable()
+            return spin_once(self, *args, **kwargs)
+
+        return run
+
+    for executor in (LeanExecutor, SingleThreadedExecutor):
+        executor._spin_once_impl = profiled(executor._spin_once_impl)
+    go, began = out.with_suffix(".go"), time.monotonic()
+    while not go.exists() and time.monotonic() - began < start:
+        time.sleep(0.1)
+    state["on"] = True
+    time.sleep(duration)
+    state["on"], state["over"] = False, True
+    time.sleep(3.0)  # every thread spins again and stops its profiler
+    merged = None
+    for profiler in list(profilers.values()):
+        profiler.disable()
+        merged = pstats.Stats(profiler) if merged is None else merged.add(profiler)
+    rows = []
+    for (filename, line, name), (_, calls, own, inclusive, _) in (merged.stats if merged else {}).items():
+        rows.append((f"{_short(filename)}:{name}" if line else name, calls, own, inclusive))
+    partial = out.with_suffix(".part")
+    partial.write_text(json.dumps({"duration": duration, "threads": len(profilers), "functions": rows}))
+    partial.replace(out)
+
+
 def child(argv: list[str]) -> int:
-    """`--child OUT START DURATION HZ EXECUTOR -- <amr-bringup args>`: amr-bringup here, sampled (OUT '-' = not
-    sampled), its nodes spun by EXECUTOR (`lean`: amr_util.lean_executor, as shipped; `stock`: rclpy's
-    SingleThreadedExecutor, for an A/B)."""
-    out, start, duration, hz, executor = argv[:5]
+    """`--child OUT START DURATION HZ EXECUTOR PROFILER -- <amr-bringup args>`: amr-bringup here, profiled (OUT '-'
+    = not profiled; PROFILER `sample` or `cprofile`), its nodes spun by EXECUTOR (`lean`: amr_util.lean_executor,
+    as shipped; `stock`: rclpy's SingleThreadedExecutor, for an A/B)."""
+    out, start, duration, hz, executor, profiler = argv[:6]
     if executor == "stock":
         from rclpy.executors import SingleThreadedExecutor
 
         import amr_util.executors
 
         amr_util.executors.LeanExecutor = SingleThreadedExecutor
-    if out != "-":
+    if out != "-" and profiler == "cprofile":
+        threading.Thread(
+            target=profile_functions, args=(Path(out), float(start), float(duration)), daemon=True, name="profiler"
+        ).start()
+    elif out != "-":
         _count_callbacks()
         threading.Thread(
             target=sample, args=(Path(out), float(start), float(duration), float(hz)), daemon=True, name="sampler"
         ).start()
     from amr_bringup.bringup import main
 
-    return main(argv[6:])
+    return main(argv[7:])
 
 
 # -- the parent --------------------------------------------------------------------------------------------------
@@ -275,9 +330,11 @@ def run(robots: int, args) -> dict:
             f"lattice_spacing:={lattice_spacing(data, args.family)}",
             "--composed",
         ]
-        sampled = [str(profile), str(args.startup), str(args.measure), str(args.hz)] if args.profile else ["-"] * 4
+        profiled = args.profile or args.cprofile
+        sampled = [str(profile), str(args.startup), str(args.measure), str(args.hz)] if profiled else ["-"] * 4
+        profiler = "cprofile" if args.cprofile else "sample"
         process = subprocess.Popen(
-            [sys.executable, __file__, "--child", *sampled, args.executor, "--", *bringup],
+            [sys.executable, __file__, "--child", *sampled, args.executor, profiler, "--", *bringup],
             env=child_environment(),
             stdout=log,
             stderr=subprocess.STDOUT,
@@ -305,7 +362,7 @@ def run(robots: int, args) -> dict:
                 cpu_per_robot_step_ms=1e3 * (cpu1 - cpu0) / max(1.0, steps * robots),
                 sim_at_start=sim0,
             )
-            if args.profile:
+            if profiled:
                 deadline = time.monotonic() + 30.0
                 while not profile.exists() and time.monotonic() < deadline:
                     executor.spin_once(timeout_sec=0.2)
@@ -345,8 +402,25 @@ def _kind(thread: str) -> str:
     return name.split("/")[-1] if name != thread else thread
 
 
+def report_functions(profile: dict, top: int) -> None:
+    """--cprofile's figures: the functions by own CPU, and ours by inclusive CPU (shares of the threads' total)."""
+    rows = profile["functions"]
+    total = sum(row[2] for row in rows) or 1.0
+    print(f"  cProfile: {total:.1f} s of CPU in {profile['threads']} threads over {profile['duration']:.0f} s")
+    print("  top functions, own CPU (calls):")
+    for function, calls, own, _ in sorted(rows, key=lambda row: -row[2])[:top]:
+        print(f"    {100 * own / total:5.1f} %  {function} ({calls})")
+    print("  top functions of ours, inclusive:")
+    ours = [row for row in rows if row[0].startswith("amr_")]
+    for function, calls, _, inclusive in sorted(ours, key=lambda row: -row[3])[:top]:
+        print(f"    {100 * inclusive / total:5.1f} %  {function} ({calls})")
+
+
 def report(result: dict, top: int) -> None:
     profile = result.get("profile")
+    if profile and "functions" in profile:
+        report_functions(profile, top)
+        return
     if "profile" in result and not profile:
         print(f"  no profile was written; the stack's log ends:\n{result['log_tail']}")
     if not profile:
@@ -409,6 +483,7 @@ def main(argv=None) -> int:
     parser.add_argument("--warmup", type=float, default=5.0, help="s of wall clock after --from-sim")
     parser.add_argument("--measure", type=float, default=40.0, help="s of wall clock measured")
     parser.add_argument("--profile", action="store_true", help="sample the child's threads while measuring")
+    parser.add_argument("--cprofile", action="store_true", help="profile every thread by function (cProfile)")
     parser.add_argument("--hz", type=float, default=50.0, help="samples per second with --profile")
     parser.add_argument("--top", type=int, default=15)
     parser.add_argument(
