@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable
-from contextlib import ExitStack
 
 from rclpy.exceptions import InvalidHandle
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -65,6 +64,9 @@ class _Entities:
             [t.handle for t in timers],
             [g.handle for g in guards],
         )
+        self.held = [handle for handles in self.handles for handle in handles] + self.waitables
+        """what a wait holds (entered: not destroyed while rcl waits on it), the context's handle last."""
+        self.held.append(executor.context.handle)
         count = NumberOfEntities(len(subscriptions), len(guards), len(timers), len(clients), len(services))
         for waitable in self.waitables:
             count += waitable.get_num_entities()
@@ -127,18 +129,17 @@ class LeanExecutor(SingleThreadedExecutor):
         if entities is None:
             entities = self._entities = _Entities(self)
         wait_set = entities.wait_set
-        with ExitStack() as held:  # no handle is destroyed while rcl waits on it
+        held = entities.held
+        entered = 0  # no handle is destroyed while rcl waits on it (an ExitStack's per-handle cost, without it)
+        try:
             try:
-                for handles in entities.handles:
-                    for handle in handles:
-                        held.enter_context(handle)
-                for waitable in entities.waitables:
-                    held.enter_context(waitable)
+                for handle in held:
+                    handle.__enter__()
+                    entered += 1
             except InvalidHandle:  # destroyed since the gathering (its wake() is on its way): gather again
                 self._entities = None
                 self._check_context()
                 return
-            held.enter_context(self._context.handle)
             subscriptions, clients, services, timers, guards = entities.handles
             wait_set.clear_entities()
             for handle in subscriptions:
@@ -165,6 +166,9 @@ class LeanExecutor(SingleThreadedExecutor):
             ready_clients = set(wait_set.get_ready_entities("client"))
             ready_services = set(wait_set.get_ready_entities("service"))
             ready_waitables = [(w, w.take_data()) for w in entities.waitables if w.is_ready(wait_set)]
+        finally:
+            for index in range(entered - 1, -1, -1):
+                held[index].__exit__(None, None, None)
         for waitable, data in ready_waitables:
             self._run(self._execute_waitable, waitable, data)
         for timers, subscriptions, guards, clients, services in entities.per_node:

@@ -213,7 +213,9 @@ def _count_callbacks() -> None:
 
 def profile_functions(out: Path, start: float, duration: float) -> None:
     """Once `out`.go exists (at most `start` s), for `duration` s: each spinning thread profiled by cProfile on its
-    own CPU clock, enabled and disabled by the thread itself at its next spin_once; the merged figures to `out`."""
+    own CPU clock, enabled and disabled by the thread itself at its next spin_once; the merged figures to `out` (a
+    thread of its own waits and writes them; the executors are patched here, in the caller's thread: two threads
+    importing rclpy at once deadlock on its modules)."""
     import cProfile
     import pstats
 
@@ -238,23 +240,27 @@ def profile_functions(out: Path, start: float, duration: float) -> None:
 
     for executor in (LeanExecutor, SingleThreadedExecutor):
         executor._spin_once_impl = profiled(executor._spin_once_impl)
-    go, began = out.with_suffix(".go"), time.monotonic()
-    while not go.exists() and time.monotonic() - began < start:
-        time.sleep(0.1)
-    state["on"] = True
-    time.sleep(duration)
-    state["on"], state["over"] = False, True
-    time.sleep(3.0)  # every thread spins again and stops its profiler
-    merged = None
-    for profiler in list(profilers.values()):
-        profiler.disable()
-        merged = pstats.Stats(profiler) if merged is None else merged.add(profiler)
-    rows = []
-    for (filename, line, name), (_, calls, own, inclusive, _) in (merged.stats if merged else {}).items():
-        rows.append((f"{_short(filename)}:{name}" if line else name, calls, own, inclusive))
-    partial = out.with_suffix(".part")
-    partial.write_text(json.dumps({"duration": duration, "threads": len(profilers), "functions": rows}))
-    partial.replace(out)
+
+    def collect() -> None:
+        go, began = out.with_suffix(".go"), time.monotonic()
+        while not go.exists() and time.monotonic() - began < start:
+            time.sleep(0.1)
+        state["on"] = True
+        time.sleep(duration)
+        state["on"], state["over"] = False, True
+        time.sleep(3.0)  # every thread spins again and stops its profiler
+        merged = None
+        for profiler in list(profilers.values()):
+            profiler.disable()
+            merged = pstats.Stats(profiler) if merged is None else merged.add(profiler)
+        rows = []
+        for (filename, line, name), (_, calls, own, inclusive, _) in (merged.stats if merged else {}).items():
+            rows.append((f"{_short(filename)}:{name}" if line else name, calls, own, inclusive))
+        partial = out.with_suffix(".part")
+        partial.write_text(json.dumps({"duration": duration, "threads": len(profilers), "functions": rows}))
+        partial.replace(out)
+
+    threading.Thread(target=collect, daemon=True, name="profiler").start()
 
 
 def child(argv: list[str]) -> int:
@@ -269,9 +275,7 @@ def child(argv: list[str]) -> int:
 
         amr_util.executors.LeanExecutor = SingleThreadedExecutor
     if out != "-" and profiler == "cprofile":
-        threading.Thread(
-            target=profile_functions, args=(Path(out), float(start), float(duration)), daemon=True, name="profiler"
-        ).start()
+        profile_functions(Path(out), float(start), float(duration))
     elif out != "-":
         _count_callbacks()
         threading.Thread(
