@@ -9,13 +9,17 @@ make the filter overconfident (it locks onto the first place that fits); counted
 every stream, one scan per metre (a keyframe log) is nearly ignored. Both weights below come from
 one correlation model: errors are shared within a length and independent beyond it.
 
-Beams (sensor frame): beams whose end points fall in the same beam_correlation_length square share
-one beam's weight,
+Beams (sensor frame): the errors of two beams are correlated by the distance d between their end points,
+rho(d) = exp(-d / beam_correlation_length), and each beam's weight is its share of the independent ones,
 
-    w_k = 1 / |{j : cell(e_j) = cell(e_k)}|,    sum_k w_k = number of distinct cells
+    w_k = 1 / sum_j rho(|e_j - e_k|),    sum_k w_k = the scan's count of independent beams
 
-so a scan counts as many independent beams as it has distinct stretches of wall in view, whatever
-its angular resolution or max_beams.
+(the design effect of a correlated sample: n beams on one spot count once, n beams far apart n times), so a
+scan counts as many independent beams as it has stretches of wall in view, whatever its angular resolution or
+max_beams. On real robots' logs (bench/bench_beam_correlation.py: the places' per-beam log-likelihood at the
+corrected poses) the correlation is 0.8-1.0 within 0.25 m, 0.4-0.9 at 0.25-0.5 m, 0.2-0.8 at 0.5-1 m and fits
+the exponential with a length of 0.5-0.6 m in two buildings, 1.4-1.9 m in two others: a person, a cupboard, a
+door left open or a wall the map got wrong spoils every beam that ends on it, not one.
 
 Scans: a scan taken after the robot moved d and turned a since the last scan used counts
 
@@ -38,18 +42,25 @@ TURN_PER_METRE = 1.5
 
 
 def beam_weights(beams: Beams, length: float) -> np.ndarray:
-    """(K,) each selected beam's weight: 1 / the count of returned beams whose end points share its cell of side
-    `length` (sensor frame); 0 for beams without a return; 1 for every returned beam when length is 0."""
+    """(K,) each selected beam's weight: 1 / the sum of its correlations exp(-d / length) with the returned beams
+    (itself included; d between end points, sensor frame); 0 for beams without a return; 1 for every returned
+    beam when length is 0."""
     returned = beams.returned
     weights = returned.astype(float)
     if length <= 0.0 or not returned.any():
         return weights
     ends = np.column_stack([beams.ranges * np.cos(beams.angles), beams.ranges * np.sin(beams.angles)])[returned]
-    _, cell, counts = np.unique(
-        np.floor(ends / length).astype(np.int64), axis=0, return_inverse=True, return_counts=True
-    )
-    weights[returned] = 1.0 / counts[cell.ravel()]
+    weights[returned] = 1.0 / correlation_sums(ends, length)
     return weights
+
+
+def correlation_sums(points: np.ndarray, length: float) -> np.ndarray:
+    """(K,) for each of the (K, 2) points, the sum of exp(-d / length) over every point (itself included, 1)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if length <= 0.0:
+        return np.ones(len(points))
+    distance = np.hypot(points[:, None, 0] - points[None, :, 0], points[:, None, 1] - points[None, :, 1])
+    return np.exp(-distance / length).sum(axis=1)
 
 
 def scan_weight(moved: float, turned: float, distance: float) -> float:

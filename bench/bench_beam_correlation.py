@@ -1,0 +1,107 @@
+"""How far apart two beams' errors are shared: the correlation of the measurement model's per-beam log-likelihood at
+the true pose, by the distance between the beams' end points, on real robots' logs.
+
+    .venv/bin/python bench/bench_beam_correlation.py [--data DIR] [--logs aces orebro] [--max-beams 60]
+
+For each CARMEN log in DIR (default: ../shared/data/carmen beside the repository), on the map of its own scans at
+their corrected poses (as bench_log_localization.py), each scan's beams (the filter's max_beams selection) are scored
+at the scan's corrected pose by the places' model (the likelihood field with the free path, each beam at its best
+within a cell and half a degree: ParticleFilter._log_likelihood with places=True). The (Pearson) correlation of two
+beams' terms is taken over every pair of beams of the same scan, binned by the distance between their end points (sensor
+frame). Then the exponential model of amr_localization.beam_correlation, rho(d) = exp(-d / l), is fitted to the
+bins (least squares, weighted by pairs), which is what beam_correlation_length stands for.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+from bench_log_localization import DATA, served, shipped_filter_parameters
+
+from amr_datasets.carmen import read_carmen
+from amr_datasets.odometry import OdometryNoiseModel
+from amr_evaluation.log_localization import filter_for, log_map
+from amr_localization.beam_correlation import beam_weights
+from amr_localization.particle_filter import FREE_PATH_MARGIN, NUDGES
+from amr_localization.scan_beams import select_beams
+
+EDGES = np.array([0.0, 0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, math.inf])
+"""m: the bins of end-point distance."""
+LENGTHS = np.linspace(0.05, 3.0, 591)
+"""m: the correlation lengths tried by the fit."""
+
+
+def correlation_by_distance(log, max_beams: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(correlation per bin, pairs per bin, each scan's count of independent beams by the shipped weights)."""
+    parameters = shipped_filter_parameters()
+    pf = filter_for(log, served(log_map(log)), parameters, 0, OdometryNoiseModel())
+    poses = log.poses()
+    scans = []
+    for index, item in enumerate(log.scans):
+        beams = select_beams(item.scan, max_beams)
+        terms = pf._laser.best_free_path(poses[index : index + 1], NUDGES * pf._nudge_step, beams, FREE_PATH_MARGIN)
+        returned = beams.returned
+        ends = np.column_stack([beams.ranges * np.cos(beams.angles), beams.ranges * np.sin(beams.angles)])
+        scans.append((terms[0][returned], ends[returned], beam_weights(beams, parameters["beam_correlation_length"])))
+    every = np.concatenate([terms for terms, _, _ in scans])
+    mean = every.mean()
+    products, first, second, pairs = (np.zeros(len(EDGES) - 1) for _ in range(4))
+    for terms, ends, _ in scans:
+        upper = np.triu_indices(len(terms), 1)
+        distance = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1))[upper]
+        centred = terms - mean
+        bins = np.digitize(distance, EDGES) - 1
+        np.add.at(products, bins, centred[upper[0]] * centred[upper[1]])
+        np.add.at(first, bins, centred[upper[0]] ** 2)
+        np.add.at(second, bins, centred[upper[1]] ** 2)
+        np.add.at(pairs, bins, 1.0)
+    scale = np.sqrt(first * second)
+    correlation = np.divide(products, scale, out=np.zeros_like(products), where=scale > 0)
+    return correlation, pairs, np.array([weights.sum() for _, _, weights in scans])
+
+
+def fitted_length(correlation: np.ndarray, pairs: np.ndarray) -> float:
+    """The l of exp(-d / l) closest to the bins (their middles, the last finite bin's edges only), pairs-weighted."""
+    middles = 0.5 * (EDGES[:-1] + EDGES[1:])
+    use = np.isfinite(middles) & (pairs > 0)
+    errors = [np.sum(pairs[use] * (correlation[use] - np.exp(-middles[use] / length)) ** 2) for length in LENGTHS]
+    return float(LENGTHS[int(np.argmin(errors))])
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--logs", nargs="*", help="log names (the file name's first word); default: every log")
+    parser.add_argument("--max-beams", type=int, default=shipped_filter_parameters()["max_beams"])
+    args = parser.parse_args()
+    files = sorted(args.data.glob("*.log*"))
+    if args.logs:
+        files = [f for f in files if f.name.split("-")[0].split(".")[0] in args.logs]
+    if not files:
+        print(f"no CARMEN log in {args.data}", file=sys.stderr)
+        return 2
+    labels = [
+        f"{low:g}-{high:g}" if math.isfinite(high) else f">{low:g}"
+        for low, high in zip(EDGES[:-1], EDGES[1:], strict=True)
+    ]
+    print("log | " + " | ".join(labels) + " m | fitted l (m) | independent beams per scan, median (5-95 %)")
+    for path in files:
+        correlation, pairs, independent = correlation_by_distance(read_carmen(path), args.max_beams)
+        low, median, high = np.percentile(independent, [5, 50, 95])
+        print(
+            f"{path.name.split('-')[0].split('.')[0]} | "
+            + " | ".join(f"{value:.2f}" for value in correlation)
+            + f" | {fitted_length(correlation, pairs):.2f} | {median:.1f} ({low:.1f}-{high:.1f})",
+            flush=True,
+        )
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
