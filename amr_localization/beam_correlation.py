@@ -33,6 +33,9 @@ a second each scan adds its small share; a scan per metre counts fully. A scan's
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 from amr_localization.scan_beams import Beams
@@ -57,10 +60,27 @@ def beam_weights(beams: Beams, length: float) -> np.ndarray:
 def correlation_sums(points: np.ndarray, length: float) -> np.ndarray:
     """(K,) for each of the (K, 2) points, the sum of exp(-d / length) over every point (itself included, 1)."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
-    if length <= 0.0:
-        return np.ones(len(points))
-    distance = np.hypot(points[:, None, 0] - points[None, :, 0], points[:, None, 1] - points[None, :, 1])
-    return np.exp(-distance / length).sum(axis=1)
+    sums = np.ones(len(points))
+    if length > 0.0 and len(points) > 1:
+        _correlation_sums(np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]), 1.0 / length, sums)
+    return sums
+
+
+def independent_count(points: np.ndarray, length: float) -> float:
+    """How many independent points the (K, 2) points count as: the sum of 1 / correlation_sums (K when length is
+    0 or the points lie far apart, 1 for points on one spot)."""
+    return float(np.sum(1.0 / correlation_sums(points, length))) if len(points) else 0.0
+
+
+@numba.njit(cache=True)
+def _correlation_sums(x, y, inverse_length, sums):
+    """sums[i] += exp(-|p_i - p_j| / length) over j != i, each pair once: (K, K) distances without the array."""
+    count = x.size
+    for i in range(count):
+        for j in range(i + 1, count):
+            term = math.exp(-math.sqrt((x[i] - x[j]) ** 2 + (y[i] - y[j]) ** 2) * inverse_length)
+            sums[i] += term
+            sums[j] += term
 
 
 def scan_weight(moved: float, turned: float, distance: float) -> float:

@@ -10,8 +10,8 @@ motion_model.motion_variance):
     p(x | scans, odometry)  ~  s(x)^N  exp(-1/2 (x - x_odom)^T Sigma_odom^-1 (x - x_odom))
 
 s(x) the mean likelihood-field lookup of the scan's end points at x against the previous scan's (Olson's rasterized
-scan: amr_maps.scan_matcher), N the independent ones among them (end points within the beam correlation length
-count as one, as in the filter's measurement model: counting every point made a corridor's faint texture outweigh
+scan: amr_maps.scan_matcher), N the independent ones among them (beam_correlation.independent_count with the beam
+correlation length, as in the filter's measurement model: counting every point made a corridor's faint texture outweigh
 the odometry along it, 20-40 cm a scan on aces), Sigma_odom = diag(sigma_p^2, sigma_p^2, sigma_theta^2). Where the
 walls tell the pose (a room) the match decides; where they do not (along a corridor) the odometry does.
 
@@ -31,6 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from amr_localization.beam_correlation import independent_count
 from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap, default_angular_step
 from amr_util.geometry import one_per_cell, transform_points, wrap_angle
 
@@ -55,7 +56,7 @@ def matched_increment(
 ) -> np.ndarray:
     """(x, y, theta) of the scan `points` in the frame of the scan `reference` ((K, 2) end points, each in its own
     robot frame): the odometry's increment `prior` with its variances (m^2, rad^2), fused with the scan match within
-    SIGMAS of it, on cells of `resolution`; end points within `correlation_length` (m) count as one."""
+    SIGMAS of it, on cells of `resolution`; end points correlated over `correlation_length` (m)."""
     prior = np.asarray(prior, dtype=float).reshape(3)
     reference, points = np.asarray(reference, dtype=float), np.asarray(points, dtype=float)
     if len(reference) < MIN_POINTS or len(points) < MIN_POINTS:
@@ -79,7 +80,7 @@ def matched_increment(
     for chosen in sets:
         if len(chosen) < MIN_POINTS:
             continue
-        independent = len(one_per_cell(chosen, max(correlation_length, resolution)))
+        independent = independent_count(chosen, max(correlation_length, resolution))
         # the window at twice the cell, then the cell around the coarse posterior's mean
         centre = _posterior_mean(coarse, chosen, independent, prior, odometry, linear, angular)
         found.append(_posterior_mean(fine, chosen, independent, centre, odometry, 4 * resolution, angular, 2))
@@ -122,7 +123,7 @@ def _log_posteriors(
     if np.count_nonzero(common) < MIN_POINTS:
         common[:] = True
     shared = points[common]
-    independent = len(one_per_cell(shared, max(correlation_length, field.resolution)))
+    independent = independent_count(shared, max(correlation_length, field.resolution))
     fits = np.array([max(field.score_interpolated(shared, increment), 1e-6) for increment in increments])
     return independent * np.log(fits) + odometry.log_density(np.array(increments))
 
@@ -130,7 +131,7 @@ def _log_posteriors(
 def _posterior_mean(
     matcher: CorrelativeMatcher,
     points: np.ndarray,
-    independent: int,
+    independent: float,
     centre: np.ndarray,
     odometry: _Odometry,
     linear: float,

