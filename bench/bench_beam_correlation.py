@@ -2,6 +2,7 @@
 the true pose, by the distance between the beams' end points, on real robots' logs.
 
     .venv/bin/python bench/bench_beam_correlation.py [--data DIR] [--logs aces orebro] [--max-beams 60]
+                                                    [--worlds hard_maze inner_maze] [--seconds 120]
 
 For each CARMEN log in DIR (default: ../shared/data/carmen beside the repository), on the map of its own scans at
 their corrected poses (as bench_log_localization.py), each scan's beams (the filter's max_beams selection) are scored
@@ -9,7 +10,9 @@ at the scan's corrected pose by the places' model (the likelihood field with the
 within a cell and half a degree: ParticleFilter._log_likelihood with places=True). The (Pearson) correlation of two
 beams' terms is taken over every pair of beams of the same scan, binned by the distance between their end points (sensor
 frame). Then the exponential model of amr_localization.beam_correlation, rho(d) = exp(-d / l), is fitted to the
-bins (least squares, weighted by pairs), which is what beam_correlation_length stands for.
+bins (least squares, weighted by pairs), which is what beam_correlation_length stands for. --worlds does the same
+in simulator worlds (their own map, a scan every 0.5 s of wall following): the map is the world there, and only the
+LiDAR's noise and the map's cells are left to correlate.
 """
 
 from __future__ import annotations
@@ -21,14 +24,23 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from bench_log_localization import DATA, served, shipped_filter_parameters
+import yaml
+from bench_log_localization import DATA, ROOT, served, shipped_filter_parameters
 
+from amr_control.wall_follower import WallFollower
+from amr_control.wall_follower_config import read_parameter_file
 from amr_datasets.carmen import read_carmen
 from amr_datasets.odometry import OdometryNoiseModel
 from amr_evaluation.log_localization import filter_for, log_map
 from amr_localization.beam_correlation import beam_weights
-from amr_localization.particle_filter import FREE_PATH_MARGIN, NUDGES
+from amr_localization.particle_filter import FREE_PATH_MARGIN, NUDGES, ParticleFilter
+from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.scan_beams import select_beams
+from amr_maps.rasterize import rasterize_world
+from amr_maps.world import load_world
+from amr_simulation.config import SimulationConfig
+from amr_simulation.simulator import Simulator
+from amr_util.scan import scan_of
 
 EDGES = np.array([0.0, 0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, math.inf])
 """m: the bins of end-point distance."""
@@ -36,18 +48,17 @@ LENGTHS = np.linspace(0.05, 3.0, 591)
 """m: the correlation lengths tried by the fit."""
 
 
-def correlation_by_distance(log, max_beams: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(correlation per bin, pairs per bin, each scan's count of independent beams by the shipped weights)."""
-    parameters = shipped_filter_parameters()
-    pf = filter_for(log, served(log_map(log)), parameters, 0, OdometryNoiseModel())
-    poses = log.poses()
-    scans = []
-    for index, item in enumerate(log.scans):
-        beams = select_beams(item.scan, max_beams)
-        terms = pf._laser.best_free_path(poses[index : index + 1], NUDGES * pf._nudge_step, beams, FREE_PATH_MARGIN)
+def correlation_by_distance(pf, poses: np.ndarray, scans, max_beams: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(correlation per bin, pairs per bin, each scan's count of independent beams by the filter's weights): the
+    scans' beams scored at their true poses by the filter `pf`'s places' model."""
+    scored = []
+    for pose, scan in zip(poses, scans, strict=True):
+        beams = select_beams(scan, max_beams)
+        terms = pf._laser.best_free_path(np.atleast_2d(pose), NUDGES * pf._nudge_step, beams, FREE_PATH_MARGIN)
         returned = beams.returned
         ends = np.column_stack([beams.ranges * np.cos(beams.angles), beams.ranges * np.sin(beams.angles)])
-        scans.append((terms[0][returned], ends[returned], beam_weights(beams, parameters["beam_correlation_length"])))
+        scored.append((terms[0][returned], ends[returned], beam_weights(beams, pf.config.beam_correlation_length)))
+    scans = scored
     every = np.concatenate([terms for terms, _, _ in scans])
     mean = every.mean()
     products, first, second, pairs = (np.zeros(len(EDGES) - 1) for _ in range(4))
@@ -65,6 +76,36 @@ def correlation_by_distance(log, max_beams: int) -> tuple[np.ndarray, np.ndarray
     return correlation, pairs, np.array([weights.sum() for _, _, weights in scans])
 
 
+def log_case(path: Path) -> tuple:
+    """A CARMEN log: the filter on the map of its scans at their corrected poses, those poses, its scans."""
+    log = read_carmen(path)
+    pf = filter_for(log, served(log_map(log)), shipped_filter_parameters(), 0, OdometryNoiseModel())
+    return pf, log.poses(), [item.scan for item in log.scans]
+
+
+def world_case(name: str, seconds: float, period: float) -> tuple:
+    """A simulator world: the filter on the world's own map (rasterized as the stacks serve it), the true poses and
+    scans every `period` s of `seconds` of wall following (the simulator's default LiDAR and encoder noise)."""
+    world = load_world(ROOT / "config" / "worlds" / f"{name}.yaml")
+    sim = Simulator(world, SimulationConfig())
+    resolution = yaml.safe_load((ROOT / "config" / "particle_filter.yaml").read_text())["particle_filter"][
+        "ros__parameters"
+    ]["map_resolution"]
+    config = ParticleFilterConfig(**shipped_filter_parameters(real=False))
+    pf = ParticleFilter(rasterize_world(world, resolution), config)
+    follower = WallFollower(read_parameter_file(ROOT / "config" / "wall_follower_sim.yaml"))
+    poses, scans, next_record = [], [], 0.0
+    while sim.time < seconds:
+        scan = scan_of(sim)
+        if sim.time >= next_record:
+            poses.append(tuple(sim.pose))
+            scans.append(scan)
+            next_record += period
+        command = follower.compute(scan, *sim.odom_twist, sim.time)
+        sim.step(command.v, command.w)
+    return pf, np.array(poses), scans
+
+
 def fitted_length(correlation: np.ndarray, pairs: np.ndarray) -> float:
     """The l of exp(-d / l) closest to the bins (their middles, the last finite bin's edges only), pairs-weighted."""
     middles = 0.5 * (EDGES[:-1] + EDGES[1:])
@@ -78,11 +119,13 @@ def main() -> int:
     parser.add_argument("--data", type=Path, default=DATA)
     parser.add_argument("--logs", nargs="*", help="log names (the file name's first word); default: every log")
     parser.add_argument("--max-beams", type=int, default=shipped_filter_parameters()["max_beams"])
+    parser.add_argument("--worlds", nargs="*", default=[], help="simulator worlds (config/worlds) to measure too")
+    parser.add_argument("--seconds", type=float, default=120.0, help="s of wall following in each world")
     args = parser.parse_args()
     files = sorted(args.data.glob("*.log*"))
     if args.logs:
         files = [f for f in files if f.name.split("-")[0].split(".")[0] in args.logs]
-    if not files:
+    if not files and not args.worlds:
         print(f"no CARMEN log in {args.data}", file=sys.stderr)
         return 2
     labels = [
@@ -90,11 +133,13 @@ def main() -> int:
         for low, high in zip(EDGES[:-1], EDGES[1:], strict=True)
     ]
     print("log | " + " | ".join(labels) + " m | fitted l (m) | independent beams per scan, median (5-95 %)")
-    for path in files:
-        correlation, pairs, independent = correlation_by_distance(read_carmen(path), args.max_beams)
+    cases = [(path.name.split("-")[0].split(".")[0], lambda path=path: log_case(path)) for path in files]
+    cases += [(f"{name} (simulated)", lambda name=name: world_case(name, args.seconds, 0.5)) for name in args.worlds]
+    for label, case in cases:
+        correlation, pairs, independent = correlation_by_distance(*case(), args.max_beams)
         low, median, high = np.percentile(independent, [5, 50, 95])
         print(
-            f"{path.name.split('-')[0].split('.')[0]} | "
+            f"{label} | "
             + " | ".join(f"{value:.2f}" for value in correlation)
             + f" | {fitted_length(correlation, pairs):.2f} | {median:.1f} ({low:.1f}-{high:.1f})",
             flush=True,

@@ -34,11 +34,13 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "carmen"
 
 
-def shipped_filter_parameters() -> dict:
-    """config/particle_filter.yaml's values of the filter's own parameters."""
-    values = yaml.safe_load((ROOT / "config" / "particle_filter.yaml").read_text())["particle_filter"][
-        "ros__parameters"
-    ]
+def shipped_filter_parameters(real: bool = True) -> dict:
+    """The filter's own parameters as a real robot's stack sets them: config/particle_filter.yaml, then
+    config/particle_filter_real.yaml over it (the logs are real buildings); real=False: the first alone (the
+    simulator's stacks)."""
+    values = {}
+    for name in ("particle_filter.yaml", "particle_filter_real.yaml")[: 2 if real else 1]:
+        values |= yaml.safe_load((ROOT / "config" / name).read_text())["particle_filter"]["ros__parameters"]
     names = {spec.name for spec in ParticleFilterConfig.parameter_specs()}
     return {name: value for name, value in values.items() if name in names}
 
