@@ -7,6 +7,8 @@ For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default Sla
   reference's: translation and heading error, median / mean / p90, and the share of the heading error in the
   worst 10 % of the links; the heading error growing with the lag (1 and 8 nodes): per-pose noise stays, drift
   grows;
+- chi-square of the graph's edges at the reference poses (scan matches, closures; 3 on average if each edge's
+  information is its error's, more by the reference's own noise);
 - nodes: how many nodes' headings are more than 1.5 deg off their two neighbours' (estimate against reference),
   the worst listed (a single match off, put back by the next: every pair starting there is off by its heading
   times the pair's length).
@@ -79,6 +81,17 @@ def links(name: str, log, seed: int) -> None:
             f"worst 10 % of links: {worst:.0%} of the heading error"
         )
     nodes_reference = reference[scans]
+    chi2 = slam._graph.chi2(nodes_reference)  # each edge's at the reference poses: 3 on average if weighed right
+    scan_matches = np.array([k for k in sequential if edges[k, 1] not in slam._unmatched])
+    parts = [
+        f"{label} {np.mean(chi2[index]):.1f} / {np.median(chi2[index]):.1f}"
+        for label, index in (("scan matches", scan_matches), ("closures", np.flatnonzero(loop)))
+        if len(index)
+    ]
+    print(
+        "  chi-square at the reference poses (3: weighed right, more: the reference's own noise), mean / median: "
+        + ", ".join(parts)
+    )
     for lag in (1, 8):
         a = np.arange(len(poses) - lag)
         error = np.degrees(
