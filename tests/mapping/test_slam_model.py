@@ -121,7 +121,7 @@ def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatc
     weighed against the more informative one's. A refinement claiming 100 times the match's precision (a simulated
     maze's straight walls) decides; one claiming a fiftieth of it (a real log's clutter) moves the pose a fifth of the
     way or less (taking it whatever its information cost the logs 0.40 vs 0.26 deg a link on aces). The estimate's
-    covariance is the refinement's own information's inverse, whatever the weights (the match's without one)."""
+    covariance is the deciding one's own: the refinement's full information's inverse, or the match's."""
     curvature = np.diag([1e4, 1e4, 1e5])
     monkeypatch.setattr(slam_module, "_match_information", lambda *args: curvature)
     points = np.column_stack([2.0 * np.cos(np.linspace(0, 6, 30)), 2.0 * np.sin(np.linspace(0, 6, 30))])  # 2 m
@@ -139,12 +139,13 @@ def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatc
         fused, information, covariance = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
         expected = pose + np.linalg.solve(match_information + weight, weight @ (refined - pose))
         assert fused == pytest.approx(expected, abs=1e-12)
-        assert np.allclose(covariance, np.linalg.inv(own))
         toward = (fused - pose) / (refined - pose)
         if share > 1.0:
             assert np.all(toward > 0.95) and np.allclose(information, weight)
+            assert np.allclose(covariance, np.linalg.inv(own))
         else:
             assert np.all(toward < 0.2) and np.allclose(information, match_information)
+            assert np.allclose(covariance, np.linalg.inv(match_information))
     monkeypatch.setattr(slam_module, "_align", lambda *args: (refined.copy(), None))  # too few pairs: the match
     fused, information, covariance = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
     assert np.array_equal(fused, pose) and np.allclose(information, match_information)
