@@ -58,7 +58,7 @@ from amr_localization.pose_estimate import PoseEstimate, grouped_covariances, we
 from amr_localization.progressive_correction import MAX_STAGES, stage_exponent
 from amr_localization.resampling import effective_sample_size, jitter, systematic_resample
 from amr_localization.scan_beams import Beams, select_beams
-from amr_localization.scan_odometry import SCAN_CORRELATION_LENGTH, matched_increment
+from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
@@ -728,7 +728,7 @@ class ParticleFilter:
         prior = np.asarray(relative_pose(last.odometry, self._odometry), dtype=float)
         position, heading = motion_variance(math.hypot(prior[0], prior[1]), abs(float(prior[2])), self.noise)
         increment = matched_increment(
-            last.points, points, prior, position, heading, self._chain_resolution, SCAN_CORRELATION_LENGTH
+            last.points, points, prior, position, heading, self._chain_resolution, self.config.beam_correlation_length
         )
         return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
 

@@ -10,8 +10,8 @@ motion_model.motion_variance):
     p(x | scans, odometry)  ~  s(x)^N  exp(-1/2 (x - x_odom)^T Sigma_odom^-1 (x - x_odom))
 
 s(x) the mean likelihood-field lookup of the scan's end points at x against the previous scan's (Olson's rasterized
-scan: amr_maps.scan_matcher), N the independent ones among them (beam_correlation.independent_count, the filter's
-model of correlated errors, over SCAN_CORRELATION_LENGTH: counting every point made a corridor's faint texture outweigh
+scan: amr_maps.scan_matcher), N the independent ones among them (beam_correlation.independent_count with the beam
+correlation length, as in the filter's measurement model: counting every point made a corridor's faint texture outweigh
 the odometry along it, 20-40 cm a scan on aces), Sigma_odom = diag(sigma_p^2, sigma_p^2, sigma_theta^2). Where the
 walls tell the pose (a room) the match decides; where they do not (along a corridor) the odometry does.
 
@@ -41,12 +41,6 @@ MAX_LINEAR = 1.0
 """m ... at most this in x and y ..."""
 MAX_ANGULAR = math.radians(30.0)
 """rad ... and this in heading."""
-SCAN_CORRELATION_LENGTH = 0.12
-"""m: how far apart two end points' errors correlate when a scan is matched to the scan before it. No map lies
-between them, only the same world seen twice: the LiDAR's own errors, as in the simulator's worlds, where the map is
-the world (bench/bench_beam_correlation.py --worlds: under 0.05 m; the filter's default beam_correlation_length, with
-which the window's matches were validated). A real building's map errors (beam_correlation_length 0.5 m there) are
-not between two scans: a person standing still is in both."""
 MIN_POINTS = 20
 """end points each scan needs for a match (fewer: the odometry's increment)."""
 
