@@ -17,8 +17,6 @@ one zero command; the timer is silent until the navigator names this node again.
 
 from __future__ import annotations
 
-import math
-
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.lifecycle import State, TransitionCallbackReturn
@@ -34,6 +32,7 @@ from amr_util.messages import scan_data, velocity_command
 from amr_util.parameter_spec import ConfigError
 from amr_util.qos import SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer, SyncError
+from amr_util.throttle import Throttle
 
 WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
 ODOMETRY, SCAN, STATUS = 0, 1, 2
@@ -54,7 +53,7 @@ class WallFollowerNode(ManagedNode):
         self._latest_pair: tuple[Odometry, LaserScan] | None = None
         self._latest_pair_time: Time | None = None
         self._last_command: Command | None = None
-        self._warned_at: dict[str, float] = {}
+        self._warnings = Throttle(WARNING_PERIOD, lambda: self.get_clock().now().nanoseconds * 1e-9)
         self._gate = NavigatorGate(self.get_name())
         self.configure_error = ""
 
@@ -251,10 +250,8 @@ class WallFollowerNode(ManagedNode):
         )
 
     def _warn(self, text: str) -> None:
-        """Each distinct warning at most once per WARNING_PERIOD (rclpy throttles per call site)."""
-        now = self.get_clock().now().nanoseconds * 1e-9
-        if now - self._warned_at.get(text, -math.inf) >= WARNING_PERIOD:
-            self._warned_at[text] = now
+        """Each distinct warning at most once per WARNING_PERIOD of the node clock (rclpy throttles per call site)."""
+        if self._warnings(text):
             self.get_logger().warning(text)
 
     @property

@@ -28,7 +28,6 @@ is: active, the last transforms and messages standing. Stamps of 0 or less are m
 from __future__ import annotations
 
 import importlib
-import math
 import time
 
 from builtin_interfaces.msg import Time
@@ -52,6 +51,7 @@ from amr_util.managed_node import ManagedNode, run, topic_name_problem
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
+from amr_util.throttle import Throttle
 from amr_util.wire import WireMessage
 
 TICK = 0.01
@@ -267,7 +267,7 @@ class LogPlayerNode(ManagedNode):
         self._anchor = (0.0, 0.0)
         """Realtime: (wall s, log s) that match."""
         self._started = 0.0
-        self._last_warning = -math.inf
+        self._timeout_warnings = Throttle(WARNING_PERIOD)  # wall time
 
     # -- lifecycle ------------------------------------------------------------------------------
 
@@ -386,9 +386,7 @@ class LogPlayerNode(ManagedNode):
         if self._awaiting is None:
             return
         self.timeouts += 1
-        now = time.monotonic()
-        if now - self._last_warning >= WARNING_PERIOD:
-            self._last_warning = now
+        if self._timeout_warnings():
             self.get_logger().warning(
                 f"no {self._values['pace_type']} on {self._pace.topic_name} stamped at least "
                 f"{self._awaiting * 1e-9:.3f} s within {self._values['pace_timeout']:g} s: going on "

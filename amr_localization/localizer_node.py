@@ -25,6 +25,7 @@ from amr_util.messages import transform
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 from amr_util.sync import ApproximateTimeSynchronizer, SyncError
+from amr_util.throttle import Throttle
 
 WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
@@ -65,7 +66,7 @@ class LocalizerNode(ManagedNode):
         self._sync: ApproximateTimeSynchronizer | None = None
         self._outputs: dict[str, object] = {}
         self._settings: dict = {}
-        self._warned_at: dict[str, float] = {}
+        self._warnings = Throttle(WARNING_PERIOD, lambda: self.get_clock().now().nanoseconds * 1e-9)
 
     def _start_pairing(self, values: dict, callback) -> None:
         self._sync = ApproximateTimeSynchronizer(
@@ -133,8 +134,6 @@ class LocalizerNode(ManagedNode):
         return True
 
     def _warn(self, text: str) -> None:
-        """Each distinct warning at most once per WARNING_PERIOD of wall time."""
-        now = self.get_clock().now().nanoseconds * 1e-9
-        if now - self._warned_at.get(text, -math.inf) >= WARNING_PERIOD:
-            self._warned_at[text] = now
+        """Each distinct warning at most once per WARNING_PERIOD of the node clock."""
+        if self._warnings(text):
             self.get_logger().warning(text)

@@ -51,6 +51,7 @@ from amr_util.parameter_spec import ParameterSpec, field_docs
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
 from amr_util.sync import ApproximateTimeSynchronizer, SyncError
+from amr_util.throttle import Throttle
 
 NODE_NAME = "slam"
 WARNING_PERIOD = 2.0
@@ -156,7 +157,7 @@ class SlamNode(ManagedNode):
         self._outputs: dict = {}
         self._entities: list = []
         self._timer = None
-        self._warned_at: dict[str, float] = {}
+        self._warnings = Throttle(WARNING_PERIOD)  # wall time
         self._map_dirty = False
         self._last_map_ns: int | None = None
         self._last_map_wall = -math.inf
@@ -371,9 +372,7 @@ class SlamNode(ManagedNode):
 
     def _warn(self, text: str) -> None:
         """Each distinct warning at most once per WARNING_PERIOD of wall time."""
-        now = time.monotonic()
-        if now - self._warned_at.get(text, -math.inf) >= WARNING_PERIOD:
-            self._warned_at[text] = now
+        if self._warnings(text):
             self.get_logger().warning(text)
 
 
