@@ -77,6 +77,141 @@ class Marginals:
         return 0.5 * (covariance + covariance.T)
 
 
+class Optimization:
+    """One Levenberg-Marquardt run over a PoseGraph, iterations taken a few at a time (step), so that an online
+    caller can bound the time an update spends on it and carry the rest over to the next updates.
+
+    The loop-closure kernel is graduated (as graduated non-convexity, Yang et al. 2020): its width starts wide
+    enough that every closure weighs at least half (a true closure found after a long drift is many standard
+    deviations off at first) and halves each iteration down to kernel_width, so the closures that agree with each
+    other and the odometry pull the graph before the odd one out is turned down. The run is done at kernel_width
+    when the relative cost decrease or the largest step falls below `tolerance`, or after max_iterations. Each
+    iteration takes the graph as it is then (nodes and edges added since the last step included; a new node starts
+    where it was put); the width and the damping carry over. MappingError (divergence, a stall) keeps the poses of
+    the last accepted iteration."""
+
+    def __init__(self, graph: PoseGraph, max_iterations: int, tolerance: float, first_free: int) -> None:
+        self._graph = graph
+        self.max_iterations = int(max_iterations)
+        self.tolerance = float(tolerance)
+        self.first_free = max(1, int(first_free))
+        self.iterations = 0
+        self.solves = 0
+        """linear solves so far (one per damping tried): what an iteration costs, about 8 us per edge here."""
+        self.converged = False
+        self.seconds = 0.0
+        n, m = graph.node_count, graph.edge_count
+        self._start = graph.poses
+        self.initial_cost = graph.cost() if m else 0.0
+        self._empty = n <= self.first_free or m == 0
+        if not self._empty and not math.isfinite(self.initial_cost):
+            raise MappingError(
+                f"pose graph: the cost at the initial poses is not finite ({self.initial_cost}); poses kept"
+            )
+        loop = graph.loop
+        self._width = graph.kernel_width
+        if graph.loop_kernel != "none" and loop.any():
+            self._width = max(self._width, float(np.sqrt(graph.chi2()[loop].max())))
+        self._lam = 1e-4
+
+    @property
+    def done(self) -> bool:
+        """Converged, its iterations spent, or nothing to optimize."""
+        return self._empty or self.converged or self.iterations >= self.max_iterations
+
+    def step(self, iterations: int = 1) -> bool:
+        """Up to `iterations` more iterations (fewer when done first); returns done."""
+        start = time.perf_counter()
+        try:
+            for _ in range(iterations):
+                if self.done:
+                    break
+                self._iterate()
+        finally:
+            self.seconds += time.perf_counter() - start
+        return self.done
+
+    def result(self) -> OptimizeResult:
+        """The run so far: iterations, the robust cost at its start and now, converged, the largest change of a pose
+        it started with (m, rad), seconds spent in step."""
+        graph = self._graph
+        n = len(self._start)
+        poses = graph.poses[:n]
+        change = np.abs(poses - self._start)
+        change[:, 2] = np.abs(wrap_angle(poses[:, 2] - self._start[:, 2]))
+        converged = self.converged or (self._empty and self.iterations == 0)
+        return OptimizeResult(
+            self.iterations,
+            self.initial_cost,
+            graph.cost() if graph.edge_count else 0.0,
+            converged,
+            float(change.max(initial=0.0)),
+            self.seconds,
+        )
+
+    def _iterate(self) -> None:
+        graph = self._graph
+        n, m = graph._count, graph._edges
+        first_free = self.first_free
+        tolerance = self.tolerance
+        ij, z, info = graph._ij[:m], graph._z[:m], graph._info[:m]
+        poses = graph._poses[:n].copy()
+        width = self._width
+        self.iterations += 1
+        e = _errors(poses, ij, z)
+        s = np.einsum("mi,mij,mj->m", e, info, e)
+        rho, weight = graph._kernel(s, width)
+        cost = 0.5 * float(rho.sum())
+        final = width <= graph.kernel_width
+        a, b = _jacobians(poses, ij, z)
+        hessian, gradient = _normal_equations(n, ij, a, b, info * weight[:, None, None], e)
+        free = slice(3 * first_free, 3 * n)
+        h = hessian[free, free].tocsc()
+        g = gradient[free]
+        if np.abs(g).max() < 1e-10 and final:
+            self.converged = True
+            return
+        diag = h.diagonal()
+        accepted = False
+        lam = self._lam
+        while lam < 1e12:
+            damped = h + sp.diags(lam * np.maximum(diag, 1e-9), format="csc")
+            self.solves += 1
+            try:
+                step = splu(damped, permc_spec="COLAMD").solve(-g)  # the fastest of SuperLU's orders here
+            except RuntimeError as error:  # exactly singular
+                raise MappingError(f"pose graph: singular normal equations ({error}); poses kept") from error
+            if not np.all(np.isfinite(step)):
+                raise MappingError("pose graph: the optimization diverged (a non-finite step); poses kept")
+            trial = poses.copy()
+            trial[first_free:] += step.reshape(-1, 3)
+            trial[:, 2] = wrap_angle(trial[:, 2])
+            new_cost = 0.5 * float(graph._kernel(graph.chi2(trial), width)[0].sum())
+            if not math.isfinite(new_cost):
+                raise MappingError("pose graph: the optimization diverged (a non-finite cost); poses kept")
+            small = np.abs(step).max() < tolerance
+            if new_cost <= cost:
+                accepted = True
+                poses = trial
+                lam = max(lam / 10.0, 1e-9)
+                self.converged = final and (cost - new_cost <= tolerance * max(new_cost, 1e-12) or small)
+                break
+            if abs(cost - new_cost) <= tolerance * max(cost, 1e-12) and np.abs(step).max() < 1e3 * tolerance:
+                accepted = True  # at the minimum: rounding makes any step cost a hair more
+                self.converged = final
+                break
+            lam *= 10.0
+        self._lam = lam
+        if not accepted:
+            raise MappingError(
+                f"pose graph: the optimization stalled (no step lowers the cost {cost:.6g}, "
+                f"gradient {np.abs(g).max():.3g}); poses kept"
+            )
+        graph._poses[:n] = poses
+        if not self.converged:
+            self._width = max(graph.kernel_width, 0.5 * width)
+
+
 class PoseGraph:
     """Nodes (x, y, theta) and edges with information matrices; `optimize` moves the nodes (node 0 fixed)."""
 
@@ -246,94 +381,18 @@ class PoseGraph:
         return 0.5 * float(rho.sum())
 
     def optimize(self, max_iterations: int = 30, tolerance: float = 1e-6, first_free: int = 1) -> OptimizeResult:
-        """Levenberg-Marquardt over nodes first_free.. (the ones before held fixed; node 0 at least).
+        """Levenberg-Marquardt over nodes first_free.. (the ones before held fixed; node 0 at least): an
+        Optimization run to its end (converged, or max_iterations spent). See Optimization. Raises MappingError,
+        keeping the poses, on divergence or a stall (see the module docstring)."""
+        run = self.optimization(max_iterations, tolerance, first_free)
+        run.step(max_iterations)
+        return run.result()
 
-        The loop-closure kernel is graduated (as graduated non-convexity, Yang et al. 2020): its width starts
-        wide enough that every closure weighs at least half (a true closure found after a long drift is many
-        standard deviations off at first) and halves each iteration down to kernel_width, so the closures that
-        agree with each other and the odometry pull the graph before the odd one out is turned down. Stops at
-        kernel_width when the relative cost decrease or the largest step falls below `tolerance`. Raises
-        MappingError, keeping the poses, on divergence or a stall (see the module docstring).
-        """
-        start = time.perf_counter()
-        n, m = self._count, self._edges
-        first_free = max(1, int(first_free))
-        if n <= first_free or m == 0:
-            return OptimizeResult(0, 0.0, 0.0, True, 0.0, time.perf_counter() - start)
-        ij, z, info = self._ij[:m], self._z[:m], self._info[:m]
-        poses = self._poses[:n].copy()
-        initial = self.cost(poses)
-        if not math.isfinite(initial):
-            raise MappingError(f"pose graph: the cost at the initial poses is not finite ({initial}); poses kept")
-        loop = self._loop[:m]
-        width = self.kernel_width
-        if self.loop_kernel != "none" and loop.any():
-            width = max(width, float(np.sqrt(self.chi2(poses)[loop].max())))
-        lam = 1e-4
-        converged = False
-        iterations = 0
-        free = slice(3 * first_free, 3 * n)
-        for iteration in range(1, max_iterations + 1):
-            iterations = iteration
-            e = _errors(poses, ij, z)
-            s = np.einsum("mi,mij,mj->m", e, info, e)
-            rho, weight = self._kernel(s, width)
-            cost = 0.5 * float(rho.sum())
-            final = width <= self.kernel_width
-            a, b = _jacobians(poses, ij, z)
-            hessian, gradient = _normal_equations(n, ij, a, b, info * weight[:, None, None], e)
-            h = hessian[free, free].tocsc()
-            g = gradient[free]
-            if np.abs(g).max() < 1e-10 and final:
-                converged = True
-                break
-            diag = h.diagonal()
-            accepted = False
-            while lam < 1e12:
-                damped = h + sp.diags(lam * np.maximum(diag, 1e-9), format="csc")
-                try:
-                    step = splu(damped, permc_spec="COLAMD").solve(-g)  # the fastest of SuperLU's orders here
-                except RuntimeError as error:  # exactly singular
-                    raise MappingError(f"pose graph: singular normal equations ({error}); poses kept") from error
-                if not np.all(np.isfinite(step)):
-                    raise MappingError("pose graph: the optimization diverged (a non-finite step); poses kept")
-                trial = poses.copy()
-                trial[first_free:] += step.reshape(-1, 3)
-                trial[:, 2] = wrap_angle(trial[:, 2])
-                new_cost = 0.5 * float(self._kernel(self.chi2(trial), width)[0].sum())
-                if not math.isfinite(new_cost):
-                    raise MappingError("pose graph: the optimization diverged (a non-finite cost); poses kept")
-                small = np.abs(step).max() < tolerance
-                if new_cost <= cost:
-                    accepted = True
-                    poses = trial
-                    lam = max(lam / 10.0, 1e-9)
-                    converged = final and (cost - new_cost <= tolerance * max(new_cost, 1e-12) or small)
-                    break
-                if abs(cost - new_cost) <= tolerance * max(cost, 1e-12) and np.abs(step).max() < 1e3 * tolerance:
-                    accepted = True  # at the minimum: rounding makes any step cost a hair more
-                    converged = final
-                    break
-                lam *= 10.0
-            if not accepted:
-                raise MappingError(
-                    f"pose graph: the optimization stalled (no step lowers the cost {cost:.6g}, "
-                    f"gradient {np.abs(g).max():.3g}); poses kept"
-                )
-            if converged:
-                break
-            width = max(self.kernel_width, 0.5 * width)
-        change = np.abs(poses - self._poses[:n])
-        change[:, 2] = np.abs(wrap_angle(poses[:, 2] - self._poses[:n, 2]))
-        self._poses[:n] = poses
-        return OptimizeResult(
-            iterations,
-            initial,
-            self.cost(poses),
-            converged,
-            float(change.max(initial=0.0)),
-            time.perf_counter() - start,
-        )
+    def optimization(self, max_iterations: int = 30, tolerance: float = 1e-6, first_free: int = 1) -> Optimization:
+        """A Levenberg-Marquardt run that can be carried out a few iterations at a time (Optimization.step): between
+        two steps nodes and edges may be added (each iteration takes the graph as it is then), and the poses stay the
+        last accepted step's, which lowered the cost: a consistent graph at every step."""
+        return Optimization(self, max_iterations, tolerance, first_free)
 
     def marginals(self, information: np.ndarray | None = None) -> Marginals:
         """The graph's own uncertainty at the current poses: the inverse of its information (J^T Omega J over

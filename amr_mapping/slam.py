@@ -35,7 +35,9 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   uncertainty of the anchor -> node pose (PoseGraph.marginals: every edge counted, earlier closures included);
   the graph is optimized (amr_mapping.pose_graph: sparse Levenberg-Marquardt, graduated Cauchy kernel on
   closures, so a false closure bends the map little), and a closure the optimized graph still disagrees with
-  (LOOP_RESIDUAL_CHI2) is removed.
+  (LOOP_RESIDUAL_CHI2) is removed. The optimization's iterations are counted work too (OPTIMIZE_BUDGET an
+  update, one iteration at least), the rest carried over to the next updates (each iteration lowers the cost of
+  the graph as it is then: the poses, the map and the front end's submap are consistent meanwhile).
   An optimization that fails (MappingError) is reported in the events and the poses kept.
 - The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
   changed, on request.
@@ -62,7 +64,7 @@ from scipy.spatial import cKDTree
 
 from amr_mapping.errors import MappingError
 from amr_mapping.point_field import neighbourhood_lines
-from amr_mapping.pose_graph import PoseGraph
+from amr_mapping.pose_graph import Optimization, PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
@@ -78,9 +80,21 @@ ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
 LIKELIHOOD_SIGMA_CELLS = 1.5
 """The submaps' likelihood field: exp(-d^2 / (2 sigma^2)), sigma this many cells."""
 OPTIMIZE_CHI = 3.0
-"""A new closure this many standard deviations off the current poses makes the graph be optimized at once ..."""
+"""A new closure this many standard deviations off the current poses starts an optimization of the graph ..."""
 OPTIMIZE_EVERY = 10
-"""... else it is optimized once this many closures that agree with the poses have been added."""
+"""... else one starts once this many closures that agree with the poses have been added."""
+ONLINE_ITERATIONS = 10
+"""Levenberg-Marquardt iterations of an optimization a closure starts (carried over several updates: see
+OPTIMIZE_WORK_PER_EDGE)."""
+OPTIMIZE_WORK_PER_EDGE = 1_700.0
+"""Work units (see loop_work_budget) that one linear solve of the graph's normal equations costs per edge (an
+iteration: about 8 us an edge on intel's 1,200-edge graph, against about 5 ns a lookup) ..."""
+OPTIMIZE_BUDGET = 5e6
+"""... and that an update spends at most on the optimization in progress, one iteration at least (about 3 iterations
+of a 900-node graph, 25 ms): the rest is carried over to the next updates. The closures' search has its own budget
+(loop_work_budget), spent before: an update's time is bounded whatever the closures (a 900-node graph's
+optimization took up to 10 iterations, 60 ms, in one update; 150-230 ms with edges weighed by their own
+covariances)."""
 LIKELIHOOD_PAD = 1.0
 """m of field around a submap's points beyond the search windows (points off the table score 0)."""
 WINDOW_SIGMAS = 3.0
@@ -359,6 +373,8 @@ class GraphSlam:
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._local: tuple[int, _Reference] | None = None
         self._unoptimized = 0  # closures added since the last optimization
+        self._run: Optimization | None = None  # the optimization in progress (carried over the updates)
+        self._drops = 0  # closures the run in progress may still remove (_advance_optimization)
         self._starved = False  # the last update searched no closure candidate (loop_work_budget)
         self._work = _Work()  # the update's work so far
         self._mount = np.array([self.config.lidar_x, self.config.lidar_y, self.config.lidar_yaw], dtype=float)
@@ -432,6 +448,7 @@ class GraphSlam:
         save, at the end of a run. True when the poses moved; a failed optimization raises MappingError (poses
         kept)."""
         self._unoptimized = 0
+        self._run = None
         if not self._graph.loop.any():
             return False
         result = self._optimize(30, [])
@@ -494,6 +511,7 @@ class GraphSlam:
         self._step_covariance = None
         self._pose = pose.copy()
         closures = self._close_loops(node, events)
+        self._advance_optimization(node, events)
         return SlamUpdate(
             self.pose, True, node, score, tuple(closures), True, time.perf_counter() - start, tuple(events)
         )
@@ -712,19 +730,54 @@ class GraphSlam:
             chi = np.sqrt(self._graph.chi2()[-len(closures) :].max())
         if closures and (chi > OPTIMIZE_CHI or self._unoptimized >= OPTIMIZE_EVERY):
             self._unoptimized = 0
-            before = self._graph.pose(node)
-            try:
-                result = self._optimize(10, events, drops=1)
-                events.append(
-                    f"{len(closures)} loop closure(s): optimized in {result.iterations} iterations, "
-                    f"moved up to {result.max_change:.2f}"
-                )
-            except MappingError as error:
-                events.append(f"loop closure optimization failed, poses kept: {error}")
-            self._pose = self._graph.pose(node)
-            if not np.allclose(before, self._pose):
-                self._local = None  # rebuilt at the optimized poses
+            self._start_optimization(events, drops=1)
         return closures
+
+    def _start_optimization(self, events: list[str], drops: int) -> None:
+        """A new optimization run (the one in progress, if any, is superseded: it starts again from the poses it
+        reached, its kernel as wide as the closures now need); it may remove `drops` closures at its end."""
+        try:
+            self._run = self._graph.optimization(ONLINE_ITERATIONS)
+            self._drops = drops
+        except MappingError as error:
+            self._run = None
+            events.append(f"loop closure optimization failed, poses kept: {error}")
+
+    def _advance_optimization(self, node: int, events: list[str]) -> None:
+        """The optimization in progress taken on: iterations (each OPTIMIZE_WORK_PER_EDGE an edge) while they
+        stay within OPTIMIZE_BUDGET, one at least; when it is done, the closure the
+        optimized graph disagrees with most is removed if beyond LOOP_RESIDUAL_CHI2 (_drop_worst), and a new run
+        started to optimize without it. The new node's pose and the front end's submap follow the poses."""
+        if self._run is None:
+            return
+        before = self._graph.pose(node)
+        iterations, spent = 0, 0.0
+        try:
+            while self._run is not None:
+                cost = OPTIMIZE_WORK_PER_EDGE * self._graph.edge_count
+                if iterations and spent + cost > OPTIMIZE_BUDGET:
+                    break
+                if not self._run.done:
+                    solves = self._run.solves
+                    self._run.step(1)
+                    iterations += 1
+                    spent += cost * (self._run.solves - solves)
+                    self._work.add(cost * (self._run.solves - solves))
+                if not self._run.done:
+                    continue
+                result = self._run.result()
+                events.append(
+                    f"loop closure optimization: {result.iterations} iterations, moved up to {result.max_change:.2f}"
+                )
+                self._run = None
+                if self._drops > 0 and self._drop_worst(events):
+                    self._start_optimization(events, self._drops - 1)
+        except MappingError as error:
+            self._run = None
+            events.append(f"loop closure optimization failed, poses kept: {error}")
+        self._pose = self._graph.pose(node)
+        if not np.allclose(before, self._pose):
+            self._local = None  # rebuilt at the optimized poses
 
     def _optimize(self, max_iterations: int, events: list[str], drops: int = 3):
         """The graph optimized, then the loop closures checked against it: the closure whose residual's
@@ -734,24 +787,31 @@ class GraphSlam:
         optimizer passes through."""
         result = self._graph.optimize(max_iterations=max_iterations)
         for _ in range(drops):
-            loop = np.flatnonzero(self._graph.loop)
-            if len(loop) == 0:
+            if not self._drop_worst(events):
                 break
-            chi2 = self._graph.chi2()[loop]
-            worst = int(np.argmax(chi2))
-            if not chi2[worst] > LOOP_RESIDUAL_CHI2:
-                break
-            i, j = self._graph.edges[loop[worst]]
-            self._graph.remove_edges([loop[worst]])
-            self.dropped_closures += 1
-            events.append(
-                f"loop closure ({i}, {j}) disagrees with the optimized graph (chi-square {chi2[worst]:.0f} > "
-                f"{LOOP_RESIDUAL_CHI2}): removed"
-            )
             moved = result.max_change
             result = self._graph.optimize(max_iterations=max_iterations)
             result = dataclasses.replace(result, max_change=max(moved, result.max_change))
         return result
+
+    def _drop_worst(self, events: list[str]) -> bool:
+        """Removes the loop closure whose residual's chi-square is largest, if above LOOP_RESIDUAL_CHI2 (see
+        _optimize); returns whether one was."""
+        loop = np.flatnonzero(self._graph.loop)
+        if len(loop) == 0:
+            return False
+        chi2 = self._graph.chi2()[loop]
+        worst = int(np.argmax(chi2))
+        if not chi2[worst] > LOOP_RESIDUAL_CHI2:
+            return False
+        i, j = self._graph.edges[loop[worst]]
+        self._graph.remove_edges([loop[worst]])
+        self.dropped_closures += 1
+        events.append(
+            f"loop closure ({i}, {j}) disagrees with the optimized graph (chi-square {chi2[worst]:.0f} > "
+            f"{LOOP_RESIDUAL_CHI2}): removed"
+        )
+        return True
 
     def _gate_marginals(self):
         """The graph's information as the closure gate counts it, factored: each scan match's own covariance

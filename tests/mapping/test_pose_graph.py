@@ -168,3 +168,35 @@ def test_bad_input_is_refused(call, message):
     graph.add_node((1, 0, 0))
     with pytest.raises(MappingError, match=message):
         call(graph)
+
+
+def test_an_optimization_taken_an_iteration_at_a_time_ends_where_one_call_does():
+    """Optimization.step(1) repeated is optimize(): the kernel's width and the damping carry over between steps, and
+    every step leaves the graph at a lower cost (a consistent graph between updates)."""
+    truth = _square_loops()
+    whole, _ = _graph(truth, seed=1)
+    stepped, _ = _graph(truth, seed=1)
+    result = whole.optimize(max_iterations=30)
+    run = stepped.optimization(max_iterations=30)
+    costs = [stepped.cost()]
+    while not run.step(1):
+        costs.append(stepped.cost())
+    assert run.iterations == result.iterations > 2
+    assert run.result().converged and np.allclose(stepped.poses, whole.poses)
+    assert costs[-1] < costs[0] and _position_error(stepped, truth) < 0.1
+
+
+def test_nodes_added_between_steps_join_the_optimization():
+    truth = _square_loops()
+    graph, guess = _graph(truth[:-3], seed=1)
+    run = graph.optimization(max_iterations=30)
+    run.step(1)
+    for k in range(len(truth) - 3, len(truth)):  # three more nodes, exact steps, the last closing on node 0's place
+        graph.add_node(compose(graph.pose(k - 1), relative_pose(truth[k - 1], truth[k])))
+        graph.add_edge(k - 1, k, relative_pose(truth[k - 1], truth[k]), INFO)
+    last = len(truth) - 1
+    graph.add_edge(0, last, relative_pose(truth[0], truth[last]), INFO, loop=True)
+    while not run.step(1):
+        pass
+    assert graph.node_count == len(truth) and run.result().converged
+    assert _position_error(graph, truth) < 0.1

@@ -100,6 +100,33 @@ def test_a_closure_the_optimized_graph_disagrees_with_is_removed():
     assert np.abs(error[:, :2]).max() < 0.05 and np.abs(wrap_angle(error[:, 2])).max() < 0.01
 
 
+def test_an_update_takes_a_bounded_share_of_the_optimization_and_the_next_ones_the_rest(monkeypatch):
+    """The optimization a closure starts is carried over the updates (OPTIMIZE_BUDGET an update, one iteration at
+    least): with a budget of one iteration, each update runs one; the run ends as a whole one does, the false
+    closure 1.5 m off removed and the graph optimized again without it."""
+    monkeypatch.setattr(slam_module, "OPTIMIZE_BUDGET", 0.0)
+    slam = GraphSlam()
+    poses = _chain(slam._graph, _square(5, 2))
+    information = np.linalg.inv(np.diag([0.01**2, 0.01**2, math.radians(0.5) ** 2]))
+    for k in range(21, 41):
+        slam._graph.add_edge(k - 20, k, relative_pose(poses[k - 20], poses[k]), information, loop=True)
+    slam._graph.add_edge(3, 30, np.array(relative_pose(poses[3], poses[30])) + (1.5, 0.0, 0.0), information, loop=True)
+    events: list[str] = []
+    slam._start_optimization(events, drops=1)
+    updates, iterations = 0, []
+    while slam._run is not None and updates < 50:
+        run = slam._run
+        before = run.iterations
+        slam._advance_optimization(40, events)
+        iterations.append(run.iterations - before)
+        updates += 1
+    assert slam._run is None and updates > 3 and set(iterations) == {1}
+    assert slam.dropped_closures == 1 and [3, 30] not in slam._graph.edges.tolist()
+    error = slam._graph.poses - poses
+    assert np.abs(error[:, :2]).max() < 0.05 and np.abs(wrap_angle(error[:, 2])).max() < 0.01
+    assert np.allclose(slam.pose, slam._graph.pose(40))
+
+
 def _two_walls(gap: float | None) -> CorrelativeMatcher:
     """A likelihood field of a 3 m wall at x = 2 (and a parallel one `gap` m further), 5 cm cells."""
     data = np.zeros((120, 160), dtype=np.int8)  # x -2..6, y -3..3
