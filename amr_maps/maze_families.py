@@ -100,6 +100,15 @@ class MazeError(ValueError):
     """A bad family name or option, or a layout that could not be drawn."""
 
 
+class _NoGoal(MazeError):
+    """A layout drawn without a goal the wall follower surely reaches: the layout is drawn again."""
+
+
+LAYOUT_DRAWS = 20
+"""layouts drawn for one seed at most: one without a reachable goal (a few in a thousand of `dead_ends`' seeds, whose
+every dead end the follower walks) is rejected and the next drawn from the same random stream."""
+
+
 def generate(family: str, seed: int, **options: Any) -> dict:
     """A world dict of ``family`` drawn from ``seed``; see the module docstring for the options."""
     if family not in FAMILIES:
@@ -115,8 +124,13 @@ def generate(family: str, seed: int, **options: Any) -> dict:
     if hand not in HANDS:
         raise MazeError(f"hand must be one of {HANDS}, got {hand!r}")
     rng = np.random.default_rng([int(seed), FAMILIES.index(family)])
-    opts = _Options(family, options)
-    world = _BUILDERS[family](rng, opts, hand)
+    for draw in range(LAYOUT_DRAWS):
+        try:
+            world = _BUILDERS[family](rng, _Options(family, options), hand)
+            break
+        except _NoGoal:
+            if draw == LAYOUT_DRAWS - 1:
+                raise
     world["name"] = f"{family}_{seed}"
     return _rounded(world)
 
@@ -676,7 +690,10 @@ def _place_goal(
             continue
         if geometry.goal_on_contour(solid, gx, gy, radius, TARGET_WALL_DISTANCE) is True:
             return dict(world, goal=[float(gx), float(gy), float(radius)])
-    raise MazeError(f"no goal candidate is surely reachable by the wall follower within {WALK_BUDGET:.0f} m of walk")
+    raise _NoGoal(
+        f"no goal candidate is surely reachable by the wall follower within {WALK_BUDGET:.0f} m of walk "
+        f"in {LAYOUT_DRAWS} layouts drawn"
+    )
 
 
 def _rotate(world: dict, angle: float) -> dict:

@@ -29,6 +29,14 @@ def test_every_family_loads_with_a_free_start_and_a_reachable_goal(family, seed)
     assert walk_length(data, "right") <= WALK_BUDGET, "the goal is beyond the follower's time budget"
 
 
+def test_a_layout_without_a_reachable_goal_is_drawn_again():
+    # dead_ends seed 128's first layout has no goal within the follower's walk budget (every dead end is walked)
+    data = generate("dead_ends", 128)
+    assert goal_reachable(data, "right") is True
+    assert walk_length(data, "right") <= WALK_BUDGET
+    assert generate("dead_ends", 128) == data, "the draws again come from the seed's own stream"
+
+
 @pytest.mark.parametrize("family", FAMILIES)
 def test_same_seed_same_world_other_seed_other_world(family):
     assert generate(family, 7) == generate(family, 7)
