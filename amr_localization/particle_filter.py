@@ -259,6 +259,7 @@ class ParticleFilter:
             else None
         )
         self._window: deque[_Seen] = deque(maxlen=WINDOW_SCANS)
+        self._scores: dict[int, tuple[_Seen, dict[bytes, float]]] = {}  # _place_scores' memo, the update's scans'
         self.reinitialize_global()
 
     def retune(self, config: ParticleFilterConfig) -> None:
@@ -422,6 +423,7 @@ class ParticleFilter:
 
     def _measure(self, beams: Beams | None, beacons: BeaconReading | None, scan: ScanData | None = None) -> None:
         config = self.config
+        self._scores = {}
         seen = None
         used = 0.0
         if beams is not None:
@@ -683,12 +685,10 @@ class ParticleFilter:
         if seen is not None and places and isinstance(self._laser, LikelihoodField):
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses
-            best = (
-                self._laser.best_free_path(poses, NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
-                if fixed is None
-                else fixed.best_free_path(seen.beams, FREE_PATH_MARGIN)
-            )
-            total += seen.gain * (best @ seen.weights)
+            if fixed is not None:
+                total += seen.gain * (fixed.best_free_path(seen.beams, FREE_PATH_MARGIN) @ seen.weights)
+            else:
+                total += seen.gain * self._place_scores(poses, seen)
         elif seen is not None:
             total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)
         if beacons is not None:
@@ -696,6 +696,19 @@ class ParticleFilter:
                 poses, self.beacons, beacons, self.config.beacon_sigma_range, self.config.beacon_sigma_compass
             )
         return total
+
+    def _place_scores(self, poses: np.ndarray, seen: _Seen) -> np.ndarray:
+        """(H,) the places' model's weighted sum of the scan's beam terms at each pose (LikelihoodField.best_free_path,
+        NUDGES), each pose scored once per scan: a place is scored again and again within an update (fitted, then
+        admitted, then decided on), at the very same pose."""
+        poses = np.ascontiguousarray(poses, dtype=float)
+        scores = self._scores.setdefault(id(seen), (seen, {}))[1]  # the scan held: its id is not reused meanwhile
+        keys = [pose.tobytes() for pose in poses]
+        new = [i for i, key in enumerate(keys) if key not in scores]
+        if new:
+            terms = self._laser.best_free_path(poses[new], NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
+            scores.update(zip((keys[i] for i in new), terms @ seen.weights, strict=True))
+        return np.array([scores[key] for key in keys])
 
     def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
         """(H,) the log-likelihood of the scans in the window and of the current data at each pose, the poses of

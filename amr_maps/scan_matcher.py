@@ -239,9 +239,7 @@ class CorrelativeMatcher:
         size = 2 * reach + 1
         top = min(self.levels - 1, max(0, math.ceil(math.log2(size))))
         span = 1 << top
-        blocks = np.arange(0, size, span)
-        a, by, bx = np.meshgrid(np.arange(len(thetas)), blocks, blocks, indexing="ij")
-        tops = np.stack([a.ravel(), bx.ravel(), by.ravel()], axis=1).astype(np.int32)
+        tops = _top_blocks(len(thetas), np.arange(0, size, span, dtype=np.int32))
         search = _BranchAndBound(self, rows, cols, size, size, tops, top, None, 1, 0, 10**18, 10**9, 0)
         search.run(np.iinfo(np.int64).max if max_nodes is None else max_nodes)
         found = search.results()
@@ -701,12 +699,45 @@ def _floor_covariance(resolution: float, step: float) -> np.ndarray:
 def _cells(points: np.ndarray, x_ref: float, y_ref: float, thetas: np.ndarray, origin, resolution: float):
     """(A, N) row and column indices of the cells of the points at poses (x_ref, y_ref, thetas[a]): a pose
     dx, dy whole cells on moves them by exactly dx, dy (the lattice)."""
-    c, s = np.cos(thetas)[:, None], np.sin(thetas)[:, None]
-    wx = x_ref + c * points[:, 0] - s * points[:, 1]
-    wy = y_ref + s * points[:, 0] + c * points[:, 1]
-    cols = np.clip(np.floor((wx - origin[0]) / resolution), -_FAR, _FAR).astype(np.int32)
-    rows = np.clip(np.floor((wy - origin[1]) / resolution), -_FAR, _FAR).astype(np.int32)
-    return np.ascontiguousarray(rows), np.ascontiguousarray(cols)
+    points = np.asarray(points, dtype=np.float64)
+    rows = np.empty((len(thetas), len(points)), dtype=np.int32)
+    cols = np.empty_like(rows)
+    _cells_kernel(
+        points[:, 0].copy(),
+        points[:, 1].copy(),
+        float(x_ref),
+        float(y_ref),
+        np.asarray(thetas, dtype=np.float64),
+        float(origin[0]),
+        float(origin[1]),
+        float(resolution),
+        rows,
+        cols,
+    )
+    return rows, cols
+
+
+@numba.njit(cache=True)
+def _cells_kernel(px, py, x_ref, y_ref, thetas, ox, oy, resolution, rows, cols):  # pragma: no cover - compiled
+    """_cells in one pass (no (A, N) float temporaries: a windowed match's setup was bound by them)."""
+    for a in range(thetas.shape[0]):
+        c, s = math.cos(thetas[a]), math.sin(thetas[a])
+        for k in range(px.shape[0]):
+            wx = x_ref + c * px[k] - s * py[k]
+            wy = y_ref + s * px[k] + c * py[k]
+            cols[a, k] = int(min(max(math.floor((wx - ox) / resolution), -_FAR), _FAR))
+            rows[a, k] = int(min(max(math.floor((wy - oy) / resolution), -_FAR), _FAR))
+
+
+def _top_blocks(angles: int, blocks: np.ndarray) -> np.ndarray:
+    """(angles x blocks x blocks, 3) int32 (angle, x block, y block) rows, angle slowest then y then x: a windowed
+    match's top nodes."""
+    n = len(blocks)
+    tops = np.empty((angles, n, n, 3), dtype=np.int32)
+    tops[..., 0] = np.arange(angles, dtype=np.int32)[:, None, None]
+    tops[..., 1] = blocks[None, None, :]
+    tops[..., 2] = blocks[None, :, None]
+    return tops.reshape(-1, 3)
 
 
 def _max_pyramid(base: np.ndarray, levels: int) -> np.ndarray:
