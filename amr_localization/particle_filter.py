@@ -498,12 +498,14 @@ class ParticleFilter:
         hypotheses = self.hypotheses
         none = np.zeros((0, 3))
         if len(hypotheses) and seen is not None:
-            # a place without particles, carried by odometry and the window's links alone: within 3 sigma of them
+            # a place without particles, carried by odometry and the window's links since it was last fitted: within 3
+            # sigma of them; fitted, it is where this scan puts it (the motion's uncertainty starts again from here)
             window = np.minimum(3.0 * np.sqrt(hypotheses.variance), MERGE_DISTANCE)
             hypotheses.poses, held = self._fitted(hypotheses.poses, seen, window)
+            hypotheses.variance = np.zeros(len(hypotheses))
         else:
             held = np.zeros(len(hypotheses))
-        found, found_fit, running = self._search_places(seen) if seen is not None else (none, np.zeros(0), none)
+        found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
         if len(hypotheses):
             hypotheses.observe(
                 held + self._log_likelihood(hypotheses.poses, None, beacons), self._elsewhere(seen, beacons, running)
@@ -810,15 +812,27 @@ class ParticleFilter:
         match = self.matcher.match(points, pose, spread, turn, refine=True)
         if not np.isfinite(match.pose).all() or match.score <= self.matcher.score_interpolated(points, pose):
             return estimate
+        # the particles are the prior the scan refines: the matcher's pose is kept where the places' model scores it
+        # above their mean by more than the particles' spread makes the move unlikely (the matcher alone slid 0.3 m
+        # along a corridor, 5 of the particles' sigmas, for the beams on an object the map lacks)
+        offset = match.pose - pose
+        offset[2] = wrap_angle(offset[2])
+        floor = np.diag(self._nudge_step**2)  # the places' model's own precision: a cell, half a degree
+        penalty = 0.5 * offset @ np.linalg.solve(estimate.covariance + floor, offset)
+        moved, stayed = self._log_likelihood(np.array([match.pose, pose]), seen, None, places=True)
+        if not moved - penalty > stayed:
+            return estimate
         covariance = np.where(np.isfinite(match.covariance), match.covariance, estimate.covariance)
         return PoseEstimate(float(match.pose[0]), float(match.pose[1]), float(wrap_angle(match.pose[2])), covariance)
 
-    def _search_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _search_places(self, seen: _Seen, held: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Proposals of the place search: a branch and bound over the whole map for the scan, place_search_budget
         nodes per update, resumed over updates (a scan's search finishes on later updates; its poses are moved by
         the odometry since). Returns the proposals of a search completed now and the scan's log-likelihood at each,
         and the best poses so far of one still running that no place followed is at (for `elsewhere`), each moved to
-        now and fitted. Nothing when the budget is 0."""
+        now and fitted. A proposal at a place followed is that place as fitted this update (its pose, and `held`, the
+        scan's log-likelihood there): fitted again from the proposal it would come to the same pose. Nothing when the
+        budget is 0."""
         none = np.zeros((0, 3))
         budget = self.config.place_search_budget
         if budget <= 0:
@@ -850,9 +864,13 @@ class ParticleFilter:
             self._covered = True
         # moved by the scan-matched odometry since its scan, refitted within 3 sigma of it (to REFIT_WINDOW) or its cell
         window = max(min(3.0 * math.sqrt(running.position_variance), REFIT_WINDOW), self._place_search_resolution)
-        fitted, score = self._fitted(poses, seen, window)
         if not done:
-            return none, np.zeros(0), fitted
+            return none, np.zeros(0), self._fitted(poses, seen, window)[0]
+        place = self.hypotheses.find(poses)
+        new = place < 0
+        fitted, score = np.empty_like(poses), np.empty(len(poses))
+        fitted[~new], score[~new] = self.hypotheses.poses[place[~new]], held[place[~new]]
+        fitted[new], score[new] = self._fitted(poses[new], seen, window)
         best = np.argsort(-score, kind="stable")[:SEARCH_PROPOSALS]
         return fitted[best], score[best], none
 

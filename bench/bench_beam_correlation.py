@@ -13,6 +13,13 @@ frame). Then the exponential model of amr_localization.beam_correlation, rho(d) 
 bins (least squares, weighted by pairs), which is what beam_correlation_length stands for. --worlds does the same
 in simulator worlds (their own map, a scan every 0.5 s of wall following): the map is the world there, and only the
 LiDAR's noise and the map's cells are left to correlate.
+
+Then scans against scans: each scan's evidence for its true pose (the weighted log-likelihood there less at poses
+30 cm and 0.1 rad around it, NEIGHBOURS, averaged: what one scan tells the filter), its correlation between two scans
+binned by the path travelled between them, and exp(-s / L) fitted. An object the map lacks, seen by scan after scan,
+tells the filter the same thing each time: for scans spaced much closer than L, each carries s / 2L of an independent
+scan's information (an exponentially correlated sequence's effective sample size), which is what the filter's
+scan_correlation_distance counts as 2 L.
 """
 
 from __future__ import annotations
@@ -40,24 +47,39 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world
 from amr_simulation.config import SimulationConfig
 from amr_simulation.simulator import Simulator
+from amr_util.geometry import compose
 from amr_util.scan import scan_of
 
 EDGES = np.array([0.0, 0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, math.inf])
 """m: the bins of end-point distance."""
 LENGTHS = np.linspace(0.05, 3.0, 591)
 """m: the correlation lengths tried by the fit."""
+TRAVEL_EDGES = np.array([0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, math.inf])
+"""m: the bins of travel between two scans."""
+TRAVEL_LENGTHS = np.linspace(0.1, 20.0, 1991)
+"""m: the scans' correlation lengths tried by the fit."""
+NEIGHBOURS = np.array(
+    [[0.3, 0.0, 0.0], [-0.3, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, -0.3, 0.0], [0.0, 0.0, 0.1], [0.0, 0.0, -0.1]]
+)
+"""(x m, y m, theta rad) in the robot's frame: the poses a scan's evidence for its true pose is taken against (the
+scale of a keyframe's odometry error)."""
 
 
-def correlation_by_distance(pf, poses: np.ndarray, scans, max_beams: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(correlation per bin, pairs per bin, each scan's count of independent beams by the filter's weights): the
-    scans' beams scored at their true poses by the filter `pf`'s places' model."""
-    scored = []
+def correlation_by_distance(pf, poses: np.ndarray, scans, max_beams: int) -> tuple[np.ndarray, ...]:
+    """(correlation per bin, pairs per bin, each scan's count of independent beams by the filter's weights, each
+    scan's mean term by those weights): the scans' beams scored at their true poses by the filter `pf`'s places'
+    model."""
+    scored, evidence = [], []
     for pose, scan in zip(poses, scans, strict=True):
         beams = select_beams(scan, max_beams)
-        terms = pf._laser.best_free_path(np.atleast_2d(pose), NUDGES * pf._nudge_step, beams, FREE_PATH_MARGIN)
+        near = np.array([pose, *(tuple(compose(tuple(pose), tuple(offset))) for offset in NEIGHBOURS)], dtype=float)
+        terms = pf._laser.best_free_path(near, NUDGES * pf._nudge_step, beams, FREE_PATH_MARGIN)
         returned = beams.returned
         ends = np.column_stack([beams.ranges * np.cos(beams.angles), beams.ranges * np.sin(beams.angles)])
-        scored.append((terms[0][returned], ends[returned], beam_weights(beams, pf.config.beam_correlation_length)))
+        weights = beam_weights(beams, pf.config.beam_correlation_length)
+        scored.append((terms[0][returned], ends[returned], weights[returned]))
+        totals = terms @ weights
+        evidence.append(float(np.mean(totals[0] - totals[1:])))
     scans = scored
     every = np.concatenate([terms for terms, _, _ in scans])
     mean = every.mean()
@@ -73,7 +95,25 @@ def correlation_by_distance(pf, poses: np.ndarray, scans, max_beams: int) -> tup
         np.add.at(pairs, bins, 1.0)
     scale = np.sqrt(first * second)
     correlation = np.divide(products, scale, out=np.zeros_like(products), where=scale > 0)
-    return correlation, pairs, np.array([weights.sum() for _, _, weights in scans])
+    return correlation, pairs, np.array([weights.sum() for _, _, weights in scans]), np.array(evidence)
+
+
+def correlation_by_travel(poses: np.ndarray, evidence: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(correlation per bin, pairs per bin) of two scans' evidence for their true pose against its NEIGHBOURS (what
+    each scan tells the filter), binned by the path travelled between them (TRAVEL_EDGES)."""
+    means = evidence
+    path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
+    upper = np.triu_indices(len(means), 1)
+    travel = np.abs(path[upper[1]] - path[upper[0]])
+    centred = means - means.mean()
+    bins = np.digitize(travel, TRAVEL_EDGES) - 1
+    products, first, second, pairs = (np.zeros(len(TRAVEL_EDGES) - 1) for _ in range(4))
+    np.add.at(products, bins, centred[upper[0]] * centred[upper[1]])
+    np.add.at(first, bins, centred[upper[0]] ** 2)
+    np.add.at(second, bins, centred[upper[1]] ** 2)
+    np.add.at(pairs, bins, 1.0)
+    scale = np.sqrt(first * second)
+    return np.divide(products, scale, out=np.zeros_like(products), where=scale > 0), pairs
 
 
 def log_case(path: Path) -> tuple:
@@ -106,12 +146,14 @@ def world_case(name: str, seconds: float, period: float) -> tuple:
     return pf, np.array(poses), scans
 
 
-def fitted_length(correlation: np.ndarray, pairs: np.ndarray) -> float:
+def fitted_length(
+    correlation: np.ndarray, pairs: np.ndarray, edges: np.ndarray = EDGES, lengths: np.ndarray = LENGTHS
+) -> float:
     """The l of exp(-d / l) closest to the bins (their middles, the last finite bin's edges only), pairs-weighted."""
-    middles = 0.5 * (EDGES[:-1] + EDGES[1:])
+    middles = 0.5 * (edges[:-1] + edges[1:])
     use = np.isfinite(middles) & (pairs > 0)
-    errors = [np.sum(pairs[use] * (correlation[use] - np.exp(-middles[use] / length)) ** 2) for length in LENGTHS]
-    return float(LENGTHS[int(np.argmin(errors))])
+    errors = [np.sum(pairs[use] * (correlation[use] - np.exp(-middles[use] / length)) ** 2) for length in lengths]
+    return float(lengths[int(np.argmin(errors))])
 
 
 def main() -> int:
@@ -135,14 +177,31 @@ def main() -> int:
     print("log | " + " | ".join(labels) + " m | fitted l (m) | independent beams per scan, median (5-95 %)")
     cases = [(path.name.split("-")[0].split(".")[0], lambda path=path: log_case(path)) for path in files]
     cases += [(f"{name} (simulated)", lambda name=name: world_case(name, args.seconds, 0.5)) for name in args.worlds]
+    by_travel = []
     for label, case in cases:
-        correlation, pairs, independent = correlation_by_distance(*case(), args.max_beams)
+        pf, poses, scans = case()
+        correlation, pairs, independent, means = correlation_by_distance(pf, poses, scans, args.max_beams)
         low, median, high = np.percentile(independent, [5, 50, 95])
         print(
             f"{label} | "
             + " | ".join(f"{value:.2f}" for value in correlation)
             + f" | {fitted_length(correlation, pairs):.2f} | {median:.1f} ({low:.1f}-{high:.1f})",
             flush=True,
+        )
+        by_travel.append((label, *correlation_by_travel(np.asarray(poses), means)))
+    travel_labels = [
+        f"{low:g}-{high:g}" if math.isfinite(high) else f">{low:g}"
+        for low, high in zip(TRAVEL_EDGES[:-1], TRAVEL_EDGES[1:], strict=True)
+    ]
+    print(
+        "\nscans: the correlation of two scans' evidence for their true pose (the weighted log-likelihood there less "
+        "at 30 cm and 0.1 rad around it, mean) by the path between them\n"
+        "log | " + " | ".join(travel_labels) + " m | fitted L (m) | scan_correlation_distance 2 L (m)"
+    )
+    for label, correlation, pairs in by_travel:
+        length = fitted_length(correlation, pairs, TRAVEL_EDGES, TRAVEL_LENGTHS)
+        print(
+            f"{label} | " + " | ".join(f"{value:.2f}" for value in correlation) + f" | {length:.1f} | {2 * length:.1f}"
         )
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     return 0
