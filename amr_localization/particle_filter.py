@@ -804,7 +804,9 @@ class ParticleFilter:
 
     def _refined(self, estimate: PoseEstimate, seen: _Seen) -> PoseEstimate:
         """The estimate fitted to the scan: the matcher's best pose within the estimate's spread (at most the
-        merge window), below the cell; the particles' estimate where the scan fits no better there."""
+        merge window), below the cell, where its likelihood by the places' model beats the particles' mean's by more
+        than the move costs under the particles' Gaussian (their covariance, plus a cell and half a degree); the
+        particles' estimate otherwise."""
         spread = min(3.0 * estimate.position_std + self._grid.resolution, MERGE_DISTANCE)
         turn = min(3.0 * estimate.heading_std + math.radians(1.0), MERGE_ANGLE)
         points = self._points(seen.beams)
