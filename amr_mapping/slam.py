@@ -426,8 +426,14 @@ class GraphSlam:
 
     def save(self, path: str | Path) -> list[Path]:
         """Writes <path>.yaml + <path>.pgm (map_server's format) and <path>.poses.csv (stamp_ns,x,y,theta per
-        node, map frame); returns the paths. A file that cannot be written: MappingError naming it (the map is
-        kept)."""
+        node, map frame); returns the paths. An optimization still running over the updates, or closures waiting
+        for one, is finished first (optimize: the map saved is the optimized graph's; if it fails, the poses as they
+        are). A file that cannot be written: MappingError naming it (the map is kept)."""
+        if self._run is not None or self._unoptimized:
+            try:
+                self.optimize()
+            except MappingError:
+                pass  # the poses kept: the map as it is
         grid = self.occupancy_grid()
         path = Path(path)
         stem = path.with_suffix("") if path.suffix in (".yaml", ".yml") else path

@@ -242,3 +242,26 @@ def test_a_turn_the_odometry_misreads_beyond_its_window_is_found_in_the_whole_wi
     heading = math.degrees(abs(math.remainder(poses[6, 2] - poses[5, 2] - (truth[6, 2] - truth[5, 2]), 2 * math.pi)))
     assert heading < 1.0, (heading, events)
     assert any("whole angular window" in event for event in events), events
+
+
+def test_save_finishes_an_optimization_still_running_over_the_updates(ring, tmp_path, monkeypatch):
+    """A map saved while the optimization a closure started is carried over the updates (OPTIMIZE_BUDGET) is the
+    optimized graph's: save finishes it first; saved again, nothing moves."""
+    import amr_mapping.slam as slam_module
+
+    monkeypatch.setattr(slam_module, "OPTIMIZE_BUDGET", 0.0)  # one iteration an update
+    slam, _, _, closures = _run(ring)
+    assert closures > 0
+    count = len(slam.node_stamps)
+    slam._graph.move_after(count // 2, (0.05, -0.03, 0.02))  # the graph off its optimum, as a closure far off leaves it
+    slam._start_optimization([], drops=1)
+    slam._advance_optimization(count - 1, [])
+    assert slam._run is not None and not slam._run.done
+    before = slam.graph()[0]
+    paths = slam.save(tmp_path / "ring")
+    assert slam._run is None and not np.allclose(slam.graph()[0], before, atol=1e-9, rtol=0.0)
+    rows = np.loadtxt(paths[2], delimiter=",", skiprows=1)
+    assert np.allclose(rows[:, 1:], slam.graph()[0], atol=1e-5)
+    after = slam.graph()[0]
+    slam.save(tmp_path / "again")
+    assert np.array_equal(slam.graph()[0], after)
