@@ -76,9 +76,8 @@ class PlaceHypotheses:
     def clear(self) -> None:
         self.poses, self.evidence = np.zeros((0, 3)), np.zeros(0)
         self.variance = np.zeros(0)
-        """(H,) m^2: the motion's position variance each place has been moved by since it was last fitted to a scan
-        or held by particles (a place without particles is carried by odometry and the window's links alone: it is
-        fitted within 3 sigma)."""
+        """(H,) m^2: the motion's position variance each place has been moved by since particles last held it (a
+        place without particles is carried by odometry and the window's links alone: it is fitted within 3 sigma)."""
         self.elsewhere = 0.0
 
     def move(self, increment, variance: float = 0.0) -> None:

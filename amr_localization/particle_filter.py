@@ -498,11 +498,9 @@ class ParticleFilter:
         hypotheses = self.hypotheses
         none = np.zeros((0, 3))
         if len(hypotheses) and seen is not None:
-            # a place without particles, carried by odometry and the window's links since it was last fitted: within 3
-            # sigma of them; fitted, it is where this scan puts it (the motion's uncertainty starts again from here)
+            # a place without particles, carried by odometry and the window's links alone: within 3 sigma of them
             window = np.minimum(3.0 * np.sqrt(hypotheses.variance), MERGE_DISTANCE)
             hypotheses.poses, held = self._fitted(hypotheses.poses, seen, window)
-            hypotheses.variance = np.zeros(len(hypotheses))
         else:
             held = np.zeros(len(hypotheses))
         found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
