@@ -7,6 +7,9 @@ For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default Sla
   reference's: translation and heading error, median / mean / p90, and the share of the heading error in the
   worst 10 % of the links; the heading error growing with the lag (1 and 8 nodes): per-pose noise stays, drift
   grows;
+- chi-square of the graph's edges at the reference poses (scan matches, closures; 3 on average if each edge's
+  information is its error's), and with the reference's own noise per pose (--reference-sigma: aces' measured by
+  --reference, 1.5 cm and 0.26 deg) added to each edge's covariance;
 - nodes: how many nodes' headings are more than 1.5 deg off their two neighbours' (estimate against reference),
   the worst listed (a single match off, put back by the next: every pair starting there is off by its heading
   times the pair's length).
@@ -46,7 +49,7 @@ def _stats(values: np.ndarray, scale: float) -> str:
     return f"{np.median(values):.2f} / {values.mean():.2f} / {np.percentile(values, 90):.2f}"
 
 
-def links(name: str, log, seed: int) -> None:
+def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.015, 0.26)) -> None:
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
     slam = GraphSlam(SlamConfig())
@@ -79,6 +82,29 @@ def links(name: str, log, seed: int) -> None:
             f"worst 10 % of links: {worst:.0%} of the heading error"
         )
     nodes_reference = reference[scans]
+    chi2 = slam._graph.chi2(nodes_reference)  # each edge's at the reference poses: 3 on average if weighed right
+    scan_matches = np.array([k for k in sequential if edges[k, 1] not in slam._unmatched])
+    # the same with the reference's own per-pose noise (two poses an edge) added to each edge's covariance
+    own = 2.0 * np.diag([reference_sigma[0] ** 2, reference_sigma[0] ** 2, math.radians(reference_sigma[1]) ** 2])
+    error = slam._graph.errors(nodes_reference)
+    widened = np.array(
+        [
+            e @ np.linalg.solve(np.linalg.inv(info) + own, e)
+            for e, info in zip(error, slam._graph.information, strict=True)
+        ]
+    )
+    parts = [
+        f"{label} {np.mean(values[index]):.1f} / {np.median(values[index]):.1f}"
+        for values in (chi2, widened)
+        for label, index in (("scan matches", scan_matches), ("closures", np.flatnonzero(loop)))
+        if len(index)
+    ]
+    print(
+        "  chi-square at the reference poses (3: weighed right), mean / median: "
+        + ", ".join(parts[: len(parts) // 2])
+        + f"; with the reference's own noise ({reference_sigma[0] * 100:.1f} cm, {reference_sigma[1]} deg a pose): "
+        + ", ".join(parts[len(parts) // 2 :])
+    )
     for lag in (1, 8):
         a = np.arange(len(poses) - lag)
         error = np.degrees(
@@ -156,6 +182,14 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference", action="store_true", help="the corrected poses' own noise instead")
     parser.add_argument("--every", type=int, default=2)
+    parser.add_argument(
+        "--reference-sigma",
+        nargs=2,
+        type=float,
+        default=[0.015, 0.26],
+        metavar=("M", "DEG"),
+        help="the reference's own noise per pose (chi-square with it added)",
+    )
     parser.add_argument("--skip", type=int, default=1)
     args = parser.parse_args()
     for name in args.logs:
@@ -166,7 +200,7 @@ def main() -> None:
         if args.reference:
             reference_noise(name, log, args.every, args.skip)
         else:
-            links(name, log, args.seed)
+            links(name, log, args.seed, tuple(args.reference_sigma))
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
 
 

@@ -10,6 +10,9 @@ stamp, odometry, ranges and true pose). Then, per run:
 - closures: candidates searched, in the final graph, refused (ambiguous or on the window's edge / seen-through space /
   the chi-square gate), dropped after an optimization; then each outcome's count and how many of its matches were
   right (within 5 cm and 1 deg of the true relative pose: a right closure refused, or a wrong one refused);
+- chi-square at the true poses (3 on average if weighed right): each scan-match edge, each closure, and runs of 10
+  and 50 consecutive links composed against their compounded covariance (what the closures are weighed against: a
+  link's error partly cancels along the chain);
 - nodes: the final graph's nodes against the true poses (mean / max m, heading max deg);
 - the map of the final graph judged against the world as bench_mapping.py judges a saved map (known, precise, walls).
 
@@ -36,7 +39,7 @@ from amr_mapping.slam_node import config_of
 from amr_mapping.trajectory_error import relative_motions
 from amr_maps.maze_families import generate
 from amr_maps.world import world_from_dict
-from amr_util.geometry import wrap_angle
+from amr_util.geometry import compose, relative_pose, wrap_angle
 from amr_util.scan import ScanData
 
 RIGHT_M, RIGHT_RAD = 0.05, math.radians(1.0)
@@ -70,6 +73,11 @@ def replay(path: Path, overrides: dict) -> dict:
     heading_online = np.degrees(wrap_angle(online[:, 2] - truth[:, 2]))
     node = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
     chi2 = slam._graph.chi2(truth)  # each edge's chi-square at the true poses: 3 on average if weighed right
+    order = sequential[np.argsort(j)]  # edge (k - 1, k) for k = 1 ..
+    chains = [
+        chain_chi2(slam._graph.measurements[order], slam._graph.information[order], truth, length)
+        for length in (10, 50)
+    ]
     loop_error = slam._graph.measurements[loop] - relative_motions(truth, edges[loop, 0], edges[loop, 1])
     outcomes = {}
     for anchor, node_index, outcome, matched in slam.closure_outcomes:
@@ -106,13 +114,39 @@ def replay(path: Path, overrides: dict) -> dict:
         ),
         "seconds": seconds,
         "outcomes": outcomes,
-        "chi2": (float(np.mean(chi2[~loop])), float(np.median(chi2[~loop])), *_mean_median(chi2[loop])),
+        "chi2": (float(np.mean(chi2[~loop])), float(np.median(chi2[~loop])), *_mean_median(chi2[loop]), *chains),
         "loop_error": (
             1000.0 * math.sqrt(float(np.mean(np.sum(loop_error[:, :2] ** 2, axis=1)))) if loop.any() else math.nan,
             float(np.degrees(np.sqrt(np.mean(wrap_angle(loop_error[:, 2]) ** 2)))) if loop.any() else math.nan,
         ),
         **map_figures,
     }
+
+
+def chain_chi2(measurements: np.ndarray, information: np.ndarray, truth: np.ndarray, length: int) -> float:
+    """Mean chi-square of runs of `length` consecutive links (measurements (N - 1, 3) of edges (k - 1, k), their
+    informations in node k's frame) composed, against their covariance compounded along the run, at the true poses
+    (non-overlapping runs)."""
+    values = []
+    for start in range(0, len(measurements) - length + 1, length):
+        z, covariance = np.zeros(3), np.zeros((3, 3))
+        for k in range(start, start + length):
+            step = measurements[k]
+            c, s = math.cos(step[2]), math.sin(step[2])
+            # the run so far seen from the step's end (Ad(step^-1)), then the step's own error
+            adjoint = np.array(
+                [[c, s, -s * step[0] + c * step[1]], [-s, c, -c * step[0] - s * step[1]], [0.0, 0.0, 1.0]]
+            )
+            covariance = adjoint @ covariance @ adjoint.T + np.linalg.inv(information[k])
+            z = np.array(compose(z, step))
+        true = np.array(relative_pose(truth[start], truth[start + length]))
+        c, s = math.cos(z[2]), math.sin(z[2])
+        error = np.array(
+            [c * (true[0] - z[0]) + s * (true[1] - z[1]), -s * (true[0] - z[0]) + c * (true[1] - z[1]), 0.0]
+        )
+        error[2] = wrap_angle(true[2] - z[2])
+        values.append(float(error @ np.linalg.solve(covariance, error)))
+    return float(np.mean(values)) if values else math.nan
 
 
 def _mean_median(values: np.ndarray) -> tuple[float, float]:
@@ -166,7 +200,8 @@ def main() -> None:
         )
         print(
             "            chi-square at the true poses (3: weighed right), mean / median: scan matches "
-            f"{r['chi2'][0]:.1f} / {r['chi2'][1]:.1f}, closures {r['chi2'][2]:.1f} / {r['chi2'][3]:.1f}; closures' "
+            f"{r['chi2'][0]:.1f} / {r['chi2'][1]:.1f}, closures {r['chi2'][2]:.1f} / {r['chi2'][3]:.1f}, "
+            f"runs of 10 / 50 links (mean) {r['chi2'][4]:.1f} / {r['chi2'][5]:.1f}; closures' "
             f"error rms {r['loop_error'][0]:.1f} mm, {r['loop_error'][1]:.2f} deg",
             flush=True,
         )

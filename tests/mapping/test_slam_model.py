@@ -117,10 +117,11 @@ _NO_REFERENCE = _NoReference()
 
 def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatch):
     """The front end's pose: the correlative match (its information with the field's quantization) and its
-    point-to-line refinement, each weighted by its own information, the edge given the more informative one's. A
-    refinement claiming 100 times the match's precision (a simulated maze's straight walls) decides; one claiming a
-    fiftieth of it (a real log's clutter) moves the pose a fifth of the way or less (taking it whatever its
-    information cost the logs 0.40 vs 0.26 deg a link on aces)."""
+    point-to-line refinement (at ALIGN_WEIGHT_SHARE of its information), each weighted by its information, the odometry
+    weighed against the more informative one's. A refinement claiming 100 times the match's precision (a simulated
+    maze's straight walls) decides; one claiming a fiftieth of it (a real log's clutter) moves the pose a fifth of the
+    way or less (taking it whatever its information cost the logs 0.40 vs 0.26 deg a link on aces). The estimate's
+    covariance is the deciding one's own: the refinement's full information's inverse, or the match's."""
     curvature = np.diag([1e4, 1e4, 1e5])
     monkeypatch.setattr(slam_module, "_match_information", lambda *args: curvature)
     points = np.column_stack([2.0 * np.cos(np.linspace(0, 6, 30)), 2.0 * np.sin(np.linspace(0, 6, 30))])  # 2 m
@@ -132,21 +133,23 @@ def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatc
     pose = np.array([1.0, 2.0, 0.5])
     refined = pose + np.array([0.02, -0.01, 0.004])
     for share in (100.0, 0.02):
-        aligned_information = share * curvature
-        monkeypatch.setattr(slam_module, "_align", lambda *args, i=aligned_information: (refined.copy(), i))
-        fused, information = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
-        expected = pose + np.linalg.solve(
-            match_information + aligned_information, aligned_information @ (refined - pose)
-        )
+        weight = share * curvature
+        own = weight / slam_module.ALIGN_WEIGHT_SHARE  # the refinement's Gauss-Newton information
+        monkeypatch.setattr(slam_module, "_align", lambda *args, i=own: (refined.copy(), i))
+        fused, information, covariance = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
+        expected = pose + np.linalg.solve(match_information + weight, weight @ (refined - pose))
         assert fused == pytest.approx(expected, abs=1e-12)
         toward = (fused - pose) / (refined - pose)
         if share > 1.0:
-            assert np.all(toward > 0.95) and np.allclose(information, aligned_information)
+            assert np.all(toward > 0.95) and np.allclose(information, weight)
+            assert np.allclose(covariance, np.linalg.inv(own))
         else:
             assert np.all(toward < 0.2) and np.allclose(information, match_information)
+            assert np.allclose(covariance, np.linalg.inv(match_information))
     monkeypatch.setattr(slam_module, "_align", lambda *args: (refined.copy(), None))  # too few pairs: the match
-    fused, information = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
+    fused, information, covariance = slam_module._refined(_NO_REFERENCE, points, pose, 0.05)
     assert np.array_equal(fused, pose) and np.allclose(information, match_information)
+    assert np.allclose(covariance, np.linalg.inv(match_information))
 
 
 def test_the_field_measures_the_distance_to_the_points_not_to_their_cells():
