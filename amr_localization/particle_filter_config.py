@@ -72,7 +72,8 @@ class ParticleFilterConfig(Config):
     scan_correlation_distance: float = parameter(0.5, minimum=0.0, maximum=100.0, live=True)
     """m of travel (or this many x 1.5 rad of turning) over which two scans' errors stay correlated: a scan counts
     as the share of this the robot moved since the last scan used (all of it after this much travel); 0 = each
-    scan counts fully."""
+    scan counts fully. Twice the length over which a scan's evidence for its pose stays correlated (what the map
+    lacks is seen scan after scan): 0.5 for a simulator's world, 2 for a real building (particle_filter_real.yaml)."""
     lidar_x: float = parameter(0.0, minimum=-2.0, maximum=2.0)
     """m, base_scan in base_footprint (x)."""
     lidar_y: float = parameter(0.0, minimum=-2.0, maximum=2.0)
