@@ -65,10 +65,32 @@ NEIGHBOURS = np.array(
 scale of a keyframe's odometry error)."""
 
 
+class BinnedCorrelation:
+    """Pearson correlations of pairs of values, binned by a key of each pair (a distance): sums accumulated pair by
+    pair around a mean given beforehand."""
+
+    def __init__(self, edges: np.ndarray, mean: float) -> None:
+        self.edges, self.mean = edges, mean
+        self.products, self.first, self.second, self.pairs = (np.zeros(len(edges) - 1) for _ in range(4))
+
+    def add(self, first: np.ndarray, second: np.ndarray, keys: np.ndarray) -> None:
+        bins = np.digitize(keys, self.edges) - 1
+        a, b = first - self.mean, second - self.mean
+        np.add.at(self.products, bins, a * b)
+        np.add.at(self.first, bins, a**2)
+        np.add.at(self.second, bins, b**2)
+        np.add.at(self.pairs, bins, 1.0)
+
+    def result(self) -> tuple[np.ndarray, np.ndarray]:
+        """(correlation per bin, pairs per bin)."""
+        scale = np.sqrt(self.first * self.second)
+        return np.divide(self.products, scale, out=np.zeros_like(self.products), where=scale > 0), self.pairs
+
+
 def correlation_by_distance(pf, poses: np.ndarray, scans, max_beams: int) -> tuple[np.ndarray, ...]:
     """(correlation per bin, pairs per bin, each scan's count of independent beams by the filter's weights, each
-    scan's mean term by those weights): the scans' beams scored at their true poses by the filter `pf`'s places'
-    model."""
+    scan's evidence for its true pose against its NEIGHBOURS): the scans' beams scored at their true poses (and
+    around them) by the filter `pf`'s places' model."""
     scored, evidence = [], []
     for pose, scan in zip(poses, scans, strict=True):
         beams = select_beams(scan, max_beams)
@@ -80,40 +102,23 @@ def correlation_by_distance(pf, poses: np.ndarray, scans, max_beams: int) -> tup
         scored.append((terms[0][returned], ends[returned], weights[returned]))
         totals = terms @ weights
         evidence.append(float(np.mean(totals[0] - totals[1:])))
-    scans = scored
-    every = np.concatenate([terms for terms, _, _ in scans])
-    mean = every.mean()
-    products, first, second, pairs = (np.zeros(len(EDGES) - 1) for _ in range(4))
-    for terms, ends, _ in scans:
+    binned = BinnedCorrelation(EDGES, float(np.concatenate([terms for terms, _, _ in scored]).mean()))
+    for terms, ends, _ in scored:
         upper = np.triu_indices(len(terms), 1)
         distance = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1))[upper]
-        centred = terms - mean
-        bins = np.digitize(distance, EDGES) - 1
-        np.add.at(products, bins, centred[upper[0]] * centred[upper[1]])
-        np.add.at(first, bins, centred[upper[0]] ** 2)
-        np.add.at(second, bins, centred[upper[1]] ** 2)
-        np.add.at(pairs, bins, 1.0)
-    scale = np.sqrt(first * second)
-    correlation = np.divide(products, scale, out=np.zeros_like(products), where=scale > 0)
-    return correlation, pairs, np.array([weights.sum() for _, _, weights in scans]), np.array(evidence)
+        binned.add(terms[upper[0]], terms[upper[1]], distance)
+    correlation, pairs = binned.result()
+    return correlation, pairs, np.array([weights.sum() for _, _, weights in scored]), np.array(evidence)
 
 
 def correlation_by_travel(poses: np.ndarray, evidence: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(correlation per bin, pairs per bin) of two scans' evidence for their true pose against its NEIGHBOURS (what
     each scan tells the filter), binned by the path travelled between them (TRAVEL_EDGES)."""
-    means = evidence
     path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
-    upper = np.triu_indices(len(means), 1)
-    travel = np.abs(path[upper[1]] - path[upper[0]])
-    centred = means - means.mean()
-    bins = np.digitize(travel, TRAVEL_EDGES) - 1
-    products, first, second, pairs = (np.zeros(len(TRAVEL_EDGES) - 1) for _ in range(4))
-    np.add.at(products, bins, centred[upper[0]] * centred[upper[1]])
-    np.add.at(first, bins, centred[upper[0]] ** 2)
-    np.add.at(second, bins, centred[upper[1]] ** 2)
-    np.add.at(pairs, bins, 1.0)
-    scale = np.sqrt(first * second)
-    return np.divide(products, scale, out=np.zeros_like(products), where=scale > 0), pairs
+    upper = np.triu_indices(len(evidence), 1)
+    binned = BinnedCorrelation(TRAVEL_EDGES, float(evidence.mean()))
+    binned.add(evidence[upper[0]], evidence[upper[1]], np.abs(path[upper[1]] - path[upper[0]]))
+    return binned.result()
 
 
 def log_case(path: Path) -> tuple:
