@@ -45,7 +45,7 @@ from amr_util.geometry import yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
-from amr_util.sync import ApproximateTimeSynchronizer
+from amr_util.sync import ApproximateTimeSynchronizer, SyncError, checked_stamp
 from amr_util.throttle import ThrottledLogger
 
 POSE, SCAN, STATUS = 0, 1, 2
@@ -206,16 +206,19 @@ class PathFollowerNode(ManagedNode):
     def _on_message(self, index: int, message) -> None:
         if self.state_label != "active":
             return
-        stamp = Time.from_msg(message.header.stamp).nanoseconds
-        if stamp < 0:
-            self._warn("a message with a negative stamp was dropped")
-            return
-        self._sync.add(index, stamp, message)
+        try:
+            self._sync.add_stamped(index, message)
+        except SyncError as error:  # a malformed or negative stamp
+            self._warn(str(error))
 
     def _on_speed_limit(self, message: SpeedLimit) -> None:
         if self.state_label != "active":
             return
-        stamp = Time.from_msg(message.header.stamp).nanoseconds
+        try:
+            stamp = checked_stamp(message)
+        except SyncError as error:  # the limit before it stands
+            self._warn(f"speed limit: {error}")
+            return
         speed = float(message.speed)
         if message.limited and not (math.isfinite(speed) and speed >= 0.0):
             self._warn(f"a speed limit of {speed!r} m/s was taken as a stop")

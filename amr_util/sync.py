@@ -107,6 +107,18 @@ def _positive_seconds_to_ns(name: str, value: Any) -> int:
     return round(float(value) * NANOSECONDS_PER_SECOND)
 
 
+def checked_stamp(message: Any) -> int:
+    """Integer nanoseconds of ``message.header.stamp``; SyncError saying what is wrong with a malformed (nanosec out
+    of range) or negative stamp (rclpy's Time.from_msg raises ValueError on a negative sec instead)."""
+    stamp = message.header.stamp
+    if not 0 <= stamp.nanosec < NANOSECONDS_PER_SECOND:
+        raise SyncError(f"a message with a malformed stamp (nanosec {stamp.nanosec}) was dropped")
+    stamp_ns = stamp.sec * NANOSECONDS_PER_SECOND + stamp.nanosec
+    if stamp_ns < 0:
+        raise SyncError("a message with a negative stamp was dropped")
+    return stamp_ns
+
+
 class ApproximateTimeSynchronizer:
     """Calls ``callback(*messages)`` with one message per input whenever a set is decided.
 
@@ -180,15 +192,9 @@ class ApproximateTimeSynchronizer:
         self._overflowed = [False] * self._n
 
     def add_stamped(self, index: int, message: Any) -> int:
-        """add() with the stamp of ``message.header`` (a ROS message): the one input stamp check of the suite's nodes.
-        Raises SyncError saying what is wrong with a malformed (nanosec out of range) or negative stamp."""
-        stamp = message.header.stamp
-        if not 0 <= stamp.nanosec < NANOSECONDS_PER_SECOND:
-            raise SyncError(f"a message with a malformed stamp (nanosec {stamp.nanosec}) was dropped")
-        stamp_ns = stamp.sec * NANOSECONDS_PER_SECOND + stamp.nanosec
-        if stamp_ns < 0:
-            raise SyncError("a message with a negative stamp was dropped")
-        return self.add(index, stamp_ns, message)
+        """add() with the stamp of ``message.header`` (a ROS message), checked by checked_stamp: the one input stamp
+        check of the suite's nodes. Raises SyncError saying what is wrong with a malformed or negative stamp."""
+        return self.add(index, checked_stamp(message), message)
 
     def add(self, index: int, stamp_ns: int, message: Any) -> int:
         """Queue ``message`` of input ``index`` stamped ``stamp_ns``; returns the number of sets published."""
