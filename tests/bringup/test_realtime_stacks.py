@@ -1,13 +1,15 @@
 """Every simulated stack in real time (issue 36 item 3): `mode:=realtime` runs the simulator on its timer, publishing
 /clock, the nodes on simulated time and nobody waited for; each stack is composed here and run for a short while
 until it has done its job for real (judged by the simulator's own ground truth, ~/status), within a wall-clock
-deadline. real_robot_navigation_sim (always real time) reaches its goal in test_real_robot_navigation.py."""
+deadline. real_robot_navigation_sim (always real time) reaches its goal in test_real_robot_navigation.py;
+real_robot_mapping, which has no simulated twin, runs here with the simulator as its robot (on_the_simulator)."""
 
 from __future__ import annotations
 
 import math
 import time
 from contextlib import contextmanager
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -109,11 +111,18 @@ class Run:
 
 
 @contextmanager
-def running(context, stack: str, arguments=None, parameters=None, robots=("",), navigated: bool = False):
-    """The stack composed in real time (`mode:=realtime`, or a stack that is real time only) and started: a Run."""
+def running(
+    context, stack: str, arguments=None, parameters=None, robots=("",), navigated: bool = False, adjust=lambda b: b
+):
+    """The stack composed in real time (`mode:=realtime`, or a stack that is real time only) and started: a Run.
+    adjust: composed_stack's (a real robot's stack given the simulator as its robot)."""
     if "mode" in load_bringup(stack).arguments:
         arguments = {"mode": "realtime", **(arguments or {})}
-    with composed_stack(context, stack, arguments=arguments, parameters=parameters) as (nodes, manager, _):
+    with composed_stack(context, stack, arguments=arguments, parameters=parameters, adjust=adjust) as (
+        nodes,
+        manager,
+        _,
+    ):
         run = Run(context, nodes, manager, robots, navigated)
         try:
             run.start()
@@ -249,6 +258,44 @@ def test_maze_mapping_grows_its_map_in_real_time(ros_context):
         assert run.until(lambda: watch.maps, 30.0), "no /map"
         first = _known(watch.maps[0])
         assert run.until(lambda: watch.travelled() > 1.5 and _known(watch.maps[-1]) > 1.5 * first, 60.0), (
+            f"map {first} -> {_known(watch.maps[-1])} cells, travelled {watch.travelled():.2f} m"
+        )
+        errors = watch.localized_errors()
+        assert errors and max(errors) < 0.15, errors[-10:]
+        assert watch.last().collisions == 0
+
+
+def on_the_simulator(world: str):
+    """A real robot's stack (no simulator: the robot's bringup gives /scan, /odom) given the simulator in real time as
+    its robot, as real_robot_navigation_sim is real_robot_navigation's: that stack's simulator (the LDS-01's 360 beams
+    at 5 Hz, pose-only /odom at 20 Hz, plain Twist, noise) on `world`, every node on its /clock, the seed's sign flip
+    off (the simulator follows REP 103)."""
+
+    def adjust(bringup):
+        twin = {node.name: node for node in load_bringup("real_robot_navigation_sim").nodes}["simulator"]
+        simulator = replace(twin, parameters={**twin.parameters, "world": world})
+        nodes = []
+        for node in bringup.nodes:
+            parameters = {**node.parameters, "use_sim_time": True}
+            if "flip_angular_sign" in parameters or node.name in NAVIGATED:
+                parameters["flip_angular_sign"] = False
+            nodes.append(replace(node, parameters=parameters))
+        return replace(
+            bringup, nodes=(*nodes, simulator), node_startup_order=(*bringup.node_startup_order, "simulator")
+        )
+
+    return adjust
+
+
+def test_real_robot_mapping_grows_its_map_on_the_simulator_in_real_time(ros_context):
+    """real_robot_mapping (odometry node, slam, planner, the real path follower on its timer, navigator, explorer)
+    with the simulator as its robot: slam's /map grows while the explorer's goals drive the robot, its /pose near the
+    ground truth, no collision; the stack's real-robot configurations on a real robot's sensor rates."""
+    with running(ros_context, "real_robot_mapping", adjust=on_the_simulator("inner_maze.yaml")) as run:
+        watch = run.watch
+        assert run.until(lambda: watch.maps, 30.0), "no /map"
+        first = _known(watch.maps[0])
+        assert run.until(lambda: watch.travelled() > 1.5 and _known(watch.maps[-1]) > 1.5 * first, 90.0), (
             f"map {first} -> {_known(watch.maps[-1])} cells, travelled {watch.travelled():.2f} m"
         )
         errors = watch.localized_errors()

@@ -26,7 +26,7 @@ TESTS = Path(__file__).resolve().parents[1]
 SECONDS = {
     "viewer/test_browser.py": 151,
     "foundation/test_colcon_build.py": 106,
-    "bringup/test_realtime_stacks.py": 46,
+    "bringup/test_realtime_stacks.py": 62,
     "evaluation/test_localization_closed_loop.py": 46,
     "evaluation/test_fleet_plan_runs.py": 44,
     "bringup/test_fleet_traffic.py": 37,
