@@ -57,8 +57,9 @@ class PathFollowerConfig(Config):
     """rad/s: in a curve of curvature k the speed is at most this / |k| (slowing in curves)."""
     approach_gain: float = parameter(1.0, minimum=0.01, maximum=100.0, live=True)
     """1/s: near the goal the speed is at most this times the distance left along the path."""
-    angular_limit: float = parameter(2.84, minimum=0.01, maximum=10.0, live=True)
-    """rad/s, saturation (curvature kept: the whole twist is scaled)."""
+    angular_limit: float = parameter(default_robot().max_angular_speed, minimum=0.01, maximum=10.0, live=True)
+    """rad/s, saturation (curvature kept: the whole twist is scaled; default: the robot description's
+    max_angular_speed)."""
     turn_speed: float = parameter(1.5, minimum=0.01, maximum=10.0, live=True)
     """rad/s, the fastest in-place turn (towards the path, and to the goal heading)."""
     turn_gain: float = parameter(2.0, minimum=0.01, maximum=100.0, live=True)

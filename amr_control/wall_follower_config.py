@@ -77,8 +77,9 @@ class WallFollowerConfig(Config):
     """m/s while following a wall."""
     turn_speed: float = parameter(0.5, minimum=0.01, maximum=10.0, live=True)
     """rad/s of the in-place turns at corners and dead ends."""
-    angular_limit: float = parameter(2.84, minimum=0.01, maximum=10.0, live=True)
-    """rad/s, saturation of the PD output (seed: none in simulation, 0.34 on the real robot)."""
+    angular_limit: float = parameter(default_robot().max_angular_speed, minimum=0.01, maximum=10.0, live=True)
+    """rad/s, saturation of the PD output (seed: none in simulation, 0.34 on the real robot; default: the robot
+    description's max_angular_speed)."""
     stabilize_speed: float = parameter(0.1, minimum=0.0, maximum=5.0, live=True)
     """m/s, straight ahead after each turn (the seed's Fixed_Front state)."""
     stabilize_time: float = parameter(0.35, minimum=0.0, maximum=10.0, live=True)

@@ -17,8 +17,9 @@ Observation (``Box`` float32, every value finite): the LiDAR ranges divided by `
 ``scan_stride``-th beam of the 240; the encoder odometry's twist, v / max_linear and w / max_angular,
 clipped to [-1, 1]; the goal in the robot frame, (x, y) / ``goal_scale`` clipped to [-1, 1].
 
-Action: ``Box(-1, 1, (2,))``, scaled to the Burger's limits (v = a0 * 0.22 m/s, w = a1 * 2.84 rad/s; the
-simulator saturates the wheels keeping the curvature, as the robot does). One step is one ``dt`` (0.05 s).
+Action: ``Box(-1, 1, (2,))``, scaled to the robot's limits (v = a0 * max_linear, w = a1 * max_angular: the robot
+description's; the simulator saturates the wheels keeping the curvature, as the robot does). One step is one
+``dt`` (0.05 s).
 
 Reward (each step; ``info["reward_terms"]`` has the four terms of the step, summing to the reward):
 

@@ -15,6 +15,7 @@ import numbers
 from dataclasses import dataclass
 
 from amr_util.geometry import is_finite_number
+from amr_util.robot_description import default_robot
 
 
 class DiffDriveError(ValueError):
@@ -29,10 +30,10 @@ def _finite(name: str, *values: float) -> None:
 
 @dataclass(frozen=True)
 class DiffDrive:
-    """A differential-drive base; limits of math.inf mean unlimited."""
+    """A differential-drive base; limits of math.inf mean unlimited; the wheels by default the robot description's."""
 
-    wheel_radius: float = 0.033
-    track: float = 0.160
+    wheel_radius: float = default_robot().wheel_radius
+    track: float = default_robot().wheel_separation
     max_wheel_speed: float = math.inf
     max_linear: float = math.inf
     max_angular: float = math.inf

@@ -183,6 +183,7 @@ def robot_parameters(robot: RobotDescription) -> dict[str, float]:
     return {
         "robot_radius": robot.radius,
         "lidar_x": robot.lidar_x,
+        "angular_limit": robot.max_angular_speed,
         "costmap.robot_radius": robot.radius,
         "traffic_rules.robot_radius": robot.radius,
         "traffic_rules.lidar_x": robot.lidar_x,

@@ -16,6 +16,7 @@ from amr_navigation.traffic import TrafficConfig
 from amr_planning.costmap import CostmapConfig
 from amr_planning.planner_node import PlannerNode
 from amr_simulation.config import SimulationConfig
+from amr_util.diff_drive import DiffDrive
 from amr_util.robot_description import RobotDescriptionError, default_robot, load_robot_description, robot_parameters
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -40,6 +41,8 @@ def test_every_library_default_is_the_description():
     assert sim.robot.radius == CostmapConfig().robot_radius == TrafficConfig().robot_radius == robot.radius
     assert WallFollowerConfig().robot_radius == PathFollowerConfig().robot_radius == robot.radius
     assert sim.lidar.x == WallFollowerConfig().lidar_x == PathFollowerConfig().lidar_x == robot.lidar_x
+    assert WallFollowerConfig().angular_limit == PathFollowerConfig().angular_limit == robot.max_angular_speed
+    assert (DiffDrive().wheel_radius, DiffDrive().track) == (robot.wheel_radius, robot.wheel_separation)
     assert (sim.robot.track, sim.robot.max_linear, sim.robot.max_wheel_speed) == (
         robot.wheel_separation,
         robot.max_linear_speed,
@@ -47,26 +50,37 @@ def test_every_library_default_is_the_description():
     )
 
 
-def test_the_radius_is_written_once():
-    """No literal 0.105 in the packages and config/ but the description (amr_mapping's explorer excepted: its
-    owner moves it)."""
+FACTS = (r"0\.105", r"0\.033", r"0\.160", r"2\.84", r"-0\.032", r"0\.172")
+"""The description's numbers no other number of the suite shares (footprint, wheels, angular limit, LiDAR mount):
+written anywhere else, they are a copy of the robot."""
+OWNED_ELSEWHERE = {
+    ("config/particle_filter.yaml", "lidar_x: -0.032"),
+    ("config/slam.yaml", "lidar_x: -0.032"),
+    ("amr_mapping/slam.py", "TurtleBot3 Burger: -0.032"),
+}
+"""Left to the filter's and SLAM's owners (docs/decisions/2026-11-30-issue-36-audit.md, G2): their configurations'
+lidar_x defaults to 0.0, not the description's mount."""
+
+
+def test_the_robots_facts_are_written_once():
+    """No literal radius, wheel geometry, angular limit or LiDAR mount in the packages and config/ but the
+    description (and the lines OWNED_ELSEWHERE)."""
+    packages = sorted(p.name for p in ROOT.glob("amr_*") if p.is_dir() and not p.name.endswith(".egg-info"))
     found = subprocess.run(
-        [
-            "grep",
-            "-rn",
-            "--include=*.py",
-            "--include=*.yaml",
-            r"0\.105",
-            *sorted(
-                str(p) for p in ROOT.glob("amr_*") if p.is_dir() and p.name not in ("amr_mapping", "amr_suite.egg-info")
-            ),
-            "config",
-        ],
+        ["grep", "-rnE", "--include=*.py", "--include=*.yaml", "-e", r"(^|[^0-9.])(" + "|".join(FACTS) + r")\b"]
+        + [*packages, "config"],
         cwd=ROOT,
         capture_output=True,
         text=True,
     ).stdout.splitlines()
-    assert [line for line in found if not line.startswith(("config/robot/", "config/explorer.yaml"))] == []
+    copies = [
+        line
+        for line in found
+        if not line.startswith("config/robot/")
+        and not any(line.startswith(f"{path}:") and text in line for path, text in OWNED_ELSEWHERE)
+    ]
+    assert copies == []
+    assert len(found) - len(copies) >= len(OWNED_ELSEWHERE)  # the grep does find a written fact
 
 
 def write(tmp_path, change) -> Path:
