@@ -4,7 +4,9 @@ A viewer subscribed to /tf and /ground_truth sees every step of a lockstep run, 
 particles is 280 kB; rclpy's deserialization makes a Python object per pose. These readers pull the few fields the
 view needs straight from the serialized bytes (XCDR1, as rmw_fastrtps writes it: a 4-byte encapsulation header,
 then fields aligned to their size from the end of that header); the particles come out as one numpy array, and so do
-a SLAM pose graph's nodes and edges and the explorer's frontiers.
+a SLAM pose graph's nodes and edges and the explorer's frontiers. Bytes in another encapsulation (XCDR2, as another
+middleware may send: `fast_path_applies` is False) are deserialized by rclpy and converted to the same plain data
+(amr_viewer.messages; viewer_node decides).
 """
 
 from __future__ import annotations
@@ -41,11 +43,16 @@ class StampedTransform(NamedTuple):
     pose: Pose2D
 
 
+def fast_path_applies(data: bytes) -> bool:
+    """The bytes are plain CDR (XCDR1, big- or little-endian), what these readers read."""
+    return len(data) >= 4 and data[0] == 0 and data[1] in (0, 1)
+
+
 class Reader:
     """Reads CDR fields in order from a serialized message."""
 
     def __init__(self, data: bytes) -> None:
-        if len(data) < 4 or data[0] != 0 or data[1] not in (0, 1):
+        if not fast_path_applies(data):
             raise CdrError("not a CDR message (bad encapsulation header)")
         self._data = memoryview(data)[4:]
         self._order = "<" if data[1] == 1 else ">"

@@ -12,6 +12,7 @@ import numpy as np
 from amr_util.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
 from amr_util.messages import path_points as path_points  # re-exported: the viewer's path reader
 from amr_util.messages import scan_data
+from amr_viewer.cdr import FrontiersData, PoseGraphData, Stamped, StampedTransform
 from amr_viewer.geometry import finite
 from amr_viewer.state import Estimate, MapImage, Scan, map_image
 
@@ -38,6 +39,62 @@ def localized_pose(message) -> Estimate:
     """amr_interfaces/LocalizedPose (a PoseWithCovariance and a `localized` flag)."""
     covariance = message.pose.covariance
     return Estimate(pose_of(message.pose.pose), (covariance[0], covariance[1], covariance[7]), bool(message.localized))
+
+
+def stamped(header) -> Stamped:
+    return Stamped(header.frame_id, header.stamp.sec + header.stamp.nanosec * 1e-9)
+
+
+# -- the plain data of amr_viewer.cdr's readers, from deserialized messages (where the CDR fast path does not apply)
+
+
+def tf_transforms(message) -> list[StampedTransform]:
+    """tf2_msgs/TFMessage, as cdr.tf_message reads it."""
+    return [
+        StampedTransform(t.header.frame_id, t.child_frame_id, stamped(t.header).stamp, _transform_pose(t.transform))
+        for t in message.transforms
+    ]
+
+
+def _transform_pose(transform) -> Pose2D:
+    return Pose2D(transform.translation.x, transform.translation.y, yaw_from_quaternion(transform.rotation))
+
+
+def odometry_transform(message) -> StampedTransform:
+    """nav_msgs/Odometry, as cdr.odometry_pose reads it."""
+    header = stamped(message.header)
+    return StampedTransform(header.frame_id, message.child_frame_id, header.stamp, pose_of(message.pose.pose))
+
+
+def pose_array(message) -> tuple[Stamped, np.ndarray]:
+    """geometry_msgs/PoseArray, as cdr.pose_array reads it: header and an (N, 3) array of x, y, yaw."""
+    poses = [pose_of(pose) for pose in message.poses]
+    return stamped(message.header), np.array([(p.x, p.y, p.theta) for p in poses], dtype=float).reshape(-1, 3)
+
+
+def pose_graph(message) -> PoseGraphData:
+    """amr_interfaces/PoseGraph, as cdr.pose_graph reads it."""
+    poses = np.array([(p.x, p.y, p.theta) for p in message.poses], dtype=float).reshape(-1, 3)
+    return PoseGraphData(
+        stamped(message.header),
+        poses,
+        np.asarray(message.edge_from, dtype=np.uint32),
+        np.asarray(message.edge_to, dtype=np.uint32),
+        np.asarray(message.loop_closure, dtype=bool),
+    )
+
+
+def frontiers(message) -> FrontiersData:
+    """amr_interfaces/Frontiers, as cdr.frontiers reads it (centroids' z dropped)."""
+    centroids = np.array([(p.x, p.y) for p in message.centroids], dtype=float).reshape(-1, 2)
+    return FrontiersData(
+        stamped(message.header),
+        centroids,
+        np.asarray(message.sizes, dtype=np.uint32),
+        int(message.chosen),
+        int(message.blacklisted),
+        str(message.state),
+    )
 
 
 def beacon_positions(message) -> np.ndarray:

@@ -10,7 +10,8 @@ deactivate stops looking and drawing (the page stays up); cleanup stops the serv
 A thin shell over amr_viewer's plain classes: topics are taken raw where they are busy (/tf, /ground_truth, /scan,
 /particle_cloud, statuses: a lockstep run publishes them every step) and decoded at draw time, so the view costs
 the stack little (bench/bench_viewer.py); a SLAM node's pose graph and the explorer's frontiers are read straight
-from CDR too. A map, graph or frontiers message in a wrong frame or with a NaN is skipped and logged once.
+from CDR too (bytes that are not plain CDR, XCDR2, are deserialized by rclpy instead). A map, graph or frontiers
+message in a wrong frame or with a NaN is skipped and logged once.
 Every request made from the page runs on this node's executor (a guard condition wakes it); every service call has
 a deadline, and its answer (a refusal too) is shown as the node gives it.
 """
@@ -145,6 +146,8 @@ class RobotLink:
         self.topics: dict[str, str] = {}
         """leaf -> the topic subscribed"""
         self._raw_subscriptions: dict[str, object] = {}
+        self.deserialized = 0
+        """fast-path messages that were not plain CDR, deserialized by rclpy instead (RobotLink._fast)."""
         self.refresh(graph)
         self._goal_subscription = node.create_subscription(
             PoseStamped, topics.join(namespace, "goal_pose"), self._on_goal, reliable(10)
@@ -218,25 +221,34 @@ class RobotLink:
         if problems:
             raise ValueError(f"{state.namespace or '/'}: " + "; ".join(problems))
 
+    def _fast(self, leaf: str, data: bytes):
+        """A fast-path leaf's plain data: read from its bytes where they are plain CDR (cdr.fast_path_applies), else
+        deserialized by rclpy and converted to the same data (another encapsulation, XCDR2: counted in deserialized)."""
+        read, convert = FAST[leaf]
+        if cdr.fast_path_applies(data):
+            return read(data)
+        self.deserialized += 1
+        return convert(deserialize_message(data, self.RAW_TOPICS[leaf][0]))
+
     def _feed(self, leaf: str, data: bytes) -> None:
         state = self.state
         if leaf in ("tf", "tf_static"):
-            state.on_transforms(cdr.tf_message(data))
+            state.on_transforms(self._fast(leaf, data))
         elif leaf == "ground_truth":
-            state.on_ground_truth(cdr.odometry_pose(data))
+            state.on_ground_truth(self._fast(leaf, data))
         elif leaf == "particle_cloud":
-            state.on_particles(cdr.pose_array(data)[1])
+            state.on_particles(self._fast(leaf, data)[1])
         elif leaf == "map":
             grid = deserialize_message(data, OccupancyGrid)
             state.check_frame(grid.header.frame_id, "map")
             state.on_map(messages.occupancy_grid(grid), grid.header.frame_id)
         elif leaf == "slam/graph":
-            graph = cdr.pose_graph(data)
+            graph = self._fast(leaf, data)
             state.check_frame(graph.header.frame_id, "pose graph")
             view = pose_graph_view(graph.poses, graph.edge_from, graph.edge_to, graph.loop_closure)
             state.on_graph(view, graph.header.frame_id)
         elif leaf == "explorer/frontiers":
-            found = cdr.frontiers(data)
+            found = self._fast(leaf, data)
             state.check_frame(found.header.frame_id, "frontiers")
             view = frontier_view(found.centroids, found.sizes, found.chosen, found.blacklisted, found.state)
             state.on_frontiers(view, found.header.frame_id)
@@ -244,6 +256,16 @@ class RobotLink:
             convert, take = DECODED[leaf]
             getattr(state, take)(convert(deserialize_message(data, self.RAW_TOPICS[leaf][0])))
 
+
+FAST = {
+    "tf": (cdr.tf_message, messages.tf_transforms),
+    "tf_static": (cdr.tf_message, messages.tf_transforms),
+    "ground_truth": (cdr.odometry_pose, messages.odometry_transform),
+    "particle_cloud": (cdr.pose_array, messages.pose_array),
+    "slam/graph": (cdr.pose_graph, messages.pose_graph),
+    "explorer/frontiers": (cdr.frontiers, messages.frontiers),
+}
+"""Leaf -> (its CDR reader, the converter of the message rclpy deserializes where the reader does not apply)."""
 
 DECODED = {
     "scan": (messages.laser_scan, "on_scan"),
