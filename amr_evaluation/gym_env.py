@@ -369,6 +369,47 @@ class MazeEnv(gymnasium.Env):
         }
 
 
+# -- reference policies: what a return is measured against (the tests' orders, bench_evaluate's returns) -----------
+
+
+def standing_still(observation) -> np.ndarray:
+    return np.zeros(2, dtype=np.float32)
+
+
+def full_speed_ahead(observation) -> np.ndarray:
+    """Never turning: into the first wall ahead."""
+    return np.array([1.0, 0.0], dtype=np.float32)
+
+
+def toward_the_goal(observation) -> np.ndarray:
+    """Turn toward the goal (the observation's last two values: its x, y in the robot frame), then drive to it."""
+    x, y = float(observation[-2]), float(observation[-1])
+    bearing = math.atan2(y, x)
+    return np.array([1.0 if abs(bearing) < 0.3 else 0.0, np.clip(2.0 * bearing, -1.0, 1.0)], dtype=np.float32)
+
+
+REFERENCE_POLICIES = {
+    "standing still": standing_still,
+    "full speed ahead": full_speed_ahead,
+    "toward the goal": toward_the_goal,
+}
+
+
+def episode_return(env: MazeEnv, policy, seed: int, on_step=None) -> tuple[float, dict, dict]:
+    """(return, the first info, the last info) of one episode of `policy(observation) -> action` from
+    `env.reset(seed=seed)`; `on_step(reward, info)` is called after each step."""
+    observation, first = env.reset(seed=seed)
+    total, info = 0.0, first
+    for _ in range(env.max_steps):
+        observation, reward, terminated, truncated, info = env.step(policy(observation))
+        if on_step is not None:
+            on_step(reward, info)
+        total += reward
+        if terminated or truncated:
+            break
+    return total, first, info
+
+
 def register_envs() -> None:
     """Register amr/Maze-v0 with gymnasium (idempotent)."""
     if ENV_ID not in gymnasium.registry:

@@ -6,11 +6,16 @@
 2. The runner's overhead per episode (goal: under 5 % of a 10-second episode): the sweep's wall time per
    episode with 1 worker (in process) minus the episodes' own time (each record's wall_time: world, controller,
    closed loop), and the episode's own set-up against the bare closed loop (amr_evaluation.wall_follower_loop).
-3. amr/Maze-v0 steps per second: one environment, and make_vec with 2 copies, sync and async.
+3. amr/Maze-v0 steps per second: one environment, and make_vec with 2 copies, sync and async; and the returns of
+   its reference policies (amr_evaluation.gym_env.REFERENCE_POLICIES) on open_room, seed 0, the defaults.
+4. A student's node graded through ROS (controller `command`, lockstep, one worker): the wall clock an episode
+   takes beyond its run, fitted from two episode lengths (a node driving straight on at each scan, open_room, a goal
+   1 m ahead it does not reach in either). Run under ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST; the episodes take
+   their domains from AMR_EVALUATE_ROS_DOMAINS (default 120-199).
 
 Prints, asserts nothing; quotes the load average (the machine is shared).
 
-    python bench/bench_evaluate.py [--episodes 16] [--seconds 10] [--steps 3000] [--no-dask]
+    python bench/bench_evaluate.py [--episodes 16] [--seconds 10] [--steps 3000] [--no-dask] [--no-gym] [--no-student]
 """
 
 from __future__ import annotations
@@ -255,6 +260,62 @@ def gym_steps(steps: int) -> None:
         print(f"make_vec {mode:5s} x2:   {steps / elapsed:7.0f} steps/s (both copies together)")
 
 
+def gym_returns() -> None:
+    from amr_evaluation.gym_env import REFERENCE_POLICIES, MazeEnv, episode_return
+
+    env = MazeEnv(world="open_room")
+    print(f"== amr/Maze-v0 returns, open_room, seed 0, the defaults ({env.max_steps} steps at most)")
+    for name, policy in REFERENCE_POLICIES.items():
+        total, _, end = episode_return(env, policy, 0)
+        how = "goal" if end["is_success"] else "contact" if end["collisions"] else "end"
+        print(f"{name:18s} {total:7.1f}  ({how} at {end['time']:.1f} s)")
+
+
+STUDENT = """
+import rclpy
+from geometry_msgs.msg import Twist
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+
+rclpy.init()
+node = rclpy.create_node("student")
+publisher = node.create_publisher(Twist, "cmd_vel", 10)
+straight_on = Twist()
+straight_on.linear.x = 0.2
+node.create_subscription(LaserScan, "scan", lambda scan: publisher.publish(straight_on), qos_profile_sensor_data)
+rclpy.spin(node)
+"""
+"""A student's node at its simplest: one command answering each scan."""
+
+
+def student_overhead(durations=(1.5, 3.5)) -> None:
+    print(
+        f"== a student's node through ROS (lockstep, open_room, goal 1 m ahead, one worker); "
+        f"load {os.getloadavg()[0]:.1f}"
+    )
+    with tempfile.TemporaryDirectory() as directory:
+        (Path(directory) / "student.py").write_text(STUDENT, encoding="utf-8")
+        label, parameters = configs.command_configuration(f"{sys.executable} student.py", directory)
+        runs = []
+        for duration in durations:
+            spec = EpisodeSpec(
+                "command", label, parameters, {"file": "open_room.yaml"}, goal=[-0.5, -1.0, 0.2], seed=1,
+                duration=duration, options={"answer_timeout": 10.0}, mode="ros",
+            )  # fmt: skip
+            record = run_episode(spec)
+            if record["error"]:
+                print(f"{duration:4.1f} s: {record['error']}")
+                return
+            runs.append((record["time"], record["wall_time"]))
+            print(f"{record['time']:5.2f} simulated s: {record['wall_time']:5.2f} s of wall clock ({record['reason']})")
+    (short, short_wall), (long, long_wall) = runs
+    per_second = (long_wall - short_wall) / (long - short)
+    print(
+        f"beyond the run: {short_wall - short * per_second:.1f} s of wall clock an episode "
+        f"(the run: {per_second:.2f} s of wall clock a simulated s)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--episodes", type=int, default=16)
@@ -262,10 +323,19 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000, help="Gymnasium steps per measurement")
     parser.add_argument("--no-dask", action="store_true")
     parser.add_argument("--no-gym", action="store_true")
+    parser.add_argument("--no-student", action="store_true", help="no student's node through ROS")
+    parser.add_argument("--only", choices=("returns", "student"), help="only that part")
     args = parser.parse_args()
+    if args.only == "returns":
+        return gym_returns()
+    if args.only == "student":
+        return student_overhead()
     throughput(args.episodes, args.seconds, not args.no_dask)
     if not args.no_gym:
         gym_steps(args.steps)
+        gym_returns()
+    if not args.no_student:
+        student_overhead()
 
 
 if __name__ == "__main__":

@@ -10,7 +10,17 @@ from gymnasium.utils.env_checker import check_env
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_evaluation import configs
-from amr_evaluation.gym_env import ENV_ID, MIN_GOAL_DISTANCE, QUALIFIED_ENV_ID, START_CLEARANCE, MazeEnv
+from amr_evaluation.gym_env import (
+    ENV_ID,
+    MIN_GOAL_DISTANCE,
+    QUALIFIED_ENV_ID,
+    START_CLEARANCE,
+    MazeEnv,
+    episode_return,
+    full_speed_ahead,
+    standing_still,
+    toward_the_goal,
+)
 from amr_evaluation.wall_follower_loop import run
 from amr_evaluation.worlds import build_world
 from amr_util.environment import child_environment
@@ -118,40 +128,20 @@ def test_the_wall_follower_as_a_policy_reaches_the_goals_it_reaches_in_the_close
     assert reached is expected
 
 
+def _terms_sum_to_the_reward(reward: float, info: dict) -> None:
+    assert sum(info["reward_terms"].values()) == pytest.approx(reward)
+
+
 def _episode(env: MazeEnv, policy, seed: int) -> tuple[float, dict, dict]:
     """(return, the first info, the last info) of one episode of `policy(observation) -> action`."""
-    observation, first = env.reset(seed=seed)
-    total, info = 0.0, first
-    for _ in range(env.max_steps):
-        observation, reward, terminated, truncated, info = env.step(policy(observation))
-        assert sum(info["reward_terms"].values()) == pytest.approx(reward)
-        total += reward
-        if terminated or truncated:
-            break
-    return total, first, info
-
-
-def still(observation):
-    return np.zeros(2, dtype=np.float32)
-
-
-def crash_first(observation):
-    """Full speed ahead, never turning: into the first wall ahead."""
-    return np.array([1.0, 0.0], dtype=np.float32)
-
-
-def to_the_goal(observation):
-    """Turn toward the goal (the observation's last two values: its x, y in the robot frame), then drive to it."""
-    x, y = float(observation[-2]), float(observation[-1])
-    bearing = np.arctan2(y, x)
-    return np.array([1.0 if abs(bearing) < 0.3 else 0.0, np.clip(2.0 * bearing, -1.0, 1.0)], dtype=np.float32)
+    return episode_return(env, policy, seed, on_step=_terms_sum_to_the_reward)
 
 
 def test_crashing_never_pays_still_crash_first_and_a_good_policy():
     env = MazeEnv(world="open_room", max_steps=600)
-    good, _, good_end = _episode(env, to_the_goal, 0)
-    stand, _, stand_end = _episode(env, still, 0)
-    crash, _, crash_end = _episode(env, crash_first, 0)
+    good, _, good_end = _episode(env, toward_the_goal, 0)
+    stand, _, stand_end = _episode(env, standing_still, 0)
+    crash, _, crash_end = _episode(env, full_speed_ahead, 0)
     assert good_end["is_success"] and good_end["goal_reached"] and good_end["collisions"] == 0
     assert not stand_end["is_success"] and stand_end["collisions"] == 0
     assert stand == pytest.approx(-env.time_penalty * env.max_steps, abs=1e-6)  # the step cost, nothing else
@@ -166,7 +156,7 @@ def test_a_crash_scores_below_the_worst_run_without_one(world):
     env = MazeEnv(world=world, max_steps=400, random_start_goal=True, lidar_noise=0.0)
     travel = env.robot.max_linear * env.config.dt * env.max_steps
     for seed in range(4):
-        crash, first, end = _episode(env, crash_first, seed)
+        crash, first, end = _episode(env, full_speed_ahead, seed)
         assert end["collided"], "the case is what it claims to be"
         goal = first["goal"]
         xmin, ymin, xmax, ymax = env.world.bounds
@@ -176,7 +166,7 @@ def test_a_crash_scores_below_the_worst_run_without_one(world):
         )
         worst_without = env.progress_weight * (first["goal_distance"] - farthest) - env.time_penalty * env.max_steps
         assert crash < worst_without
-        assert crash < _episode(env, still, seed)[0]
+        assert crash < _episode(env, standing_still, seed)[0]
 
 
 def test_random_starts_and_goals_come_from_the_reset_seed():
@@ -214,7 +204,7 @@ def test_every_info_key_is_there_at_reset_and_step():
     }
     _, info = env.reset(seed=0)
     assert set(info) == keys and info["reward_terms"] == {"progress": 0.0, "step": 0.0, "goal": 0.0, "collision": 0.0}
-    assert set(env.step(still(None))[4]) == keys
+    assert set(env.step(standing_still(None))[4]) == keys
     assert info["collision_cost"] > env.time_penalty * env.max_steps + env.goal_reward
 
 
