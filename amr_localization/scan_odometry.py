@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numba
 import numpy as np
 
 from amr_localization.beam_correlation import independent_count
@@ -145,13 +146,47 @@ def _posterior_mean(
     if angle_steps is not None:
         angular = angle_steps * step
     poses, scores = matcher.window_scores(cloud, centre, linear, angular, step)
-    log_posterior = independent * np.log(np.maximum(scores, 1e-6)) + odometry.log_density(poses)
-    weights = np.exp(log_posterior - log_posterior.max())
-    offsets = poses - odometry.increment
-    offsets[:, 2] = wrap_angle(offsets[:, 2])
-    mean = odometry.increment + weights @ offsets / weights.sum()
+    mean = odometry.increment + _weighted_offset(
+        poses,
+        scores,
+        float(independent),
+        odometry.increment,
+        1.0 / max(odometry.position_sigma**2, 1e-12),
+        1.0 / max(odometry.heading_sigma**2, 1e-12),
+    )
     mean[2] = wrap_angle(mean[2])
     return mean
+
+
+@numba.njit(cache=True)
+def _weighted_offset(poses, scores, independent, increment, position_precision, heading_precision):
+    """The posterior's mean offset from the odometry's `increment` over the lattice `poses` (M, 3), with weights
+
+        w_m ~ max(score_m, 1e-6)^independent exp(-1/2 (x_m - increment)^T Sigma^-1 (x_m - increment)),
+
+    headings' offsets wrapped: two passes (the largest log-weight, then the weighted sums) where numpy made a
+    dozen (M,) temporaries for tens of thousands of poses."""
+    count = poses.shape[0]
+    log_weights = np.empty(count)
+    offsets = np.empty((count, 3))
+    top = -np.inf
+    for m in range(count):
+        dx, dy = poses[m, 0] - increment[0], poses[m, 1] - increment[1]
+        da = (poses[m, 2] - increment[2] + math.pi) % (2.0 * math.pi) - math.pi
+        offsets[m, 0], offsets[m, 1], offsets[m, 2] = dx, dy, da
+        value = independent * math.log(max(scores[m], 1e-6)) - 0.5 * (
+            (dx * dx + dy * dy) * position_precision + da * da * heading_precision
+        )
+        log_weights[m] = value
+        top = max(top, value)
+    total = 0.0
+    mean = np.zeros(3)
+    for m in range(count):
+        weight = math.exp(log_weights[m] - top)
+        total += weight
+        for axis in range(3):
+            mean[axis] += weight * offsets[m, axis]
+    return mean / total
 
 
 def _within_view(reference: np.ndarray, moved: np.ndarray, linear: float, angular: float) -> np.ndarray:
