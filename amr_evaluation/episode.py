@@ -550,6 +550,7 @@ def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
     from amr_control.path_follower_config import PathFollowerConfig
     from amr_evaluation.plan_follow import plan_and_follow
     from amr_evaluation.worlds import build_world, with_goal
+    from amr_planning.planner import PlannerConfig
 
     world = with_goal(build_world(spec.world), spec.goal, spec.seed)
     if world.goal is None:
@@ -557,7 +558,8 @@ def _plan_follow(spec: EpisodeSpec) -> dict[str, Any]:
     follower = PathFollowerConfig.from_params(spec.parameters["path_follower"])
     sim = simulator_for(spec, world, dt=follower.dt)
     resolution = float(spec.options.get("resolution", spec.parameters["planner"]["resolution"]))
-    run = plan_and_follow(sim, (world.goal.x, world.goal.y), follower, resolution=resolution, limit=spec.duration)
+    planner = PlannerConfig.from_params({**spec.parameters["planner"], "world": "", "resolution": resolution})
+    run = plan_and_follow(sim, (world.goal.x, world.goal.y), follower, planner, limit=spec.duration)
     reason = "goal region reached" if run.reached else (run.message or f"time limit {spec.duration:g} s")
     return {
         **_goal_figures(run.reached, run.time),

@@ -1,10 +1,11 @@
 """Plan on the map from the true pose, follow with pure pursuit on the true pose: the planner and the path
 follower without localization (bench/bench_planning.py's closed loop, now an episode of amr_evaluation).
 
-The world is rasterized at ``resolution``, A* plans from the start to the goal on its costmap and the
-course's smoothing follows; the path follower answers each step with the true pose and the scan. When
-it asks for a new plan (blocked, strayed), A* plans again from where the robot is, as the planner node
-does, at most ``max_replans`` times. Stops at the goal region, at the follower's REACHED, or at ``limit``.
+The world is rasterized at the planner configuration's ``resolution`` and planned on by the planner node's own
+class (amr_planning.planner.Planner: its costmap, search and smoothing, from the same parameters); the path
+follower answers each step with the true pose and the scan. When it asks for a new plan (blocked, strayed), the
+planner plans again from where the robot is, as the planner node does, at most ``max_replans`` times. Stops at the
+goal region, at the follower's REACHED, or at ``limit``.
 """
 
 from __future__ import annotations
@@ -18,10 +19,8 @@ import numpy as np
 from amr_control.path_follower import PathFollower, State
 from amr_control.path_follower_config import PathFollowerConfig
 from amr_maps.rasterize import rasterize_world
-from amr_planning.astar import GridAStar
-from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError
-from amr_planning.smoothing import smooth_path
+from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.simulator import Simulator
 from amr_util.scan import ScanData
 
@@ -46,14 +45,13 @@ def plan_and_follow(
     sim: Simulator,
     goal: tuple[float, float],
     follower_config: PathFollowerConfig | None = None,
-    resolution: float = 0.025,
+    planner_config: PlannerConfig | None = None,
     limit: float = 600.0,
     max_replans: int = MAX_REPLANS,
 ) -> PlanFollowRun:
     """Run ``sim`` (its world, start and noise) to ``goal``; see the module docstring."""
-    world = sim.world
-    costmap = Costmap(rasterize_world(world, resolution))
-    planner = GridAStar(costmap)
+    config = planner_config or PlannerConfig()
+    planner = Planner(rasterize_world(sim.world, config.resolution), config)
     follower = PathFollower(follower_config or PathFollowerConfig())
     lidar = sim.lidar
     errors: list[float] = []
@@ -63,7 +61,7 @@ def plan_and_follow(
     def plan(start) -> np.ndarray:
         began = time.perf_counter()
         try:
-            return smooth_path(planner.plan(start, goal).points, costmap)
+            return planner.plan(start, goal)
         finally:
             planning[0] += time.perf_counter() - began
 

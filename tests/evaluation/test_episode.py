@@ -114,6 +114,20 @@ def test_localization_episode_localizes_and_plan_follow_reaches_the_goal():
     assert record["cross_track"] < 0.03 and record["time_to_goal"] < 30.0
 
 
+def test_a_plan_follow_episode_plans_with_the_planner_nodes_class_and_its_parameters():
+    """The planner parameters an episode carries are the planner node's (amr_planning.planner.Planner): the roadmap
+    given instead of A* plans another way to the same goal (before, only `resolution` was read)."""
+    label, parameters = configs.resolve("plan_follow", "default")
+    spec = EpisodeSpec("plan_follow", label, parameters, {"file": "open_room.yaml"}, seed=0, duration=30.0)
+    grid = run_episode(spec)
+    roadmap = run_episode(
+        dataclasses.replace(spec, parameters={**parameters, "planner": {**parameters["planner"], "planner": "prm"}})
+    )
+    assert grid["error"] is None and roadmap["error"] is None
+    assert grid["goal_reached"] is roadmap["goal_reached"] is True
+    assert abs(grid["distance"] - roadmap["distance"]) > 0.01, (grid["distance"], roadmap["distance"])
+
+
 def test_a_localization_episode_in_a_room_one_feature_breaks_records_when_the_feature_was_seen():
     from amr_maps.symmetry_families import symmetry_case
 
