@@ -158,13 +158,9 @@ class PathFollowerNode(ManagedNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for entity in self._entities:
-            (self.destroy_service if hasattr(entity, "srv_type") else self.destroy_subscription)(entity)
-        self.destroy_lifecycle_publisher(self._publisher)
-        self.destroy_lifecycle_publisher(self._status_publisher)
         self._entities, self._publisher, self._status_publisher = [], None, None
         self.config = self.follower = self._sync = None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # destroys what configure made
 
     @property
     def in_charge(self) -> bool:

@@ -125,13 +125,9 @@ class WallFollowerNode(ManagedNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for subscription in self._inputs:
-            self.destroy_subscription(subscription)
-        self.destroy_lifecycle_publisher(self._publisher)
-        self.destroy_lifecycle_publisher(self._status_publisher)
         self._inputs, self._publisher, self._status_publisher = [], None, None
         self.config = self.controller = self._sync = None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # destroys what configure made
 
     # -- data flow ------------------------------------------------------------------------------
 

@@ -354,7 +354,7 @@ class LogPlayerNode(ManagedNode):
         for publisher in self._outputs.values():
             self.destroy_lifecycle_publisher(publisher)
         self._pace, self._outputs, self._wires, self.player = None, {}, {}, None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def apply_live(self, changes: dict) -> None:
         self._values.update(changes)

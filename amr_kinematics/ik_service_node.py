@@ -195,7 +195,7 @@ class IKServiceNode(ManagedNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._release()
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def _release(self) -> None:
         """Services and publisher destroyed, chains and last solutions forgotten."""

@@ -63,7 +63,7 @@ class MapServerNode(ManagedNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._teardown()
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def _teardown(self) -> None:
         if self._service is not None:

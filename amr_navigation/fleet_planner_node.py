@@ -144,16 +144,10 @@ class FleetPlannerNode(ManagedNode):
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         if self._worker is not None:
             self._worker.shutdown(wait=True, cancel_futures=True)
-        if self._job_done is not None:
-            self.destroy_guard_condition(self._job_done)
         self._worker = self._job = self._job_done = None
-        for entity in self._entities:
-            self.destroy_subscription(entity)
-        for publisher in self._routes.values():
-            self.destroy_lifecycle_publisher(publisher)
         self._entities, self._routes = [], {}
         self.coordinator = self.config = None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # destroys what configure made
 
     @property
     def active(self) -> bool:

@@ -336,15 +336,9 @@ class NavigatorNode(ManagedNode):
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for subscription in self._entities:
-            self.destroy_subscription(subscription)
-        for client in self._service_clients.values():
-            self.destroy_client(client)
-        for publisher in self._outputs.values():
-            self.destroy_lifecycle_publisher(publisher)
         self._entities, self._service_clients, self._outputs = [], {}, {}
         self.core = self.board = self._scan = self._map_planner = None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # destroys what configure made
 
     @property
     def active(self) -> bool:

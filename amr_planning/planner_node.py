@@ -93,12 +93,10 @@ class PlannerNode(ManagedNode):
             self.planner = Planner(self.planner.costmap.grid, config)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for entity in self._entities:
-            (self.destroy_service if hasattr(entity, "srv_type") else self.destroy_subscription)(entity)
         self._entities = []
         self.config = self.planner = None
         self._last_failure = ""
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # destroys what configure made
 
     def _load_world(self, config: PlannerConfig) -> None:
         world = load_world(resolve_world_path(config.world))

@@ -294,7 +294,7 @@ class SimulatorNode(ManagedNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._teardown()
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def destroy_node(self) -> None:
         self._active = False

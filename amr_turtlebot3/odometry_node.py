@@ -59,10 +59,8 @@ class OdometryNode(ManagedNode):
         return super().on_activate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self.destroy_subscription(self._subscription)
-        self.destroy_lifecycle_publisher(self._publisher)
         self._subscription = self._publisher = None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # destroys what configure made
 
     def _on_odom(self, message: Odometry) -> None:
         if self.state_label != "active":

@@ -20,6 +20,10 @@ and `on_cleanup` (if configured: subscriptions, services and publishers destroye
 published afterwards; a node writes no `on_shutdown` of its own. Services made with
 `create_active_service` answer only while the node is active and refuse clearly otherwise.
 
+What a node creates while it configures (subscriptions, publishers, services, clients, timers, guard conditions)
+is tracked here, and `ManagedNode.on_cleanup` destroys it, the last made first: a node's own `on_cleanup` resets its
+fields and ends with `return super().on_cleanup(state)` (destroying an entity twice is harmless).
+
 On simulated time (use_sim_time) a node's subscriptions and lifecycle publishers have no QoS-event handlers
 (`QUIET_SUBSCRIPTION`, `QUIET_PUBLISHER`; a publisher's defaults are two waitables too): every
 publisher of a simulated stack is the suite's own, and rclpy's default handlers are two waitables per subscription,
@@ -301,23 +305,56 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         )
         self._forward_change_state = self._service_change_state.callback
         self._service_change_state.callback = self._on_change_state_request
+        self._configured_entities: list[tuple[Callable[[Any], Any], Any]] = []
+        """(destroy, entity) of what was created while configuring: destroyed by on_cleanup."""
         self.use_parameter_specs()
+
+    def _track(self, entity, destroy: Callable[[Any], Any]):
+        """`entity`, kept for on_cleanup when made while configuring (rclpy's own, made in __init__, are not)."""
+        if getattr(self, "_configured_entities", None) is not None and self.state_label == "configuring":
+            self._configured_entities.append((destroy, entity))
+        return entity
+
+    def create_publisher(self, *args, **kwargs):
+        return self._track(super().create_publisher(*args, **kwargs), self.destroy_publisher)
+
+    def create_service(self, *args, **kwargs):
+        return self._track(super().create_service(*args, **kwargs), self.destroy_service)
+
+    def create_client(self, *args, **kwargs):
+        return self._track(super().create_client(*args, **kwargs), self.destroy_client)
+
+    def create_timer(self, *args, **kwargs):
+        return self._track(super().create_timer(*args, **kwargs), self.destroy_timer)
+
+    def create_guard_condition(self, *args, **kwargs):
+        return self._track(super().create_guard_condition(*args, **kwargs), self.destroy_guard_condition)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Destroys what the node created while configuring, the last made first (a node's own on_cleanup ends
+        with `return super().on_cleanup(state)`); then rclpy's (its managed entities' on_cleanup)."""
+        while self._configured_entities:
+            destroy, entity = self._configured_entities.pop()
+            destroy(entity)
+        return super().on_cleanup(state)
 
     def create_subscription(self, msg_type, topic, callback, qos_profile, *, event_callbacks=None, **kwargs):
         """As rclpy's; on simulated time without QoS-event handlers unless `event_callbacks` are given."""
         if event_callbacks is None and self.get_parameter("use_sim_time").value is True:
             event_callbacks = QUIET_SUBSCRIPTION
-        return super().create_subscription(
+        subscription = super().create_subscription(
             msg_type, topic, callback, qos_profile, event_callbacks=event_callbacks, **kwargs
         )
+        return self._track(subscription, self.destroy_subscription)
 
     def create_lifecycle_publisher(self, msg_type, topic, qos_profile, *, event_callbacks=None, **kwargs):
         """As rclpy's; on simulated time without QoS-event handlers unless `event_callbacks` are given."""
         if event_callbacks is None and self.get_parameter("use_sim_time").value is True:
             event_callbacks = QUIET_PUBLISHER
-        return super().create_lifecycle_publisher(
+        publisher = super().create_lifecycle_publisher(
             msg_type, topic, qos_profile, event_callbacks=event_callbacks, **kwargs
         )
+        return self._track(publisher, self.destroy_lifecycle_publisher)
 
     @property
     def parameters_in_force(self) -> bool:

@@ -390,7 +390,7 @@ class ViewerNode(ManagedNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._release()
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def on_shutdown(self, state: State) -> TransitionCallbackReturn:
         self._release()
