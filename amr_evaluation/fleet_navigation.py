@@ -30,7 +30,8 @@ from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import World
-from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route
+from amr_navigation.fleet_coordinator import NONE, Route
+from amr_navigation.fleet_planner_config import FleetPlannerConfig
 from amr_navigation.loop import NavigationLoop
 from amr_navigation.traffic import Traffic, TrafficConfig
 from amr_navigation.traffic_board import TrafficBoard
@@ -188,7 +189,8 @@ def run_fleet(
     """Run every robot of `world` (its `robots` list, each with a goal) to its goal; see the module docstring.
 
     parameters: node name -> {parameter: value} for wall_follower, path_follower, planner, navigator and
-    particle_filter (amr_evaluation.configs.resolve("navigation", "default")[1] when None). map_world: the
+    particle_filter (amr_evaluation.configs.resolve("navigation", "default")[1] when None), and optionally
+    fleet_planner (with "plan": the fleet_planner node's parameters, its defaults for those not given). map_world: the
     world the robots' map is made of (planner, filter; default `world`): one without some of `world`'s solids
     gives obstacles that are not on the map.
 
@@ -254,11 +256,19 @@ def run_fleet(
         runs.append(RobotRun(robot.name))
     planned = coordination == "plan"
     coordinator = (
-        FleetCoordinator([robot.name for robot in fleet.robots], lattice_spacing, follower_speed=follower.linear_speed)
+        FleetPlannerConfig.from_params(
+            {
+                **parameters.get("fleet_planner", {}),
+                "robots": [robot.name for robot in fleet.robots],
+                "lattice_spacing": lattice_spacing,
+                "follower_speed": follower.linear_speed,
+            }
+        ).coordinator([robot.name for robot in fleet.robots])
         if planned
         else None
     )
-    """with "plan": the fleet_planner node's logic (when to plan, what each robot is told)."""
+    """with "plan": the fleet_planner node's logic (when to plan, what each robot is told, routes renewed before they
+    expire), made from its parameters as the node makes it."""
     if planned:
         coordinator.set_costmap(planner.costmap)
     told: dict[str, Route] = {}
@@ -299,11 +309,10 @@ def run_fleet(
             if planned:  # the navigator node's coordination "plan", the fleet_planner node's coordinator
                 driving = loop.driving_pose(pose, localized, odometry, confidence)  # the pose its status carries
                 confident = loop.confident(localized, confidence)  # ... and its verdict (NavigatorStatus.confident)
-                told.update(
-                    coordinator.observe(
-                        robot.name, fleet.time, driving[0], driving[1], confident, (robot.goal.x, robot.goal.y)
-                    )
+                routes = coordinator.observe(
+                    robot.name, fleet.time, driving[0], driving[1], confident, (robot.goal.x, robot.goal.y)
                 )
+                told.update({**coordinator.renewals(), **routes})  # as the node publishes them
                 run.events.extend(f"{fleet.time:.2f} {event}" for event in coordinator.take_events())
                 if coordinator.plan_due():
                     told.update(coordinator.hold())

@@ -55,6 +55,24 @@ class FleetPlannerConfig(Config):
     """the costmap the lattice is made of, as the planners build theirs: give it the planner nodes' robot_radius and
     safety_margin (the fleet_navigation stack ties them)."""
 
+    def coordinator(self, names: list[str], priorities: list[int] | None = None):
+        """The FleetCoordinator these parameters make (the node's and the library fleet's: one place), for the robots
+        `names` in priority order (`priorities`: the fleet file's)."""
+        from amr_navigation.fleet_coordinator import FleetCoordinator
+
+        return FleetCoordinator(
+            names,
+            self.lattice_spacing,
+            window=self.window,
+            retry_period=self.retry_period,
+            stuck_time=self.stuck_time,
+            follower_speed=self.follower_speed,
+            turn_rate=self.turn_rate,
+            priorities=priorities,
+            route_lifetime=self.route_lifetime if self.route_lifetime > 0 else float("inf"),
+            partial=self.partial_replans,
+        )
+
     def validate(self) -> None:
         if not self.world and not self.robots:
             raise ConfigError("world, robots: one of them must name the fleet's robots")

@@ -91,18 +91,7 @@ class FleetPlannerNode(ManagedNode):
             try:
                 config = FleetPlannerConfig.from_params(self.parameter_values())
                 names, priorities = fleet_roster(config)
-                coordinator = FleetCoordinator(
-                    names,
-                    config.lattice_spacing,
-                    window=config.window,
-                    retry_period=config.retry_period,
-                    stuck_time=config.stuck_time,
-                    follower_speed=config.follower_speed,
-                    turn_rate=config.turn_rate,
-                    priorities=priorities,
-                    route_lifetime=config.route_lifetime if config.route_lifetime > 0 else float("inf"),
-                    partial=config.partial_replans,
-                )
+                coordinator = config.coordinator(names, priorities)
             except (ValueError, OSError) as error:  # ConfigError names the key; a world names its file
                 problems = [str(error)]
         if problems:

@@ -9,8 +9,10 @@ import math
 
 import pytest
 
+from amr_evaluation import configs
 from amr_evaluation.fleet_navigation import run_fleet
 from amr_maps.world import world_from_dict
+from amr_navigation.fleet_planner_config import FleetPlannerConfig
 
 
 def corridor() -> object:
@@ -43,6 +45,26 @@ def test_two_robots_planned_together_pass_each_other_through_the_pocket():
     run = run_fleet(corridor(), localization="truth", duration=150.0, seed=2, coordination="plan", lattice_spacing=0.4)
     assert run.reached == 2, [robot.events for robot in run.robots]
     assert run.robot_contacts == 0 and run.wall_contacts == 0
+
+
+def test_the_library_fleet_makes_its_coordinator_as_the_fleet_planner_node_does(monkeypatch):
+    """One place makes the coordinator from the fleet planner's parameters (FleetPlannerConfig.coordinator): the
+    library fleet takes the node's defaults (routes that expire after route_lifetime, renewed) and what it is given;
+    before, it made its own with routes that never expired."""
+    made = []
+    original = FleetPlannerConfig.coordinator
+
+    def recording(self, names, priorities=None):
+        made.append(self)
+        return original(self, names, priorities)
+
+    monkeypatch.setattr(FleetPlannerConfig, "coordinator", recording)
+    parameters = {**configs.resolve("fleet_navigation", "default")[1], "fleet_planner": {"stuck_time": 12.0}}
+    run_fleet(corridor(), parameters, localization="truth", duration=0.2, coordination="plan", lattice_spacing=0.4)
+    assert len(made) == 1
+    config = made[0]
+    assert (config.robots, config.lattice_spacing, config.stuck_time) == (["r1", "r2"], 0.4, 12.0)
+    assert config.route_lifetime == FleetPlannerConfig.from_params({"robots": ["r"]}).route_lifetime == 30.0  # expire
 
 
 def test_a_coordination_other_than_rules_or_plan_is_refused():
