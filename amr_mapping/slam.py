@@ -29,9 +29,12 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   Cartographer's).
 - Back end: after a node is added, the submaps whose anchor lies within loop_search_radius of the new pose and
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
-  and none once the update's work (_Work: lookups counted, builds at their measured equivalent) reaches
-  loop_work_budget (the next updates take the rest; deterministic: a run is repeatable), each by
-  CorrelativeMatcher.match within +-loop_linear_window / +-loop_angular_window of the current estimate. A match
+  and none started once the update's work (_Work: lookups counted, builds at their measured equivalent) reaches
+  loop_work_budget (the next updates take the rest; deterministic: a run is repeatable), each by a windowed
+  match (WindowMatch) within +-loop_linear_window / +-loop_angular_window of its node's estimate. A candidate is
+  taken a step at a time (_step_candidate: the submap's build, search slices, its clear space, rival search slices,
+  the gate): one that runs past CANDIDATE_WORK_CAP in its update goes on in the next ones (its searches resumed,
+  none repeated), so no update carries a whole long search. A match
   scoring loop_min_score or more adds a loop-closure edge (anchor, node) unless it lies on the window's edge
   (_on_edge), puts scan points in the submap's seen-through space, a rival pose in the window scores nearly as
   well (ambiguous), or it disagrees with the poses beyond LOOP_CHI2 against its covariance (_closure_covariance: the
@@ -72,7 +75,7 @@ from amr_mapping.pose_graph import Optimization, PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
-from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, default_angular_step
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, Match, ScoreMap, WindowMatch, default_angular_step
 from amr_maps.window_search import window_modes
 from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
 from amr_util.scan import ScanData
@@ -154,7 +157,15 @@ EDGE_CELLS = 2.0
 EDGE_ANGLE = 0.02
 """rad, cells: a loop-closure match this close to its search window's edge is no peak (_on_edge)."""
 AMBIGUITY_MAX_NODES = 200_000
-"""The rival search's budget (branch and bound nodes, each one lookup per point): it bounds a closure's time."""
+"""The rival search's budget (branch and bound nodes, each one lookup per point): it bounds a closure's work."""
+CANDIDATE_WORK_CAP = 70.0
+"""Millions of work units (see loop_work_budget) of an update's own after which a loop-closure candidate in progress
+waits for the next update (_step_candidate's steps): a candidate started within loop_work_budget is decided in its
+update unless it is one of the few whose searches run long (a rival search over a 6 m window at any heading, up to
+100 ms; a submap's build and clear space, up to 60 ms), which are spread over the next updates instead."""
+MIN_SEARCH_SLICE = 10_000
+"""Branch and bound nodes a closure candidate's search step scores at least (GraphSlam._slice): a search spread over
+the updates moves on however busy they are."""
 ALIGN_VOXEL_CELLS = 0.5
 """The reference's points are averaged over squares this many cells wide (10 scans' noisy points on a wall) ..."""
 ALIGN_NEIGHBOURS = 64
@@ -230,10 +241,11 @@ class SlamConfig:
     loop_max_candidates: int = 2
     """submaps matched for loop closure per update at most: bounds an update's time (1-10)."""
     loop_work_budget: float = 10.0
-    """millions of work units (one: a scan point looked up by a branch and bound, about 5 ns here; a submap's
+    """millions of work units (one: a scan point looked up by a branch and bound, 1-5 ns here; a submap's
     build counted at its measured equivalent) of the update's own (front end included) after which no further
-    loop-closure candidate is searched (the rest wait for the next updates; one at least every other update):
-    bounds an update's time, and unlike a clock the same on every run (0-1000)."""
+    loop-closure candidate is started (the rest wait for the next updates; a step at least every other update;
+    a candidate started goes on to CANDIDATE_WORK_CAP, then on the next updates): bounds an update's time, and
+    unlike a clock the same on every run (0-1000)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
     lidar_x: float = 0.0
@@ -341,11 +353,34 @@ class _Submap:
     last: int
     reference: _Reference | None = None
     layout: np.ndarray | None = None
+    placed: np.ndarray | None = None
+    """(local_window, 3) its members' poses in the anchor's frame when its reference was built: its clear space,
+    built later (GraphSlam._clear_of), puts their scans where the matcher has their points."""
     """(3, 3) how far its members' layout may be off, as one rigid motion at the anchor (_layout_covariance)."""
 
     @property
     def matcher(self) -> CorrelativeMatcher:
         return self.reference.matcher
+
+
+@dataclass
+class _Candidate:
+    """A loop-closure candidate in progress: submap `submap` (an index of GraphSlam._submaps) searched for node
+    `node`, a step at a time (GraphSlam._step_candidate), the steps spread over the updates by loop_work_budget."""
+
+    submap: int
+    node: int
+    points: np.ndarray
+    prior: np.ndarray
+    """The node's pose in the anchor's frame when the candidate was started: the centre of the search window."""
+    search: WindowMatch | None = None
+    match: Match | None = None
+    matched: np.ndarray | None = None
+    aligned_information: np.ndarray | None = None
+    rival: GlobalSearch | None = None
+    """The search for a rival of the match (_rival_search), in progress."""
+    unambiguous: bool = False
+    """The rival search is over and found none: the gate is next."""
 
 
 @dataclass
@@ -376,6 +411,7 @@ class GraphSlam:
         self._grid: OccupancyGrid | None = None
         self._unmatched: set[int] = set()  # nodes added on odometry alone (left out of the local submap)
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
+        self._candidate: _Candidate | None = None  # the closure candidate in progress (_step_candidate)
         self._local: tuple[int, _Reference] | None = None
         self._unoptimized = 0  # closures added since the last optimization
         self._run: Optimization | None = None  # the optimization in progress (carried over the updates)
@@ -538,19 +574,32 @@ class GraphSlam:
         return index
 
     def _reference_of(self, submap: _Submap) -> _Reference:
-        """The loop-closure submap's matcher and clear space, built on first use (see _Submap)."""
+        """The loop-closure submap's matcher and layout, built on first use (see _Submap); its clear space is built
+        when a match first needs it (_clear_of)."""
         if submap.reference is None:
             members = range(submap.last - self.config.local_window + 1, submap.last + 1)
             reference = self._matcher(submap.anchor, members, self.config.loop_linear_window)
-            reference.clear = self._clear_space(submap.anchor, members)
             submap.layout = _layout_covariance(
                 self._graph.poses[members.start : members.stop],
                 np.asarray(self._links[members.start + 1 : members.stop]),
                 submap.anchor - members.start,
             )
-            self._work.add(CLEAR_WORK_PER_RAY * sum(len(self._nodes[k].ranges) for k in members))
+            submap.placed = np.array(
+                [relative_pose(self._graph.pose(submap.anchor), self._graph.pose(k)) for k in members]
+            )
             submap.reference = reference
         return submap.reference
+
+    def _clear_of(self, submap: _Submap) -> OccupancyGrid:
+        """The loop-closure submap's clear space (_Reference.clear), built on first use (at the members' poses its
+        matcher was built at): only a match that scores and is no window's edge needs it (most candidates do not get
+        that far)."""
+        reference = self._reference_of(submap)
+        if reference.clear is None:
+            members = range(submap.last - self.config.local_window + 1, submap.last + 1)
+            reference.clear = self._clear_space(members, submap.placed)
+            self._work.add(CLEAR_WORK_PER_RAY * sum(len(self._nodes[k].ranges) for k in members))
+        return reference.clear
 
     def _matcher(self, anchor: int, members, window: float) -> _Reference:
         """A matcher on the likelihood field of the members' scan points (their endpoints, Olson's rasterized
@@ -579,15 +628,13 @@ class GraphSlam:
         self._work.add(REFERENCE_WORK_PER_POINT * len(means))
         return _Reference(matcher, means, *lines, cKDTree(means))
 
-    def _clear_space(self, anchor: int, members) -> OccupancyGrid:
-        """The members' scans mapped (log odds) in the anchor node's frame: the cells seen clear (see
-        _Reference.clear)."""
-        anchor_pose = self._graph.pose(anchor)
+    def _clear_space(self, members, placed: np.ndarray) -> OccupancyGrid:
+        """The members' scans mapped (log odds) at their poses `placed` (the anchor node's frame): the cells seen
+        clear (see _Reference.clear)."""
         grid = LogOddsGrid(self.config.resolution)
-        for k in members:
+        for k, pose in zip(members, placed, strict=True):
             node = self._nodes[k]
-            sensor = compose(relative_pose(anchor_pose, self._graph.pose(k)), self._mount)
-            grid.insert(sensor, node.ranges, node.angles, node.clear_range)
+            grid.insert(compose(pose, self._mount), node.ranges, node.angles, node.clear_range)
         probability = grid.probability()
         margin = int(CLEAR_MARGIN_CELLS)
         walls = ndimage.binary_dilation(probability >= 0.5, np.ones((2 * margin + 1, 2 * margin + 1), dtype=bool))
@@ -691,60 +738,27 @@ class GraphSlam:
         self._pending = queue
         points = self._nodes[node].points
         closures: list[LoopClosure] = []
-        if len(points) < MIN_BEAMS:
-            return closures
-        marginals = None
-        searched = 0
-        while self._pending and searched < cfg.loop_max_candidates:
-            # the update's time: a candidate is started only while the update's work is within loop_work_budget
-            # (the rest wait for the next updates), but one at least every other update, however busy the front end
-            if self._work.units > cfg.loop_work_budget * 1e6 and (searched or not self._starved):
+        marginals: list = []  # the graph's marginals, computed once an update when a candidate reaches its gate
+        started, stepped = 0, False
+        while True:
+            # the update's time: a candidate is started only while the update's work is within loop_work_budget, and
+            # taken on only while within CANDIDATE_WORK_CAP (the rest waits for the next updates); but a step at
+            # least every other update, however busy the front end
+            busy = self._work.units > (cfg.loop_work_budget if self._candidate is None else CANDIDATE_WORK_CAP) * 1e6
+            if busy and (stepped or not self._starved):
                 break
-            i = self._pending.pop(0)
-            searched += 1
-            self.searched_closures += 1
-            submap = self._submaps[i]
-            self._reference_of(submap)
-            anchor = poses[submap.anchor]
-            prior = np.array(relative_pose(anchor, pose))
-            match = submap.matcher.match(points, prior, cfg.loop_linear_window, cfg.loop_angular_window)
-            self._work.add(CANDIDATE_WORK + match.nodes * len(points))
-            if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
-                self.closure_outcomes.append((submap.anchor, node, "low score", match.pose))
-                continue
-            if _on_edge(match.pose, prior, cfg):
-                self.ambiguous_closures += 1  # the best of the window is on its edge: no peak, the best may lie beyond
-                self.closure_outcomes.append((submap.anchor, node, "edge", match.pose))
-                continue
-            matched, aligned_information = _align(submap.reference, points, match.pose, cfg.resolution)
-            if _clear_share(submap.reference.clear, points, matched) > LOOP_MAX_CLEAR_SHARE:
-                self.inconsistent_closures += 1
-                self.closure_outcomes.append((submap.anchor, node, "clear", matched))
-                continue
-            rival = _rival_score(submap.matcher, points, matched, prior, cfg, self._work)
-            if rival >= AMBIGUITY_RATIO * match.score:
-                self.ambiguous_closures += 1
-                self.closure_outcomes.append((submap.anchor, node, "ambiguous", matched))
-                continue
-            # the closure against the poses now: its covariance plus the graph's own uncertainty of the
-            # anchor -> node relative pose (every edge, closures included: a closure found earlier shortens it)
-            innovation = matched - np.array(relative_pose(anchor, pose))
-            innovation[2] = wrap_angle(innovation[2])
-            if marginals is None:
-                marginals = self._graph.marginals()
-            covariance = self._closure_covariance(submap, points, matched, aligned_information)
-            spread = covariance + self._relative_covariance(marginals, submap.anchor, node)
-            chi2 = float(innovation @ np.linalg.solve(spread, innovation))
-            if not chi2 <= LOOP_CHI2:
-                self.rejected_closures += 1
-                self.closure_outcomes.append((submap.anchor, node, "gate", matched))
-                continue
-            self.closure_outcomes.append((submap.anchor, node, "kept", matched))
-            self._graph.add_edge(
-                submap.anchor, node, matched, _information(_rotated(covariance, matched[2])), loop=True
-            )
-            closures.append(LoopClosure(submap.anchor, node, float(match.score)))
-        self._starved = searched == 0 and bool(self._pending)
+            if self._candidate is None:
+                if not self._pending or started >= cfg.loop_max_candidates or len(points) < MIN_BEAMS:
+                    break
+                i = self._pending.pop(0)
+                started += 1
+                self.searched_closures += 1
+                prior = np.array(relative_pose(poses[self._submaps[i].anchor], pose))
+                self._candidate = _Candidate(i, node, points, prior)
+            stepped = True
+            if self._step_candidate(self._candidate, closures, marginals):
+                self._candidate = None
+        self._starved = not stepped and (bool(self._pending) or self._candidate is not None)
         if closures:
             self._unoptimized += len(closures)
             chi = np.sqrt(self._graph.chi2()[-len(closures) :].max())
@@ -752,6 +766,104 @@ class GraphSlam:
             self._unoptimized = 0
             self._start_optimization(events, drops=1)
         return closures
+
+    def _slice(self, points: int) -> int:
+        """Branch and bound nodes a search step may score: what is left of the update's CANDIDATE_WORK_CAP, at least
+        MIN_SEARCH_SLICE (each node one lookup per point)."""
+        left = CANDIDATE_WORK_CAP * 1e6 - self._work.units
+        return max(MIN_SEARCH_SLICE, int(left / max(points, 1)))
+
+    def _step_candidate(self, candidate: _Candidate, closures: list[LoopClosure], marginals: list) -> bool:
+        """One step of a loop-closure candidate, its work counted; True once it is decided. The steps: the submap's
+        matcher built (first search only); its window searched (a branch and bound scored a slice at a time:
+        _slice); the match below loop_min_score or on the window's edge refused, else refined (_align); the submap's
+        clear space built (first use); a match putting points in it refused, else its rivals searched (a slice at a
+        time, AMBIGUITY_MAX_NODES in all); an ambiguous match refused; the gate (the graph's marginals then, once an
+        update) and the closure added (to `closures`). A step is about one slice, a build or the marginals: an
+        update takes steps while within loop_work_budget, and the decision is the one a single update would take
+        (the same searches), made once the last step is taken, on the graph then."""
+        cfg = self.config
+        submap = self._submaps[candidate.submap]
+        points = candidate.points
+        if submap.reference is None:
+            self._reference_of(submap)
+            return False
+        if candidate.matched is None:
+            if candidate.search is None:
+                candidate.search = WindowMatch(
+                    submap.matcher, points, candidate.prior, cfg.loop_linear_window, cfg.loop_angular_window
+                )
+            search = candidate.search
+            before = search.nodes
+            search.advance(self._slice(len(points)))
+            self._work.add((search.nodes - before) * len(points))
+            if not search.done:
+                return False
+            match = candidate.match = search.result()
+            self._work.add(CANDIDATE_WORK)
+            if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
+                self.closure_outcomes.append((submap.anchor, candidate.node, "low score", match.pose))
+                return True
+            if _on_edge(match.pose, candidate.prior, cfg):
+                self.ambiguous_closures += 1  # the best of the window is on its edge: no peak, the best may lie beyond
+                self.closure_outcomes.append((submap.anchor, candidate.node, "edge", match.pose))
+                return True
+            candidate.matched, candidate.aligned_information = _align(
+                submap.reference, points, match.pose, cfg.resolution
+            )
+            return False
+        if submap.reference.clear is None:
+            self._clear_of(submap)
+            return False
+        if not candidate.unambiguous:
+            if candidate.rival is None:
+                if _clear_share(submap.reference.clear, points, candidate.matched) > LOOP_MAX_CLEAR_SHARE:
+                    self.inconsistent_closures += 1
+                    self.closure_outcomes.append((submap.anchor, candidate.node, "clear", candidate.matched))
+                    return True
+                candidate.rival = _rival_search(submap.matcher, points, candidate.matched, candidate.prior, cfg)
+                if candidate.rival is None:  # the window leaves no room for a rival
+                    candidate.unambiguous = True
+                    return False
+            rival = candidate.rival
+            if not (rival.done or rival.nodes >= AMBIGUITY_MAX_NODES):
+                before = rival.nodes
+                rival.advance(min(self._slice(len(rival.points)), AMBIGUITY_MAX_NODES - rival.nodes))
+                self._work.add((rival.nodes - before) * len(rival.points))
+                if not (rival.done or rival.nodes >= AMBIGUITY_MAX_NODES):
+                    return False
+            found = rival.matches(refine=False, covariance_cells=0)
+            if found and found[0].score >= AMBIGUITY_RATIO * candidate.match.score:
+                self.ambiguous_closures += 1
+                self.closure_outcomes.append((submap.anchor, candidate.node, "ambiguous", candidate.matched))
+                return True
+            candidate.unambiguous = True
+            return False
+        # the closure against the poses now: its covariance plus the graph's own uncertainty of the anchor -> node
+        # relative pose (every edge, closures included: a closure found earlier shortens it)
+        anchor = self._graph.pose(submap.anchor)
+        innovation = candidate.matched - np.array(relative_pose(anchor, self._graph.pose(candidate.node)))
+        innovation[2] = wrap_angle(innovation[2])
+        if not marginals:
+            marginals.append(self._graph.marginals())
+            self._work.add(OPTIMIZE_WORK_PER_EDGE * self._graph.edge_count)
+        covariance = self._closure_covariance(submap, points, candidate.matched, candidate.aligned_information)
+        spread = covariance + self._relative_covariance(marginals[0], submap.anchor, candidate.node)
+        chi2 = float(innovation @ np.linalg.solve(spread, innovation))
+        if not chi2 <= LOOP_CHI2:
+            self.rejected_closures += 1
+            self.closure_outcomes.append((submap.anchor, candidate.node, "gate", candidate.matched))
+            return True
+        self.closure_outcomes.append((submap.anchor, candidate.node, "kept", candidate.matched))
+        self._graph.add_edge(
+            submap.anchor,
+            candidate.node,
+            candidate.matched,
+            _information(_rotated(covariance, candidate.matched[2])),
+            loop=True,
+        )
+        closures.append(LoopClosure(submap.anchor, candidate.node, float(candidate.match.score)))
+        return True
 
     def _start_optimization(self, events: list[str], drops: int) -> None:
         """A new optimization run (the one in progress, if any, is superseded: it starts again from the poses it
@@ -917,22 +1029,17 @@ def _layout_covariance(poses: np.ndarray, links: np.ndarray, anchor: int) -> np.
     return covariance
 
 
-def _rival_score(
-    matcher: CorrelativeMatcher,
-    points: np.ndarray,
-    pose: np.ndarray,
-    prior: np.ndarray,
-    config: SlamConfig,
-    work: _Work | None = None,
-) -> float:
-    """The best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
-    heading) at least AMBIGUITY_DISTANCE from the match (a branch and bound over that region: GlobalSearch, the
-    places scoring under AMBIGUITY_RATIO of the match pruned). A corridor, a row of equal rooms, a maze's
-    cells one pitch apart match nearly as well there, and a closure to one of them says little about which;
-    rivals only along the match's principal axes and 0.5 m off let 0.45-1.5 m false closures through in
-    generated mazes (the pitch 0.44 m, its diagonal 0.62 m). Pruned at the match's own score instead (a rival
-    below AMBIGUITY_RATIO of it is no rival) it saved little on fhw and changed the budgeted search's answers: perfect
-    seed 0 mapped 0.85 precise, 0.94 as it is."""
+def _rival_search(
+    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, prior: np.ndarray, config: SlamConfig
+) -> GlobalSearch | None:
+    """The search (GlobalSearch, resumable: GraphSlam takes it a slice at a time, AMBIGUITY_MAX_NODES nodes in all)
+    for the best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
+    heading) at least AMBIGUITY_DISTANCE from the match; None when the window leaves no room for one. A corridor, a
+    row of equal rooms, a maze's cells one pitch apart match nearly as well there, and a closure to one of them says
+    little about which; rivals only along the match's principal axes and 0.5 m off let 0.45-1.5 m false closures
+    through in generated mazes (the pitch 0.44 m, its diagonal 0.62 m). Pruned at the match's own score instead (a
+    rival below AMBIGUITY_RATIO of it is no rival) it saved little on fhw and changed the budgeted search's answers:
+    perfect seed 0 mapped 0.85 precise, 0.94 as it is."""
     score_map = matcher.score_map
     rows, cols = score_map.shape
     res = score_map.resolution
@@ -944,8 +1051,8 @@ def _rival_score(
     region = in_y[:, None] & in_x[None, :]
     region &= np.hypot(x[None, :] - pose[0], y[:, None] - pose[1]) >= AMBIGUITY_DISTANCE
     if not region.any():
-        return 0.0
-    search = GlobalSearch(
+        return None
+    return GlobalSearch(
         matcher,
         points,
         region,
@@ -953,6 +1060,20 @@ def _rival_score(
         min_score=min(1.0, AMBIGUITY_RATIO * config.loop_min_score),
         min_separation=AMBIGUITY_DISTANCE,
     )
+
+
+def _rival_score(
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    pose: np.ndarray,
+    prior: np.ndarray,
+    config: SlamConfig,
+    work: _Work | None = None,
+) -> float:
+    """The best score of a rival of the match (_rival_search) in one go: 0 if none."""
+    search = _rival_search(matcher, points, pose, prior, config)
+    if search is None:
+        return 0.0
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
     if work is not None:
         work.add(search.nodes * len(search.points))

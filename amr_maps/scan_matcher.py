@@ -226,28 +226,9 @@ class CorrelativeMatcher:
         y) and +-angular_window (rad) of prior, by branch and bound (exact unless max_nodes runs out: then
         exhaustive is False), refined below the cell when `refine`; its covariance from +-covariance_cells around the
         peak (0: the lattice's quantization only, not computed). No finite point: the prior, score 0."""
-        points, prior = _window_arguments("match", points, prior, linear_window, angular_window)
-        res = self.resolution
-        step = self._step(points, angular_step)
-        if len(points) == 0:
-            return Match(prior.copy(), 0.0, True, 0, _floor_covariance(res, step))
-        reach = int(math.ceil(linear_window / res - 1e-9))
-        turns = int(math.ceil(angular_window / step - 1e-9))
-        thetas = prior[2] + step * np.arange(-turns, turns + 1)
-        x_ref, y_ref = prior[0] - reach * res, prior[1] - reach * res
-        rows, cols = _cells(points, x_ref, y_ref, thetas, self.origin, res)
-        size = 2 * reach + 1
-        top = min(self.levels - 1, max(0, math.ceil(math.log2(size))))
-        span = 1 << top
-        tops = _top_blocks(len(thetas), np.arange(0, size, span, dtype=np.int32))
-        search = _BranchAndBound(self, rows, cols, size, size, tops, top, None, 1, 0, 10**18, 10**9, 0)
-        search.run(np.iinfo(np.int64).max if max_nodes is None else max_nodes)
-        found = search.results()
-        if not found:  # every pose scored 0 (or the budget ran out before a leaf)
-            return Match(prior.copy(), 0.0, search.done, search.nodes, _floor_covariance(res, step))
-        a, x, y, total = found[0]
-        pose = np.array([x_ref + x * res, y_ref + y * res, float(_wrap(thetas[a]))])
-        return self._finish(points, pose, total, step, search.done, search.nodes, refine, covariance_cells)
+        search = WindowMatch(self, points, prior, linear_window, angular_window, angular_step)
+        search.advance(np.iinfo(np.int64).max if max_nodes is None else max_nodes)
+        return search.result(refine, covariance_cells)
 
     def window_scores(
         self, points: np.ndarray, prior, linear_window: float, angular_window: float, angular_step: float | None = None
@@ -388,6 +369,66 @@ class CorrelativeMatcher:
         centred = samples - mean
         covariance = (centred * weight[:, None]).T @ centred / total
         return covariance + _floor_covariance(res, step)
+
+
+class WindowMatch:
+    """CorrelativeMatcher.match as a resumable search: `advance(max_nodes)` scores at most that many more branch and
+    bound nodes (continuing where the last call stopped), `result()` is the Match that `match` gives with the nodes
+    scored so far (the same search: a windowed match spread over several calls, each of bounded work, gives the
+    match's answer once `done`). `nodes`: scored so far (each one lookup per point)."""
+
+    def __init__(
+        self,
+        matcher: CorrelativeMatcher,
+        points: np.ndarray,
+        prior,
+        linear_window: float,
+        angular_window: float,
+        angular_step: float | None = None,
+    ) -> None:
+        points, prior = _window_arguments("match", points, prior, linear_window, angular_window)
+        self.matcher = matcher
+        self.points, self.prior = points, prior
+        res = matcher.resolution
+        self.step = matcher._step(points, angular_step)
+        self._search: _BranchAndBound | None = None
+        if len(points) == 0:
+            return
+        reach = int(math.ceil(linear_window / res - 1e-9))
+        turns = int(math.ceil(angular_window / self.step - 1e-9))
+        self.thetas = prior[2] + self.step * np.arange(-turns, turns + 1)
+        self.x_ref, self.y_ref = prior[0] - reach * res, prior[1] - reach * res
+        rows, cols = _cells(points, self.x_ref, self.y_ref, self.thetas, matcher.origin, res)
+        size = 2 * reach + 1
+        top = min(matcher.levels - 1, max(0, math.ceil(math.log2(size))))
+        span = 1 << top
+        tops = _top_blocks(len(self.thetas), np.arange(0, size, span, dtype=np.int32))
+        self._search = _BranchAndBound(matcher, rows, cols, size, size, tops, top, None, 1, 0, 10**18, 10**9, 0)
+
+    @property
+    def done(self) -> bool:
+        return self._search is None or self._search.done
+
+    @property
+    def nodes(self) -> int:
+        return 0 if self._search is None else self._search.nodes
+
+    def advance(self, max_nodes: int) -> None:
+        """Score at most max_nodes more nodes (fewer once done)."""
+        if self._search is not None:
+            self._search.run(int(max_nodes))
+
+    def result(self, refine: bool = True, covariance_cells: int = 4) -> Match:
+        """The best pose found so far (exhaustive once done), refined below the cell when `refine`, with its
+        covariance from +-covariance_cells around the peak (0: the lattice's quantization); no finite point, or
+        nothing scored above 0: the prior, score 0 (see CorrelativeMatcher.match)."""
+        res, step = self.matcher.resolution, self.step
+        found = [] if self._search is None else self._search.results()
+        if not found:  # every pose scored 0 (or the budget ran out before a leaf)
+            return Match(self.prior.copy(), 0.0, self.done, self.nodes, _floor_covariance(res, step))
+        a, x, y, total = found[0]
+        pose = np.array([self.x_ref + x * res, self.y_ref + y * res, float(_wrap(self.thetas[a]))])
+        return self.matcher._finish(self.points, pose, total, step, self.done, self.nodes, refine, covariance_cells)
 
 
 class GlobalSearch:

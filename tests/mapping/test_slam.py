@@ -4,6 +4,7 @@ back cell for cell, bad input is refused with the map kept."""
 from __future__ import annotations
 
 import math
+from copy import deepcopy
 
 import numpy as np
 import pytest
@@ -128,6 +129,35 @@ def test_a_run_does_not_depend_on_the_clock(ring, monkeypatch):
     (first, closures), (second, again) = graphs
     assert closures > 0 and closures == again
     assert all(np.array_equal(a, b) for a, b in zip(first, second, strict=True))
+
+
+def test_a_closure_candidate_spread_over_many_updates_is_decided_as_in_one(mapped, monkeypatch):
+    """A loop-closure candidate is taken a step at a time (the submap's build, the window searched a slice at a time,
+    its clear space, the rival search a slice at a time, the gate): with no work allowed beyond a step an update
+    (CANDIDATE_WORK_CAP 0: a minimal slice each) it takes many more steps and ends where one update's steps end, the
+    same closure, score and pose."""
+    import amr_mapping.slam as slam_module
+
+    slam = mapped[0]
+    anchor, node = next((a, n) for a, n, outcome, _ in slam.closure_outcomes if outcome == "kept")
+    index = next(i for i, submap in enumerate(slam._submaps) if submap.anchor == anchor)
+    decided = []
+    for cap in (1e9, 0.0):
+        monkeypatch.setattr(slam_module, "CANDIDATE_WORK_CAP", cap)
+        copy = deepcopy(slam)
+        copy._submaps[index].reference = None  # built again: the first step
+        prior = np.array(relative_pose(copy._graph.pose(anchor), copy._graph.pose(node)))
+        candidate = slam_module._Candidate(index, node, copy._nodes[node].points, prior)
+        closures, steps, done = [], 0, False
+        while not done:
+            copy._work = slam_module._Work()  # each step in an update of its own
+            done = copy._step_candidate(candidate, closures, [])
+            steps += 1
+        decided.append((steps, closures, copy.closure_outcomes[-1]))
+    (one, closed, outcome), (many, closed_again, outcome_again) = decided
+    assert one == 5 and many > one + 3, (one, many)
+    assert closed == closed_again and len(closed) == 1 and outcome[2] == outcome_again[2] == "kept"
+    assert np.array_equal(outcome[3], outcome_again[3])
 
 
 def test_map_to_odom_maps_the_odometry_onto_the_pose(mapped):

@@ -85,7 +85,7 @@ def test_a_closure_one_maze_pitch_off_is_refused_and_the_true_one_kept(maze):
     caster, world = maze
     slam = _mapped(caster, _turning(world, 10), 0.0)  # ten nodes turning on the spot: one submap
     submap = slam._submaps[0]
-    slam._reference_of(submap)
+    slam._clear_of(submap)  # the matcher and the clear space
     anchor = np.array(slam.graph()[0][submap.anchor])
     pose = (world.start.x + 0.01, world.start.y, world.start.theta + 0.1)
     points = slam_module._beams(_scan(caster, pose, np.random.default_rng(1), 0.02), MAX_RANGE, (0.0, 0.0, 0.0))[2]

@@ -10,7 +10,7 @@ from amr_maps.maze_families import generate
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.rasterize import rasterize_world
 from amr_maps.raycast import NumpyRayCaster
-from amr_maps.scan_matcher import FIELD_REACH, CorrelativeMatcher, GlobalSearch, ScoreMap, _max_pyramid
+from amr_maps.scan_matcher import FIELD_REACH, CorrelativeMatcher, GlobalSearch, ScoreMap, WindowMatch, _max_pyramid
 from amr_maps.world import world_from_dict
 
 BEAMS = 180
@@ -186,6 +186,27 @@ def test_global_search_honours_its_budget_and_resumes_to_the_same_answer(pillars
     assert [m.score for m in partial] == [m.score for m in whole]
     assert np.allclose([m.pose for m in partial], [m.pose for m in whole])
     assert math.hypot(*(whole[0].pose[:2] - truth[:2])) < 0.05
+
+
+def test_a_windowed_match_in_slices_is_the_match(pillars):
+    """WindowMatch, the match spread over calls of bounded work (a loop closure's search over several SLAM updates):
+    its answer once done is match's to the digit."""
+    world, _, matcher = pillars
+    truth = np.array([world.start.x, world.start.y, world.start.theta])
+    points = scan_points(world, truth, noise=0.01, seed=2)
+    prior = truth - (0.3, -0.25, math.radians(8))
+    whole = matcher.match(points, prior, 0.6, math.radians(25))
+    search = WindowMatch(matcher, points, prior, 0.6, math.radians(25))
+    calls = 0
+    while not search.done:
+        before = search.nodes
+        search.advance(50)
+        assert search.nodes - before <= 50 + 3
+        calls += 1
+    sliced = search.result()
+    assert calls > 5 and sliced.nodes == whole.nodes and sliced.exhaustive
+    assert sliced.score == whole.score and np.array_equal(sliced.pose, whole.pose)
+    assert np.array_equal(sliced.covariance, whole.covariance)
 
 
 def test_global_search_keeps_to_the_candidate_region(pillars):
