@@ -37,6 +37,20 @@ def test_the_wall_follower_stack_matches_the_library_episode(ros_domain, monkeyp
     assert ros["distance"] == pytest.approx(expected["distance"], rel=1e-3)
 
 
+def test_the_wall_follower_stack_reaches_the_goal_at_the_library_episodes_step(ros_domain, monkeypatch):
+    """open_room seed 0 (bench_library_ros's first spec): the goal verdict, its time and collisions the same both
+    ways (the test above ends before any goal)."""
+    monkeypatch.setenv("AMR_EVALUATE_ROS_DOMAINS", f"{ros_domain}-{ros_domain}")
+    label, parameters = configs.resolve("wall_follower", "sim")
+    library = EpisodeSpec("wall_follower", label, parameters, {"file": "open_room.yaml"}, seed=0, duration=60.0)
+    ros = run_episode(dataclasses.replace(library, mode="ros"))
+    expected = run_episode(library)
+    assert ros["error"] is None, ros["error"]
+    assert expected["goal_reached"] is ros["goal_reached"] is True
+    assert ros["time_to_goal"] == pytest.approx(expected["time_to_goal"], abs=1e-6)
+    assert ros["collisions"] == expected["collisions"] == 0
+
+
 def _both_ways(ros_domain, monkeypatch, controller: str, world: str, **spec) -> tuple[dict, dict]:
     """The records of one episode spec (the controller's default configuration) through ROS in its own domain and in
     the library; the ROS run without an error."""

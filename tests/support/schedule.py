@@ -36,7 +36,7 @@ SECONDS = {
     "bringup/test_demo.py": 21,
     "util/test_lifecycle_edges.py": 21,
     "bringup/test_recording.py": 20,
-    "evaluation/test_ros_episode.py": 18,
+    "evaluation/test_ros_episode.py": 26,
     "foundation/test_docs.py": 17,
     "simulation/test_simulator_node_controls.py": 14,
     "evaluation/test_symmetry_closed_loop.py": 13,
