@@ -33,8 +33,10 @@ and Kristensen 2001):
 - the posterior is P(h_i) = exp(L_i) / (exp(L_elsewhere) + sum_j exp(L_j)), each L kept within
   MAX_LOG_ODDS of the best place's, elsewhere's too, either way (a robot may be carried anywhere, to a place
   followed as well as away from it: a kidnapping's prior, which also keeps the numbers finite);
-- a hypothesis driven into a wall is impossible and dies, its belief going to `elsewhere` (not to the places
-  left); at most MAX_HYPOTHESES are kept, the least likely forgotten first.
+- a hypothesis whose pose, as the scan places it, is in a wall is impossible and dies (its pose moved by the
+  scan-matched odometry and fitted to the scan: odometry alone can end a keyframe's step in a wall beside the
+  robot's true path), its belief going to `elsewhere` (not to the places left); at most MAX_HYPOTHESES are kept,
+  the least likely forgotten first.
 
 The filter then makes its particles agree (sensor resetting, Lenser and Veloso 2000): each place holds
 as much particle weight as its probability, a likely place without particles gets a cloud. `localized`

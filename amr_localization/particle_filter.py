@@ -412,8 +412,6 @@ class ParticleFilter:
             self._search.moved(d_trans, d_theta, self.noise)
         if self._declared is not None:
             self._declared = np.asarray(compose(self._declared, increment), dtype=float)
-        if len(self.hypotheses):  # a place is impossible where its pose is in a wall (not merely near one)
-            self.hypotheses.keep(self._open_space.contains(self.hypotheses.poses[:, 0], self.hypotheses.poses[:, 1]))
         self._moved = (self._moved[0] + d_trans, self._moved[1] + d_theta)
         self._odometry = odometry
         self._pending_measurement = True
@@ -503,6 +501,13 @@ class ParticleFilter:
             hypotheses.poses, held = self._fitted(hypotheses.poses, seen, window)
         else:
             held = np.zeros(len(hypotheses))
+        if len(hypotheses):
+            # a place is impossible where its pose is in a wall (not merely near one): its pose as the data place it
+            # (moved by the scan-matched odometry and fitted to the scan), not as odometry alone would, whose error
+            # over a keyframe's metres can end in a wall beside the robot's true path
+            inside = self._open_space.contains(hypotheses.poses[:, 0], hypotheses.poses[:, 1])
+            hypotheses.keep(inside)
+            held = held[inside]
         found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
         if len(hypotheses):
             hypotheses.observe(

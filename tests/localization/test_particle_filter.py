@@ -204,3 +204,23 @@ def test_the_estimate_is_refined_to_the_scan_only_as_far_as_the_particles_spread
     tight = pf._refined(PoseEstimate(*off, np.diag([0.01**2, 0.01**2, 0.01**2])), seen)
     assert math.hypot(wide.x - truth[0], wide.y - truth[1]) < 0.04, wide
     assert (tight.x, tight.y, tight.theta) == tuple(off), tight
+
+
+def test_a_place_that_odometry_alone_would_put_in_a_wall_lives_where_the_scan_places_it():
+    """A keyframe's odometry error can end in a wall beside the robot's true path (a real log's 2 m step did): the
+    place is judged where the data place it (scan-matched odometry, fitted to the scan), not where odometry alone
+    would, so the robot 12 cm from a wall with odometry 15 cm into it stays localized where it is (before: the place
+    died in the wall, `elsewhere` took its belief and localization was withdrawn for another place)."""
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    sim = Simulator(world, SimulationConfig(seed=1))
+    pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(seed=1, lidar_x=-0.032))
+    y = -1.35  # the south wall's face is at -1.475
+    pf.initialize_pose(-1.2, y, 0.0, np.diag([0.01**2, 0.01**2, 0.01**2]))
+    for step in range(8):
+        sim.set_pose(-1.2 + 0.05 * step, y, 0.0)
+        estimate = pf.update((0.05 * step, 0.0, 0.0), scan_of(sim), stamp=0.5 * step)
+    assert estimate.localized
+    sim.set_pose(0.15, y, 0.0)  # 1 m further along the wall; odometry says 15 cm to the south too: in the wall
+    estimate = pf.update((1.35, -0.15, 0.0), scan_of(sim), stamp=10.0)
+    assert estimate.localized, pf.status.event
+    assert math.hypot(estimate.pose.x - 0.15, estimate.pose.y - y) < 0.05, estimate.pose
