@@ -160,6 +160,28 @@ def test_a_closure_candidate_spread_over_many_updates_is_decided_as_in_one(mappe
     assert np.array_equal(outcome[3], outcome_again[3])
 
 
+def test_the_loop_closes_with_its_candidates_spread_over_the_updates(ring, monkeypatch):
+    """With little work allowed an update (CANDIDATE_WORK_CAP 2 M units) the candidates run over several updates,
+    never more in progress than loop_max_candidates, and the loop still closes."""
+    import amr_mapping.slam as slam_module
+
+    monkeypatch.setattr(slam_module, "CANDIDATE_WORK_CAP", 2.0)
+    in_progress = []
+    original = GraphSlam._close_loops
+
+    def recording(self, node, events):
+        closures = original(self, node, events)
+        in_progress.append(len(self._candidates))
+        return closures
+
+    monkeypatch.setattr(GraphSlam, "_close_loops", recording)
+    slam, truth, _, closures = _run(ring)
+    assert closures > 0 and max(in_progress) >= 1
+    assert max(in_progress) <= slam.config.loop_max_candidates
+    start = truth[0]
+    assert math.hypot(*(np.array(compose(start, slam.pose))[:2] - truth[-1, :2])) < 0.1
+
+
 def test_map_to_odom_maps_the_odometry_onto_the_pose(mapped):
     slam, _, odometry, _ = mapped
     assert np.allclose(compose(slam.map_to_odom, odometry[-1]), slam.pose, atol=1e-9)
