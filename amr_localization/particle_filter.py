@@ -4,7 +4,8 @@ Each call to update(odometry, scan=..., beacons=..., stamp=...) does, in this or
 
 1. motion: once odometry has moved update_min_d / update_min_a since the last filter update, every
    particle samples the accumulated increment (motion_model.py) and every place hypothesis moves by it;
-   a particle or hypothesis whose end pose is not in free space has probability 0 (the map prior).
+   a particle whose end pose is not in free space has probability 0 (the map prior), a hypothesis once the
+   scan has placed it (step 4).
    Odometry moving faster than max_odometry_speed, and more than RESET_MIN_JUMP, is a reset, not motion;
 2. measurement: log w_i += g sum_k w_k log p(z_k | x_i), the likelihood field (or beam model) mixture
    with its hit and random terms, each beam weighted by how many others share its stretch of wall and the
