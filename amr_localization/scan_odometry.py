@@ -97,14 +97,17 @@ class _Odometry(NamedTuple):
     position_sigma: float
     heading_sigma: float
 
+    @property
+    def precisions(self) -> tuple[float, float]:
+        """1 / sigma^2 of position (either axis) and heading."""
+        return 1.0 / max(self.position_sigma**2, 1e-12), 1.0 / max(self.heading_sigma**2, 1e-12)
+
     def log_density(self, poses: np.ndarray) -> np.ndarray:
         """(M,) the prior's log-density (up to a constant) at each (M, 3) pose."""
         offsets = np.atleast_2d(poses) - self.increment
         offsets[:, 2] = wrap_angle(offsets[:, 2])
-        return -0.5 * (
-            (offsets[:, 0] ** 2 + offsets[:, 1] ** 2) / max(self.position_sigma**2, 1e-12)
-            + offsets[:, 2] ** 2 / max(self.heading_sigma**2, 1e-12)
-        )
+        position, heading = self.precisions
+        return -0.5 * ((offsets[:, 0] ** 2 + offsets[:, 1] ** 2) * position + offsets[:, 2] ** 2 * heading)
 
 
 def _log_posteriors(
@@ -147,12 +150,7 @@ def _posterior_mean(
         angular = angle_steps * step
     poses, scores = matcher.window_scores(cloud, centre, linear, angular, step)
     mean = odometry.increment + _weighted_offset(
-        poses,
-        scores,
-        float(independent),
-        odometry.increment,
-        1.0 / max(odometry.position_sigma**2, 1e-12),
-        1.0 / max(odometry.heading_sigma**2, 1e-12),
+        poses, scores, float(independent), odometry.increment, *odometry.precisions
     )
     mean[2] = wrap_angle(mean[2])
     return mean
@@ -162,7 +160,9 @@ def _posterior_mean(
 def _weighted_offset(poses, scores, independent, increment, position_precision, heading_precision):
     """The posterior's mean offset from the odometry's `increment` over the lattice `poses` (M, 3), with weights
 
-        w_m ~ max(score_m, 1e-6)^independent exp(-1/2 (x_m - increment)^T Sigma^-1 (x_m - increment)),
+        w_m ~ max(score_m, 1e-6)^independent exp(-1/2 (x_m - increment)^T Sigma^-1 (x_m - increment))
+
+    (Sigma^-1 from _Odometry.precisions; the exponent is _Odometry.log_density, pose by pose),
 
     headings' offsets wrapped: two passes (the largest log-weight, then the weighted sums) where numpy made a
     dozen (M,) temporaries for tens of thousands of poses."""
