@@ -2,7 +2,9 @@
 
 Each period the filter gets the encoder odometry pose and the scan, the wall
 follower the odometry twist and the scan, and its command advances the
-simulator by dt: the node stack's loop minus the transport. The tests and
+simulator by dt: the node stack's loop minus the transport, as parts of the
+lockstep harness (amr_util.harness: the filter's odometry, the filter, the
+trace, the wall follower). The tests and
 bench/bench_localization.py run it; `kidnap` teleports the robot mid-run
 without telling the filter (the odometry it is given carries on as if nothing
 happened, which is what a kidnapped robot's wheels report).
@@ -21,7 +23,7 @@ from amr_control.wall_follower_config import WallFollowerConfig
 from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_simulation.simulator import Simulator
 from amr_util.geometry import compose, wrap_angle
-from amr_util.scan import scan_of
+from amr_util.harness import Frame, Harness, OneRobot, drive, localize
 
 
 @dataclass
@@ -62,30 +64,36 @@ def run(
     until: Callable[[Simulator, Estimate], bool] | None = None,
 ) -> Trace:
     """Drive for `seconds` of simulated time; kidnap = (time, pose) teleports the robot once; `until`, called
-    after each step's estimate, ends the run early when it returns True."""
-    follower = WallFollower(follower_config)
+    after each step's estimate, ends the run early when it returns True. The harness's parts: the odometry as the
+    filter's frame has it, the filter, the trace, the wall follower."""
     trace = Trace()
     odometry_frame = np.zeros(3)  # what the filter's odometry frame is in the simulator's odometry frame
-    while sim.time < seconds:
+
+    def kidnapping() -> None:
+        nonlocal odometry_frame
         if kidnap is not None and trace.kidnapped_at is None and sim.time >= kidnap[0]:
             before = compose(odometry_frame[None, :], np.array(sim.odom_pose))[0]
             sim.set_pose(*kidnap[1])  # the simulator's odometry restarts at the new pose ...
             odometry_frame = _frame_mapping(before, np.array(sim.odom_pose))  # ... the filter's carries on
             trace.kidnapped_at = sim.time
-        odometry = compose(odometry_frame[None, :], np.array(sim.odom_pose))[0]
-        scan = scan_of(sim)
-        estimate = pf.update(tuple(odometry), scan)
-        truth = sim.pose
-        trace.time.append(sim.time)
+
+    def filter_odometry(frame: Frame) -> None:
+        odometry = compose(odometry_frame[None, :], np.array(frame.observation.odometry))[0]
+        frame.observation = frame.observation.with_odometry(tuple(odometry))
+
+    def record(frame: Frame) -> None:
+        estimate, truth = frame.estimate, sim.pose
+        trace.time.append(frame.observation.stamp)
         trace.localized.append(estimate.localized)
         trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
         trace.heading_error.append(abs(float(wrap_angle(estimate.pose.theta - truth.theta))))
         trace.update_time.append(estimate.status.update_time)
         trace.truth.append((truth.x, truth.y, truth.theta))
         if (stop_when_localized and estimate.localized) or (until is not None and until(sim, estimate)):
-            break
-        command = follower.compute(scan, *sim.odom_twist, sim.time)
-        sim.step(command.v, command.w)
+            frame.stop = "until"
+
+    parts = [filter_odometry, localize(pf), record, drive(WallFollower(follower_config))]
+    Harness(OneRobot(sim), [parts], before=[kidnapping]).run(seconds)
     return trace
 
 
