@@ -5,7 +5,8 @@ The world is rasterized at the planner configuration's ``resolution`` and planne
 class (amr_planning.planner.Planner: its costmap, search and smoothing, from the same parameters); the path
 follower answers each step with the true pose and the scan. When it asks for a new plan (blocked, strayed), the
 planner plans again from where the robot is, as the planner node does, at most ``max_replans`` times. Stops at the
-goal region, at the follower's REACHED, or at ``limit``.
+goal region, at the follower's REACHED, or at ``limit``. The loop is the lockstep harness (amr_util.harness) with one
+part, the path follower on the true pose.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from amr_maps.rasterize import rasterize_world
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.simulator import Simulator
-from amr_util.scan import ScanData
+from amr_util.harness import Frame, Harness, OneRobot
 
 MAX_REPLANS = 20
 
@@ -53,7 +54,6 @@ def plan_and_follow(
     config = planner_config or PlannerConfig()
     planner = Planner(rasterize_world(sim.world, config.resolution), config)
     follower = PathFollower(follower_config or PathFollowerConfig())
-    lidar = sim.lidar
     errors: list[float] = []
     replans = 0
     planning = [0.0]
@@ -70,25 +70,34 @@ def plan_and_follow(
         follower.set_path(plan((start.x, start.y)))
     except PlanningError as error:
         return PlanFollowRun(False, False, 0, math.nan, math.nan, str(error), planning_time=planning[0])
-    while sim.time < limit and not sim.goal_reached:
+    failure: list[str] = []
+
+    def follow(frame: Frame) -> None:
+        """The path follower on the true pose; a new plan from there when it asks for one."""
+        nonlocal replans
         pose = sim.pose
-        scan = ScanData(sim.ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
-        command = follower.compute(pose.x, pose.y, pose.theta, scan)
+        command = follower.compute(pose.x, pose.y, pose.theta, frame.observation.scan)
         if command.state is State.TRACK:
             errors.append(command.cross_track)
         if command.reached:
-            break
+            frame.stop = "reached"
+            return
         if command.replan:
             if replans == max_replans:
-                break
+                frame.stop = "replans"
+                return
             replans += 1
             try:
                 follower.set_path(plan((pose.x, pose.y)))
             except PlanningError as error:
-                return PlanFollowRun(
-                    True, False, sim.collisions, sim.time, math.nan, f"replan failed: {error}", replans, planning[0]
-                )
-        sim.step(command.v, command.w)
+                failure.append(f"replan failed: {error}")
+                frame.stop = "replan failed"
+                return
+        frame.command = (command.v, command.w)
+
+    Harness(OneRobot(sim), [[follow]]).run(limit, lambda: "goal" if sim.goal_reached else None)
+    if failure:
+        return PlanFollowRun(True, False, sim.collisions, sim.time, math.nan, failure[0], replans, planning[0])
     message = "" if sim.goal_reached else f"stopped in {follower.state.value} at t={sim.time:.1f} s"
     if replans:
         message += f" ({replans} replans)"
