@@ -5,7 +5,8 @@ The wall-follower episode of amr_evaluation (episode.py) and bench/bench_wall_fo
 The simulator library and the controller in lockstep, as tests/control/test_closed_loop.py
 does (minus the synchronizer: lockstep stamps are identical, so every pair is the step's own). The controller reads
 the scan as the simulator node's LaserScan carries it (float32 ranges and geometry) and its time as the stamp does
-(amr_evaluation.episode.AsSent), so that the run is the ROS stack's to the step.
+(amr_evaluation.episode.AsSent), so that the run is the ROS stack's to the step: the lockstep harness
+(amr_util.harness) over AsSent(simulator), with two parts, the controller and the figures' record.
 Options the ROS path has and the library loop lacks are emulated here:
 
 * ``scan_period``: the LiDAR scans only every that many seconds (LDS-01: 0.2 s, 5 Hz); as
@@ -42,6 +43,7 @@ from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.render import save_png
 from amr_simulation.simulator import Simulator
 from amr_util.geometry import wrap_angle
+from amr_util.harness import Frame, Harness, OneRobot
 
 ERROR_CAP = 1.0  # m
 
@@ -87,25 +89,30 @@ def run(
     )
     follower = WallFollower(config)
     lidar = sim.lidar
-    sent = AsSent(sim)  # the scan and the time as the nodes read them
     outliers = np.random.default_rng([seed, 14])
     every = 1 if scan_period is None else max(1, round(scan_period / config.dt))
     states: Counter[str] = Counter()
     following_errors, run_errors = [], []
     faces = world.faces
     command, issues = None, 0
-    while sim.time < seconds and not sim.goal_reached:
+
+    def follow(frame: Frame) -> None:
+        """The wall follower on each new scan (every ``every`` steps), its last command held in between."""
+        nonlocal command, issues
         if sim.steps % every == 0:
-            ranges = sent.ranges
+            observation = frame.observation
+            ranges = np.array(observation.scan.ranges)
             if outlier_rate > 0.0:
                 hit = outliers.random(len(ranges)) < outlier_rate
                 ranges[hit] = outliers.uniform(lidar.range_min, 1.0, int(hit.sum()))
-            odometry_v, odometry_w = sim.odom_twist
-            scan = dataclasses.replace(sent.lidar, ranges=ranges)
-            command = follower.compute(scan, odometry_v, odometry_w, sent.time)
+            scan = dataclasses.replace(observation.scan, ranges=ranges)
+            command = follower.compute(scan, *observation.twist, observation.stamp)
             issues += not command.ok
             if follower.state == "FOLLOW":
                 following_errors.append(abs(follower.measurements.wall_distance - config.target_wall_distance))
+        frame.command = (command.v, command.w)
+
+    def record(frame: Frame) -> None:
         states[follower.state] += 1
         run_errors.append(
             abs(
@@ -113,7 +120,9 @@ def run(
                 - config.target_wall_distance
             )
         )
-        sim.step(command.v, command.w)
+
+    # the scan and the time as the nodes read them
+    Harness(OneRobot(AsSent(sim)), [[follow, record]]).run(seconds, lambda: "goal" if sim.goal_reached else None)
 
     if render_path is not None:
         save_png(sim, render_path)
