@@ -6,8 +6,10 @@ The other robots are not on the map: for the particle filter every beam that end
 `amr_simulation.fleet.Fleet` (so every LiDAR sees the others), the ego driven by the wall follower with
 its particle filter fed the encoder odometry and its scan, the others standing still (`stand`) or each
 following walls with its own wall follower (`drive`: they go where the ego goes, so they stay in its
-scan, ahead, behind, passing). The run records, per step, the estimate's error against the true pose,
-`localized`, and the share of the ego's beams that end on another robot (its scan against the map's
+scan, ahead, behind, passing): the lockstep harness (amr_util.harness) over the fleet, the ego's parts its
+filter, the record and its wall follower, the others' a zero command or their wall followers. The run records,
+per step, the estimate's error against the true pose, `localized`, and the share of the ego's beams that end on
+another robot (its scan against the map's
 ranges at the same pose, cast without the robots).
 
 The bench is bench/bench_localization.py --crowded; tests/evaluation/test_crowded_localization.py.
@@ -29,8 +31,8 @@ from amr_maps.world import World, world_from_dict
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
 from amr_util.geometry import wrap_angle
+from amr_util.harness import Frame, Harness, Robots, drive, localize, stand
 from amr_util.robot_description import default_robot
-from amr_util.scan import ScanData
 
 EGO = "ego"
 """the name of the localizing robot in a crowded world."""
@@ -182,17 +184,11 @@ def run_crowded(
         for robot in fleet.robots
     }
     trace = CrowdedTrace()
-    while fleet.time < seconds:
-        scans = {
-            robot.name: ScanData(
-                np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max
-            )
-            for robot in fleet.robots
-        }
-        ego = fleet.robot(EGO)
-        estimate = pf.update(tuple(ego.odom_pose), scans[EGO])
-        truth = ego.pose
-        trace.time.append(fleet.time)
+
+    def record(frame: Frame) -> None:
+        """The ego's estimate against its true pose, and the share of its beams another robot ends."""
+        estimate, truth = frame.estimate, ego.pose
+        trace.time.append(frame.observation.stamp)
         trace.localized.append(estimate.localized)
         trace.position_error.append(math.hypot(estimate.pose.x - truth.x, estimate.pose.y - truth.y))
         trace.heading_error.append(abs(float(wrap_angle(estimate.pose.theta - truth.theta))))
@@ -200,18 +196,18 @@ def run_crowded(
         expected = caster.cast(
             sensor.x, sensor.y, sensor.theta + lidar.angle_min, lidar.angle_increment, lidar.beams, lidar.range_max
         )
-        ranges = scans[EGO].ranges
+        ranges = frame.observation.scan.ranges
         returned = np.isfinite(ranges)
         shadowed = returned & (ranges < expected - OCCLUDED_MARGIN)
         trace.occluded.append(float(np.count_nonzero(shadowed)) / max(int(np.count_nonzero(returned)), 1))
-        commands = {}
-        for robot in fleet.robots:
-            if mode == "stand" and robot.name != EGO:
-                commands[robot.name] = (0.0, 0.0)
-                continue
-            command = drivers[robot.name].compute(scans[robot.name], *robot.odom_twist, fleet.time)
-            commands[robot.name] = (command.v, command.w)
-        fleet.step(commands)
+
+    parts = [
+        [localize(pf), record, drive(drivers[robot.name])]
+        if robot.name == EGO
+        else [stand if mode == "stand" else drive(drivers[robot.name])]
+        for robot in fleet.robots
+    ]
+    Harness(Robots(fleet), parts).run(seconds)
     trace.robot_collisions = sum(fleet.robot(EGO).robot_collisions.values())
     return trace
 
