@@ -11,7 +11,8 @@ path, reached) gets a zero command here, as the navigator node answers it with `
 
 `run_navigation` drives a simulator and a particle filter with a NavigationLoop (the filter's estimate is its
 pose in the map moved by the odometry since its last update, which is what the node publishes on /pose)
-until the goal, a number of collisions, or a time limit; bench/bench_navigation.py runs it. The simulator is
+until the goal, a number of collisions, or a time limit; bench/bench_navigation.py runs it. It is the lockstep
+harness (amr_util.harness) with two parts, the filter and the loop. The simulator is
 any object with the Simulator's observation interface (pose, odom_pose, odom_twist, ranges, lidar, time,
 goal, goal_reached, collisions, step): this package imports no simulator.
 """
@@ -41,7 +42,8 @@ from amr_navigation.navigator_core import (
 from amr_navigation.traffic import Traffic
 from amr_planning.errors import PlanningError
 from amr_planning.planner import Planner, distance_to_path
-from amr_util.scan import ScanData, scan_of
+from amr_util.harness import Frame, Harness, OneRobot, localize
+from amr_util.scan import ScanData
 
 
 @dataclass(frozen=True)
@@ -256,26 +258,33 @@ def run_navigation(
     result = NavigationRun()
     steps = {mode: 0 for mode in Mode}
     error = math.nan
-    while True:
-        truth = sim.pose
+
+    def stop() -> str | None:
         if sim.goal_reached:
-            result.reached, result.reason = True, "goal region reached"
-            break
+            result.reached = True
+            return "goal region reached"
         if sim.collisions >= max_collisions:
-            result.reason = f"{sim.collisions} collisions"
-            break
-        if sim.time >= limit:
-            result.reason = f"time limit {limit:.0f} s"
-            break
-        scan = scan_of(sim)
-        estimate = particle_filter.update(tuple(sim.odom_pose), scan)
+            return f"{sim.collisions} collisions"
+        return None
+
+    def navigate(frame: Frame) -> None:
+        """The filter's estimate to the navigation loop, its command to the robot; the figures against the truth."""
+        nonlocal error
+        truth, estimate, observation = sim.pose, frame.estimate, frame.observation
         pose = (estimate.pose.x, estimate.pose.y, estimate.pose.theta)
         error = math.hypot(pose[0] - truth.x, pose[1] - truth.y)
         if estimate.localized:
             if result.first_localized is None:
-                result.first_localized = sim.time
+                result.first_localized = observation.stamp
             result.max_localized_error = max(result.max_localized_error, error)
-        command = loop.step(pose, estimate.localized, scan, *sim.odom_twist, sim.time, confidence=estimate.confidence)
+        command = loop.step(
+            pose,
+            estimate.localized,
+            observation.scan,
+            *observation.twist,
+            observation.stamp,
+            confidence=estimate.confidence,
+        )
         steps[command.mode] += 1
         if command.follow is not None and command.follow.state is State.TRACK and loop.followed_path is not None:
             result.cross_track.append(distance_to_path(loop.followed_path, truth.x, truth.y))
@@ -283,9 +292,12 @@ def run_navigation(
         if command.mode is Mode.REACHED:
             result.follower_reached = True
             result.reached = sim.goal is None or sim.goal.contains(truth.x, truth.y)
-            result.reason = "goal reached" if result.reached else "the follower stopped outside the goal region"
-            break
-        sim.step(command.v, command.w)
+            frame.stop = "goal reached" if result.reached else "the follower stopped outside the goal region"
+            return
+        frame.command = (command.v, command.w)
+
+    harness = Harness(OneRobot(sim), [[localize(particle_filter), navigate]])
+    result.reason = harness.run(limit, stop) or f"time limit {limit:.0f} s"
     truth = sim.pose
     result.time = sim.time
     result.collisions = sim.collisions
