@@ -4,9 +4,10 @@ own particle filter, wall follower, path follower and traffic rules (amr_navigat
 traffic posts on one shared board.
 
 Each period every robot's filter gets its odometry pose and scan, its loop the estimate, the scan and the
-odometry twist; the commands of all robots then advance the fleet by dt together. `localization="truth"`
-gives each loop its true pose, localized from the start (the traffic rules' own tests); `"filter"` (the
-default) runs a particle filter per robot, seeded per robot.
+odometry twist; the commands of all robots then advance the fleet by dt together: the lockstep harness
+(amr_util.harness) over the fleet, each robot's parts its filter (none with the truth) and its navigation.
+`localization="truth"` gives each loop its true pose, localized from the start (the traffic rules' own tests);
+`"filter"` (the default) runs a particle filter per robot, seeded per robot.
 
 A robot's goal counts as reached when its true centre first enters its goal region (the simulator's latch);
 the simulator runs with `stop_at_goal: false` so that a robot at its goal can still make way for another
@@ -38,7 +39,7 @@ from amr_navigation.traffic_board import TrafficBoard
 from amr_planning.planner import Planner, PlannerConfig
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.fleet import Fleet
-from amr_util.scan import ScanData
+from amr_util.harness import Frame, Harness, Robots, localize
 
 FALSE_LOCALIZED_ERROR = 0.3
 """m: an estimate said localized this far from the true pose is a false localized."""
@@ -273,28 +274,26 @@ def run_fleet(
         coordinator.set_costmap(planner.costmap)
     told: dict[str, Route] = {}
     """with "plan": what each robot was last told (NONE or none: the traffic rules)."""
-    lidar = fleet.lidar
-    reason = f"time limit {duration:g} s"
-    while True:
+
+    def all_reached() -> str | None:
         for robot, run in zip(fleet.robots, runs, strict=True):
             if robot.goal_reached and not run.reached:
                 run.reached, run.time_to_goal = True, fleet.time
-        if all(run.reached for run in runs):
-            reason = "every robot reached its goal"
-            break
-        if fleet.time >= duration:
-            break
-        commands = []
-        for robot, loop, pf, run in zip(fleet.robots, loops, filters, runs, strict=True):
-            scan = ScanData(
-                np.array(robot.ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max
-            )
+        return "every robot reached its goal" if all(run.reached for run in runs) else None
+
+    def navigate(robot, loop: NavigationLoop, run: RobotRun):
+        """A part: the robot's estimate (its filter's, or the truth) to its navigation loop (with the fleet plan's
+        coordinator first, coordination "plan"), the loop's command to the robot; the run's figures and events."""
+
+        def part(frame: Frame) -> None:
+            observation = frame.observation
+            scan = observation.scan
             truth = robot.pose
             confidence = None
-            if pf is None:
+            if frame.estimate is None:
                 pose, localized = (truth.x, truth.y, truth.theta), True
             else:
-                estimate = pf.update(tuple(robot.odom_pose), scan)
+                estimate = frame.estimate
                 pose, localized = (estimate.pose.x, estimate.pose.y, estimate.pose.theta), estimate.localized
                 confidence = estimate.confidence
             false = False
@@ -305,7 +304,7 @@ def run_fleet(
                 if error > FALSE_LOCALIZED_ERROR:
                     run.false_localized_steps += 1
                     false = True
-            odometry = tuple(robot.odom_pose) if planned else None
+            odometry = observation.odometry if planned else None
             if planned:  # the navigator node's coordination "plan", the fleet_planner node's coordinator
                 driving = loop.driving_pose(pose, localized, odometry, confidence)  # the pose its status carries
                 confident = loop.confident(localized, confidence)  # ... and its verdict (NavigatorStatus.confident)
@@ -325,8 +324,8 @@ def run_fleet(
                 pose,
                 localized,
                 scan,
-                *robot.odom_twist,
-                fleet.time,
+                *observation.twist,
+                observation.stamp,
                 confidence=confidence,
                 route=route,
                 odometry=odometry,
@@ -346,8 +345,15 @@ def run_fleet(
                 for event in command.events:
                     print(f"{fleet.time:7.2f} {robot.name}: {event}")
             run.events.extend(f"{fleet.time:.2f} {event}" for event in command.events)
-            commands.append((command.v, command.w))
-        fleet.step(commands)
+            frame.command = (command.v, command.w)
+
+        return part
+
+    parts = [
+        ([] if pf is None else [localize(pf)]) + [navigate(robot, loop, run)]
+        for robot, loop, pf, run in zip(fleet.robots, loops, filters, runs, strict=True)
+    ]
+    reason = Harness(Robots(fleet), parts).run(duration, all_reached) or f"time limit {duration:g} s"
     for robot, loop, run in zip(fleet.robots, loops, runs, strict=True):
         run.wall_collisions = robot.wall_collisions
         run.robot_collisions = sum(robot.robot_collisions.values())
