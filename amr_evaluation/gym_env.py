@@ -19,7 +19,7 @@ clipped to [-1, 1]; the goal in the robot frame, (x, y) / ``goal_scale`` clipped
 
 Action: ``Box(-1, 1, (2,))``, scaled to the robot's limits (v = a0 * max_linear, w = a1 * max_angular: the robot
 description's; the simulator saturates the wheels keeping the curvature, as the robot does). One step is one
-``dt`` (0.05 s).
+``dt`` (0.05 s): the lockstep harness (amr_util.harness) steps the simulator with one part, the action.
 
 Reward (each step; ``info["reward_terms"]`` has the four terms of the step, summing to the reward):
 
@@ -72,6 +72,7 @@ from amr_maps.world import Goal, World
 from amr_simulation.config import EncoderConfig, LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
 from amr_util.geometry import Pose2D
+from amr_util.harness import Frame, Harness, OneRobot
 from amr_util.scan import ScanData
 
 ENV_ID = "amr/Maze-v0"
@@ -175,6 +176,9 @@ class MazeEnv(gymnasium.Env):
         self.observation_space = spaces.Box(low, np.ones(size, dtype=np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
         self.sim: Simulator | None = None
+        self.harness: Harness | None = None
+        """the lockstep harness over ``sim`` (amr_util.harness): its one part commands the step's action."""
+        self._command = (0.0, 0.0)
         self.sim_seed: int | None = None
         self.world_name = ""
         self._fixed_world = build_world(self.world_spec) if self.world_spec is not None else None
@@ -216,6 +220,7 @@ class MazeEnv(gymnasium.Env):
                 dt=self.config.dt, seed=self.sim_seed, robot=self.robot, lidar=self.lidar, encoders=self.config.encoders
             ),
         )
+        self.harness = Harness(OneRobot(self.sim), [[self._act]])
         self.world_name = world.name
         self._steps = 0
         self._distance = self._goal_distance()
@@ -230,7 +235,8 @@ class MazeEnv(gymnasium.Env):
             raise ValueError(f"action {action.tolist()}: must be finite")
         action = np.clip(action, -1.0, 1.0)
         collisions = self.sim.collisions
-        self.sim.step(float(action[0]) * self.robot.max_linear, float(action[1]) * self.robot.max_angular)
+        self._command = (float(action[0]) * self.robot.max_linear, float(action[1]) * self.robot.max_angular)
+        self.harness.step()
         self._steps += 1
         distance = self._goal_distance()
         collided = self.sim.collisions > collisions
@@ -323,19 +329,24 @@ class MazeEnv(gymnasium.Env):
             robots=(),
         )
 
+    def _act(self, frame: Frame) -> None:
+        """The harness's part: the step's action, scaled to the robot's limits."""
+        frame.command = self._command
+
     def _goal_distance(self) -> float:
         pose, goal = self.sim.pose, self.sim.goal
         return math.hypot(goal.x - pose.x, goal.y - pose.y)
 
     def _observation(self) -> np.ndarray:
         sim = self.sim
+        (seen,) = self.harness.simulation.observe()  # what the nodes see; the goal in the robot frame is the truth's
         beams = len(self.beam_indices)
         observation = np.empty(beams + 4, dtype=np.float32)
-        scan = np.asarray(sim.ranges, dtype=float)[self.beam_indices] / self.lidar.range_max
+        scan = seen.scan.ranges[self.beam_indices] / self.lidar.range_max
         np.clip(scan, 0.0, 1.0, out=scan)  # +inf (no return) -> 1, -inf (closer than range_min) -> 0
         scan[np.isnan(scan)] = 1.0
         observation[:beams] = scan
-        v, w = sim.odom_twist
+        v, w = seen.twist
         pose, goal = sim.pose, sim.goal
         dx, dy = goal.x - pose.x, goal.y - pose.y
         c, s = math.cos(pose.theta), math.sin(pose.theta)
