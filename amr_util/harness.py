@@ -8,15 +8,16 @@ simulation by one period. `Harness` is that loop, written once; the loops differ
 The simulation is anything with the `Simulation` protocol, what the nodes see of it and nothing more:
 
 - ``clock``: simulated seconds, as ``/clock`` and the stamps carry them;
-- ``observe()``: each robot's `Observation`: the scan (as its LaserScan carries it), the odometry pose (what
-  ``/odometry`` and the ``odom -> base_link`` transform carry) and twist, and the stamp;
+- ``observe()``: each robot's `Observation`: the scan, the odometry pose (what ``/odometry`` and the
+  ``odom -> base_link`` transform carry) and twist, and the stamp;
 - ``step(commands)``: one period, a ``(v, w)`` per robot, in the order of ``observe()``.
 
-`OneRobot` and `Robots` make one out of amr_simulation's Simulator and Fleet (or anything with their attributes:
-``ranges``, ``lidar``, ``time``, ``odom_pose``, ``odom_twist``, ``step``, as amr_evaluation.episode.AsSent, which
-reads the scan and the time as the simulator node's messages carry them): this package imports no simulator. The
-ground truth a loop grades with (the true pose, contacts, the goal region) is not part of an observation: parts
-that record read it from the simulator they were built with.
+`OneRobot` and `Robots` make one out of amr_simulation's Simulator and Fleet, or anything with their attributes
+(``ranges``, ``lidar``, ``time``, ``odom_pose``, ``odom_twist``, ``step``), the scan copied as amr_util.scan.scan_of
+reads it: this package imports no simulator. Over amr_evaluation.episode.AsSent(simulator) the scan and the stamp
+are what the simulator node's messages carry (float32 ranges and geometry, whole nanoseconds). The ground truth a
+loop grades with (the true pose, contacts, the goal region) is not part of an observation: parts that record read
+it from the simulator they were built with.
 
 A part is any callable taking a `Frame` (one robot's share of the step): it reads the observation and what the
 parts before it wrote (``estimate``), writes its own (``command``), or ends the run before the commands are
@@ -30,9 +31,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
-import numpy as np
-
-from amr_util.scan import ScanData
+from amr_util.scan import ScanData, scan_from, scan_of
 
 Command = tuple[float, float]
 """(v, w): m/s and rad/s, a /cmd_vel's linear.x and angular.z."""
@@ -45,7 +44,7 @@ class Observation:
     stamp: float
     """s, the messages' stamp (the simulation's clock)."""
     scan: ScanData
-    """the LiDAR scan, as its LaserScan carries it."""
+    """the LiDAR scan (as its LaserScan carries it when the simulation reads it so: AsSent)."""
     odometry: tuple[float, float, float]
     """the odometry pose (x, y, theta) in the odom frame: /odometry's pose, the odom -> base_link transform."""
     twist: tuple[float, float]
@@ -66,15 +65,9 @@ class Simulation(Protocol):
     def step(self, commands: Sequence[Command]) -> None: ...
 
 
-def _observation(time: float, ranges, lidar, odom_pose, odom_twist) -> Observation:
-    scan = ScanData(np.array(ranges), lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
-    return Observation(time, scan, tuple(odom_pose), tuple(odom_twist))
-
-
 class OneRobot:
     """The `Simulation` of a one-robot simulator (amr_simulation's Simulator, or anything with its ``ranges``,
-    ``lidar``, ``time``, ``odom_pose``, ``odom_twist`` and ``step(v, w)``): the scan copied as amr_util.scan.scan_of
-    reads it."""
+    ``lidar``, ``time``, ``odom_pose``, ``odom_twist`` and ``step(v, w)``)."""
 
     def __init__(self, sim) -> None:
         self.sim = sim
@@ -85,7 +78,7 @@ class OneRobot:
 
     def observe(self) -> tuple[Observation]:
         sim = self.sim
-        return (_observation(sim.time, sim.ranges, sim.lidar, sim.odom_pose, sim.odom_twist),)
+        return (Observation(sim.time, scan_of(sim), tuple(sim.odom_pose), tuple(sim.odom_twist)),)
 
     def step(self, commands: Sequence[Command]) -> None:
         ((v, w),) = commands
@@ -106,7 +99,9 @@ class Robots:
     def observe(self) -> list[Observation]:
         fleet = self.fleet
         lidar, time = fleet.lidar, fleet.time
-        return [_observation(time, r.ranges, lidar, r.odom_pose, r.odom_twist) for r in fleet.robots]
+        return [
+            Observation(time, scan_from(r.ranges, lidar), tuple(r.odom_pose), tuple(r.odom_twist)) for r in fleet.robots
+        ]
 
     def step(self, commands: Sequence[Command]) -> None:
         self.fleet.step(list(commands))
