@@ -133,3 +133,20 @@ def test_robots_are_observed_and_stepped_in_the_fleets_order_with_their_own_part
     assert log == [[(1.0, 0.1), (0.0, 0.0)]]
     with pytest.raises(ValueError, match="2 robots observed, parts for 1"):
         Harness(Robots(fleet), [[stand]]).step()
+
+
+def test_no_library_loop_steps_a_simulator_but_through_the_harness():
+    """The lockstep loops of amr_evaluation and amr_navigation are parts on the harness (issue 36 G1): a call
+    ``<...>sim.step(...)`` or ``<...>fleet.step(...)`` there is a loop wired by hand again."""
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    found = []
+    for path in sorted([*(root / "amr_evaluation").glob("*.py"), *(root / "amr_navigation").glob("*.py")]):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "step":
+                receiver = ast.unparse(node.func.value)
+                if receiver.endswith(("sim", "fleet", "simulator")):
+                    found.append(f"{path.relative_to(root)}:{node.lineno}: {ast.unparse(node)}")
+    assert found == []
