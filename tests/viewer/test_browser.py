@@ -243,6 +243,18 @@ class Stack:
 
 WEBGL_WATCH = "window.__webglLost = 0; addEventListener('webglcontextlost', () => window.__webglLost++, true);"
 """Counts the page's WebGL contexts lost (the event does not bubble: caught on its way down)."""
+FRAME_PERIOD_MS = 100
+FRAME_CAP = (
+    "(() => { const native = window.requestAnimationFrame.bind(window); let last = -Infinity, open = null;"
+    " const due = (now) => { if (now === open) return true;"
+    f" if (now - last >= {FRAME_PERIOD_MS}) {{ last = now; open = now; return true; }} return false; }};"
+    " window.requestAnimationFrame = (callback) => native(function frame(now) {"
+    " if (due(now)) callback(now); else native(frame); }); })();"
+)
+"""The page draws at most every FRAME_PERIOD_MS: its render loop runs on the native frames, every callback of one
+frame together, and skips the frames between. Headless chromium renders WebGL on the CPU (SwiftShader), at every
+frame it is offered: uncapped, the GPU process took more CPU than the stack it shows. What the page does per frame
+(apply the server's messages, draw) is unchanged; it does it ten times a second."""
 WEBGL_AVAILABLE = (
     "(() => { const canvas = document.createElement('canvas');"
     " return !!(canvas.getContext('webgl2') || canvas.getContext('webgl')); })()"
@@ -276,6 +288,7 @@ class Browser:
         self.page.on("pageerror", lambda error: self.errors.append(str(error)))
         self.page.on("websocket", self._watch)
         self.page.add_init_script(WEBGL_WATCH)
+        self.page.add_init_script(FRAME_CAP)
         try:
             self.page.goto(url, timeout=STARTUP * 1000)
             self._wait_for_controls()
