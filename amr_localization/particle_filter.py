@@ -435,6 +435,7 @@ class ParticleFilter:
             points = self._end_points(scan)
             seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points))
             self._rematch_places(seen)
+            self._begin_search(seen)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
@@ -843,18 +844,7 @@ class ParticleFilter:
         budget = self.config.place_search_budget
         if budget <= 0:
             return none, np.zeros(0), none
-        if self._search is None:
-            matcher, region = self._place_search_map()
-            points = self._window_points(seen, matcher.resolution)
-            search = GlobalSearch(
-                matcher,
-                points,
-                region,
-                count=SEARCH_CANDIDATES,
-                min_separation=2.0 * MERGE_DISTANCE,
-                min_angle_separation=2.0 * MERGE_ANGLE,
-            )
-            self._search = _Search(search, seen.local)
+        self._begin_search(seen)
         running = self._search
         running.advance(budget)
         done = running.search.done
@@ -879,6 +869,27 @@ class ParticleFilter:
         fitted[new], score[new] = self._fitted(poses[new], seen, window)
         best = np.argsort(-score, kind="stable")[:SEARCH_PROPOSALS]
         return fitted[best], score[best], none
+
+    def _begin_search(self, seen: _Seen) -> None:
+        """A new place search on the window's scans (_window_points), when none is under way: its first
+        place_search_budget nodes started on its thread at once (_Search.start_ahead), as soon as the scan is placed,
+        while the particles weigh the scan and the places are fitted (they need neither); _search_places collects
+        them. The same nodes, in the same order, as run in _search_places itself: the same proposals."""
+        budget = self.config.place_search_budget
+        if budget <= 0 or self._search is not None:
+            return
+        matcher, region = self._place_search_map()
+        points = self._window_points(seen, matcher.resolution)
+        search = GlobalSearch(
+            matcher,
+            points,
+            region,
+            count=SEARCH_CANDIDATES,
+            min_separation=2.0 * MERGE_DISTANCE,
+            min_angle_separation=2.0 * MERGE_ANGLE,
+        )
+        self._search = _Search(search, seen.local)
+        self._search.start_ahead(budget)
 
     def _window_points(self, seen: _Seen, resolution: float) -> np.ndarray:
         """(K, 2) the end points of the scan and of the window's scans before it, in the robot's frame now (the past
