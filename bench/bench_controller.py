@@ -1,7 +1,7 @@
 """Cost of one wall-follower step (WallFollower.compute) per scan, 240 and 360 beams. Target: <= 100 us.
 
 Scans are recorded from the simulator library driving the controller round a
-maze (realistic geometry, 1 cm noise), then replayed through a fresh
+maze (realistic geometry, 1 cm noise; the lockstep harness, amr_util.harness), then replayed through a fresh
 controller and timed one call at a time. The ranges are handed over the way
 rclpy delivers LaserScan.ranges (array.array of float32), and as a numpy
 array and a Python list for comparison.
@@ -26,6 +26,7 @@ from amr_control.wall_follower_config import read_parameter_file
 from amr_maps.world import load_world
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
+from amr_util.harness import Harness, OneRobot, drive
 from amr_util.scan import ScanData
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,17 +38,16 @@ TARGET_US = 100.0
 def record(world: Path, beams: int, scans: int) -> list[tuple[np.ndarray, float, float, float, LidarConfig]]:
     """(ranges, v, w, stamp) of a closed-loop run, plus the LiDAR layout."""
     sim = Simulator(load_world(world), SimulationConfig(lidar=LidarConfig(beams=beams)))
-    follower = WallFollower(CONFIG)
-    lidar = sim.lidar
     frames = []
+
+    def keep(frame) -> None:
+        observation = frame.observation
+        frames.append((observation.scan.ranges, *observation.twist, observation.stamp))
+
+    harness = Harness(OneRobot(sim), [[keep, drive(WallFollower(CONFIG))]])
     for _ in range(scans):
-        ranges = np.array(sim.ranges)
-        v, w = sim.odom_twist
-        frames.append((ranges, v, w, sim.time))
-        scan = ScanData(ranges, lidar.angle_min, lidar.angle_increment, lidar.range_min, lidar.range_max)
-        command = follower.compute(scan, v, w, sim.time)
-        sim.step(command.v, command.w)
-    return frames, lidar
+        harness.step()
+    return frames, sim.lidar
 
 
 def replay(frames, lidar, kind: str) -> list[float]:
