@@ -435,7 +435,6 @@ class ParticleFilter:
             points = self._end_points(scan)
             seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points))
             self._rematch_places(seen)
-            self._begin_search(seen)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
@@ -443,6 +442,8 @@ class ParticleFilter:
             self._covered = True  # ranges to landmarks score every place of the map smoothly: no search needed
         if used <= 0.0:
             return
+        if seen is not None:
+            self._begin_search(seen)
         remaining = 1.0
         for stage in range(MAX_STAGES):
             log_likelihood = self._log_likelihood(self.particles, seen, beacons)
@@ -872,8 +873,8 @@ class ParticleFilter:
 
     def _begin_search(self, seen: _Seen) -> None:
         """A new place search on the window's scans (_window_points), when none is under way: its first
-        place_search_budget nodes started on its thread at once (_Search.start_ahead), as soon as the scan is placed,
-        while the particles weigh the scan and the places are fitted (they need neither); _search_places collects
+        place_search_budget nodes started on its thread at once (_Search.start_ahead), once the scan is known to
+        count, while the particles weigh it and the places are fitted (they need neither); _search_places collects
         them. The same nodes, in the same order, as run in _search_places itself: the same proposals."""
         budget = self.config.place_search_budget
         if budget <= 0 or self._search is not None:
