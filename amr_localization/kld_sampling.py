@@ -7,16 +7,19 @@ the true posterior below epsilon with probability 1 - delta is
 
     n = (k - 1) / (2 epsilon) * (1 - 2 / (9 (k - 1)) + sqrt(2 / (9 (k - 1))) z_{1-delta})^3
 
-(z the standard normal quantile): many particles while the belief is spread
-over many bins, few once it has collapsed to one place.
+(z the standard normal quantile, the standard library's: scipy.stats's import alone is 0.7 s of every
+particle filter process's start): many particles while the belief is spread over many bins, few once it has
+collapsed to one place.
 """
 
 from __future__ import annotations
 
 import math
+from statistics import NormalDist
 
 import numpy as np
-from scipy.stats import norm
+
+_STANDARD_NORMAL = NormalDist()
 
 
 def kld_sample_count(occupied_bins: int, epsilon: float, delta: float) -> int:
@@ -24,7 +27,7 @@ def kld_sample_count(occupied_bins: int, epsilon: float, delta: float) -> int:
     if occupied_bins <= 1:
         return 1
     k = occupied_bins - 1
-    z = float(norm.ppf(1.0 - delta))
+    z = _STANDARD_NORMAL.inv_cdf(1.0 - delta)
     a = 2.0 / (9.0 * k)
     return math.ceil(k / (2.0 * epsilon) * (1.0 - a + math.sqrt(a) * z) ** 3)
 
