@@ -41,7 +41,7 @@ from amr_navigation.fleet_coordinator import NONE, FleetCoordinator, Route, comp
 from amr_navigation.fleet_file import load_fleet
 from amr_navigation.fleet_planner_config import NODE_NAME, FleetPlannerConfig
 from amr_navigation.fleet_route_messages import route_message
-from amr_planning.costmap import Costmap
+from amr_planning.costmap import shared_costmap
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED, reliable
 from amr_util.stamps import stamp_nanoseconds
@@ -147,8 +147,8 @@ class FleetPlannerNode(ManagedNode):
     def _on_map(self, message: OccupancyGridMessage) -> None:
         if self.coordinator is None:
             return
-        try:
-            costmap = Costmap(grid_from_message(message), self.config.costmap)
+        try:  # the planners' own costmap when composed with them (the same map and costmap parameters)
+            costmap = shared_costmap(grid_from_message(message), self.config.costmap)
         except Exception as error:  # a bad map must not take the node down
             self.get_logger().error(f"{self.config.map_topic} refused, keeping the previous one: {error}")
             return

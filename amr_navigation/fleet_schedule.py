@@ -6,7 +6,7 @@ once every robot the plan puts there earlier has moved on). `Schedule` keeps eac
 waypoint it reached, in order) and says how far along its list a robot may go: up to the first waypoint whose
 dependencies are not all done. Robots driven this way at any speeds never meet at a vertex and never wait on one
 another in a cycle (Hoenig et al. 2016). What following a route needs, shared by the navigator node and the library
-level (amr_navigation.navigator_core.NavigatorCore): `legs` (the planner's paths through the waypoints),
+level (amr_navigation.navigator_core.NavigatorCore, which asks the planner for the legs through the waypoints):
 `HandOver` (when a new path is due), `DeadReckoning` (the pose to drive by). No ROS.
 """
 
@@ -17,10 +17,8 @@ import math
 import numpy as np
 
 from amr_control.path_follower import State
-from amr_planning.errors import PlanningError
 from amr_planning.fleet_execution import dependencies
 from amr_planning.fleet_paths import FleetPlan
-from amr_planning.planner import Planner
 from amr_util.geometry import compose, relative_pose
 
 
@@ -86,21 +84,6 @@ BLOCKED_RETRY = 1.0
 setting off again from where it stands (its route planned anew)."""
 STOPPED_SHORT = (State.BLOCKED, State.STRAYED)
 """the path follower's states that BLOCKED_RETRY answers."""
-
-
-def legs(planner: Planner, route: np.ndarray) -> np.ndarray:
-    """The route (K, 2) as the planner's paths from each point to the next (clear of the walls as any planned path
-    is, where a straight line from where the robot stands to its next waypoint would clip a corner); a straight leg
-    where the planner finds none."""
-    route = np.asarray(route, dtype=float)
-    points = [route[:1]]
-    for a, b in zip(route[:-1], route[1:], strict=True):
-        try:
-            leg = planner.plan((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
-        except PlanningError:
-            leg = np.array([a, b])
-        points.append(np.asarray(leg, dtype=float)[1:])
-    return np.concatenate(points)
 
 
 class HandOver:

@@ -4,10 +4,12 @@ in process, one command per observation, as the `maze_navigation` stack carries 
 `NavigationLoop.step` takes one observation (the localizer's estimate, its confidence, the scan, the odometry) and
 returns the command that answers it. Everything that decides is the navigator core's
 (amr_navigation.navigator_core.NavigatorCore, which the navigator node runs too): the loop answers its calls (a
-plan: Planner.plan, as the planner node's ~/plan; a path to hand over: PathFollower.set_path, as the path
-follower's ~/follow_path), asks the controller the decision names for the command (with the decision's speed
-limit), and gives the path follower's report back to the core. A localized observation nobody drives (no goal, no
-path, reached) gets a zero command here, as the navigator node answers it with `nobody_drives: zero`.
+plan: Planner.plan, as the planner node's ~/plan: the loop's Planner is the robot's planner node, and the core
+reads its costmap for the traffic rules as the navigator node reads the planner's shared one; a path to hand over:
+PathFollower.set_path, as the path follower's ~/follow_path), asks the controller the decision names for the
+command (with the decision's speed limit), and gives the path follower's report back to the core. A localized
+observation nobody drives (no goal, no path, reached) gets a zero command here, as the navigator node answers it
+with `nobody_drives: zero`.
 
 `run_navigation` drives a simulator and a particle filter with a NavigationLoop (the filter's estimate is its
 pose in the map moved by the odometry since its last update, which is what the node publishes on /pose)
@@ -93,11 +95,14 @@ class NavigationLoop:
 
     @property
     def planner(self) -> Planner:
-        return self.core.planner
+        """the robot's planner (the planner node's part): it answers the core's plans, and its costmap is the one the
+        core's traffic rules read."""
+        return self._planner
 
     @planner.setter
     def planner(self, planner: Planner) -> None:
-        self.core.set_map(planner)
+        self._planner = planner
+        self.core.set_map(planner.costmap if planner is not None else None)
 
     # what the bench and the tests read
     @property

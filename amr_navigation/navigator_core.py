@@ -14,7 +14,10 @@ nothing themselves:
 `step(observation)` and `report(follower_report)` return a job: a generator that yields the calls whose answers
 the decision needs, in order, and returns an `Outcome`:
 
-- `PlanCall` (plan from start to goal, around `marks` if any): answered with a `PlanAnswer`;
+- `PlanCall` (plan from start to goal, around `marks` if any): answered with a `PlanAnswer`. Every path the core
+  drives is asked for this way (to the goal, around the traffic rules' marks, each leg through a fleet route's
+  waypoints): the planner (the node's ~/plan, the loop's Planner) is the robot's one planner, and the core holds
+  none (issue 36 build item 5);
 - `HandOverCall` (give the path follower this path before it drives): answered with "" (taken) or the reason
   it was refused.
 
@@ -39,12 +42,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from amr_navigation.fleet_coordinator import HOLD, NONE, Route
-from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver, legs
+from amr_navigation.fleet_schedule import STOPPED_SHORT, DeadReckoning, HandOver
 from amr_navigation.navigator import Controller, Decision, Mode, Navigator, PlanRequest
 from amr_navigation.traffic import Traffic
 from amr_navigation.traffic_board import TrafficPost
 from amr_navigation.traffic_steps import detour_done, idle_advice
-from amr_planning.planner import Planner
+from amr_planning.costmap import Costmap
 from amr_util.geometry import compose, relative_pose
 from amr_util.scan import ScanData
 
@@ -201,8 +204,9 @@ class NavigatorCore:
         """the traffic rules among other robots; None: a robot alone."""
         self.follower_speed = float(follower_speed)
         self.gate = ConfidenceGate(drive_confidence, release_confidence)
-        self.planner: Planner | None = None
-        """the map's planner (its costmap for the traffic rules, legs along a route); None until a map."""
+        self.costmap: Costmap | None = None
+        """the map's costmap, read by the traffic rules' geometry (places aside, what is unmapped) and never planned
+        on but for a detour aside on a marked copy; the planner's own (shared_costmap); None until a map."""
         self.route: Route | None = None
         """the fleet planner's latest HOLD or FOLLOW for this robot (None: the robot's own planning)."""
         self._hand_over_due = HandOver()
@@ -224,9 +228,9 @@ class NavigatorCore:
 
     # -- inputs between observations -------------------------------------------------------------------
 
-    def set_map(self, planner: Planner | None) -> None:
-        self.planner = planner
-        if planner is not None:
+    def set_map(self, costmap: Costmap | None) -> None:
+        self.costmap = costmap
+        if costmap is not None:
             self._warned.clear()
 
     def set_goal(self, goal: tuple[float, float]) -> tuple[str, ...]:
@@ -344,7 +348,7 @@ class NavigatorCore:
     ) -> Generator[Call, object, Outcome]:
         """The traffic rules on one observation: the advice carried out, the speed limit, the post."""
         traffic, navigator, stamp = self.traffic, self.navigator, observation.stamp
-        costmap = self.planner.costmap if self.planner is not None else None
+        costmap = self.costmap
         scan = observation.scan
         if costmap is None or scan is None:  # the rules need the map and a scan: hold until both came
             if decision.controller is Controller.PATH_FOLLOWER or decision.mode is Mode.REACHED:
@@ -406,13 +410,13 @@ class NavigatorCore:
             if not self._hand_over_due.due(key, self._follower_blocked, stamp):
                 decision = navigator.on_route(driving, why)
                 events += decision.events
-            elif self.planner is None:  # legs need the map: hold until it came, then hand over
+            elif self.costmap is None:  # the planner's map, as the rules hold for it: hold until it came
                 self._warn("fleet route without a map yet: holding", events)
                 self._hand_over_due.reset()
                 decision = navigator.on_route(driving, "holding: no map yet")
                 events += decision.events
             else:
-                path = legs(self.planner, np.vstack([driving[:2], route.waypoints]))
+                path = yield from self._legs(np.vstack([driving[:2], route.waypoints]))
                 self._route_handed_at, self._follower_blocked = stamp, False
                 events += (navigator.adopt if route.final else navigator.detour)(path, why).events
                 decision = yield from self._carry_out(replace(navigator.on_route(driving, why), path=path), events)
@@ -438,6 +442,19 @@ class NavigatorCore:
             post=self.traffic is not None,
             events=tuple(events),
         )
+
+    @staticmethod
+    def _legs(route: np.ndarray) -> Generator[Call, object, np.ndarray]:
+        """The route (K, 2) as the planner's paths from each point to the next (clear of the walls as any planned path
+        is, where a straight line from where the robot stands to its next waypoint would clip a corner): one PlanCall
+        per leg; a straight leg where the planner gives none."""
+        route = np.asarray(route, dtype=float)
+        points = [route[:1]]
+        for a, b in zip(route[:-1], route[1:], strict=True):
+            answer = yield PlanCall((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
+            leg = answer.path if answer.path is not None else np.array([a, b])
+            points.append(np.asarray(leg, dtype=float)[1:])
+        return np.concatenate(points)
 
     def _limited(self, pose, decision: Decision, limit: float | None, events: list[str]) -> Outcome:
         """The decision with `limit` for its observation; a robot nobody drives that has a path is held by the path

@@ -6,7 +6,9 @@ node only turns messages into observations and the core's effects into ROS calls
 
 - /pose (amr_interfaces/LocalizedPose: one per observation, with the localizer's confidence) -> an Observation
   (with the latest scan and the odometry of its stamp when the traffic rules or a fleet route need them);
-- a PlanCall -> the planner's ~/plan (amr_interfaces/PlanPath; marks as obstacles), a HandOverCall -> the path
+- a PlanCall -> the planner's ~/plan (amr_interfaces/PlanPath; marks as obstacles): every path this robot drives,
+  to its goal, around what is not on the map, and each leg of a fleet route, is the planner node's (it holds no
+  planner of its own, as nav2's bt_navigator asks its planner_server); a HandOverCall -> the path
   follower's ~/follow_path (amr_interfaces/FollowPath), then /path (nav_msgs/Path, transient local) for viewers;
 - the Outcome -> this robot's post on /traffic (when it says something new: same_post), speed_limit
   (amr_interfaces/SpeedLimit, stamped with the observation), then ~/status (amr_interfaces/NavigatorStatus,
@@ -25,7 +27,8 @@ path is decided again every RETRY_PERIOD; in real time the controller that had t
 
 Goals: the `goal` parameter, geometry_msgs/PoseStamped on /goal_pose, and, with `world_goal_topic`, a latched
 PoseStamped (the simulator's ~/goal). The latest one wins, at any time. With `traffic: true` the node also reads
-`scan`, `/map` (the costmap built from the `costmap.*` parameters, as the planner node builds it) and everyone's
+`scan`, `/map` (for the rules' geometry: amr_planning.costmap.shared_costmap with the `costmap.*` parameters, the
+planner node's costmap, which a composed process builds once for both) and everyone's
 posts on /traffic (its own ignored, a malformed one dropped and logged, one older than post_timeout forgotten);
 with `coordination: plan` also its fleet_route (amr_interfaces/FleetRoute) and odometry.
 """
@@ -78,9 +81,8 @@ from amr_navigation.traffic_messages import (
     speed_limit_message,
 )
 from amr_navigation.traffic_steps import FleetBoard
-from amr_planning.costmap import Costmap, CostmapConfig
+from amr_planning.costmap import CostmapConfig, shared_costmap
 from amr_planning.messages import path_message
-from amr_planning.planner import Planner
 from amr_util.geometry import all_finite, wrap_angle, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import path_points, quaternion, scan_data, velocity_command
@@ -194,7 +196,6 @@ class NavigatorNode(ManagedNode):
         self.posts_dropped = 0
         self.routes_refused = 0
         self._scan: LaserScan | None = None
-        self._map_planner: Planner | None = None
         self._costmap_config = CostmapConfig()
         self._odometry: OrderedDict[int, tuple[float, float, float]] = OrderedDict()
         """coordination plan: the latest odometry poses by stamp (ns), to pair with /pose."""
@@ -337,7 +338,7 @@ class NavigatorNode(ManagedNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._entities, self._service_clients, self._outputs = [], {}, {}
-        self.core = self.board = self._scan = self._map_planner = None
+        self.core = self.board = self._scan = None
         return super().on_cleanup(state)  # destroys what configure made
 
     @property
@@ -389,14 +390,13 @@ class NavigatorNode(ManagedNode):
             self._decide_held_again()
 
     def _on_map(self, message: OccupancyGridMessage) -> None:
-        try:  # the costmap as the planner node builds it (its costmap parameters are the navigator's costmap.*)
-            grid = grid_from_message(message)
-            self._map_planner = Planner(grid, costmap=Costmap(grid, self._costmap_config))
+        try:  # the planner node's costmap (its costmap parameters are the navigator's costmap.*): one per process
+            costmap = shared_costmap(grid_from_message(message), self._costmap_config)
         except Exception as error:  # a bad map must not take the node down
             self.get_logger().error(f"/map refused for the traffic rules, keeping the previous one: {error}")
             return
         if self.core is not None:
-            self.core.set_map(self._map_planner)
+            self.core.set_map(costmap)
 
     def _on_post(self, message: TrafficPostMessage) -> None:
         """Another robot's post onto the board; a malformed one is dropped and logged, never raised."""

@@ -187,14 +187,6 @@ class Traffic:
         """no place to wait was found: the next search is not before this stamp."""
         """while giving way: the detour reversed and the stretch of path left (what the others must clear)."""
 
-    # -- planner ---------------------------------------------------------------------------------
-
-    def planner(self, planner: Planner) -> Planner:
-        """The planner to plan to the goal with: the map's, or one with the current marks."""
-        if len(self.marks) == 0:
-            return planner
-        return planner.with_obstacles(self.marks, self.config.mark_radius)
-
     # -- per observation -------------------------------------------------------------------------
 
     def post_idle(self, pose: tuple[float, float, float] | None, passive: bool) -> None:

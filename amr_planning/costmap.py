@@ -23,11 +23,18 @@ inflated band, so that the cheapest route keeps to the middle of a corridor. The
 1, which keeps A*'s distance heuristic admissible. The grid's border counts as an obstacle: the
 robot never plans off the map. The clearance estimate is conservative (the wall may lie anywhere
 in an occupied cell); maps of 0.35 m corridors need 0.025 m cells to leave the robot room.
+
+`shared_costmap(grid, config)` is the costmap of one map and config built once per process (issue 36, one costmap
+per robot): every node of a composed process given the same /map and costmap parameters (each robot's planner, its
+navigator's traffic rules, the fleet planner) holds the same read-only object instead of building its own.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
+import threading
+import weakref
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -183,6 +190,34 @@ class Costmap:
             else:
                 _, self._nearest_free = distance_transform_edt(self.lethal, return_indices=True)
         return int(self._nearest_free[0, row, col]), int(self._nearest_free[1, row, col])
+
+
+_SHARED: weakref.WeakValueDictionary[tuple, Costmap] = weakref.WeakValueDictionary()
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_costmap(grid: OccupancyGrid, config: CostmapConfig | None = None) -> Costmap:
+    """The costmap of `grid` with `config`, built once per process: a later call with an equal map (the same cells,
+    resolution, origin and frame) and an equal config gets the same object while anyone holds it. Its arrays are
+    read-only (one holder cannot change another's map); `with_obstacles` gives a marked copy as ever."""
+    config = config or CostmapConfig()
+    data = np.ascontiguousarray(grid.data)
+    key = (
+        data.shape,
+        grid.resolution,
+        tuple(grid.origin),
+        grid.frame_id,
+        hashlib.blake2b(data.tobytes(), digest_size=16).digest(),
+        config,
+    )
+    with _SHARED_LOCK:  # two executor threads given the same map build it once
+        costmap = _SHARED.get(key)
+        if costmap is None:
+            costmap = Costmap(grid, config)
+            for array in (costmap.obstacle, costmap.clearance, costmap.lethal, costmap.inflated, costmap.cost):
+                array.setflags(write=False)
+            _SHARED[key] = costmap
+        return costmap
 
 
 def _is_real(value) -> bool:

@@ -10,7 +10,11 @@ not on the map): they are marked on a copy of the costmap for that plan only (Co
 Planner.with_obstacles); points that are not finite, more than MAX_OBSTACLES of them, or a mark_radius not in
 [0, MAX_MARK_RADIUS] are refused with the reason.
 The planner decides nothing: when to plan, and to which goal, is the navigator's decision
-(amr_navigation). A failed request is logged once per distinct reason, not at every retry.
+(amr_navigation): its paths to the goal, around the traffic rules' marks, and the legs through a fleet route's
+waypoints all come here, as nav2's bt_navigator asks its planner_server. A failed request is logged once per
+distinct reason, not at every retry.
+The costmap is amr_planning.costmap.shared_costmap's: in a composed process the nodes given the same map and costmap
+parameters (every robot's planner, the navigators' traffic rules, the fleet planner) hold one.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from amr_maps.messages import grid_from_message
 from amr_maps.occupancy_grid import MapError
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world, resolve_world_path
+from amr_planning.costmap import shared_costmap
 from amr_planning.errors import PlanningError
 from amr_planning.messages import path_message
 from amr_planning.planner import NODE_NAME, Planner, PlannerConfig
@@ -90,7 +95,7 @@ class PlannerNode(ManagedNode):
         config = PlannerConfig.from_params({**self.config.as_params(), **changes})  # ConfigError: refused
         self.config = config
         if self.planner is not None:
-            self.planner = Planner(self.planner.costmap.grid, config)
+            self.planner = self._planner_of(self.planner.costmap.grid, config)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._entities = []
@@ -100,7 +105,12 @@ class PlannerNode(ManagedNode):
 
     def _load_world(self, config: PlannerConfig) -> None:
         world = load_world(resolve_world_path(config.world))
-        self.planner = Planner(rasterize_world(world, config.resolution), config)
+        self.planner = self._planner_of(rasterize_world(world, config.resolution), config)
+
+    @staticmethod
+    def _planner_of(grid, config: PlannerConfig) -> Planner:
+        """The configured search on the process's costmap of this map (shared_costmap: built once per process)."""
+        return Planner(grid, config, costmap=shared_costmap(grid, config.costmap))
 
     # -- the map and the service ------------------------------------------------------------------
 
@@ -108,7 +118,7 @@ class PlannerNode(ManagedNode):
         if self.config is None:
             return
         try:
-            self.planner = Planner(grid_from_message(message), self.config)
+            self.planner = self._planner_of(grid_from_message(message), self.config)
         except (MapError, ValueError) as error:
             self.get_logger().error(f"/map refused, keeping the previous map: {error}")
             return

@@ -75,7 +75,7 @@ def test_the_traffic_costmap_is_built_with_the_costmap_parameters_not_the_defaul
     node = navigator(ros_context, traffic=True, **{"costmap.robot_radius": 0.2, "costmap.safety_margin": 0.05})
     try:
         node._on_map(grid_message(grid, Time(sec=1)))
-        costmap = node._map_planner.costmap
+        costmap = node.core.costmap
         assert costmap.config.robot_radius == 0.2 and costmap.config.safety_margin == 0.05
         wanted = Costmap(grid, CostmapConfig(robot_radius=0.2, safety_margin=0.05))
         default = Costmap(grid, CostmapConfig())
