@@ -55,9 +55,6 @@ A localizer outside the loop falls behind when the loop runs faster than it, and
 
 from __future__ import annotations
 
-import math
-import time
-from collections import deque
 from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
@@ -77,9 +74,9 @@ from amr_maps.world import load_world, resolve_world_path, world_problem
 from amr_simulation import messages
 from amr_simulation.config import SimulationConfig
 from amr_simulation.fleet import Fleet
-from amr_simulation.localization_check import LocalizationCheck
 from amr_simulation.parameters import NODE_PARAMETERS, parameter_specs
 from amr_simulation.simulator import Simulator
+from amr_simulation.world_control import RobotTurn, WorldControl
 from amr_util.geometry import Pose2D, map_to_odom, quaternion_from_yaw, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
@@ -90,8 +87,6 @@ TF_DEPTH = 100
 """Queue depth of /tf (tf2's dynamic broadcaster uses 100)."""
 WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
-RATE_WINDOW = 20
-"""Steps over which the status real-time factor is measured."""
 ODOMETRY_FIELDS = (
     "header.stamp.sec",
     "header.stamp.nanosec",
@@ -126,23 +121,8 @@ time has none): a controller of one's own with an incompatible QoS is reported h
 (two waitables per robot and input in every wait of this node: issue 36)."""
 
 
-class RateMeter:
-    """Simulated seconds per wall-clock second over the last RATE_WINDOW steps."""
-
-    def __init__(self) -> None:
-        self._samples: deque[tuple[float, float]] = deque(maxlen=RATE_WINDOW + 1)
-
-    def clear(self) -> None:
-        self._samples.clear()
-
-    def update(self, sim_time: float) -> float:
-        self._samples.append((sim_time, time.monotonic()))
-        (sim0, wall0), (sim1, wall1) = self._samples[0], self._samples[-1]
-        return (sim1 - sim0) / (wall1 - wall0) if wall1 > wall0 else 0.0
-
-
 class RobotChannel:
-    """One robot's side of the node: its topics, frames, command queue and counters.
+    """One robot's side of the node: its topics, frames and serialized messages (its stepping: RobotTurn).
 
     The one robot of a world without `robots` has the topics the node always had (`scan`, `~/status`, `/tf`,
     ...); a robot of a fleet has them in its namespace (`<name>/scan`, `<name>/status`, `<name>/tf`, ...).
@@ -162,18 +142,7 @@ class RobotChannel:
         self.tf_static = None
         self.cmd_vel_subscription = None
         self.services: list = []
-        self.held: deque[tuple[float, float]] = deque()
-        """Lockstep: commands received but not stepped yet (waiting for the other robots, paused, or paced)."""
-        self.command = (0.0, 0.0)
-        self.command_stamp = 0.0
-        self.distance = 0.0
-        self.last_output = 0.0
-        self.localization_check: LocalizationCheck | None = None
         self.localization_inputs: list = []
-        self.pose_due: int | None = None
-        """lockstep_pose_wait: the stamp (ns) of the observation whose /pose the next step waits for."""
-        self.observed: int | None = None
-        """lockstep_pose_wait: the stamp (ns) of its last observation (one sent again keeps what its /pose did)."""
         self.wires: dict[object, WireMessage] = {}
         """Its outgoing messages by topic, serialized at the first observation and rewritten in place at each one
         after (amr_util.wire: converting a message for rclpy costs more than writing it)."""
@@ -193,13 +162,12 @@ class RobotChannel:
 
 
 class SimulatorNode(ManagedNode):
-    """A thin shell: parameters in, the world's robots step, messages out."""
+    """A thin shell: parameters in, the world's robots step (amr_simulation.world_control), messages out."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__("simulator", **kwargs)
         self.declare_specs(parameter_specs(world_problem))
-        self._sim: Simulator | Fleet | None = None
-        self._fleet: Fleet | None = None
+        self._control: WorldControl | None = None
         self._robots: list[RobotChannel] = []
         self._outputs: dict[str, object] = {}
         """World-wide publishers: /clock, and /tf and /tf_static when the robots share them."""
@@ -207,18 +175,17 @@ class SimulatorNode(ManagedNode):
         self._resend_timer = None
         self._tf_parts = (False, False)
         self._stamped = True
-        self._active = False
-        self._stamp_offset = 0.0
-        self._meter = RateMeter()
-        self._paused = False
-        self._owed = 0
-        """Steps ~/step asked for while paused, not taken yet."""
         self._pace_timer = None
-        self._pace_ready = True
-        self._scan_every = 1
-        self._pose_wait = 0.0
         self._pose_wait_timer = None
         self._steady = RclpyClock(clock_type=ClockType.STEADY_TIME)  # timers immune to use_sim_time on this node
+
+    @property
+    def _sim(self) -> Simulator | Fleet | None:
+        return self._control.sim if self._control is not None else None
+
+    @property
+    def _fleet(self) -> Fleet | None:
+        return self._control.fleet if self._control is not None else None
 
     @property
     def robot_names(self) -> tuple[str, ...]:
@@ -232,15 +199,18 @@ class SimulatorNode(ManagedNode):
         if problems:
             return self.fail_configure(problems)
         try:
-            self._sim = self._build(self._library_parameters())
-            self._fleet = self._sim if isinstance(self._sim, Fleet) else self._sim.fleet
+            self._control = WorldControl(
+                self._build(self._library_parameters()),
+                publish=self._publish_observation,
+                logger=self.get_logger,
+                judge_poses=self.get_parameter("enable_localization").value,
+            )
             self._create_interfaces()
         except Exception as error:  # ValueErrors name the key; anything else is reported as is
             self._teardown()
             detail = str(error) if isinstance(error, ValueError) else f"{type(error).__name__}: {error}"
             self.get_logger().error(f"configure failed: {detail}")
             return TransitionCallbackReturn.FAILURE
-        self._stamp_offset = 0.0
         config = self._fleet.config
         robots = f", robots {', '.join(self.robot_names)}" if self._fleet.world.robots else ""
         self.get_logger().info(
@@ -258,38 +228,27 @@ class SimulatorNode(ManagedNode):
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         result = super().on_activate(state)
-        config = self._fleet.config
-        for channel in self._robots:
-            channel.command, channel.command_stamp = (0.0, 0.0), self._now()
-            channel.held.clear()
-        self._meter.clear()
-        self._paused, self._owed = False, 0
+        control = self._control
         resend = self.get_parameter("lockstep_resend_period").value
-        if config.mode == "lockstep" and resend > 0.0:
+        localizing = self.get_parameter("enable_localization").value
+        control.activate(
+            resend_period=resend,
+            pose_wait=self.get_parameter("lockstep_pose_wait").value if localizing else 0.0,
+            scan_period=self.get_parameter("scan_period").value,
+        )
+        if control.lockstep and resend > 0.0:
             self._resend_timer = self.create_timer(resend, self._on_resend_timer, clock=self._steady)
         self._set_pace(self.get_parameter("pace").value)
-        scan_period = self.get_parameter("scan_period").value
-        self._scan_every = max(1, round(scan_period / config.dt)) if config.mode == "realtime" else 1
-        self._pose_wait = (
-            self.get_parameter("lockstep_pose_wait").value
-            if config.mode == "lockstep" and self.get_parameter("enable_localization").value
-            else 0.0
-        )
-        if self._pose_wait > 0.0:
-            self._pose_wait_timer = self.create_timer(self._pose_wait / 2, self._release_late, clock=self._steady)
-        self._active = True
+        if control.pose_wait > 0.0:
+            self._pose_wait_timer = self.create_timer(control.pose_wait / 2, self._release_late, clock=self._steady)
         self._publish_static_tf()
         self._publish_goals()
-        self._publish_observation(self._robots)
+        control.observe(control.robots)
         return result
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        self._active = False
         self._stop_timer()
-        for channel in self._robots:
-            channel.command = (0.0, 0.0)
-            channel.held.clear()
-        self.get_logger().info(f"stopped at t = {self._fleet.time:.2f} s")
+        self.get_logger().info(self._control.deactivate())
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
@@ -297,7 +256,8 @@ class SimulatorNode(ManagedNode):
         return super().on_cleanup(state)  # and whatever else configure made
 
     def destroy_node(self) -> None:
-        self._active = False
+        if self._control is not None:
+            self._control.active = False
         self._teardown()
         super().destroy_node()
 
@@ -315,7 +275,7 @@ class SimulatorNode(ManagedNode):
         library = {name: value for name, value in changes.items() if name not in NODE_PARAMETERS}
         if library:
             self._sim.retune(SimulationConfig.from_params({**self._library_parameters(), **library}))
-        if "pace" in changes and self._active:
+        if "pace" in changes and self._control.active:
             self._set_pace(changes["pace"])
 
     def _create_interfaces(self) -> None:
@@ -367,7 +327,9 @@ class SimulatorNode(ManagedNode):
                     self.create_active_service(
                         Trigger,
                         channel.topic("reset"),
-                        lambda q, a, channel=channel: self._on_reset_robot(channel, q, a),
+                        lambda q, a, channel=channel: self._answer(
+                            a, lambda: self._control.reset_robot(channel.index), channel.label + "reset failed: "
+                        ),
                     ),
                     self.create_active_service(
                         SetPose,
@@ -379,9 +341,9 @@ class SimulatorNode(ManagedNode):
         self._node_services = [
             self.create_active_service(Trigger, "~/reset", self._on_reset),
             self.create_active_service(Trigger, "~/render", self._on_render),
-            self.create_active_service(Trigger, "~/pause", self._on_pause),
-            self.create_active_service(Trigger, "~/resume", self._on_resume),
-            self.create_active_service(Trigger, "~/step", self._on_step),
+            self.create_active_service(Trigger, "~/pause", lambda q, a: self._on_control(a, self._control.pause)),
+            self.create_active_service(Trigger, "~/resume", lambda q, a: self._on_control(a, self._control.resume)),
+            self.create_active_service(Trigger, "~/step", lambda q, a: self._on_control(a, self._control.step_once)),
         ]
         if not named:
             self._node_services.append(
@@ -420,109 +382,42 @@ class SimulatorNode(ManagedNode):
                 self.destroy_lifecycle_publisher(publisher)
         for publisher in self._outputs.values():
             self.destroy_lifecycle_publisher(publisher)
-        self._node_services, self._robots, self._outputs, self._sim, self._fleet = [], [], {}, None, None
+        self._node_services, self._robots, self._outputs, self._control = [], [], {}, None
 
     def _stop_timer(self) -> None:
         for timer in (self._resend_timer, self._pace_timer, self._pose_wait_timer):
             if timer is not None:
                 self.destroy_timer(timer)
         self._resend_timer = self._pace_timer = self._pose_wait_timer = None
-        for channel in self._robots:
-            channel.pose_due = channel.observed = None
+        if self._control is not None:
+            self._control.forget_waits()
 
     def _set_pace(self, pace: float) -> None:
-        """The steady timer that paces the steps: lockstep, none for 0 (a command steps at once); realtime, the
-        step timer itself (dt / pace, or dt / rate for 0)."""
+        """The steady timer that paces the steps (WorldControl.pace): lockstep, none for 0; realtime, the step
+        timer itself."""
         if self._pace_timer is not None:
             self.destroy_timer(self._pace_timer)
             self._pace_timer = None
-        config = self._fleet.config
-        if config.mode == "realtime":
-            period = config.dt / (pace or config.rate)
-            self._pace_timer = self.create_timer(period, self._on_timer, clock=self._steady)
-        elif pace > 0.0:
-            self._pace_ready = False
-            self._pace_timer = self.create_timer(config.dt / pace, self._on_pace_timer, clock=self._steady)
-        else:
-            self._pace_ready = True
-            self._release()
+        period = self._control.pace(pace)
+        if period is not None:
+            tick = self._on_timer if not self._control.lockstep else self._on_pace_timer
+            self._pace_timer = self.create_timer(period, tick, clock=self._steady)
 
-    # -- stepping --------------------------------------------------------------------------
-
-    def _now(self) -> float:
-        """The simulated time of the stamps: the simulator's time since reset plus an offset."""
-        return self._stamp_offset + self._fleet.time
+    # -- messages and timers -> the world's stepping -----------------------------------------
 
     def _on_cmd_vel(self, channel: RobotChannel, message: TwistStamped | Twist) -> None:
-        if not self._active:
-            return
         try:
             twist = message.twist if self._stamped else message
-            v, w = twist.linear.x, twist.angular.z
-            finite = math.isfinite(v) and math.isfinite(w)
-            topic = f"/{channel.prefix}cmd_vel"
-            drive = self._fleet.drive
-            if not finite:
-                self.get_logger().warning(
-                    f"refused a non-finite {topic} (v={v}, w={w})", throttle_duration_sec=WARNING_PERIOD
-                )
-            elif drive.saturation_scale(v, w) < 1.0:
-                sv, sw = drive.saturate(v, w)
-                self.get_logger().warning(
-                    f"{topic} (v={v:.4g}, w={w:.4g}) beyond the robot's limits: saturated to (v={sv:.4g}, w={sw:.4g})",
-                    throttle_duration_sec=WARNING_PERIOD,
-                )
-            if self._fleet.config.mode == "lockstep":
-                channel.held.append((v, w) if finite else (0.0, 0.0))
-                self._release()
-            elif finite:
-                channel.command, channel.command_stamp = (v, w), self._now()
+            self._control.command(channel.index, twist.linear.x, twist.angular.z)
         except Exception as error:
             self.get_logger().error(
                 f"{channel.label}cmd_vel callback: {type(error).__name__}: {error}",
                 throttle_duration_sec=WARNING_PERIOD,
             )
 
-    def _release(self) -> None:
-        """Lockstep: step the held commands, in order, while every robot has one (and, with lockstep_pose_wait, its
-        /pose for the last observation) and pausing and the pace allow."""
-        while self._active and self._robots and all(channel.held for channel in self._robots) and not self._poses_due():
-            if self._paused:
-                if self._owed <= 0:
-                    return
-                self._owed -= 1
-            elif not self._pace_ready:
-                return
-            elif self._pace_timer is not None:
-                self._pace_ready = False  # one step per pace period
-            self._advance([channel.held.popleft() for channel in self._robots])
-
-    def _poses_due(self) -> bool:
-        """lockstep_pose_wait: some robot's /pose for the last observation has not come, and its wait is not over
-        (a wait that is over is given up on, with a line in the log)."""
-        if self._pose_wait <= 0.0:
-            return False
-        due = False
-        now = time.monotonic()
-        for channel in self._robots:
-            if channel.pose_due is None:
-                continue
-            if now - channel.last_output < self._pose_wait:
-                due = True
-            else:
-                channel.pose_due = None
-                self.get_logger().info(
-                    f"{channel.label}no /{channel.prefix}pose for the observation of step {self._fleet.steps} "
-                    f"within lockstep_pose_wait ({self._pose_wait} s): stepping without it",
-                    throttle_duration_sec=WARNING_PERIOD,
-                )
-        return due
-
     def _release_late(self) -> None:
-        """lockstep_pose_wait: a step that waits only for a /pose that has not come goes once the wait is over."""
         try:
-            if any(channel.pose_due is not None for channel in self._robots):
-                self._release()
+            self._control.release_late()
         except Exception as error:
             self.get_logger().error(
                 f"pose wait timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
@@ -530,8 +425,7 @@ class SimulatorNode(ManagedNode):
 
     def _on_pace_timer(self) -> None:
         try:
-            self._pace_ready = True
-            self._release()
+            self._control.pace_tick()
         except Exception as error:
             self.get_logger().error(
                 f"pace timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
@@ -539,103 +433,25 @@ class SimulatorNode(ManagedNode):
 
     def _on_timer(self) -> None:
         try:
-            if self._paused:
-                if self._owed <= 0:
-                    return
-                self._owed -= 1
-            timeout = self._fleet.config.command_timeout
-            for channel in self._robots:
-                if timeout > 0.0 and channel.command != (0.0, 0.0) and self._now() - channel.command_stamp > timeout:
-                    channel.command = (0.0, 0.0)
-                    self.get_logger().info(f"{channel.label}no /{channel.prefix}cmd_vel for {timeout} s: stopping")
-            self._advance([channel.command for channel in self._robots])
+            self._control.tick()
         except Exception as error:
             self.get_logger().error(
                 f"step timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
             )
 
     def _on_resend_timer(self) -> None:
-        """Lockstep waits for every robot's command; a robot whose command has not come may not have heard its
-        observation: it goes out again (a held command was heard: that robot waits for the others, or the loop
-        is paused or paced). Paused, nothing is resent (/clock stops); a step owed is taken instead, the silent
-        robots at zero velocity (their drivers hold them)."""
         try:
-            silent = self._unanswered() if self._active else []
-            if not silent:
-                return
-            if not self._paused:
-                if self._fleet.world.robots:
-                    waiting = ", ".join(f"/{channel.prefix}cmd_vel" for channel in silent)
-                    self.get_logger().info(
-                        f"step {self._fleet.steps} waits for {waiting}: publishing their observation again",
-                        throttle_duration_sec=WARNING_PERIOD,
-                    )
-                else:
-                    self.get_logger().info(
-                        "no /cmd_vel since the last observation: publishing it again",
-                        throttle_duration_sec=WARNING_PERIOD,
-                    )
-                self._publish_observation(silent)
-            elif self._owed > 0 and self._stalled(silent):
-                self._owed -= 1
-                self._advance_holding_the_silent()
+            self._control.resend_tick()
         except Exception as error:
             self.get_logger().error(
                 f"resend timer: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
             )
 
-    def _unanswered(self) -> list[RobotChannel]:
-        """Lockstep: the robots whose /cmd_vel has not come for their last observation in lockstep_resend_period
-        (0: none ever is)."""
-        period = self.get_parameter("lockstep_resend_period").value
-        if period <= 0.0:
-            return []
-        now = time.monotonic()
-        return [channel for channel in self._robots if not channel.held and now - channel.last_output > period]
+    # -- observations -> messages --------------------------------------------------------------
 
-    def _stalled(self, silent: list[RobotChannel]) -> bool:
-        """Every robot has either a command held or none coming (silent): nothing more will arrive to step on."""
-        return bool(silent) and all(channel.held or channel in silent for channel in self._robots)
-
-    def _advance_holding_the_silent(self) -> None:
-        """A step owed while paused: the held commands, zero velocity for the robots without one."""
-        self._advance([channel.held.popleft() if channel.held else (0.0, 0.0) for channel in self._robots])
-
-    def _advance(self, commands: list[tuple[float, float]]) -> None:
-        """One step of every robot, its log lines (contacts, goal) and every robot's observation."""
-        fleet = self._fleet
-        before = [(robot.collisions, robot.goal_reached) for robot in fleet.robots]
-        fleet.step(commands)
-        dt = fleet.config.dt
-        for channel, robot, (collisions, reached) in zip(self._robots, fleet.robots, before, strict=True):
-            vx, vy, _ = robot.twist
-            channel.distance += math.hypot(vx, vy) * dt
-            x, y, _ = robot.pose
-            if robot.collisions > collisions:
-                self.get_logger().warning(
-                    f"{channel.label}collision {robot.collisions} at ({x:.3f}, {y:.3f}), "
-                    f"t = {fleet.time:.2f} s{self._contact_detail(robot)}"
-                )
-            if robot.goal_reached and not reached:
-                stopping = fleet.config.stop_at_goal
-                if stopping:
-                    channel.command = (0.0, 0.0)
-                self.get_logger().info(
-                    f"{channel.label}goal reached at ({x:.3f}, {y:.3f}), t = {fleet.time:.2f} s, "
-                    f"{channel.distance:.2f} m, {robot.collisions} collisions" + (": stopping" if stopping else "")
-                )
-        self._publish_observation(self._robots)
-
-    def _contact_detail(self, robot) -> str:
-        """For a fleet robot: what it has run into so far (walls, which robots)."""
-        if not self._fleet.world.robots:
-            return ""
-        others = ", ".join(f"{name} {count}" for name, count in robot.robot_collisions.items() if count)
-        return f" (walls {robot.wall_collisions}" + (f", robots: {others})" if others else ")")
-
-    def _publish_observation(self, channels: list[RobotChannel]) -> None:
+    def _publish_observation(self, turns: list[RobotTurn], now: float, rate: float) -> None:
         """/clock, then each robot's transforms (one TFMessage per tf topic), then each robot's messages."""
-        now = self._now()
+        channels = [self._robots[turn.index] for turn in turns]
         stamp = stamp_from_seconds(now)
         if "clock" in self._outputs:
             self._outputs["clock"].publish(messages.clock(stamp))
@@ -647,9 +463,8 @@ class SimulatorNode(ManagedNode):
                     groups.setdefault(id(channel.tf), (channel.tf, []))[1].append(channel)
             for publisher, group in groups.values():
                 publisher.publish(self._tf_wire(group, stamp))
-        rate = self._meter.update(now)
-        for channel in channels:
-            self._publish_robot(channel, stamp, rate)
+        for turn, channel in zip(turns, channels, strict=True):
+            self._publish_robot(turn, channel, stamp, rate)
 
     def _tf_wire(self, group: list[RobotChannel], stamp) -> bytes:
         """The TFMessage of these robots' transforms (odom -> base, and map -> odom when asked), serialized; kept by
@@ -673,13 +488,7 @@ class SimulatorNode(ManagedNode):
             values += (stamp.sec, stamp.nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta))
         return wire.fill(*values)
 
-    def _publish_robot(self, channel: RobotChannel, stamp, rate: float) -> None:
-        channel.last_output = time.monotonic()
-        if self._pose_wait > 0.0 and channel.localization_check is not None:
-            observed = stamp_nanoseconds(stamp)
-            if observed != channel.observed:  # sent again, an observation whose /pose came is not waited for again
-                channel.pose_due = observed  # (the localizer drops the repeated stamp: it would never come)
-            channel.observed = observed
+    def _publish_robot(self, turn: RobotTurn, channel: RobotChannel, stamp, rate: float) -> None:
         fleet, frames, outputs = self._fleet, channel.frames, channel.outputs
         robot = fleet.robots[channel.index]
         sec, nanosec = stamp.sec, stamp.nanosec
@@ -710,7 +519,7 @@ class SimulatorNode(ManagedNode):
             outputs["ground_truth"].publish(
                 wire.fill(sec, nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta), vx, vy, w)
             )
-        if "scan" in outputs and fleet.steps % self._scan_every == 0:
+        if "scan" in outputs and self._control.scan_due():
             ranges = robot.ranges
             wire = channel.wire(
                 ("scan", len(ranges)),
@@ -718,70 +527,18 @@ class SimulatorNode(ManagedNode):
                 lambda: messages.laser_scan(stamp, frames["scan"], ranges, fleet.lidar, fleet.config.dt),
             )
             outputs["scan"].publish(wire.fill(sec, nanosec, ranges))
-        self._publish_localization_inputs(channel, robot, stamp)
+        reading = robot.beacon_reading() if "beacons" in outputs else None
+        if reading is not None:
+            outputs["beacons"].publish(messages.beacon_ranges(stamp, frames["world"], *reading, fleet.config.beacons))
         if "status" in outputs:
-            check = channel.localization_check
-            localization = check.state if check is not None else False
+            localization = turn.check.state if turn.check is not None else False
             wire = channel.wire(
                 "status",
                 STATUS_FIELDS,
-                lambda: messages.status(stamp, frames["world"], fleet, robot, channel.distance, rate, localization),
+                lambda: messages.status(stamp, frames["world"], fleet, robot, turn.distance, rate, localization),
             )
-            fields = messages.status_fields(fleet, robot, channel.distance, rate, localization)
+            fields = messages.status_fields(fleet, robot, turn.distance, rate, localization)
             outputs["status"].publish(wire.fill(sec, nanosec, *(fields[name] for name in messages.STATUS_FIELDS)))
-
-    # -- localization: beacons out, /pose checked against the ground truth -------------
-
-    def _create_localization_interfaces(self, channel: RobotChannel, qos) -> None:
-        if self._fleet.world.beacons:
-            channel.outputs["beacons"] = self._publisher(BeaconRanges, channel.topic("beacons"), qos)
-        if self.get_parameter("enable_localization").value:
-            channel.localization_check = LocalizationCheck()
-            channel.localization_inputs = [
-                self.create_subscription(
-                    LocalizedPose,
-                    channel.topic("pose"),
-                    lambda message: self._on_pose(channel, message),
-                    qos,
-                    event_callbacks=None if channel.name else REPORTED,
-                )
-            ]
-
-    def _publish_localization_inputs(self, channel: RobotChannel, robot, stamp) -> None:
-        """Per observation: the beacon reading, and the true pose the next pose will be judged against."""
-        if channel.localization_check is not None:
-            channel.localization_check.observed(stamp_nanoseconds(stamp), robot.pose, self._fleet.time)
-        reading = robot.beacon_reading() if "beacons" in channel.outputs else None
-        if reading is not None:
-            channel.outputs["beacons"].publish(
-                messages.beacon_ranges(stamp, channel.frames["world"], *reading, self._fleet.config.beacons)
-            )
-
-    def _on_pose(self, channel: RobotChannel, message: LocalizedPose) -> None:
-        answered = False
-        try:
-            pose = message.pose.pose
-            theta = yaw_from_quaternion(pose.orientation)
-            stamp = stamp_nanoseconds(message.header.stamp)
-            if channel.pose_due is not None and stamp >= channel.pose_due:
-                channel.pose_due, answered = None, True
-            line = channel.localization_check.estimate(
-                stamp, pose.position.x, pose.position.y, theta, message.localized
-            )
-            if line:
-                self.get_logger().info(channel.label + line)
-        except Exception as error:  # a NaN or stale estimate: say so, keep simulating
-            self.get_logger().warning(
-                f"/{channel.prefix}pose not judged: {error}", throttle_duration_sec=WARNING_PERIOD
-            )
-        if answered:
-            try:
-                self._release()
-            except Exception as error:
-                self.get_logger().error(
-                    f"{channel.label}step after /pose: {type(error).__name__}: {error}",
-                    throttle_duration_sec=WARNING_PERIOD,
-                )
 
     def _transforms(self, channels: list[RobotChannel], stamp) -> list:
         """Of each robot: odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom."""
@@ -804,7 +561,8 @@ class SimulatorNode(ManagedNode):
             goal_region = self._fleet.robots[channel.index].goal
             if "goal" in channel.outputs:
                 goal = PoseStamped()
-                goal.header.stamp, goal.header.frame_id = stamp_from_seconds(self._now()), channel.frames["world"]
+                goal.header.stamp = stamp_from_seconds(self._control.now())
+                goal.header.frame_id = channel.frames["world"]
                 goal.pose.position.x, goal.pose.position.y = goal_region.x, goal_region.y
                 goal.pose.orientation.w = 1.0
                 channel.outputs["goal"].publish(goal)
@@ -817,7 +575,7 @@ class SimulatorNode(ManagedNode):
         for channel in self._robots:
             if channel.tf_static is not None:
                 mounting = messages.transform(
-                    stamp_from_seconds(self._now()),
+                    stamp_from_seconds(self._control.now()),
                     channel.frames["base"],
                     channel.frames["scan"],
                     Pose2D(lidar.x, lidar.y, 0.0),
@@ -826,76 +584,54 @@ class SimulatorNode(ManagedNode):
         for publisher, parts in mountings.values():
             publisher.publish(messages.tf_message(parts))
 
+    # -- localization: beacons out, /pose in -------------------------------------------------
+
+    def _create_localization_interfaces(self, channel: RobotChannel, qos) -> None:
+        if self._fleet.world.beacons:
+            channel.outputs["beacons"] = self._publisher(BeaconRanges, channel.topic("beacons"), qos)
+        if self.get_parameter("enable_localization").value:
+            channel.localization_inputs = [
+                self.create_subscription(
+                    LocalizedPose,
+                    channel.topic("pose"),
+                    lambda message: self._on_pose(channel, message),
+                    qos,
+                    event_callbacks=None if channel.name else REPORTED,
+                )
+            ]
+
+    def _on_pose(self, channel: RobotChannel, message: LocalizedPose) -> None:
+        pose = message.pose.pose
+        self._control.pose(
+            channel.index,
+            stamp_nanoseconds(message.header.stamp),
+            pose.position.x,
+            pose.position.y,
+            yaw_from_quaternion(pose.orientation),
+            message.localized,
+        )
+
     # -- services --------------------------------------------------------------------------
 
-    def _restarted(self, what: str, channels: list[RobotChannel]) -> str:
-        """After a reset or teleport: the robots' held commands are dropped, new first observations go out."""
-        for channel in channels:
-            channel.command, channel.command_stamp = (0.0, 0.0), self._now()
-            channel.held.clear()
-        self._owed = 0
-        self._meter.clear()
-        if self._active:
-            self._publish_observation(channels)
-        lines = []
-        for channel in channels:
-            x, y, theta = self._fleet.robots[channel.index].pose
-            lines.append(f"{channel.label}robot at ({x:.3f}, {y:.3f}, {theta:.3f})")
-        message = f"{what}: {'; '.join(lines)}"
-        self.get_logger().info(message)
-        return message
+    def _answer(self, response, action, failure: str, level: str = "warning"):
+        """A reset or teleport: its line, or `failure` and the error (logged at `level`)."""
+        try:
+            response.success, response.message = True, action()
+        except Exception as error:  # SimulationError: inside a wall or another robot, or not finite
+            response.success, response.message = False, f"{failure}{error}"
+            getattr(self.get_logger(), level)(response.message)
+        return response
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        try:
-            self._stamp_offset = self._now() + self._fleet.config.dt
-            self._sim.reset()
-            for channel in self._robots:
-                channel.distance = 0.0
-            response.success, response.message = True, self._restarted("reset", self._robots)
-        except Exception as error:
-            response.success, response.message = False, f"reset failed: {error}"
-            self.get_logger().error(response.message)
-        return response
-
-    def _on_reset_robot(
-        self, channel: RobotChannel, request: Trigger.Request, response: Trigger.Response
-    ) -> Trigger.Response:
-        """A fleet robot back to its start; the world's time and the other robots go on (its new observation is
-        stamped one dt on, so stamps never repeat)."""
-        try:
-            self._fleet.reset_robot(channel.index)
-            self._stamp_offset += self._fleet.config.dt
-            channel.distance = 0.0
-            response.success, response.message = True, self._restarted("reset", [channel])
-        except Exception as error:  # SimulationError: another robot stands on its start
-            response.success, response.message = False, f"{channel.label}reset failed: {error}"
-            self.get_logger().warning(response.message)
-        return response
+        return self._answer(response, self._control.reset, "reset failed: ", "error")
 
     def _on_set_pose(
         self, channel: RobotChannel, request: SetPose.Request, response: SetPose.Response
     ) -> SetPose.Response:
-        try:
-            self._fleet.set_pose(
-                request.x, request.y, request.theta, robot=channel.index
-            ) if self._fleet.world.robots else self._sim.set_pose(request.x, request.y, request.theta)
-            self._stamp_offset += self._fleet.config.dt
-            response.success, response.message = True, self._restarted("set_pose", [channel])
-        except Exception as error:  # SimulationError: inside a wall or another robot, or not finite
-            response.success, response.message = False, f"{channel.label}{error}"
-            self.get_logger().warning(response.message)
-        return response
+        x, y, theta = request.x, request.y, request.theta
+        return self._answer(response, lambda: self._control.set_pose(channel.index, x, y, theta), channel.label)
 
-    def _on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        return self._control(response, self._pause)
-
-    def _on_resume(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        return self._control(response, self._resume)
-
-    def _on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        return self._control(response, self._step_once)
-
-    def _control(self, response: Trigger.Response, action) -> Trigger.Response:
+    def _on_control(self, response: Trigger.Response, action) -> Trigger.Response:
         """A pause/resume/step request (create_active_service refuses them unless active): what happened."""
         try:
             response.success, response.message = True, action()
@@ -904,40 +640,6 @@ class SimulatorNode(ManagedNode):
             response.success, response.message = False, f"{type(error).__name__}: {error}"
             self.get_logger().error(response.message)
         return response
-
-    def _pause(self) -> str:
-        was = self._paused
-        self._paused, self._owed = True, 0
-        return f"{'already ' if was else ''}paused at t = {self._fleet.time:.2f} s (step {self._fleet.steps})"
-
-    def _resume(self) -> str:
-        was = self._paused
-        self._paused, self._owed = False, 0
-        self._release()
-        return f"{'running' if was else 'already running'} from t = {self._fleet.time:.2f} s (step {self._fleet.steps})"
-
-    def _step_once(self) -> str:
-        note = "" if self._paused else "paused; "
-        self._paused = True
-        fleet = self._fleet
-        steps = fleet.steps
-        self._owed += 1
-        if fleet.config.mode == "lockstep":
-            self._release()
-            if self._owed > 0 and self._stalled(self._unanswered()):  # their drivers hold them: no command comes
-                self._owed -= 1
-                self._advance_holding_the_silent()
-        if fleet.steps > steps:
-            return f"{note}stepped to t = {fleet.time:.2f} s (step {fleet.steps})"
-        waiting = (
-            (
-                ("the next /cmd_vel" if not fleet.world.robots else "every robot's next cmd_vel")
-                + " (or at zero velocity if none comes)"
-            )
-            if fleet.config.mode == "lockstep"
-            else "the next tick"
-        )
-        return f"{note}{self._owed} step(s) owed at t = {fleet.time:.2f} s: taken on {waiting}"
 
     def _on_render(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         try:

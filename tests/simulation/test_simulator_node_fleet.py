@@ -323,7 +323,7 @@ def test_every_message_of_robot_2_is_what_the_library_state_gives(simulator, pro
     drive_all(executor, [r1, r2], [((0.1, 0.3), (0.15, -0.4))] * 6)
     assert spin_until(executor, lambda: len(tf.messages["/r2/tf"]) >= 7, TIMEOUT)
     settle(executor)
-    robot, fleet, channel = node._fleet.robots[1], node._fleet, node._robots[1]
+    robot, fleet, turn = node._fleet.robots[1], node._fleet, node._control.robots[1]
     stamp = r2.scans[-1].header.stamp
     assert seconds(stamp) == pytest.approx(6 * DT)
     v, w = robot.odom_twist
@@ -344,7 +344,7 @@ def test_every_message_of_robot_2_is_what_the_library_state_gives(simulator, pro
         (scan.angle_min, scan.angle_increment, scan.range_max, scan.scan_time)
     )
     assert list(received.ranges) == list(scan.ranges), "the scan is robot 2's own, this step's"
-    status = messages.status(stamp, "map", fleet, robot, channel.distance, 0.0)
+    status = messages.status(stamp, "map", fleet, robot, turn.distance, 0.0)
     got = r2.statuses[-1]
     for name in messages.STATUS_FIELDS:
         if name not in ("real_time_factor", "position_error", "heading_error"):
