@@ -7,7 +7,9 @@ A fleet of four robots has some 25 lifecycle nodes; a table row per namespace, n
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+
+from amr_viewer.messages import format_status
 
 ACTIVE = "active"
 
@@ -64,3 +66,35 @@ def mapping_texts(graph, frontiers, skipped: Mapping[str, int]) -> list[str]:
         if count
     )
     return texts
+
+
+def robot_line(state, color_name: str) -> str:
+    """A robot's line (amr_viewer.state.RobotState, drawn in `color_name`): its simulator status, localization,
+    particles, the disc's offset from the truth, its SLAM graph and frontiers, the messages not drawn."""
+    details = format_status(state.status)
+    if state.localized is not None and not state.status.get("localization_enabled"):
+        details.append("localized" if state.localized else "not localized")
+    if state.particle_count:
+        details.append(f"{state.particle_count} particles ({len(state.particles)} drawn)")
+    offset = offset_text(state.drawn_offset())
+    if offset is not None:
+        details.append(offset)
+    details.extend(mapping_texts(state.graph, state.frontiers, state.skipped))
+    title = f"**robot {state.namespace or '/'}** ({color_name})"
+    return title + (": " + "; ".join(details) if details else "")
+
+
+def panel_text(
+    node_states: Mapping[str, str], paused: bool | None, robot_lines: Iterable[str], arms: Mapping[str, Iterable[str]]
+) -> str:
+    """The status panel: the node state table, whether the simulator is paused (None: not known), a line per robot
+    (robot_line), the arms of each IK service; 'nothing found yet' for nothing."""
+    lines = []
+    table = node_state_table(node_states)
+    if table:
+        lines.append(table)
+    if paused is not None:
+        lines.append("**simulator paused**" if paused else "simulator running")
+    lines.extend(robot_lines)
+    lines.extend(f"**arms of {node}**: {', '.join(names)}" for node, names in arms.items())
+    return "\n\n".join(lines) or "nothing found yet"

@@ -8,7 +8,7 @@ single robot of today's stacks.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 ROBOT_MARKERS = {
@@ -118,3 +118,30 @@ def node_topic(topics: Mapping[str, Iterable[str]], namespace: str, leaf: str, k
 
 def full_name(name: str, namespace: str) -> str:
     return f"{namespace.rstrip('/')}/{name}"
+
+
+FOUND_BY_TYPE = {"slam/graph": POSE_GRAPH, "explorer/frontiers": FRONTIERS}
+"""Leaves of a robot found by type when the suite's node name is not in the graph (a SLAM node or explorer named
+otherwise in the robot's namespace)."""
+
+
+def leaf_topic(namespace: str, leaf: str, graph: Collection[str], current: str | None = None) -> str:
+    """The topic of a robot's `leaf` (`current`: the one subscribed now, if any): in its namespace; a fleet robot's
+    map and tree are the root's until its own appear (then kept), its simulator status is `<ns>/status` once that
+    appears (docs/fleet.md); the SLAM graph and the frontiers are the suite's node names' (`slam/graph`,
+    `explorer/frontiers`), else a topic of their type under another node of the namespace when `graph` maps names
+    to types."""
+    own = join(namespace, leaf)
+    if leaf in FOUND_BY_TYPE:
+        if own in graph or (current is not None and current in graph):
+            return own if own in graph else current
+        found = node_topic(graph, namespace, leaf.rpartition("/")[2], FOUND_BY_TYPE[leaf])
+        return found or current or own
+    if not namespace:
+        return own
+    if leaf in ("map", "tf", "tf_static"):
+        return own if own in graph or current == own else "/" + leaf
+    if leaf == "simulator/status":
+        status = join(namespace, "status")
+        return status if status in graph or current == status else own
+    return own

@@ -26,7 +26,6 @@ import time
 from collections import deque
 from collections.abc import Callable, Collection
 
-import numpy as np
 from geometry_msgs.msg import PoseArray, PoseStamped, PoseWithCovarianceStamped
 from lifecycle_msgs.srv import GetState
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
@@ -50,21 +49,19 @@ from amr_util.robot_description import default_robot
 from amr_viewer import cdr, messages, status, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool
-from amr_viewer.geometry import Camera, floor_point, free_share, oblique_camera, outgrown, top_down_camera
+from amr_viewer.framing import Framing, arms_origin
+from amr_viewer.geometry import floor_point
 from amr_viewer.parameters import entry_from, value_of, visible
+from amr_viewer.pending import Pending
 from amr_viewer.state import Frames, RobotState, Skipped, WorldGoal, frontier_view, pose_graph_view
 
 NODE_NAME = "viewer"
 TF_STATIC = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-ANSWER_TIMEOUT = 5.0
-"""s a service has to answer a request from the page."""
 STATUS_PERIOD = 1.0
 """s between two refreshes of the status panel (and node states)."""
 RAW_KEEP = 64
 """Raw messages of a busy topic kept between two draws (a transform published every few steps is among them)."""
 WARNING_PERIOD = 5.0
-CAMERAS_KEPT = 4
-"""cameras a browser's top view was last given (a camera it reports that is one of them is not the user's)."""
 
 
 def specs() -> tuple[ParameterSpec, ...]:
@@ -129,9 +126,6 @@ class RobotLink:
         "slam/graph": (PoseGraph, reliable(2), False),
         "explorer/frontiers": (Frontiers, reliable(2), False),
     }
-    TYPED = {"slam/graph": topics.POSE_GRAPH, "explorer/frontiers": topics.FRONTIERS}
-    """Leaves found by type when the suite's node name is not in the graph (a SLAM node or explorer named
-    otherwise in the robot's namespace)."""
     LAYER = {"slam/graph": "graph", "explorer/frontiers": "frontiers"}
     """Leaf -> the RobotState layer it feeds, where the names differ."""
 
@@ -158,24 +152,8 @@ class RobotLink:
         return [*self._raw_subscriptions.values(), self._goal_subscription]
 
     def topic_of(self, leaf: str, graph: Collection[str]) -> str:
-        """The topic of `leaf` for this robot: in its namespace; a fleet robot's map and tree are the root's until
-        its own appear (then kept), its simulator status is `<ns>/status` once that appears (docs/fleet.md); the
-        SLAM graph and the frontiers are the suite's node names' (`slam/graph`, `explorer/frontiers`), else a
-        topic of their type under another node of the namespace when `graph` maps names to types."""
-        own, current = topics.join(self.namespace, leaf), self.topics.get(leaf)
-        if leaf in self.TYPED:
-            if own in graph or (current is not None and current in graph):
-                return own if own in graph else current
-            found = topics.node_topic(graph, self.namespace, leaf.rpartition("/")[2], self.TYPED[leaf])
-            return found or current or own
-        if not self.namespace:
-            return own
-        if leaf in ("map", "tf", "tf_static"):
-            return own if own in graph or current == own else "/" + leaf
-        if leaf == "simulator/status":
-            status = topics.join(self.namespace, "status")
-            return status if status in graph or current == status else own
-        return own
+        """The topic of `leaf` for this robot now (topics.leaf_topic)."""
+        return topics.leaf_topic(self.namespace, leaf, graph, self.topics.get(leaf))
 
     def refresh(self, graph: Collection[str]) -> list[str]:
         """Subscribe each topic to what the graph now names (a fleet robot is often found by its filter's topics
@@ -278,28 +256,6 @@ DECODED = {
 straight from CDR, amr_viewer.cdr)."""
 
 
-class Pending:
-    """Service requests in flight: each answered through its callback, or told it timed out."""
-
-    def __init__(self) -> None:
-        self._waiting: list[tuple[object, float, Callable, Callable[[], None]]] = []
-
-    def add(self, future, on_answer: Callable, on_timeout: Callable[[], None], timeout: float = ANSWER_TIMEOUT):
-        self._waiting.append((future, time.monotonic() + timeout, on_answer, on_timeout))
-
-    def poll(self) -> None:
-        now, still = time.monotonic(), []
-        for future, deadline, on_answer, on_timeout in self._waiting:
-            if future.done():
-                on_answer(future.exception() or future.result())
-            elif now > deadline:
-                future.cancel()
-                on_timeout()
-            else:
-                still.append((future, deadline, on_answer, on_timeout))
-        self._waiting = still
-
-
 class ViewerNode(ManagedNode):
     """Wires the plain viewer classes to ROS and to viser (see the module docstring)."""
 
@@ -326,9 +282,7 @@ class ViewerNode(ManagedNode):
         self._requests: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
         self._guard = None
         self._timers: list = []
-        self._framed: set[int] = set()
-        self._top_views: dict[int, tuple[tuple[float, float, float, float], list[Camera]]] = {}
-        """client -> (the bounds, the camera) of the top view it was last given: followed as a SLAM map grows"""
+        self.framing = Framing()
         self._last_status = 0.0
         self._graph: dict[str, set[str]] = {}
         """topic name -> its types, at the last look at the graph"""
@@ -429,7 +383,8 @@ class ViewerNode(ManagedNode):
         self.robots, self.arms, self._arm_subscriptions, self._pose_publishers, self._guard = {}, {}, [], {}, None
         self._arms_asked, self._worlds_asked, self.simulators, self.localizers = set(), set(), {}, {}
         self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
-        self._reported, self._top_views = set(), {}
+        self._reported = set()
+        self.framing.clear()
         if self.server is not None:
             self.server.stop()
         self.server = self.scene = self.panels = None
@@ -594,14 +549,7 @@ class ViewerNode(ManagedNode):
                 self._arms_asked.discard(node)
                 return
             values = {name: value_of(value) for name, value in zip(names, response.values, strict=True)}
-            extents = [link.state.extent() for link in self.robots.values()]
-            extents = [e for e in extents if e is not None]
-            origin = (
-                (max(e[2] for e in extents) + 1.0, 0.5 * (extents[0][1] + extents[0][3]), 0.0)
-                if extents
-                else (0.0, 0.0, 0.0)
-            )
-            arms = ArmSet.from_parameters(values, origin)
+            arms = ArmSet.from_parameters(values, arms_origin(link.state.extent() for link in self.robots.values()))
             self.arms[node] = arms
             self._arm_subscriptions.append(
                 self.create_subscription(
@@ -648,7 +596,7 @@ class ViewerNode(ManagedNode):
                 for key, arms in self.arms.items():
                     self.scene.draw_arms(arms, "arms" + key.replace("/", "_"))
             for client_id, client in self.server.get_clients().items():
-                if client_id not in self._framed:  # nothing to frame when it connected
+                if client_id not in self.framing.framed:  # nothing to frame when it connected
                     self._frame(client, "top" if self.robots else "arms")
                 else:
                     self._follow_growth(client)
@@ -668,64 +616,24 @@ class ViewerNode(ManagedNode):
         """Point a browser's camera at the robots (top-down) or at the arms; nothing until there is something."""
         if client is None:
             return
-        camera = None
-        if view == "arms" and self.arms:
-            bounds = [arms.bounds() for arms in self.arms.values()]
-            camera = oblique_camera(
-                (
-                    min(b[0] for b in bounds),
-                    min(b[1] for b in bounds),
-                    max(b[2] for b in bounds),
-                    max(b[3] for b in bounds),
-                )
-            )
-        else:
-            bounds = self._robot_bounds()
-            if bounds is not None:
-                camera = top_down_camera(bounds, client.camera.aspect, free=free_share(client.camera.image_width))
-        if camera is None:
-            return
-        client.camera.fov = camera.fov
-        client.camera.position = camera.position
-        client.camera.look_at = camera.look_at
-        self._framed.add(client.client_id)
-        if view == "arms" and self.arms:
-            self._top_views.pop(client.client_id, None)
-        else:
-            earlier = self._top_views.get(client.client_id, (None, []))[1]
-            # the cameras this view was given, latest last: the browser reports its camera back late, so a report of
-            # an earlier one is ours too, not the user's
-            self._top_views[client.client_id] = (bounds, [*earlier[-(CAMERAS_KEPT - 1) :], camera])
-
-    def _robot_bounds(self) -> tuple[float, float, float, float] | None:
-        """(xmin, ymin, xmax, ymax) over every robot's extent (its map, else its surroundings)."""
-        extents = [e for e in (link.state.extent() for link in self.robots.values()) if e is not None]
-        if not extents:
-            return None
-        return (
-            min(e[0] for e in extents),
-            min(e[1] for e in extents),
-            max(e[2] for e in extents),
-            max(e[3] for e in extents),
+        camera = self.framing.camera(
+            client.client_id,
+            view,
+            robots=[link.state.extent() for link in self.robots.values()],
+            arms=[arms.bounds() for arms in self.arms.values()],
+            aspect=client.camera.aspect,
+            image_width=client.camera.image_width,
         )
+        if camera is not None:
+            client.camera.fov = camera.fov
+            client.camera.position = camera.position
+            client.camera.look_at = camera.look_at
 
     def _follow_growth(self, client) -> bool:
-        """Frame the top view again when the robots' maps have grown out of it (a SLAM map) and the user has not
-        moved the camera since it was set (then it is left alone); True when it was framed again. Without a map
-        the view stays where it was put."""
-        view = self._top_views.get(client.client_id)
+        """Frame the top view again when the robots' maps have grown out of it and the user has not moved the
+        camera since it was set (Framing.outgrown); True when it was framed again."""
         maps = [link.state.map.bounds for link in self.robots.values() if link.state.map is not None]
-        if view is None or not maps:
-            return False
-        bounds = (min(b[0] for b in maps), min(b[1] for b in maps), max(b[2] for b in maps), max(b[3] for b in maps))
-        if not outgrown(view[0], bounds):
-            return False
-        if not any(
-            np.allclose(client.camera.position, camera.position, atol=0.01)
-            and np.allclose(client.camera.look_at, camera.look_at, atol=0.01)
-            for camera in view[1]
-        ):
-            self._top_views.pop(client.client_id)  # the user's camera from now on, until Top view is pressed
+        if not self.framing.outgrown(client.client_id, client.camera.position, client.camera.look_at, maps):
             return False
         self._frame(client, "top")
         return True
@@ -740,28 +648,12 @@ class ViewerNode(ManagedNode):
                     lambda answer, node=node: self._set_node_state(node, answer),
                     lambda node=node: self._set_node_state(node, None),
                 )
-        lines = []
-        table = status.node_state_table(self.node_states)
-        if table:
-            lines.append(table)
-        if self.paused is not None:
-            lines.append("**simulator paused**" if self.paused else "simulator running")
-        for link in self.robots.values():
-            state = link.state
-            title = f"**robot {state.namespace or '/'}** ({self.scene.color_name_of(state.namespace)})"
-            details = messages.format_status(state.status)
-            if state.localized is not None and not state.status.get("localization_enabled"):
-                details.append("localized" if state.localized else "not localized")
-            if state.particle_count:
-                details.append(f"{state.particle_count} particles ({len(state.particles)} drawn)")
-            offset = status.offset_text(state.drawn_offset())
-            if offset is not None:
-                details.append(offset)
-            details.extend(status.mapping_texts(state.graph, state.frontiers, state.skipped))
-            lines.append(title + (": " + "; ".join(details) if details else ""))
-        for node, arms in self.arms.items():
-            lines.append(f"**arms of {node}**: {', '.join(arms.arms)}")
-        self.panels.status.content = "\n\n".join(lines) or "nothing found yet"
+        robots = [
+            status.robot_line(link.state, self.scene.color_name_of(link.state.namespace))
+            for link in self.robots.values()
+        ]
+        arms = {node: list(arms.arms) for node, arms in self.arms.items()}
+        self.panels.status.content = status.panel_text(self.node_states, self.paused, robots, arms)
 
     def _set_node_state(self, node: str, answer) -> None:
         self.node_states[node] = (

@@ -207,7 +207,7 @@ def test_the_top_view_follows_a_growing_map_until_the_user_moves_the_camera(ros_
     assert node._follow_growth(client), "the map outgrew the view: framed again"
     assert client.camera.position[2] > first[2], "from higher up"
     second = client.camera.position
-    client.camera.position, client.camera.look_at = first, node._top_views[7][1][-2].look_at  # reported late
+    client.camera.position, client.camera.look_at = first, node.framing.top_views[7][1][-2].look_at  # reported late
     grow(160)
     assert node._follow_growth(client), "a camera the view was given earlier is not the user's"
     assert client.camera.position[2] > second[2]

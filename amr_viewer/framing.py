@@ -1,0 +1,101 @@
+"""Where each browser's camera looks: the robots from above, or the arms at an angle; the top view followed as a
+SLAM map grows, until the user moves the camera. No ROS, no viser: a browser is its client id and its camera's
+numbers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from amr_viewer.geometry import Camera, free_share, oblique_camera, outgrown, top_down_camera
+
+Bounds = tuple[float, float, float, float]
+"""(xmin, ymin, xmax, ymax) on the floor."""
+CAMERAS_KEPT = 4
+"""cameras a browser's top view was last given (a camera it reports that is one of them is not the user's)."""
+SAME = 0.01
+"""m within which a camera the browser reports is one it was given."""
+
+
+def union(boxes: Iterable[Bounds | None]) -> Bounds | None:
+    """The bounds of every box given (None ones left out); None for none."""
+    boxes = [box for box in boxes if box is not None]
+    if not boxes:
+        return None
+    return (
+        min(b[0] for b in boxes),
+        min(b[1] for b in boxes),
+        max(b[2] for b in boxes),
+        max(b[3] for b in boxes),
+    )
+
+
+def arms_origin(robot_extents: Iterable[Bounds | None]) -> tuple[float, float, float]:
+    """Where a new set of arms stands: 1 m east of the robots' extents, level with the first one (the origin
+    without robots)."""
+    extents = [extent for extent in robot_extents if extent is not None]
+    if not extents:
+        return (0.0, 0.0, 0.0)
+    return (max(e[2] for e in extents) + 1.0, 0.5 * (extents[0][1] + extents[0][3]), 0.0)
+
+
+class Framing:
+    """The cameras given to each browser: which browsers were framed, and the top views that follow a map."""
+
+    def __init__(self) -> None:
+        self.framed: set[int] = set()
+        """Browsers given a camera (one connected before there was anything to frame is framed at a draw)."""
+        self.top_views: dict[int, tuple[Bounds, list[Camera]]] = {}
+        """client -> (the bounds, the cameras) of the top view it was last given: followed as a SLAM map grows."""
+
+    def clear(self) -> None:
+        self.framed.clear()
+        self.top_views.clear()
+
+    def camera(
+        self,
+        client: int,
+        view: str,
+        *,
+        robots: Iterable[Bounds | None],
+        arms: Sequence[Bounds],
+        aspect: float,
+        image_width: int,
+    ) -> Camera | None:
+        """The camera for browser `client`'s `view`: 'arms' at an angle over the arms' cells (when there are
+        arms), else top-down over the robots' extents; None when there is nothing to frame yet."""
+        if view == "arms" and arms:
+            bounds = union(arms)
+            camera = oblique_camera(bounds)
+        else:
+            bounds = union(robots)
+            if bounds is None:
+                return None
+            camera = top_down_camera(bounds, aspect, free=free_share(image_width))
+        self.framed.add(client)
+        if view == "arms" and arms:
+            self.top_views.pop(client, None)
+        else:
+            earlier = self.top_views.get(client, (None, []))[1]
+            # the cameras this view was given, latest last: the browser reports its camera back late, so a report of
+            # an earlier one is ours too, not the user's
+            self.top_views[client] = (bounds, [*earlier[-(CAMERAS_KEPT - 1) :], camera])
+        return camera
+
+    def outgrown(self, client: int, position, look_at, maps: Iterable[Bounds]) -> bool:
+        """The browser's top view should be framed again: the maps have grown out of it and its camera (`position`,
+        `look_at`, as it reports them) is still one it was given. A camera the user moved is left alone from now
+        on (until the top view is asked for again); without a map the view stays where it was put."""
+        view = self.top_views.get(client)
+        bounds = union(maps)
+        if view is None or bounds is None or not outgrown(view[0], bounds):
+            return False
+        if not any(
+            np.allclose(position, camera.position, atol=SAME) and np.allclose(look_at, camera.look_at, atol=SAME)
+            for camera in view[1]
+        ):
+            self.top_views.pop(client)  # the user's camera from now on, until Top view is pressed
+            return False
+        return True

@@ -1,0 +1,73 @@
+"""Framing, where each browser's camera looks (no ROS, no viser): the robots from above or the arms at an angle,
+the top view followed as a map grows until the user moves the camera."""
+
+from __future__ import annotations
+
+import pytest
+
+from amr_viewer.framing import CAMERAS_KEPT, Framing, arms_origin, union
+from amr_viewer.geometry import oblique_camera, top_down_camera
+
+ROOM = (-1.0, -1.0, 1.0, 1.0)
+
+
+def top(framing: Framing, client: int = 7, robots=(ROOM,), arms=()):
+    return framing.camera(client, "top", robots=list(robots), arms=list(arms), aspect=1.6, image_width=0)
+
+
+def test_nothing_is_framed_until_there_is_something_to_frame():
+    framing = Framing()
+    assert top(framing, robots=[None]) is None and not framing.framed
+    assert framing.camera(7, "arms", robots=[], arms=[], aspect=1.6, image_width=0) is None, "no arms: the top view"
+    assert top(framing) == top_down_camera(ROOM, 1.6) and 7 in framing.framed
+
+
+def test_the_arms_are_seen_at_an_angle_and_their_view_is_not_followed():
+    framing = Framing()
+    top(framing)
+    camera = framing.camera(
+        7, "arms", robots=[ROOM], arms=[(2.0, -0.5, 3.0, 0.5), (3.0, -0.5, 4.0, 0.5)], aspect=1.6, image_width=0
+    )
+    assert camera == oblique_camera((2.0, -0.5, 4.0, 0.5)) and 7 not in framing.top_views
+    assert not framing.outgrown(7, camera.position, camera.look_at, [(-5.0, -5.0, 5.0, 5.0)])
+
+
+def test_a_grown_map_is_followed_while_the_camera_is_one_the_view_was_given():
+    framing = Framing()
+    first = top(framing)
+    assert not framing.outgrown(7, first.position, first.look_at, []), "without a map the view stays"
+    assert not framing.outgrown(7, first.position, first.look_at, [ROOM]), "the map within the view"
+    grown = [(-2.0, -1.0, 1.0, 1.0)]
+    assert framing.outgrown(7, first.position, first.look_at, grown)
+    second = top(framing, robots=grown)
+    assert framing.outgrown(7, first.position, first.look_at, [(-4.0, -1.0, 1.0, 1.0)]), (
+        "a camera reported late, one given earlier, is not the user's"
+    )
+    assert len(framing.top_views[7][1]) == 2 and framing.top_views[7][1][-1] == second
+
+
+def test_a_camera_the_user_moved_is_left_alone_until_the_top_view_is_asked_for():
+    framing = Framing()
+    top(framing)
+    grown = [(-3.0, -1.0, 1.0, 1.0)]
+    assert not framing.outgrown(7, (0.5, 0.5, 3.0), (0.0, 0.0, 0.0), grown) and 7 not in framing.top_views
+    camera = top(framing, robots=grown)
+    assert framing.outgrown(7, camera.position, camera.look_at, [(-6.0, -1.0, 1.0, 1.0)]), "followed again"
+
+
+def test_only_the_last_cameras_are_kept_per_browser_and_each_browser_has_its_own():
+    framing = Framing()
+    for size in range(1, CAMERAS_KEPT + 3):
+        top(framing, robots=[(-size, -1.0, 1.0, 1.0)])
+    assert len(framing.top_views[7][1]) == CAMERAS_KEPT
+    top(framing, client=8)
+    assert framing.top_views[8][0] == ROOM and framing.top_views[7][0] != ROOM
+    framing.clear()
+    assert not framing.framed and not framing.top_views
+
+
+def test_union_and_the_arms_place():
+    assert union([None, (0.0, 0.0, 1.0, 1.0), (-1.0, 0.5, 0.5, 2.0)]) == (-1.0, 0.0, 1.0, 2.0)
+    assert union([None]) is None
+    assert arms_origin([]) == (0.0, 0.0, 0.0)
+    assert arms_origin([None, (-1.0, -2.0, 3.0, 0.0), (0.0, 0.0, 5.0, 1.0)]) == pytest.approx((6.0, -1.0, 0.0))
