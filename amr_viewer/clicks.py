@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 
 from amr_util.geometry import Pose2D
-from amr_viewer.geometry import finite
+from amr_viewer.geometry import finite, floor_point
+from amr_viewer.topics import join
 
 GOAL, INITIAL_POSE, OFF = "goal", "initial pose", "off"
 MODES = (GOAL, INITIAL_POSE, OFF)
@@ -49,9 +50,29 @@ class ClickTool:
             return self.mode, Pose2D(x, y, heading(robot.x, robot.y, x, y, robot.theta))
         return self.mode, Pose2D(x, y, robot.theta)
 
+    def ray(self, origin, direction, robot: Pose2D | None) -> tuple[tuple[str, Pose2D] | None, str | None]:
+        """A click as the browser gives it, a ray from the camera: (mode, pose) to send or None, and the line to
+        say meanwhile (a first click of two), or None. A ray that misses the floor is no click."""
+        point = floor_point(origin, direction)
+        if point is None:
+            return None, None
+        chosen = self.click(point[0], point[1], robot)
+        if chosen is None and self.pending is not None:
+            return None, f"({point[0]:.2f}, {point[1]:.2f}): now click the heading"
+        return chosen, None
+
 
 def heading(x0: float, y0: float, x1: float, y1: float, default: float) -> float:
     """The direction from (x0, y0) to (x1, y1), `default` when they (nearly) coincide."""
     if math.hypot(x1 - x0, y1 - y0) < MIN_HEADING_DISTANCE:
         return default
     return math.atan2(y1 - y0, x1 - x0)
+
+
+def pose_topic(mode: str, namespace: str = "") -> str:
+    """Where a click's pose goes: a goal to `<ns>/goal_pose`, a pose estimate to `<ns>/initialpose` (RViz's)."""
+    return join(namespace, "goal_pose" if mode == GOAL else "initialpose")
+
+
+def sent_text(topic: str, pose: Pose2D) -> str:
+    return f"sent {topic}: ({pose.x:.2f}, {pose.y:.2f}), {math.degrees(pose.theta):.0f} deg"

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import math
 import queue
 import time
 from collections import deque
@@ -46,11 +45,10 @@ from amr_util.managed_node import ManagedNode, run
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.robot_description import default_robot
-from amr_viewer import cdr, messages, status, topics
+from amr_viewer import cdr, messages, replies, status, topics
 from amr_viewer.arms import ArmSet
-from amr_viewer.clicks import GOAL, ClickTool
+from amr_viewer.clicks import GOAL, ClickTool, pose_topic, sent_text
 from amr_viewer.framing import Framing, arms_origin
-from amr_viewer.geometry import floor_point
 from amr_viewer.parameters import entry_from, value_of, visible
 from amr_viewer.pending import Pending
 from amr_viewer.state import Frames, RobotState, Skipped, WorldGoal, frontier_view, pose_graph_view
@@ -664,27 +662,21 @@ class ViewerNode(ManagedNode):
 
     def _control(self, service: str) -> None:
         if not self.simulators:
-            self.panels.simulation_reply.content = "no simulator found (a node with ~/pause, ~/resume, ~/step, ~/reset)"
+            self.panels.simulation_reply.content = replies.NO_SIMULATOR
             return
         localizers = [node for node, client in self.localizers.items() if client.service_is_ready()]
         if service != "reset" or not localizers:
             self._call_simulators(service)
             return
-        # A reset puts the robot back at its start, which no localizer is told (a kidnapping): each one starts
-        # global localization again first, so that the reset's observation is the first one it judges afresh.
-        waiting = set(localizers)
-        note = f"; global localization restarted on {', '.join(localizers)}"
-
-        def done(node: str) -> None:
-            waiting.discard(node)
-            if not waiting:
-                self._call_simulators(service, note)
-
+        # a reset first restarts each localizer's global localization (replies.Countdown)
+        countdown = replies.Countdown(
+            localizers, lambda: self._call_simulators(service, replies.restart_note(localizers))
+        )
         for node in localizers:
             self.pending.add(
                 self.localizers[node].call_async(Empty.Request()),
-                lambda answer, node=node: done(node),
-                lambda node=node: done(node),
+                lambda answer, node=node: countdown.done(node),
+                lambda node=node: countdown.done(node),
             )
 
     def _call_simulators(self, service: str, note: str = "") -> None:
@@ -696,12 +688,9 @@ class ViewerNode(ManagedNode):
                 continue
 
             def answered(response, simulator=simulator) -> None:
-                if isinstance(response, Exception):
-                    text = f"{simulator}/{service}: {response}"
-                else:
-                    text = f"{simulator}: {response.message}" + (note if response.success else "")
-                    if response.success and service in ("pause", "step", "resume"):
-                        self.paused = service != "resume"
+                text, paused = replies.control_reply(simulator, service, response, note)
+                if paused is not None:
+                    self.paused = paused
                 self.panels.simulation_reply.content = text
 
             self.pending.add(
@@ -716,11 +705,8 @@ class ViewerNode(ManagedNode):
         for simulator in self.simulators:
 
             def answered(response, simulator=simulator) -> None:
-                result = response.results[0] if not isinstance(response, Exception) and response.results else None
-                self.panels.simulation_reply.content = (
-                    f"{simulator}: {name} = {value}"
-                    if result is not None and result.successful
-                    else f"{simulator} refused {name} = {value}: {result.reason if result is not None else response}"
+                self.panels.simulation_reply.content = replies.simulator_parameter_reply(
+                    simulator, name, value, response
                 )
 
             self.pending.add(
@@ -732,15 +718,12 @@ class ViewerNode(ManagedNode):
     # -- clicks on the floor ----------------------------------------------------------------------------------
 
     def _on_floor_click(self, event) -> None:
-        point = floor_point(event.ray_origin, event.ray_direction)
-        if point is None:
-            return
         link = self.robots.get(self.click_namespace) or next(iter(self.robots.values()), None)
         robot = link.state.robot_pose() if link is not None else None
-        chosen = self.clicks.click(point[0], point[1], robot)
+        chosen, said = self.clicks.ray(event.ray_origin, event.ray_direction, robot)
+        if said is not None:
+            self.panels.click_reply.content = said
         if chosen is None:
-            if self.clicks.pending is not None:
-                self.panels.click_reply.content = f"({point[0]:.2f}, {point[1]:.2f}): now click the heading"
             return
         mode, pose = chosen
         self.send_pose(mode, pose, link.state.namespace if link is not None else "")
@@ -752,13 +735,11 @@ class ViewerNode(ManagedNode):
             message = messages.fill_pose_stamped(PoseStamped(), self.frames.map, stamp, pose)
         else:
             message = messages.fill_initial_pose(PoseWithCovarianceStamped(), self.frames.map, stamp, pose)
-        topic = topics.join(namespace, "goal_pose" if mode == GOAL else "initialpose")
+        topic = pose_topic(mode, namespace)
         if topic not in self._pose_publishers:
             self._pose_publishers[topic] = self.create_publisher(type(message), topic, reliable(10))
         self._pose_publishers[topic].publish(message)
-        self.panels.click_reply.content = (
-            f"sent {topic}: ({pose.x:.2f}, {pose.y:.2f}), {math.degrees(pose.theta):.0f} deg"
-        )
+        self.panels.click_reply.content = sent_text(topic, pose)
 
     # -- the parameters panel ---------------------------------------------------------------------------------
 
@@ -819,13 +800,11 @@ class ViewerNode(ManagedNode):
         client = self._parameters_client(node)
 
         def answered(response) -> None:
-            result = response.results[0] if not isinstance(response, Exception) and response.results else None
-            if result is not None and result.successful:
+            taken = replies.taken(response)
+            if taken:
                 entry.value = value
-                reply.content = f"{node}: {entry.name} = {entry.text()}"
-            else:
-                reason = result.reason if result is not None else str(response)
-                reply.content = f"{node} refused {entry.name} = {value!r}: {reason or '(no reason given)'}"
+            reply.content = replies.parameter_reply(node, entry.name, value, entry.text(), response)
+            if not taken:
                 self.panels.show_value(node, entry, entry.value)
 
         self.pending.add(
