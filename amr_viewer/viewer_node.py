@@ -42,9 +42,7 @@ from amr_interfaces.msg import BeaconRanges, Frontiers, LocalizedPose, PoseGraph
 from amr_maps.world import load_world, resolve_world_path
 from amr_util.geometry import Pose2D
 from amr_util.managed_node import ManagedNode, run
-from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
-from amr_util.robot_description import default_robot
 from amr_viewer import cdr, messages, replies, status, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool, pose_topic, sent_text
@@ -52,6 +50,7 @@ from amr_viewer.framing import Framing, arms_origin
 from amr_viewer.parameters import entry_from, value_of, visible
 from amr_viewer.pending import Pending
 from amr_viewer.state import Frames, RobotState, Skipped, WorldGoal, frontier_view, pose_graph_view
+from amr_viewer.viewer_config import specs
 
 NODE_NAME = "viewer"
 TF_STATIC = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -60,51 +59,6 @@ STATUS_PERIOD = 1.0
 RAW_KEEP = 64
 """Raw messages of a busy topic kept between two draws (a transform published every few steps is among them)."""
 WARNING_PERIOD = 5.0
-
-
-def specs() -> tuple[ParameterSpec, ...]:
-    return (
-        ParameterSpec(
-            "host",
-            "127.0.0.1",
-            "address the web server binds: 127.0.0.1 (this machine only), or 0.0.0.0 "
-            "for every interface (there is no authentication)",
-        ),
-        ParameterSpec(
-            "port",
-            8080,
-            "port of the web server (0: any free port; a port in use fails configure)",
-            minimum=0,
-            maximum=65535,
-        ),
-        ParameterSpec("draw_period", 0.1, "wall-clock s between two redraws", minimum=0.02, maximum=10.0, live=True),
-        ParameterSpec(
-            "discovery_period", 1.0, "wall-clock s between two looks at the graph", minimum=0.1, maximum=60.0, live=True
-        ),
-        ParameterSpec(
-            "max_particles",
-            1000,
-            "particles drawn at most (evenly picked from the cloud)",
-            minimum=0,
-            maximum=100000,
-            live=True,
-        ),
-        ParameterSpec(
-            "trail_spacing", 0.02, "m between two points of the trajectory trail", minimum=0.001, maximum=10.0
-        ),
-        ParameterSpec(
-            "robot_radius",
-            default_robot().radius,
-            "m, the robot's drawn radius (the simulator's robot.radius "
-            "when it has one; default: the robot description's)",
-            minimum=0.01,
-            maximum=10.0,
-        ),
-        ParameterSpec("namespaces", [], "robot namespaces to draw ([]: every one found)", kind="str_array"),
-        ParameterSpec("map_frame", "map", "REP 105 map frame"),
-        ParameterSpec("odom_frame", "odom", "REP 105 odometry frame"),
-        ParameterSpec("base_frame", "base_footprint", "the robot's base frame"),
-    )
 
 
 class RobotLink:

@@ -154,7 +154,7 @@ def _ik_chain_keys():
 
 
 def _viewer():
-    from amr_viewer.viewer_node import specs
+    from amr_viewer.viewer_config import specs
 
     return specs()
 
