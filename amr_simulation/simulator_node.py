@@ -601,15 +601,15 @@ class SimulatorNode(ManagedNode):
             ]
 
     def _on_pose(self, channel: RobotChannel, message: LocalizedPose) -> None:
-        pose = message.pose.pose
-        self._control.pose(
-            channel.index,
-            stamp_nanoseconds(message.header.stamp),
-            pose.position.x,
-            pose.position.y,
-            yaw_from_quaternion(pose.orientation),
-            message.localized,
-        )
+        try:
+            pose = message.pose.pose
+            stamp, theta = stamp_nanoseconds(message.header.stamp), yaw_from_quaternion(pose.orientation)
+        except Exception as error:
+            self.get_logger().warning(
+                f"/{channel.prefix}pose not judged: {error}", throttle_duration_sec=WARNING_PERIOD
+            )
+            return
+        self._control.pose(channel.index, stamp, pose.position.x, pose.position.y, theta, message.localized)
 
     # -- services --------------------------------------------------------------------------
 

@@ -8,6 +8,7 @@ instead: the direction from the first point to the second (RViz's drag, for a br
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from amr_util.geometry import Pose2D
 from amr_viewer.geometry import finite, floor_point
@@ -50,13 +51,16 @@ class ClickTool:
             return self.mode, Pose2D(x, y, heading(robot.x, robot.y, x, y, robot.theta))
         return self.mode, Pose2D(x, y, robot.theta)
 
-    def ray(self, origin, direction, robot: Pose2D | None) -> tuple[tuple[str, Pose2D] | None, str | None]:
+    def ray(
+        self, origin, direction, robot: Callable[[], Pose2D | None]
+    ) -> tuple[tuple[str, Pose2D] | None, str | None]:
         """A click as the browser gives it, a ray from the camera: (mode, pose) to send or None, and the line to
-        say meanwhile (a first click of two), or None. A ray that misses the floor is no click."""
+        say meanwhile (a first click of two), or None. A ray that misses the floor is no click (and `robot()`, the
+        robot's pose as drawn, is not asked for)."""
         point = floor_point(origin, direction)
         if point is None:
             return None, None
-        chosen = self.click(point[0], point[1], robot)
+        chosen = self.click(point[0], point[1], robot())
         if chosen is None and self.pending is not None:
             return None, f"({point[0]:.2f}, {point[1]:.2f}): now click the heading"
         return chosen, None

@@ -5,7 +5,7 @@ numbers.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -61,11 +61,12 @@ class Framing:
         *,
         robots: Iterable[Bounds | None],
         arms: Sequence[Bounds],
-        aspect: float,
-        image_width: int,
+        screen: Callable[[], tuple[float, float]],
     ) -> Camera | None:
         """The camera for browser `client`'s `view`: 'arms' at an angle over the arms' cells (when there are
-        arms), else top-down over the robots' extents; None when there is nothing to frame yet."""
+        arms), else top-down over the robots' extents; None when there is nothing to frame yet. `screen()` gives
+        the browser's canvas (aspect, width in px), asked for a top view only (a browser that has not reported its
+        camera yet has none)."""
         if view == "arms" and arms:
             bounds = union(arms)
             camera = oblique_camera(bounds)
@@ -73,7 +74,8 @@ class Framing:
             bounds = union(robots)
             if bounds is None:
                 return None
-            camera = top_down_camera(bounds, aspect, free=free_share(image_width))
+            aspect, width = screen()
+            camera = top_down_camera(bounds, aspect, free=free_share(width))
         self.framed.add(client)
         if view == "arms" and arms:
             self.top_views.pop(client, None)
@@ -84,14 +86,16 @@ class Framing:
             self.top_views[client] = (bounds, [*earlier[-(CAMERAS_KEPT - 1) :], camera])
         return camera
 
-    def outgrown(self, client: int, position, look_at, maps: Iterable[Bounds]) -> bool:
-        """The browser's top view should be framed again: the maps have grown out of it and its camera (`position`,
-        `look_at`, as it reports them) is still one it was given. A camera the user moved is left alone from now
-        on (until the top view is asked for again); without a map the view stays where it was put."""
+    def outgrown(self, client: int, reported: Callable[[], tuple], maps: Iterable[Bounds]) -> bool:
+        """The browser's top view should be framed again: the maps have grown out of it and its camera (`reported()`:
+        (position, look_at) as the browser reports them, asked for only then) is still one it was given. A camera
+        the user moved is left alone from now on (until the top view is asked for again); without a map the view
+        stays where it was put."""
         view = self.top_views.get(client)
         bounds = union(maps)
         if view is None or bounds is None or not outgrown(view[0], bounds):
             return False
+        position, look_at = reported()
         if not any(
             np.allclose(position, camera.position, atol=SAME) and np.allclose(look_at, camera.look_at, atol=SAME)
             for camera in view[1]

@@ -336,7 +336,7 @@ class ViewerNode(ManagedNode):
         self._arms_asked, self._worlds_asked, self.simulators, self.localizers = set(), set(), {}, {}
         self._state_clients, self._parameter_clients, self.node_states = {}, {}, {}
         self._reported = set()
-        self.framing.clear()
+        self.framing.top_views.clear()  # (the browsers framed are kept, as before the move)
         if self.server is not None:
             self.server.stop()
         self.server = self.scene = self.panels = None
@@ -573,8 +573,7 @@ class ViewerNode(ManagedNode):
             view,
             robots=[link.state.extent() for link in self.robots.values()],
             arms=[arms.bounds() for arms in self.arms.values()],
-            aspect=client.camera.aspect,
-            image_width=client.camera.image_width,
+            screen=lambda: (client.camera.aspect, client.camera.image_width),
         )
         if camera is not None:
             client.camera.fov = camera.fov
@@ -585,7 +584,7 @@ class ViewerNode(ManagedNode):
         """Frame the top view again when the robots' maps have grown out of it and the user has not moved the
         camera since it was set (Framing.outgrown); True when it was framed again."""
         maps = [link.state.map.bounds for link in self.robots.values() if link.state.map is not None]
-        if not self.framing.outgrown(client.client_id, client.camera.position, client.camera.look_at, maps):
+        if not self.framing.outgrown(client.client_id, lambda: (client.camera.position, client.camera.look_at), maps):
             return False
         self._frame(client, "top")
         return True
@@ -673,7 +672,7 @@ class ViewerNode(ManagedNode):
 
     def _on_floor_click(self, event) -> None:
         link = self.robots.get(self.click_namespace) or next(iter(self.robots.values()), None)
-        robot = link.state.robot_pose() if link is not None else None
+        robot = link.state.robot_pose if link is not None else lambda: None
         chosen, said = self.clicks.ray(event.ray_origin, event.ray_direction, robot)
         if said is not None:
             self.panels.click_reply.content = said

@@ -13,24 +13,33 @@ from amr_viewer.clicks import GOAL, INITIAL_POSE, ClickTool, pose_topic, sent_te
 DOWN = (0.0, 0.0, -1.0)
 
 
+def nowhere() -> None:
+    """No robot drawn yet."""
+    return None
+
+
+def unasked() -> None:
+    raise AssertionError("a ray that misses the floor asks for no robot")
+
+
 def test_a_ray_onto_the_floor_is_a_click_there():
-    chosen, said = ClickTool().ray((1.25, -0.5, 3.0), DOWN, None)
+    chosen, said = ClickTool().ray((1.25, -0.5, 3.0), DOWN, nowhere)
     assert said is None and chosen == (GOAL, Pose2D(1.25, -0.5, 0.0))
-    chosen, _ = ClickTool().ray((0.0, 0.0, 2.0), (1.0, 0.0, -1.0), Pose2D(0.0, 0.0, 0.0))
+    chosen, _ = ClickTool().ray((0.0, 0.0, 2.0), (1.0, 0.0, -1.0), lambda: Pose2D(0.0, 0.0, 0.0))
     assert chosen[1].x == pytest.approx(2.0) and chosen[1].theta == pytest.approx(0.0)
 
 
 def test_a_ray_that_misses_the_floor_is_no_click():
     tool = ClickTool(two_clicks=True)
-    assert tool.ray((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), None) == (None, None), "the horizon"
-    assert tool.ray((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), None) == (None, None), "the sky"
+    assert tool.ray((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), unasked) == (None, None), "the horizon"
+    assert tool.ray((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), unasked) == (None, None), "the sky"
     assert tool.pending is None
 
 
 def test_the_first_of_two_clicks_asks_for_the_heading():
     tool = ClickTool(INITIAL_POSE, two_clicks=True)
-    assert tool.ray((1.0, 2.0, 3.0), DOWN, None) == (None, "(1.00, 2.00): now click the heading")
-    chosen, said = tool.ray((1.0, 3.0, 3.0), DOWN, None)
+    assert tool.ray((1.0, 2.0, 3.0), DOWN, nowhere) == (None, "(1.00, 2.00): now click the heading")
+    chosen, said = tool.ray((1.0, 3.0, 3.0), DOWN, nowhere)
     assert said is None and chosen == (INITIAL_POSE, Pose2D(1.0, 2.0, pytest.approx(math.pi / 2)))
 
 

@@ -11,14 +11,27 @@ from amr_viewer.geometry import oblique_camera, top_down_camera
 ROOM = (-1.0, -1.0, 1.0, 1.0)
 
 
+def screen() -> tuple[float, float]:
+    return 1.6, 0
+
+
+def unknown_screen():
+    raise AssertionError("a browser that has not reported its camera (viser asserts)")
+
+
+def reported(camera):
+    """A browser reporting `camera` back."""
+    return lambda: (camera.position, camera.look_at)
+
+
 def top(framing: Framing, client: int = 7, robots=(ROOM,), arms=()):
-    return framing.camera(client, "top", robots=list(robots), arms=list(arms), aspect=1.6, image_width=0)
+    return framing.camera(client, "top", robots=list(robots), arms=list(arms), screen=screen)
 
 
 def test_nothing_is_framed_until_there_is_something_to_frame():
     framing = Framing()
-    assert top(framing, robots=[None]) is None and not framing.framed
-    assert framing.camera(7, "arms", robots=[], arms=[], aspect=1.6, image_width=0) is None, "no arms: the top view"
+    assert framing.camera(7, "top", robots=[None], arms=[], screen=unknown_screen) is None and not framing.framed
+    assert framing.camera(7, "arms", robots=[], arms=[], screen=screen) is None, "no arms: the top view"
     assert top(framing) == top_down_camera(ROOM, 1.6) and 7 in framing.framed
 
 
@@ -26,21 +39,21 @@ def test_the_arms_are_seen_at_an_angle_and_their_view_is_not_followed():
     framing = Framing()
     top(framing)
     camera = framing.camera(
-        7, "arms", robots=[ROOM], arms=[(2.0, -0.5, 3.0, 0.5), (3.0, -0.5, 4.0, 0.5)], aspect=1.6, image_width=0
+        7, "arms", robots=[ROOM], arms=[(2.0, -0.5, 3.0, 0.5), (3.0, -0.5, 4.0, 0.5)], screen=unknown_screen
     )
     assert camera == oblique_camera((2.0, -0.5, 4.0, 0.5)) and 7 not in framing.top_views
-    assert not framing.outgrown(7, camera.position, camera.look_at, [(-5.0, -5.0, 5.0, 5.0)])
+    assert not framing.outgrown(7, unknown_screen, [(-5.0, -5.0, 5.0, 5.0)]), "not asked: no top view to follow"
 
 
 def test_a_grown_map_is_followed_while_the_camera_is_one_the_view_was_given():
     framing = Framing()
     first = top(framing)
-    assert not framing.outgrown(7, first.position, first.look_at, []), "without a map the view stays"
-    assert not framing.outgrown(7, first.position, first.look_at, [ROOM]), "the map within the view"
+    assert not framing.outgrown(7, unknown_screen, []), "without a map the view stays"
+    assert not framing.outgrown(7, unknown_screen, [ROOM]), "the map within the view"
     grown = [(-2.0, -1.0, 1.0, 1.0)]
-    assert framing.outgrown(7, first.position, first.look_at, grown)
+    assert framing.outgrown(7, reported(first), grown)
     second = top(framing, robots=grown)
-    assert framing.outgrown(7, first.position, first.look_at, [(-4.0, -1.0, 1.0, 1.0)]), (
+    assert framing.outgrown(7, reported(first), [(-4.0, -1.0, 1.0, 1.0)]), (
         "a camera reported late, one given earlier, is not the user's"
     )
     assert len(framing.top_views[7][1]) == 2 and framing.top_views[7][1][-1] == second
@@ -50,9 +63,9 @@ def test_a_camera_the_user_moved_is_left_alone_until_the_top_view_is_asked_for()
     framing = Framing()
     top(framing)
     grown = [(-3.0, -1.0, 1.0, 1.0)]
-    assert not framing.outgrown(7, (0.5, 0.5, 3.0), (0.0, 0.0, 0.0), grown) and 7 not in framing.top_views
+    assert not framing.outgrown(7, lambda: ((0.5, 0.5, 3.0), (0.0, 0.0, 0.0)), grown) and 7 not in framing.top_views
     camera = top(framing, robots=grown)
-    assert framing.outgrown(7, camera.position, camera.look_at, [(-6.0, -1.0, 1.0, 1.0)]), "followed again"
+    assert framing.outgrown(7, reported(camera), [(-6.0, -1.0, 1.0, 1.0)]), "followed again"
 
 
 def test_only_the_last_cameras_are_kept_per_browser_and_each_browser_has_its_own():
