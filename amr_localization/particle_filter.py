@@ -511,11 +511,8 @@ class ParticleFilter:
             inside = self._open_space.contains(hypotheses.poses[:, 0], hypotheses.poses[:, 1])
             hypotheses.keep(inside)
             held = held[inside]
-        found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
-        if len(hypotheses):
-            hypotheses.observe(
-                held + self._log_likelihood(hypotheses.poses, None, beacons), self._elsewhere(seen, beacons, running)
-            )
+        # the clusters' poses and the background of `elsewhere` need neither the place search nor the places' new
+        # evidence: computed before the search's nodes are collected, which run on its thread meanwhile
         clusters = cluster_particles(
             self.particles[:, :2], self.weights, CLUSTER_RADIUS, CLUSTER_MIN_SIZE, self.particles[:, 2]
         )
@@ -528,6 +525,14 @@ class ParticleFilter:
         fit = np.zeros(len(poses))
         if seen is not None:
             poses, fit = self._fitted(poses, seen)
+        background = self._background(seen, beacons) if len(hypotheses) else 0.0
+        found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
+        if len(hypotheses):
+            hypotheses.observe(
+                held + self._log_likelihood(hypotheses.poses, None, beacons),
+                self._elsewhere(seen, beacons, running, background),
+            )
+        if seen is not None:
             poses, fit = np.vstack([poses, found]), np.concatenate([fit, found_fit])
         self._admit(poses, fit + self._log_likelihood(poses, None, beacons), seen, beacons, settled)
         hypotheses.merge()
@@ -643,19 +648,25 @@ class ParticleFilter:
         self._declared = hypotheses.poses[0].copy() if self._localized else None
         self.status.confidence, self.status.runner_up = confidence, runner_up
 
-    def _elsewhere(self, seen: _Seen | None, beacons: BeaconReading | None, peaks: np.ndarray) -> float:
+    def _background(self, seen: _Seen | None, beacons: BeaconReading | None) -> float:
+        """The data's mean likelihood over the ANYWHERE poses (log): `elsewhere`'s background (_elsewhere)."""
+        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True, fixed=self._anywhere_paths)
+        return float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
+
+    def _elsewhere(
+        self, seen: _Seen | None, beacons: BeaconReading | None, peaks: np.ndarray, background: float | None = None
+    ) -> float:
         """The data's marginal log-likelihood over the places not followed (the places' own model),
 
             log (1/V) integral p(z | x) dx  ~  log( mean_m p(z | x_m) + sum_k p(z | x_k) v / V ),
 
-        the ANYWHERE poses x_m drawn in free space for the background, and for its peaks, which a few dozen poses
-        drawn at random never meet (a scan is explained within centimetres and a degree of its pose), the running
-        place search's best poses so far x_k (`peaks`, moved to now and fitted) that no place followed is at, each
-        holding the share v / V of the map's poses a peak of the measurement model takes (_log_peak_share). A
-        place followed that the robot is not at then loses to `elsewhere` as soon as the search meets where it is,
-        not only once the search is complete."""
-        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True, fixed=self._anywhere_paths)
-        background = float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
+        the ANYWHERE poses x_m drawn in free space for the background (_background, unless given), and for its
+        peaks, which a few dozen poses drawn at random never meet (a scan is explained within centimetres and a degree
+        of its pose), the running place search's best poses so far x_k (`peaks`, moved to now and fitted) that no place
+        followed is at, each holding the share v / V of the map's poses a peak of the measurement model takes
+        (_log_peak_share). A place followed that the robot is not at then loses to `elsewhere` as soon as the search
+        meets where it is, not only once the search is complete."""
+        background = self._background(seen, beacons) if background is None else background
         peaks = peaks[self.hypotheses.find(peaks) < 0] if len(peaks) else peaks
         if not len(peaks):
             return background
@@ -979,7 +990,8 @@ class ParticleFilter:
         chosen_owner = owner[keep]
         bandwidth = (4.0 / (len(keep) * 5.0)) ** (1.0 / 7.0)
         places, factors = [], []
-        chosen_places = np.unique(chosen_owner[chosen_owner >= 0])
+        drawn = np.bincount(chosen_owner + 1)[1:]  # each place's particles drawn (counts: no sort of thousands)
+        chosen_places = np.flatnonzero(drawn)
         if len(chosen_places):
             covariances, counts = grouped_covariances(self.particles, self.weights, owner, int(chosen_places[-1]) + 1)
             for index in chosen_places:
@@ -994,7 +1006,7 @@ class ParticleFilter:
             return chosen
         # the kernel's draws, place by place (ascending), each place's rows in their order: one draw for them all
         places = np.array(places, dtype=np.int64)
-        draws = self._rng.standard_normal((int(np.isin(chosen_owner, places).sum()), 3))
+        draws = self._rng.standard_normal((int(drawn[places].sum()), 3))
         grid = self.free_space.grid
         jitter(
             chosen,
