@@ -73,10 +73,10 @@ class NavigatorConfig(Config):
     traffic_rules: TrafficConfig = field(default_factory=TrafficConfig)
     """the rules' parameters (config/traffic.yaml's values are the defaults)."""
     costmap: CostmapConfig = field(default_factory=CostmapConfig)
-    """with traffic: the costmap the rules build from /map (places aside, detours, what is unmapped), as the
-    planner builds its own: give it the planner node's robot_radius, safety_margin, cost_weight, cost_distance
-    and margin_cost (the fleet_navigation stack ties them: its robot_radius and safety_margin arguments set
-    both nodes)."""
+    """with traffic: the costmap the rules read from /map (places aside, detours, what is unmapped): the planner's,
+    amr_planning.costmap.shared_costmap (one object per process for equal maps and parameters): give it the planner
+    node's robot_radius, safety_margin, cost_weight, cost_distance and margin_cost (the fleet_navigation stack ties
+    them: its robot_radius and safety_margin arguments set both nodes)."""
     coordination: str = parameter("rules", choices=COORDINATIONS)
     """with traffic: how the robots share the world. rules: each robot by the traffic rules alone. plan: the rules
     until the fleet planner (amr_navigation fleet_planner) hands this robot a route on route_topic, then that route:
