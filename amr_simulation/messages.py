@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, TransformStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -20,7 +20,7 @@ from tf2_msgs.msg import TFMessage
 
 from amr_interfaces.msg import BeaconRanges, SimulatorStatus
 from amr_simulation.config import BeaconConfig, LidarConfig
-from amr_util.geometry import Pose2D, quaternion_from_yaw
+from amr_util.geometry import Pose2D, map_to_odom, quaternion_from_yaw
 
 if TYPE_CHECKING:
     from amr_simulation.fleet import Fleet, SimulatedRobot
@@ -97,6 +97,34 @@ STATUS_FIELDS = (
 )
 """The SimulatorStatus fields that change from step to step (all but the header and the robot's name)."""
 
+ODOMETRY_WIRE = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "pose.pose.position.x",
+    "pose.pose.position.y",
+    "pose.pose.orientation.x",
+    "pose.pose.orientation.y",
+    "pose.pose.orientation.z",
+    "pose.pose.orientation.w",
+    "twist.twist.linear.x",
+    "twist.twist.linear.y",
+    "twist.twist.angular.z",
+)
+SCAN_WIRE = ("header.stamp.sec", "header.stamp.nanosec", "ranges")
+TRANSFORM_WIRE = (
+    "header.stamp.sec",
+    "header.stamp.nanosec",
+    "transform.translation.x",
+    "transform.translation.y",
+    "transform.rotation.x",
+    "transform.rotation.y",
+    "transform.rotation.z",
+    "transform.rotation.w",
+)
+STATUS_WIRE = ("header.stamp.sec", "header.stamp.nanosec", *STATUS_FIELDS)
+"""What changes from one observation to the next in each message the simulator node keeps serialized
+(amr_util.wire; the rest: frames, names, geometry, stays)."""
+
 
 def status_fields(
     fleet: Fleet, robot: SimulatedRobot, distance: float, real_time_factor: float, localization=None
@@ -152,4 +180,26 @@ def beacon_ranges(
     )
     message.header.stamp = time
     message.header.frame_id = frame
+    return message
+
+
+def robot_transforms(
+    robot: SimulatedRobot, frames: dict[str, str], odom_to_base: bool, map_to_odom_wanted: bool
+) -> list[tuple[str, str, Pose2D]]:
+    """A robot's transforms as (parent, child, pose) in its `frames` (odom, base, world): odom -> base from the
+    encoder odometry and, when asked, the ground-truth map -> odom."""
+    parts = []
+    if odom_to_base:
+        parts.append((frames["odom"], frames["base"], robot.odom_pose))
+    if map_to_odom_wanted:
+        parts.append((frames["world"], frames["odom"], map_to_odom(robot.pose, robot.odom_pose)))
+    return parts
+
+
+def goal_pose(time: Time, frame: str, goal) -> PoseStamped:
+    """geometry_msgs/PoseStamped at a goal region's centre (x, y), heading 0, for a navigator to take as its goal."""
+    message = PoseStamped()
+    message.header.stamp, message.header.frame_id = time, frame
+    message.pose.position.x, message.pose.position.y = goal.x, goal.y
+    message.pose.orientation.w = 1.0
     return message

@@ -77,7 +77,7 @@ from amr_simulation.fleet import Fleet
 from amr_simulation.parameters import NODE_PARAMETERS, parameter_specs
 from amr_simulation.simulator import Simulator
 from amr_simulation.world_control import RobotTurn, WorldControl
-from amr_util.geometry import Pose2D, map_to_odom, quaternion_from_yaw, yaw_from_quaternion
+from amr_util.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import stamp_from_seconds, stamp_nanoseconds
@@ -87,32 +87,6 @@ TF_DEPTH = 100
 """Queue depth of /tf (tf2's dynamic broadcaster uses 100)."""
 WARNING_PERIOD = 5.0
 """s between repeats of a throttled warning."""
-ODOMETRY_FIELDS = (
-    "header.stamp.sec",
-    "header.stamp.nanosec",
-    "pose.pose.position.x",
-    "pose.pose.position.y",
-    "pose.pose.orientation.x",
-    "pose.pose.orientation.y",
-    "pose.pose.orientation.z",
-    "pose.pose.orientation.w",
-    "twist.twist.linear.x",
-    "twist.twist.linear.y",
-    "twist.twist.angular.z",
-)
-SCAN_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", "ranges")
-STATUS_FIELDS = ("header.stamp.sec", "header.stamp.nanosec", *messages.STATUS_FIELDS)
-TRANSFORM_FIELDS = (
-    "header.stamp.sec",
-    "header.stamp.nanosec",
-    "transform.translation.x",
-    "transform.translation.y",
-    "transform.rotation.x",
-    "transform.rotation.y",
-    "transform.rotation.z",
-    "transform.rotation.w",
-)
-"""What changes from one observation to the next in each message (the rest: frames, names, geometry, stays)."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
 """Event callbacks of the node's publishers: none (see SimulatorNode._publisher)."""
 REPORTED = SubscriptionEventCallbacks()
@@ -467,24 +441,21 @@ class SimulatorNode(ManagedNode):
             self._publish_robot(turn, channel, stamp, rate)
 
     def _tf_wire(self, group: list[RobotChannel], stamp) -> bytes:
-        """The TFMessage of these robots' transforms (odom -> base, and map -> odom when asked), serialized; kept by
-        the first robot of the group for the next observation of the same group."""
-        odom_to_base, map_to_odom_wanted = self._tf_parts
-        poses = []
-        for channel in group:
-            robot = self._fleet.robots[channel.index]
-            if odom_to_base:
-                poses.append(robot.odom_pose)
-            if map_to_odom_wanted:
-                poses.append(map_to_odom(robot.pose, robot.odom_pose))
+        """The TFMessage of these robots' transforms (messages.robot_transforms), serialized; kept by the first
+        robot of the group for the next observation of the same group."""
+        parts = [
+            part
+            for channel in group
+            for part in messages.robot_transforms(self._fleet.robots[channel.index], channel.frames, *self._tf_parts)
+        ]
         key = ("tf", tuple(channel.index for channel in group))
         wire = group[0].wires.get(key) or group[0].wire(
             key,
-            tuple(f"transforms.{i}.{field}" for i in range(len(poses)) for field in TRANSFORM_FIELDS),
-            lambda: messages.tf_message(self._transforms(group, stamp)),
+            tuple(f"transforms.{i}.{field}" for i in range(len(parts)) for field in messages.TRANSFORM_WIRE),
+            lambda: messages.tf_message([messages.transform(stamp, *part) for part in parts]),
         )
         values = []
-        for pose in poses:
+        for _, _, pose in parts:
             values += (stamp.sec, stamp.nanosec, pose.x, pose.y, *quaternion_from_yaw(pose.theta))
         return wire.fill(*values)
 
@@ -498,14 +469,14 @@ class SimulatorNode(ManagedNode):
             v, w = robot.odom_twist
             wire = channel.wire(
                 "odometry",
-                ODOMETRY_FIELDS,
+                messages.ODOMETRY_WIRE,
                 lambda: messages.odometry(stamp, frames["odom"], frames["base"], odom, (v, 0.0, w)),
             )
             outputs["odometry"].publish(wire.fill(sec, nanosec, odom.x, odom.y, *odom_rotation, v, 0.0, w))
         if "odom" in outputs:
             wire = channel.wire(
                 "odom",
-                ODOMETRY_FIELDS,
+                messages.ODOMETRY_WIRE,
                 lambda: messages.odometry(stamp, frames["odom"], frames["base"], odom, (0.0, 0.0, 0.0)),
             )
             outputs["odom"].publish(wire.fill(sec, nanosec, odom.x, odom.y, *odom_rotation, 0.0, 0.0, 0.0))
@@ -513,7 +484,7 @@ class SimulatorNode(ManagedNode):
             pose, (vx, vy, w) = robot.pose, robot.twist
             wire = channel.wire(
                 "ground_truth",
-                ODOMETRY_FIELDS,
+                messages.ODOMETRY_WIRE,
                 lambda: messages.odometry(stamp, frames["world"], frames["base"], pose, (vx, vy, w)),
             )
             outputs["ground_truth"].publish(
@@ -523,7 +494,7 @@ class SimulatorNode(ManagedNode):
             ranges = robot.ranges
             wire = channel.wire(
                 ("scan", len(ranges)),
-                SCAN_FIELDS,
+                messages.SCAN_WIRE,
                 lambda: messages.laser_scan(stamp, frames["scan"], ranges, fleet.lidar, fleet.config.dt),
             )
             outputs["scan"].publish(wire.fill(sec, nanosec, ranges))
@@ -534,25 +505,11 @@ class SimulatorNode(ManagedNode):
             localization = turn.check.state if turn.check is not None else False
             wire = channel.wire(
                 "status",
-                STATUS_FIELDS,
+                messages.STATUS_WIRE,
                 lambda: messages.status(stamp, frames["world"], fleet, robot, turn.distance, rate, localization),
             )
             fields = messages.status_fields(fleet, robot, turn.distance, rate, localization)
             outputs["status"].publish(wire.fill(sec, nanosec, *(fields[name] for name in messages.STATUS_FIELDS)))
-
-    def _transforms(self, channels: list[RobotChannel], stamp) -> list:
-        """Of each robot: odom -> base (encoder odometry) and, when asked, the ground-truth map -> odom."""
-        odom_to_base, map_to_odom_wanted = self._tf_parts
-        transforms = []
-        for channel in channels:
-            robot, frames = self._fleet.robots[channel.index], channel.frames
-            if odom_to_base:
-                transforms.append(messages.transform(stamp, frames["odom"], frames["base"], robot.odom_pose))
-            if map_to_odom_wanted:
-                transforms.append(
-                    messages.transform(stamp, frames["world"], frames["odom"], map_to_odom(robot.pose, robot.odom_pose))
-                )
-        return transforms
 
     def _publish_goals(self) -> None:
         """Each robot's goal on ~/goal (a fleet robot's on <name>/goal; latched), for a navigator to take as a goal;
@@ -560,12 +517,8 @@ class SimulatorNode(ManagedNode):
         for channel in self._robots:
             goal_region = self._fleet.robots[channel.index].goal
             if "goal" in channel.outputs:
-                goal = PoseStamped()
-                goal.header.stamp = stamp_from_seconds(self._control.now())
-                goal.header.frame_id = channel.frames["world"]
-                goal.pose.position.x, goal.pose.position.y = goal_region.x, goal_region.y
-                goal.pose.orientation.w = 1.0
-                channel.outputs["goal"].publish(goal)
+                stamp = stamp_from_seconds(self._control.now())
+                channel.outputs["goal"].publish(messages.goal_pose(stamp, channel.frames["world"], goal_region))
 
     def _publish_static_tf(self) -> None:
         """base -> scan: where the LiDAR sits on each robot (lidar.x, lidar.y), latched for late joiners (one

@@ -48,3 +48,25 @@ def test_transform_message_carries_the_pose_as_translation_and_yaw_quaternion():
     assert (t.x, t.y, t.z) == (1.0, -2.0, 0.0)
     assert 2.0 * math.atan2(q.z, q.w) == pytest.approx(2.5) and q.x == q.y == 0.0
     assert math.hypot(q.w, q.z) == pytest.approx(1.0)
+
+
+def test_a_robots_transforms_are_odom_to_base_then_map_to_odom_as_asked():
+    class Robot:
+        pose, odom_pose = Pose2D(1.0, 2.0, 0.5), Pose2D(0.9, 2.1, 0.4)
+
+    frames = {"odom": "r1/odom", "base": "r1/base_footprint", "world": "map"}
+    both = messages.robot_transforms(Robot(), frames, True, True)
+    assert [(parent, child) for parent, child, _ in both] == [("r1/odom", "r1/base_footprint"), ("map", "r1/odom")]
+    assert both[0][2] == Robot.odom_pose and both[1][2] == map_to_odom(Robot.pose, Robot.odom_pose)
+    assert compose(both[1][2], both[0][2]) == pytest.approx(Robot.pose), "map -> odom -> base is the truth"
+    assert [part[:2] for part in messages.robot_transforms(Robot(), frames, False, True)] == [("map", "r1/odom")]
+    assert messages.robot_transforms(Robot(), frames, False, False) == []
+
+
+def test_a_goal_is_its_regions_centre_heading_zero():
+    class Goal:
+        x, y, radius = 1.5, -1.25, 0.2
+
+    goal = messages.goal_pose(stamp_from_seconds(2.5), "map", Goal())
+    assert (goal.header.frame_id, goal.header.stamp.sec, goal.header.stamp.nanosec) == ("map", 2, 500_000_000)
+    assert (goal.pose.position.x, goal.pose.position.y, goal.pose.orientation.w) == (1.5, -1.25, 1.0)
