@@ -200,5 +200,16 @@ def entry_from(name: str, descriptor, value: ParameterValue) -> ParameterEntry:
     return entry
 
 
+def entries_from(names: list[str], descriptors, values) -> list[ParameterEntry] | None:
+    """The panel's entries of a node's parameters `names` from its DescribeParameters descriptors and GetParameters
+    values (in the same order); None when the counts differ (rclpy answers none for all when one is undeclared or
+    unset)."""
+    if not len(names) == len(descriptors) == len(values):
+        return None
+    return [
+        entry_from(name, descriptor, value) for name, descriptor, value in zip(names, descriptors, values, strict=True)
+    ]
+
+
 def visible(name: str) -> bool:
     return not name.startswith(HIDDEN_PREFIXES)

@@ -47,7 +47,7 @@ from amr_viewer import cdr, messages, replies, status, topics
 from amr_viewer.arms import ArmSet
 from amr_viewer.clicks import GOAL, ClickTool, pose_topic, sent_text
 from amr_viewer.framing import Framing, arms_origin
-from amr_viewer.parameters import entry_from, value_of, visible
+from amr_viewer.parameters import entries_from, value_of, visible
 from amr_viewer.pending import Pending
 from amr_viewer.state import Frames, RobotState, Skipped, WorldGoal, frontier_view, pose_graph_view
 from amr_viewer.viewer_config import specs
@@ -729,13 +729,10 @@ class ViewerNode(ManagedNode):
             if isinstance(values, Exception):
                 reply.content = f"{node}: {values}"
                 return
-            if not len(names) == len(descriptors) == len(values.values):  # rclpy answers none for all then
+            entries = entries_from(names, descriptors, values.values)
+            if entries is None:
                 reply.content = f"{node}: no values for {len(names)} parameters (one undeclared or unset); try Reload"
                 return
-            entries = [
-                entry_from(name, descriptor, value)
-                for name, descriptor, value in zip(names, descriptors, values.values, strict=True)
-            ]
             self._parameter_entries[node] = {entry.name: entry for entry in entries}
             self.panels.show_parameters(node, entries)
             reply.content = f"{node}: {len(entries)} parameters"

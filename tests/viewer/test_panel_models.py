@@ -10,7 +10,7 @@ from amr_util.managed_node import descriptor_of
 from amr_util.parameter_spec import ParameterSpec
 from amr_viewer import topics
 from amr_viewer.clicks import GOAL, INITIAL_POSE, OFF, ClickTool
-from amr_viewer.parameters import entry_from, nice_step, parameter_value, value_of, visible
+from amr_viewer.parameters import entries_from, entry_from, nice_step, parameter_value, value_of, visible
 
 T = ParameterType
 
@@ -159,3 +159,13 @@ def test_two_clicks_give_position_then_heading():
     tool.click(0.0, 0.0, None)
     tool.set_mode(GOAL)
     assert tool.pending is None, "changing mode forgets a first click"
+
+
+def test_a_nodes_entries_come_in_its_names_order_or_not_at_all_when_the_counts_differ():
+    names = ["kp", "enabled"]
+    descriptors = [ParameterDescriptor(type=T.PARAMETER_DOUBLE), ParameterDescriptor(type=T.PARAMETER_BOOL)]
+    values = [parameter_value(T.PARAMETER_DOUBLE, 2.0), parameter_value(T.PARAMETER_BOOL, True)]
+    entries = entries_from(names, descriptors, values)
+    assert [(e.name, e.value, e.widget) for e in entries] == [("kp", 2.0, "number"), ("enabled", True, "checkbox")]
+    assert entries_from(names, descriptors, []) is None, "rclpy answers no value for all when one is unset"
+    assert entries_from(names, descriptors[:1], values) is None
