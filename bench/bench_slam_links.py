@@ -13,6 +13,12 @@ For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default Sla
 - nodes: how many nodes' headings are more than 1.5 deg off their two neighbours' (estimate against reference),
   the worst listed (a single match off, put back by the next: every pair starting there is off by its heading
   times the pair's length).
+- along and across: the nodes' pairs 1-10 m of path apart, their error split along the pair's displacement (a
+  length: corridors) and across it (a heading), rms; the front end's links' along-track error (rms, median) and the
+  share of its square in the links more than 6 cm off (single matches a bump along a corridor, put back by the next);
+- --oracle-window: each node's scan matched by the front end's correlative matcher (its window: WINDOW_SIGMAS of the
+  odometry model) against the likelihood field of its local_window predecessors at their corrected poses, as the
+  front end would with a perfect window: along-track and heading error of that match against the corrected poses.
 - --reference: each scan (every --every-th) matched by the front end's correlative matcher at its corrected pose
   against the likelihood field of the other scans within 10 m at theirs, once those before it (more than --skip
   scans away) and once those after: the covariance of the two corrections is the reference's own error per pose
@@ -20,7 +26,7 @@ For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default Sla
   for per-pose noise of that size (and of 2 cm, 0.3 deg) scores against the reference.
 
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_links.py [--logs aces ...] [--reference]
-[--every 2] [--skip 1]
+[--oracle-window] [--every 2] [--skip 1]
 """
 
 from __future__ import annotations
@@ -36,8 +42,16 @@ import numpy as np
 from amr_datasets.carmen import read_carmen
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
-from amr_mapping.slam import LIKELIHOOD_PAD, LIKELIHOOD_SIGMA_CELLS, GraphSlam, SlamConfig, _beams
-from amr_mapping.trajectory_error import relative_error, relative_motions
+from amr_mapping.slam import (
+    LIKELIHOOD_PAD,
+    LIKELIHOOD_SIGMA_CELLS,
+    WINDOW_SIGMAS,
+    GraphSlam,
+    SlamConfig,
+    _beams,
+    _odometry_information,
+)
+from amr_mapping.trajectory_error import relative_error, relative_motions, relative_pairs
 from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
 from amr_util.geometry import compose, relative_pose, transform_points, wrap_angle
 
@@ -115,6 +129,7 @@ def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.0
             )
         )
         print(f"  heading error over {lag} node(s): rms {np.sqrt(np.mean(error**2)):.2f}, mean {error.mean():.2f} deg")
+    along_across(poses, nodes_reference, measured, truth)
     offsets = []
     for k in range(1, len(poses) - 1):
         pair = np.array([k - 1, k]), np.array([k, k + 1])
@@ -125,6 +140,85 @@ def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.0
     worst = off[np.argsort(-np.abs(off[:, 1]))][:5]
     listed = ", ".join(f"scan {int(s)} {e:+.1f}" for s, e in worst)
     print(f"  nodes more than 1.5 deg off their neighbours' heading: {len(off)} ({listed})")
+
+
+def _split(error: np.ndarray, displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(along, across): the translation errors (K, 2) along and across the displacements (K, 2), each pair's frame."""
+    length = np.maximum(np.hypot(displacement[:, 0], displacement[:, 1]), 1e-9)
+    ux, uy = displacement[:, 0] / length, displacement[:, 1] / length
+    return error[:, 0] * ux + error[:, 1] * uy, -error[:, 0] * uy + error[:, 1] * ux
+
+
+def along_across(poses: np.ndarray, reference: np.ndarray, measured: np.ndarray, truth: np.ndarray) -> None:
+    """The nodes' pair errors (1-10 m of path) split along and across the displacement; the links' along-track
+    error and its tail."""
+    i, j = relative_pairs(reference, 1.0, 10.0)
+    if len(i):
+        estimate, true = relative_motions(poses, i, j), relative_motions(reference, i, j)
+        c, s = np.cos(true[:, 2]), np.sin(true[:, 2])
+        dx, dy = estimate[:, 0] - true[:, 0], estimate[:, 1] - true[:, 1]
+        along, across = _split(np.column_stack([c * dx + s * dy, -s * dx + c * dy]), true[:, :2])
+        print(
+            f"  node pairs 1-10 m: error along the way rms {100 * np.sqrt(np.mean(along**2)):.1f} cm, across "
+            f"{100 * np.sqrt(np.mean(across**2)):.1f} cm"
+        )
+    along, _ = _split(measured[:, :2] - truth[:, :2], truth[:, :2])
+    tail = np.abs(along) > 0.06
+    print(
+        f"  links along the way: rms {100 * np.sqrt(np.mean(along**2)):.1f} cm, median "
+        f"{100 * np.median(np.abs(along)):.1f}; {int(tail.sum())} of {len(along)} links more than 6 cm off carry "
+        f"{np.sum(along[tail] ** 2) / max(np.sum(along**2), 1e-12):.0%} of its square"
+    )
+
+
+def oracle_window(name: str, log, seed: int, every: int) -> None:
+    """The front end's correlative match against a perfect window (see the module docstring)."""
+    reference = log.poses()
+    odometry = synthesize_odometry(reference, seed=seed)
+    config = SlamConfig()
+    slam = GraphSlam(config)
+    scan_of: list[int] = []
+    for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
+        try:
+            update = slam.add(int(round(item.stamp * 1e9)), odom, item.scan)
+        except MappingError:
+            continue
+        if update.node_added:
+            scan_of.append(k)
+    resolution, window = config.resolution, config.local_window
+    rows = []
+    for n in range(window, len(scan_of), every):
+        members = [m for m in range(n - window, n) if m not in slam._unmatched]
+        last = scan_of[n - 1]
+        cloud = np.vstack(
+            [
+                transform_points(relative_pose(reference[last], reference[scan_of[m]]), slam._nodes[m].points)
+                for m in members
+            ]
+        )
+        delta = np.array(relative_pose(odometry[last], odometry[scan_of[n]]))
+        sigma = 1.0 / np.sqrt(np.diag(_odometry_information(delta)))
+        linear = min(config.match_linear_window, max(2.0 * resolution, WINDOW_SIGMAS * sigma[0]))
+        angular = min(config.match_angular_window, WINDOW_SIGMAS * sigma[2])
+        table = ScoreMap.from_points(
+            cloud,
+            resolution,
+            LIKELIHOOD_SIGMA_CELLS * resolution,
+            linear + LIKELIHOOD_PAD,
+            cover=np.zeros((1, 2)),
+            to_points=True,
+        )
+        match = CorrelativeMatcher(table).match(slam._nodes[n].points, delta, linear, angular)
+        true = np.array(relative_pose(reference[last], reference[scan_of[n]]))
+        along, _ = _split((np.asarray(match.pose[:2]) - true[:2])[None, :], true[None, :2])
+        rows.append((along[0], wrap_angle(match.pose[2] - true[2])))
+    rows = np.array(rows)
+    print(
+        f"{name}: the front end's correlative match against its window at the corrected poses ({len(rows)} nodes): "
+        f"along the way rms {100 * np.sqrt(np.mean(rows[:, 0] ** 2)):.1f} cm, median "
+        f"{100 * np.median(np.abs(rows[:, 0])):.1f}, {int(np.sum(np.abs(rows[:, 0]) > 0.06))} more than 6 cm off; "
+        f"heading rms {np.degrees(np.sqrt(np.mean(rows[:, 1] ** 2))):.2f} deg"
+    )
 
 
 def reference_noise(name: str, log, every: int, skip: int) -> None:
@@ -191,6 +285,9 @@ def main() -> None:
         help="the reference's own noise per pose (chi-square with it added)",
     )
     parser.add_argument("--skip", type=int, default=1)
+    parser.add_argument(
+        "--oracle-window", action="store_true", help="the front end's match against a window at the corrected poses"
+    )
     args = parser.parse_args()
     for name in args.logs:
         path = next(Path(args.data).glob(f"{name}*"), None)
@@ -199,6 +296,8 @@ def main() -> None:
         log = read_carmen(path)
         if args.reference:
             reference_noise(name, log, args.every, args.skip)
+        elif args.oracle_window:
+            oracle_window(name, log, args.seed, args.every)
         else:
             links(name, log, args.seed, tuple(args.reference_sigma))
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
