@@ -64,5 +64,15 @@ class ThrottledLogger:
         caller = sys._getframe(2)  # the caller of debug/info/warning/error
         if not self._throttle((caller.f_code, caller.f_lineno)):
             return False
-        getattr(self.get_logger(), severity)(text)
+        # one line per severity: rclpy's logger keeps one severity per line that calls it (another raises
+        # "Logger severity cannot be changed between calls")
+        logger = self.get_logger()
+        if severity == "debug":
+            logger.debug(text)
+        elif severity == "info":
+            logger.info(text)
+        elif severity == "warning":
+            logger.warning(text)
+        else:
+            logger.error(text)
         return True

@@ -74,3 +74,14 @@ def test_the_path_follower_throttles_its_warnings_before_asking_its_logger(ros_c
         assert logger.lines == [("warning", "no localized /pose + /scan")]
     finally:
         node.destroy_node()
+
+
+def test_one_throttled_logger_logs_every_severity_through_rclpys_logger():
+    """rclpy's logger keeps one severity per line that calls it; a ThrottledLogger that logs a warning and then an
+    error (a node's two call sites) does not raise "Logger severity cannot be changed between calls"."""
+    import rclpy.logging
+
+    logger = rclpy.logging.get_logger("throttle_test")  # one object, as a node's get_logger() gives
+    throttled = ThrottledLogger(lambda: logger, 0.0)
+    for _ in range(2):
+        assert throttled.debug("d") and throttled.info("i") and throttled.warning("w") and throttled.error("e")
