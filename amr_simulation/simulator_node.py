@@ -572,7 +572,10 @@ class SimulatorNode(ManagedNode):
             response.success, response.message = True, action()
         except Exception as error:  # SimulationError: inside a wall or another robot, or not finite
             response.success, response.message = False, f"{failure}{error}"
-            getattr(self.get_logger(), level)(response.message)
+            if level == "error":  # a line per severity: rclpy's logger keeps one severity per calling line
+                self.get_logger().error(response.message)
+            else:
+                self.get_logger().warning(response.message)
         return response
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

@@ -130,6 +130,21 @@ def test_reset_and_set_pose(simulator, probe, executor):
     assert all(later > earlier for earlier, later in pairwise(stamps)), "stamps never go back"
 
 
+def test_a_failed_teleport_then_a_failed_reset_are_both_answered(simulator, probe, executor, monkeypatch):
+    """The two are logged at two severities (warning, error) from one answering method: rclpy's logger keeps one
+    severity per calling line, so each has its own (else the second raised out of the service callback)."""
+    node, driver = simulator(**OPEN_ROOM), probe()
+    start(executor, node, driver)
+    assert not call(executor, driver.set_pose, SetPose.Request(x=math.nan, y=0.0, theta=0.0)).success
+
+    def broken():
+        raise RuntimeError("no start pose")
+
+    monkeypatch.setattr(node._control, "reset", broken)
+    answer = call(executor, driver.reset, Trigger.Request())
+    assert answer is not None and not answer.success and "no start pose" in answer.message
+
+
 def test_ramming_a_wall_counts_one_collision_and_stays_out(simulator, probe, executor):
     # facing the east wall (inner face at x = 1.975) from 0.5 m away; 80 steps would drive 1.6 m
     node, driver = simulator(start=[1.3, 0.0, 0.0], **OPEN_ROOM), probe()
