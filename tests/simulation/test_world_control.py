@@ -5,6 +5,7 @@ is judged to be (a collision, the goal)."""
 from __future__ import annotations
 
 import math
+import sys
 
 import pytest
 import yaml
@@ -29,19 +30,28 @@ class Clock:
 
 
 class Log:
-    """A logger that keeps (severity, line)."""
+    """A logger that keeps (severity, line) and, as rclpy's does, refuses a second severity from one calling line
+    ("Logger severity cannot be changed between calls")."""
 
     def __init__(self) -> None:
         self.lines: list[tuple[str, str]] = []
+        self._severities: dict[tuple, str] = {}
 
     def info(self, text: str) -> None:
-        self.lines.append(("info", text))
+        self._log("info", text)
 
     def warning(self, text: str) -> None:
-        self.lines.append(("warning", text))
+        self._log("warning", text)
 
     def error(self, text: str) -> None:
-        self.lines.append(("error", text))
+        self._log("error", text)
+
+    def _log(self, severity: str, text: str) -> None:
+        caller = sys._getframe(2)
+        site = (caller.f_code, caller.f_lineno)
+        if self._severities.setdefault(site, severity) != severity:
+            raise ValueError("Logger severity cannot be changed between calls.")
+        self.lines.append((severity, text))
 
     def said(self, part: str) -> list[str]:
         return [line for _, line in self.lines if part in line]
@@ -262,3 +272,12 @@ def test_a_fleet_robot_reset_alone_goes_on_one_dt_later():
     h.control.command(1, 0.1, 0.0)
     assert h.control.reset_robot(1).startswith("reset: r2: robot at (1.600, -0.200")
     assert h.control.fleet.time == pytest.approx(DT) and h.published[-1] == ([1], pytest.approx(2 * DT))
+
+
+def test_lines_of_every_severity_go_out_through_one_logger():
+    h = Harness(two_robots(), judge_poses=True, resend_period=1.0)
+    h.clock.now += 1.5
+    h.control.resend_tick()  # info
+    h.control.command(0, math.nan, 0.0)  # warning
+    h.control.pose(0, 12345, 0.0, 0.0, 0.0, False)  # warning, not judged
+    assert [severity for severity, _ in h.log.lines] == ["info", "warning", "warning"]
