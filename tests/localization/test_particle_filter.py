@@ -110,6 +110,27 @@ def test_an_initial_pose_tracks_from_there():
         pf.initialize_pose(50.0, 50.0, 0.0, np.diag([0.01, 0.01, 0.01]))
 
 
+def test_a_place_search_begins_on_a_scan_that_counts_and_only_then():
+    """A scan taken where the robot has not moved since the last one used counts for nothing (its scan weight is 0):
+    no place search begins on it (one did, at 659e83b: a search of a scan the filter never used, which moved the
+    logs' tracking runs); the first scan that counts begins one, its first nodes on the search's thread."""
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    sim = Simulator(world, SimulationConfig(**NOISY))
+    pf = ParticleFilter(grid_of(world, 0.05), ParticleFilterConfig(lidar_x=-0.032, max_particles=500))
+    pf.initialize_pose(sim.pose.x, sim.pose.y, sim.pose.theta, np.diag([0.05**2, 0.05**2, 0.05**2]))
+    estimate = pf.update(odometry_of(sim), scan_of(sim))
+    assert estimate.status.scan_weight == 0.0 and not estimate.status.updated
+    assert pf._search is None
+    for _ in range(50):  # until odometry has moved update_min_d: every scan before counts for nothing
+        sim.step(0.15, 0.3)
+        estimate = pf.update(odometry_of(sim), scan_of(sim))
+        if estimate.status.updated:
+            break
+        assert estimate.status.scan_weight == 0.0 and pf._search is None
+    assert estimate.status.updated and estimate.status.scan_weight > 0.0
+    assert pf._search is not None
+
+
 def test_an_empty_set_of_places_scores_as_an_empty_set():
     """Particles that form no cluster and a search that proposes nothing give the place scoring no pose at all: its
     answer is empty (an intel log run raised here, reshaping the nudged scores of no pose)."""
