@@ -19,6 +19,7 @@ finished) writes nothing.
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import sys
@@ -184,6 +185,25 @@ STOP_POLL_PERIOD = 0.1
 """s between looks at ``run_sweep``'s ``stop`` while waiting for the executor."""
 
 
+@contextmanager
+def _forking(executor: Executor) -> Iterator[None]:
+    """Around a local pool's first submits, where its workers are forked: this process's garbage collected here
+    first, then the rest frozen until they are forked, so a worker never collects an object it inherited.
+    A forked child has one thread and copies of everything else: collecting what this process left for the
+    garbage collector (an rclpy node or context from before the sweep, say) there finalizes it against state
+    that is not the child's; rclpy's did end the worker with a segmentation fault, and the pool with it.
+    (gc.freeze before fork is what Python's gc documentation asks of a process that forks without exec.)"""
+    if not isinstance(executor, ProcessPoolExecutor):
+        yield
+        return
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
 def _run(
     executor: Executor | None,
     episode: Callable[[dict], dict],
@@ -205,7 +225,8 @@ def _run(
     futures: list[Future] = []
     try:
         check()
-        futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
+        with _forking(executor):
+            futures = [executor.submit(episode, spec.to_dict()) for spec in todo]
         pending = set(futures)
         while pending:
             done, pending = wait(

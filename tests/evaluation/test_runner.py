@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import signal
@@ -15,7 +16,7 @@ from support.evaluation import tiny_specs
 from support.waiting import poll_until
 
 from amr_evaluation.episode import run_episode
-from amr_evaluation.records import RecordWriter, read_records, without_timing
+from amr_evaluation.records import RecordWriter, finished, read_records, without_timing
 from amr_evaluation.runner import SweepError, run_sweep
 from amr_util.environment import child_environment
 
@@ -60,6 +61,31 @@ def test_two_local_workers_give_the_records_of_one(tmp_path):
     one = run_sweep(specs, tmp_path / "one.jsonl", workers=1, progress=False)
     two = run_sweep(specs, tmp_path / "two.jsonl", workers=2, progress=False)
     assert [without_timing(r) for r in one] == [without_timing(r) for r in two]
+
+
+class _Cycle:
+    """An object in a reference cycle: only the garbage collector frees it."""
+
+
+def test_a_local_pool_forked_from_a_process_with_ros_garbage_gives_every_record(tmp_path, ros_domain, request):
+    """rclpy nodes and contexts left to the garbage collector before the sweep (a notebook's, a test worker's):
+    a forked worker that collected them died of a segmentation fault and broke the pool."""
+    import rclpy
+    from std_msgs.msg import String
+
+    thresholds = gc.get_threshold()
+    gc.set_threshold(50_000, 10, 10)  # no collection here before the fork; the worker's episode reaches one
+    request.addfinalizer(lambda: gc.set_threshold(*thresholds))
+    for index in range(5):
+        context = rclpy.Context()
+        rclpy.init(context=context, domain_id=ros_domain)
+        node = rclpy.create_node(f"left_behind_{index}", context=context)
+        node.create_publisher(String, "left_behind", 10)
+        cycle = _Cycle()
+        cycle.self, cycle.node, cycle.context = cycle, node, context
+        del node, context, cycle
+    records = run_sweep(tiny_specs(6, duration=2.0), tmp_path / "r.jsonl", workers=2, progress=False)
+    assert len(records) == 6 and all(finished(record) for record in records), records
 
 
 def test_a_killed_sweep_resumes_without_redoing_finished_episodes(tmp_path):
