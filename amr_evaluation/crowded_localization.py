@@ -146,7 +146,7 @@ def run_crowded(
     lidar_noise: float = 0.01,
     seed: int = 0,
     known_start: bool = False,
-    range_max: float = 3.5,
+    range_max: float = default_robot().lidar_range_max,
     resolution: float = 0.02,
 ) -> CrowdedTrace:
     """Run the ego's filter in a crowded world (`crowded_world`). known_start: the filter starts around the

@@ -64,6 +64,7 @@ from amr_localization.sensor_mount import SensorMount
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap
 from amr_util.geometry import compose, one_per_cell, relative_pose, transform_points, wrap_angle
+from amr_util.robot_description import default_robot
 from amr_util.scan import ScanData
 
 KLD_BIN_SIZE = 0.1
@@ -224,10 +225,11 @@ class ParticleFilter:
         self,
         grid: OccupancyGrid,
         config: ParticleFilterConfig | None = None,
-        range_max: float = 3.5,
+        range_max: float | None = None,
         beacons: Sequence[Sequence[float]] | None = None,
     ) -> None:
         self.config = config = config or ParticleFilterConfig()
+        range_max = default_robot().lidar_range_max if range_max is None else range_max
         self.field = DistanceField(grid)
         self.free_space = FreeSpace(self.field, config.free_space_clearance)
         self._open_space = FreeSpace(self.field, 0.0)  # free cells: where a place hypothesis may be

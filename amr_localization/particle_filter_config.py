@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 from amr_util.parameter_spec import Config, ConfigError, parameter
+from amr_util.robot_description import default_robot
 
 LASER_MODEL_TYPES = ("likelihood_field", "beam")
 
@@ -74,10 +75,10 @@ class ParticleFilterConfig(Config):
     as the share of this the robot moved since the last scan used (all of it after this much travel); 0 = each
     scan counts fully. Twice the length over which a scan's evidence for its pose stays correlated (what the map
     lacks is seen scan after scan): 0.5 for a simulator's world, 2 for a real building (particle_filter_real.yaml)."""
-    lidar_x: float = parameter(0.0, minimum=-2.0, maximum=2.0)
-    """m, base_scan in base_footprint (x)."""
-    lidar_y: float = parameter(0.0, minimum=-2.0, maximum=2.0)
-    """m, base_scan in base_footprint (y)."""
+    lidar_x: float = parameter(default_robot().lidar_x, minimum=-2.0, maximum=2.0)
+    """m, base_scan in base_footprint (x); the robot description's by default."""
+    lidar_y: float = parameter(default_robot().lidar_y, minimum=-2.0, maximum=2.0)
+    """m, base_scan in base_footprint (y); the robot description's by default."""
     lidar_yaw: float = parameter(0.0, minimum=-math.pi, maximum=math.pi)
     """rad, base_scan's yaw in base_footprint."""
     # beacons

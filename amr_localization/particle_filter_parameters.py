@@ -13,6 +13,7 @@ import dataclasses
 
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_util.parameter_spec import ParameterSpec
+from amr_util.robot_description import default_robot
 
 NODE_SPECS = (
     ParameterSpec(
@@ -27,8 +28,9 @@ NODE_SPECS = (
     ParameterSpec("map_resolution", 0.02, "m/cell at which a world is rasterized", minimum=0.005, maximum=1.0),
     ParameterSpec(
         "laser_max_range",
-        3.5,
-        "m, the LiDAR's range_max, for the random term of the scan models (AMCL laser_max_range)",
+        default_robot().lidar_range_max,
+        "m, the LiDAR's range_max, for the random term of the scan models (AMCL laser_max_range); the robot "
+        "description's by default",
         minimum=0.01,
         maximum=1000.0,
     ),

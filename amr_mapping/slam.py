@@ -78,6 +78,7 @@ from amr_maps.scan_mapping import LogOddsGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, Match, ScoreMap, WindowMatch, default_angular_step
 from amr_maps.window_search import window_modes
 from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
+from amr_util.robot_description import default_robot
 from amr_util.scan import ScanData
 
 MIN_BEAMS = 20
@@ -250,10 +251,11 @@ class SlamConfig:
     unlike a clock the same on every run (0-1000)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
-    lidar_x: float = 0.0
-    """m, the scan's origin ahead of the robot's (base_scan in base_footprint; TurtleBot3 Burger: -0.032)."""
-    lidar_y: float = 0.0
-    """m, the scan's origin left of the robot's."""
+    lidar_x: float = default_robot().lidar_x
+    """m, the scan's origin ahead of the robot's (base_scan in base_footprint); the robot description's by
+    default."""
+    lidar_y: float = default_robot().lidar_y
+    """m, the scan's origin left of the robot's; the robot description's by default."""
     lidar_yaw: float = 0.0
     """rad, the scan's angle 0 from the robot's heading."""
 

@@ -183,6 +183,8 @@ def robot_parameters(robot: RobotDescription) -> dict[str, float]:
     return {
         "robot_radius": robot.radius,
         "lidar_x": robot.lidar_x,
+        "lidar_y": robot.lidar_y,
+        "laser_max_range": robot.lidar_range_max,
         "angular_limit": robot.max_angular_speed,
         "costmap.robot_radius": robot.radius,
         "traffic_rules.robot_radius": robot.radius,

@@ -109,7 +109,7 @@ def bench_update_cost(repeats: int) -> None:
     world = load_world(WORLDS / "inner_maze.yaml")
     sim = Simulator(world, SimulationConfig())
     field = DistanceField(rasterize_world(world, RESOLUTION))
-    model = LikelihoodField(field, LikelihoodFieldParams(), SensorMount(x=-0.032), 3.5)
+    model = LikelihoodField(field, LikelihoodFieldParams(), SensorMount(x=sim.lidar.x), sim.lidar.range_max)
     scan = scan_of(sim)
     beam_counts = (30, 60, 120)
     print(f"{'particles':>10}" + "".join(f"{b:>10} beams" for b in beam_counts))
@@ -133,7 +133,7 @@ def bench_update_cost(repeats: int) -> None:
         "5000 particles, 60 beams"
     )
     pf = ParticleFilter(
-        rasterize_world(world, RESOLUTION), ParticleFilterConfig(lidar_x=-0.032, min_particles=5000, max_particles=5000)
+        rasterize_world(world, RESOLUTION), ParticleFilterConfig(min_particles=5000, max_particles=5000)
     )
     times = []
     for step in range(repeats):
@@ -471,7 +471,7 @@ class _FilterRun:
     def __init__(self, grid, beacons, seed: int, use_scan: bool, use_beacons: bool) -> None:
         self.pf = ParticleFilter(
             grid,
-            ParticleFilterConfig(lidar_x=-0.032, seed=seed),
+            ParticleFilterConfig(seed=seed),
             range_max=3.5,
             beacons=beacons if use_beacons else None,
         )

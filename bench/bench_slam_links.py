@@ -1,7 +1,8 @@
 """Where GraphSlam's relative error on the CARMEN logs comes from (docs/amr_mapping.md, Figures): its links and
 nodes against the corrected poses, and the corrected poses' own noise (what a perfect method would score).
 
-For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default SlamConfig):
+For each log (odometry synthesized as in bench_slam_logs.py, seed 0, default SlamConfig with the LiDAR at the log's
+poses, LOG_MOUNT):
 
 - links: each sequential edge's measurement (the front end's) and the optimized poses' increment against the
   reference's: translation and heading error, median / mean / p90, and the share of the heading error in the
@@ -56,6 +57,8 @@ from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
 from amr_util.geometry import compose, relative_pose, transform_points, wrap_angle
 
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
+LOG_MOUNT = {"lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0}
+"""A log's poses are its laser's: the scans are taken at them (not at the robot description's mount)."""
 
 
 def _stats(values: np.ndarray, scale: float) -> str:
@@ -66,7 +69,7 @@ def _stats(values: np.ndarray, scale: float) -> str:
 def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.015, 0.26)) -> None:
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
-    slam = GraphSlam(SlamConfig())
+    slam = GraphSlam(SlamConfig(**LOG_MOUNT))
     scan_of: list[int] = []  # each node's scan index
     for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
         try:
@@ -175,7 +178,7 @@ def oracle_window(name: str, log, seed: int, every: int) -> None:
     """The front end's correlative match against a perfect window (see the module docstring)."""
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
-    config = SlamConfig()
+    config = SlamConfig(**LOG_MOUNT)
     slam = GraphSlam(config)
     scan_of: list[int] = []
     for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):

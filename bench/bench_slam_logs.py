@@ -42,6 +42,10 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
 
 
+LOG_MOUNT = {"lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0}
+"""A log's poses are its laser's: the scans are taken at them (not at the robot description's mount)."""
+
+
 def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dict:
     """One log through GraphSlam: the figures of the module docstring."""
     log = read_carmen(path)
@@ -144,7 +148,7 @@ def main() -> None:
     for item in args.slam:
         key, _, value = item.partition("=")
         overrides[key] = yaml.safe_load(value)
-    config = SlamConfig(**overrides)
+    config = SlamConfig(**{**LOG_MOUNT, **overrides})
     print(f"config: {config}")
     warm_up(paths[0], config)
     gc.collect()

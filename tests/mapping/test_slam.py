@@ -21,6 +21,8 @@ from amr_util.scan import ScanData
 BEAMS = 180
 INCREMENT = 2.0 * math.pi / BEAMS
 MAX_RANGE = 8.0
+CENTRE = 0.0
+"""lidar_x: the scans here are ray cast from the robot's own pose."""
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +75,7 @@ def _scan(caster: NumpyRayCaster, pose, rng) -> ScanData:
 def _run(ring, config: SlamConfig | None = None) -> tuple[GraphSlam, np.ndarray, np.ndarray, int]:
     caster, truth = ring
     odometry = _odometry(truth)
-    slam = GraphSlam(config or SlamConfig(max_range_used=MAX_RANGE))
+    slam = GraphSlam(config or SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     rng = np.random.default_rng(1)
     closures = 0
     for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
@@ -124,7 +126,7 @@ def test_a_run_does_not_depend_on_the_clock(ring, monkeypatch):
     graphs = []
     for step in (0.0, 1.0):
         monkeypatch.setattr(slam_module, "time", _Clock(step))
-        slam, _, _, closures = _run(ring, SlamConfig(max_range_used=MAX_RANGE, loop_work_budget=5.0))
+        slam, _, _, closures = _run(ring, SlamConfig(max_range_used=MAX_RANGE, loop_work_budget=5.0, lidar_x=CENTRE))
         graphs.append((slam.graph(), closures))
     (first, closures), (second, again) = graphs
     assert closures > 0 and closures == again
@@ -284,7 +286,7 @@ def test_a_turn_the_odometry_misreads_beyond_its_window_is_found_in_the_whole_wi
         if k == 6:
             step[2] += math.radians(25.0)  # one misread turn; the model's window is +-16 deg here
         odometry.append(np.array(compose(odometry[-1], step)))
-    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE))
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     rng = np.random.default_rng(1)
     events = []
     for k in range(steps):

@@ -19,6 +19,8 @@ from amr_util.scan import ScanData
 BEAMS = 180
 INCREMENT = 2.0 * math.pi / BEAMS
 MAX_RANGE = 3.5
+CENTRE = 0.0
+"""lidar_x: the scans here are ray cast from the robot's own pose."""
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +64,7 @@ def _run(dead_end, config: SlamConfig) -> tuple[GraphSlam, int]:
 
 
 def test_backing_out_of_a_dead_end_closes_loops_with_the_way_in(dead_end):
-    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE, loop_min_travel=4.0))
+    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE, loop_min_travel=4.0, lidar_x=CENTRE))
     assert closures > 0
     outcomes = [outcome for *_, outcome, _ in slam.closure_outcomes]
     assert len(outcomes) == slam.searched_closures and outcomes.count("kept") == closures
@@ -80,5 +82,5 @@ def test_backing_out_of_a_dead_end_closes_loops_with_the_way_in(dead_end):
 
 def test_the_default_eight_metres_of_path_search_nothing_there(dead_end):
     assert SlamConfig().loop_min_travel == 8.0
-    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE))
+    slam, closures = _run(dead_end, SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     assert closures == 0 and slam.searched_closures == 0

@@ -20,6 +20,8 @@ from amr_util.scan import ScanData
 BEAMS = 240
 INCREMENT = 2.0 * math.pi / BEAMS
 MAX_RANGE = 3.5
+CENTRE = 0.0
+"""lidar_x: the scans here are ray cast from the robot's own pose."""
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +49,7 @@ def _driving(world, steps: int = 8) -> np.ndarray:
 
 def _mapped(caster, truth, odometry_error_deg: float = 1.0):
     """GraphSlam fed exact scans at `truth` with odometry over-reading each turn (as encoder slip does)."""
-    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE))
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     rng = np.random.default_rng(0)
     odometry = [truth[0]]
     for k in range(1, len(truth)):
@@ -107,7 +109,7 @@ def test_a_node_added_on_odometry_alone_is_left_out_of_the_local_submap(maze, mo
     caster, world = maze
     truth = _driving(world)
     rng = np.random.default_rng(0)
-    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE))
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     built = []
     original = GraphSlam._matcher
 
