@@ -66,11 +66,12 @@ def _stats(values: np.ndarray, scale: float) -> str:
     return f"{np.median(values):.2f} / {values.mean():.2f} / {np.percentile(values, 90):.2f}"
 
 
-def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.015, 0.26)) -> None:
+def _mapped(log, seed: int, config: SlamConfig):
+    """The log through GraphSlam with synthesized odometry: (slam, each node's scan index, reference, odometry)."""
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
-    slam = GraphSlam(SlamConfig(**LOG_MOUNT))
-    scan_of: list[int] = []  # each node's scan index
+    slam = GraphSlam(config)
+    scan_of: list[int] = []
     for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
         try:
             update = slam.add(int(round(item.stamp * 1e9)), odom, item.scan)
@@ -78,6 +79,11 @@ def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.0
             continue
         if update.node_added:
             scan_of.append(k)
+    return slam, scan_of, reference, odometry
+
+
+def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.015, 0.26)) -> None:
+    slam, scan_of, reference, odometry = _mapped(log, seed, SlamConfig(**LOG_MOUNT))
     slam.optimize()
     poses, edges, loop = slam.graph()
     scans = np.array(scan_of)
@@ -176,18 +182,8 @@ def along_across(poses: np.ndarray, reference: np.ndarray, measured: np.ndarray,
 
 def oracle_window(name: str, log, seed: int, every: int) -> None:
     """The front end's correlative match against a perfect window (see the module docstring)."""
-    reference = log.poses()
-    odometry = synthesize_odometry(reference, seed=seed)
     config = SlamConfig(**LOG_MOUNT)
-    slam = GraphSlam(config)
-    scan_of: list[int] = []
-    for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
-        try:
-            update = slam.add(int(round(item.stamp * 1e9)), odom, item.scan)
-        except MappingError:
-            continue
-        if update.node_added:
-            scan_of.append(k)
+    slam, scan_of, reference, odometry = _mapped(log, seed, config)
     resolution, window = config.resolution, config.local_window
     rows = []
     for n in range(window, len(scan_of), every):
