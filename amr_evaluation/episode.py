@@ -368,7 +368,7 @@ def _particle_filter(spec: EpisodeSpec, world):
     from amr_localization.particle_filter_parameters import config_of
 
     params = {**spec.parameters["particle_filter"], "seed": spec.seed}
-    return ParticleFilter(stack_map(spec, world), config_of(params), range_max=params["laser_max_range"])
+    return ParticleFilter(stack_map(spec, world), config_of(params), range_max=params.get("laser_max_range"))
 
 
 def goal_after(spec: EpisodeSpec) -> float | None:

@@ -166,7 +166,7 @@ def _particle_filter(parameters: dict, world: World, seed: int):
 
     params = {**parameters["particle_filter"], "seed": seed}
     return ParticleFilter(
-        rasterize_world(world, params["map_resolution"]), config_of(params), range_max=params["laser_max_range"]
+        rasterize_world(world, params["map_resolution"]), config_of(params), range_max=params.get("laser_max_range")
     )
 
 

@@ -614,7 +614,7 @@ def _crowded_case(args) -> dict:
         lidar_noise=noise,
         seed=seed,
         known_start=known,
-        range_max=params["laser_max_range"],
+        range_max=params.get("laser_max_range"),
         resolution=params["map_resolution"],
     )
     return {
