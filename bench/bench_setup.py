@@ -98,6 +98,17 @@ def step(name: str, command: list[str], cwd: Path, env: dict[str, str], log: Pat
     return wall, cpu, result.returncode == 0
 
 
+def machine_speed() -> float:
+    """Seconds of this process's CPU for a fixed pure-Python workload: the machine's speed at the moment, to read
+    a run's CPU and wall figures by (the same code took 25-30 % more CPU in one clean clone than in another an hour
+    earlier on this shared machine, with no other process running and no steal time)."""
+    started = time.process_time()
+    total = 0
+    for value in range(10_000_000):
+        total += value * value % 7
+    return time.process_time() - started
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dir", type=Path, default=Path("/tmp/bench-setup"), help="the scratch clone (replaced)")
@@ -113,6 +124,7 @@ def main() -> None:
     env.pop("VIRTUAL_ENV", None)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=args.dir, capture_output=True, text=True)
     print(f"clean clone of {commit.stdout.strip()} in {args.dir}, {os.cpu_count()} cores", flush=True)
+    print(f"machine speed before: {machine_speed():.2f} s of CPU for the fixed workload (bench_setup.machine_speed)")
     record = args.dir.parent / f"{args.dir.name}-cpu.txt"
     record.unlink(missing_ok=True)
     env["AMR_TEST_CPU"] = str(record)
@@ -129,6 +141,7 @@ def main() -> None:
         if not ok:
             break
     print(f"{'total':10s} {total_wall:7.1f} s wall {total_cpu:7.1f} s CPU")
+    print(f"machine speed after: {machine_speed():.2f} s of CPU for the fixed workload")
     if not args.keep:
         shutil.rmtree(args.dir, ignore_errors=True)
     sys.exit(0 if ok else 1)
