@@ -121,7 +121,14 @@ def main() -> None:
     subprocess.run(["git", "clone", "--quiet", str(ROOT), str(args.dir)], check=True)
     # the clone's own tools, not this interpreter's ROS environment
     env = {k: v for k, v in os.environ.items() if k not in ("LD_LIBRARY_PATH", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")}
-    env.pop("VIRTUAL_ENV", None)
+    venv = env.pop("VIRTUAL_ENV", None)
+    if venv:  # an activated venv's paths (its setup.bash put it on AMENT_PREFIX_PATH): not the clone's
+        for key in ("AMENT_PREFIX_PATH", "PATH"):
+            kept = [part for part in env.get(key, "").split(os.pathsep) if part and not part.startswith(venv)]
+            if kept:
+                env[key] = os.pathsep.join(kept)
+            else:
+                env.pop(key, None)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=args.dir, capture_output=True, text=True)
     print(f"clean clone of {commit.stdout.strip()} in {args.dir}, {os.cpu_count()} cores", flush=True)
     print(f"machine speed before: {machine_speed():.2f} s of CPU for the fixed workload (bench_setup.machine_speed)")
