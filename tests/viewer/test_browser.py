@@ -39,6 +39,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
 from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Trigger
 from support.ros import fresh_domain
 from support.waiting import poll_until
 
@@ -142,6 +143,15 @@ class Probe(Node):
         self.create_subscription(PathMessage, "/path", self.paths.append, LATCHED)
         self.create_subscription(OccupancyGrid, "/map", lambda m: setattr(self, "map", m), LATCHED)
         self._parameter_clients: dict[str, AsyncParameterClient] = {}
+
+    def pause_simulator(self) -> None:
+        """/simulator/pause called from here, as the page's Pause calls it (the page's own is tested below)."""
+        client = self.create_client(Trigger, "/simulator/pause")
+        wait_for(client.service_is_ready, what="/simulator/pause")
+        future = client.call_async(Trigger.Request())
+        wait_for(future.done, what="the answer of /simulator/pause")
+        assert future.result().success, future.result().message
+        self.destroy_client(client)
 
     def parameter(self, node: str, name: str):
         client = self._parameter_clients.setdefault(node, AsyncParameterClient(self, node))
@@ -559,12 +569,13 @@ def near(image: np.ndarray, center: tuple[float, float], radius: float) -> np.nd
 
 
 def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(playwright, tmp_path):
-    """fleet_navigation on fleets/crossing.yaml (four robots, each with its particle filter) at 1400 x 900."""
+    """fleet_navigation on fleets/crossing.yaml (four robots, each with its particle filter) at 1400 x 900. The page
+    is opened once the robots have moved and the simulator is paused: the viewer keeps the trails and sends a new
+    page the scene as it is (neither the four filters nor the page's drawing run while nothing is checked)."""
     stack = Stack("fleet_navigation", tmp_path, "--composed", "-p", "simulator.pace:=1.0", robots=FLEET)
     browser = None
     try:
         probe, truth = stack.probe, stack.probe.fleet
-        browser = Browser(playwright, stack.url, FLEET_VIEWPORT)
         wait_for(lambda: all(truth[robot] for robot in FLEET), what="every robot's ground truth")
         starts = {robot: truth[robot][0] for robot in FLEET}
         wait_for(  # a trail that leaves the disc (radius 0.105 m) inside the 0.4 m the check below looks within
@@ -572,13 +583,15 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
             STARTUP,
             "every robot to move 0.35 m",
         )
+        probe.pause_simulator()
+        quiet(probe.clocks, 0.5, what="/clock to stop after the pause")
+        for robot in FLEET:
+            quiet(truth[robot], 0.3, what=f"{robot} to stop")
+        browser = Browser(playwright, stack.url, FLEET_VIEWPORT)
         for robot in FLEET:  # the node table: a row per namespace
             browser.page.get_by_role("cell", name=f"/{robot}", exact=True).wait_for()
         browser.reply("from the true ring")  # the disc's distance from the ring, said
         browser.hide_notifications()
-        pause(browser, probe)
-        for robot in FLEET:
-            quiet(truth[robot], 0.3, what=f"{robot} to stop")
         camera = camera_of(stack, browser)
         shown = browser.settled()
         shot = tmp_path / "viewer_fleet.png"
@@ -617,7 +630,6 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
             )
             changed = (np.abs(shown[window].astype(int) - unlabelled[window].astype(int)).sum(axis=2) > 60).sum()
             assert changed > 20, f"{robot}'s name label above it ({changed} pixels changed when hidden)"
-        resume(browser)
         assert browser.failed == [] and browser.errors == []
     finally:
         if browser is not None:
