@@ -171,7 +171,7 @@ class PlaceHypotheses:
             self.elsewhere = min(max(self.elsewhere - best, -MAX_LOG_ODDS), MAX_LOG_ODDS)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _nearest(poses, places, distance, angle, out):
     """out[i]: the nearest place (first of equals) within `angle` in heading of pose i, if within `distance`: one pass,
     no (poses x places) temporaries (the particles are found at every update, several times)."""

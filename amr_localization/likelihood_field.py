@@ -219,7 +219,7 @@ _NO_EXITS = np.empty((0, 0, 0))
 _NO_COLUMNS = np.empty(0, dtype=np.int64)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _sum_log_likelihood(table, rows, cols, col0, row0, cos_theta, sin_theta, along, across, weights, out):
     """out[i] = sum_k weights[k] table[cell of beam k's end point for particle i]: one pass, no (N, K) temporaries.
 
@@ -236,7 +236,7 @@ def _sum_log_likelihood(table, rows, cols, col0, row0, cos_theta, sin_theta, alo
         out[i] = total
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _exit(cells, rows, cols, x, y, c, s, free):
     """Where (cells from (x, y)) the beam from (x, y) along (c, s) first goes through an occupied cell and out; inf
     where it does not before `free` cells: the path to `free` is blocked exactly where the result is below `free`.
@@ -266,7 +266,7 @@ def _exit(cells, rows, cols, x, y, c, s, free):
     return math.inf
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _best_free_path_terms(
     table,
     cells,

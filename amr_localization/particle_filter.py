@@ -173,8 +173,9 @@ class Estimate:
 
 class _Seen(NamedTuple):
     """A scan used, for scoring hypotheses born later: the odometry then, its beams, their weights, its gain; its
-    end points (robot frame, within PLACE_SEARCH_RANGE, one per CHAIN_RESOLUTION cell) and its pose in the window's
-    frame (placed by scan-matched odometry: scan_odometry)."""
+    end points (robot frame, within PLACE_SEARCH_RANGE, one per CHAIN_RESOLUTION cell), its pose in the window's
+    frame (placed by scan-matched odometry: scan_odometry), and the beams' end points (robot frame: the places' fits
+    and the place search match them)."""
 
     odometry: tuple[float, float, float]
     beams: Beams
@@ -182,6 +183,30 @@ class _Seen(NamedTuple):
     gain: float
     points: np.ndarray
     local: tuple[float, float, float]
+    beam_points: np.ndarray
+
+
+class _Ahead:
+    """A call run on a thread of its own, started now and collected by `result` (its exception raised there): work that
+    needs only what is known now, done on the second core while this thread goes on (its compiled kernels release the
+    GIL). The same call, the same result."""
+
+    def __init__(self, function, *args) -> None:
+        self._value = self._error = None
+        self._thread = threading.Thread(target=self._run, args=(function, args), daemon=True)
+        self._thread.start()
+
+    def _run(self, function, args) -> None:
+        try:
+            self._value = function(*args)
+        except BaseException as error:  # raised in the collecting thread
+            self._error = error
+
+    def result(self):
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
 
 
 @dataclass
@@ -435,7 +460,7 @@ class ParticleFilter:
                 else 1.0
             )
             points = self._end_points(scan)
-            seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points))
+            seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points), self._points(beams))
             self._rematch_places(seen)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
@@ -446,6 +471,11 @@ class ParticleFilter:
             return
         if seen is not None:
             self._begin_search(seen)
+        # the places' fits to the scan and `elsewhere`'s background need the scan and the places as they are now, not
+        # the particles: each on a thread of its own while the particles weigh the scan
+        ahead = seen is not None and len(self.hypotheses)
+        fits = _Ahead(self._fitted_places, seen) if ahead else None
+        background = _Ahead(self._background, seen, beacons) if ahead and self._anywhere_paths is not None else None
         remaining = 1.0
         for stage in range(MAX_STAGES):
             log_likelihood = self._log_likelihood(self.particles, seen, beacons)
@@ -465,6 +495,9 @@ class ParticleFilter:
             log_weight = log_prior + step * log_likelihood
             peak = log_weight.max()
             if not math.isfinite(peak):
+                for started in (fits, background):
+                    if started is not None:
+                        started.result()
                 self.reinitialize_global()
                 self.status.event = "no particle could explain the data: global localization restarted"
                 return
@@ -480,7 +513,7 @@ class ParticleFilter:
         self.status.effective_sample_size = neff
         if neff < RESAMPLE_THRESHOLD * len(self.particles):
             self._resample(self._sample_count())
-        self._weigh_places(seen, beacons)
+        self._weigh_places(seen, beacons, fits, background)
         count = self._sample_count()
         if count < len(self.particles):  # KLD-sampling, on the places as they are now, asks for fewer particles
             self._resample(count)
@@ -495,15 +528,21 @@ class ParticleFilter:
 
     # -- places -------------------------------------------------------------------------
 
-    def _weigh_places(self, seen: _Seen | None, beacons: BeaconReading | None) -> None:
+    def _weigh_places(
+        self,
+        seen: _Seen | None,
+        beacons: BeaconReading | None,
+        fits: _Ahead | None = None,
+        background: _Ahead | None = None,
+    ) -> None:
         """Step 4: the hypotheses observe the data, new ones are born from the clusters and the place search, the
-        particles are made to agree with their probabilities, and the estimate and localized follow."""
+        particles are made to agree with their probabilities, and the estimate and localized follow. fits and
+        background: the places' fits (_fitted_places) and `elsewhere`'s background (_background) under way, if
+        started."""
         hypotheses = self.hypotheses
         none = np.zeros((0, 3))
         if len(hypotheses) and seen is not None:
-            # a place without particles, carried by odometry and the window's links alone: within 3 sigma of them
-            window = np.minimum(3.0 * np.sqrt(hypotheses.variance), MERGE_DISTANCE)
-            hypotheses.poses, held = self._fitted(hypotheses.poses, seen, window)
+            hypotheses.poses, held = fits.result() if fits is not None else self._fitted_places(seen)
         else:
             held = np.zeros(len(hypotheses))
         if len(hypotheses):
@@ -527,7 +566,11 @@ class ParticleFilter:
         fit = np.zeros(len(poses))
         if seen is not None:
             poses, fit = self._fitted(poses, seen)
-        background = self._background(seen, beacons) if len(hypotheses) else 0.0
+        ahead = background.result() if background is not None else None
+        if not len(hypotheses):
+            background = 0.0
+        else:
+            background = ahead if ahead is not None else self._background(seen, beacons)
         found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
         if len(hypotheses):
             hypotheses.observe(
@@ -540,6 +583,12 @@ class ParticleFilter:
         hypotheses.merge()
         self._agree()
         self._decide(seen)
+
+    def _fitted_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray]:
+        """The places' poses fitted to the scan (_fitted) and the scan's log-likelihood at each: a place without
+        particles, carried by odometry and the window's links alone, within 3 sigma of them."""
+        window = np.minimum(3.0 * np.sqrt(self.hypotheses.variance), MERGE_DISTANCE)
+        return self._fitted(self.hypotheses.poses, seen, window)
 
     def _admit(
         self, poses: np.ndarray, fit: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None, settled: bool
@@ -808,7 +857,7 @@ class ParticleFilter:
         """Each pose moved to where the scan fits best within FIT_WINDOW and FIT_ANGLE (the matcher, below the cell):
         a place is scored at its best pose, so that two places the scans cannot tell apart score alike however their
         particles happen to spread. Returns the poses and the scan's log-likelihood at each by the places' model."""
-        points = self._points(seen.beams)
+        points = seen.beam_points
         poses = np.array(poses, dtype=float).reshape(-1, 3)
         fitted = poses.copy()
         windows = np.broadcast_to(np.maximum(window, FIT_WINDOW), (len(poses),))
@@ -828,7 +877,7 @@ class ParticleFilter:
         particles' estimate otherwise."""
         spread = min(3.0 * estimate.position_std + self._grid.resolution, MERGE_DISTANCE)
         turn = min(3.0 * estimate.heading_std + math.radians(1.0), MERGE_ANGLE)
-        points = self._points(seen.beams)
+        points = seen.beam_points
         pose = np.array([estimate.x, estimate.y, estimate.theta])
         match = self.matcher.match(points, pose, spread, turn, refine=True)
         if not np.isfinite(match.pose).all() or match.score <= self.matcher.score_interpolated(points, pose):
@@ -910,9 +959,9 @@ class ParticleFilter:
         ones placed by odometry), within PLACE_SEARCH_RANGE, one per cell of `resolution`: a few metres of travel
         seen at once, which tells look-alike places apart where a single scan cannot (a corridor's stretch, a
         room's doors), at the cost of a single scan's points."""
-        clouds = [self._points(seen.beams)]
+        clouds = [seen.beam_points]
         for past in self._window:
-            clouds.append(transform_points(relative_pose(seen.local, past.local), self._points(past.beams)))
+            clouds.append(transform_points(relative_pose(seen.local, past.local), past.beam_points))
         points = np.concatenate(clouds)
         return one_per_cell(points[np.hypot(points[:, 0], points[:, 1]) <= PLACE_SEARCH_RANGE], resolution)
 

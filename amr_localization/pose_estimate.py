@@ -57,7 +57,7 @@ def grouped_covariances(
     return covariances, counts
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _grouped(particles, weights, owner, means, covariances, counts):
     """The module's formulas for each group at once, in three passes over the particles without temporaries (they
     run several times an update, on thousands of particles): counts and weights, means, covariances."""

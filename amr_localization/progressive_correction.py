@@ -37,7 +37,7 @@ def stage_exponent(log_prior: np.ndarray, log_likelihood: np.ndarray, remaining:
     )
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _share(prior, likelihood, exponent):
     """N_eff / N of the normalized exp(prior + exponent likelihood), in two passes without temporaries."""
     peak = -np.inf
@@ -51,7 +51,7 @@ def _share(prior, likelihood, exponent):
     return total * total / squares / prior.shape[0]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _bisection(prior, likelihood, remaining, target):
     """stage_exponent's bisection on the live particles (compiled: 5,000 particles a step, up to 13 steps a stage,
     several stages an update)."""

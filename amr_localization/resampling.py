@@ -30,7 +30,7 @@ def systematic_resample(weights: np.ndarray, count: int, rng: np.random.Generato
     return np.searchsorted(cumulative, pointers, side="right").clip(max=len(weights) - 1)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def jitter(poses, owner, places, factors, draws, bandwidth, free, origin_x, origin_y, resolution):
     """The regularized filter's kernel move, in place: the poses whose owner is places[g] (place by place, each
     place's poses in their order, taking the rows of `draws` in turn) moved by bandwidth * factors[g] @ draw, where the
