@@ -35,7 +35,6 @@ import rclpy
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.msg import Path as PathMessage
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter_client import AsyncParameterClient
 from rosgraph_msgs.msg import Clock
@@ -46,6 +45,7 @@ from support.waiting import poll_until
 from amr_interfaces.msg import Frontiers, PoseGraph
 from amr_interfaces.srv import SolveIK
 from amr_util.environment import child_environment
+from amr_util.lean_executor import LeanExecutor
 from amr_util.qos import LATCHED, reliable
 from amr_viewer.geometry import free_share, top_down_camera
 from amr_viewer.messages import occupancy_grid
@@ -180,7 +180,7 @@ class Stack:
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=self.domain)
         self.probe = Probe(self.context, robots, mapping)
-        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor = LeanExecutor(context=self.context)
         self.executor.add_node(self.probe)
         self._spinner = threading.Thread(target=self._spin, daemon=True)
         self._spinner.start()
@@ -644,28 +644,30 @@ def colored(image: np.ndarray, color: tuple[int, int, int], tolerance: int = 60)
 
 def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(playwright, tmp_path):
     """maze_mapping (slam, explorer) on inner_maze: the map slam has made so far, its graph and the frontiers; each
-    layer goes with its checkbox."""
+    layer goes with its checkbox. The page is opened once there is a graph and frontiers, the simulator paused (by
+    its service): the viewer sends a new page the scene as it is, and nothing runs while nothing is checked."""
     stack = Stack("maze_mapping", tmp_path, "--composed", "-p", "simulator.pace:=2.0", mapping=True)
     browser = None
     wanted = os.environ.get("AMR_VIEWER_MAPPING_SCREENSHOT")
     try:
         probe = stack.probe
-        browser = Browser(playwright, stack.url)
         wait_for(
             lambda: (
                 len(probe.graphs) > 2
-                and len(probe.graphs[-1].poses) >= 8
+                and len(probe.graphs[-1].poses) >= 14
                 and any(f.chosen >= 0 and len(f.centroids) > 1 for f in probe.frontiers)
             ),
             STARTUP,
-            "a graph of 8 nodes and frontiers with one chosen",
+            "a graph of 14 nodes and frontiers with one chosen",
         )
         if wanted:  # the docs' picture: after the first loop closure
             wait_for(lambda: any(probe.graphs[-1].loop_closure), 600.0, "a loop closure")
+        probe.pause_simulator()
+        quiet(probe.clocks, 0.5, what="/clock to stop after the pause")
+        browser = Browser(playwright, stack.url)
         browser.reply(re.compile(r"graph \d+ nodes, \d+ edges, \d+ loop closures"))  # the status panel says it
         browser.reply(re.compile(r"explorer \w+: \d+ frontiers"))
         browser.hide_notifications()
-        pause(browser, probe)
         for folder in ("Simulation", "Click on the floor"):  # folded: the status panel in the picture
             browser.toggle_folder(folder)
         browser.page.mouse.move(0, 0)
@@ -704,7 +706,6 @@ def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(pl
             left = sum(colored(hidden, COLORS[color]) for color in colors)
             assert left <= 0.2 * sum(counts[color] for color in colors), f"{layer} hidden: {left} pixels left"
             browser.set_checked(f"Show {layer}", True)
-        resume(browser)
         assert browser.failed == [] and browser.errors == []
     finally:
         if browser is not None:
