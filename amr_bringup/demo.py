@@ -30,7 +30,6 @@ import rclpy
 from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMessage
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
@@ -48,6 +47,7 @@ from amr_maps.map_server_node import MapServerNode
 from amr_maps.world import load_world, resolve_world_path
 from amr_simulation.simulator_node import SimulatorNode
 from amr_turtlebot3.odometry_node import OdometryNode
+from amr_util.executors import NodeSpinners
 from amr_util.geometry import yaw_from_quaternion
 from amr_util.share import share_directory
 from amr_util.stamps import stamp_seconds
@@ -109,19 +109,17 @@ def call(node: Node, service_type, name: str, request):
 
 
 @contextmanager
-def spinning(context, nodes: Sequence[Node]) -> Iterator[SingleThreadedExecutor]:
-    """The nodes spun in a background thread; on exit the executor stops first, then the nodes are
-    destroyed (a node destroyed under a spinning executor can kill its thread mid-wait)."""
-    executor = SingleThreadedExecutor(context=context)
+def spinning(context, nodes: Sequence[Node]) -> Iterator[NodeSpinners]:
+    """The nodes spun as amr-bringup spins a composed stack (amr_util.executors: an executor and a thread per node);
+    on exit the executors stop first, then the nodes are destroyed (a node destroyed under a spinning executor can
+    kill its thread mid-wait)."""
+    spinners = NodeSpinners(context)
     for node in nodes:
-        executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
+        spinners.add_node(node)
     try:
-        yield executor
+        yield spinners
     finally:
-        executor.shutdown(timeout_sec=5.0)
-        spinner.join(timeout=5.0)
+        spinners.shutdown(timeout_sec=5.0)
         for node in nodes:
             node.destroy_node()
 

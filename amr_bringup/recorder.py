@@ -21,7 +21,6 @@ import time
 import rclpy
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -30,6 +29,7 @@ from std_srvs.srv import Trigger
 from amr_bringup.bag_writer import BagError, BagWriter, TopicQos
 from amr_bringup.recording import recorded_by_default
 from amr_bringup.status import message_class
+from amr_util.executors import executor_for
 from amr_util.managed_node import SpecifiedParameters, spin_nodes
 from amr_util.parameter_spec import ParameterSpec
 
@@ -208,13 +208,13 @@ class Recorder(SpecifiedParameters, Node):
 
 
 class BackgroundSpin:
-    """A recorder spun apart from the stack it records, on a SingleThreadedExecutor of its own in a daemon
+    """A recorder spun apart from the stack it records, on an executor of its own (amr_util.executors') in a daemon
     thread: its subscriptions stay out of the stack's wait set, which every step of a composed lockstep loop
     would otherwise rebuild with them. stop() destroys the node, which finishes the bag."""
 
     def __init__(self, node: Node) -> None:
         self.node = node
-        self.executor = SingleThreadedExecutor(context=node.context)
+        self.executor = executor_for(node, node.context)
         self.executor.add_node(node)
         self._thread = threading.Thread(target=self.executor.spin, daemon=True)
         self._thread.start()
@@ -233,7 +233,7 @@ def main(args=None) -> None:
         print(f"recorder: {error}", file=sys.stderr)
         rclpy.shutdown()
         raise SystemExit(2) from None
-    spin_nodes([recorder], SingleThreadedExecutor())
+    spin_nodes([recorder], executor_for(recorder))
 
 
 if __name__ == "__main__":

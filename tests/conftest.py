@@ -19,9 +19,11 @@ from pathlib import Path
 import pytest
 import rclpy
 from hypothesis import settings
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor
 from support.ros import NodeProcess, close, fresh_domain, spin_until
 from support.schedule import calls_no_kernel, longest_files_first
+
+from amr_util.lean_executor import LeanExecutor
 
 pytest_plugins = ["support.kinematics", "support.ik_service", "support.simulator_probe"]
 """Fixtures of a directory's tests: the kinematics chains, the IK service launcher, the simulator node probe."""
@@ -152,7 +154,9 @@ def ros_context(ros_domain):
 
 @pytest.fixture
 def executor(ros_context):
-    executor = SingleThreadedExecutor(context=ros_context)
+    """The executor the product spins a node on (amr_util.executors): rclpy's SingleThreadedExecutor's behaviour at
+    half its CPU per callback."""
+    executor = LeanExecutor(context=ros_context)
     yield executor
     close(executor)
 

@@ -7,7 +7,6 @@ from pathlib import Path
 
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from support.ros import spin_until
@@ -18,6 +17,7 @@ from amr_bringup.stack_config import load_bringup
 from amr_interfaces.msg import LocalizedPose
 from amr_maps.world import load_world
 from amr_maps.world_symmetry import rotationally_symmetric
+from amr_util.lean_executor import LeanExecutor
 from amr_util.stamps import stamp_nanoseconds
 
 RELIABLE = QoSProfile(depth=500, reliability=ReliabilityPolicy.RELIABLE)
@@ -108,7 +108,7 @@ def test_two_robots_each_localize_and_drive_in_their_namespaces(ros_context, tmp
             f"/{r}/{n}" for r in ROBOTS for n in PER_ROBOT
         }
         observer = Observer(ros_context)
-        executor = SingleThreadedExecutor(context=ros_context)
+        executor = LeanExecutor(context=ros_context)
         executor.add_node(observer)
         try:
             assert all(step.ok for step in manager.startup()), "fleet_navigation did not come up"

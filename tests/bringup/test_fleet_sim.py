@@ -7,7 +7,6 @@ from dataclasses import replace
 import pytest
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
@@ -18,6 +17,7 @@ from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import BringupError, load_bringup, parse_bringup, robot_nodes
 from amr_interfaces.msg import SimulatorStatus
 from amr_maps.world import RobotSpec
+from amr_util.lean_executor import LeanExecutor
 from amr_util.qos import LATCHED
 from amr_util.stamps import stamp_nanoseconds
 
@@ -108,7 +108,7 @@ def test_two_robots_each_under_its_namespace_drive_and_see_each_other(ros_contex
             "simulator",
         ]
         observer = Observer(ros_context)
-        executor = SingleThreadedExecutor(context=ros_context)
+        executor = LeanExecutor(context=ros_context)
         executor.add_node(observer)
         try:
             assert all(step.ok for step in manager.startup()), "fleet_sim did not come up"

@@ -10,13 +10,13 @@ import time
 from dataclasses import replace
 
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from support.ros import spin_until
 
 from amr_bringup.composed import composed_stack
 from amr_interfaces.msg import LocalizedPose, SimulatorStatus
+from amr_util.lean_executor import LeanExecutor
 
 RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
 FLEET_PLANNER = "fleet_planner"
@@ -161,7 +161,7 @@ def run_stack(
         adjust=the_map,
     ) as (nodes, manager, _):
         truth = Truth(ros_context, robots)
-        executor = SingleThreadedExecutor(context=ros_context)
+        executor = LeanExecutor(context=ros_context)
         executor.add_node(truth)
         try:
             assert all(step.ok for step in manager.startup()), "fleet_navigation did not come up"

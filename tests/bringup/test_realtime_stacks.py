@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from nav_msgs.msg import OccupancyGrid
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from support.ros import spin_until
@@ -26,6 +25,7 @@ from amr_bringup.composed import composed_stack
 from amr_bringup.stack_config import load_bringup, shipped_stacks
 from amr_control.navigated import stops_on_release
 from amr_interfaces.msg import FleetRoute, NavigatorStatus, SimulatorStatus
+from amr_util.lean_executor import LeanExecutor
 from amr_util.qos import LATCHED
 
 RELIABLE = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
@@ -85,7 +85,7 @@ class Run:
     def __init__(self, context, nodes, manager, robots=("",), navigated: bool = False) -> None:
         self.nodes, self.manager = nodes, manager
         self.watch = Watch(context, robots, navigated)
-        self.executor = SingleThreadedExecutor(context=context)
+        self.executor = LeanExecutor(context=context)
         self.executor.add_node(self.watch)
         self.started = time.monotonic()
 

@@ -9,7 +9,6 @@ import math
 import numpy as np
 import pytest
 from geometry_msgs.msg import TwistStamped
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from support.ros import spin_for, spin_until
@@ -21,6 +20,7 @@ from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world, resolve_world_path
 from amr_util.geometry import Pose2D, compose
 from amr_util.geometry import yaw_from_quaternion as yaw
+from amr_util.lean_executor import LeanExecutor
 from amr_util.qos import LATCHED as LATCHED_QOS
 from amr_util.qos import reliable
 from amr_util.stamps import stamp_seconds as seconds
@@ -95,7 +95,7 @@ def test_every_stamp_is_simulated_time_and_map_tf_tf_static_are_right(ros_contex
     ) as (_, manager, _):
         assert all(step.ok for step in manager.startup()), "maze_sim did not come up"
         probe = GateProbe(ros_context)  # a late joiner: /map and /tf_static went out at activation
-        executor = SingleThreadedExecutor(context=ros_context)
+        executor = LeanExecutor(context=ros_context)
         executor.add_node(probe)
         try:
             probe.subscribe_all()

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from conftest import spin_until
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from amr_bringup.composed import composed_stack
 from amr_interfaces.msg import Frontiers
 from amr_interfaces.srv import SaveMap
 from amr_maps.map_io import load_map
+from amr_util.lean_executor import LeanExecutor
 from amr_util.qos import LATCHED, reliable
 
 WORLD = "inner_maze.yaml"
@@ -36,7 +36,7 @@ def test_the_map_grows_while_exploring_and_save_map_writes_it(ros_context, tmp_p
     with composed_stack(ros_context, "maze_mapping", arguments={"world": WORLD}) as (nodes, manager, _):
         assert all(step.ok for step in manager.startup()), "maze_mapping did not come up"
         probe = Node("mapping_probe", context=ros_context)
-        executor = SingleThreadedExecutor(context=ros_context)
+        executor = LeanExecutor(context=ros_context)
         executor.add_node(probe)
         maps: list[OccupancyGridMessage] = []
         frontiers: list[Frontiers] = []

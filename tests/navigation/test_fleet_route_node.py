@@ -302,9 +302,8 @@ def test_the_fleet_planner_plans_on_a_worker_thread_and_its_executor_stays_respo
     import threading
     import time
 
-    from rclpy.executors import SingleThreadedExecutor
-
     import amr_navigation.fleet_planner_node as module
+    from amr_util.lean_executor import LeanExecutor
 
     release, started = threading.Event(), threading.Event()
     compute = module.compute_plan
@@ -317,7 +316,7 @@ def test_the_fleet_planner_plans_on_a_worker_thread_and_its_executor_stays_respo
     monkeypatch.setattr(module, "compute_plan", slow)
     node = planner
     node._on_map(corridor_map())
-    executor = SingleThreadedExecutor(context=node.context)
+    executor = LeanExecutor(context=node.context)
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()

@@ -10,7 +10,6 @@ import math
 import yaml
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
@@ -19,6 +18,7 @@ from support.ros import spin_until
 from amr_bringup.composed import composed_stack
 from amr_interfaces.msg import NavigatorStatus, SimulatorStatus
 from amr_maps.world import resolve_world_path
+from amr_util.lean_executor import LeanExecutor
 
 RELIABLE = QoSProfile(depth=500, reliability=ReliabilityPolicy.RELIABLE)
 FIRST_GOAL = [-0.8, -1.0, 0.15]
@@ -78,7 +78,7 @@ def test_after_arrival_and_a_refused_goal_time_goes_on_and_a_new_goal_is_reached
     arguments = {"world": str(tmp_path / "world.yaml")}
     with composed_stack(ros_context, "maze_navigation", arguments=arguments) as (nodes, manager, _):
         watch = Watch(ros_context)
-        executor = SingleThreadedExecutor(context=ros_context)
+        executor = LeanExecutor(context=ros_context)
         executor.add_node(watch)
         try:
             steps = manager.startup()

@@ -19,7 +19,6 @@ import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
@@ -36,6 +35,7 @@ from amr_navigation.navigator_node import NavigatorNode
 from amr_planning.planner_node import PlannerNode
 from amr_simulation.simulator_node import SimulatorNode
 from amr_turtlebot3.odometry_node import OdometryNode
+from amr_util.lean_executor import LeanExecutor
 
 SHUTDOWN = {
     "unconfigured": Transition.TRANSITION_UNCONFIGURED_SHUTDOWN,
@@ -135,12 +135,12 @@ def spin_all_until(executors, condition, timeout: float) -> bool:
 def contexts():
     """One rclpy context per state, each in a DDS domain of its own; their executors closed and contexts shut down
     afterwards."""
-    made: list[tuple[rclpy.Context, SingleThreadedExecutor]] = []
+    made: list[tuple[rclpy.Context, LeanExecutor]] = []
 
-    def make() -> tuple[rclpy.Context, SingleThreadedExecutor]:
+    def make() -> tuple[rclpy.Context, LeanExecutor]:
         context = rclpy.Context()
         rclpy.init(context=context, domain_id=fresh_domain())
-        made.append((context, SingleThreadedExecutor(context=context)))
+        made.append((context, LeanExecutor(context=context)))
         return made[-1]
 
     yield make
