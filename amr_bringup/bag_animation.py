@@ -1,8 +1,8 @@
 """A recorded run as an animated GIF: walls, the path so far (coloured by speed), the robot and its scan.
 
 The frames sample the bag evenly in time (`frames` of them, whatever the run's length), each drawn with the
-demo figure's own draw_* functions on one Agg canvas and quantized to a 64-colour palette by Pillow, which
-keeps a few hundred frames within a few MB. The scan of a frame is the last one at or before its pose.
+demo figure's own draw_* functions on one Agg canvas and quantized to a 64-colour palette by Pillow's fast octree,
+which keeps a few hundred frames within a few MB. The scan of a frame is the last one at or before its pose.
 No rclpy here.
 """
 
@@ -99,7 +99,7 @@ def animate_bag(
             ax.draw_artist(artist)
             artist.remove()
         frame = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw", "RGBA", 0, 1)
-        images.append(frame.convert("RGB").quantize(COLOURS))
+        images.append(frame.convert("RGB").quantize(COLOURS, method=Image.Quantize.FASTOCTREE))
     gif = Path(gif)
     gif.parent.mkdir(parents=True, exist_ok=True)
     images[0].save(gif, save_all=True, append_images=images[1:], duration=round(1000.0 / fps), loop=0, optimize=True)
