@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from support.localization import WORLDS_DIR, odometry_of
 
+from amr_localization import particle_filter
 from amr_localization.beacons import BeaconReading
 from amr_localization.errors import LocalizationError
 from amr_localization.particle_filter import ParticleFilter
@@ -129,6 +130,38 @@ def test_a_place_search_begins_on_a_scan_that_counts_and_only_then():
         assert estimate.status.scan_weight == 0.0 and pf._search is None
     assert estimate.status.updated and estimate.status.scan_weight > 0.0
     assert pf._search is not None
+
+
+def test_the_places_work_beside_the_particles_is_collected_within_its_update(monkeypatch):
+    """The places' fits and `elsewhere`'s background run on threads of their own while the particles weigh the scan
+    (particle_filter._Ahead): each is collected within the update it began in, so none outlives its update (a thread
+    left running would fill the background's memo while the next update reads it)."""
+    started, collected = [], set()
+    real_init, real_result = particle_filter._Ahead.__init__, particle_filter._Ahead.result
+
+    def counted(self, function, *args):
+        real_init(self, function, *args)
+        started.append(self)
+
+    def collecting(self):
+        collected.add(id(self))
+        return real_result(self)
+
+    monkeypatch.setattr(particle_filter._Ahead, "__init__", counted)
+    monkeypatch.setattr(particle_filter._Ahead, "result", collecting)
+    world = load_world(WORLDS_DIR / "open_room.yaml")
+    sim = Simulator(world, SimulationConfig(**NOISY))
+    config = ParticleFilterConfig(lidar_x=-0.032, max_particles=500, place_search_budget=0)
+    pf = ParticleFilter(grid_of(world, 0.05), config)
+    pf.initialize_pose(sim.pose.x, sim.pose.y, sim.pose.theta, np.diag([0.05**2, 0.05**2, 0.05**2]))
+    updated = 0
+    for _ in range(200):
+        sim.step(0.15, 0.3)
+        updated += pf.update(odometry_of(sim), scan_of(sim)).status.updated
+        assert all(id(ahead) in collected and not ahead._thread.is_alive() for ahead in started)
+        if updated >= 5:
+            break
+    assert len(started) == 2 * updated  # the places' fits and the background, on every update with places
 
 
 def test_an_empty_set_of_places_scores_as_an_empty_set():
