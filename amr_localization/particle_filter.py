@@ -541,19 +541,9 @@ class ParticleFilter:
         started."""
         hypotheses = self.hypotheses
         none = np.zeros((0, 3))
-        if len(hypotheses) and seen is not None:
-            hypotheses.poses, held = fits.result() if fits is not None else self._fitted_places(seen)
-        else:
-            held = np.zeros(len(hypotheses))
-        if len(hypotheses):
-            # a place is impossible where its pose is in a wall (not merely near one): its pose as the data place it
-            # (moved by the scan-matched odometry and fitted to the scan), not as odometry alone would, whose error
-            # over a keyframe's metres can end in a wall beside the robot's true path
-            inside = self._open_space.contains(hypotheses.poses[:, 0], hypotheses.poses[:, 1])
-            hypotheses.keep(inside)
-            held = held[inside]
         # the clusters' poses and the background of `elsewhere` need neither the place search nor the places' new
-        # evidence: computed before the search's nodes are collected, which run on its thread meanwhile
+        # evidence: computed before the search's nodes are collected, which run on its thread meanwhile (and the
+        # clusters' fits before the places' are collected, which run on theirs)
         clusters = cluster_particles(
             self.particles[:, :2], self.weights, CLUSTER_RADIUS, CLUSTER_MIN_SIZE, self.particles[:, 2]
         )
@@ -566,6 +556,17 @@ class ParticleFilter:
         fit = np.zeros(len(poses))
         if seen is not None:
             poses, fit = self._fitted(poses, seen)
+        if len(hypotheses) and seen is not None:
+            hypotheses.poses, held = fits.result() if fits is not None else self._fitted_places(seen)
+        else:
+            held = np.zeros(len(hypotheses))
+        if len(hypotheses):
+            # a place is impossible where its pose is in a wall (not merely near one): its pose as the data place it
+            # (moved by the scan-matched odometry and fitted to the scan), not as odometry alone would, whose error
+            # over a keyframe's metres can end in a wall beside the robot's true path
+            inside = self._open_space.contains(hypotheses.poses[:, 0], hypotheses.poses[:, 1])
+            hypotheses.keep(inside)
+            held = held[inside]
         ahead = background.result() if background is not None else None
         if not len(hypotheses):
             background = 0.0
