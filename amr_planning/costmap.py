@@ -37,6 +37,7 @@ import threading
 import weakref
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
@@ -164,23 +165,20 @@ class Costmap:
 
     def segments_free(self, starts: np.ndarray, ends: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """True for each segment starts[i] -> ends[i] whose every point lies outside the lethal cells
-        (or the cells of `mask`).
+        (or the cells of `mask`) and on the map.
 
         Each segment is sampled every quarter cell (a lethal cell is never stepped over: the
-        inflation band is wider than a cell wherever it matters).
+        inflation band is wider than a cell wherever it matters): n = max(ceil(length / (res / 4)), 1) + 1
+        points start + k / (n - 1) (end - start), k = 0 .. n - 1, each in the cell `lethal_at` reads. A segment
+        with a non-finite end is not free. One compiled pass that stops at a segment's first blocked point.
         """
-        starts = np.asarray(starts, dtype=float).reshape(-1, 2)
-        ends = np.asarray(ends, dtype=float).reshape(-1, 2)
-        if len(starts) == 0:
-            return np.zeros(0, dtype=bool)
-        lengths = np.hypot(*(ends - starts).T)
-        samples = np.maximum(np.ceil(lengths / (0.25 * self.resolution)).astype(int), 1) + 1
-        owner = np.repeat(np.arange(len(starts)), samples)
-        first = np.cumsum(samples) - samples
-        fraction = (np.arange(owner.size) - first[owner]) / (samples[owner] - 1)
-        points = starts[owner] + fraction[:, None] * (ends - starts)[owner]
-        blocked = np.bincount(owner, weights=self.lethal_at(points, mask), minlength=len(starts))
-        return blocked == 0
+        starts = _read_only(np.asarray(starts, dtype=float).reshape(-1, 2))
+        ends = _read_only(np.asarray(ends, dtype=float).reshape(-1, 2))
+        if len(starts) != len(ends):
+            raise ValueError(f"segments_free: {len(starts)} starts but {len(ends)} ends")
+        origin_x, origin_y = float(self.grid.origin[0]), float(self.grid.origin[1])
+        mask = _read_only(np.asarray(self.lethal if mask is None else mask, dtype=bool))
+        return _segments_free(starts, ends, 0.25 * self.resolution, mask, origin_x, origin_y, float(self.resolution))
 
     def nearest_free(self, row: int, col: int) -> tuple[int, int]:
         """The non-lethal cell nearest to (row, col) (itself if it is free); (-1, -1) if none exists."""
@@ -190,6 +188,36 @@ class Costmap:
             else:
                 _, self._nearest_free = distance_transform_edt(self.lethal, return_indices=True)
         return int(self._nearest_free[0, row, col]), int(self._nearest_free[1, row, col])
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A C-contiguous read-only view (a copy only where not contiguous): one compiled variant of a kernel whatever
+    the caller's array (numba compiles read-only and writable arrays apart; a shared costmap's are read-only)."""
+    view = np.ascontiguousarray(array).view()
+    view.flags.writeable = False
+    return view
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _segments_free(starts, ends, step, mask, origin_x, origin_y, resolution):  # pragma: no cover - compiled
+    """Costmap.segments_free's samples, a segment at a time, each left at its first point in `mask` or off it."""
+    height, width = mask.shape
+    free = np.zeros(starts.shape[0], dtype=np.bool_)
+    for i in range(starts.shape[0]):
+        start_x, start_y = starts[i, 0], starts[i, 1]
+        dx, dy = ends[i, 0] - start_x, ends[i, 1] - start_y
+        if not (np.isfinite(start_x) and np.isfinite(start_y) and np.isfinite(dx) and np.isfinite(dy)):
+            continue
+        samples = max(math.ceil(np.hypot(dx, dy) / step), 1) + 1
+        free[i] = True
+        for k in range(samples):
+            fraction = k / (samples - 1)
+            col = math.floor((start_x + fraction * dx - origin_x) / resolution)
+            row = math.floor((start_y + fraction * dy - origin_y) / resolution)
+            if row < 0 or row >= height or col < 0 or col >= width or mask[row, col]:
+                free[i] = False
+                break
+    return free
 
 
 _SHARED: weakref.WeakValueDictionary[tuple, Costmap] = weakref.WeakValueDictionary()

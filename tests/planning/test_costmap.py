@@ -69,6 +69,39 @@ def test_segments_are_checked_against_lethal_cells():
     assert free.tolist() == [False, True]
 
 
+def documented_samples_free(costmap, start, end, mask) -> bool:
+    """segments_free's documented sampling, point by point through lethal_at."""
+    length = math.hypot(end[0] - start[0], end[1] - start[1])
+    count = max(math.ceil(length / (0.25 * costmap.resolution)), 1) + 1
+    points = [start + k / (count - 1) * (end - start) for k in range(count)]
+    return not costmap.lethal_at(np.array(points), mask).any()
+
+
+@pytest.mark.parametrize("mask", ["lethal", "inflated", "writable copy"])
+def test_segments_free_samples_every_quarter_cell_as_documented_on_and_off_the_map(mask):
+    data = walled(60, 50)
+    data[10:40, 25] = 100
+    data[30, 5:20] = 100
+    costmap = Costmap(grid(data, 0.05, origin=(-1.0, 0.5)), CostmapConfig(robot_radius=0.06))  # 2.5 x 3 m
+    chosen = {"lethal": None, "inflated": costmap.inflated, "writable copy": np.array(costmap.inflated)}[mask]
+    rng = np.random.default_rng(3)
+    starts = rng.uniform([-1.3, 0.2], [1.8, 3.8], (400, 2))
+    ends = starts + rng.normal(0.0, 0.6, (400, 2)) * rng.choice([0.0, 0.05, 1.0], (400, 1))
+    free = costmap.segments_free(starts, ends, chosen)
+    expected = [documented_samples_free(costmap, a, b, chosen) for a, b in zip(starts, ends, strict=True)]
+    assert free.tolist() == expected
+    assert 0.05 < free.mean() < 0.95  # both answers are exercised
+
+
+def test_a_segment_with_a_non_finite_end_is_not_free_and_mismatched_ends_are_refused():
+    costmap = Costmap(grid(walled(40, 40)), CostmapConfig(robot_radius=0.05, safety_margin=0.0))
+    starts = np.array([[0.5, 0.5], [math.nan, 0.5], [0.5, 0.5], [0.5, 0.5]])
+    ends = np.array([[1.0, 1.0], [1.0, 1.0], [math.inf, 1.0], [0.5, 0.5]])
+    assert costmap.segments_free(starts, ends).tolist() == [True, False, False, True]
+    with pytest.raises(ValueError, match="3 starts but 2 ends"):
+        costmap.segments_free(starts[:3], ends[:2])
+
+
 @pytest.mark.parametrize(
     "kwargs, name",
     [

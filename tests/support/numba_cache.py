@@ -10,7 +10,7 @@ process each, on two cores, while the workers start and run the tests that call 
 
 - `loop`: the particle filter in its closed loop (the likelihood field, the place search's scan matcher, the
   LiDAR's ray casting, the wall follower's scan kernels), a fleet's scan (the other robots' discs), a log-odds
-  map's update;
+  map's update, a costmap's segment check;
 - `chains`: every IK chain's warm-up.
 
 With the cache in place it costs the imports and the loads, about 2 s of CPU.
@@ -29,6 +29,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def warm_loop() -> None:
+    import numpy as np
+
     from amr_control.wall_follower_config import read_parameter_file
     from amr_evaluation.closed_loop import run
     from amr_localization.particle_filter import ParticleFilter
@@ -36,6 +38,7 @@ def warm_loop() -> None:
     from amr_maps.rasterize import rasterize_world
     from amr_maps.scan_mapping import LogOddsGrid
     from amr_maps.world import load_world
+    from amr_planning.costmap import Costmap
     from amr_simulation.config import SimulationConfig
     from amr_simulation.fleet import Fleet
     from amr_simulation.simulator import Simulator
@@ -47,6 +50,7 @@ def warm_loop() -> None:
     pf = ParticleFilter(rasterize_world(world, 0.05), ParticleFilterConfig(seed=0), range_max=sim.lidar.range_max)
     run(sim, pf, follower, 0.3)
     LogOddsGrid(0.05).insert_scan((0.0, 0.0, 0.0), scan_of(sim))
+    Costmap(rasterize_world(world, 0.05)).segments_free(np.zeros((1, 2)), np.ones((1, 2)))
     Fleet(load_world(ROOT / "config" / "worlds" / "fleets" / "crossing.yaml"), SimulationConfig(seed=0))
 
 
