@@ -198,7 +198,7 @@ nodes:
 
 
 def test_arguments_and_parameters_on_the_command_line_reach_the_nodes(bringups):
-    run = bringups("maze_sim", "world:=hard_maze.yaml", "-p", "wall_follower.kp:=3.0", "--composed", "--duration", "4")
+    run = bringups("maze_sim", "world:=hard_maze.yaml", "-p", "wall_follower.kp:=3.0", "--composed", "--duration", "1")
     assert run.finish(timeout=30.0) == 0, run.output
     assert "world hard_maze (" in run.output, run.output
     typo = bringups("maze_sim", "-p", "wall_follower.kpp:=10.0", "--composed")
