@@ -592,6 +592,10 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
             browser.page.get_by_role("cell", name=f"/{robot}", exact=True).wait_for()
         browser.reply("from the true ring")  # the disc's distance from the ring, said
         browser.hide_notifications()
+        browser.toggle_folder("View")
+        for layer in ("particles", "scan"):  # not checked here: with them a frame took some 2 s of software WebGL
+            browser.set_checked(f"Show {layer}", False)
+        browser.toggle_folder("View")  # folded again: the status panel in the picture
         camera = camera_of(stack, browser)
         shown = browser.settled()
         shot = tmp_path / "viewer_fleet.png"
