@@ -30,16 +30,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_slam_links import DATA, LOG_MOUNT  # the script's directory is on sys.path
-from bench_slam_replay import shipped, stack_parameters
+from bench_slam_links import DATA, LOG_MOUNT, mapped  # the script's directory is on sys.path
+from bench_slam_replay import fed
 
 import amr_mapping.slam as slam_module
-from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
-from amr_mapping.slam_node import config_of
 from amr_maps.scan_matcher import default_angular_step
 from amr_util.geometry import relative_pose, wrap_angle
-from amr_util.scan import ScanData
 
 RIGHT_M, RIGHT_RAD = 0.05, math.radians(1.0)
 
@@ -119,39 +116,16 @@ class Recorder:
 
 def run_maze(path: Path) -> np.ndarray:
     """The recorded run through GraphSlam (slam.yaml and maze_mapping's parameters): each node's true pose."""
-    data = np.load(path)
-    rows, ranges, scan = data["poses"], data["ranges"], data["scan"]
-    slam = GraphSlam(config_of({**shipped("slam", "slam.yaml"), **stack_parameters("slam")}))
-    truth = []
-    for row, reading in zip(rows, ranges, strict=True):
-        try:
-            update = slam.add(int(row[0]), row[1:4], ScanData(reading, *scan))
-        except MappingError:
-            continue
-        if update.node_added:
-            truth.append(row[4:7])
-    return np.array(truth)
+    return fed(path, {})[1]
 
 
 def run_log(name: str) -> np.ndarray:
     """The log through GraphSlam (odometry synthesized, seed 0; the laser at the log's poses): each node's
     corrected pose."""
     from amr_datasets.carmen import read_carmen
-    from amr_datasets.odometry import synthesize_odometry
 
-    log = read_carmen(next(DATA.glob(f"{name}*.log*")))
-    reference = log.poses()
-    odometry = synthesize_odometry(reference, seed=0)
-    slam = GraphSlam(SlamConfig(**LOG_MOUNT))
-    truth = []
-    for k, (item, odom) in enumerate(zip(log.scans, odometry, strict=True)):
-        try:
-            update = slam.add(int(round(item.stamp * 1e9)), odom, item.scan)
-        except MappingError:
-            continue
-        if update.node_added:
-            truth.append(reference[k])
-    return np.array(truth)
+    _, scan_of, reference, _ = mapped(read_carmen(next(DATA.glob(f"{name}*.log*"))), 0, SlamConfig(**LOG_MOUNT))
+    return reference[scan_of]
 
 
 def report(name: str, records: list, truth: np.ndarray, scales, added: np.ndarray) -> None:

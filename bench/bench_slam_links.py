@@ -66,7 +66,7 @@ def _stats(values: np.ndarray, scale: float) -> str:
     return f"{np.median(values):.2f} / {values.mean():.2f} / {np.percentile(values, 90):.2f}"
 
 
-def _mapped(log, seed: int, config: SlamConfig):
+def mapped(log, seed: int, config: SlamConfig):
     """The log through GraphSlam with synthesized odometry: (slam, each node's scan index, reference, odometry)."""
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
@@ -83,7 +83,7 @@ def _mapped(log, seed: int, config: SlamConfig):
 
 
 def links(name: str, log, seed: int, reference_sigma: tuple[float, float] = (0.015, 0.26)) -> None:
-    slam, scan_of, reference, odometry = _mapped(log, seed, SlamConfig(**LOG_MOUNT))
+    slam, scan_of, reference, odometry = mapped(log, seed, SlamConfig(**LOG_MOUNT))
     slam.optimize()
     poses, edges, loop = slam.graph()
     scans = np.array(scan_of)
@@ -183,7 +183,7 @@ def along_across(poses: np.ndarray, reference: np.ndarray, measured: np.ndarray,
 def oracle_window(name: str, log, seed: int, every: int) -> None:
     """The front end's correlative match against a perfect window (see the module docstring)."""
     config = SlamConfig(**LOG_MOUNT)
-    slam, scan_of, reference, odometry = _mapped(log, seed, config)
+    slam, scan_of, reference, odometry = mapped(log, seed, config)
     resolution, window = config.resolution, config.local_window
     rows = []
     for n in range(window, len(scan_of), every):

@@ -46,14 +46,14 @@ RIGHT_M, RIGHT_RAD = 0.05, math.radians(1.0)
 """A closure candidate's match this close to the true relative pose is right."""
 
 
-def replay(path: Path, overrides: dict) -> dict:
-    """One recorded run through GraphSlam (slam.yaml and maze_mapping's parameters, `overrides` over them)."""
+def fed(path: Path, overrides: dict) -> tuple[GraphSlam, np.ndarray, np.ndarray]:
+    """One recorded run fed to GraphSlam (slam.yaml and maze_mapping's parameters, `overrides` over them): the SLAM,
+    each node's true pose and its pose online (when it was added)."""
     data = np.load(path)
     rows, ranges, scan = data["poses"], data["ranges"], data["scan"]
     params = {**shipped("slam", "slam.yaml"), **stack_parameters("slam"), **overrides}
     slam = GraphSlam(config_of(params))
     truth, online = [], []
-    started = time.process_time()
     for row, reading in zip(rows, ranges, strict=True):
         try:
             update = slam.add(int(row[0]), row[1:4], ScanData(reading, *scan))
@@ -62,9 +62,15 @@ def replay(path: Path, overrides: dict) -> dict:
         if update.node_added:
             truth.append(row[4:7])
             online.append(update.pose)
+    return slam, np.array(truth), np.array(online)
+
+
+def replay(path: Path, overrides: dict) -> dict:
+    """One recorded run through GraphSlam, optimized at its end: its errors against the truth."""
+    started = time.process_time()
+    slam, truth, online = fed(path, overrides)
     slam.optimize()
     seconds = time.process_time() - started
-    truth, online = np.array(truth), np.array(online)
     poses, edges, loop = slam.graph()
     sequential = np.flatnonzero(~loop)
     i, j = edges[sequential, 0], edges[sequential, 1]
