@@ -561,11 +561,12 @@ def test_the_arm_view_moves_after_an_ik_request(playwright, tmp_path):
         stack.stop()
 
 
-def near(image: np.ndarray, center: tuple[float, float], radius: float) -> np.ndarray:
-    """The (N, 3) pixels of `image` within `radius` px of `center`."""
+def near(image: np.ndarray, center: tuple[float, float], radius: float, beyond: float = 0.0) -> np.ndarray:
+    """The (N, 3) pixels of `image` within `radius` px of `center` (and further than `beyond`)."""
     height, width = image.shape[:2]
     rows, cols = np.ogrid[:height, :width]
-    return image[(rows - center[1]) ** 2 + (cols - center[0]) ** 2 <= radius**2].astype(int)
+    distance = (rows - center[1]) ** 2 + (cols - center[0]) ** 2
+    return image[(distance <= radius**2) & (distance >= beyond**2)].astype(int)
 
 
 def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(playwright, tmp_path):
@@ -618,7 +619,8 @@ def test_a_fleet_shows_each_robot_in_its_colour_with_its_name_left_of_the_panel(
             u, v = browser.pixel(*truth[robot][-1], camera)
             center = (u - box["x"], v - box["y"])
             discs[robot] = np.median(near(shown, center, 0.06 * scale), axis=0)  # the lit disc, its heading aside
-            trail = (np.abs(near(shown, center, 0.4 * scale) - ROBOT_COLORS[index]).sum(axis=1) < 40).sum()
+            around = near(shown, center, 0.4 * scale, beyond=0.15 * scale)  # the disc (0.105 m) is in its colour too
+            trail = (np.abs(around - ROBOT_COLORS[index]).sum(axis=1) < 40).sum()
             assert trail > 20, f"{robot}'s trail in its colour {ROBOT_COLORS[index]} leads to it ({trail} pixels)"
             labels[robot] = (center[0], center[1] - 0.25 * scale)
         for first, second in itertools.combinations(FLEET, 2):
