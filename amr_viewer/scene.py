@@ -43,17 +43,21 @@ COLORS = {
     "chosen_frontier": (215, 60, 0),
 }
 ROBOT_COLORS = (
-    (40, 90, 200),
-    (225, 120, 0),
-    (0, 150, 110),
-    (190, 60, 170),
+    (40, 60, 160),
+    (120, 20, 70),
+    (70, 130, 40),
+    (150, 80, 200),
     (130, 85, 40),
-    (0, 165, 215),
+    (0, 190, 255),
     (120, 120, 120),
     (150, 150, 0),
 )
-"""A robot's disc, trail and label, in the order the robots are first drawn (then again from the first)."""
-ROBOT_COLOR_NAMES = ("blue", "orange", "green", "purple", "brown", "cyan", "grey", "olive")
+"""A robot's disc, trail and label, in the order the robots are first drawn (then again from the first): each at
+least MIN_COLOR_DISTANCE from the others and from every layer's colour in COLORS (a robot's trail is never read as a
+path, its disc never as an estimate)."""
+ROBOT_COLOR_NAMES = ("blue", "maroon", "green", "violet", "brown", "cyan", "grey", "olive")
+MIN_COLOR_DISTANCE = 70.0
+"""RGB distance at least between a robot's colour and any other colour drawn."""
 HEIGHTS = {
     "world_goal": 0.002,
     "graph": 0.003,

@@ -2,6 +2,7 @@
 
 import contextlib
 import io
+import math
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ import viser
 
 from amr_util.geometry import Pose2D
 from amr_viewer.cdr import StampedTransform
-from amr_viewer.scene import ROBOT_COLORS, Scene
+from amr_viewer.scene import COLORS, MIN_COLOR_DISTANCE, ROBOT_COLOR_NAMES, ROBOT_COLORS, Scene
 from amr_viewer.state import RobotState
 
 
@@ -43,8 +44,19 @@ def test_each_robot_of_a_fleet_has_its_colour_and_its_name(server):
         assert tuple(scene._handles[f"{root}/robot/body"].color) == colors[k]
         trail = scene._handles[f"{root}/trail/chunk0"]
         assert np.all(trail.colors == np.array(colors[k], dtype=np.uint8)), "the trail in the robot's colour"
-    assert scene.color_name_of("/r2") == "orange" and Scene.label_of("") == "robot"
+    assert scene.color_name_of("/r2") == "maroon" and Scene.label_of("") == "robot"
     scene.forget("/r2")
     assert "/robots/r2/labels" not in scene._handles
     scene.set_hidden("labels", True)
     assert not scene._handles["/robots/r1/labels"].visible and scene._handles["/robots/r1/robot"].visible
+
+
+def test_every_robot_colour_stands_apart_from_the_others_and_from_every_layer():
+    """A searching estimate once drew within 5 of the second robot's colour: an unlocalized robot's arrow read as its
+    trail."""
+    assert len(ROBOT_COLOR_NAMES) == len(ROBOT_COLORS)
+    for index, color in enumerate(ROBOT_COLORS):
+        for other in ROBOT_COLORS[index + 1 :]:
+            assert math.dist(color, other) >= MIN_COLOR_DISTANCE, (color, other)
+        for layer, drawn in COLORS.items():
+            assert math.dist(color, drawn) >= MIN_COLOR_DISTANCE, (ROBOT_COLOR_NAMES[index], layer)
