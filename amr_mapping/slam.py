@@ -635,13 +635,17 @@ class GraphSlam:
         """The members' scans mapped (log odds) at their poses `placed` (the anchor node's frame): the cells seen
         clear (see _Reference.clear)."""
         grid = LogOddsGrid(self.config.resolution)
-        for k, pose in zip(members, placed, strict=True):
-            node = self._nodes[k]
-            grid.insert(compose(pose, self._mount), node.ranges, node.angles, node.clear_range)
-        probability = grid.probability()
+        nodes = [self._nodes[k] for k in members]
+        grid.insert_many(
+            [compose(pose, self._mount) for pose in placed],
+            [node.ranges for node in nodes],
+            [node.angles for node in nodes],
+            [node.clear_range for node in nodes],
+        )
         margin = int(CLEAR_MARGIN_CELLS)
-        walls = ndimage.binary_dilation(probability >= 0.5, np.ones((2 * margin + 1, 2 * margin + 1), dtype=bool))
-        clear = grid.observed() & (probability <= CLEAR_PROBABILITY) & ~walls
+        # the walls dilated by a square: a separable maximum, the same cells as binary_dilation's (twice as fast)
+        walls = ndimage.maximum_filter(grid.probability_at_least(0.5), size=2 * margin + 1, mode="constant", cval=0)
+        clear = grid.observed() & grid.probability_at_most(CLEAR_PROBABILITY) & ~walls
         return OccupancyGrid(np.where(clear, 100, 0).astype(np.int8), self.config.resolution, (*grid.origin, 0.0))
 
     def _match_local(
@@ -1426,8 +1430,13 @@ def _grid_from(poses: np.ndarray, scans, config: SlamConfig, mount=(0.0, 0.0, 0.
     """The occupancy grid of the scans (ranges, angles, clear_range) at the poses: a beam without a return
     clears free space up to clear_range (the sensor's range_max, at most max_range_used), not further."""
     grid = LogOddsGrid(config.resolution)
-    for pose, (ranges, angles, clear_range) in zip(poses, scans, strict=True):
-        grid.insert(compose(pose, mount), ranges, angles, clear_range)
+    scans = list(scans)
+    grid.insert_many(
+        [compose(pose, mount) for pose in poses],
+        [ranges for ranges, _, _ in scans],
+        [angles for _, angles, _ in scans],
+        [clear_range for _, _, clear_range in scans],
+    )
     return grid.to_occupancy_grid()
 
 

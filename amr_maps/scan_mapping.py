@@ -24,6 +24,10 @@ from amr_maps.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from amr_util.geometry import compose
 from amr_util.scan import ScanData
 
+PROBABILITY_BAND = 1e-9
+"""Log odds this close to a level's are compared through the probability itself (LogOddsGrid.probability_at_least):
+beyond it, a rounding of the exponential cannot cross the level."""
+
 
 class LogOddsGrid:
     """A growing log-odds occupancy grid; `origin` (x, y) is cell (0, 0)'s lower-left corner, row 0 the lowest y
@@ -58,6 +62,7 @@ class LogOddsGrid:
         self._count = np.zeros((0, 0), dtype=np.int32)
         self._mark = np.zeros((0, 0), dtype=np.int64)
         self._scans = 0
+        self._view: tuple[int, int, int, int] | None = None  # insert_many's (r0, c0, rows, cols)
 
     @property
     def origin(self) -> tuple[float, float]:
@@ -81,6 +86,32 @@ class LogOddsGrid:
         probability = 1.0 - 1.0 / (1.0 + np.exp(self.log_odds()))
         return np.where(self.observed(), probability, unknown)
 
+    def probability_at_least(self, level: float, unknown: float = 0.5) -> np.ndarray:
+        """probability(unknown) >= level, cell for cell, without every cell's exponential: the log odds compared
+        with level's, the probability computed only for the cells within PROBABILITY_BAND of it (the formula is
+        monotone in the log odds, so the others compare the same)."""
+        return self._compare(level, unknown, True)
+
+    def probability_at_most(self, level: float, unknown: float = 0.5) -> np.ndarray:
+        """probability(unknown) <= level, cell for cell (see probability_at_least)."""
+        return self._compare(level, unknown, False)
+
+    def _compare(self, level: float, unknown: float, at_least: bool) -> np.ndarray:
+        level = float(level)
+        threshold = math.log(level / (1.0 - level)) if 0.0 < level < 1.0 else math.nan
+        if not self.clamp[0] + PROBABILITY_BAND < threshold < self.clamp[1] - PROBABILITY_BAND:
+            probability = self.probability(unknown)  # a level the clamp decides: the formula itself
+            return probability >= level if at_least else probability <= level
+        unseen = bool(unknown >= level) if at_least else bool(unknown <= level)
+        mask = np.empty(self._sum.shape, dtype=bool)
+        near = np.empty(self._sum.size, dtype=np.int64)
+        found = _compare_log_odds(self._sum, self._count, threshold, PROBABILITY_BAND, at_least, unseen, mask, near)
+        if found:
+            rows, cols = np.divmod(near[:found], self._sum.shape[1])
+            probability = 1.0 - 1.0 / (1.0 + np.exp(np.clip(self._sum[rows, cols], *self.clamp)))
+            mask[rows, cols] = probability >= level if at_least else probability <= level
+        return mask
+
     def to_occupancy_grid(self, occupied: float = 0.65, free: float = 0.25, frame_id: str = "map") -> OccupancyGrid:
         """100 at or above `occupied`, 0 at or below `free`, round(100 p) between, -1 where never observed. An
         empty grid (no scan yet) is one unknown cell at the origin."""
@@ -100,6 +131,49 @@ class LogOddsGrid:
         frame). sign=-1 takes out a scan inserted before with the same arguments (the same cells, exactly)."""
         if sign not in (1, -1):
             raise ValueError(f"insert: sign must be 1 or -1, got {sign!r}")
+        beams = self._beams(pose, ranges, angles, max_range_used)
+        if beams is not None:
+            self._cover(np.vstack([beams[1], beams[0][None, :2]]))
+            self._apply(*beams, sign)
+
+    def insert_many(self, poses, ranges, angles, max_ranges, sign: int = 1) -> None:
+        """insert for each scan in turn (poses (N, 3), sequences of N ranges, angles and max_range_used): the same
+        cells, values and origin, but the arrays allocated once at the extent the scans grow the grid to (each
+        scan traced in the extent it would have had, a view of them), not reallocated and copied at each growth."""
+        if sign not in (1, -1):
+            raise ValueError(f"insert: sign must be 1 or -1, got {sign!r}")
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        if not len(poses) == len(ranges) == len(angles) == len(max_ranges):
+            raise ValueError(
+                f"insert_many: {len(poses)} poses, {len(ranges)} ranges, {len(angles)} angles, {len(max_ranges)} ranges"
+            )
+        scans = [
+            b
+            for b in (self._beams(*args) for args in zip(poses, ranges, angles, max_ranges, strict=True))
+            if b is not None
+        ]
+        if not scans:
+            return
+        height, width = self._sum.shape
+        low, size = self._low.copy(), np.array([width, height])
+        extents = []
+        for pose, ends, _ in scans:
+            grown = self._grown(np.vstack([ends, pose[None, :2]]), low, size)
+            if grown is not None:
+                low, size = grown
+            extents.append((low, size))
+        if self._sum.size == 0 or np.any(low != self._low) or np.any(size != (width, height)):
+            self._reallocate(low, size)
+        store, store_low = (self._sum, self._count, self._mark), self._low
+        for (pose, ends, hit), (low, size) in zip(scans, extents, strict=True):
+            c0, r0 = low - store_low
+            self._low = low
+            self._view = (int(r0), int(c0), int(size[1]), int(size[0]))
+            self._apply(pose, ends, hit, sign, store)
+        self._view = None
+
+    def _beams(self, pose, ranges, angles, max_range_used: float):
+        """(pose, the beams' end points (map frame), which end on a return) of a scan to insert; None: no beam."""
         pose = np.asarray(pose, dtype=float).reshape(3)
         if not np.all(np.isfinite(pose)):
             raise ValueError(f"insert: pose must be a finite (x, y, theta), got {pose!r}")
@@ -115,24 +189,31 @@ class LogOddsGrid:
         length = np.where(hit, ranges, max_range_used if math.isfinite(max_range_used) else 0.0)
         keep = hit | clear
         if not keep.any():
-            return
+            return None
         heading = pose[2] + angles[keep]
         ends = np.column_stack([pose[0] + length[keep] * np.cos(heading), pose[1] + length[keep] * np.sin(heading)])
-        self._cover(np.vstack([ends, pose[None, :2]]))
+        return pose, ends, hit[keep]
+
+    def _apply(self, pose, ends, hit, sign: int, store=None) -> None:
+        """One scan's cells updated (the arrays cover them); store: the arrays of insert_many, self._view in them."""
         ox, oy = self.origin
         start = np.array([(pose[0] - ox) / self.resolution, (pose[1] - oy) / self.resolution])
         ends_cells = (ends - (ox, oy)) / self.resolution
         self._scans += 1
+        if store is None:
+            store = (self._sum, self._count, self._mark)
+            view = (0, 0, *self._sum.shape)
+        else:
+            view = self._view
         _update(
-            self._sum,
-            self._count,
-            self._mark,
+            *store,
+            *view,
             2 * self._scans,
             start[0],
             start[1],
             ends_cells[:, 0],
             ends_cells[:, 1],
-            hit[keep],
+            hit,
             sign * self.l_occ,
             sign * self.l_free,
             sign,
@@ -159,25 +240,37 @@ class LogOddsGrid:
 
     def _cover(self, points: np.ndarray) -> None:
         """Grow the arrays (with the margin) so that every point's cell is inside, keeping the lattice."""
+        height, width = self._sum.shape
+        grown = self._grown(points, self._low, np.array([width, height]))
+        if grown is not None:
+            self._reallocate(*grown)
+
+    def _grown(self, points: np.ndarray, low: np.ndarray, size: np.ndarray):
+        """(low, size) of the arrays (col, row) once grown to cover the points (with the margin) from (low, size);
+        None when they already do."""
         res = self.resolution
         cols = np.floor((points[:, 0] - self._anchor[0]) / res).astype(np.int64)
         rows = np.floor((points[:, 1] - self._anchor[1]) / res).astype(np.int64)
-        low = np.array([cols.min(), rows.min()])
+        new_low = np.array([cols.min(), rows.min()])
         high = np.array([cols.max(), rows.max()]) + 1
-        height, width = self._sum.shape
-        if self._sum.size and np.all(low >= self._low) and np.all(high <= self._low + (width, height)):
-            return
+        empty = size[0] * size[1] == 0
+        if not empty and np.all(new_low >= low) and np.all(high <= low + size):
+            return None
         margin = int(math.ceil(self.margin / res))
-        if self._sum.size:
-            low = np.minimum(low, self._low)
-            high = np.maximum(high, self._low + (width, height))
-        low -= margin
+        if not empty:
+            new_low = np.minimum(new_low, low)
+            high = np.maximum(high, low + size)
+        new_low -= margin
         high += margin
-        size = high - low
+        return new_low, high - new_low
+
+    def _reallocate(self, low: np.ndarray, size: np.ndarray) -> None:
+        """New arrays of `size` (cols, rows) at `low` on the lattice, the cells so far copied in."""
         total = np.zeros((size[1], size[0]))
         count = np.zeros((size[1], size[0]), dtype=np.int32)
         mark = np.zeros((size[1], size[0]), dtype=np.int64)
         if self._sum.size:
+            height, width = self._sum.shape
             c0, r0 = self._low - low
             total[r0 : r0 + height, c0 : c0 + width] = self._sum
             count[r0 : r0 + height, c0 : c0 + width] = self._count
@@ -209,18 +302,38 @@ def map_from_scans(
 
 
 @numba.njit(cache=True)
-def _update(total, count, mark, tag, x0, y0, xs, ys, hit, l_occ, l_free, sign):  # pragma: no cover - compiled
-    """One scan, in cell units from the grid's origin: end cells of hits first (tag: occupied this scan), then
-    every cell each beam crosses (tag + 1: free this scan), each cell once."""
+def _compare_log_odds(total, count, threshold, band, at_least, unseen, mask, near):  # pragma: no cover - compiled
+    """LogOddsGrid._compare's pass: mask from the log odds against threshold (unseen where never observed); the
+    cells within band of it listed in near (flat indices; their count returned) for the formula itself."""
+    found = 0
     rows, cols = total.shape
+    for r in range(rows):
+        for c in range(cols):
+            value = total[r, c]
+            if count[r, c] <= 0:
+                mask[r, c] = unseen
+            elif abs(value - threshold) <= band:
+                mask[r, c] = False
+                near[found] = r * cols + c
+                found += 1
+            else:
+                mask[r, c] = value >= threshold if at_least else value <= threshold
+    return found
+
+
+@numba.njit(cache=True)
+def _update(total, count, mark, r0, c0, rows, cols, tag, x0, y0, xs, ys, hit, l_occ, l_free, sign):  # pragma: no cover
+    """One scan, in cell units from the grid's origin: end cells of hits first (tag: occupied this scan), then
+    every cell each beam crosses (tag + 1: free this scan), each cell once. The grid: rows x cols cells of the
+    arrays from (r0, c0) on (LogOddsGrid.insert_many's view; the whole arrays for insert)."""
     for k in range(xs.shape[0]):
         if hit[k]:
             c = int(math.floor(xs[k]))
             r = int(math.floor(ys[k]))
-            if mark[r, c] != tag:
-                mark[r, c] = tag
-                total[r, c] += l_occ
-                count[r, c] += sign
+            if mark[r0 + r, c0 + c] != tag:
+                mark[r0 + r, c0 + c] = tag
+                total[r0 + r, c0 + c] += l_occ
+                count[r0 + r, c0 + c] += sign
     for k in range(xs.shape[0]):
         ix = int(math.floor(x0))
         iy = int(math.floor(y0))
@@ -238,10 +351,15 @@ def _update(total, count, mark, tag, x0, y0, xs, ys, hit, l_occ, l_free, sign): 
         for _ in range(steps + 1):
             if ix == ex and iy == ey and hit[k]:
                 break  # the end cell of a return is occupied
-            if 0 <= iy < rows and 0 <= ix < cols and mark[iy, ix] != tag and mark[iy, ix] != tag + 1:
-                mark[iy, ix] = tag + 1
-                total[iy, ix] += l_free
-                count[iy, ix] += sign
+            if (
+                0 <= iy < rows
+                and 0 <= ix < cols
+                and mark[r0 + iy, c0 + ix] != tag
+                and mark[r0 + iy, c0 + ix] != tag + 1
+            ):
+                mark[r0 + iy, c0 + ix] = tag + 1
+                total[r0 + iy, c0 + ix] += l_free
+                count[r0 + iy, c0 + ix] += sign
             if ix == ex and iy == ey:
                 break
             if next_x < next_y:

@@ -130,3 +130,58 @@ def test_probability_clamps_and_unknown_value():
     assert probability.min() == pytest.approx(1.0 - 1.0 / (1.0 + math.exp(-2.0)))
     empty = LogOddsGrid(0.1)
     assert empty.to_occupancy_grid().data.tolist() == [[-1]]
+
+
+def test_insert_many_is_insert_one_by_one():
+    """insert_many allocates the arrays once at the extent the scans grow the grid to: the same cells, values and
+    origin as inserting the scans in turn (each traced from the origin it would have had), through many growths."""
+    rng = np.random.default_rng(3)
+    poses = np.column_stack([rng.uniform(-15, 15, 12), rng.uniform(-15, 15, 12), rng.uniform(-math.pi, math.pi, 12)])
+    angles = [np.linspace(-math.pi, math.pi, 180, endpoint=False) for _ in poses]
+    ranges = [rng.uniform(0.2, 12.0, 180) for _ in poses]
+    for r in ranges:
+        r[rng.integers(0, 180, 15)] = np.inf  # no return: cleared up to max_range_used
+        r[rng.integers(0, 180, 5)] = np.nan
+    limits = [10.0] * len(poses)
+    for origin in (None, (0.013, -0.021)):
+        one, many = LogOddsGrid(0.05, origin), LogOddsGrid(0.05, origin)
+        one.insert(poses[0], ranges[0], angles[0], limits[0])  # a grid with cells already
+        many.insert(poses[0], ranges[0], angles[0], limits[0])
+        for args in zip(poses[1:], ranges[1:], angles[1:], limits[1:], strict=True):
+            one.insert(*args)
+        many.insert_many(poses[1:], ranges[1:], angles[1:], limits[1:])
+        assert one.origin == many.origin and one.shape == many.shape
+        assert np.array_equal(one.log_odds(), many.log_odds()) and np.array_equal(one.observed(), many.observed())
+        many.insert_many(poses[1:], ranges[1:], angles[1:], limits[1:], sign=-1)  # taken out exactly, as insert's
+        for args in zip(poses[1:], ranges[1:], angles[1:], limits[1:], strict=True):
+            one.insert(*args, sign=-1)
+        assert np.array_equal(one.log_odds(), many.log_odds()) and np.array_equal(one.observed(), many.observed())
+    empty = LogOddsGrid(0.05)
+    empty.insert_many(poses, ranges, angles, limits)
+    first = LogOddsGrid(0.05)
+    for args in zip(poses, ranges, angles, limits, strict=True):
+        first.insert(*args)
+    assert empty.origin == first.origin and np.array_equal(empty.log_odds(), first.log_odds())
+    with pytest.raises(ValueError, match="insert_many"):
+        empty.insert_many(poses, ranges[:3], angles, limits)
+
+
+def test_probability_thresholds_are_the_probabilitys_own():
+    """probability_at_least / at_most compare the log odds, the formula only near the level: the same cells as
+    probability() compared, on scans' sums, never-observed cells, sums a rounding away from 0 and the clamp."""
+    rng = np.random.default_rng(5)
+    grid = LogOddsGrid(0.05)
+    for _ in range(6):
+        angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
+        grid.insert(rng.uniform(-1, 1, 3), rng.uniform(0.3, 4.0, 360), angles, 3.0)
+    seen = np.argwhere(grid.observed())
+    total = grid._sum  # cells at the edges of the formula: a rounding either side of 0, the clamp, a level
+    for value, (r, c) in zip(
+        [5e-17, -5e-17, 2e-16, -2e-16, 0.0, 1e-10, -1e-10, math.log(0.3 / 0.7), 40.0, -40.0], seen[:10], strict=True
+    ):
+        total[r, c] = value
+    for level in (0.5, 0.3, 0.65, 0.25, 0.999999, 0.0, 1.0):
+        for unknown in (0.5, 0.2):
+            probability = grid.probability(unknown)
+            assert np.array_equal(grid.probability_at_least(level, unknown), probability >= level), level
+            assert np.array_equal(grid.probability_at_most(level, unknown), probability <= level), level
