@@ -10,7 +10,7 @@ process each, on two cores, while the workers start and run the tests that call 
 
 - `loop`: the particle filter in its closed loop (the likelihood field, the place search's scan matcher, the
   LiDAR's ray casting, the wall follower's scan kernels), a fleet's scan (the other robots' discs), a log-odds
-  map's update, a costmap's segment check;
+  map's update and its thresholds, a costmap's segment check;
 - `chains`: every IK chain's warm-up.
 
 With the cache in place it costs the imports and the loads, about 2 s of CPU.
@@ -49,7 +49,9 @@ def warm_loop() -> None:
     sim = Simulator(world, SimulationConfig(dt=follower.dt, seed=0))
     pf = ParticleFilter(rasterize_world(world, 0.05), ParticleFilterConfig(seed=0), range_max=sim.lidar.range_max)
     run(sim, pf, follower, 0.3)
-    LogOddsGrid(0.05).insert_scan((0.0, 0.0, 0.0), scan_of(sim))
+    grid = LogOddsGrid(0.05)
+    grid.insert_scan((0.0, 0.0, 0.0), scan_of(sim))
+    grid.probability_at_least(0.65), grid.probability_at_most(0.2)
     Costmap(rasterize_world(world, 0.05)).segments_free(np.zeros((1, 2)), np.ones((1, 2)))
     Fleet(load_world(ROOT / "config" / "worlds" / "fleets" / "crossing.yaml"), SimulationConfig(seed=0))
 
