@@ -179,9 +179,10 @@ def test_navigated_real_robot_stops_once_when_the_navigator_hands_over_then_stay
         status.publish(navigator_status(stamp, "path_follower"))
         spin_for(executor, 0.05)
     spin_for(executor, 0.5)
-    zeros = [k for k, c in enumerate(rig.commands) if c.linear.x == 0.0 and c.angular.z == 0.0]
-    assert zeros == [len(rig.commands) - 1], "one zero at the hand-over (a tick before it may hold the last command)"
-    assert len(rig.commands) <= 2
+    # the last command is the hand-over's zero, then silence; a tick before it may hold the last command, or stop on
+    # data gone stale while a loaded machine delayed the observations (a real robot's follower stops then too)
+    assert rig.commands and rig.commands[-1].linear.x == 0.0 and rig.commands[-1].angular.z == 0.0, rig.commands
+    assert len(rig.commands) <= 2, "one zero at the hand-over, then silence"
 
 
 def test_deactivation_publishes_a_zero_command(ros_context, executor):

@@ -99,7 +99,13 @@ def test_random_and_malformed_requests_never_break_the_node(launch, multi_execut
     solve_anything()
     forward_anything()
     assert answered["solve"] >= SOLVE_REQUESTS and answered["fk"] >= FK_REQUESTS
-    good = call(multi_executor, probe.solve, solve_request("arm5", pose(0.053, 0.0478, 0.0), seed=PARAMS["arm5.home"]))
-    assert good.success and good.iterations == 9
+    # a good request still solved as before: within max_timeout's 2 ms, which a loaded machine's scheduler can take
+    # from one call (then the answer says "timeout"); a node the fuzz broke fails every try
+    request = solve_request("arm5", pose(0.053, 0.0478, 0.0), seed=PARAMS["arm5.home"])
+    for _ in range(3):
+        good = call(multi_executor, probe.solve, request)
+        if not good.message.startswith("timeout"):
+            break
+    assert good.success and good.iterations == 9, good.message
     huge = call(multi_executor, probe.solve, solve_request("ur5", pose(0.3, 0.2, 0.4), tolerance=1.4e154))
     assert not huge.success and "tolerance must be a finite number in (0, 1e+06]" in huge.message
