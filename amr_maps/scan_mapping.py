@@ -62,7 +62,6 @@ class LogOddsGrid:
         self._count = np.zeros((0, 0), dtype=np.int32)
         self._mark = np.zeros((0, 0), dtype=np.int64)
         self._scans = 0
-        self._view: tuple[int, int, int, int] | None = None  # insert_many's (r0, c0, rows, cols)
 
     @property
     def origin(self) -> tuple[float, float]:
@@ -145,7 +144,8 @@ class LogOddsGrid:
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         if not len(poses) == len(ranges) == len(angles) == len(max_ranges):
             raise ValueError(
-                f"insert_many: {len(poses)} poses, {len(ranges)} ranges, {len(angles)} angles, {len(max_ranges)} ranges"
+                f"insert_many: {len(poses)} poses, {len(ranges)} ranges, {len(angles)} angles, {len(max_ranges)} "
+                "max_ranges"
             )
         scans = [
             b
@@ -164,13 +164,11 @@ class LogOddsGrid:
             extents.append((low, size))
         if self._sum.size == 0 or np.any(low != self._low) or np.any(size != (width, height)):
             self._reallocate(low, size)
-        store, store_low = (self._sum, self._count, self._mark), self._low
+        allocated = self._low
         for (pose, ends, hit), (low, size) in zip(scans, extents, strict=True):
-            c0, r0 = low - store_low
-            self._low = low
-            self._view = (int(r0), int(c0), int(size[1]), int(size[0]))
-            self._apply(pose, ends, hit, sign, store)
-        self._view = None
+            c0, r0 = low - allocated
+            self._low = low  # the origin this scan would have had (the last scan's is the arrays')
+            self._apply(pose, ends, hit, sign, (int(r0), int(c0), int(size[1]), int(size[0])))
 
     def _beams(self, pose, ranges, angles, max_range_used: float):
         """(pose, the beams' end points (map frame), which end on a return) of a scan to insert; None: no beam."""
@@ -194,20 +192,18 @@ class LogOddsGrid:
         ends = np.column_stack([pose[0] + length[keep] * np.cos(heading), pose[1] + length[keep] * np.sin(heading)])
         return pose, ends, hit[keep]
 
-    def _apply(self, pose, ends, hit, sign: int, store=None) -> None:
-        """One scan's cells updated (the arrays cover them); store: the arrays of insert_many, self._view in them."""
+    def _apply(self, pose, ends, hit, sign: int, view=None) -> None:
+        """One scan's cells updated (the arrays cover them); view: (row, col, rows, cols) of the arrays the scan is
+        traced in (insert_many's extent of it), the whole arrays by default."""
         ox, oy = self.origin
         start = np.array([(pose[0] - ox) / self.resolution, (pose[1] - oy) / self.resolution])
         ends_cells = (ends - (ox, oy)) / self.resolution
         self._scans += 1
-        if store is None:
-            store = (self._sum, self._count, self._mark)
-            view = (0, 0, *self._sum.shape)
-        else:
-            view = self._view
         _update(
-            *store,
-            *view,
+            self._sum,
+            self._count,
+            self._mark,
+            *(view or (0, 0, *self._sum.shape)),
             2 * self._scans,
             start[0],
             start[1],
