@@ -63,6 +63,9 @@ MAX_RANGE_REPEATS = 1e-4
 MAX_RANGE_SPIKE = 10.0
 """... and at least this many times as often as the most frequent value in the 10 % below it."""
 DEFAULT_FOV = math.pi
+LOG_MOUNT = {"lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0}
+"""The LiDAR mount of a filter or a SLAM fed a log: its poses are the laser's, so the scans are taken at them (not at
+the robot description's mount)."""
 
 
 class DatasetError(ValueError):

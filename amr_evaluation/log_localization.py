@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from amr_datasets.carmen import CarmenLog
+from amr_datasets.carmen import LOG_MOUNT, CarmenLog
 from amr_datasets.odometry import OdometryNoiseModel, synthesize_odometry
 from amr_localization.particle_filter import ParticleFilter
 from amr_localization.particle_filter_config import ParticleFilterConfig
@@ -111,7 +111,7 @@ def log_parameters(log: CarmenLog, parameters: dict, seed: int, noise: OdometryN
     LiDAR at the log's pose, the motion noise of the synthesized odometry (its alphas are standard deviations;
     AMCL's are variances: twice the std, squared)."""
     alphas = {f"alpha{k}": (2.0 * getattr(noise, f"alpha{k}")) ** 2 for k in range(1, 5)}
-    values = {**parameters, **alphas, "lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0, "seed": seed}
+    values = {**parameters, **alphas, **LOG_MOUNT, "seed": seed}
     if not log.has_stamps:  # stamps made up 1 s apart: no speed to judge an odometry reset by
         values["max_odometry_speed"] = next(
             spec.maximum for spec in ParticleFilterConfig.parameter_specs() if spec.name == "max_odometry_speed"

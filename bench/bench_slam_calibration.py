@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_slam_links import DATA, LOG_MOUNT, mapped  # the script's directory is on sys.path
+from bench_slam_links import DATA, mapped  # the script's directory is on sys.path
 from bench_slam_replay import fed
 
 import amr_mapping.slam as slam_module
@@ -122,7 +122,7 @@ def run_maze(path: Path) -> np.ndarray:
 def run_log(name: str) -> np.ndarray:
     """The log through GraphSlam (odometry synthesized, seed 0; the laser at the log's poses): each node's
     corrected pose."""
-    from amr_datasets.carmen import read_carmen
+    from amr_datasets.carmen import LOG_MOUNT, read_carmen
 
     _, scan_of, reference, _ = mapped(read_carmen(next(DATA.glob(f"{name}*.log*"))), 0, SlamConfig(**LOG_MOUNT))
     return reference[scan_of]

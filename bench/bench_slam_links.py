@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from amr_datasets.carmen import read_carmen
+from amr_datasets.carmen import LOG_MOUNT, read_carmen
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import (
@@ -57,8 +57,6 @@ from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
 from amr_util.geometry import compose, relative_pose, transform_points, wrap_angle
 
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
-LOG_MOUNT = {"lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0}
-"""A log's poses are its laser's: the scans are taken at them (not at the robot description's mount)."""
 
 
 def _stats(values: np.ndarray, scale: float) -> str:

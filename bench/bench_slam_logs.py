@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from amr_datasets.carmen import read_carmen
+from amr_datasets.carmen import LOG_MOUNT, read_carmen
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
@@ -40,10 +40,6 @@ from amr_util.geometry import compose, relative_pose
 ROOT = Path(__file__).resolve().parents[1]
 
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
-
-
-LOG_MOUNT = {"lidar_x": 0.0, "lidar_y": 0.0, "lidar_yaw": 0.0}
-"""A log's poses are its laser's: the scans are taken at them (not at the robot description's mount)."""
 
 
 def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dict:
