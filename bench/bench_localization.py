@@ -472,7 +472,6 @@ class _FilterRun:
         self.pf = ParticleFilter(
             grid,
             ParticleFilterConfig(seed=seed),
-            range_max=3.5,
             beacons=beacons if use_beacons else None,
         )
         self.use_scan, self.use_beacons = use_scan, use_beacons
