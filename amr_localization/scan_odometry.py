@@ -148,44 +148,65 @@ def _posterior_mean(
     step = default_angular_step(cloud, matcher.resolution)
     if angle_steps is not None:
         angular = angle_steps * step
-    poses, scores = matcher.window_scores(cloud, centre, linear, angular, step)
+    lattice = matcher.window_lattice(cloud, centre, linear, angular, step)
     mean = odometry.increment + _weighted_offset(
-        poses, scores, float(independent), odometry.increment, *odometry.precisions
+        lattice.prior,
+        lattice.offsets,
+        lattice.turns,
+        lattice.totals,
+        lattice.denominator,
+        float(independent),
+        odometry.increment,
+        *odometry.precisions,
     )
     mean[2] = wrap_angle(mean[2])
     return mean
 
 
-@numba.njit(cache=True)
-def _weighted_offset(poses, scores, independent, increment, position_precision, heading_precision):
-    """The posterior's mean offset from the odometry's `increment` over the lattice `poses` (M, 3), with weights
+@numba.njit(cache=True, nogil=True)
+def _weighted_offset(
+    prior, offsets, turns, totals, denominator, independent, increment, position_precision, heading_precision
+):
+    """The posterior's mean offset from the odometry's `increment` over the lattice (amr_maps' WindowLattice: pose
+    [a, y, x] at prior + (offsets[x], offsets[y], turns[a]), score totals[a, y, x] / denominator), with weights
 
         w_m ~ max(score_m, 1e-6)^independent exp(-1/2 (x_m - increment)^T Sigma^-1 (x_m - increment))
 
     (Sigma^-1 from _Odometry.precisions; the exponent is _Odometry.log_density, pose by pose),
 
-    headings' offsets wrapped: two passes (the largest log-weight, then the weighted sums) where numpy made a
-    dozen (M,) temporaries for tens of thousands of poses."""
-    count = poses.shape[0]
-    log_weights = np.empty(count)
-    offsets = np.empty((count, 3))
+    headings' offsets wrapped: two passes (the largest log-weight, then the weighted sums) over the lattice's poses
+    in window_scores' order, none of them spelled out (numpy made a dozen (M,) temporaries for tens of thousands)."""
+    angles, size = totals.shape[0], totals.shape[1]
+    log_weights = np.empty(totals.size)
     top = -np.inf
-    for m in range(count):
-        dx, dy = poses[m, 0] - increment[0], poses[m, 1] - increment[1]
-        da = (poses[m, 2] - increment[2] + math.pi) % (2.0 * math.pi) - math.pi
-        offsets[m, 0], offsets[m, 1], offsets[m, 2] = dx, dy, da
-        value = independent * math.log(max(scores[m], 1e-6)) - 0.5 * (
-            (dx * dx + dy * dy) * position_precision + da * da * heading_precision
-        )
-        log_weights[m] = value
-        top = max(top, value)
+    m = 0
+    for a in range(angles):
+        da = (prior[2] + turns[a] - increment[2] + math.pi) % (2.0 * math.pi) - math.pi
+        for y in range(size):
+            dy = prior[1] + offsets[y] - increment[1]
+            for x in range(size):
+                dx = prior[0] + offsets[x] - increment[0]
+                value = independent * math.log(max(totals[a, y, x] / denominator, 1e-6)) - 0.5 * (
+                    (dx * dx + dy * dy) * position_precision + da * da * heading_precision
+                )
+                log_weights[m] = value
+                top = max(top, value)
+                m += 1
     total = 0.0
     mean = np.zeros(3)
-    for m in range(count):
-        weight = math.exp(log_weights[m] - top)
-        total += weight
-        for axis in range(3):
-            mean[axis] += weight * offsets[m, axis]
+    m = 0
+    for a in range(angles):
+        da = (prior[2] + turns[a] - increment[2] + math.pi) % (2.0 * math.pi) - math.pi
+        for y in range(size):
+            dy = prior[1] + offsets[y] - increment[1]
+            for x in range(size):
+                dx = prior[0] + offsets[x] - increment[0]
+                weight = math.exp(log_weights[m] - top)
+                total += weight
+                mean[0] += weight * dx
+                mean[1] += weight * dy
+                mean[2] += weight * da
+                m += 1
     return mean / total
 
 

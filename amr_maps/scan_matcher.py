@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -158,6 +159,21 @@ class Match:
     covariance: np.ndarray = field(default_factory=lambda: np.diag([np.inf, np.inf, np.inf]))
 
 
+class WindowLattice(NamedTuple):
+    """The poses of a windowed lattice and their scores (CorrelativeMatcher.window_lattice): pose [a, y, x] is
+    (prior x + offsets[x], prior y + offsets[y], prior theta + turns[a]), its score totals[a, y, x] / denominator
+    (the mean cell lookup: the sum over the points of the table's integers, over their count times QUANTUM)."""
+
+    prior: np.ndarray
+    offsets: np.ndarray
+    """(S,) m: the translations' offsets, in x and in y alike."""
+    turns: np.ndarray
+    """(A,) rad: the headings' offsets."""
+    totals: np.ndarray
+    """(A, S, S) int64."""
+    denominator: float
+
+
 def default_angular_step(points: np.ndarray, resolution: float) -> float:
     """The rotation that moves the farthest point of the scan by one cell (Cartographer's
     acos(1 - r^2 / (2 d^2))), at most 0.2 rad."""
@@ -236,6 +252,17 @@ class CorrelativeMatcher:
         """Every pose of the lattice within +-linear_window (m, in x and y) and +-angular_window (rad) of prior, and
         its score (the mean cell lookup, 0..1): (M, 3) poses and (M,) scores; for a posterior over the window (the
         match's score as a likelihood, times a prior) where the best pose alone is not enough."""
+        lattice = self.window_lattice(points, prior, linear_window, angular_window, angular_step)
+        prior = lattice.prior
+        da, dy, dx = np.meshgrid(lattice.turns, lattice.offsets, lattice.offsets, indexing="ij")
+        poses = np.stack([prior[0] + dx.ravel(), prior[1] + dy.ravel(), prior[2] + da.ravel()], axis=1)
+        return poses, lattice.totals.ravel() / lattice.denominator
+
+    def window_lattice(
+        self, points: np.ndarray, prior, linear_window: float, angular_window: float, angular_step: float | None = None
+    ) -> WindowLattice:
+        """window_scores' lattice without its poses spelled out (WindowLattice): for a pass over tens of thousands of
+        poses that needs their scores and offsets, not (M, 3) and (M,) arrays of them."""
         points = _finite_points(points)
         prior = np.asarray(prior, dtype=float).reshape(3)
         res = self.resolution
@@ -245,14 +272,11 @@ class CorrelativeMatcher:
         offsets = np.arange(-reach, reach + 1)
         thetas = prior[2] + step * np.arange(-turns, turns + 1)
         size = 2 * reach + 1
-        da, dy, dx = np.meshgrid(thetas - prior[2], offsets * res, offsets * res, indexing="ij")
-        poses = np.stack([prior[0] + dx.ravel(), prior[1] + dy.ravel(), prior[2] + da.ravel()], axis=1)
-        if len(points) == 0:
-            return poses, np.zeros(len(poses))
-        rows, cols = _cells(points, prior[0] - reach * res, prior[1] - reach * res, thetas, self.origin, res)
-        totals = np.empty((len(thetas), size, size), dtype=np.int64)
-        _lattice_totals(self.pyramid, self.pad, rows, cols, totals)
-        return poses, totals.ravel() / (len(points) * QUANTUM)
+        totals = np.zeros((len(thetas), size, size), dtype=np.int64)
+        if len(points):
+            rows, cols = _cells(points, prior[0] - reach * res, prior[1] - reach * res, thetas, self.origin, res)
+            _lattice_totals(self.pyramid, self.pad, rows, cols, totals)
+        return WindowLattice(prior, offsets * res, thetas - prior[2], totals, float(max(len(points), 1) * QUANTUM))
 
     # -- global search ---------------------------------------------------------------------------------------
 

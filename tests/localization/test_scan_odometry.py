@@ -130,3 +130,26 @@ def test_a_turn_in_place_gains_nothing_by_turning_points_out_of_view():
     found = placed_by_a_half_circle_scanner(first, second, drifted)
     assert math.hypot(*(found[:2] - truth[:2])) < 0.065  # no worse than the odometry's 7 cm
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(0.5)
+
+
+def test_the_posterior_mean_is_the_lattice_poses_weighted_by_their_score_and_the_odometry():
+    # the compiled pass over the window's lattice (never spelled out as poses) against the module's formula over
+    # window_scores' poses, in numpy: w ~ max(score, 1e-6)^N exp(-1/2 offset' Sigma^-1 offset)
+    from amr_localization.scan_odometry import _Odometry, _posterior_mean
+    from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap, default_angular_step
+    from amr_util.geometry import one_per_cell
+
+    first, second = (2.0, 1.0, 0.2), (2.3, 1.1, 0.3)
+    reference, points = seen_from(ROOM, first), seen_from(ROOM, second)
+    matcher = CorrelativeMatcher(ScoreMap.from_points(reference, 0.05, 0.05, 0.2), levels=1)
+    odometry = _Odometry(np.array(relative_pose(first, second)) + [0.04, -0.03, 0.03], 0.05, 0.03)
+    mean = _posterior_mean(matcher, points, 12.0, odometry.increment, odometry, 0.15, 0.1)
+    cloud = one_per_cell(points, 0.05)
+    poses, scores = matcher.window_scores(cloud, odometry.increment, 0.15, 0.1, default_angular_step(cloud, 0.05))
+    log_weights = 12.0 * np.log(np.maximum(scores, 1e-6)) + odometry.log_density(poses)
+    weights = np.exp(log_weights - log_weights.max())
+    offsets = poses - odometry.increment
+    offsets[:, 2] = wrap_angle(offsets[:, 2])
+    expected = odometry.increment + weights @ offsets / weights.sum()
+    np.testing.assert_allclose(mean, expected, rtol=0.0, atol=1e-12)
+    assert np.abs(mean - odometry.increment).max() > 0.01  # the scans moved it
