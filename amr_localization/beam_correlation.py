@@ -75,7 +75,7 @@ def independent_count(points: np.ndarray, length: float) -> float:
     return float(np.sum(1.0 / correlation_sums(points, length))) if len(points) else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _correlation_sums(x, y, inverse_length, sums):
     """sums[i] += exp(-|p_i - p_j| / length) over j != i, each pair once: (K, K) distances without the array."""
     count = x.size

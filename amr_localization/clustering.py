@@ -88,7 +88,7 @@ def _touching(dense: np.ndarray, shape: tuple[int, ...], wrap: bool) -> np.ndarr
     return component
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _root(parent, i):
     while parent[i] != i:
         parent[i] = parent[parent[i]]
@@ -96,7 +96,7 @@ def _root(parent, i):
     return i
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _components(dense, dims, headings, wrap, out):
     """Union-find over the dense cells: each cell joined to its neighbours found among them (binary search)."""
     cols, bins = dims[1], dims[2]

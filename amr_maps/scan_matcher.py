@@ -672,7 +672,7 @@ class _BranchAndBound:
 # -- helpers ----------------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _stamped_field(rows, cols, shape, stamp):
     """The largest of `stamp` (a (2 r + 1)^2 square centred on its middle) placed on each of the cells (rows, cols):
     a field within r cells of them; 0 elsewhere."""
@@ -709,7 +709,7 @@ def _point_table(points, cells, low, shape, resolution: float, sigma: float) -> 
     return table
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _nearest_cell_means(rows, cols, mean_x, mean_y, x, y, reach):  # pragma: no cover - compiled
     """Squared distance (m^2) from each cell's centre (x[col], y[row]) to the mean of the nearest occupied cell
     within `reach` cells (rows, cols; by the cells' centres; of cells equally near, the lowest column, then row:
@@ -782,7 +782,7 @@ def _cells(points: np.ndarray, x_ref: float, y_ref: float, thetas: np.ndarray, o
     return rows, cols
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _cells_kernel(px, py, x_ref, y_ref, thetas, ox, oy, resolution, rows, cols):  # pragma: no cover - compiled
     """_cells in one pass (no (A, N) float temporaries: a windowed match's setup was bound by them)."""
     for a in range(thetas.shape[0]):
@@ -829,7 +829,7 @@ def _bilinear(table: np.ndarray, u: np.ndarray, v: np.ndarray, scale: float):
     return value, du, dv
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _mean_bilinear(table, px, py, ox, oy, res, pose, value, gx, gy):  # pragma: no cover - compiled
     """The bilinear table at the points moved by pose (values, gradients per m in x and y); their mean."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
@@ -842,7 +842,7 @@ def _mean_bilinear(table, px, py, ox, oy, res, pose, value, gx, gy):  # pragma: 
     return value.mean()
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _refine_kernel(table, px, py, ox, oy, res, pose, step, iterations, reach):  # pragma: no cover - compiled
     """CorrelativeMatcher._refine in place on pose; returns the mean score. Each Gauss-Newton step solves the 3x3
     normal equations (Levenberg's 1e-3 of the diagonal added) and backtracks (1, 1/2, 1/4, 1/8 of it) until the
@@ -899,7 +899,7 @@ def _refine_kernel(table, px, py, ox, oy, res, pose, step, iterations, reach):  
     return best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _solve3(a, b):  # pragma: no cover - compiled
     """x with a x = b (3x3, Gaussian elimination with partial pivoting); NaN where a is singular."""
     m = np.empty((3, 4))
@@ -928,7 +928,7 @@ def _solve3(a, b):  # pragma: no cover - compiled
     return x
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _bilinear_kernel(table, u, v, scale, value, du, dv):  # pragma: no cover - compiled
     """_bilinear, one point at a time (the numpy version built a dozen temporaries per call: 1 ms for 60 points)."""
     rows, cols = table.shape
@@ -947,7 +947,7 @@ def _bilinear_kernel(table, u, v, scale, value, du, dv):  # pragma: no cover - c
         dv[k] = ((1 - fu) * (v10 - v00) + fu * (v11 - v01)) * scale
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _node_total(pyramid, level, pad, rows, cols, a, x, y):  # pragma: no cover - compiled
     """Sum over the points of pyramid[level] at their cells for angle a, offset (x, y): 0 off the table."""
     height, width = pyramid.shape[1], pyramid.shape[2]
@@ -966,7 +966,7 @@ def _score_nodes(pyramid, level, pad, rows, cols, nodes, out, start, stop):  # p
         out[k] = _node_total(pyramid, level, pad, rows, cols, nodes[k, 0], nodes[k, 1], nodes[k, 2])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _lattice_totals(pyramid, pad, rows, cols, out):  # pragma: no cover - compiled
     """out[a, y, x]: level-0 totals of every pose of a small lattice."""
     for a in range(out.shape[0]):
@@ -975,7 +975,7 @@ def _lattice_totals(pyramid, pad, rows, cols, out):  # pragma: no cover - compil
                 out[a, y, x] = _node_total(pyramid, 0, pad, rows, cols, a, x, y)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _near(a, x, y, fa, fx, fy, sep2, angle_sep, n_angles):  # pragma: no cover - compiled
     dx = x - fx
     dy = y - fy
@@ -985,7 +985,7 @@ def _near(a, x, y, fa, fx, fy, sep2, angle_sep, n_angles):  # pragma: no cover -
     return dx * dx + dy * dy < sep2 and da < angle_sep
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _keep_leaf(found, found_totals, state, total, a, x, y, sep2, angle_sep, n_angles):  # pragma: no cover
     """Add a leaf to the best well-separated leaves (sorted best first): it replaces the worse ones near it,
     and is dropped if a better one is near."""
@@ -1015,7 +1015,7 @@ def _keep_leaf(found, found_totals, state, total, a, x, y, sep2, angle_sep, n_an
     state[2] = n + 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _threshold(found_totals, state, min_total):  # pragma: no cover - compiled
     """A node is worth opening when its bound is above this."""
     if state[2] == found_totals.shape[0]:
