@@ -968,11 +968,34 @@ def _score_nodes(pyramid, level, pad, rows, cols, nodes, out, start, stop):  # p
 
 @numba.njit(cache=True, nogil=True)
 def _lattice_totals(pyramid, pad, rows, cols, out):  # pragma: no cover - compiled
-    """out[a, y, x]: level-0 totals of every pose of a small lattice."""
+    """out[a, y, x]: level-0 totals of every pose of a small lattice (_node_total at each, the same integers): per
+    heading, the points whose cells stay on the table across the whole window are summed at each pose from their
+    flat index plus the pose's offset (no bounds to check, no index to compute), the others pose by pose."""
+    height, width = pyramid.shape[1], pyramid.shape[2]
+    size_y, size_x = out.shape[1], out.shape[2]
+    table = pyramid[0].ravel()
+    inside = np.empty(rows.shape[1], dtype=np.int64)
     for a in range(out.shape[0]):
-        for y in range(out.shape[1]):
-            for x in range(out.shape[2]):
-                out[a, y, x] = _node_total(pyramid, 0, pad, rows, cols, a, x, y)
+        count = 0
+        for i in range(rows.shape[1]):
+            r, c = np.int64(rows[a, i]) + pad, np.int64(cols[a, i]) + pad
+            if r >= 0 and c >= 0 and r + size_y <= height and c + size_x <= width:
+                inside[count] = r * width + c
+                count += 1
+        for y in range(size_y):
+            for x in range(size_x):
+                offset = y * width + x
+                total = 0
+                for k in range(count):
+                    total += table[inside[k] + offset]
+                out[a, y, x] = total
+        for i in range(rows.shape[1]):
+            r, c = np.int64(rows[a, i]) + pad, np.int64(cols[a, i]) + pad
+            if r >= 0 and c >= 0 and r + size_y <= height and c + size_x <= width:
+                continue
+            for y in range(max(0, -r), min(size_y, height - r)):
+                for x in range(max(0, -c), min(size_x, width - c)):
+                    out[a, y, x] += table[(r + y) * width + c + x]
 
 
 @numba.njit(cache=True, nogil=True)

@@ -10,7 +10,17 @@ from amr_maps.maze_families import generate
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.rasterize import rasterize_world
 from amr_maps.raycast import NumpyRayCaster
-from amr_maps.scan_matcher import FIELD_REACH, CorrelativeMatcher, GlobalSearch, ScoreMap, WindowMatch, _max_pyramid
+from amr_maps.scan_matcher import (
+    FIELD_REACH,
+    CorrelativeMatcher,
+    GlobalSearch,
+    ScoreMap,
+    WindowMatch,
+    _cells,
+    _lattice_totals,
+    _max_pyramid,
+    _node_total,
+)
 from amr_maps.world import world_from_dict
 
 BEAMS = 180
@@ -276,6 +286,26 @@ def test_window_scores_cover_the_window_and_agree_with_the_match(pillars):
     match = matcher.match(points, prior, 0.2, 0.1, refine=False)
     assert scores.max() == pytest.approx(match.score)
     assert np.hypot(*(best[:2] - truth[:2])) <= 0.075
+
+
+@pytest.mark.parametrize("levels", [1, 3])
+def test_a_lattices_totals_are_each_poses_total(levels):
+    # every pose's integer sum of the table at its points' cells (_node_total, point by point with its bounds), the
+    # window crossing the table's edges and two points far off it: the lattice's sums must be the same integers
+    rng = np.random.default_rng(levels)
+    matcher = CorrelativeMatcher(ScoreMap.from_probability(rng.random((30, 26)), 0.1, (-1.0, -2.0)), levels=levels)
+    points = np.vstack([rng.uniform(-1.5, 1.5, (40, 2)), [[500.0, 0.0], [0.0, -800.0]]])
+    rows, cols = _cells(points, -2.2, -2.9, np.array([-0.2, 0.0, 0.4]), matcher.origin, matcher.resolution)
+    totals = np.full((3, 11, 13), -1, dtype=np.int64)
+    _lattice_totals(matcher.pyramid, matcher.pad, rows, cols, totals)
+    pyramid, pad = matcher.pyramid, matcher.pad
+    expected = [
+        [[_node_total(pyramid, 0, pad, rows, cols, a, x, y) for x in range(13)] for y in range(11)] for a in range(3)
+    ]
+    np.testing.assert_array_equal(totals, expected)
+    r, c, (height, width) = rows + pad, cols + pad, pyramid.shape[1:]
+    across = (r < height) & (c < width) & (r + 11 > 0) & (c + 13 > 0) & ((r < 0) | (c < 0) | (r + 11 > height))
+    assert across.any() and (r >= 0).any()  # points whose window crosses the table's edge, and points within it
 
 
 def _transformed_points_table(points: np.ndarray, resolution: float, sigma: float, pad: float) -> np.ndarray:
