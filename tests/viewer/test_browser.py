@@ -253,7 +253,7 @@ class Stack:
 
 WEBGL_WATCH = "window.__webglLost = 0; addEventListener('webglcontextlost', () => window.__webglLost++, true);"
 """Counts the page's WebGL contexts lost (the event does not bubble: caught on its way down)."""
-FRAME_PERIOD_MS = 100
+FRAME_PERIOD_MS = 250
 FRAME_CAP = (
     "(() => { const native = window.requestAnimationFrame.bind(window); let last = -Infinity, open = null;"
     " const due = (now) => { if (now === open) return true;"
@@ -263,8 +263,11 @@ FRAME_CAP = (
 )
 """The page draws at most every FRAME_PERIOD_MS: its render loop runs on the native frames, every callback of one
 frame together, and skips the frames between. Headless chromium renders WebGL on the CPU (SwiftShader), at every
-frame it is offered: uncapped, the GPU process took more CPU than the stack it shows. What the page does per frame
-(apply the server's messages, draw) is unchanged; it does it ten times a second."""
+frame it is offered: uncapped, the GPU process took more CPU than the stack it shows. A frame of the navigation
+stack's page costs the GPU process about 75 ms of CPU at 1024 x 640 whatever is drawn (800 x 500 the same; the
+particles and scan hidden or the shadows off: within 10 %): a page on a running simulator took 0.77 of a core at
+100 ms, 0.31 at 250 ms (2026-11-30). What the page does per frame (apply the server's messages, draw) is unchanged;
+it does it four times a second."""
 WEBGL_AVAILABLE = (
     "(() => { const canvas = document.createElement('canvas');"
     " return !!(canvas.getContext('webgl2') || canvas.getContext('webgl')); })()"
@@ -699,7 +702,8 @@ def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(pl
             layer: colored(scene, COLORS[layer])
             for layer in ("graph_edges", "graph_nodes", "frontiers", "chosen_frontier")
         }
-        assert counts["graph_edges"] + counts["graph_nodes"] > 100, f"the pose graph is drawn: {counts}"
+        nodes = len(probe.graphs[-1].poses)  # paused: the graph drawn
+        assert counts["graph_edges"] + counts["graph_nodes"] > 3 * nodes, f"the pose graph's {nodes} nodes: {counts}"
         last = probe.frontiers[-1]  # paused: the one drawn
         assert counts["frontiers"] > 20 * min(len(last.centroids), 1), f"the frontiers are drawn: {counts}"
         assert counts["chosen_frontier"] > 5 * (last.chosen >= 0), f"the chosen one is ringed: {counts}"
