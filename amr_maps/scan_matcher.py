@@ -177,7 +177,11 @@ class WindowLattice(NamedTuple):
 def default_angular_step(points: np.ndarray, resolution: float) -> float:
     """The rotation that moves the farthest point of the scan by one cell (Cartographer's
     acos(1 - r^2 / (2 d^2))), at most 0.2 rad."""
-    points = _finite_points(points)
+    return _angular_step(_finite_points(points), resolution)
+
+
+def _angular_step(points: np.ndarray, resolution: float) -> float:
+    """default_angular_step of (K, 2) finite points."""
     farthest = float(np.max(np.hypot(points[:, 0], points[:, 1]))) if len(points) else 0.0
     if farthest <= resolution:
         return 0.2
@@ -304,7 +308,7 @@ class CorrelativeMatcher:
 
     def _step(self, points: np.ndarray, angular_step: float | None) -> float:
         if angular_step is None:
-            return default_angular_step(points, self.resolution)
+            return _angular_step(points, self.resolution)  # every caller's points are finite already
         if not math.isfinite(angular_step) or angular_step <= 0.0:
             raise ValueError(f"angular_step must be a positive number of rad, got {angular_step!r}")
         return float(angular_step)
@@ -737,7 +741,7 @@ def _nearest_cell_means(rows, cols, mean_x, mean_y, x, y, reach):  # pragma: no 
 
 def _finite_points(points) -> np.ndarray:
     points = np.asarray(points, dtype=float).reshape(-1, 2)
-    return points[np.all(np.isfinite(points), axis=1)]
+    return points[np.isfinite(points).all(axis=1)]
 
 
 def _window_arguments(who: str, points, prior, linear_window: float, angular_window: float):
@@ -745,7 +749,7 @@ def _window_arguments(who: str, points, prior, linear_window: float, angular_win
     number >= 0: ValueError naming the search (`who`) and the argument."""
     points = _finite_points(points)
     prior = np.asarray(prior, dtype=float).reshape(3)
-    if not np.all(np.isfinite(prior)):
+    if not np.isfinite(prior).all():
         raise ValueError(f"{who}: prior must be a finite (x, y, theta), got {prior!r}")
     for name, value in (("linear_window", linear_window), ("angular_window", angular_window)):
         if not math.isfinite(value) or value < 0.0:
@@ -758,7 +762,8 @@ def _wrap(angle: float) -> float:
 
 
 def _floor_covariance(resolution: float, step: float) -> np.ndarray:
-    return np.diag([resolution**2 / 12.0, resolution**2 / 12.0, step**2 / 12.0])
+    cell, turn = resolution**2 / 12.0, step**2 / 12.0
+    return np.array([[cell, 0.0, 0.0], [0.0, cell, 0.0], [0.0, 0.0, turn]])
 
 
 def _cells(points: np.ndarray, x_ref: float, y_ref: float, thetas: np.ndarray, origin, resolution: float):
