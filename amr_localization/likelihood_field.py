@@ -20,6 +20,7 @@ has a one-cell border holding the far value, and end points are clipped onto it.
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -95,19 +96,25 @@ class LikelihoodField:
         row0 = (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0
         out = np.empty(len(particles))
         rows, cols = self._shape
-        _sum_log_likelihood(
-            self._table,
-            rows,
-            cols,
-            col0,
-            row0,
-            np.cos(sensor[:, 2]),
-            np.sin(sensor[:, 2]),
-            along,
-            across,
-            beam_weights,
-            out,
-        )
+        arguments = (col0, row0, np.cos(sensor[:, 2]), np.sin(sensor[:, 2]))
+
+        def summed(part: slice) -> None:
+            _sum_log_likelihood(
+                self._table, rows, cols, *(a[part] for a in arguments), along, across, beam_weights, out[part]
+            )
+
+        # each particle's sum is its own (the same beams in the same order): thousands of particles are summed in two
+        # halves side by side, the first on a thread of its own (the kernel runs without the GIL); the same numbers
+        if len(particles) < SPLIT_PARTICLES:
+            summed(slice(None))
+            return out
+        half = len(particles) // 2
+        first = threading.Thread(target=summed, args=(slice(0, half),))
+        first.start()
+        try:
+            summed(slice(half, None))
+        finally:
+            first.join()
         return out
 
     def log_likelihood_free_path(
@@ -213,6 +220,9 @@ class FixedPoses:
         return self.field.best_free_path(self.poses, self.nudges, beams, margin, Exits(self._table, columns))
 
 
+SPLIT_PARTICLES = 2000
+"""particles from which log_likelihood sums them in two halves side by side (a global localization's or a withdrawn
+stretch's thousands: 1.2-1.4 ms a stage at 5,000 x 60 beams; a hundred cost less than a thread's start)."""
 ANGLE_KEYS = 1e7
 """beams are told apart by their angle in the sensor frame to 1e-7 rad (a scan's beams lie far more apart)."""
 _NO_EXITS = np.empty((0, 0, 0))

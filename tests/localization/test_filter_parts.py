@@ -187,6 +187,32 @@ def test_the_compiled_likelihood_sum_equals_the_formula_beam_by_beam():
     assert model.log_likelihood(particles, beams) == pytest.approx(expected, rel=1e-5, abs=1e-3)
 
 
+def test_thousands_of_particles_score_as_each_would_among_a_few():
+    """From SPLIT_PARTICLES on, the likelihood's sums run in two halves side by side: each particle's value is the one
+    it gets scored among a hundred, to the bit."""
+    from amr_localization.likelihood_field import SPLIT_PARTICLES
+    from amr_localization.scan_beams import Beams
+
+    data = np.zeros((40, 50), dtype=np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = OCCUPIED
+    data[10:30, 20] = OCCUPIED
+    model = LikelihoodField(
+        DistanceField(OccupancyGrid(data, 0.05, (-1.0, -0.5, 0.0))), LikelihoodFieldParams(), SensorMount(x=-0.032), 3.5
+    )
+    rng = np.random.default_rng(4)
+    count = SPLIT_PARTICLES + 301
+    particles = np.column_stack(
+        [rng.uniform(-0.9, 1.4, count), rng.uniform(-0.4, 1.4, count), rng.uniform(-4, 4, count)]
+    )
+    ranges = rng.uniform(0.1, 3.0, 24)
+    angles = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
+    beams = Beams(ranges, angles, np.ones(24, dtype=bool), 3.5, np.arange(24), angles[1])
+    weights = rng.uniform(0.2, 1.0, 24)
+    together = model.log_likelihood(particles, beams, weights)
+    alone = [model.log_likelihood(particles[i : i + 100], beams, weights) for i in range(0, count, 100)]
+    np.testing.assert_array_equal(together, np.concatenate(alone))
+
+
 def _share(log_weights: np.ndarray) -> float:
     weights = np.exp(log_weights - log_weights.max())
     return weights.sum() ** 2 / (weights @ weights) / len(weights)
