@@ -26,17 +26,17 @@ $(VENV)/.deps-installed: pyproject.toml
 demo: setup
 	$(PY) -m amr_bringup.demo
 
-# Lint and format first (ruff, configured in pyproject.toml), then one run, three pytest-xdist workers for two cores
-# (the tests wait in real time about a third of theirs: a third worker's CPU fills the waits; tests/conftest.py gives
-# each worker its own DDS domains), the browser tests among the rest (a stack that does not come up is stopped, and a
-# viewer that lost its port is started on another); the 30 slowest tests listed at the end, where the suite's time
+# Lint and format first (ruff, configured in pyproject.toml), then one run, four pytest-xdist workers for two cores
+# (the tests wait in real time about a third of theirs: the third and fourth workers' CPU fills the waits;
+# tests/conftest.py gives each worker its own DDS domains), the browser tests among the rest (a stack that does not
+# come up is stopped, and a viewer that lost its port is started on another); the 30 slowest tests listed at the end, where the suite's time
 # goes. The files are handed out longest first (tests/support/schedule.py; xdist's own order is by test count).
 # Python writes its bytecode even where PYTHONDONTWRITEBYTECODE is set: uv installs without .pyc, and every node
-# process would compile numpy, scipy and rclpy again (docs/testing.md). TEST_WORKERS=2 tries another number of workers.
+# process would compile numpy, scipy and rclpy again (docs/testing.md). TEST_WORKERS=3 tries another number of workers.
 test: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
-	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -n $(or $(TEST_WORKERS),3) --dist loadfile --no-loadscope-reorder --durations=30
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -q -n $(or $(TEST_WORKERS),4) --dist loadfile --no-loadscope-reorder --durations=30
 
 bench: setup
 	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test,bench]'

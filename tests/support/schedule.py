@@ -1,6 +1,6 @@
 """The order in which a parallel run hands its test files out: the longest first (tests/conftest.py).
 
-`make test` runs `pytest -n 3 --dist loadfile --no-loadscope-reorder`: each worker takes a whole file at a time, in
+`make test` runs `pytest -n 4 --dist loadfile --no-loadscope-reorder`: each worker takes a whole file at a time, in
 collection order. pytest-xdist's own order (without `--no-loadscope-reorder`) is by the number of tests, which put
 the longest files, a single test each (colcon building the interfaces, the demo), last: one worker ran them alone
 while the other had finished. Handed out longest first, the files left at the end are short ones and the workers
