@@ -157,10 +157,6 @@ scan put a pitch off puts its walls across corridors the submap saw clear."""
 EDGE_CELLS = 2.0
 EDGE_ANGLE = 0.02
 """rad, cells: a loop-closure match this close to its search window's edge is no peak (_on_edge)."""
-RIVAL_CHI2 = 13.82
-"""... and lies where the graph's uncertainty would take the closure too: its position's chi-square (2 dof, 99.9 %)
-against the gate's spread, the closure's covariance and the graph's of the anchor -> node pose (a look-alike place
-the poses rule out is no ambiguity)."""
 AMBIGUITY_MAX_NODES = 200_000
 """The rival search's budget (branch and bound nodes, each one lookup per point): it bounds a closure's work."""
 CANDIDATE_WORK_CAP = 70.0
@@ -193,8 +189,6 @@ ALIGN_WEIGHT_SHARE = 0.05
 (_refined: the estimator as measured best, the two being estimates from one scan); its covariance is its own, the
 normal equations' (chi-square 3-6 at the true poses of recorded maze runs, 0.2 at this share)."""
 ALIGN_MIN_PAIRS = 20
-ALIGN_CANDIDATES = 4
-"""An oriented reference's points looked at per scan point, nearest first, for one on its sensor's side (_align)."""
 ALIGN_EIGEN_RATIO = 1e-3
 """The refinement moves only along the directions the lines constrain: eigenvalues of its normal matrix below
 this share of the largest are left out (along a corridor the correlative match and the odometry decide)."""
@@ -346,13 +340,8 @@ class _Reference:
     centres: np.ndarray
     """(K, 2) the centroid of each point's neighbourhood: a point on its line (the noise averaged)."""
     normals: np.ndarray
-    """(K, 2) unit normals; NaN where the neighbourhood is not a line (a corner, a lone point). Oriented (see
-    `oriented`): towards the side the surface was seen from."""
+    """(K, 2) unit normals; NaN where the neighbourhood is not a line (a corner, a lone point)."""
     tree: cKDTree
-    oriented: bool = False
-    """The lines were fitted per side (amr_mapping.point_field.neighbourhood_lines with the points' sensors) and their
-    normals point to the side they were seen from: the refinement pairs a scan point only with a line on its sensor's
-    side (_align)."""
     clear: OccupancyGrid | None = None
     """A loop-closure submap's clear space (100 where its rays crossed a cell repeatedly, CLEAR_PROBABILITY, and
     no wall lies within CLEAR_MARGIN_CELLS; else 0), the anchor's frame: where no scan point may land."""
@@ -623,11 +612,10 @@ class GraphSlam:
         short per metre on aces."""
         anchor_pose = self._graph.pose(anchor)
         poses = np.array([relative_pose(anchor_pose, self._graph.pose(k)) for k in members])
-        clouds, sensors = [], []
+        clouds = []
         for pose, k in zip(poses, members, strict=True):
             clouds.append(transform_points(pose, self._nodes[k].points))
-            sensors.append(np.tile(compose(pose, self._mount)[:2], (len(clouds[-1]), 1)))  # where they were seen from
-        cloud, sensors = np.vstack(clouds), np.vstack(sensors)
+        cloud = np.vstack(clouds)
         resolution = self.config.resolution
         score_map = ScoreMap.from_points(
             cloud,
@@ -638,10 +626,10 @@ class GraphSlam:
             to_points=True,
         )
         matcher = CorrelativeMatcher(score_map)
-        means, mean_sensors = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution, sensors)
-        lines = _lines(means, cloud, ALIGN_NEIGHBOURHOOD_CELLS * resolution, sensors, mean_sensors)
+        means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)
+        lines = _lines(means, cloud, ALIGN_NEIGHBOURHOOD_CELLS * resolution)
         self._work.add(REFERENCE_WORK_PER_POINT * len(means))
-        return _Reference(matcher, means, *lines, cKDTree(means), oriented=True)
+        return _Reference(matcher, means, *lines, cKDTree(means))
 
     def _clear_space(self, members, placed: np.ndarray) -> OccupancyGrid:
         """The members' scans mapped (log odds) at their poses `placed` (the anchor node's frame): the cells seen
@@ -709,9 +697,7 @@ class GraphSlam:
                 "node added on odometry alone"
             )
             return prior, odometry_covariance, float(match.score)
-        matched, match_information, match_covariance = _refined(
-            reference, points, match.pose, cfg.resolution, self._mount[:2]
-        )
+        matched, match_information, match_covariance = _refined(reference, points, match.pose, cfg.resolution)
         # the match and the odometry as two Gaussians on the pose in the anchor's frame (the odometry's
         # information is isotropic in x, y: the same in either frame)
         offset = relative_prior - matched
@@ -841,7 +827,7 @@ class GraphSlam:
                 self.closure_outcomes.append((submap.anchor, candidate.node, "edge", match.pose))
                 return True
             candidate.matched, candidate.aligned_information = _align(
-                submap.reference, points, match.pose, cfg.resolution, self._mount[:2]
+                submap.reference, points, match.pose, cfg.resolution
             )
             return False
         if not candidate.unambiguous:
@@ -850,13 +836,7 @@ class GraphSlam:
                     self.inconsistent_closures += 1
                     self.closure_outcomes.append((submap.anchor, candidate.node, "clear", candidate.matched))
                     return True
-                # the gate first: a rival counts only where the graph's uncertainty would take it too
-                gated = self._gate(submap, candidate, marginals)
-                if gated is None:
-                    self.rejected_closures += 1
-                    self.closure_outcomes.append((submap.anchor, candidate.node, "gate", candidate.matched))
-                    return True
-                candidate.rival = _rival_search(submap.matcher, points, candidate.matched, candidate.prior, cfg, gated)
+                candidate.rival = _rival_search(submap.matcher, points, candidate.matched, candidate.prior, cfg)
                 if candidate.rival is None:  # the window leaves no room for a rival
                     candidate.unambiguous = True
                     return False
@@ -874,12 +854,20 @@ class GraphSlam:
                 return True
             candidate.unambiguous = True
             return False
-        # the gate again, on the graph now (the rival search may have spanned updates)
-        if self._gate(submap, candidate, marginals) is None:
+        # the closure against the poses now: its covariance plus the graph's own uncertainty of the anchor -> node
+        # relative pose (every edge, closures included: a closure found earlier shortens it)
+        anchor = self._graph.pose(submap.anchor)
+        innovation = candidate.matched - np.array(relative_pose(anchor, self._graph.pose(candidate.node)))
+        innovation[2] = wrap_angle(innovation[2])
+        if not marginals:
+            marginals.append(self._graph.marginals())
+        covariance = self._closure_covariance(submap, points, candidate.matched, candidate.aligned_information)
+        spread = covariance + self._relative_covariance(marginals[0], submap.anchor, candidate.node)
+        chi2 = float(innovation @ np.linalg.solve(spread, innovation))
+        if not chi2 <= LOOP_CHI2:
             self.rejected_closures += 1
             self.closure_outcomes.append((submap.anchor, candidate.node, "gate", candidate.matched))
             return True
-        covariance = self._closure_covariance(submap, points, candidate.matched, candidate.aligned_information)
         self.closure_outcomes.append((submap.anchor, candidate.node, "kept", candidate.matched))
         self._graph.add_edge(
             submap.anchor,
@@ -890,27 +878,6 @@ class GraphSlam:
         )
         closures.append(LoopClosure(submap.anchor, candidate.node, float(candidate.match.score)))
         return True
-
-    def _gate(self, submap: _Submap, candidate: _Candidate, marginals: list) -> tuple[np.ndarray, np.ndarray] | None:
-        """The closure against the poses now: its covariance plus the graph's own uncertainty of the anchor -> node
-        relative pose (every edge, closures included: a closure found earlier shortens it; the marginals computed
-        once an update, in `marginals`). None beyond LOOP_CHI2; else where the graph puts the node in the anchor's
-        frame (x, y) and that position's information (2 x 2: the spread's x-y block inverted), the region a rival
-        must lie in to be one (_rival_search)."""
-        anchor = self._graph.pose(submap.anchor)
-        predicted = np.array(relative_pose(anchor, self._graph.pose(candidate.node)))
-        innovation = candidate.matched - predicted
-        innovation[2] = wrap_angle(innovation[2])
-        if not marginals:
-            marginals.append(self._graph.marginals())
-        covariance = self._closure_covariance(
-            submap, candidate.points, candidate.matched, candidate.aligned_information
-        )
-        spread = covariance + self._relative_covariance(marginals[0], submap.anchor, candidate.node)
-        chi2 = float(innovation @ np.linalg.solve(spread, innovation))
-        if not chi2 <= LOOP_CHI2:
-            return None
-        return predicted[:2], np.linalg.inv(spread[:2, :2])
 
     def _start_optimization(self, events: list[str], drops: int) -> None:
         """A new optimization run (the one in progress, if any, is superseded: it starts again from the poses it
@@ -1077,12 +1044,7 @@ def _layout_covariance(poses: np.ndarray, links: np.ndarray, anchor: int) -> np.
 
 
 def _rival_search(
-    matcher: CorrelativeMatcher,
-    points: np.ndarray,
-    pose: np.ndarray,
-    prior: np.ndarray,
-    config: SlamConfig,
-    gated: tuple[np.ndarray, np.ndarray] | None = None,
+    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, prior: np.ndarray, config: SlamConfig
 ) -> GlobalSearch | None:
     """The search (GlobalSearch, resumable: GraphSlam takes it a slice at a time, AMBIGUITY_MAX_NODES nodes in all)
     for the best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
@@ -1102,12 +1064,6 @@ def _rival_search(
     in_y = np.abs(y - prior[1]) <= window
     region = in_y[:, None] & in_x[None, :]
     region &= np.hypot(x[None, :] - pose[0], y[:, None] - pose[1]) >= AMBIGUITY_DISTANCE
-    if gated is not None:  # only where the graph's uncertainty would put the node too (RIVAL_CHI2)
-        centre, information = gated
-        dx, dy = x[None, :] - centre[0], y[:, None] - centre[1]
-        region &= information[0, 0] * dx * dx + 2.0 * information[0, 1] * dx * dy + information[1, 1] * dy * dy <= (
-            RIVAL_CHI2
-        )
     if not region.any():
         return None
     return GlobalSearch(
@@ -1127,10 +1083,9 @@ def _rival_score(
     prior: np.ndarray,
     config: SlamConfig,
     work: _Work | None = None,
-    gated: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> float:
     """The best score of a rival of the match (_rival_search) in one go: 0 if none."""
-    search = _rival_search(matcher, points, pose, prior, config, gated)
+    search = _rival_search(matcher, points, pose, prior, config)
     if search is None:
         return 0.0
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)
@@ -1286,43 +1241,29 @@ def _local_rival(
     return None
 
 
-def _voxel_means(points: np.ndarray, size: float, sensors: np.ndarray | None = None):
-    """The mean of the points in each square of `size` m that holds any; with `sensors` (N, 2: where each point was
-    seen from), also each square's mean of those: (means, mean sensors)."""
+def _voxel_means(points: np.ndarray, size: float) -> np.ndarray:
+    """The mean of the points in each square of `size` m that holds any."""
     cells = np.floor(points / size).astype(np.int64)
     cells -= cells.min(axis=0)
     # one key per square, in the rows' lexicographic order (np.unique(axis=0)'s, several times slower)
     _, group = np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1], return_inverse=True)
     group = group.reshape(-1)
     count = np.bincount(group)
-    means = np.column_stack(
+    return np.column_stack(
         [np.bincount(group, weights=points[:, 0]) / count, np.bincount(group, weights=points[:, 1]) / count]
     )
-    if sensors is None:
-        return means
-    return means, np.column_stack(
-        [np.bincount(group, weights=sensors[:, 0]) / count, np.bincount(group, weights=sensors[:, 1]) / count]
-    )
 
 
-def _lines(
-    means: np.ndarray,
-    points: np.ndarray,
-    reach: float,
-    sensors: np.ndarray | None = None,
-    mean_sensors: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+def _lines(means: np.ndarray, points: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
     """(centres, normals): each mean's neighbourhood (the points within `reach` m, at most ALIGN_NEIGHBOURS) as a
     line: its centroid and unit normal (principal axes); normals NaN where fewer than ALIGN_MIN_NEIGHBOURS are
     that close or they do not lie along a line (ALIGN_FLATNESS: a corner, a lone point). See
     amr_mapping.point_field.neighbourhood_lines."""
-    return neighbourhood_lines(
-        means, points, reach, ALIGN_NEIGHBOURS, ALIGN_MIN_NEIGHBOURS, ALIGN_FLATNESS, sensors, mean_sensors
-    )
+    return neighbourhood_lines(means, points, reach, ALIGN_NEIGHBOURS, ALIGN_MIN_NEIGHBOURS, ALIGN_FLATNESS)
 
 
 def _align(
-    reference: _Reference, points: np.ndarray, pose: np.ndarray, resolution: float, origin=(0.0, 0.0)
+    reference: _Reference, points: np.ndarray, pose: np.ndarray, resolution: float
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The correlative match refined by point-to-line ICP (robust weights, Gauss-Newton) against the reference's
     points: the likelihood field's peak is flat over walls a few cells thick (noisy points, rasterized to cell
@@ -1331,13 +1272,8 @@ def _align(
     length is left to the match), at most ALIGN_DISTANCE_CELLS cells and an equal turn at the scan's mean range
     from the match; too few pairs: the match as it is. Returns (pose, information): the Gauss-Newton information,
     the lines' normal equations at the pose over the residuals' variance (the LiDAR's noise, the lines' own error and
-    the reference's layout as far as they scatter the residuals), None when not refined. origin: the scan's origin in
-    the robot's frame (the LiDAR mount): with an oriented reference a point is paired with the nearest of the
-    reference's points on its sensor's side of their lines (ALIGN_CANDIDATES nearest looked at), not with the other
-    face of a thin wall (5.5 cm in a generated maze: both within ALIGN_DISTANCE_CELLS; the front end was 2-3 %
-    short along the way, against a window at the true poses, where the robot came round a wall's end)."""
+    the reference's layout as far as they scatter the residuals), None when not refined."""
     pose = np.asarray(pose, dtype=float)
-    origin = np.asarray(origin, dtype=float).reshape(1, 2)
     reach = ALIGN_DISTANCE_CELLS * resolution
     radius = max(float(np.mean(np.hypot(points[:, 0], points[:, 1]))), resolution)
     limit = np.array([reach, reach, reach / radius])
@@ -1345,12 +1281,9 @@ def _align(
     for _ in range(ALIGN_ITERATIONS):
         c, s = math.cos(current[2]), math.sin(current[2])
         moved = transform_points(current, points)
-        if reference.oriented:
-            nearest, paired = _facing_pairs(reference, moved, transform_points(current, origin)[0], reach)
-        else:
-            distances, nearest = reference.tree.query(moved, distance_upper_bound=reach)
-            paired = np.isfinite(distances)
-            paired[paired] = np.isfinite(reference.normals[nearest[paired], 0])
+        distances, nearest = reference.tree.query(moved, distance_upper_bound=reach)
+        paired = np.isfinite(distances)
+        paired[paired] = np.isfinite(reference.normals[nearest[paired], 0])
         if paired.sum() < ALIGN_MIN_PAIRS:
             return pose, None
         normal = reference.normals[nearest[paired]]
@@ -1371,27 +1304,8 @@ def _align(
     return current, hessian / variance
 
 
-def _facing_pairs(
-    reference: _Reference, moved: np.ndarray, sensor: np.ndarray, reach: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """(nearest, paired): for each point (the reference's frame), the nearest of the reference's points within
-    `reach` that is not on a line facing away from `sensor` (a line's normal points to the side it was seen from), and
-    whether that one has a line (a corner's or a lone point's: not paired, as the nearest alone)."""
-    distances, candidates = reference.tree.query(moved, k=ALIGN_CANDIDATES, distance_upper_bound=reach)
-    found = np.isfinite(distances)
-    index = np.where(found, candidates, 0)
-    normals = reference.normals[index]
-    away = np.einsum("pki,pki->pk", normals, sensor[None, None, :] - reference.centres[index]) < 0.0  # NaN: False
-    eligible = found & ~away
-    first = np.argmax(eligible, axis=1)
-    rows = np.arange(len(moved))
-    nearest = index[rows, first]
-    paired = eligible[rows, first] & np.isfinite(reference.normals[nearest, 0])
-    return nearest, paired
-
-
 def _refined(
-    reference: _Reference, points: np.ndarray, pose: np.ndarray, resolution: float, origin=(0.0, 0.0)
+    reference: _Reference, points: np.ndarray, pose: np.ndarray, resolution: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(pose, weight, covariance) of a scan matched at `pose` (the correlative match, refined on the bilinear field):
     the match and its point-to-line refinement (_align) as two estimates of one pose, each weighted by its information
@@ -1408,7 +1322,7 @@ def _refined(
     a twentieth of the links' error against the corrected poses and broke fhw: ATE 0.16 -> 0.75 m)."""
     information = _match_information(reference.matcher, points, pose, resolution)
     information = _with_quantization(information, points, resolution)
-    aligned, aligned_information = _align(reference, points, pose, resolution, origin)
+    aligned, aligned_information = _align(reference, points, pose, resolution)
     if aligned_information is None:
         return np.asarray(pose, dtype=float), information, np.linalg.inv(information)
     weight = _clamped(ALIGN_WEIGHT_SHARE * aligned_information)
