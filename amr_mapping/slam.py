@@ -157,6 +157,10 @@ scan put a pitch off puts its walls across corridors the submap saw clear."""
 EDGE_CELLS = 2.0
 EDGE_ANGLE = 0.02
 """rad, cells: a loop-closure match this close to its search window's edge is no peak (_on_edge)."""
+RIVAL_CHI2 = 13.82
+"""... and lies where the graph's uncertainty would take the closure too: its position's chi-square (2 dof, 99.9 %)
+against the gate's spread, the closure's covariance and the graph's of the anchor -> node pose (a look-alike place
+the poses rule out is no ambiguity)."""
 AMBIGUITY_MAX_NODES = 200_000
 """The rival search's budget (branch and bound nodes, each one lookup per point): it bounds a closure's work."""
 CANDIDATE_WORK_CAP = 70.0
@@ -836,7 +840,13 @@ class GraphSlam:
                     self.inconsistent_closures += 1
                     self.closure_outcomes.append((submap.anchor, candidate.node, "clear", candidate.matched))
                     return True
-                candidate.rival = _rival_search(submap.matcher, points, candidate.matched, candidate.prior, cfg)
+                # the gate first: a rival counts only where the graph's uncertainty would take it too
+                gated = self._gate(submap, candidate, marginals)
+                if gated is None:
+                    self.rejected_closures += 1
+                    self.closure_outcomes.append((submap.anchor, candidate.node, "gate", candidate.matched))
+                    return True
+                candidate.rival = _rival_search(submap.matcher, points, candidate.matched, candidate.prior, cfg, gated)
                 if candidate.rival is None:  # the window leaves no room for a rival
                     candidate.unambiguous = True
                     return False
@@ -854,20 +864,12 @@ class GraphSlam:
                 return True
             candidate.unambiguous = True
             return False
-        # the closure against the poses now: its covariance plus the graph's own uncertainty of the anchor -> node
-        # relative pose (every edge, closures included: a closure found earlier shortens it)
-        anchor = self._graph.pose(submap.anchor)
-        innovation = candidate.matched - np.array(relative_pose(anchor, self._graph.pose(candidate.node)))
-        innovation[2] = wrap_angle(innovation[2])
-        if not marginals:
-            marginals.append(self._graph.marginals())
-        covariance = self._closure_covariance(submap, points, candidate.matched, candidate.aligned_information)
-        spread = covariance + self._relative_covariance(marginals[0], submap.anchor, candidate.node)
-        chi2 = float(innovation @ np.linalg.solve(spread, innovation))
-        if not chi2 <= LOOP_CHI2:
+        # the gate again, on the graph now (the rival search may have spanned updates)
+        if self._gate(submap, candidate, marginals) is None:
             self.rejected_closures += 1
             self.closure_outcomes.append((submap.anchor, candidate.node, "gate", candidate.matched))
             return True
+        covariance = self._closure_covariance(submap, points, candidate.matched, candidate.aligned_information)
         self.closure_outcomes.append((submap.anchor, candidate.node, "kept", candidate.matched))
         self._graph.add_edge(
             submap.anchor,
@@ -878,6 +880,27 @@ class GraphSlam:
         )
         closures.append(LoopClosure(submap.anchor, candidate.node, float(candidate.match.score)))
         return True
+
+    def _gate(self, submap: _Submap, candidate: _Candidate, marginals: list) -> tuple[np.ndarray, np.ndarray] | None:
+        """The closure against the poses now: its covariance plus the graph's own uncertainty of the anchor -> node
+        relative pose (every edge, closures included: a closure found earlier shortens it; the marginals computed
+        once an update, in `marginals`). None beyond LOOP_CHI2; else where the graph puts the node in the anchor's
+        frame (x, y) and that position's information (2 x 2: the spread's x-y block inverted), the region a rival
+        must lie in to be one (_rival_search)."""
+        anchor = self._graph.pose(submap.anchor)
+        predicted = np.array(relative_pose(anchor, self._graph.pose(candidate.node)))
+        innovation = candidate.matched - predicted
+        innovation[2] = wrap_angle(innovation[2])
+        if not marginals:
+            marginals.append(self._graph.marginals())
+        covariance = self._closure_covariance(
+            submap, candidate.points, candidate.matched, candidate.aligned_information
+        )
+        spread = covariance + self._relative_covariance(marginals[0], submap.anchor, candidate.node)
+        chi2 = float(innovation @ np.linalg.solve(spread, innovation))
+        if not chi2 <= LOOP_CHI2:
+            return None
+        return predicted[:2], np.linalg.inv(spread[:2, :2])
 
     def _start_optimization(self, events: list[str], drops: int) -> None:
         """A new optimization run (the one in progress, if any, is superseded: it starts again from the poses it
@@ -1044,7 +1067,12 @@ def _layout_covariance(poses: np.ndarray, links: np.ndarray, anchor: int) -> np.
 
 
 def _rival_search(
-    matcher: CorrelativeMatcher, points: np.ndarray, pose: np.ndarray, prior: np.ndarray, config: SlamConfig
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    pose: np.ndarray,
+    prior: np.ndarray,
+    config: SlamConfig,
+    gated: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> GlobalSearch | None:
     """The search (GlobalSearch, resumable: GraphSlam takes it a slice at a time, AMBIGUITY_MAX_NODES nodes in all)
     for the best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
@@ -1064,6 +1092,12 @@ def _rival_search(
     in_y = np.abs(y - prior[1]) <= window
     region = in_y[:, None] & in_x[None, :]
     region &= np.hypot(x[None, :] - pose[0], y[:, None] - pose[1]) >= AMBIGUITY_DISTANCE
+    if gated is not None:  # only where the graph's uncertainty would put the node too (RIVAL_CHI2)
+        centre, information = gated
+        dx, dy = x[None, :] - centre[0], y[:, None] - centre[1]
+        region &= information[0, 0] * dx * dx + 2.0 * information[0, 1] * dx * dy + information[1, 1] * dy * dy <= (
+            RIVAL_CHI2
+        )
     if not region.any():
         return None
     return GlobalSearch(
@@ -1083,9 +1117,10 @@ def _rival_score(
     prior: np.ndarray,
     config: SlamConfig,
     work: _Work | None = None,
+    gated: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> float:
     """The best score of a rival of the match (_rival_search) in one go: 0 if none."""
-    search = _rival_search(matcher, points, pose, prior, config)
+    search = _rival_search(matcher, points, pose, prior, config, gated)
     if search is None:
         return 0.0
     found = search.step(AMBIGUITY_MAX_NODES, refine=False)

@@ -136,8 +136,9 @@ def test_a_run_does_not_depend_on_the_clock(ring, monkeypatch):
 def test_a_closure_candidate_spread_over_many_updates_is_decided_as_in_one(mapped, monkeypatch):
     """A loop-closure candidate is taken a step at a time (the submap's build, the window searched a slice at a time,
     its clear space, the rival search a slice at a time, the gate): with no work allowed beyond a step an update
-    (CANDIDATE_WORK_CAP 0: a minimal slice each) it takes many more steps and ends where one update's steps end, the
-    same closure, score and pose."""
+    (CANDIDATE_WORK_CAP 0: a minimal slice each, here 1,000 nodes: the rival search, within the gate's ellipse, may
+    have nothing left to search) it takes many more steps and ends where one update's steps end, the same closure,
+    score and pose."""
     import amr_mapping.slam as slam_module
 
     slam = mapped[0]
@@ -146,6 +147,7 @@ def test_a_closure_candidate_spread_over_many_updates_is_decided_as_in_one(mappe
     decided = []
     for cap in (1e9, 0.0):
         monkeypatch.setattr(slam_module, "CANDIDATE_WORK_CAP", cap)
+        monkeypatch.setattr(slam_module, "MIN_SEARCH_SLICE", 1_000)
         copy = deepcopy(slam)
         copy._submaps[index].reference = None  # built again: the first step
         prior = np.array(relative_pose(copy._graph.pose(anchor), copy._graph.pose(node)))
