@@ -15,9 +15,9 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
   (_align) are weighed by their own informations (_refined: the score's curvature, the refinement's normal equations);
   the result is fused with the odometry prior as two Gaussians (along a corridor the odometry decides). The edge to
-  the previous node carries that estimate's covariance (_fused_covariance): the deciding scan estimate's own (the
-  refinement's from its normal equations over its residuals' variance, of which the weights take a share, or the
-  match's) and the odometry model's, by the gains the fusion gave them.
+  the previous node (the newest matched one: _matched_source) carries that estimate's covariance (_fused_covariance):
+  the deciding scan estimate's own (the refinement's from its normal equations over its residuals' variance, of which
+  the weights take a share, or the match's) and the odometry model's, by the gains the fusion gave them.
   A score below min_match_score (some overlap), or fewer than MIN_BEAMS usable beams,
   is not fatal: the node is added on odometry alone and the update's events say so. A weak match (below
   WEAK_MATCH_SCORE: a scan mostly of new ground, or a pose outside the window) is searched again over the whole
@@ -436,7 +436,8 @@ class GraphSlam:
         self.ambiguous_closures = 0  # closure matches with a rival in the window (AMBIGUITY_RATIO)
         self.inconsistent_closures = 0  # closure matches putting points in the submap's clear space
         self.dropped_closures = 0  # closures removed after an optimization (LOOP_RESIDUAL_CHI2)
-        self._links: list[np.ndarray] = [np.zeros((3, 3))]  # covariance of the edge (k - 1, k), node k's frame
+        # covariance of node k's link (to k - 1, or to the newest matched node before it: _matched_source), k's frame
+        self._links: list[np.ndarray] = [np.zeros((3, 3))]
 
     # -- state -----------------------------------------------------------------------------------------
 
@@ -558,10 +559,13 @@ class GraphSlam:
 
         pose, covariance, score = self._match_local(prior, points, delta, events)
         node = self._add_node(stamp_ns, pose, odometry, ranges, angles, points, clear_range)
+        source = last
         if pose is prior:  # matched nothing (_match_local hands back the prior itself)
             self._unmatched.add(node)
+        else:
+            source = self._matched_source(last)
         self._links.append(covariance)
-        self._graph.add_edge(last, node, relative_pose(self._graph.pose(last), pose), _information(covariance))
+        self._graph.add_edge(source, node, relative_pose(self._graph.pose(source), pose), _information(covariance))
         self._pose = pose.copy()
         closures = self._close_loops(node, events)
         self._advance_optimization(node, events)
@@ -580,6 +584,16 @@ class GraphSlam:
         if (index + 1) % window == 0:  # a submap is complete: nodes index - window + 1 .. index
             self._submaps.append(_Submap(index - window // 2, index))
         return index
+
+    def _matched_source(self, last: int) -> int:
+        """The node a scan matched against the local submap is linked to: the newest node of that submap's window that
+        was matched itself, not a node left out of the window as added on odometry alone (the match places the scan
+        against the window's points, not against that node's unverified pose: linked to it, the scan's pose relative to
+        the nodes before would carry the odometry step's covariance until the next closure, and the closures' gate
+        with it, wide enough for a look-alike place)."""
+        window = range(max(0, last - self.config.local_window + 1), last + 1)
+        matched = [k for k in window if k not in self._unmatched]
+        return matched[-1] if matched else last
 
     def _reference_of(self, submap: _Submap) -> _Reference:
         """The loop-closure submap's matcher and layout, built on first use (see _Submap); its clear space in the next
