@@ -19,7 +19,8 @@ Per log (odometry synthesized as in bench_slam_logs.py, seed 0; --slam KEY=VALUE
 - --front-end: the same log with no loop closure (loop_search_radius 0.001): the metric on pairs 1-2 m (the front
   end alone, where the reference's own noise floor weighs most) and 1-10 m.
 
-The runs are cached (--cache DIR, one .npz per log and configuration) so the analysis can be redone without them.
+The runs are cached (--cache DIR, one .npz per log, seed and configuration: not per code, so a new --cache after a
+change) so the analysis can be redone without them.
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_relative.py [--logs aces ...] [--front-end]
 [--cache /tmp/slam_relative] [--slam KEY=VALUE ...]
 """
