@@ -150,7 +150,8 @@ class NumpyRayCaster:
         # differently from the compiled one); the spans and hits are compiled.
         ends = self._ends[:, :, index]
         start = phi0[origin]
-        angles = np.arctan2(ends[1] - y[origin], ends[0] - x[origin])
+        # C order whatever the items' count (numpy keeps its inputs' order: one compiled variant)
+        angles = np.ascontiguousarray(np.arctan2(ends[1] - y[origin], ends[0] - x[origin]))
         _sweep_items(
             ranges,
             origin,

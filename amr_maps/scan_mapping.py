@@ -197,7 +197,8 @@ class LogOddsGrid:
         traced in (insert_many's extent of it), the whole arrays by default."""
         ox, oy = self.origin
         start = np.array([(pose[0] - ox) / self.resolution, (pose[1] - oy) / self.resolution])
-        ends_cells = (ends - (ox, oy)) / self.resolution
+        # x's then y's, each contiguous: column views type apart when a scan has one end (a second compile)
+        ends_cells = np.ascontiguousarray(((ends - (ox, oy)) / self.resolution).T)
         self._scans += 1
         _update(
             self._sum,
@@ -207,8 +208,8 @@ class LogOddsGrid:
             2 * self._scans,
             start[0],
             start[1],
-            ends_cells[:, 0],
-            ends_cells[:, 1],
+            ends_cells[0],
+            ends_cells[1],
             hit,
             sign * self.l_occ,
             sign * self.l_free,

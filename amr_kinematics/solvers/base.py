@@ -177,7 +177,8 @@ def _seed(chain: Chain, seed) -> np.ndarray:
     seeds, and non-finite ones for the message, go through the chain's checks."""
     if compiled.AVAILABLE and type(seed) is np.ndarray and seed.dtype is _FLOAT and seed.shape == chain.lower.shape:
         q0 = np.empty(seed.shape)
-        if compiled.clamp_finite(seed, chain.lower, chain.upper, q0):
+        # writable: numba types a read-only array (a frozen config's home) apart, and compiles a second variant
+        if compiled.clamp_finite(np.require(seed, requirements="W"), chain.lower, chain.upper, q0):
             return q0
     return chain.checked_clamp(seed, "seed")
 

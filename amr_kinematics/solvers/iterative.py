@@ -379,7 +379,7 @@ class Refiner:
             *self.arrays,
             *self.compiled_goal,
             self.compiled_settings,
-            np.asarray(q0, dtype=float),
+            np.require(q0, dtype=float, requirements="CW"),  # one compiled variant: read-only arrays type apart
             max_steps,
             self.step.patience,
         )

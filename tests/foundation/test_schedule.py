@@ -53,7 +53,7 @@ def test_a_test_calls_no_kernel_only_when_named_or_in_a_file_named():
 
 def test_a_warm_up_whose_part_fails_still_ends_and_says_so(tmp_path, monkeypatch):
     """The marker the workers wait for is written however the warm-up ends (here a part the child does not know)."""
-    monkeypatch.setattr(numba_cache, "PARTS", {"no-such-part": None})
+    monkeypatch.setattr(numba_cache, "PROCESSES", (("no-such-part",),))
     done = tmp_path / "done"
     warming = numba_cache.Warming(done, timeout=60.0)
     assert numba_cache.wait_for(done, timeout=60.0) < 60.0 and done.is_file()

@@ -5,13 +5,14 @@ and writes the machine code beside its source (`__pycache__`), later processes l
 On a clean clone every process that reaches a kernel before that file exists compiles it again: both pytest-xdist
 workers and the node processes of the first stacks, side by side. `python -m support.numba_cache [part ...]` (from
 tests/) calls every kernel of the parts named (all without one) once, as the suite's code calls them (the same
-argument types). The two parts share no kernel and cost about the same, so Warming compiles them side by side, one
-process each, on two cores, while the workers start and run the tests that call no kernel:
+argument types). Warming compiles them in two processes that share no kernel (PROCESSES), side by side on two cores,
+while the workers start and run the tests that call no kernel:
 
 - `loop`: the particle filter in its closed loop (the likelihood field, the place search's scan matcher, the
   LiDAR's ray casting, the wall follower's scan kernels), a fleet's scan (the other robots' discs), a log-odds
   map's update and its thresholds, a costmap's segment check;
-- `chains`: every IK chain's warm-up.
+- `chains`: every IK chain's warm-up;
+- `mapping`: SLAM's (the front end's lines, the submaps' cell means) and a fleet route's thinning.
 
 With the cache in place it costs the imports and the loads, about 2 s of CPU.
 """
@@ -56,6 +57,24 @@ def warm_loop() -> None:
     Fleet(load_world(ROOT / "config" / "worlds" / "fleets" / "crossing.yaml"), SimulationConfig(seed=0))
 
 
+def warm_mapping() -> None:
+    import numpy as np
+
+    from amr_mapping.slam import GraphSlam, SlamConfig
+    from amr_maps.world import load_world
+    from amr_navigation.traffic_messages import thin_path
+    from amr_simulation.config import SimulationConfig
+    from amr_simulation.simulator import Simulator
+    from amr_util.scan import scan_of
+
+    sim = Simulator(load_world(ROOT / "config" / "worlds" / "inner_maze.yaml"), SimulationConfig(dt=0.1, seed=0))
+    slam = GraphSlam(SlamConfig())
+    for k in range(30):  # straight runs and turns in place: nodes, the front end's match and its lines
+        sim.step(0.2, 0.0) if k % 10 < 6 else sim.step(0.0, 1.5)
+        slam.add(k * 100_000_000, sim.odom_pose, scan_of(sim))
+    thin_path(np.array([[0.0, 0.0], [1.0, 0.01], [2.0, 0.0], [3.0, 1.0]]))
+
+
 def warm_chains() -> None:
     import yaml
 
@@ -66,8 +85,10 @@ def warm_chains() -> None:
         chain.warm_up()
 
 
-PARTS = {"loop": warm_loop, "chains": warm_chains}
-"""The kernels in parts that share none, each about half the compile time."""
+PARTS = {"loop": warm_loop, "chains": warm_chains, "mapping": warm_mapping}
+PROCESSES = (("loop", "mapping"), ("chains",))
+"""What Warming runs side by side: processes that share no kernel (`mapping` calls the scan matcher `loop` has
+compiled in the same process), about 27 and 13 s of CPU on a cold cache."""
 
 
 def warm(*parts: str) -> None:
@@ -91,9 +112,10 @@ class Warming:
 
         self.done, self.started, self.timeout = done, time.monotonic(), timeout
         self.children = {}
-        for part in PARTS:
+        for parts in PROCESSES:
+            part = " and ".join(parts)
             errors = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a child never waits for its reader
-            command = [sys.executable, "-m", "support.numba_cache", part]
+            command = [sys.executable, "-m", "support.numba_cache", *parts]
             child = subprocess.Popen(
                 command, cwd=ROOT / "tests", env=child_environment(), stdout=subprocess.DEVNULL, stderr=errors
             )
@@ -119,7 +141,7 @@ class Warming:
         if failed:
             line = f"numba kernels not compiled ahead: {'; '.join(failed)}"
         else:
-            line = f"numba kernels compiled or loaded in {seconds:.1f} s ({' and '.join(PARTS)} side by side)"
+            line = f"numba kernels compiled or loaded in {seconds:.1f} s ({' beside '.join(self.children)})"
         partial = self.done.with_name(self.done.name + ".part")
         partial.write_text(line + "\n", encoding="utf-8")
         partial.replace(self.done)  # whole or absent: a reader never sees half a line
