@@ -591,20 +591,24 @@ class GraphSlam:
         against the window's points, not against that node's unverified pose: linked to it, the scan's pose relative to
         the nodes before would carry the odometry step's covariance until the next closure, and the closures' gate
         with it, wide enough for a look-alike place)."""
-        window = range(max(0, last - self.config.local_window + 1), last + 1)
-        matched = [k for k in window if k not in self._unmatched]
-        return matched[-1] if matched else last
+        return self._verified(range(max(0, last - self.config.local_window + 1), last + 1))[-1]
+
+    def _verified(self, members) -> list[int]:
+        """The members whose poses a scan match placed (the nodes added on odometry alone left out: their poses are
+        unverified), or all of them if none was: the nodes whose scans a submap, local or for a closure, is built of."""
+        return [k for k in members if k not in self._unmatched] or list(members)
 
     def _reference_of(self, submap: _Submap) -> _Reference:
         """The loop-closure submap's matcher and layout, built on first use (see _Submap); its clear space in the next
         step (_clear_of)."""
         if submap.reference is None:
             members = range(submap.last - self.config.local_window + 1, submap.last + 1)
-            reference = self._matcher(submap.anchor, members, self.config.loop_linear_window)
+            verified = self._verified(members)
+            reference = self._matcher(submap.anchor, verified, self.config.loop_linear_window)
+            # a member left out is a leaf on its odometry link (_matched_source): its link moves none of the points
+            links = [self._links[k] if k in verified else np.zeros((3, 3)) for k in members[1:]]
             submap.layout = _layout_covariance(
-                self._graph.poses[members.start : members.stop],
-                np.asarray(self._links[members.start + 1 : members.stop]),
-                submap.anchor - members.start,
+                self._graph.poses[members.start : members.stop], np.asarray(links), submap.anchor - members.start
             )
             submap.placed = np.array(
                 [relative_pose(self._graph.pose(submap.anchor), self._graph.pose(k)) for k in members]
@@ -617,8 +621,9 @@ class GraphSlam:
         at the members' poses the matcher was built at)."""
         reference = self._reference_of(submap)
         if reference.clear is None:
-            members = range(submap.last - self.config.local_window + 1, submap.last + 1)
-            reference.clear = self._clear_space(members, submap.placed)
+            start = submap.last - self.config.local_window + 1
+            members = self._verified(range(start, submap.last + 1))
+            reference.clear = self._clear_space(members, submap.placed[np.asarray(members) - start])
             self._work.add(CLEAR_WORK_PER_RAY * sum(len(self._nodes[k].ranges) for k in members))
         return reference.clear
 
@@ -683,7 +688,7 @@ class GraphSlam:
             members = range(max(0, last - cfg.local_window + 1), last + 1)
             # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
             # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them)
-            members = [k for k in members if k not in self._unmatched] or list(members)
+            members = self._verified(members)
             self._local = (last, self._matcher(last, members, cfg.match_linear_window))
         reference = self._local[1]
         matcher = reference.matcher

@@ -264,7 +264,8 @@ def test_a_scan_with_too_few_beams_or_nan_ranges_is_added_on_odometry_alone():
 def test_a_scan_matched_after_a_node_on_odometry_alone_is_linked_to_the_window_it_matched(ring):
     """A node on odometry alone is left out of the local window (its pose unverified); the next scan, matched against
     the window, is linked to the window's newest matched node, not to it: its pose relative to the nodes before is the
-    match's, not the odometry step's (linked to the unverified node, intel's gate took a look-alike 0.49 m off)."""
+    match's, not the odometry step's (linked to the unverified node, intel's gate took a look-alike 0.49 m off). A
+    closure submap leaves it out too."""
     caster, truth = ring
     steps = 10
     odometry = [truth[0]]
@@ -288,6 +289,10 @@ def test_a_scan_matched_after_a_node_on_odometry_alone_is_linked_to_the_window_i
     poses = slam.graph()[0]
     offset = np.array(relative_pose(poses[6], poses[8])) - np.array(relative_pose(truth[6], truth[8]))
     assert np.hypot(*offset[:2]) < 0.03 and math.degrees(abs(offset[2])) < 1.0, offset
+    # the closure submap of nodes 0-9 leaves node 7 out as the window did: its odometry link widens none of its layout
+    slam._reference_of(slam._submaps[0])
+    layout_heading = math.degrees(math.sqrt(slam._submaps[0].layout[2, 2]))
+    assert layout_heading < 1.0, layout_heading  # with node 7's odometry link in the chain: 2 deg
 
 
 @pytest.mark.parametrize(
