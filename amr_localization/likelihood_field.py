@@ -170,7 +170,7 @@ class LikelihoodField:
             cols,
             col0,
             row0,
-            sensor[:, 2].reshape(shape),
+            np.ascontiguousarray(sensor[:, 2]).reshape(shape),  # one compiled variant (one pose and nudge: C)
             beams.angles,
             ranges,
             beams.returned,
