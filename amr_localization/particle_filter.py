@@ -209,6 +209,10 @@ class _Ahead:
         return self._value
 
 
+SEARCH_TURN = math.pi / 4
+"""rad of turn since the last place search that, like scan_correlation_distance of travel, starts a new one."""
+
+
 @dataclass
 class _Search:
     """A place search under way: its scan's pose in the window's frame (its proposals are moved by the scan-matched
@@ -347,6 +351,7 @@ class ParticleFilter:
         self._moved = (0.0, 0.0)  # m and rad since the last scan used
         self._estimate_odometry = self._odometry
         self._search: _Search | None = None
+        self._searched_from: np.ndarray | None = None
         self.hypotheses.clear()
         self._window.clear()
         self._shares = np.zeros(0)
@@ -697,6 +702,7 @@ class ParticleFilter:
             # and the places followed may no longer cover the map: a new declaration waits for a new place search
             self._window.clear()
             self._covered, self._search = self.config.place_search_budget == 0, None
+            self._searched_from = None
         if moved_on:  # the place declared is no longer the best: withdrawn; the new best must earn its own declaration
             self.status.event = "localized withdrawn: another place explains the scans better than the one declared"
         self._declared = hypotheses.poses[0].copy() if self._localized else None
@@ -922,6 +928,8 @@ class ParticleFilter:
             return none, np.zeros(0), none
         self._begin_search(seen)
         running = self._search
+        if running is None:  # the last search's evidence still holds: none begun (_begin_search)
+            return none, np.zeros(0), none
         running.advance(budget)
         done = running.search.done
         found = running.search.matches(refine=False, covariance_cells=0)
@@ -954,6 +962,12 @@ class ParticleFilter:
         budget = self.config.place_search_budget
         if budget <= 0 or self._search is not None:
             return
+        last = self._searched_from
+        if last is not None and self._covered:
+            step = relative_pose(last, seen.local)
+            if math.hypot(step[0], step[1]) < self.config.scan_correlation_distance and abs(step[2]) < SEARCH_TURN:
+                return  # the window's evidence is mostly what the last search saw: its proposals stand
+        self._searched_from = np.array(seen.local, dtype=float)
         matcher, region = self._place_search_map()
         points = self._window_points(seen, matcher.resolution)
         search = GlobalSearch(
