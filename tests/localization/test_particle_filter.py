@@ -263,11 +263,8 @@ def test_a_place_is_fitted_within_its_window_and_its_variance_follows_it_through
     np.testing.assert_allclose(places.variance, [0.01])
 
 
-def test_the_estimate_is_refined_to_the_scan_only_as_far_as_the_particles_spread_allows():
-    """The matcher's best pose is a maximum of the likelihood alone; the particles are the prior it refines: an
-    estimate 15 cm off the scan's pose moves to it when the particles spread that far, and stays where a tight cloud
-    says it is (the matcher alone slid 0.3 m along a corridor of a real log for the beams on an object the map
-    lacks)."""
+def _tracking_in_open_room():
+    """A filter tracking from the true pose in open_room for six scans: it, the last scan it used, the true pose."""
     world = load_world(WORLDS_DIR / "open_room.yaml")
     sim = Simulator(world, SimulationConfig(seed=1))
     pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(seed=1, lidar_x=-0.032))
@@ -276,8 +273,15 @@ def test_the_estimate_is_refined_to_the_scan_only_as_far_as_the_particles_spread
         pf.update(odometry_of(sim), scan_of(sim))
         sim.step(0.1, 0.3)
     pf.update(odometry_of(sim), scan_of(sim))
-    seen = pf._window[-1]
-    truth = np.array([sim.pose.x, sim.pose.y, sim.pose.theta])
+    return pf, pf._window[-1], np.array([sim.pose.x, sim.pose.y, sim.pose.theta])
+
+
+def test_the_estimate_is_refined_to_the_scan_only_as_far_as_the_particles_spread_allows():
+    """The matcher's best pose is a maximum of the likelihood alone; the particles are the prior it refines: an
+    estimate 15 cm off the scan's pose moves to it when the particles spread that far, and stays where a tight cloud
+    says it is (the matcher alone slid 0.3 m along a corridor of a real log for the beams on an object the map
+    lacks)."""
+    pf, seen, truth = _tracking_in_open_room()
     off = truth + [0.12, -0.09, 0.0]
     wide = pf._refined(PoseEstimate(*off, np.diag([0.15**2, 0.15**2, 0.05**2])), seen)
     tight = pf._refined(PoseEstimate(*off, np.diag([0.01**2, 0.01**2, 0.01**2])), seen)
@@ -292,16 +296,7 @@ def test_the_place_s_own_pose_is_taken_for_the_estimate_only_as_far_as_the_parti
     pulled the place 10-13 cm along a wall the map's beams did not fix, and the estimate followed it while the
     particles stayed within 9 cm. Here the place sits at the scan's own pose, 8 cm from the particles' mean: a tight
     cloud keeps the estimate, a wide one gives it to the place."""
-    world = load_world(WORLDS_DIR / "open_room.yaml")
-    sim = Simulator(world, SimulationConfig(seed=1))
-    pf = ParticleFilter(grid_of(world, 0.02), ParticleFilterConfig(seed=1, lidar_x=-0.032))
-    pf.initialize_pose(sim.pose.x, sim.pose.y, sim.pose.theta, np.diag([0.01**2, 0.01**2, 0.01**2]))
-    for _ in range(5):
-        pf.update(odometry_of(sim), scan_of(sim))
-        sim.step(0.1, 0.3)
-    pf.update(odometry_of(sim), scan_of(sim))
-    seen = pf._window[-1]
-    truth = np.array([sim.pose.x, sim.pose.y, sim.pose.theta])
+    pf, seen, truth = _tracking_in_open_room()
     off = truth + [0.12, -0.09, 0.0]
     fit = pf._log_likelihood(np.array([truth, off]), seen, None, places=True)
     assert fit[0] > fit[1]  # the scan fits the place better than the particles' mean

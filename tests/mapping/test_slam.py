@@ -261,6 +261,17 @@ def test_a_scan_with_too_few_beams_or_nan_ranges_is_added_on_odometry_alone():
     assert update.pose == pytest.approx((0.5, 0.0, 0.0))
 
 
+def _odometry_off_at(truth: np.ndarray, steps: int, misread: int, error) -> list[np.ndarray]:
+    """The first `steps` true poses' steps composed from the first, step `misread` off by `error` (dx, dy, dtheta)."""
+    odometry = [truth[0]]
+    for k in range(1, steps):
+        step = np.array(relative_pose(truth[k - 1], truth[k]))
+        if k == misread:
+            step += error
+        odometry.append(np.array(compose(odometry[-1], step)))
+    return odometry
+
+
 def test_a_scan_matched_after_a_node_on_odometry_alone_is_linked_to_the_window_it_matched(ring):
     """A node on odometry alone is left out of the local window (its pose unverified); the next scan, matched against
     the window, is linked to the window's newest matched node, not to it: its pose relative to the nodes before is the
@@ -268,12 +279,7 @@ def test_a_scan_matched_after_a_node_on_odometry_alone_is_linked_to_the_window_i
     closure submap leaves it out too."""
     caster, truth = ring
     steps = 10
-    odometry = [truth[0]]
-    for k in range(1, steps):
-        step = np.array(relative_pose(truth[k - 1], truth[k]))
-        if k == 7:
-            step += (0.1, 0.05, math.radians(8.0))  # the unverified node's odometry step is off
-        odometry.append(np.array(compose(odometry[-1], step)))
+    odometry = _odometry_off_at(truth, steps, 7, (0.1, 0.05, math.radians(8.0)))  # the unverified node's step
     slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     rng = np.random.default_rng(1)
     empty = ScanData(np.full(BEAMS, np.nan), -math.pi, INCREMENT, 0.1, MAX_RANGE)
@@ -316,12 +322,7 @@ def test_a_turn_the_odometry_misreads_beyond_its_window_is_found_in_the_whole_wi
     then went on odometry alone): the whole angular window is searched, and the true heading found."""
     caster, truth = ring
     steps = 10
-    odometry = [truth[0]]
-    for k in range(1, steps):
-        step = np.array(relative_pose(truth[k - 1], truth[k]))
-        if k == 6:
-            step[2] += math.radians(25.0)  # one misread turn; the model's window is +-16 deg here
-        odometry.append(np.array(compose(odometry[-1], step)))
+    odometry = _odometry_off_at(truth, steps, 6, (0.0, 0.0, math.radians(25.0)))  # the model's window is +-16 deg
     slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
     rng = np.random.default_rng(1)
     events = []
