@@ -130,7 +130,9 @@ def compiler_cache(build_base: Path, cache: Path) -> tuple[list[str], dict[str, 
     if launcher is None:  # and none left in a build directory configured while it was
         return ["-UCMAKE_C_COMPILER_LAUNCHER", "-UCMAKE_CXX_COMPILER_LAUNCHER"], {}
     arguments = [f"-DCMAKE_C_COMPILER_LAUNCHER={launcher}", f"-DCMAKE_CXX_COMPILER_LAUNCHER={launcher}"]
-    return arguments, {"CCACHE_DIR": str(cache), "CCACHE_BASEDIR": str(build_base), "CCACHE_NOHASHDIR": "1"}
+    # depend mode: a miss hashes the compiler's own dependency file (CMake passes -MD) instead of preprocessing first
+    environment = {"CCACHE_DIR": str(cache), "CCACHE_BASEDIR": str(build_base), "CCACHE_NOHASHDIR": "1"}
+    return arguments, {**environment, "CCACHE_DEPEND": "1"}
 
 
 def run(command: list[str], env: dict[str, str]) -> None:
