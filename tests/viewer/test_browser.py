@@ -257,7 +257,8 @@ FRAME_PERIOD_MS = 250
 FRAME_CAP = (
     "(() => { const native = window.requestAnimationFrame.bind(window); let last = -Infinity, open = null;"
     " const due = (now) => { if (now === open) return true;"
-    f" if (now - last >= {FRAME_PERIOD_MS}) {{ last = now; open = now; return true; }} return false; }};"
+    f" if (now - last >= {FRAME_PERIOD_MS}) {{ last = now; open = now; window.__frames = (window.__frames || 0) + 1;"
+    " return true; } return false; };"
     " window.requestAnimationFrame = (callback) => native(function frame(now) {"
     " if (due(now)) callback(now); else native(frame); }); })();"
 )
@@ -349,7 +350,18 @@ class Browser:
         return self.page.get_by_role("button", name=label, exact=True)
 
     def reply(self, text: str | re.Pattern) -> None:
-        self.page.get_by_text(text).first.wait_for()
+        """Until the page shows `text`; else fails saying what the page showed (its panels' text), its frames and
+        WebGL contexts lost and its websockets: whether the viewer's answer never came or the page stopped applying
+        what the viewer sent (a run on a slowing machine once waited for eight answers in vain, cause not found)."""
+        try:
+            self.page.get_by_text(text).first.wait_for()
+        except playwright_api.TimeoutError:
+            shown = " | ".join(self.page.inner_text("body", timeout=10000).split("\n"))
+            raise AssertionError(
+                f"the page did not show {text!r} in {WAIT:g} s; it showed: {shown[-1500:]}; frames drawn "
+                f"{self.page.evaluate('window.__frames || 0')}, WebGL contexts lost "
+                f"{self.page.evaluate('window.__webglLost')}, websockets: {', '.join(self.sockets[-6:]) or 'none'}"
+            ) from None
 
     def choose(self, label: str, option: str) -> None:
         self.page.get_by_label(label, exact=True).click()
