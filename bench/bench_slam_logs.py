@@ -42,6 +42,15 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
 
 
+def scan_estimates(poses: np.ndarray, node_of: list[int], odometry: np.ndarray) -> np.ndarray:
+    """(N, 3) each scan's pose: the optimized pose of its node (node_of[k], the newest node at scan k) and the
+    odometry since that node's scan."""
+    node_odometry = {}
+    for k, n in enumerate(node_of):
+        node_odometry.setdefault(n, odometry[k])
+    return np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)])
+
+
 def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dict:
     """One log through GraphSlam: the figures of the module docstring."""
     log = read_carmen(path)
@@ -70,12 +79,7 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
         events += sum(1 for e in update.events if "odometry alone" in e)
     slam.optimize()  # the closures whose optimization was deferred
     poses, _, _ = slam.graph()
-    node_odometry = {}
-    for k, n in enumerate(node_of):
-        node_odometry.setdefault(n, odometry[k])
-    estimate = np.array(
-        [compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)]
-    )
+    estimate = scan_estimates(poses, node_of, odometry)
     rel = relative_error(estimate, reference)
     ate = absolute_error(estimate, reference)
     rel_odom = relative_error(odometry, reference)

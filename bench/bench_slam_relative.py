@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from bench_slam_logs import DATA, scan_estimates  # the script's directory is on sys.path
 
 from amr_datasets.carmen import LOG_MOUNT, read_carmen
 from amr_datasets.odometry import synthesize_odometry
@@ -47,9 +48,8 @@ from amr_mapping.trajectory_error import (
     relative_motions,
     relative_pairs,
 )
-from amr_util.geometry import compose, relative_pose, wrap_angle
+from amr_util.geometry import wrap_angle
 
-DATA = Path(__file__).resolve().parents[2] / "shared/data/carmen"
 HEADING_SPAN = 1.0
 """m of path either side of a scan over which its neighbours' heading error is its trajectory's heading."""
 BINS = (1.0, 2.0, 4.0, 7.0, 10.0)
@@ -77,14 +77,8 @@ def run(path: Path, seed: int, config: SlamConfig, cache: Path) -> dict:
         node_of.append(node)
     slam.optimize()
     poses, edges, loop = slam.graph()
-    node_odometry: dict[int, np.ndarray] = {}
-    for k, n in enumerate(node_of):
-        node_odometry.setdefault(n, odometry[k])
-    estimate = np.array(
-        [compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)]
-    )
     result = {
-        "estimate": estimate,
+        "estimate": scan_estimates(poses, node_of, odometry),
         "reference": reference,
         "node_of": np.array(node_of),
         "edges": edges,
