@@ -70,7 +70,7 @@ def warm_mapping() -> None:
     sim = Simulator(load_world(ROOT / "config" / "worlds" / "inner_maze.yaml"), SimulationConfig(dt=0.1, seed=0))
     slam = GraphSlam(SlamConfig())
     for k in range(30):  # straight runs and turns in place: nodes, the front end's match and its lines
-        sim.step(0.2, 0.0) if k % 10 < 6 else sim.step(0.0, 1.5)
+        sim.step(*((0.2, 0.0) if k % 10 < 6 else (0.0, 1.5)))
         slam.add(k * 100_000_000, sim.odom_pose, scan_of(sim))
     thin_path(np.array([[0.0, 0.0], [1.0, 0.01], [2.0, 0.0], [3.0, 1.0]]))
 
