@@ -372,7 +372,7 @@ class NavigationObserver(LocalizationObserver):
 
 
 def run_navigation(context, out: Path, world: str, duration: float) -> dict:
-    """The maze_navigation stack on `world`: explore until localized, plan, go (issues 13, 19); the navigator
+    """The maze_navigation stack on `world`: explore until localized, plan, go; the navigator
     decides who drives, the world's goal is its goal."""
     observer = NavigationObserver(context=context)
     with composed_stack(context, "maze_navigation", arguments={"world": world}, extra_nodes=[observer]) as (

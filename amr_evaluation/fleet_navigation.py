@@ -1,4 +1,4 @@
-"""Several robots navigating in one world at library level (issue 22): the simulator's Fleet in lockstep, and
+"""Several robots navigating in one world at library level: the simulator's Fleet in lockstep, and
 per robot the navigation loop (amr_navigation.loop.NavigationLoop: explore, localize, plan, follow) with its
 own particle filter, wall follower, path follower and traffic rules (amr_navigation.traffic), the robots'
 traffic posts on one shared board.

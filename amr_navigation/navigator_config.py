@@ -59,7 +59,7 @@ class NavigatorConfig(Config):
     again (maze_mapping: the explorer's next frontier), in real time the controller that had the robot stops it.
     zero: this node answers it with a zero TwistStamped on cmd_vel, stamped with the observation: the robot stands
     while a lockstep world goes on (/clock, ~/status), and a new goal is decided at the next observation."""
-    # -- traffic rules among robots (issue 22) ----------------------------------------------------
+    # -- traffic rules among robots ----------------------------------------------------------------
     traffic: bool = parameter(False)
     """run the traffic rules among robots (amr_navigation.traffic): post on /traffic, read everyone's posts,
     cap the path follower's speed (speed_limit), plan around what is not on the map, give way. False: a robot

@@ -1,4 +1,4 @@
-"""The navigator's core: one observation in, the decision and its effects out, with no ROS (issue 36).
+"""The navigator's core: one observation in, the decision and its effects out, with no ROS.
 
 `NavigatorCore` is everything that decides for one robot: the `Navigator`'s modes (who drives, when to plan),
 the localizer's confidence turned into "sure enough to drive a path" (`ConfidenceGate`), the traffic rules among
@@ -17,7 +17,7 @@ the decision needs, in order, and returns an `Outcome`:
 - `PlanCall` (plan from start to goal, around `marks` if any): answered with a `PlanAnswer`. Every path the core
   drives is asked for this way (to the goal, around the traffic rules' marks, each leg through a fleet route's
   waypoints): the planner (the node's ~/plan, the loop's Planner) is the robot's one planner, and the core holds
-  none (issue 36 build item 5);
+  none;
 - `HandOverCall` (give the path follower this path before it drives): answered with "" (taken) or the reason
   it was refused.
 
@@ -26,7 +26,7 @@ reason), the pose decided on (on a route: the pose driven by), the speed limit f
 whether this robot's traffic post changed, and the events to log. A library executor answers each call at once
 (`run_job`); the node answers asynchronously and sends each answer in when it comes.
 
-The confidence (issue 35): the localizer's /pose carries the posterior probability of its best place. The
+The confidence: the localizer's /pose carries the posterior probability of its best place. The
 navigator drives a path once that reaches `drive_confidence`, and goes on driving it until it falls under
 `release_confidence` (its own hysteresis, below the localizer's own withdrawal: a short dip of the localizer's
 `localized` does not hand the robot to the wall follower and back). A localizer that gives no probability (a

@@ -93,7 +93,7 @@ from amr_util.throttle import ThrottledLogger
 CHECK_PERIOD = 0.5
 """s (wall clock) between checks of a request in flight against plan_timeout."""
 QUIET = PublisherEventCallbacks(use_default_callbacks=False)
-"""the publishers' event callbacks: none (two QoS-event waitables fewer per publisher in every wait set, issue 36;
+"""the publishers' event callbacks: none (two QoS-event waitables fewer per publisher in every wait set;
 their subscribers' own handlers still report an incompatible QoS)."""
 POST_MOVE, POST_TURN = 0.02, 0.05
 """m and rad a robot's pose (and the start of its path) may move before its post is published again."""
@@ -598,7 +598,7 @@ class NavigatorNode(ManagedNode):
     def _posted(self) -> None:
         """Publish this robot's latest post (what the rules just put on the board) on /traffic, unless it says what
         the last one published did (same_post: within POST_MOVE and POST_TURN) and that one is younger than
-        POST_KEEP_ALIVE (issue 36: every post wakes every other navigator; most robots of a fleet stand, wait or
+        POST_KEEP_ALIVE (every post wakes every other navigator; most robots of a fleet stand, wait or
         explore, so most posts said nothing new)."""
         post = self.board.get(self.traffic.name) if self.board is not None else None
         if post is None:

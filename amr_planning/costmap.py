@@ -24,7 +24,7 @@ inflated band, so that the cheapest route keeps to the middle of a corridor. The
 robot never plans off the map. The clearance estimate is conservative (the wall may lie anywhere
 in an occupied cell); maps of 0.35 m corridors need 0.025 m cells to leave the robot room.
 
-`shared_costmap(grid, config)` is the costmap of one map and config built once per process (issue 36, one costmap
+`shared_costmap(grid, config)` is the costmap of one map and config built once per process (one costmap
 per robot): every node of a composed process given the same /map and costmap parameters (each robot's planner, its
 navigator's traffic rules, the fleet planner) holds the same read-only object instead of building its own.
 """

@@ -92,7 +92,7 @@ QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
 REPORTED = SubscriptionEventCallbacks()
 """rclpy's default QoS-event handlers, kept on a one-robot world's /cmd_vel and /pose (a ManagedNode on simulated
 time has none): a controller of one's own with an incompatible QoS is reported here. A fleet's robots have none
-(two waitables per robot and input in every wait of this node: issue 36)."""
+(two waitables per robot and input in every wait of this node)."""
 
 
 class RobotChannel:

@@ -4,8 +4,8 @@ rclpy 7.1.6's SingleThreadedExecutor, at every wake-up, gathers every entity of 
 through its callback group), enters each handle, builds a new rcl wait set, then wraps every ready callback in a
 Task around a coroutine and triggers its own guard condition twice per callback, so each callback is followed by
 a second, empty wake-up that rebuilds the whole wait set again. With a few dozen entities per node and 20 callbacks
-per robot-step in the fleet stack, that machinery was most of the stack's CPU (issue 36,
-docs/decisions/2026-11-29-fleet-ros-layer.md).
+per robot-step in the fleet stack, that machinery was most of the stack's CPU
+(docs/decisions/2026-11-29-fleet-ros-layer.md).
 
 `LeanExecutor` gathers its nodes' entities once, again only when an entity or node is added or removed (rclpy's
 nodes call `executor.wake()` then), reuses one rcl wait set, and runs each ready callback in place: a subscription's

@@ -28,7 +28,7 @@ On simulated time (use_sim_time) a node's subscriptions and lifecycle publishers
 (`QUIET_SUBSCRIPTION`, `QUIET_PUBLISHER`; a publisher's defaults are two waitables too): every
 publisher of a simulated stack is the suite's own, and rclpy's default handlers are two waitables per subscription,
 which its executor visits at every wake-up of the node (20 of a navigator's 22 waitables; a node with 10
-subscriptions spent 435 us a callback with them, 279 us without: issue 36,
+subscriptions spent 435 us a callback with them, 279 us without:
 docs/decisions/2026-11-29-fleet-ros-layer.md). On wall time (a real robot's drivers) the default handlers stay, so
 an incompatible QoS or type is reported.
 """

@@ -2,7 +2,7 @@
 
 rclpy 7.1.6's `logger.warning(text, throttle_duration_sec=p)` resolves its caller (`inspect.getframeinfo`,
 `os.path.realpath`) at every call, before its throttle drops the message: a warning a node repeats every step
-costs tens of microseconds each time, most of them for nothing (issue 36: the path follower's warnings were
+costs tens of microseconds each time, most of them for nothing (the path follower's warnings were
 8-19 % of the 20-robot fleet's busy samples). `ThrottledLogger` decides first, as rclpy's throttle does (one
 message per call site per `period` s of wall-clock time, the first one logged), and calls the logger only for a
 message that goes out.

@@ -1,4 +1,4 @@
-"""When the fleet is planned, and from what: the fleet coordinator's plans at library level (issue 35 item 2).
+"""When the fleet is planned, and from what: the fleet coordinator's plans at library level.
 
     .venv/bin/python bench/bench_fleet_confidence.py --families perfect --robots 6 --seeds 4
 
@@ -73,7 +73,7 @@ def one(family: str, seed: int, robots: int, size: float, duration: float, settl
     configs.share_directory = lambda package: ROOT  # this tree's config/, not the working tree's installed share
     fleet_navigation.Fleet, FleetCoordinator.begin_plan = WatchedFleet, watched_begin_plan
     NavigatorCore._on_route = watched_on_route
-    if settle_time is not None:  # a coordinator of before issue 35 item 2, its settle_time guard set
+    if settle_time is not None:  # a coordinator with the settle_time guard it had before the confidence
         FleetCoordinator.__init__ = settled_init
     try:
         run = run_fleet(
@@ -106,7 +106,7 @@ def main(argv=None) -> int:
     parser.add_argument("--size", type=float, default=4.0, help="m, side of the generated world")
     parser.add_argument("--duration", type=float, default=300.0, help="s simulated at most per run")
     parser.add_argument(
-        "--settle-time", type=float, help="s: a coordinator that still has settle_time (before issue 35 item 2)"
+        "--settle-time", type=float, help="s: a coordinator with the settle_time guard of before the confidence"
     )
     args = parser.parse_args(argv)
     print(

@@ -1,4 +1,4 @@
-"""Several robots navigating in generated worlds at library level (issue 22's fleet figure).
+"""Several robots navigating in generated worlds at library level (docs/fleet.md's figures).
 
     .venv/bin/python bench/bench_fleet_navigation.py                      # the default grid (see --help)
     .venv/bin/python bench/bench_fleet_navigation.py --robots 2 3 --families perfect pillars --seeds 2

@@ -1,4 +1,4 @@
-"""How fast the fleet_navigation stack runs through ROS, and where its CPU goes (issue 36).
+"""How fast the fleet_navigation stack runs through ROS, and where its CPU goes.
 
     .venv/bin/python bench/bench_fleet_ros.py --robots 5 10 20            # real-time factor and CPU per robot-step
     .venv/bin/python bench/bench_fleet_ros.py --robots 5 --profile        # and where the CPU goes, thread by thread

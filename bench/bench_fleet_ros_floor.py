@@ -1,4 +1,4 @@
-"""The floor of rclpy's cost per callback: trivial nodes in one process, as a composed stack runs them (issue 36).
+"""The floor of rclpy's cost per callback: trivial nodes in one process, as a composed stack runs them.
 
     .venv/bin/python bench/bench_fleet_ros_floor.py      # 1, 10, 30, 60 nodes; each executor, each layout
 

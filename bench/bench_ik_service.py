@@ -10,7 +10,7 @@ loopback, then runs client processes (this script with --client):
    and of a refused request (unknown chain: transport and executors, no solve);
 2. `--clients` clients at once for `--seconds`: requests per second in total.
 The library solves the same targets in this process for comparison.
-Targets of issue 4: median <= 1 ms, >= 1,000 requests/s.
+Targets: median <= 1 ms, >= 1,000 requests/s.
 """
 
 from __future__ import annotations

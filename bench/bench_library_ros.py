@@ -1,4 +1,4 @@
-"""The same episode spec in the library and through ROS lockstep: the same outcome? (issue 36 item 2)
+"""The same episode spec in the library and through ROS lockstep: the same outcome?
 
     .venv/bin/python bench/bench_library_ros.py                  # the sweep: library against ROS, spec by spec
     .venv/bin/python bench/bench_library_ros.py --quick          # a few specs of each controller
@@ -38,7 +38,7 @@ from amr_evaluation import configs
 from amr_evaluation.episode import EpisodeSpec, run_episode
 
 AGREEMENT = 0.02
-"""relative difference of the times within which library and ROS agree (issue 36)."""
+"""relative difference of the times within which library and ROS agree."""
 DURATIONS = {"wall_follower": 60.0, "localization": 20.0, "navigation": 150.0}
 SWEEP = {
     "wall_follower": (["open_room", "inner_maze", {"family": "bends", "seed": 1}], [0, 1]),

@@ -1,4 +1,4 @@
-"""Wall follower on generated maze families (issue 14): goal, time, collisions, stalls, states, wall error.
+"""Wall follower on generated maze families: goal, time, collisions, stalls, states, wall error.
 
 Every family of amr_maps.maze_families, several seeds, both shipped configurations, at
 LiDAR noise 0.01-0.03 m with encoder noise 0.02 and slip 0.05; the goal is always one the
@@ -18,7 +18,7 @@ a fresh file in out/bench/). --png re-runs each episode in this process to draw 
     python bench/bench_wall_follower_families.py --shipped   # the shipped worlds, as README's table
     python bench/bench_wall_follower_families.py --route [--mazes 6] [--run-seeds 3] [--jobs 2]
 
---route (issue 20: the route must not depend on noise): tree mazes (perfect; rotated and thin_walls
+--route (the route must not depend on noise): tree mazes (perfect; rotated and thin_walls
 without loops; dead_ends), 6, 7 or 8 m across with 0.35, 0.4 or 0.45 m corridors by maze seed. On each,
 the noise-free sim run is the reference; the sim config at LiDAR noise 0.03 m with encoder noise 0.02
 and slip 0.05 (--run-seeds seeds) and the real config (noise-free and noisy) are compared with it cell by
@@ -106,7 +106,7 @@ def main() -> None:
     parser.add_argument(
         "--route",
         action="store_true",
-        help="instead: routes through tree mazes compared with the noise-free run's (issue 20)",
+        help="instead: routes through tree mazes compared with the noise-free run's",
     )
     parser.add_argument("--mazes", type=int, default=6, help="--route: mazes per family (seeds first-seed..)")
     parser.add_argument("--route-families", nargs="+", default=list(ROUTE_FAMILIES), choices=ROUTE_FAMILIES)

@@ -1,4 +1,4 @@
-"""fleet_navigation (issue 22): per robot the whole explore, localize, plan, go loop, every node in the robot's
+"""fleet_navigation: per robot the whole explore, localize, plan, go loop, every node in the robot's
 namespace, copied from one description each; composed through ROS on a two-robot world: every robot's nodes
 active in its namespace, each robot's filter localizing it, every robot driven."""
 

@@ -1,4 +1,4 @@
-"""fleet_sim (issue 22): one wall follower per robot of the world, in the robot's namespace, from one description;
+"""fleet_sim: one wall follower per robot of the world, in the robot's namespace, from one description;
 through ROS, composed: every topic and frame namespaced, both robots move, each sees the other in its scan."""
 
 import math

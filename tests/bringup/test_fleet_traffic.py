@@ -1,4 +1,4 @@
-"""The traffic rules through ROS (issue 22): the fleet_navigation stack, composed, on two robots face to face in a
+"""The traffic rules through ROS: the fleet_navigation stack, composed, on two robots face to face in a
 corridor one robot wide with a side pocket (tests/navigation/test_traffic.py's world at library level). With the
 rules (the stack's default) both reach their goals without touching each other; with `traffic: false` the same
 world deadlocks or they collide, so the test can fail. A relay stands in for the particle filters (each robot's

@@ -1,4 +1,4 @@
-"""Every simulated stack in real time (issue 36 item 3): `mode:=realtime` runs the simulator on its timer, publishing
+"""Every simulated stack in real time: `mode:=realtime` runs the simulator on its timer, publishing
 /clock, the nodes on simulated time and nobody waited for; each stack is composed here and run for a short while
 until it has done its job for real (judged by the simulator's own ground truth, ~/status), within a wall-clock
 deadline. real_robot_navigation_sim (always real time) reaches its goal in test_real_robot_navigation.py;

@@ -288,7 +288,7 @@ TIGHT_MAZES = {
     "rotated": (("rotated", 0, {"size": 6.0, "width": 0.35, "loop_fraction": 0.0}), 2),
     "hairpins": (("dead_ends", 0, {"size": 6.0, "width": 0.35}), 2),
 }
-"""6 m across, 0.35 m corridors, and the noisy run's seed. rotated: turned by 29 deg; before issue 20's
+"""6 m across, 0.35 m corridors, and the noisy run's seed. rotated: turned by 29 deg; before the route's
 changes the noisy run left the noise-free route at its 80th cell (it turned back out of a side corridor,
 374 s in). hairpins: 2 cm walls whose end faces the right hand turns round twice in a row; before the
 skew was kept through square turns and the corner anchored on the edge of the solid passed, the noisy

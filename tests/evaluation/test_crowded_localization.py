@@ -1,4 +1,4 @@
-"""A robot localizing while other robots crowd its scan (issue 22), at library level: the shipped filter config,
+"""A robot localizing while other robots crowd its scan, at library level: the shipped filter config,
 a fleet in one simulator, the others standing close around it or following walls near it."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """A path on /traffic is posted thinned and read filled (amr_navigation.traffic_messages: thin_path, fill_path,
-POST_TOLERANCE, POST_SPACING; issue 36): what a receiver's rules get lies within the tolerance of what the sender
+POST_TOLERANCE, POST_SPACING): what a receiver's rules get lies within the tolerance of what the sender
 posted, both ways, no two points farther apart than the spacing, a straight run the same points; and whole runs
 of the traffic rules whose every post goes through the message that way decide as with the posts themselves."""
 

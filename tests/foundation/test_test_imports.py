@@ -1,4 +1,4 @@
-"""The tests' own hygiene (issue 38): a test module imports the packages it tests, tests/support and conftest, never
+"""The tests' own hygiene: a test module imports the packages it tests, tests/support and conftest, never
 another module of tests/ (a fixture reaches a test by name, through conftest.py and its pytest_plugins); and the
 closed-loop harnesses of amr_evaluation are used only by the evaluation tests (a test of a lower package that needs
 the whole loop is an integration test: it lives in tests/evaluation)."""

@@ -1,4 +1,4 @@
-"""The numba-compiled DLS attempt takes the steps of the Python loop (issue 15)."""
+"""The numba-compiled DLS attempt takes the steps of the Python loop."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Partial poses: per-axis weights and "tool axis points along a direction" (issue 15)."""
+"""Partial poses: per-axis weights and "tool axis points along a direction"."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Restarts: spread starts, and no step count ends a solve that still has time (issue 15)."""
+"""Restarts: spread starts, and no step count ends a solve that still has time."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""URDF chains: parsing, FK equal to the DH tables, solving with real link frames (issue 15)."""
+"""URDF chains: parsing, FK equal to the DH tables, solving with real link frames."""
 
 from __future__ import annotations
 

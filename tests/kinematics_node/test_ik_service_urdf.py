@@ -1,4 +1,4 @@
-"""A URDF chain served by the node: /compute_fk and /solve_ik answer for it (issue 15)."""
+"""A URDF chain served by the node: /compute_fk and /solve_ik answer for it."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Generated square rooms whose four-fold symmetry one feature breaks, and truly symmetric controls (issue 20)."""
+"""Generated square rooms whose four-fold symmetry one feature breaks, and truly symmetric controls."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The navigator core (amr_navigation.navigator_core): the confidence rule, and the navigator node and the library loop
-taking the same decisions on one recorded sequence of observations (issue 36: one robot, one copy)."""
+taking the same decisions on one recorded sequence of observations (one robot, one copy)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""One planner, one costmap per robot (issue 36 build item 5): the navigator core asks the planner for every path it
+"""One planner, one costmap per robot: the navigator core asks the planner for every path it
 drives, a fleet route's legs included, and holds no planner; the costmap its traffic rules read is the planner's
 (amr_planning.costmap.shared_costmap: the nodes of one process given the same map and parameters hold one)."""
 

@@ -1,4 +1,4 @@
-"""The simulator's controls for watching a run (issue 21): pause, resume, step and the live pace, in lockstep and
+"""The simulator's controls for watching a run: pause, resume, step and the live pace, in lockstep and
 realtime; a paused and stepped lockstep run is the run it would have been."""
 
 import pytest

@@ -1,4 +1,4 @@
-"""The simulator node running a world that lists its robots (issue 22): namespaced topics, TF both ways,
+"""The simulator node running a world that lists its robots: namespaced topics, TF both ways,
 lockstep over every robot, per-robot and world-wide services."""
 
 import pytest

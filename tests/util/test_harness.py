@@ -136,7 +136,7 @@ def test_robots_are_observed_and_stepped_in_the_fleets_order_with_their_own_part
 
 
 def test_no_library_loop_steps_a_simulator_but_through_the_harness():
-    """The lockstep loops of amr_evaluation and amr_navigation are parts on the harness (issue 36 G1): a call
+    """The lockstep loops of amr_evaluation and amr_navigation are parts on the harness: a call
     ``<...>sim.step(...)`` or ``<...>fleet.step(...)`` there is a loop wired by hand again."""
     import ast
     from pathlib import Path

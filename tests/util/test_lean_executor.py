@@ -132,7 +132,7 @@ def test_services_clients_and_their_done_callbacks(node, lean, ros_context):
 
 
 def test_a_lifecycle_node_answers_its_transitions(node, lean, ros_context):
-    """rclpy's EventsExecutor never answered a lifecycle node's services (issue 36): this one does."""
+    """rclpy's EventsExecutor never answered a lifecycle node's services: this one does."""
     change = node.create_client(ChangeState, "lean_probe/change_state")
     get = node.create_client(GetState, "lean_probe/get_state")
     assert change.wait_for_service(timeout_sec=5.0) and get.wait_for_service(timeout_sec=5.0)

@@ -1,4 +1,4 @@
-"""The node base tracks what a node creates while it configures and destroys it at cleanup (issue 36 item 7): a node's
+"""The node base tracks what a node creates while it configures and destroys it at cleanup: a node's
 on_cleanup resets its own fields and ends with the base's; rclpy's own entities (made in __init__) and what is made
 outside configure are kept."""
 

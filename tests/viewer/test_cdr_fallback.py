@@ -1,5 +1,5 @@
 """The viewer reads its busy topics straight from their CDR bytes (amr_viewer.cdr); bytes in another encapsulation
-(XCDR2, as another middleware may send) are deserialized by rclpy instead and draw the same (issue 36 item 7)."""
+(XCDR2, as another middleware may send) are deserialized by rclpy instead and draw the same."""
 
 from __future__ import annotations
 
