@@ -237,7 +237,7 @@ def tree_maze(family: str, seed: int, hand: str) -> dict:
 
 
 def routes(args: argparse.Namespace, results: Path) -> None:
-    """Issue 20: does the route depend on noise? Cell routes compared with the noise-free sim run's."""
+    """Does the route depend on noise? Cell routes compared with the noise-free sim run's."""
     kinds = [("sim", 0.0, 0)] + [("sim", ROUTE_NOISE, s + 1) for s in range(args.run_seeds)]
     if "real" in args.configs:
         kinds += [("real", 0.0, 0), ("real", ROUTE_NOISE, 1)]

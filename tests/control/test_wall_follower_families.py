@@ -1,4 +1,4 @@
-"""Issue 14 on generated geometry: bends of any angle, narrowing corridors under noise, open space, outliers.
+"""The wall follower on generated geometry: bends of any angle, narrowing corridors under noise, open space, outliers.
 
 Closed loop through the library (test_closed_loop.run_loop) on amr_maps.maze_families
 worlds kept small so each run lasts seconds; the sweeps over families, seeds and noise are in

@@ -1,4 +1,4 @@
-"""Issue 20: the route through a tree maze must not depend on noise.
+"""The route through a tree maze must not depend on noise.
 
 Unit tests of the decision changes (the skew averaged along the way, window minima read on
 averaged ranges, the commitment to the corridor a turn faces, corner turns anchored on the

@@ -1,4 +1,4 @@
-"""Issue 6's closed loop through ROS: simulator + (odometry node) + wall follower + lifecycle manager,
+"""The closed loop through ROS: simulator + (odometry node) + wall follower + lifecycle manager,
 one process, lockstep, every shipped world, 1 simulated minute, not one collision.
 
 The 7.5-minute runs on every world and noise level are the library closed loop's
