@@ -20,7 +20,6 @@ has a one-cell border holding the far value, and end points are clipped onto it.
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -29,6 +28,7 @@ import numpy as np
 
 from amr_localization.distance_field import DistanceField
 from amr_localization.errors import LocalizationError
+from amr_localization.helper_threads import submit
 from amr_localization.scan_beams import Beams
 from amr_localization.sensor_mount import SensorMount
 
@@ -104,17 +104,16 @@ class LikelihoodField:
             )
 
         # each particle's sum is its own (the same beams in the same order): thousands of particles are summed in two
-        # halves side by side, the first on a thread of its own (the kernel runs without the GIL); the same numbers
+        # halves side by side, the first on a helper thread (the kernel runs without the GIL); the same numbers
         if len(particles) < SPLIT_PARTICLES:
             summed(slice(None))
             return out
         half = len(particles) // 2
-        first = threading.Thread(target=summed, args=(slice(0, half),))
-        first.start()
+        first = submit(summed, slice(0, half))
         try:
             summed(slice(half, None))
         finally:
-            first.join()
+            first.result()
         return out
 
     def log_likelihood_free_path(
@@ -222,7 +221,7 @@ class FixedPoses:
 
 SPLIT_PARTICLES = 2000
 """particles from which log_likelihood sums them in two halves side by side (a global localization's or a withdrawn
-stretch's thousands: 1.2-1.4 ms a stage at 5,000 x 60 beams; a hundred cost less than a thread's start)."""
+stretch's thousands: 1.2-1.4 ms a stage at 5,000 x 60 beams; a hundred cost less than the hand-off)."""
 ANGLE_KEYS = 1e7
 """beams are told apart by their angle in the sensor frame to 1e-7 rad (a scan's beams lie far more apart)."""
 _NO_EXITS = np.empty((0, 0, 0))

@@ -33,10 +33,10 @@ Between filter updates the estimate follows odometry, so every call returns a fi
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections import deque
 from collections.abc import Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -50,6 +50,7 @@ from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
 from amr_localization.errors import BeaconError, LocalizationError, OdometryError
 from amr_localization.free_space import FreeSpace
+from amr_localization.helper_threads import submit
 from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import FixedPoses, LikelihoodField, LikelihoodFieldParams
@@ -187,26 +188,15 @@ class _Seen(NamedTuple):
 
 
 class _Ahead:
-    """A call run on a thread of its own, started now and collected by `result` (its exception raised there): work that
-    needs only what is known now, done on the second core while this thread goes on (its compiled kernels release the
-    GIL). The same call, the same result."""
+    """A call run on a helper thread (helper_threads), started now and collected by `result` (its exception raised
+    there): work that needs only what is known now, done on the second core while this thread goes on (its compiled
+    kernels release the GIL). The same call, the same result."""
 
     def __init__(self, function, *args) -> None:
-        self._value = self._error = None
-        self._thread = threading.Thread(target=self._run, args=(function, args), daemon=True)
-        self._thread.start()
-
-    def _run(self, function, args) -> None:
-        try:
-            self._value = function(*args)
-        except BaseException as error:  # raised in the collecting thread
-            self._error = error
+        self._future = submit(function, *args)
 
     def result(self):
-        self._thread.join()
-        if self._error is not None:
-            raise self._error
-        return self._value
+        return self._future.result()
 
 
 SEARCH_TURN = math.pi / 4
@@ -223,7 +213,7 @@ class _Search:
     local: tuple[float, float, float]
     position_variance: float = 0.0
     heading_variance: float = 0.0
-    ahead: threading.Thread | None = None
+    ahead: Future | None = None
 
     def moved(self, d_trans: float, d_theta: float, noise) -> None:
         """The motion model's noise over one more motion (motion_variance)."""
@@ -234,17 +224,16 @@ class _Search:
     def advance(self, budget: int) -> None:
         """The search's next `budget` nodes: those started ahead after the last update, or now."""
         if self.ahead is not None:
-            self.ahead.join()
+            self.ahead.result()
             self.ahead = None
         else:
             self.search.advance(budget)
 
     def start_ahead(self, budget: int) -> None:
-        """The next `budget` nodes on a thread of their own, started now and collected by the next `advance`: the
-        compiled branch and bound runs without the GIL while the rest of this update and the wait for the next scan
-        go on (the nodes and their order are those `advance` would score then: the same proposals)."""
-        self.ahead = threading.Thread(target=self.search.advance, args=(budget,), daemon=True)
-        self.ahead.start()
+        """The next `budget` nodes on a helper thread, started now and collected by the next `advance`: the compiled
+        branch and bound runs without the GIL while the rest of this update and the wait for the next scan go on (the
+        nodes and their order are those `advance` would score then: the same proposals)."""
+        self.ahead = submit(self.search.advance, budget)
 
 
 class ParticleFilter:
