@@ -454,22 +454,20 @@ class ParticleFilter:
                 else 1.0
             )
             points = self._end_points(scan)
-            seen = _Seen(self._odometry, beams, weights, gain, points, self._placed(points), self._points(beams))
-            self._rematch_places(seen)
+            # the scan's place in the window (the scan-matched odometry) on a helper thread while the particles weigh
+            # the scan's first stage, which needs it not; the places need it before anything else (_placed_now)
+            placed = _Ahead(self._placed, points)
+            seen = _Seen(self._odometry, beams, weights, gain, points, None, self._points(beams))
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
             used += len(self.beacons) + 1
             self._covered = True  # ranges to landmarks score every place of the map smoothly: no search needed
         if used <= 0.0:
+            if seen is not None:  # the places still move by the scan-matched odometry
+                self._rematch_places(seen._replace(local=placed.result()))
             return
-        if seen is not None:
-            self._begin_search(seen)
-        # the places' fits to the scan and `elsewhere`'s background need the scan and the places as they are now, not
-        # the particles: each on a thread of its own while the particles weigh the scan
-        ahead = seen is not None and len(self.hypotheses)
-        fits = _Ahead(self._fitted_places, seen) if ahead else None
-        background = _Ahead(self._background, seen, beacons) if ahead and self._anywhere_paths is not None else None
+        fits = background = None
         remaining = 1.0
         for stage in range(MAX_STAGES):
             log_likelihood = self._log_likelihood(self.particles, seen, beacons)
@@ -489,7 +487,7 @@ class ParticleFilter:
             log_weight = log_prior + step * log_likelihood
             peak = log_weight.max()
             if not math.isfinite(peak):
-                for started in (fits, background):
+                for started in (placed if stage == 0 and seen is not None else None, fits, background):
                     if started is not None:
                         started.result()
                 self.reinitialize_global()
@@ -497,6 +495,8 @@ class ParticleFilter:
                 return
             weights = np.exp(log_weight - peak)
             self.weights = weights / weights.sum()
+            if stage == 0 and seen is not None:
+                seen, fits, background = self._placed_now(seen, placed, beacons)
             remaining -= step
             if remaining <= 1e-9:
                 break
@@ -519,6 +519,22 @@ class ParticleFilter:
         self.status.updated = True
         self.status.particles = len(self.particles)
         self.status.clusters = len(self.hypotheses)
+
+    def _placed_now(
+        self, seen: _Seen, placed: _Ahead, beacons: BeaconReading | None
+    ) -> tuple[_Seen, _Ahead | None, _Ahead | None]:
+        """The scan placed in the window (`placed`, collected), the places moved by it (_rematch_places), a place search
+        begun on it if one is due (_begin_search), and the places' fits to the scan and `elsewhere`'s background
+        started: they need the scan and the places as they are now, not the particles, each on a helper thread while
+        the particles weigh the scan's later stages. Returns the scan with its place, and the fits and background
+        under way (None without places)."""
+        seen = seen._replace(local=placed.result())
+        self._rematch_places(seen)
+        self._begin_search(seen)
+        ahead = len(self.hypotheses) > 0
+        fits = _Ahead(self._fitted_places, seen) if ahead else None
+        background = _Ahead(self._background, seen, beacons) if ahead and self._anywhere_paths is not None else None
+        return seen, fits, background
 
     # -- places -------------------------------------------------------------------------
 

@@ -158,15 +158,15 @@ def test_a_new_place_search_begins_only_once_the_window_holds_new_evidence(monke
 
 
 def test_the_places_work_beside_the_particles_is_collected_within_its_update(monkeypatch):
-    """The places' fits and `elsewhere`'s background run on helper threads while the particles weigh the scan
-    (particle_filter._Ahead): each is collected within the update it began in, so none outlives its update (a task
-    left running would fill the background's memo while the next update reads it)."""
+    """The scan-matched odometry, the places' fits and `elsewhere`'s background run on helper threads while the
+    particles weigh the scan (particle_filter._Ahead): each is collected within the update it began in, so none
+    outlives its update (a task left running would fill the background's memo while the next update reads it)."""
     started, collected = [], set()
     real_init, real_result = particle_filter._Ahead.__init__, particle_filter._Ahead.result
 
     def counted(self, function, *args):
         real_init(self, function, *args)
-        started.append(self)
+        started.append((self, function.__name__))
 
     def collecting(self):
         collected.add(id(self))
@@ -183,10 +183,13 @@ def test_the_places_work_beside_the_particles_is_collected_within_its_update(mon
     for _ in range(200):
         sim.step(0.15, 0.3)
         updated += pf.update(odometry_of(sim), scan_of(sim)).status.updated
-        assert all(id(ahead) in collected and ahead._future.done() for ahead in started)
+        assert all(id(ahead) in collected and ahead._future.done() for ahead, _ in started)
         if updated >= 5:
             break
-    assert len(started) == 2 * updated  # the places' fits and the background, on every update with places
+    names = [name for _, name in started]
+    # the places' fits and the background on every update with places, the scan's place in the window on every scan
+    assert names.count("_fitted_places") == names.count("_background") == updated
+    assert names.count("_placed") >= updated
 
 
 def test_an_empty_set_of_places_scores_as_an_empty_set():
