@@ -15,8 +15,9 @@ import os
 import threading
 from concurrent.futures import Future, ThreadPoolExecutor
 
-WORKERS = 4
-"""threads at most: a filter runs up to four tasks at once (the fits, the background, the search, half a sum)."""
+WORKERS = 8
+"""threads at most: a filter runs up to four tasks at once (the scan-matched odometry or the fits and the background,
+the search's nodes, half a sum); twice that, so that two filters in one process (a fleet's) do not queue."""
 
 _lock = threading.Lock()
 _pool: ThreadPoolExecutor | None = None
