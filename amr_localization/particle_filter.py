@@ -53,7 +53,7 @@ from amr_localization.free_space import FreeSpace
 from amr_localization.helper_threads import submit
 from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
-from amr_localization.likelihood_field import FixedPoses, LikelihoodField, LikelihoodFieldParams
+from amr_localization.likelihood_field import SPLIT_PARTICLES, FixedPoses, LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, grouped_covariances, weighted_pose
@@ -190,10 +190,18 @@ class _Seen(NamedTuple):
 class _Ahead:
     """A call run on a helper thread (helper_threads), started now and collected by `result` (its exception raised
     there): work that needs only what is known now, done on the second core while this thread goes on (its compiled
-    kernels release the GIL). The same call, the same result."""
+    kernels release the GIL). The same call, the same result. here: run it now on this thread instead (nothing to
+    hide it behind: the hand-off would cost more than it saves)."""
 
-    def __init__(self, function, *args) -> None:
-        self._future = submit(function, *args)
+    def __init__(self, function, *args, here: bool = False) -> None:
+        if not here:
+            self._future = submit(function, *args)
+            return
+        self._future = Future()
+        try:
+            self._future.set_result(function(*args))
+        except Exception as error:  # raised where it is collected, as from a helper
+            self._future.set_exception(error)
 
     def result(self):
         return self._future.result()
@@ -454,9 +462,10 @@ class ParticleFilter:
                 else 1.0
             )
             points = self._end_points(scan)
-            # the scan's place in the window (the scan-matched odometry) on a helper thread while the particles weigh
-            # the scan's first stage, which needs it not; the places need it before anything else (_placed_now)
-            placed = _Ahead(self._placed, points)
+            # the scan's place in the window (the scan-matched odometry) on a helper thread while thousands of particles
+            # weigh the scan's first stage, which needs it not (a few hundred take less than the hand-off); the places
+            # need it before anything else (_placed_now)
+            placed = _Ahead(self._placed, points, here=len(self.particles) < SPLIT_PARTICLES)
             seen = _Seen(self._odometry, beams, weights, gain, points, None, self._points(beams))
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain

@@ -31,3 +31,13 @@ def test_a_forked_process_gets_helpers_of_its_own():
     child.start()
     child.join(30)
     assert child.exitcode == 0 and queue.get(timeout=5) == 6
+
+
+@pytest.mark.parametrize("here", [False, True])
+def test_work_started_ahead_gives_its_result_or_its_exception_where_collected_on_either_thread(here):
+    from amr_localization.particle_filter import _Ahead
+
+    assert _Ahead(divmod, 7, 2, here=here).result() == (3, 1)
+    failed = _Ahead(divmod, 1, 0, here=here)  # no exception yet, on either thread
+    with pytest.raises(ZeroDivisionError):
+        failed.result()

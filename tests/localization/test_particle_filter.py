@@ -164,8 +164,8 @@ def test_the_places_work_beside_the_particles_is_collected_within_its_update(mon
     started, collected = [], set()
     real_init, real_result = particle_filter._Ahead.__init__, particle_filter._Ahead.result
 
-    def counted(self, function, *args):
-        real_init(self, function, *args)
+    def counted(self, function, *args, **kwargs):
+        real_init(self, function, *args, **kwargs)
         started.append((self, function.__name__))
 
     def collecting(self):
