@@ -121,9 +121,10 @@ def measure(path: Path, args) -> dict:
         anchor = truth[k - 1]
         sensor = np.array(compose(relative_pose(anchor, truth[k]), mount))
         exact_here = lidar.true_ranges(Pose2D(*truth[k]))
-        clouds = []
+        clouds, sensors = [], []
         for member in range(k - window, k):
             placed = relative_pose(anchor, truth[member])
+            sensors.append(np.array(compose(placed, mount)[:2]))
             keep = None
             if args.visible:  # judged on the noise-free beams, applied to the beams used
                 values, clean_values = beams(member, args.reference), beams(member, "clean")
@@ -138,6 +139,11 @@ def measure(path: Path, args) -> dict:
                 keep[np.flatnonzero(both)[visible]] = True
             clouds.append(transform_points(placed, points(beams(member, args.reference), keep)))
         cloud = np.vstack(clouds)
+        prior = np.array(relative_pose(odometry[k - 1], odometry[k]))
+        if args.facing:  # as GraphSlam's window with FACING_WINDOW: the surfaces facing the prior's sensor
+            seen_from = np.vstack([np.broadcast_to(s, c.shape) for s, c in zip(sensors, clouds, strict=True)])
+            viewpoint = np.array(compose(prior, mount)[:2])
+            cloud = cloud[slam_module._facing(cloud, seen_from, viewpoint, resolution)]
         score_map = ScoreMap.from_points(
             cloud,
             resolution,
@@ -155,7 +161,6 @@ def measure(path: Path, args) -> dict:
         )
         scan_points = points(beams(k, args.scan))
         true_motion = np.array(relative_pose(anchor, truth[k]))
-        prior = np.array(relative_pose(odometry[k - 1], odometry[k]))
         information = slam_module._odometry_information(prior)
         sigma = 1.0 / np.sqrt(np.diag(information))
         linear = min(config.match_linear_window, max(2.0 * resolution, slam_module.WINDOW_SIGMAS * sigma[0]))
@@ -208,12 +213,16 @@ def main() -> None:
     parser.add_argument("--reference", default="recorded", choices=("recorded", "clean"))
     parser.add_argument("--scan", default="recorded", help="recorded, clean or a noise sigma (m)")
     parser.add_argument("--visible", action="store_true", help="the window's points node k cannot see left out")
+    parser.add_argument(
+        "--facing", action="store_true", help="only the window's surfaces facing the prior's sensor (slam._facing)"
+    )
     args = parser.parse_args()
     paths = sorted(args.directory.glob("*.inputs.npz"))
     if args.runs:
         paths = [p for p in paths if p.name.split(".")[0] in args.runs]
     print(
-        f"reference {args.reference}, scan {args.scan}{', visible points only' if args.visible else ''}; "
+        f"reference {args.reference}, scan {args.scan}{', visible points only' if args.visible else ''}"
+        f"{', facing surfaces only' if args.facing else ''}; "
         "heading rms deg / position rms mm"
     )
     print(

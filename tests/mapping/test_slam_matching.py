@@ -136,9 +136,9 @@ def test_a_node_added_on_odometry_alone_is_left_out_of_the_local_submap(maze, mo
     built = []
     original = GraphSlam._matcher
 
-    def recording(self, anchor, members, window):
+    def recording(self, anchor, members, window, viewpoint=None):
         built.append((anchor, list(members)))
-        return original(self, anchor, members, window)
+        return original(self, anchor, members, window, viewpoint)
 
     monkeypatch.setattr(GraphSlam, "_matcher", recording)
     blind = 3
