@@ -1,4 +1,4 @@
-"""Each scan-match link of GraphSlam's front end against the simulator's exact truth (issue 37: the mazes' links'
+"""Each scan-match link of GraphSlam's front end against the simulator's exact truth (the mazes' links'
 heading walk): what the match model alone makes, without the window's own pose errors, and against what one scan
 can say at best.
 

@@ -1,6 +1,6 @@
 """The front end's window keeps only the surfaces facing where the next scan is taken (slam._facing): a thin
 wall's far face, seen by earlier scans from the other side, is where that scan can have no point, and pairing with
-it pulled the mazes' links towards it (issue 37: the per-link error against the simulator's truth)."""
+it pulled the mazes' links towards it (the per-link error against the simulator's truth)."""
 
 from __future__ import annotations
 
