@@ -1,4 +1,4 @@
-"""maze_mapping on generated maze families (issue 37): explore an unknown maze with slam + explorer + planner +
+"""maze_mapping on generated maze families: explore an unknown maze with slam + explorer + planner +
 navigator + path follower, through ROS (the composed stack, lockstep on simulated time) or, with --library, the same
 objects in one loop without ROS (faster: the model's figures without the transport), and judge the saved map
 against the world.

@@ -2,7 +2,7 @@
 (chi-square, 3 on average if weighed right), and over the covariance Olson's correlative matcher would give it
 (Olson 2009, "Real-time correlative scan matching": the second moments of the match's response over a window of
 the lattice, the score taken as a likelihood at a scale, plus the field's quantization: res / sqrt(12) in x and y,
-that over the points' RMS range in heading), at several scales (issue 37, the calibration of the edges).
+that over the points' RMS range in heading), at several scales (the calibration of the edges).
 
 The estimates are taken where GraphSlam makes them, before anything else weighs in: a link's is the scan's estimate
 in the previous node's frame before its fusion with the odometry (_refined: the correlative match and its

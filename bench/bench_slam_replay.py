@@ -1,4 +1,4 @@
-"""GraphSlam alone on a maze run's recorded inputs (issue 37: the mazes' drift): where its error comes from, measured
+"""GraphSlam alone on a maze run's recorded inputs (the mazes' drift): where its error comes from, measured
 against the truth, without the explorer's closed loop (the same scans and odometry for every variant).
 
 Record the inputs first: `bench/bench_mapping.py --library --record --out DIR` saves <run>.inputs.npz (every scan's
