@@ -1,10 +1,10 @@
-"""Localization figures (issue 12): update cost, global localization while wall following, kidnapping,
+"""Localization figures: update cost, global localization while wall following, kidnapping,
 symmetric worlds, the beacon localizer's pyramidal search against the exhaustive grid, and, on the beacon
 world (open_room), the beacon localizer against the particle filter with beacons, scan + beacons and scan.
---symmetry (issue 20): generated square rooms whose four-fold symmetry one feature breaks (a doorway, a
+--symmetry: generated square rooms whose four-fold symmetry one feature breaks (a doorway, a
 notch, a missing or an extra pillar; amr_maps.symmetry_families) and truly symmetric controls
 (docs/decisions/2026-11-27-symmetry-evidence-ledger.md).
---crowded (issue 22): a robot localizing while 1-5 other robots, not on the map, stand or drive near it and fill
+--crowded: a robot localizing while 1-5 other robots, not on the map, stand or drive near it and fill
 part of its scan (amr_evaluation.crowded_localization; docs/fleet.md).
 
 The sweeps (global localization, symmetric worlds, kidnapping) are amr_evaluation episodes (controller
@@ -292,7 +292,7 @@ def _noise(rng: np.random.Generator) -> tuple[float, float, float]:
 def bench_symmetry(sweep: Sweep, seeds: int, seconds: float, control_seeds: int, control_seconds: float) -> None:
     after = 15.0
     print(
-        f"== symmetry broken by one feature (issue 20): {len(BROKEN)} families x {seeds} seeds, "
+        f"== symmetry broken by one feature: {len(BROKEN)} families x {seeds} seeds, "
         f"square rooms 3.5-6.5 m, features 0.2-0.6 m, LiDAR noise 0.01-0.03 m, encoder noise 0.005-0.03, "
         f"slip 0.01-0.05; until {after:.0f} s after the first declaration with the feature seen, "
         f"at most {seconds:.0f} s simulated. 'seen': 3 noise-free "
@@ -641,7 +641,7 @@ def bench_crowded(seeds: int, jobs: int, seconds: float, known: bool, overrides:
             cases.append((family, seed, 0, "alone", noise, known, seconds, dict(overrides or {})))
     what = "tracking from the true start" if known else "global localization (particles spread over the map)"
     print(
-        f"== crowded scans (issue 22): {what}, {seconds:.0f} s, {len(cases)} runs: {', '.join(CROWDED_FAMILIES)} "
+        f"== crowded scans: {what}, {seconds:.0f} s, {len(cases)} runs: {', '.join(CROWDED_FAMILIES)} "
         f"x {seeds} seeds x stand/drive (and alone: the control), 1-5 other robots 0.3-1.2 m from the start, "
         f"LiDAR noise 0.01-0.03 m, encoder noise 0.01, slip 0.02"
         + (f"; filter overrides {overrides}" if overrides else "")
@@ -717,7 +717,7 @@ def main() -> None:
     parser.add_argument(
         "--crowded",
         action="store_true",
-        help="only the robot localizing among other robots (issue 22): tracking and global",
+        help="only the robot localizing among other robots: tracking and global",
     )
     parser.add_argument("--seconds", type=float, help="--crowded: simulated s per run (default 90, --quick 40)")
     args = parser.parse_args()

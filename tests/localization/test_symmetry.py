@@ -1,4 +1,4 @@
-"""Rooms whose four-fold symmetry one feature breaks (issue 20): the free-path check sees a beam go through a
+"""Rooms whose four-fold symmetry one feature breaks: the free-path check sees a beam go through a
 doorway where the likelihood field does not. The closed loop in such rooms:
 tests/evaluation/test_symmetry_closed_loop.py; figures over the generated families: bench/bench_localization.py
 --symmetry."""
