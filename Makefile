@@ -19,7 +19,7 @@ setup: $(VENV)/.deps-installed
 $(VENV)/.deps-installed: pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check uv==0.13.9 \
-		&& $(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) -e '.[test]' \
+		&& $(VENV)/bin/uv pip install --quiet --python $(PY) -e '.[test]' \
 		|| $(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
 	@touch $@
 
