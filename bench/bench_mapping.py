@@ -189,6 +189,12 @@ def run(
     return result
 
 
+def recorded_inputs(directory: Path, runs: list[str] | None = None) -> list[Path]:
+    """The <run>.inputs.npz files `--record` saved in directory (sorted), only the runs named if any are."""
+    paths = sorted(Path(directory).glob("*.inputs.npz"))
+    return [p for p in paths if p.name.split(".")[0] in runs] if runs else paths
+
+
 def shipped(node: str, file: str) -> dict:
     """A node's parameters from config/<file> of this tree."""
     return node_parameters(ROOT / "config" / file, node)

@@ -34,7 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_mapping import shipped, stack_parameters  # the script's directory is on sys.path
+from bench_mapping import recorded_inputs, shipped, stack_parameters  # the script's directory is on sys.path
 from scipy.spatial import cKDTree
 
 import amr_mapping.slam as slam_module
@@ -217,9 +217,7 @@ def main() -> None:
         "--facing", action="store_true", help="only the window's surfaces facing the prior's sensor (slam._facing)"
     )
     args = parser.parse_args()
-    paths = sorted(args.directory.glob("*.inputs.npz"))
-    if args.runs:
-        paths = [p for p in paths if p.name.split(".")[0] in args.runs]
+    paths = recorded_inputs(args.directory, args.runs)
     print(
         f"reference {args.reference}, scan {args.scan}{', visible points only' if args.visible else ''}"
         f"{', facing surfaces only' if args.facing else ''}; "

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from bench_mapping import judge, shipped, stack_parameters  # the script's directory is on sys.path
+from bench_mapping import judge, recorded_inputs, shipped, stack_parameters  # the script's directory is on sys.path
 
 import amr_mapping.slam as slam_module
 from amr_mapping.errors import MappingError
@@ -181,9 +181,7 @@ def main() -> None:
         if not hasattr(slam_module, name):
             parser.error(f"--constant {item!r}: amr_mapping.slam has no {name}")
         setattr(slam_module, name, yaml.safe_load(value))
-    paths = sorted(args.directory.glob("*.inputs.npz"))
-    if args.runs:
-        paths = [p for p in paths if p.name.split(".")[0] in args.runs]
+    paths = recorded_inputs(args.directory, args.runs)
     print(
         f"{'run':11s} {'nodes':>5s} {'link mm':>7s} {'link deg rms/mean/max':>22s} {'heading rms/max':>15s} "
         f"{'closures srch/kept/amb/clear/chi2/drop':>38s} {'node m mean/max, deg':>21s} {'known':>5s} {'precise':>7s} "
