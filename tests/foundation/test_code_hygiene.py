@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-PLACES = sorted(ROOT.glob("amr_*/")) + [ROOT / "scripts", ROOT / "bench", ROOT / "tests"]
+PLACES = sorted(p.parent for p in ROOT.glob("amr_*/__init__.py")) + [ROOT / "scripts", ROOT / "bench", ROOT / "tests"]
 TRACKER = re.compile(r"(?<![\w-])issues? #?\d+", re.IGNORECASE)
 UPSTREAM = re.compile(r"\b(?:rclpy|rclcpp|numba|numpy|scipy|viser|colcon|launch_ros|gtsam|pymunk)\s*$", re.IGNORECASE)
 
