@@ -1,9 +1,9 @@
 """The particle filter's helper threads: a few long-lived workers that run work beside the update's own thread.
 
 The filter runs work on a second core while its update goes on: the places' fits, `elsewhere`'s background, the place
-search's next nodes, half of a large likelihood sum (particle_filter, likelihood_field). Each used to start a thread
-of its own, about eight an update; the same work on long-lived threads took 2-10 % less of the process's CPU on the
-logs (a new thread's stack and allocator arena each time) and no more wall time. A task never waits for another task,
+search's next nodes, half of a large likelihood sum (particle_filter, likelihood_field), about eight tasks an update,
+on long-lived threads (a thread started per task costs a stack and an allocator arena each time; the decision
+record's seventeenth pass measured it). A task never waits for another task,
 so a few workers serve any number of filters in one process (tasks queue, none blocks another for good).
 
 `submit(function, *args)` returns a concurrent.futures.Future: `result()` waits for it and raises its exception there.

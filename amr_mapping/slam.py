@@ -86,10 +86,9 @@ MIN_BEAMS = 20
 """Fewer usable beams than this: the scan is not matched (the node is added on odometry alone)."""
 FACING_WINDOW = True
 """The front end's window holds only the surfaces facing where the scan is expected (the odometry prior's sensor:
-_facing). Against the simulator's truth (bench_slam_link_truth.py, windows at the true poses) the points the
-sensor cannot see were 15-25 % of the links' heading error (the far face of the mazes' 5.5 cm walls, both in the
-correlative field and in the refinement's lines); this test recovers all of it at LiDAR noise 0.01 and a quarter to
-two fifths at 0.03 (perfect 0's links 0.131 -> 0.110 deg, rotated 2's 0.273 -> 0.247)."""
+_facing): a thin wall's far face, seen from its other side, is where the scan cannot have points, and left in it
+pulls both the correlative field and the refinement's lines (how much: bench_slam_link_truth.py and the decision
+record's per-link truth round). False: every point of the window, as the loop-closure submaps have."""
 ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
 """Odometry edge's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled)."""
 LIKELIHOOD_SIGMA_CELLS = 1.5

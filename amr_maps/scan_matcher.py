@@ -1128,8 +1128,7 @@ def _branch_and_bound(
     """Depth-first branch and bound from the top nodes (sorted best first) until done or max_nodes nodes
     scored; all progress lives in state, stack, found, inside and outside, so a next call continues. Returns nodes
     scored. A top block's points are split once into those on the table at every node below it and the others
-    (_split_points): its nodes sum the first without bounds checks (_block_total; 13-20 % less time a node on the
-    logs' place searches, the same totals)."""
+    (_split_points): its nodes sum the first without bounds checks (_block_total; the same totals)."""
     nodes = 0
     flat = pyramid.ravel()
     span = 1 << top
