@@ -647,23 +647,9 @@ class GraphSlam:
         for pose, k in zip(poses, members, strict=True):
             clouds.append(transform_points(pose, self._nodes[k].points))
             sensors.append(np.broadcast_to(np.array(compose(pose, self._mount)[:2]), clouds[-1].shape))
-        cloud = np.vstack(clouds)
-        resolution = self.config.resolution
-        if viewpoint is not None:
-            cloud = cloud[_facing(cloud, np.vstack(sensors), viewpoint, resolution)]
-        score_map = ScoreMap.from_points(
-            cloud,
-            resolution,
-            LIKELIHOOD_SIGMA_CELLS * resolution,
-            window + LIKELIHOOD_PAD,
-            cover=np.zeros((1, 2)),
-            to_points=True,
-        )
-        matcher = CorrelativeMatcher(score_map)
-        means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)
-        lines = _lines(means, cloud, ALIGN_NEIGHBOURHOOD_CELLS * resolution)
-        self._work.add(REFERENCE_WORK_PER_POINT * len(means))
-        return _Reference(matcher, means, *lines, cKDTree(means))
+        reference = _window_reference(np.vstack(clouds), np.vstack(sensors), self.config.resolution, window, viewpoint)
+        self._work.add(REFERENCE_WORK_PER_POINT * len(reference.points))
+        return reference
 
     def _clear_space(self, members, placed: np.ndarray) -> OccupancyGrid:
         """The members' scans mapped (log odds) at their poses `placed` (the anchor node's frame): the cells seen
@@ -706,9 +692,7 @@ class GraphSlam:
             self._local = (last, self._matcher(last, members, cfg.match_linear_window, viewpoint))
         reference = self._local[1]
         matcher = reference.matcher
-        sigma = 1.0 / np.sqrt(np.diag(odometry_information))
-        linear = min(cfg.match_linear_window, max(2.0 * cfg.resolution, WINDOW_SIGMAS * sigma[0]))
-        angular = min(cfg.match_angular_window, WINDOW_SIGMAS * sigma[2])
+        linear, angular = _match_window(odometry_information, cfg)
         match = matcher.match(points, relative_prior, linear, angular)
         self._work.add(CANDIDATE_WORK + match.nodes * len(points))
         if match.score < WEAK_MATCH_SCORE and angular < cfg.match_angular_window:
@@ -733,10 +717,6 @@ class GraphSlam:
             )
             return prior, odometry_covariance, float(match.score)
         matched, match_information, match_covariance = _refined(reference, points, match.pose, cfg.resolution)
-        # the match and the odometry as two Gaussians on the pose in the anchor's frame (the odometry's
-        # information is isotropic in x, y: the same in either frame)
-        offset = relative_prior - matched
-        offset[2] = wrap_angle(offset[2])
         if match.score < WEAK_MATCH_SCORE:
             weak = _weak_match(
                 matcher,
@@ -755,8 +735,7 @@ class GraphSlam:
             # widened over a rival mode: the covariance by as much as the weights
             match_covariance = match_covariance + np.linalg.inv(weak) - np.linalg.inv(match_information)
             match_information = weak
-        information = match_information + odometry_information
-        fused = matched + np.linalg.solve(information, odometry_information @ offset)
+        fused = _fused(matched, match_information, relative_prior, odometry_information)
         pose = np.array(compose(anchor, fused))
         covariance = _fused_covariance(
             (match_information, match_covariance), (odometry_information, odometry_covariance)
@@ -1305,6 +1284,44 @@ def _local_rival(
         if matcher.score(points, middle) < RIVAL_DIP * min(found.score, score):
             return rival
     return None
+
+
+def _window_reference(
+    cloud: np.ndarray, sensors: np.ndarray, resolution: float, window: float, viewpoint=None
+) -> _Reference:
+    """What a scan is matched against, made of a window's points (cloud, each seen from its sensor: (K, 2) both, the
+    anchor's frame): the correlative matcher on their likelihood field, window + LIKELIHOOD_PAD m around them, and
+    their voxel means with the local lines for the refinement; with a viewpoint (where the scan is expected to be
+    taken), only the points on surfaces facing it (_facing)."""
+    if viewpoint is not None:
+        cloud = cloud[_facing(cloud, sensors, viewpoint, resolution)]
+    score_map = ScoreMap.from_points(
+        cloud,
+        resolution,
+        LIKELIHOOD_SIGMA_CELLS * resolution,
+        window + LIKELIHOOD_PAD,
+        cover=np.zeros((1, 2)),
+        to_points=True,
+    )
+    means = _voxel_means(cloud, ALIGN_VOXEL_CELLS * resolution)
+    lines = _lines(means, cloud, ALIGN_NEIGHBOURHOOD_CELLS * resolution)
+    return _Reference(CorrelativeMatcher(score_map), means, *lines, cKDTree(means))
+
+
+def _match_window(odometry_information: np.ndarray, config: SlamConfig) -> tuple[float, float]:
+    """(m, rad): the front end's search window, WINDOW_SIGMAS standard deviations of the odometry model, at least two
+    cells, at most match_linear_window / match_angular_window."""
+    sigma = 1.0 / np.sqrt(np.diag(odometry_information))
+    linear = min(config.match_linear_window, max(2.0 * config.resolution, WINDOW_SIGMAS * sigma[0]))
+    return linear, min(config.match_angular_window, WINDOW_SIGMAS * sigma[2])
+
+
+def _fused(matched: np.ndarray, match_information: np.ndarray, prior: np.ndarray, odometry_information: np.ndarray):
+    """The match and the odometry prior as two Gaussians on the pose in the anchor's frame (the odometry's
+    information is isotropic in x, y: the same in either frame): their product's mean."""
+    offset = prior - matched
+    offset[2] = wrap_angle(offset[2])
+    return matched + np.linalg.solve(match_information + odometry_information, odometry_information @ offset)
 
 
 def _facing(cloud: np.ndarray, sensors: np.ndarray, viewpoint, resolution: float) -> np.ndarray:

@@ -35,13 +35,11 @@ from pathlib import Path
 
 import numpy as np
 from bench_mapping import recorded_inputs, shipped, stack_parameters  # the script's directory is on sys.path
-from scipy.spatial import cKDTree
 
 import amr_mapping.slam as slam_module
 from amr_mapping.slam_node import config_of
 from amr_maps.maze_families import generate
 from amr_maps.raycast import NumpyRayCaster
-from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
 from amr_maps.world import world_from_dict
 from amr_simulation.config import SimulationConfig
 from amr_simulation.lidar import Lidar, readings
@@ -138,33 +136,17 @@ def measure(path: Path, args) -> dict:
                 keep = np.zeros(len(values), bool)
                 keep[np.flatnonzero(both)[visible]] = True
             clouds.append(transform_points(placed, points(beams(member, args.reference), keep)))
-        cloud = np.vstack(clouds)
         prior = np.array(relative_pose(odometry[k - 1], odometry[k]))
-        if args.facing:  # as GraphSlam's window with FACING_WINDOW: the surfaces facing the prior's sensor
-            seen_from = np.vstack([np.broadcast_to(s, c.shape) for s, c in zip(sensors, clouds, strict=True)])
-            viewpoint = np.array(compose(prior, mount)[:2])
-            cloud = cloud[slam_module._facing(cloud, seen_from, viewpoint, resolution)]
-        score_map = ScoreMap.from_points(
-            cloud,
-            resolution,
-            slam_module.LIKELIHOOD_SIGMA_CELLS * resolution,
-            config.match_linear_window + slam_module.LIKELIHOOD_PAD,
-            cover=np.zeros((1, 2)),
-            to_points=True,
-        )
-        means = slam_module._voxel_means(cloud, slam_module.ALIGN_VOXEL_CELLS * resolution)
-        reference = slam_module._Reference(
-            CorrelativeMatcher(score_map),
-            means,
-            *slam_module._lines(means, cloud, slam_module.ALIGN_NEIGHBOURHOOD_CELLS * resolution),
-            cKDTree(means),
+        # as GraphSlam's window (with FACING_WINDOW: the surfaces facing the prior's sensor)
+        seen_from = np.vstack([np.broadcast_to(s, c.shape) for s, c in zip(sensors, clouds, strict=True)])
+        viewpoint = np.array(compose(prior, mount)[:2]) if args.facing else None
+        reference = slam_module._window_reference(
+            np.vstack(clouds), seen_from, resolution, config.match_linear_window, viewpoint
         )
         scan_points = points(beams(k, args.scan))
         true_motion = np.array(relative_pose(anchor, truth[k]))
         information = slam_module._odometry_information(prior)
-        sigma = 1.0 / np.sqrt(np.diag(information))
-        linear = min(config.match_linear_window, max(2.0 * resolution, slam_module.WINDOW_SIGMAS * sigma[0]))
-        angular = min(config.match_angular_window, slam_module.WINDOW_SIGMAS * sigma[2])
+        linear, angular = slam_module._match_window(information, config)
         match = reference.matcher.match(scan_points, prior, linear, angular)
         match = slam_module._posterior_mode(
             reference.matcher, scan_points, match, prior, information, (linear, angular)
@@ -174,9 +156,7 @@ def measure(path: Path, args) -> dict:
             continue
         aligned, aligned_information = slam_module._align(reference, scan_points, match.pose, resolution)
         mixed, mixed_information, _ = slam_module._refined(reference, scan_points, match.pose, resolution)
-        offset = prior - mixed
-        offset[2] = wrap_angle(offset[2])
-        fused = mixed + np.linalg.solve(mixed_information + information, information @ offset)
+        fused = slam_module._fused(mixed, mixed_information, prior, information)
         for name, estimate in zip(ESTIMATES, (match.pose, aligned, mixed, fused), strict=True):
             error = np.asarray(estimate, dtype=float) - true_motion
             errors[name].append([math.hypot(error[0], error[1]), wrap_angle(error[2])])
