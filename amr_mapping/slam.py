@@ -559,7 +559,7 @@ class GraphSlam:
         delta = np.array(relative_pose(self._anchor_odometry, odometry))
         last = len(self._nodes) - 1
         prior = np.array(compose(self._graph.pose(last), delta))
-        if math.hypot(delta[0], delta[1]) < self.config.update_min_d and abs(delta[2]) < self.config.update_min_a:
+        if not makes_node(delta, self.config):
             self._pose = prior
             return SlamUpdate(self.pose, False, None, None, (), False, time.perf_counter() - start, ())
 
@@ -1284,6 +1284,12 @@ def _local_rival(
         if matcher.score(points, middle) < RIVAL_DIP * min(found.score, score):
             return rival
     return None
+
+
+def makes_node(delta, config: SlamConfig) -> bool:
+    """Whether odometry's motion `delta` (x, y, theta) since the last node makes a scan a node: update_min_d of travel
+    or update_min_a of turn."""
+    return bool(math.hypot(delta[0], delta[1]) >= config.update_min_d or abs(delta[2]) >= config.update_min_a)
 
 
 def _window_reference(

@@ -52,8 +52,7 @@ def node_rows(rows: np.ndarray, config) -> list[int]:
     """The recorded scans GraphSlam makes nodes of: update_min_d m or update_min_a rad of odometry since the last."""
     nodes = [0]
     for i in range(1, len(rows)):
-        delta = relative_pose(rows[nodes[-1], 1:4], rows[i, 1:4])
-        if math.hypot(delta[0], delta[1]) >= config.update_min_d or abs(delta[2]) >= config.update_min_a:
+        if slam_module.makes_node(relative_pose(rows[nodes[-1], 1:4], rows[i, 1:4]), config):
             nodes.append(i)
     return nodes
 

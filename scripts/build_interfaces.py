@@ -132,7 +132,7 @@ def compiler_cache(build_base: Path, cache: Path) -> tuple[list[str], dict[str, 
     arguments = [f"-DCMAKE_C_COMPILER_LAUNCHER={launcher}", f"-DCMAKE_CXX_COMPILER_LAUNCHER={launcher}"]
     # depend mode: a miss hashes the compiler's own dependency file (CMake passes -MD) instead of preprocessing first
     environment = {"CCACHE_DIR": str(cache), "CCACHE_BASEDIR": str(build_base), "CCACHE_NOHASHDIR": "1"}
-    return arguments, {**environment, "CCACHE_DEPEND": "1"}
+    return arguments, environment | {"CCACHE_DEPEND": "1"}
 
 
 def run(command: list[str], env: dict[str, str]) -> None:
