@@ -46,11 +46,12 @@ from amr_mapping.errors import MappingError
 from amr_mapping.slam import (
     LIKELIHOOD_PAD,
     LIKELIHOOD_SIGMA_CELLS,
-    WINDOW_SIGMAS,
     GraphSlam,
     SlamConfig,
     _beams,
+    _match_window,
     _odometry_information,
+    _window_reference,
 )
 from amr_mapping.trajectory_error import relative_error, relative_motions, relative_pairs
 from amr_maps.scan_matcher import CorrelativeMatcher, ScoreMap
@@ -194,18 +195,9 @@ def oracle_window(name: str, log, seed: int, every: int) -> None:
             ]
         )
         delta = np.array(relative_pose(odometry[last], odometry[scan_of[n]]))
-        sigma = 1.0 / np.sqrt(np.diag(_odometry_information(delta)))
-        linear = min(config.match_linear_window, max(2.0 * resolution, WINDOW_SIGMAS * sigma[0]))
-        angular = min(config.match_angular_window, WINDOW_SIGMAS * sigma[2])
-        table = ScoreMap.from_points(
-            cloud,
-            resolution,
-            LIKELIHOOD_SIGMA_CELLS * resolution,
-            linear + LIKELIHOOD_PAD,
-            cover=np.zeros((1, 2)),
-            to_points=True,
-        )
-        match = CorrelativeMatcher(table).match(slam._nodes[n].points, delta, linear, angular)
+        linear, angular = _match_window(_odometry_information(delta), config)
+        matcher = _window_reference(cloud, None, resolution, linear).matcher  # as the front end's, the window's pad
+        match = matcher.match(slam._nodes[n].points, delta, linear, angular)
         true = np.array(relative_pose(reference[last], reference[scan_of[n]]))
         along, _ = _split((np.asarray(match.pose[:2]) - true[:2])[None, :], true[None, :2])
         rows.append((along[0], wrap_angle(match.pose[2] - true[2])))
