@@ -90,7 +90,9 @@ _facing): a thin wall's far face, seen from its other side, is where the scan ca
 pulls both the correlative field and the refinement's lines (how much: bench_slam_link_truth.py and the decision
 record's per-link truth round). False: every point of the window, as the loop-closure submaps have."""
 ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
-"""Odometry edge's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled)."""
+"""The odometry model's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled): the
+front end's prior and search window (WINDOW_SIGMAS) and its weight against the match; a link's covariance carries
+the robot's own odometry error (SlamConfig.odometry_error_xy / odometry_error_theta: a share of these)."""
 LIKELIHOOD_SIGMA_CELLS = 1.5
 """The submaps' likelihood field: exp(-d^2 / (2 sigma^2)), sigma this many cells."""
 OPTIMIZE_CHI = 3.0
@@ -143,6 +145,12 @@ LOCAL_RIVAL_MAX_NODES = 100_000
 LOOP_CHI2 = 16.27
 """A loop-closure match is accepted when its offset from the poses now, against its covariance plus the
 chain's since the anchor, is within this chi-square (3 dof, 99.9 %)."""
+CLOSURE_INFORMATION_SHARE = 0.1
+"""A loop closure's point-to-line refinement counts this share of its normal equations' information: they measure the
+scan's noise against the submap's lines, not the submap's own faults (a thin wall's far face: a closure submap keeps
+every viewpoint's surfaces; its corners; its members bent beyond the layout), which a closure against a maze's submap
+carries (its chi-square at the true poses: 8-250 mean at the whole information on the three runs that missed, 0.6-8
+at this share on eight maze runs; a clean room's 2-5: the decision record's closures' covariance round)."""
 LOOP_RESIDUAL_CHI2 = 16.27
 """After an optimization, a loop closure whose residual's chi-square is above this (3 dof, 99.9 %) is removed,
 the worst first, one at a time: the others and the scan matches agree on a graph it does not fit."""
@@ -259,6 +267,13 @@ class SlamConfig:
     loop-closure candidate is started (the rest wait for the next updates; a step at least every other update;
     a candidate started goes on to CANDIDATE_WORK_CAP, then on the next updates): bounds an update's time, and
     unlike a clock the same on every run (0-1000)."""
+    odometry_error_xy: float = 1.0
+    """the robot's odometry error in position as a share of the odometry model's standard deviations (ODOMETRY_SIGMA,
+    the front end's prior and window, kept wide for any robot): a link's covariance carries its odometry's share at
+    this, so a chain of links claims the drift it makes (0.01-1; the simulator's odometry: 0.15, the
+    maze_mapping stack's)."""
+    odometry_error_theta: float = 1.0
+    """... and in heading (0.01-1; the simulator's: 0.3)."""
     max_odometry_jump: float = 5.0
     """m: an odometry step longer than this between two calls is unknown motion (MappingError) (0.5-100)."""
     lidar_x: float = default_robot().lidar_x
@@ -279,6 +294,8 @@ class SlamConfig:
             "loop_linear_window",
             "loop_angular_window",
             "max_odometry_jump",
+            "odometry_error_xy",
+            "odometry_error_theta",
         )
         signed = ("lidar_x", "lidar_y", "lidar_yaw")
         for item in fields(self):
@@ -676,7 +693,8 @@ class GraphSlam:
         _fused_covariance); or the prior alone (the same array) and the odometry model's covariance."""
         cfg = self.config
         odometry_information = _odometry_information(delta)
-        odometry_covariance = np.linalg.inv(odometry_information)
+        # the odometry's own error (what the estimate carries of it), not the prior's width
+        odometry_covariance = _odometry_covariance(delta, cfg.odometry_error_xy, cfg.odometry_error_theta)
         if len(points) < MIN_BEAMS:
             events.append(f"scan has {len(points)} usable beams (< {MIN_BEAMS}): node added on odometry alone")
             return prior, odometry_covariance, None
@@ -996,14 +1014,15 @@ class GraphSlam:
         self, submap: _Submap, points: np.ndarray, matched: np.ndarray, aligned_information: np.ndarray | None
     ) -> np.ndarray:
         """A closure's covariance (the anchor's frame): the point-to-line refinement's (its normal equations over
-        its residuals' variance; the match's curvature and the field's quantization where it found too few pairs)
+        its residuals' variance, at CLOSURE_INFORMATION_SHARE; the match's curvature and the field's quantization where
+        it found too few pairs)
         plus the submap's layout (_layout_covariance: its members placed by the scan matches between them, the
         anchor one of them), carried to where the match put the node."""
         if aligned_information is None:
             information = _match_information(submap.matcher, points, matched, self.config.resolution)
             covariance = np.linalg.inv(_with_quantization(information, points, self.config.resolution))
         else:
-            covariance = np.linalg.inv(_clamped(aligned_information))
+            covariance = np.linalg.inv(_clamped(aligned_information)) / CLOSURE_INFORMATION_SHARE
         lever = np.array([[1.0, 0.0, -matched[1]], [0.0, 1.0, matched[0]], [0.0, 0.0, 1.0]])
         return covariance + lever @ submap.layout @ lever.T
 
@@ -1467,11 +1486,19 @@ def _clear_share(clear: OccupancyGrid | None, points: np.ndarray, pose: np.ndarr
 
 def _odometry_information(delta) -> np.ndarray:
     """The odometry model's information (ODOMETRY_SIGMA) for a motion delta (dx, dy, dtheta)."""
+    return np.diag(1.0 / _odometry_sigma(delta) ** 2)
+
+
+def _odometry_covariance(delta, share_xy: float, share_theta: float) -> np.ndarray:
+    """The robot's odometry error's covariance for a motion delta: the model's standard deviations (ODOMETRY_SIGMA)
+    at these shares (position, heading)."""
+    return np.diag(np.square(_odometry_sigma(delta) * np.array([share_xy, share_xy, share_theta])))
+
+
+def _odometry_sigma(delta) -> np.ndarray:
     d, a = math.hypot(delta[0], delta[1]), abs(delta[2])
     s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
-    return np.diag(
-        [1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_xy + s_xy_d * d) ** 2, 1.0 / (s_th + s_th_a * (a + d)) ** 2]
-    )
+    return np.array([s_xy + s_xy_d * d, s_xy + s_xy_d * d, s_th + s_th_a * (a + d)])
 
 
 def _match_information(

@@ -301,9 +301,35 @@ def test_a_scan_matched_after_a_node_on_odometry_alone_is_linked_to_the_window_i
     assert layout_heading < 1.0, layout_heading  # with node 7's odometry link in the chain: 2 deg
 
 
+def test_the_odometrys_error_share_scales_the_links_covariance_not_the_poses(ring):
+    """odometry_error_xy / odometry_error_theta: the robot's odometry error as a share of the odometry model's (what
+    the front end weighs and searches by): the same poses, and each link's covariance the smaller by the odometry's
+    part of it (the match's part the same)."""
+    caster, truth = ring
+    truth = truth[:25]
+    odometry = _odometry(truth)
+    runs = []
+    for shares in ((1.0, 1.0), (0.15, 0.3)):
+        config = SlamConfig(
+            max_range_used=MAX_RANGE, lidar_x=CENTRE, odometry_error_xy=shares[0], odometry_error_theta=shares[1]
+        )
+        slam = GraphSlam(config)
+        rng = np.random.default_rng(1)
+        for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
+            slam.add(k * 100_000_000, odom, _scan(caster, pose, rng))
+        runs.append(slam)
+    model, own = runs
+    assert np.array_equal(model.graph()[0], own.graph()[0])
+    heading = np.array([[link[2, 2] for link in slam._links[1:]] for slam in runs])
+    position = np.array([[link[0, 0] + link[1, 1] for link in slam._links[1:]] for slam in runs])
+    assert np.all(heading[1] <= heading[0] * (1 + 1e-9)) and np.all(position[1] <= position[0] * (1 + 1e-9))
+    assert np.median(heading[1] / heading[0]) < 0.9
+
+
 @pytest.mark.parametrize(
     "name, value",
     [
+        ("odometry_error_theta", 0.0),
         ("resolution", 0.0),
         ("update_min_d", -1.0),
         ("local_window", 0),

@@ -121,3 +121,20 @@ def test_an_edges_information_is_its_covariance_in_the_measured_nodes_frame():
         1.0 / np.square([slam_module.MIN_EDGE_SIGMA[0], slam_module.MIN_EDGE_SIGMA[0], slam_module.MIN_EDGE_SIGMA[1]]),
     )
     assert np.all(np.diag(slam_module._information(np.full((3, 3), np.nan))) <= 1e-4)
+
+
+def test_a_closures_covariance_is_its_refinements_at_the_closure_share_and_the_submaps_layout():
+    """A closure's covariance: the refinement's normal equations at CLOSURE_INFORMATION_SHARE of their information
+    (they see the scan's noise, not the submap's faults) plus the submap's layout carried to where the match put the
+    node (a heading error of the layout moves a node 2 m off its anchor sideways)."""
+    slam = slam_module.GraphSlam(slam_module.SlamConfig())
+    aligned = np.diag([1.0 / 0.004**2, 1.0 / 0.003**2, 1.0 / math.radians(0.2) ** 2])
+    layout = np.diag([0.0, 0.0, math.radians(0.5) ** 2])
+    submap = slam_module._Submap(anchor=5, last=9, layout=layout)
+    matched = np.array([2.0, 0.0, 0.1])
+    covariance = slam._closure_covariance(submap, np.zeros((0, 2)), matched, aligned)
+    own = np.linalg.inv(aligned) / slam_module.CLOSURE_INFORMATION_SHARE
+    assert 0.0 < slam_module.CLOSURE_INFORMATION_SHARE < 1.0
+    assert np.allclose(covariance[2, 2], own[2, 2] + layout[2, 2])
+    assert np.isclose(covariance[0, 0], own[0, 0])
+    assert np.isclose(covariance[1, 1], own[1, 1] + 4.0 * layout[2, 2])  # 2 m of lever
