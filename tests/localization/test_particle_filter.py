@@ -335,3 +335,42 @@ def test_a_place_that_odometry_alone_would_put_in_a_wall_lives_where_the_scan_pl
     estimate = pf.update((1.35, -0.15, 0.0), scan_of(sim), stamp=10.0)
     assert estimate.localized, pf.status.event
     assert math.hypot(estimate.pose.x - 0.15, estimate.pose.y - y) < 0.05, estimate.pose
+
+
+def test_the_places_odds_count_a_stretch_of_the_world_once_and_the_particles_every_turn():
+    """A 360-degree scanner turning in place sees what it saw: the particles count the turn (each wall on other beams
+    refines the heading), the places' odds hardly at all (the stretches of the world in view, with whatever the map
+    lacks there, were seen by the window's scans). Driving on brings new stretches into view, which count; after a
+    withdrawal (the window emptied) a scan counts whole."""
+    world = load_world(WORLDS_DIR / "hard_maze.yaml")
+    sim = Simulator(world, SimulationConfig(**NOISY))
+    pf = ParticleFilter(grid_of(world, 0.05), ParticleFilterConfig(seed=1, lidar_x=-0.032, max_particles=500))
+    pf.initialize_pose(sim.pose.x, sim.pose.y, sim.pose.theta, np.diag([0.02**2, 0.02**2, 0.02**2]))
+    pf.update(odometry_of(sim), scan_of(sim))
+    for _ in range(3):
+        sim.step(0.2, 0.0)
+    pf.update(odometry_of(sim), scan_of(sim))
+    first = pf._window[-1]
+    np.testing.assert_allclose(first.odds, first.weights)  # nothing seen before it: whole
+    shares, gains = [], []
+    for _ in range(10):
+        for _ in range(3):
+            sim.step(0.0, 1.0)
+        pf.update(odometry_of(sim), scan_of(sim))
+        seen = pf._window[-1]
+        shares.append(seen.odds.sum() / seen.weights.sum())
+        gains.append(seen.gain)
+    assert min(gains) > 0.1  # the particles count each turn: 2 scans' worth over this one (60 beams, 1.5 rad)
+    assert sum(shares) < 0.5 * sum(gains), (shares, gains)  # the odds: the beams landing between the last ones
+    for _ in range(40):
+        sim.step(0.2, 0.0)
+    pf.update(odometry_of(sim), scan_of(sim))
+    seen = pf._window[-1]
+    assert seen.odds.sum() > 0.0
+    pf._window.clear()
+    pf._seen_cells.clear()
+    for _ in range(3):
+        sim.step(0.2, 0.0)
+    pf.update(odometry_of(sim), scan_of(sim))
+    seen = pf._window[-1]
+    np.testing.assert_allclose(seen.odds, seen.weights)
