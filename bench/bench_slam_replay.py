@@ -14,6 +14,9 @@ stamp, odometry, ranges and true pose). Then, per run:
   and 50 consecutive links composed against their compounded covariance (what the closures are weighed against: a
   link's error partly cancels along the chain);
 - nodes: the final graph's nodes against the true poses (mean / max m, heading max deg);
+- with --trace, each kept closure as it was added: its error and claimed covariance's chi-square at the truth, the
+  gate's, the graph's prediction of it (at the truth), and the nodes' error before and after (which closure took the
+  graph off, and what its covariance said);
 - the map of the final graph judged against the world as bench_mapping.py judges a saved map (known, precise, walls).
 
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_replay.py DIR [--runs perfect_0 loops_0 ...]
@@ -46,15 +49,19 @@ RIGHT_M, RIGHT_RAD = 0.05, math.radians(1.0)
 """A closure candidate's match this close to the true relative pose is right."""
 
 
-def fed(path: Path, overrides: dict) -> tuple[GraphSlam, np.ndarray, np.ndarray]:
+def fed(path: Path, overrides: dict, trace: list | None = None) -> tuple[GraphSlam, np.ndarray, np.ndarray]:
     """One recorded run fed to GraphSlam (slam.yaml and maze_mapping's parameters, `overrides` over them): the SLAM,
-    each node's true pose and its pose online (when it was added)."""
+    each node's true pose and its pose online (when it was added). With `trace` (a list), each kept closure is
+    appended to it as it is added (_Traced)."""
     data = np.load(path)
     rows, ranges, scan = data["poses"], data["ranges"], data["scan"]
     params = {**shipped("slam", "slam.yaml"), **stack_parameters("slam"), **overrides}
     slam = GraphSlam(config_of(params))
     truth, online = [], []
+    traced = _Traced(slam, truth, trace) if trace is not None else None
     for row, reading in zip(rows, ranges, strict=True):
+        if traced is not None:
+            traced.current = row[4:7]
         try:
             update = slam.add(int(row[0]), row[1:4], ScanData(reading, *scan))
         except MappingError:
@@ -62,13 +69,101 @@ def fed(path: Path, overrides: dict) -> tuple[GraphSlam, np.ndarray, np.ndarray]
         if update.node_added:
             truth.append(row[4:7])
             online.append(update.pose)
+            if traced is not None:
+                traced.node_error()
     return slam, np.array(truth), np.array(online)
 
 
-def replay(path: Path, overrides: dict) -> dict:
-    """One recorded run through GraphSlam, optimized at its end: its errors against the truth."""
+class _Traced:
+    """Each kept closure against the truth, as GraphSlam adds it: its error (cm, deg), its claimed covariance's
+    standard deviations and chi-square at the true relative pose, the gate's chi-square, the graph's prediction of it
+    (its standard deviations, and the truth's chi-square against the gate's spread: how far the graph's own pose
+    was), and the nodes' error (mean / max m) just before and 20 nodes after (what the closure did to the graph)."""
+
+    def __init__(self, slam: GraphSlam, truth: list, out: list) -> None:
+        self.slam, self.truth, self.out = slam, truth, out
+        self.current = None
+        self.errors: list[tuple[float, float]] = []
+        self.gates: dict = {}
+        gate, add_edge = slam._gate, slam._graph.add_edge
+
+        def traced_gate(submap, candidate, marginals):
+            result = gate(submap, candidate, marginals)
+            a, n = submap.anchor, candidate.node
+            predicted = np.array(relative_pose(slam._graph.pose(a), slam._graph.pose(n)))
+            spread = slam._relative_covariance(marginals[0], a, n)
+            closure = slam._closure_covariance(
+                submap, candidate.points, candidate.matched, candidate.aligned_information
+            )
+            innovation, off = candidate.matched - predicted, self._true(a, n) - predicted
+            innovation[2], off[2] = wrap_angle(innovation[2]), wrap_angle(off[2])
+            total = closure + spread
+            self.gates[(a, n)] = (
+                float(innovation @ np.linalg.solve(total, innovation)),
+                float(off @ np.linalg.solve(total, off)),
+                np.sqrt(np.diag(spread)),
+            )
+            return result
+
+        def traced_add_edge(i, j, measurement, information, loop=False):
+            if loop:
+                error = np.asarray(measurement, dtype=float) - self._true(i, j)
+                error[2] = wrap_angle(error[2])
+                # the information is in node j's frame (GraphSlam: _rotated): back to the anchor's
+                c, s = math.cos(measurement[2]), math.sin(measurement[2])
+                rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+                covariance = rotation @ np.linalg.inv(information) @ rotation.T
+                gate_chi2, prediction_chi2, spread = self.gates.get((i, j), (math.nan, math.nan, np.full(3, math.nan)))
+                self.out.append(
+                    {
+                        "node": j,
+                        "anchor": i,
+                        "error": error,
+                        "sigma": np.sqrt(np.diag(covariance)),
+                        "chi2": float(error @ np.linalg.solve(covariance, error)),
+                        "gate": gate_chi2,
+                        "prediction": prediction_chi2,
+                        "spread": spread,
+                        "before": self.errors[-1] if self.errors else (0.0, 0.0),
+                        "at": len(self.errors),
+                        "errors": self.errors,  # grows: the nodes' error after it
+                    }
+                )
+            return add_edge(i, j, measurement, information, loop=loop)
+
+        slam._gate, slam._graph.add_edge = traced_gate, traced_add_edge
+
+    def _true(self, first: int, last: int) -> np.ndarray:
+        poses = [self.truth[k] if k < len(self.truth) else self.current for k in (first, last)]
+        return np.array(relative_pose(*poses))
+
+    def node_error(self) -> None:
+        error = np.hypot(*(self.slam._graph.poses[:, :2] - np.array(self.truth)[:, :2]).T)
+        self.errors.append((float(error.mean()), float(error.max())))
+
+
+def print_trace(trace: list) -> None:
+    print(
+        "            kept closures against the truth (error, claim sigma, chi-square at the truth / gate / the "
+        "graph's prediction at the truth, the prediction's sigma; nodes' error m mean/max before -> 20 nodes after):"
+    )
+    for t in trace:
+        e, s, p = t["error"], t["sigma"], t["spread"]
+        after = t["errors"][min(t["at"] + 20, len(t["errors"])) - 1]
+        print(
+            f"            ({t['anchor']:4d}, {t['node']:4d}) {100 * math.hypot(e[0], e[1]):5.1f} cm "
+            f"{math.degrees(e[2]):+5.2f} deg, claim {100 * s[0]:.1f}/{100 * s[1]:.1f} cm {math.degrees(s[2]):.2f} deg, "
+            f"chi2 {t['chi2']:7.1f} / "
+            f"{t['gate']:4.1f} / {t['prediction']:5.1f}, prediction {100 * p[0]:.1f}/{100 * p[1]:.1f} cm "
+            f"{math.degrees(p[2]):.2f} deg; {t['before'][0]:.3f}/{t['before'][1]:.3f} -> {after[0]:.3f}/{after[1]:.3f}",
+            flush=True,
+        )
+
+
+def replay(path: Path, overrides: dict, trace: list | None = None) -> dict:
+    """One recorded run through GraphSlam, optimized at its end: its errors against the truth (`trace`: fed's)."""
     started = time.process_time()
-    slam, truth, online = fed(path, overrides)
+    slam, truth, online = fed(path, overrides, trace)
     slam.optimize()
     seconds = time.process_time() - started
     poses, edges, loop = slam.graph()
@@ -171,6 +266,9 @@ def main() -> None:
         metavar="NAME=VALUE",
         help="amr_mapping.slam module constants (experiments)",
     )
+    parser.add_argument(
+        "--trace", action="store_true", help="each kept closure against the truth as it was added (_Traced)"
+    )
     args = parser.parse_args()
     overrides = {}
     for item in args.slam:
@@ -188,7 +286,8 @@ def main() -> None:
         f"{'walls':>5s} {'cpu s':>5s}"
     )
     for path in paths:
-        r = replay(path, overrides)
+        trace = [] if args.trace else None
+        r = replay(path, overrides, trace)
         rms, mean, worst = r["link_deg"]
         print(
             f"{r['name']:11s} {r['nodes']:5d} {r['link_mm']:7.2f} {rms:8.3f}/{mean:+.3f}/{worst:5.2f} "
@@ -209,6 +308,8 @@ def main() -> None:
             f"error rms {r['loop_error'][0]:.1f} mm, {r['loop_error'][1]:.2f} deg",
             flush=True,
         )
+        if trace is not None:
+            print_trace(trace)
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
 
 
