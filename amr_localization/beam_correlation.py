@@ -32,19 +32,6 @@ Scans: a scan taken after the robot moved d and turned a since the last scan use
 a second each scan adds its small share; a scan per metre counts fully. A scan's log-likelihood is
 
     log p(z | x) = g sum_k w_k log p(z_k | x)
-
-for the particles, whose poses every scan refines: the sensor's own noise is new at every scan, and a turn moves
-each wall to other beams. The odds between two places are another matter: they differ by what the world looks like
-at each, and where a stretch of the world was seen by a recent scan its errors (the map's, an object the map lacks,
-another robot standing there) are the ones that scan saw. The places' odds therefore count each beam by whether it
-ended in a stretch of the world the recent scans (the window's) did not reach: cells of side beam_correlation_length
-in the window's frame (SeenCells),
-
-    log p_odds(z | x) = sum_k w_k n_k log p(z_k | x),    n_k = 1 if beam k's cell is new to the window, else 0,
-
-so that a 360-degree scanner turning in place beside another robot sees that robot once, and a scan after a
-withdrawal (the window emptied) counts whole. Without a correlation length (0: every beam independent) n_k is
-the scan weight g.
 """
 
 from __future__ import annotations
@@ -110,41 +97,3 @@ def scan_weight(moved: float, turned: float, distance: float) -> float:
 def beams_in_view(weights: np.ndarray) -> float:
     """The number of independent beams a scan counts as (the sum of its beam weights)."""
     return float(np.sum(weights)) if len(weights) else 0.0
-
-
-class SeenCells:
-    """The cells of side `length` (the window's frame) that the beams of the scans in a window ended in, with the
-    number of those scans that reached each: a beam ending in one sees a stretch of the world a recent scan saw."""
-
-    def __init__(self, length: float) -> None:
-        self.length = float(length)
-        self._count: dict[int, int] = {}
-
-    def codes(self, points: np.ndarray) -> np.ndarray:
-        """(K,) int64: the cell of each of the (K, 2) points (window's frame)."""
-        cells = np.floor(np.asarray(points, dtype=float).reshape(-1, 2) / self.length).astype(np.int64)
-        return (cells[:, 0] << 32) ^ (cells[:, 1] & 0xFFFFFFFF)
-
-    def novel(self, codes: np.ndarray) -> np.ndarray:
-        """(K,) bool: whether no scan in the window reached each cell."""
-        count = self._count
-        return np.fromiter((int(code) not in count for code in codes), dtype=bool, count=len(codes))
-
-    def add(self, codes: np.ndarray) -> None:
-        """One more scan reached the (unique) cells `codes`."""
-        count = self._count
-        for code in codes.tolist():
-            count[code] = count.get(code, 0) + 1
-
-    def remove(self, codes: np.ndarray) -> None:
-        """A scan that reached the (unique) cells `codes` left the window."""
-        count = self._count
-        for code in codes.tolist():
-            left = count.get(code, 0) - 1
-            if left > 0:
-                count[code] = left
-            else:
-                count.pop(code, None)
-
-    def clear(self) -> None:
-        self._count.clear()

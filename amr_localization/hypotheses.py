@@ -9,9 +9,8 @@ and Kristensen 2001):
 
 - hypotheses are born from the particles' clusters and from the place search's proposals (a
   correlative scan matcher over the whole map, amr_maps.scan_matcher), and move with odometry;
-- every scan adds the measurement model's log-likelihood at each hypothesis's pose to its L_i (the same
-  model and beam weights as the particles, each beam counted where it ended in a stretch of the world the
-  recent scans did not reach: beam_correlation.py; the particles count each scan by the robot's motion);
+- every scan adds the measurement model's log-likelihood at each hypothesis's pose (the same model,
+  the same beam and scan weights as the particles: beam_correlation.py) to its L_i;
 - a hypothesis born now was not there for the scans before: it is given the evidence of the
   strongest one, corrected by what the recent scans (those kept in the window) say against it,
 

@@ -44,7 +44,7 @@ import numpy as np
 
 from amr_localization.augmented_mcl import RecoveryRate
 from amr_localization.beacons import BeaconReading, beacon_log_likelihood, checked_beacons, same_beacons
-from amr_localization.beam_correlation import SeenCells, beam_weights, beams_in_view, scan_weight
+from amr_localization.beam_correlation import beam_weights, beams_in_view, scan_weight
 from amr_localization.beam_model import BeamModel, BeamModelParams
 from amr_localization.clustering import cluster_particles
 from amr_localization.distance_field import DistanceField
@@ -185,11 +185,6 @@ class _Seen(NamedTuple):
     points: np.ndarray
     local: tuple[float, float, float]
     beam_points: np.ndarray
-    odds: np.ndarray | None = None
-    """(K,) each beam's weight in the places' odds: its beam weight where it ended in a cell the window's scans did
-    not reach, else 0 (beam_correlation.SeenCells); set once the scan is placed in the window."""
-    cells: np.ndarray | None = None
-    """the cells (SeenCells codes, unique) the scan's weighed beams ended in."""
 
 
 class _Ahead:
@@ -293,8 +288,7 @@ class ParticleFilter:
             else None
         )
         self._window: deque[_Seen] = deque(maxlen=WINDOW_SCANS)
-        self._seen_cells = SeenCells(self.config.beam_correlation_length or 1.0)
-        self._scores: dict[int, tuple[Beams, dict[bytes, np.ndarray]]] = {}  # _place_terms' memo, the update's scans'
+        self._scores: dict[int, tuple[_Seen, dict[bytes, float]]] = {}  # _place_scores' memo, the update's scans'
         self.reinitialize_global()
 
     def retune(self, config: ParticleFilterConfig) -> None:
@@ -357,7 +351,6 @@ class ParticleFilter:
         self._searched_from: np.ndarray | None = None
         self.hypotheses.clear()
         self._window.clear()
-        self._seen_cells.clear()
         self._shares = np.zeros(0)
         self._covered = self.config.place_search_budget == 0
         """whether the hypotheses cover the map: a place search finished since the belief was spread (or a pose
@@ -528,12 +521,9 @@ class ParticleFilter:
         if count < len(self.particles):  # KLD-sampling, on the places as they are now, asks for fewer particles
             self._resample(count)
         if seen is not None:
-            if len(self._window) == self._window.maxlen:
-                self._forget(self._window.popleft())
             self._window.append(seen)
-            self._seen_cells.add(seen.cells)
             while sum(past.gain for past in self._window) - self._window[0].gain >= WINDOW:
-                self._forget(self._window.popleft())
+                self._window.popleft()
         self._estimate_odometry = self._odometry
         self.status.updated = True
         self.status.particles = len(self.particles)
@@ -547,7 +537,7 @@ class ParticleFilter:
         started: they need the scan and the places as they are now, not the particles, each on a helper thread while
         the particles weigh the scan's later stages. Returns the scan with its place, and the fits and background
         under way (None without places)."""
-        seen = self._with_odds(seen._replace(local=placed.result()))
+        seen = seen._replace(local=placed.result())
         self._rematch_places(seen)
         self._begin_search(seen)
         ahead = len(self.hypotheses) > 0
@@ -604,7 +594,7 @@ class ParticleFilter:
         found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
         if len(hypotheses):
             hypotheses.observe(
-                self._log_likelihood(hypotheses.poses, seen, beacons, places=True, odds=True),
+                held + self._log_likelihood(hypotheses.poses, None, beacons),
                 self._elsewhere(seen, beacons, running, background),
             )
         if seen is not None:
@@ -725,7 +715,6 @@ class ParticleFilter:
             # on are scored on the scans that come after, not on scans reached back through a move that never was;
             # and the places followed may no longer cover the map: a new declaration waits for a new place search
             self._window.clear()
-            self._seen_cells.clear()
             self._covered, self._search = self.config.place_search_budget == 0, None
             self._searched_from = None
         if moved_on:  # the place declared is no longer the best: withdrawn; the new best must earn its own declaration
@@ -735,9 +724,7 @@ class ParticleFilter:
 
     def _background(self, seen: _Seen | None, beacons: BeaconReading | None) -> float:
         """The data's mean likelihood over the ANYWHERE poses (log): `elsewhere`'s background (_elsewhere)."""
-        anywhere = self._log_likelihood(
-            self._anywhere, seen, beacons, places=True, fixed=self._anywhere_paths, odds=True
-        )
+        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True, fixed=self._anywhere_paths)
         return float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
 
     def _elsewhere(
@@ -757,7 +744,7 @@ class ParticleFilter:
         peaks = peaks[self.hypotheses.find(peaks) < 0] if len(peaks) else peaks
         if not len(peaks):
             return background
-        at_peaks = self._log_likelihood(peaks, seen, beacons, places=True, odds=True) + self._log_peak_share
+        at_peaks = self._log_likelihood(peaks, seen, beacons, places=True) + self._log_peak_share
         return float(np.logaddexp(background, np.logaddexp.reduce(at_peaks)))
 
     @property
@@ -779,58 +766,54 @@ class ParticleFilter:
         beacons: BeaconReading | None,
         places: bool = False,
         fixed: FixedPoses | None = None,
-        odds: bool = False,
     ) -> np.ndarray:
         """(H,) the data's log-likelihood at each pose, weighted as the particles' is. places: the likelihood field
         with the beam model's free path (LikelihoodField.log_likelihood_free_path: a beam through a wall of the map
         there scores as a random reading), for the few poses of place hypotheses; the particles' field alone scores
         a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway. fixed: the
-        same poses with their paths kept (LikelihoodField.fixed_poses), scored alike. odds: for the places' odds, each
-        beam weighted by what it adds to the window's scans (_Seen.odds), not by the scan weight."""
+        same poses with their paths kept (LikelihoodField.fixed_poses), scored alike."""
         total = np.zeros(len(poses))
         if not len(poses):
             return total
-        if seen is not None:
-            gain, weights = (1.0, seen.odds) if odds and seen.odds is not None else (seen.gain, seen.weights)
         if seen is not None and places and isinstance(self._laser, LikelihoodField):
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses
             if fixed is not None:
-                total += gain * (fixed.best_free_path(seen.beams, FREE_PATH_MARGIN) @ weights)
+                total += seen.gain * (fixed.best_free_path(seen.beams, FREE_PATH_MARGIN) @ seen.weights)
             else:
-                total += gain * (self._place_terms(poses, seen) @ weights)
+                total += seen.gain * self._place_scores(poses, seen)
         elif seen is not None:
-            total += gain * self._laser.log_likelihood(poses, seen.beams, weights)
+            total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)
         if beacons is not None:
             total += beacon_log_likelihood(
                 poses, self.beacons, beacons, self.config.beacon_sigma_range, self.config.beacon_sigma_compass
             )
         return total
 
-    def _place_terms(self, poses: np.ndarray, seen: _Seen) -> np.ndarray:
-        """(H, K) the places' model's beam terms of the scan at each pose (LikelihoodField.best_free_path, NUDGES), each
-        pose scored once per scan: a place is scored again and again within an update (fitted, then admitted, then
-        decided on, its odds), at the very same pose."""
+    def _place_scores(self, poses: np.ndarray, seen: _Seen) -> np.ndarray:
+        """(H,) the places' model's weighted sum of the scan's beam terms at each pose (LikelihoodField.best_free_path,
+        NUDGES), each pose scored once per scan: a place is scored again and again within an update (fitted, then
+        admitted, then decided on), at the very same pose."""
         poses = np.ascontiguousarray(poses, dtype=float)
-        terms = self._scores.setdefault(id(seen.beams), (seen.beams, {}))[1]  # the beams held: their id is not reused
+        scores = self._scores.setdefault(id(seen), (seen, {}))[1]  # the scan held: its id is not reused meanwhile
         keys = [pose.tobytes() for pose in poses]
-        new = [i for i, key in enumerate(keys) if key not in terms]
+        new = [i for i, key in enumerate(keys) if key not in scores]
         if new:
-            rows = self._laser.best_free_path(poses[new], NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
-            terms.update(zip((keys[i] for i in new), rows, strict=True))
-        return np.array([terms[key] for key in keys]).reshape(len(keys), len(seen.weights))
+            terms = self._laser.best_free_path(poses[new], NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
+            scores.update(zip((keys[i] for i in new), terms @ seen.weights, strict=True))
+        return np.array([scores[key] for key in keys])
 
     def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
         """(H,) the log-likelihood of the scans in the window and of the current data at each pose, the poses of
         the past scans reached back through the window's scan-matched odometry (a pose in a wall then scores as if it
         had seen nothing)."""
-        total = self._log_likelihood(poses, seen, beacons, places=True, odds=True)
+        total = self._log_likelihood(poses, seen, beacons, places=True)
         if not self._window:
             return total
         now = seen.local if seen is not None else self._now()
         for past in self._window:
             back = np.atleast_2d(compose(poses, relative_pose(now, past.local)))
-            total += self._log_likelihood(back, past, None, places=True, odds=True)
+            total += self._log_likelihood(back, past, None, places=True)
         return total
 
     def _end_points(self, scan: ScanData) -> np.ndarray:
@@ -854,26 +837,6 @@ class ParticleFilter:
             last.points, points, prior, position, heading, self._chain_resolution, self.config.beam_correlation_length
         )
         return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
-
-    def _with_odds(self, seen: _Seen) -> _Seen:
-        """The scan, placed in the window, with its beams' weights in the places' odds (_Seen.odds): a beam counts
-        there where it ended in a cell no scan of the window reached (beam_correlation.SeenCells), the scan weight
-        times its beam weight without a correlation length."""
-        length = self.config.beam_correlation_length
-        if length <= 0.0:
-            return seen._replace(odds=seen.gain * seen.weights, cells=np.zeros(0, dtype=np.int64))
-        if self._seen_cells.length != length:  # retuned: the cells of another size are forgotten
-            self._seen_cells = SeenCells(length)
-        codes = self._seen_cells.codes(transform_points(seen.local, seen.beam_points))
-        odds = np.zeros_like(seen.weights)
-        returned = seen.beams.returned
-        odds[returned] = seen.weights[returned] * self._seen_cells.novel(codes)
-        return seen._replace(odds=odds, cells=np.unique(codes))
-
-    def _forget(self, past: _Seen) -> None:
-        """A scan leaves the window: its cells with it."""
-        if past.cells is not None:
-            self._seen_cells.remove(past.cells)
 
     def _rematch_places(self, seen: _Seen) -> None:
         """The places (and the one declared), moved by the odometry since the window's last scan, moved by the

@@ -68,15 +68,13 @@ class ParticleFilterConfig(Config):
     beam_correlation_length: float = parameter(0.12, minimum=0.0, maximum=10.0, live=True)
     """m: the length over which two beams' errors are correlated, exp(-d / length) for end points d apart (sensor
     frame: the same stretch of wall, the same map error, the same person); a beam weighs 1 / the sum of its
-    correlations in a scan's log-likelihood; 0 = every beam independent. The places' odds count a beam only where it
-    ends in a cell of this side no recent scan's beam reached. A property of how well the map fits the
+    correlations in a scan's log-likelihood; 0 = every beam independent. A property of how well the map fits the
     world: 0.12 for a simulator's world (its own map), 0.5 for a real building (particle_filter_real.yaml)."""
     scan_correlation_distance: float = parameter(0.5, minimum=0.0, maximum=100.0, live=True)
-    """m of travel (or this many x 1.5 rad of turning) over which two scans' errors stay correlated: the particles
-    count a scan as the share of this the robot moved since the last scan used (all of it after this much travel);
-    0 = each scan counts fully. Twice the length over which a scan's evidence for its pose stays correlated (what the
-    map lacks is seen scan after scan): 0.5 for a simulator's world, 2 for a real building
-    (particle_filter_real.yaml)."""
+    """m of travel (or this many x 1.5 rad of turning) over which two scans' errors stay correlated: a scan counts
+    as the share of this the robot moved since the last scan used (all of it after this much travel); 0 = each
+    scan counts fully. Twice the length over which a scan's evidence for its pose stays correlated (what the map
+    lacks is seen scan after scan): 0.5 for a simulator's world, 2 for a real building (particle_filter_real.yaml)."""
     lidar_x: float = parameter(default_robot().lidar_x, minimum=-2.0, maximum=2.0)
     """m, base_scan in base_footprint (x); the robot description's by default."""
     lidar_y: float = parameter(default_robot().lidar_y, minimum=-2.0, maximum=2.0)

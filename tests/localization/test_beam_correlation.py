@@ -6,13 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from amr_localization.beam_correlation import (
-    SeenCells,
-    beam_weights,
-    beams_in_view,
-    correlation_sums,
-    independent_count,
-)
+from amr_localization.beam_correlation import beam_weights, beams_in_view, correlation_sums, independent_count
 from amr_localization.scan_beams import Beams
 
 
@@ -60,22 +54,3 @@ def test_the_compiled_sums_are_the_pairwise_formula_and_the_count_is_their_inver
     np.testing.assert_allclose(correlation_sums(points, 0.7), np.exp(-distance / 0.7).sum(axis=1), rtol=1e-12)
     assert independent_count(points, 0.7) == pytest.approx(np.sum(1.0 / np.exp(-distance / 0.7).sum(axis=1)))
     assert independent_count(np.zeros((0, 2)), 0.7) == 0.0 and independent_count(points, 0.0) == 200.0
-
-
-def test_seen_cells_count_the_scans_that_reached_each_cell_until_they_leave():
-    cells = SeenCells(0.1)
-    first = np.unique(cells.codes(np.array([[0.01, 0.01], [0.05, 0.02], [1.0, -2.0]])))
-    assert len(first) == 2  # two points in one cell are one cell
-    assert cells.novel(first).all()
-    cells.add(first)
-    second = np.unique(cells.codes(np.array([[0.02, 0.09], [-0.01, 0.0]])))
-    assert cells.novel(second).tolist() == [True, False] or cells.novel(second).tolist() == [False, True]
-    cells.add(second)
-    cells.remove(first)  # the cell both scans reached stays while the second is in the window
-    again = cells.codes(np.array([[0.05, 0.05], [1.0, -2.0], [-0.05, 0.0]]))
-    assert cells.novel(again).tolist() == [False, True, False]
-    cells.remove(second)
-    assert cells.novel(cells.codes(np.array([[0.05, 0.05], [-0.05, 0.0]]))).all()
-    cells.add(first)
-    cells.clear()
-    assert cells.novel(first).all()
