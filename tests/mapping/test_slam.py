@@ -9,6 +9,7 @@ from copy import deepcopy
 import numpy as np
 import pytest
 
+from amr_mapping import slam as slam_module
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
 from amr_mapping.trajectory_error import absolute_error
@@ -299,6 +300,37 @@ def test_a_scan_matched_after_a_node_on_odometry_alone_is_linked_to_the_window_i
     slam._reference_of(slam._submaps[0])
     layout_heading = math.degrees(math.sqrt(slam._submaps[0].layout[2, 2]))
     assert layout_heading < 1.0, layout_heading  # with node 7's odometry link in the chain: 2 deg
+
+
+def test_a_matched_node_is_linked_to_the_newest_matched_nodes_at_the_link_shares(ring):
+    """A matched scan's pose is measured against the window, most against its newest scans: its node is linked to the
+    newest matched nodes (slam.LINK_SHARES, newest first), the link's information shared among them, each edge
+    measuring the node's pose as placed; a node on odometry alone keeps its one odometry link and is no source."""
+    caster, truth = ring
+    steps = 10
+    odometry = _odometry_off_at(truth, steps, 7, (0.0, 0.0, 0.0))
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
+    rng = np.random.default_rng(1)
+    empty = ScanData(np.full(BEAMS, np.nan), -math.pi, INCREMENT, 0.1, MAX_RANGE)
+    for k in range(steps):
+        slam.add(k * 100_000_000, odometry[k], empty if k == 7 else _scan(caster, truth[k], rng))
+    poses, edges, loop = slam.graph()
+    shares = np.array(slam_module.LINK_SHARES) / sum(slam_module.LINK_SHARES)
+    for node in range(1, steps):
+        into = np.flatnonzero(~loop & (edges[:, 1] == node))
+        sources = [int(edges[e, 0]) for e in into]
+        if node == 7:
+            assert sources == [6]
+            continue
+        newest = [k for k in range(node - 1, -1, -1) if k != 7][: len(shares)]
+        assert sorted(sources, reverse=True) == newest, (node, sources)
+        link = slam_module._information(slam._links[node])
+        own = shares[: len(newest)] / shares[: len(newest)].sum()
+        for e, source in zip(into, sources, strict=True):
+            share = own[newest.index(source)]
+            np.testing.assert_allclose(slam._graph.information[e], share * link, rtol=1e-9, atol=1e-9)
+            measured = np.array(relative_pose(poses[source], poses[node]))
+            np.testing.assert_allclose(slam._graph.measurements[e], measured, atol=1e-6)
 
 
 def test_the_odometrys_error_share_scales_the_links_covariance_not_the_poses(ring):
