@@ -108,9 +108,10 @@ class EpisodeSpec:
     options: dict = dataclasses.field(default_factory=dict)
     """controller options: beams, scan_period, outlier_rate, route (wall_follower: record the grid cells
     entered as extra["route"], amr_maps.maze_route); max_collisions, goal_after (navigation: the goal given at the
-    first observation at or after this many s, an idle stretch before: give_goal_after); kidnap [t, x, y, theta],
-    symmetric (the world's symmetric counterpart, a world dict: the record's extra says when the feature
-    breaking the symmetry was first seen), stop_after (s after the first declaration, and the feature seen,
+    first observation at or after this many s, an idle stretch before: give_goal_after; map: a map_server YAML the
+    stack navigates on instead of the world's, as `maze_navigation map:=`, the simulator running the world); kidnap
+    [t, x, y, theta], symmetric (the world's symmetric counterpart, a world dict: the record's extra says when the
+    feature breaking the symmetry was first seen), stop_after (s after the first declaration, and the feature seen,
     the run ends) (localization); resolution (plan_follow)."""
     mode: str = "library"
 
@@ -258,14 +259,22 @@ class AsSent:
 
 def stack_map(spec: EpisodeSpec, world):
     """The one map of the spec's ROS stack, the particle filter's and the planner's: the world rasterized at its
-    map_server's resolution (config/bringup), with that resolution as /map carries it (a float32)."""
-    from amr_bringup.stack_config import load_bringup
-    from amr_evaluation.ros_episode import STACKS
+    map_server's resolution (config/bringup), with that resolution as /map carries it (a float32); with option
+    `map`, that map_server file instead (the stack's `map:=`: a map saved by maze_mapping, in the world's frame),
+    while the simulator runs the world."""
     from amr_maps.occupancy_grid import OccupancyGrid
-    from amr_maps.rasterize import rasterize_world
 
-    server = next(node for node in load_bringup(STACKS[spec.controller]).nodes if node.name == "map_server")
-    grid = rasterize_world(world, float(server.parameters["resolution"]))
+    if spec.options.get("map"):
+        from amr_maps.map_io import load_map
+
+        grid = load_map(spec.options["map"])
+    else:
+        from amr_bringup.stack_config import load_bringup
+        from amr_evaluation.ros_episode import STACKS
+        from amr_maps.rasterize import rasterize_world
+
+        server = next(node for node in load_bringup(STACKS[spec.controller]).nodes if node.name == "map_server")
+        grid = rasterize_world(world, float(server.parameters["resolution"]))
     return OccupancyGrid(grid.data, as_sent(grid.resolution), grid.origin, grid.frame_id)
 
 

@@ -197,6 +197,8 @@ def stack_of(spec, directory: Path) -> tuple[str, dict[str, str]]:
         yaml.safe_dump({node: {"ros__parameters": values} for node, values in parameters.items()}), encoding="utf-8"
     )
     arguments = {"world": _world_file(spec, directory)}
+    if spec.options.get("map"):  # a saved map served instead of the world's (the stack's map:=)
+        arguments["map"] = str(spec.options["map"])
     arguments.update({f"{node}_params_file": str(params_file) for node in parameters})
     return stack, arguments
 

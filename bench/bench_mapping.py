@@ -24,6 +24,10 @@ simulated-time budget runs out. Printed per run:
   against the true poses where they were added (mean / max, m: the drift the map is drawn with)
 - collisions (the simulator's wall contacts), goals the explorer gave up (failed or timed out; through ROS: the
   Frontiers message's count, frontiers given up at a reached goal included), wall-clock s
+- with --navigate, then: `maze_navigation world:=<it> map:=<run>.yaml` as the evaluation runs it (amr_evaluation
+  navigation episode with option map, in the library: the particle filter and the planner on the saved map, from
+  no pose; the simulator on the world, the same noise, the world's goal): reached or not, simulated s, first
+  localized s, the largest localization error while localized (against the truth), collisions
 
 The saved map is in slam's map frame, the odom frame of the first scan: the simulator's odometry starts at the
 world's start pose, so it is the world's frame (what `maze_navigation world:=<world> map:=<run>.yaml` takes as
@@ -403,6 +407,41 @@ def run_library(
     return result
 
 
+def navigate(family: str, seed: int, noise: float, args, saved: Path) -> str:
+    """`maze_navigation world:=<the run's world> map:=<saved>` as amr_evaluation's navigation episode runs it (the
+    library loop: the same navigator, planner, path follower and particle filter the stack's nodes call), the
+    filter from no pose on the saved map, the simulator on the world with the run's noise: one line of figures."""
+    from amr_evaluation import configs
+    from amr_evaluation.episode import EpisodeSpec, run_episode
+
+    label, parameters = configs.resolve("navigation", "default")
+    record = run_episode(
+        EpisodeSpec(
+            "navigation",
+            label,
+            parameters,
+            {"family": family, "seed": seed},
+            None,
+            seed=seed,
+            lidar_noise=noise,
+            encoder_noise=args.encoder_noise,
+            slip=args.slip,
+            duration=args.navigation_budget,
+            options={"map": str(saved)},
+        )
+    )
+    if record["error"]:
+        return f"navigation on the saved map: {record['error']}"
+    localized = record["time_to_localized"]
+    error = record["localization_error_max"]
+    reached = "reached" if record["goal_reached"] else "NOT reached"
+    return (
+        f"navigation on the saved map: {reached} at {record['time']:.1f} s"
+        f" ({record['reason']}), localized at {'-' if localized is None else f'{localized:.1f} s'}, largest error"
+        f" while localized {'-' if error is None else f'{100 * error:.1f} cm'}, collisions {record['collisions']}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", nargs="*", default=list(FAMILIES))
@@ -417,12 +456,16 @@ def main() -> None:
     parser.add_argument("--encoder-noise", type=float, default=0.02)
     parser.add_argument("--slip", type=float, default=0.05)
     parser.add_argument("--budget", type=float, default=900.0, help="s simulated")
+    parser.add_argument("--navigation-budget", type=float, default=300.0, help="--navigate: s simulated")
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--resolution", type=float, default=None, help="slam's cells (m); default slam.yaml's")
     parser.add_argument("--library", action="store_true", help="the objects in one loop, no ROS (faster)")
     parser.add_argument("--verbose", action="store_true", help="library: print each run's explorer and slam events")
     parser.add_argument("--slam", nargs="*", default=[], metavar="KEY=VALUE", help="slam parameters over slam.yaml's")
     parser.add_argument("--record", action="store_true", help="library: save each run's inputs (bench_slam_replay.py)")
+    parser.add_argument(
+        "--navigate", action="store_true", help="then navigate on each saved map to the world's goal (library episode)"
+    )
     args = parser.parse_args()
     slam_overrides = {}
     for item in args.slam:
@@ -473,6 +516,8 @@ def main() -> None:
                     ),
                     flush=True,
                 )
+                if args.navigate and (out / f"{r['name']}.yaml").exists():
+                    print(f"{'':14s} {navigate(family, seed, noise, args, out / (r['name'] + '.yaml'))}", flush=True)
     finally:
         if context is not None:
             context.try_shutdown()

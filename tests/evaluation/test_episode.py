@@ -152,3 +152,36 @@ def test_a_localization_episode_in_a_room_one_feature_breaks_records_when_the_fe
     assert 0.0 < extra["feature_glimpsed"] <= extra["feature_seen"] < 60.0
     assert record["time_to_localized"] is not None and record["localization_error"] <= 0.10
     assert record["time"] <= record["time_to_localized"] + 1.0 + 0.1, "stop_after ends the run"
+
+
+def test_a_navigation_episode_takes_a_saved_map_as_the_stack_takes_map_and_names_a_missing_one(tmp_path):
+    """Option `map` (the stack's `map:=`: a map saved by maze_mapping, in the world's frame): the filter and the
+    planner take that file, the simulator runs the world; a path that is not a map is named in the record."""
+    import numpy as np
+
+    from amr_evaluation.episode import stack_map
+    from amr_evaluation.worlds import build_world
+    from amr_maps.map_io import load_map, save_map
+    from amr_maps.rasterize import rasterize_world
+
+    world = build_world({"file": "pillar_goal.yaml"})
+    grid = rasterize_world(world, 0.03)  # not the stack's 0.02: the file's cells, not the world's, are served
+    saved = save_map(grid, tmp_path / "saved")
+    label, parameters = configs.resolve("navigation", "default")
+    spec = EpisodeSpec(
+        "navigation",
+        label,
+        parameters,
+        {"file": "pillar_goal.yaml"},
+        seed=0,
+        duration=40.0,
+        options={"map": str(saved)},
+    )
+    served, loaded = stack_map(spec, world), load_map(saved)
+    assert served.resolution == pytest.approx(0.03) and served.origin == pytest.approx(loaded.origin)
+    np.testing.assert_array_equal(served.data, loaded.data)
+    record = run_episode(spec)
+    assert record["error"] is None
+    assert record["goal_reached"] is True and record["collisions"] == 0
+    missing = run_episode(dataclasses.replace(spec, options={"map": str(tmp_path / "none.yaml")}))
+    assert "none.yaml" in missing["error"]
