@@ -10,7 +10,7 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
   the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points; the nodes added on
   odometry alone left out: their poses are unverified; only the surfaces facing the odometry prior's sensor:
-  FACING_WINDOW), within
+  _facing), within
   WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
   +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
   likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
@@ -85,11 +85,6 @@ from amr_util.scan import ScanData
 
 MIN_BEAMS = 20
 """Fewer usable beams than this: the scan is not matched (the node is added on odometry alone)."""
-FACING_WINDOW = True
-"""The front end's window holds only the surfaces facing where the scan is expected (the odometry prior's sensor:
-_facing): a thin wall's far face, seen from its other side, is where the scan cannot have points, and left in it
-pulls both the correlative field and the refinement's lines (how much: bench_slam_link_truth.py and the decision
-record's per-link truth round). False: every point of the window, as the loop-closure submaps have."""
 ODOMETRY_SIGMA = (0.02, 0.1, 0.02, 0.1)
 """The odometry model's standard deviations: (m, m per m travelled, rad, rad per rad turned + per m travelled): the
 front end's prior and search window (WINDOW_SIGMAS) and its weight against the match; a link's covariance carries
@@ -720,7 +715,10 @@ class GraphSlam:
             # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
             # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them)
             members = self._verified(members)
-            viewpoint = np.array(compose(relative_prior, self._mount)[:2]) if FACING_WINDOW else None
+            # only the surfaces facing where the scan is expected (the prior's sensor): a thin wall's far face, seen
+            # from its other side, pulls the field and the lines (bench_slam_link_truth.py --facing; the closure
+            # submaps keep every viewpoint's surfaces)
+            viewpoint = np.array(compose(relative_prior, self._mount)[:2])
             self._local = (last, self._matcher(last, members, cfg.match_linear_window, viewpoint))
         reference = self._local[1]
         matcher = reference.matcher

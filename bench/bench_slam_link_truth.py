@@ -136,7 +136,7 @@ def measure(path: Path, args) -> dict:
                 keep[np.flatnonzero(both)[visible]] = True
             clouds.append(transform_points(placed, points(beams(member, args.reference), keep)))
         prior = np.array(relative_pose(odometry[k - 1], odometry[k]))
-        # as GraphSlam's window (with FACING_WINDOW: the surfaces facing the prior's sensor)
+        # as GraphSlam's window (with --facing, as it is built: the surfaces facing the prior's sensor)
         seen_from = np.vstack([np.broadcast_to(s, c.shape) for s, c in zip(sensors, clouds, strict=True)])
         viewpoint = np.array(compose(prior, mount)[:2]) if args.facing else None
         reference = slam_module._window_reference(
