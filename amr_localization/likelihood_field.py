@@ -134,6 +134,38 @@ class LikelihoodField:
         terms = self.best_free_path(particles, np.zeros((1, 3)), beams, margin)
         return terms if per_beam else terms.sum(axis=1)
 
+    @property
+    def floor(self) -> float:
+        """log z_rand / range_max (as stored): a beam's term where nothing of the map explains it (its end point far
+        from every wall, or its path through one)."""
+        return self._see_through
+
+    def clear_path(self, poses: np.ndarray, beams: Beams, margin: float) -> np.ndarray:
+        """(H, beams) bool: the beam returned and its path from the sensor at each pose to `margin` m short of its
+        end point goes through no wall of the map (the free-path check of best_free_path, at the pose itself): where
+        such a beam ends far from every wall, something the map lacks stopped it short (a beam through a wall is the
+        map's word against the pose, not an object)."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        out = np.zeros((len(poses), beams.ranges.size), dtype=bool)
+        if beams.ranges.size == 0 or not len(poses):
+            return out
+        sensor = self.mount.sensor_poses(poses)
+        rows, cols = self._shape
+        _clear_paths(
+            self._cells,
+            rows,
+            cols,
+            (sensor[:, 0] - self._origin[0]) / self._resolution + 1.0,
+            (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0,
+            np.ascontiguousarray(sensor[:, 2]),
+            beams.angles,
+            np.where(beams.returned, beams.ranges, 0.0) / self._resolution,
+            beams.returned,
+            margin / self._resolution,
+            out,
+        )
+        return out
+
     def fixed_poses(self, poses: np.ndarray, nudges: np.ndarray) -> FixedPoses:
         """Poses scored by best_free_path again and again (FixedPoses): their paths traced once."""
         return FixedPoses(self, poses, nudges)
@@ -273,6 +305,18 @@ def _exit(cells, rows, cols, x, y, c, s, free):
             return t
         t += max(distance - 1.5, 0.5)
     return math.inf
+
+
+@numba.njit(cache=True, nogil=True)
+def _clear_paths(cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, out):
+    """out[h, k]: beam k returned and its path from sensor pose h to `margin` cells short of its end is not blocked
+    (_exit)."""
+    for h in range(col0.shape[0]):
+        for k in range(angles.shape[0]):
+            if returned[k]:
+                free = ranges[k] - margin
+                c, s = math.cos(theta[h] + angles[k]), math.sin(theta[h] + angles[k])
+                out[h, k] = free <= 0.0 or _exit(cells, rows, cols, col0[h], row0[h], c, s, free) >= free
 
 
 @numba.njit(cache=True, nogil=True)

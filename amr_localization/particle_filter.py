@@ -62,6 +62,7 @@ from amr_localization.resampling import effective_sample_size, jitter, systemati
 from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
+from amr_localization.unmapped_beams import mapped_share
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, WindowMatch
 from amr_util.geometry import compose, one_per_cell, relative_pose, transform_points, wrap_angle
@@ -133,6 +134,8 @@ model's noise and the scans absorb a small jump, while a real motion taken as a 
 two scans 0.01 s apart across a 29-degree turn)."""
 DEFAULT_PERIOD = 0.05
 """s between two observations when no stamps are given (the simulator's 20 Hz)."""
+MIN_SHARE_PROBABILITY = 1e-3
+"""places less likely than this are left out of the beams' mapped share (unmapped_beams.py): they move it by less."""
 
 
 @dataclass
@@ -185,6 +188,9 @@ class _Seen(NamedTuple):
     points: np.ndarray
     local: tuple[float, float, float]
     beam_points: np.ndarray
+    place_weights: np.ndarray
+    """(K,) the beams' weights for the places' odds and fits: `weights` times the share the map explains under the
+    belief before this scan (unmapped_beams.py)."""
 
 
 class _Ahead:
@@ -466,7 +472,7 @@ class ParticleFilter:
             # weigh the scan's first stage, which needs it not (a few hundred take less than the hand-off); the places
             # need it before anything else (_placed_now)
             placed = _Ahead(self._placed, points, here=len(self.particles) < SPLIT_PARTICLES)
-            seen = _Seen(self._odometry, beams, weights, gain, points, None, self._points(beams))
+            seen = _Seen(self._odometry, beams, weights, gain, points, None, self._points(beams), weights)
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
@@ -539,6 +545,7 @@ class ParticleFilter:
         under way (None without places)."""
         seen = seen._replace(local=placed.result())
         self._rematch_places(seen)
+        seen = seen._replace(place_weights=seen.weights * self._mapped_share(seen))
         self._begin_search(seen)
         ahead = len(self.hypotheses) > 0
         fits = _Ahead(self._fitted_places, seen) if ahead else None
@@ -603,6 +610,21 @@ class ParticleFilter:
         hypotheses.merge()
         self._agree()
         self._decide(seen)
+
+    def _mapped_share(self, seen: _Seen) -> np.ndarray:
+        """(K,) each beam's probability that the map explains it under the places' belief before this scan, at their
+        poses now (unmapped_beams.mapped_share: the beams on an object the believed place's map lacks count little)."""
+        hypotheses = self.hypotheses
+        if not len(hypotheses) or not isinstance(self._laser, LikelihoodField):
+            return np.ones(len(seen.weights))
+        probabilities = hypotheses.probabilities()
+        held = probabilities >= MIN_SHARE_PROBABILITY
+        if not held.any():
+            return np.ones(len(seen.weights))
+        poses = hypotheses.poses[held]
+        terms = self._laser.best_free_path(poses, NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
+        clear = self._laser.clear_path(poses, seen.beams, FREE_PATH_MARGIN)
+        return mapped_share(probabilities[held], terms, clear, self._laser.floor)
 
     def _fitted_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray]:
         """The places' poses fitted to the scan (_fitted) and the scan's log-likelihood at each: a place without
@@ -779,7 +801,7 @@ class ParticleFilter:
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses
             if fixed is not None:
-                total += seen.gain * (fixed.best_free_path(seen.beams, FREE_PATH_MARGIN) @ seen.weights)
+                total += seen.gain * (fixed.best_free_path(seen.beams, FREE_PATH_MARGIN) @ seen.place_weights)
             else:
                 total += seen.gain * self._place_scores(poses, seen)
         elif seen is not None:
@@ -800,7 +822,7 @@ class ParticleFilter:
         new = [i for i, key in enumerate(keys) if key not in scores]
         if new:
             terms = self._laser.best_free_path(poses[new], NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
-            scores.update(zip((keys[i] for i in new), terms @ seen.weights, strict=True))
+            scores.update(zip((keys[i] for i in new), terms @ seen.place_weights, strict=True))
         return np.array([scores[key] for key in keys])
 
     def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
