@@ -625,7 +625,10 @@ class ParticleFilter:
             return np.ones(len(seen.weights))
         poses = hypotheses.poses[held]
         terms = self._place_terms(poses, seen)
-        clear = self._laser.clear_path(poses, seen.beams, FREE_PATH_MARGIN)
+        # a place's pose is as uncertain as this step's motion made it (its variance since the particles last held it,
+        # before the scan's fit): a beam ending within 3 sigma short of a wall may be that error, not an object
+        beyond = 3.0 * np.sqrt(hypotheses.variance[held])
+        clear = self._laser.clear_path(poses, seen.beams, FREE_PATH_MARGIN, beyond)
         return mapped_share(probabilities[held], terms, clear, self._laser.floor)
 
     def _fitted_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray]:

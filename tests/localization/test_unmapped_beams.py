@@ -40,10 +40,14 @@ def model():
     return LikelihoodField(DistanceField(OccupancyGrid(data, 0.02)), LikelihoodFieldParams(), SensorMount(), 3.5)
 
 
-def test_a_path_is_clear_up_to_a_wall_not_through_it_and_a_beam_without_return_has_none(model):
+def test_a_beam_is_short_where_its_path_is_clear_and_no_wall_is_within_the_pose_s_error_past_its_end(model):
     pose = np.array([[0.5, 1.0, 0.0]])  # facing the wall 0.5 m ahead
     beams = _beams([0.3, 0.51, 1.49, 3.5], returned=[True, True, True, False])
-    np.testing.assert_array_equal(model.clear_path(pose, beams, MARGIN), [[True, True, False, False]])
+    # short of the wall; on it; through it; no return
+    np.testing.assert_array_equal(model.clear_path(pose, beams, MARGIN), [[True, False, False, False]])
+    # a pose 0.25 m off along the beam could put the wall at the 0.3 m beam's end: not short then
+    np.testing.assert_array_equal(model.clear_path(pose, beams, MARGIN, 0.25), [[False, False, False, False]])
+    np.testing.assert_array_equal(model.clear_path(pose, beams, MARGIN, 0.1), [[True, False, False, False]])
     assert model.floor == pytest.approx(math.log(0.1 / 3.5), abs=1e-5)
 
 
