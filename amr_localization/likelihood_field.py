@@ -134,42 +134,6 @@ class LikelihoodField:
         terms = self.best_free_path(particles, np.zeros((1, 3)), beams, margin)
         return terms if per_beam else terms.sum(axis=1)
 
-    @property
-    def floor(self) -> float:
-        """log z_rand / range_max (as stored): a beam's term where nothing of the map explains it (its end point far
-        from every wall, or its path through one)."""
-        return self._see_through
-
-    def clear_path(
-        self, poses: np.ndarray, beams: Beams, margin: float, beyond: float | np.ndarray = 0.0
-    ) -> np.ndarray:
-        """(H, beams) bool: the beam returned, its path from the sensor at each pose to `margin` m short of its end
-        point goes through no wall of the map (the free-path check of best_free_path, at the pose itself), and no wall
-        stands within `beyond` m past its end (per pose: how far off the pose may be along the beam): where such a
-        beam ends far from every wall, something the map lacks stopped it short (a beam through a wall is the map's
-        word against the pose, not an object; one ending just short of a wall, the pose's own error as likely)."""
-        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
-        out = np.zeros((len(poses), beams.ranges.size), dtype=bool)
-        if beams.ranges.size == 0 or not len(poses):
-            return out
-        sensor = self.mount.sensor_poses(poses)
-        rows, cols = self._shape
-        _clear_paths(
-            self._cells,
-            rows,
-            cols,
-            (sensor[:, 0] - self._origin[0]) / self._resolution + 1.0,
-            (sensor[:, 1] - self._origin[1]) / self._resolution + 1.0,
-            np.ascontiguousarray(sensor[:, 2]),
-            beams.angles,
-            np.where(beams.returned, beams.ranges, 0.0) / self._resolution,
-            beams.returned,
-            margin / self._resolution,
-            np.broadcast_to(np.asarray(beyond, dtype=float), (len(poses),)) / self._resolution,
-            out,
-        )
-        return out
-
     def fixed_poses(self, poses: np.ndarray, nudges: np.ndarray) -> FixedPoses:
         """Poses scored by best_free_path again and again (FixedPoses): their paths traced once."""
         return FixedPoses(self, poses, nudges)
@@ -309,29 +273,6 @@ def _exit(cells, rows, cols, x, y, c, s, free):
             return t
         t += max(distance - 1.5, 0.5)
     return math.inf
-
-
-@numba.njit(cache=True, nogil=True)
-def _clear_paths(cells, rows, cols, col0, row0, theta, angles, ranges, returned, margin, beyond, out):
-    """out[h, k]: beam k returned, its path from sensor pose h to `margin` cells short of its end is not blocked
-    (_exit), and no occupied cell lies within a cell of the beam from its end to beyond[h] cells past it."""
-    for h in range(col0.shape[0]):
-        for k in range(angles.shape[0]):
-            if not returned[k]:
-                continue
-            free = ranges[k] - margin
-            c, s = math.cos(theta[h] + angles[k]), math.sin(theta[h] + angles[k])
-            if free > 0.0 and _exit(cells, rows, cols, col0[h], row0[h], c, s, free) < free:
-                continue
-            clear = True
-            t = ranges[k]
-            while clear and t <= ranges[k] + beyond[h]:
-                col, row = col0[h] + c * t, row0[h] + s * t
-                if col < 0.0 or row < 0.0 or col >= cols or row >= rows:
-                    break
-                clear = cells[int(row) * cols + int(col)] >= 1.0
-                t += 0.5
-            out[h, k] = clear
 
 
 @numba.njit(cache=True, nogil=True)

@@ -53,7 +53,7 @@ from amr_localization.free_space import FreeSpace
 from amr_localization.helper_threads import submit
 from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
-from amr_localization.likelihood_field import SPLIT_PARTICLES, LikelihoodField, LikelihoodFieldParams
+from amr_localization.likelihood_field import SPLIT_PARTICLES, FixedPoses, LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, grouped_covariances, weighted_pose
@@ -62,7 +62,6 @@ from amr_localization.resampling import effective_sample_size, jitter, systemati
 from amr_localization.scan_beams import Beams, select_beams
 from amr_localization.scan_odometry import matched_increment
 from amr_localization.sensor_mount import SensorMount
-from amr_localization.unmapped_beams import mapped_share
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, ScoreMap, WindowMatch
 from amr_util.geometry import compose, one_per_cell, relative_pose, transform_points, wrap_angle
@@ -134,8 +133,6 @@ model's noise and the scans absorb a small jump, while a real motion taken as a 
 two scans 0.01 s apart across a 29-degree turn)."""
 DEFAULT_PERIOD = 0.05
 """s between two observations when no stamps are given (the simulator's 20 Hz)."""
-MIN_SHARE_PROBABILITY = 1e-3
-"""places less likely than this are left out of the beams' mapped share (unmapped_beams.py): they move it by less."""
 
 
 @dataclass
@@ -188,9 +185,6 @@ class _Seen(NamedTuple):
     points: np.ndarray
     local: tuple[float, float, float]
     beam_points: np.ndarray
-    place_weights: np.ndarray
-    """(K,) the beams' weights for the places' odds and fits: `weights` times the share the map explains under the
-    belief before this scan (unmapped_beams.py)."""
 
 
 class _Ahead:
@@ -294,7 +288,7 @@ class ParticleFilter:
             else None
         )
         self._window: deque[_Seen] = deque(maxlen=WINDOW_SCANS)
-        self._scores: dict[int, tuple[Beams, dict[bytes, np.ndarray]]] = {}  # _place_terms' memo, the update's scans'
+        self._scores: dict[int, tuple[_Seen, dict[bytes, float]]] = {}  # _place_scores' memo, the update's scans'
         self.reinitialize_global()
 
     def retune(self, config: ParticleFilterConfig) -> None:
@@ -472,7 +466,7 @@ class ParticleFilter:
             # weigh the scan's first stage, which needs it not (a few hundred take less than the hand-off); the places
             # need it before anything else (_placed_now)
             placed = _Ahead(self._placed, points, here=len(self.particles) < SPLIT_PARTICLES)
-            seen = _Seen(self._odometry, beams, weights, gain, points, None, self._points(beams), weights)
+            seen = _Seen(self._odometry, beams, weights, gain, points, None, self._points(beams))
             used += gain * beams_in_view(weights)
             self.status.beams, self.status.scan_weight = beams_in_view(weights), gain
         if beacons is not None:
@@ -522,7 +516,7 @@ class ParticleFilter:
         self.status.effective_sample_size = neff
         if neff < RESAMPLE_THRESHOLD * len(self.particles):
             self._resample(self._sample_count())
-        seen = self._weigh_places(seen, beacons, fits, background)
+        self._weigh_places(seen, beacons, fits, background)
         count = self._sample_count()
         if count < len(self.particles):  # KLD-sampling, on the places as they are now, asks for fewer particles
             self._resample(count)
@@ -548,7 +542,7 @@ class ParticleFilter:
         self._begin_search(seen)
         ahead = len(self.hypotheses) > 0
         fits = _Ahead(self._fitted_places, seen) if ahead else None
-        background = _Ahead(self._background_terms, seen) if ahead and self._anywhere_paths is not None else None
+        background = _Ahead(self._background, seen, beacons) if ahead and self._anywhere_paths is not None else None
         return seen, fits, background
 
     # -- places -------------------------------------------------------------------------
@@ -559,12 +553,11 @@ class ParticleFilter:
         beacons: BeaconReading | None,
         fits: _Ahead | None = None,
         background: _Ahead | None = None,
-    ) -> _Seen | None:
+    ) -> None:
         """Step 4: the hypotheses observe the data, new ones are born from the clusters and the place search, the
         particles are made to agree with their probabilities, and the estimate and localized follow. fits and
-        background: the places' fits (_fitted_places) and `elsewhere`'s background's beam terms (_background_terms)
-        under way, if started. Returns the scan with its beams' weights for the places' odds (_Seen.place_weights:
-        the share the map explains under the belief before this scan, at the places as fitted to it)."""
+        background: the places' fits (_fitted_places) and `elsewhere`'s background (_background) under way, if
+        started."""
         hypotheses = self.hypotheses
         none = np.zeros((0, 3))
         # the clusters' poses and the background of `elsewhere` need neither the place search nor the places' new
@@ -593,16 +586,15 @@ class ParticleFilter:
             inside = self._open_space.contains(hypotheses.poses[:, 0], hypotheses.poses[:, 1])
             hypotheses.keep(inside)
             held = held[inside]
-        if seen is not None:
-            seen = seen._replace(place_weights=seen.weights * self._mapped_share(seen))
-        terms = background.result() if background is not None else None
-        background = self._background(seen, beacons, terms) if len(hypotheses) else 0.0
+        ahead = background.result() if background is not None else None
+        if not len(hypotheses):
+            background = 0.0
+        else:
+            background = ahead if ahead is not None else self._background(seen, beacons)
         found, found_fit, running = self._search_places(seen, held) if seen is not None else (none, np.zeros(0), none)
         if len(hypotheses):
             hypotheses.observe(
-                self._log_likelihood(hypotheses.poses, seen, beacons, places=True, odds=True)
-                if seen is not None
-                else held + self._log_likelihood(hypotheses.poses, None, beacons),
+                held + self._log_likelihood(hypotheses.poses, None, beacons),
                 self._elsewhere(seen, beacons, running, background),
             )
         if seen is not None:
@@ -611,25 +603,6 @@ class ParticleFilter:
         hypotheses.merge()
         self._agree()
         self._decide(seen)
-        return seen
-
-    def _mapped_share(self, seen: _Seen) -> np.ndarray:
-        """(K,) each beam's probability that the map explains it under the places' belief before this scan, at their
-        poses now (unmapped_beams.mapped_share: the beams on an object the believed place's map lacks count little)."""
-        hypotheses = self.hypotheses
-        if not len(hypotheses) or not isinstance(self._laser, LikelihoodField):
-            return np.ones(len(seen.weights))
-        probabilities = hypotheses.probabilities()
-        held = probabilities >= MIN_SHARE_PROBABILITY
-        if not held.any():
-            return np.ones(len(seen.weights))
-        poses = hypotheses.poses[held]
-        terms = self._place_terms(poses, seen)
-        # a place's pose is as uncertain as this step's motion made it (its variance since the particles last held it,
-        # before the scan's fit): a beam ending within 3 sigma short of a wall may be that error, not an object
-        beyond = 3.0 * np.sqrt(hypotheses.variance[held])
-        clear = self._laser.clear_path(poses, seen.beams, FREE_PATH_MARGIN, beyond)
-        return mapped_share(probabilities[held], terms, clear, self._laser.floor)
 
     def _fitted_places(self, seen: _Seen) -> tuple[np.ndarray, np.ndarray]:
         """The places' poses fitted to the scan (_fitted) and the scan's log-likelihood at each: a place without
@@ -749,18 +722,9 @@ class ParticleFilter:
         self._declared = hypotheses.poses[0].copy() if self._localized else None
         self.status.confidence, self.status.runner_up = confidence, runner_up
 
-    def _background_terms(self, seen: _Seen) -> np.ndarray:
-        """(ANYWHERE, beams) the places' model's beam terms at the ANYWHERE poses (their paths kept: FixedPoses)."""
-        return self._anywhere_paths.best_free_path(seen.beams, FREE_PATH_MARGIN)
-
-    def _background(self, seen: _Seen | None, beacons: BeaconReading | None, terms: np.ndarray | None = None) -> float:
-        """The data's mean likelihood over the ANYWHERE poses (log): `elsewhere`'s background (_elsewhere), weighted
-        for the places' odds. terms: _background_terms of this scan, if traced already."""
-        if seen is not None and self._anywhere_paths is not None and isinstance(self._laser, LikelihoodField):
-            terms = self._background_terms(seen) if terms is None else terms
-            anywhere = seen.gain * (terms @ seen.place_weights) + self._log_likelihood(self._anywhere, None, beacons)
-        else:
-            anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True, odds=True)
+    def _background(self, seen: _Seen | None, beacons: BeaconReading | None) -> float:
+        """The data's mean likelihood over the ANYWHERE poses (log): `elsewhere`'s background (_elsewhere)."""
+        anywhere = self._log_likelihood(self._anywhere, seen, beacons, places=True, fixed=self._anywhere_paths)
         return float(np.logaddexp.reduce(anywhere) - math.log(len(anywhere)))
 
     def _elsewhere(
@@ -780,7 +744,7 @@ class ParticleFilter:
         peaks = peaks[self.hypotheses.find(peaks) < 0] if len(peaks) else peaks
         if not len(peaks):
             return background
-        at_peaks = self._log_likelihood(peaks, seen, beacons, places=True, odds=True) + self._log_peak_share
+        at_peaks = self._log_likelihood(peaks, seen, beacons, places=True) + self._log_peak_share
         return float(np.logaddexp(background, np.logaddexp.reduce(at_peaks)))
 
     @property
@@ -801,24 +765,23 @@ class ParticleFilter:
         seen: _Seen | None,
         beacons: BeaconReading | None,
         places: bool = False,
-        odds: bool = False,
+        fixed: FixedPoses | None = None,
     ) -> np.ndarray:
         """(H,) the data's log-likelihood at each pose, weighted as the particles' is. places: the likelihood field
         with the beam model's free path (LikelihoodField.log_likelihood_free_path: a beam through a wall of the map
         there scores as a random reading), for the few poses of place hypotheses; the particles' field alone scores
-        a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway. odds: for the
-        odds between places (their evidence, `elsewhere`'s, a new place's window), each beam weighted by the share of
-        it the map explains under the belief (_Seen.place_weights); without it, as the particles weigh it: for the
-        choice of a pose within a place (fits, re-anchoring, the estimate's refinement), where a beam the belief
-        calls short is as likely the place's own pose error as an object the map lacks."""
+        a beam seen through a doorway as well at a look-alike place whose wall stands in the doorway. fixed: the
+        same poses with their paths kept (LikelihoodField.fixed_poses), scored alike."""
         total = np.zeros(len(poses))
         if not len(poses):
             return total
         if seen is not None and places and isinstance(self._laser, LikelihoodField):
             # each beam at its best within a cell and half a degree of the pose (the map knows its walls to a cell): a
             # beam reads as going through a wall only where it does so from every one of these poses
-            weights = seen.place_weights if odds else seen.weights
-            total += seen.gain * (self._place_terms(poses, seen) @ weights)
+            if fixed is not None:
+                total += seen.gain * (fixed.best_free_path(seen.beams, FREE_PATH_MARGIN) @ seen.weights)
+            else:
+                total += seen.gain * self._place_scores(poses, seen)
         elif seen is not None:
             total += seen.gain * self._laser.log_likelihood(poses, seen.beams, seen.weights)
         if beacons is not None:
@@ -827,30 +790,30 @@ class ParticleFilter:
             )
         return total
 
-    def _place_terms(self, poses: np.ndarray, seen: _Seen) -> np.ndarray:
-        """(H, beams) the places' model's beam terms at each pose (LikelihoodField.best_free_path, NUDGES), each pose
-        traced once per scan: a place is scored again and again within an update (its beams' mapped share, fitted,
-        then admitted, then decided on), at the very same pose."""
+    def _place_scores(self, poses: np.ndarray, seen: _Seen) -> np.ndarray:
+        """(H,) the places' model's weighted sum of the scan's beam terms at each pose (LikelihoodField.best_free_path,
+        NUDGES), each pose scored once per scan: a place is scored again and again within an update (fitted, then
+        admitted, then decided on), at the very same pose."""
         poses = np.ascontiguousarray(poses, dtype=float)
-        terms = self._scores.setdefault(id(seen.beams), (seen.beams, {}))[1]  # the beams held: the id is not reused
+        scores = self._scores.setdefault(id(seen), (seen, {}))[1]  # the scan held: its id is not reused meanwhile
         keys = [pose.tobytes() for pose in poses]
-        new = [i for i, key in enumerate(keys) if key not in terms]
+        new = [i for i, key in enumerate(keys) if key not in scores]
         if new:
-            traced = self._laser.best_free_path(poses[new], NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
-            terms.update(zip((keys[i] for i in new), traced, strict=True))
-        return np.array([terms[key] for key in keys]).reshape(len(poses), -1)
+            terms = self._laser.best_free_path(poses[new], NUDGES * self._nudge_step, seen.beams, FREE_PATH_MARGIN)
+            scores.update(zip((keys[i] for i in new), terms @ seen.weights, strict=True))
+        return np.array([scores[key] for key in keys])
 
     def _window_score(self, poses: np.ndarray, seen: _Seen | None, beacons: BeaconReading | None) -> np.ndarray:
         """(H,) the log-likelihood of the scans in the window and of the current data at each pose, the poses of
         the past scans reached back through the window's scan-matched odometry (a pose in a wall then scores as if it
         had seen nothing)."""
-        total = self._log_likelihood(poses, seen, beacons, places=True, odds=True)
+        total = self._log_likelihood(poses, seen, beacons, places=True)
         if not self._window:
             return total
         now = seen.local if seen is not None else self._now()
         for past in self._window:
             back = np.atleast_2d(compose(poses, relative_pose(now, past.local)))
-            total += self._log_likelihood(back, past, None, places=True, odds=True)
+            total += self._log_likelihood(back, past, None, places=True)
         return total
 
     def _end_points(self, scan: ScanData) -> np.ndarray:

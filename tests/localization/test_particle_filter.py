@@ -188,7 +188,7 @@ def test_the_places_work_beside_the_particles_is_collected_within_its_update(mon
             break
     names = [name for _, name in started]
     # the places' fits and the background on every update with places, the scan's place in the window on every scan
-    assert names.count("_fitted_places") == names.count("_background_terms") == updated
+    assert names.count("_fitted_places") == names.count("_background") == updated
     assert names.count("_placed") >= updated
 
 
