@@ -168,7 +168,7 @@ def replay(path: Path, overrides: dict, trace: list | None = None) -> dict:
     seconds = time.process_time() - started
     poses, edges, loop = slam.graph()
     sequential = np.flatnonzero(~loop)
-    # a node's link from its newest source (one link a node, or the newest of several: WINDOW_LINKS)
+    # a node's link from its newest source (one link a node, or the newest of several: slam.LINK_SHARES)
     newest = np.lexsort((edges[sequential, 0], edges[sequential, 1]))
     ends = edges[sequential[newest], 1]
     sequential = sequential[newest][np.append(ends[1:] != ends[:-1], True)]

@@ -5,13 +5,16 @@ from __future__ import annotations
 import dataclasses
 import json
 
+import numpy as np
 import pytest
 from support.evaluation import tiny_specs
 
 from amr_evaluation import configs
-from amr_evaluation.episode import RECORD_FIELDS, EpisodeSpec, run_episode
+from amr_evaluation.episode import RECORD_FIELDS, EpisodeSpec, run_episode, stack_map
 from amr_evaluation.records import without_timing
-from amr_evaluation.worlds import WorldSpecError, world_spec_of_file
+from amr_evaluation.worlds import WorldSpecError, build_world, world_spec_of_file
+from amr_maps.map_io import load_map, save_map
+from amr_maps.rasterize import rasterize_world
 
 
 def test_same_spec_same_key_and_record_other_spec_other_key():
@@ -157,13 +160,6 @@ def test_a_localization_episode_in_a_room_one_feature_breaks_records_when_the_fe
 def test_a_navigation_episode_takes_a_saved_map_as_the_stack_takes_map_and_names_a_missing_one(tmp_path):
     """Option `map` (the stack's `map:=`: a map saved by maze_mapping, in the world's frame): the filter and the
     planner take that file, the simulator runs the world; a path that is not a map is named in the record."""
-    import numpy as np
-
-    from amr_evaluation.episode import stack_map
-    from amr_evaluation.worlds import build_world
-    from amr_maps.map_io import load_map, save_map
-    from amr_maps.rasterize import rasterize_world
-
     world = build_world({"file": "pillar_goal.yaml"})
     grid = rasterize_world(world, 0.03)  # not the stack's 0.02: the file's cells, not the world's, are served
     saved = save_map(grid, tmp_path / "saved")
