@@ -99,11 +99,7 @@ class PlaceHypotheses:
 
     def find(self, poses: np.ndarray) -> np.ndarray:
         """(C,) the hypothesis each pose is (within MERGE_DISTANCE and MERGE_ANGLE), -1 where none."""
-        poses = np.atleast_2d(poses)
-        out = np.full(len(poses), -1)
-        if len(self) and len(poses):
-            _nearest(np.asarray(poses, dtype=float), self.poses, MERGE_DISTANCE, MERGE_ANGLE, out)
-        return out
+        return place_index(poses, self.poses)
 
     def merge(self) -> None:
         """Hypotheses that have come within MERGE_DISTANCE and MERGE_ANGLE of a stronger one (both fitted to the
@@ -169,6 +165,16 @@ class PlaceHypotheses:
             best = self.evidence[0]
             self.evidence = np.maximum(self.evidence - best, -MAX_LOG_ODDS)
             self.elsewhere = min(max(self.elsewhere - best, -MAX_LOG_ODDS), MAX_LOG_ODDS)
+
+
+def place_index(poses: np.ndarray, places: np.ndarray) -> np.ndarray:
+    """(C,) the place of `places` (H, 3) each pose is (the nearest within MERGE_DISTANCE and MERGE_ANGLE), -1 where
+    none."""
+    poses = np.atleast_2d(poses)
+    out = np.full(len(poses), -1)
+    if len(places) and len(poses):
+        _nearest(np.asarray(poses, dtype=float), np.asarray(places, dtype=float), MERGE_DISTANCE, MERGE_ANGLE, out)
+    return out
 
 
 @numba.njit(cache=True, nogil=True)

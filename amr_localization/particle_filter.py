@@ -51,7 +51,7 @@ from amr_localization.distance_field import DistanceField
 from amr_localization.errors import BeaconError, LocalizationError, OdometryError
 from amr_localization.free_space import FreeSpace
 from amr_localization.helper_threads import submit
-from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
+from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses, place_index
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import SPLIT_PARTICLES, FixedPoses, LikelihoodField, LikelihoodFieldParams
 from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
@@ -580,7 +580,7 @@ class ParticleFilter:
             # that lead); a cluster at a place followed is that place's candidate, fitted as the place is (wider, one
             # scan re-anchored orebro's place 10 deg off)
             spread = np.array([[c.position_std, c.heading_std] for c in candidates]).reshape(-1, 2)
-            new = hypotheses.find(poses) < 0 if len(hypotheses) else np.ones(len(poses), dtype=bool)
+            new = hypotheses.find(poses) < 0
             poses, fit = self._fitted(
                 poses,
                 seen,
@@ -637,20 +637,12 @@ class ParticleFilter:
         # the new places: a candidate within a place's extent (MERGE_DISTANCE and MERGE_ANGLE) of one born before it
         # is that place (by position alone, a cluster of particles turned 90 deg from the truth, listed first, kept
         # the place search's proposal of the truth 0.26 m away from being born)
-        born = []
-        for k in range(len(poses)):
-            if index[k] >= 0:
-                continue
-            pose = poses[k]
-            if born:
-                others = np.array(born)
-                near = np.hypot(others[:, 0] - pose[0], others[:, 1] - pose[1]) <= MERGE_DISTANCE
-                if (near & (np.abs(wrap_angle(others[:, 2] - pose[2])) <= MERGE_ANGLE)).any():
-                    continue
-            born.append(pose)
-        if not born:
+        born = np.zeros((0, 3))
+        for pose in poses[index < 0]:
+            if place_index(pose, born)[0] < 0:
+                born = np.vstack([born, pose])
+        if not len(born):
             return
-        born = np.array(born)
         if len(hypotheses):
             # at most as likely as the strongest: a place overtakes it only by the scans it is followed through; while
             # localized, a new place is one the robot was carried to (the kidnap prior)
