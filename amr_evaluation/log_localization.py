@@ -106,6 +106,29 @@ def log_map(log: CarmenLog, resolution: float = MAP_RESOLUTION) -> OccupancyGrid
     )
 
 
+def log_map_beside(log: CarmenLog, other: CarmenLog, gap: float = 20.0, resolution: float = MAP_RESOLUTION):
+    """The log's map with `other`'s building beside it: both logs' scans mapped at their corrected poses, `other`'s
+    moved east so that its scans' reach (MAP_RANGE) starts `gap` m beyond the log's own and their middles are level.
+    Global localization on it must tell two buildings' look-alikes apart on a map twice one building's size (the held
+    back logs may be larger than the given ones). The log's poses, its odometry and its reference are unchanged."""
+    if not math.isfinite(gap) or gap < 0.0:
+        raise ValueError(f"gap: must be a finite number of m >= 0, got {gap!r}")
+    own, beside = log.poses(), other.poses()
+    shift = np.array(
+        [
+            own[:, 0].max() - beside[:, 0].min() + 2.0 * MAP_RANGE + gap,
+            own[:, 1].mean() - beside[:, 1].mean(),
+            0.0,
+        ]
+    )
+    return map_from_scans(
+        np.vstack([own, beside + shift]),
+        [item.scan for item in log.scans] + [item.scan for item in other.scans],
+        resolution=resolution,
+        max_range=min(MAP_RANGE, range_max(log), range_max(other)),
+    )
+
+
 def log_parameters(log: CarmenLog, parameters: dict, seed: int, noise: OdometryNoiseModel) -> dict:
     """The filter's parameter values for a log, the same for the library run and the node: the given values, the
     LiDAR at the log's pose, the motion noise of the synthesized odometry (its alphas are standard deviations;

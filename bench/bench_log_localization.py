@@ -10,6 +10,10 @@ heading bias, seeded), and the shipped filter configuration runs one update per 
 (amr_evaluation.log_localization). Prints per run: travel before `localized`, scans localized, declarations more
 than 0.5 m or 10 deg off, median error while localized, and the filter update's time (median, p95, max).
 
+--beside NAME: each log's map holds another building too (the log NAME's, or with `next` the next log's in name
+order, placed --gap m, default 20, beyond the log's own: amr_evaluation.log_localization.log_map_beside), a map
+twice one building's size with two buildings' look-alikes: what a larger held-back log asks of global localization.
+
 --ros plays each log through the ROS nodes instead (log_player in lockstep into particle_filter on a map_server
 file): the same figures from /pose against /ground_truth, plus the round trip (scan out, /pose in).
 Run it with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its own.
@@ -26,7 +30,7 @@ from pathlib import Path
 import yaml
 
 from amr_datasets.carmen import read_carmen
-from amr_evaluation.log_localization import log_map, run_log
+from amr_evaluation.log_localization import log_map, log_map_beside, run_log
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_maps.map_io import load_map, save_map
 
@@ -59,6 +63,8 @@ def main() -> int:
     parser.add_argument("--modes", nargs="*", default=["tracking", "global"], choices=["tracking", "global"])
     parser.add_argument("--seeds", nargs="*", type=int, default=[0])
     parser.add_argument("--ros", action="store_true", help="through the ROS nodes (bench_log_localization_ros)")
+    parser.add_argument("--beside", help="another log's building on each map: its name, or `next` (the next log's)")
+    parser.add_argument("--gap", type=float, default=20.0, help="--beside: m between the two buildings' maps")
     args = parser.parse_args()
     files = sorted(args.data.glob("*.log*"))
     if args.logs:
@@ -67,10 +73,20 @@ def main() -> int:
         print(f"no CARMEN log in {args.data}", file=sys.stderr)
         return 2
     parameters = shipped_filter_parameters()
+    every = sorted(args.data.glob("*.log*"))
     for path in files:
         log = read_carmen(path)
-        grid = served(log_map(log))
         name = path.name.split("-")[0].split(".")[0]
+        if args.beside:
+            names = [f.name.split("-")[0].split(".")[0] for f in every]
+            other = names[(names.index(name) + 1) % len(names)] if args.beside == "next" else args.beside
+            if other == name or other not in names:
+                print(f"{name}: no other log {other!r} to put beside it", file=sys.stderr)
+                continue
+            grid = served(log_map_beside(log, read_carmen(every[names.index(other)]), args.gap))
+            name = f"{name}+{other}"
+        else:
+            grid = served(log_map(log))
         for mode in args.modes:
             for seed in args.seeds:
                 if args.ros:
