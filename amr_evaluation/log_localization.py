@@ -106,7 +106,9 @@ def log_map(log: CarmenLog, resolution: float = MAP_RESOLUTION) -> OccupancyGrid
     )
 
 
-def log_map_beside(log: CarmenLog, other: CarmenLog, gap: float = 20.0, resolution: float = MAP_RESOLUTION):
+def log_map_beside(
+    log: CarmenLog, other: CarmenLog, gap: float = 20.0, resolution: float = MAP_RESOLUTION
+) -> OccupancyGrid:
     """The log's map with `other`'s building beside it: both logs' scans mapped at their corrected poses, `other`'s
     moved east so that its scans' reach (MAP_RANGE) starts `gap` m beyond the log's own and their middles are level.
     Global localization on it must tell two buildings' look-alikes apart on a map twice one building's size (the held

@@ -56,6 +56,11 @@ def served(grid):
         return load_map(Path(directory) / "map.yaml", frame_id=grid.frame_id)
 
 
+def log_name(path: Path) -> str:
+    """A log's name: its file name's first word (intel-corrected.log.gz: intel)."""
+    return path.name.split("-")[0].split(".")[0]
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DATA)
@@ -66,19 +71,17 @@ def main() -> int:
     parser.add_argument("--beside", help="another log's building on each map: its name, or `next` (the next log's)")
     parser.add_argument("--gap", type=float, default=20.0, help="--beside: m between the two buildings' maps")
     args = parser.parse_args()
-    files = sorted(args.data.glob("*.log*"))
-    if args.logs:
-        files = [f for f in files if f.name.split("-")[0].split(".")[0] in args.logs]
+    every = sorted(args.data.glob("*.log*"))
+    names = [log_name(f) for f in every]
+    files = [f for f in every if log_name(f) in args.logs] if args.logs else every
     if not files:
         print(f"no CARMEN log in {args.data}", file=sys.stderr)
         return 2
     parameters = shipped_filter_parameters()
-    every = sorted(args.data.glob("*.log*"))
     for path in files:
         log = read_carmen(path)
-        name = path.name.split("-")[0].split(".")[0]
+        name = log_name(path)
         if args.beside:
-            names = [f.name.split("-")[0].split(".")[0] for f in every]
             other = names[(names.index(name) + 1) % len(names)] if args.beside == "next" else args.beside
             if other == name or other not in names:
                 print(f"{name}: no other log {other!r} to put beside it", file=sys.stderr)
