@@ -8,9 +8,9 @@ to; at once without one), and at once when the navigator reports the explorer's 
 was chosen for is given up: the next frontier is chosen) or NO_PATH (the goal is blacklisted). A goal without
 progress for goal_timeout s of pose time (its frontier's path no shorter) is blacklisted too.
 Outputs: a new goal as geometry_msgs/PoseStamped on /goal_pose (the navigator's goal input, frame map); ~/frontiers
-(amr_interfaces/Frontiers) and ~/status (std_msgs/String: the state and why) after every decision. With nothing
-reachable left the state is `done`; with `save_to` set, the slam node's ~/save_map is then called with it (once
-per time exploration ends), and the answer is logged.
+(amr_interfaces/Frontiers, transient local: a viewer started late gets the last ones) and ~/status (std_msgs/String:
+the state and why) after every decision. With nothing reachable left the state is `done`; with `save_to` set, the
+slam node's ~/save_map is then called with it (once per time exploration ends), and the answer is logged.
 
 In lockstep the navigator holds the robot while it has no goal (IDLE) or has reached it (REACHED): the goal
 sent on that status makes it decide the held observation again, so the loop goes on without a new scan.
@@ -118,7 +118,7 @@ class ExplorerNode(ManagedNode):
         self._settings = {name: values[name] for name in NODE_NAMES}
         self._outputs = {
             "goal": self.create_lifecycle_publisher(PoseStamped, values["goal_topic"], reliable()),
-            "frontiers": self.create_lifecycle_publisher(Frontiers, "~/frontiers", reliable(2)),
+            "frontiers": self.create_lifecycle_publisher(Frontiers, "~/frontiers", LATCHED),
             "status": self.create_lifecycle_publisher(String, "~/status", reliable()),
         }
         self._entities = [

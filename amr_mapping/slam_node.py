@@ -9,7 +9,7 @@ active     /odometry + /scan are paired by stamp (amr_util.sync, the approximate
            and the lockstep simulator take it as they take the filter's), map -> odom on /tf, ~/status
            (amr_interfaces/LocalizerStatus: updated = a node was added, confidence 1, update_time,
            event = loop closures or the library's events).
-           /map (nav_msgs/OccupancyGrid, transient local) and ~/graph (amr_interfaces/PoseGraph) go out when the
+           /map (nav_msgs/OccupancyGrid) and ~/graph (amr_interfaces/PoseGraph), both transient local, go out when the
            map changed, at most every map_publish_period s of scan time (a steady timer sends a change left over
            when no scan comes: a lockstep simulator holding the robot).
            ~/save_map (amr_interfaces/SaveMap) writes <path>.yaml, <path>.pgm and <path>.poses.csv; a path that
@@ -191,7 +191,7 @@ class SlamNode(ManagedNode):
         )
         self._outputs = {
             "map": self.create_lifecycle_publisher(OccupancyGridMessage, "map", LATCHED),
-            "graph": self.create_lifecycle_publisher(PoseGraph, "~/graph", reliable(2)),
+            "graph": self.create_lifecycle_publisher(PoseGraph, "~/graph", LATCHED),  # a late viewer gets it too
             "pose": self.create_lifecycle_publisher(LocalizedPose, "pose", reliable()),
             "status": self.create_lifecycle_publisher(LocalizerStatus, "~/status", reliable()),
         }

@@ -75,8 +75,8 @@ class RobotLink:
         "beacons": (BeaconRanges, reliable(10), False),
         "map": (OccupancyGrid, LATCHED, False),
         "simulator/status": (SimulatorStatus, reliable(10), False),
-        "slam/graph": (PoseGraph, reliable(2), False),
-        "explorer/frontiers": (Frontiers, reliable(2), False),
+        "slam/graph": (PoseGraph, LATCHED, False),  # the state as it is, to a viewer started late too
+        "explorer/frontiers": (Frontiers, LATCHED, False),
     }
     LAYER = {"slam/graph": "graph", "explorer/frontiers": "frontiers"}
     """Leaf -> the RobotState layer it feeds, where the names differ."""

@@ -1,5 +1,6 @@
 """The maze_mapping stack through ROS, in lockstep on a small world: slam's /map grows as the explorer drives, and
-~/save_map writes a map load_map reads, or says why it cannot (the map kept)."""
+~/save_map writes a map load_map reads, or says why it cannot (the map kept); a subscriber that joins while the
+simulator is paused still gets the last map, graph and frontiers (all three latched)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,10 @@ import pytest
 from conftest import spin_until
 from nav_msgs.msg import OccupancyGrid as OccupancyGridMessage
 from rclpy.node import Node
+from std_srvs.srv import Trigger
 
 from amr_bringup.composed import composed_stack
-from amr_interfaces.msg import Frontiers
+from amr_interfaces.msg import Frontiers, PoseGraph
 from amr_interfaces.srv import SaveMap
 from amr_maps.map_io import load_map
 from amr_util.lean_executor import LeanExecutor
@@ -67,6 +69,22 @@ def test_the_map_grows_while_exploring_and_save_map_writes_it(ros_context, tmp_p
             assert not refused.success and str(blocker) in refused.message
             again = call(executor, client, str(tmp_path / "again"))  # the map was kept
             assert again.success and load_map(tmp_path / "again.yaml").data.shape[0] > 0
+            pause = probe.create_client(Trigger, "/simulator/pause")
+            assert pause.wait_for_service(timeout_sec=10.0)
+            paused = pause.call_async(Trigger.Request())
+            assert spin_until(executor, paused.done, 20.0) and paused.result().success, "/simulator/pause"
+            time.sleep(1.0)  # the last graph and frontiers of the run are out
+            late: dict[str, list] = {"map": [], "graph": [], "frontiers": []}
+            for key, kind, topic in (
+                ("map", OccupancyGridMessage, "/map"),
+                ("graph", PoseGraph, "/slam/graph"),
+                ("frontiers", Frontiers, "/explorer/frontiers"),
+            ):
+                probe.create_subscription(kind, topic, late[key].append, LATCHED)
+            assert spin_until(executor, lambda: all(late.values()), 20.0), (
+                f"a subscriber joining on a paused simulator got { ({k: len(v) for k, v in late.items()}) }"
+            )
+            assert len(late["graph"][-1].poses) > 5 and late["frontiers"][-1].header.frame_id == "map"
         finally:
             executor.remove_node(probe)
             probe.destroy_node()

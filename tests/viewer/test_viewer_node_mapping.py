@@ -25,14 +25,14 @@ TIMEOUT = 15.0
 
 
 class FakeSlam(Node):
-    """What amr_mapping's slam and explorer publish in a namespace: /map (growing), slam/graph, explorer/frontiers,
-    and /pose (which makes the namespace a robot)."""
+    """What amr_mapping's slam and explorer publish in a namespace: /map (growing), slam/graph, explorer/frontiers
+    (all three latched, as theirs), and /pose (which makes the namespace a robot)."""
 
     def __init__(self, context, namespace: str = "/", slam: str = "slam", explorer: str = "explorer"):
         super().__init__("fake_slam", namespace=namespace, context=context)
         self.map = self.create_publisher(OccupancyGrid, "map", LATCHED)
-        self.graph = self.create_publisher(PoseGraph, f"{slam}/graph", reliable(2))
-        self.frontiers = self.create_publisher(Frontiers, f"{explorer}/frontiers", reliable(2))
+        self.graph = self.create_publisher(PoseGraph, f"{slam}/graph", LATCHED)
+        self.frontiers = self.create_publisher(Frontiers, f"{explorer}/frontiers", LATCHED)
         self.pose = self.create_publisher(LocalizedPose, "pose", reliable(10))
         self.pose.publish(LocalizedPose())
 
