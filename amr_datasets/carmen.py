@@ -132,6 +132,11 @@ class _Raw:
     """The line's own maximum range (ROBOTLASER), if it states one."""
 
 
+def log_name(path: Path) -> str:
+    """A log's name: its file name's first word (intel-corrected.log.gz: intel; orebro.log: orebro)."""
+    return Path(path).name.split("-")[0].split(".")[0]
+
+
 def open_text(path: Path):
     """The file as text lines, gunzipped when it is gzip (by its magic bytes, whatever its name)."""
     with open(path, "rb") as probe:

@@ -36,7 +36,7 @@ from bench_log_localization import DATA, ROOT, served, shipped_filter_parameters
 
 from amr_control.wall_follower import WallFollower
 from amr_control.wall_follower_config import read_parameter_file
-from amr_datasets.carmen import read_carmen
+from amr_datasets.carmen import log_name, read_carmen
 from amr_datasets.odometry import OdometryNoiseModel
 from amr_evaluation.log_localization import filter_for, log_map
 from amr_localization.beam_correlation import beam_weights
@@ -171,7 +171,7 @@ def main() -> int:
     args = parser.parse_args()
     files = sorted(args.data.glob("*.log*"))
     if args.logs:
-        files = [f for f in files if f.name.split("-")[0].split(".")[0] in args.logs]
+        files = [f for f in files if log_name(f) in args.logs]
     if not files and not args.worlds:
         print(f"no CARMEN log in {args.data}", file=sys.stderr)
         return 2
@@ -180,7 +180,7 @@ def main() -> int:
         for low, high in zip(EDGES[:-1], EDGES[1:], strict=True)
     ]
     print("log | " + " | ".join(labels) + " m | fitted l (m) | independent beams per scan, median (5-95 %)")
-    cases = [(path.name.split("-")[0].split(".")[0], lambda path=path: log_case(path)) for path in files]
+    cases = [(log_name(path), lambda path=path: log_case(path)) for path in files]
     cases += [(f"{name} (simulated)", lambda name=name: world_case(name, args.seconds, 0.5)) for name in args.worlds]
     by_travel = []
     for label, case in cases:

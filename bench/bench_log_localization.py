@@ -29,7 +29,7 @@ from pathlib import Path
 
 import yaml
 
-from amr_datasets.carmen import read_carmen
+from amr_datasets.carmen import log_name, read_carmen
 from amr_evaluation.log_localization import log_map, log_map_beside, run_log
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_maps.map_io import load_map, save_map
@@ -54,11 +54,6 @@ def served(grid):
     with tempfile.TemporaryDirectory() as directory:
         save_map(grid, Path(directory) / "map.yaml")
         return load_map(Path(directory) / "map.yaml", frame_id=grid.frame_id)
-
-
-def log_name(path: Path) -> str:
-    """A log's name: its file name's first word (intel-corrected.log.gz: intel)."""
-    return path.name.split("-")[0].split(".")[0]
 
 
 def main() -> int:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from amr_datasets.carmen import LOG_MOUNT, read_carmen
+from amr_datasets.carmen import LOG_MOUNT, log_name, read_carmen
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
@@ -91,10 +91,10 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
     if save is not None:
         save.mkdir(parents=True, exist_ok=True)
         map_start = time.perf_counter()
-        slam.save(save / path.name.split("-")[0])
+        slam.save(save / log_name(path))
         print(f"  map saved in {time.perf_counter() - map_start:.2f} s")
     return {
-        "name": path.name.split("-")[0],
+        "name": log_name(path),
         "scans": len(log),
         "nodes": len(poses),
         "closures": int(slam.graph()[2].sum()),
@@ -141,7 +141,7 @@ def main() -> None:
     args = parser.parse_args()
     paths = sorted(args.data.glob("*.log*"))
     if args.logs:
-        paths = [p for p in paths if p.name.split("-")[0].split(".")[0] in args.logs]
+        paths = [p for p in paths if log_name(p) in args.logs]
     if not paths:
         sys.exit(f"no CARMEN logs in {args.data}")
     overrides = {}

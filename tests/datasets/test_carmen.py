@@ -4,12 +4,13 @@ malformed lines named by file and line."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from support.carmen_logs import MAX_RANGE, SHARED, flaser_line, ranges_of, write_log
 
-from amr_datasets.carmen import DatasetError, detect_max_range, read_carmen
+from amr_datasets.carmen import DatasetError, detect_max_range, log_name, read_carmen
 from amr_util.geometry import wrap_angle
 
 
@@ -179,3 +180,11 @@ def test_the_shipped_logs(name, count, beams, max_range, stamped):
     assert 0.3 < np.median(steps) < 1.5  # keyframes about 1 m apart
     ranges = np.concatenate([scan.scan.ranges for scan in log.scans])
     assert not np.isnan(ranges).any() and np.isposinf(ranges).sum() >= 600
+
+
+def test_a_logs_name_is_its_file_names_first_word():
+    assert [log_name(Path(n)) for n in ("intel-corrected.log.gz", "orebro.log", "/data/fr079-sm.log")] == [
+        "intel",
+        "orebro",
+        "fr079",
+    ]
