@@ -393,6 +393,50 @@ def test_a_turn_the_odometry_misreads_beyond_its_window_is_found_in_the_whole_wi
     assert any("whole angular window" in event for event in events), events
 
 
+@pytest.mark.parametrize("error", [(0.0, 0.15, 0.0), (0.05, 0.1, math.radians(3.0))])
+def test_a_scan_after_nodes_on_odometry_alone_is_searched_over_the_odometry_since_the_last_matched_node(ring, error):
+    """The prior of a scan after nodes added on odometry alone is as uncertain against the window (its matched
+    nodes) as the odometry since the newest of them, not only as its own step: nodes 5-7 (no usable beams) each
+    misread by `error`, the prior of node 8 0.3-0.45 m (and 9 deg) off, beyond its own step's 3 sigma (15 cm) but
+    within the three steps' (searched within its own step, node 8 was placed 0.37-0.42 m off; orebro, odometry seed
+    2: a node 1.3 m and 20 deg off, and the next eight scans on odometry alone)."""
+    caster, truth = ring
+    misread = (5, 6, 7)
+    odometry = [truth[0]]
+    for k in range(1, 10):
+        step = np.array(relative_pose(truth[k - 1], truth[k])) + (error if k in misread else 0.0)
+        odometry.append(np.array(compose(odometry[-1], step)))
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
+    rng = np.random.default_rng(1)
+    empty = ScanData(np.full(BEAMS, np.nan), -math.pi, INCREMENT, 0.1, MAX_RANGE)
+    events = {}
+    for k in range(10):
+        update = slam.add(k * 100_000_000, odometry[k], empty if k in misread else _scan(caster, truth[k], rng))
+        events[k] = update.events
+    assert all(any("odometry alone" in event for event in events[k]) for k in misread)
+    assert not any("odometry alone" in event for k in (8, 9) for event in events[k]), events
+    poses = slam.graph()[0]
+    for k in (8, 9):
+        offset = np.array(relative_pose(poses[4], poses[k])) - np.array(relative_pose(truth[4], truth[k]))
+        assert np.hypot(*offset[:2]) < 0.03 and math.degrees(abs(offset[2])) < 1.0, (k, offset)
+
+
+def test_the_odometry_models_heading_error_turns_its_translation():
+    """Half of a step's heading error is made before its translation (the motion model's rot1, trans, rot2), so a
+    long step is uncertain sideways, with the heading, more than along: orebro's 3 m keyframes, one 1.26 m and 20 deg
+    off at odometry seed 2, were searched within 0.96 m."""
+    along_x = slam_module._odometry_model((3.0, 0.0, 0.0))
+    assert along_x[1, 1] > 2.0 * along_x[0, 0]
+    assert along_x[1, 2] > 0.0 and abs(along_x[0, 2]) < 1e-12  # turned left: moved left
+    along_y = slam_module._odometry_model((0.0, 3.0, 0.0))
+    assert along_y[0, 0] == pytest.approx(along_x[1, 1]) and along_y[0, 2] < 0.0
+    assert np.all(np.linalg.eigvalsh(along_x) > 0.0)
+    turn = slam_module._odometry_model((0.0, 0.0, 1.0))
+    assert np.count_nonzero(turn - np.diag(np.diag(turn))) == 0  # a turn in place: no translation to turn
+    linear, _ = slam_module._match_window(slam_module._odometry_information((3.0, 0.0, 0.0)), SlamConfig())
+    assert linear >= 1.3
+
+
 def test_save_finishes_an_optimization_still_running_over_the_updates(ring, tmp_path, monkeypatch):
     """A map saved while the optimization a closure started is carried over the updates (OPTIMIZE_BUDGET) is the
     optimized graph's: save finishes it first; saved again, nothing moves."""
