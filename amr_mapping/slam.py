@@ -11,7 +11,9 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points; the nodes added on
   odometry alone left out: their poses are unverified; only the surfaces facing the odometry prior's sensor:
   _facing), within
-  WINDOW_SIGMAS standard deviations of the odometry model (ODOMETRY_SIGMA) since the last node, at most
+  WINDOW_SIGMAS standard deviations of the odometry model (_odometry_model: ODOMETRY_SIGMA, the heading's error half
+  made before the step's translation) since the last node (since the newest matched node, when nodes were added on
+  odometry alone since), at most
   +-match_linear_window / +-match_angular_window; the match is the posterior's mode over that window, the score's
   likelihood times the odometry prior (_posterior_mode), not the best score alone. It and its point-to-line refinement
   (_align) are weighed by their own informations (_refined: the score's curvature, the refinement's normal equations);
@@ -698,8 +700,9 @@ class GraphSlam:
         self, prior: np.ndarray, points: np.ndarray, delta: np.ndarray, events: list[str]
     ) -> tuple[np.ndarray, np.ndarray, float | None]:
         """(pose, covariance, score): the scan matched against the local submap within 3 sigma of the odometry model
-        since the last node, fused with the odometry prior, and that estimate's covariance (the new node's frame:
-        _fused_covariance); or the prior alone (the same array) and the odometry model's covariance."""
+        since the last node (the newest matched one: the window's newest member), fused with the odometry prior, and
+        that estimate's covariance (the new node's frame: _fused_covariance); or the prior alone (the same array) and
+        the odometry model's covariance."""
         cfg = self.config
         # the odometry's own error (what the estimate carries of it), not the prior's width: a node added on it
         # is linked to the last node by this step alone
