@@ -15,7 +15,8 @@ Goals (the issue): relative error <= 5 cm and <= 1 deg, ATE <= 0.2 m, >= 10x fas
 above 200 ms.
 
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_logs.py [--data DIR] [--logs intel ...]
-[--seed 0] [--save DIR (maps and poses of each log)] [--slam KEY=VALUE ... (SlamConfig fields)]
+[--seeds 0 (several: a summary across them)] [--save DIR (maps and poses of each log)]
+[--slam KEY=VALUE ... (SlamConfig fields)]
 """
 
 from __future__ import annotations
@@ -117,6 +118,20 @@ def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dic
     }
 
 
+def print_summary(rows: list[dict], seeds: int) -> None:
+    """Per log, across the odometry seeds: the relative error's mean (m, deg) and worst, the ATE's median and worst,
+    and how many seeds meet the goals (rel <= 5 cm and 1 deg, ATE <= 0.2 m)."""
+    print(f"across {seeds} seeds: rel m mean / max, rel deg mean / max, ATE m median / max; seeds meeting ATE, rel")
+    for name in dict.fromkeys(row["name"] for row in rows):
+        mine = [row for row in rows if row["name"] == name]
+        rel_t, rel_r, ate = (np.array([row[key] for row in mine]) for key in ("rel_t", "rel_r", "ate"))
+        print(
+            f"{name:8s} {rel_t.mean():6.3f} / {rel_t.max():6.3f}  {rel_r.mean():5.2f} / {rel_r.max():5.2f}  "
+            f"{np.median(ate):6.3f} / {ate.max():6.3f}  {int(np.sum(ate <= 0.2)):3d} of {len(mine)}"
+            f"  {int(np.sum((rel_t <= 0.05) & (rel_r <= 1.0))):3d} of {len(mine)}"
+        )
+
+
 def warm_up(path: Path, config: SlamConfig, scans: int = 30) -> None:
     """The first scans of a log through a GraphSlam, untimed: the process's first update loads the compiled
     kernels (numba's cache: 0.2-0.25 s once per process, at load 6), which is start-up, not a scan's cost."""
@@ -133,7 +148,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DATA)
     parser.add_argument("--logs", nargs="*", default=None, help="log names (intel, aces, ...); default all")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", default=[0], help="odometry noise seeds; several: a summary across them"
+    )
     parser.add_argument("--save", type=Path, default=None)
     parser.add_argument(
         "--slam", nargs="*", default=[], metavar="KEY=VALUE", help="SlamConfig fields over the defaults"
@@ -158,9 +175,11 @@ def main() -> None:
         f"{'mean':>5s} {'p95':>5s} {'max':>5s} ms | cpu {'p95':>5s} {'max':>5s} ms @scan | speed"
     )
     rows = []
-    for path in paths:
-        result = run_log(path, args.seed, config, args.save)
+    for seed, path in ((seed, path) for seed in args.seeds for path in paths):
+        result = run_log(path, seed, config, args.save)
         rows.append(result)
+        if len(args.seeds) > 1:
+            print(f"seed {seed} ", end="")
         speed = f"{result['duration'] / result['total']:.0f}x" if result["duration"] else "n/a (no stamps)"
         print(
             f"{result['name']:8s} {result['scans']:5d} {result['nodes']:5d} {result['closures']:5d} "
@@ -172,6 +191,8 @@ def main() -> None:
             flush=True,
         )
     print(header)
+    if len(args.seeds) > 1:
+        print_summary(rows, len(args.seeds))
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores)")
 
 
