@@ -704,11 +704,10 @@ class GraphSlam:
         that estimate's covariance (the new node's frame: _fused_covariance); or the prior alone (the same array) and
         the odometry model's covariance."""
         cfg = self.config
-        # the odometry's own error (what the estimate carries of it), not the prior's width: a node added on it
-        # is linked to the last node by this step alone
-        # (the new node's frame, as a link's: _rotated)
+        # the odometry's own error (what the estimate carries of it), not the prior's width: a node added on it is
+        # linked to the last node by this step alone (in the new node's frame, as a link's covariance is)
         odometry_covariance = _rotated(
-            _odometry_covariance(delta, cfg.odometry_error_xy, cfg.odometry_error_theta), delta[2]
+            _odometry_model(delta, share_xy=cfg.odometry_error_xy, share_theta=cfg.odometry_error_theta), delta[2]
         )
         if len(points) < MIN_BEAMS:
             events.append(f"scan has {len(points)} usable beams (< {MIN_BEAMS}): node added on odometry alone")
@@ -791,9 +790,7 @@ class GraphSlam:
             (match_information, match_covariance),
             (
                 odometry_information,
-                _rotated(
-                    _odometry_covariance(motion, cfg.odometry_error_xy, cfg.odometry_error_theta, path, turn), turned
-                ),
+                _rotated(_odometry_model(motion, path, turn, cfg.odometry_error_xy, cfg.odometry_error_theta), turned),
             ),
         )
         return pose, _rotated(covariance, fused[2]), float(match.score)
@@ -1528,15 +1525,11 @@ def _odometry_information(delta, path: float | None = None, turn: float | None =
     return np.linalg.inv(_odometry_model(delta, path, turn))
 
 
-def _odometry_covariance(delta, share_xy: float, share_theta: float, path=None, turn=None) -> np.ndarray:
-    """The robot's odometry error's covariance for a motion delta: the model's (_odometry_model) at these shares of
-    its standard deviations (position, heading)."""
-    return _odometry_model(delta, path, turn, share_xy, share_theta)
-
-
 def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_theta: float = 1.0) -> np.ndarray:
     """The covariance (the frame the motion starts in) of odometry's error over a motion delta (dx, dy, dtheta),
-    `path` m driven and `turn` rad turned: ODOMETRY_SIGMA's position error, isotropic, and heading error, half of it
+    `path` m driven and `turn` rad turned (by default the delta's own), the standard deviations at share_xy /
+    share_theta (the robot's own error: SlamConfig.odometry_error_xy / _theta; 1: the model, the front end's prior):
+    ODOMETRY_SIGMA's position error, isotropic, and heading error, half of it
     made before the translation, so that it turns the whole of it (the motion model's rot1, trans, rot2:
     Probabilistic Robotics, table 5.6): the position off sideways by d e_1 (variance d^2 sigma_theta^2 / 2, correlated
     with the heading's d sigma_theta^2 / 2). Without it, a 3 m step (orebro's keyframes) was searched within 0.96 m
@@ -1546,7 +1539,7 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
     s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
     position = share_xy * (s_xy + s_xy_d * d)
     heading = share_theta * (s_th + s_th_a * (a + d))
-    direction = math.atan2(delta[1], delta[0]) if math.hypot(delta[0], delta[1]) > 0.0 else 0.0
+    direction = math.atan2(delta[1], delta[0])  # no net translation: atan2(0, 0) = 0, x taken as the way on
     side = np.array([-math.sin(direction), math.cos(direction)])
     covariance = np.diag([position**2, position**2, heading**2])
     covariance[:2, :2] += 0.5 * (d * heading) ** 2 * np.outer(side, side)

@@ -15,7 +15,7 @@ Goals (the issue): relative error <= 5 cm and <= 1 deg, ATE <= 0.2 m, >= 10x fas
 above 200 ms.
 
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_logs.py [--data DIR] [--logs intel ...]
-[--seeds 0 (several: a summary across them)] [--save DIR (maps and poses of each log)]
+[--seeds 0 (several: a summary across them)] [--save DIR (maps and poses of each log; DIR/seedN with several)]
 [--slam KEY=VALUE ... (SlamConfig fields)]
 """
 
@@ -176,7 +176,8 @@ def main() -> None:
     )
     rows = []
     for seed, path in ((seed, path) for seed in args.seeds for path in paths):
-        result = run_log(path, seed, config, args.save)
+        save = args.save / f"seed{seed}" if args.save is not None and len(args.seeds) > 1 else args.save
+        result = run_log(path, seed, config, save)
         rows.append(result)
         if len(args.seeds) > 1:
             print(f"seed {seed} ", end="")
