@@ -5,6 +5,7 @@ numbers.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
@@ -47,8 +48,9 @@ class Framing:
     def __init__(self) -> None:
         self.framed: set[int] = set()
         """Browsers given a camera (one connected before there was anything to frame is framed at a draw)."""
-        self.top_views: dict[int, tuple[Bounds, list[Camera]]] = {}
-        """client -> (the bounds, the cameras) of the top view it was last given: followed as a SLAM map grows."""
+        self.top_views: dict[int, tuple[Bounds, list[Camera], tuple[float, float]]] = {}
+        """client -> (the bounds, the cameras, the browser's canvas (aspect, width in px)) of the top view it was last
+        given: followed as a SLAM map grows and as the canvas changes."""
 
     def clear(self) -> None:
         self.framed.clear()
@@ -74,26 +76,37 @@ class Framing:
             bounds = union(robots)
             if bounds is None:
                 return None
-            aspect, width = screen()
-            camera = top_down_camera(bounds, aspect, free=free_share(width))
+            canvas = screen()
+            camera = top_down_camera(bounds, canvas[0], free=free_share(canvas[1]))
         self.framed.add(client)
         if view == "arms" and arms:
             self.top_views.pop(client, None)
         else:
-            earlier = self.top_views.get(client, (None, []))[1]
+            earlier = self.top_views.get(client, (None, [], None))[1]
             # the cameras this view was given, latest last: the browser reports its camera back late, so a report of
             # an earlier one is ours too, not the user's
-            self.top_views[client] = (bounds, [*earlier[-(CAMERAS_KEPT - 1) :], camera])
+            self.top_views[client] = (bounds, [*earlier[-(CAMERAS_KEPT - 1) :], camera], canvas)
         return camera
 
-    def outgrown(self, client: int, reported: Callable[[], tuple], maps: Iterable[Bounds]) -> bool:
-        """The browser's top view should be framed again: the maps have grown out of it and its camera (`reported()`:
-        (position, look_at) as the browser reports them, asked for only then) is still one it was given. A camera
-        the user moved is left alone from now on (until the top view is asked for again); without a map the view
-        stays where it was put."""
+    def stale(
+        self,
+        client: int,
+        reported: Callable[[], tuple],
+        maps: Iterable[Bounds],
+        screen: Callable[[], tuple[float, float]],
+    ) -> bool:
+        """The browser's top view should be framed again: the maps have grown out of it, or the browser's canvas
+        (`screen()`: aspect, width in px) is not the one it was framed for (a page whose first report came before its
+        layout did, a window resized), and its camera (`reported()`: (position, look_at) as the browser reports
+        them, asked for only then) is still one it was given. A camera the user moved is left alone from now on
+        (until the top view is asked for again); without a map the view stays where it was put unless the canvas
+        changed."""
         view = self.top_views.get(client)
+        if view is None:
+            return False
         bounds = union(maps)
-        if view is None or bounds is None or not outgrown(view[0], bounds):
+        grown = bounds is not None and outgrown(view[0], bounds)
+        if not grown and not reshaped(view[2], screen()):
             return False
         position, look_at = reported()
         if not any(
@@ -103,3 +116,8 @@ class Framing:
             self.top_views.pop(client)  # the user's camera from now on, until Top view is pressed
             return False
         return True
+
+
+def reshaped(framed: tuple[float, float], now: tuple[float, float]) -> bool:
+    """Whether a browser's canvas (aspect, width in px) `now` is not the one a view was `framed` for."""
+    return not math.isclose(framed[0], now[0], rel_tol=1e-3) or free_share(framed[1]) != free_share(now[1])

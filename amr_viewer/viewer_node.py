@@ -581,10 +581,15 @@ class ViewerNode(ManagedNode):
             client.camera.look_at = camera.look_at
 
     def _follow_growth(self, client) -> bool:
-        """Frame the top view again when the robots' maps have grown out of it and the user has not moved the
-        camera since it was set (Framing.outgrown); True when it was framed again."""
+        """Frame the top view again when the robots' maps have grown out of it or the browser's canvas changed, and
+        the user has not moved the camera since it was set (Framing.stale); True when it was framed again."""
         maps = [link.state.map.bounds for link in self.robots.values() if link.state.map is not None]
-        if not self.framing.outgrown(client.client_id, lambda: (client.camera.position, client.camera.look_at), maps):
+        if not self.framing.stale(
+            client.client_id,
+            lambda: (client.camera.position, client.camera.look_at),
+            maps,
+            lambda: (client.camera.aspect, client.camera.image_width),
+        ):
             return False
         self._frame(client, "top")
         return True

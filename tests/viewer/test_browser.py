@@ -685,6 +685,8 @@ def test_a_mapping_run_shows_the_growing_map_its_pose_graph_and_the_frontiers(pl
             wait_for(lambda: any(probe.graphs[-1].loop_closure), 600.0, "a loop closure")
         probe.pause_simulator()
         quiet(probe.clocks, 0.5, what="/clock to stop after the pause")
+        # slam sends a change no scan carried out after map_publish_period of wall time (1 s): the map is still then
+        quiet(probe.graphs, 2.5, what="slam's last map and graph after the pause")
         browser = Browser(playwright, stack.url)
         browser.reply(re.compile(r"graph \d+ nodes, \d+ edges, \d+ loop closures"))  # the status panel says it
         browser.reply(re.compile(r"explorer \w+: \d+ frontiers"))

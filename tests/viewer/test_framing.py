@@ -1,5 +1,5 @@
 """Framing, where each browser's camera looks (no ROS, no viser): the robots from above or the arms at an angle,
-the top view followed as a map grows until the user moves the camera."""
+the top view followed as a map grows and as the browser's canvas changes, until the user moves the camera."""
 
 from __future__ import annotations
 
@@ -42,30 +42,47 @@ def test_the_arms_are_seen_at_an_angle_and_their_view_is_not_followed():
         7, "arms", robots=[ROOM], arms=[(2.0, -0.5, 3.0, 0.5), (3.0, -0.5, 4.0, 0.5)], screen=unknown_screen
     )
     assert camera == oblique_camera((2.0, -0.5, 4.0, 0.5)) and 7 not in framing.top_views
-    assert not framing.outgrown(7, unknown_screen, [(-5.0, -5.0, 5.0, 5.0)]), "not asked: no top view to follow"
+    assert not framing.stale(7, unknown_screen, [(-5.0, -5.0, 5.0, 5.0)], screen), "not asked: no top view to follow"
 
 
 def test_a_grown_map_is_followed_while_the_camera_is_one_the_view_was_given():
     framing = Framing()
     first = top(framing)
-    assert not framing.outgrown(7, unknown_screen, []), "without a map the view stays"
-    assert not framing.outgrown(7, unknown_screen, [ROOM]), "the map within the view"
+    assert not framing.stale(7, unknown_screen, [], screen), "without a map the view stays"
+    assert not framing.stale(7, unknown_screen, [ROOM], screen), "the map within the view"
     grown = [(-2.0, -1.0, 1.0, 1.0)]
-    assert framing.outgrown(7, reported(first), grown)
+    assert framing.stale(7, reported(first), grown, screen)
     second = top(framing, robots=grown)
-    assert framing.outgrown(7, reported(first), [(-4.0, -1.0, 1.0, 1.0)]), (
+    assert framing.stale(7, reported(first), [(-4.0, -1.0, 1.0, 1.0)], screen), (
         "a camera reported late, one given earlier, is not the user's"
     )
     assert len(framing.top_views[7][1]) == 2 and framing.top_views[7][1][-1] == second
+
+
+def test_a_canvas_other_than_the_one_the_view_was_framed_for_frames_it_again():
+    """A page reports its camera before its layout is done (width 0: the whole canvas taken as free); the view is
+    framed again once its canvas is known, as after a window is resized, unless the user moved the camera."""
+    framing = Framing()
+    first = top(framing)
+    assert not framing.stale(7, unknown_screen, [ROOM], screen), "the same canvas, the map within the view"
+    laid_out = lambda: (1.6, 1280)  # noqa: E731
+    assert framing.stale(7, reported(first), [ROOM], laid_out)
+    second = framing.camera(7, "top", robots=[ROOM], arms=[], screen=laid_out)
+    assert second != first and not framing.stale(7, reported(second), [ROOM], laid_out)
+    assert framing.stale(7, reported(second), [], lambda: (1.2, 1280)), "a window resized, even without a map"
+    assert not framing.stale(7, lambda: ((0.5, 0.5, 3.0), (0.0, 0.0, 0.0)), [ROOM], lambda: (1.2, 1280))
+    assert 7 not in framing.top_views, "the user's camera is left alone"
 
 
 def test_a_camera_the_user_moved_is_left_alone_until_the_top_view_is_asked_for():
     framing = Framing()
     top(framing)
     grown = [(-3.0, -1.0, 1.0, 1.0)]
-    assert not framing.outgrown(7, lambda: ((0.5, 0.5, 3.0), (0.0, 0.0, 0.0)), grown) and 7 not in framing.top_views
+    assert (
+        not framing.stale(7, lambda: ((0.5, 0.5, 3.0), (0.0, 0.0, 0.0)), grown, screen) and 7 not in framing.top_views
+    )
     camera = top(framing, robots=grown)
-    assert framing.outgrown(7, reported(camera), [(-6.0, -1.0, 1.0, 1.0)]), "followed again"
+    assert framing.stale(7, reported(camera), [(-6.0, -1.0, 1.0, 1.0)], screen), "followed again"
 
 
 def test_only_the_last_cameras_are_kept_per_browser_and_each_browser_has_its_own():
