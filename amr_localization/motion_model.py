@@ -85,10 +85,23 @@ def sample_motion_model_odometry(
     return moved
 
 
-def motion_variance(
-    d_trans: float, d_theta: float, noise: OdometryNoise, heading_variance: float = 0.0
-) -> tuple[float, float]:
-    """(m^2, rad^2) the position's and the heading's variance one motion (d_trans m, d_theta rad) adds, first order
-    in the alphas, with the heading's variance already held (heading_variance) carried over its distance."""
-    position = noise.alpha3 * d_trans**2 + noise.alpha4 * d_theta**2 + heading_variance * d_trans**2
-    return position, noise.alpha1 * d_theta**2 + noise.alpha2 * d_trans**2
+def motion_variance(increment, noise: OdometryNoise, heading_variance: float = 0.0) -> tuple[float, float]:
+    """(m^2, rad^2) the position's and the heading's variance that sample_motion_model_odometry's noise adds over
+    one odometry `increment` (x, y, theta in the frame it began in), first order in the alphas: the heading's from
+    both rotations' noise, the position's along the travel (the translation's noise) and across it (the first
+    rotation's noise, and the heading's variance already held, `heading_variance`, carried over the distance):
+
+        var(rot1) = alpha1 rot1^2 + alpha2 trans^2,   var(rot2) = alpha1 rot2^2 + alpha2 trans^2
+        heading   = var(rot1) + var(rot2)
+        position  = alpha3 trans^2 + alpha4 (rot1^2 + rot2^2) + (var(rot1) + heading_variance) trans^2
+
+    with rot1, rot2 the turns off the line of travel, as the sampler takes them. A turn in place whose reference
+    slid a few centimetres sideways is a quarter turn off the line each way for the sampler, and so here: its heading
+    noise is several times the net turn's (the variance must be the one the particles spread by)."""
+    d_rot1, d_trans, d_rot2 = odometry_increment((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
+    rot1 = min(abs(d_rot1), abs(float(wrap_angle(d_rot1 - math.pi))))
+    rot2 = min(abs(d_rot2), abs(float(wrap_angle(d_rot2 - math.pi))))
+    rot1_variance = noise.alpha1 * rot1**2 + noise.alpha2 * d_trans**2
+    rot2_variance = noise.alpha1 * rot2**2 + noise.alpha2 * d_trans**2
+    along = noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1**2 + rot2**2)
+    return along + (rot1_variance + heading_variance) * d_trans**2, rot1_variance + rot2_variance

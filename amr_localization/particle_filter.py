@@ -223,9 +223,9 @@ class _Search:
     heading_variance: float = 0.0
     ahead: Future | None = None
 
-    def moved(self, d_trans: float, d_theta: float, noise) -> None:
-        """The motion model's noise over one more motion (motion_variance)."""
-        position, heading = motion_variance(d_trans, d_theta, noise, self.heading_variance)
+    def moved(self, increment, noise) -> None:
+        """The motion model's noise over one more odometry increment (motion_variance)."""
+        position, heading = motion_variance(increment, noise, self.heading_variance)
         self.position_variance += position
         self.heading_variance += heading
 
@@ -437,9 +437,9 @@ class ParticleFilter:
         self.particles = moved
         self.status.killed = int(np.count_nonzero(~alive & (self.weights > 0.0)))
         self.weights = np.where(alive, self.weights, 0.0)
-        self.hypotheses.move(increment, motion_variance(d_trans, d_theta, self.noise)[0])
+        self.hypotheses.move(increment, motion_variance(increment, self.noise)[0])
         if self._search is not None:
-            self._search.moved(d_trans, d_theta, self.noise)
+            self._search.moved(increment, self.noise)
         if self._declared is not None:
             self._declared = np.asarray(compose(self._declared, increment), dtype=float)
         self._moved = (self._moved[0] + d_trans, self._moved[1] + d_theta)
@@ -846,7 +846,7 @@ class ParticleFilter:
             return self._odometry
         last = self._window[-1]
         prior = np.asarray(relative_pose(last.odometry, self._odometry), dtype=float)
-        position, heading = motion_variance(math.hypot(prior[0], prior[1]), abs(float(prior[2])), self.noise)
+        position, heading = motion_variance(prior, self.noise)
         increment = matched_increment(
             last.points, points, prior, position, heading, self._chain_resolution, self.config.beam_correlation_length
         )

@@ -36,7 +36,7 @@ def test_a_drifted_odometry_increment_is_corrected_by_the_match():
     truth = np.array(relative_pose(first, second))
     drifted = truth + [0.12, -0.08, math.radians(6.0)]  # the odometry's increment, off by 14 cm and 6 deg
     noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)  # the filter's: sigma 0.1 m and 0.1 rad over 1 m
-    position, heading = motion_variance(1.0, 0.15, noise)
+    position, heading = motion_variance(drifted, noise)
     found = matched_increment(seen_from(ROOM, first), seen_from(ROOM, second), drifted, position, heading, 0.05, 0.25)
     assert math.hypot(*(found[:2] - truth[:2])) < 0.03
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
@@ -47,7 +47,7 @@ def test_along_a_corridor_the_odometry_decides_and_across_it_the_match():
     truth = np.array(relative_pose(first, second))
     drifted = truth + [0.1, 0.1, 0.0]  # 10 cm too far along the corridor and 10 cm across it
     noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)
-    position, heading = motion_variance(1.0, 0.0, noise)
+    position, heading = motion_variance(drifted, noise)
     found = matched_increment(
         seen_from(CORRIDOR, first), seen_from(CORRIDOR, second), drifted, position, heading, 0.05, 0.25
     )
@@ -58,7 +58,7 @@ def test_along_a_corridor_the_odometry_decides_and_across_it_the_match():
 def test_a_motion_too_small_to_move_a_point_by_a_cell_is_the_odometry_increment():
     pose = np.array([2.0, 2.0, 0.0])
     prior = np.array([0.01, 0.0, 0.001])
-    position, heading = motion_variance(0.01, 0.001, OdometryNoise(0.01, 0.01, 0.01, 0.01))
+    position, heading = motion_variance(prior, OdometryNoise(0.01, 0.01, 0.01, 0.01))
     found = matched_increment(
         seen_from(ROOM, pose), seen_from(ROOM, pose + prior), prior, position, heading, 0.05, 0.25
     )
@@ -98,7 +98,7 @@ def placed_by_a_half_circle_scanner(first, second, drifted) -> np.ndarray:
     """The increment from `first` to `second` (world poses in HALL) that matched_increment finds from a 180-degree
     scanner's end points within 8 m, the odometry's increment `drifted` with 5 % motion noise."""
     truth = np.array(relative_pose(first, second))
-    position, heading = motion_variance(math.hypot(*truth[:2]), abs(truth[2]), OdometryNoise(0.05, 0.05, 0.05, 0.05))
+    position, heading = motion_variance(truth, OdometryNoise(0.05, 0.05, 0.05, 0.05))
     return matched_increment(
         seen_in_view(HALL, first, 8.0, math.pi),
         seen_in_view(HALL, second, 8.0, math.pi),
