@@ -26,10 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from amr_localization.errors import LocalizationError
-from amr_util.geometry import wrap_angle
-
-STILL = 1e-4
-"""m: below this translation d_rot1 is undefined and taken as 0 (the whole turn goes into d_rot2)."""
+from amr_util.geometry import odometry_turns, off_line, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -49,15 +46,6 @@ class OdometryNoise:
                 raise LocalizationError(f"{name}: must be a finite number >= 0, got {value!r}")
 
 
-def odometry_increment(previous: tuple[float, float, float], current: tuple[float, float, float]):
-    """(d_rot1, d_trans, d_rot2) between two odometry poses."""
-    dx, dy = current[0] - previous[0], current[1] - previous[1]
-    d_trans = math.hypot(dx, dy)
-    d_rot1 = float(wrap_angle(math.atan2(dy, dx) - previous[2])) if d_trans >= STILL else 0.0
-    d_rot2 = float(wrap_angle(current[2] - previous[2] - d_rot1))
-    return d_rot1, d_trans, d_rot2
-
-
 def sample_motion_model_odometry(
     particles: np.ndarray,
     previous: tuple[float, float, float],
@@ -66,10 +54,9 @@ def sample_motion_model_odometry(
     rng: np.random.Generator,
 ) -> np.ndarray:
     """New (N, 3) poses: each particle moved by its own noisy sample of the odometry increment."""
-    d_rot1, d_trans, d_rot2 = odometry_increment(previous, current)
+    d_rot1, d_trans, d_rot2 = odometry_turns(previous, current)
     # noise of a backwards move: measured on the rotation that does not turn around
-    rot1_noise = min(abs(d_rot1), abs(float(wrap_angle(d_rot1 - math.pi))))
-    rot2_noise = min(abs(d_rot2), abs(float(wrap_angle(d_rot2 - math.pi))))
+    rot1_noise, rot2_noise = off_line(d_rot1), off_line(d_rot2)
     count = len(particles)
     draws = rng.standard_normal((count, 3))
     rot1 = d_rot1 - draws[:, 0] * math.sqrt(noise.alpha1 * rot1_noise**2 + noise.alpha2 * d_trans**2)
@@ -88,20 +75,54 @@ def sample_motion_model_odometry(
 def motion_variance(increment, noise: OdometryNoise, heading_variance: float = 0.0) -> tuple[float, float]:
     """(m^2, rad^2) the position's and the heading's variance that sample_motion_model_odometry's noise adds over
     one odometry `increment` (x, y, theta in the frame it began in), first order in the alphas: the heading's from
-    both rotations' noise, the position's along the travel (the translation's noise) and across it (the first
-    rotation's noise, and the heading's variance already held, `heading_variance`, carried over the distance):
+    both rotations' noise, the position's along the travel (the translation's noise) and across it by the heading's
+    variance already held (`heading_variance`) carried over the distance:
 
         var(rot1) = alpha1 rot1^2 + alpha2 trans^2,   var(rot2) = alpha1 rot2^2 + alpha2 trans^2
         heading   = var(rot1) + var(rot2)
-        position  = alpha3 trans^2 + alpha4 (rot1^2 + rot2^2) + (var(rot1) + heading_variance) trans^2
+        position  = alpha3 trans^2 + alpha4 (rot1^2 + rot2^2) + heading_variance trans^2
 
-    with rot1, rot2 the turns off the line of travel, as the sampler takes them. A turn in place whose reference
-    slid a few centimetres sideways is a quarter turn off the line each way for the sampler, and so here: its heading
-    noise is several times the net turn's (the variance must be the one the particles spread by)."""
-    d_rot1, d_trans, d_rot2 = odometry_increment((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
-    rot1 = min(abs(d_rot1), abs(float(wrap_angle(d_rot1 - math.pi))))
-    rot2 = min(abs(d_rot2), abs(float(wrap_angle(d_rot2 - math.pi))))
-    rot1_variance = noise.alpha1 * rot1**2 + noise.alpha2 * d_trans**2
-    rot2_variance = noise.alpha1 * rot2**2 + noise.alpha2 * d_trans**2
+    with rot1, rot2 the turns off the line of travel, as the sampler takes them: a turn in place whose odometry slid a
+    few centimetres sideways is a quarter turn off the line each way for the sampler, and so here (its heading's
+    noise several times the net turn's). The step's own first rotation also moves the position across the travel,
+    by var(rot1) trans^2, which this one isotropic variance leaves to the heading: its users search the heading, which
+    moves a scan across, and taken as isotropic it would widen their window along a corridor the travel runs down
+    (orebro's 3 m keyframes: 0.8 m of sigma)."""
+    d_rot1, d_trans, d_rot2 = odometry_turns((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
+    rot1, rot2 = off_line(d_rot1), off_line(d_rot2)
     along = noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1**2 + rot2**2)
-    return along + (rot1_variance + heading_variance) * d_trans**2, rot1_variance + rot2_variance
+    heading = noise.alpha1 * (rot1**2 + rot2**2) + 2.0 * noise.alpha2 * d_trans**2
+    return along + heading_variance * d_trans**2, heading
+
+
+def motion_covariance(increment, noise: OdometryNoise) -> np.ndarray:
+    """(3, 3) the covariance of the pose sample_motion_model_odometry reaches over one odometry `increment` (x, y,
+    theta in the frame it began in; the covariance in that frame), first order in the alphas: the noises of rot1,
+    trans and rot2 (motion_variance's) through the end pose's Jacobian,
+
+        (x, y, theta) = (trans cos rot1, trans sin rot1, rot1 + rot2)
+        Sigma = J diag(var(rot1), var(trans), var(rot2)) J^T,   J = [[-trans sin rot1, cos rot1, 0],
+                                                                     [ trans cos rot1, sin rot1, 0],
+                                                                     [ 1,              0,        1]]
+
+    across the travel the first rotation's noise over the distance, correlated with the heading's: what the
+    particles spread by, anisotropic (a 3 m keyframe's odometry is off across its travel and in heading together,
+    much less along it); no direction of the position tighter than var(trans) (a turn on the spot slips sideways
+    too, though the first order moves nothing there)."""
+    d_rot1, d_trans, d_rot2 = odometry_turns((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
+    rot1, rot2 = off_line(d_rot1), off_line(d_rot2)
+    variances = np.diag(
+        [
+            noise.alpha1 * rot1**2 + noise.alpha2 * d_trans**2,
+            noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1**2 + rot2**2),
+            noise.alpha1 * rot2**2 + noise.alpha2 * d_trans**2,
+        ]
+    )
+    c, s = math.cos(d_rot1), math.sin(d_rot1)
+    jacobian = np.array([[-d_trans * s, c, 0.0], [d_trans * c, s, 0.0], [1.0, 0.0, 1.0]])
+    covariance = jacobian @ variances @ jacobian.T
+    # no direction of the position tighter than the travel's own noise: at first order a turn on the spot moves
+    # nothing sideways, which a real base does by slipping (raising the position block keeps it positive definite)
+    values, vectors = np.linalg.eigh(covariance[:2, :2])
+    covariance[:2, :2] = (vectors * np.maximum(values, variances[1, 1])) @ vectors.T
+    return covariance

@@ -54,7 +54,12 @@ from amr_localization.helper_threads import submit
 from amr_localization.hypotheses import MAX_HYPOTHESES, MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses, place_index
 from amr_localization.kld_sampling import kld_sample_count, occupied_bins
 from amr_localization.likelihood_field import SPLIT_PARTICLES, FixedPoses, LikelihoodField, LikelihoodFieldParams
-from amr_localization.motion_model import OdometryNoise, motion_variance, sample_motion_model_odometry
+from amr_localization.motion_model import (
+    OdometryNoise,
+    motion_covariance,
+    motion_variance,
+    sample_motion_model_odometry,
+)
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_localization.pose_estimate import PoseEstimate, grouped_covariances, weighted_pose
 from amr_localization.progressive_correction import MAX_STAGES, stage_exponent
@@ -846,9 +851,13 @@ class ParticleFilter:
             return self._odometry
         last = self._window[-1]
         prior = np.asarray(relative_pose(last.odometry, self._odometry), dtype=float)
-        position, heading = motion_variance(prior, self.noise)
         increment = matched_increment(
-            last.points, points, prior, position, heading, self._chain_resolution, self.config.beam_correlation_length
+            last.points,
+            points,
+            prior,
+            motion_covariance(prior, self.noise),
+            self._chain_resolution,
+            self.config.beam_correlation_length,
         )
         return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
 

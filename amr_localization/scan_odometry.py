@@ -5,15 +5,18 @@ place search matches their end points at once; the window's scans must be placed
 odometry drifts over those metres (5 % noise on keyframes a metre apart is 4 deg a scan), and a window placed by it
 fits a look-alike place better than the true one. Each scan's increment from the one before it is therefore the mean
 of its posterior over a lattice of poses within 3 sigma of the odometry's increment (the motion model's own noise,
-motion_model.motion_variance):
+motion_model.motion_covariance):
 
     p(x | scans, odometry)  ~  s(x)^N  exp(-1/2 (x - x_odom)^T Sigma_odom^-1 (x - x_odom))
 
 s(x) the mean likelihood-field lookup of the scan's end points at x against the previous scan's (Olson's rasterized
 scan: amr_maps.scan_matcher), N the independent ones among them (beam_correlation.independent_count with the beam
 correlation length, as in the filter's measurement model: counting every point made a corridor's faint texture outweigh
-the odometry along it, 20-40 cm a scan on aces), Sigma_odom = diag(sigma_p^2, sigma_p^2, sigma_theta^2). Where the
-walls tell the pose (a room) the match decides; where they do not (along a corridor) the odometry does.
+the odometry along it, 20-40 cm a scan on aces), Sigma_odom the motion model's covariance of the increment:
+anisotropic, wide across a long step's travel and in heading together (its first rotation's noise), narrow along it
+(an isotropic one as wide as the along error missed orebro's 3 m keyframe 0.6 m across and 21 deg off, and one as
+wide as the across error let the match slide along a corridor). Where the walls tell the pose (a room) the match
+decides; where they do not (along a corridor) the odometry does.
 
 Where the previous scan did not look (beyond its reach, outside its field of view) it saw no wall, and no wall there
 is no evidence: the posterior is taken over the end points that stay within its view wherever the window moves them
@@ -50,20 +53,21 @@ def matched_increment(
     reference: np.ndarray,
     points: np.ndarray,
     prior,
-    position_variance: float,
-    heading_variance: float,
+    covariance: np.ndarray,
     resolution: float,
     correlation_length: float,
 ) -> np.ndarray:
     """(x, y, theta) of the scan `points` in the frame of the scan `reference` ((K, 2) end points, each in its own
-    robot frame): the odometry's increment `prior` with its variances (m^2, rad^2), fused with the scan match within
-    SIGMAS of it, on cells of `resolution`; end points correlated over `correlation_length` (m)."""
+    robot frame): the odometry's increment `prior` with its (3, 3) covariance (that frame's:
+    motion_model.motion_covariance), fused with the scan match within SIGMAS of it, on cells of `resolution`; end
+    points correlated over `correlation_length` (m)."""
     prior = np.asarray(prior, dtype=float).reshape(3)
     reference, points = np.asarray(reference, dtype=float), np.asarray(points, dtype=float)
     if len(reference) < MIN_POINTS or len(points) < MIN_POINTS:
         return prior
-    position_sigma = math.sqrt(max(position_variance, 0.0))
-    heading_sigma = math.sqrt(max(heading_variance, 0.0))
+    covariance = np.asarray(covariance, dtype=float).reshape(3, 3)
+    sigmas = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+    position_sigma, heading_sigma = float(max(sigmas[0], sigmas[1])), float(sigmas[2])
     farthest = float(np.hypot(points[:, 0], points[:, 1]).max())
     if SIGMAS * (position_sigma + heading_sigma * farthest) < resolution:
         return prior
@@ -71,7 +75,7 @@ def matched_increment(
     angular = min(SIGMAS * heading_sigma, MAX_ANGULAR)
     in_view = _within_view(reference, transform_points(prior, points), linear + resolution, angular)
     sets = [points[in_view]] if in_view.all() else [points[in_view], points]
-    odometry = _Odometry(prior, position_sigma, heading_sigma)
+    odometry = _Odometry(prior, covariance)
     # the reference scan's field on the two lattices (twice the cell, the cell), shared by both point sets
     coarse, fine = (
         CorrelativeMatcher(ScoreMap.from_points(reference, cell, cell, 4.0 * cell), levels=1)
@@ -91,23 +95,22 @@ def matched_increment(
 
 
 class _Odometry(NamedTuple):
-    """The odometry's increment and its standard deviations: the match's Gaussian prior."""
+    """The odometry's increment and its covariance: the match's Gaussian prior."""
 
     increment: np.ndarray
-    position_sigma: float
-    heading_sigma: float
+    covariance: np.ndarray
 
     @property
-    def precisions(self) -> tuple[float, float]:
-        """1 / sigma^2 of position (either axis) and heading."""
-        return 1.0 / max(self.position_sigma**2, 1e-12), 1.0 / max(self.heading_sigma**2, 1e-12)
+    def information(self) -> np.ndarray:
+        """(3, 3) Sigma^-1, its eigenvalues at most 1e12 (a motion without noise in some direction)."""
+        values, vectors = np.linalg.eigh(0.5 * (self.covariance + self.covariance.T))
+        return (vectors / np.maximum(values, 1e-12)) @ vectors.T
 
     def log_density(self, poses: np.ndarray) -> np.ndarray:
         """(M,) the prior's log-density (up to a constant) at each (M, 3) pose."""
         offsets = np.atleast_2d(poses) - self.increment
         offsets[:, 2] = wrap_angle(offsets[:, 2])
-        position, heading = self.precisions
-        return -0.5 * ((offsets[:, 0] ** 2 + offsets[:, 1] ** 2) * position + offsets[:, 2] ** 2 * heading)
+        return -0.5 * np.einsum("mi,ij,mj->m", offsets, self.information, offsets)
 
 
 def _log_posteriors(
@@ -157,22 +160,20 @@ def _posterior_mean(
         lattice.denominator,
         float(independent),
         odometry.increment,
-        *odometry.precisions,
+        odometry.information,
     )
     mean[2] = wrap_angle(mean[2])
     return mean
 
 
 @numba.njit(cache=True, nogil=True)
-def _weighted_offset(
-    prior, offsets, turns, totals, denominator, independent, increment, position_precision, heading_precision
-):
+def _weighted_offset(prior, offsets, turns, totals, denominator, independent, increment, information):
     """The posterior's mean offset from the odometry's `increment` over the lattice (amr_maps' WindowLattice: pose
     [a, y, x] at prior + (offsets[x], offsets[y], turns[a]), score totals[a, y, x] / denominator), with weights
 
         w_m ~ max(score_m, 1e-6)^independent exp(-1/2 (x_m - increment)^T Sigma^-1 (x_m - increment))
 
-    (Sigma^-1 from _Odometry.precisions; the exponent is _Odometry.log_density, pose by pose),
+    (Sigma^-1: _Odometry.information; the exponent is _Odometry.log_density, pose by pose),
 
     headings' offsets wrapped: two passes (the largest log-weight, then the weighted sums) over the lattice's poses
     in window_scores' order, none of them spelled out (numpy made a dozen (M,) temporaries for tens of thousands)."""
@@ -187,7 +188,10 @@ def _weighted_offset(
             for x in range(size):
                 dx = prior[0] + offsets[x] - increment[0]
                 value = independent * math.log(max(totals[a, y, x] / denominator, 1e-6)) - 0.5 * (
-                    (dx * dx + dy * dy) * position_precision + da * da * heading_precision
+                    information[0, 0] * dx * dx
+                    + information[1, 1] * dy * dy
+                    + information[2, 2] * da * da
+                    + 2.0 * (information[0, 1] * dx * dy + information[0, 2] * dx * da + information[1, 2] * dy * da)
                 )
                 log_weights[m] = value
                 top = max(top, value)

@@ -187,3 +187,24 @@ def arc_twist(start: Pose2D, end: Pose2D, dt: float) -> tuple[float, float, floa
     across = -dx * math.sin(mid) + dy * math.cos(mid)
     stretch = 1.0 / chord_factor(dtheta)
     return along * stretch / dt, across * stretch / dt, dtheta / dt
+
+
+# -- the odometry motion model's decomposition ---------------------------------------------------------
+
+STILL = 1e-4
+"""m: below this translation the first rotation is undefined and taken as 0 (the whole turn is the second)."""
+
+
+def odometry_turns(previous, current, still: float = STILL) -> tuple[float, float, float]:
+    """(rot1, trans, rot2) between two poses (Probabilistic Robotics, table 5.6): a first rotation to the line of
+    travel, the translation along it, a second rotation to the end heading; rot1 = 0 below `still` m."""
+    dx, dy = current[0] - previous[0], current[1] - previous[1]
+    trans = math.hypot(dx, dy)
+    rot1 = float(wrap_angle(math.atan2(dy, dx) - previous[2])) if trans >= still else 0.0
+    return rot1, trans, float(wrap_angle(current[2] - previous[2] - rot1))
+
+
+def off_line(angle: float) -> float:
+    """|angle| as a turn off the line of travel, forwards or backwards (the smaller of the two equivalent rotations,
+    as AMCL's motion model takes it): reversing is not a half turn."""
+    return min(abs(angle), abs(float(wrap_angle(angle - math.pi))))

@@ -14,7 +14,12 @@ from amr_localization.errors import LocalizationError
 from amr_localization.hypotheses import MERGE_ANGLE, MERGE_DISTANCE, PlaceHypotheses
 from amr_localization.kld_sampling import kld_sample_count
 from amr_localization.likelihood_field import LikelihoodField, LikelihoodFieldParams
-from amr_localization.motion_model import OdometryNoise, sample_motion_model_odometry
+from amr_localization.motion_model import (
+    OdometryNoise,
+    motion_covariance,
+    motion_variance,
+    sample_motion_model_odometry,
+)
 from amr_localization.pose_estimate import grouped_covariances, weighted_pose
 from amr_localization.progressive_correction import BISECTION_STEPS, stage_exponent
 from amr_localization.resampling import effective_sample_size, jitter, systematic_resample
@@ -25,7 +30,7 @@ from amr_maps.rasterize import rasterize_world as grid_of
 from amr_maps.world import world_from_dict
 from amr_simulation.config import LidarConfig, SimulationConfig
 from amr_simulation.simulator import Simulator
-from amr_util.geometry import compose, relative_pose
+from amr_util.geometry import compose, odometry_turns, off_line, relative_pose, wrap_angle
 from amr_util.scan import ScanData, scan_of
 
 ROOM = {  # 2 x 1.6 m room with a box off-centre: no symmetry
@@ -57,6 +62,47 @@ def test_motion_noise_grows_with_alpha_and_is_reproducible():
     assert spreads[1] > 2.5 * spreads[0]
     with pytest.raises(LocalizationError, match="alpha3"):
         OdometryNoise(0.1, 0.1, -1.0, 0.1)
+
+
+@pytest.mark.parametrize(
+    "increment",
+    [(3.0, 0.1, 0.05), (0.003, 0.05, 0.55), (-0.8, 0.1, -0.3), (1.0, 0.6, 0.9)],
+    ids=["a 3 m keyframe", "a turn in place that slid 5 cm sideways", "backwards", "an arc"],
+)
+def test_the_motion_covariance_is_the_spread_the_sampler_gives_the_particles(increment):
+    """motion_covariance (what the scan-matched odometry's prior is) and motion_variance's heading (the places' and
+    the search's) against 40,000 particles moved from one pose: a turn in place whose odometry slid sideways is a
+    quarter turn off the line each way for the sampler, its heading's noise several times the net turn's."""
+    noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)
+    moved = sample_motion_model_odometry(np.zeros((40000, 3)), (0, 0, 0), increment, noise, np.random.default_rng(5))
+    offsets = moved - increment
+    offsets[:, 2] = wrap_angle(offsets[:, 2])
+    sampled = np.cov(offsets.T)
+    covariance = motion_covariance(increment, noise)
+    sigmas = np.sqrt(np.diag(sampled))
+    # first order: the heading's and the wider position axis's standard deviations within 10 %, their correlation
+    # within 0.1; the narrower axis is second order's (a 3 m step's rot1 noise of 0.3 rad shortens it by t e^2 / 2)
+    modelled = np.sqrt(np.diag(covariance))
+    wide = int(np.argmax(sigmas[:2]))
+    np.testing.assert_allclose(modelled[[wide, 2]], sigmas[[wide, 2]], rtol=0.1)
+    assert covariance[wide, 2] / (modelled[wide] * modelled[2]) == pytest.approx(
+        sampled[wide, 2] / (sigmas[wide] * sigmas[2]), abs=0.1
+    )
+    rot1, trans, rot2 = odometry_turns((0.0, 0.0, 0.0), increment)
+    along = math.sqrt(noise.alpha3 * trans**2 + noise.alpha4 * (off_line(rot1) ** 2 + off_line(rot2) ** 2))
+    assert 0.99 * along <= modelled[1 - wide] <= 1.1 * max(sigmas[1 - wide], along), "floored at the travel's noise"
+    assert motion_variance(increment, noise)[1] == pytest.approx(covariance[2, 2])
+    if increment[1] == 0.05:
+        assert math.sqrt(covariance[2, 2]) > 3.0 * 0.1 * increment[2], "not 10 % of the net turn"
+
+
+def test_a_turn_exactly_on_the_spot_may_slip_sideways_as_much_as_along():
+    """At first order the sampler moves a turn on the spot only along the heading (its translation's noise); the
+    covariance floors the other direction there, so that a scan match may find a slip."""
+    noise = OdometryNoise(0.01, 0.02, 0.03, 0.04)
+    covariance = motion_covariance((0.0, 0.0, 1.0), noise)
+    np.testing.assert_allclose(covariance[:2, :2], 0.04 * np.eye(2), atol=1e-15)
+    assert covariance[2, 2] == pytest.approx(0.01)
 
 
 def test_likelihood_field_scores_the_true_pose_above_poses_a_few_cm_or_degrees_off():

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from amr_localization.motion_model import OdometryNoise, motion_variance
+from amr_localization.motion_model import OdometryNoise, motion_covariance
 from amr_localization.scan_odometry import matched_increment
 from amr_util.geometry import relative_pose, transform_points, wrap_angle
 
@@ -36,8 +36,8 @@ def test_a_drifted_odometry_increment_is_corrected_by_the_match():
     truth = np.array(relative_pose(first, second))
     drifted = truth + [0.12, -0.08, math.radians(6.0)]  # the odometry's increment, off by 14 cm and 6 deg
     noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)  # the filter's: sigma 0.1 m and 0.1 rad over 1 m
-    position, heading = motion_variance(drifted, noise)
-    found = matched_increment(seen_from(ROOM, first), seen_from(ROOM, second), drifted, position, heading, 0.05, 0.25)
+    covariance = motion_covariance(drifted, noise)
+    found = matched_increment(seen_from(ROOM, first), seen_from(ROOM, second), drifted, covariance, 0.05, 0.25)
     assert math.hypot(*(found[:2] - truth[:2])) < 0.03
     assert abs(wrap_angle(found[2] - truth[2])) < math.radians(1.0)
 
@@ -47,10 +47,8 @@ def test_along_a_corridor_the_odometry_decides_and_across_it_the_match():
     truth = np.array(relative_pose(first, second))
     drifted = truth + [0.1, 0.1, 0.0]  # 10 cm too far along the corridor and 10 cm across it
     noise = OdometryNoise(0.01, 0.01, 0.01, 0.01)
-    position, heading = motion_variance(drifted, noise)
-    found = matched_increment(
-        seen_from(CORRIDOR, first), seen_from(CORRIDOR, second), drifted, position, heading, 0.05, 0.25
-    )
+    covariance = motion_covariance(drifted, noise)
+    found = matched_increment(seen_from(CORRIDOR, first), seen_from(CORRIDOR, second), drifted, covariance, 0.05, 0.25)
     assert abs(found[1] - truth[1]) < 0.03  # across: the walls say where
     assert abs(found[0] - drifted[0]) < 0.05  # along: the walls say nothing, the odometry stays
 
@@ -58,16 +56,14 @@ def test_along_a_corridor_the_odometry_decides_and_across_it_the_match():
 def test_a_motion_too_small_to_move_a_point_by_a_cell_is_the_odometry_increment():
     pose = np.array([2.0, 2.0, 0.0])
     prior = np.array([0.01, 0.0, 0.001])
-    position, heading = motion_variance(prior, OdometryNoise(0.01, 0.01, 0.01, 0.01))
-    found = matched_increment(
-        seen_from(ROOM, pose), seen_from(ROOM, pose + prior), prior, position, heading, 0.05, 0.25
-    )
+    covariance = motion_covariance(prior, OdometryNoise(0.01, 0.01, 0.01, 0.01))
+    found = matched_increment(seen_from(ROOM, pose), seen_from(ROOM, pose + prior), prior, covariance, 0.05, 0.25)
     np.testing.assert_array_equal(found, prior)
 
 
 def test_too_few_points_leave_the_odometry_increment():
     prior = np.array([1.0, 0.0, 0.1])
-    found = matched_increment(ROOM[:5], ROOM[:5], prior, 0.01, 0.01, 0.05, 0.25)
+    found = matched_increment(ROOM[:5], ROOM[:5], prior, np.diag([0.01, 0.01, 0.01]), 0.05, 0.25)
     np.testing.assert_array_equal(found, prior)
 
 
@@ -98,13 +94,12 @@ def placed_by_a_half_circle_scanner(first, second, drifted) -> np.ndarray:
     """The increment from `first` to `second` (world poses in HALL) that matched_increment finds from a 180-degree
     scanner's end points within 8 m, the odometry's increment `drifted` with 5 % motion noise."""
     truth = np.array(relative_pose(first, second))
-    position, heading = motion_variance(truth, OdometryNoise(0.05, 0.05, 0.05, 0.05))
+    covariance = motion_covariance(truth, OdometryNoise(0.05, 0.05, 0.05, 0.05))
     return matched_increment(
         seen_in_view(HALL, first, 8.0, math.pi),
         seen_in_view(HALL, second, 8.0, math.pi),
         drifted,
-        position,
-        heading,
+        covariance,
         0.05,
         0.25,
     )
@@ -142,7 +137,8 @@ def test_the_posterior_mean_is_the_lattice_poses_weighted_by_their_score_and_the
     first, second = (2.0, 1.0, 0.2), (2.3, 1.1, 0.3)
     reference, points = seen_from(ROOM, first), seen_from(ROOM, second)
     matcher = CorrelativeMatcher(ScoreMap.from_points(reference, 0.05, 0.05, 0.2), levels=1)
-    odometry = _Odometry(np.array(relative_pose(first, second)) + [0.04, -0.03, 0.03], 0.05, 0.03)
+    correlated = np.array([[0.05**2, 0.0004, 0.0006], [0.0004, 0.04**2, 0.0005], [0.0006, 0.0005, 0.03**2]])
+    odometry = _Odometry(np.array(relative_pose(first, second)) + [0.04, -0.03, 0.03], correlated)
     mean = _posterior_mean(matcher, points, 12.0, odometry.increment, odometry, 0.15, 0.1)
     cloud = one_per_cell(points, 0.05)
     poses, scores = matcher.window_scores(cloud, odometry.increment, 0.15, 0.1, default_angular_step(cloud, 0.05))
