@@ -81,7 +81,16 @@ from amr_maps.occupancy_grid import MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, Match, ScoreMap, WindowMatch, default_angular_step
 from amr_maps.window_search import window_modes
-from amr_util.geometry import compose, inverse, is_finite_number, relative_pose, transform_points, wrap_angle
+from amr_util.geometry import (
+    compose,
+    inverse,
+    is_finite_number,
+    odometry_turns,
+    off_line,
+    relative_pose,
+    transform_points,
+    wrap_angle,
+)
 from amr_util.robot_description import default_robot
 from amr_util.scan import ScanData
 
@@ -723,7 +732,7 @@ class GraphSlam:
         steps.append(delta)
         # the model on the path and the turns since (their sum: a turn in place back and forth is no net motion)
         path = sum(math.hypot(step[0], step[1]) for step in steps)
-        turn = sum(abs(step[2]) for step in steps)
+        turn = sum(_turned(step) for step in steps)
         motion = np.array(relative_pose(self._graph.pose(verified), prior))
         # the model in the frame the motion began in (the verified node's), carried to the anchor's
         turned = wrap_angle(self._graph.pose(last)[2] - self._graph.pose(verified)[2])
@@ -1535,7 +1544,7 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
     with the heading's d sigma_theta^2 / 2). Without it, a 3 m step (orebro's keyframes) was searched within 0.96 m
     and its scan, 1.26 m and 20 deg off the odometry at seed 2, went on odometry alone."""
     d = math.hypot(delta[0], delta[1]) if path is None else float(path)
-    a = abs(delta[2]) if turn is None else float(turn)
+    a = _turned(delta) if turn is None else float(turn)
     s_xy, s_xy_d, s_th, s_th_a = ODOMETRY_SIGMA
     position = share_xy * (s_xy + s_xy_d * d)
     heading = share_theta * (s_th + s_th_a * (a + d))
@@ -1546,6 +1555,16 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
     covariance[:2, 2] += 0.5 * d * heading**2 * side
     covariance[2, :2] += 0.5 * d * heading**2 * side
     return covariance
+
+
+def _turned(delta) -> float:
+    """rad the odometry motion model turns over a motion delta (dx, dy, dtheta; the frame it starts in): its first
+    and second rotations, each off the line of travel (amr_util.geometry.odometry_turns, off_line). A turn in place
+    that slid a few centimetres sideways turns a quarter turn each way for the model: an odometry that reports it so
+    errs as much (the synthesized odometry of a log does; a wheel odometry reports no slide, and then it is the net
+    turn)."""
+    rot1, _, rot2 = odometry_turns((0.0, 0.0, 0.0), delta)
+    return off_line(rot1) + off_line(rot2)
 
 
 def _match_information(
