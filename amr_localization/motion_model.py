@@ -55,15 +55,12 @@ def sample_motion_model_odometry(
 ) -> np.ndarray:
     """New (N, 3) poses: each particle moved by its own noisy sample of the odometry increment."""
     d_rot1, d_trans, d_rot2 = odometry_turns(previous, current)
-    # noise of a backwards move: measured on the rotation that does not turn around
-    rot1_noise, rot2_noise = off_line(d_rot1), off_line(d_rot2)
+    variances = _noise_variances(d_rot1, d_trans, d_rot2, noise)
     count = len(particles)
     draws = rng.standard_normal((count, 3))
-    rot1 = d_rot1 - draws[:, 0] * math.sqrt(noise.alpha1 * rot1_noise**2 + noise.alpha2 * d_trans**2)
-    trans = d_trans - draws[:, 1] * math.sqrt(
-        noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1_noise**2 + rot2_noise**2)
-    )
-    rot2 = d_rot2 - draws[:, 2] * math.sqrt(noise.alpha1 * rot2_noise**2 + noise.alpha2 * d_trans**2)
+    rot1 = d_rot1 - draws[:, 0] * math.sqrt(variances[0])
+    trans = d_trans - draws[:, 1] * math.sqrt(variances[1])
+    rot2 = d_rot2 - draws[:, 2] * math.sqrt(variances[2])
     moved = np.empty_like(particles)
     heading = particles[:, 2] + rot1
     moved[:, 0] = particles[:, 0] + trans * np.cos(heading)
@@ -88,11 +85,9 @@ def motion_variance(increment, noise: OdometryNoise, heading_variance: float = 0
     by var(rot1) trans^2, which this one isotropic variance leaves to the heading: its users search the heading, which
     moves a scan across, and taken as isotropic it would widen their window along a corridor the travel runs down
     (orebro's 3 m keyframes: 0.8 m of sigma)."""
-    d_rot1, d_trans, d_rot2 = odometry_turns((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
-    rot1, rot2 = off_line(d_rot1), off_line(d_rot2)
-    along = noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1**2 + rot2**2)
-    heading = noise.alpha1 * (rot1**2 + rot2**2) + 2.0 * noise.alpha2 * d_trans**2
-    return along + heading_variance * d_trans**2, heading
+    _, d_trans, _ = turns = odometry_turns((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
+    rot1, along, rot2 = _noise_variances(*turns, noise)
+    return along + heading_variance * d_trans**2, rot1 + rot2
 
 
 def motion_covariance(increment, noise: OdometryNoise) -> np.ndarray:
@@ -110,14 +105,7 @@ def motion_covariance(increment, noise: OdometryNoise) -> np.ndarray:
     much less along it); no direction of the position tighter than var(trans) (a turn on the spot slips sideways
     too, though the first order moves nothing there)."""
     d_rot1, d_trans, d_rot2 = odometry_turns((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
-    rot1, rot2 = off_line(d_rot1), off_line(d_rot2)
-    variances = np.diag(
-        [
-            noise.alpha1 * rot1**2 + noise.alpha2 * d_trans**2,
-            noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1**2 + rot2**2),
-            noise.alpha1 * rot2**2 + noise.alpha2 * d_trans**2,
-        ]
-    )
+    variances = np.diag(_noise_variances(d_rot1, d_trans, d_rot2, noise))
     c, s = math.cos(d_rot1), math.sin(d_rot1)
     jacobian = np.array([[-d_trans * s, c, 0.0], [d_trans * c, s, 0.0], [1.0, 0.0, 1.0]])
     covariance = jacobian @ variances @ jacobian.T
@@ -126,3 +114,14 @@ def motion_covariance(increment, noise: OdometryNoise) -> np.ndarray:
     values, vectors = np.linalg.eigh(covariance[:2, :2])
     covariance[:2, :2] = (vectors * np.maximum(values, variances[1, 1])) @ vectors.T
     return covariance
+
+
+def _noise_variances(d_rot1: float, d_trans: float, d_rot2: float, noise: OdometryNoise) -> tuple[float, float, float]:
+    """(var(rot1), var(trans), var(rot2)) of the sampler's noise (the module docstring's), each rotation's noise
+    measured on its turn off the line of travel: a backwards move is not a half turn of noise."""
+    rot1, rot2 = off_line(d_rot1), off_line(d_rot2)
+    return (
+        noise.alpha1 * rot1**2 + noise.alpha2 * d_trans**2,
+        noise.alpha3 * d_trans**2 + noise.alpha4 * (rot1**2 + rot2**2),
+        noise.alpha1 * rot2**2 + noise.alpha2 * d_trans**2,
+    )
