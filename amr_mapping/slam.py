@@ -146,8 +146,9 @@ WEAK_MATCH_SCORE = 0.5
 """A scan match scoring below this (a scan mostly of new ground: orebro's 2-3 m keyframes turning a corner) ..."""
 LOCAL_RIVAL_RATIO = 0.75
 """... with a rival pose in the search window at least AMBIGUITY_DISTANCE off scoring this share of it or more
-has its covariance widened to span both (a two-mode mixture as one Gaussian): the odometry decides between them.
-On orebro two such matches, a parallel wall 0.4-0.75 m off, were taken at 3 cm and threw the map 5 m."""
+has its covariance widened towards the rival by the rival's posterior share (_rival_share: the second moment of the
+two-mode mixture about the match). On orebro two such matches, a parallel wall 0.4-0.75 m off, were taken at 3 cm
+and threw the map 5 m."""
 RIVAL_DIP = 0.8
 """... and a rival is a mode of its own when the pose halfway to it scores below this share of both."""
 POSTERIOR_MIN_MARGIN = 0.002
@@ -263,7 +264,8 @@ class SlamConfig:
     """rad, +- around the odometry prior's heading at most, as match_linear_window (0.05-1)."""
     min_match_score: float = 0.2
     """a scan match below this mean likelihood (0-1) is not used: the node is added on odometry alone (a weak
-    match, below WEAK_MATCH_SCORE, must also agree with the odometry and have no rival mode)."""
+    match, below WEAK_MATCH_SCORE, must also agree with the odometry, a rival mode widening it by its posterior
+    share)."""
     loop_search_radius: float = 5.0
     """m: submaps whose anchor lies this close to the new node's pose are loop-closure candidates (0.5-20)."""
     loop_linear_window: float = 3.0
@@ -1285,18 +1287,19 @@ def _weak_match(
     window: tuple[float, float],
     work: _Work | None = None,
 ) -> np.ndarray | None:
-    """A weak front-end match (below WEAK_MATCH_SCORE) tested: its information widened over a rival mode in the
-    window (_local_rival; the two modes as one Gaussian, the odometry deciding between them), then None (not used:
+    """A weak front-end match (below WEAK_MATCH_SCORE) tested: its information widened towards a rival mode in the
+    window (_local_rival) by the rival's share of the two modes' posterior (_rival_share), then None (not used:
     the node goes on odometry alone) if its offset from the odometry prior, against both covariances, is beyond
     MATCH_CHI2. window: (+-m, +-rad) around the prior, the match's own. Each outcome is said in `events`."""
     rival = _local_rival(matcher, points, matched, prior, window[0], window[1], match.score, work)
     if rival is not None:
         spread = rival - matched
         spread[2] = wrap_angle(spread[2])
-        information = _clamped(np.linalg.inv(np.linalg.inv(information) + np.outer(spread, spread)))
+        share = _rival_share(matcher, points, match.pose, rival, prior, odometry_information)
+        information = _clamped(np.linalg.inv(np.linalg.inv(information) + share * np.outer(spread, spread)))
         events.append(
             f"scan match {match.score:.2f} has a rival {np.hypot(*spread[:2]):.2f} m, "
-            f"{math.degrees(spread[2]):.0f} deg off: weighed as one wide mode"
+            f"{math.degrees(spread[2]):.0f} deg off at posterior share {share:.2g}: the mode widened by it"
         )
     offset = prior - matched
     offset[2] = wrap_angle(offset[2])
@@ -1308,6 +1311,30 @@ def _weak_match(
         )
         return None
     return information
+
+
+def _rival_share(
+    matcher: CorrelativeMatcher,
+    points: np.ndarray,
+    pose: np.ndarray,
+    rival: np.ndarray,
+    prior: np.ndarray,
+    odometry_information: np.ndarray,
+) -> float:
+    """The rival mode's share of the two modes' posterior, each weighed as _posterior_mode weighs modes (the scan's
+    likelihood, MATCH_INFORMATION_SCALE times the score, times the odometry prior): the second moment of the
+    two-mode mixture about the match is its own covariance plus share * spread spread^T (the rival taken as certain,
+    share 1, put a rival 38 deg off as likely as the match, and the fused pose between the two where neither the scan
+    nor the odometry is: orebro's scan 213)."""
+
+    def log_posterior(candidate) -> float:
+        offset = np.asarray(candidate, dtype=float) - prior
+        offset[2] = wrap_angle(offset[2])
+        score = matcher.score(points, candidate)
+        return MATCH_INFORMATION_SCALE * score - 0.5 * float(offset @ odometry_information @ offset)
+
+    lead = log_posterior(rival) - log_posterior(pose)
+    return float(1.0 / (1.0 + math.exp(-min(lead, 700.0))))
 
 
 def _local_rival(
