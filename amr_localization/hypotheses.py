@@ -41,8 +41,9 @@ and Kristensen 2001):
 The filter then makes its particles agree (sensor resetting, Lenser and Veloso 2000): each place holds
 as much particle weight as its probability, a likely place without particles gets a cloud. `localized`
 is the best hypothesis's probability, times the share of the belief the hypotheses hold, against
-localized_probability, with hysteresis down to release_probability. Until a place search has covered the
-map the hypotheses are not a partition of it, and the confidence is 0.
+localized_probability, with hysteresis down to release_probability; it is withdrawn too when the best place is no
+longer the one declared, told by its identity (`ids`), which a place keeps however far a scan's fit moves it.
+Until a place search has covered the map the hypotheses are not a partition of it, and the confidence is 0.
 """
 
 from __future__ import annotations
@@ -78,6 +79,11 @@ class PlaceHypotheses:
     def clear(self) -> None:
         self.poses, self.evidence = np.zeros((0, 3)), np.zeros(0)
         self.variance = np.zeros(0)
+        self.ids = np.zeros(0, dtype=np.int64)
+        """(H,) each place's identity, kept while it is followed (moved, fitted, re-anchored, ranked): "the place
+        declared" is a place, not a pose."""
+        self._next_id = 0
+        self._absorbed: dict[int, int] = {}
         """(H,) m^2: the motion's position variance each place has been moved by since particles last held it (a
         place without particles is carried by odometry and the window's links alone: it is fitted within 3 sigma)."""
         self.elsewhere = 0.0
@@ -94,7 +100,7 @@ class PlaceHypotheses:
         `elsewhere` (the robot is somewhere, but not at a place followed), not to the places left."""
         if (~alive).any():
             self.elsewhere = float(np.logaddexp(self.elsewhere, np.logaddexp.reduce(self.evidence[~alive])))
-        self.poses, self.evidence, self.variance = self.poses[alive], self.evidence[alive], self.variance[alive]
+        self._select(alive)
         self._rank()
 
     def find(self, poses: np.ndarray) -> np.ndarray:
@@ -113,17 +119,35 @@ class PlaceHypotheses:
                 np.abs(wrap_angle(self.poses[later, 2] - self.poses[i, 2])) <= MERGE_ANGLE
             )
             keep[later[near]] = False
-        self.poses, self.evidence, self.variance = self.poses[keep], self.evidence[keep], self.variance[keep]
+            for absorbed in later[near]:
+                self._absorbed[int(self.ids[absorbed])] = int(self.ids[i])
+        self._select(keep)
 
-    def same_place(self, pose: np.ndarray, index: int = 0) -> bool:
-        """Whether `pose` is hypothesis `index`'s place (within MERGE_DISTANCE and MERGE_ANGLE)."""
-        if index >= len(self):
-            return False
-        other = self.poses[index]
-        return bool(
-            math.hypot(pose[0] - other[0], pose[1] - other[1]) <= MERGE_DISTANCE
-            and abs(float(wrap_angle(pose[2] - other[2]))) <= MERGE_ANGLE
-        )
+    def index_of(self, identity: int | None) -> int:
+        """The index of the place with this identity (`ids`), or of the place it merged into; -1 if it is no longer
+        followed (or None)."""
+        if identity is None:
+            return -1
+        seen = set()
+        while identity in self._absorbed and identity not in seen:
+            seen.add(identity)
+            identity = self._absorbed[identity]
+        found = np.flatnonzero(self.ids == identity)
+        return int(found[0]) if len(found) else -1
+
+    def _select(self, rows: np.ndarray) -> None:
+        """Only these rows (a mask or indices, in that order) of every per-place array; a merged place's identity
+        stays resolvable (index_of) only while the place it merged into is followed."""
+        self.poses, self.evidence, self.variance = self.poses[rows], self.evidence[rows], self.variance[rows]
+        self.ids = self.ids[rows]
+        alive = set(self.ids.tolist())
+        resolved = {}
+        for old, new in self._absorbed.items():
+            while new in self._absorbed and new not in alive and len(resolved) <= len(self._absorbed):
+                new = self._absorbed[new]
+            if new in alive:
+                resolved[old] = new
+        self._absorbed = resolved
 
     def reanchor(self, index: int, pose: np.ndarray) -> None:
         """Hypothesis `index` is at `pose` now (its cluster's mean, fitted by the latest scan)."""
@@ -139,6 +163,8 @@ class PlaceHypotheses:
         self.poses = np.vstack([self.poses, poses])
         self.evidence = np.concatenate([self.evidence, base + np.asarray(window_gain, float)])
         self.variance = np.concatenate([self.variance, np.zeros(len(poses))])
+        self.ids = np.concatenate([self.ids, self._next_id + np.arange(len(poses), dtype=np.int64)])
+        self._next_id += len(poses)
         self._rank()
 
     def observe(self, log_likelihood: np.ndarray, elsewhere: float) -> None:
@@ -159,8 +185,7 @@ class PlaceHypotheses:
     def _rank(self) -> None:
         """Heaviest first, the evidence (elsewhere's too, above as below) within MAX_LOG_ODDS of the best place's, at
         most MAX_HYPOTHESES."""
-        order = np.argsort(-self.evidence, kind="stable")[:MAX_HYPOTHESES]
-        self.poses, self.evidence, self.variance = self.poses[order], self.evidence[order], self.variance[order]
+        self._select(np.argsort(-self.evidence, kind="stable")[:MAX_HYPOTHESES])
         if len(self):
             best = self.evidence[0]
             self.evidence = np.maximum(self.evidence - best, -MAX_LOG_ODDS)

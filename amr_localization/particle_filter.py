@@ -348,7 +348,7 @@ class ParticleFilter:
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
         self._recovery.reset()
         self._localized = False
-        self._declared: np.ndarray | None = None  # the place localized was declared at, moved by odometry
+        self._declared: int | None = None  # the place (PlaceHypotheses.ids) localized was declared at
         self._pending_measurement = True
         self._moved = (0.0, 0.0)  # m and rad since the last scan used
         self._estimate_odometry = self._odometry
@@ -445,8 +445,6 @@ class ParticleFilter:
         self.hypotheses.move(increment, motion_variance(increment, self.noise)[0])
         if self._search is not None:
             self._search.moved(increment, self.noise)
-        if self._declared is not None:
-            self._declared = np.asarray(compose(self._declared, increment), dtype=float)
         self._moved = (self._moved[0] + d_trans, self._moved[1] + d_theta)
         self._odometry = odometry
         self._pending_measurement = True
@@ -726,7 +724,7 @@ class ParticleFilter:
             confidence = float(self._shares[0]) * held
             runner_up = float(self._shares[1]) * held if len(self._shares) > 1 else 0.0
         threshold = config.release_probability if self._localized else config.localized_probability
-        moved_on = self._localized and not hypotheses.same_place(self._declared)
+        moved_on = self._localized and hypotheses.index_of(self._declared) != 0
         was_localized = self._localized
         self._localized = confidence >= threshold and not moved_on
         if was_localized and not self._localized:
@@ -738,7 +736,7 @@ class ParticleFilter:
             self._searched_from = None
         if moved_on:  # the place declared is no longer the best: withdrawn; the new best must earn its own declaration
             self.status.event = "localized withdrawn: another place explains the scans better than the one declared"
-        self._declared = hypotheses.poses[0].copy() if self._localized else None
+        self._declared = int(hypotheses.ids[0]) if self._localized else None
         self.status.confidence, self.status.runner_up = confidence, runner_up
 
     def _background(self, seen: _Seen | None, beacons: BeaconReading | None) -> float:
@@ -862,17 +860,15 @@ class ParticleFilter:
         return tuple(float(v) for v in np.asarray(compose(np.asarray(last.local), increment)).reshape(3))
 
     def _rematch_places(self, seen: _Seen) -> None:
-        """The places (and the one declared), moved by the odometry since the window's last scan, moved by the
-        scan-matched increment instead: the better estimate of the same motion (each place is then fitted to the
-        scan within FIT_WINDOW, which a keyframe's odometry error can exceed)."""
+        """The places, moved by the odometry since the window's last scan, moved by the scan-matched increment
+        instead: the better estimate of the same motion (each place is then fitted to the scan within FIT_WINDOW,
+        which a keyframe's odometry error can exceed)."""
         if not self._window:
             return
         last = self._window[-1]
         correction = relative_pose(relative_pose(last.odometry, self._odometry), relative_pose(last.local, seen.local))
         if len(self.hypotheses):
             self.hypotheses.poses = np.atleast_2d(compose(self.hypotheses.poses, correction))
-        if self._declared is not None:
-            self._declared = np.asarray(compose(self._declared, correction), dtype=float)
 
     def _now(self) -> tuple[float, float, float]:
         """The pose now in the window's frame, without a scan: the last window scan's moved by odometry since."""

@@ -299,6 +299,27 @@ def test_a_pose_is_found_at_the_nearest_place_within_the_merge_window_across_the
     np.testing.assert_array_equal(found, expected)
 
 
+def test_a_place_keeps_its_identity_however_far_it_is_moved_ranked_or_merged():
+    """The place declared is a place, not a pose: its identity follows it through a re-anchoring further than the
+    merge window (a keyframe's odometry error taken out by the scan's fit), a change of rank, and a merge into a
+    stronger place (then it is that place); a place forgotten has none."""
+    places = PlaceHypotheses()
+    places.add(np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [9.0, 0.0, 0.0]]), np.array([0.0, -2.0, -4.0]))
+    first, second, third = (int(i) for i in places.ids)
+    assert len({first, second, third}) == 3
+    places.reanchor(0, np.array([0.6, -0.4, 0.1]))  # 0.72 m: beyond MERGE_DISTANCE, the same place
+    assert places.index_of(first) == 0
+    places.observe(np.array([0.0, 3.0, 0.0]), -10.0)  # the second overtakes the first
+    assert places.index_of(second) == 0 and places.index_of(first) == 1
+    places.reanchor(2, places.poses[0] + (0.1, 0.0, 0.0))  # the third comes onto the (stronger) second: merged
+    places.merge()
+    assert len(places) == 2 and places.index_of(third) == places.index_of(second) == 0
+    places.keep(np.array([True, False]))  # the first in a wall: forgotten
+    assert places.index_of(first) == -1 and places.index_of(None) == -1
+    places.add(np.array([[0.0, 0.0, 0.0]]), np.zeros(1))  # born where the first was: a new place
+    assert places.index_of(first) == -1 and int(places.ids[-1]) not in (first, second, third)
+
+
 def test_the_kernel_moves_each_place_s_poses_by_its_factor_in_free_space_only():
     """jitter takes the draws place by place, each place's poses in their order: the same moves as drawing for each
     place in turn and applying its factor; a move out of the free cells leaves the pose where it was."""
