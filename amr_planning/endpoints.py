@@ -39,7 +39,8 @@ def resolve(costmap: Costmap, point, what: str, snap_distance: float) -> Endpoin
     row, col = costmap.cell(x, y, what)
     blocked = Reason.START_BLOCKED if what == "start" else Reason.GOAL_BLOCKED
     if costmap.obstacle[row, col]:
-        raise PlanningError(blocked, f"{what} ({x:.3f}, {y:.3f}) lies in an occupied cell of the map", what)
+        kind = "an unknown (never seen)" if costmap.grid.data[row, col] < 0 else "an occupied"
+        raise PlanningError(blocked, f"{what} ({x:.3f}, {y:.3f}) lies in {kind} cell of the map", what)
     if not costmap.lethal[row, col]:
         return Endpoint(np.array([x, y]), (row, col), False)
     free_row, free_col = costmap.nearest_free(row, col)

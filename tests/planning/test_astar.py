@@ -114,6 +114,7 @@ def test_a_gap_narrower_than_the_robot_is_closed():
         ((0.7, 0.7), (math.nan, 0.7), Reason.INVALID, "goal .* finite"),
         ((0.7, math.inf), (0.7, 0.7), Reason.INVALID, "start .* finite"),
         ((0.7, 0.7), (0.76, 0.76), Reason.GOAL_BLOCKED, "occupied cell"),
+        ((0.7, 0.7), (1.21, 0.76), Reason.GOAL_BLOCKED, "unknown \\(never seen\\) cell"),
         ((0.76, 0.76), (0.3, 0.3), Reason.START_BLOCKED, "occupied cell"),
         ((0.7, 0.7), ("a", 1), Reason.INVALID, "two numbers"),
         ((0.7, 0.7), (1.0,), Reason.INVALID, "two numbers"),
@@ -122,6 +123,7 @@ def test_a_gap_narrower_than_the_robot_is_closed():
 def test_bad_requests_raise_a_planning_error_naming_the_problem(start, goal, reason, words):
     data = walled(30, 30)
     data[15, 15] = 100  # cell centre (0.775, 0.775)
+    data[15, 24] = -1  # cell centre (1.225, 0.775): never seen, an obstacle by default
     with pytest.raises(PlanningError, match=words) as error:
         GridAStar(Costmap(grid(data), SMALL_ROBOT)).plan(start, goal)
     assert error.value.reason is reason
