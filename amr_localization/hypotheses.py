@@ -71,6 +71,7 @@ class PlaceHypotheses:
     place (its evidence is 0)."""
 
     def __init__(self) -> None:
+        self._next_id = 0
         self.clear()
 
     def __len__(self) -> int:
@@ -79,13 +80,13 @@ class PlaceHypotheses:
     def clear(self) -> None:
         self.poses, self.evidence = np.zeros((0, 3)), np.zeros(0)
         self.variance = np.zeros(0)
-        self.ids = np.zeros(0, dtype=np.int64)
-        """(H,) each place's identity, kept while it is followed (moved, fitted, re-anchored, ranked): "the place
-        declared" is a place, not a pose."""
-        self._next_id = 0
-        self._absorbed: dict[int, int] = {}
         """(H,) m^2: the motion's position variance each place has been moved by since particles last held it (a
         place without particles is carried by odometry and the window's links alone: it is fitted within 3 sigma)."""
+        self.ids = np.zeros(0, dtype=np.int64)
+        """(H,) each place's identity, kept while it is followed (moved, fitted, re-anchored, ranked): "the place
+        declared" is a place, not a pose. Never reused, across clears too."""
+        self._absorbed: dict[int, int] = {}
+        """a place merged into another: its identity -> the other's (index_of follows it)."""
         self.elsewhere = 0.0
 
     def move(self, increment, variance: float = 0.0) -> None:
@@ -143,7 +144,9 @@ class PlaceHypotheses:
         alive = set(self.ids.tolist())
         resolved = {}
         for old, new in self._absorbed.items():
-            while new in self._absorbed and new not in alive and len(resolved) <= len(self._absorbed):
+            for _ in range(len(self._absorbed)):  # a chain of merges, each into a place followed when it merged
+                if new in alive or new not in self._absorbed:
+                    break
                 new = self._absorbed[new]
             if new in alive:
                 resolved[old] = new
