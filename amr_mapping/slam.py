@@ -175,6 +175,12 @@ AMBIGUITY_DISTANCE = 0.2
 """m: a loop-closure match with a rival this far or further (anywhere in its search window, any heading) ..."""
 AMBIGUITY_RATIO = 0.9
 """... scoring this share of its score or more is ambiguous and not used."""
+SAVED_FREE_PROBABILITY = 0.5
+"""A cell seen and more likely free than occupied is free in the saved map (_saved), as the published map is read
+(the explorer's free_threshold 50 %, the planner's obstacles from 65 %). Saved as it is, map_server's trinary format
+(free below 0.196, its unknown pixel's own value) kept the cells seen free once or twice (0.31-0.40) as never seen:
+the explorer had judged them explored, and navigation on the saved map refused a goal among them as unknown (maze
+rotated, seed 0)."""
 CLEAR_PROBABILITY = 0.3
 """A loop-closure submap's cell is clear when its occupancy probability is at most this (two rays or more
 crossed it, none ended there: one free observation makes 0.4) ..."""
@@ -529,7 +535,7 @@ class GraphSlam:
         stem = path.with_suffix("") if path.suffix in (".yaml", ".yml") else path
         csv_path = stem.with_name(stem.name + ".poses.csv")
         try:
-            yaml_path = save_map(grid, stem)
+            yaml_path = save_map(_saved(grid), stem)
             lines = ["stamp_ns,x,y,theta"] + [
                 f"{node.stamp_ns},{x:.6f},{y:.6f},{theta:.6f}"
                 for node, (x, y, theta) in zip(self._nodes, self._graph.poses, strict=True)
@@ -1582,6 +1588,13 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
     covariance[:2, 2] += 0.5 * d * heading**2 * side
     covariance[2, :2] += 0.5 * d * heading**2 * side
     return covariance
+
+
+def _saved(grid: OccupancyGrid) -> OccupancyGrid:
+    """The grid as it is saved: its seen cells below SAVED_FREE_PROBABILITY free (0), the others as they are (the
+    trinary format then keeps 65 % and above occupied, the rest unknown)."""
+    data = np.where((grid.data >= 0) & (grid.data < round(100 * SAVED_FREE_PROBABILITY)), 0, grid.data)
+    return OccupancyGrid(data.astype(np.int8), grid.resolution, grid.origin, grid.frame_id)
 
 
 def _turned(delta) -> float:
