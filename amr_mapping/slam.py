@@ -1340,7 +1340,8 @@ def _rival_share(
         return MATCH_INFORMATION_SCALE * score - 0.5 * float(offset @ odometry_information @ offset)
 
     lead = log_posterior(rival) - log_posterior(pose)
-    return float(1.0 / (1.0 + math.exp(-min(lead, 700.0))))
+    # the logistic of the lead, without overflow either way (a rival hundreds of nats behind, or ahead)
+    return float(1.0 / (1.0 + math.exp(-lead))) if lead >= 0.0 else float(math.exp(lead) / (1.0 + math.exp(lead)))
 
 
 def _local_rival(

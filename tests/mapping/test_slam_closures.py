@@ -185,6 +185,20 @@ def test_a_weak_match_is_widened_by_its_rivals_share_and_refused_when_the_odomet
             assert any("disagrees with the odometry" in event for event in events), events
 
 
+def test_a_rivals_share_is_a_probability_however_far_apart_the_modes_score():
+    """The rival's share of the two modes' posterior: a half when the odometry sits halfway between two placements
+    that score alike, and 0 or 1, never an overflow, when the odometry puts one of them thousands of nats behind."""
+    points = np.column_stack([np.full(100, 2.0), np.linspace(-1.5, 1.5, 100)])
+    matcher = _two_walls(0.6)
+    match, rival = np.zeros(3), np.array([0.6, 0.0, 0.0])
+    share = slam_module._rival_share
+    loose = np.diag([1.0 / 0.3**2, 1.0 / 0.3**2, 1.0 / 0.1**2])
+    assert share(matcher, points, match, rival, np.array([0.3, 0.0, 0.0]), loose) == pytest.approx(0.5, abs=0.05)
+    tight = np.diag([1e6, 1e6, 1e6])  # the odometry certain to a millimetre: the other mode 180,000 nats behind
+    assert share(matcher, points, match, rival, np.zeros(3), tight) == 0.0
+    assert share(matcher, points, match, rival, rival, tight) == 1.0
+
+
 def test_a_closure_match_on_its_windows_edge_is_no_peak():
     """The best pose of a loop-closure window found on its side (3.1 m off with a +-3 m window, or at the angular
     window's end) is the window's maximum, not the score's: not a closure; inside the window it may be one."""
