@@ -1243,9 +1243,7 @@ def _posterior_mode(
         return match
 
     def penalty(pose) -> float:
-        offset = np.asarray(pose, dtype=float) - prior
-        offset[2] = wrap_angle(offset[2])
-        return 0.5 * float(offset @ odometry_information @ offset)
+        return _odometry_penalty(pose, prior, odometry_information)
 
     best_score = matcher.score(points, match.pose)
     margin = penalty(match.pose) / MATCH_INFORMATION_SCALE
@@ -1319,6 +1317,14 @@ def _weak_match(
     return information
 
 
+def _odometry_penalty(pose, prior: np.ndarray, odometry_information: np.ndarray) -> float:
+    """The odometry prior's negative log-density at pose (up to a constant): half its Mahalanobis distance squared,
+    the heading's offset wrapped. How the front end weighs a mode against the odometry."""
+    offset = np.asarray(pose, dtype=float) - prior
+    offset[2] = wrap_angle(offset[2])
+    return 0.5 * float(offset @ odometry_information @ offset)
+
+
 def _rival_share(
     matcher: CorrelativeMatcher,
     points: np.ndarray,
@@ -1334,10 +1340,8 @@ def _rival_share(
     nor the odometry is: orebro's scan 213)."""
 
     def log_posterior(candidate) -> float:
-        offset = np.asarray(candidate, dtype=float) - prior
-        offset[2] = wrap_angle(offset[2])
         score = matcher.score(points, candidate)
-        return MATCH_INFORMATION_SCALE * score - 0.5 * float(offset @ odometry_information @ offset)
+        return MATCH_INFORMATION_SCALE * score - _odometry_penalty(candidate, prior, odometry_information)
 
     lead = log_posterior(rival) - log_posterior(pose)
     # the logistic of the lead, without overflow either way (a rival hundreds of nats behind, or ahead)
