@@ -129,11 +129,8 @@ class PlaceHypotheses:
         followed (or None)."""
         if identity is None:
             return -1
-        seen = set()
-        while identity in self._absorbed and identity not in seen:
-            seen.add(identity)
-            identity = self._absorbed[identity]
-        found = np.flatnonzero(self.ids == identity)
+        # every change of the rows (_select) leaves each merged identity pointing at a place followed
+        found = np.flatnonzero(self.ids == self._absorbed.get(identity, identity))
         return int(found[0]) if len(found) else -1
 
     def _select(self, rows: np.ndarray) -> None:

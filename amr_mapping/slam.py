@@ -72,12 +72,13 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
+from scipy.special import expit
 
 from amr_mapping.errors import MappingError
 from amr_mapping.point_field import neighbourhood_lines
 from amr_mapping.pose_graph import Optimization, PoseGraph
 from amr_maps.map_io import save_map
-from amr_maps.occupancy_grid import MapError, OccupancyGrid
+from amr_maps.occupancy_grid import FREE, MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
 from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, Match, ScoreMap, WindowMatch, default_angular_step
 from amr_maps.window_search import window_modes
@@ -1343,9 +1344,7 @@ def _rival_share(
         score = matcher.score(points, candidate)
         return MATCH_INFORMATION_SCALE * score - _odometry_penalty(candidate, prior, odometry_information)
 
-    lead = log_posterior(rival) - log_posterior(pose)
-    # the logistic of the lead, without overflow either way (a rival hundreds of nats behind, or ahead)
-    return float(1.0 / (1.0 + math.exp(-lead))) if lead >= 0.0 else float(math.exp(lead) / (1.0 + math.exp(lead)))
+    return float(expit(log_posterior(rival) - log_posterior(pose)))  # the logistic, without overflow either way
 
 
 def _local_rival(
@@ -1598,8 +1597,8 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
 def _saved(grid: OccupancyGrid) -> OccupancyGrid:
     """The grid as it is saved: its seen cells below SAVED_FREE_PROBABILITY free (0), the others as they are (the
     trinary format then keeps 65 % and above occupied, the rest unknown)."""
-    data = np.where((grid.data >= 0) & (grid.data < round(100 * SAVED_FREE_PROBABILITY)), 0, grid.data)
-    return OccupancyGrid(data.astype(np.int8), grid.resolution, grid.origin, grid.frame_id)
+    data = np.where(grid.free(round(100 * SAVED_FREE_PROBABILITY)), FREE, grid.data).astype(np.int8)
+    return OccupancyGrid(data, grid.resolution, grid.origin, grid.frame_id)
 
 
 def _turned(delta) -> float:

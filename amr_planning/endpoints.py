@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from amr_maps.occupancy_grid import UNKNOWN
 from amr_planning.costmap import Costmap
 from amr_planning.errors import PlanningError, Reason
 
@@ -39,7 +40,7 @@ def resolve(costmap: Costmap, point, what: str, snap_distance: float) -> Endpoin
     row, col = costmap.cell(x, y, what)
     blocked = Reason.START_BLOCKED if what == "start" else Reason.GOAL_BLOCKED
     if costmap.obstacle[row, col]:
-        kind = "an unknown (never seen)" if costmap.grid.data[row, col] < 0 else "an occupied"
+        kind = "an unknown (never seen)" if costmap.grid.data[row, col] == UNKNOWN else "an occupied"
         raise PlanningError(blocked, f"{what} ({x:.3f}, {y:.3f}) lies in {kind} cell of the map", what)
     if not costmap.lethal[row, col]:
         return Endpoint(np.array([x, y]), (row, col), False)
