@@ -95,7 +95,7 @@ WINDOW_SCANS = 200
 """... in at most this many scans."""
 KIDNAP_LOG_PRIOR = -10.0
 """log-probability that the robot was carried, unseen, to a place no hypothesis followed: the prior of a place born
-while the filter is localized."""
+while the filter is localized, or while the place of a pose given (initialize_pose) is followed."""
 PLACE_SEARCH_CELLS = 250_000
 """the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
 proposals are then fitted on the map itself) ... A search's proposals are carried by the scan-matched odometry from
@@ -342,6 +342,7 @@ class ParticleFilter:
         self.particles[:, 2] = wrap_angle(self.particles[:, 2])
         self._reset_belief()
         self.hypotheses.add(np.array([[x, y, float(wrap_angle(theta))]]), np.zeros(1))
+        self._given = int(self.hypotheses.ids[0])
         self._covered = True  # the given pose is the prior: no place elsewhere needs searching first
 
     def _reset_belief(self) -> None:
@@ -349,6 +350,7 @@ class ParticleFilter:
         self._recovery.reset()
         self._localized = False
         self._declared: int | None = None  # the place (PlaceHypotheses.ids) localized was declared at
+        self._given: int | None = None  # the place of a pose given (initialize_pose), while it is followed
         self._pending_measurement = True
         self._moved = (0.0, 0.0)  # m and rad since the last scan used
         self._estimate_odometry = self._odometry
@@ -574,7 +576,9 @@ class ParticleFilter:
             for label in range(min(clusters.count, MAX_HYPOTHESES))
         ]
         poses = np.array([[c.x, c.y, c.theta] for c in candidates]).reshape(-1, 3)
-        settled = self._localized  # a place born while localized elsewhere is one the robot was carried to
+        # a place born while localized elsewhere, or while the place of a pose given is followed, is one the robot
+        # was carried to: the given pose is the prior, whether or not the scans have yet made it a declaration
+        settled = self._localized or hypotheses.index_of(self._given) >= 0
         fit = np.zeros(len(poses))
         if seen is not None:
             # a cluster at no place yet is fitted within its own spread (up to a place's extent): a place is born
@@ -648,7 +652,7 @@ class ParticleFilter:
             return
         if len(hypotheses):
             # at most as likely as the strongest: a place overtakes it only by the scans it is followed through; while
-            # localized, a new place is one the robot was carried to (the kidnap prior)
+            # localized or from a pose given, a new place is one the robot was carried to (the kidnap prior)
             reference = hypotheses.poses[:1]
             gain = np.minimum(
                 self._window_score(born, seen, beacons) - self._window_score(reference, seen, beacons)[0], 0.0
