@@ -322,7 +322,8 @@ class ParticleFilter:
 
     def initialize_pose(self, x: float, y: float, theta: float, covariance: np.ndarray | None = None) -> None:
         """Particles around a given pose (RViz's 2D Pose Estimate); covariance 3x3 over x, y, theta. The pose is
-        the one place hypothesis until the scans propose others."""
+        the one place hypothesis until the scans propose others, and the prior against them while it is followed
+        (a place born meanwhile has KIDNAP_LOG_PRIOR)."""
         if not all(map(math.isfinite, (x, y, theta))):
             raise LocalizationError(f"initial pose: must be finite, got ({x}, {y}, {theta})")
         covariance = (
