@@ -95,7 +95,7 @@ WINDOW_SCANS = 200
 """... in at most this many scans."""
 KIDNAP_LOG_PRIOR = -10.0
 """log-probability that the robot was carried, unseen, to a place no hypothesis followed: the prior of a place born
-while the filter is localized, or while the place of a pose given (initialize_pose) is followed."""
+while the filter is localized, or while the place of a pose given (initialize_pose) is followed and not withdrawn."""
 PLACE_SEARCH_CELLS = 250_000
 """the place search runs on the map max-pooled by the smallest whole factor that leaves at most this many cells (its
 proposals are then fitted on the map itself) ... A search's proposals are carried by the scan-matched odometry from
@@ -351,7 +351,7 @@ class ParticleFilter:
         self._recovery.reset()
         self._localized = False
         self._declared: int | None = None  # the place (PlaceHypotheses.ids) localized was declared at
-        self._given: int | None = None  # the place of a pose given (initialize_pose), while it is followed
+        self._given: int | None = None  # the place of a pose given (initialize_pose), till withdrawn or forgotten
         self._pending_measurement = True
         self._moved = (0.0, 0.0)  # m and rad since the last scan used
         self._estimate_odometry = self._odometry
@@ -735,10 +735,11 @@ class ParticleFilter:
         if was_localized and not self._localized:
             # a withdrawal doubts what the robot did before it (a kidnapping reads as odometry): places born from now
             # on are scored on the scans that come after, not on scans reached back through a move that never was;
-            # and the places followed may no longer cover the map: a new declaration waits for a new place search
+            # and the places followed may no longer cover the map: a new declaration waits for a new place search; a
+            # pose given is no longer the prior either (a declaration's kidnap prior ends here, and so does its)
             self._window.clear()
             self._covered, self._search = self.config.place_search_budget == 0, None
-            self._searched_from = None
+            self._searched_from = self._given = None
         if moved_on:  # the place declared is no longer the best: withdrawn; the new best must earn its own declaration
             self.status.event = "localized withdrawn: another place explains the scans better than the one declared"
         self._declared = int(hypotheses.ids[0]) if self._localized else None
