@@ -10,7 +10,9 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
   the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points; the nodes added on
   odometry alone left out: their poses are unverified; only the surfaces facing the odometry prior's sensor:
-  _facing), within
+  _facing), with only the scan's points the window saw (_seen: within its scans' fields of view and the clear range
+  of their beams without a return, judged at the odometry prior; where the window did not look, no wall is no
+  evidence), within
   WINDOW_SIGMAS standard deviations of the odometry model (_odometry_model: ODOMETRY_SIGMA, the heading's error half
   made before the step's translation) since the last node (since the newest matched node, when nodes were added on
   odometry alone since), at most
@@ -130,6 +132,9 @@ optimization took up to 10 iterations, 60 ms, in one update; 150-230 ms with edg
 covariances)."""
 LIKELIHOOD_PAD = 1.0
 """m of field around a submap's points beyond the search windows (points off the table score 0)."""
+SEEN_MARGIN_CELLS = 4.0
+"""Cells beyond a window scan's clear range (a beam without a return) that still count as seen by it (_seen), on top
+of the search window's reach: the scan's noise, the field's width."""
 WINDOW_SIGMAS = 3.0
 """The front end searches this many standard deviations of the odometry model since the last node (at most
 match_linear_window / match_angular_window)."""
@@ -468,7 +473,7 @@ class GraphSlam:
         self._unmatched: set[int] = set()  # nodes added on odometry alone (left out of the local submap)
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._candidates: list[_Candidate] = []  # closure candidates in progress, oldest first (_step_candidate)
-        self._local: tuple[int, _Reference] | None = None
+        self._local: tuple[int, _Reference, list] | None = None
         self._unoptimized = 0  # closures added since the last optimization
         self._run: Optimization | None = None  # the optimization in progress (carried over the updates)
         self._drops = 0  # closures the run in progress may still remove (_advance_optimization)
@@ -697,6 +702,23 @@ class GraphSlam:
         self._work.add(REFERENCE_WORK_PER_POINT * len(reference.points))
         return reference
 
+    def _views(self, anchor: int, members) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The members' scans as what they saw (_seen): each its sensor's pose in the anchor node's frame, its beams'
+        angles (ascending) and reach (unbounded where the beam hit something, else its clear range)."""
+        anchor_pose = self._graph.pose(anchor)
+        views = []
+        for k in members:
+            node = self._nodes[k]
+            sensor = np.array(compose(relative_pose(anchor_pose, self._graph.pose(k)), self._mount))
+            # a beam that hit something saw along its whole line (what lies behind the surface scores by its distance
+            # from it: judged at a prior off by more than its window, the points that contradict it would be the
+            # ones dropped); one without a return saw to its clear range, beyond which the window has no points
+            hit = np.isfinite(node.ranges) & (node.ranges <= node.clear_range)
+            reach = np.where(hit, np.inf, node.clear_range)
+            order = np.argsort(node.angles)
+            views.append((sensor, node.angles[order].astype(float), reach[order].astype(float)))
+        return views
+
     def _clear_space(self, members, placed: np.ndarray) -> OccupancyGrid:
         """The members' scans mapped (log odds) at their poses `placed` (the anchor node's frame): the cells seen
         clear (see _Reference.clear)."""
@@ -756,10 +778,23 @@ class GraphSlam:
             # from its other side, pulls the field and the lines (bench_slam_link_truth.py --facing; the closure
             # submaps keep every viewpoint's surfaces)
             viewpoint = np.array(compose(relative_prior, self._mount)[:2])
-            self._local = (last, self._matcher(last, members, cfg.match_linear_window, viewpoint))
+            self._local = (
+                last,
+                self._matcher(last, members, cfg.match_linear_window, viewpoint),
+                self._views(last, members),
+            )
         reference = self._local[1]
         matcher = reference.matcher
         linear, angular = _match_window(odometry_information, cfg)
+        # a point the window never saw (outside its scans' fields of view, beyond the clear range of a beam without a
+        # return) is no evidence either way: scored as if it lay in clear space, it pulls the match to where the
+        # window's surfaces end (a laser driven away from what it faces: the walls beside it are new, and every step
+        # of the logs played backwards was matched 20-50 cm short); judged at the odometry prior, with the search
+        # window's reach (linear + angular x the point's range) as margin
+        margin = SEEN_MARGIN_CELLS * cfg.resolution + linear + angular * np.hypot(points[:, 0], points[:, 1])
+        seen = _seen(transform_points(relative_prior, points), self._local[2], margin)
+        if seen.sum() >= MIN_BEAMS:  # else a scan of new ground: all of it, the weak match's tests decide
+            points = points[seen]
         match = matcher.match(points, relative_prior, linear, angular)
         self._work.add(CANDIDATE_WORK + match.nodes * len(points))
         if match.score < WEAK_MATCH_SCORE and angular < cfg.match_angular_window:
@@ -1390,6 +1425,29 @@ def makes_node(delta, config: SlamConfig) -> bool:
     """Whether odometry's motion `delta` (x, y, theta) since the last node makes a scan a node: update_min_d of travel
     or update_min_a of turn."""
     return bool(math.hypot(delta[0], delta[1]) >= config.update_min_d or abs(delta[2]) >= config.update_min_a)
+
+
+def _seen(points: np.ndarray, views, margin) -> np.ndarray:
+    """Which points (K, 2) some view saw: a view (sensor pose, ascending beam angles, reach) saw a point whose
+    bearing b lies between two beams (angle[i] <= b <= angle[i + 1]) within 0.75 of the median spacing of one of
+    them (a dropped beam's gap is not seen) and whose range is at most the two beams' reach plus `margin` (m, or
+    one a point): r <= max(reach[i], reach[i + 1]) + margin."""
+    seen = np.zeros(len(points), dtype=bool)
+    for sensor, angles, reach in views:
+        if len(angles) < 2:
+            continue
+        c, s = math.cos(sensor[2]), math.sin(sensor[2])
+        dx, dy = points[:, 0] - sensor[0], points[:, 1] - sensor[1]
+        r = np.hypot(dx, dy)
+        bearing = np.arctan2(-s * dx + c * dy, c * dx + s * dy)
+        # the bearing unwrapped to the beams' span (a 360-degree scan's first and last beams are neighbours)
+        bearing = angles[0] + np.mod(bearing - angles[0], 2.0 * math.pi)
+        spacing = float(np.median(np.diff(angles)))
+        i = np.clip(np.searchsorted(angles, bearing), 1, len(angles) - 1)
+        gap = np.minimum(bearing - angles[i - 1], np.abs(angles[i] - bearing))
+        within = gap <= 0.75 * spacing  # a dropped beam's gap (NaN, too close) is not seen
+        seen |= within & (r <= np.maximum(reach[i - 1], reach[i]) + margin)
+    return seen
 
 
 def _window_reference(

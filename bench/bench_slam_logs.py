@@ -15,8 +15,8 @@ Goals (the issue): relative error <= 5 cm and <= 1 deg, ATE <= 0.2 m, >= 10x fas
 above 200 ms.
 
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_logs.py [--data DIR] [--logs intel ...]
-[--seeds 0 (several: a summary across them)] [--save DIR (maps and poses of each log; DIR/seedN with several)]
-[--slam KEY=VALUE ... (SlamConfig fields)]
+[--seeds 0 (several: a summary across them)] [--reverse] [--stride N]
+[--save DIR (maps and poses of each log; DIR/seedN with several)] [--slam KEY=VALUE ... (SlamConfig fields)]
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import gc
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -52,9 +53,24 @@ def scan_estimates(poses: np.ndarray, node_of: list[int], odometry: np.ndarray) 
     return np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)])
 
 
-def run_log(path: Path, seed: int, config: SlamConfig, save: Path | None) -> dict:
+def variant(log, reverse: bool = False, stride: int = 1):
+    """The log as another robot might have recorded the building (proxies for logs not seen): its scans played
+    backwards (another start and path through the same building; the stamps mirrored so that they still grow), and
+    / or every stride-th scan only (keyframes farther apart: a longer odometry step between scans)."""
+    scans = list(log.scans)
+    if reverse:
+        last = scans[-1].stamp
+        first = scans[0].stamp
+        scans = [replace(item, stamp=first + (last - item.stamp)) for item in reversed(scans)]
+    scans = scans[::stride]
+    return replace(log, scans=scans)
+
+
+def run_log(
+    path: Path, seed: int, config: SlamConfig, save: Path | None, reverse: bool = False, stride: int = 1
+) -> dict:
     """One log through GraphSlam: the figures of the module docstring."""
-    log = read_carmen(path)
+    log = variant(read_carmen(path), reverse, stride)
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
     slam = GraphSlam(config)
@@ -152,6 +168,8 @@ def main() -> None:
         "--seeds", type=int, nargs="+", default=[0], help="odometry noise seeds; several: a summary across them"
     )
     parser.add_argument("--save", type=Path, default=None)
+    parser.add_argument("--reverse", action="store_true", help="each log's scans played backwards (stamps mirrored)")
+    parser.add_argument("--stride", type=int, default=1, help="every stride-th scan only (keyframes farther apart)")
     parser.add_argument(
         "--slam", nargs="*", default=[], metavar="KEY=VALUE", help="SlamConfig fields over the defaults"
     )
@@ -177,7 +195,7 @@ def main() -> None:
     rows = []
     for seed, path in ((seed, path) for seed in args.seeds for path in paths):
         save = args.save / f"seed{seed}" if args.save is not None and len(args.seeds) > 1 else args.save
-        result = run_log(path, seed, config, save)
+        result = run_log(path, seed, config, save, args.reverse, args.stride)
         rows.append(result)
         if len(args.seeds) > 1:
             print(f"seed {seed} ", end="")
