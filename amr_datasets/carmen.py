@@ -42,7 +42,7 @@ import itertools
 import math
 import re
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -130,6 +130,22 @@ class _Raw:
     stamp: float | None
     max_range: float | None = None
     """The line's own maximum range (ROBOTLASER), if it states one."""
+
+
+def played_backwards(log: CarmenLog) -> CarmenLog:
+    """The log's scans in reverse order, their stamps mirrored (first + last - stamp: still growing): the same building
+    on another path, the laser facing away from the way the robot drives; a proxy for logs not seen."""
+    if not log.scans:
+        return log
+    first, last = log.scans[0].stamp, log.scans[-1].stamp
+    return replace(log, scans=[replace(item, stamp=first + last - item.stamp) for item in reversed(log.scans)])
+
+
+def thinned(log: CarmenLog, stride: int) -> CarmenLog:
+    """Every stride-th scan of the log (keyframes farther apart)."""
+    if int(stride) < 1:
+        raise DatasetError(f"{log.path}: stride must be at least 1, got {stride!r}")
+    return replace(log, scans=log.scans[:: int(stride)])
 
 
 def log_name(path: Path) -> str:

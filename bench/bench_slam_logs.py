@@ -26,13 +26,12 @@ import gc
 import os
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from amr_datasets.carmen import LOG_MOUNT, log_name, read_carmen
+from amr_datasets.carmen import LOG_MOUNT, log_name, played_backwards, read_carmen, thinned
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
@@ -53,24 +52,12 @@ def scan_estimates(poses: np.ndarray, node_of: list[int], odometry: np.ndarray) 
     return np.array([compose(poses[n], relative_pose(node_odometry[n], odometry[k])) for k, n in enumerate(node_of)])
 
 
-def variant(log, reverse: bool = False, stride: int = 1):
-    """The log as another robot might have recorded the building (proxies for logs not seen): its scans played
-    backwards (another start and path through the same building; the stamps mirrored so that they still grow), and
-    / or every stride-th scan only (keyframes farther apart: a longer odometry step between scans)."""
-    scans = list(log.scans)
-    if reverse:
-        last = scans[-1].stamp
-        first = scans[0].stamp
-        scans = [replace(item, stamp=first + (last - item.stamp)) for item in reversed(scans)]
-    scans = scans[::stride]
-    return replace(log, scans=scans)
-
-
 def run_log(
     path: Path, seed: int, config: SlamConfig, save: Path | None, reverse: bool = False, stride: int = 1
 ) -> dict:
     """One log through GraphSlam: the figures of the module docstring."""
-    log = variant(read_carmen(path), reverse, stride)
+    log = thinned(read_carmen(path), stride)
+    log = played_backwards(log) if reverse else log
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
     slam = GraphSlam(config)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from support.carmen_logs import MAX_RANGE, SHARED, flaser_line, ranges_of, write_log
 
-from amr_datasets.carmen import DatasetError, detect_max_range, log_name, read_carmen
+from amr_datasets.carmen import DatasetError, detect_max_range, log_name, played_backwards, read_carmen, thinned
 from amr_util.geometry import wrap_angle
 
 
@@ -188,3 +188,17 @@ def test_a_logs_name_is_its_file_names_first_word():
         "orebro",
         "fr079",
     ]
+
+
+def test_a_log_played_backwards_has_its_scans_reversed_and_its_stamps_growing(tmp_path):
+    path = tmp_path / "small.log"
+    write_log(path, count=20, period=0.3)
+    log = read_carmen(path)
+    backwards = played_backwards(log)
+    assert [s.pose for s in backwards.scans] == [s.pose for s in reversed(log.scans)]
+    stamps = backwards.stamps()
+    assert np.all(np.diff(stamps) > 0) and stamps[0] == log.stamps()[0] and stamps[-1] == log.stamps()[-1]
+    assert np.allclose(np.diff(stamps), np.diff(log.stamps())[::-1])
+    assert [s.pose for s in thinned(log, 2).scans] == [s.pose for s in log.scans[::2]]
+    with pytest.raises(DatasetError, match="stride"):
+        thinned(log, 0)
