@@ -1,7 +1,7 @@
 """Localization on real robots' logs: tracking from the first corrected pose and global localization from none.
 
     .venv/bin/python bench/bench_log_localization.py [--data DIR] [--logs intel aces] [--modes tracking global]
-                                                    [--seeds 0 1] [--ros] [--reverse]
+                                                    [--seeds 0 1] [--ros] [--reverse] [--stride N]
 
 For each CARMEN log in DIR (default: ../shared/data/carmen beside the repository), the map is the log's own scans
 at their corrected poses (known-pose log-odds mapping, 5 cm cells, saved and loaded as map_server serves it), the
@@ -15,7 +15,8 @@ order, placed --gap m, default 20, beyond the log's own: amr_evaluation.log_loca
 twice one building's size with two buildings' look-alikes: what a larger held-back log asks of global localization.
 
 --reverse plays each log backwards (amr_datasets.carmen.played_backwards: the same building on another path, the
-laser facing away from the way the robot drives): a proxy for logs not seen.
+laser facing away from the way the robot drives): a proxy for logs not seen. --stride N keeps every N-th scan
+(keyframes N times farther apart; the map made of the scans kept).
 
 --ros plays each log through the ROS nodes instead (log_player in lockstep into particle_filter on a map_server
 file): the same figures from /pose against /ground_truth, plus the round trip (scan out, /pose in).
@@ -32,7 +33,7 @@ from pathlib import Path
 
 import yaml
 
-from amr_datasets.carmen import log_name, played_backwards, read_carmen
+from amr_datasets.carmen import log_name, played_backwards, read_carmen, thinned
 from amr_evaluation.log_localization import log_map, log_map_beside, run_log
 from amr_localization.particle_filter_config import ParticleFilterConfig
 from amr_maps.map_io import load_map, save_map
@@ -69,9 +70,10 @@ def main() -> int:
     parser.add_argument("--beside", help="another log's building on each map: its name, or `next` (the next log's)")
     parser.add_argument("--gap", type=float, default=20.0, help="--beside: m between the two buildings' maps")
     parser.add_argument("--reverse", action="store_true", help="each log played backwards (library runs only)")
+    parser.add_argument("--stride", type=int, default=1, help="every stride-th scan only (library runs only)")
     args = parser.parse_args()
-    if args.reverse and args.ros:
-        parser.error("--reverse plays the log in the library only")
+    if (args.reverse or args.stride != 1) and args.ros:
+        parser.error("--reverse and --stride play the log in the library only")
     every = sorted(args.data.glob("*.log*"))
     names = [log_name(f) for f in every]
     files = [f for f in every if log_name(f) in args.logs] if args.logs else every
@@ -80,7 +82,8 @@ def main() -> int:
         return 2
     parameters = shipped_filter_parameters()
     for path in files:
-        log = played_backwards(read_carmen(path)) if args.reverse else read_carmen(path)
+        log = thinned(read_carmen(path), args.stride)
+        log = played_backwards(log) if args.reverse else log
         name = log_name(path)
         if args.beside:
             other = names[(names.index(name) + 1) % len(names)] if args.beside == "next" else args.beside
@@ -91,7 +94,7 @@ def main() -> int:
             name = f"{name}+{other}"
         else:
             grid = served(log_map(log))
-        name += " backwards" if args.reverse else ""
+        name += (" backwards" if args.reverse else "") + (f" 1/{args.stride}" if args.stride != 1 else "")
         for mode in args.modes:
             for seed in args.seeds:
                 if args.ros:
