@@ -34,6 +34,35 @@ from amr_util.stamps import stamp_nanoseconds
 KEEP = 100_000
 
 
+def time_scans(player: LogPlayerNode, seen: dict) -> None:
+    """Notes in `seen` (stamp ns -> time.monotonic()) when the configured player publishes each scan: where a round
+    trip starts (in this process, before any callback runs on the scan)."""
+    output = player._outputs["scan"]
+    publish = output.publish
+
+    def publish_timed(message) -> None:
+        if isinstance(message, bytes):  # serialized (CDR: 4 bytes of encapsulation, then the header's stamp)
+            sec, nanosec = struct.unpack_from("<iI", message, 4)
+            stamp = sec * 1_000_000_000 + nanosec
+        else:
+            stamp = stamp_nanoseconds(message.header.stamp)
+        seen[stamp] = time.monotonic()
+        publish(message)
+
+    output.publish = publish_timed
+
+
+def start_consumer(consumer, player: LogPlayerNode, seen: dict) -> str | None:
+    """Configures the consumer of the log's scans and the player (the name of one that did not: nothing else done),
+    notes when each scan is published (time_scans) and activates the consumer; the player is activated later."""
+    for node in (consumer, player):
+        if not node.try_transition(Transition.TRANSITION_CONFIGURE):
+            return node.get_name()
+    time_scans(player, seen)
+    consumer.try_transition(Transition.TRANSITION_ACTIVATE)
+    return None
+
+
 def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: str, seed: int) -> str:
     directory = Path(tempfile.mkdtemp())
     save_map(grid, directory / "map.yaml")
@@ -66,24 +95,9 @@ def run_through_ros(path: Path, log, grid, name: str, parameters: dict, mode: st
     for node in (localizer, player, watcher):
         executor.add_node(node)
     try:
-        for node in (localizer, player):
-            if not node.try_transition(Transition.TRANSITION_CONFIGURE):
-                return f"{name}: {node.get_name()} did not configure"
-        # the round trip starts when the player publishes a scan (in this process: before any callback runs on it)
-        scan_output = player._outputs["scan"]
-        publish = scan_output.publish
-
-        def publish_timed(message) -> None:
-            if isinstance(message, bytes):  # serialized (CDR: 4 bytes of encapsulation, then the header's stamp)
-                sec, nanosec = struct.unpack_from("<iI", message, 4)
-                stamp = sec * 1_000_000_000 + nanosec
-            else:
-                stamp = stamp_nanoseconds(message.header.stamp)
-            scan_seen[stamp] = time.monotonic()
-            publish(message)
-
-        scan_output.publish = publish_timed
-        localizer.try_transition(Transition.TRANSITION_ACTIVATE)
+        failed = start_consumer(localizer, player, scan_seen)
+        if failed:
+            return f"{name}: {failed} did not configure"
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline and (
             player.count_subscribers("scan") < 2 or not initial.get_subscription_count()

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import struct
 import sys
 import tempfile
 import time
@@ -26,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
+from bench_log_localization_ros import start_consumer
 from lifecycle_msgs.msg import Transition
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
@@ -78,23 +78,9 @@ def run_through_ros(path: Path, seed: int, map_period: float = 1.0) -> str:
     directory = Path(tempfile.mkdtemp())
     started = time.monotonic()
     try:
-        for node in (slam, player):
-            if not node.try_transition(Transition.TRANSITION_CONFIGURE):
-                return f"{name}: {node.get_name()} did not configure"
-        scan_output = player._outputs["scan"]
-        publish = scan_output.publish
-
-        def publish_timed(message) -> None:
-            if isinstance(message, bytes):  # serialized (CDR: 4 bytes of encapsulation, then the header's stamp)
-                sec, nanosec = struct.unpack_from("<iI", message, 4)
-                stamp = sec * 1_000_000_000 + nanosec
-            else:
-                stamp = stamp_nanoseconds(message.header.stamp)
-            scan_seen[stamp] = time.monotonic()
-            publish(message)
-
-        scan_output.publish = publish_timed
-        slam.try_transition(Transition.TRANSITION_ACTIVATE)
+        failed = start_consumer(slam, player, scan_seen)
+        if failed:
+            return f"{name}: {failed} did not configure"
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline and player.count_subscribers("scan") < 1:
             executor.spin_once(timeout_sec=0.05)
