@@ -52,8 +52,8 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   update, one iteration at least), the rest carried over to the next updates (each iteration lowers the cost of
   the graph as it is then: the poses, the map and the front end's submap are consistent meanwhile).
   An optimization that fails (MappingError) is reported in the events and the poses kept.
-- The occupancy grid is rebuilt from the optimized poses (amr_maps.scan_mapping.LogOddsGrid) when they have
-  changed, on request.
+- The occupancy grid (amr_maps.scan_mapping.LogOddsGrid) follows the poses on request: a new node's scan inserted,
+  a moved node's taken out and inserted again, all rebuilt when most nodes moved (_updated_map).
 
 Bad input: an odometry or stamp that is not finite, or a scan whose ranges do not match its angles, raises
 MappingError and changes nothing. NaN and out-of-range readings are dropped beams. An odometry step longer than
@@ -470,6 +470,8 @@ class GraphSlam:
         self._pose = np.zeros(3)
         self._travelled = 0.0
         self._grid: OccupancyGrid | None = None
+        self._log_odds: LogOddsGrid | None = None  # the map's log odds, kept up to date by _updated_map
+        self._inserted = np.zeros((0, 3))  # the pose each node's scan was inserted into it at
         self._unmatched: set[int] = set()  # nodes added on odometry alone (left out of the local submap)
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._candidates: list[_Candidate] = []  # closure candidates in progress, oldest first (_step_candidate)
@@ -521,10 +523,48 @@ class GraphSlam:
         if not self._nodes:
             raise MappingError("slam: no map yet (no scan has been added)")
         if self._grid is None:
-            poses = self._graph.poses
-            scans = [(node.ranges, node.angles, node.clear_range) for node in self._nodes]
-            self._grid = _grid_from(poses, scans, self.config, self._mount)
+            self._grid = self._updated_map().to_occupancy_grid()
         return self._grid
+
+    def _updated_map(self) -> LogOddsGrid:
+        """The log-odds map brought to the poses now: the new nodes' scans inserted, a node's scan that moved since
+        it was inserted taken out (LogOddsGrid.insert, sign -1: the same cells exactly) and inserted again; all of
+        it rebuilt when more than half the nodes moved (an optimization moves the whole graph). Between
+        optimizations an update is one scan's work, not every node's (intel: 63 % of the updates, aces 96 %; a
+        rebuild at 900 nodes 120 ms). The kept map never shrinks (cells only the old poses covered stay, unknown);
+        save rebuilds it."""
+        poses = self._graph.poses
+        inserted = self._inserted
+        if self._log_odds is not None and len(inserted) <= len(poses):
+            moved = np.flatnonzero(np.any(poses[: len(inserted)] != inserted, axis=1))
+            if len(moved) <= 0.5 * len(inserted):
+                grid = self._log_odds
+                for k in moved:
+                    node = self._nodes[k]
+                    args = (node.ranges, node.angles, node.clear_range)
+                    grid.insert(compose(inserted[k], self._mount), *args, sign=-1)
+                    grid.insert(compose(poses[k], self._mount), *args)
+                    inserted[k] = poses[k]
+                self._insert(range(len(inserted), len(poses)))
+                return grid
+        self._log_odds, self._inserted = LogOddsGrid(self.config.resolution), np.zeros((0, 3))
+        self._insert(range(len(poses)))
+        return self._log_odds
+
+    def _insert(self, nodes) -> None:
+        """The nodes' scans inserted into the log-odds map at their poses now (noted in _inserted)."""
+        nodes = list(nodes)
+        if not nodes:
+            return
+        poses = self._graph.poses[nodes]
+        scans = [self._nodes[k] for k in nodes]
+        self._log_odds.insert_many(
+            [compose(pose, self._mount) for pose in poses],
+            [node.ranges for node in scans],
+            [node.angles for node in scans],
+            [node.clear_range for node in scans],
+        )
+        self._inserted = np.vstack([self._inserted, poses])
 
     def save(self, path: str | Path) -> list[Path]:
         """Writes <path>.yaml + <path>.pgm (map_server's format) and <path>.poses.csv (stamp_ns,x,y,theta per
@@ -536,7 +576,12 @@ class GraphSlam:
                 self.optimize()
             except MappingError:
                 pass  # the poses kept: the map as it is
-        grid = self.occupancy_grid()
+        if not self._nodes:
+            raise MappingError("slam: no map yet (no scan has been added)")
+        # rebuilt at the poses now (the map kept in memory never shrinks: cells only old poses covered stay unknown)
+        grid = _grid_from(
+            self._graph.poses, [(n.ranges, n.angles, n.clear_range) for n in self._nodes], self.config, self._mount
+        )
         path = Path(path)
         stem = path.with_suffix("") if path.suffix in (".yaml", ".yml") else path
         csv_path = stem.with_name(stem.name + ".poses.csv")

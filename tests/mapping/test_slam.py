@@ -466,3 +466,48 @@ def test_save_finishes_an_optimization_still_running_over_the_updates(ring, tmp_
     after = slam.graph()[0]
     slam.save(tmp_path / "again")
     assert np.array_equal(slam.graph()[0], after)
+
+
+def test_the_map_follows_the_poses_by_moving_only_the_scans_of_nodes_that_moved(ring, monkeypatch):
+    """The map is kept up to date scan by scan (GraphSlam._updated_map): a new node's scan inserted, a node that
+    moved taken out and inserted again, all rebuilt when most nodes moved; the result is the rebuild's."""
+    from amr_maps.scan_mapping import LogOddsGrid
+
+    caster, truth = ring
+    odometry = _odometry(truth)
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
+    rng = np.random.default_rng(1)
+    inserted = []
+    original = LogOddsGrid.insert_many
+
+    def counting(self, poses, *args, **kwargs):
+        inserted.append(len(poses))
+        return original(self, poses, *args, **kwargs)
+
+    monkeypatch.setattr(LogOddsGrid, "insert_many", counting)
+    moved_runs = 0
+    for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
+        before = slam.graph()[0].copy()
+        slam.add(k * 100_000_000, odom, _scan(caster, pose, rng))
+        inserted.clear()
+        grid = slam.occupancy_grid()
+        after = slam.graph()[0]
+        moved = np.any(np.abs(after[: len(before)] - before) > 1e-9, axis=1).sum() if len(before) else 0
+        if moved == 0 and len(before):  # only the new node: its scan alone is inserted
+            assert inserted == [1], (k, inserted)
+        moved_runs += moved > 0
+    assert moved_runs > 0  # the loop's closures moved the graph: those updates went the other ways
+    exact = slam_module._grid_from(
+        slam.graph()[0], [(n.ranges, n.angles, n.clear_range) for n in slam._nodes], slam.config, slam._mount
+    )
+    assert grid.resolution == exact.resolution
+    # on the cells both cover (the kept grid never shrinks), known and occupied alike but for a few cells
+    ox = int(round((exact.origin[0] - grid.origin[0]) / grid.resolution))
+    oy = int(round((exact.origin[1] - grid.origin[1]) / grid.resolution))
+    assert ox >= 0 and oy >= 0
+    mine = grid.data[oy : oy + exact.data.shape[0], ox : ox + exact.data.shape[1]]
+    assert mine.shape == exact.data.shape
+    outside = np.ones_like(grid.data, dtype=bool)
+    outside[oy : oy + exact.data.shape[0], ox : ox + exact.data.shape[1]] = False
+    assert (grid.data[outside] == -1).all()  # what the kept grid has beyond the rebuild's extent is unknown
+    np.testing.assert_array_equal(mine, exact.data)
