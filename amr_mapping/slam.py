@@ -554,17 +554,10 @@ class GraphSlam:
     def _insert(self, nodes) -> None:
         """The nodes' scans inserted into the log-odds map at their poses now (noted in _inserted)."""
         nodes = list(nodes)
-        if not nodes:
-            return
-        poses = self._graph.poses[nodes]
-        scans = [self._nodes[k] for k in nodes]
-        self._log_odds.insert_many(
-            [compose(pose, self._mount) for pose in poses],
-            [node.ranges for node in scans],
-            [node.angles for node in scans],
-            [node.clear_range for node in scans],
-        )
-        self._inserted = np.vstack([self._inserted, poses])
+        if nodes:
+            poses = self._graph.poses[nodes]
+            _insert(self._log_odds, poses, [self._nodes[k] for k in nodes], self._mount)
+            self._inserted = np.vstack([self._inserted, poses])
 
     def save(self, path: str | Path) -> list[Path]:
         """Writes <path>.yaml + <path>.pgm (map_server's format) and <path>.poses.csv (stamp_ns,x,y,theta per
@@ -579,9 +572,7 @@ class GraphSlam:
         if not self._nodes:
             raise MappingError("slam: no map yet (no scan has been added)")
         # rebuilt at the poses now (the map kept in memory never shrinks: cells only old poses covered stay unknown)
-        grid = _grid_from(
-            self._graph.poses, [(n.ranges, n.angles, n.clear_range) for n in self._nodes], self.config, self._mount
-        )
+        grid = _grid_from(self._graph.poses, self._nodes, self.config, self._mount)
         path = Path(path)
         stem = path.with_suffix("") if path.suffix in (".yaml", ".yml") else path
         csv_path = stem.with_name(stem.name + ".poses.csv")
@@ -768,13 +759,7 @@ class GraphSlam:
         """The members' scans mapped (log odds) at their poses `placed` (the anchor node's frame): the cells seen
         clear (see _Reference.clear)."""
         grid = LogOddsGrid(self.config.resolution)
-        nodes = [self._nodes[k] for k in members]
-        grid.insert_many(
-            [compose(pose, self._mount) for pose in placed],
-            [node.ranges for node in nodes],
-            [node.angles for node in nodes],
-            [node.clear_range for node in nodes],
-        )
+        _insert(grid, placed, [self._nodes[k] for k in members], self._mount)
         margin = int(CLEAR_MARGIN_CELLS)
         # the walls dilated by a square: a separable maximum, the same cells as binary_dilation's (twice as fast)
         walls = ndimage.maximum_filter(grid.probability_at_least(0.5), size=2 * margin + 1, mode="constant", cval=0)
@@ -1481,10 +1466,9 @@ def _seen(points: np.ndarray, views, margin) -> np.ndarray:
     for sensor, angles, reach in views:
         if len(angles) < 2:
             continue
-        c, s = math.cos(sensor[2]), math.sin(sensor[2])
-        dx, dy = points[:, 0] - sensor[0], points[:, 1] - sensor[1]
-        r = np.hypot(dx, dy)
-        bearing = np.arctan2(-s * dx + c * dy, c * dx + s * dy)
+        local = transform_points(inverse(sensor), points)
+        r = np.hypot(local[:, 0], local[:, 1])
+        bearing = np.arctan2(local[:, 1], local[:, 0])
         # the bearing unwrapped to the beams' span (a 360-degree scan's first and last beams are neighbours)
         bearing = angles[0] + np.mod(bearing - angles[0], 2.0 * math.pi)
         spacing = float(np.median(np.diff(angles)))
@@ -1774,17 +1758,21 @@ def _beams(scan: ScanData, max_range_used: float, mount=(0.0, 0.0, 0.0)) -> tupl
     return ranges[mapped].astype(np.float32), angles[mapped].astype(np.float32), points
 
 
-def _grid_from(poses: np.ndarray, scans, config: SlamConfig, mount=(0.0, 0.0, 0.0)) -> OccupancyGrid:
-    """The occupancy grid of the scans (ranges, angles, clear_range) at the poses: a beam without a return
-    clears free space up to clear_range (the sensor's range_max, at most max_range_used), not further."""
-    grid = LogOddsGrid(config.resolution)
-    scans = list(scans)
+def _insert(grid: LogOddsGrid, poses, nodes, mount=(0.0, 0.0, 0.0)) -> None:
+    """The nodes' scans inserted into the log-odds grid at the robot's poses (the sensor at `mount`): a beam without
+    a return clears free space up to its node's clear_range (the sensor's range_max, at most max_range_used)."""
     grid.insert_many(
         [compose(pose, mount) for pose in poses],
-        [ranges for ranges, _, _ in scans],
-        [angles for _, angles, _ in scans],
-        [clear_range for _, _, clear_range in scans],
+        [node.ranges for node in nodes],
+        [node.angles for node in nodes],
+        [node.clear_range for node in nodes],
     )
+
+
+def _grid_from(poses: np.ndarray, nodes, config: SlamConfig, mount=(0.0, 0.0, 0.0)) -> OccupancyGrid:
+    """The occupancy grid of the nodes' scans at the poses, built afresh."""
+    grid = LogOddsGrid(config.resolution)
+    _insert(grid, poses, nodes, mount)
     return grid.to_occupancy_grid()
 
 

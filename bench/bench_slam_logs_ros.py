@@ -76,7 +76,6 @@ def run_through_ros(path: Path, seed: int, map_period: float = 1.0) -> str:
     for node in (slam, player, watcher):
         executor.add_node(node)
     directory = Path(tempfile.mkdtemp())
-    started = time.monotonic()
     try:
         failed = start_consumer(slam, player, scan_seen)
         if failed:

@@ -497,9 +497,7 @@ def test_the_map_follows_the_poses_by_moving_only_the_scans_of_nodes_that_moved(
             assert inserted == [1], (k, inserted)
         moved_runs += moved > 0
     assert moved_runs > 0  # the loop's closures moved the graph: those updates went the other ways
-    exact = slam_module._grid_from(
-        slam.graph()[0], [(n.ranges, n.angles, n.clear_range) for n in slam._nodes], slam.config, slam._mount
-    )
+    exact = slam_module._grid_from(slam.graph()[0], slam._nodes, slam.config, slam._mount)
     assert grid.resolution == exact.resolution
     # on the cells both cover (the kept grid never shrinks), known and occupied alike but for a few cells
     ox = int(round((exact.origin[0] - grid.origin[0]) / grid.resolution))
