@@ -53,7 +53,9 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   the graph as it is then: the poses, the map and the front end's submap are consistent meanwhile).
   An optimization that fails (MappingError) is reported in the events and the poses kept.
 - The occupancy grid (amr_maps.scan_mapping.LogOddsGrid) follows the poses on request: a new node's scan inserted,
-  a moved node's taken out and inserted again, all rebuilt when most nodes moved (_updated_map).
+  a moved node's taken out and inserted again, all rebuilt when most nodes moved (KeptMap). KeptMap works on a
+  snapshot of the graph (GraphSlam.snapshot: the poses copied, the nodes, immutable once added), so a caller may
+  build the map on a thread of its own while the graph goes on (the slam node does, as slam_toolbox does).
 
 Bad input: an odometry or stamp that is not finite, or a scan whose ranges do not match its angles, raises
 MappingError and changes nothing. NaN and out-of-range readings are dropped beams. An odometry step longer than
@@ -68,6 +70,7 @@ import dataclasses
 import math
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -457,6 +460,93 @@ class _Node:
     """m a beam without a return clears: the sensor's range_max, at most max_range_used."""
 
 
+@dataclass(frozen=True)
+class SlamSnapshot:
+    """The graph at one moment (GraphSlam.snapshot): the arrays copied and the nodes themselves (immutable once
+    added; the list of them only grows), so another thread may read it while the graph goes on."""
+
+    poses: np.ndarray
+    """(N, 3) the nodes' poses, map frame."""
+    edges: np.ndarray
+    """(M, 2) int node pairs."""
+    loop: np.ndarray
+    """(M,) bool: which edges are loop closures."""
+    node_stamps: tuple[int, ...]
+    """Each node's stamp (ns)."""
+    nodes: tuple[_Node, ...]
+    mount: np.ndarray
+    """The LiDAR on the robot (lidar_x, lidar_y, lidar_yaw)."""
+
+
+class KeptMap:
+    """The log-odds map of every node's scan at its pose, kept up to date from snapshot to snapshot (build): a new
+    node's scan inserted, a node's scan that moved since it was inserted taken out (LogOddsGrid.insert, sign -1: the
+    same cells exactly) and inserted again; all of it rebuilt when more than half the nodes moved (an optimization
+    moves the whole graph). Between optimizations a build is one scan's work, not every node's (intel: 63 % of the
+    updates, aces 96 %; a rebuild at 900 nodes 120 ms). The kept map never shrinks (cells only the old poses covered
+    stay, unknown); GraphSlam.save rebuilds it. It touches nothing but the snapshot it is given and its own grid:
+    one build at a time, on any thread."""
+
+    CHUNK = 16
+    """Scans inserted between two calls of a build's pause (a few ms)."""
+
+    def __init__(self, resolution: float) -> None:
+        self.resolution = float(resolution)
+        self._log_odds: LogOddsGrid | None = None
+        self._inserted = np.zeros((0, 3))  # the pose each node's scan was inserted into the log odds at
+        self._grid: OccupancyGrid | None = None  # the last build's, while no node moved or was added
+
+    def build(self, snapshot: SlamSnapshot, pause: Callable[[], object] | None = None) -> OccupancyGrid:
+        """The occupancy grid of the snapshot's nodes at its poses (the last build's grid itself when nothing
+        changed since). `pause`, when given, is called between chunks of CHUNK scans and before the grid's
+        conversion: a caller building on a thread of its own waits there while its other thread has something more
+        urgent (the slam node: a pair to answer); the grid is the same. No node: MappingError."""
+        poses, nodes = np.asarray(snapshot.poses, dtype=float).reshape(-1, 3), snapshot.nodes
+        if not len(nodes):
+            raise MappingError("slam: no map yet (no scan has been added)")
+        if len(poses) != len(nodes):
+            raise MappingError(f"slam: a snapshot of {len(poses)} poses and {len(nodes)} nodes")
+        if self._grid is None or not np.array_equal(poses, self._inserted):
+            log_odds = self._updated(poses, nodes, snapshot.mount, pause)
+            if pause is not None:
+                pause()
+            self._grid = log_odds.to_occupancy_grid()
+        return self._grid
+
+    def _updated(self, poses: np.ndarray, nodes, mount, pause) -> LogOddsGrid:
+        """The log-odds map brought to the poses (see the class)."""
+        inserted = self._inserted
+        if self._log_odds is not None and len(inserted) <= len(poses):
+            moved = np.flatnonzero(np.any(poses[: len(inserted)] != inserted, axis=1))
+            if len(moved) <= 0.5 * len(inserted):
+                grid = self._log_odds
+                for count, k in enumerate(moved):
+                    if pause is not None and count and count % self.CHUNK == 0:
+                        pause()
+                    node = nodes[k]
+                    args = (node.ranges, node.angles, node.clear_range)
+                    grid.insert(compose(inserted[k], mount), *args, sign=-1)
+                    grid.insert(compose(poses[k], mount), *args)
+                    inserted[k] = poses[k]
+                self._insert(poses, nodes, mount, range(len(inserted), len(poses)), pause)
+                return grid
+        self._log_odds, self._inserted = LogOddsGrid(self.resolution), np.zeros((0, 3))
+        self._insert(poses, nodes, mount, range(len(poses)), pause)
+        return self._log_odds
+
+    def _insert(self, poses: np.ndarray, nodes, mount, indices, pause=None) -> None:
+        """The scans of nodes `indices` inserted into the log-odds map at their poses (noted in _inserted): at once,
+        or CHUNK at a time with a pause between (LogOddsGrid.insert_many: the same cells, values and origin)."""
+        indices = list(indices)
+        step = len(indices) if pause is None else self.CHUNK
+        for start in range(0, len(indices), max(step, 1)):
+            if start:
+                pause()
+            chunk = indices[start : start + step]
+            _insert(self._log_odds, poses[chunk], [nodes[k] for k in chunk], mount)
+            self._inserted = np.vstack([self._inserted, poses[chunk]])
+
+
 class GraphSlam:
     """Online graph SLAM; see the module docstring."""
 
@@ -469,9 +559,7 @@ class GraphSlam:
         self._anchor_odometry: np.ndarray | None = None  # the odometry that the last node's pose stands for
         self._pose = np.zeros(3)
         self._travelled = 0.0
-        self._grid: OccupancyGrid | None = None
-        self._log_odds: LogOddsGrid | None = None  # the map's log odds, kept up to date by _updated_map
-        self._inserted = np.zeros((0, 3))  # the pose each node's scan was inserted into it at
+        self._map = KeptMap(self.config.resolution)  # occupancy_grid's
         self._unmatched: set[int] = set()  # nodes added on odometry alone (left out of the local submap)
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._candidates: list[_Candidate] = []  # closure candidates in progress, oldest first (_step_candidate)
@@ -518,46 +606,24 @@ class GraphSlam:
         return self._graph.poses, self._graph.edges, self._graph.loop
 
     def occupancy_grid(self) -> OccupancyGrid:
-        """The map from every node's scan at its optimized pose (rebuilt when the poses changed). No node yet:
-        MappingError."""
+        """The map from every node's scan at its optimized pose (brought to the poses when they changed: KeptMap).
+        No node yet: MappingError."""
         if not self._nodes:
             raise MappingError("slam: no map yet (no scan has been added)")
-        if self._grid is None:
-            self._grid = self._updated_map().to_occupancy_grid()
-        return self._grid
+        return self._map.build(self.snapshot())
 
-    def _updated_map(self) -> LogOddsGrid:
-        """The log-odds map brought to the poses now: the new nodes' scans inserted, a node's scan that moved since
-        it was inserted taken out (LogOddsGrid.insert, sign -1: the same cells exactly) and inserted again; all of
-        it rebuilt when more than half the nodes moved (an optimization moves the whole graph). Between
-        optimizations an update is one scan's work, not every node's (intel: 63 % of the updates, aces 96 %; a
-        rebuild at 900 nodes 120 ms). The kept map never shrinks (cells only the old poses covered stay, unknown);
-        save rebuilds it."""
-        poses = self._graph.poses
-        inserted = self._inserted
-        if self._log_odds is not None and len(inserted) <= len(poses):
-            moved = np.flatnonzero(np.any(poses[: len(inserted)] != inserted, axis=1))
-            if len(moved) <= 0.5 * len(inserted):
-                grid = self._log_odds
-                for k in moved:
-                    node = self._nodes[k]
-                    args = (node.ranges, node.angles, node.clear_range)
-                    grid.insert(compose(inserted[k], self._mount), *args, sign=-1)
-                    grid.insert(compose(poses[k], self._mount), *args)
-                    inserted[k] = poses[k]
-                self._insert(range(len(inserted), len(poses)))
-                return grid
-        self._log_odds, self._inserted = LogOddsGrid(self.config.resolution), np.zeros((0, 3))
-        self._insert(range(len(poses)))
-        return self._log_odds
-
-    def _insert(self, nodes) -> None:
-        """The nodes' scans inserted into the log-odds map at their poses now (noted in _inserted)."""
-        nodes = list(nodes)
-        if nodes:
-            poses = self._graph.poses[nodes]
-            _insert(self._log_odds, poses, [self._nodes[k] for k in nodes], self._mount)
-            self._inserted = np.vstack([self._inserted, poses])
+    def snapshot(self) -> SlamSnapshot:
+        """The graph now, for another thread (KeptMap.build, a pose graph message): the poses, edges, loop flags and
+        stamps copied, the nodes themselves (immutable once added). O(nodes + edges) copies, no map work."""
+        nodes = tuple(self._nodes)
+        return SlamSnapshot(
+            self._graph.poses,
+            self._graph.edges,
+            self._graph.loop,
+            tuple(node.stamp_ns for node in nodes),
+            nodes,
+            self._mount.copy(),
+        )
 
     def save(self, path: str | Path) -> list[Path]:
         """Writes <path>.yaml + <path>.pgm (map_server's format) and <path>.poses.csv (stamp_ns,x,y,theta per
@@ -597,7 +663,6 @@ class GraphSlam:
             return False
         result = self._optimize(30, [])
         if result.max_change > 0.0:
-            self._grid = None
             self._local = None
             last = len(self._nodes) - 1
             self._pose = np.array(compose(self._graph.pose(last), relative_pose(self._anchor_odometry, self._odometry)))
@@ -671,7 +736,6 @@ class GraphSlam:
         index = self._graph.add_node(pose)
         self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled, clear_range))
         self._anchor_odometry = odometry.copy()
-        self._grid = None
         window = self.config.local_window
         if (index + 1) % window == 0:  # a submap is complete: nodes index - window + 1 .. index
             self._submaps.append(_Submap(index - window // 2, index))
@@ -1776,4 +1840,4 @@ def _grid_from(poses: np.ndarray, nodes, config: SlamConfig, mount=(0.0, 0.0, 0.
     return grid.to_occupancy_grid()
 
 
-__all__ = ["GraphSlam", "LoopClosure", "MappingError", "SlamConfig", "SlamUpdate"]
+__all__ = ["GraphSlam", "KeptMap", "LoopClosure", "MappingError", "SlamConfig", "SlamSnapshot", "SlamUpdate"]

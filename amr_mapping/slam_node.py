@@ -9,23 +9,34 @@ active     /odometry + /scan are paired by stamp (amr_util.sync, the approximate
            and the lockstep simulator take it as they take the filter's), map -> odom on /tf, ~/status
            (amr_interfaces/LocalizerStatus: updated = a node was added, confidence 1, update_time,
            event = loop closures or the library's events).
-           /map (nav_msgs/OccupancyGrid) and ~/graph (amr_interfaces/PoseGraph), both transient local, go out when the
-           map changed, at most every map_publish_period s of scan time (a steady timer sends a change left over
-           when no scan comes: a lockstep simulator holding the robot).
+           /map (nav_msgs/OccupancyGrid, stamped with the scan's stamp it was asked for at) and ~/graph
+           (amr_interfaces/PoseGraph, its newest node's stamp), both transient local, go out when the map changed,
+           at most every map_publish_period s of scan time (a steady timer asks for a change left over when no scan
+           comes: a lockstep simulator holding the robot). They are built and published on the node's own thread
+           (MapWorker, as slam_toolbox builds its map beside its scan processing): the callback answering a pair
+           only asks for one, and the thread takes a snapshot of the graph (GraphSlam.snapshot, under the lock
+           GraphSlam.add and save are called under), brings its kept map to it (amr_mapping.slam.KeptMap) outside
+           the lock, waiting between chunks of the build while a pair is answered (one thread of Python runs at a
+           time), and publishes. One build at a time; asking during a build makes one more after it (the newest
+           ask's stamp), never a queue. The thread starts on activate and is stopped and joined on deactivate,
+           cleanup and destroy (nothing is published after deactivate).
            ~/save_map (amr_interfaces/SaveMap) writes <path>.yaml, <path>.pgm and <path>.poses.csv; a path that
            cannot be written is answered success false with the reason, and the map is kept.
 
 One /pose answers every pair, so a lockstep loop that waits for it never stalls: an input the library refuses
 (MappingError), or a failure of the library, is logged and the pose follows odometry from the last correction. Nothing
-non-finite is published; no exception leaves a callback. Stamps going back (a simulator reset) restart the
-pairing with a log line; the map is kept (the world did not change).
+non-finite is published; no exception leaves a callback or the map thread (a failed build is logged and the thread
+goes on). Stamps going back (a simulator reset) restart the pairing with a log line; the map is kept (the world did
+not change).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +53,7 @@ from tf2_msgs.msg import TFMessage
 from amr_interfaces.msg import LocalizedPose, LocalizerStatus, PoseGraph
 from amr_interfaces.srv import SaveMap
 from amr_mapping.errors import MappingError
-from amr_mapping.slam import GraphSlam, SlamConfig
+from amr_mapping.slam import GraphSlam, KeptMap, SlamConfig
 from amr_maps.messages import grid_message
 from amr_util.geometry import all_finite, compose, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
@@ -58,6 +69,11 @@ WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
 FLUSH_PERIOD = 0.5
 """s (wall clock) between checks for a map change left unpublished."""
+JOIN_TIMEOUT = 30.0
+"""s a deactivate waits for the map thread's build in progress (a rebuild at 900 nodes takes 0.1-0.2 s)."""
+PAUSE_LIMIT = 1.0
+"""s the map thread waits at most, between two chunks of its build, for a pair being answered (one thread of Python
+runs at a time: a build going on beside the answer would take half its turns)."""
 
 NODE_SPECS = (
     ParameterSpec(
@@ -145,6 +161,69 @@ def pose_graph_message(stamp: TimeMessage, frame: str, poses, edges, loop) -> Po
     return message
 
 
+class MapWorker:
+    """A thread of its own that runs `job(request)` for the newest request, one job at a time: a request made
+    during a job makes one more job after it (coalesced: the newest request, never a queue). No exception leaves
+    the thread: `on_error(error)` is called and the thread goes on. Executor-independent (a plain thread); a
+    daemon, so a job that never ends does not hold the process."""
+
+    def __init__(self, job: Callable[[object], None], on_error: Callable[[BaseException], None], name: str) -> None:
+        self._job, self._on_error = job, on_error
+        self._wake = threading.Condition()
+        self._request: object | None = None
+        self._stop = False
+        self._busy = False  # a job in progress
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def request(self, value: object) -> None:
+        """A job for `value`, after the one in progress if any (replacing a request not started yet)."""
+        with self._wake:
+            self._request = value
+            self._wake.notify()
+
+    @property
+    def stopping(self) -> bool:
+        return self._stop
+
+    @property
+    def alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def stop(self, timeout: float = JOIN_TIMEOUT) -> bool:
+        """Stops the thread after the job in progress, drops a request not started and joins; True when a request
+        was left undone (dropped, or its job in progress when asked to stop). Safe to call twice, or before start."""
+        with self._wake:
+            self._stop = True
+            left = self._request is not None or self._busy
+            self._request = None
+            self._wake.notify()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+        return left
+
+    def _run(self) -> None:
+        while True:
+            with self._wake:
+                while self._request is None and not self._stop:
+                    self._wake.wait()
+                if self._stop:
+                    return
+                value, self._request = self._request, None
+                self._busy = True
+            try:
+                self._job(value)
+            except Exception as error:  # the thread outlives a failed job
+                try:
+                    self._on_error(error)
+                except Exception:
+                    pass
+            finally:
+                self._busy = False
+
+
 class SlamNode(ManagedNode):
     """Wires GraphSlam to /odometry, /scan, /map, /pose, /tf, ~/graph, ~/status and ~/save_map; no mapping logic."""
 
@@ -158,6 +237,11 @@ class SlamNode(ManagedNode):
         self._entities: list = []
         self._timer = None
         self._warnings = Throttle(WARNING_PERIOD)  # wall time
+        self._slam_lock = threading.Lock()  # GraphSlam.add, save and the map thread's snapshot
+        self._idle = threading.Event()  # clear while a pair is answered: the map thread's build waits
+        self._idle.set()
+        self._kept_map: KeptMap | None = None  # the map thread's
+        self._map_worker: MapWorker | None = None
         self._map_dirty = False
         self._last_map_ns: int | None = None
         self._last_map_wall = -math.inf
@@ -174,6 +258,7 @@ class SlamNode(ManagedNode):
         if not problems:
             try:
                 self.slam = GraphSlam(config_of(values))
+                self._kept_map = KeptMap(self.slam.config.resolution)
             except ValueError as error:  # ConfigError, MappingError name the key
                 problems = [str(error)]
         if problems:
@@ -222,15 +307,20 @@ class SlamNode(ManagedNode):
         if self._sync is not None:
             self._sync.reset()
         self._timer = self.create_timer(FLUSH_PERIOD, self._flush, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._stop_map_worker()
+        self._map_worker = MapWorker(self._build_map, self._on_map_error, f"{self.get_name()} map")
+        self._map_worker.start()
         return super().on_activate(state)
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
         if self._timer is not None:
             self.destroy_timer(self._timer)
             self._timer = None
+        self._stop_map_worker()  # joined before the publishers are deactivated: nothing published after
         return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        self._stop_map_worker()
         for entity in self._entities:
             if hasattr(entity, "srv_name"):
                 self.destroy_service(entity)
@@ -239,9 +329,26 @@ class SlamNode(ManagedNode):
         for publisher in self._outputs.values():
             self.destroy_lifecycle_publisher(publisher)
         self._entities, self._outputs = [], {}
-        self.slam = self._sync = self._last_stamp = None
+        self.slam = self._sync = self._last_stamp = self._kept_map = None
         self._map_dirty, self._last_map_ns = False, None
         return TransitionCallbackReturn.SUCCESS
+
+    def destroy_node(self) -> None:
+        self._stop_map_worker()
+        super().destroy_node()
+
+    def _stop_map_worker(self) -> None:
+        """The map thread stopped after its build in progress and joined; a map asked for and not published is
+        asked again by the next scan or the flush timer once active again."""
+        worker, self._map_worker = self._map_worker, None
+        if worker is None:
+            return
+        if worker.stop():
+            self._map_dirty = True
+        if worker.alive:  # its build goes on with the kept map it holds: the next thread gets a fresh one
+            self.get_logger().error(f"the map thread did not stop within {JOIN_TIMEOUT} s: left to end on its own")
+            if self._kept_map is not None:
+                self._kept_map = KeptMap(self._kept_map.resolution)
 
     # -- inputs ---------------------------------------------------------------------------------
 
@@ -266,13 +373,16 @@ class SlamNode(ManagedNode):
 
     def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
         """One GraphSlam.add per pair, then /pose, map -> odom and ~/status with the scan's stamp; /map and ~/graph
-        when the map changed and map_publish_period has passed."""
+        when the map changed and map_publish_period has passed (asked of the map thread, which waits meanwhile)."""
+        self._idle.clear()
         try:
             self._process(odometry, scan)
         except Exception as error:  # a library bug must not take the node down (nor stall a lockstep loop)
             self.get_logger().error(
                 f"slam update failed: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
             )
+        finally:
+            self._idle.set()
 
     def _process(self, odometry: Odometry, scan: LaserScan) -> None:
         slam, stamp = self.slam, scan.header.stamp
@@ -283,7 +393,9 @@ class SlamNode(ManagedNode):
             return
         status = LocalizerStatus(localized=True, clusters=1, confidence=1.0)
         try:
-            update = slam.add(stamp_ns, odom, scan_data(scan))
+            data = scan_data(scan)
+            with self._slam_lock:
+                update = slam.add(stamp_ns, odom, data)
             pose = tuple(float(v) for v in update.pose)
             status.updated, status.update_time = bool(update.node_added), float(update.seconds)
             for event in update.events:
@@ -306,7 +418,7 @@ class SlamNode(ManagedNode):
         due = self._last_map_ns is None or stamp_ns - self._last_map_ns >= period or stamp_ns < self._last_map_ns
         if self._map_dirty and due:
             self._last_map_ns = stamp_ns
-            self._publish_map(stamp)
+            self._request_map(stamp)
 
     def _on_save_map(self, request: SaveMap.Request, response: SaveMap.Response) -> SaveMap.Response:
         try:
@@ -315,7 +427,8 @@ class SlamNode(ManagedNode):
             path = Path(request.path).expanduser() if request.path else None
             if path is None:
                 raise MappingError("path is empty: give a file path without extension (e.g. my_map)")
-            written = self.slam.save(path)
+            with self._slam_lock:
+                written = self.slam.save(path)
             response.success = True
             response.message = "wrote " + ", ".join(str(p) for p in written)
             self.get_logger().info(f"map saved: {response.message}")
@@ -342,33 +455,61 @@ class SlamNode(ManagedNode):
         status.header.stamp, status.header.frame_id = stamp, frame
         self._outputs["status"].publish(status)
 
-    def _publish_map(self, stamp: TimeMessage) -> None:
-        frame = self._settings["global_frame_id"]
-        grid = self.slam.occupancy_grid()
-        if grid.frame_id != frame:
-            grid = dataclasses.replace(grid, frame_id=frame)
-        self._outputs["map"].publish(grid_message(grid, stamp))
-        poses, edges, loop = self.slam.graph()
-        stamps = list(self.slam.node_stamps)
-        graph_stamp = stamp_from_nanoseconds(int(stamps[-1])) if stamps else stamp
-        if np.isfinite(np.asarray(poses, dtype=float)).all():
-            self._outputs["graph"].publish(pose_graph_message(graph_stamp, frame, poses, edges, loop))
+    def _request_map(self, stamp: TimeMessage) -> None:
+        """/map and ~/graph asked of the map thread (built and published there, stamped `stamp`): the change is
+        taken as published (a later change marks the map again)."""
+        worker = self._map_worker
+        if worker is None:
+            return
         self._map_dirty = False
         self._last_map_wall = time.monotonic()
+        worker.request(stamp)
+
+    def _build_map(self, stamp: TimeMessage) -> None:
+        """The map thread's job: a snapshot of the graph under the lock, the kept map brought to it outside, then
+        /map and ~/graph (nothing when a pose is not finite, or when the thread is being stopped)."""
+        with self._slam_lock:
+            slam, kept = self.slam, self._kept_map
+            if slam is None or kept is None:
+                return
+            snapshot = slam.snapshot()
+        if not snapshot.nodes:
+            return
+        frame, outputs = self._settings["global_frame_id"], self._outputs
+        if not np.isfinite(snapshot.poses).all():
+            raise MappingError("a node's pose is not finite: no /map nor ~/graph published")
+        grid = kept.build(snapshot, pause=self._pause)
+        if grid.frame_id != frame:
+            grid = dataclasses.replace(grid, frame_id=frame)
+        if not all_finite(grid.origin):
+            raise MappingError(f"the map's origin {grid.origin} is not finite: not published")
+        message = grid_message(grid, stamp)
+        graph_stamp = stamp_from_nanoseconds(int(snapshot.node_stamps[-1]))
+        graph = pose_graph_message(graph_stamp, frame, snapshot.poses, snapshot.edges, snapshot.loop)
+        self._pause()
+        worker = self._map_worker
+        if worker is None or worker.stopping:  # deactivating: the publishers are about to be (MapWorker.stop says)
+            return
+        outputs["map"].publish(message)
+        outputs["graph"].publish(graph)
         self.maps_published += 1
 
+    def _pause(self) -> None:
+        """The map thread's build waits while a pair is being answered (at most PAUSE_LIMIT s at a time)."""
+        self._idle.wait(PAUSE_LIMIT)
+
+    def _on_map_error(self, error: BaseException) -> None:
+        self.get_logger().error(
+            f"map not published: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
+        )
+
     def _flush(self) -> None:
-        """A map change no later scan published (a lockstep simulator holding the robot) goes out after a period."""
+        """A map change no later scan asked for (a lockstep simulator holding the robot) goes out after a period."""
         if self.state_label != "active" or not self._map_dirty or self._last_stamp is None or self.slam is None:
             return
         if time.monotonic() - self._last_map_wall < max(self._settings["map_publish_period"], FLUSH_PERIOD):
             return
-        try:
-            self._publish_map(self._last_stamp)
-        except Exception as error:
-            self.get_logger().error(
-                f"map not published: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
-            )
+        self._request_map(self._last_stamp)
 
     def _warn(self, text: str) -> None:
         """Each distinct warning at most once per WARNING_PERIOD of wall time."""

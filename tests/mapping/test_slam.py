@@ -469,8 +469,9 @@ def test_save_finishes_an_optimization_still_running_over_the_updates(ring, tmp_
 
 
 def test_the_map_follows_the_poses_by_moving_only_the_scans_of_nodes_that_moved(ring, monkeypatch):
-    """The map is kept up to date scan by scan (GraphSlam._updated_map): a new node's scan inserted, a node that
-    moved taken out and inserted again, all rebuilt when most nodes moved; the result is the rebuild's."""
+    """The map is kept up to date scan by scan (KeptMap, behind GraphSlam.occupancy_grid): a new node's scan
+    inserted, a node that moved taken out and inserted again, all rebuilt when most nodes moved; the result is the
+    rebuild's."""
     from amr_maps.scan_mapping import LogOddsGrid
 
     caster, truth = ring
