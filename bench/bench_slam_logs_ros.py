@@ -8,10 +8,11 @@ Run it with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and a ROS_DOMAIN_ID of its o
 bench_slam_logs.py's (SlamConfig's defaults, the LiDAR where the log's poses are); the odometry the player's
 (amr_datasets.odometry: 5 % noise, 1 % scale error, 0.5 deg/m heading bias, seeded), the library bench's to the bit;
 /map published as the node's default does (map_publish_period 1 s of scan time: at every keyframe of these logs, the
-grid rebuilt from the optimized poses each time; --map-period 3600 leaves it out). Printed per log: scans answered (a
-/pose for each), graph nodes, the relative displacement error of Kuemmerle et al. (pairs 1-10 m apart) and the ATE
-after a rigid alignment over the saved nodes, the round trip (the player publishing a scan to the /pose answering it
-reaching a watcher: p50, p95, max) and the wall time against the log's duration. Prints; asserts nothing.
+kept map brought to the optimized poses on the node's map thread; --map-period 3600 leaves it out). Printed per log:
+scans answered (a /pose for each), graph nodes, the relative displacement error of Kuemmerle et al. (pairs 1-10 m
+apart) and the ATE after a rigid alignment over the saved nodes, the round trip (the player publishing a scan to the
+/pose answering it reaching a watcher: p50, p95, max) and the wall time against the log's duration. Prints; asserts
+nothing.
 """
 
 from __future__ import annotations
@@ -100,6 +101,7 @@ def run_through_ros(path: Path, seed: int, map_period: float = 1.0) -> str:
             return f"{name}: save_map failed ({future.result().message if future.done() else 'no answer'})"
         timeouts = player.timeouts
     finally:
+        slam.shut_down_cleanly()  # its map thread joined
         executor.shutdown()
         context.try_shutdown()
     rows = [line.split(",") for line in (directory / "map.poses.csv").read_text().splitlines()[1:] if line]
