@@ -92,7 +92,7 @@ class BeaconLocalizerNode(LocalizerNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._teardown()
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def _teardown(self) -> None:
         for subscription in self._inputs:

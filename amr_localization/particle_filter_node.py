@@ -170,7 +170,7 @@ class ParticleFilterNode(LocalizerNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._teardown()
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def _teardown(self) -> None:
         for subscription in self._inputs:

@@ -152,7 +152,7 @@ class ExplorerNode(ManagedNode):
             self.destroy_client(self._save_client)
         self._entities, self._outputs, self._save_client = [], {}, None
         self.explorer, self._grid, self._pose = None, None, None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     @property
     def active(self) -> bool:

@@ -331,7 +331,7 @@ class SlamNode(ManagedNode):
         self._entities, self._outputs = [], {}
         self.slam = self._sync = self._last_stamp = self._kept_map = None
         self._map_dirty, self._last_map_ns = False, None
-        return TransitionCallbackReturn.SUCCESS
+        return super().on_cleanup(state)  # and whatever else configure made
 
     def destroy_node(self) -> None:
         self._stop_map_worker()

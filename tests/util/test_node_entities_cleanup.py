@@ -4,6 +4,7 @@ outside configure are kept."""
 
 from __future__ import annotations
 
+import pytest
 from lifecycle_msgs.msg import Transition
 from rclpy.lifecycle import TransitionCallbackReturn
 from std_msgs.msg import String
@@ -56,5 +57,30 @@ def test_cleanup_destroys_what_configure_made_and_nothing_else(ros_context):
             assert node.kept in set(node.publishers) and not node._managed_entities
         assert node.try_transition(Transition.TRANSITION_CONFIGURE)
         assert node.shut_down() and entities(node) == before, "shutdown from inactive cleans up too"
+    finally:
+        node.destroy_node()
+
+
+def _suite_nodes():
+    """The suite's lifecycle nodes whose cleanup destroys some entities itself (their configure needs no other node)."""
+    from amr_localization.beacon_localizer_node import BeaconLocalizerNode
+    from amr_localization.particle_filter_node import ParticleFilterNode
+    from amr_mapping.explorer_node import ExplorerNode
+    from amr_mapping.slam_node import SlamNode
+
+    return [BeaconLocalizerNode, ParticleFilterNode, ExplorerNode, SlamNode]
+
+
+@pytest.mark.parametrize("kind", _suite_nodes(), ids=lambda kind: kind.__name__)
+def test_a_suite_nodes_cleanup_ends_with_the_bases_and_leaves_nothing_configure_made(ros_context, kind):
+    node = kind(context=ros_context)
+    try:
+        before = entities(node)
+        for _ in range(2):
+            assert node.try_transition(Transition.TRANSITION_CONFIGURE), getattr(node, "configure_error", "")
+            assert entities(node) > before
+            assert node.try_transition(Transition.TRANSITION_CLEANUP)
+            assert entities(node) == before, "what configure made is gone"
+            assert not node._configured_entities and not node._managed_entities, "the base's cleanup ran"
     finally:
         node.destroy_node()
