@@ -85,7 +85,15 @@ from amr_mapping.pose_graph import Optimization, PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import FREE, MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
-from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, Match, ScoreMap, WindowMatch, default_angular_step
+from amr_maps.scan_matcher import (
+    CorrelativeMatcher,
+    GlobalSearch,
+    Match,
+    ScoreMap,
+    WindowMatch,
+    default_angular_step,
+    surface_points,
+)
 from amr_maps.window_search import window_modes
 from amr_util.geometry import (
     compose,
@@ -117,12 +125,6 @@ correction as if every link had erred alike (the decision record's window-link r
 members the chain claimed a tenth of its drift and the logs' gate refused right closures (session 16)."""
 LIKELIHOOD_SIGMA_CELLS = 1.5
 """The submaps' likelihood field: exp(-d^2 / (2 sigma^2)), sigma this many cells."""
-SURFACE_MIN_INCIDENCE = math.radians(10.0)
-"""The shallowest angle (rad) between a beam and a surface at which two neighbouring beams' hits are taken as one
-surface, filled in between them in a window's likelihood field (_surface): a wall seen at a grazing angle far down a
-corridor, whose hits lie up to a metre apart (a field of the points alone is dotted there: a new scan, which sees that
-stretch nearer and denser, scored higher slid back towards the window, and a step along a featureless corridor was
-matched up to half a metre short); a steeper gap is an edge (a doorway, something in front of a wall)."""
 OPTIMIZE_CHI = 3.0
 """A new closure this many standard deviations off the current poses starts an optimization of the graph ..."""
 OPTIMIZE_EVERY = 10
@@ -465,8 +467,8 @@ class _Node:
     clear_range: float
     """m a beam without a return clears: the sensor's range_max, at most max_range_used."""
     surface: np.ndarray
-    """The points with the surfaces between neighbouring beams filled in (_surface): what the likelihood field of a
-    window holding this node is made of."""
+    """The points with the surfaces between neighbouring beams filled in (surface_points): what the likelihood field
+    of a window holding this node is made of."""
 
 
 @dataclass(frozen=True)
@@ -743,7 +745,7 @@ class GraphSlam:
 
     def _add_node(self, stamp_ns, pose, odometry, ranges, angles, points, clear_range) -> int:
         index = self._graph.add_node(pose)
-        surface = _surface(points, self._mount, self.config.resolution)
+        surface = surface_points(points, self._mount[:2], self.config.resolution)
         self._nodes.append(
             _Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled, clear_range, surface)
         )
@@ -1841,38 +1843,6 @@ def _beams(scan: ScanData, max_range_used: float, mount=(0.0, 0.0, 0.0)) -> tupl
     points = np.column_stack([mount[0] + ranges[usable] * np.cos(heading), mount[1] + ranges[usable] * np.sin(heading)])
     mapped = ranges > 0.0  # -inf (too close) is neither a hit nor a free ray
     return ranges[mapped].astype(np.float32), angles[mapped].astype(np.float32), points
-
-
-def _surface(points: np.ndarray, mount, resolution: float) -> np.ndarray:
-    """A scan's points ((K, 2) in beam order, the robot's frame; the sensor at `mount`) with the surface between each
-    two neighbouring beams' hits more than two cells apart filled in, a point a cell: what a window's likelihood
-    field is made of.
-    Two hits are one surface unless their gap is more than a surface seen at SURFACE_MIN_INCIDENCE to the beams could
-    make, r sin(dphi) / sin(lambda - dphi), plus a cell (the adaptive breakpoint detector: Borges and Aldon 2004);
-    beams with a dropped one between them (NaN, no return) are not neighbours."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    if len(points) < 2:
-        return points
-    local = points - np.asarray(mount[:2], dtype=float)
-    reach = np.hypot(local[:, 0], local[:, 1])
-    dphi = np.abs(np.diff(np.unwrap(np.arctan2(local[:, 1], local[:, 0]))))
-    gap = np.hypot(*np.diff(points, axis=0).T)
-    below = dphi < SURFACE_MIN_INCIDENCE
-    limit = np.zeros_like(gap)
-    limit[below] = (
-        np.minimum(reach[:-1], reach[1:])[below] * np.sin(dphi[below]) / np.sin(SURFACE_MIN_INCIDENCE - dphi[below])
-    )
-    # hits two cells apart or nearer already make one ridge of the field (its sigma 1.5 cells)
-    joined = below & (dphi <= 1.5 * float(np.median(dphi))) & (gap <= limit + resolution) & (gap > 2 * resolution)
-    starts = np.nonzero(joined)[0]
-    if not len(starts):
-        return points
-    counts = (gap[starts] / resolution).astype(int)  # the fills between the two hits, at most a cell apart
-    segment = np.repeat(np.arange(len(starts)), counts)
-    t = (np.arange(len(segment)) - np.repeat(np.cumsum(counts) - counts, counts) + 1) / np.repeat(counts + 1, counts)
-    first = points[starts][segment]
-    fills = first + t[:, None] * (points[starts + 1][segment] - first)
-    return np.vstack([points, fills])
 
 
 def _insert(grid: LogOddsGrid, poses, nodes, mount=(0.0, 0.0, 0.0)) -> None:

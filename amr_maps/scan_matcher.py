@@ -174,6 +174,45 @@ class WindowLattice(NamedTuple):
     denominator: float
 
 
+SURFACE_MIN_INCIDENCE = math.radians(10.0)
+"""The shallowest angle (rad) between a beam and a surface at which two neighbouring beams' hits are taken as one
+surface (surface_points): a wall seen at a grazing angle far down a corridor has its hits up to a metre apart, and
+a likelihood field of the points alone is dotted there (GraphSlam's window: a new scan, which sees that stretch
+nearer and denser, scored higher slid back towards the window, and a step along a corridor was matched up to half a
+metre short); a steeper gap is an edge (a doorway, something in front of a wall)."""
+
+
+def surface_points(points: np.ndarray, origin, resolution: float) -> np.ndarray:
+    """A scan's end points ((K, 2) in beam order, the sensor at `origin` (x, y) of their frame) with the surface
+    between each two neighbouring beams' hits more than two cells apart filled in, a point a cell (hits nearer make one
+    ridge of a field whose sigma is 1.5 cells): the points first, then the fills; what a field of surfaces is made of
+    (ScoreMap.from_points). Two hits are one surface unless their gap is more than a surface seen at
+    SURFACE_MIN_INCIDENCE to the beams could make, r sin(dphi) / sin(lambda - dphi), plus a cell (the adaptive
+    breakpoint detector: Borges and Aldon 2004); beams with a dropped one between them (NaN, no return) are not
+    neighbours."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(points) < 2:
+        return points
+    local = points - np.asarray(origin, dtype=float).reshape(2)
+    reach = np.hypot(local[:, 0], local[:, 1])
+    dphi = np.abs(np.diff(np.unwrap(np.arctan2(local[:, 1], local[:, 0]))))
+    gap = np.hypot(*np.diff(points, axis=0).T)
+    below = dphi < SURFACE_MIN_INCIDENCE
+    limit = np.zeros_like(gap)
+    limit[below] = (
+        np.minimum(reach[:-1], reach[1:])[below] * np.sin(dphi[below]) / np.sin(SURFACE_MIN_INCIDENCE - dphi[below])
+    )
+    neighbours = dphi <= 1.5 * float(np.median(dphi))
+    starts = np.nonzero(below & neighbours & (gap <= limit + resolution) & (gap > 2 * resolution))[0]
+    if not len(starts):
+        return points
+    counts = (gap[starts] / resolution).astype(int)  # the fills between the two hits, at most a cell apart
+    segment = np.repeat(np.arange(len(starts)), counts)
+    t = (np.arange(len(segment)) - np.repeat(np.cumsum(counts) - counts, counts) + 1) / np.repeat(counts + 1, counts)
+    first = points[starts][segment]
+    return np.vstack([points, first + t[:, None] * (points[starts + 1][segment] - first)])
+
+
 def default_angular_step(points: np.ndarray, resolution: float) -> float:
     """The rotation that moves the farthest point of the scan by one cell (Cartographer's
     acos(1 - r^2 / (2 d^2))), at most 0.2 rad."""

@@ -1,7 +1,7 @@
-"""A window's likelihood field is made of the surfaces its scans saw, not of their points alone (slam._surface): a
-wall seen at a grazing angle far down a corridor has its hits up to a metre apart, a field of the points alone is
-dotted there, and a new scan, which sees that stretch nearer and denser, scored higher slid back towards the window:
-a step along a corridor was matched up to a third of a metre short."""
+"""A window's likelihood field is made of the surfaces its scans saw, not of their points alone
+(amr_maps.scan_matcher.surface_points): a wall seen at a grazing angle far down a corridor has its hits up to a
+metre apart, a field of the points alone is dotted there, and a new scan, which sees that stretch nearer and denser,
+scored higher slid back towards the window: a step along a corridor was matched up to a third of a metre short."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from amr_mapping.slam import SURFACE_MIN_INCIDENCE, GraphSlam, SlamConfig, _surface
+from amr_mapping.slam import GraphSlam, SlamConfig
 from amr_maps.raycast import NumpyRayCaster
+from amr_maps.scan_matcher import SURFACE_MIN_INCIDENCE, surface_points
 from amr_maps.world import world_from_dict
 from amr_util.geometry import compose, relative_pose
 from amr_util.scan import ScanData
@@ -26,7 +27,7 @@ def _wall_hits(bearings_deg, y: float = 1.2) -> np.ndarray:
 
 def test_a_wall_seen_at_a_grazing_angle_is_filled_in_between_its_hits():
     hits = _wall_hits(np.arange(12.0, 90.0, 1.0))  # incidence 12-89 deg, hits up to 0.5 m apart
-    surface = _surface(hits, (0.0, 0.0, 0.0), RESOLUTION)
+    surface = surface_points(hits, (0.0, 0.0), RESOLUTION)
     assert np.allclose(surface[:, 1], 1.2)  # on the wall
     assert np.allclose(surface[: len(hits)], hits)  # the hits kept, first
     gaps = np.diff(np.sort(surface[:, 0]))
@@ -37,14 +38,14 @@ def test_a_wall_seen_at_a_grazing_angle_is_filled_in_between_its_hits():
 def test_a_wall_shallower_than_the_incidence_is_not_filled():
     shallow = math.degrees(SURFACE_MIN_INCIDENCE) / 2
     hits = _wall_hits([shallow, shallow + 1.0])
-    assert len(_surface(hits, (0.0, 0.0, 0.0), RESOLUTION)) == 2
+    assert len(surface_points(hits, (0.0, 0.0), RESOLUTION)) == 2
 
 
-def test_an_edge_between_a_near_thing_and_the_wall_behind_it_is_not_a_surface():
+def test_an_edge_between_a_near_thing_and_the_wall_behind_it_is_not_asurface_points():
     bearings = np.radians(np.arange(-10.0, 11.0, 1.0))
     reach = np.where(bearings < 0.0, 1.0, 3.0)  # a box 1 m ahead on the right, a wall 3 m ahead beyond it
     hits = np.column_stack([reach * np.cos(bearings), reach * np.sin(bearings)])
-    surface = _surface(hits, (0.0, 0.0, 0.0), RESOLUTION)
+    surface = surface_points(hits, (0.0, 0.0), RESOLUTION)
     ranges = np.hypot(surface[:, 0], surface[:, 1])
     assert np.all((np.abs(ranges - 1.0) < 0.01) | (np.abs(ranges - 3.0) < 0.01)), "a fill between box and wall"
 
@@ -52,7 +53,7 @@ def test_an_edge_between_a_near_thing_and_the_wall_behind_it_is_not_a_surface():
 def test_beams_with_a_dropped_one_between_them_are_not_neighbours():
     bearings = [b for b in range(12, 25) if b != 18]  # the beam at 18 deg dropped (no return, NaN)
     hits = _wall_hits(bearings)
-    surface = _surface(hits, (0.0, 0.0, 0.0), RESOLUTION)
+    surface = surface_points(hits, (0.0, 0.0), RESOLUTION)
     before, after = hits[bearings.index(17)], hits[bearings.index(19)]
     assert not ((surface[:, 0] < before[0] - 1e-9) & (surface[:, 0] > after[0] + 1e-9)).any()
     assert ((surface[:, 0] < hits[0, 0] - 1e-9) & (surface[:, 0] > hits[1, 0] + 1e-9)).any()
@@ -60,13 +61,13 @@ def test_beams_with_a_dropped_one_between_them_are_not_neighbours():
 
 def test_the_sensor_mount_is_where_the_beams_come_from():
     hits = _wall_hits(np.arange(12.0, 90.0, 1.0))
-    moved = _surface(hits + [0.3, 0.0], (0.3, 0.0, 0.0), RESOLUTION)
-    assert np.allclose(np.sort(moved[:, 0]), np.sort(_surface(hits, (0.0, 0.0, 0.0), RESOLUTION)[:, 0] + 0.3))
+    moved = surface_points(hits + [0.3, 0.0], (0.3, 0.0), RESOLUTION)
+    assert np.allclose(np.sort(moved[:, 0]), np.sort(surface_points(hits, (0.0, 0.0), RESOLUTION)[:, 0] + 0.3))
 
 
 def test_fewer_than_two_points_are_returned_as_they_are():
-    assert _surface(np.zeros((0, 2)), (0.0, 0.0, 0.0), RESOLUTION).shape == (0, 2)
-    assert np.allclose(_surface(np.ones((1, 2)), (0.0, 0.0, 0.0), RESOLUTION), [[1.0, 1.0]])
+    assert surface_points(np.zeros((0, 2)), (0.0, 0.0), RESOLUTION).shape == (0, 2)
+    assert np.allclose(surface_points(np.ones((1, 2)), (0.0, 0.0), RESOLUTION), [[1.0, 1.0]])
 
 
 BEAMS = 181
