@@ -188,8 +188,8 @@ def surface_points(points: np.ndarray, origin, resolution: float) -> np.ndarray:
     ridge of a field whose sigma is 1.5 cells): the points first, then the fills; what a field of surfaces is made of
     (ScoreMap.from_points). Two hits are one surface unless their gap is more than a surface seen at
     SURFACE_MIN_INCIDENCE to the beams could make, r sin(dphi) / sin(lambda - dphi), plus a cell (the adaptive
-    breakpoint detector: Borges and Aldon 2004); beams with a dropped one between them (NaN, no return) are not
-    neighbours."""
+    breakpoint detector: Borges and Aldon 2004), or the hits of the beams on either side of them are off their line
+    by more than a cell; beams with a dropped one between them (NaN, no return) are not neighbours."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if len(points) < 2:
         return points
@@ -203,7 +203,19 @@ def surface_points(points: np.ndarray, origin, resolution: float) -> np.ndarray:
         np.minimum(reach[:-1], reach[1:])[below] * np.sin(dphi[below]) / np.sin(SURFACE_MIN_INCIDENCE - dphi[below])
     )
     neighbours = dphi <= 1.5 * float(np.median(dphi))
-    starts = np.nonzero(below & neighbours & (gap <= limit + resolution) & (gap > 2 * resolution))[0]
+    joined = below & neighbours & (gap <= limit + resolution) & (gap > 2 * resolution)
+    # and the beams on either side of the two hit their line (within a cell): a surface seen by four beams; a gap
+    # between two things at nearly the same range does not continue on both sides (one-sided, orebro played backwards
+    # had clutter joined into surfaces a wrong match scored 0.24 on, against 0.16 on its points: taken, 1.7 m off)
+    line = np.zeros_like(joined)
+    if len(points) >= 4:
+        a, b = points[1:-2], points[2:-1]  # segment i (i = 1 .. K-3) between hits i and i + 1
+        direction = (b - a) / np.maximum(gap[1:-1], 1e-12)[:, None]
+        before, after = points[:-3] - a, points[3:] - a
+        off_before = np.abs(direction[:, 0] * before[:, 1] - direction[:, 1] * before[:, 0])
+        off_after = np.abs(direction[:, 0] * after[:, 1] - direction[:, 1] * after[:, 0])
+        line[1:-1] = neighbours[:-2] & neighbours[2:] & (off_before <= resolution) & (off_after <= resolution)
+    starts = np.nonzero(joined & line)[0]
     if not len(starts):
         return points
     counts = (gap[starts] / resolution).astype(int)  # the fills between the two hits, at most a cell apart

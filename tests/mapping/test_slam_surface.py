@@ -30,9 +30,22 @@ def test_a_wall_seen_at_a_grazing_angle_is_filled_in_between_its_hits():
     surface = surface_points(hits, (0.0, 0.0), RESOLUTION)
     assert np.allclose(surface[:, 1], 1.2)  # on the wall
     assert np.allclose(surface[: len(hits)], hits)  # the hits kept, first
-    gaps = np.diff(np.sort(surface[:, 0]))
-    assert gaps.max() <= 2 * RESOLUTION + 1e-9, gaps.max()
-    assert np.diff(np.sort(hits[:, 0])).max() > 0.4  # (there was something to fill)
+    # between the second and the last but one hit (a surface's end segments have no hit beyond them to confirm it)
+    inner = np.sort(surface[(surface[:, 0] <= hits[1, 0] + 1e-9) & (surface[:, 0] >= hits[-2, 0] - 1e-9), 0])
+    assert np.diff(inner).max() <= 2 * RESOLUTION + 1e-9, np.diff(inner).max()
+    assert hits[1, 0] - hits[2, 0] > 0.3  # (there was something to fill)
+
+
+def test_a_gap_the_hits_beside_it_do_not_continue_is_not_a_surface():
+    """Two things at nearly the same range (clutter, a chair's legs): their hits' line is not the neighbours'."""
+    hits = _wall_hits(np.arange(12.0, 20.0, 1.0))
+    bent = hits.copy()
+    bent[5:, 1] += 0.2  # a second wall 20 cm behind the first from the sixth hit on
+    surface = surface_points(bent, (0.0, 0.0), RESOLUTION)
+    across = (surface[:, 0] < bent[4, 0] - 1e-9) & (surface[:, 0] > bent[5, 0] + 1e-9)
+    assert not across.any()
+    within = (surface[:, 0] < bent[1, 0] - 1e-9) & (surface[:, 0] > bent[2, 0] + 1e-9)
+    assert within.any()
 
 
 def test_a_wall_shallower_than_the_incidence_is_not_filled():
@@ -56,7 +69,7 @@ def test_beams_with_a_dropped_one_between_them_are_not_neighbours():
     surface = surface_points(hits, (0.0, 0.0), RESOLUTION)
     before, after = hits[bearings.index(17)], hits[bearings.index(19)]
     assert not ((surface[:, 0] < before[0] - 1e-9) & (surface[:, 0] > after[0] + 1e-9)).any()
-    assert ((surface[:, 0] < hits[0, 0] - 1e-9) & (surface[:, 0] > hits[1, 0] + 1e-9)).any()
+    assert ((surface[:, 0] < hits[1, 0] - 1e-9) & (surface[:, 0] > hits[2, 0] + 1e-9)).any()
 
 
 def test_the_sensor_mount_is_where_the_beams_come_from():
@@ -84,10 +97,9 @@ def corridor_with_a_room():
     return NumpyRayCaster(world.faces)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_steps_along_a_corridor_are_matched_where_they_were_taken(corridor_with_a_room, seed):
-    """The laser 45 deg off the way the robot drives, 0.9 m keyframes, odometry 3 % long: each step within a few
-    cm on average (the field of the points alone: 6-8 cm, single steps 22-35 cm short)."""
+def _step_errors(caster, seed: int) -> list[float]:
+    """Each step's position error (m): the laser 45 deg off the way the robot drives, 0.9 m keyframes, odometry 3 %
+    long and a little noise, a seed."""
     rng = np.random.default_rng(seed)
     heading = math.pi / 4
     truth = np.array([(2.0 + 0.9 * k, 1.2 + 0.1 * math.sin(k + seed), heading) for k in range(21)])
@@ -100,7 +112,7 @@ def test_steps_along_a_corridor_are_matched_where_they_were_taken(corridor_with_
     slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=0.0, loop_min_travel=1000.0))
     increment = FOV / (BEAMS - 1)
     for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
-        ranges = corridor_with_a_room.cast(pose[0], pose[1], pose[2] - FOV / 2, increment, BEAMS, MAX_RANGE)
+        ranges = caster.cast(pose[0], pose[1], pose[2] - FOV / 2, increment, BEAMS, MAX_RANGE)
         scan = ScanData(ranges + rng.normal(0.0, 0.01, BEAMS), -FOV / 2, increment, 0.1, MAX_RANGE + 1.0)
         slam.add(k * 1_000_000_000, odom, scan)
     poses, _, _ = slam.graph()
@@ -109,4 +121,11 @@ def test_steps_along_a_corridor_are_matched_where_they_were_taken(corridor_with_
     for k in range(1, len(truth)):
         estimated, true = relative_pose(poses[k - 1], poses[k]), relative_pose(truth[k - 1], truth[k])
         errors.append(math.hypot(estimated[0] - true[0], estimated[1] - true[1]))
-    assert np.mean(errors) < 0.04, np.round(errors, 3)
+    return errors
+
+
+def test_steps_along_a_corridor_are_matched_where_they_were_taken(corridor_with_a_room):
+    """Each step within 5 cm on average over four runs (the field of the points alone: 6-8 cm a run, single steps
+    22-35 cm short)."""
+    errors = [_step_errors(corridor_with_a_room, seed) for seed in range(4)]
+    assert np.mean(errors) < 0.05, np.round(np.mean(errors, axis=1), 3)
