@@ -85,15 +85,7 @@ from amr_mapping.pose_graph import Optimization, PoseGraph
 from amr_maps.map_io import save_map
 from amr_maps.occupancy_grid import FREE, MapError, OccupancyGrid
 from amr_maps.scan_mapping import LogOddsGrid
-from amr_maps.scan_matcher import (
-    CorrelativeMatcher,
-    GlobalSearch,
-    Match,
-    ScoreMap,
-    WindowMatch,
-    default_angular_step,
-    surface_points,
-)
+from amr_maps.scan_matcher import CorrelativeMatcher, GlobalSearch, Match, ScoreMap, WindowMatch, default_angular_step
 from amr_maps.window_search import window_modes
 from amr_util.geometry import (
     compose,
@@ -210,7 +202,7 @@ well by score, the mean likelihood counting a point in unseen space and one in s
 scan put a pitch off puts its walls across corridors the submap saw clear."""
 EDGE_CELLS = 2.0
 EDGE_ANGLE = 0.02
-"""rad, cells: a match this close to its search window's edge is no peak (_on_edge)."""
+"""rad, cells: a loop-closure match this close to its search window's edge is no peak (_on_edge)."""
 RIVAL_CHI2 = 13.82
 """... and lies where the graph's uncertainty would take the closure too: its position's chi-square (2 dof, 99.9 %)
 against the gate's spread, the closure's covariance and the graph's of the anchor -> node pose (a look-alike place
@@ -466,9 +458,6 @@ class _Node:
     """m of odometry path from the first node."""
     clear_range: float
     """m a beam without a return clears: the sensor's range_max, at most max_range_used."""
-    surface: np.ndarray
-    """The points with the surfaces between neighbouring beams filled in (surface_points): what the likelihood field
-    of a window holding this node is made of."""
 
 
 @dataclass(frozen=True)
@@ -745,10 +734,7 @@ class GraphSlam:
 
     def _add_node(self, stamp_ns, pose, odometry, ranges, angles, points, clear_range) -> int:
         index = self._graph.add_node(pose)
-        surface = surface_points(points, self._mount[:2], self.config.resolution)
-        self._nodes.append(
-            _Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled, clear_range, surface)
-        )
+        self._nodes.append(_Node(int(stamp_ns), odometry.copy(), ranges, angles, points, self._travelled, clear_range))
         self._anchor_odometry = odometry.copy()
         window = self.config.local_window
         if (index + 1) % window == 0:  # a submap is complete: nodes index - window + 1 .. index
@@ -808,15 +794,11 @@ class GraphSlam:
         short per metre on aces."""
         anchor_pose = self._graph.pose(anchor)
         poses = np.array([relative_pose(anchor_pose, self._graph.pose(k)) for k in members])
-        clouds, sensors, surfaces, surface_sensors = [], [], [], []
+        clouds, sensors = [], []
         for pose, k in zip(poses, members, strict=True):
             clouds.append(transform_points(pose, self._nodes[k].points))
             sensors.append(np.broadcast_to(np.array(compose(pose, self._mount)[:2]), clouds[-1].shape))
-            surfaces.append(transform_points(pose, self._nodes[k].surface))
-            surface_sensors.append(np.broadcast_to(sensors[-1][:1], surfaces[-1].shape))
-        cloud, sensors = np.vstack(clouds), np.vstack(sensors)
-        surface = (np.vstack(surfaces), np.vstack(surface_sensors))
-        reference = _window_reference(cloud, sensors, self.config.resolution, window, viewpoint, surface)
+        reference = _window_reference(np.vstack(clouds), np.vstack(sensors), self.config.resolution, window, viewpoint)
         self._work.add(REFERENCE_WORK_PER_POINT * len(reference.points))
         return reference
 
@@ -909,11 +891,9 @@ class GraphSlam:
             points = points[seen]
         match = matcher.match(points, relative_prior, linear, angular)
         self._work.add(CANDIDATE_WORK + match.nodes * len(points))
-        edge = _on_edge(match.pose, relative_prior, math.inf, angular, cfg.resolution)  # its heading's (widened)
-        if (match.score < WEAK_MATCH_SCORE or edge) and angular < cfg.match_angular_window:
-            # nothing in 3 sigma fits well, or the best there is on its angular edge (_on_edge): the odometry may be
-            # off by more than its model says (a turn on the spot: intel's scan 629, 17.5 deg off against a 9 deg
-            # window, the true pose scoring 0.84 outside it)
+        if match.score < WEAK_MATCH_SCORE and angular < cfg.match_angular_window:
+            # nothing in 3 sigma fits well: the odometry may be off by more than its model says (a turn on the
+            # spot: intel's scan 629, 17.5 deg off against a 9 deg window, the true pose scoring 0.84 outside it)
             wide = matcher.match(points, relative_prior, linear, cfg.match_angular_window)
             self._work.add(wide.nodes * len(points))
             if wide.score > match.score:
@@ -1056,7 +1036,7 @@ class GraphSlam:
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
                 self.closure_outcomes.append((submap.anchor, candidate.node, "low score", match.pose))
                 return True
-            if _on_edge(match.pose, candidate.prior, cfg.loop_linear_window, cfg.loop_angular_window, cfg.resolution):
+            if _on_edge(match.pose, candidate.prior, cfg):
                 self.ambiguous_closures += 1  # the best of the window is on its edge: no peak, the best may lie beyond
                 self.closure_outcomes.append((submap.anchor, candidate.node, "edge", match.pose))
                 return True
@@ -1360,15 +1340,15 @@ def _rival_score(
     return float(found[0].score) if found else 0.0
 
 
-def _on_edge(pose: np.ndarray, prior: np.ndarray, linear: float, angular: float, resolution: float) -> bool:
-    """Whether a match lies on the edge of its search window (+-linear m, +-angular rad about `prior`): within
-    EDGE_CELLS cells of the linear window's side or EDGE_ANGLE of the angular one. A maximum there is the window's,
-    not the score's: the best may lie beyond (a loop closure, loops seed 2: a look-alike corridor 3.1 m off, at the
-    +-3 m window's side, taken, the true place in the middle scoring less; the front end: a turn the odometry misread
-    by more than its model's 3 sigma, the best heading of the window its side)."""
-    offset = np.abs(np.asarray(pose[:2], dtype=float) - np.asarray(prior[:2], dtype=float))
-    turned = abs(wrap_angle(float(pose[2] - prior[2])))
-    return bool(offset.max() >= linear - EDGE_CELLS * resolution or turned >= angular - EDGE_ANGLE)
+def _on_edge(pose: np.ndarray, prior: np.ndarray, config: SlamConfig) -> bool:
+    """Whether a loop-closure match lies on the edge of its search window (within EDGE_CELLS cells of the linear
+    window's side, or EDGE_ANGLE of the angular one): a maximum there is the window's, not the score's (loops
+    seed 2: a look-alike corridor 3.1 m off, at the +-3 m window's side, taken, the true place in the middle
+    scoring less)."""
+    linear = config.loop_linear_window - EDGE_CELLS * config.resolution
+    angular = config.loop_angular_window - EDGE_ANGLE
+    offset = np.abs(np.asarray(pose[:2], dtype=float) - prior[:2])
+    return bool(offset.max() >= linear or abs(wrap_angle(float(pose[2] - prior[2]))) >= angular)
 
 
 def _posterior_mode(
@@ -1564,19 +1544,16 @@ def _seen(points: np.ndarray, views, margin) -> np.ndarray:
 
 
 def _window_reference(
-    cloud: np.ndarray, sensors: np.ndarray, resolution: float, window: float, viewpoint=None, surface=None
+    cloud: np.ndarray, sensors: np.ndarray, resolution: float, window: float, viewpoint=None
 ) -> _Reference:
     """What a scan is matched against, made of a window's points (cloud, each seen from its sensor: (K, 2) both, the
     anchor's frame): the correlative matcher on their likelihood field, window + LIKELIHOOD_PAD m around them, and
     their voxel means with the local lines for the refinement; with a viewpoint (where the scan is expected to be
     taken), only the points on surfaces facing it (_facing)."""
-    field = cloud if surface is None else surface[0]
     if viewpoint is not None:
         cloud = cloud[_facing(cloud, sensors, viewpoint, resolution)]
-        if surface is not None:
-            field = field[_facing(field, surface[1], viewpoint, resolution)]
     score_map = ScoreMap.from_points(
-        field,
+        cloud,
         resolution,
         LIKELIHOOD_SIGMA_CELLS * resolution,
         window + LIKELIHOOD_PAD,

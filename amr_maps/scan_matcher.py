@@ -174,57 +174,6 @@ class WindowLattice(NamedTuple):
     denominator: float
 
 
-SURFACE_MIN_INCIDENCE = math.radians(10.0)
-"""The shallowest angle (rad) between a beam and a surface at which two neighbouring beams' hits are taken as one
-surface (surface_points): a wall seen at a grazing angle far down a corridor has its hits up to a metre apart, and
-a likelihood field of the points alone is dotted there (GraphSlam's window: a new scan, which sees that stretch
-nearer and denser, scored higher slid back towards the window, and a step along a corridor was matched up to half a
-metre short); a steeper gap is an edge (a doorway, something in front of a wall)."""
-
-
-def surface_points(points: np.ndarray, origin, resolution: float) -> np.ndarray:
-    """A scan's end points ((K, 2) in beam order, the sensor at `origin` (x, y) of their frame) with the surface
-    between each two neighbouring beams' hits more than two cells apart filled in, a point a cell (hits nearer make one
-    ridge of a field whose sigma is 1.5 cells): the points first, then the fills; what a field of surfaces is made of
-    (ScoreMap.from_points). Two hits are one surface unless their gap is more than a surface seen at
-    SURFACE_MIN_INCIDENCE to the beams could make, r sin(dphi) / sin(lambda - dphi), plus a cell (the adaptive
-    breakpoint detector: Borges and Aldon 2004), or the hits of the beams on either side of them are off their line
-    by more than a cell; beams with a dropped one between them (NaN, no return) are not neighbours."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    if len(points) < 2:
-        return points
-    local = points - np.asarray(origin, dtype=float).reshape(2)
-    reach = np.hypot(local[:, 0], local[:, 1])
-    dphi = np.abs(np.diff(np.unwrap(np.arctan2(local[:, 1], local[:, 0]))))
-    gap = np.hypot(*np.diff(points, axis=0).T)
-    below = dphi < SURFACE_MIN_INCIDENCE
-    limit = np.zeros_like(gap)
-    limit[below] = (
-        np.minimum(reach[:-1], reach[1:])[below] * np.sin(dphi[below]) / np.sin(SURFACE_MIN_INCIDENCE - dphi[below])
-    )
-    neighbours = dphi <= 1.5 * float(np.median(dphi))
-    joined = below & neighbours & (gap <= limit + resolution) & (gap > 2 * resolution)
-    # and the beams on either side of the two hit their line (within a cell): a surface seen by four beams; a gap
-    # between two things at nearly the same range does not continue on both sides (one-sided, orebro played backwards
-    # had clutter joined into surfaces a wrong match scored 0.24 on, against 0.16 on its points: taken, 1.7 m off)
-    line = np.zeros_like(joined)
-    if len(points) >= 4:
-        a, b = points[1:-2], points[2:-1]  # segment i (i = 1 .. K-3) between hits i and i + 1
-        direction = (b - a) / np.maximum(gap[1:-1], 1e-12)[:, None]
-        before, after = points[:-3] - a, points[3:] - a
-        off_before = np.abs(direction[:, 0] * before[:, 1] - direction[:, 1] * before[:, 0])
-        off_after = np.abs(direction[:, 0] * after[:, 1] - direction[:, 1] * after[:, 0])
-        line[1:-1] = neighbours[:-2] & neighbours[2:] & (off_before <= resolution) & (off_after <= resolution)
-    starts = np.nonzero(joined & line)[0]
-    if not len(starts):
-        return points
-    counts = (gap[starts] / resolution).astype(int)  # the fills between the two hits, at most a cell apart
-    segment = np.repeat(np.arange(len(starts)), counts)
-    t = (np.arange(len(segment)) - np.repeat(np.cumsum(counts) - counts, counts) + 1) / np.repeat(counts + 1, counts)
-    first = points[starts][segment]
-    return np.vstack([points, first + t[:, None] * (points[starts + 1][segment] - first)])
-
-
 def default_angular_step(points: np.ndarray, resolution: float) -> float:
     """The rotation that moves the farthest point of the scan by one cell (Cartographer's
     acos(1 - r^2 / (2 d^2))), at most 0.2 rad."""

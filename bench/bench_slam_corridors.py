@@ -1,5 +1,6 @@
-"""GraphSlam's front end along generated corridors (docs/amr_mapping.md; the decision record's surfaces round): the
-error of each step (node to node) against the truth, where the walls say little along the way.
+"""GraphSlam's front end along generated corridors (the decision record's surfaces round,
+docs/decisions/2026-11-29-slam-front-end-and-closures.md): the error of each step (node to node) against the truth,
+where the walls say little along the way.
 
 Worlds: a corridor 2.4 m wide and 24 m long, closed at both ends, with nothing along it (`bare`), with a room beside
 it through two doorways (`door`), or with boxes along its walls (`boxes`). The robot drives its centre line (a 10 cm
