@@ -428,7 +428,11 @@ class SlamNode(ManagedNode):
             if path is None:
                 raise MappingError("path is empty: give a file path without extension (e.g. my_map)")
             with self._slam_lock:
+                before = self.slam.graph()[0]
                 written = self.slam.save(path)
+                moved = not np.array_equal(before, self.slam.graph()[0])
+            if moved:  # the save finished an optimization: /map follows the poses saved (the next pair or the flush)
+                self._map_dirty = True
             response.success = True
             response.message = "wrote " + ", ".join(str(p) for p in written)
             self.get_logger().info(f"map saved: {response.message}")

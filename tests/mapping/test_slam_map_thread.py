@@ -19,6 +19,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan
 
 from amr_interfaces.msg import LocalizedPose, PoseGraph
+from amr_interfaces.srv import SaveMap
 from amr_mapping.slam import GraphSlam, KeptMap, SlamConfig
 from amr_mapping.slam_node import MapWorker, SlamNode
 from amr_maps.raycast import NumpyRayCaster
@@ -261,3 +262,33 @@ def test_map_worker_coalesces_requests_made_during_a_job_and_outlives_a_failed_o
         release.set()
         worker.stop()
     assert not worker.alive
+
+
+def test_a_save_that_moves_the_poses_publishes_the_map_at_them(executor, stack, room, tmp_path, monkeypatch):
+    """~/save_map finishes a pending optimization (the map saved is the optimized graph's): /map follows the poses it
+    saved without a new scan (a robot standing still once exploration is done), as the file does."""
+    slam, probe = stack
+    path, scans = room
+    for k in range(4):
+        stamp_ns = probe.send(k, path[k], scans[k])
+        assert spin_until(executor, lambda s=stamp_ns: probe.answered(s) is not None, 5.0), f"no /pose for pair {k}"
+    assert spin_until(executor, lambda: probe.graphs and len(probe.graphs[-1].poses) == 4, 10.0), "no graph of 4"
+    published = slam.maps_published
+    graph = slam.slam._graph
+    save = slam.slam.save
+
+    def optimizing_save(where):  # as an optimization left pending would: the poses after the first node move
+        moved = graph.poses
+        moved[1:, :2] += (0.2, -0.1)
+        graph.set_poses(moved)
+        return save(where)
+
+    monkeypatch.setattr(slam.slam, "save", optimizing_save)
+    answer = slam._on_save_map(SaveMap.Request(path=str(tmp_path / "room")), SaveMap.Response())
+    assert answer.success, answer.message
+    assert spin_until(executor, lambda: slam.maps_published > published, 10.0), "no /map after the save"
+    assert spin_until(executor, lambda: abs(probe.graphs[-1].poses[1].x - graph.poses[1][0]) < 1e-6, 5.0), (
+        "the graph published is not at the poses saved"
+    )
+    saved = np.loadtxt(tmp_path / "room.poses.csv", delimiter=",", ndmin=2, skiprows=1)
+    assert np.allclose(saved[:, 1:3], graph.poses[:, :2], atol=1e-6)
