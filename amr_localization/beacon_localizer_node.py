@@ -91,14 +91,8 @@ class BeaconLocalizerNode(LocalizerNode):
         return super().on_activate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return super().on_cleanup(state)  # and whatever else configure made
-
-    def _teardown(self) -> None:
-        for subscription in self._inputs:
-            self.destroy_subscription(subscription)
-        self._destroy_outputs()
-        self._inputs, self.localizer, self._sync = [], None, None
+        self._inputs, self._outputs, self.localizer, self._sync = [], {}, None, None
+        return super().on_cleanup(state)  # destroys what configure made
 
     def _on_pair(self, reading: BeaconRanges, odometry: Odometry) -> None:
         try:

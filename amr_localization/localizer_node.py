@@ -89,11 +89,6 @@ class LocalizerNode(ManagedNode):
             # simulator publishes each robot's odom -> base_footprint, nav2's multi-robot layout)
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
 
-    def _destroy_outputs(self) -> None:
-        for publisher in self._outputs.values():
-            self.destroy_lifecycle_publisher(publisher)
-        self._outputs = {}
-
     def _on_message(self, index: int, message) -> None:
         if self.state_label != "active" or self._sync is None:
             return

@@ -169,17 +169,9 @@ class ParticleFilterNode(LocalizerNode):
         return super().on_activate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._teardown()
-        return super().on_cleanup(state)  # and whatever else configure made
-
-    def _teardown(self) -> None:
-        for subscription in self._inputs:
-            self.destroy_subscription(subscription)
-        for service in self._node_services:
-            self.destroy_service(service)
-        self._destroy_outputs()
-        self._inputs, self._node_services = [], []
+        self._inputs, self._node_services, self._outputs = [], [], {}
         self.filter = self._sync = self._last_estimate = self._beacon_positions = self._waiting = None
+        return super().on_cleanup(state)  # destroys what configure made
 
     # -- inputs ---------------------------------------------------------------------------------
 

@@ -144,15 +144,9 @@ class ExplorerNode(ManagedNode):
         return super().on_activate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        for subscription in self._entities:
-            self.destroy_subscription(subscription)
-        for publisher in self._outputs.values():
-            self.destroy_lifecycle_publisher(publisher)
-        if self._save_client is not None:
-            self.destroy_client(self._save_client)
         self._entities, self._outputs, self._save_client = [], {}, None
         self.explorer, self._grid, self._pose = None, None, None
-        return super().on_cleanup(state)  # and whatever else configure made
+        return super().on_cleanup(state)  # destroys what configure made
 
     @property
     def active(self) -> bool:

@@ -321,17 +321,10 @@ class SlamNode(ManagedNode):
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
         self._stop_map_worker()
-        for entity in self._entities:
-            if hasattr(entity, "srv_name"):
-                self.destroy_service(entity)
-            else:
-                self.destroy_subscription(entity)
-        for publisher in self._outputs.values():
-            self.destroy_lifecycle_publisher(publisher)
         self._entities, self._outputs = [], {}
         self.slam = self._sync = self._last_stamp = self._kept_map = None
         self._map_dirty, self._last_map_ns = False, None
-        return super().on_cleanup(state)  # and whatever else configure made
+        return super().on_cleanup(state)  # destroys what configure made
 
     def destroy_node(self) -> None:
         self._stop_map_worker()
