@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 
 from amr_mapping import slam as slam_module
@@ -138,3 +139,21 @@ def test_a_closures_covariance_is_its_refinements_at_the_closure_share_and_the_s
     assert np.allclose(covariance[2, 2], own[2, 2] + layout[2, 2])
     assert np.isclose(covariance[0, 0], own[0, 0])
     assert np.isclose(covariance[1, 1], own[1, 1] + 4.0 * layout[2, 2])  # 2 m of lever
+
+
+def test_a_match_keeps_no_information_along_a_wall_that_is_all_its_scan_sees():
+    """One straight wall (a window's points on it ending where its scans stopped seeing, as in an open room with
+    a 3.5 m LiDAR): the match's curvature along the wall is taken out and left to the odometry, the other directions
+    kept; the same scan with a wall across its end (a corner) keeps every direction."""
+    rng = np.random.default_rng(5)
+    resolution = 0.05
+    wall = np.column_stack([np.arange(-1.5, 1.5, 0.01), np.full(300, 1.0)]) + rng.normal(0.0, 0.002, (300, 2))
+    scan = np.column_stack([np.linspace(-1.2, 1.8, 120), np.full(120, 1.0)])
+    claimed = np.diag([2500.0, 4000.0, 900.0])  # 2 cm along, 1.6 cm across, 1.9 deg
+    constrained = slam_module._constrained(claimed, _reference(wall, resolution), scan, np.zeros(3), resolution)
+    assert 1.0 / math.sqrt(constrained[0, 0]) > 1.0  # along the wall: the odometry decides (MIN_MATCH_INFORMATION)
+    assert constrained[1, 1] == pytest.approx(4000.0, rel=0.05) and constrained[2, 2] == pytest.approx(900.0, rel=0.05)
+    end = np.column_stack([np.full(100, 1.5), np.linspace(0.0, 1.0, 100)])
+    corner = _reference(np.vstack([wall, end]), resolution)
+    seen = np.vstack([scan, np.column_stack([np.full(40, 1.5), np.linspace(0.2, 0.95, 40)])])
+    np.testing.assert_allclose(slam_module._constrained(claimed, corner, seen, np.zeros(3), resolution), claimed)

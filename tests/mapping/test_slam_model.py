@@ -124,6 +124,8 @@ def test_a_match_and_its_refinement_are_weighed_by_their_informations(monkeypatc
     covariance is the deciding one's own: the refinement's full information's inverse, or the match's."""
     curvature = np.diag([1e4, 1e4, 1e5])
     monkeypatch.setattr(slam_module, "_match_information", lambda *args: curvature)
+    # the directions the surfaces leave free are test_slam_covariance's: here every direction is constrained
+    monkeypatch.setattr(slam_module, "_constrained", lambda information, *args: information)
     points = np.column_stack([2.0 * np.cos(np.linspace(0, 6, 30)), 2.0 * np.sin(np.linspace(0, 6, 30))])  # 2 m
     match_information = slam_module._with_quantization(curvature, points, 0.05)
     q = 0.05 / math.sqrt(12.0)
