@@ -866,6 +866,10 @@ class GraphSlam:
         turned = wrap_angle(self._graph.pose(last)[2] - self._graph.pose(verified)[2])
         odometry_information = _rotated(_odometry_information(motion, path, turn), turned)
         relative_prior = np.array(relative_pose(anchor, prior))
+        window = self._verified(range(max(0, last - cfg.local_window + 1), last + 1))
+        if sum(len(self._nodes[k].points) for k in window) < MIN_BEAMS:
+            events.append("the local window's scans hold no points to match against: node added on odometry alone")
+            return prior, odometry_covariance, None
         if self._local is None or self._local[0] != last:
             members = range(max(0, last - cfg.local_window + 1), last + 1)
             # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
@@ -1018,6 +1022,9 @@ class GraphSlam:
         submap = self._submaps[candidate.submap]
         points = candidate.points
         if submap.reference is None:
+            members = self._verified(range(submap.last - cfg.local_window + 1, submap.last + 1))
+            if sum(len(self._nodes[k].points) for k in members) < MIN_BEAMS:
+                return True  # scans of nothing in reach (an open room's middle): no submap to match against
             self._reference_of(submap)
             return False
         if submap.reference.clear is None:

@@ -510,3 +510,19 @@ def test_the_map_follows_the_poses_by_moving_only_the_scans_of_nodes_that_moved(
     outside[oy : oy + exact.data.shape[0], ox : ox + exact.data.shape[1]] = False
     assert (grid.data[outside] == -1).all()  # what the kept grid has beyond the rebuild's extent is unknown
     np.testing.assert_array_equal(mine, exact.data)
+
+
+def test_a_loop_past_submaps_of_empty_scans_is_no_error():
+    """A robot that saw nothing in reach for a whole loop (an open room's middle, a short-range LiDAR) and then sees
+    a wall where it began: the submaps of its empty scans are no closure candidates (building one failed on no
+    points: a ValueError out of add)."""
+    slam = GraphSlam()
+    nothing = ScanData(np.full(360, math.inf), -math.pi, 2 * math.pi / 360, 0.1, 3.5)
+    ring = ScanData(np.full(360, 2.0), -math.pi, 2 * math.pi / 360, 0.1, 3.5)
+    steps = 80
+    for k in range(steps + 8):
+        angle = 2 * math.pi * k / steps
+        odometry = (2.0 * math.sin(angle), 2.0 - 2.0 * math.cos(angle), angle)
+        update = slam.add(k * 100_000_000, odometry, ring if k >= steps else nothing)
+        assert np.all(np.isfinite(update.pose))
+    assert len(slam.graph()[0]) > steps // 2
