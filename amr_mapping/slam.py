@@ -758,6 +758,10 @@ class GraphSlam:
         unverified), or all of them if none was: the nodes whose scans a submap, local or for a closure, is built of."""
         return [k for k in members if k not in self._unmatched] or list(members)
 
+    def _hold_points(self, members) -> bool:
+        """Whether the members' scans hold MIN_BEAMS points or more: a window or submap to match against."""
+        return sum(len(self._nodes[k].points) for k in members) >= MIN_BEAMS
+
     def _reference_of(self, submap: _Submap) -> _Reference:
         """The loop-closure submap's matcher and layout, built on first use (see _Submap); its clear space in the next
         step (_clear_of)."""
@@ -866,15 +870,13 @@ class GraphSlam:
         turned = wrap_angle(self._graph.pose(last)[2] - self._graph.pose(verified)[2])
         odometry_information = _rotated(_odometry_information(motion, path, turn), turned)
         relative_prior = np.array(relative_pose(anchor, prior))
-        window = self._verified(range(max(0, last - cfg.local_window + 1), last + 1))
-        if sum(len(self._nodes[k].points) for k in window) < MIN_BEAMS:
+        # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
+        # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them)
+        members = self._verified(range(max(0, last - cfg.local_window + 1), last + 1))
+        if not self._hold_points(members):
             events.append("the local window's scans hold no points to match against: node added on odometry alone")
             return prior, odometry_covariance, None
         if self._local is None or self._local[0] != last:
-            members = range(max(0, last - cfg.local_window + 1), last + 1)
-            # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
-            # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them)
-            members = self._verified(members)
             # only the surfaces facing where the scan is expected (the prior's sensor): a thin wall's far face, seen
             # from its other side, pulls the field and the lines (bench_slam_link_truth.py --facing; the closure
             # submaps keep every viewpoint's surfaces)
@@ -1022,8 +1024,7 @@ class GraphSlam:
         submap = self._submaps[candidate.submap]
         points = candidate.points
         if submap.reference is None:
-            members = self._verified(range(submap.last - cfg.local_window + 1, submap.last + 1))
-            if sum(len(self._nodes[k].points) for k in members) < MIN_BEAMS:
+            if not self._hold_points(self._verified(range(submap.last - cfg.local_window + 1, submap.last + 1))):
                 return True  # scans of nothing in reach (an open room's middle): no submap to match against
             self._reference_of(submap)
             return False
