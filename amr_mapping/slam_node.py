@@ -15,13 +15,17 @@ active     /odometry + /scan are paired by stamp (amr_util.sync, the approximate
            comes: a lockstep simulator holding the robot). They are built and published on the node's own thread
            (MapWorker, as slam_toolbox builds its map beside its scan processing): the callback answering a pair
            only asks for one, and the thread takes a snapshot of the graph (GraphSlam.snapshot, under the lock
-           GraphSlam.add and save are called under), brings its kept map to it (amr_mapping.slam.KeptMap) outside
-           the lock, waiting between chunks of the build while a pair is answered (one thread of Python runs at a
-           time), and publishes. One build at a time; asking during a build makes one more after it (the newest
-           ask's stamp), never a queue. The thread starts on activate and is stopped and joined on deactivate,
-           cleanup and destroy (nothing is published after deactivate).
+           GraphSlam.add and a save's settle are called under), brings its kept map to it
+           (amr_mapping.slam.KeptMap) outside the lock, waiting between chunks of the build while a pair is
+           answered (one thread of Python runs at a time), and publishes. One build at a time; asking during a
+           build makes one more after it (the newest ask's stamp), never a queue. The thread starts on activate
+           and is stopped and joined on deactivate, cleanup and destroy (nothing is published after deactivate).
            ~/save_map (amr_interfaces/SaveMap) writes <path>.yaml, <path>.pgm and <path>.poses.csv; a path that
-           cannot be written is answered success false with the reason, and the map is kept.
+           cannot be written is answered success false with the reason, and the map is kept. The optimization a
+           save needs (GraphSlam.settle) and the snapshot are taken under the lock; the map is rebuilt and written
+           from the snapshot outside it (amr_mapping.slam.save_snapshot: intel's 905 nodes 0.4 s against 0.1 s of
+           optimization), so the map thread is not held up by the writing. Pairs wait for the answer, as for any
+           callback of the node's one executor.
 
 One /pose answers every pair, so a lockstep loop that waits for it never stalls: an input the library refuses
 (MappingError), or a failure of the library, is logged and the pose follows odometry from the last correction. Nothing
@@ -53,7 +57,7 @@ from tf2_msgs.msg import TFMessage
 from amr_interfaces.msg import LocalizedPose, LocalizerStatus, PoseGraph
 from amr_interfaces.srv import SaveMap
 from amr_mapping.errors import MappingError
-from amr_mapping.slam import GraphSlam, KeptMap, SlamConfig
+from amr_mapping.slam import GraphSlam, KeptMap, SlamConfig, save_snapshot
 from amr_maps.messages import grid_message
 from amr_util.geometry import all_finite, compose, yaw_from_quaternion
 from amr_util.managed_node import ManagedNode, run
@@ -420,12 +424,12 @@ class SlamNode(ManagedNode):
             path = Path(request.path).expanduser() if request.path else None
             if path is None:
                 raise MappingError("path is empty: give a file path without extension (e.g. my_map)")
-            with self._slam_lock:
-                before = self.slam.graph()[0]
-                written = self.slam.save(path)
-                moved = not np.array_equal(before, self.slam.graph()[0])
+            with self._slam_lock:  # the optimization a save needs, and the graph it writes; the writing outside
+                moved = self.slam.settle()
+                snapshot, config = self.slam.snapshot(), self.slam.config
             if moved:  # the save finished an optimization: /map follows the poses saved (the next pair or the flush)
                 self._map_dirty = True
+            written = save_snapshot(snapshot, config, path)
             response.success = True
             response.message = "wrote " + ", ".join(str(p) for p in written)
             self.get_logger().info(f"map saved: {response.message}")

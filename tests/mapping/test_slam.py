@@ -11,7 +11,7 @@ import pytest
 
 from amr_mapping import slam as slam_module
 from amr_mapping.errors import MappingError
-from amr_mapping.slam import GraphSlam, SlamConfig
+from amr_mapping.slam import GraphSlam, SlamConfig, save_snapshot
 from amr_mapping.trajectory_error import absolute_error
 from amr_maps.map_io import load_map
 from amr_maps.raycast import NumpyRayCaster
@@ -218,6 +218,33 @@ def test_save_to_an_unwritable_place_names_it_and_keeps_the_map(mapped, tmp_path
     with pytest.raises(MappingError, match="file"):
         slam.save(blocker / "ring")
     assert slam.occupancy_grid() is before
+
+
+def test_a_snapshot_saved_later_writes_the_graph_as_it_was_when_taken(ring, tmp_path):
+    """The node settles and snapshots under its lock and writes outside it: scans added meanwhile are not in
+    the files, and what is written is what GraphSlam.save writes at that moment."""
+    caster, truth = ring
+    odometry = _odometry(truth)
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
+    rng = np.random.default_rng(1)
+    half = len(truth) // 2
+    for k in range(half):
+        slam.add(k * 100_000_000, odometry[k], _scan(caster, truth[k], rng))
+    slam.settle()
+    snapshot = slam.snapshot()
+    direct = slam.save(tmp_path / "direct")
+    for k in range(half, len(truth)):
+        slam.add(k * 100_000_000, odometry[k], _scan(caster, truth[k], rng))
+    assert len(slam.graph()[0]) > len(snapshot.poses)
+    paths = save_snapshot(snapshot, slam.config, tmp_path / "later")
+    rows = np.loadtxt(paths[2], delimiter=",", skiprows=1)
+    assert rows.shape == (half, 4) and np.allclose(rows[:, 1:], snapshot.poses, atol=1e-5)
+    assert np.array_equal(rows, np.loadtxt(direct[2], delimiter=",", skiprows=1))
+    assert np.array_equal(load_map(paths[0]).data, load_map(direct[0]).data)
+    with pytest.raises(MappingError, match="file"):
+        blocker = tmp_path / "file"
+        blocker.write_text("not a directory")
+        save_snapshot(snapshot, slam.config, blocker / "ring")
 
 
 FEW_BEAMS = ScanData(np.full(10, 2.0), -math.pi, 2 * math.pi / 10, 0.1, 5.0)

@@ -275,15 +275,14 @@ def test_a_save_that_moves_the_poses_publishes_the_map_at_them(executor, stack, 
     assert spin_until(executor, lambda: probe.graphs and len(probe.graphs[-1].poses) == 4, 10.0), "no graph of 4"
     published = slam.maps_published
     graph = slam.slam._graph
-    save = slam.slam.save
 
-    def optimizing_save(where):  # as an optimization left pending would: the poses after the first node move
+    def optimizing_settle():  # as an optimization left pending would: the poses after the first node move
         moved = graph.poses
         moved[1:, :2] += (0.2, -0.1)
         graph.set_poses(moved)
-        return save(where)
+        return True
 
-    monkeypatch.setattr(slam.slam, "save", optimizing_save)
+    monkeypatch.setattr(slam.slam, "settle", optimizing_settle)
     answer = slam._on_save_map(SaveMap.Request(path=str(tmp_path / "room")), SaveMap.Response())
     assert answer.success, answer.message
     assert spin_until(executor, lambda: slam.maps_published > published, 10.0), "no /map after the save"
