@@ -566,7 +566,10 @@ class GraphSlam:
         self._unmatched: set[int] = set()  # nodes added on odometry alone (left out of the local submap)
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._candidates: list[_Candidate] = []  # closure candidates in progress, oldest first (_step_candidate)
-        self._local: tuple[int, _Reference, list] | None = None
+        self._local: tuple[tuple, _Reference, list] | None = None  # ((last, members), reference, views)
+        self._window_members: list[int] = []  # the nodes the last local window was built of (_window)
+        self._window_restarts = False  # the last local window took every recent node, unverified ones too
+        self._segment_start = 0  # the first node of the newest match-linked run: older nodes leave the window
         self._unoptimized = 0  # closures added since the last optimization
         self._run: Optimization | None = None  # the optimization in progress (carried over the updates)
         self._drops = 0  # closures the run in progress may still remove (_advance_optimization)
@@ -714,6 +717,8 @@ class GraphSlam:
             self._unmatched.add(node)
         else:
             sources = self._matched_sources(last)
+            if self._window_restarts:
+                self._segment_start = node
         shares = np.array(LINK_SHARES[: len(sources)]) / sum(LINK_SHARES[: len(sources)])
         self._links.append(covariance)
         information = _information(covariance)  # in the node's own frame, whichever the source
@@ -742,9 +747,10 @@ class GraphSlam:
         nodes of that submap's window that were matched themselves, not a node left out of the window as added on
         odometry alone (the match places the scan against the window's points, not against that node's unverified
         pose: linked to it, the scan's pose relative to the nodes before would carry the odometry step's covariance
-        until the next closure, and the closures' gate with it, wide enough for a look-alike place)."""
-        members = self._verified(range(max(0, last - self.config.local_window + 1), last + 1))
-        return members[::-1][: len(LINK_SHARES)]
+        until the next closure, and the closures' gate with it, wide enough for a look-alike place); the newest of
+        every recent node when the window was made of them (_match_local: none verified, or the verified ones saw
+        almost none of the scan)."""
+        return self._window_members[::-1][: len(LINK_SHARES)]
 
     def _verified(self, members) -> list[int]:
         """The members whose poses a scan match placed (the nodes added on odometry alone left out: their poses are
@@ -848,47 +854,28 @@ class GraphSlam:
             return prior, odometry_covariance, None
         last = len(self._nodes) - 1
         anchor = self._graph.pose(last)
-        # the prior is as uncertain against the reference as the odometry since the newest node a match placed (the
-        # reference is built of those: _verified): past nodes added on odometry alone widen its window and weaken its
-        # weight (orebro, odometry seed 2: a 3 m step 1.3 m and 20 deg off went on odometry alone, and the next
-        # eight scans, each searched within its own step's 3 sigma, missed their true poses, 0.5-1.3 m away)
-        verified = next((k for k in range(last, -1, -1) if k not in self._unmatched), last)
-        steps = [relative_pose(self._graph.pose(k), self._graph.pose(k + 1)) for k in range(verified, last)]
-        steps.append(delta)
-        # the model on the path and the turns since (their sum: a turn in place back and forth is no net motion)
-        path = sum(math.hypot(step[0], step[1]) for step in steps)
-        turn = sum(_turned(step) for step in steps)
-        motion = np.array(relative_pose(self._graph.pose(verified), prior))
-        # the model in the frame the motion began in (the verified node's), carried to the anchor's
-        turned = wrap_angle(self._graph.pose(last)[2] - self._graph.pose(verified)[2])
-        odometry_information = _rotated(_odometry_information(motion, path, turn), turned)
         relative_prior = np.array(relative_pose(anchor, prior))
+        recent = range(max(0, last - cfg.local_window + 1), last + 1)
         # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
-        # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them)
-        members = self._verified(range(max(0, last - cfg.local_window + 1), last + 1))
-        if not self._hold_points(members):
+        # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them) ...
+        verified = [k for k in recent if k >= self._segment_start and k not in self._unmatched]
+        window = self._window(recent, verified, prior, relative_prior, points, delta) if verified else None
+        self._window_restarts = window is None or (window[5].sum() < MIN_BEAMS and len(verified) < len(recent))
+        if self._window_restarts:
+            # ... unless none is, or the verified saw almost none of what the scan sees (a few unverified steps on,
+            # the robot turned or went where they did not look: intel played backwards, scans 88-95 saw 15 to 0 of
+            # 180 points, each added on odometry alone until the window held none verified): then the window is
+            # every recent node at the graph's poses (the unverified at the odometry's), and a match against it
+            # begins a new run of nodes (_segment_start): the windows after it leave the nodes before it out, whose
+            # poses the new ones are consistent with only through that window (mixed, the ring's nodes after a
+            # forced stretch walked 5 deg)
+            window = self._window(recent, list(recent), prior, relative_prior, points, delta)
+        if window is None:
             events.append("the local window's scans hold no points to match against: node added on odometry alone")
             return prior, odometry_covariance, None
-        if self._local is None or self._local[0] != last:
-            # only the surfaces facing where the scan is expected (the prior's sensor): a thin wall's far face, seen
-            # from its other side, pulls the field and the lines (bench_slam_link_truth.py --facing; the closure
-            # submaps keep every viewpoint's surfaces)
-            viewpoint = np.array(compose(relative_prior, self._mount)[:2])
-            self._local = (
-                last,
-                self._matcher(last, members, cfg.match_linear_window, viewpoint),
-                self._views(last, members),
-            )
-        reference = self._local[1]
+        members, (odometry_information, motion, path, turn, turned), reference, linear, angular, seen = window
+        self._window_members = members
         matcher = reference.matcher
-        linear, angular = _match_window(odometry_information, cfg)
-        # a point the window never saw (outside its scans' fields of view, beyond the clear range of a beam without a
-        # return) is no evidence either way: scored as if it lay in clear space, it pulls the match to where the
-        # window's surfaces end (a laser driven away from what it faces: the walls beside it are new, and every step
-        # of the logs played backwards was matched 20-50 cm short); judged at the odometry prior, with the search
-        # window's reach (linear + angular x the point's range) as margin
-        margin = SEEN_MARGIN_CELLS * cfg.resolution + linear + angular * np.hypot(points[:, 0], points[:, 1])
-        seen = _seen(transform_points(relative_prior, points), self._local[2], margin)
         if seen.sum() >= MIN_BEAMS:  # else a scan of new ground: all of it, the weak match's tests decide
             points = points[seen]
         match = matcher.match(points, relative_prior, linear, angular)
@@ -943,6 +930,57 @@ class GraphSlam:
             ),
         )
         return pose, _rotated(covariance, fused[2]), float(match.score)
+
+    def _window(self, recent, members: list[int], prior, relative_prior, points, delta):
+        """The local window of `members` (of the `recent` nodes) for a scan at `prior` (relative_prior: in the frame of
+        the newest node, the anchor): (members, the odometry model since the newest member (its information, the
+        motion, path, turn and the turn between that member and the anchor), the reference, the search's linear and
+        angular half widths, which of the scan's points the members saw); None when their scans hold no points."""
+        cfg = self.config
+        last = recent[-1]
+        if not self._hold_points(members):
+            return None
+        # the prior is as uncertain against the reference as the odometry since the newest node the reference is
+        # built of: past nodes added on odometry alone widen its window and weaken its weight (orebro, odometry seed
+        # 2: a 3 m step 1.3 m and 20 deg off went on odometry alone, and the next eight scans, each searched within
+        # its own step's 3 sigma, missed their true poses, 0.5-1.3 m away)
+        newest = members[-1]
+        steps = [relative_pose(self._graph.pose(k), self._graph.pose(k + 1)) for k in range(newest, last)]
+        steps.append(delta)
+        # the model on the path and the turns since (their sum: a turn in place back and forth is no net motion)
+        path = sum(math.hypot(step[0], step[1]) for step in steps)
+        turn = sum(_turned(step) for step in steps)
+        motion = np.array(relative_pose(self._graph.pose(newest), prior))
+        # the model in the frame the motion began in (the newest member's), carried to the anchor's
+        turned = wrap_angle(self._graph.pose(last)[2] - self._graph.pose(newest)[2])
+        odometry_information = _rotated(_odometry_information(motion, path, turn), turned)
+        key = (last, tuple(members))
+        if self._local is None or self._local[0] != key:
+            # only the surfaces facing where the scan is expected (the prior's sensor): a thin wall's far face, seen
+            # from its other side, pulls the field and the lines (bench_slam_link_truth.py --facing; the closure
+            # submaps keep every viewpoint's surfaces)
+            viewpoint = np.array(compose(relative_prior, self._mount)[:2])
+            self._local = (
+                key,
+                self._matcher(last, members, cfg.match_linear_window, viewpoint),
+                self._views(last, members),
+            )
+        linear, angular = _match_window(odometry_information, cfg)
+        # a point the window never saw (outside its scans' fields of view, beyond the clear range of a beam without a
+        # return) is no evidence either way: scored as if it lay in clear space, it pulls the match to where the
+        # window's surfaces end (a laser driven away from what it faces: the walls beside it are new, and every step
+        # of the logs played backwards was matched 20-50 cm short); judged at the odometry prior, with the search
+        # window's reach (linear + angular x the point's range) as margin
+        margin = SEEN_MARGIN_CELLS * cfg.resolution + linear + angular * np.hypot(points[:, 0], points[:, 1])
+        seen = _seen(transform_points(relative_prior, points), self._local[2], margin)
+        return (
+            members,
+            (odometry_information, motion, path, turn, turned),
+            self._local[1],
+            linear,
+            angular,
+            seen,
+        )
 
     def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
         cfg = self.config

@@ -22,7 +22,7 @@ Per log (odometry synthesized as in bench_slam_logs.py, seed 0; --slam KEY=VALUE
 The runs are cached (--cache DIR, one .npz per log, seed and configuration: not per code, so a new --cache after a
 change) so the analysis can be redone without them.
 Prints; asserts nothing. Usage: .venv/bin/python bench/bench_slam_relative.py [--logs aces ...] [--front-end]
-[--cache /tmp/slam_relative] [--slam KEY=VALUE ...]
+[--cache /tmp/slam_relative] [--slam KEY=VALUE ...] [--reverse]
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import numpy as np
 import yaml
 from bench_slam_logs import DATA, scan_estimates  # the script's directory is on sys.path
 
-from amr_datasets.carmen import LOG_MOUNT, read_carmen
+from amr_datasets.carmen import LOG_MOUNT, played_backwards, read_carmen
 from amr_datasets.odometry import synthesize_odometry
 from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, SlamConfig
@@ -55,13 +55,13 @@ HEADING_SPAN = 1.0
 BINS = (1.0, 2.0, 4.0, 7.0, 10.0)
 
 
-def run(path: Path, seed: int, config: SlamConfig, cache: Path) -> dict:
+def run(path: Path, seed: int, config: SlamConfig, cache: Path, reverse: bool = False) -> dict:
     """The log through GraphSlam (or the cache): per-scan estimate, reference, node of each scan, the graph."""
-    key = hashlib.sha1(f"{path.name}{seed}{config}".encode()).hexdigest()[:12]
+    key = hashlib.sha1(f"{path.name}{seed}{config}{'reverse' if reverse else ''}".encode()).hexdigest()[:12]
     file = cache / f"{path.name.split('-')[0]}_{key}.npz"
     if file.exists():
         return dict(np.load(file))
-    log = read_carmen(path)
+    log = played_backwards(read_carmen(path)) if reverse else read_carmen(path)
     reference = log.poses()
     odometry = synthesize_odometry(reference, seed=seed)
     slam = GraphSlam(config)
@@ -209,6 +209,7 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=Path("/tmp/slam_relative"))
     parser.add_argument("--front-end", action="store_true", help="also the log without closures")
     parser.add_argument("--slam", nargs="*", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--reverse", action="store_true", help="each log played backwards (bench_slam_logs.py's)")
     args = parser.parse_args()
     overrides = {k: yaml.safe_load(v) for k, _, v in (item.partition("=") for item in args.slam)}
     for name in args.logs:
@@ -216,11 +217,11 @@ def main() -> None:
         if path is None:
             sys.exit(f"no log {name} in {args.data}")
         config = SlamConfig(**{**LOG_MOUNT, **overrides})
-        data = run(path, args.seed, config, args.cache)
+        data = run(path, args.seed, config, args.cache, args.reverse)
         decompose(name, data)
         if args.front_end:
             no_closures = SlamConfig(**{**LOG_MOUNT, **overrides, "loop_search_radius": 0.001})
-            alone = run(path, args.seed, no_closures, args.cache)
+            alone = run(path, args.seed, no_closures, args.cache, args.reverse)
             for label, d in (("full", data), ("front end alone", alone)):
                 short = relative_error(d["estimate"], d["reference"], 1.0, 2.0)
                 whole = relative_error(d["estimate"], d["reference"])

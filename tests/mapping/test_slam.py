@@ -553,3 +553,42 @@ def test_a_loop_past_submaps_of_empty_scans_is_no_error():
         update = slam.add(k * 100_000_000, odometry, ring if k >= steps else nothing)
         assert np.all(np.isfinite(update.pose))
     assert len(slam.graph()[0]) > steps // 2
+
+
+def test_after_a_stretch_on_odometry_alone_the_window_is_what_the_robot_saw_last(ring, monkeypatch):
+    """A 180-degree laser facing away from the way the robot drives (a log played backwards), eight nodes around a
+    corner refused (as a match the gate turns down): the nodes matched before them saw none of what the scans after
+    the corner see. The next scan is matched against every recent node (the refused ones at the odometry's poses)
+    and the run goes on matched (before, two more nodes went on odometry alone, and the window held them out until
+    all ten were), and the windows after it leave the nodes before the stretch out (mixed with them, the nodes
+    after the corner walked 5 deg, 0.58 m at the far side of the ring)."""
+    caster, truth = ring
+    odometry = _odometry(truth)
+    half = BEAMS // 2
+    refused = range(16, 24)
+    original = GraphSlam._match_local
+
+    def refusing(self, prior, points, delta, events):
+        pose, covariance, score = original(self, prior, points, delta, events)
+        if len(self._nodes) in refused:
+            cfg = self.config
+            model = slam_module._odometry_model(
+                delta, share_xy=cfg.odometry_error_xy, share_theta=cfg.odometry_error_theta
+            )
+            return prior, slam_module._rotated(model, delta[2]), None
+        return pose, covariance, score
+
+    monkeypatch.setattr(GraphSlam, "_match_local", refusing)
+    slam = GraphSlam(SlamConfig(max_range_used=MAX_RANGE, lidar_x=CENTRE))
+    rng = np.random.default_rng(1)
+    alone = []
+    for k, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
+        ranges = caster.cast(pose[0], pose[1], pose[2] + math.pi / 2, INCREMENT, half, MAX_RANGE)
+        scan = ScanData(ranges + rng.normal(0.0, 0.01, half), math.pi / 2, INCREMENT, 0.1, MAX_RANGE)
+        update = slam.add(k * 100_000_000, odom, scan)
+        if k not in refused and any("odometry alone" in event for event in update.events):
+            alone.append(k)
+    assert alone == []
+    poses = slam.graph()[0]
+    errors = [math.hypot(*(np.array(compose(truth[0], p))[:2] - t[:2])) for p, t in zip(poses, truth, strict=True)]
+    assert max(errors) < 0.05
