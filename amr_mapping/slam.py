@@ -9,10 +9,11 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
 - Front end: the node's scan (its points in the robot's frame: the LiDAR mount lidar_x/y/yaw) is matched
   (amr_maps.scan_matcher.CorrelativeMatcher, branch and bound then a sub-cell refinement) against the local submap,
   the likelihood field of the last local_window nodes' scan points (ScoreMap.from_points, to_points; the nodes added on
-  odometry alone left out: their poses are unverified; only the surfaces facing the odometry prior's sensor:
-  _facing), with only the scan's points the window saw (_seen: within its scans' fields of view and the clear range
-  of their beams without a return, judged at the odometry prior; where the window did not look, no wall is no
-  evidence), within
+  odometry alone left out: their poses are unverified, unless the others saw fewer than MIN_BEAMS of the scan's
+  points: then every recent node, and a match begins a new run of nodes, _segment_start; only the surfaces facing
+  the odometry prior's sensor: _facing), with only the scan's points the window saw (_seen: within its scans'
+  fields of view and the clear range of their beams without a return, judged at the odometry prior; where the
+  window did not look, no wall is no evidence), within
   WINDOW_SIGMAS standard deviations of the odometry model (_odometry_model: ODOMETRY_SIGMA, the heading's error half
   made before the step's translation) since the last node (since the newest matched node, when nodes were added on
   odometry alone since), at most
