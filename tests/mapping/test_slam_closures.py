@@ -65,7 +65,8 @@ def test_remove_edges_keeps_the_others_in_order():
 
 def test_the_gate_counts_the_closures_already_in_the_graph():
     """Two nodes 56 steps apart along the path, tied by a closure 40 steps in: their relative pose is the last 16
-    steps' uncertainty, not the 56 steps' the chain compounded (a closure 1.2 m off passed that gate)."""
+    steps' uncertainty, not the 56 steps' the chain compounded (a closure 1.2 m off passed that gate, at the chain's
+    claim; the gate takes it GATE_DRIFT_SCALE times over, so the offset here is as many times the root longer)."""
     slam = GraphSlam()
     poses = _chain(slam._graph, _square(5, 3), STEP_COVARIANCE)
     before = slam._relative_covariance(slam._graph.marginals(), 2, 58)
@@ -73,9 +74,32 @@ def test_the_gate_counts_the_closures_already_in_the_graph():
     after = slam._relative_covariance(slam._graph.marginals(), 2, 58)
     assert math.sqrt(before[0, 0] + before[1, 1]) > 0.5
     assert math.sqrt(after[0, 0] + after[1, 1]) < 0.65 * math.sqrt(before[0, 0] + before[1, 1])
-    innovation = np.array([1.2, 0.0, 0.0])
-    assert innovation @ np.linalg.solve(before, innovation) < slam_module.LOOP_CHI2
-    assert innovation @ np.linalg.solve(after, innovation) > slam_module.LOOP_CHI2
+    scale = slam_module.GATE_DRIFT_SCALE
+    innovation = np.array([1.2 * math.sqrt(scale), 0.0, 0.0])
+    assert innovation @ np.linalg.solve(scale * before, innovation) < slam_module.LOOP_CHI2
+    assert innovation @ np.linalg.solve(scale * after, innovation) > slam_module.LOOP_CHI2
+
+
+def test_the_gate_weighs_a_closure_against_the_chains_drift_at_gate_drift_scale_times_its_claim(monkeypatch):
+    """The links claim less than they err on real logs, so the gate takes the chain's uncertainty GATE_DRIFT_SCALE
+    times over: a closure as far off as a chain of calibrated links would err (chi-square 30 at the chain's claim,
+    refused before: intel played backwards refused 271 right closures) passes; one twice as far off again does not."""
+    slam = GraphSlam()
+    poses = _chain(slam._graph, _square(5, 3), STEP_COVARIANCE)
+    monkeypatch.setattr(slam, "_closure_covariance", lambda *args: np.diag([1e-6, 1e-6, 1e-8]))
+    claim = slam._relative_covariance(slam._graph.marginals(), 2, 58)
+    predicted = np.array(relative_pose(poses[2], poses[58]))
+    direction = np.array([1.0, 0.0, 0.0])
+    unit = float(direction @ np.linalg.solve(claim, direction))
+
+    def gated(chi2_at_claim: float) -> bool:
+        matched = predicted + direction * math.sqrt(chi2_at_claim / unit)
+        candidate = slam_module._Candidate(submap=0, node=58, points=np.zeros((0, 2)), prior=predicted, matched=matched)
+        return slam._gate(slam_module._Submap(anchor=2, last=11), candidate, []) is not None
+
+    assert slam_module.LOOP_CHI2 < 30.0 < slam_module.GATE_DRIFT_SCALE * slam_module.LOOP_CHI2
+    assert gated(30.0)
+    assert not gated(4.0 * slam_module.GATE_DRIFT_SCALE * slam_module.LOOP_CHI2)
 
 
 def test_a_closure_the_optimized_graph_disagrees_with_is_removed():
