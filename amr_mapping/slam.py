@@ -437,6 +437,28 @@ class _Submap:
         return self.reference.matcher
 
 
+@dataclass(frozen=True)
+class _LocalWindow:
+    """The local window a scan is matched against (GraphSlam._local_window): the nodes it is built of and what the match
+    needs of it."""
+
+    members: list[int]
+    odometry_information: np.ndarray
+    """The odometry model since the newest member, in the anchor's frame (the prior's information)."""
+    motion: np.ndarray
+    path: float
+    turn: float
+    turned: float
+    """The turn between the newest member and the anchor (the model's frame carried to the anchor's)."""
+    reference: _Reference
+    linear: float
+    angular: float
+    seen: np.ndarray
+    """Which of the scan's points the members saw (_seen, at the prior)."""
+    restarts: bool = False
+    """Every recent node, unverified ones too: a match against it begins a new run of nodes (_segment_start)."""
+
+
 @dataclass
 class _Candidate:
     """A loop-closure candidate in progress: submap `submap` (an index of GraphSlam._submaps) searched for node
@@ -574,8 +596,7 @@ class GraphSlam:
         self._pending: list[int] = []  # candidate submaps not yet searched for the last node
         self._candidates: list[_Candidate] = []  # closure candidates in progress, oldest first (_step_candidate)
         self._local: tuple[tuple, _Reference, list] | None = None  # ((last, members), reference, views)
-        self._window_members: list[int] = []  # the nodes the last local window was built of (_window)
-        self._window_restarts = False  # the last local window took every recent node, unverified ones too
+        self._window: _LocalWindow | None = None  # the last local window a scan was matched against
         self._segment_start = 0  # the first node of the newest match-linked run: older nodes leave the window
         self._unoptimized = 0  # closures added since the last optimization
         self._run: Optimization | None = None  # the optimization in progress (carried over the updates)
@@ -645,8 +666,6 @@ class GraphSlam:
         are). A file that cannot be written: MappingError naming it (the map is kept). The same as settle, then
         save_snapshot of the snapshot (the node holds its lock for the first two only)."""
         self.settle()
-        if not self._nodes:
-            raise MappingError("slam: no map yet (no scan has been added)")
         return save_snapshot(self.snapshot(), self.config, path)
 
     def settle(self) -> bool:
@@ -724,7 +743,7 @@ class GraphSlam:
             self._unmatched.add(node)
         else:
             sources = self._matched_sources(last)
-            if self._window_restarts:
+            if self._window.restarts:
                 self._segment_start = node
         shares = np.array(LINK_SHARES[: len(sources)]) / sum(LINK_SHARES[: len(sources)])
         self._links.append(covariance)
@@ -757,7 +776,7 @@ class GraphSlam:
         until the next closure, and the closures' gate with it, wide enough for a look-alike place); the newest of
         every recent node when the window was made of them (_match_local: none verified, or the verified ones saw
         almost none of the scan)."""
-        return self._window_members[::-1][: len(LINK_SHARES)]
+        return self._window.members[::-1][: len(LINK_SHARES)]
 
     def _verified(self, members) -> list[int]:
         """The members whose poses a scan match placed (the nodes added on odometry alone left out: their poses are
@@ -768,11 +787,15 @@ class GraphSlam:
         """Whether the members' scans hold MIN_BEAMS points or more: a window or submap to match against."""
         return sum(len(self._nodes[k].points) for k in members) >= MIN_BEAMS
 
+    def _submap_range(self, submap: _Submap) -> range:
+        """The nodes a loop-closure submap spans (its members, verified or not)."""
+        return range(submap.last - self.config.local_window + 1, submap.last + 1)
+
     def _reference_of(self, submap: _Submap) -> _Reference:
         """The loop-closure submap's matcher and layout, built on first use (see _Submap); its clear space in the next
         step (_clear_of)."""
         if submap.reference is None:
-            members = range(submap.last - self.config.local_window + 1, submap.last + 1)
+            members = self._submap_range(submap)
             verified = self._verified(members)
             reference = self._matcher(submap.anchor, verified, self.config.loop_linear_window)
             # a member left out is a leaf on its odometry link (_matched_sources): its link moves none of the points
@@ -791,8 +814,8 @@ class GraphSlam:
         at the members' poses the matcher was built at)."""
         reference = self._reference_of(submap)
         if reference.clear is None:
-            start = submap.last - self.config.local_window + 1
-            members = self._verified(range(start, submap.last + 1))
+            start = self._submap_range(submap).start
+            members = self._verified(self._submap_range(submap))
             reference.clear = self._clear_space(members, submap.placed[np.asarray(members) - start])
             self._work.add(CLEAR_WORK_PER_RAY * sum(len(self._nodes[k].ranges) for k in members))
         return reference.clear
@@ -866,9 +889,8 @@ class GraphSlam:
         # a node added on odometry alone stands where the odometry put it, unverified: not a reference (fhw's
         # turn in place: two such nodes 4.5 and 6 deg off, and the next matches took their headings from them) ...
         verified = [k for k in recent if k >= self._segment_start and k not in self._unmatched]
-        window = self._window(recent, verified, prior, relative_prior, points, delta) if verified else None
-        self._window_restarts = window is None or (window[5].sum() < MIN_BEAMS and len(verified) < len(recent))
-        if self._window_restarts:
+        window = self._local_window(recent, verified, prior, relative_prior, points, delta) if verified else None
+        if window is None or (window.seen.sum() < MIN_BEAMS and len(verified) < len(recent)):
             # ... unless none is, or the verified saw almost none of what the scan sees (a few unverified steps on,
             # the robot turned or went where they did not look: intel played backwards, scans 88-95 saw 15 to 0 of
             # 180 points, each added on odometry alone until the window held none verified): then the window is
@@ -876,15 +898,16 @@ class GraphSlam:
             # begins a new run of nodes (_segment_start): the windows after it leave the nodes before it out, whose
             # poses the new ones are consistent with only through that window (mixed, the ring's nodes after a
             # forced stretch walked 5 deg)
-            window = self._window(recent, list(recent), prior, relative_prior, points, delta)
+            window = self._local_window(recent, list(recent), prior, relative_prior, points, delta, restarts=True)
         if window is None:
             events.append("the local window's scans hold no points to match against: node added on odometry alone")
             return prior, odometry_covariance, None
-        members, (odometry_information, motion, path, turn, turned), reference, linear, angular, seen = window
-        self._window_members = members
+        self._window = window
+        reference, linear, angular = window.reference, window.linear, window.angular
+        odometry_information = window.odometry_information
         matcher = reference.matcher
-        if seen.sum() >= MIN_BEAMS:  # else a scan of new ground: all of it, the weak match's tests decide
-            points = points[seen]
+        if window.seen.sum() >= MIN_BEAMS:  # else a scan of new ground: all of it, the weak match's tests decide
+            points = points[window.seen]
         match = matcher.match(points, relative_prior, linear, angular)
         self._work.add(CANDIDATE_WORK + match.nodes * len(points))
         if match.score < WEAK_MATCH_SCORE and angular < cfg.match_angular_window:
@@ -933,16 +956,21 @@ class GraphSlam:
             (match_information, match_covariance),
             (
                 odometry_information,
-                _rotated(_odometry_model(motion, path, turn, cfg.odometry_error_xy, cfg.odometry_error_theta), turned),
+                _rotated(
+                    _odometry_model(
+                        window.motion, window.path, window.turn, cfg.odometry_error_xy, cfg.odometry_error_theta
+                    ),
+                    window.turned,
+                ),
             ),
         )
         return pose, _rotated(covariance, fused[2]), float(match.score)
 
-    def _window(self, recent, members: list[int], prior, relative_prior, points, delta):
+    def _local_window(
+        self, recent, members: list[int], prior, relative_prior, points, delta, restarts: bool = False
+    ) -> _LocalWindow | None:
         """The local window of `members` (of the `recent` nodes) for a scan at `prior` (relative_prior: in the frame of
-        the newest node, the anchor): (members, the odometry model since the newest member (its information, the
-        motion, path, turn and the turn between that member and the anchor), the reference, the search's linear and
-        angular half widths, which of the scan's points the members saw); None when their scans hold no points."""
+        the newest node, the anchor); None when their scans hold no points."""
         cfg = self.config
         last = recent[-1]
         if not self._hold_points(members):
@@ -980,13 +1008,8 @@ class GraphSlam:
         # window's reach (linear + angular x the point's range) as margin
         margin = SEEN_MARGIN_CELLS * cfg.resolution + linear + angular * np.hypot(points[:, 0], points[:, 1])
         seen = _seen(transform_points(relative_prior, points), self._local[2], margin)
-        return (
-            members,
-            (odometry_information, motion, path, turn, turned),
-            self._local[1],
-            linear,
-            angular,
-            seen,
+        return _LocalWindow(
+            members, odometry_information, motion, path, turn, turned, self._local[1], linear, angular, seen, restarts
         )
 
     def _close_loops(self, node: int, events: list[str]) -> list[LoopClosure]:
@@ -1062,7 +1085,7 @@ class GraphSlam:
         submap = self._submaps[candidate.submap]
         points = candidate.points
         if submap.reference is None:
-            if not self._hold_points(self._verified(range(submap.last - cfg.local_window + 1, submap.last + 1))):
+            if not self._hold_points(self._verified(self._submap_range(submap))):
                 return True  # scans of nothing in reach (an open room's middle): no submap to match against
             self._reference_of(submap)
             return False
