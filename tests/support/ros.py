@@ -86,12 +86,13 @@ def spin_for(executor, seconds: float) -> None:
     spin_until(executor, lambda: False, seconds)
 
 
-def published_topics(node, name: str, namespace: str, expected=(), timeout: float = 10.0) -> dict[str, str]:
+def published_topics(node, name: str, namespace: str, expected=(), timeout: float = 30.0) -> dict[str, str]:
     """The topics node `namespace/name` publishes, by the ROS graph as `node` sees it: {topic: first type}.
 
     The graph is eventually consistent: a node's own new publishers reach its graph cache through discovery, so
-    under load the first look can miss them. This waits (without spinning: the graph updates on DDS threads)
-    until every `expected` topic is listed or the timeout passes, and returns what is listed then."""
+    under load the first look can miss them (a full suite on 2 cores once listed none of 8 within 10 s). This waits
+    (without spinning: the graph updates on DDS threads) until every `expected` topic is listed or the timeout
+    passes, and returns what is listed then."""
     deadline = time.monotonic() + timeout
     while True:
         listed = {topic: types[0] for topic, types in node.get_publisher_names_and_types_by_node(name, namespace)}
