@@ -320,9 +320,9 @@ class SlamConfig:
     unlike a clock the same on every run (0-1000)."""
     odometry_error_xy: float = 1.0
     """the robot's odometry error in position as a share of the odometry model's standard deviations (ODOMETRY_SIGMA,
-    the front end's prior and window, kept wide for any robot): a link's covariance carries its odometry's share at
-    this, so a chain of links claims the drift it makes (0.01-1; the simulator's odometry: 0.15, the
-    maze_mapping stack's)."""
+    the front end's prior and window, with a margin over a log's synthesized odometry for other robots): a link's
+    covariance carries its odometry's share at this, so a chain of links claims the drift it makes (0.01-1; the
+    simulator's odometry: 0.15, the maze_mapping stack's)."""
     odometry_error_theta: float = 1.0
     """... and in heading (0.01-1; the simulator's: 0.3)."""
     max_odometry_jump: float = 5.0
