@@ -822,9 +822,9 @@ class GraphSlam:
         at the members' poses the matcher was built at)."""
         reference = self._reference_of(submap)
         if reference.clear is None:
-            start = self._submap_range(submap).start
-            members = self._verified(self._submap_range(submap))
-            reference.clear = self._clear_space(members, submap.placed[np.asarray(members) - start])
+            span = self._submap_range(submap)
+            members = self._verified(span)
+            reference.clear = self._clear_space(members, submap.placed[np.asarray(members) - span.start])
             self._work.add(CLEAR_WORK_PER_RAY * sum(len(self._nodes[k].ranges) for k in members))
         return reference.clear
 
