@@ -28,7 +28,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from amr_util.geometry import wrap_angle
+from amr_util.geometry import off_line, wrap_angle
 
 MIN_TRANSLATION = 1e-3
 """m: a shorter step is a turn on the spot for the noise terms."""
@@ -82,19 +82,13 @@ def increments(poses: np.ndarray) -> np.ndarray:
     return np.column_stack([rot1, trans, rot2])
 
 
-def _off_line(angle: np.ndarray) -> np.ndarray:
-    """|angle| as a turn off the line of travel, forwards or backwards: min(|a|, pi - |a|)."""
-    magnitude = np.abs(wrap_angle(angle))
-    return np.minimum(magnitude, math.pi - magnitude)
-
-
 def noisy_increments(steps: np.ndarray, noise: OdometryNoiseModel, rng: np.random.Generator) -> np.ndarray:
     """The (rot1, trans, rot2) the odometry reports for the true `steps` (module docstring's formulas)."""
     steps = np.asarray(steps, dtype=float).reshape(-1, 3)
     rot1, trans, rot2 = steps[:, 0], steps[:, 1], steps[:, 2]
     turning = trans < MIN_TRANSLATION
-    turn1 = np.where(turning, 0.0, _off_line(rot1))
-    turn2 = np.where(turning, np.abs(wrap_angle(rot1 + rot2)), _off_line(rot2))
+    turn1 = np.where(turning, 0.0, off_line(rot1))
+    turn2 = np.where(turning, np.abs(wrap_angle(rot1 + rot2)), off_line(rot2))
     e = rng.standard_normal((steps.shape[0], 3))
     bias = 0.5 * noise.heading_bias * trans
     noisy_rot1 = rot1 + (noise.alpha1 * turn1 + noise.alpha2 * trans) * e[:, 0] + bias

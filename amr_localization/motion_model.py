@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from amr_localization.errors import LocalizationError
-from amr_util.geometry import odometry_turns, off_line, wrap_angle
+from amr_util.geometry import odometry_covariance, odometry_turns, off_line, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -93,26 +93,18 @@ def motion_variance(increment, noise: OdometryNoise, heading_variance: float = 0
 def motion_covariance(increment, noise: OdometryNoise) -> np.ndarray:
     """(3, 3) the covariance of the pose sample_motion_model_odometry reaches over one odometry `increment` (x, y,
     theta in the frame it began in; the covariance in that frame), first order in the alphas: the noises of rot1,
-    trans and rot2 (motion_variance's) through the end pose's Jacobian,
-
-        (x, y, theta) = (trans cos rot1, trans sin rot1, rot1 + rot2)
-        Sigma = J diag(var(rot1), var(trans), var(rot2)) J^T,   J = [[-trans sin rot1, cos rot1, 0],
-                                                                     [ trans cos rot1, sin rot1, 0],
-                                                                     [ 1,              0,        1]]
-
-    across the travel the first rotation's noise over the distance, correlated with the heading's: what the
-    particles spread by, anisotropic (a 3 m keyframe's odometry is off across its travel and in heading together,
-    much less along it); no direction of the position tighter than var(trans) (a turn on the spot slips sideways
-    too, though the first order moves nothing there)."""
+    trans and rot2 (motion_variance's) through the end pose's Jacobian (amr_util.geometry.odometry_covariance, the
+    propagation the SLAM front end's odometry model shares): across the travel the first rotation's noise over the
+    distance, correlated with the heading's: what the particles spread by, anisotropic (a 3 m keyframe's odometry is
+    off across its travel and in heading together, much less along it); no direction of the position tighter than
+    var(trans) (a turn on the spot slips sideways too, though the first order moves nothing there)."""
     d_rot1, d_trans, d_rot2 = odometry_turns((0.0, 0.0, 0.0), tuple(float(v) for v in increment))
-    variances = np.diag(_noise_variances(d_rot1, d_trans, d_rot2, noise))
-    c, s = math.cos(d_rot1), math.sin(d_rot1)
-    jacobian = np.array([[-d_trans * s, c, 0.0], [d_trans * c, s, 0.0], [1.0, 0.0, 1.0]])
-    covariance = jacobian @ variances @ jacobian.T
+    variances = _noise_variances(d_rot1, d_trans, d_rot2, noise)
+    covariance = odometry_covariance(d_rot1, d_trans, variances)
     # no direction of the position tighter than the travel's own noise: at first order a turn on the spot moves
     # nothing sideways, which a real base does by slipping (raising the position block keeps it positive definite)
     values, vectors = np.linalg.eigh(covariance[:2, :2])
-    covariance[:2, :2] = (vectors * np.maximum(values, variances[1, 1])) @ vectors.T
+    covariance[:2, :2] = (vectors * np.maximum(values, variances[1])) @ vectors.T
     return covariance
 
 

@@ -92,6 +92,7 @@ from amr_util.geometry import (
     compose,
     inverse,
     is_finite_number,
+    odometry_covariance,
     odometry_turns,
     off_line,
     relative_pose,
@@ -1848,7 +1849,9 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
     made before the translation, so that it turns the whole of it (the motion model's rot1, trans, rot2:
     Probabilistic Robotics, table 5.6): the position off sideways by d e_1 (variance d^2 sigma_theta^2 / 2, correlated
     with the heading's d sigma_theta^2 / 2). Without it, a 3 m step (orebro's keyframes) was searched within 0.96 m
-    and its scan, 1.26 m and 20 deg off the odometry at seed 2, went on odometry alone."""
+    and its scan, 1.26 m and 20 deg off the odometry at seed 2, went on odometry alone. The three errors are
+    propagated as the particle filter's prior propagates its alphas' (amr_util.geometry.odometry_covariance), the
+    position's error added on every side."""
     d = math.hypot(delta[0], delta[1]) if path is None else float(path)
     a = _turned(delta) if turn is None else float(turn)
     s_xy, s_xy_d, s_xy_a, s_th, s_th_a = ODOMETRY_SIGMA
@@ -1856,13 +1859,8 @@ def _odometry_model(delta, path=None, turn=None, share_xy: float = 1.0, share_th
     along = share_xy * s_xy_a * a  # the translation's error with the turns: along the line of travel
     heading = share_theta * (s_th + s_th_a * (a + d))
     direction = math.atan2(delta[1], delta[0])  # no net translation: atan2(0, 0) = 0, x taken as the way on
-    way = np.array([math.cos(direction), math.sin(direction)])
-    side = np.array([-way[1], way[0]])
-    covariance = np.diag([position**2, position**2, heading**2])
-    covariance[:2, :2] += along**2 * np.outer(way, way)
-    covariance[:2, :2] += 0.5 * (d * heading) ** 2 * np.outer(side, side)
-    covariance[:2, 2] += 0.5 * d * heading**2 * side
-    covariance[2, :2] += 0.5 * d * heading**2 * side
+    covariance = odometry_covariance(direction, d, (0.5 * heading**2, along**2, 0.5 * heading**2))
+    covariance[:2, :2] += position**2 * np.eye(2)
     return covariance
 
 

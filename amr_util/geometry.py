@@ -204,7 +204,32 @@ def odometry_turns(previous, current, still: float = STILL) -> tuple[float, floa
     return rot1, trans, float(wrap_angle(current[2] - previous[2] - rot1))
 
 
-def off_line(angle: float) -> float:
+def off_line(angle):
     """|angle| as a turn off the line of travel, forwards or backwards (the smaller of the two equivalent rotations,
-    as AMCL's motion model takes it): reversing is not a half turn."""
-    return min(abs(angle), abs(float(wrap_angle(angle - math.pi))))
+    as AMCL's motion model takes it): reversing is not a half turn. A float for a Python number, an array for an
+    array (the odometry synthesizer's many steps at once)."""
+    if isinstance(angle, (int, float)) and not isinstance(angle, np.generic):
+        magnitude = abs(wrap_angle(angle))
+        return min(magnitude, math.pi - magnitude)
+    magnitude = np.abs(wrap_angle(angle))
+    return np.minimum(magnitude, math.pi - magnitude)
+
+
+def odometry_covariance(rot1: float, trans: float, variances) -> np.ndarray:
+    """(3, 3) the covariance (the frame the motion starts in) of the pose a first rotation `rot1`, a translation
+    `trans` and a second rotation reach when the three err independently with `variances` (var(rot1), var(trans),
+    var(rot2)), to first order (the end pose's Jacobian in the three):
+
+        (x, y, theta) = (trans cos rot1, trans sin rot1, rot1 + rot2)
+        Sigma = J diag(var(rot1), var(trans), var(rot2)) J^T,   J = [[-trans sin rot1, cos rot1, 0],
+                                                                     [ trans cos rot1, sin rot1, 0],
+                                                                     [ 1,              0,        1]]
+
+    along the line of travel the translation's error; across it the first rotation's over the distance, correlated
+    with the heading's. The odometry motion model's propagation, one place for the particle filter's prior
+    (amr_localization.motion_model.motion_covariance: var(rot) = alpha1 rot^2 + alpha2 trans^2, ...) and the SLAM
+    front end's (amr_mapping.slam: standard deviations that grow with the distance and the turns)."""
+    var_rot1, var_trans, var_rot2 = (float(v) for v in variances)
+    c, s = math.cos(rot1), math.sin(rot1)
+    jacobian = np.array([[-trans * s, c, 0.0], [trans * c, s, 0.0], [1.0, 0.0, 1.0]])
+    return jacobian @ np.diag([var_rot1, var_trans, var_rot2]) @ jacobian.T
