@@ -200,12 +200,7 @@ class PathFollowerNode(ManagedNode):
     # -- inputs -----------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
-        if self.state_label != "active":
-            return
-        try:
-            self._sync.add_stamped(index, message)
-        except SyncError as error:  # a malformed or negative stamp
-            self._warn(str(error))
+        self.feed_synchronizer(self._sync, index, message, self._warn)
 
     def _on_speed_limit(self, message: SpeedLimit) -> None:
         if self.state_label != "active":

@@ -31,7 +31,7 @@ from amr_util.managed_node import ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.parameter_spec import ConfigError
 from amr_util.qos import SENSOR_DATA, reliable
-from amr_util.sync import ApproximateTimeSynchronizer, SyncError
+from amr_util.sync import ApproximateTimeSynchronizer
 from amr_util.throttle import Throttle
 
 WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
@@ -132,12 +132,7 @@ class WallFollowerNode(ManagedNode):
     # -- data flow ------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
-        if self.state_label != "active":
-            return
-        try:
-            self._sync.add_stamped(index, message)
-        except SyncError as error:  # a malformed or negative stamp
-            self._warn(str(error))
+        self.feed_synchronizer(self._sync, index, message, self._warn)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         """Stamps went back (a simulator reset, or normal stamps after a bad one): start afresh from here."""

@@ -24,7 +24,7 @@ from amr_util.managed_node import ManagedNode
 from amr_util.messages import transform
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
-from amr_util.sync import ApproximateTimeSynchronizer, SyncError
+from amr_util.sync import ApproximateTimeSynchronizer
 from amr_util.throttle import Throttle
 
 WARNING_PERIOD = 2.0
@@ -90,16 +90,7 @@ class LocalizerNode(ManagedNode):
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
 
     def _on_message(self, index: int, message) -> None:
-        if self.state_label != "active" or self._sync is None:
-            return
-        try:
-            self._sync.add_stamped(index, message)
-        except SyncError as error:  # a malformed or negative stamp
-            self._warn(str(error))
-        except Exception as error:  # the pair callbacks log their own; this is the synchronizer's
-            self.get_logger().error(
-                f"input dropped: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
-            )
+        self.feed_synchronizer(self._sync, index, message, self._warn)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         self.get_logger().warning(

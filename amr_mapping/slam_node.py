@@ -65,7 +65,7 @@ from amr_util.messages import quaternion, scan_data, transform
 from amr_util.parameter_spec import ParameterSpec, field_docs
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
-from amr_util.sync import ApproximateTimeSynchronizer, SyncError
+from amr_util.sync import ApproximateTimeSynchronizer
 from amr_util.throttle import Throttle
 
 NODE_NAME = "slam"
@@ -350,16 +350,7 @@ class SlamNode(ManagedNode):
     # -- inputs ---------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
-        if self.state_label != "active" or self._sync is None:
-            return
-        try:
-            self._sync.add_stamped(index, message)
-        except SyncError as error:  # a malformed or negative stamp
-            self._warn(str(error))
-        except Exception as error:  # the pair callback logs its own; this is the synchronizer's
-            self.get_logger().error(
-                f"input dropped: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
-            )
+        self.feed_synchronizer(self._sync, index, message, self._warn)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         self.get_logger().warning(

@@ -62,6 +62,7 @@ from amr_util.robot_description import (
     robot_parameters,
 )
 from amr_util.stop_signals import StopSignals
+from amr_util.sync import SyncError
 
 PARAMETER_TYPES = {
     "bool": Parameter.Type.BOOL,
@@ -454,6 +455,22 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
             return response
 
         return self.create_service(service_type, name, answer_when_active, **kwargs)
+
+    def feed_synchronizer(self, sync, index: int, message, warn: Callable[[str], object]) -> None:
+        """An input message into its synchronizer (amr_util.sync.ApproximateTimeSync: `index` its input) while the
+        node is active, ignored otherwise: a malformed or negative stamp said through `warn` (the node's throttled
+        warning), any other error of the synchronizer's logged; nothing raised out of the subscription's callback
+        (the synchronized set's own callback logs its own errors)."""
+        if self.state_label != "active" or sync is None:
+            return
+        try:
+            sync.add_stamped(index, message)
+        except SyncError as error:  # a malformed or negative stamp
+            warn(str(error))
+        except Exception as error:
+            self.get_logger().error(
+                f"input dropped: {type(error).__name__}: {error}", throttle_duration_sec=REFUSAL_LOG_PERIOD
+            )
 
 
 SIGNAL_CHECK_PERIOD = 0.1  # seconds between chances for Ctrl-C / SIGTERM to be seen
