@@ -38,7 +38,9 @@ The design is Cartographer's (Hess et al., ICRA 2016) with Karto's / slam_toolbo
   at least loop_min_travel of path behind it are searched, nearest first, at most loop_max_candidates per update
   and none started once the update's work (_Work: lookups counted, builds at their measured equivalent) reaches
   loop_work_budget (the next updates take the rest; deterministic: a run is repeatable), each by a windowed
-  match (WindowMatch) within +-loop_linear_window / +-loop_angular_window of its node's estimate. A candidate is
+  match (WindowMatch) within +-loop_angular_window of its node's estimate and, in x and y, over the region the gate
+  would accept it in (_closure_window: the graph's own uncertainty of the node relative to the anchor, at least
+  +-loop_linear_window). A candidate is
   taken a step at a time (_step_candidate: the submap's build and clear space, search slices, rival search slices,
   the gate): one that runs past CANDIDATE_WORK_CAP in its update goes on in the next ones (its searches resumed,
   none repeated), so no update carries a whole long search. A match
@@ -303,7 +305,8 @@ class SlamConfig:
     loop_search_radius: float = 5.0
     """m: submaps whose anchor lies this close to the new node's pose are loop-closure candidates (0.5-20)."""
     loop_linear_window: float = 3.0
-    """m, +- in x and y around the current estimate that a loop-closure match searches (0.2-10)."""
+    """m, +- in x and y around the current estimate that a loop-closure match searches at least; wider where the
+    graph's own uncertainty of the node relative to the submap says the gate would accept it further (0.2-10)."""
     loop_angular_window: float = 0.6
     """rad, +- around the current heading that a loop-closure match searches (0.1-pi)."""
     loop_min_score: float = 0.3
@@ -486,6 +489,8 @@ class _Candidate:
     """The search for a rival of the match (_rival_search), in progress."""
     unambiguous: bool = False
     """The rival search is over and found none: the gate is next."""
+    linear: float = 0.0
+    """m, +- the search window in x and y around the prior (_closure_window), set when the search starts."""
 
 
 @dataclass
@@ -1103,8 +1108,9 @@ class GraphSlam:
             return False
         if candidate.matched is None:
             if candidate.search is None:
+                candidate.linear = self._closure_window(submap, candidate, marginals)
                 candidate.search = WindowMatch(
-                    submap.matcher, points, candidate.prior, cfg.loop_linear_window, cfg.loop_angular_window
+                    submap.matcher, points, candidate.prior, candidate.linear, cfg.loop_angular_window
                 )
             search = candidate.search
             before = search.nodes
@@ -1117,7 +1123,7 @@ class GraphSlam:
             if match.score < cfg.loop_min_score or not np.all(np.isfinite(match.pose)):
                 self.closure_outcomes.append((submap.anchor, candidate.node, "low score", match.pose))
                 return True
-            if _on_edge(match.pose, candidate.prior, cfg):
+            if _on_edge(match.pose, candidate.prior, cfg, candidate.linear):
                 self.ambiguous_closures += 1  # the best of the window is on its edge: no peak, the best may lie beyond
                 self.closure_outcomes.append((submap.anchor, candidate.node, "edge", match.pose))
                 return True
@@ -1137,7 +1143,9 @@ class GraphSlam:
                     self.rejected_closures += 1
                     self.closure_outcomes.append((submap.anchor, candidate.node, "gate", candidate.matched))
                     return True
-                candidate.rival = _rival_search(submap.matcher, points, candidate.matched, candidate.prior, cfg, gated)
+                candidate.rival = _rival_search(
+                    submap.matcher, points, candidate.matched, candidate.prior, cfg, gated, candidate.linear
+                )
                 if candidate.rival is None:  # the window leaves no room for a rival
                     candidate.unambiguous = True
                     return False
@@ -1171,6 +1179,29 @@ class GraphSlam:
         )
         closures.append(LoopClosure(submap.anchor, candidate.node, float(candidate.match.score)))
         return True
+
+    def _closure_window(self, submap: _Submap, candidate: _Candidate, marginals: list) -> float:
+        """m, +- in x and y around the candidate's prior that its match searches: the region the gate would accept
+        the closure in (LOOP_CHI2 of the graph's own uncertainty of the node relative to the anchor, times
+        GATE_DRIFT_SCALE: its widest direction), at least loop_linear_window (the graph can claim less than it
+        drifts: intel's right closures lay beyond that region's 3 sigma at 23 % of its candidates), and no wider
+        than reaches the submap's field (beyond it every pose scores 0). A fixed window missed a return that the
+        graph itself knew was metres uncertain: aces with every other scan (keyframes 1.4-2 m apart), seed 0, came
+        back to its start 5.9-6.7 m off with a 3 sigma of 8.4 m, searched within 3 m, and ended 2.6 m off (ATE)."""
+        if not marginals:
+            marginals.append(self._graph.marginals())
+        relative = GATE_DRIFT_SCALE * self._relative_covariance(marginals[0], submap.anchor, candidate.node)[:2, :2]
+        widest = max(float(np.linalg.eigvalsh(0.5 * (relative + relative.T))[-1]), 0.0)
+        reach = math.sqrt(LOOP_CHI2 * widest)
+        if reach <= self.config.loop_linear_window:
+            return self.config.loop_linear_window
+        field = submap.matcher.score_map
+        rows, cols = field.shape
+        low = np.asarray(field.origin, dtype=float)
+        high = low + field.resolution * np.array([cols, rows])
+        prior = candidate.prior[:2]
+        extent = float(max(np.max(np.abs(low - prior)), np.max(np.abs(high - prior))))
+        return max(self.config.loop_linear_window, min(reach, extent))
 
     def _gate(self, submap: _Submap, candidate: _Candidate, marginals: list) -> tuple[np.ndarray, np.ndarray] | None:
         """The closure against the poses now: its covariance plus the graph's own uncertainty of the anchor -> node
@@ -1366,21 +1397,22 @@ def _rival_search(
     prior: np.ndarray,
     config: SlamConfig,
     gated: tuple[np.ndarray, np.ndarray] | None = None,
+    window: float | None = None,
 ) -> GlobalSearch | None:
     """The search (GlobalSearch, resumable: GraphSlam takes it a slice at a time, AMBIGUITY_MAX_NODES nodes in all)
-    for the best score of the scan anywhere in the closure's search window (+-loop_linear_window of the prior, any
-    heading) at least AMBIGUITY_DISTANCE from the match; None when the window leaves no room for one. A corridor, a
-    row of equal rooms, a maze's cells one pitch apart match nearly as well there, and a closure to one of them says
-    little about which; rivals only along the match's principal axes and 0.5 m off let 0.45-1.5 m false closures
-    through in generated mazes (the pitch 0.44 m, its diagonal 0.62 m). Pruned at the match's own score instead (a
-    rival below AMBIGUITY_RATIO of it is no rival) it saved little on fhw and changed the budgeted search's answers:
-    perfect seed 0 mapped 0.85 precise, 0.94 as it is."""
+    for the best score of the scan anywhere in the closure's search window (+-`window` m of the prior, by default
+    loop_linear_window; any heading) at least AMBIGUITY_DISTANCE from the match; None when the window leaves no room
+    for one. A corridor, a row of equal rooms, a maze's cells one pitch apart match nearly as well there, and a
+    closure to one of them says little about which; rivals only along the match's principal axes and 0.5 m off let
+    0.45-1.5 m false closures through in generated mazes (the pitch 0.44 m, its diagonal 0.62 m). Pruned at the
+    match's own score instead (a rival below AMBIGUITY_RATIO of it is no rival) it saved little on fhw and changed the
+    budgeted search's answers: perfect seed 0 mapped 0.85 precise, 0.94 as it is."""
     score_map = matcher.score_map
     rows, cols = score_map.shape
     res = score_map.resolution
     x = score_map.origin[0] + (np.arange(cols) + 0.5) * res
     y = score_map.origin[1] + (np.arange(rows) + 0.5) * res
-    window = config.loop_linear_window
+    window = config.loop_linear_window if window is None else window
     in_x = np.abs(x - prior[0]) <= window
     in_y = np.abs(y - prior[1]) <= window
     region = in_y[:, None] & in_x[None, :]
@@ -1422,12 +1454,12 @@ def _rival_score(
     return float(found[0].score) if found else 0.0
 
 
-def _on_edge(pose: np.ndarray, prior: np.ndarray, config: SlamConfig) -> bool:
-    """Whether a loop-closure match lies on the edge of its search window (within EDGE_CELLS cells of the linear
-    window's side, or EDGE_ANGLE of the angular one): a maximum there is the window's, not the score's (loops
-    seed 2: a look-alike corridor 3.1 m off, at the +-3 m window's side, taken, the true place in the middle
-    scoring less)."""
-    linear = config.loop_linear_window - EDGE_CELLS * config.resolution
+def _on_edge(pose: np.ndarray, prior: np.ndarray, config: SlamConfig, window: float | None = None) -> bool:
+    """Whether a loop-closure match lies on the edge of its search window (+-`window` m in x and y, by default
+    loop_linear_window: within EDGE_CELLS cells of its side, or EDGE_ANGLE of the angular one's): a maximum there is
+    the window's, not the score's (loops seed 2: a look-alike corridor 3.1 m off, at the +-3 m window's side, taken,
+    the true place in the middle scoring less)."""
+    linear = (config.loop_linear_window if window is None else window) - EDGE_CELLS * config.resolution
     angular = config.loop_angular_window - EDGE_ANGLE
     offset = np.abs(np.asarray(pose[:2], dtype=float) - prior[:2])
     return bool(offset.max() >= linear or abs(wrap_angle(float(pose[2] - prior[2]))) >= angular)

@@ -165,6 +165,49 @@ def test_a_closure_candidate_spread_over_many_updates_is_decided_as_in_one(mappe
     assert np.array_equal(outcome[3], outcome_again[3])
 
 
+def test_a_return_the_graph_knows_is_metres_off_is_searched_where_the_gate_would_take_it(mapped, monkeypatch):
+    """A closure's search window in x and y is the region its gate would accept it in (LOOP_CHI2 of the graph's
+    uncertainty of the node relative to the anchor, GATE_DRIFT_SCALE times), at least loop_linear_window and no
+    wider than the submap's field: a node whose estimate lies 3.5 m from where it is, with a graph that says so (its
+    gate's region 4.5 m), is found; with the fixed 3 m window the true place is out of reach."""
+    slam = mapped[0]
+    anchor, node = next((a, n) for a, n, outcome, _ in slam.closure_outcomes if outcome == "kept")
+    index = next(i for i, submap in enumerate(slam._submaps) if submap.anchor == anchor)
+    truth = np.array(relative_pose(slam._graph.pose(anchor), slam._graph.pose(node)))
+    marginals = [slam._graph.marginals()]
+    relative = slam._relative_covariance(marginals[0], anchor, node)[:2, :2]
+    widest = float(np.linalg.eigvalsh(relative)[-1])
+
+    def window(prior, scale: float) -> float:
+        monkeypatch.setattr(slam_module, "GATE_DRIFT_SCALE", scale)
+        candidate = slam_module._Candidate(index, node, slam._nodes[node].points, prior)
+        return slam._closure_window(slam._submaps[index], candidate, marginals)
+
+    assert window(truth, 1.0) == slam.config.loop_linear_window  # the ring's graph is sure of itself
+    scale = 4.5**2 / (slam_module.LOOP_CHI2 * widest)  # the gate's region reaches 4.5 m
+    assert window(truth, scale) == pytest.approx(4.5)
+    field = slam._submaps[index].matcher.score_map
+    far = window(truth, 1e6 * scale)
+    assert 4.5 < far <= max(field.shape) * field.resolution + np.abs(truth[:2]).max() + 1e-9  # the field's reach
+
+    found = {}
+    for scale_now in (0.0, scale):  # 0: the gate's region nothing, the window loop_linear_window
+        monkeypatch.setattr(slam_module, "GATE_DRIFT_SCALE", max(scale_now, 1e-9))
+        copy = deepcopy(slam)
+        away = truth[:2] / np.hypot(*truth[:2])  # from the anchor's own place (a look-alike in the ring)
+        prior = truth + np.array([*(3.5 * away), 0.0])
+        candidate = slam_module._Candidate(index, node, copy._nodes[node].points, prior)
+        done = False
+        while not done and candidate.match is None:
+            copy._work = slam_module._Work()
+            done = copy._step_candidate(candidate, [], [])
+        found[scale_now] = candidate
+    wide, narrow = found[scale], found[0.0]
+    assert wide.linear == pytest.approx(4.5) and narrow.linear == slam.config.loop_linear_window
+    assert np.hypot(*(wide.match.pose[:2] - truth[:2])) < 0.1
+    assert np.hypot(*(narrow.match.pose[:2] - truth[:2])) > 1.0
+
+
 def test_the_loop_closes_with_its_candidates_spread_over_the_updates(ring, monkeypatch):
     """With little work allowed an update (CANDIDATE_WORK_CAP 2 M units) the candidates run over several updates,
     never more in progress than loop_max_candidates, and the loop still closes."""
