@@ -1180,6 +1180,17 @@ class GraphSlam:
         closures.append(LoopClosure(submap.anchor, candidate.node, float(candidate.match.score)))
         return True
 
+    def _marginals(self, marginals: list):
+        """The graph's marginals (PoseGraph.marginals), computed once an update (kept in `marginals`); None when its
+        information cannot be factored (MappingError): a closure's window is then loop_linear_window and its gate
+        takes nothing (the outcome "gate"), so that no closure's search raises out of `add`."""
+        if not marginals:
+            try:
+                marginals.append(self._graph.marginals())
+            except MappingError:
+                marginals.append(None)
+        return marginals[0]
+
     def _closure_window(self, submap: _Submap, candidate: _Candidate, marginals: list) -> float:
         """m, +- in x and y around the candidate's prior that its match searches: the region the gate would accept
         the closure in (LOOP_CHI2 of the graph's own uncertainty of the node relative to the anchor, times
@@ -1188,9 +1199,10 @@ class GraphSlam:
         than reaches the submap's field (beyond it every pose scores 0). A fixed window missed a return that the
         graph itself knew was metres uncertain: aces with every other scan (keyframes 1.4-2 m apart), seed 0, came
         back to its start 5.9-6.7 m off with a 3 sigma of 8.4 m, searched within 3 m, and ended 2.6 m off (ATE)."""
-        if not marginals:
-            marginals.append(self._graph.marginals())
-        relative = GATE_DRIFT_SCALE * self._relative_covariance(marginals[0], submap.anchor, candidate.node)[:2, :2]
+        graph = self._marginals(marginals)
+        if graph is None:  # the graph's uncertainty unknown: the configured window
+            return self.config.loop_linear_window
+        relative = GATE_DRIFT_SCALE * self._relative_covariance(graph, submap.anchor, candidate.node)[:2, :2]
         widest = max(float(np.linalg.eigvalsh(0.5 * (relative + relative.T))[-1]), 0.0)
         reach = math.sqrt(LOOP_CHI2 * widest)
         if reach <= self.config.loop_linear_window:
@@ -1213,12 +1225,13 @@ class GraphSlam:
         predicted = np.array(relative_pose(anchor, self._graph.pose(candidate.node)))
         innovation = candidate.matched - predicted
         innovation[2] = wrap_angle(innovation[2])
-        if not marginals:
-            marginals.append(self._graph.marginals())
+        graph = self._marginals(marginals)
+        if graph is None:  # no uncertainty to weigh the closure against: not taken
+            return None
         covariance = self._closure_covariance(
             submap, candidate.points, candidate.matched, candidate.aligned_information
         )
-        relative = self._relative_covariance(marginals[0], submap.anchor, candidate.node)
+        relative = self._relative_covariance(graph, submap.anchor, candidate.node)
         spread = covariance + GATE_DRIFT_SCALE * relative
         chi2 = float(innovation @ np.linalg.solve(spread, innovation))
         if not chi2 <= LOOP_CHI2:

@@ -208,6 +208,21 @@ def test_a_return_the_graph_knows_is_metres_off_is_searched_where_the_gate_would
     assert np.hypot(*(narrow.match.pose[:2] - truth[:2])) > 1.0
 
 
+def test_a_graph_whose_uncertainty_cannot_be_computed_takes_no_closure_and_raises_nothing(ring, monkeypatch):
+    """PoseGraph.marginals failing (a singular information: MappingError) leaves every closure's window at
+    loop_linear_window and its gate refusing: the run goes on, no closure taken, every scan a node."""
+    from amr_mapping.pose_graph import PoseGraph
+
+    def singular(self, information=None):
+        raise MappingError("pose graph: marginals: singular information (test)")
+
+    monkeypatch.setattr(PoseGraph, "marginals", singular)
+    slam, truth, _, closures = _run(ring)
+    assert closures == 0 and len(slam.graph()[0]) == len(truth)
+    outcomes = {outcome for _, _, outcome, _ in slam.closure_outcomes}
+    assert "gate" in outcomes and "kept" not in outcomes
+
+
 def test_the_loop_closes_with_its_candidates_spread_over_the_updates(ring, monkeypatch):
     """With little work allowed an update (CANDIDATE_WORK_CAP 2 M units) the candidates run over several updates,
     never more in progress than loop_max_candidates, and the loop still closes."""
