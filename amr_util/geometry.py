@@ -208,10 +208,7 @@ def off_line(angle):
     """|angle| as a turn off the line of travel, forwards or backwards (the smaller of the two equivalent rotations,
     as AMCL's motion model takes it): reversing is not a half turn. A float for a Python number, an array for an
     array (the odometry synthesizer's many steps at once)."""
-    if isinstance(angle, (int, float)) and not isinstance(angle, np.generic):
-        magnitude = abs(wrap_angle(angle))
-        return min(magnitude, math.pi - magnitude)
-    magnitude = np.abs(wrap_angle(angle))
+    magnitude = abs(wrap_angle(angle))
     return np.minimum(magnitude, math.pi - magnitude)
 
 

@@ -80,7 +80,8 @@ ALWAYS_KNOWN = ("use_sim_time", "autostart", "start_type_description_service")
 ROBOT_DESCRIPTION = "robot_description"
 """The parameter a node with robot facts among its parameters (robot_radius, lidar_x, robot.radius, ...) declares."""
 REFUSAL_LOG_PERIOD = 2.0
-"""s between two warnings about requests refused because the node is not active."""
+"""s between two logs of one kind of refusal: a request refused because the node is not active, an input message the
+synchronizer could not take (feed_synchronizer)."""
 QUIET_SUBSCRIPTION = SubscriptionEventCallbacks(use_default_callbacks=False)
 """A subscription's event callbacks with no handler (no waitable in the node's wait set)."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
@@ -457,10 +458,10 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         return self.create_service(service_type, name, answer_when_active, **kwargs)
 
     def feed_synchronizer(self, sync, index: int, message, warn: Callable[[str], object]) -> None:
-        """An input message into its synchronizer (amr_util.sync.ApproximateTimeSync: `index` its input) while the
-        node is active, ignored otherwise: a malformed or negative stamp said through `warn` (the node's throttled
-        warning), any other error of the synchronizer's logged; nothing raised out of the subscription's callback
-        (the synchronized set's own callback logs its own errors)."""
+        """An input message into its synchronizer (amr_util.sync.ApproximateTimeSynchronizer: `index` its input)
+        while the node is active, ignored otherwise: a malformed or negative stamp said through `warn` (the node's
+        throttled warning), any other error of the synchronizer's logged; nothing raised out of the subscription's
+        callback (the synchronized set's own callback logs its own errors)."""
         if self.state_label != "active" or sync is None:
             return
         try:
