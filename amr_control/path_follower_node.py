@@ -42,14 +42,13 @@ from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowe
 from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
 from amr_interfaces.srv import FollowPath
 from amr_util.geometry import yaw_from_quaternion
-from amr_util.managed_node import ManagedNode, run
+from amr_util.managed_node import WARNING_PERIOD, ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer, SyncError, checked_stamp
 from amr_util.throttle import ThrottledLogger
 
 POSE, SCAN, STATUS = 0, 1, 2
-WARNING_PERIOD = 2.0
 SYNC_SLOP = 0.02  # s: /pose, /scan (and the navigator's status) of one lockstep step carry the same stamp
 
 
@@ -187,7 +186,7 @@ class PathFollowerNode(ManagedNode):
             return
         problem = self._take_path(message)
         if problem:
-            self._warn(f"/path refused, stopping: {problem}")
+            self.warn_throttled(f"/path refused, stopping: {problem}")
 
     def _on_follow_path(self, request: FollowPath.Request, response: FollowPath.Response) -> FollowPath.Response:
         try:
@@ -200,7 +199,7 @@ class PathFollowerNode(ManagedNode):
     # -- inputs -----------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
-        self.feed_synchronizer(self._sync, index, message, self._warn)
+        self.feed_synchronizer(self._sync, index, message, self.warn_throttled)
 
     def _on_speed_limit(self, message: SpeedLimit) -> None:
         if self.state_label != "active":
@@ -208,11 +207,11 @@ class PathFollowerNode(ManagedNode):
         try:
             stamp = checked_stamp(message)
         except SyncError as error:  # the limit before it stands
-            self._warn(f"speed limit: {error}")
+            self.warn_throttled(f"speed limit: {error}")
             return
         speed = float(message.speed)
         if message.limited and not (math.isfinite(speed) and speed >= 0.0):
-            self._warn(f"a speed limit of {speed!r} m/s was taken as a stop")
+            self.warn_throttled(f"a speed limit of {speed!r} m/s was taken as a stop")
             speed = 0.0
         self._speed_limit = (stamp, speed if message.limited else None)
 
@@ -261,7 +260,7 @@ class PathFollowerNode(ManagedNode):
             return
         age = (self.get_clock().now() - self._latest_pair_time).nanoseconds * 1e-9
         if age > self.config.stale_timeout:
-            self._warn(f"no localized /pose + /scan for {self.config.stale_timeout} s: stopping")
+            self.warn_throttled(f"no localized /pose + /scan for {self.config.stale_timeout} s: stopping")
             self._publish(0.0, 0.0)
             return
         if self._latest_pair is None:  # the sensors are slower than dt: hold the last command
@@ -285,7 +284,7 @@ class PathFollowerNode(ManagedNode):
             self._publish(0.0, 0.0)
             return
         if command.message and not command.reached:
-            self._warn(command.message)
+            self.warn_throttled(command.message)
         if command.reached and (self.last_command is None or not self.last_command.reached):
             if ends_at_goal(self.follower.goal, self._navigator_goal, self.config.goal_tolerance):
                 self.get_logger().info("goal reached")
@@ -325,9 +324,6 @@ class PathFollowerNode(ManagedNode):
         status.header.stamp = scan.header.stamp
         status.header.frame_id = "map"
         self._status_publisher.publish(status)
-
-    def _warn(self, text: str) -> None:
-        self._throttled.warning(text)
 
 
 def main(args=None) -> None:

@@ -27,14 +27,12 @@ from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate, stops_o
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
-from amr_util.managed_node import ManagedNode, run
+from amr_util.managed_node import WARNING_PERIOD, ManagedNode, run
 from amr_util.messages import scan_data, velocity_command
 from amr_util.parameter_spec import ConfigError
 from amr_util.qos import SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer
-from amr_util.throttle import Throttle
 
-WARNING_PERIOD = 2.0  # s between repeats of one kind of warning
 ODOMETRY, SCAN, STATUS = 0, 1, 2
 
 
@@ -53,7 +51,6 @@ class WallFollowerNode(ManagedNode):
         self._latest_pair: tuple[Odometry, LaserScan] | None = None
         self._latest_pair_time: Time | None = None
         self._last_command: Command | None = None
-        self._warnings = Throttle(WARNING_PERIOD, lambda: self.get_clock().now().nanoseconds * 1e-9)
         self._gate = NavigatorGate(self.get_name())
         self.configure_error = ""
 
@@ -132,7 +129,7 @@ class WallFollowerNode(ManagedNode):
     # -- data flow ------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
-        self.feed_synchronizer(self._sync, index, message, self._warn)
+        self.feed_synchronizer(self._sync, index, message, self.warn_throttled)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         """Stamps went back (a simulator reset, or normal stamps after a bad one): start afresh from here."""
@@ -181,7 +178,7 @@ class WallFollowerNode(ManagedNode):
         if self.config.navigated and not self._gate.in_charge:
             return
         if self._latest_pair_time is None or self._is_stale():
-            self._warn(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")
+            self.warn_throttled(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")
             self._publish(0.0, 0.0)
             return
         if self._latest_pair is None:  # the sensors are slower than dt: hold the last command
@@ -204,7 +201,7 @@ class WallFollowerNode(ManagedNode):
             self.get_logger().error(f"controller failed, stopping: {error!r}", throttle_duration_sec=WARNING_PERIOD)
             command = Command(0.0, 0.0)
         if not command.ok:
-            self._warn(command.describe())
+            self.warn_throttled(command.describe())
         self._last_command = command
         self._publish(command.v, command.w)
         self._publish_status(scan, command)
@@ -239,11 +236,6 @@ class WallFollowerNode(ManagedNode):
                 stamp=self.get_clock().now().to_msg(),
             )
         )
-
-    def _warn(self, text: str) -> None:
-        """Each distinct warning at most once per WARNING_PERIOD of the node clock (rclpy throttles per call site)."""
-        if self._warnings(text):
-            self.get_logger().warning(text)
 
     @property
     def last_command(self) -> Command | None:

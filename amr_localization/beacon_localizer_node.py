@@ -22,9 +22,9 @@ from amr_localization import messages
 from amr_localization.beacon_localizer import BeaconLocalizer, BeaconLocalizerConfig
 from amr_localization.beacons import BeaconReading
 from amr_localization.errors import BeaconError, OdometryError
-from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
+from amr_localization.localizer_node import SHELL_SPECS, LocalizerNode
 from amr_localization.pose_estimate import PoseEstimate
-from amr_util.managed_node import run
+from amr_util.managed_node import WARNING_PERIOD, run
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 
@@ -106,7 +106,7 @@ class BeaconLocalizerNode(LocalizerNode):
         positions = messages.beacon_positions(reading)
         if self.localizer is None or not np.array_equal(positions, self.localizer.beacons):
             if self.localizer is not None:
-                self._warn("the beacon positions changed: localizer rebuilt")
+                self.warn_throttled("the beacon positions changed: localizer rebuilt")
             initial = tuple(self.get_parameter("initial_pose").value)
             self.localizer = BeaconLocalizer(positions, self._config, initial)
         odom = messages.odometry_pose(odometry)
@@ -115,10 +115,10 @@ class BeaconLocalizerNode(LocalizerNode):
         try:
             update = localizer.update(odom, list(reading.ranges), reading.compass)
         except OdometryError as error:
-            self._warn(f"beacon reading refused ({error})")
+            self.warn_throttled(f"beacon reading refused ({error})")
             return
         except BeaconError as error:
-            self._warn(f"beacon reading refused ({error})")
+            self.warn_throttled(f"beacon reading refused ({error})")
             status.event = str(error)
             localizer.track(odom)
             localized = False

@@ -20,14 +20,12 @@ from amr_interfaces.msg import LocalizedPose, LocalizerStatus
 from amr_localization import messages
 from amr_localization.pose_estimate import PoseEstimate
 from amr_util.geometry import map_to_odom
-from amr_util.managed_node import ManagedNode
+from amr_util.managed_node import WARNING_PERIOD, ManagedNode
 from amr_util.messages import transform
 from amr_util.parameter_spec import ParameterSpec
 from amr_util.qos import reliable
 from amr_util.sync import ApproximateTimeSynchronizer
-from amr_util.throttle import Throttle
 
-WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
 
 SHELL_SPECS = (
@@ -66,7 +64,6 @@ class LocalizerNode(ManagedNode):
         self._sync: ApproximateTimeSynchronizer | None = None
         self._outputs: dict[str, object] = {}
         self._settings: dict = {}
-        self._warnings = Throttle(WARNING_PERIOD, lambda: self.get_clock().now().nanoseconds * 1e-9)
 
     def _start_pairing(self, values: dict, callback) -> None:
         self._sync = ApproximateTimeSynchronizer(
@@ -90,7 +87,7 @@ class LocalizerNode(ManagedNode):
             self._outputs["tf"] = self.create_lifecycle_publisher(TFMessage, "tf", reliable(100))
 
     def _on_message(self, index: int, message) -> None:
-        self.feed_synchronizer(self._sync, index, message, self._warn)
+        self.feed_synchronizer(self._sync, index, message, self.warn_throttled)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         self.get_logger().warning(
@@ -118,8 +115,3 @@ class LocalizerNode(ManagedNode):
         status.header.stamp, status.header.frame_id = stamp, frame
         self._outputs["status"].publish(status)
         return True
-
-    def _warn(self, text: str) -> None:
-        """Each distinct warning at most once per WARNING_PERIOD of the node clock."""
-        if self._warnings(text):
-            self.get_logger().warning(text)

@@ -41,7 +41,7 @@ from amr_interfaces.msg import BeaconRanges
 from amr_localization import messages
 from amr_localization.beacons import BeaconReading, checked_beacons
 from amr_localization.errors import BeaconError, LocalizationError, OdometryError, ScanError
-from amr_localization.localizer_node import SHELL_SPECS, WARNING_PERIOD, LocalizerNode
+from amr_localization.localizer_node import SHELL_SPECS, LocalizerNode
 from amr_localization.particle_filter import Estimate, ParticleFilter
 from amr_localization.particle_filter_parameters import NODE_SPECS, config_of, parameter_specs
 from amr_maps.map_io import load_map
@@ -49,7 +49,7 @@ from amr_maps.messages import grid_from_message
 from amr_maps.occupancy_grid import OccupancyGrid
 from amr_maps.rasterize import rasterize_world
 from amr_maps.world import load_world, resolve_world_path
-from amr_util.managed_node import run
+from amr_util.managed_node import WARNING_PERIOD, run
 from amr_util.messages import scan_data
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND
@@ -201,7 +201,7 @@ class ParticleFilterNode(LocalizerNode):
         odometry, scan, beacons = named["odometry"], named.get("scan"), named.get("beacons")
         if self.filter is None:
             self._waiting = inputs  # answered when the map arrives: a lockstep loop would wait for it for ever
-            self._warn(f"no map yet (waiting on {self._settings['map_topic']}): the observation waits for it")
+            self.warn_throttled(f"no map yet (waiting on {self._settings['map_topic']}): the observation waits for it")
             return
         try:
             stamp = (scan if scan is not None else beacons).header.stamp
@@ -214,7 +214,7 @@ class ParticleFilterNode(LocalizerNode):
         if estimate is None:
             return
         if estimate.status.event:
-            self._warn(estimate.status.event)
+            self.warn_throttled(estimate.status.event)
         self._publish((scan if scan is not None else beacons).header.stamp, odometry, estimate)
 
     def _update(
@@ -226,14 +226,14 @@ class ParticleFilterNode(LocalizerNode):
         try:
             return self.filter.update(pose, scan_reading, beacons=reading, stamp=stamp)
         except OdometryError as error:
-            self._warn(f"{error}: the last pose is repeated")
+            self.warn_throttled(f"{error}: the last pose is repeated")
             return self._last_estimate
         except ScanError as error:
             alone = "the beacons and odometry" if reading is not None else "odometry alone"
-            self._warn(f"scan refused ({error}): the pose follows {alone}")
+            self.warn_throttled(f"scan refused ({error}): the pose follows {alone}")
             return self.filter.update(pose, beacons=reading, stamp=stamp)
         except BeaconError as error:
-            self._warn(
+            self.warn_throttled(
                 f"/beacons reading refused ({error}): the pose follows "
                 + ("the scan and odometry" if scan_reading is not None else "odometry alone")
             )
@@ -252,7 +252,7 @@ class ParticleFilterNode(LocalizerNode):
             return messages.beacon_reading(message, self._beacon_positions)
         except LocalizationError as error:
             without = "the scan and odometry" if self._settings["use_scan"] else "odometry alone"
-            self._warn(f"/beacons reading refused ({error}): the pose follows {without}")
+            self.warn_throttled(f"/beacons reading refused ({error}): the pose follows {without}")
             return None
 
     def _on_initial_pose(self, message: PoseWithCovarianceStamped) -> None:

@@ -60,16 +60,14 @@ from amr_mapping.errors import MappingError
 from amr_mapping.slam import GraphSlam, KeptMap, SlamConfig, save_snapshot
 from amr_maps.messages import grid_message
 from amr_util.geometry import all_finite, compose, yaw_from_quaternion
-from amr_util.managed_node import ManagedNode, run
+from amr_util.managed_node import WARNING_PERIOD, ManagedNode, run
 from amr_util.messages import quaternion, scan_data, transform
 from amr_util.parameter_spec import ParameterSpec, field_docs
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.stamps import NANOSECONDS_PER_SECOND, stamp_from_nanoseconds
 from amr_util.sync import ApproximateTimeSynchronizer
-from amr_util.throttle import Throttle
 
 NODE_NAME = "slam"
-WARNING_PERIOD = 2.0
 """s between repeats of one kind of warning."""
 FLUSH_PERIOD = 0.5
 """s (wall clock) between checks for a map change left unpublished."""
@@ -240,7 +238,6 @@ class SlamNode(ManagedNode):
         self._outputs: dict = {}
         self._entities: list = []
         self._timer = None
-        self._warnings = Throttle(WARNING_PERIOD)  # wall time
         self._slam_lock = threading.Lock()  # GraphSlam.add, save and the map thread's snapshot
         self._idle = threading.Event()  # clear while a pair is answered: the map thread's build waits
         self._idle.set()
@@ -350,7 +347,7 @@ class SlamNode(ManagedNode):
     # -- inputs ---------------------------------------------------------------------------------
 
     def _on_message(self, index: int, message) -> None:
-        self.feed_synchronizer(self._sync, index, message, self._warn)
+        self.feed_synchronizer(self._sync, index, message, self.warn_throttled)
 
     def _on_clock_jump(self, index: int, jump_ns: int) -> None:
         self.get_logger().warning(
@@ -377,7 +374,7 @@ class SlamNode(ManagedNode):
         stamp_ns = Time.from_msg(stamp).nanoseconds
         odom = odometry_pose(odometry)
         if not all_finite(odom):
-            self._warn("odometry is not finite: the pair was dropped")
+            self.warn_throttled("odometry is not finite: the pair was dropped")
             return
         status = LocalizerStatus(localized=True, clusters=1, confidence=1.0)
         try:
@@ -393,7 +390,7 @@ class SlamNode(ManagedNode):
         except Exception as error:  # MappingError: refused input; anything else a library bug. Either way a /pose
             # answers the pair (a lockstep loop waits for it): odometry from the last correction
             if isinstance(error, MappingError):
-                self._warn(f"scan refused ({error}): the pose follows odometry")
+                self.warn_throttled(f"scan refused ({error}): the pose follows odometry")
             else:
                 self.get_logger().error(
                     f"slam update failed: {type(error).__name__}: {error}", throttle_duration_sec=WARNING_PERIOD
@@ -502,11 +499,6 @@ class SlamNode(ManagedNode):
         if time.monotonic() - self._last_map_wall < max(self._settings["map_publish_period"], FLUSH_PERIOD):
             return
         self._request_map(self._last_stamp)
-
-    def _warn(self, text: str) -> None:
-        """Each distinct warning at most once per WARNING_PERIOD of wall time."""
-        if self._warnings(text):
-            self.get_logger().warning(text)
 
 
 def main(args=None) -> None:

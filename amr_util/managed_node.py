@@ -63,6 +63,7 @@ from amr_util.robot_description import (
 )
 from amr_util.stop_signals import StopSignals
 from amr_util.sync import SyncError
+from amr_util.throttle import Throttle
 
 PARAMETER_TYPES = {
     "bool": Parameter.Type.BOOL,
@@ -82,6 +83,8 @@ ROBOT_DESCRIPTION = "robot_description"
 REFUSAL_LOG_PERIOD = 2.0
 """s between two logs of one kind of refusal: a request refused because the node is not active, an input message the
 synchronizer could not take (feed_synchronizer)."""
+WARNING_PERIOD = 2.0
+"""s of wall time (steady, as rclpy's throttle_duration_sec) between two logs of one warning text (warn_throttled)."""
 QUIET_SUBSCRIPTION = SubscriptionEventCallbacks(use_default_callbacks=False)
 """A subscription's event callbacks with no handler (no waitable in the node's wait set)."""
 QUIET_PUBLISHER = PublisherEventCallbacks(use_default_callbacks=False)
@@ -307,6 +310,7 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
         )
         self._forward_change_state = self._service_change_state.callback
         self._service_change_state.callback = self._on_change_state_request
+        self._warnings = Throttle(WARNING_PERIOD)
         self._configured_entities: list[tuple[Callable[[Any], Any], Any]] = []
         """(destroy, entity) of what was created while configuring: destroyed by on_cleanup."""
         self.use_parameter_specs()
@@ -456,6 +460,16 @@ class ManagedNode(SpecifiedParameters, LifecycleNode):
             return response
 
         return self.create_service(service_type, name, answer_when_active, **kwargs)
+
+    def warn_throttled(self, text: str) -> bool:
+        """`text` logged as a warning unless the same text was within WARNING_PERIOD s of wall time (each distinct
+        warning on its own clock: rclpy's throttle_duration_sec keys on the call site, so one line's different
+        warnings would hide each other); the logger is asked only for a message that goes out (a warning a node
+        repeats every step costs a dictionary lookup). Returns whether it went out."""
+        if not self._warnings(text):
+            return False
+        self.get_logger().warning(text)
+        return True
 
     def feed_synchronizer(self, sync, index: int, message, warn: Callable[[str], object]) -> None:
         """An input message into its synchronizer (amr_util.sync.ApproximateTimeSynchronizer: `index` its input)

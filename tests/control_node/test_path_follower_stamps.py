@@ -9,7 +9,7 @@ from sensor_msgs.msg import LaserScan
 
 from amr_control.path_follower_node import POSE, SCAN, PathFollowerNode
 from amr_interfaces.msg import LocalizedPose, SpeedLimit
-from amr_util.throttle import ThrottledLogger
+from amr_util.throttle import Throttle
 
 
 class Logger:
@@ -44,7 +44,8 @@ def test_a_bad_stamp_is_dropped_with_a_warning_and_the_next_pair_is_answered(ros
         assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
         assert node.try_transition(Transition.TRANSITION_ACTIVATE)
         logger = Logger()
-        node._throttled = ThrottledLogger(lambda: logger, 0.0)  # every warning said, not one per 2 s
+        node.get_logger = lambda: logger
+        node._warnings = Throttle(0.0)  # every warning said, not one per 2 s
         node.follower.set_path([(0.0, 0.0), (0.5, 0.0), (1.0, 0.0)])
         node._on_speed_limit(stamped(SpeedLimit(limited=True, speed=0.05), 1, 0))
         for sec, nanosec in ((-1, 0), (1, 2_000_000_000)):

@@ -70,8 +70,12 @@ def test_the_path_follower_throttles_its_warnings_before_asking_its_logger(ros_c
         logger = Logger()
         node.get_logger = lambda: logger  # records every call it gets, throttle_duration_sec or not
         for _ in range(20):
-            node._warn("no localized /pose + /scan")
-        assert logger.lines == [("warning", "no localized /pose + /scan")]
+            node.warn_throttled("no localized /pose + /scan")
+            node.warn_throttled("/path refused, stopping: empty")  # another warning: its own throttle
+        assert logger.lines == [
+            ("warning", "no localized /pose + /scan"),
+            ("warning", "/path refused, stopping: empty"),
+        ]
     finally:
         node.destroy_node()
 
