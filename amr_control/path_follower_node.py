@@ -36,14 +36,15 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate, stops_on_release
+from amr_control.controller_node import ControllerNode
+from amr_control.navigated import NAVIGATOR_STATUS_TOPIC
 from amr_control.path_follower import FollowCommand, PathError, PathFollower
 from amr_control.path_follower_config import NODE_NAME, ConfigError, PathFollowerConfig
 from amr_interfaces.msg import LocalizedPose, NavigatorStatus, PathFollowerStatus, SpeedLimit
 from amr_interfaces.srv import FollowPath
 from amr_util.geometry import yaw_from_quaternion
-from amr_util.managed_node import WARNING_PERIOD, ManagedNode, run
-from amr_util.messages import scan_data, velocity_command
+from amr_util.managed_node import WARNING_PERIOD, run
+from amr_util.messages import scan_data
 from amr_util.qos import LATCHED, SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer, SyncError, checked_stamp
 from amr_util.throttle import ThrottledLogger
@@ -74,8 +75,11 @@ def ends_at_goal(path_end, goal: tuple[float, float] | None, tolerance: float) -
     return math.hypot(float(path_end[0]) - goal[0], float(path_end[1]) - goal[1]) <= tolerance
 
 
-class PathFollowerNode(ManagedNode):
-    """Wires PathFollower to its path, /pose, /scan and /cmd_vel; holds no control logic."""
+class PathFollowerNode(ControllerNode):
+    """Wires PathFollower to its path, /pose, /scan and /cmd_vel (amr_control.controller_node: the observations
+    answered, the timer, the navigator's charge, the command); holds no control logic."""
+
+    INPUTS = "localized /pose + /scan"
 
     def __init__(self, **kwargs) -> None:
         super().__init__(NODE_NAME, **kwargs)
@@ -83,17 +87,11 @@ class PathFollowerNode(ManagedNode):
         self.config: PathFollowerConfig | None = None
         self.follower: PathFollower | None = None
         self.last_command: FollowCommand | None = None
-        self.commands_sent = 0
         self._sync: ApproximateTimeSynchronizer | None = None
         self._entities: list = []
-        self._publisher = None
         self._status_publisher = None
-        self._timer = None
-        self._latest_pair = None
         self._throttled = ThrottledLogger(lambda: self.get_logger(), WARNING_PERIOD)
-        """warnings and errors a node may repeat every step, decided before rclpy's logger resolves its caller."""
-        self._latest_pair_time: Time | None = None
-        self._gate = NavigatorGate(self.get_name())
+        """errors a node may repeat every step, decided before rclpy's logger resolves its caller."""
         self._speed_limit: tuple[int, float | None] | None = None  # (stamp ns, m/s or None)
         self._navigator_goal: tuple[float, float] | None = None  # the latest navigator status's goal
         self.configure_error = ""
@@ -141,23 +139,12 @@ class PathFollowerNode(ManagedNode):
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self._sync.reset()
-        self._gate.reset()
-        self._latest_pair = self._latest_pair_time = None
         self._speed_limit = None
         self._navigator_goal = None
-        if not self.config.simulation:
-            self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
 
-    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        self._publish(0.0, 0.0)
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
-            self._timer = None
-        return super().on_deactivate(state)
-
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._entities, self._publisher, self._status_publisher = [], None, None
+        self._entities, self._status_publisher = [], None
         self.config = self.follower = self._sync = None
         return super().on_cleanup(state)  # destroys what configure made
 
@@ -167,6 +154,9 @@ class PathFollowerNode(ManagedNode):
         if self.state_label != "active" or self.follower is None or not self.follower.has_path:
             return False
         return self._gate.in_charge if self.config.navigated else True
+
+    def _drives(self) -> bool:
+        return self.in_charge
 
     # -- the path ---------------------------------------------------------------------------------
 
@@ -236,39 +226,12 @@ class PathFollowerNode(ManagedNode):
         )
 
     def _on_navigated_triple(self, pose: LocalizedPose, scan: LaserScan, status: NavigatorStatus) -> None:
-        mine, changed = self._gate.admit(status, (pose, scan))
-        if changed and not mine:
-            self._latest_pair = None
-            if stops_on_release(self.config.simulation, self.config.stepping, status):
-                self._publish(0.0, 0.0)  # the robot stops at the hand-over; the next controller takes it from here
-        if mine:
+        if self._admit(status, (pose, scan)):
             self._answer(driven_pose(pose, status), scan)
 
     def _on_pair(self, pose: LocalizedPose, scan: LaserScan) -> None:
         if pose.localized and self.in_charge:
             self._answer(pose, scan)
-
-    def _answer(self, pose: LocalizedPose, scan: LaserScan) -> None:
-        if self.config.simulation:
-            self._compute(pose, scan)
-        else:
-            self._latest_pair = (pose, scan)
-            self._latest_pair_time = self.get_clock().now()
-
-    def _on_timer(self) -> None:
-        if not self.in_charge or self._latest_pair_time is None:
-            return
-        age = (self.get_clock().now() - self._latest_pair_time).nanoseconds * 1e-9
-        if age > self.config.stale_timeout:
-            self.warn_throttled(f"no localized /pose + /scan for {self.config.stale_timeout} s: stopping")
-            self._publish(0.0, 0.0)
-            return
-        if self._latest_pair is None:  # the sensors are slower than dt: hold the last command
-            last = self.last_command
-            self._publish(last.v, last.w) if last is not None else self._publish(0.0, 0.0)
-            return
-        pair, self._latest_pair = self._latest_pair, None
-        self._compute(*pair)
 
     def _compute(self, pose: LocalizedPose, scan: LaserScan) -> None:
         try:
@@ -295,20 +258,6 @@ class PathFollowerNode(ManagedNode):
         self._publish_status(scan, command)
 
     # -- output -----------------------------------------------------------------------------------
-
-    def _publish(self, v: float, w: float) -> None:
-        if self._publisher is None:
-            return
-        self._publisher.publish(
-            velocity_command(
-                v,
-                w,
-                stamped=self.config.simulation,
-                flip_angular_sign=self.config.flip_angular_sign,
-                stamp=self.get_clock().now().to_msg(),
-            )
-        )
-        self.commands_sent += 1
 
     def _publish_status(self, scan: LaserScan, command: FollowCommand) -> None:
         status = PathFollowerStatus(

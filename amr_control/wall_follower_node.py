@@ -23,12 +23,13 @@ from rclpy.lifecycle import State, TransitionCallbackReturn
 from rclpy.time import Time
 from sensor_msgs.msg import LaserScan
 
-from amr_control.navigated import NAVIGATOR_STATUS_TOPIC, NavigatorGate, stops_on_release
+from amr_control.controller_node import ControllerNode
+from amr_control.navigated import NAVIGATOR_STATUS_TOPIC
 from amr_control.wall_follower import Command, WallFollower
 from amr_control.wall_follower_config import WallFollowerConfig
 from amr_interfaces.msg import NavigatorStatus, WallFollowerStatus
-from amr_util.managed_node import WARNING_PERIOD, ManagedNode, run
-from amr_util.messages import scan_data, velocity_command
+from amr_util.managed_node import WARNING_PERIOD, run
+from amr_util.messages import scan_data
 from amr_util.parameter_spec import ConfigError
 from amr_util.qos import SENSOR_DATA, reliable
 from amr_util.sync import ApproximateTimeSynchronizer
@@ -36,22 +37,20 @@ from amr_util.sync import ApproximateTimeSynchronizer
 ODOMETRY, SCAN, STATUS = 0, 1, 2
 
 
-class WallFollowerNode(ManagedNode):
-    """Wires WallFollower and ApproximateTimeSynchronizer to topics; holds no control logic."""
+class WallFollowerNode(ControllerNode):
+    """Wires WallFollower and ApproximateTimeSynchronizer to topics (amr_control.controller_node: the observations
+    answered, the timer, the navigator's charge, the command); holds no control logic."""
+
+    INPUTS = "synchronized /odometry + /scan"
 
     def __init__(self, **kwargs) -> None:
         super().__init__("wall_follower", **kwargs)
         self.declare_specs(WallFollowerConfig.parameter_specs())
         self.config: WallFollowerConfig | None = None
         self.controller: WallFollower | None = None
+        self.last_command: Command | None = None
         self._sync: ApproximateTimeSynchronizer | None = None
-        self._publisher = None
         self._inputs = []
-        self._timer = None
-        self._latest_pair: tuple[Odometry, LaserScan] | None = None
-        self._latest_pair_time: Time | None = None
-        self._last_command: Command | None = None
-        self._gate = NavigatorGate(self.get_name())
         self.configure_error = ""
 
     # -- lifecycle ------------------------------------------------------------------------------
@@ -108,21 +107,10 @@ class WallFollowerNode(ManagedNode):
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self.controller.reset()
         self._sync.reset()
-        self._latest_pair = self._latest_pair_time = None
-        self._gate.reset()
-        if not self.config.simulation:
-            self._timer = self.create_timer(self.config.dt, self._on_timer)
         return super().on_activate(state)
 
-    def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        self._publish(0.0, 0.0)
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
-            self._timer = None
-        return super().on_deactivate(state)
-
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._inputs, self._publisher, self._status_publisher = [], None, None
+        self._inputs, self._status_publisher = [], None
         self.config = self.controller = self._sync = None
         return super().on_cleanup(state)  # destroys what configure made
 
@@ -138,14 +126,13 @@ class WallFollowerNode(ManagedNode):
             "synchronizer and controller restarted"
         )
         self.controller.reset()
-        self._latest_pair = None
+        self._latest = None
 
     def _on_pair(self, odometry: Odometry, scan: LaserScan) -> None:
-        if self.config.simulation:
-            self._compute(odometry, scan)
-        else:
-            self._latest_pair = (odometry, scan)
-            self._latest_pair_time = self.get_clock().now()
+        self._answer(odometry, scan)
+
+    def _drives(self) -> bool:
+        return not self.config.navigated or self._gate.in_charge
 
     def _on_navigator_status(self, message: NavigatorStatus) -> None:
         """A new decision for an observation held here is answered at once; any other status is paired."""
@@ -158,39 +145,9 @@ class WallFollowerNode(ManagedNode):
         self._on_pair(odometry, scan)
 
     def _on_navigated_triple(self, odometry: Odometry, scan: LaserScan, status: NavigatorStatus) -> None:
-        """Answer the observation if the navigator gave it to this node; on losing the charge, stop once (timer)."""
-        mine, changed = self._gate.admit(status, (odometry, scan))
-        if changed:
-            self.get_logger().info(
-                f"navigator: {status.mode}: "
-                + ("driving" if mine else f"handing over to {status.controller or 'nobody'} ({status.reason})")
-            )
-            if not mine:
-                self._latest_pair = None
-                if stops_on_release(self.config.simulation, self.config.stepping, status):
-                    self._publish(0.0, 0.0)
-        if mine:
+        """Answer the observation if the navigator gave it to this node (ControllerNode._admit)."""
+        if self._admit(status, (odometry, scan)):
             self._on_pair(odometry, scan)
-
-    def _on_timer(self) -> None:
-        """Every dt: a command from a new pair, the last command again between pairs, zero when stale;
-        nothing while the navigator gives the observations to another controller (navigated)."""
-        if self.config.navigated and not self._gate.in_charge:
-            return
-        if self._latest_pair_time is None or self._is_stale():
-            self.warn_throttled(f"no synchronized /odometry + /scan for {self.config.stale_timeout} s: stopping")
-            self._publish(0.0, 0.0)
-            return
-        if self._latest_pair is None:  # the sensors are slower than dt: hold the last command
-            last = self._last_command
-            self._publish(last.v, last.w) if last is not None else self._publish(0.0, 0.0)
-            return
-        pair, self._latest_pair = self._latest_pair, None
-        self._compute(*pair)
-
-    def _is_stale(self) -> bool:
-        age = (self.get_clock().now() - self._latest_pair_time).nanoseconds * 1e-9
-        return age > self.config.stale_timeout
 
     def _compute(self, odometry: Odometry, scan: LaserScan) -> None:
         try:
@@ -202,7 +159,7 @@ class WallFollowerNode(ManagedNode):
             command = Command(0.0, 0.0)
         if not command.ok:
             self.warn_throttled(command.describe())
-        self._last_command = command
+        self.last_command = command
         self._publish(command.v, command.w)
         self._publish_status(scan, command)
 
@@ -223,23 +180,6 @@ class WallFollowerNode(ManagedNode):
         status.header.stamp = self.get_clock().now().to_msg()
         status.header.frame_id = "base_footprint"
         self._status_publisher.publish(status)
-
-    def _publish(self, v: float, w: float) -> None:
-        if self._publisher is None:
-            return
-        self._publisher.publish(
-            velocity_command(
-                v,
-                w,
-                stamped=self.config.simulation,
-                flip_angular_sign=self.config.flip_angular_sign,
-                stamp=self.get_clock().now().to_msg(),
-            )
-        )
-
-    @property
-    def last_command(self) -> Command | None:
-        return self._last_command
 
 
 def main(args=None) -> None:
