@@ -9,22 +9,12 @@ from nav_msgs.msg import Odometry
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import LaserScan
+from support.control import WarningLog
 
 from amr_control.path_follower_node import PathFollowerNode
 from amr_control.wall_follower_node import WallFollowerNode
 from amr_interfaces.msg import LocalizedPose
 from amr_util.throttle import Throttle
-
-
-class Logger:
-    def __init__(self):
-        self.warnings = []
-
-    def warning(self, text, **_):
-        self.warnings.append(text)
-
-    def __getattr__(self, level):
-        return lambda text, **_: None
 
 
 def scan(sec: int) -> LaserScan:
@@ -39,7 +29,7 @@ def on_a_real_robot(node):
     node.set_parameters([Parameter("simulation", value=False)])
     assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
     assert node.try_transition(Transition.TRANSITION_ACTIVATE)
-    logger = Logger()
+    logger = WarningLog()
     node.get_logger = lambda: logger
     node._warnings = Throttle(0.0)  # every warning said
     return logger
@@ -56,7 +46,7 @@ def test_the_path_follower_on_its_timer_stops_without_observations_holds_between
         node.follower.set_path([(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)])
         node._on_timer()
         assert node.commands_sent == 1 and node.last_command is None
-        assert logger.warnings == ["no localized /pose + /scan for 0.5 s: stopping"]
+        assert logger.lines == ["no localized /pose + /scan for 0.5 s: stopping"]
         pose = LocalizedPose(localized=True)
         pose.header.stamp.sec = 1
         pose.header.frame_id = "map"
@@ -69,7 +59,7 @@ def test_the_path_follower_on_its_timer_stops_without_observations_holds_between
         assert node.commands_sent == 3 and node.last_command is computed
         node._latest_time = node.get_clock().now() - Duration(seconds=1.0)
         node._on_timer()
-        assert node.commands_sent == 4 and logger.warnings[-1] == "no localized /pose + /scan for 0.5 s: stopping"
+        assert node.commands_sent == 4 and logger.lines[-1] == "no localized /pose + /scan for 0.5 s: stopping"
     finally:
         node.destroy_node()
 
@@ -79,11 +69,11 @@ def test_the_wall_follower_on_its_timer_stops_with_a_warning_until_a_pair_comes(
     try:
         logger = on_a_real_robot(node)
         node._on_timer()
-        assert node.commands_sent == 1 and logger.warnings == ["no synchronized /odometry + /scan for 0.1 s: stopping"]
+        assert node.commands_sent == 1 and logger.lines == ["no synchronized /odometry + /scan for 0.1 s: stopping"]
         odometry = Odometry()
         odometry.header.stamp.sec = 1
         node._on_pair(odometry, scan(1))
         node._on_timer()
-        assert node.commands_sent == 2 and node.last_command is not None and len(logger.warnings) == 1
+        assert node.commands_sent == 2 and node.last_command is not None and len(logger.lines) == 1
     finally:
         node.destroy_node()

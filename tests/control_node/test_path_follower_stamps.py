@@ -6,21 +6,11 @@ import math
 
 from lifecycle_msgs.msg import Transition
 from sensor_msgs.msg import LaserScan
+from support.control import WarningLog
 
 from amr_control.path_follower_node import POSE, SCAN, PathFollowerNode
 from amr_interfaces.msg import LocalizedPose, SpeedLimit
 from amr_util.throttle import Throttle
-
-
-class Logger:
-    def __init__(self):
-        self.lines = []
-
-    def warning(self, text, **_):
-        self.lines.append(text)
-
-    def __getattr__(self, level):
-        return lambda text, **_: None
 
 
 def stamped(message, sec, nanosec):
@@ -43,7 +33,7 @@ def test_a_bad_stamp_is_dropped_with_a_warning_and_the_next_pair_is_answered(ros
     try:
         assert node.try_transition(Transition.TRANSITION_CONFIGURE), node.configure_error
         assert node.try_transition(Transition.TRANSITION_ACTIVATE)
-        logger = Logger()
+        logger = WarningLog()
         node.get_logger = lambda: logger
         node._warnings = Throttle(0.0)  # every warning said, not one per 2 s
         node.follower.set_path([(0.0, 0.0), (0.5, 0.0), (1.0, 0.0)])

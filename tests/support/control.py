@@ -1,4 +1,5 @@
-"""Synthetic LiDAR scans for the controller tests: exact ray casts against wall segments."""
+"""Synthetic LiDAR scans for the controller tests: exact ray casts against wall segments; a logger that keeps the
+warnings a controller node says."""
 
 from __future__ import annotations
 
@@ -9,6 +10,19 @@ import numpy as np
 from amr_util.scan import ScanData
 
 BIG = 100.0
+
+
+class WarningLog:
+    """A node's logger in a test (`node.get_logger = lambda: log`): its warnings kept in `lines`, the rest dropped."""
+
+    def __init__(self):
+        self.lines: list[str] = []
+
+    def warning(self, text, **_):
+        self.lines.append(text)
+
+    def __getattr__(self, level):
+        return lambda text, **_: None
 
 
 def cast(
